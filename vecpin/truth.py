@@ -1,0 +1,209 @@
+"""The true machine of a simulation: smooth 6-DoF errors per axis, gauge-line error,
+axis repeatability, and a laser tracker placed off the machine.
+
+Error functions are written in the same 6-DoF frame convention as the model
+(:mod:`vecpin.errorframes`) but from a *different* function family: a short
+Chebyshev series plus harmonics of non-integer frequency on linear axes, and
+eccentricity/wobble/index harmonics on rotary axes, so a fitted Chebyshev model
+never contains the truth exactly. A truth file stores everything in mm and
+degrees (with the unit in each key).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .basis import chebyshev, normalise
+from .errorframes import ErrorFrames
+from .machine import Machine
+from .tracker import Tracker, TrackerNoise
+
+COMPONENTS = ("dx", "dy", "dz", "ex", "ey", "ez")  # translations [m], rotations [rad], axis-local frame
+
+
+@dataclass
+class ErrorFunction:
+    """f(q) = sum_j c_j T_j(u) + sum_h (a_h cos(w_h t) + b_h sin(w_h t)).
+
+    u is q normalised over the travel; the harmonic argument t is ``pi * u`` on a
+    linear axis and the angle ``q`` [rad] on a rotary axis. Values SI.
+    """
+
+    chebyshev: list[float] = field(default_factory=list)
+    harmonics: list[tuple[float, float, float]] = field(default_factory=list)  # (w, a_cos, b_sin)
+
+    def __call__(self, q: np.ndarray, lower: float, upper: float, rotary: bool) -> np.ndarray:
+        q = np.asarray(q, float)
+        u = normalise(q, lower, upper)
+        out = np.zeros_like(q)
+        if self.chebyshev:
+            out += chebyshev(u, len(self.chebyshev) - 1) @ np.asarray(self.chebyshev)
+        t = q if rotary else math.pi * u
+        for w, a, b in self.harmonics:
+            out += a * np.cos(w * t) + b * np.sin(w * t)
+        return out
+
+    def scaled(self, s: float) -> "ErrorFunction":
+        return ErrorFunction([c * s for c in self.chebyshev], [(w, a * s, b * s) for w, a, b in self.harmonics])
+
+
+@dataclass
+class TrueMachine:
+    """Ground truth for simulated campaigns (SI inside).
+
+    errors[k][c]: error function of axis k, component c in :data:`COMPONENTS`;
+    gauge_error: actual minus nominal gauge-line offset along the tool [m];
+    repeatability: (n,) 1-sigma axis positioning noise [m, rad];
+    tracker: its pose and noise.
+    """
+
+    machine: Machine
+    errors: list[list[ErrorFunction]]
+    gauge_error: float
+    repeatability: np.ndarray
+    tracker: Tracker
+    _frames: ErrorFrames | None = field(default=None, repr=False)
+
+    @property
+    def frames(self) -> ErrorFrames:
+        if self._frames is None:
+            self._frames = ErrorFrames(self.machine)
+        return self._frames
+
+    def error_values(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """delta (N,n,3) [m] and eps (N,n,3) [rad] of every axis at commands q."""
+        q = np.atleast_2d(q)
+        N, n = q.shape
+        vals = np.zeros((N, n, 6))
+        for k, a in enumerate(self.machine.axes):
+            for c in range(6):
+                vals[:, k, c] = self.errors[k][c](q[:, k], a.lower, a.upper, a.kind == "rotary")
+        return vals[..., :3], vals[..., 3:]
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
+        """Noise-free true tool tip (N,3) [m], machine base frame."""
+        q = np.atleast_2d(np.asarray(q, float))
+        delta, eps = self.error_values(q)
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
+        return self.frames.tool_tip(q, delta, eps, tool, jacobian=False).tip
+
+    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None) -> np.ndarray:
+        """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
+        true kinematics, then tracker noise in spherical coordinates. ``rng=None``: noise-free."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        return self.tracker.measure(self.tool_tip(q, tool), rng)
+
+    # ------------------------------------------------------------------ files
+    def to_dict(self) -> dict:
+        axes = {}
+        for k, a in enumerate(self.machine.axes):
+            comp = {}
+            for c, name in enumerate(COMPONENTS):
+                f = self.errors[k][c]
+                s = 1e3 if c < 3 else 180 / math.pi
+                comp[name] = {"chebyshev": [v * s for v in f.chebyshev],
+                              "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
+            axes[a.name] = comp
+        return {"format": "vecpin-truth", "version": 1, "machine": self.machine.name,
+                "units": {"dx dy dz": "mm", "ex ey ez": "deg", "gauge_error": "mm", "repeatability": "mm or deg"},
+                "axis_errors": axes, "gauge_error": self.gauge_error * 1e3,
+                "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
+                "tracker": self.tracker.to_dict()}
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+
+    @classmethod
+    def from_dict(cls, d: dict, machine: Machine) -> "TrueMachine":
+        errors = []
+        for a in machine.axes:
+            row = []
+            for c, name in enumerate(COMPONENTS):
+                s = 1e-3 if c < 3 else math.pi / 180
+                e = d["axis_errors"][a.name][name]
+                row.append(ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]]))
+            errors.append(row)
+        rep = np.array([float(a.to_si(d["repeatability"][a.name])) for a in machine.axes])
+        return cls(machine, errors, d["gauge_error"] * 1e-3, rep, Tracker.from_dict(d["tracker"]))
+
+    @classmethod
+    def load(cls, path: str | Path, machine: Machine) -> "TrueMachine":
+        return cls.from_dict(json.loads(Path(path).read_text()), machine)
+
+    # ------------------------------------------------------------------ random truth
+    @classmethod
+    def random(cls, machine: Machine, rng: np.random.Generator, mean_error_mm: float = 0.5,
+               repeatability_mm: float = 0.006, repeatability_deg: float = 0.0015,
+               tracker_noise: TrackerNoise | None = None, tracker_distance_m: float = 2.0) -> "TrueMachine":
+        """A plausible machine: smooth errors on every axis scaled so that the mean
+        volumetric error (true minus nominal tip, machine frame, over the axis space
+        and tools of 150-350 mm) is ``mean_error_mm``; rotary eccentricities, wobble
+        and index errors; a gauge-line error of 40-100 µm; a tracker standing
+        ``tracker_distance_m`` in front of the travel with an arbitrary pose."""
+        um, urad = 1e-6, 1e-6
+        errors = []
+        for a in machine.axes:
+            row = []
+            along = int(np.argmax(np.abs(a.direction)))
+            for c in range(6):
+                if a.kind == "linear":
+                    s = 50 * um if c < 3 else 30 * urad
+                    cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
+                    if c == along:
+                        cheb[1] += rng.choice([-1, 1]) * 100 * um  # scale (pitch) error dominates positioning
+                    harm = [(float(rng.uniform(1.5, 4.0)), float(rng.normal() * s / 3), float(rng.normal() * s / 3))]
+                elif c < 3:  # location offset (constant in the moving frame: eccentric circle) and runout
+                    cheb = [rng.normal() * (150 * um if c != along else 50 * um)]
+                    harm = [(1.0, rng.normal() * 20 * um, rng.normal() * 20 * um),
+                            (2.0, rng.normal() * 10 * um, rng.normal() * 10 * um)]
+                elif c - 3 == along:  # index error: encoder eccentricity, 1st and 2nd harmonic
+                    cheb = [rng.normal() * 30 * urad]
+                    harm = [(1.0, rng.normal() * 100 * urad, rng.normal() * 100 * urad),
+                            (2.0, rng.normal() * 30 * urad, rng.normal() * 30 * urad)]
+                else:  # tilt (squareness to the previous axis) and wobble
+                    cheb = [rng.normal() * 100 * urad]
+                    harm = [(1.0, rng.normal() * 40 * urad, rng.normal() * 40 * urad)]
+                row.append(ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm]))
+            errors.append(row)
+        raw = cls(machine, errors, 0.0, np.zeros(machine.n_axes), Tracker())
+        # scale to the requested mean volumetric error (errors are small: nearly linear)
+        q = uniform_commands(machine, 400, rng)
+        tool = rng.uniform(0.15, 0.35, len(q))
+        nominal = machine.tool_tip(q, tool)
+        for _ in range(2):
+            mean = np.linalg.norm(raw.tool_tip(q, tool) - nominal, axis=1).mean()
+            s = mean_error_mm * 1e-3 / mean
+            raw.errors = [[f.scaled(s) for f in row] for row in raw.errors]
+        gauge = float(rng.choice([-1, 1]) * rng.uniform(0.04e-3, 0.1e-3))
+        rep = np.array([repeatability_mm * 1e-3 if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
+        tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
+        return cls(machine, raw.errors, gauge, rep, tracker)
+
+
+def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n commands uniformly random over the axis limits [m, rad]."""
+    return machine.lower + rng.random((n, machine.n_axes)) * (machine.upper - machine.lower)
+
+
+def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNoise, distance_m: float) -> Tracker:
+    """A tracker standing ``distance_m`` in front (-y side) of the tool-tip workspace,
+    on the floor level of the workspace, with a random heading and a tilt below 2°."""
+    q = uniform_commands(machine, 200, rng)
+    tips = machine.tool_tip(q, 0.25)
+    lo, hi = tips.min(axis=0), tips.max(axis=0)
+    centre = (lo + hi) / 2
+    position = np.array([centre[0] + rng.uniform(-0.2, 0.2) * (hi[0] - lo[0]), lo[1] - distance_m,
+                         lo[2] + rng.uniform(0.0, 0.3) * (hi[2] - lo[2])])
+    yaw = rng.uniform(-math.pi, math.pi)
+    tilt_axis = rng.normal(size=3)
+    tilt_axis[2] = 0
+    tilt = np.radians(rng.uniform(0, 2.0)) * tilt_axis / np.linalg.norm(tilt_axis)
+    from .so3 import exp3
+    R = exp3(tilt) @ exp3(np.array([0, 0, yaw]))  # machine -> tracker rotation
+    return Tracker(R, -R @ position, noise)
