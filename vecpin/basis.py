@@ -51,36 +51,62 @@ class AxisBasis:
     """Basis functions of one axis' position.
 
     ``kind`` is ``"chebyshev"`` (normalised over [lower, upper]) or ``"fourier"``
-    (argument: the angle in rad, for rotary axes). ``values(q)`` is (N, order+1),
+    (argument: the angle in rad, for rotary axes). ``harmonics`` appends
+    ``cos(w t), sin(w t)`` columns for each frequency w, with ``t = q`` [rad] on a
+    rotary axis and ``t = pi * u`` (u normalised) on a linear one: a family that
+    contains smooth non-polynomial errors exactly. ``values(q)`` is (N, size),
     ``derivative(q)`` the derivative with respect to q [per m or per rad].
+    Column 0 is always the constant.
     """
 
     lower: float
     upper: float
     order: int
     kind: str = "chebyshev"
+    harmonics: tuple[float, ...] = ()
+    rotary: bool = False
 
     @property
     def size(self) -> int:
-        return self.order + 1
+        return self.order + 1 + 2 * len(self.harmonics)
+
+    def _argument(self, q):
+        return (q, 1.0) if self.rotary else (math.pi * normalise(q, self.lower, self.upper), 2.0 * math.pi / (self.upper - self.lower))
 
     def values(self, q: np.ndarray) -> np.ndarray:
-        if self.kind == "chebyshev":
-            return chebyshev(normalise(q, self.lower, self.upper), self.order)
         q = np.asarray(q, float)
-        cols = [np.ones_like(q)]
-        for j in range(1, self.order + 1):
-            k = math.ceil(j / 2)
-            cols.append(np.cos(k * q) if j % 2 else np.sin(k * q))
-        return np.stack(cols, axis=-1)
+        if self.kind == "chebyshev":
+            cols = [chebyshev(normalise(q, self.lower, self.upper), self.order)]
+        else:
+            c = [np.ones_like(q)]
+            for j in range(1, self.order + 1):
+                k = math.ceil(j / 2)
+                c.append(np.cos(k * q) if j % 2 else np.sin(k * q))
+            cols = [np.stack(c, axis=-1)]
+        if self.harmonics:
+            t, _ = self._argument(q)
+            cols.append(np.stack([f(w * t) for w in self.harmonics for f in (np.cos, np.sin)], axis=-1))
+        return np.concatenate(cols, axis=-1)
 
     def derivative(self, q: np.ndarray) -> np.ndarray:
+        q = np.asarray(q, float)
         if self.kind == "chebyshev":
             scale = 2.0 / (self.upper - self.lower)
-            return chebyshev_derivative(normalise(q, self.lower, self.upper), self.order) * scale
-        q = np.asarray(q, float)
-        cols = [np.zeros_like(q)]
-        for j in range(1, self.order + 1):
-            k = math.ceil(j / 2)
-            cols.append(-k * np.sin(k * q) if j % 2 else k * np.cos(k * q))
-        return np.stack(cols, axis=-1)
+            cols = [chebyshev_derivative(normalise(q, self.lower, self.upper), self.order) * scale]
+        else:
+            c = [np.zeros_like(q)]
+            for j in range(1, self.order + 1):
+                k = math.ceil(j / 2)
+                c.append(-k * np.sin(k * q) if j % 2 else k * np.cos(k * q))
+            cols = [np.stack(c, axis=-1)]
+        if self.harmonics:
+            t, dt = self._argument(q)
+            cols.append(np.stack([d for w in self.harmonics for d in (-w * dt * np.sin(w * t), w * dt * np.cos(w * t))], axis=-1))
+        return np.concatenate(cols, axis=-1)
+
+    def labels(self) -> list[str]:
+        """Column names: the order for series terms, cos/sin with the frequency for harmonics."""
+        return [str(j) for j in range(self.order + 1)] + [f"{f}{w:g}" for w in self.harmonics for f in ("cos", "sin")]
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "order": self.order, "harmonics": list(self.harmonics)}

@@ -56,6 +56,9 @@ class TrueMachine:
     """Ground truth for simulated campaigns (SI inside).
 
     errors[k][c]: error function of axis k, component c in :data:`COMPONENTS`;
+    perturbations[i][j]: optional axis perturbation f_ij (input i, output j), the
+    AP form of error (eq. 7-8), applied to the commands before the 6-DoF chain;
+    harmonics[k]: the harmonic frequencies axis k's functions use (the family);
     gauge_error: actual minus nominal gauge-line offset along the tool [m];
     repeatability: (n,) 1-sigma axis positioning noise [m, rad];
     tracker: its pose and noise.
@@ -66,6 +69,8 @@ class TrueMachine:
     gauge_error: float
     repeatability: np.ndarray
     tracker: Tracker
+    perturbations: list[list[ErrorFunction | None]] | None = None
+    harmonics: list[tuple[float, ...]] | None = None
     _frames: ErrorFrames | None = field(default=None, repr=False)
 
     @property
@@ -84,9 +89,30 @@ class TrueMachine:
                 vals[:, k, c] = self.errors[k][c](q[:, k], a.lower, a.upper, a.kind == "rotary")
         return vals[..., :3], vals[..., 3:]
 
+    def perturbed(self, q: np.ndarray) -> np.ndarray:
+        """Commands after the true axis perturbations (eq. 7), [m, rad]."""
+        if not self.perturbations:
+            return q
+        out = q.copy()
+        for i, a in enumerate(self.machine.axes):
+            for j in range(self.machine.n_axes):
+                f = self.perturbations[i][j]
+                if f is not None:
+                    out[:, j] += f(q[:, i], a.lower, a.upper, a.kind == "rotary")
+        return out
+
+    def family_bases(self, order: int = 4) -> list:
+        """One basis per axis that contains every true error function exactly
+        (Chebyshev up to ``order`` plus the axis' harmonics): fitting it gives the
+        noise-limited floor."""
+        from .basis import AxisBasis
+        harm = self.harmonics or [()] * self.machine.n_axes
+        return [AxisBasis(a.lower, a.upper, order, "chebyshev", tuple(h), a.kind == "rotary")
+                for a, h in zip(self.machine.axes, harm)]
+
     def tool_tip(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
         """Noise-free true tool tip (N,3) [m], machine base frame."""
-        q = np.atleast_2d(np.asarray(q, float))
+        q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
         delta, eps = self.error_values(q)
         tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
         return self.frames.tool_tip(q, delta, eps, tool, jacobian=False).tip
@@ -113,8 +139,21 @@ class TrueMachine:
         return {"format": "vecpin-truth", "version": 1, "machine": self.machine.name,
                 "units": {"dx dy dz": "mm", "ex ey ez": "deg", "gauge_error": "mm", "repeatability": "mm or deg"},
                 "axis_errors": axes, "gauge_error": self.gauge_error * 1e3,
+                "harmonics": {a.name: list(h) for a, h in zip(self.machine.axes, self.harmonics or [()] * self.machine.n_axes)},
+                "axis_perturbations": self._perturbations_dict(),
                 "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
                 "tracker": self.tracker.to_dict()}
+
+    def _perturbations_dict(self) -> dict:
+        out = {}
+        for i, ai in enumerate(self.machine.axes):
+            for j, aj in enumerate(self.machine.axes):
+                f = (self.perturbations or [[None] * self.machine.n_axes] * self.machine.n_axes)[i][j]
+                if f is not None:
+                    s = 1e3 if aj.kind == "linear" else 180 / math.pi
+                    out[f"{ai.name}->{aj.name}"] = {"chebyshev": [v * s for v in f.chebyshev],
+                                                   "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
+        return out
 
     def save(self, path: str | Path) -> None:
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
@@ -130,7 +169,17 @@ class TrueMachine:
                 row.append(ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]]))
             errors.append(row)
         rep = np.array([float(a.to_si(d["repeatability"][a.name])) for a in machine.axes])
-        return cls(machine, errors, d["gauge_error"] * 1e-3, rep, Tracker.from_dict(d["tracker"]))
+        pert = None
+        if d.get("axis_perturbations"):
+            pert = [[None] * machine.n_axes for _ in machine.axes]
+            for i, ai in enumerate(machine.axes):
+                for j, aj in enumerate(machine.axes):
+                    e = d["axis_perturbations"].get(f"{ai.name}->{aj.name}")
+                    if e is not None:
+                        s = 1e-3 if aj.kind == "linear" else math.pi / 180
+                        pert[i][j] = ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]])
+        harm = [tuple(d.get("harmonics", {}).get(a.name, ())) for a in machine.axes]
+        return cls(machine, errors, d["gauge_error"] * 1e-3, rep, Tracker.from_dict(d["tracker"]), pert, harm)
 
     @classmethod
     def load(cls, path: str | Path, machine: Machine) -> "TrueMachine":
@@ -140,50 +189,76 @@ class TrueMachine:
     @classmethod
     def random(cls, machine: Machine, rng: np.random.Generator, mean_error_mm: float = 0.5,
                repeatability_mm: float = 0.006, repeatability_deg: float = 0.0015,
-               tracker_noise: TrackerNoise | None = None, tracker_distance_m: float = 2.0) -> "TrueMachine":
-        """A plausible machine: smooth errors on every axis scaled so that the mean
-        volumetric error (true minus nominal tip, machine frame, over the axis space
-        and tools of 150-350 mm) is ``mean_error_mm``; rotary eccentricities, wobble
-        and index errors; a gauge-line error of 40-100 µm; a tracker standing
-        ``tracker_distance_m`` in front of the travel with an arbitrary pose."""
+               tracker_noise: TrackerNoise | None = None, tracker_distance_m: float = 2.0,
+               family: str = "6dof") -> "TrueMachine":
+        """A plausible machine with smooth errors scaled so that the mean volumetric
+        error (true minus nominal tip, machine frame, over the axis space and tools
+        of 150-350 mm) is ``mean_error_mm``; a gauge-line error of 40-100 µm; a
+        tracker standing ``tracker_distance_m`` in front of the travel.
+
+        ``family="6dof"``: 6-DoF errors on every axis: on linear axes a Chebyshev
+        series to order 4 plus one harmonic of 0.5-1.5 periods over the travel (smooth
+        but not polynomial), pitch dominating; on rotary axes location offsets
+        (eccentricity), runout, index error and wobble at 1 and 2 cycles per turn.
+        ``family="ap"``: the same kind of functions as axis perturbations f_ij
+        (eq. 7-8) instead, the AP model's own family."""
         um, urad = 1e-6, 1e-6
-        errors = []
-        for a in machine.axes:
-            row = []
-            along = int(np.argmax(np.abs(a.direction)))
-            for c in range(6):
-                if a.kind == "linear":
-                    s = 50 * um if c < 3 else 30 * urad
+        n = machine.n_axes
+        harmonics = [(float(rng.uniform(0.5, 1.5)),) if a.kind == "linear" else (1.0, 2.0) for a in machine.axes]
+        errors = [[ErrorFunction() for _ in range(6)] for _ in machine.axes]
+        perturbations = None
+        if family == "6dof":
+            for k, a in enumerate(machine.axes):
+                along = int(np.argmax(np.abs(a.direction)))
+                for c in range(6):
+                    if a.kind == "linear":
+                        s = 50 * um if c < 3 else 30 * urad
+                        cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
+                        if c == along:
+                            cheb[1] += rng.choice([-1, 1]) * 100 * um  # scale (pitch) error dominates positioning
+                        w = harmonics[k][0]
+                        harm = [(w, rng.normal() * s / 2, rng.normal() * s / 2)]
+                    elif c < 3:  # location offset (constant in the moving frame: eccentric circle) and runout
+                        cheb = [rng.normal() * (150 * um if c != along else 50 * um)]
+                        harm = [(1.0, rng.normal() * 20 * um, rng.normal() * 20 * um),
+                                (2.0, rng.normal() * 10 * um, rng.normal() * 10 * um)]
+                    elif c - 3 == along:  # index error: encoder eccentricity, 1st and 2nd harmonic
+                        cheb = [rng.normal() * 30 * urad]
+                        harm = [(1.0, rng.normal() * 100 * urad, rng.normal() * 100 * urad),
+                                (2.0, rng.normal() * 30 * urad, rng.normal() * 30 * urad)]
+                    else:  # tilt (squareness to the previous axis) and wobble
+                        cheb = [rng.normal() * 100 * urad]
+                        harm = [(1.0, rng.normal() * 40 * urad, rng.normal() * 40 * urad)]
+                    errors[k][c] = ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm])
+        elif family == "ap":
+            perturbations = [[None] * n for _ in range(n)]
+            for i, ai in enumerate(machine.axes):
+                for j, aj in enumerate(machine.axes):
+                    s = 40 * um if aj.kind == "linear" else 60 * urad
                     cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
-                    if c == along:
-                        cheb[1] += rng.choice([-1, 1]) * 100 * um  # scale (pitch) error dominates positioning
-                    harm = [(float(rng.uniform(1.5, 4.0)), float(rng.normal() * s / 3), float(rng.normal() * s / 3))]
-                elif c < 3:  # location offset (constant in the moving frame: eccentric circle) and runout
-                    cheb = [rng.normal() * (150 * um if c != along else 50 * um)]
-                    harm = [(1.0, rng.normal() * 20 * um, rng.normal() * 20 * um),
-                            (2.0, rng.normal() * 10 * um, rng.normal() * 10 * um)]
-                elif c - 3 == along:  # index error: encoder eccentricity, 1st and 2nd harmonic
-                    cheb = [rng.normal() * 30 * urad]
-                    harm = [(1.0, rng.normal() * 100 * urad, rng.normal() * 100 * urad),
-                            (2.0, rng.normal() * 30 * urad, rng.normal() * 30 * urad)]
-                else:  # tilt (squareness to the previous axis) and wobble
-                    cheb = [rng.normal() * 100 * urad]
-                    harm = [(1.0, rng.normal() * 40 * urad, rng.normal() * 40 * urad)]
-                row.append(ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm]))
-            errors.append(row)
-        raw = cls(machine, errors, 0.0, np.zeros(machine.n_axes), Tracker())
+                    if ai.kind == "rotary":  # a rotary input repeats every turn: periodic terms only
+                        cheb = cheb[:1]
+                    cheb[0] = cheb[0] if i == 0 else 0.0  # one constant per output axis
+                    hs = s if ai.kind == "rotary" else s / 3
+                    harm = [(w, rng.normal() * hs, rng.normal() * hs) for w in harmonics[i]]
+                    perturbations[i][j] = ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm])
+        else:
+            raise ValueError("family is '6dof' or 'ap'")
+        raw = cls(machine, errors, 0.0, np.zeros(n), Tracker(), perturbations, harmonics)
         # scale to the requested mean volumetric error (errors are small: nearly linear)
         q = uniform_commands(machine, 400, rng)
         tool = rng.uniform(0.15, 0.35, len(q))
         nominal = machine.tool_tip(q, tool)
-        for _ in range(2):
+        for _ in range(3):
             mean = np.linalg.norm(raw.tool_tip(q, tool) - nominal, axis=1).mean()
             s = mean_error_mm * 1e-3 / mean
             raw.errors = [[f.scaled(s) for f in row] for row in raw.errors]
+            if raw.perturbations:
+                raw.perturbations = [[f.scaled(s) for f in row] for row in raw.perturbations]
         gauge = float(rng.choice([-1, 1]) * rng.uniform(0.04e-3, 0.1e-3))
         rep = np.array([repeatability_mm * 1e-3 if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
         tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
-        return cls(machine, raw.errors, gauge, rep, tracker)
+        return cls(machine, raw.errors, gauge, rep, tracker, raw.perturbations, harmonics)
 
 
 def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -1,0 +1,250 @@
+"""Maximum-likelihood identification with the implicit-loop structure (Paper I eq.
+11-12; Section 3 eq. 49-59).
+
+Each measured row i closes the loop ``h(x_i) = h(T_m E_0 F(q_i + v_i, b) p_Tl) + ξ_i``
+with axis noise ``v_i ~ N(0, Σ_v)`` and instrument noise ``ξ_i ~ N(0, Σ_ξ)``
+(``h`` the identity or the spherical map). Eliminating ``v_i`` and ``ξ_i`` at the
+current linearisation, exactly as the ILM's orthogonal decomposition (eq. 56-59)
+does, leaves for every row the residual ``r_i`` with covariance
+``C_i = H A_i Σ_v A_i^T H^T + Σ_ξ`` (``A_i = d y / d q``). The estimator
+minimises ``χ² = Σ r_i^T C_i^{-1} r_i + b^T Σ_b^{-1} b`` by damped Gauss-Newton on
+the whitened, prior-scaled problem (the normalised variables ψ of eq. 52), with
+Pinocchio's analytic Jacobians; rows may carry different instruments later.
+
+The tracker frame is registered automatically (rigid fit of the nominal tips,
+:mod:`vecpin.registration`) and the small correction ``E_0`` (eq. 10) is estimated
+with the model. Redundant parameters are found from the prior-scaled sensitivity at
+the measured poses by QR in priority order and removed; the report lists them.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy import linalg
+
+from .campaign import Campaign
+from .errors import VecpinError
+from .models import ErrorModel
+from .noise import NoiseModel
+from .registration import register
+from .so3 import exp3, right_jacobian, skew
+
+E0_NAMES = ("E0.dx", "E0.dy", "E0.dz", "E0.ex", "E0.ey", "E0.ez")
+E0_PRIORS = np.array([1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-2])  # m, rad: weak
+REDUNDANT_RATIO = 1e-7    # |R_kk| / |column k|: below, a term is a combination of earlier ones
+WEAK_RATIO = 1e-3         # below, the design barely tells the term from earlier ones
+
+
+@dataclass
+class Setup:
+    """The tracker pose: ``p_tracker = R (exp3(eps0) p + delta0) + t``."""
+
+    R: np.ndarray
+    t: np.ndarray
+    e0: np.ndarray = field(default_factory=lambda: np.zeros(6))  # (dx, dy, dz [m], ex, ey, ez [rad])
+
+    def to_tracker(self, p: np.ndarray) -> np.ndarray:
+        return (p @ exp3(self.e0[3:]).T + self.e0[:3]) @ self.R.T + self.t
+
+
+@dataclass
+class FitReport:
+    """What a fit tells: χ² against its band, residuals, conditioning, removed terms."""
+
+    model: str
+    order: int
+    instrument: str
+    n_rows: int
+    n_equations: int
+    n_parameters: int
+    removed: list[str]
+    weak: list[str]
+    effective_parameters: float
+    chi2: float
+    chi2_expected: float
+    chi2_sigma: float
+    condition_number: float
+    iterations: int
+    converged: bool
+    seconds: float
+    residuals_mm: dict
+    warnings: list[str]
+
+    @property
+    def chi2_band(self) -> tuple[float, float]:
+        return (self.chi2_expected - 3 * self.chi2_sigma, self.chi2_expected + 3 * self.chi2_sigma)
+
+    @property
+    def chi2_in_band(self) -> bool:
+        lo, hi = self.chi2_band
+        return lo <= self.chi2 <= hi
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["chi2_band"] = list(self.chi2_band)
+        d["chi2_in_band"] = self.chi2_in_band
+        return d
+
+    def summary(self) -> str:
+        lo, hi = self.chi2_band
+        verdict = "in band" if self.chi2_in_band else ("ABOVE band: misfit or noise model too optimistic"
+                                                        if self.chi2 > hi else "BELOW band: noise model too pessimistic")
+        lines = [f"{self.model} model, order {self.order}, {self.instrument} instrument noise: {self.n_rows} rows, "
+                 f"{self.n_parameters} parameters ({len(self.removed)} redundant removed, "
+                 f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",
+                 f"chi2 = {self.chi2:.1f}, expected {self.chi2_expected:.1f} ± {self.chi2_sigma:.1f} "
+                 f"(3σ band {lo:.1f} .. {hi:.1f}): {verdict}",
+                 f"condition number (prior-scaled, kept terms): {self.condition_number:.3g}"]
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+
+def residual_stats(err: np.ndarray, tool: np.ndarray) -> dict:
+    """Mean/max/RMS of |err| [mm] overall and per tool length; err (N,3) in m."""
+    d = np.linalg.norm(err, axis=1) * 1e3
+    out = {"all": _stats(d)}
+    for L in np.unique(np.round(tool, 9)):
+        out[f"tool {L * 1e3:.3f} mm"] = _stats(d[np.isclose(tool, L, atol=1e-7)])
+    return out
+
+
+def _stats(d: np.ndarray) -> dict:
+    return {"n": int(d.size), "mean": float(d.mean()), "max": float(d.max()), "rms": float(np.sqrt((d**2).mean()))}
+
+
+class _Problem:
+    """The whitened, prior-scaled least-squares problem of one fit."""
+
+    def __init__(self, model: ErrorModel, campaign: Campaign, noise: NoiseModel, setup: Setup):
+        self.model, self.campaign, self.noise, self.setup = model, campaign, noise, setup
+        self.sigma = np.r_[E0_PRIORS, model.priors]  # prior standard deviations of theta = [e0, b]
+
+    def evaluate(self, theta: np.ndarray, jacobian: bool = True):
+        """Whitened residuals w (3N,) and d w / d psi (3N, P+6), psi = theta / sigma."""
+        m, c = self.model, self.campaign
+        e0, b = theta[:6], theta[6:]
+        mt = m.tool_tip(c.q, c.tool, b, jacobian=True)
+        R0 = exp3(e0[3:])
+        RR = self.setup.R @ R0
+        y = (mt.tip @ R0.T + e0[:3]) @ self.setup.R.T + self.setup.t
+        r, H, S = self.noise.residuals(c.xyz, y)
+        A = np.einsum("ij,pjk->pik", RR, mt.J_q)  # d y / d q
+        HA = H @ A
+        C = np.einsum("pij,j,pkj->pik", HA, self.noise.axis_sigma**2, HA) + S
+        L = np.linalg.cholesky(C)
+        w = np.linalg.solve(L, r[..., None])[..., 0]
+        if not jacobian:
+            return w.ravel(), None, y
+        N = len(y)
+        dy = np.empty((N, 3, 6 + m.n_parameters))
+        dy[:, :, :3] = self.setup.R
+        dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
+        dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
+        Jw = -np.linalg.solve(L, H @ dy) * self.sigma
+        return w.ravel(), Jw.reshape(3 * N, -1), y
+
+
+def find_redundant(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns of J (prior-scaled sensitivity) that earlier columns already explain.
+
+    QR without pivoting keeps the given priority order: |R_kk| / |a_k| is the sine of
+    the angle between column k and the span of the columns before it. Returns
+    (redundant mask, ratio per column)."""
+    norms = np.linalg.norm(J, axis=0)
+    active = norms > 0
+    ratio = np.zeros(J.shape[1])
+    Rm = linalg.qr(J[:, active], mode="r", check_finite=False)[0]
+    k = min(Rm.shape)
+    diag = np.abs(np.diag(Rm[:k, :k]))
+    r_active = np.zeros(active.sum())
+    r_active[:k] = diag / norms[active][:k]
+    ratio[active] = r_active
+    return ratio < REDUNDANT_RATIO, ratio
+
+
+def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, *, max_iter: int = 30,
+        tol: float = 1e-9, remove_redundant: bool = True, progress: Callable[[str], None] | None = None):
+    """Identify ``model``'s parameters from ``campaign``; returns (theta, setup, cov, report).
+
+    theta = [E_0 (6), b (P)] SI; cov is the covariance of theta (zeros for removed terms)."""
+    t0 = time.perf_counter()
+    if list(campaign.axis_names) != model.machine.axis_names:
+        raise VecpinError(f"{campaign.source}: axes {campaign.axis_names} do not match machine "
+                          f"'{model.machine.name}' ({', '.join(model.machine.axis_names)})")
+    noise = noise or NoiseModel.default(model.machine)
+    P = model.n_parameters + 6
+    nominal = model.tool_tip(campaign.q, campaign.tool, np.zeros(model.n_parameters), jacobian=False).tip
+    R, t = register(nominal, campaign.xyz)
+    setup = Setup(R, t)
+    prob = _Problem(model, campaign, noise, setup)
+    theta = np.zeros(P)
+    w, J, _ = prob.evaluate(theta)
+    keep = np.ones(P, bool)
+    ratio = np.ones(P)
+    if remove_redundant:
+        red, ratio = find_redundant(J)
+        keep = ~red
+    names = list(E0_NAMES) + model.parameter_names
+    if 3 * len(campaign) < keep.sum():
+        raise VecpinError(f"{campaign.source}: {len(campaign)} rows give {3 * len(campaign)} equations for "
+                          f"{keep.sum()} identifiable parameters; measure more points or lower the order")
+    psi = np.zeros(P)
+    chi2 = w @ w
+    lam = 1e-6
+    converged = False
+    it = 0
+    for it in range(1, max_iter + 1):
+        Ja = J[:, keep]
+        Nm = Ja.T @ Ja + np.eye(keep.sum())
+        g = Ja.T @ w + psi[keep]
+        while True:
+            try:
+                step = -linalg.solve(Nm + lam * np.diag(np.diag(Nm)), g, assume_a="pos", check_finite=False)
+            except linalg.LinAlgError:
+                lam *= 10
+                continue
+            trial = psi.copy()
+            trial[keep] += step
+            w_new, J_new, _ = prob.evaluate(trial * prob.sigma)
+            chi2_new = w_new @ w_new + trial @ trial
+            if chi2_new <= chi2 + psi @ psi or lam > 1e6:
+                break
+            lam *= 10
+        decrease = (chi2 + psi @ psi) - chi2_new
+        psi, w, J = trial, w_new, J_new
+        chi2 = w @ w
+        lam = max(lam / 10, 1e-9)
+        if progress:
+            progress(f"iteration {it}: chi2 {chi2 + psi @ psi:.6g}, step {np.abs(step).max():.3g}")
+        if abs(decrease) <= tol * max(chi2_new, 1.0) or np.abs(step).max() < 1e-10:
+            converged = True
+            break
+    theta = psi * prob.sigma
+    setup.e0 = theta[:6].copy()
+    Ja = J[:, keep]
+    JtJ = Ja.T @ Ja
+    Nm = JtJ + np.eye(keep.sum())
+    Ninv = linalg.inv(Nm)
+    cov = np.zeros((P, P))
+    sk = prob.sigma[keep]
+    cov[np.ix_(keep, keep)] = Ninv * np.outer(sk, sk)
+    p_eff = float(np.trace(Ninv @ JtJ))
+    dof = max(w.size - p_eff, 1.0)
+    sv = linalg.svdvals(Ja)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    weak = [names[k] for k in np.flatnonzero(keep & (ratio < WEAK_RATIO))]
+    warnings = []
+    if weak:
+        warnings.append(f"{len(weak)} terms are barely identifiable with this design (held by their priors): "
+                        + ", ".join(weak[:12]) + (" ..." if len(weak) > 12 else ""))
+    if not converged:
+        warnings.append(f"did not converge in {max_iter} iterations")
+    y = setup.to_tracker(model.tool_tip(campaign.q, campaign.tool, theta[6:], jacobian=False).tip)
+    report = FitReport(model.kind, model.order, noise.instrument, len(campaign), int(w.size), P,
+                       [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(chi2 + psi @ psi),
+                       dof, float(np.sqrt(2 * dof)), cond, it, converged, time.perf_counter() - t0,
+                       residual_stats(campaign.xyz - y, campaign.tool), warnings)
+    return theta, setup, cov, report
