@@ -44,3 +44,50 @@ def test_console_script_entry_point(tmp_path):
     """The installed `vecpin` module entry runs as a separate process."""
     r = subprocess.run([sys.executable, "-m", "vecpin", "info", "snk_120v"], capture_output=True, text=True)
     assert r.returncode == 0 and "snk_120v" in r.stdout
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sim")
+    assert main(["simulate", "flow_xyzcb", "--out", str(d), "--seed", "3", "--points", "150"]) == 0
+    return d
+
+
+@pytest.mark.parametrize("model, extra", [("ap", []), ("6dof", ["--spherical", "--tool-corrections"])])
+def test_fit_then_evaluate(simulated, tmp_path, capsys, model, extra):
+    import json
+    out = tmp_path / "m.json"
+    argv = ["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--model", model, "--order", "4", "--out", str(out)] + extra
+    assert main(argv) == 0
+    cap = capsys.readouterr()
+    assert "chi2" in cap.out and "uncompensated" in cap.out and out.is_file()
+    assert "iteration 1" in cap.err  # progress
+    assert main(["evaluate", str(out), str(simulated / "validation_truth.csv"), "--json", str(tmp_path / "e.json")]) == 0
+    text = capsys.readouterr().out
+    assert "reduction of the mean" in text
+    e = json.loads((tmp_path / "e.json").read_text())
+    assert e["units"] == "mm" and e["model_residual"]["all"]["mean"] < 0.2 * e["uncompensated"]["all"]["mean"]
+    assert main(["evaluate", str(out), str(simulated / "validation.csv"), "--reregister"]) == 0
+
+
+def test_orders_prints_the_table(simulated, capsys):
+    assert main(["orders", "flow_xyzcb", str(simulated / "campaign.csv"), "--model", "ap", "--orders", "1,3",
+                 "--validation", str(simulated / "validation.csv"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "Uncompensated" in out and "best ap order" in out
+
+
+def test_demo_prints_before_and_after(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "Uncompensated" in out and "6-DoF order 6" in out and "AP order 6" in out
+    assert (tmp_path / "model_ap.json").is_file() and (tmp_path / "model_6dof.json").is_file()
+
+
+def test_fit_and_evaluate_bad_input(simulated, tmp_path, capsys):
+    assert main(["fit", "cincinnati_20v", str(simulated / "campaign.csv"), "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert "campaign.csv" in err and "Traceback" not in err
+    (tmp_path / "junk.json").write_text("[1, 2]")
+    assert main(["evaluate", str(tmp_path / "junk.json"), str(simulated / "campaign.csv")]) == 2
+    assert "not a vecpin model file" in capsys.readouterr().err

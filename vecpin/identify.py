@@ -36,6 +36,7 @@ E0_NAMES = ("E0.dx", "E0.dy", "E0.dz", "E0.ex", "E0.ey", "E0.ez")
 E0_PRIORS = np.array([1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-2])  # m, rad: weak
 REDUNDANT_RATIO = 1e-7    # |R_kk| / |column k|: below, a term is a combination of earlier ones
 WEAK_RATIO = 1e-3         # below, the design barely tells the term from earlier ones
+INSENSITIVE = 1e-9        # column norm relative to the largest: the term does not move the tool tip
 
 
 @dataclass
@@ -122,39 +123,42 @@ class _Problem:
         self.model, self.campaign, self.noise, self.setup = model, campaign, noise, setup
         self.sigma = np.r_[E0_PRIORS, model.priors]  # prior standard deviations of theta = [e0, b]
 
-    def evaluate(self, theta: np.ndarray, jacobian: bool = True):
-        """Whitened residuals w (3N,) and d w / d psi (3N, P+6), psi = theta / sigma."""
+    def predict(self, theta: np.ndarray):
+        """Tracker-frame tool tips y (N,3) [m], d y / d theta (N,3,P+6) and d y / d q (N,3,n)."""
         m, c = self.model, self.campaign
         e0, b = theta[:6], theta[6:]
         mt = m.tool_tip(c.q, c.tool, b, jacobian=True)
         R0 = exp3(e0[3:])
         RR = self.setup.R @ R0
         y = (mt.tip @ R0.T + e0[:3]) @ self.setup.R.T + self.setup.t
-        r, H, S = self.noise.residuals(c.xyz, y)
-        A = np.einsum("ij,pjk->pik", RR, mt.J_q)  # d y / d q
+        dy = np.empty((len(y), 3, 6 + m.n_parameters))
+        dy[:, :, :3] = self.setup.R
+        dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
+        dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
+        return y, dy, np.einsum("ij,pjk->pik", RR, mt.J_q)
+
+    def evaluate(self, theta: np.ndarray):
+        """Whitened residuals w (3N,), d w / d psi (3N, P+6) with psi = theta / sigma
+        (the covariance C_i held at this linearisation, as the ILM does), and y."""
+        y, dy, A = self.predict(theta)
+        r, H, S = self.noise.residuals(self.campaign.xyz, y)
         HA = H @ A
         C = np.einsum("pij,j,pkj->pik", HA, self.noise.axis_sigma**2, HA) + S
         L = np.linalg.cholesky(C)
         w = np.linalg.solve(L, r[..., None])[..., 0]
-        if not jacobian:
-            return w.ravel(), None, y
-        N = len(y)
-        dy = np.empty((N, 3, 6 + m.n_parameters))
-        dy[:, :, :3] = self.setup.R
-        dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
-        dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
         Jw = -np.linalg.solve(L, H @ dy) * self.sigma
-        return w.ravel(), Jw.reshape(3 * N, -1), y
+        return w.ravel(), Jw.reshape(w.size, -1), y
 
 
 def find_redundant(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Columns of J (prior-scaled sensitivity) that earlier columns already explain.
 
     QR without pivoting keeps the given priority order: |R_kk| / |a_k| is the sine of
-    the angle between column k and the span of the columns before it. Returns
+    the angle between column k and the span of the columns before it. Columns far
+    smaller than the largest (e.g. a rotation about the tool axis) move nothing. Returns
     (redundant mask, ratio per column)."""
     norms = np.linalg.norm(J, axis=0)
-    active = norms > 0
+    active = norms > INSENSITIVE * norms.max()  # a term that does not move the tool tip at all
     ratio = np.zeros(J.shape[1])
     Rm = linalg.qr(J[:, active], mode="r", check_finite=False)[0]
     k = min(Rm.shape)
@@ -188,9 +192,10 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
         red, ratio = find_redundant(J)
         keep = ~red
     names = list(E0_NAMES) + model.parameter_names
-    if 3 * len(campaign) < keep.sum():
-        raise VecpinError(f"{campaign.source}: {len(campaign)} rows give {3 * len(campaign)} equations for "
-                          f"{keep.sum()} identifiable parameters; measure more points or lower the order")
+    n_active = int(np.sum(np.linalg.norm(J, axis=0) > INSENSITIVE * np.linalg.norm(J, axis=0).max()))
+    if n_active >= w.size or keep.sum() >= w.size:  # the sensitivity has more columns than rows: saturated
+        raise VecpinError(f"{campaign.source}: {len(campaign)} rows give {w.size} equations for {n_active} parameters "
+                          f"of a {model.kind} model of order {model.order}; measure more points or lower the order")
     psi = np.zeros(P)
     chi2 = w @ w
     lam = 1e-6
