@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from .machine import TOOL_DIRECTION, Machine
+from .machine import TOOL_DIRECTION, Machine, frame_poses, shift_to_point
 from .so3 import exp3, quaternion_xyzw, right_jacobian
 
 ERROR_JOINT_SUFFIX = "__error"
@@ -93,25 +93,14 @@ class ErrorFrames:
         N = q.shape[0]
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
         qa = self.configuration(q, delta, eps)
-        model, data, fid = self.model, self.data, self.spindle_frame_id
-        H = np.empty((N, 4, 4))
-        if jacobian:
-            J6 = np.empty((N, 6, model.nv))
-            for i in range(N):
-                J6[i] = pin.computeFrameJacobian(model, data, qa[i], fid, pin.LOCAL_WORLD_ALIGNED)
-                H[i] = data.oMf[fid].homogeneous
-        else:
-            for i in range(N):
-                pin.forwardKinematics(model, data, qa[i])
-                H[i] = pin.updateFramePlacement(model, data, fid).homogeneous
+        H, J6 = frame_poses(self.model, self.data, self.spindle_frame_id, qa, jacobian)
         R = H[:, :3, :3]
         u = R @ TOOL_DIRECTION
         r = u * tool[:, None]
         tip = H[:, :3, 3] + r
         if not jacobian:
             return ErrorTip(tip, R, u, None, None, None)
-        # tip Jacobian: v_tip = v_origin + w x r  ->  J = Jv - [r]x Jw
-        Jt = J6[:, :3, :] - np.cross(r[:, :, None], J6[:, 3:, :], axisa=1, axisb=1, axisc=1)
+        Jt = shift_to_point(J6, r)
         J_q = Jt[:, :, self._v_axis]
         vi = self._v_err[:, None] + np.arange(6)[None, :]  # (n,6)
         Jerr = Jt[:, :, vi]  # (N,3,n,6): columns = local twist (v, w) of each error joint

@@ -248,27 +248,12 @@ class Machine:
         q = np.atleast_2d(np.asarray(q, float))
         n_pose = q.shape[0]
         tool = np.broadcast_to(np.asarray(tool, float), (n_pose,))
-        qf = self.full_q(q)
-        model, data, fid = self.model, self._data, self.spindle_frame_id
-        H = np.empty((n_pose, 4, 4))
-        if jacobian:
-            J6 = np.empty((n_pose, 6, model.nv))
-            for i in range(n_pose):
-                J6[i] = pin.computeFrameJacobian(model, data, qf[i], fid, pin.LOCAL_WORLD_ALIGNED)
-                H[i] = data.oMf[fid].homogeneous
-        else:
-            for i in range(n_pose):
-                pin.forwardKinematics(model, data, qf[i])
-                H[i] = pin.updateFramePlacement(model, data, fid).homogeneous
+        H, J6 = frame_poses(self.model, self._data, self.spindle_frame_id, self.full_q(q), jacobian)
         R = H[:, :3, :3]
         spindle = H[:, :3, 3]
         r = (R @ TOOL_DIRECTION) * tool[:, None]  # gauge line -> tip, base frame
         tip = spindle + r
-        J = None
-        if jacobian:
-            Jv = J6[:, :3, :][:, :, self._idx_v()]
-            Jw = J6[:, 3:, :][:, :, self._idx_v()]
-            J = Jv - np.cross(r[:, :, None], Jw, axisa=1, axisb=1, axisc=1)
+        J = shift_to_point(J6, r)[:, :, self._idx_v()] if jacobian else None
         return TipKinematics(tip, R, spindle, J)
 
     def _idx_v(self) -> np.ndarray:
@@ -289,6 +274,30 @@ class Machine:
         frames = [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
         lines.append(f"  links: {', '.join(frames)}")
         return "\n".join(lines)
+
+
+def frame_poses(model: pin.Model, data: pin.Data, frame_id: int, configurations: np.ndarray,
+                jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Placements (N,4,4) of one frame and, if asked, its LOCAL_WORLD_ALIGNED Jacobians
+    (N,6,nv) [linear; angular] for N Pinocchio configurations: one Pinocchio call per pose."""
+    n = len(configurations)
+    H = np.empty((n, 4, 4))
+    if not jacobian:
+        for i in range(n):
+            pin.forwardKinematics(model, data, configurations[i])
+            H[i] = pin.updateFramePlacement(model, data, frame_id).homogeneous
+        return H, None
+    J6 = np.empty((n, 6, model.nv))
+    for i in range(n):
+        J6[i] = pin.computeFrameJacobian(model, data, configurations[i], frame_id, pin.LOCAL_WORLD_ALIGNED)
+        H[i] = data.oMf[frame_id].homogeneous
+    return H, J6
+
+
+def shift_to_point(J6: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Linear-velocity Jacobian (N,3,nv) of a point rigidly offset by r (N,3) from the
+    frame origin: v_point = v + w x r."""
+    return J6[:, :3, :] - np.cross(r[:, :, None], J6[:, 3:, :], axisa=1, axisb=1, axisc=1)
 
 
 def _joint_direction(jm) -> tuple[float, float, float]:
