@@ -230,6 +230,50 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _axis_map(items: list[str]) -> dict[str, str]:
+    out = {}
+    for it in items:
+        if "=" not in it:
+            raise VecpinError(f"--axis-map takes JOINT=NCNAME, not '{it}'")
+        a, b = it.split("=", 1)
+        out[a.strip()] = b.strip()
+    return out
+
+
+def cmd_tables(args) -> int:
+    from .controllers import write_fanuc, write_generic, write_siemens
+    from .models import ErrorModel
+    from .tableplan import plan_tables
+    model = ErrorModel.load(args.model)
+    m = model.machine
+    for a in args.forbid_output:
+        m.axis(a)
+    say = _progress(not args.quiet)
+    plan = plan_tables(model, args.controller, max_tables=args.max_tables, no_circular=args.no_circular or None,
+                       forbid_output=args.forbid_output, points=args.points, method=args.method,
+                       tools_mm=args.tools, progress=say)
+    print(f"compensation tables for {m.name} ({args.controller}), model {args.model}")
+    grid = (f"resampled to the controller's grid, at most {plan.controller.max_points} points"
+            if args.controller == "fanuc-30i" else f"{args.points} points each")
+    print(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
+    print(f"  gauge line (T_offset) change: {plan.tables.gauge_offset_change * 1e3:+.4f} mm")
+    if plan.selection is not None:
+        s = plan.selection
+        print(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, {s.evaluations} combinations scored")
+    print("  predicted volumetric error (model, quasi-random commands x tools):")
+    print(plan.report.table())
+    if args.controller == "siemens-840d":
+        files = write_siemens(plan.tables, m, args.out, _axis_map(args.axis_map), plan.controller)
+    elif args.controller == "fanuc-30i":
+        files = write_fanuc(plan.tables, m, args.out, plan.controller)
+    else:
+        files = []
+    files += write_generic(plan.tables, m, args.out)
+    for f in files:
+        print(f"  wrote {f}")
+    return 0
+
+
 def _noise_args(s) -> None:
     s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
     s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
@@ -290,6 +334,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--folds", type=int, default=5)
     _noise_args(s)
     s.set_defaults(func=cmd_orders)
+
+    s = sub.add_parser("tables", help="compensation tables of a fitted model for a controller (Paper I §3.3, Paper II)")
+    s.add_argument("model")
+    s.add_argument("--controller", default="generic", choices=["siemens-840d", "fanuc-30i", "generic"])
+    s.add_argument("--max-tables", type=int, help="cross tables to choose (pitch tables are always in)")
+    s.add_argument("--no-circular", action="store_true", help="never use table ij together with ji")
+    s.add_argument("--forbid-output", action="append", default=[], metavar="AXIS", help="axis that cannot be corrected")
+    s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"], help="subset selection method")
+    s.add_argument("--points", type=int, default=1024, help="points per table (default 1024)")
+    s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
+    s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME", help="NC axis names (Siemens)")
+    s.add_argument("--out", required=True)
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_tables)
 
     s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
     s.add_argument("--out", default="demo")

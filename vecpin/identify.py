@@ -73,6 +73,7 @@ class FitReport:
     seconds: float
     residuals_mm: dict
     warnings: list[str]
+    tool_lengths_mm: list[float] = field(default_factory=list)
 
     @property
     def chi2_band(self) -> tuple[float, float]:
@@ -251,5 +252,6 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
     report = FitReport(model.kind, model.order, noise.instrument, len(campaign), int(w.size), P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(chi2 + psi @ psi),
                        dof, float(np.sqrt(2 * dof)), cond, it, converged, time.perf_counter() - t0,
-                       residual_stats(campaign.xyz - y, campaign.tool), warnings)
+                       residual_stats(campaign.xyz - y, campaign.tool), warnings,
+                       [float(L * 1e3) for L in campaign.tool_lengths()])
     return theta, setup, cov, report
