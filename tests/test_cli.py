@@ -91,3 +91,32 @@ def test_fit_and_evaluate_bad_input(simulated, tmp_path, capsys):
     (tmp_path / "junk.json").write_text("[1, 2]")
     assert main(["evaluate", str(tmp_path / "junk.json"), str(simulated / "campaign.csv")]) == 2
     assert "not a vecpin model file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("controller, extra", [("generic", []), ("siemens-840d", ["--axis-map", "X=X1"]),
+                                               ("fanuc-30i", ["--method", "ga"]), ("generic", ["--max-tables", "4", "--no-circular", "--forbid-output", "X", "--method", "heuristic"])])
+def test_tables_command(simulated, tmp_path, capsys, controller, extra):
+    model = tmp_path / "m.json"
+    assert main(["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--order", "4", "--out", str(model), "--quiet"]) == 0
+    capsys.readouterr()
+    out_dir = tmp_path / "tables"
+    assert main(["tables", str(model), "--controller", controller, "--out", str(out_dir), "--quiet"] + extra) == 0
+    out = capsys.readouterr().out
+    assert "pitch only" in out and "full tables" in out and "gauge line" in out
+    assert (out_dir / "tables.json").is_file()
+    if controller == "siemens-840d":
+        assert (out_dir / "NC_CEC.INI").is_file() and (out_dir / "README_SIEMENS.md").is_file()
+    if controller == "fanuc-30i":
+        assert (out_dir / "PITCH.TXT").is_file() and "selection (genetic)" in out
+    if "--forbid-output" in extra:
+        line = [ln for ln in out.splitlines() if ln.strip().startswith("tables:")][0]
+        assert not any(t.startswith("x") and t != "xx" for t in line.split()[1:])
+
+
+def test_tables_command_errors(simulated, tmp_path, capsys):
+    model = tmp_path / "m.json"
+    assert main(["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--order", "3", "--out", str(model), "--quiet"]) == 0
+    assert main(["tables", str(model), "--controller", "siemens-840d", "--max-tables", "70", "--out", str(tmp_path / "t")]) == 2
+    assert "at most 62" in capsys.readouterr().err
+    assert main(["tables", str(model), "--forbid-output", "Q", "--out", str(tmp_path / "t")]) == 2
+    assert "no axis 'Q'" in capsys.readouterr().err

@@ -249,9 +249,16 @@ def cmd_tables(args) -> int:
     for a in args.forbid_output:
         m.axis(a)
     say = _progress(not args.quiet)
+    commands = None
+    if args.commands:
+        from .campaign import read_campaign
+        camp = read_campaign(args.commands, m)
+        commands = camp.q
+        if args.tools is None:
+            args.tools = [float(t * 1e3) for t in camp.tool_lengths()]
     plan = plan_tables(model, args.controller, max_tables=args.max_tables, no_circular=args.no_circular or None,
                        forbid_output=args.forbid_output, points=args.points, method=args.method,
-                       tools_mm=args.tools, progress=say)
+                       tools_mm=args.tools, modulo_axes=args.modulo, commands=commands, progress=say)
     print(f"compensation tables for {m.name} ({args.controller}), model {args.model}")
     grid = (f"resampled to the controller's grid, at most {plan.controller.max_points} points"
             if args.controller == "fanuc-30i" else f"{args.points} points each")
@@ -260,7 +267,9 @@ def cmd_tables(args) -> int:
     if plan.selection is not None:
         s = plan.selection
         print(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, {s.evaluations} combinations scored")
-    print("  predicted volumetric error (model, quasi-random commands x tools):")
+    where = f"the commands of {args.commands}" if args.commands else "1000 quasi-random commands"
+    tools = ", ".join(f"{t * 1e3:g}" for t in plan.problem.tools)
+    print(f"  predicted volumetric error (model, {where} x tools {tools} mm):")
     print(plan.report.table())
     if args.controller == "siemens-840d":
         files = write_siemens(plan.tables, m, args.out, _axis_map(args.axis_map), plan.controller)
@@ -345,6 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--points", type=int, default=1024, help="points per table (default 1024)")
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME", help="NC axis names (Siemens)")
+    s.add_argument("--modulo", action="append", default=[], metavar="AXIS", help="rotary input axis with modulo tables (one turn)")
+    s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on")
     s.add_argument("--out", required=True)
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_tables)

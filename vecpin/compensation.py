@@ -111,11 +111,16 @@ class CompensationFunctions:
         return TableSet(self.machine.axis_names, tables, self.gauge_offset_change)
 
 
-def from_ap_model(model: APModel) -> CompensationFunctions:
+def from_ap_model(model: APModel, modulo_axes=()) -> CompensationFunctions:
     """Tables of an AP model: the negated perturbations (eq. 17) and its gauge-line
-    correction as the change of T_offset."""
+    correction as the change of T_offset. ``modulo_axes``: rotary inputs whose tables
+    repeat every turn (their basis must be periodic)."""
     model._check_fitted()
     m = model.machine
+    for a in modulo_axes:
+        if model.bases[m.axis(a).index].kind != "fourier":
+            raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
+                              "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
     c, a = model.split(model.b_)
     coef = {}
     for o, ao in enumerate(m.axes):
@@ -125,7 +130,7 @@ def from_ap_model(model: APModel) -> CompensationFunctions:
                 coef[(ao.name, ai.name)] = -np.r_[c[o], a[:B.size - 1, i, o]]
             else:
                 coef[(ao.name, ai.name)] = -a[:B.size - 1, i, o]
-    return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]))
+    return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes))
 
 
 def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0) -> np.ndarray:

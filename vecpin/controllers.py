@@ -104,8 +104,11 @@ def check_limits(tables: TableSet, controller: Controller) -> None:
 
 
 # ---------------------------------------------------------------------- Siemens
-def _num(v: float) -> str:
-    return f"{v:.6f}".rstrip("0").rstrip(".") if abs(v) >= 1e-9 else "0"
+def _num(v: float, decimals: int = 6) -> str:
+    """Compact decimal: values to 1 nm / 1 µdeg; grid positions use more digits, since a
+    rounded step accumulates over the table."""
+    s = f"{v:.{decimals}f}".rstrip("0").rstrip(".")
+    return "0" if s in ("", "-0") else s
 
 
 def write_siemens(tables: TableSet, machine: Machine, out_dir: str | Path, axis_map: dict[str, str] | None = None,
@@ -125,10 +128,11 @@ def write_siemens(tables: TableSet, machine: Machine, out_dir: str | Path, axis_
         ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
         vals = ao.to_user(t.values)
         lines.append(f"; table {k}: {t.name} = {t.output_axis} corrected from {t.input_axis}")
-        lines += [f"$AN_CEC[{k},{j}]={_num(v)}" for j, v in enumerate(vals)]
+        dec = 6 if ao.kind == "linear" else 8  # 1 nm or 0.01 µdeg
+        lines += [f"$AN_CEC[{k},{j}]={_num(v, dec)}" for j, v in enumerate(vals)]
         lines += [f"$AN_CEC_INPUT_AXIS[{k}]={nc(t.input_axis)}", f"$AN_CEC_OUTPUT_AXIS[{k}]={nc(t.output_axis)}",
-                  f"$AN_CEC_STEP[{k}]={_num(float(ai.to_user(t.step)))}", f"$AN_CEC_MIN[{k}]={_num(float(ai.to_user(t.start)))}",
-                  f"$AN_CEC_MAX[{k}]={_num(float(ai.to_user(t.end)))}", f"$AN_CEC_DIRECTION[{k}]=0",
+                  f"$AN_CEC_STEP[{k}]={_num(float(ai.to_user(t.step)), 12)}", f"$AN_CEC_MIN[{k}]={_num(float(ai.to_user(t.start)), 12)}",
+                  f"$AN_CEC_MAX[{k}]={_num(float(ai.to_user(t.end)), 12)}", f"$AN_CEC_DIRECTION[{k}]=0",
                   f"$AN_CEC_MULT_BY_TABLE[{k}]=0", f"$AN_CEC_IS_MODULO[{k}]={int(t.modulo)}"]
     lines.append("M17")
     cec = out / "NC_CEC.INI"
@@ -139,10 +143,11 @@ def write_siemens(tables: TableSet, machine: Machine, out_dir: str | Path, axis_
         a = machine.axis(t.input_axis)
         vals = -a.to_user(t.values)
         ax = nc(t.input_axis)
-        lines += [f"$AA_ENC_COMP[0,{j},{ax}]={_num(v)}" for j, v in enumerate(vals)]
-        lines += [f"$AA_ENC_COMP_STEP[0,{ax}]={_num(float(a.to_user(t.step)))}",
-                  f"$AA_ENC_COMP_MIN[0,{ax}]={_num(float(a.to_user(t.start)))}",
-                  f"$AA_ENC_COMP_MAX[0,{ax}]={_num(float(a.to_user(t.end)))}",
+        dec = 6 if a.kind == "linear" else 8
+        lines += [f"$AA_ENC_COMP[0,{j},{ax}]={_num(v, dec)}" for j, v in enumerate(vals)]
+        lines += [f"$AA_ENC_COMP_STEP[0,{ax}]={_num(float(a.to_user(t.step)), 12)}",
+                  f"$AA_ENC_COMP_MIN[0,{ax}]={_num(float(a.to_user(t.start)), 12)}",
+                  f"$AA_ENC_COMP_MAX[0,{ax}]={_num(float(a.to_user(t.end)), 12)}",
                   f"$AA_ENC_COMP_IS_MODULO[0,{ax}]={int(t.modulo)}"]
     lines.append("M17")
     eec = out / "AX_EEC.INI"

@@ -1,0 +1,88 @@
+"""Choosing tables under controller limits (Paper II): exact search against brute
+force, the GA and the heuristic against the exact optimum, constraints honoured."""
+import itertools
+
+import numpy as np
+import pytest
+
+from vecpin.compensation import TableProblem, model_as_actual, pitch_names
+from vecpin.models import make_model
+from vecpin.noise import NoiseModel
+from vecpin.simulate import simulate
+from vecpin.tableselect import Constraints, Scorer, exact_search, genetic_search, impact_heuristic
+
+TOOLS = [0.21488, 0.31286]
+
+
+@pytest.fixture(scope="module")
+def problem(machines):
+    flow = machines["flow_xyzcb"]
+    sim = simulate(flow, seed=0, mean_error_mm=0.65)
+    model = make_model("6dof", flow, 6).fit(sim.campaign, NoiseModel.default(flow, "spherical"))
+    # Paper II: pseudo-measurements at the identification commands, both tools
+    return TableProblem(model_as_actual(model), flow, sim.campaign.q[:295], TOOLS, order=6)
+
+
+def test_schur_scores_equal_direct_solves(problem):
+    scorer = Scorer(problem)
+    cand = Constraints(6).candidates(problem.machine.axis_names)
+    rng = np.random.default_rng(0)
+    combos = np.array([rng.choice(len(cand), 4, replace=False) for _ in range(15)])
+    batched = scorer.score_many(combos, cand)
+    for c, b in zip(combos, batched):
+        names = [cand[j] for j in c]
+        assert b == pytest.approx(problem.cost(pitch_names(problem.machine) + names), rel=1e-6)
+        assert scorer.score(names) == pytest.approx(b, rel=1e-9)
+
+
+def test_exact_search_is_the_brute_force_optimum(problem):
+    """Brute force through the plain (non-Schur) solve on a reduced candidate list."""
+    cons = Constraints(3, forbid_output=("B", "C"))
+    sel = exact_search(problem, cons, finalists=1)
+    cand = cons.candidates(problem.machine.axis_names)
+    assert len(cand) == 12 and sel.evaluations == 220
+    best = min(itertools.combinations(cand, 3), key=lambda c: problem.cost(pitch_names(problem.machine) + list(c)))
+    assert sorted(sel.tables) == sorted(best)
+
+
+@pytest.mark.parametrize("cons", [Constraints(6), Constraints(6, no_circular=True), Constraints(6, forbid_output=("X",))])
+def test_exact_never_loses_to_the_ga_or_the_heuristic(problem, cons):
+    ex = exact_search(problem, cons)
+    assert cons.admissible(ex.tables) and len(ex.tables) == 6
+    scorer = Scorer(problem)
+    best_rms = min(r for _, r, _ in ex.finalists)
+    for seed in range(3):
+        ga = genetic_search(problem, cons, seed=seed, scorer=scorer)
+        assert cons.admissible(ga.tables) and len(ga.tables) == 6
+        assert best_rms <= ga.rms_mm + 1e-9
+        assert ex.mean_mm <= ga.mean_mm + 1e-9
+        assert all(b <= a + 1e-12 for a, b in zip(ga.history, ga.history[1:]))  # elitist: never worse
+        assert len(ga.history) <= 50
+    h = impact_heuristic(problem, cons)
+    assert cons.admissible(h.tables)
+    assert best_rms <= h.rms_mm + 1e-9 and ex.mean_mm <= h.mean_mm + 1e-9
+
+
+def test_constraints_are_honoured(problem):
+    cons = Constraints(6, forbid_output=("X",), no_circular=True, forbidden_pairs=(("yz", "zb"),))
+    for sel in (exact_search(problem, cons, finalists=3), genetic_search(problem, cons, seed=1), impact_heuristic(problem, cons)):
+        assert not any(t[0] == "x" for t in sel.tables)
+        assert not any(t[::-1] in sel.tables for t in sel.tables)
+        assert not ("yz" in sel.tables and "zb" in sel.tables)
+
+
+def test_constraints_cost_accuracy_and_paper_shape(problem):
+    """Paper II Table 7 shape: no-circular costs little or nothing, forbidding X outputs costs more."""
+    free = exact_search(problem, Constraints(6)).mean_mm
+    circ = exact_search(problem, Constraints(6, no_circular=True)).mean_mm
+    no_x = exact_search(problem, Constraints(6, forbid_output=("X",))).mean_mm
+    assert free <= circ + 1e-9 <= no_x + 1e-9
+    assert no_x > 1.3 * free
+
+
+def test_heuristic_ranking_is_table_four(problem):
+    h = impact_heuristic(problem, Constraints(6))
+    assert len(h.ranking) == 20
+    errs = [e for _, e in h.ranking]
+    assert errs == sorted(errs, reverse=True)
+    assert set(h.tables) <= {n for n, _ in h.ranking[:6]}
