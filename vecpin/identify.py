@@ -117,26 +117,47 @@ def _stats(d: np.ndarray) -> dict:
     return {"n": int(d.size), "mean": float(d.mean()), "max": float(d.max()), "rms": float(np.sqrt((d**2).mean()))}
 
 
+def predict_tracker(model: ErrorModel, q: np.ndarray, tool: np.ndarray, theta: np.ndarray, setup: Setup,
+                    features=None, jacobian: bool = True):
+    """Modelled measurements in the tracker frame y (N,3) [m]; with ``jacobian`` also
+    d y / d theta (N,3,P+6) and d y / d q (N,3,n). theta = [E_0, b]."""
+    e0, b = theta[:6], theta[6:]
+    mt = model.tool_tip(q, tool, b, jacobian=jacobian, features=features)
+    R0 = exp3(e0[3:])
+    RR = setup.R @ R0
+    y = (mt.tip @ R0.T + e0[:3]) @ setup.R.T + setup.t
+    tracker_effects = [(e, sl) for e, sl in model.effect_slices() if "tracker" in e.kinds]
+    D_tr = [(sl, e.tracker(y, features)) for e, sl in tracker_effects]
+    grad = sum((e.tracker_gradient(y, features, b[sl]) for e, sl in tracker_effects), np.zeros((len(y), 3, 3)))
+    for sl, D in D_tr:
+        y = y + np.einsum("pik,k->pi", D, b[sl])
+    if not jacobian:
+        return y, None, None
+    M = np.eye(3) + grad  # the tracker effects move with the point they act on
+    dy = np.empty((len(y), 3, 6 + model.n_parameters))
+    dy[:, :, :3] = setup.R
+    dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
+    dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
+    if tracker_effects:
+        dy = M @ dy
+    for sl, D in D_tr:
+        dy[:, :, 6 + sl.start:6 + sl.stop] = D
+    dq = np.einsum("ij,pjk->pik", RR, mt.J_q)
+    return y, dy, (M @ dq if tracker_effects else dq)
+
+
 class _Problem:
     """The whitened, prior-scaled least-squares problem of one fit."""
 
-    def __init__(self, model: ErrorModel, campaign: Campaign, noise: NoiseModel, setup: Setup):
+    def __init__(self, model: ErrorModel, campaign: Campaign, noise: NoiseModel, setup: Setup, features=None):
         self.model, self.campaign, self.noise, self.setup = model, campaign, noise, setup
+        self.features = features
         self.sigma = np.r_[E0_PRIORS, model.priors]  # prior standard deviations of theta = [e0, b]
 
     def predict(self, theta: np.ndarray):
         """Tracker-frame tool tips y (N,3) [m], d y / d theta (N,3,P+6) and d y / d q (N,3,n)."""
-        m, c = self.model, self.campaign
-        e0, b = theta[:6], theta[6:]
-        mt = m.tool_tip(c.q, c.tool, b, jacobian=True)
-        R0 = exp3(e0[3:])
-        RR = self.setup.R @ R0
-        y = (mt.tip @ R0.T + e0[:3]) @ self.setup.R.T + self.setup.t
-        dy = np.empty((len(y), 3, 6 + m.n_parameters))
-        dy[:, :, :3] = self.setup.R
-        dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
-        dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
-        return y, dy, np.einsum("ij,pjk->pik", RR, mt.J_q)
+        c = self.campaign
+        return predict_tracker(self.model, c.q, c.tool, theta, self.setup, self.features)
 
     def evaluate(self, theta: np.ndarray):
         """Whitened residuals w (3N,), d w / d psi (3N, P+6) with psi = theta / sigma
@@ -181,10 +202,16 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
                           f"'{model.machine.name}' ({', '.join(model.machine.axis_names)})")
     noise = noise or NoiseModel.default(model.machine)
     P = model.n_parameters + 6
-    nominal = model.tool_tip(campaign.q, campaign.tool, np.zeros(model.n_parameters), jacobian=False).tip
+    features = None
+    if model.effects:
+        from .features import Features
+        features = Features.from_campaign(campaign)
+        for e in model.effects:
+            e.prepare(campaign, features)
+    nominal = model.machine.tool_tip(campaign.q, campaign.tool)
     R, t = register(nominal, campaign.xyz)
     setup = Setup(R, t)
-    prob = _Problem(model, campaign, noise, setup)
+    prob = _Problem(model, campaign, noise, setup, features)
     theta = np.zeros(P)
     w, J, _ = prob.evaluate(theta)
     keep = np.ones(P, bool)
@@ -248,7 +275,7 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
                         + ", ".join(weak[:12]) + (" ..." if len(weak) > 12 else ""))
     if not converged:
         warnings.append(f"did not converge in {max_iter} iterations")
-    y = setup.to_tracker(model.tool_tip(campaign.q, campaign.tool, theta[6:], jacobian=False).tip)
+    y = predict_tracker(model, campaign.q, campaign.tool, theta, setup, features, jacobian=False)[0]
     report = FitReport(model.kind, model.order, noise.instrument, len(campaign), int(w.size), P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(chi2 + psi @ psi),
                        dof, float(np.sqrt(2 * dof)), cond, it, converged, time.perf_counter() - t0,

@@ -256,6 +256,17 @@ class Machine:
         J = shift_to_point(J6, r)[:, :, self._idx_v()] if jacobian else None
         return TipKinematics(tip, R, spindle, J)
 
+    def joint_frames(self, q: np.ndarray, axis: str) -> np.ndarray:
+        """(N,4,4) placements in the base frame of an axis' joint frame after its motion."""
+        q = np.atleast_2d(np.asarray(q, float))
+        jid = self.axis(axis).joint_id
+        qf = self.full_q(q)
+        out = np.empty((len(q), 4, 4))
+        for i in range(len(q)):
+            pin.forwardKinematics(self.model, self._data, qf[i])
+            out[i] = self._data.oMi[jid].homogeneous
+        return out
+
     def _idx_v(self) -> np.ndarray:
         return np.array([self.model.joints[a.joint_id].idx_v for a in self.axes])
 

@@ -26,8 +26,12 @@ FORMAT = "vecpin-model"
 VERSION = 1
 
 
+UNITS = {"length": ("mm", 1e3), "angle": ("deg", 180 / math.pi), "ratio": ("ratio", 1.0)}
+FROM_UNIT = {"mm": 1e-3, "deg": math.pi / 180, "ratio": 1.0}
+
+
 def _unit(quantity: str) -> tuple[str, float]:
-    return ("mm", 1e3) if quantity == "length" else ("deg", 180 / math.pi)
+    return UNITS[quantity]
 
 
 def model_to_dict(model: ErrorModel) -> dict:
@@ -56,7 +60,7 @@ def model_to_dict(model: ErrorModel) -> dict:
                     "urdf": m.urdf_xml},
         "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind, "axis_bases": bases,
                   "tool_lengths_mm": None if model.tool_lengths is None else [t * 1e3 for t in model.tool_lengths],
-                  "prior_scale": model.prior_scale},
+                  "prior_scale": model.prior_scale, "effects": [e.to_dict() for e in model.effects]},
         "tracker": {"rotation": model.setup_.R.tolist(), "translation_mm": (model.setup_.t * 1e3).tolist(),
                     "meaning": "p_tracker = R (E_0 p_machine) + t"},
         "noise": model.noise_.to_dict(m),
@@ -101,8 +105,10 @@ def _from_dict(d: dict, path: Path) -> ErrorModel:
         bases = [AxisBasis(float(a.to_si(b["lower"])), float(a.to_si(b["upper"])), int(b["order"]), b["kind"],
                            tuple(b["harmonics"]), bool(b["rotary"])) for a, b in zip(machine.axes, spec["axis_bases"])]
     tools = None if spec["tool_lengths_mm"] is None else [t * 1e-3 for t in spec["tool_lengths_mm"]]
+    from .effects import effect_from_dict
+    effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
     model = make_model(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",
-                       tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases)
+                       tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases, effects=effects)
     by_name = {p["name"]: p for p in d["parameters"]}
     names = list(E0_NAMES) + model.parameter_names
     missing = [n for n in names if n not in by_name]
@@ -112,7 +118,7 @@ def _from_dict(d: dict, path: Path) -> ErrorModel:
     std = np.empty(len(names))
     for k, n in enumerate(names):
         p = by_name[n]
-        f = 1e-3 if p["unit"] == "mm" else math.pi / 180
+        f = FROM_UNIT[p["unit"]]
         theta[k], std[k] = p["value"] * f, p["std"] * f
     model.e0_, model.b_ = theta[:6], theta[6:]
     model.cov_ = np.diag(std**2)

@@ -77,7 +77,7 @@ class ErrorModel:
 
     def __init__(self, machine: Machine, order: int = 6, basis: str = "auto",
                  tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
-                 bases: list[AxisBasis] | None = None):
+                 bases: list[AxisBasis] | None = None, effects: list | None = None):
         from .errors import VecpinError
         if order < 0:
             raise VecpinError("the series order must be >= 0")
@@ -101,7 +101,9 @@ class ErrorModel:
         self.bases = list(bases)
         self._K = max(B.size for B in self.bases)
         self._mask = np.array([[j < B.size for B in self.bases] for j in range(self._K)])  # (K, n)
-        self.parameters: list[Parameter] = self._offset_parameters() + self._model_parameters()
+        self.base_parameters: list[Parameter] = self._offset_parameters() + self._model_parameters()
+        self.effects = list(effects or [])
+        self.parameters: list[Parameter] = self.base_parameters + [p for e in self.effects for p in e.parameters()]
 
     # --------------------------------------------------------------- parameters
     def _offset_parameters(self) -> list[Parameter]:
@@ -148,9 +150,68 @@ class ErrorModel:
         return out
 
     # --------------------------------------------------------------- kinematics
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, b: np.ndarray, jacobian: bool = True) -> ModelTip:
-        """Tool tip of the model with parameters b, machine base frame (SI)."""
+    def _base_tool_tip(self, q: np.ndarray, tool: np.ndarray, b: np.ndarray, jacobian: bool) -> ModelTip:
         raise NotImplementedError
+
+    def effect_slices(self) -> list[tuple]:
+        """(effect, slice of its parameters in b) for every effect."""
+        out, k = [], len(self.base_parameters)
+        for e in self.effects:
+            out.append((e, slice(k, k + e.n_parameters)))
+            k += e.n_parameters
+        return out
+
+    def with_effects(self, effects: list) -> "ErrorModel":
+        """A new, unfitted model of the same kind and bases with these effects."""
+        return type(self)(self.machine, self.order, basis="chebyshev" if self.basis_kind == "chebyshev" else "auto",
+                          tool_lengths=self.tool_lengths, prior_scale=self.prior_scale,
+                          bases=self.bases if self.basis_kind == "custom" else None, effects=effects)
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, b: np.ndarray, jacobian: bool = True,
+                 features=None) -> ModelTip:
+        """Tool tip of the model with parameters b, machine base frame (SI). ``features``
+        (:class:`~vecpin.features.Features`) are needed when effects depend on the rows."""
+        q = np.atleast_2d(np.asarray(q, float))
+        N = len(q)
+        tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        nb = len(self.base_parameters)
+        if not self.effects:
+            return self._base_tool_tip(q, tool, b, jacobian)
+        if features is None:
+            from .errors import VecpinError
+            raise VecpinError("this model has effects (" + ", ".join(e.label for e in self.effects) +
+                              ") that depend on the rows: evaluate it on a campaign (time, temperature, row order)")
+        slices = self.effect_slices()
+        S_all = []
+        q_eff = q.copy()
+        for e, sl in slices:
+            if "command" in e.kinds:
+                S = e.command(q, features)
+                q_eff = q_eff + np.einsum("pnk,k->pn", S, b[sl])
+                S_all.append((sl, S))
+        out = self._base_tool_tip(q_eff, tool, b[:nb], True if (jacobian or any("tip" in e.kinds for e, _ in slices)) else False)
+        tip = out.tip.copy()
+        J_cmd = np.zeros((N, 3, len(self.parameters) - nb)) if jacobian else None
+        J_tip = np.zeros_like(J_cmd) if jacobian else None
+        for sl, S in S_all:
+            if jacobian:  # through the base kinematics at the perturbed commands
+                J_cmd[:, :, sl.start - nb:sl.stop - nb] += np.einsum("pin,pnk->pik", out.J_q, S)
+        from .effects import TipContext
+        ctx = TipContext(self.machine, q_eff, out.tip, out.tool_dir)
+        grad = np.zeros((N, 3, 3))
+        for e, sl in slices:
+            if "tip" in e.kinds:
+                D = e.tip(ctx, features)
+                tip += np.einsum("pik,k->pi", D, b[sl])
+                if jacobian:
+                    J_tip[:, :, sl.start - nb:sl.stop - nb] += D
+                    grad += e.tip_gradient(ctx, features, b[sl])
+        if not jacobian:
+            return ModelTip(tip, None, None, out.tool_dir)
+        # tip displacements that move with the tip (a rotation's lever arm): chain rule
+        M = np.eye(3) + grad
+        J_b = np.concatenate([M @ out.J_b, M @ J_cmd + J_tip], axis=-1)
+        return ModelTip(tip, J_b, M @ out.J_q, out.tool_dir)
 
     def describe(self) -> dict:
         return {"kind": self.kind, "order": self.order, "basis": self.basis_kind,
@@ -185,11 +246,15 @@ class ErrorModel:
         self._check_fitted()
         return np.sqrt(np.diag(self.cov_)[6:])
 
-    def predict(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker") -> np.ndarray:
+    def predict(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker", features=None) -> np.ndarray:
         """Modelled tool tips (N,3) [m] for commands q (N,n) [m, rad] and tool
-        lengths [m], in the tracker frame of the fitted campaign or the machine frame."""
+        lengths [m], in the tracker frame of the fitted campaign or the machine frame.
+        ``features``: per-row time/temperature/directions, for models with effects."""
         self._check_fitted()
-        tip = self.tool_tip(q, tool, self.b_, jacobian=False).tip
+        if frame == "tracker" and any("tracker" in e.kinds for e in self.effects):
+            from .identify import predict_tracker
+            return predict_tracker(self, q, tool, np.r_[self.e0_, self.b_], self.setup_, features, False)[0]
+        tip = self.tool_tip(q, tool, self.b_, jacobian=False, features=features).tip
         if frame == "machine":
             return tip
         if frame != "tracker":
@@ -198,13 +263,20 @@ class ErrorModel:
 
     def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
         """Measured minus modelled tool tips (N,3) [m], tracker frame. ``reregister``:
-        fit the tracker pose to this campaign first (the tracker was moved)."""
+        fit the tracker pose to this campaign first (the tracker was moved). Effects
+        take time, temperature and approach directions from the campaign's rows."""
         self._check_fitted()
-        tip = self.tool_tip(campaign.q, campaign.tool, self.b_, jacobian=False).tip
+        feats = None
+        if self.effects:
+            from .features import Features
+            feats = Features.from_campaign(campaign)
         if reregister:
             from .registration import registered_errors
+            tip = self.tool_tip(campaign.q, campaign.tool, self.b_, jacobian=False, features=feats).tip
             return registered_errors(tip, campaign.xyz)
-        return campaign.xyz - self.setup_.to_tracker(tip)
+        from .identify import predict_tracker
+        theta = np.r_[self.e0_, self.b_]
+        return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, theta, self.setup_, feats, False)[0]
 
     def save(self, path) -> None:
         """Write the fitted model to a versioned JSON file (:mod:`vecpin.modelfile`)."""
@@ -244,17 +316,15 @@ class SixDofModel(ErrorModel):
     def coefficients(self, b: np.ndarray) -> np.ndarray:
         """(K, n, 6) series coefficients from the parameter vector (zeros where an axis has fewer columns)."""
         A = np.zeros((self._K, self.machine.n_axes, 6))
-        A[self._mask] = b[self._n_offsets():].reshape(-1, 6)
+        A[self._mask] = b[self._n_offsets():len(self.base_parameters)].reshape(-1, 6)
         return A
 
     def error_values(self, q: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N, n, 6) values (dx, dy, dz [m], ex, ey, ez [rad]) of every axis' errors."""
         return np.einsum("pnk,knc->pnc", self._basis_values(q), self.coefficients(b))
 
-    def tool_tip(self, q, tool, b, jacobian=True) -> ModelTip:
-        q = np.atleast_2d(np.asarray(q, float))
+    def _base_tool_tip(self, q, tool, b, jacobian=True) -> ModelTip:
         N = len(q)
-        tool = np.broadcast_to(np.asarray(tool, float), (N,))
         B = self._basis_values(q)
         A = self.coefficients(b)
         vals = np.einsum("pnk,knc->pnc", B, A)
@@ -297,7 +367,7 @@ class APModel(ErrorModel):
         n = self.machine.n_axes
         k = self._n_offsets()
         a = np.zeros((self._K - 1, n, n))
-        a[self._mask[1:]] = b[k + n:].reshape(-1, n)
+        a[self._mask[1:]] = b[k + n:len(self.base_parameters)].reshape(-1, n)
         return b[k:k + n], a
 
     def perturbation(self, q: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -305,10 +375,8 @@ class APModel(ErrorModel):
         c, a = self.split(b)
         return c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a)
 
-    def tool_tip(self, q, tool, b, jacobian=True) -> ModelTip:
-        q = np.atleast_2d(np.asarray(q, float))
+    def _base_tool_tip(self, q, tool, b, jacobian=True) -> ModelTip:
         N, n = q.shape
-        tool = np.broadcast_to(np.asarray(tool, float), (N,))
         c, a = self.split(b)
         B = self._basis_values(q)[:, :, 1:]  # (N, n, K-1)
         qp = q + c + np.einsum("pim,mij->pj", B, a)

@@ -123,23 +123,37 @@ def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
-             **truth_options) -> Simulation:
+             effects: list | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
-    unless ``truth`` is given)."""
+    unless ``truth`` is given). ``effects``: :class:`~vecpin.trueeffects.TrueEffect`
+    list acting on the true machine, scaled to their strength on this campaign; the
+    validation files carry them too (except gross errors)."""
+    from .features import Features
     design = design or Design()
     rng = np.random.default_rng(seed)
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
+    if effects:
+        truth.effects = list(effects)
     q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
     tools = np.asarray(design.tools_mm, float) * 1e-3
     qs = np.vstack([q] * len(tools))
     tool = np.repeat(tools, len(q))
     t = measurement_times(qs, machine, design)
-    campaign = Campaign(machine.axis_names, qs, tool, truth.measure(qs, tool, rng),
-                        {"time": t, "temperature": workshop_temperature(t, rng)}, f"simulated seed {seed}")
+    extra = {"time": t, "temperature": workshop_temperature(t, rng)}
+    feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
+    if truth.effects:
+        truth.calibrate_effects(qs, tool, feats)
+    campaign = Campaign(machine.axis_names, qs, tool, truth.measure(qs, tool, rng, feats), extra, f"simulated seed {seed}")
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
     tv = np.full(len(qv), tools[0])
     times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
-    validation = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, rng), extra_v, f"simulated seed {seed}, validation")
-    exact = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, None), dict(extra_v), f"simulated seed {seed}, noise-free")
+    feats_v = Features.from_campaign(Campaign(machine.axis_names, qv, tv, np.zeros((len(qv), 3)), extra_v))
+    clean = [e for e in truth.effects if e.name != "outliers"]
+    all_effects, truth.effects = truth.effects, clean
+    validation = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, rng, feats_v), extra_v,
+                          f"simulated seed {seed}, validation")
+    exact = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, None, feats_v), dict(extra_v),
+                     f"simulated seed {seed}, noise-free")
+    truth.effects = all_effects
     return Simulation(truth, campaign, validation, exact)

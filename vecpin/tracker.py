@@ -110,9 +110,11 @@ class Tracker:
         """Tracker-frame Cartesian readings [m] of machine-frame points, with spherical
         noise added in the native coordinates (eq. 34) when ``rng`` is given."""
         p = self.to_tracker(p_machine)
-        if rng is None:
-            return p
-        s = cartesian_to_spherical(p)
+        return p if rng is None else self.add_noise(p, rng)
+
+    def add_noise(self, p_tracker: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Tracker-frame points with range and angle noise added in spherical coordinates."""
+        s = cartesian_to_spherical(p_tracker)
         s = s + rng.standard_normal(s.shape) * self.noise.sigma_spherical(s[:, 0])
         return spherical_to_cartesian(s)
 

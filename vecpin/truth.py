@@ -71,6 +71,7 @@ class TrueMachine:
     tracker: Tracker
     perturbations: list[list[ErrorFunction | None]] | None = None
     harmonics: list[tuple[float, ...]] | None = None
+    effects: list = field(default_factory=list)  # TrueEffect, applied when features are given
     _frames: ErrorFrames | None = field(default=None, repr=False)
 
     @property
@@ -110,20 +111,55 @@ class TrueMachine:
         return [AxisBasis(a.lower, a.upper, order, "chebyshev", tuple(h), a.kind == "rotary")
                 for a, h in zip(self.machine.axes, harm)]
 
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
-        """Noise-free true tool tip (N,3) [m], machine base frame."""
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
+        """Noise-free true tool tip (N,3) [m], machine base frame; with ``features`` the
+        simulated effects that act on the commands and the tip are included."""
         q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
+        active = self.effects if features is not None else []
+        for e in active:
+            q = q + e.command(self.machine, q, features)
         delta, eps = self.error_values(q)
         tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
-        return self.frames.tool_tip(q, delta, eps, tool, jacobian=False).tip
+        out = self.frames.tool_tip(q, delta, eps, tool, jacobian=False)
+        tip = out.tip
+        for e in active:
+            tip = e.tip(self.machine, q, tip, out.tool_dir, features)
+        return tip
 
-    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None) -> np.ndarray:
+    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
+                features=None) -> np.ndarray:
         """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
-        true kinematics, then tracker noise in spherical coordinates. ``rng=None``: noise-free."""
+        true kinematics (with the simulated effects when ``features`` are given), the
+        tracker pose, tracker noise in spherical coordinates and gross errors.
+        ``rng=None``: noise-free (and no gross errors)."""
         q = np.atleast_2d(np.asarray(q, float))
         if rng is not None:
             q = q + rng.standard_normal(q.shape) * self.repeatability
-        return self.tracker.measure(self.tool_tip(q, tool), rng)
+        y = self.tracker.to_tracker(self.tool_tip(q, tool, features))
+        if features is not None:
+            for e in self.effects:
+                y = e.tracker(y, features)
+        if rng is None:
+            return y
+        y = self.tracker.add_noise(y, rng)
+        if features is not None:
+            for e in self.effects:
+                y = e.gross(y)
+        return y
+
+    def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
+        """Scale every effect so that its RMS tool-tip displacement over these rows is
+        its ``strength_mm`` (outliers: the size of the gross errors)."""
+        effects, self.effects = self.effects, []
+        base = self.measure(q, tool, None, features)
+        for e in effects:
+            if e.name == "outliers":
+                continue
+            e.scale = 1.0
+            self.effects = [e]
+            rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
+            e.scale = e.strength_mm * 1e-3 / rms if rms > 0 else 0.0
+        self.effects = effects
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
@@ -142,7 +178,8 @@ class TrueMachine:
                 "harmonics": {a.name: list(h) for a, h in zip(self.machine.axes, self.harmonics or [()] * self.machine.n_axes)},
                 "axis_perturbations": self._perturbations_dict(),
                 "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
-                "tracker": self.tracker.to_dict()}
+                "tracker": self.tracker.to_dict(),
+                "effects": [e.to_dict() for e in self.effects]}
 
     def _perturbations_dict(self) -> dict:
         out = {}
