@@ -33,6 +33,34 @@ def _error_summary(label: str, err_mm: np.ndarray) -> str:
     return f"  {label:<42s} mean {d.mean():8.4f} mm   max {d.max():8.4f} mm   RMS {np.sqrt((d**2).mean()):8.4f} mm"
 
 
+def parse_effect(text: str, machine):
+    """'gantry_skew:axes=Y,about=x,depends=X,strength=0.05' -> TrueEffect."""
+    from .trueeffects import TrueEffect
+    name, _, rest = text.partition(":")
+    known = ("gantry_skew", "coupled_axes", "thermal", "backlash", "rotary_periodic", "instrument_shift", "outliers")
+    if name not in known:
+        raise VecpinError(f"--effect '{text}': unknown effect '{name}' (known: {', '.join(known)})")
+    axes, strength, seed, options = (), 0.05, 0, {}
+    for part in filter(None, rest.split(",")):
+        if "=" not in part:
+            raise VecpinError(f"--effect '{text}': write NAME:key=value,... (axes=Y+X, strength=MM, seed=N, ...)")
+        k, v = part.split("=", 1)
+        if k == "axes":
+            axes = tuple(a for a in v.split("+") if a)
+            for a in axes:
+                machine.axis(a)
+        elif k == "strength":
+            strength = float(v)
+        elif k == "seed":
+            seed = int(v)
+        else:
+            try:
+                options[k] = float(v)
+            except ValueError:
+                options[k] = v
+    return TrueEffect(name, axes, strength, options, seed)
+
+
 def cmd_simulate(args) -> int:
     from .registration import registered_errors
     from .simulate import Design, parse_zone, simulate
@@ -40,7 +68,8 @@ def cmd_simulate(args) -> int:
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
                     exclusion_zones=[parse_zone(z) for z in args.exclude],
                     tools_mm=tuple(args.tools) if args.tools else Design().tools_mm)
-    sim = simulate(m, seed=args.seed, design=design, mean_error_mm=args.mean_error)
+    effects = [parse_effect(e, m) for e in args.effect]
+    sim = simulate(m, seed=args.seed, design=design, mean_error_mm=args.mean_error, effects=effects or None)
     paths = sim.write(args.out)
     c = sim.campaign
     nominal = m.tool_tip(c.q, c.tool)
@@ -283,6 +312,21 @@ def cmd_tables(args) -> int:
     return 0
 
 
+def cmd_diagnose(args) -> int:
+    from .campaign import read_campaign
+    from .diagnosis import diagnose
+    m = _machine(args.machine)
+    c = read_campaign(args.csv, m)
+    effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
+    d = diagnose(m, c, model=args.model, order=args.order, effects=effects, noise=_noise(args, m), folds=args.folds,
+                 alpha=args.alpha, basis=args.basis, progress=_progress(not args.quiet))
+    print(d.summary())
+    for k, p in d.write(args.out).items():
+        print(f"wrote {p}")
+    print(f"diagnosis took {d.seconds:.1f} s")
+    return 0
+
+
 def _noise_args(s) -> None:
     s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
     s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
@@ -314,6 +358,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in mm/deg (repeatable)")
     s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm")
+    s.add_argument("--effect", action="append", default=[], metavar="NAME:key=value,...",
+                   help="add an unmodelled effect to the true machine, e.g. gantry_skew:axes=Y,about=x,depends=X,"
+                        "strength=0.05 (strength: RMS tool-tip displacement, mm); repeatable")
     s.set_defaults(func=cmd_simulate)
 
     s = sub.add_parser("fit", help="identify an error model from a campaign CSV (maximum likelihood)")
@@ -359,6 +406,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True)
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_tables)
+
+    s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
+    s.add_argument("machine")
+    s.add_argument("csv")
+    s.add_argument("--out", required=True)
+    s.add_argument("--model", choices=["6dof", "ap"], default="6dof")
+    s.add_argument("--order", type=int, default=6)
+    s.add_argument("--effects", default="all", help="all, or a comma list of: gantry_skew, coupled_axes, thermal, "
+                   "backlash, rotary_periodic, instrument_shift, outliers")
+    s.add_argument("--folds", type=int, default=5)
+    s.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm rate per round")
+    _noise_args(s)
+    s.set_defaults(func=cmd_diagnose)
 
     s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
     s.add_argument("--out", default="demo")

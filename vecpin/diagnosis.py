@@ -87,19 +87,45 @@ class Linearised:
         g = Jf.T @ wr.ravel() - psi0
         return linalg.solve(G, g, assume_a="pos")
 
-    def evaluate(self, A: np.ndarray, J: np.ndarray, psi0: np.ndarray, folds: np.ndarray) -> dict:
+    def grams(self, J: np.ndarray, folds: np.ndarray) -> dict:
+        """Normal equations per fold: {fold: (J_f^T J_f, J_f^T w_f)} and the totals."""
+        out = {}
+        for f in np.unique(folds):
+            sel = folds == f
+            Jf = J[sel].reshape(-1, J.shape[-1])
+            out[f] = (Jf.T @ Jf, Jf.T @ self.w[sel].ravel())
+        out["all"] = (sum(v[0] for v in out.values()), sum(v[1] for v in out.values()))
+        return out
+
+    def extend_grams(self, base: dict, J0: np.ndarray, J1: np.ndarray, folds: np.ndarray) -> dict:
+        """Grams of [J0, J1] from those of J0 plus the cross blocks of the new columns."""
+        out = {}
+        for f in np.unique(folds):
+            sel = folds == f
+            a = J0[sel].reshape(-1, J0.shape[-1])
+            b = J1[sel].reshape(-1, J1.shape[-1])
+            G0, g0 = base[f]
+            C = a.T @ b
+            out[f] = (np.block([[G0, C], [C.T, b.T @ b]]), np.r_[g0, b.T @ self.w[sel].ravel()])
+        out["all"] = (sum(v[0] for k, v in out.items()), sum(v[1] for k, v in out.items()))
+        return out
+
+    def evaluate(self, A: np.ndarray, J: np.ndarray, psi0: np.ndarray, folds: np.ndarray,
+                 grams: dict | None = None) -> dict:
         """Full-data chi2 and held-out residuals of the linear model with these columns."""
-        step = self.solve(J, psi0)
-        Jf = J.reshape(-1, J.shape[-1])
-        res_w = self.w.ravel() - Jf @ step
+        grams = grams or self.grams(J, folds)
+        G, g = grams["all"]
+        eye = np.eye(len(psi0))
+        step = linalg.solve(G + eye, g - psi0, assume_a="pos")
+        res_w = self.w.ravel() - J.reshape(-1, J.shape[-1]) @ step
         chi2 = float(res_w @ res_w + (psi0 + step) @ (psi0 + step))
-        G = Jf.T @ Jf + np.eye(J.shape[-1])
-        p_eff = float(np.trace(linalg.solve(G, Jf.T @ Jf, assume_a="pos")))
+        p_eff = float(np.trace(linalg.solve(G + eye, G, assume_a="pos")))
         held = np.empty_like(self.r)
         held_w = np.empty_like(self.w)
         for f in np.unique(folds):
-            tr, te = folds != f, folds == f
-            s = self.solve(J, psi0, tr)
+            te = folds == f
+            Gf, gf = grams[f]
+            s = linalg.solve(G - Gf + eye, g - gf - psi0, assume_a="pos")
             held[te] = self.r[te] - np.einsum("pik,k->pi", A[te], s)
             held_w[te] = self.w[te] - np.einsum("pik,k->pi", J[te], s)
         return {"chi2": chi2, "p_eff": p_eff, "heldout": held, "heldout_w": held_w}
@@ -123,6 +149,7 @@ class EffectScore:
     significant: bool = False
     round: int = 1
     evidence: str = ""
+    bic_gain: float = float("nan")
     effect: Effect | None = field(default=None, repr=False)
 
     @property
@@ -135,7 +162,7 @@ class EffectScore:
                 "heldout_max_mm_before": self.heldout_max_mm_before, "heldout_max_mm_after": self.heldout_max_mm_after,
                 "shrink_pct": self.shrink_pct, "evidence": self.evidence, "n_parameters": self.n_parameters,
                 "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic, "p_value": self.p_value,
-                "p_threshold": self.threshold, "round": self.round,
+                "p_threshold": self.threshold, "round": self.round, "bic_gain": self.bic_gain,
                 "options": self.effect.options if self.effect is not None else {}}
 
 
@@ -151,6 +178,7 @@ class Diagnosis:
     heldout_base: np.ndarray          # (N,3) m, held-out residuals of the base model
     campaign: Campaign
     seconds: float
+    best: tuple[float, float] = (float("nan"), float("nan"))  # held-out mean/max [mm] of the best model
 
     @property
     def accepted(self) -> list[EffectScore]:
@@ -164,10 +192,7 @@ class Diagnosis:
                 "seconds": self.seconds}
 
     def best_heldout(self) -> tuple[float, float]:
-        acc = self.accepted
-        if not acc:
-            return self.base["heldout_mean_mm"], self.base["heldout_max_mm"]
-        return acc[-1].heldout_mean_mm_after, acc[-1].heldout_max_mm_after
+        return self.best
 
     def summary(self) -> str:
         b = self.base
@@ -245,11 +270,17 @@ def _breakdown(values: np.ndarray, held_mm: np.ndarray, held_w: np.ndarray, n_bi
 
 
 def localise(machine: Machine, campaign: Campaign, held_mm: np.ndarray, held_w: np.ndarray, tips: np.ndarray,
-             n_bins: int = 8, alpha: float = 0.01) -> dict:
+             n_bins: int = 8, alpha: float = 0.01, feats: Features | None = None) -> dict:
     """Breakdowns of held-out residuals; each says whether it is structured."""
     out = {}
+    feats = feats or Features.from_campaign(campaign)
     for a in machine.axes:
         out[f"axis:{a.name}"] = _breakdown(a.to_user(campaign.q[:, a.index]), held_mm, held_w, n_bins, a.name, a.unit)
+    for a in machine.axes:
+        d = feats.direction[:, a.index]
+        if len(np.unique(d)) > 1:
+            out[f"direction:{a.name}"] = _breakdown(d, held_mm, held_w, 0, f"approach direction of {a.name}", "",
+                                                    categorical=True)
     if campaign.time is not None:
         out["time"] = _breakdown(campaign.time, held_mm, held_w, n_bins, "time", "s")
     if campaign.temperature is not None:
@@ -289,13 +320,15 @@ def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
     return out
 
 
-def _score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, base_eval: dict) -> dict:
+def _score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, base_eval: dict,
+           base_grams: dict | None = None) -> dict:
     A0, J0, psi0 = base
     A1, J1 = cand_cols
     A = np.concatenate([A0, A1], axis=-1)
     J = np.concatenate([J0, J1], axis=-1)
     psi = np.r_[psi0, np.zeros(A1.shape[-1])]
-    ev = lin.evaluate(A, J, psi, folds)
+    grams = lin.extend_grams(base_grams, J0, J1, folds) if base_grams is not None else None
+    ev = lin.evaluate(A, J, psi, folds, grams)
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.w.size - ev["p_eff"], 1.0)
@@ -315,8 +348,11 @@ def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float 
 
 def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: int = 6, effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
-             basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> Diagnosis:
-    """Run the diagnosis; see the module docstring."""
+             basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Run the diagnosis; see the module docstring. An effect is accepted when its
+    F-test passes ``alpha`` / (candidates in the round) and it shrinks the held-out mean
+    by at least ``min_shrink_pct`` (statistically real and practically worth a term)."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     noise = noise or NoiseModel.default(machine, "spherical")
@@ -366,7 +402,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
                  "heldout_max_mm": float(held_mm.max()), "folds": folds, "rows": int(len(rows)),
                  "chi2_per_expected": base_model.report_.chi2 / base_model.report_.chi2_expected}
     tips = base_model.predict(camp.q, camp.tool, "machine")
-    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], tips)
+    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], tips, feats=feats)
     held_base_all = base_eval["heldout"]
 
     # ---- forward selection over candidate effects
@@ -381,29 +417,36 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
         say(f"round {rnd}: scoring {len(remaining)} candidates against "
             + ("the base model" if not accepted else "base + " + ", ".join(a.label for a in accepted)))
         base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
+        base_grams = cur_lin.grams(cur_lin.J, fold_r)
         round_scores = []
         shift_best = None
         theta = np.r_[cur_model.e0_, cur_model.b_, np.zeros(0)]
         for c in remaining:
             c.prepare(camp, feats)
-            trial = cur_model.with_effects(cur_model.effects + [c])
-            th = np.r_[theta, np.zeros(c.n_parameters)]
-            D = predict_tracker(trial, camp.q, camp.tool, th, cur_model.setup_, feats)[1][:, :, -c.n_parameters:]
+            if c.kinds == ("tracker",):  # acts on the measured point only: no kinematics needed
+                D = c.tracker(cur_lin.y, feats)
+            else:
+                trial = cur_model.with_effects(cur_model.effects + [c])
+                th = np.r_[theta, np.zeros(c.n_parameters)]
+                D = predict_tracker(trial, camp.q, camp.tool, th, cur_model.setup_, feats)[1][:, :, -c.n_parameters:]
             prior = np.array([p.prior for p in c.parameters()])
             cols = cur_lin.columns(D, prior)
             if isinstance(c, InstrumentShift):
                 # scanned step time: cheap full-data chi2 first, cross-validate the best only
-                Jf = np.concatenate([cur_lin.J, cols[1]], axis=-1)
-                step = cur_lin.solve(Jf, np.r_[cur_lin.psi0, np.zeros(6)])
-                res = cur_lin.w.ravel() - Jf.reshape(-1, Jf.shape[-1]) @ step
-                chi2 = float(res @ res + np.sum((np.r_[cur_lin.psi0, np.zeros(6)] + step) ** 2))
+                G0, g0 = base_grams["all"]
+                b = cols[1].reshape(-1, 6)
+                Cx = cur_lin.J.reshape(-1, cur_lin.J.shape[-1]).T @ b
+                G = np.block([[G0, Cx], [Cx.T, b.T @ b]]) + np.eye(len(g0) + 6)
+                g = np.r_[g0, b.T @ cur_lin.w.ravel()] - np.r_[cur_lin.psi0, np.zeros(6)]
+                chi2 = -float(g @ linalg.solve(G, g, assume_a="pos"))  # chi2 up to a constant
                 if shift_best is None or chi2 < shift_best[0]:
                     shift_best = (chi2, c, cols)
                 continue
-            round_scores.append((c, _score(cur_lin, base_cols, cols, fold_r, cur_eval), 1))
+            round_scores.append((c, _score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), 1))
         n_shift = sum(isinstance(c, InstrumentShift) for c in remaining)
         if shift_best is not None:
-            round_scores.append((shift_best[1], _score(cur_lin, base_cols, shift_best[2], fold_r, cur_eval), n_shift))
+            round_scores.append((shift_best[1], _score(cur_lin, base_cols, shift_best[2], fold_r, cur_eval, base_grams),
+                                 n_shift))
         m_tests = sum(k for _, _, k in round_scores)
         best = None
         before = np.linalg.norm(cur_eval["heldout"], axis=1) * 1e3
@@ -413,8 +456,10 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
             sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                              float(before.mean()), float(after.mean()), float(before.max()), float(after.max()),
                              False, rnd, effect=c)
-            sig = ev["p"] < thr and after.mean() < before.mean()
-            if sig and (best is None or sc.heldout_mean_mm_after < best[0].heldout_mean_mm_after):
+            sc.bic_gain = float(ev["d_chi2"] - ev["k"] * math.log(cur_lin.w.size))
+            sig = ev["p"] < thr and after.mean() < before.mean() * (1 - min_shrink_pct / 100)
+            # among significant candidates the most economical explanation wins (BIC gain)
+            if sig and (best is None or sc.bic_gain > best[0].bic_gain):
                 best = (sc, ev)
             if rnd == 1 or sig:
                 round_scores_entry = sc
@@ -456,9 +501,33 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
                     s.n_parameters = int(3 * outliers.size)
                     s.evidence = (f"{outliers.size} rows stay beyond the p = 1e-3 (Bonferroni) limit under the final "
                                   f"model and are left out")
-    # ranking: significant effects by their shrink, then the rest by held-out mean after
-    acc = sorted([s for s in scores if s.significant], key=lambda s: -s.shrink_pct)
-    rest = sorted([s for s in scores if not s.significant], key=lambda s: s.heldout_mean_mm_after)
+    # the final row set: base and best model judged on the same rows
+    if len(camp) != base_info["rows"]:
+        feats = Features.from_campaign(campaign).subset(np.setdiff1d(np.arange(len(campaign)), outliers))
+        fold_r = fold[np.setdiff1d(np.arange(len(campaign)), outliers)]
+        base_model = base_fit(camp, [])
+        blin = Linearised(base_model, camp, noise, feats)
+        bev = blin.evaluate(blin.A, blin.J, blin.psi0, fold_r)
+        held_mm = np.linalg.norm(bev["heldout"], axis=1) * 1e3
+        base_info.update(heldout_mean_mm=float(held_mm.mean()), heldout_max_mm=float(held_mm.max()), rows=int(len(camp)),
+                         chi2_per_expected=base_model.report_.chi2 / base_model.report_.chi2_expected)
+        loc = localise(machine, camp, bev["heldout"], bev["heldout_w"], base_model.predict(camp.q, camp.tool, "machine"),
+                       feats=feats)
+        held_base_all = bev["heldout"]
+        if not accepted:
+            cur_model = base_model
+    if accepted:
+        flin = Linearised(cur_model, camp, noise, feats)
+        fev = flin.evaluate(flin.A, flin.J, flin.psi0, fold_r)
+        best_mm = np.linalg.norm(fev["heldout"], axis=1) * 1e3
+        best = (float(best_mm.mean()), float(best_mm.max()))
+    else:
+        best = (base_info["heldout_mean_mm"], base_info["heldout_max_mm"])
+    # ranking: accepted effects in the order forward selection took them (the strongest
+    # first), outliers after them, then the rest by their evidence (BIC gain)
+    acc = sorted([s for s in scores if s.significant and s.name != "outliers"], key=lambda s: s.round)
+    acc += [s for s in scores if s.significant and s.name == "outliers"]
+    rest = sorted([s for s in scores if not s.significant], key=lambda s: -s.bic_gain)
     ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
     return Diagnosis(machine, base_info, ranked, [int(r) for r in outliers], loc, base_model, cur_model,
-                     held_base_all, camp, time.perf_counter() - t0)
+                     held_base_all, camp, time.perf_counter() - t0, best)

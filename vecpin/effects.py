@@ -143,7 +143,7 @@ class GantrySkew(Effect):
     name = "gantry_skew"
     kinds = ("tip",)
 
-    def __init__(self, machine, axes=(), about: str = "x", order: int = 2, **kw):
+    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, **kw):
         super().__init__(machine, axes, about=about, order=order, **kw)
         self.about, self.order = about, int(order)
         self.others = [a.name for a in machine.axes if a.name != self.axes[0]]
@@ -182,7 +182,7 @@ class CoupledAxes(Effect):
     name = "coupled_axes"
     kinds = ("command",)
 
-    def __init__(self, machine, axes=(), order: int = 2, **kw):
+    def __init__(self, machine, axes=(), order: int = 3, **kw):
         super().__init__(machine, axes, order=order, **kw)
         self.order = int(order)
 

@@ -97,7 +97,9 @@ class TrueEffect:
         """Tracker readings (N,3) [m] after the effect."""
         if self.name == "instrument_shift":
             rng = self._rng()
-            t0 = np.quantile(feats.time, self.options.get("at", 0.5))
+            if "t0" not in self.options:  # fixed on the first (identification) campaign it meets
+                self.options["t0"] = float(np.quantile(feats.time, self.options.get("at", 0.5)))
+            t0 = self.options["t0"]
             on = feats.time >= t0
             w = rng.normal(size=3)
             w = w / np.linalg.norm(w) * 2e-5 * self.scale
@@ -124,6 +126,7 @@ class TrueEffect:
         return out
 
     def _delta(self, feats: Features) -> np.ndarray:
+        """Temperature above the reference (20 °C by default), or hours since the start."""
         if feats.temperature is not None:
-            return feats.temperature - feats.temperature[0]
-        return (feats.time - feats.time[0]) / 3600.0
+            return feats.temperature - self.options.get("t_ref", 20.0)
+        return feats.time / 3600.0
