@@ -327,6 +327,39 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
+def cmd_view(args) -> int:
+    from .campaign import read_campaign
+    from .models import ErrorModel
+    from .view import build_scene, write_html
+    model = ErrorModel.load(args.model)
+    c = read_campaign(args.csv, model.machine)
+    if not 0 <= args.row < len(c):
+        raise VecpinError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
+    tables = None
+    if not args.no_tables:
+        from .tableplan import plan_tables
+        tables = plan_tables(model, "generic", n_commands=400).tables
+    if args.html:
+        facts = write_html(args.html, model, c, args.row, args.exaggerate, tables)
+        print(f"wrote {args.html}: errors x{facts['exaggeration']:.0f}, largest {facts['max_error_mm']:.3f} mm, "
+              f"{facts['commands']} scene commands; open it in a browser (no server needed)")
+        return 0
+    import time
+    import meshcat
+    vis = meshcat.Visualizer()
+    try:
+        facts = build_scene(vis, model, c, args.row, args.exaggerate, tables)
+        print(f"meshcat scene at {vis.url()}  (errors x{facts['exaggeration']:.0f}; groups under /vecpin can be "
+              "switched on and off in Open Controls > Scene); Ctrl-C to stop")
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        if vis.window.server_proc is not None:
+            vis.window.server_proc.kill()
+
+
 def _noise_args(s) -> None:
     s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
     s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
@@ -419,6 +452,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm rate per round")
     _noise_args(s)
     s.set_defaults(func=cmd_diagnose)
+
+    s = sub.add_parser("view", help="meshcat scene of measured vs modelled tool tips (interactive, or --html)")
+    s.add_argument("model")
+    s.add_argument("csv")
+    s.add_argument("--row", type=int, default=0, help="measurement row to pose the machine at (0-based)")
+    s.add_argument("--exaggerate", type=float, help="error vector scale (default: largest error = 8%% of the workspace)")
+    s.add_argument("--html", help="write a self-contained page instead of starting a server")
+    s.add_argument("--no-tables", action="store_true", help="skip the compensated view")
+    s.set_defaults(func=cmd_view)
 
     s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
     s.add_argument("--out", default="demo")

@@ -1,0 +1,87 @@
+"""meshcat scenes: content checked without ports or subprocesses; the page rendered
+for real in headless Chromium when it is installed (.ci/run installs it)."""
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import meshcat
+import numpy as np
+import pytest
+
+from vecpin.models import make_model
+from vecpin.noise import NoiseModel
+from vecpin.simulate import Design, simulate
+from vecpin.tableplan import plan_tables
+from vecpin.view import RecordingWindow, build_scene, error_colors, write_html
+
+
+@pytest.fixture(scope="module")
+def fitted(machines):
+    m = machines["flow_xyzcb"]
+    sim = simulate(m, seed=2, design=Design(n_commands=120))
+    model = make_model("ap", m, 4).fit(sim.campaign, NoiseModel.default(m, "spherical"))
+    return model, sim.campaign
+
+
+def test_scene_content_without_a_server(fitted):
+    model, c = fitted
+    window = RecordingWindow()
+    vis = meshcat.Visualizer(window=window)
+    tables = plan_tables(model, "generic", n_commands=200).tables
+    facts = build_scene(vis, model, c, row=7, tables=tables)
+    objects = window.paths("set_object")
+    for group in ("measured", "nominal", "identified", "errors", "residuals", "compensated", "selected"):
+        assert f"/meshcat/vecpin/{group}" in objects
+    assert any(p.startswith("/meshcat/machine/") for p in objects)
+    assert sum(p.startswith("/meshcat/machine/") for p in objects) == 13  # every URDF visual
+    assert "/meshcat/vecpin/tracker/axes" in objects
+    assert facts["max_error_mm"] > 0.1 and facts["max_compensated_mm"] < facts["max_error_mm"]
+    # the measured points are drawn in the machine frame: measured - nominal equals the registered error
+    assert 20 < facts["exaggeration"] < 1e5
+
+
+def test_machine_is_posed_at_the_selected_row(fitted):
+    import umsgpack
+    model, c = fitted
+    tips = []
+    for row in (0, 9):
+        window = RecordingWindow()
+        build_scene(meshcat.Visualizer(window=window), model, c, row=row)
+        sel = umsgpack.unpackb(window.commands[("set_transform", "/meshcat/vecpin/selected", None)])
+        tips.append(np.array(sel["matrix"]).reshape(4, 4, order="F")[:3, 3])
+    assert np.linalg.norm(tips[0] - tips[1]) > 0.05
+
+
+def test_error_colours_run_blue_to_red():
+    c = error_colors(np.array([0.0, 1.0]), 1.0)
+    assert c[2, 0] > c[0, 0] and c[0, 1] > c[2, 1]  # small: blue; large: red
+
+
+def test_html_page_is_self_contained(fitted, tmp_path):
+    model, c = fitted
+    facts = write_html(tmp_path / "scene.html", model, c, row=3)
+    html = (tmp_path / "scene.html").read_text()
+    assert "MeshCat.Viewer" in html and html.count("data:application/octet-binary;base64,") == facts["commands"]
+    assert "http://" not in html.split("<script>")[0] and "src=\"http" not in html
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="chromium is not installed (.ci/run installs it)")
+def test_page_renders_in_headless_chromium(fitted, tmp_path):
+    from PIL import Image
+    model, c = fitted
+    page = tmp_path / "scene.html"
+    write_html(page, model, c, row=3)
+    shot = tmp_path / "shot.png"
+    cmd = ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
+           f"--user-data-dir={tempfile.mkdtemp()}", "--window-size=1000,700", "--virtual-time-budget=5000",
+           f"--screenshot={shot}", page.resolve().as_uri()]
+    subprocess.run(cmd, capture_output=True, timeout=180)
+    img = np.asarray(Image.open(shot).convert("RGB")).astype(float)
+    assert img.std() > 10  # not blank
+    r, g_, b = img[..., 0], img[..., 1], img[..., 2]
+    orange = (r > 200) & (g_ > 100) & (g_ < 190) & (b < 80)        # the painted gantry
+    blue_head = (b > 120) & (r < 90) & (g_ < 130)                   # the rotary head / small errors
+    red_vec = (r > 180) & (g_ < 90) & (b < 90)                      # large error vectors
+    assert orange.sum() > 500 and blue_head.sum() > 30 and red_vec.sum() > 10
