@@ -67,7 +67,8 @@ def cmd_simulate(args) -> int:
     m = _machine(args.machine)
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
                     exclusion_zones=[parse_zone(z) for z in args.exclude],
-                    tools_mm=tuple(args.tools) if args.tools else Design().tools_mm)
+                    tools_mm=tuple(args.tools) if args.tools else Design().tools_mm,
+                    repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0)
     effects = [parse_effect(e, m) for e in args.effect]
     sim = simulate(m, seed=args.seed, design=design, mean_error_mm=args.mean_error, effects=effects or None)
     paths = sim.write(args.out)
@@ -360,6 +361,19 @@ def cmd_view(args) -> int:
             vis.window.server_proc.kill()
 
 
+def cmd_report(args) -> int:
+    from .campaign import read_campaign
+    from .models import ErrorModel
+    from .report import write_report
+    model = ErrorModel.load(args.model)
+    c = read_campaign(args.csv, model.machine)
+    v = read_campaign(args.validation, model.machine) if args.validation else None
+    page = write_report(model, c, args.out, validation=v, orders=_orders(args.orders) if args.orders else None,
+                        controller=args.controller, max_tables=args.max_tables, progress=_progress(not args.quiet))
+    print(f"wrote {page} (with figures/ and scene.html)")
+    return 0
+
+
 def _noise_args(s) -> None:
     s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
     s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
@@ -391,6 +405,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in mm/deg (repeatable)")
     s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm")
+    s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
+                   help="append a repeatability sequence: POINTS commands measured TIMES times each (eq. 22)")
     s.add_argument("--effect", action="append", default=[], metavar="NAME:key=value,...",
                    help="add an unmodelled effect to the true machine, e.g. gantry_skew:axes=Y,about=x,depends=X,"
                         "strength=0.05 (strength: RMS tool-tip displacement, mm); repeatable")
@@ -461,6 +477,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--html", help="write a self-contained page instead of starting a server")
     s.add_argument("--no-tables", action="store_true", help="skip the compensated view")
     s.set_defaults(func=cmd_view)
+
+    s = sub.add_parser("report", help="one HTML page: tables, the seed's figures, the 3D scene")
+    s.add_argument("model")
+    s.add_argument("csv")
+    s.add_argument("--out", required=True)
+    s.add_argument("--validation", help="validation CSV for the before/after table and the order sweep")
+    s.add_argument("--orders", help="also run the order sweep, e.g. 0-7")
+    s.add_argument("--controller", default="generic", choices=["siemens-840d", "fanuc-30i", "generic"])
+    s.add_argument("--max-tables", type=int)
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_report)
 
     s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
     s.add_argument("--out", default="demo")

@@ -37,6 +37,8 @@ class Design:
     exclusion_zones: list[dict[str, tuple[float, float]]] = field(default_factory=list)
     seconds_per_point: float = 15.0
     feed_m_per_s: float = 0.1
+    repeat_points: int = 0   # after the campaign: this many commands, each measured ...
+    repeat_times: int = 0    # ... this many times, in a new random order each sequence (eq. 22)
 
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
@@ -138,6 +140,11 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     tools = np.asarray(design.tools_mm, float) * 1e-3
     qs = np.vstack([q] * len(tools))
     tool = np.repeat(tools, len(q))
+    if design.repeat_points and design.repeat_times:
+        pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]
+        seqs = [pick[rng.permutation(len(pick))] for _ in range(design.repeat_times)]
+        qs = np.vstack([qs] + seqs)
+        tool = np.r_[tool, np.full(len(pick) * design.repeat_times, tools[0])]
     t = measurement_times(qs, machine, design)
     extra = {"time": t, "temperature": workshop_temperature(t, rng)}
     feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
