@@ -7,7 +7,11 @@ order, and these columns (any order):
 * ``tool``: tool length from the gauge line [mm];
 * ``x``, ``y``, ``z``: the measured tool tip in the tracker frame [mm];
 * optional ``time`` [s], ``temperature`` [°C] and any other numeric columns, which
-  are kept (``Campaign.extra``) for the effects that use them.
+  are kept (``Campaign.extra``) for the effects that use them;
+* optional ``instrument``: ``tracker`` (default) or ``ballbar``; tracker rows may give
+  ``station`` (integer id of the tracker position, default 0); ball bar rows give ``r``
+  (the measured radius [mm]) and ``pivot`` (integer id of the ball bar's centre
+  socket) and leave ``x``, ``y``, ``z`` empty.
 
 Reading rejects bad input with a :class:`~vecpin.errors.CampaignFileError` naming
 the file, the row (line number, header = 1) and the column. In memory a
@@ -26,6 +30,8 @@ from .errors import CampaignFileError
 from .machine import Machine
 
 RESERVED = ("tool", "x", "y", "z")
+INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
+INSTRUMENTS = ("tracker", "ballbar")
 AXIS_LETTERS = set("XYZABCUVW")
 LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
 
@@ -52,9 +58,37 @@ class Campaign:
     xyz: np.ndarray
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     source: str = "<memory>"
+    instrument: np.ndarray | None = None   # (N,) "tracker" / "ballbar"; None: all tracker
+    station: np.ndarray | None = None      # (N,) tracker position id
+    radius: np.ndarray | None = None       # (N,) ball bar radius [m] (NaN on tracker rows)
+    pivot: np.ndarray | None = None        # (N,) ball bar pivot id (-1 on tracker rows)
+
+    def __post_init__(self):
+        n = len(self.tool)
+        if self.instrument is None:
+            self.instrument = np.full(n, "tracker", dtype=object)
+        if self.station is None:
+            self.station = np.zeros(n, int)
+        if self.radius is None:
+            self.radius = np.full(n, np.nan)
+        if self.pivot is None:
+            self.pivot = np.full(n, -1, int)
 
     def __len__(self) -> int:
         return len(self.tool)
+
+    @property
+    def tracker_rows(self) -> np.ndarray:
+        return np.flatnonzero(self.instrument == "tracker")
+
+    @property
+    def ballbar_rows(self) -> np.ndarray:
+        return np.flatnonzero(self.instrument == "ballbar")
+
+    @property
+    def mixed(self) -> bool:
+        """True when the campaign has ball bar rows or several tracker stations."""
+        return bool(len(self.ballbar_rows) or len(np.unique(self.station[self.tracker_rows])) > 1)
 
     @property
     def time(self) -> np.ndarray | None:
@@ -68,7 +102,8 @@ class Campaign:
         """A campaign of the given rows (index array or boolean mask), order kept."""
         rows = np.asarray(rows)
         return Campaign(list(self.axis_names), self.q[rows], self.tool[rows], self.xyz[rows],
-                        {k: v[rows] for k, v in self.extra.items()}, self.source)
+                        {k: v[rows] for k, v in self.extra.items()}, self.source,
+                        self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows])
 
     def tool_lengths(self) -> np.ndarray:
         """Distinct tool lengths [m] (sorted)."""
@@ -95,11 +130,25 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     if not body:
         raise CampaignFileError(name, "the file has a header but no measurement rows")
     values = np.empty((len(body), len(header)))
+    ji = header.index("instrument") if "instrument" in header else None
+    instrument = np.full(len(body), "tracker", dtype=object)
+    optional_by_kind = {"tracker": {"r", "pivot"}, "ballbar": {"x", "y", "z", "station"}}
     for k, (lineno, cells) in enumerate(body):
         if len(cells) != len(header):
             raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}", row=lineno)
+        if ji is not None:
+            kind = cells[ji].strip().lower() or "tracker"
+            if kind not in INSTRUMENTS:
+                raise CampaignFileError(name, f"unknown instrument '{cells[ji].strip()}' (tracker or ballbar)",
+                                        row=lineno, column="instrument")
+            instrument[k] = kind
         for j, cell in enumerate(cells):
-            values[k, j] = _parse_cell(name, cell, lineno, header[j])
+            if j == ji:
+                values[k, j] = np.nan
+            elif cell.strip() == "" and header[j] in optional_by_kind[instrument[k]]:
+                values[k, j] = np.nan
+            else:
+                values[k, j] = _parse_cell(name, cell, lineno, header[j])
     rows = np.array([ln for ln, _ in body])
     col = {h: values[:, j] for j, h in enumerate(header)}
     need = min_rows(machine.n_axes)
@@ -110,10 +159,39 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     tool_mm = col["tool"]
     _check_tool(name, tool_mm, rows)
     xyz_mm = np.column_stack([col["x"], col["y"], col["z"]])
-    _check_xyz_units(name, xyz_mm, q_user, machine)
-    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names}
+    trk = instrument == "tracker"
+    if trk.sum() >= 10:
+        _check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
+    station, radius, pivot = _instrument_columns(name, col, instrument, rows)
+    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
     _check_extra(name, extra, rows)
-    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name)
+    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name,
+                    instrument, station, radius, pivot)
+
+
+def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.ndarray):
+    n = len(instrument)
+    bb = instrument == "ballbar"
+    station = np.zeros(n, int)
+    if "station" in col:
+        s = col["station"]
+        bad = np.flatnonzero(~bb & ((s != np.round(s)) | (s < 0)))
+        if bad.size:
+            raise CampaignFileError(name, f"station must be a whole number >= 0, not {s[bad[0]]:g}",
+                                    row=int(rows[bad[0]]), column="station")
+        station = np.where(bb, 0, np.nan_to_num(s)).astype(int)
+    radius, pivot = np.full(n, np.nan), np.full(n, -1, int)
+    if bb.any():
+        for c in ("r", "pivot"):
+            if c not in col:
+                raise CampaignFileError(name, f"ball bar rows need a '{c}' column", row=1, column=c)
+        bad = np.flatnonzero(bb & (col["r"] <= 1.0))
+        if bad.size:
+            raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm: expected mm (radius > 1 mm)",
+                                    row=int(rows[bad[0]]), column="r")
+        radius = np.where(bb, col["r"] * 1e-3, np.nan)
+        pivot = np.where(bb, np.nan_to_num(col["pivot"], nan=-1), -1).astype(int)
+    return station, radius, pivot
 
 
 def _check_header(name: str, header: list[str], machine: Machine) -> None:
@@ -233,7 +311,15 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
     fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4 + ["%.6f"] * len(campaign.extra)
     cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool * 1e3] + \
         [campaign.xyz[:, k] * 1e3 for k in range(3)] + [np.asarray(v, float) for v in campaign.extra.values()]
+    mixed = campaign.mixed
+    if mixed:
+        header += ["instrument", "station", "r", "pivot"]
     with open(path, "w", newline="") as fh:
         fh.write(",".join(header) + "\n")
         for i in range(len(campaign)):
-            fh.write(",".join(f % c[i] for f, c in zip(fmts, cols)) + "\n")
+            cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
+            if mixed:
+                bb = campaign.instrument[i] == "ballbar"
+                cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
+                          f"{campaign.radius[i] * 1e3:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
+            fh.write(",".join(cells) + "\n")

@@ -68,14 +68,21 @@ def cmd_simulate(args) -> int:
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
                     exclusion_zones=[parse_zone(z) for z in args.exclude],
                     tools_mm=tuple(args.tools) if args.tools else Design().tools_mm,
-                    repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0)
+                    repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
+                    stations=args.stations, ballbar_points=args.ballbar)
     effects = [parse_effect(e, m) for e in args.effect]
     sim = simulate(m, seed=args.seed, design=design, mean_error_mm=args.mean_error, effects=effects or None)
     paths = sim.write(args.out)
     c = sim.campaign
+    c = c.subset(c.tracker_rows[c.station[c.tracker_rows] == 0])  # the summary: station 0's tracker rows
     nominal = m.tool_tip(c.q, c.tool)
     true_tip = sim.truth.tool_tip(c.q, c.tool)
-    print(f"simulated {m.name}, seed {args.seed}: {len(c)} rows ({design.n_commands} commands x "
+    extra = sim.campaign
+    more = ""
+    if extra.mixed:
+        more = (f" + {len(extra) - len(c)} rows of {design.stations - 1} more stations and "
+                f"{extra.ballbar_rows.size} ball bar rows")
+    print(f"simulated {m.name}, seed {args.seed}: {len(c)} rows{more} ({design.n_commands} commands x "
           f"{len(design.tools_mm)} tools {', '.join(f'{t:g}' for t in design.tools_mm)} mm), "
           f"{len(sim.validation)} validation rows")
     print(_error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * 1e3))
@@ -100,7 +107,10 @@ def _progress(enabled: bool = True):
 def _noise(args, machine):
     from .noise import NoiseModel
     from .tracker import TrackerNoise
-    noise = NoiseModel.default(machine, "spherical" if args.spherical else "cartesian")
+    kind = "range" if getattr(args, "multilateration", False) else ("spherical" if args.spherical else "cartesian")
+    noise = NoiseModel.default(machine, kind)
+    if getattr(args, "ballbar_sigma_mm", None) is not None:
+        noise.ballbar_sigma = args.ballbar_sigma_mm * 1e-3
     sig = noise.axis_sigma.copy()
     for k, a in enumerate(machine.axes):
         if a.kind == "linear" and args.repeatability_mm is not None:
@@ -152,16 +162,21 @@ def cmd_fit(args) -> int:
     tools = [float(t) for t in c.tool_lengths()] if args.tool_corrections else None
     model = make_model(args.model, m, args.order, basis=args.basis, tool_lengths=tools, prior_scale=args.prior_scale)
     say(f"fitting {args.model} order {args.order} ({model.n_parameters + 6} parameters) to {len(c)} rows of {args.csv}")
-    model.fit(c, _noise(args, m), progress=say)
+    model.fit(c, _noise(args, m), progress=say, underdetermined=args.underdetermined)
     model.save(args.out)
     rep = model.report_
     print(rep.summary())
     if rep.removed:
         print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
-    nominal = _nominal_in_tracker(model, c)
-    rows = [("uncompensated (nominal kinematics)", np.linalg.norm(c.xyz - nominal, axis=1) * 1e3),
-            (f"{args.model} model, order {args.order}", np.linalg.norm(model.residuals(c), axis=1) * 1e3)]
-    print("\n".join(_per_tool_table(rows, c.tool)))
+    sel = c.tracker_rows[c.station[c.tracker_rows] == 0]
+    c0 = c.subset(sel)
+    nominal = _nominal_in_tracker(model, c0)
+    rows = [("uncompensated (nominal kinematics)", np.linalg.norm(c0.xyz - nominal, axis=1) * 1e3),
+            (f"{args.model} model, order {args.order}", np.linalg.norm(model.residuals(c)[sel], axis=1) * 1e3)]
+    print("\n".join(_per_tool_table(rows, c0.tool)))
+    if c.ballbar_rows.size:
+        d = np.abs(model.ballbar_residuals(c)) * 1e3
+        print(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
     print(f"wrote {args.out}")
     return 0
 
@@ -173,7 +188,8 @@ def cmd_evaluate(args) -> int:
     from .registration import registered_errors
     model = ErrorModel.load(args.model)
     m = model.machine
-    c = read_campaign(args.csv, m)
+    full = read_campaign(args.csv, m)
+    c = full.subset(full.tracker_rows[full.station[full.tracker_rows] == 0]) if full.mixed else full
     nominal = m.tool_tip(c.q, c.tool)
     if args.reregister:
         d_nom = np.linalg.norm(registered_errors(nominal, c.xyz), axis=1) * 1e3
@@ -185,6 +201,8 @@ def cmd_evaluate(args) -> int:
     print("\n".join(_per_tool_table([("uncompensated (nominal kinematics)", d_nom), ("model", d_mod)], c.tool)))
     red = 100 * (1 - d_mod.mean() / d_nom.mean())
     print(f"  reduction of the mean: {red:.1f}%")
+    if full.mixed:
+        print(f"  (station 0 tracker rows; the file has {len(full) - len(c)} more rows of other stations or the ball bar)")
     if args.json:
         out = {"model": str(args.model), "campaign": str(args.csv), "rows": len(c), "reregistered": args.reregister,
                "units": "mm", "uncompensated": _residual_dict(d_nom, c.tool), "model_residual": _residual_dict(d_mod, c.tool),
@@ -376,6 +394,8 @@ def cmd_report(args) -> int:
 
 def _noise_args(s) -> None:
     s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
+    s.add_argument("--multilateration", action="store_true", help="use the tracker ranges only (several stations)")
+    s.add_argument("--ballbar-sigma-mm", type=float, help="ball bar radius noise, mm (default 0.0025)")
     s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
     s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg (default 0.0015)")
     s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default 0.02)")
@@ -405,6 +425,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in mm/deg (repeatable)")
     s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm")
+    s.add_argument("--stations", type=int, default=1, help="tracker positions measuring every command (default 1)")
+    s.add_argument("--ballbar", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere (eq. 63-64)")
     s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
                    help="append a repeatability sequence: POINTS commands measured TIMES times each (eq. 22)")
     s.add_argument("--effect", action="append", default=[], metavar="NAME:key=value,...",
@@ -420,6 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="model file to write (JSON)")
     s.add_argument("--tool-corrections", action="store_true", help="also fit a length correction per tool")
     s.add_argument("--prior-scale", type=float, default=1.0, help="multiply every parameter prior sigma")
+    s.add_argument("--underdetermined", action="store_true",
+                   help="accept fewer equations than parameters (the priors decide the rest)")
     _noise_args(s)
     s.set_defaults(func=cmd_fit)
 

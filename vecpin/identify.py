@@ -41,14 +41,23 @@ INSENSITIVE = 1e-9        # column norm relative to the largest: the term does n
 
 @dataclass
 class Setup:
-    """The tracker pose: ``p_tracker = R (exp3(eps0) p + delta0) + t``."""
+    """The tracker pose: ``p_tracker = R (exp3(eps0) p + delta0) + t`` (station 0).
+
+    ``stations``: other tracker positions, {id: (R, t, e)} with e their small correction;
+    ``pivots``: ball bar centre sockets, {id: centre (3,) [m], machine frame}."""
 
     R: np.ndarray
     t: np.ndarray
     e0: np.ndarray = field(default_factory=lambda: np.zeros(6))  # (dx, dy, dz [m], ex, ey, ez [rad])
+    stations: dict = field(default_factory=dict)
+    pivots: dict = field(default_factory=dict)
 
-    def to_tracker(self, p: np.ndarray) -> np.ndarray:
-        return (p @ exp3(self.e0[3:]).T + self.e0[:3]) @ self.R.T + self.t
+    def pose(self, station: int = 0):
+        return (self.R, self.t, self.e0) if station == 0 else self.stations[station]
+
+    def to_tracker(self, p: np.ndarray, station: int = 0) -> np.ndarray:
+        R, t, e = self.pose(station)
+        return (p @ exp3(e[3:]).T + e[:3]) @ R.T + t
 
 
 @dataclass
@@ -172,6 +181,93 @@ class _Problem:
         return w.ravel(), Jw.reshape(w.size, -1), y
 
 
+def sphere_centre(p: np.ndarray) -> np.ndarray:
+    """Least-squares centre of points on a sphere (algebraic fit, |p|^2 = 2 p.o + c)."""
+    A = np.c_[2 * p, np.ones(len(p))]
+    sol = np.linalg.lstsq(A, np.sum(p * p, axis=1), rcond=None)[0]
+    return sol[:3]
+
+
+class _MixedProblem:
+    """Rows of several instruments in one likelihood (Section 3.4.2): tracker rows of any
+    station (3 equations each, or 1 range equation in multilateration mode) and ball bar
+    rows (1 equation: the radius, eq. 45-47, about an unknown pivot). Unknowns beyond
+    [E_0, b]: a pose correction per extra station and a centre correction per pivot."""
+
+    def __init__(self, model: ErrorModel, campaign: Campaign, noise: NoiseModel, setup: Setup, features=None):
+        self.model, self.campaign, self.noise, self.setup, self.features = model, campaign, noise, setup, features
+        trk = campaign.tracker_rows
+        self.groups = {int(s): trk[campaign.station[trk] == s] for s in np.unique(campaign.station[trk])}
+        self.extra_stations = [s for s in sorted(self.groups) if s != 0]
+        self.pivot_ids = sorted(int(p) for p in np.unique(campaign.pivot[campaign.ballbar_rows]))
+        self.extra_names = [f"station{s}.{c}" for s in self.extra_stations for c in ("dx", "dy", "dz", "ex", "ey", "ez")] + \
+                           [f"pivot{k}.{c}" for k in self.pivot_ids for c in ("x", "y", "z")]
+        nb = 6 + model.n_parameters
+        self.sl_station = {s: slice(nb + 6 * k, nb + 6 * k + 6) for k, s in enumerate(self.extra_stations)}
+        off = nb + 6 * len(self.extra_stations)
+        self.sl_pivot = {p: slice(off + 3 * k, off + 3 * k + 3) for k, p in enumerate(self.pivot_ids)}
+        self.sigma = np.r_[E0_PRIORS, model.priors, np.full(6 * len(self.extra_stations), 1e-2),
+                           np.full(3 * len(self.pivot_ids), 1e-2)]
+        if 0 not in self.groups:
+            raise VecpinError(f"{campaign.source}: tracker station 0 has no rows; it anchors the machine frame")
+
+    def evaluate(self, theta: np.ndarray):
+        m, c, noise = self.model, self.campaign, self.noise
+        P = len(theta)
+        b = theta[6:6 + m.n_parameters]
+        mt = m.tool_tip(c.q, c.tool, b, jacobian=True, features=self.features)
+        ws, Js = [], []
+        y_all = np.full((len(c), 3), np.nan)
+        for s, rows in self.groups.items():
+            if s == 0:
+                R, t, e_sl = self.setup.R, self.setup.t, slice(0, 6)
+            else:
+                R, t, _ = self.setup.stations[s]
+                e_sl = self.sl_station[s]
+            e = theta[e_sl]
+            R0 = exp3(e[3:])
+            RR = R @ R0
+            tip = mt.tip[rows]
+            y = (tip @ R0.T + e[:3]) @ R.T + t
+            y_all[rows] = y
+            dy = np.zeros((len(rows), 3, P))
+            dy[:, :, e_sl.start:e_sl.start + 3] = R
+            dy[:, :, e_sl.start + 3:e_sl.stop] = -np.einsum("ij,pjk,kl->pil", RR, skew(tip), right_jacobian(e[3:]))
+            dy[:, :, 6:6 + m.n_parameters] = np.einsum("ij,pjk->pik", RR, mt.J_b[rows])
+            A = np.einsum("ij,pjk->pik", RR, mt.J_q[rows])
+            x = c.xyz[rows]
+            if noise.instrument == "range":  # multilateration: the interferometer range only
+                Rm, Ry = np.linalg.norm(x, axis=1), np.linalg.norm(y, axis=1)
+                u = y / Ry[:, None]
+                r = (Rm - Ry)[:, None]
+                H = u[:, None, :]
+                S = noise.tracker.sigma_range(Rm)[:, None, None] ** 2
+            else:
+                r, H, S = noise.residuals(x, y)
+            HA = H @ A
+            C = np.einsum("pij,j,pkj->pik", HA, noise.axis_sigma**2, HA) + S
+            L = np.linalg.cholesky(C)
+            ws.append(np.linalg.solve(L, r[..., None])[..., 0].ravel())
+            Js.append((-np.linalg.solve(L, H @ dy) * self.sigma).reshape(-1, P))
+        bb = c.ballbar_rows
+        if bb.size:
+            centres = np.array([self.setup.pivots[p] + theta[self.sl_pivot[p]] for p in c.pivot[bb]])
+            d = mt.tip[bb] - centres
+            dist = np.linalg.norm(d, axis=1)
+            u = d / dist[:, None]
+            r = c.radius[bb] - dist
+            dr = np.zeros((bb.size, P))
+            dr[:, 6:6 + m.n_parameters] = np.einsum("pi,pik->pk", u, mt.J_b[bb])
+            for k, p in enumerate(c.pivot[bb]):
+                dr[k, self.sl_pivot[p]] = -u[k]
+            uA = np.einsum("pi,pik->pk", u, mt.J_q[bb])
+            var = np.einsum("pk,k,pk->p", uA, noise.axis_sigma**2, uA) + noise.ballbar_sigma**2
+            sd = np.sqrt(var)
+            ws.append(r / sd)
+            Js.append(-(dr / sd[:, None]) * self.sigma)
+        return np.concatenate(ws), np.concatenate(Js), y_all
+
+
 def find_redundant(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Columns of J (prior-scaled sensitivity) that earlier columns already explain.
 
@@ -191,17 +287,41 @@ def find_redundant(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ratio < REDUNDANT_RATIO, ratio
 
 
+def _structural_redundancy(model: ErrorModel, campaign: Campaign, noise: NoiseModel, P: int) -> tuple:
+    """Redundant terms judged on a rich quasi-random design (1000 commands, the campaign's
+    tools) instead of the measured poses: only what no design could identify."""
+    from scipy.stats import qmc
+    m = model.machine
+    u = qmc.Halton(m.n_axes, seed=0).random(1000)
+    q = m.lower + u * (m.upper - m.lower)
+    tools = campaign.tool_lengths()
+    qq = np.repeat(q, len(tools), axis=0)
+    tt = np.tile(tools, len(q))
+    nominal = m.tool_tip(qq, tt)
+    ref = Campaign(m.axis_names, qq, tt, nominal, {}, "reference design")
+    cart = NoiseModel(noise.axis_sigma, "cartesian", noise.cartesian_sigma)
+    J = _Problem(model, ref, cart, Setup(np.eye(3), np.zeros(3))).evaluate(np.zeros(6 + model.n_parameters))[1]
+    red, ratio = find_redundant(J)
+    extra = P - red.size
+    return np.r_[red, np.zeros(extra, bool)], np.r_[ratio, np.ones(extra)]
+
+
 def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, *, max_iter: int = 30,
-        tol: float = 1e-9, remove_redundant: bool = True, progress: Callable[[str], None] | None = None):
+        tol: float = 1e-9, remove_redundant: bool = True, underdetermined: bool = False,
+        progress: Callable[[str], None] | None = None):
     """Identify ``model``'s parameters from ``campaign``; returns (theta, setup, cov, report).
 
-    theta = [E_0 (6), b (P)] SI; cov is the covariance of theta (zeros for removed terms)."""
+    theta = [E_0 (6), b (P), station corrections, pivot corrections] SI; cov is the
+    covariance of theta (zeros for removed terms). ``underdetermined``: accept fewer
+    equations than parameters, the priors Σ_b deciding what the data cannot (Section
+    3.5.2 fits 50 tracker points this way); redundancy is then judged on a reference
+    design, so only structurally redundant terms are removed."""
     t0 = time.perf_counter()
     if list(campaign.axis_names) != model.machine.axis_names:
         raise VecpinError(f"{campaign.source}: axes {campaign.axis_names} do not match machine "
                           f"'{model.machine.name}' ({', '.join(model.machine.axis_names)})")
     noise = noise or NoiseModel.default(model.machine)
-    P = model.n_parameters + 6
+    mixed = campaign.mixed or noise.instrument == "range"
     features = None
     if model.effects:
         from .features import Features
@@ -209,19 +329,40 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
         for e in model.effects:
             e.prepare(campaign, features)
     nominal = model.machine.tool_tip(campaign.q, campaign.tool)
-    R, t = register(nominal, campaign.xyz)
-    setup = Setup(R, t)
-    prob = _Problem(model, campaign, noise, setup, features)
+    if mixed:
+        if model.effects and any("tracker" in e.kinds for e in model.effects):
+            raise VecpinError("tracker-frame effects are not supported with several stations or ball bar rows")
+        trk = campaign.tracker_rows
+        st = campaign.station[trk]
+        r0 = trk[st == 0]
+        if r0.size < 3:
+            raise VecpinError(f"{campaign.source}: tracker station 0 needs at least 3 rows")
+        R, t = register(nominal[r0], campaign.xyz[r0])
+        setup = Setup(R, t)
+        for s in np.unique(st):
+            if s != 0:
+                rs = trk[st == s]
+                Rs, ts = register(nominal[rs], campaign.xyz[rs])
+                setup.stations[int(s)] = (Rs, ts, np.zeros(6))
+        for p in np.unique(campaign.pivot[campaign.ballbar_rows]):
+            rows = campaign.ballbar_rows[campaign.pivot[campaign.ballbar_rows] == p]
+            setup.pivots[int(p)] = sphere_centre(nominal[rows])
+        prob = _MixedProblem(model, campaign, noise, setup, features)
+    else:
+        R, t = register(nominal, campaign.xyz)
+        setup = Setup(R, t)
+        prob = _Problem(model, campaign, noise, setup, features)
+    P = len(prob.sigma)
     theta = np.zeros(P)
     w, J, _ = prob.evaluate(theta)
     keep = np.ones(P, bool)
     ratio = np.ones(P)
     if remove_redundant:
-        red, ratio = find_redundant(J)
+        red, ratio = _structural_redundancy(model, campaign, noise, P) if underdetermined else find_redundant(J)
         keep = ~red
-    names = list(E0_NAMES) + model.parameter_names
+    names = list(E0_NAMES) + model.parameter_names + list(getattr(prob, "extra_names", []))
     n_active = int(np.sum(np.linalg.norm(J, axis=0) > INSENSITIVE * np.linalg.norm(J, axis=0).max()))
-    if n_active >= w.size or keep.sum() >= w.size:  # the sensitivity has more columns than rows: saturated
+    if not underdetermined and (n_active >= w.size or keep.sum() >= w.size):  # more unknowns than equations
         raise VecpinError(f"{campaign.source}: {len(campaign)} rows give {w.size} equations for {n_active} parameters "
                           f"of a {model.kind} model of order {model.order}; measure more points or lower the order")
     psi = np.zeros(P)
@@ -257,6 +398,12 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
             break
     theta = psi * prob.sigma
     setup.e0 = theta[:6].copy()
+    if mixed:
+        for s_, sl in prob.sl_station.items():
+            R_, t_, _ = setup.stations[s_]
+            setup.stations[s_] = (R_, t_, theta[sl].copy())
+        for p_, sl in prob.sl_pivot.items():
+            setup.pivots[p_] = setup.pivots[p_] + theta[sl]
     Ja = J[:, keep]
     JtJ = Ja.T @ Ja
     Nm = JtJ + np.eye(keep.sum())
@@ -275,10 +422,16 @@ def fit(model: ErrorModel, campaign: Campaign, noise: NoiseModel | None = None, 
                         + ", ".join(weak[:12]) + (" ..." if len(weak) > 12 else ""))
     if not converged:
         warnings.append(f"did not converge in {max_iter} iterations")
-    y = predict_tracker(model, campaign.q, campaign.tool, theta, setup, features, jacobian=False)[0]
+    if mixed:
+        y = prob.evaluate(theta)[2]
+        trk = campaign.tracker_rows
+        stats_ = residual_stats(campaign.xyz[trk] - y[trk], campaign.tool[trk])
+    else:
+        y = predict_tracker(model, campaign.q, campaign.tool, theta[:6 + model.n_parameters], setup, features,
+                            jacobian=False)[0]
+        stats_ = residual_stats(campaign.xyz - y, campaign.tool)
     report = FitReport(model.kind, model.order, noise.instrument, len(campaign), int(w.size), P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(chi2 + psi @ psi),
                        dof, float(np.sqrt(2 * dof)), cond, it, converged, time.perf_counter() - t0,
-                       residual_stats(campaign.xyz - y, campaign.tool), warnings,
-                       [float(L * 1e3) for L in campaign.tool_lengths()])
+                       stats_, warnings, [float(L * 1e3) for L in campaign.tool_lengths()])
     return theta, setup, cov, report

@@ -62,7 +62,11 @@ def model_to_dict(model: ErrorModel) -> dict:
                   "tool_lengths_mm": None if model.tool_lengths is None else [t * 1e3 for t in model.tool_lengths],
                   "prior_scale": model.prior_scale, "effects": [e.to_dict() for e in model.effects]},
         "tracker": {"rotation": model.setup_.R.tolist(), "translation_mm": (model.setup_.t * 1e3).tolist(),
-                    "meaning": "p_tracker = R (E_0 p_machine) + t"},
+                    "meaning": "p_tracker = R (E_0 p_machine) + t",
+                    "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * 1e3).tolist(),
+                                          "correction": [float(v) for v in e]}
+                                 for s, (R, t, e) in model.setup_.stations.items()},
+                    "pivots_mm": {str(p): (c * 1e3).tolist() for p, c in model.setup_.pivots.items()}},
         "noise": model.noise_.to_dict(m),
         "parameters": params,
         "fit": model.report_.to_dict(),
@@ -124,6 +128,11 @@ def _from_dict(d: dict, path: Path) -> ErrorModel:
     model.cov_ = np.diag(std**2)
     tr = d["tracker"]
     model.setup_ = Setup(np.array(tr["rotation"], float), np.array(tr["translation_mm"], float) * 1e-3, theta[:6].copy())
+    for s, st in tr.get("stations", {}).items():
+        model.setup_.stations[int(s)] = (np.array(st["rotation"], float), np.array(st["translation_mm"], float) * 1e-3,
+                                         np.array(st["correction"], float))
+    for p, c in tr.get("pivots_mm", {}).items():
+        model.setup_.pivots[int(p)] = np.array(c, float) * 1e-3
     model.noise_ = NoiseModel.from_dict(d["noise"], machine)
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     model.report_ = FitReport(**fields)

@@ -221,7 +221,7 @@ class ErrorModel:
 
     # --------------------------------------------------------------- estimator API
     def fit(self, campaign, noise=None, *, remove_redundant: bool = True, max_iter: int = 30,
-            progress=None) -> "ErrorModel":
+            underdetermined: bool = False, progress=None) -> "ErrorModel":
         """Identify the parameters from a campaign by maximum likelihood
         (:func:`vecpin.identify.fit`). Sets ``b_`` (model parameters, SI),
         ``e0_`` (tracker-frame correction E_0), ``setup_`` (tracker pose), ``cov_``,
@@ -230,8 +230,9 @@ class ErrorModel:
         from .noise import NoiseModel
         noise = noise or NoiseModel.default(self.machine)
         theta, setup, cov, report = _fit(self, campaign, noise, remove_redundant=remove_redundant,
-                                         max_iter=max_iter, progress=progress)
-        self.b_, self.e0_, self.setup_, self.cov_ = theta[6:], theta[:6], setup, cov
+                                         max_iter=max_iter, underdetermined=underdetermined, progress=progress)
+        n = 6 + self.n_parameters  # beyond: station poses and pivots, kept in the setup
+        self.b_, self.e0_, self.setup_, self.cov_ = theta[6:n], theta[:6], setup, cov[:n, :n]
         self.noise_, self.report_ = noise, report
         return self
 
@@ -276,7 +277,26 @@ class ErrorModel:
             return registered_errors(tip, campaign.xyz)
         from .identify import predict_tracker
         theta = np.r_[self.e0_, self.b_]
-        return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, theta, self.setup_, feats, False)[0]
+        if not getattr(campaign, "mixed", False):
+            return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, theta, self.setup_, feats, False)[0]
+        # several stations (ball bar rows have no point: NaN)
+        out = np.full((len(campaign), 3), np.nan)
+        tip = self.tool_tip(campaign.q, campaign.tool, self.b_, jacobian=False, features=feats).tip
+        for s in np.unique(campaign.station[campaign.tracker_rows]):
+            rows = campaign.tracker_rows[campaign.station[campaign.tracker_rows] == s]
+            if int(s) != 0 and int(s) not in self.setup_.stations:
+                from .errors import VecpinError
+                raise VecpinError(f"{campaign.source}: station {s} was not in the fitted campaign")
+            out[rows] = campaign.xyz[rows] - self.setup_.to_tracker(tip[rows], int(s))
+        return out
+
+    def ballbar_residuals(self, campaign) -> np.ndarray:
+        """Measured minus modelled ball bar radius [m] for the campaign's ball bar rows."""
+        self._check_fitted()
+        bb = campaign.ballbar_rows
+        tip = self.tool_tip(campaign.q[bb], campaign.tool[bb], self.b_, jacobian=False).tip
+        centres = np.array([self.setup_.pivots[int(p)] for p in campaign.pivot[bb]])
+        return campaign.radius[bb] - np.linalg.norm(tip - centres, axis=1)
 
     def save(self, path) -> None:
         """Write the fitted model to a versioned JSON file (:mod:`vecpin.modelfile`)."""

@@ -18,6 +18,7 @@ from .tracker import TrackerNoise, cartesian_to_spherical, spherical_jacobian, w
 DEFAULT_LINEAR_SIGMA = 0.006e-3   # m, axis repeatability (Paper I measured 18 µm mean incl. the tracker)
 DEFAULT_ROTARY_SIGMA = np.radians(0.0015)  # rad
 DEFAULT_CARTESIAN_SIGMA = 0.02e-3  # m, static tracker variance (Table 3.2 uses 25 µm)
+DEFAULT_BALLBAR_SIGMA = 2.5e-6     # m, telescoping ball bar (Table 3.2: 1e-8 in^2)
 
 
 @dataclass
@@ -30,10 +31,12 @@ class NoiseModel:
     instrument: str = "cartesian"
     cartesian_sigma: float = DEFAULT_CARTESIAN_SIGMA
     tracker: TrackerNoise = field(default_factory=TrackerNoise)
+    ballbar_sigma: float = DEFAULT_BALLBAR_SIGMA
 
     def __post_init__(self):
-        if self.instrument not in ("cartesian", "spherical"):
-            raise VecpinError(f"instrument noise model is 'cartesian' or 'spherical', not '{self.instrument}'")
+        if self.instrument not in ("cartesian", "spherical", "range"):
+            raise VecpinError(f"tracker noise model is 'cartesian', 'spherical' or 'range' (multilateration), "
+                              f"not '{self.instrument}'")
         self.axis_sigma = np.asarray(self.axis_sigma, float)
 
     @classmethod
@@ -62,9 +65,10 @@ class NoiseModel:
     def to_dict(self, machine: Machine) -> dict:
         return {"axis_sigma": {a.name: float(a.to_user(s)) for a, s in zip(machine.axes, self.axis_sigma)},
                 "instrument": self.instrument, "cartesian_sigma_mm": self.cartesian_sigma * 1e3,
-                "tracker": self.tracker.to_dict()}
+                "tracker": self.tracker.to_dict(), "ballbar_sigma_mm": self.ballbar_sigma * 1e3}
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "NoiseModel":
         sig = np.array([float(a.to_si(d["axis_sigma"][a.name])) for a in machine.axes])
-        return cls(sig, d["instrument"], d["cartesian_sigma_mm"] * 1e-3, TrackerNoise.from_dict(d["tracker"]))
+        return cls(sig, d["instrument"], d["cartesian_sigma_mm"] * 1e-3, TrackerNoise.from_dict(d["tracker"]),
+                   d.get("ballbar_sigma_mm", DEFAULT_BALLBAR_SIGMA * 1e3) * 1e-3)

@@ -39,6 +39,10 @@ class Design:
     feed_m_per_s: float = 0.1
     repeat_points: int = 0   # after the campaign: this many commands, each measured ...
     repeat_times: int = 0    # ... this many times, in a new random order each sequence (eq. 22)
+    stations: int = 1        # tracker positions; every command is measured from each
+    ballbar_points: int = 0  # ball bar rows on a sphere about one pivot (eq. 63-64)
+    ballbar_radius_mm: float = 254.0
+    ballbar_sigma_mm: float = 0.0025
 
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
@@ -88,6 +92,36 @@ def parse_zone(text: str) -> dict[str, tuple[float, float]]:
     return zone
 
 
+def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
+    """Append rows of further tracker stations (same commands) and of a ball bar."""
+    from .tracker import TrackerNoise
+    m = truth.machine
+    parts = [campaign]
+    n = len(campaign)
+    for s in range(1, design.stations):
+        if len(truth.stations) < s:
+            from .truth import place_tracker
+            truth.stations.append(place_tracker(m, rng, truth.tracker.noise, 2.0, side=2 * np.pi * s / design.stations))
+        xyz = truth.measure(campaign.q, campaign.tool, rng, station=s)
+        parts.append(Campaign(m.axis_names, campaign.q, campaign.tool, xyz, {}, campaign.source,
+                              station=np.full(n, s)))
+    if design.ballbar_points:
+        tool = design.tools_mm[0] * 1e-3
+        q, pivot = ballbar_commands(m, design.ballbar_points, design.ballbar_radius_mm * 1e-3, rng, tool)
+        r = truth.measure_radius(q, np.full(len(q), tool), pivot, design.ballbar_sigma_mm * 1e-3, rng)
+        parts.append(Campaign(m.axis_names, q, np.full(len(q), tool), np.full((len(q), 3), np.nan), {}, campaign.source,
+                              np.full(len(q), "ballbar", dtype=object), np.zeros(len(q), int), r, np.zeros(len(q), int)))
+        truth.pivot = pivot
+    t_end = campaign.time[-1]
+    out = Campaign(m.axis_names, np.vstack([p.q for p in parts]), np.concatenate([p.tool for p in parts]),
+                   np.vstack([p.xyz for p in parts]), {}, campaign.source,
+                   np.concatenate([p.instrument for p in parts]), np.concatenate([p.station for p in parts]),
+                   np.concatenate([p.radius for p in parts]), np.concatenate([p.pivot for p in parts]))
+    t = np.r_[campaign.time, t_end + 15.0 * np.arange(1, len(out) - n + 1)]
+    out.extra = {"time": t, "temperature": np.r_[campaign.temperature, np.full(len(out) - n, campaign.temperature[-1])]}
+    return out
+
+
 @dataclass
 class Simulation:
     """A simulated campaign: truth, identification and validation campaigns (noisy),
@@ -109,6 +143,37 @@ class Simulation:
         write_campaign(paths["validation_truth"], self.validation_truth, m)
         self.truth.save(paths["truth"])
         return paths
+
+
+def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Generator, tool: float,
+                     pivot: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Commands [m, rad] putting the nominal tool tip on a sphere of ``radius`` [m] about
+    ``pivot`` (upper hemisphere, eq. 63), with random orientations of the rotary axes
+    (eq. 64 by nominal inverse kinematics: the first three axes translate along x, y, z)."""
+    lin = [a for a in machine.axes[:3] if a.kind == "linear"]
+    if len(lin) < 3 or [tuple(a.direction) for a in lin] != [(1.0, 0, 0), (0, 1.0, 0), (0, 0, 1.0)]:
+        raise VecpinError("ball bar designs need a machine whose first three axes are X, Y, Z translations")
+    if pivot is None:  # the table centre, low in Z, where the whole hemisphere is reachable
+        q_mid = (machine.lower + machine.upper) / 2
+        q_mid[3:] = 0.0
+        pivot = machine.tool_tip(q_mid[None], tool)[0] - np.array([0.0, 0.0, 0.35 * radius])
+    out = []
+    for _ in range(200):
+        m = 4 * n
+        a1 = rng.uniform(0, 2 * np.pi, m)
+        a2 = np.arccos(rng.uniform(np.cos(np.radians(75)), 1.0, m))  # from the vertical, upper part of the sphere
+        p = pivot + radius * np.c_[np.cos(a1) * np.sin(a2), np.sin(a1) * np.sin(a2), np.cos(a2)]
+        q = np.zeros((m, machine.n_axes))
+        for a in machine.axes[3:]:
+            span = min(a.upper, np.radians(40)) - max(a.lower, -np.radians(40))
+            q[:, a.index] = max(a.lower, -np.radians(40)) + rng.random(m) * span
+        offset = machine.tool_tip(q, tool)  # tip with the linear axes at zero
+        q[:, :3] = p - offset
+        ok = np.all((q >= machine.lower) & (q <= machine.upper), axis=1)
+        out += list(q[ok])
+        if len(out) >= n:
+            return np.array(out[:n]), pivot
+    raise VecpinError("could not place the ball bar sphere inside the axis limits")
 
 
 def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: float = 0.0) -> np.ndarray:
@@ -151,6 +216,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     if truth.effects:
         truth.calibrate_effects(qs, tool, feats)
     campaign = Campaign(machine.axis_names, qs, tool, truth.measure(qs, tool, rng, feats), extra, f"simulated seed {seed}")
+    if design.stations > 1 or design.ballbar_points:
+        campaign = _more_instruments(campaign, truth, design, rng, seed)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
     tv = np.full(len(qv), tools[0])
     times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)

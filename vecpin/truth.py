@@ -72,6 +72,7 @@ class TrueMachine:
     perturbations: list[list[ErrorFunction | None]] | None = None
     harmonics: list[tuple[float, ...]] | None = None
     effects: list = field(default_factory=list)  # TrueEffect, applied when features are given
+    stations: list = field(default_factory=list)  # further tracker positions (Tracker), ids 1, 2, ...
     _frames: ErrorFrames | None = field(default=None, repr=False)
 
     @property
@@ -126,8 +127,17 @@ class TrueMachine:
             tip = e.tip(self.machine, q, tip, out.tool_dir, features)
         return tip
 
+    def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
+                       rng: np.random.Generator | None) -> np.ndarray:
+        """Ball bar readings [m]: |true tip - pivot| with axis and ball bar noise (eq. 46, 65)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        r = np.linalg.norm(self.tool_tip(q, tool) - pivot, axis=1)
+        return r if rng is None else r + rng.normal(0, sigma, len(r))
+
     def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
-                features=None) -> np.ndarray:
+                features=None, station: int = 0) -> np.ndarray:
         """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
         true kinematics (with the simulated effects when ``features`` are given), the
         tracker pose, tracker noise in spherical coordinates and gross errors.
@@ -135,13 +145,14 @@ class TrueMachine:
         q = np.atleast_2d(np.asarray(q, float))
         if rng is not None:
             q = q + rng.standard_normal(q.shape) * self.repeatability
-        y = self.tracker.to_tracker(self.tool_tip(q, tool, features))
+        tracker = self.tracker if station == 0 else self.stations[station - 1]
+        y = tracker.to_tracker(self.tool_tip(q, tool, features))
         if features is not None:
             for e in self.effects:
                 y = e.tracker(y, features)
         if rng is None:
             return y
-        y = self.tracker.add_noise(y, rng)
+        y = tracker.add_noise(y, rng)
         if features is not None:
             for e in self.effects:
                 y = e.gross(y)
@@ -179,7 +190,8 @@ class TrueMachine:
                 "axis_perturbations": self._perturbations_dict(),
                 "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
                 "tracker": self.tracker.to_dict(),
-                "effects": [e.to_dict() for e in self.effects]}
+                "effects": [e.to_dict() for e in self.effects],
+                "stations": [s.to_dict() for s in self.stations]}
 
     def _perturbations_dict(self) -> dict:
         out = {}
@@ -303,15 +315,20 @@ def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.n
     return machine.lower + rng.random((n, machine.n_axes)) * (machine.upper - machine.lower)
 
 
-def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNoise, distance_m: float) -> Tracker:
+def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNoise, distance_m: float,
+                  side: float = 0.0) -> Tracker:
     """A tracker standing ``distance_m`` in front (-y side) of the tool-tip workspace,
-    on the floor level of the workspace, with a random heading and a tilt below 2°."""
+    on the floor level of the workspace, with a random heading and a tilt below 2°.
+    ``side`` [rad] turns the stand position about the workspace centre (other stations)."""
     q = uniform_commands(machine, 200, rng)
     tips = machine.tool_tip(q, 0.25)
     lo, hi = tips.min(axis=0), tips.max(axis=0)
     centre = (lo + hi) / 2
     position = np.array([centre[0] + rng.uniform(-0.2, 0.2) * (hi[0] - lo[0]), lo[1] - distance_m,
                          lo[2] + rng.uniform(0.0, 0.3) * (hi[2] - lo[2])])
+    if side:
+        from .so3 import exp3 as _exp3
+        position = centre + _exp3(np.array([0.0, 0.0, side])) @ (position - centre)
     yaw = rng.uniform(-math.pi, math.pi)
     tilt_axis = rng.normal(size=3)
     tilt_axis[2] = 0
