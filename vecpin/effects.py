@@ -130,6 +130,15 @@ def effect_from_dict(d: dict, machine: Machine) -> Effect:
     return cls(machine, d.get("axes", ()), **d.get("options", {}))
 
 
+def _in_every_output(cols: np.ndarray, n: int) -> np.ndarray:
+    """S (N, n, n*m): the same m feature columns perturbing each of the n commands."""
+    N, m = cols.shape
+    S = np.zeros((N, n, n * m))
+    for o in range(n):
+        S[:, o, o * m:(o + 1) * m] = cols
+    return S
+
+
 def _cheb(machine: Machine, axis: str, q: np.ndarray, order: int) -> np.ndarray:
     a = machine.axis(axis)
     return chebyshev(normalise(q[:, a.index], a.lower, a.upper), order)[:, 1:]
@@ -196,12 +205,7 @@ class CoupledAxes(Effect):
     def command(self, q, feats):
         Bi = _cheb(self.machine, self.axes[0], q, self.order)
         Bj = _cheb(self.machine, self.axes[1], q, self.order)
-        prod = (Bi[:, :, None] * Bj[:, None, :]).reshape(len(q), -1)
-        n, m2 = self.machine.n_axes, prod.shape[1]
-        S = np.zeros((len(q), n, n * m2))
-        for o in range(n):
-            S[:, o, o * m2:(o + 1) * m2] = prod
-        return S
+        return _in_every_output((Bi[:, :, None] * Bj[:, None, :]).reshape(len(q), -1), self.machine.n_axes)
 
     @classmethod
     def candidates(cls, machine, feats):
@@ -297,11 +301,7 @@ class RotaryPeriodic(Effect):
     def command(self, q, feats):
         ang = q[:, self.machine.axis(self.axes[0]).index]
         cols = np.stack([f(h * ang) for h in self.h for f in (np.cos, np.sin)], axis=1)
-        n, m = self.machine.n_axes, cols.shape[1]
-        S = np.zeros((len(q), n, n * m))
-        for o in range(n):
-            S[:, o, o * m:(o + 1) * m] = cols
-        return S
+        return _in_every_output(cols, self.machine.n_axes)
 
     @classmethod
     def candidates(cls, machine, feats):
