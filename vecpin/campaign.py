@@ -85,6 +85,13 @@ class Campaign:
     def ballbar_rows(self) -> np.ndarray:
         return np.flatnonzero(self.instrument == "ballbar")
 
+    def primary(self) -> "Campaign":
+        """The tracker rows of station 0: the rows one tracker pose describes (itself when
+        the campaign is not mixed)."""
+        if not self.mixed:
+            return self
+        return self.subset(self.tracker_rows[self.station[self.tracker_rows] == 0])
+
     @property
     def mixed(self) -> bool:
         """True when the campaign has ball bar rows or several tracker stations."""

@@ -354,6 +354,9 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
     F-test passes ``alpha`` / (candidates in the round) and it shrinks the held-out mean
     by at least ``min_shrink_pct`` (statistically real and practically worth a term)."""
     t0 = time.perf_counter()
+    if campaign.mixed:
+        raise VecpinError(f"{campaign.source}: the diagnosis works on single-station tracker campaigns; this one has "
+                          "ball bar rows or several stations (diagnose the station-0 tracker rows on their own)")
     say = progress or (lambda s: None)
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) + ["outliers"] if effects in ("all", None) else list(effects)

@@ -55,7 +55,8 @@ def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Cam
 
     say("residual tables")
     rows, hist = [], {}
-    for label, c in [("identification", campaign)] + ([("validation", validation)] if validation is not None else []):
+    for label, c in [("identification", campaign.primary())] + \
+            ([("validation", validation.primary())] if validation is not None else []):
         before = np.linalg.norm(c.xyz - nominal_in_tracker(c), axis=1) * 1e3
         after = np.linalg.norm(model.residuals(c), axis=1) * 1e3
         rows += _stats_rows(f"{label}: uncompensated", before, c.tool) + _stats_rows(f"{label}: model", after, c.tool)
@@ -109,12 +110,12 @@ def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Cam
                                   title="model-predicted errors with the tables (Section 2 Fig. 2.4)")
         parts += ["<h2>Errors on a grid</h2>", '<img src="figures/vectors.png" alt="errors">',
                   '<img src="figures/vectors_comp.png" alt="errors compensated">']
-    if figures.repeatability_figure(campaign, out / "figures" / "repeatability.png"):
+    if figures.repeatability_figure(campaign.primary(), out / "figures" / "repeatability.png"):
         parts += ["<h2>Repeatability (eq. 22)</h2>", '<img src="figures/repeatability.png" alt="repeatability">']
 
     say("3D scene")
     from .view import write_html
-    write_html(out / "scene.html", model, campaign, 0, None, plan.tables)
+    write_html(out / "scene.html", model, campaign.primary(), 0, None, plan.tables)
     page = out / "index.html"
     page.write_text(f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>vecpin report {html.escape(m.name)}</title>"
                     f"<style>{CSS}</style></head><body>" + "\n".join(parts) + "</body></html>")

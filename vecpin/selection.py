@@ -86,34 +86,43 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
                 basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
     """Fit ``kind`` ("6dof"/"ap") at every order; judge on ``validation`` or by k-fold CV."""
     noise = noise or NoiseModel.default(machine, "cartesian")
+    # distances are judged on the rows one tracker pose describes (station 0's tracker rows)
+    judged = np.ones(len(campaign), bool)
+    if campaign.mixed:
+        judged[:] = False
+        judged[campaign.tracker_rows[campaign.station[campaign.tracker_rows] == 0]] = True
+    primary = campaign.primary()
+    validation = validation.primary() if validation is not None else None
     nominal = machine.tool_tip(campaign.q, campaign.tool)
-    R, t = register(nominal, campaign.xyz)
-    ui = _dist_mm(campaign.xyz - (nominal @ R.T + t))
+    R, t = register(nominal[judged], campaign.xyz[judged])
+    ui = _dist_mm(primary.xyz - (nominal[judged] @ R.T + t))
     if validation is not None:
         uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool) @ R.T + t))
         method = "validation file"
     else:
         fold = command_folds(campaign, folds, np.random.default_rng(seed))
-        uv = np.empty(len(campaign))
+        uv = np.full(len(campaign), np.nan)
         for f in range(folds):
-            tr, te = fold != f, fold == f
+            tr, te = (fold != f) & judged, (fold == f) & judged
             Rf, tf = register(nominal[tr], campaign.xyz[tr])
             uv[te] = _dist_mm(campaign.xyz[te] - (nominal[te] @ Rf.T + tf))
+        uv = uv[judged]
         method = "k-fold CV"
     rows = []
     for order in orders:
         t0 = time.perf_counter()
         model = make_model(kind, machine, order, basis=basis).fit(campaign, noise)
         secs = time.perf_counter() - t0
-        di = _dist_mm(model.residuals(campaign))
+        di = _dist_mm(model.residuals(primary))
         if validation is not None:
             dh = _dist_mm(model.residuals(validation))
         else:
-            dh = np.empty(len(campaign))
+            dh = np.full(len(campaign), np.nan)
             for f in range(folds):
-                tr, te = fold != f, fold == f
+                tr, te = fold != f, (fold == f) & judged
                 mf = make_model(kind, machine, order, basis=basis).fit(campaign.subset(tr), noise)
-                dh[te] = _dist_mm(mf.residuals(campaign.subset(te)))
+                dh[te] = _dist_mm(mf.residuals(campaign.subset(np.flatnonzero(te))))
+            dh = dh[judged]
         rep = model.report_
         rows.append(OrderRow(order, model.n_parameters - len(rep.removed), secs, float(di.mean()), float(di.max()),
                              float(dh.mean()), float(dh.max()), rep.chi2 / rep.chi2_expected))

@@ -105,6 +105,8 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     fitted error model; ``tables``: a TableSet for the compensated view (optional).
     Returns facts of the scene (exaggeration, largest error, counts)."""
     m: Machine = model.machine
+    campaign = campaign.primary()  # the rows the fitted tracker pose describes
+    row = min(row, len(campaign) - 1)
     vis.delete()
     _machine_geometry(vis, m, campaign.q[row])
     nominal = m.tool_tip(campaign.q, campaign.tool)
