@@ -126,15 +126,41 @@ def _stats(d: np.ndarray) -> dict:
     return {"n": int(d.size), "mean": float(d.mean()), "max": float(d.max()), "rms": float(np.sqrt((d**2).mean()))}
 
 
+def _in_tracker(tip, J_b, J_q, R, t, e, P: int, e_col: int, b_cols: slice, jacobian: bool = True):
+    """Machine-frame tips into a tracker frame ``R (exp3(e_rot) p + e_trans) + t``; with
+    ``jacobian`` also d y / d theta (N,3,P) (pose correction at ``e_col``, model
+    parameters at ``b_cols``) and d y / d q (N,3,n)."""
+    R0 = exp3(e[3:])
+    y = (tip @ R0.T + e[:3]) @ R.T + t
+    if not jacobian:
+        return y, None, None
+    RR = R @ R0
+    dy = np.zeros((len(y), 3, P))
+    dy[:, :, e_col:e_col + 3] = R
+    dy[:, :, e_col + 3:e_col + 6] = -np.einsum("ij,pjk,kl->pil", RR, skew(tip), right_jacobian(e[3:]))
+    dy[:, :, b_cols] = np.einsum("ij,pjk->pik", RR, J_b)
+    return y, dy, np.einsum("ij,pjk->pik", RR, J_q)
+
+
+def _whiten(r, H, S, A, axis_sigma, dy, sigma):
+    """Per-row whitening with C = H A Σ_v A^T H^T + Σ_ξ (the axis and instrument noise
+    eliminated at the linearisation): residuals w and d w / d psi, rows flattened."""
+    HA = H @ A
+    C = np.einsum("pij,j,pkj->pik", HA, axis_sigma**2, HA) + S
+    L = np.linalg.cholesky(C)
+    w = np.linalg.solve(L, r[..., None])[..., 0]
+    Jw = -np.linalg.solve(L, H @ dy) * sigma
+    return w.ravel(), Jw.reshape(w.size, -1)
+
+
 def predict_tracker(model: ErrorModel, q: np.ndarray, tool: np.ndarray, theta: np.ndarray, setup: Setup,
                     features=None, jacobian: bool = True):
     """Modelled measurements in the tracker frame y (N,3) [m]; with ``jacobian`` also
     d y / d theta (N,3,P+6) and d y / d q (N,3,n). theta = [E_0, b]."""
     e0, b = theta[:6], theta[6:]
     mt = model.tool_tip(q, tool, b, jacobian=jacobian, features=features)
-    R0 = exp3(e0[3:])
-    RR = setup.R @ R0
-    y = (mt.tip @ R0.T + e0[:3]) @ setup.R.T + setup.t
+    y, dy, dq = _in_tracker(mt.tip, mt.J_b, mt.J_q, setup.R, setup.t, e0, 6 + model.n_parameters, 0,
+                            slice(6, None), jacobian)
     tracker_effects = [(e, sl) for e, sl in model.effect_slices() if "tracker" in e.kinds]
     D_tr = [(sl, e.tracker(y, features)) for e, sl in tracker_effects]
     grad = sum((e.tracker_gradient(y, features, b[sl]) for e, sl in tracker_effects), np.zeros((len(y), 3, 3)))
@@ -142,17 +168,12 @@ def predict_tracker(model: ErrorModel, q: np.ndarray, tool: np.ndarray, theta: n
         y = y + np.einsum("pik,k->pi", D, b[sl])
     if not jacobian:
         return y, None, None
-    M = np.eye(3) + grad  # the tracker effects move with the point they act on
-    dy = np.empty((len(y), 3, 6 + model.n_parameters))
-    dy[:, :, :3] = setup.R
-    dy[:, :, 3:6] = -np.einsum("ij,pjk,kl->pil", RR, skew(mt.tip), right_jacobian(e0[3:]))
-    dy[:, :, 6:] = np.einsum("ij,pjk->pik", RR, mt.J_b)
     if tracker_effects:
-        dy = M @ dy
+        M = np.eye(3) + grad  # the tracker effects move with the point they act on
+        dy, dq = M @ dy, M @ dq
     for sl, D in D_tr:
         dy[:, :, 6 + sl.start:6 + sl.stop] = D
-    dq = np.einsum("ij,pjk->pik", RR, mt.J_q)
-    return y, dy, (M @ dq if tracker_effects else dq)
+    return y, dy, dq
 
 
 class _Problem:
@@ -173,12 +194,8 @@ class _Problem:
         (the covariance C_i held at this linearisation, as the ILM does), and y."""
         y, dy, A = self.predict(theta)
         r, H, S = self.noise.residuals(self.campaign.xyz, y)
-        HA = H @ A
-        C = np.einsum("pij,j,pkj->pik", HA, self.noise.axis_sigma**2, HA) + S
-        L = np.linalg.cholesky(C)
-        w = np.linalg.solve(L, r[..., None])[..., 0]
-        Jw = -np.linalg.solve(L, H @ dy) * self.sigma
-        return w.ravel(), Jw.reshape(w.size, -1), y
+        w, Jw = _whiten(r, H, S, A, self.noise.axis_sigma, dy, self.sigma)
+        return w, Jw, y
 
 
 def sphere_centre(p: np.ndarray) -> np.ndarray:
@@ -224,17 +241,9 @@ class _MixedProblem:
             else:
                 R, t, _ = self.setup.stations[s]
                 e_sl = self.sl_station[s]
-            e = theta[e_sl]
-            R0 = exp3(e[3:])
-            RR = R @ R0
-            tip = mt.tip[rows]
-            y = (tip @ R0.T + e[:3]) @ R.T + t
+            y, dy, A = _in_tracker(mt.tip[rows], mt.J_b[rows], mt.J_q[rows], R, t, theta[e_sl], P, e_sl.start,
+                                   slice(6, 6 + m.n_parameters))
             y_all[rows] = y
-            dy = np.zeros((len(rows), 3, P))
-            dy[:, :, e_sl.start:e_sl.start + 3] = R
-            dy[:, :, e_sl.start + 3:e_sl.stop] = -np.einsum("ij,pjk,kl->pil", RR, skew(tip), right_jacobian(e[3:]))
-            dy[:, :, 6:6 + m.n_parameters] = np.einsum("ij,pjk->pik", RR, mt.J_b[rows])
-            A = np.einsum("ij,pjk->pik", RR, mt.J_q[rows])
             x = c.xyz[rows]
             if noise.instrument == "range":  # multilateration: the interferometer range only
                 Rm, Ry = np.linalg.norm(x, axis=1), np.linalg.norm(y, axis=1)
@@ -244,11 +253,9 @@ class _MixedProblem:
                 S = noise.tracker.sigma_range(Rm)[:, None, None] ** 2
             else:
                 r, H, S = noise.residuals(x, y)
-            HA = H @ A
-            C = np.einsum("pij,j,pkj->pik", HA, noise.axis_sigma**2, HA) + S
-            L = np.linalg.cholesky(C)
-            ws.append(np.linalg.solve(L, r[..., None])[..., 0].ravel())
-            Js.append((-np.linalg.solve(L, H @ dy) * self.sigma).reshape(-1, P))
+            w, Jw = _whiten(r, H, S, A, noise.axis_sigma, dy, self.sigma)
+            ws.append(w)
+            Js.append(Jw)
         bb = c.ballbar_rows
         if bb.size:
             centres = np.array([self.setup.pivots[p] + theta[self.sl_pivot[p]] for p in c.pivot[bb]])
