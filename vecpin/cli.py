@@ -126,25 +126,17 @@ def _noise(args, machine):
     return noise
 
 
-def _stats_line(label: str, d_mm: np.ndarray) -> str:
-    return f"  {label:<40s} {d_mm.size:5d} {d_mm.mean():9.4f} {d_mm.max():9.4f} {np.sqrt((d_mm**2).mean()):9.4f}"
-
-
 def _per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list[str]:
+    from .identify import distance_stats
     lines = [f"  {'':<40s} {'n':>5s} {'mean mm':>9s} {'max mm':>9s} {'RMS mm':>9s}"]
-    tools = np.unique(np.round(tool, 9))
     for label, d in rows:
-        lines.append(_stats_line(label, d))
-        if len(tools) > 1:
-            for L in tools:
-                sel = np.isclose(tool, L, atol=1e-7)
-                lines.append(_stats_line(f"    tool {L * 1e3:.3f} mm", d[sel]))
+        st = distance_stats(d, tool)
+        keys = list(st) if len(st) > 2 else ["all"]  # per tool only when there are several
+        for k in keys:
+            s = st[k]
+            name = label if k == "all" else f"    {k}"
+            lines.append(f"  {name:<40s} {s['n']:5d} {s['mean']:9.4f} {s['max']:9.4f} {s['rms']:9.4f}")
     return lines
-
-
-def _residual_dict(d_mm: np.ndarray, tool: np.ndarray) -> dict:
-    from .identify import residual_stats
-    return residual_stats(np.c_[d_mm * 1e-3, np.zeros((d_mm.size, 2))], tool)
 
 
 def _nominal_in_tracker(model, campaign) -> np.ndarray:
@@ -184,6 +176,7 @@ def cmd_fit(args) -> int:
 def cmd_evaluate(args) -> int:
     import json
     from .campaign import read_campaign
+    from .identify import distance_stats
     from .models import ErrorModel
     from .registration import registered_errors
     model = ErrorModel.load(args.model)
@@ -205,7 +198,7 @@ def cmd_evaluate(args) -> int:
         print(f"  (station 0 tracker rows; the file has {len(full) - len(c)} more rows of other stations or the ball bar)")
     if args.json:
         out = {"model": str(args.model), "campaign": str(args.csv), "rows": len(c), "reregistered": args.reregister,
-               "units": "mm", "uncompensated": _residual_dict(d_nom, c.tool), "model_residual": _residual_dict(d_mod, c.tool),
+               "units": "mm", "uncompensated": distance_stats(d_nom, c.tool), "model_residual": distance_stats(d_mod, c.tool),
                "reduction_of_mean_pct": red}
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)

@@ -113,13 +113,17 @@ class FitReport:
         return "\n".join(lines)
 
 
-def residual_stats(err: np.ndarray, tool: np.ndarray) -> dict:
-    """Mean/max/RMS of |err| [mm] overall and per tool length; err (N,3) in m."""
-    d = np.linalg.norm(err, axis=1) * 1e3
+def distance_stats(d: np.ndarray, tool: np.ndarray) -> dict:
+    """n/mean/max/RMS of distances d (any unit), overall and per tool length [m]."""
     out = {"all": _stats(d)}
     for L in np.unique(np.round(tool, 9)):
         out[f"tool {L * 1e3:.3f} mm"] = _stats(d[np.isclose(tool, L, atol=1e-7)])
     return out
+
+
+def residual_stats(err: np.ndarray, tool: np.ndarray) -> dict:
+    """Mean/max/RMS of |err| [mm] overall and per tool length; err (N,3) in m."""
+    return distance_stats(np.linalg.norm(err, axis=1) * 1e3, tool)
 
 
 def _stats(d: np.ndarray) -> dict:

@@ -11,6 +11,7 @@ import numpy as np
 from . import figures
 from .campaign import Campaign
 from .compensation import compensated_errors, model_as_actual
+from .identify import distance_stats
 from .models import ErrorModel
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:20px auto;color:#222}
@@ -27,11 +28,7 @@ def _table(header: list[str], rows: list[list]) -> str:
 
 
 def _stats_rows(label: str, d: np.ndarray, tool: np.ndarray) -> list[list]:
-    rows = [[label, "all", float(d.mean()), float(d.max()), float(np.sqrt((d**2).mean()))]]
-    for L in np.unique(np.round(tool, 9)):
-        s = np.isclose(tool, L, atol=1e-7)
-        rows.append([label, f"tool {L * 1e3:.2f} mm", float(d[s].mean()), float(d[s].max()), float(np.sqrt((d[s]**2).mean()))])
-    return rows
+    return [[label, k, s["mean"], s["max"], s["rms"]] for k, s in distance_stats(d, tool).items()]
 
 
 def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Campaign | None = None,
