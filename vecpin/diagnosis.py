@@ -78,15 +78,6 @@ class Linearised:
         A = D * prior
         return A, np.einsum("pij,pjk->pik", self.Linv, A)
 
-    def solve(self, J: np.ndarray, psi0: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
-        """The Gauss-Newton step from the linearisation point, fitted on ``rows``."""
-        Jr = J if rows is None else J[rows]
-        wr = self.w if rows is None else self.w[rows]
-        Jf = Jr.reshape(-1, J.shape[-1])
-        G = Jf.T @ Jf + np.eye(J.shape[-1])
-        g = Jf.T @ wr.ravel() - psi0
-        return linalg.solve(G, g, assume_a="pos")
-
     def grams(self, J: np.ndarray, folds: np.ndarray) -> dict:
         """Normal equations per fold: {fold: (J_f^T J_f, J_f^T w_f)} and the totals."""
         out = {}
@@ -423,7 +414,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
         base_grams = cur_lin.grams(cur_lin.J, fold_r)
         round_scores = []
         shift_best = None
-        theta = np.r_[cur_model.e0_, cur_model.b_, np.zeros(0)]
+        theta = np.r_[cur_model.e0_, cur_model.b_]
         for c in remaining:
             c.prepare(camp, feats)
             if c.kinds == ("tracker",):  # acts on the measured point only: no kinematics needed
@@ -436,12 +427,9 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
             cols = cur_lin.columns(D, prior)
             if isinstance(c, InstrumentShift):
                 # scanned step time: cheap full-data chi2 first, cross-validate the best only
-                G0, g0 = base_grams["all"]
-                b = cols[1].reshape(-1, 6)
-                Cx = cur_lin.J.reshape(-1, cur_lin.J.shape[-1]).T @ b
-                G = np.block([[G0, Cx], [Cx.T, b.T @ b]]) + np.eye(len(g0) + 6)
-                g = np.r_[g0, b.T @ cur_lin.w.ravel()] - np.r_[cur_lin.psi0, np.zeros(6)]
-                chi2 = -float(g @ linalg.solve(G, g, assume_a="pos"))  # chi2 up to a constant
+                G, g = cur_lin.extend_grams(base_grams, cur_lin.J, cols[1], fold_r)["all"]
+                g = g - np.r_[cur_lin.psi0, np.zeros(6)]
+                chi2 = -float(g @ linalg.solve(G + np.eye(len(g)), g, assume_a="pos"))  # chi2 up to a constant
                 if shift_best is None or chi2 < shift_best[0]:
                     shift_best = (chi2, c, cols)
                 continue
@@ -453,7 +441,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
         m_tests = sum(k for _, _, k in round_scores)
         best = None
         before = np.linalg.norm(cur_eval["heldout"], axis=1) * 1e3
-        for c, ev, multiplicity in round_scores:
+        for c, ev, _ in round_scores:
             after = np.linalg.norm(ev["heldout"], axis=1) * 1e3
             thr = alpha / m_tests
             sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
@@ -464,10 +452,8 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
             # among significant candidates the most economical explanation wins (BIC gain)
             if sig and (best is None or sc.bic_gain > best[0].bic_gain):
                 best = (sc, ev)
-            if rnd == 1 or sig:
-                round_scores_entry = sc
-                if rnd == 1:
-                    scores.append(round_scores_entry)
+            if rnd == 1:
+                scores.append(sc)
         if best is None:
             break
         sc = best[0]
@@ -482,13 +468,11 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
         cur_eval = cur_lin.evaluate(cur_lin.A, cur_lin.J, cur_lin.psi0, fold_r)
     # outliers judged again under the final model: rows it explains are not outliers
     if outliers.size:
-        full_feats = Features.from_campaign(campaign)
+        # features from the whole campaign: approach directions and times depend on the row order
         sub = campaign.subset(outliers)
-        r = np.linalg.norm(cur_model.residuals(sub) if not cur_model.effects else
-                           campaign.xyz[outliers] - predict_tracker(cur_model, sub.q, sub.tool,
-                                                                    np.r_[cur_model.e0_, cur_model.b_],
-                                                                    cur_model.setup_, full_feats.subset(outliers),
-                                                                    False)[0], axis=1)
+        y = predict_tracker(cur_model, sub.q, sub.tool, np.r_[cur_model.e0_, cur_model.b_], cur_model.setup_,
+                            Features.from_campaign(campaign).subset(outliers), False)[0]
+        r = np.linalg.norm(sub.xyz - y, axis=1)
         typical = np.linalg.norm(cur_eval["heldout"], axis=1)
         limit = np.sqrt(stats.chi2.isf(1e-3 / len(campaign), 3) / 3) * np.sqrt(np.mean(typical**2))
         still = outliers[r > limit]
@@ -506,8 +490,9 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
                                   f"model and are left out")
     # the final row set: base and best model judged on the same rows
     if len(camp) != base_info["rows"]:
-        feats = Features.from_campaign(campaign).subset(np.setdiff1d(np.arange(len(campaign)), outliers))
-        fold_r = fold[np.setdiff1d(np.arange(len(campaign)), outliers)]
+        rows = np.setdiff1d(np.arange(len(campaign)), outliers)
+        feats = Features.from_campaign(campaign).subset(rows)
+        fold_r = fold[rows]
         base_model = base_fit(camp, [])
         blin = Linearised(base_model, camp, noise, feats)
         bev = blin.evaluate(blin.A, blin.J, blin.psi0, fold_r)
