@@ -189,7 +189,7 @@ class ErrorModel:
                 S = e.command(q, features)
                 q_eff = q_eff + np.einsum("pnk,k->pn", S, b[sl])
                 S_all.append((sl, S))
-        out = self._base_tool_tip(q_eff, tool, b[:nb], True if (jacobian or any("tip" in e.kinds for e, _ in slices)) else False)
+        out = self._base_tool_tip(q_eff, tool, b[:nb], jacobian)  # tip effects need only tip and tool direction
         tip = out.tip.copy()
         J_cmd = np.zeros((N, 3, len(self.parameters) - nb)) if jacobian else None
         J_tip = np.zeros_like(J_cmd) if jacobian else None
