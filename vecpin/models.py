@@ -163,7 +163,7 @@ class ErrorModel:
 
     def with_effects(self, effects: list) -> "ErrorModel":
         """A new, unfitted model of the same kind and bases with these effects."""
-        return type(self)(self.machine, self.order, basis="chebyshev" if self.basis_kind == "chebyshev" else "auto",
+        return type(self)(self.machine, self.order, basis=self.basis,
                           tool_lengths=self.tool_lengths, prior_scale=self.prior_scale,
                           bases=self.bases if self.basis_kind == "custom" else None, effects=effects)
 

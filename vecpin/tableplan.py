@@ -52,8 +52,7 @@ def plan_tables(model: ErrorModel, controller: str | Controller = "generic", *, 
             raise VecpinError(f"only rotary axes have modulo tables, not {a}")
     q = pseudo_commands(m, n_commands, seed) if commands is None else np.unique(np.asarray(commands, float), axis=0)
     order = table_order if table_order is not None else max(model.order, 2)
-    basis = "chebyshev" if model.basis_kind == "chebyshev" else "auto"
-    problem = TableProblem(actual, m, q, tools, order=order, basis=basis, modulo_axes=tuple(modulo_axes))
+    problem = TableProblem(actual, m, q, tools, order=order, basis=model.basis, modulo_axes=tuple(modulo_axes))
     cross = [n for n in all_table_names(m) if n[0] != n[1]]
     need_subset = (max_tables is not None or no_circular or forbid_output
                    or (ctl.max_cross_tables is not None and ctl.max_cross_tables < len(cross)))
