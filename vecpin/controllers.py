@@ -55,7 +55,6 @@ class Controller:
     detection_unit_deg: float = 0.001
     no_circular: bool = False
     forbid_output: tuple[str, ...] = ()
-    cross_outputs_linear_only: bool = False
 
     def constraints(self, max_tables: int | None = None, no_circular: bool | None = None,
                     forbid_output=()) -> Constraints:
@@ -86,13 +85,17 @@ def get_controller(name: str) -> Controller:
         raise VecpinError(f"unknown controller '{name}' (choose {', '.join(CONTROLLERS)})") from None
 
 
+def _check_table_count(cross: list, controller: Controller, noun: str = "cross tables") -> None:
+    if controller.max_cross_tables is not None and len(cross) > controller.max_cross_tables:
+        raise VecpinError(f"{controller.name} allows {controller.max_cross_tables} {noun}; this set has "
+                          f"{len(cross)} ({', '.join(t.name for t in cross)}): select a subset (--max-tables)")
+
+
 def check_limits(tables: TableSet, controller: Controller) -> None:
     """Raise a clear error when the table set does not fit the controller."""
     cross = [t for t in tables.tables if not t.is_pitch]
     pitch = [t for t in tables.tables if t.is_pitch]
-    if controller.max_cross_tables is not None and len(cross) > controller.max_cross_tables:
-        raise VecpinError(f"{controller.name} allows {controller.max_cross_tables} cross tables; this set has "
-                          f"{len(cross)} ({', '.join(t.name for t in cross)}): select a subset (--max-tables)")
+    _check_table_count(cross, controller)
     for t in cross:
         if len(t.values) > controller.max_points:
             raise VecpinError(f"{controller.name}: table {t.name} has {len(t.values)} points, at most "
@@ -320,23 +323,25 @@ def _one_turn_values(table, ai, ao, pos, du_out, controller) -> np.ndarray:
     return wrapped
 
 
+def _pitch_points_per_table(controller: Controller, n_pitch: int) -> int:
+    """Points a pitch table may use: its own limit, and its share of the shared budget."""
+    limit = controller.max_pitch_points
+    if controller.max_total_pitch_points:
+        limit = min(limit, controller.max_total_pitch_points // max(n_pitch, 1))
+    return limit
+
+
 def write_fanuc(tables: TableSet, machine: Machine, out_dir: str | Path,
                 controller: Controller = CONTROLLERS["fanuc-30i"]) -> list[Path]:
     """Write ``PITCH.TXT`` (parameters 3620-3625 and pitch data N10000+point), ``STRAIGHTNESS.TXT``
     (cross tables as moving/compensation axis pairs) and ``README_FANUC.md``."""
     cross = [t for t in tables.tables if not t.is_pitch]
     pitch = [t for t in tables.tables if t.is_pitch]
-    if controller.max_cross_tables is not None and len(cross) > controller.max_cross_tables:
-        raise VecpinError(f"{controller.name} allows {controller.max_cross_tables} straightness tables; this set has "
-                          f"{len(cross)}: select a subset (--max-tables)")
-    for t in cross:
-        if machine.axis(t.output_axis).kind != "linear" and controller.cross_outputs_linear_only:
-            raise VecpinError(f"{controller.name}: straightness compensation corrects linear axes, not {t.output_axis}")
+    _check_table_count(cross, controller, "straightness tables")  # points: resampled to the controller's grid
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     grids, point = {}, 0
-    budget = controller.max_total_pitch_points or 10**9
-    per_axis = min(controller.max_pitch_points, budget // max(len(pitch), 1))
+    per_axis = _pitch_points_per_table(controller, len(pitch))
     for t in pitch:
         g = _fanuc_grid(t, machine, controller, point, per_axis)
         grids[t.input_axis] = g
@@ -458,11 +463,9 @@ def fanuc_offsets(tables: TableSet, machine: Machine, controller: Controller = C
     """The constants at the reference point of each table (user units), which a Fanuc
     table cannot carry, keyed by table name."""
     out = {}
+    per_pitch = _pitch_points_per_table(controller, sum(t.is_pitch for t in tables.tables))
     for t in tables.tables:
-        limit = controller.max_pitch_points if t.is_pitch else controller.max_points
-        if t.is_pitch and controller.max_total_pitch_points:
-            n_pitch = sum(1 for u in tables.tables if u.is_pitch)
-            limit = min(limit, controller.max_total_pitch_points // max(n_pitch, 1))
+        limit = per_pitch if t.is_pitch else controller.max_points
         out[t.name] = _fanuc_grid(t, machine, controller, 0, limit).offset_at_reference
     return out
 
