@@ -139,12 +139,6 @@ def _per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> lis
     return lines
 
 
-def _nominal_in_tracker(model, campaign) -> np.ndarray:
-    """Nominal tool tips placed with the tracker pose registered on the nominal kinematics
-    (no E_0): the seed's 'uncompensated' reference."""
-    return model.machine.tool_tip(campaign.q, campaign.tool) @ model.setup_.R.T + model.setup_.t
-
-
 def cmd_fit(args) -> int:
     from .campaign import read_campaign
     from .models import make_model
@@ -162,7 +156,7 @@ def cmd_fit(args) -> int:
         print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
     sel = c.tracker_rows[c.station[c.tracker_rows] == 0]
     c0 = c.subset(sel)
-    nominal = _nominal_in_tracker(model, c0)
+    nominal = model.predict_nominal(c0.q, c0.tool)
     rows = [("uncompensated (nominal kinematics)", np.linalg.norm(c0.xyz - nominal, axis=1) * 1e3),
             (f"{args.model} model, order {args.order}", np.linalg.norm(model.residuals(c)[sel], axis=1) * 1e3)]
     print("\n".join(_per_tool_table(rows, c0.tool)))
@@ -187,7 +181,7 @@ def cmd_evaluate(args) -> int:
     if args.reregister:
         d_nom = np.linalg.norm(registered_errors(nominal, c.xyz), axis=1) * 1e3
     else:
-        d_nom = np.linalg.norm(c.xyz - _nominal_in_tracker(model, c), axis=1) * 1e3
+        d_nom = np.linalg.norm(c.xyz - model.predict_nominal(c.q, c.tool), axis=1) * 1e3
     d_mod = np.linalg.norm(model.residuals(c, reregister=args.reregister), axis=1) * 1e3
     print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {len(c)} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
@@ -251,7 +245,7 @@ def cmd_demo(args) -> int:
         model.fit(c, NoiseModel.default(m, "spherical"))
         model.save(Path(args.out) / f"model_{kind}.json")
         if R_nom is None:
-            nom = lambda camp: np.linalg.norm(camp.xyz - _nominal_in_tracker(model, camp), axis=1)
+            nom = lambda camp: np.linalg.norm(camp.xyz - model.predict_nominal(camp.q, camp.tool), axis=1)
             table.append(("Uncompensated", nom(c), nom(v), nom(exact), None))
             R_nom = True
         res = lambda camp: np.linalg.norm(model.residuals(camp), axis=1)

@@ -262,6 +262,12 @@ class ErrorModel:
             raise ValueError("frame is 'tracker' or 'machine'")
         return self.setup_.to_tracker(tip)
 
+    def predict_nominal(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
+        """Nominal tool tips (N,3) [m] placed with the tracker pose registered on the nominal
+        kinematics (no E_0): the seed's 'uncompensated' reference."""
+        self._check_fitted()
+        return self.machine.tool_tip(q, tool) @ self.setup_.R.T + self.setup_.t
+
     def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
         """Measured minus modelled tool tips (N,3) [m], tracker frame. ``reregister``:
         fit the tracker pose to this campaign first (the tracker was moved). Effects

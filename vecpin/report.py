@@ -47,14 +47,11 @@ def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Cam
              f"condition number {rep.condition_number:.3g}.</p>",
              '<p><a href="scene.html">3D scene of measured vs modelled tool tips (meshcat)</a></p>']
 
-    def nominal_in_tracker(c):
-        return m.tool_tip(c.q, c.tool) @ model.setup_.R.T + model.setup_.t
-
     say("residual tables")
     rows, hist = [], {}
     for label, c in [("identification", campaign.primary())] + \
             ([("validation", validation.primary())] if validation is not None else []):
-        before = np.linalg.norm(c.xyz - nominal_in_tracker(c), axis=1) * 1e3
+        before = np.linalg.norm(c.xyz - model.predict_nominal(c.q, c.tool), axis=1) * 1e3
         after = np.linalg.norm(model.residuals(c), axis=1) * 1e3
         rows += _stats_rows(f"{label}: uncompensated", before, c.tool) + _stats_rows(f"{label}: model", after, c.tool)
         if label == "identification":
