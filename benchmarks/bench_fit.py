@@ -13,8 +13,8 @@ import numpy as np
 
 import vecpin
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import Design, simulate
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import Design, simulate
 
 
 def timed_fit(kind, machine, campaign, instrument, repeat=3):

@@ -7,8 +7,8 @@ import time
 import numpy as np
 
 import vecpin
-from vecpin.errorframes import ErrorFrames
-from vecpin.truth import uniform_commands
+from vecpin.kinematics.errorframes import ErrorFrames
+from vecpin.simulation.truth import uniform_commands
 
 
 def best_of(fn, repeat=7):

@@ -11,11 +11,11 @@ import time
 import numpy as np
 
 import vecpin
-from vecpin.compensation import TableProblem, all_table_names, from_ap_model, model_as_actual, pitch_names
+from vecpin.compensation.functions import TableProblem, all_table_names, from_ap_model, model_as_actual, pitch_names
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import simulate
-from vecpin.tableselect import Constraints, exact_search, genetic_search, impact_heuristic
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import simulate
+from vecpin.compensation.selection import Constraints, exact_search, genetic_search, impact_heuristic
 
 
 def main():

@@ -16,10 +16,10 @@ import numpy as np
 
 import vecpin
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import Design, simulate
-from vecpin.tracker import TrackerNoise, cartesian_to_spherical
-from vecpin.truth import uniform_commands
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical
+from vecpin.simulation.truth import uniform_commands
 
 THOU = 0.0254  # mm
 

@@ -10,9 +10,9 @@ Run: python examples/paper1_table2.py [--seed N]
 import argparse
 
 import vecpin
-from vecpin.noise import NoiseModel
-from vecpin.selection import order_sweep
-from vecpin.simulate import simulate
+from vecpin.measurement.noise import NoiseModel
+from vecpin.selection.orders import order_sweep
+from vecpin.simulation.simulate import simulate
 
 SEED_TABLE_2 = """Seed, Paper I Table 2 (real machine, mm; time in minutes):
 Model          Order Time(min) | Ident mean   max  red. | Valid mean   max  red.

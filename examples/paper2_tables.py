@@ -14,12 +14,12 @@ import argparse
 import numpy as np
 
 import vecpin
-from vecpin.compensation import (TableProblem, all_table_names, compensated_errors, model_as_actual, pitch_names,
+from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, model_as_actual, pitch_names,
                                  pseudo_commands, truth_as_actual)
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import simulate
-from vecpin.tableselect import Constraints, exact_search, finalise, genetic_search, impact_heuristic
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import simulate
+from vecpin.compensation.selection import Constraints, exact_search, finalise, genetic_search, impact_heuristic
 
 SEED = {
     "table2": [("Model", "0.036", "-"), ("Full tables", "0.031", "-"), ("Pitch only", "0.142", "-")],

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import vecpin
-from vecpin.machine import bundled_machines
+from vecpin.kinematics.machine import bundled_machines
 
 
 @pytest.fixture(scope="session")

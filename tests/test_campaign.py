@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vecpin.campaign import min_rows, read_campaign, write_campaign
+from vecpin.measurement.campaign import min_rows, read_campaign, write_campaign
 from vecpin.errors import CampaignFileError
 
 DATA = Path(__file__).parent / "data"

@@ -4,14 +4,14 @@ import math
 import numpy as np
 import pytest
 
-from vecpin.compensation import from_ap_model, pseudo_commands
-from vecpin.controllers import (CONTROLLERS, check_limits, fanuc_offsets, read_fanuc, read_siemens, write_fanuc,
+from vecpin.compensation.functions import from_ap_model, pseudo_commands
+from vecpin.export.controllers import (CONTROLLERS, check_limits, fanuc_offsets, read_fanuc, read_siemens, write_fanuc,
                                 write_generic, write_siemens)
 from vecpin.errors import VecpinError
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import Design, simulate
-from vecpin.tables import CompensationTable, TableSet
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.compensation.tables import CompensationTable, TableSet
 
 SUBSET = ["xz", "yc", "xc", "yx", "zx", "bc"]
 

@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from vecpin.diagnosis import diagnose
+from vecpin.diagnosis.diagnose import diagnose
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import Design, simulate
-from vecpin.trueeffects import TrueEffect
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.simulation.trueeffects import TrueEffect
 
 DESIGN = Design(n_validation=300)
 

@@ -3,13 +3,13 @@ differences, and the effect registry."""
 import numpy as np
 import pytest
 
-from vecpin.effects import (REGISTRY, Backlash, CoupledAxes, Effect, GantrySkew, InstrumentShift, RotaryPeriodic, Thermal,
+from vecpin.models.effects import (REGISTRY, Backlash, CoupledAxes, Effect, GantrySkew, InstrumentShift, RotaryPeriodic, Thermal,
                             effect_from_dict, register)
-from vecpin.features import Features
-from vecpin.identify import Setup, predict_tracker
+from vecpin.measurement.features import Features
+from vecpin.identification.fit import Setup, predict_tracker
 from vecpin.models import make_model
-from vecpin.registration import register as rigid
-from vecpin.simulate import Design, simulate
+from vecpin.measurement.registration import register as rigid
+from vecpin.simulation.simulate import Design, simulate
 
 
 @pytest.fixture(scope="module")

@@ -4,9 +4,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from vecpin import so3
-from vecpin.errorframes import ErrorFrames
-from vecpin.truth import uniform_commands
+from vecpin.kinematics import so3
+from vecpin.kinematics.errorframes import ErrorFrames
+from vecpin.simulation.truth import uniform_commands
 
 
 def se3(R, p):

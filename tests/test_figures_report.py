@@ -2,14 +2,14 @@
 import numpy as np
 import pytest
 
-from vecpin import figures
+from vecpin.viz import figures
 from vecpin.cli import main
-from vecpin.compensation import compensated_errors, model_as_actual
+from vecpin.compensation.functions import compensated_errors, model_as_actual
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.selection import order_sweep
-from vecpin.simulate import Design, simulate
-from vecpin.tableplan import plan_tables
+from vecpin.measurement.noise import NoiseModel
+from vecpin.selection.orders import order_sweep
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.compensation.plan import plan_tables
 
 
 @pytest.fixture(scope="module")

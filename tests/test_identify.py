@@ -5,15 +5,15 @@ import numpy as np
 import pytest
 
 from vecpin.errors import VecpinError
-from vecpin.identify import E0_NAMES, Setup, _Problem, fit
+from vecpin.identification.fit import E0_NAMES, Setup, _Problem, fit
 from vecpin.models import ErrorModel, make_model
-from vecpin.noise import NoiseModel
-from vecpin.registration import register
-from vecpin.selection import command_folds, order_sweep
-from vecpin.simulate import Design, simulate
-from vecpin.so3 import exp3
-from vecpin.tracker import TrackerNoise, cartesian_to_spherical
-from vecpin.truth import uniform_commands
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import register
+from vecpin.selection.orders import command_folds, order_sweep
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.kinematics.so3 import exp3
+from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical
+from vecpin.simulation.truth import uniform_commands
 
 TOOLS = np.array([0.21488, 0.31286])
 

@@ -3,15 +3,15 @@ limit, ball bar radius rows, mixed campaign files."""
 import numpy as np
 import pytest
 
-from vecpin.campaign import read_campaign, write_campaign
+from vecpin.measurement.campaign import read_campaign, write_campaign
 from vecpin.errors import CampaignFileError
-from vecpin.identify import E0_NAMES, Setup, _MixedProblem
+from vecpin.identification.fit import E0_NAMES, Setup, _MixedProblem
 from vecpin.models import ErrorModel, make_model
-from vecpin.noise import NoiseModel
-from vecpin.registration import register, registered_errors
-from vecpin.simulate import Design, simulate
-from vecpin.tracker import TrackerNoise
-from vecpin.truth import uniform_commands
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import register, registered_errors
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.measurement.tracker import TrackerNoise
+from vecpin.simulation.truth import uniform_commands
 
 LT = TrackerNoise(25.4e-6, 0.0, 25.4e-6, 0.0)  # Table 3.2
 
@@ -145,10 +145,10 @@ def test_mixed_campaigns_through_the_other_tools(flow, tmp_path):
     refuses mixed campaigns with a clear message."""
     import meshcat
 
-    from vecpin.diagnosis import diagnose
+    from vecpin.diagnosis.diagnose import diagnose
     from vecpin.errors import VecpinError
-    from vecpin.selection import order_sweep
-    from vecpin.view import RecordingWindow, build_scene
+    from vecpin.selection.orders import order_sweep
+    from vecpin.viz.scene import RecordingWindow, build_scene
     sim = simulate(flow, seed=8, design=Design(n_commands=80, stations=2, ballbar_points=12))
     c = sim.campaign
     sweep = order_sweep(flow, c, "ap", [1, 3], folds=3)

@@ -8,8 +8,8 @@ import yourdfpy
 
 import vecpin
 from vecpin.errors import MachineError
-from vecpin.machine import bundled_machines
-from vecpin.truth import uniform_commands
+from vecpin.kinematics.machine import bundled_machines
+from vecpin.simulation.truth import uniform_commands
 
 
 def trans(x, y, z):

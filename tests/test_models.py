@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from vecpin.basis import AxisBasis
+from vecpin.models.basis import AxisBasis
 from vecpin.models import APModel, SixDofModel, make_model
-from vecpin.truth import uniform_commands
+from vecpin.simulation.truth import uniform_commands
 
 TOOLS = [0.21488, 0.31286]
 

@@ -4,11 +4,11 @@ import filecmp
 import numpy as np
 import pytest
 
-from vecpin.campaign import read_campaign
-from vecpin.registration import register, registered_errors
-from vecpin.simulate import Design, design_commands, parse_zone, simulate
-from vecpin.tracker import Tracker, TrackerNoise, cartesian_to_spherical, spherical_jacobian, spherical_to_cartesian
-from vecpin.truth import TrueMachine
+from vecpin.measurement.campaign import read_campaign
+from vecpin.measurement.registration import register, registered_errors
+from vecpin.simulation.simulate import Design, design_commands, parse_zone, simulate
+from vecpin.measurement.tracker import Tracker, TrackerNoise, cartesian_to_spherical, spherical_jacobian, spherical_to_cartesian
+from vecpin.simulation.truth import TrueMachine
 
 
 def test_same_seed_same_files(flow, tmp_path):
@@ -93,7 +93,7 @@ def test_exclusion_zone_is_respected(flow, rng):
 
 def test_registration_recovers_a_rigid_pose(rng):
     P = rng.normal(size=(30, 3))
-    from vecpin.so3 import exp3
+    from vecpin.kinematics.so3 import exp3
     R = exp3(np.array([0.3, -1.2, 2.0]))
     t = np.array([1.0, -2.0, 0.5])
     R2, t2 = register(P, P @ R.T + t)

@@ -4,13 +4,13 @@ import math
 import numpy as np
 import pytest
 
-from vecpin.compensation import (CompensationReport, TableProblem, all_table_names, compensated_errors, from_ap_model,
+from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors, from_ap_model,
                                  model_as_actual, pitch_names, pseudo_commands, truth_as_actual)
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.registration import registered_errors
-from vecpin.simulate import simulate
-from vecpin.tables import CompensationTable, TableSet
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import registered_errors
+from vecpin.simulation.simulate import simulate
+from vecpin.compensation.tables import CompensationTable, TableSet
 
 TOOLS = [0.21488, 0.31286]
 
@@ -115,7 +115,7 @@ def test_modulo_tables_on_a_rotary_axis_past_a_turn(flow, fitted):
     """C travels 544 deg: modulo tables cover one turn and repeat; with a periodic model
     they compensate exactly like tables over the whole travel."""
     from vecpin.errors import VecpinError
-    from vecpin.tableplan import plan_tables
+    from vecpin.compensation.plan import plan_tables
     _, models = fitted
     for kind, model in models.items():
         plain = plan_tables(model, "generic", n_commands=400)

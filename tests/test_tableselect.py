@@ -5,11 +5,11 @@ import itertools
 import numpy as np
 import pytest
 
-from vecpin.compensation import TableProblem, model_as_actual, pitch_names
+from vecpin.compensation.functions import TableProblem, model_as_actual, pitch_names
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import simulate
-from vecpin.tableselect import Constraints, Scorer, exact_search, genetic_search, impact_heuristic
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import simulate
+from vecpin.compensation.selection import Constraints, Scorer, exact_search, genetic_search, impact_heuristic
 
 TOOLS = [0.21488, 0.31286]
 

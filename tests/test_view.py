@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from vecpin.models import make_model
-from vecpin.noise import NoiseModel
-from vecpin.simulate import Design, simulate
-from vecpin.tableplan import plan_tables
-from vecpin.view import RecordingWindow, build_scene, error_colors, write_html
+from vecpin.measurement.noise import NoiseModel
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.compensation.plan import plan_tables
+from vecpin.viz.scene import RecordingWindow, build_scene, error_colors, write_html
 
 
 @pytest.fixture(scope="module")

@@ -11,16 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import VecpinError
+from vecpin.errors import VecpinError
 
 
 def _machine(name: str):
-    from .machine import Machine
+    from vecpin.kinematics.machine import Machine
     return Machine.load(name)
 
 
 def cmd_info(args) -> int:
-    from .machine import bundled_machines
+    from vecpin.kinematics.machine import bundled_machines
     m = _machine(args.machine)
     print(m.describe())
     if args.machine not in bundled_machines():
@@ -35,7 +35,7 @@ def _error_summary(label: str, err_mm: np.ndarray) -> str:
 
 def parse_effect(text: str, machine):
     """'gantry_skew:axes=Y,about=x,depends=X,strength=0.05' -> TrueEffect."""
-    from .trueeffects import TrueEffect
+    from vecpin.simulation.trueeffects import TrueEffect
     name, _, rest = text.partition(":")
     known = ("gantry_skew", "coupled_axes", "thermal", "backlash", "rotary_periodic", "instrument_shift", "outliers")
     if name not in known:
@@ -62,8 +62,8 @@ def parse_effect(text: str, machine):
 
 
 def cmd_simulate(args) -> int:
-    from .registration import registered_errors
-    from .simulate import Design, parse_zone, simulate
+    from vecpin.measurement.registration import registered_errors
+    from vecpin.simulation.simulate import Design, parse_zone, simulate
     m = _machine(args.machine)
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
                     exclusion_zones=[parse_zone(z) for z in args.exclude],
@@ -105,8 +105,8 @@ def _progress(enabled: bool = True):
 
 
 def _noise(args, machine):
-    from .noise import NoiseModel
-    from .tracker import TrackerNoise
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.measurement.tracker import TrackerNoise
     kind = "range" if getattr(args, "multilateration", False) else ("spherical" if args.spherical else "cartesian")
     noise = NoiseModel.default(machine, kind)
     if getattr(args, "ballbar_sigma_mm", None) is not None:
@@ -127,7 +127,7 @@ def _noise(args, machine):
 
 
 def _per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list[str]:
-    from .identify import distance_stats
+    from vecpin.identification.fit import distance_stats
     lines = [f"  {'':<40s} {'n':>5s} {'mean mm':>9s} {'max mm':>9s} {'RMS mm':>9s}"]
     for label, d in rows:
         st = distance_stats(d, tool)
@@ -140,8 +140,8 @@ def _per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> lis
 
 
 def cmd_fit(args) -> int:
-    from .campaign import read_campaign
-    from .models import make_model
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.models import make_model
     m = _machine(args.machine)
     c = read_campaign(args.csv, m)
     say = _progress(not args.quiet)
@@ -169,10 +169,10 @@ def cmd_fit(args) -> int:
 
 def cmd_evaluate(args) -> int:
     import json
-    from .campaign import read_campaign
-    from .identify import distance_stats
-    from .models import ErrorModel
-    from .registration import registered_errors
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.identification.fit import distance_stats
+    from vecpin.models import ErrorModel
+    from vecpin.measurement.registration import registered_errors
     model = ErrorModel.load(args.model)
     m = model.machine
     full = read_campaign(args.csv, m)
@@ -212,8 +212,8 @@ def _orders(text: str) -> list[int]:
 
 
 def cmd_orders(args) -> int:
-    from .campaign import read_campaign
-    from .selection import order_sweep
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.selection.orders import order_sweep
     m = _machine(args.machine)
     c = read_campaign(args.csv, m)
     v = read_campaign(args.validation, m) if args.validation else None
@@ -227,10 +227,10 @@ def cmd_orders(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .models import make_model
-    from .noise import NoiseModel
-    from .simulate import simulate
-    from .machine import Machine
+    from vecpin.models import make_model
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.simulation.simulate import simulate
+    from vecpin.kinematics.machine import Machine
     m = Machine.load("flow_xyzcb")
     say = _progress(not args.quiet)
     say("simulating Paper I's campaign on flow_xyzcb (295 commands x 2 tools, 35 validation points)")
@@ -274,9 +274,9 @@ def _axis_map(items: list[str]) -> dict[str, str]:
 
 
 def cmd_tables(args) -> int:
-    from .controllers import write_fanuc, write_generic, write_siemens
-    from .models import ErrorModel
-    from .tableplan import plan_tables
+    from vecpin.export.controllers import write_fanuc, write_generic, write_siemens
+    from vecpin.models import ErrorModel
+    from vecpin.compensation.plan import plan_tables
     model = ErrorModel.load(args.model)
     m = model.machine
     for a in args.forbid_output:
@@ -284,7 +284,7 @@ def cmd_tables(args) -> int:
     say = _progress(not args.quiet)
     commands = None
     if args.commands:
-        from .campaign import read_campaign
+        from vecpin.measurement.campaign import read_campaign
         camp = read_campaign(args.commands, m)
         commands = camp.q
         if args.tools is None:
@@ -317,8 +317,8 @@ def cmd_tables(args) -> int:
 
 
 def cmd_diagnose(args) -> int:
-    from .campaign import read_campaign
-    from .diagnosis import diagnose
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.diagnosis.diagnose import diagnose
     m = _machine(args.machine)
     c = read_campaign(args.csv, m)
     effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
@@ -332,16 +332,16 @@ def cmd_diagnose(args) -> int:
 
 
 def cmd_view(args) -> int:
-    from .campaign import read_campaign
-    from .models import ErrorModel
-    from .view import build_scene, write_html
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.models import ErrorModel
+    from vecpin.viz.scene import build_scene, write_html
     model = ErrorModel.load(args.model)
     c = read_campaign(args.csv, model.machine)
     if not 0 <= args.row < len(c):
         raise VecpinError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
     tables = None
     if not args.no_tables:
-        from .tableplan import plan_tables
+        from vecpin.compensation.plan import plan_tables
         tables = plan_tables(model, "generic", n_commands=400).tables
     if args.html:
         facts = write_html(args.html, model, c, args.row, args.exaggerate, tables)
@@ -365,9 +365,9 @@ def cmd_view(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .campaign import read_campaign
-    from .models import ErrorModel
-    from .report import write_report
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.models import ErrorModel
+    from vecpin.viz.report import write_report
     model = ErrorModel.load(args.model)
     c = read_campaign(args.csv, model.machine)
     v = read_campaign(args.validation, model.machine) if args.validation else None

@@ -1,0 +1,290 @@
+"""Compensation functions from an error model, and their effect (Paper I §3.3, Paper II §2).
+
+The compensation functions ``t_oi(q_i)`` (output axis o, input axis i) are smooth
+series in the input axis, like the model's, and the controller's gauge-line offset
+``T_offset`` may change by ``dT``. They are chosen so that the compensated machine
+follows the controller's nominal kinematics:
+``F_a(q + t(q), L) ≈ F_n(q, L + dT)`` for every command and tool.
+
+* AP model: ``t = -q_hat`` and ``dT`` = the model's gauge-line correction (eq. 17).
+* Any model (6-DoF, AP, a true simulated machine): the pseudo-measurement projection
+  (eq. 18-19): Gauss-Newton on ``sum |F_a(q + t(q)) - F_n(q, L + dT)|^2`` over
+  quasi-random commands and two tool lengths, with the model's analytic Jacobian.
+
+:class:`TableProblem` is that problem linearised around the model; it is linear in
+the table coefficients, which the subset selection of Paper II exploits
+(:mod:`vecpin.tableselect`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy import linalg
+from scipy.stats import qmc
+
+from vecpin.models.basis import AxisBasis
+from vecpin.errors import VecpinError
+from vecpin.kinematics.machine import Machine
+from vecpin.models import APModel, ErrorModel
+from vecpin.compensation.tables import CompensationTable, TableSet, table_grid
+
+# actual(q, tool, jacobian) -> (tip (N,3) machine frame [m], d tip / d q (N,3,n) or None)
+ActualMachine = Callable[[np.ndarray, np.ndarray, bool], tuple]
+
+
+def model_as_actual(model: ErrorModel) -> ActualMachine:
+    """The fitted model as the 'actual' machine (machine base frame, no tracker)."""
+    model._check_fitted()
+
+    def actual(q, tool, jacobian=True):
+        out = model.tool_tip(q, tool, model.b_, jacobian)
+        return out.tip, out.J_q
+    return actual
+
+
+def truth_as_actual(truth) -> ActualMachine:
+    """A simulated true machine as the actual machine (for checking tables against truth)."""
+
+    def actual(q, tool, jacobian=False):
+        if jacobian:
+            raise VecpinError("the true machine gives no Jacobian; project from a model")
+        return truth.tool_tip(q, tool), None
+    return actual
+
+
+def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=()) -> list[AxisBasis]:
+    """Basis of the compensation functions of each *input* axis: Chebyshev over the
+    travel; Fourier on rotary axes travelling more than a turn (``basis="auto"``) and
+    on modulo axes (a modulo table must repeat every turn)."""
+    out = []
+    for a in machine.axes:
+        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.travel > 2 * math.pi))
+        out.append(AxisBasis(a.lower, a.upper, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
+    return out
+
+
+@dataclass
+class CompensationFunctions:
+    """Smooth table functions: ``t_oi(q_i) = sum_k coef[(o, i)][k] B_i,k(q_i)`` (SI).
+
+    Pitch functions (o == i) carry the constant column; off-diagonal ones do not (a
+    constant is the same for every input)."""
+
+    machine: Machine
+    bases: list[AxisBasis]
+    coef: dict[tuple[str, str], np.ndarray]
+    gauge_offset_change: float = 0.0
+    modulo_axes: tuple[str, ...] = ()
+
+    @property
+    def names(self) -> list[str]:
+        return [(o + i).lower() for o, i in self.coef]
+
+    def function(self, output_axis: str, input_axis: str, q_in: np.ndarray) -> np.ndarray:
+        i = self.machine.axis(input_axis).index
+        c = self.coef[(output_axis, input_axis)]
+        B = self.bases[i].values(np.asarray(q_in, float))
+        return B[:, :c.size] @ c if output_axis == input_axis else B[:, 1:1 + c.size] @ c
+
+    def increments(self, q: np.ndarray) -> np.ndarray:
+        q = np.atleast_2d(np.asarray(q, float))
+        out = np.zeros_like(q)
+        for (o, i), _ in self.coef.items():
+            out[:, self.machine.axis(o).index] += self.function(o, i, q[:, self.machine.axis(i).index])
+        return out
+
+    def discretise(self, n_points: int = 1024) -> TableSet:
+        """Tables of ``n_points`` over each input axis' travel (one turn on modulo axes)."""
+        tables = []
+        for (o, i) in self.coef:
+            ax = self.machine.axis(i)
+            modulo = i in self.modulo_axes
+            start, step = table_grid(ax, n_points, modulo)
+            pos = start + step * np.arange(n_points)
+            vals = self.function(o, i, pos)
+            if modulo:
+                vals[-1] = vals[0]  # the two ends of a modulo table are the same physical position
+            tables.append(CompensationTable(i, o, start, step, vals, modulo))
+        return TableSet(self.machine.axis_names, tables, self.gauge_offset_change)
+
+
+def from_ap_model(model: APModel, modulo_axes=()) -> CompensationFunctions:
+    """Tables of an AP model: the negated perturbations (eq. 17) and its gauge-line
+    correction as the change of T_offset. ``modulo_axes``: rotary inputs whose tables
+    repeat every turn (their basis must be periodic)."""
+    model._check_fitted()
+    m = model.machine
+    for a in modulo_axes:
+        if model.bases[m.axis(a).index].kind != "fourier":
+            raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
+                              "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
+    c, a = model.split(model.b_)
+    coef = {}
+    for o, ao in enumerate(m.axes):
+        for i, ai in enumerate(m.axes):
+            B = model.bases[i]
+            if o == i:
+                coef[(ao.name, ai.name)] = -np.r_[c[o], a[:B.size - 1, i, o]]
+            else:
+                coef[(ao.name, ai.name)] = -a[:B.size - 1, i, o]
+    return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes))
+
+
+def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0) -> np.ndarray:
+    """Quasi-random (scrambled Halton) commands over the axis space [m, rad]."""
+    u = qmc.Halton(machine.n_axes, seed=seed).random(n)
+    return machine.lower + u * (machine.upper - machine.lower)
+
+
+class TableProblem:
+    """The table problem linearised around the actual machine (eq. 18-19).
+
+    Pseudo-measurements: every command in ``commands`` with every tool in ``tools``.
+    Unknowns: the gauge-line change dT and the coefficients of all n x n table
+    functions. ``A x + e0`` approximates the compensated errors (3R,) with ``x`` the
+    unknowns; :meth:`cost` of any subset of tables is then a small solve.
+    """
+
+    def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
+                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-9):
+        self.actual, self.machine = actual, machine
+        self.tools = np.asarray(tools, float)
+        self.q = np.repeat(np.asarray(commands, float), len(self.tools), axis=0)
+        self.L = np.tile(self.tools, len(commands))
+        self.bases = table_bases(machine, order, basis, modulo_axes)
+        self.modulo_axes = tuple(modulo_axes)
+        self.ridge = ridge
+        n = machine.n_axes
+        self.pairs = [(ao.name, ai.name) for ao in machine.axes for ai in machine.axes]
+        self.names = [(o + i).lower() for o, i in self.pairs]
+        # column layout: [dT] + one block per pair
+        self.blocks: dict[str, np.ndarray] = {}
+        col = 1
+        for (o, i), name in zip(self.pairs, self.names):
+            size = self.bases[machine.axis(i).index].size - (0 if o == i else 1)
+            self.blocks[name] = np.arange(col, col + size)
+            col += size
+        self.n_columns = col
+        self._linearise()
+
+    # -------------------------------------------------------------- linear algebra
+    def _design(self, J: np.ndarray, u_nominal: np.ndarray) -> np.ndarray:
+        m = self.machine
+        R = len(self.q)
+        A = np.empty((R, 3, self.n_columns))
+        A[:, :, 0] = -u_nominal
+        Bv = [B.values(self.q[:, k]) for k, B in enumerate(self.bases)]
+        for (o, i), name in zip(self.pairs, self.names):
+            oi, ii = m.axis(o).index, m.axis(i).index
+            Bi = Bv[ii] if o == i else Bv[ii][:, 1:]
+            A[:, :, self.blocks[name]] = J[:, :, oi, None] * Bi[:, None, :]
+        return A.reshape(3 * R, self.n_columns)
+
+    def _linearise(self) -> None:
+        nominal = self.machine.kinematics(self.q, self.L, jacobian=False)
+        self.u_nominal = nominal.rotation[:, :, 2] * -1.0
+        tip, J = self.actual(self.q, self.L, True)
+        self.e0 = (tip - nominal.tip).ravel()
+        self.A = self._design(J, self.u_nominal)
+        self.G = self.A.T @ self.A
+        self.g = self.A.T @ self.e0
+        self.e0e0 = float(self.e0 @ self.e0)
+        self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
+
+    def columns(self, names) -> np.ndarray:
+        """Columns of dT and of the given tables (pitch tables must be named)."""
+        return np.concatenate([[0]] + [self.blocks[n.lower()] for n in names])
+
+    def solve_linear(self, names) -> np.ndarray:
+        """Least-squares unknowns (full length, zeros outside the subset) of the linearised problem."""
+        cols = self.columns(names)
+        G = self.G[np.ix_(cols, cols)]
+        G = G + self.ridge * np.diag(np.diag(G))
+        x = np.zeros(self.n_columns)
+        x[cols] = -linalg.solve(G, self.g[cols], assume_a="pos")
+        return x
+
+    def cost(self, names) -> float:
+        """Linearised RMS volumetric error [m] of the best tables restricted to ``names``."""
+        x = self.solve_linear(names)
+        return math.sqrt(max(self.e0e0 + x @ self.g, 0.0) / len(self.q))
+
+    # -------------------------------------------------------------- exact solve
+    def functions(self, x: np.ndarray, names) -> CompensationFunctions:
+        coef = {}
+        for n in names:
+            o, i = self.pairs[self.names.index(n.lower())]
+            coef[(o, i)] = x[self.blocks[n.lower()]].copy()
+        return CompensationFunctions(self.machine, self.bases, coef, float(x[0]), self.modulo_axes)
+
+    def solve(self, names, iterations: int = 3) -> CompensationFunctions:
+        """Tables restricted to ``names`` by Gauss-Newton on the actual machine
+        (the linear solve, then re-linearised at the compensated commands)."""
+        names = [n.lower() for n in names]
+        cols = self.columns(names)
+        x = self.solve_linear(names)
+        for _ in range(iterations):
+            f = self.functions(x, names)
+            qc = self.q + f.increments(self.q)
+            tip, J = self.actual(qc, self.L, True)
+            nominal = self.machine.tool_tip(self.q, self.L + x[0])
+            e = (tip - nominal).ravel()
+            A = self._design(J, self.u_nominal)[:, cols]
+            G = A.T @ A
+            G = G + self.ridge * np.diag(np.diag(G))
+            dx = -linalg.solve(G, A.T @ e, assume_a="pos")
+            x[cols] += dx
+            if np.abs(dx).max() < 1e-12:
+                break
+        return self.functions(x, names)
+
+
+def all_table_names(machine: Machine) -> list[str]:
+    return [(ao.name + ai.name).lower() for ao in machine.axes for ai in machine.axes]
+
+
+def pitch_names(machine: Machine) -> list[str]:
+    return [(a.name + a.name).lower() for a in machine.axes]
+
+
+@dataclass
+class CompensationReport:
+    """Volumetric errors [mm] of the actual machine before and after compensation."""
+
+    rows: list[tuple[str, float, float, int]] = field(default_factory=list)  # label, mean, max, tables
+
+    def add(self, label: str, err: np.ndarray, n_tables: int = 0) -> None:
+        d = np.linalg.norm(err, axis=1) * 1e3
+        self.rows.append((label, float(d.mean()), float(d.max()), n_tables))
+
+    def table(self) -> str:
+        base = self.rows[0][1]
+        lines = [f"  {'compensation':<34s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"]
+        for label, mean, mx, nt in self.rows:
+            red = "-" if label == self.rows[0][0] else f"{100 * (1 - mean / base):8.1f}%"
+            lines.append(f"  {label:<34s} {nt if nt else '':>6} {mean:9.4f} {mx:9.4f} {red:>9s}")
+        return "\n".join(lines)
+
+
+def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet | None,
+                       q: np.ndarray, tool: np.ndarray, register: bool = False) -> np.ndarray:
+    """Tool-tip errors (N,3) [m] of the actual machine under ``tables`` against the
+    controller's nominal kinematics (with the changed T_offset); None: uncompensated.
+
+    ``register``: remove the best-fit rigid motion first. Use it when the actual
+    machine's frame is not the model's (a simulated truth): a rigid motion of the
+    whole machine is not observable from tracker data and does not affect parts,
+    and the seed's volumetric errors are registered the same way."""
+    q = np.atleast_2d(np.asarray(q, float))
+    tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
+    if tables is None:
+        tip, nominal = actual(q, tool, False)[0], machine.tool_tip(q, tool)
+    else:
+        tip, nominal = actual(tables.apply(q), tool, False)[0], machine.tool_tip(q, tool + tables.gauge_offset_change)
+    if register:
+        from vecpin.measurement.registration import registered_errors
+        return registered_errors(nominal, tip)
+    return tip - nominal

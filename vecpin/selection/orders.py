@@ -1,0 +1,131 @@
+"""Choosing the series order on held-out data (Paper I Table 2, Fig. 7-8).
+
+For each order the model is fitted on the identification rows and judged on rows it
+did not see: a validation campaign when one is given (as Paper I's 35 points), else
+k-fold cross-validation in which both tool lengths of one command always fall in the
+same fold (they share the axis position, so splitting them would leak).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from vecpin.measurement.campaign import Campaign
+from vecpin.kinematics.machine import Machine
+from vecpin.models import make_model
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import register
+
+
+@dataclass
+class OrderRow:
+    """One line of the order table (distances in mm, time in s)."""
+
+    order: int
+    n_parameters: int
+    seconds: float
+    ident_mean: float
+    ident_max: float
+    heldout_mean: float
+    heldout_max: float
+    chi2_ratio: float  # chi2 / expected
+
+    def reduction(self, base_mean: float, heldout: bool) -> float:
+        return 100.0 * (1 - (self.heldout_mean if heldout else self.ident_mean) / base_mean)
+
+
+@dataclass
+class OrderSweep:
+    kind: str
+    basis: str
+    method: str  # "validation file" or "k-fold CV"
+    uncompensated_ident: tuple[float, float]
+    uncompensated_heldout: tuple[float, float]
+    rows: list[OrderRow]
+
+    @property
+    def best(self) -> OrderRow:
+        return min(self.rows, key=lambda r: r.heldout_mean)
+
+    def table(self) -> str:
+        ui, uh = self.uncompensated_ident, self.uncompensated_heldout
+        held = "Validation" if self.method == "validation file" else "Held out (CV)"
+        lines = [f"{'Model':<14s} {'Order':>5s} {'Params':>6s} {'Time (s)':>8s} | {'Ident mean':>10s} {'max':>7s} {'red.':>6s} | "
+                 f"{held + ' mean':>18s} {'max':>7s} {'red.':>6s} | {'chi2/E':>6s}",
+                 f"{'Uncompensated':<14s} {'--':>5s} {'':>6s} {'':>8s} | {ui[0]:10.3f} {ui[1]:7.3f} {'-':>6s} | "
+                 f"{uh[0]:18.3f} {uh[1]:7.3f} {'-':>6s} |"]
+        name = {"6dof": "6-DoF", "ap": "AP"}[self.kind] + ("" if self.basis == "chebyshev" else "*")
+        best = self.best.order
+        for r in self.rows:
+            lines.append(f"{name:<14s} {r.order:5d} {r.n_parameters:6d} {r.seconds:8.2f} | {r.ident_mean:10.3f} {r.ident_max:7.3f} "
+                         f"{r.reduction(ui[0], False):5.1f}% | {r.heldout_mean:18.3f} {r.heldout_max:7.3f} "
+                         f"{r.reduction(uh[0], True):5.1f}% | {r.chi2_ratio:6.2f}" + ("  <- best" if r.order == best else ""))
+        if self.basis != "chebyshev":
+            lines.append("* Fourier series on rotary axes travelling more than a turn, Chebyshev elsewhere")
+        return "\n".join(lines)
+
+
+def command_folds(campaign: Campaign, k: int, rng: np.random.Generator) -> np.ndarray:
+    """Fold index per row; rows with the same axis command share a fold."""
+    keys = np.round(campaign.q, 9)
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = np.asarray(group).ravel()
+    perm = rng.permutation(group.max() + 1)
+    return perm[group] % k
+
+
+def _dist_mm(err: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(err, axis=1) * 1e3
+
+
+def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,
+                validation: Campaign | None = None, folds: int = 5, noise: NoiseModel | None = None,
+                basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
+    """Fit ``kind`` ("6dof"/"ap") at every order; judge on ``validation`` or by k-fold CV."""
+    noise = noise or NoiseModel.default(machine, "cartesian")
+    # distances are judged on the rows one tracker pose describes (station 0's tracker rows)
+    judged = np.ones(len(campaign), bool)
+    if campaign.mixed:
+        judged[:] = False
+        judged[campaign.tracker_rows[campaign.station[campaign.tracker_rows] == 0]] = True
+    primary = campaign.primary()
+    validation = validation.primary() if validation is not None else None
+    nominal = machine.tool_tip(campaign.q, campaign.tool)
+    R, t = register(nominal[judged], campaign.xyz[judged])
+    ui = _dist_mm(primary.xyz - (nominal[judged] @ R.T + t))
+    if validation is not None:
+        uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool) @ R.T + t))
+        method = "validation file"
+    else:
+        fold = command_folds(campaign, folds, np.random.default_rng(seed))
+        uv = np.full(len(campaign), np.nan)
+        for f in range(folds):
+            tr, te = (fold != f) & judged, (fold == f) & judged
+            Rf, tf = register(nominal[tr], campaign.xyz[tr])
+            uv[te] = _dist_mm(campaign.xyz[te] - (nominal[te] @ Rf.T + tf))
+        uv = uv[judged]
+        method = "k-fold CV"
+    rows = []
+    for order in orders:
+        t0 = time.perf_counter()
+        model = make_model(kind, machine, order, basis=basis).fit(campaign, noise)
+        secs = time.perf_counter() - t0
+        di = _dist_mm(model.residuals(primary))
+        if validation is not None:
+            dh = _dist_mm(model.residuals(validation))
+        else:
+            dh = np.full(len(campaign), np.nan)
+            for f in range(folds):
+                tr, te = fold != f, (fold == f) & judged
+                mf = make_model(kind, machine, order, basis=basis).fit(campaign.subset(tr), noise)
+                dh[te] = _dist_mm(mf.residuals(campaign.subset(np.flatnonzero(te))))
+            dh = dh[judged]
+        rep = model.report_
+        rows.append(OrderRow(order, model.n_parameters - len(rep.removed), secs, float(di.mean()), float(di.max()),
+                             float(dh.mean()), float(dh.max()), rep.chi2 / rep.chi2_expected))
+        if progress:
+            progress(f"{kind} order {order}: ident mean {di.mean():.4f} mm, held-out mean {dh.mean():.4f} mm ({secs:.2f} s)")
+    return OrderSweep(kind, basis, method, (float(ui.mean()), float(ui.max())), (float(uv.mean()), float(uv.max())), rows)

@@ -1,0 +1,233 @@
+"""Campaign simulator: measurement designs and simulated laser-tracker campaigns.
+
+The default design is Paper I's: 295 random commands measured with a 214.88 mm
+tool, then the same commands with a 312.86 mm tool (rows in that time order),
+plus 35 quasi-random validation commands with the short tool. Exclusion zones
+(boxes in axis space, as for line-of-sight and collision avoidance in Paper I
+Fig. 6) remove commands. A seeded RNG makes the same files for the same seed.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import qmc
+
+from vecpin.measurement.campaign import Campaign, write_campaign
+from vecpin.errors import VecpinError
+from vecpin.kinematics.machine import Machine
+from vecpin.simulation.truth import TrueMachine
+
+PAPER_I_TOOLS_MM = (214.88, 312.86)
+
+
+@dataclass
+class Design:
+    """What to measure. ``exclusion_zones``: list of {axis: (lo, hi)} in mm/deg; a
+    command inside every interval of a zone is not measured. ``method``: "random",
+    "sobol" or "halton" for the identification commands (validation is always Halton).
+    ``seconds_per_point`` (settle + measure) and ``feed_m_per_s`` (moves) make ``time``."""
+
+    n_commands: int = 295
+    tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
+    n_validation: int = 35
+    method: str = "random"
+    exclusion_zones: list[dict[str, tuple[float, float]]] = field(default_factory=list)
+    seconds_per_point: float = 15.0
+    feed_m_per_s: float = 0.1
+    repeat_points: int = 0   # after the campaign: this many commands, each measured ...
+    repeat_times: int = 0    # ... this many times, in a new random order each sequence (eq. 22)
+    stations: int = 1        # tracker positions; every command is measured from each
+    ballbar_points: int = 0  # ball bar rows on a sphere about one pivot (eq. 63-64)
+    ballbar_radius_mm: float = 254.0
+    ballbar_sigma_mm: float = 0.0025
+
+
+def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
+                    exclusion_zones=(), scramble_seed: int | None = None) -> np.ndarray:
+    """n commands [m, rad] over the axis limits, outside every exclusion zone."""
+    zones = [_zone_si(machine, z) for z in exclusion_zones]
+    out = np.empty((0, machine.n_axes))
+    for _attempt in range(50):
+        m = max(2 * (n - len(out)), 16)
+        if method == "random":
+            u = rng.random((m, machine.n_axes))
+        elif method in ("sobol", "halton"):
+            seed = scramble_seed if scramble_seed is not None else int(rng.integers(2**31))
+            eng = qmc.Sobol(machine.n_axes, seed=seed) if method == "sobol" else qmc.Halton(machine.n_axes, seed=seed)
+            u = eng.random(2 ** math.ceil(math.log2(m))) if method == "sobol" else eng.random(m)
+        else:
+            raise VecpinError(f"unknown design method '{method}' (random, sobol, halton)")
+        q = machine.lower + u * (machine.upper - machine.lower)
+        keep = np.ones(len(q), bool)
+        for lo, hi in zones:
+            keep &= ~np.all((q >= lo) & (q <= hi), axis=1)
+        out = np.vstack([out, q[keep]])
+        if len(out) >= n:
+            return out[:n]
+    raise VecpinError("the exclusion zones leave (almost) no room for commands")
+
+
+def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
+    lo = machine.lower.copy() - 1.0
+    hi = machine.upper.copy() + 1.0
+    for name, (a, b) in zone.items():
+        ax = machine.axis(name)
+        lo[ax.index], hi[ax.index] = sorted((float(ax.to_si(a)), float(ax.to_si(b))))
+    return lo, hi
+
+
+def parse_zone(text: str) -> dict[str, tuple[float, float]]:
+    """'X=0:500,B=-111:-80' -> {'X': (0, 500), 'B': (-111, -80)} (mm/deg)."""
+    zone = {}
+    for part in text.split(","):
+        try:
+            name, rng_ = part.split("=")
+            a, b = rng_.split(":")
+            zone[name.strip()] = (float(a), float(b))
+        except ValueError:
+            raise VecpinError(f"exclusion zone '{text}': write AXIS=LO:HI[,AXIS=LO:HI...] in mm/deg") from None
+    return zone
+
+
+def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
+    """Append rows of further tracker stations (same commands) and of a ball bar."""
+    from vecpin.measurement.tracker import TrackerNoise
+    m = truth.machine
+    parts = [campaign]
+    n = len(campaign)
+    for s in range(1, design.stations):
+        if len(truth.stations) < s:
+            from vecpin.simulation.truth import place_tracker
+            truth.stations.append(place_tracker(m, rng, truth.tracker.noise, 2.0, side=2 * np.pi * s / design.stations))
+        xyz = truth.measure(campaign.q, campaign.tool, rng, station=s)
+        parts.append(Campaign(m.axis_names, campaign.q, campaign.tool, xyz, {}, campaign.source,
+                              station=np.full(n, s)))
+    if design.ballbar_points:
+        tool = design.tools_mm[0] * 1e-3
+        q, pivot = ballbar_commands(m, design.ballbar_points, design.ballbar_radius_mm * 1e-3, rng, tool)
+        r = truth.measure_radius(q, np.full(len(q), tool), pivot, design.ballbar_sigma_mm * 1e-3, rng)
+        parts.append(Campaign(m.axis_names, q, np.full(len(q), tool), np.full((len(q), 3), np.nan), {}, campaign.source,
+                              np.full(len(q), "ballbar", dtype=object), np.zeros(len(q), int), r, np.zeros(len(q), int)))
+        truth.pivot = pivot
+    t_end = campaign.time[-1]
+    out = Campaign(m.axis_names, np.vstack([p.q for p in parts]), np.concatenate([p.tool for p in parts]),
+                   np.vstack([p.xyz for p in parts]), {}, campaign.source,
+                   np.concatenate([p.instrument for p in parts]), np.concatenate([p.station for p in parts]),
+                   np.concatenate([p.radius for p in parts]), np.concatenate([p.pivot for p in parts]))
+    t = np.r_[campaign.time, t_end + 15.0 * np.arange(1, len(out) - n + 1)]
+    out.extra = {"time": t, "temperature": np.r_[campaign.temperature, np.full(len(out) - n, campaign.temperature[-1])]}
+    return out
+
+
+@dataclass
+class Simulation:
+    """A simulated campaign: truth, identification and validation campaigns (noisy),
+    and the noise-free validation positions (tracker frame)."""
+
+    truth: TrueMachine
+    campaign: Campaign
+    validation: Campaign
+    validation_truth: Campaign
+
+    def write(self, out_dir: str | Path) -> dict[str, Path]:
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        m = self.truth.machine
+        paths = {"campaign": out / "campaign.csv", "validation": out / "validation.csv",
+                 "validation_truth": out / "validation_truth.csv", "truth": out / "truth.json"}
+        write_campaign(paths["campaign"], self.campaign, m)
+        write_campaign(paths["validation"], self.validation, m)
+        write_campaign(paths["validation_truth"], self.validation_truth, m)
+        self.truth.save(paths["truth"])
+        return paths
+
+
+def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Generator, tool: float,
+                     pivot: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Commands [m, rad] putting the nominal tool tip on a sphere of ``radius`` [m] about
+    ``pivot`` (upper hemisphere, eq. 63), with random orientations of the rotary axes
+    (eq. 64 by nominal inverse kinematics: the first three axes translate along x, y, z)."""
+    lin = [a for a in machine.axes[:3] if a.kind == "linear"]
+    if len(lin) < 3 or [tuple(a.direction) for a in lin] != [(1.0, 0, 0), (0, 1.0, 0), (0, 0, 1.0)]:
+        raise VecpinError("ball bar designs need a machine whose first three axes are X, Y, Z translations")
+    if pivot is None:  # the table centre, low in Z, where the whole hemisphere is reachable
+        q_mid = (machine.lower + machine.upper) / 2
+        q_mid[3:] = 0.0
+        pivot = machine.tool_tip(q_mid[None], tool)[0] - np.array([0.0, 0.0, 0.35 * radius])
+    out = []
+    for _ in range(200):
+        m = 4 * n
+        a1 = rng.uniform(0, 2 * np.pi, m)
+        a2 = np.arccos(rng.uniform(np.cos(np.radians(75)), 1.0, m))  # from the vertical, upper part of the sphere
+        p = pivot + radius * np.c_[np.cos(a1) * np.sin(a2), np.sin(a1) * np.sin(a2), np.cos(a2)]
+        q = np.zeros((m, machine.n_axes))
+        for a in machine.axes[3:]:
+            span = min(a.upper, np.radians(40)) - max(a.lower, -np.radians(40))
+            q[:, a.index] = max(a.lower, -np.radians(40)) + rng.random(m) * span
+        offset = machine.tool_tip(q, tool)  # tip with the linear axes at zero
+        q[:, :3] = p - offset
+        ok = np.all((q >= machine.lower) & (q <= machine.upper), axis=1)
+        out += list(q[ok])
+        if len(out) >= n:
+            return np.array(out[:n]), pivot
+    raise VecpinError("could not place the ball bar sphere inside the axis limits")
+
+
+def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: float = 0.0) -> np.ndarray:
+    """Time stamps [s] of rows measured in order: settle/measure time plus moves at feed."""
+    lin = [a.index for a in machine.axes if a.kind == "linear"]
+    moves = np.r_[0.0, np.linalg.norm(np.diff(q[:, lin], axis=0), axis=1)] if lin else np.zeros(len(q))
+    return start + np.cumsum(design.seconds_per_point + moves / design.feed_m_per_s)
+
+
+def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Air temperature [°C]: 20 °C, a slow daily swing, a drift and 0.02 °C sensor noise."""
+    phase = rng.uniform(0, 2 * math.pi)
+    return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + 0.2 * t / 28800 + rng.normal(0, 0.02, len(t))
+
+
+def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
+             effects: list | None = None, **truth_options) -> Simulation:
+    """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
+    unless ``truth`` is given). ``effects``: :class:`~vecpin.trueeffects.TrueEffect`
+    list acting on the true machine, scaled to their strength on this campaign; the
+    validation files carry them too (except gross errors)."""
+    from vecpin.measurement.features import Features
+    design = design or Design()
+    rng = np.random.default_rng(seed)
+    truth = truth or TrueMachine.random(machine, rng, **truth_options)
+    if effects:
+        truth.effects = list(effects)
+    q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
+    tools = np.asarray(design.tools_mm, float) * 1e-3
+    qs = np.vstack([q] * len(tools))
+    tool = np.repeat(tools, len(q))
+    if design.repeat_points and design.repeat_times:
+        pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]
+        seqs = [pick[rng.permutation(len(pick))] for _ in range(design.repeat_times)]
+        qs = np.vstack([qs] + seqs)
+        tool = np.r_[tool, np.full(len(pick) * design.repeat_times, tools[0])]
+    t = measurement_times(qs, machine, design)
+    extra = {"time": t, "temperature": workshop_temperature(t, rng)}
+    feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
+    if truth.effects:
+        truth.calibrate_effects(qs, tool, feats)
+    campaign = Campaign(machine.axis_names, qs, tool, truth.measure(qs, tool, rng, feats), extra, f"simulated seed {seed}")
+    if design.stations > 1 or design.ballbar_points:
+        campaign = _more_instruments(campaign, truth, design, rng, seed)
+    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
+    tv = np.full(len(qv), tools[0])
+    times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)
+    extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
+    feats_v = Features.from_campaign(Campaign(machine.axis_names, qv, tv, np.zeros((len(qv), 3)), extra_v))
+    clean = [e for e in truth.effects if e.name != "outliers"]
+    all_effects, truth.effects = truth.effects, clean
+    validation = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, rng, feats_v), extra_v,
+                          f"simulated seed {seed}, validation")
+    exact = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, None, feats_v), dict(extra_v),
+                     f"simulated seed {seed}, noise-free")
+    truth.effects = all_effects
+    return Simulation(truth, campaign, validation, exact)

@@ -1,0 +1,338 @@
+"""The true machine of a simulation: smooth 6-DoF errors per axis, gauge-line error,
+axis repeatability, and a laser tracker placed off the machine.
+
+Error functions are written in the same 6-DoF frame convention as the model
+(:mod:`vecpin.errorframes`) but from a *different* function family: a short
+Chebyshev series plus harmonics of non-integer frequency on linear axes, and
+eccentricity/wobble/index harmonics on rotary axes, so a fitted Chebyshev model
+never contains the truth exactly. A truth file stores everything in mm and
+degrees (with the unit in each key).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.models.basis import chebyshev, normalise
+from vecpin.kinematics.errorframes import ErrorFrames
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.tracker import Tracker, TrackerNoise
+
+COMPONENTS = ("dx", "dy", "dz", "ex", "ey", "ez")  # translations [m], rotations [rad], axis-local frame
+
+
+@dataclass
+class ErrorFunction:
+    """f(q) = sum_j c_j T_j(u) + sum_h (a_h cos(w_h t) + b_h sin(w_h t)).
+
+    u is q normalised over the travel; the harmonic argument t is ``pi * u`` on a
+    linear axis and the angle ``q`` [rad] on a rotary axis. Values SI.
+    """
+
+    chebyshev: list[float] = field(default_factory=list)
+    harmonics: list[tuple[float, float, float]] = field(default_factory=list)  # (w, a_cos, b_sin)
+
+    def __call__(self, q: np.ndarray, lower: float, upper: float, rotary: bool) -> np.ndarray:
+        q = np.asarray(q, float)
+        u = normalise(q, lower, upper)
+        out = np.zeros_like(q)
+        if self.chebyshev:
+            out += chebyshev(u, len(self.chebyshev) - 1) @ np.asarray(self.chebyshev)
+        t = q if rotary else math.pi * u
+        for w, a, b in self.harmonics:
+            out += a * np.cos(w * t) + b * np.sin(w * t)
+        return out
+
+    def scaled(self, s: float) -> "ErrorFunction":
+        return ErrorFunction([c * s for c in self.chebyshev], [(w, a * s, b * s) for w, a, b in self.harmonics])
+
+
+@dataclass
+class TrueMachine:
+    """Ground truth for simulated campaigns (SI inside).
+
+    errors[k][c]: error function of axis k, component c in :data:`COMPONENTS`;
+    perturbations[i][j]: optional axis perturbation f_ij (input i, output j), the
+    AP form of error (eq. 7-8), applied to the commands before the 6-DoF chain;
+    harmonics[k]: the harmonic frequencies axis k's functions use (the family);
+    gauge_error: actual minus nominal gauge-line offset along the tool [m];
+    repeatability: (n,) 1-sigma axis positioning noise [m, rad];
+    tracker: its pose and noise.
+    """
+
+    machine: Machine
+    errors: list[list[ErrorFunction]]
+    gauge_error: float
+    repeatability: np.ndarray
+    tracker: Tracker
+    perturbations: list[list[ErrorFunction | None]] | None = None
+    harmonics: list[tuple[float, ...]] | None = None
+    effects: list = field(default_factory=list)  # TrueEffect, applied when features are given
+    stations: list = field(default_factory=list)  # further tracker positions (Tracker), ids 1, 2, ...
+    _frames: ErrorFrames | None = field(default=None, repr=False)
+
+    @property
+    def frames(self) -> ErrorFrames:
+        if self._frames is None:
+            self._frames = ErrorFrames(self.machine)
+        return self._frames
+
+    def error_values(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """delta (N,n,3) [m] and eps (N,n,3) [rad] of every axis at commands q."""
+        q = np.atleast_2d(q)
+        N, n = q.shape
+        vals = np.zeros((N, n, 6))
+        for k, a in enumerate(self.machine.axes):
+            for c in range(6):
+                vals[:, k, c] = self.errors[k][c](q[:, k], a.lower, a.upper, a.kind == "rotary")
+        return vals[..., :3], vals[..., 3:]
+
+    def perturbed(self, q: np.ndarray) -> np.ndarray:
+        """Commands after the true axis perturbations (eq. 7), [m, rad]."""
+        if not self.perturbations:
+            return q
+        out = q.copy()
+        for i, a in enumerate(self.machine.axes):
+            for j in range(self.machine.n_axes):
+                f = self.perturbations[i][j]
+                if f is not None:
+                    out[:, j] += f(q[:, i], a.lower, a.upper, a.kind == "rotary")
+        return out
+
+    def family_bases(self, order: int = 4) -> list:
+        """One basis per axis that contains every true error function exactly
+        (Chebyshev up to ``order`` plus the axis' harmonics): fitting it gives the
+        noise-limited floor."""
+        from vecpin.models.basis import AxisBasis
+        harm = self.harmonics or [()] * self.machine.n_axes
+        return [AxisBasis(a.lower, a.upper, order, "chebyshev", tuple(h), a.kind == "rotary")
+                for a, h in zip(self.machine.axes, harm)]
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
+        """Noise-free true tool tip (N,3) [m], machine base frame; with ``features`` the
+        simulated effects that act on the commands and the tip are included."""
+        q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
+        active = self.effects if features is not None else []
+        for e in active:
+            q = q + e.command(self.machine, q, features)
+        delta, eps = self.error_values(q)
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
+        out = self.frames.tool_tip(q, delta, eps, tool, jacobian=False)
+        tip = out.tip
+        for e in active:
+            tip = e.tip(self.machine, q, tip, out.tool_dir, features)
+        return tip
+
+    def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
+                       rng: np.random.Generator | None) -> np.ndarray:
+        """Ball bar readings [m]: |true tip - pivot| with axis and ball bar noise (eq. 46, 65)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        r = np.linalg.norm(self.tool_tip(q, tool) - pivot, axis=1)
+        return r if rng is None else r + rng.normal(0, sigma, len(r))
+
+    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
+                features=None, station: int = 0) -> np.ndarray:
+        """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
+        true kinematics (with the simulated effects when ``features`` are given), the
+        tracker pose, tracker noise in spherical coordinates and gross errors.
+        ``rng=None``: noise-free (and no gross errors)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        tracker = self.tracker if station == 0 else self.stations[station - 1]
+        y = tracker.to_tracker(self.tool_tip(q, tool, features))
+        if features is not None:
+            for e in self.effects:
+                y = e.tracker(y, features)
+        if rng is None:
+            return y
+        y = tracker.add_noise(y, rng)
+        if features is not None:
+            for e in self.effects:
+                y = e.gross(y)
+        return y
+
+    def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
+        """Scale every effect so that its RMS tool-tip displacement over these rows is
+        its ``strength_mm`` (outliers: the size of the gross errors)."""
+        effects, self.effects = self.effects, []
+        base = self.measure(q, tool, None, features)
+        for e in effects:
+            if e.name == "outliers":
+                continue
+            e.scale = 1.0
+            self.effects = [e]
+            rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
+            e.scale = e.strength_mm * 1e-3 / rms if rms > 0 else 0.0
+        self.effects = effects
+
+    # ------------------------------------------------------------------ files
+    def to_dict(self) -> dict:
+        axes = {}
+        for k, a in enumerate(self.machine.axes):
+            comp = {}
+            for c, name in enumerate(COMPONENTS):
+                f = self.errors[k][c]
+                s = 1e3 if c < 3 else 180 / math.pi
+                comp[name] = {"chebyshev": [v * s for v in f.chebyshev],
+                              "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
+            axes[a.name] = comp
+        return {"format": "vecpin-truth", "version": 1, "machine": self.machine.name,
+                "units": {"dx dy dz": "mm", "ex ey ez": "deg", "gauge_error": "mm", "repeatability": "mm or deg"},
+                "axis_errors": axes, "gauge_error": self.gauge_error * 1e3,
+                "harmonics": {a.name: list(h) for a, h in zip(self.machine.axes, self.harmonics or [()] * self.machine.n_axes)},
+                "axis_perturbations": self._perturbations_dict(),
+                "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
+                "tracker": self.tracker.to_dict(),
+                "effects": [e.to_dict() for e in self.effects],
+                "stations": [s.to_dict() for s in self.stations]}
+
+    def _perturbations_dict(self) -> dict:
+        out = {}
+        for i, ai in enumerate(self.machine.axes):
+            for j, aj in enumerate(self.machine.axes):
+                f = (self.perturbations or [[None] * self.machine.n_axes] * self.machine.n_axes)[i][j]
+                if f is not None:
+                    s = 1e3 if aj.kind == "linear" else 180 / math.pi
+                    out[f"{ai.name}->{aj.name}"] = {"chebyshev": [v * s for v in f.chebyshev],
+                                                   "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
+        return out
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+
+    @classmethod
+    def from_dict(cls, d: dict, machine: Machine) -> "TrueMachine":
+        errors = []
+        for a in machine.axes:
+            row = []
+            for c, name in enumerate(COMPONENTS):
+                s = 1e-3 if c < 3 else math.pi / 180
+                e = d["axis_errors"][a.name][name]
+                row.append(ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]]))
+            errors.append(row)
+        rep = np.array([float(a.to_si(d["repeatability"][a.name])) for a in machine.axes])
+        pert = None
+        if d.get("axis_perturbations"):
+            pert = [[None] * machine.n_axes for _ in machine.axes]
+            for i, ai in enumerate(machine.axes):
+                for j, aj in enumerate(machine.axes):
+                    e = d["axis_perturbations"].get(f"{ai.name}->{aj.name}")
+                    if e is not None:
+                        s = 1e-3 if aj.kind == "linear" else math.pi / 180
+                        pert[i][j] = ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]])
+        harm = [tuple(d.get("harmonics", {}).get(a.name, ())) for a in machine.axes]
+        return cls(machine, errors, d["gauge_error"] * 1e-3, rep, Tracker.from_dict(d["tracker"]), pert, harm)
+
+    @classmethod
+    def load(cls, path: str | Path, machine: Machine) -> "TrueMachine":
+        return cls.from_dict(json.loads(Path(path).read_text()), machine)
+
+    # ------------------------------------------------------------------ random truth
+    @classmethod
+    def random(cls, machine: Machine, rng: np.random.Generator, mean_error_mm: float = 0.5,
+               repeatability_mm: float = 0.006, repeatability_deg: float = 0.0015,
+               tracker_noise: TrackerNoise | None = None, tracker_distance_m: float = 2.0,
+               family: str = "6dof") -> "TrueMachine":
+        """A plausible machine with smooth errors scaled so that the mean volumetric
+        error (true minus nominal tip, machine frame, over the axis space and tools
+        of 150-350 mm) is ``mean_error_mm``; a gauge-line error of 40-100 µm; a
+        tracker standing ``tracker_distance_m`` in front of the travel.
+
+        ``family="6dof"``: 6-DoF errors on every axis: on linear axes a Chebyshev
+        series to order 4 plus one harmonic of 0.5-1.5 periods over the travel (smooth
+        but not polynomial), pitch dominating; on rotary axes location offsets
+        (eccentricity), runout, index error and wobble at 1 and 2 cycles per turn.
+        ``family="ap"``: the same kind of functions as axis perturbations f_ij
+        (eq. 7-8) instead, the AP model's own family."""
+        um, urad = 1e-6, 1e-6
+        n = machine.n_axes
+        harmonics = [(float(rng.uniform(0.5, 1.5)),) if a.kind == "linear" else (1.0, 2.0) for a in machine.axes]
+        errors = [[ErrorFunction() for _ in range(6)] for _ in machine.axes]
+        perturbations = None
+        if family == "6dof":
+            for k, a in enumerate(machine.axes):
+                along = int(np.argmax(np.abs(a.direction)))
+                for c in range(6):
+                    if a.kind == "linear":
+                        s = 50 * um if c < 3 else 30 * urad
+                        cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
+                        if c == along:
+                            cheb[1] += rng.choice([-1, 1]) * 100 * um  # scale (pitch) error dominates positioning
+                        w = harmonics[k][0]
+                        harm = [(w, rng.normal() * s / 2, rng.normal() * s / 2)]
+                    elif c < 3:  # location offset (constant in the moving frame: eccentric circle) and runout
+                        cheb = [rng.normal() * (150 * um if c != along else 50 * um)]
+                        harm = [(1.0, rng.normal() * 20 * um, rng.normal() * 20 * um),
+                                (2.0, rng.normal() * 10 * um, rng.normal() * 10 * um)]
+                    elif c - 3 == along:  # index error: encoder eccentricity, 1st and 2nd harmonic
+                        cheb = [rng.normal() * 30 * urad]
+                        harm = [(1.0, rng.normal() * 100 * urad, rng.normal() * 100 * urad),
+                                (2.0, rng.normal() * 30 * urad, rng.normal() * 30 * urad)]
+                    else:  # tilt (squareness to the previous axis) and wobble
+                        cheb = [rng.normal() * 100 * urad]
+                        harm = [(1.0, rng.normal() * 40 * urad, rng.normal() * 40 * urad)]
+                    errors[k][c] = ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm])
+        elif family == "ap":
+            perturbations = [[None] * n for _ in range(n)]
+            for i, ai in enumerate(machine.axes):
+                for j, aj in enumerate(machine.axes):
+                    s = 40 * um if aj.kind == "linear" else 60 * urad
+                    cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
+                    if ai.kind == "rotary":  # a rotary input repeats every turn: periodic terms only
+                        cheb = cheb[:1]
+                    cheb[0] = cheb[0] if i == 0 else 0.0  # one constant per output axis
+                    hs = s if ai.kind == "rotary" else s / 3
+                    harm = [(w, rng.normal() * hs, rng.normal() * hs) for w in harmonics[i]]
+                    perturbations[i][j] = ErrorFunction([float(v) for v in cheb], [(float(w), float(x), float(y)) for w, x, y in harm])
+        else:
+            raise ValueError("family is '6dof' or 'ap'")
+        raw = cls(machine, errors, 0.0, np.zeros(n), Tracker(), perturbations, harmonics)
+        # scale to the requested mean volumetric error (errors are small: nearly linear)
+        q = uniform_commands(machine, 400, rng)
+        tool = rng.uniform(0.15, 0.35, len(q))
+        nominal = machine.tool_tip(q, tool)
+        for _ in range(3):
+            mean = np.linalg.norm(raw.tool_tip(q, tool) - nominal, axis=1).mean()
+            s = mean_error_mm * 1e-3 / mean
+            raw.errors = [[f.scaled(s) for f in row] for row in raw.errors]
+            if raw.perturbations:
+                raw.perturbations = [[f.scaled(s) for f in row] for row in raw.perturbations]
+        gauge = float(rng.choice([-1, 1]) * rng.uniform(0.04e-3, 0.1e-3))
+        rep = np.array([repeatability_mm * 1e-3 if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
+        tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
+        return cls(machine, raw.errors, gauge, rep, tracker, raw.perturbations, harmonics)
+
+
+def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n commands uniformly random over the axis limits [m, rad]."""
+    return machine.lower + rng.random((n, machine.n_axes)) * (machine.upper - machine.lower)
+
+
+def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNoise, distance_m: float,
+                  side: float = 0.0) -> Tracker:
+    """A tracker standing ``distance_m`` in front (-y side) of the tool-tip workspace,
+    on the floor level of the workspace, with a random heading and a tilt below 2°.
+    ``side`` [rad] turns the stand position about the workspace centre (other stations)."""
+    q = uniform_commands(machine, 200, rng)
+    tips = machine.tool_tip(q, 0.25)
+    lo, hi = tips.min(axis=0), tips.max(axis=0)
+    centre = (lo + hi) / 2
+    position = np.array([centre[0] + rng.uniform(-0.2, 0.2) * (hi[0] - lo[0]), lo[1] - distance_m,
+                         lo[2] + rng.uniform(0.0, 0.3) * (hi[2] - lo[2])])
+    if side:
+        from vecpin.kinematics.so3 import exp3 as _exp3
+        position = centre + _exp3(np.array([0.0, 0.0, side])) @ (position - centre)
+    yaw = rng.uniform(-math.pi, math.pi)
+    tilt_axis = rng.normal(size=3)
+    tilt_axis[2] = 0
+    tilt = np.radians(rng.uniform(0, 2.0)) * tilt_axis / np.linalg.norm(tilt_axis)
+    from vecpin.kinematics.so3 import exp3
+    R = exp3(tilt) @ exp3(np.array([0, 0, yaw]))  # machine -> tracker rotation
+    return Tracker(R, -R @ position, noise)
