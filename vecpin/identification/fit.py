@@ -30,6 +30,7 @@ from vecpin.errors import VecpinError
 from vecpin.models import ErrorModel
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register
+from vecpin.measurement.stats import residual_stats
 from vecpin.kinematics.so3 import exp3, right_jacobian, skew
 
 E0_NAMES = ("E0.dx", "E0.dy", "E0.dz", "E0.ex", "E0.ey", "E0.ez")
@@ -111,23 +112,6 @@ class FitReport:
                  f"condition number (prior-scaled, kept terms): {self.condition_number:.3g}"]
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
-
-
-def distance_stats(d: np.ndarray, tool: np.ndarray) -> dict:
-    """n/mean/max/RMS of distances d (any unit), overall and per tool length [m]."""
-    out = {"all": _stats(d)}
-    for L in np.unique(np.round(tool, 9)):
-        out[f"tool {L * 1e3:.3f} mm"] = _stats(d[np.isclose(tool, L, atol=1e-7)])
-    return out
-
-
-def residual_stats(err: np.ndarray, tool: np.ndarray) -> dict:
-    """Mean/max/RMS of |err| [mm] overall and per tool length; err (N,3) in m."""
-    return distance_stats(np.linalg.norm(err, axis=1) * 1e3, tool)
-
-
-def _stats(d: np.ndarray) -> dict:
-    return {"n": int(d.size), "mean": float(d.mean()), "max": float(d.max()), "rms": float(np.sqrt((d**2).mean()))}
 
 
 def _in_tracker(tip, J_b, J_q, R, t, e, P: int, e_col: int, b_cols: slice, jacobian: bool = True):

@@ -72,3 +72,42 @@ class NoiseModel:
         sig = np.array([float(a.to_si(d["axis_sigma"][a.name])) for a in machine.axes])
         return cls(sig, d["instrument"], d["cartesian_sigma_mm"] * 1e-3, TrackerNoise.from_dict(d["tracker"]),
                    d.get("ballbar_sigma_mm", DEFAULT_BALLBAR_SIGMA * 1e3) * 1e-3)
+
+
+def _sigma(value, option: str, unit: str) -> float:
+    import math
+    from vecpin.errors import InputError
+    v = float(value)
+    if not math.isfinite(v) or v <= 0:
+        raise InputError(f"{option} {value!r}: a standard deviation must be a positive number of {unit}")
+    return v
+
+
+def noise_from_options(machine: Machine, instrument: str = "cartesian", *, repeatability_mm: float | None = None,
+                       repeatability_deg: float | None = None, tracker_sigma_mm: float | None = None,
+                       tracker_noise: tuple[float, float, float, float] | None = None,
+                       ballbar_sigma_mm: float | None = None) -> NoiseModel:
+    """The noise model from user options (mm, deg, ppm), each checked: ``instrument`` is
+    "cartesian", "spherical" or "range"; ``tracker_noise`` = (range mm, range ppm,
+    transverse mm, transverse ppm); None keeps the default."""
+    noise = NoiseModel.default(machine, instrument)
+    sig = noise.axis_sigma.copy()
+    for k, a in enumerate(machine.axes):
+        if a.kind == "linear" and repeatability_mm is not None:
+            sig[k] = _sigma(repeatability_mm, "--repeatability-mm", "mm") * 1e-3
+        if a.kind == "rotary" and repeatability_deg is not None:
+            sig[k] = np.radians(_sigma(repeatability_deg, "--repeatability-deg", "degrees"))
+    noise.axis_sigma = sig
+    if tracker_sigma_mm is not None:
+        noise.cartesian_sigma = _sigma(tracker_sigma_mm, "--tracker-sigma-mm", "mm") * 1e-3
+    if ballbar_sigma_mm is not None:
+        noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "--ballbar-sigma-mm", "mm") * 1e-3
+    if tracker_noise is not None:
+        from vecpin.errors import InputError
+        vals = [float(v) for v in tracker_noise]
+        if not all(np.isfinite(vals)) or min(vals) < 0 or vals[0] + vals[1] <= 0 or vals[2] + vals[3] <= 0:
+            raise InputError(f"--tracker-noise {' '.join(map(str, tracker_noise))}: four numbers >= 0 (range mm, "
+                             "range ppm, transverse mm, transverse ppm), with a nonzero range and transverse noise")
+        a, b, c, d = vals
+        noise.tracker = TrackerNoise(a * 1e-3, b * 1e-6, c * 1e-3, d * 1e-6)
+    return noise

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vecpin.models.basis import normalise
+from vecpin.errors import VecpinError
 from vecpin.measurement.features import Features
 from vecpin.kinematics.so3 import exp3
 
@@ -130,3 +131,30 @@ class TrueEffect:
         if feats.temperature is not None:
             return feats.temperature - self.options.get("t_ref", 20.0)
         return feats.time / 3600.0
+
+
+def parse_true_effect(text: str, machine):
+    """'gantry_skew:axes=Y,about=x,depends=X,strength=0.05' -> TrueEffect."""
+    name, _, rest = text.partition(":")
+    known = ("gantry_skew", "coupled_axes", "thermal", "backlash", "rotary_periodic", "instrument_shift", "outliers")
+    if name not in known:
+        raise VecpinError(f"--effect '{text}': unknown effect '{name}' (known: {', '.join(known)})")
+    axes, strength, seed, options = (), 0.05, 0, {}
+    for part in filter(None, rest.split(",")):
+        if "=" not in part:
+            raise VecpinError(f"--effect '{text}': write NAME:key=value,... (axes=Y+X, strength=MM, seed=N, ...)")
+        k, v = part.split("=", 1)
+        if k == "axes":
+            axes = tuple(a for a in v.split("+") if a)
+            for a in axes:
+                machine.axis(a)
+        elif k == "strength":
+            strength = float(v)
+        elif k == "seed":
+            seed = int(v)
+        else:
+            try:
+                options[k] = float(v)
+            except ValueError:
+                options[k] = v
+    return TrueEffect(name, axes, strength, options, seed)

@@ -11,7 +11,7 @@ import numpy as np
 from vecpin.viz import figures
 from vecpin.measurement.campaign import Campaign
 from vecpin.compensation.functions import compensated_errors, model_as_actual
-from vecpin.identification.fit import distance_stats
+from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:20px auto;color:#222}

@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 import umsgpack
 
+from vecpin.fileio import write_text
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
 
@@ -193,6 +194,25 @@ def write_html(path: str | Path, model, campaign: Campaign, row: int = 0, exagge
     facts = build_scene(vis, model, campaign, row, exaggerate, tables)
     title = (f"vecpin: {model.machine.name}, {model.kind} model; errors x{facts['exaggeration']:.0f} "
              f"(largest {facts['max_error_mm']:.3f} mm; blue small, red large); row {row} in yellow")
-    Path(path).write_text(window.static_html(title))
+    write_text(path, window.static_html(title))
     facts["commands"] = len(window.commands)
     return facts
+
+
+def serve(model, campaign: Campaign, row: int = 0, exaggerate: float | None = None, tables=None,
+          ready=None) -> None:
+    """Start a meshcat server with the scene and keep it until Ctrl-C; ``ready(url, facts)``
+    is called once the scene is up. The server process is killed on the way out."""
+    import time
+    vis = meshcat.Visualizer()
+    try:
+        facts = build_scene(vis, model, campaign, row, exaggerate, tables)
+        if ready:
+            ready(vis.url(), facts)
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        return
+    finally:
+        if vis.window.server_proc is not None:
+            vis.window.server_proc.kill()

@@ -1,0 +1,34 @@
+"""``vecpin diagnose``: where the residual lies, which effect causes it, how far it shrinks."""
+from __future__ import annotations
+
+from vecpin.cli.common import add_noise_args, machine, noise, progress
+
+
+def run_diagnose(args) -> int:
+    from vecpin.diagnosis.diagnose import diagnose
+    from vecpin.measurement.campaign import read_campaign
+    m = machine(args.machine)
+    c = read_campaign(args.csv, m)
+    effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
+    d = diagnose(m, c, model=args.model, order=args.order, effects=effects, noise=noise(args, m), folds=args.folds,
+                 alpha=args.alpha, basis=args.basis, progress=progress(not args.quiet))
+    print(d.summary())
+    for p in d.write(args.out).values():
+        print(f"wrote {p}")
+    print(f"diagnosis took {d.seconds:.1f} s")
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
+    s.add_argument("machine")
+    s.add_argument("csv")
+    s.add_argument("--out", required=True)
+    s.add_argument("--model", choices=["6dof", "ap"], default="6dof")
+    s.add_argument("--order", type=int, default=6)
+    s.add_argument("--effects", default="all", help="all, or a comma list of: gantry_skew, coupled_axes, thermal, "
+                   "backlash, rotary_periodic, instrument_shift, outliers")
+    s.add_argument("--folds", type=int, default=5)
+    s.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm rate per round")
+    add_noise_args(s)
+    s.set_defaults(func=run_diagnose)

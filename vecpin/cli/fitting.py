@@ -1,0 +1,119 @@
+"""``vecpin fit``, ``evaluate``, ``orders`` and ``demo``: identification on the command line."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from vecpin.cli.common import add_noise_args, machine, noise, parse_orders, progress
+
+
+def run_fit(args) -> int:
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.models import make_model
+    from vecpin.units import norm_mm
+    from vecpin.workflows.summary import per_tool_table
+    m = machine(args.machine)
+    c = read_campaign(args.csv, m)
+    say = progress(not args.quiet)
+    tools = [float(t) for t in c.tool_lengths()] if args.tool_corrections else None
+    model = make_model(args.model, m, args.order, basis=args.basis, tool_lengths=tools, prior_scale=args.prior_scale)
+    say(f"fitting {args.model} order {args.order} ({model.n_parameters + 6} parameters) to {len(c)} rows of {args.csv}")
+    model.fit(c, noise(args, m), progress=say, underdetermined=args.underdetermined)
+    model.save(args.out)
+    rep = model.report_
+    print(rep.summary())
+    if rep.removed:
+        print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
+    c0 = c.primary()
+    rows = [("uncompensated (nominal kinematics)", norm_mm(c0.xyz - model.predict_nominal(c0.q, c0.tool))),
+            (f"{args.model} model, order {args.order}", norm_mm(model.residuals(c0)))]
+    print("\n".join(per_tool_table(rows, c0.tool)))
+    if c.ballbar_rows.size:
+        d = np.abs(model.ballbar_residuals(c)) * 1e3
+        print(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def run_evaluate(args) -> int:
+    from vecpin.fileio import write_text
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.models import ErrorModel
+    from vecpin.workflows.evaluation import evaluate
+    model = ErrorModel.load(args.model)
+    ev = evaluate(model, read_campaign(args.csv, model.machine), reregister=args.reregister)
+    print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
+          + (" (tracker re-registered)" if args.reregister else ""))
+    print("\n".join(ev.lines()))
+    if args.json:
+        write_text(args.json, json.dumps({"model": str(args.model), "campaign": str(args.csv)} | ev.to_dict(), indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
+def run_orders(args) -> int:
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.selection.orders import order_sweep
+    m = machine(args.machine)
+    c = read_campaign(args.csv, m)
+    v = read_campaign(args.validation, m) if args.validation else None
+    say = progress(not args.quiet)
+    for kind in args.model:
+        sweep = order_sweep(m, c, kind, parse_orders(args.orders), validation=v, folds=args.folds,
+                            noise=noise(args, m), basis=args.basis, progress=say)
+        print(sweep.table())
+        print(f"best {kind} order on held-out data ({sweep.method}): {sweep.best.order}\n")
+    return 0
+
+
+def run_demo(args) -> int:
+    from pathlib import Path
+
+    from vecpin.workflows.demo import run_demo as demo
+    res = demo(args.out, seed=args.seed, order=args.order, progress=progress(not args.quiet))
+    print("\n".join(res.table()))
+    print(f"files in {args.out}: " + ", ".join(p.name for p in res.files))
+    out = Path(args.out)
+    print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --model ap --order {args.order} --spherical "
+          f"--out {out / 'model_ap.json'}; vecpin evaluate {out / 'model_ap.json'} {out / 'validation.csv'}")
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("fit", help="identify an error model from a campaign CSV (maximum likelihood)")
+    s.add_argument("machine")
+    s.add_argument("csv")
+    s.add_argument("--model", choices=["6dof", "ap"], default="ap")
+    s.add_argument("--order", type=int, default=6)
+    s.add_argument("--out", required=True, help="model file to write (JSON)")
+    s.add_argument("--tool-corrections", action="store_true", help="also fit a length correction per tool")
+    s.add_argument("--prior-scale", type=float, default=1.0, help="multiply every parameter prior sigma")
+    s.add_argument("--underdetermined", action="store_true",
+                   help="accept fewer equations than parameters (the priors decide the rest)")
+    add_noise_args(s)
+    s.set_defaults(func=run_fit)
+
+    s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV")
+    s.add_argument("model")
+    s.add_argument("csv")
+    s.add_argument("--json", help="also write the figures to this JSON file")
+    s.add_argument("--reregister", action="store_true", help="the tracker was moved: register its pose to this file first")
+    s.set_defaults(func=run_evaluate)
+
+    s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")
+    s.add_argument("machine")
+    s.add_argument("csv")
+    s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"])
+    s.add_argument("--orders", default="0-7", help="e.g. 0-7 or 2,4,6")
+    s.add_argument("--validation", help="validation CSV (default: k-fold cross-validation)")
+    s.add_argument("--folds", type=int, default=5)
+    add_noise_args(s)
+    s.set_defaults(func=run_orders)
+
+    s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
+    s.add_argument("--out", default="demo")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--order", type=int, default=6)
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=run_demo)

@@ -1,0 +1,143 @@
+"""Writing files so that an interrupted run never leaves a half-written or mixed result.
+
+Every file vecpin writes goes through :func:`write_text` / :func:`write_bytes`: the data
+go to a temporary file in the same folder, which is flushed, synced and renamed over the
+target (``os.replace`` is atomic on one file system). A result of several files (a
+diagnosis, a table set, a simulation) is written with :class:`OutputSet`: every file is
+staged first and renamed into place only once all of them are complete, so an
+interruption leaves either the old set or the new one, never a new file beside old ones
+from the same run. :func:`check_output_dir` / :func:`check_output_file` test a path
+before the work starts, so a typo does not cost a long computation.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from vecpin.errors import OutputError
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (temporary file + rename)."""
+    path = Path(path)
+    _parent_ok(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically; line ends are written as given."""
+    return write_bytes(path, text.encode("utf-8"))
+
+
+def _parent_ok(path: Path) -> None:
+    parent = path.parent
+    if not parent.exists():
+        raise OutputError(f"{path}: the folder {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"{path}: {parent} is a file, not a folder")
+    if path.is_dir():
+        raise OutputError(f"{path}: is a folder; give a file name")
+    if not os.access(parent, os.W_OK):
+        raise OutputError(f"{path}: no permission to write in {parent}")
+
+
+def check_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Fail now, with the option named, if a file cannot be written at ``path``."""
+    path = Path(path)
+    try:
+        _parent_ok(path)
+    except OutputError as exc:
+        raise OutputError(f"{option} {exc}") from None
+    return path
+
+
+def check_output_dir(path: str | Path, option: str = "--out") -> Path:
+    """Fail now if ``path`` cannot become an output folder (a file in the way, no
+    permission); the folder itself is created when the results are written."""
+    path = Path(path)
+    p = path
+    while not p.exists():
+        p = p.parent
+    if not p.is_dir():
+        raise OutputError(f"{option} {path}: {p} is a file, not a folder")
+    if not os.access(p, os.W_OK):
+        raise OutputError(f"{option} {path}: no permission to write in {p}")
+    return path
+
+
+class OutputSet:
+    """Files of one result, committed together.
+
+    >>> with OutputSet(out_dir) as out:          # doctest: +SKIP
+    ...     out.write_text("a.json", text)
+    ...     p = out.path("figure.png"); fig.savefig(p)   # any writer, into the staging folder
+    Nothing appears in ``out_dir`` until the block ends without an exception; then each
+    staged file is renamed into place. ``final(name)`` is where a file will end up.
+    """
+
+    def __init__(self, out_dir: str | Path):
+        self.dir = Path(out_dir)
+        check_output_dir(self.dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
+        self.written: list[Path] = []
+
+    def path(self, name: str) -> Path:
+        """A staging path for ``name`` (relative, may contain a subfolder)."""
+        p = self._stage / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if p not in self.written:
+            self.written.append(p)
+        return p
+
+    def final(self, name: str) -> Path:
+        return self.dir / name
+
+    def write_text(self, name: str, text: str) -> Path:
+        p = self.path(name)
+        p.write_text(text, encoding="utf-8")
+        return self.final(name)
+
+    def write_bytes(self, name: str, data: bytes) -> Path:
+        p = self.path(name)
+        p.write_bytes(data)
+        return self.final(name)
+
+    def __enter__(self) -> "OutputSet":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        try:
+            if exc_type is None:
+                for p in self.written:
+                    if p.exists():
+                        with open(p, "rb") as fh:
+                            os.fsync(fh.fileno())
+                for p in self.written:
+                    if p.exists():
+                        target = self.dir / p.relative_to(self._stage)
+                        target.parent.mkdir(parents=True, exist_ok=True)
+                        os.replace(p, target)
+        finally:
+            _remove_tree(self._stage)
+        return False
+
+
+def _remove_tree(p: Path) -> None:
+    if not p.exists():
+        return
+    for child in sorted(p.rglob("*"), key=lambda c: -len(c.parts)):
+        child.rmdir() if child.is_dir() else child.unlink()
+    p.rmdir()

@@ -1,0 +1,49 @@
+"""Simulate a campaign on a true machine and summarise it (the ``simulate`` command)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.registration import registered_errors
+from vecpin.simulation.simulate import Design, Simulation, simulate
+from vecpin.workflows.summary import error_summary
+
+
+@dataclass
+class SimulationRun:
+    simulation: Simulation
+    design: Design
+    paths: dict[str, Path]
+    seed: int = 0
+
+    def lines(self) -> list[str]:
+        sim, design = self.simulation, self.design
+        m = sim.truth.machine
+        full = sim.campaign
+        c = full.primary()  # the summary: station 0's tracker rows
+        nominal = m.tool_tip(c.q, c.tool)
+        true_tip = sim.truth.tool_tip(c.q, c.tool)
+        more = ""
+        if full.mixed:
+            more = (f" + {len(full) - len(c)} rows of {design.stations - 1} more stations and "
+                    f"{full.ballbar_rows.size} ball bar rows")
+        dist = np.linalg.norm(c.xyz, axis=1)
+        out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({design.n_commands} commands x "
+               f"{len(design.tools_mm)} tools {', '.join(f'{t:g}' for t in design.tools_mm)} mm), "
+               f"{len(sim.validation)} validation rows",
+               error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * 1e3),
+               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * 1e3),
+               f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
+        out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
+        return out
+
+
+def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design: Design | None = None,
+                    effects: list | None = None, **truth_options) -> SimulationRun:
+    """Simulate a campaign (see :func:`vecpin.simulation.simulate.simulate`) and write its files."""
+    design = design or Design()
+    sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
+    return SimulationRun(sim, design, sim.write(out_dir), seed)

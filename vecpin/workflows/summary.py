@@ -1,0 +1,26 @@
+"""Per-tool distance tables: the before/after lines every command prints."""
+from __future__ import annotations
+
+import numpy as np
+
+from vecpin.measurement.stats import distance_stats
+
+
+def per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list[str]:
+    """Lines of n/mean/max/RMS [mm] for each labelled set of distances [mm], per tool
+    when there are several tools."""
+    lines = [f"  {'':<40s} {'n':>5s} {'mean mm':>9s} {'max mm':>9s} {'RMS mm':>9s}"]
+    for label, d in rows:
+        st = distance_stats(d, tool)
+        keys = list(st) if len(st) > 2 else ["all"]
+        for k in keys:
+            s = st[k]
+            name = label if k == "all" else f"    {k}"
+            lines.append(f"  {name:<40s} {s['n']:5d} {s['mean']:9.4f} {s['max']:9.4f} {s['rms']:9.4f}")
+    return lines
+
+
+def error_summary(label: str, err_mm: np.ndarray) -> str:
+    """One line: mean/max/RMS of the lengths of (N,3) error vectors [mm]."""
+    d = np.linalg.norm(err_mm, axis=1)
+    return f"  {label:<42s} mean {d.mean():8.4f} mm   max {d.max():8.4f} mm   RMS {np.sqrt((d**2).mean()):8.4f} mm"
