@@ -51,8 +51,87 @@ class ErrorFunction:
         return ErrorFunction([c * s for c in self.chebyshev], [(w, a * s, b * s) for w, a, b in self.harmonics])
 
 
+class SimulatedMachine:
+    """What every simulated true machine shares: the simulated effects, the tracker
+    stations, axis repeatability and the measurements. A subclass supplies the geometry:
+    :meth:`geometric_tip` (the noise-free tool tip and tool direction of a command).
+
+    Attributes a subclass sets: ``machine``, ``tracker`` (:class:`Tracker`),
+    ``repeatability`` ((n,) 1-sigma axis noise [m, rad]), ``stations`` (further trackers,
+    ids 1, 2, ...), ``effects`` (simulated effects, applied when features are given).
+    """
+
+    machine: Machine
+    tracker: Tracker
+    repeatability: np.ndarray
+    stations: list
+    effects: list
+
+    def geometric_tip(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(tip (N,3) [m], unit tool direction (N,3)) in the machine base frame for
+        commands q (N,n) [m, rad] and tool lengths (N,) [m] from the nominal gauge line."""
+        raise NotImplementedError
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
+        """Noise-free true tool tip (N,3) [m], machine base frame; with ``features`` the
+        simulated effects that act on the commands and the tip are included."""
+        q = np.atleast_2d(np.asarray(q, float))
+        active = self.effects if features is not None else []
+        for e in active:
+            q = q + e.command(self.machine, q, features)
+        tip, tool_dir = self.geometric_tip(q, np.broadcast_to(np.asarray(tool, float), (len(q),)))
+        for e in active:
+            tip = e.tip(self.machine, q, tip, tool_dir, features)
+        return tip
+
+    def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
+                       rng: np.random.Generator | None) -> np.ndarray:
+        """Ball bar readings [m]: |true tip - pivot| with axis and ball bar noise (eq. 46, 65)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        r = np.linalg.norm(self.tool_tip(q, tool) - pivot, axis=1)
+        return r if rng is None else r + rng.normal(0, sigma, len(r))
+
+    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
+                features=None, station: int = 0) -> np.ndarray:
+        """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
+        true kinematics (with the simulated effects when ``features`` are given), the
+        tracker pose, tracker noise in spherical coordinates and gross errors.
+        ``rng=None``: noise-free (and no gross errors)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if rng is not None:
+            q = q + rng.standard_normal(q.shape) * self.repeatability
+        tracker = self.tracker if station == 0 else self.stations[station - 1]
+        y = tracker.to_tracker(self.tool_tip(q, tool, features))
+        if features is not None:
+            for e in self.effects:
+                y = e.tracker(y, features)
+        if rng is None:
+            return y
+        y = tracker.add_noise(y, rng)
+        if features is not None:
+            for e in self.effects:
+                y = e.gross(y)
+        return y
+
+    def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
+        """Scale every effect so that its RMS tool-tip displacement over these rows is
+        its ``strength_mm`` (outliers: the size of the gross errors)."""
+        effects, self.effects = self.effects, []
+        base = self.measure(q, tool, None, features)
+        for e in effects:
+            if e.name == "outliers":
+                continue
+            e.scale = 1.0
+            self.effects = [e]
+            rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
+            e.scale = e.strength_mm * 1e-3 / rms if rms > 0 else 0.0
+        self.effects = effects
+
+
 @dataclass
-class TrueMachine:
+class TrueMachine(SimulatedMachine):
     """Ground truth for simulated campaigns (SI inside).
 
     errors[k][c]: error function of axis k, component c in :data:`COMPONENTS`;
@@ -112,65 +191,12 @@ class TrueMachine:
         return [AxisBasis(a.lower, a.upper, order, "chebyshev", tuple(h), a.kind == "rotary")
                 for a, h in zip(self.machine.axes, harm)]
 
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
-        """Noise-free true tool tip (N,3) [m], machine base frame; with ``features`` the
-        simulated effects that act on the commands and the tip are included."""
-        q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
-        active = self.effects if features is not None else []
-        for e in active:
-            q = q + e.command(self.machine, q, features)
+    def geometric_tip(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tip and tool direction of the 6-DoF error chain after the axis perturbations."""
+        q = self.perturbed(q)
         delta, eps = self.error_values(q)
-        tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
-        out = self.frames.tool_tip(q, delta, eps, tool, jacobian=False)
-        tip = out.tip
-        for e in active:
-            tip = e.tip(self.machine, q, tip, out.tool_dir, features)
-        return tip
-
-    def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
-                       rng: np.random.Generator | None) -> np.ndarray:
-        """Ball bar readings [m]: |true tip - pivot| with axis and ball bar noise (eq. 46, 65)."""
-        q = np.atleast_2d(np.asarray(q, float))
-        if rng is not None:
-            q = q + rng.standard_normal(q.shape) * self.repeatability
-        r = np.linalg.norm(self.tool_tip(q, tool) - pivot, axis=1)
-        return r if rng is None else r + rng.normal(0, sigma, len(r))
-
-    def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
-                features=None, station: int = 0) -> np.ndarray:
-        """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
-        true kinematics (with the simulated effects when ``features`` are given), the
-        tracker pose, tracker noise in spherical coordinates and gross errors.
-        ``rng=None``: noise-free (and no gross errors)."""
-        q = np.atleast_2d(np.asarray(q, float))
-        if rng is not None:
-            q = q + rng.standard_normal(q.shape) * self.repeatability
-        tracker = self.tracker if station == 0 else self.stations[station - 1]
-        y = tracker.to_tracker(self.tool_tip(q, tool, features))
-        if features is not None:
-            for e in self.effects:
-                y = e.tracker(y, features)
-        if rng is None:
-            return y
-        y = tracker.add_noise(y, rng)
-        if features is not None:
-            for e in self.effects:
-                y = e.gross(y)
-        return y
-
-    def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
-        """Scale every effect so that its RMS tool-tip displacement over these rows is
-        its ``strength_mm`` (outliers: the size of the gross errors)."""
-        effects, self.effects = self.effects, []
-        base = self.measure(q, tool, None, features)
-        for e in effects:
-            if e.name == "outliers":
-                continue
-            e.scale = 1.0
-            self.effects = [e]
-            rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
-            e.scale = e.strength_mm * 1e-3 / rms if rms > 0 else 0.0
-        self.effects = effects
+        out = self.frames.tool_tip(q, delta, eps, tool + self.gauge_error, jacobian=False)
+        return out.tip, out.tool_dir
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
