@@ -18,7 +18,7 @@ from vecpin.diagnosis.diagnose import diagnose
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import Design, simulate
-from vecpin.simulation.trueeffects import TrueEffect
+from vecpin.simulation.effects import TrueEffect
 
 
 def spec(name, machine, strength, seed):

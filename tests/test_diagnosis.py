@@ -6,7 +6,7 @@ from vecpin.diagnosis.diagnose import diagnose
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import Design, simulate
-from vecpin.simulation.trueeffects import TrueEffect
+from vecpin.simulation.effects import TrueEffect
 
 DESIGN = Design(n_validation=300)
 
@@ -80,7 +80,8 @@ def test_outliers_are_flagged(machines):
     spec = TrueEffect("outliers", (), 0.5, {"fraction": 0.01}, seed=6)
     sim = simulate(m, seed=10, design=DESIGN, effects=[spec])
     d = diagnose(m, sim.campaign)
-    assert d.outlier_rows == sorted(int(r) for r in spec.outlier_rows)
+    simulated = sim.truth.effects[0]  # the effect instance the specification built
+    assert d.outlier_rows == sorted(int(r) for r in simulated.outlier_rows)
     assert d.effects[0].name == "outliers" and d.effects[0].significant
     assert not [e for e in d.accepted if e.name != "outliers"]
 

@@ -6,7 +6,8 @@ import pytest
 from vecpin.models.effects import (REGISTRY, Backlash, CoupledAxes, Effect, GantrySkew, InstrumentShift, RotaryPeriodic, Thermal,
                             effect_from_dict, register)
 from vecpin.measurement.features import Features
-from vecpin.identification.fit import Setup, predict_tracker
+from vecpin.identification.likelihood import predict_tracker
+from vecpin.measurement.setup import Setup
 from vecpin.models import make_model
 from vecpin.measurement.registration import register as rigid
 from vecpin.simulation.simulate import Design, simulate

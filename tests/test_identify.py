@@ -5,11 +5,15 @@ import numpy as np
 import pytest
 
 from vecpin.errors import VecpinError
-from vecpin.identification.fit import E0_NAMES, Setup, _Problem, fit
+from vecpin.identification.fit import fit
+from vecpin.identification.likelihood import predict_tracker
+from vecpin.measurement.instruments.tracker import E0_NAMES
+from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register
-from vecpin.selection.orders import command_folds, order_sweep
+from vecpin.identification.crossval import command_folds
+from vecpin.selection.orders import order_sweep
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.kinematics.so3 import exp3
 from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical
@@ -94,15 +98,19 @@ def test_estimator_prediction_jacobian_matches_finite_differences(flow, rng, kin
     sim = simulate(flow, seed=3, design=Design(n_commands=8, n_validation=2))
     model = make_model(kind, flow, 2)
     R, t = register(flow.tool_tip(sim.campaign.q, sim.campaign.tool), sim.campaign.xyz)
-    prob = _Problem(model, sim.campaign, NoiseModel.default(flow, "spherical"), Setup(R, t))
+    c = sim.campaign
+
+    def predict(th):
+        return predict_tracker(model, c.q, c.tool, th, Setup(R, t))
+
     theta = rng.normal(size=model.n_parameters + 6) * 1e-4
     theta[3:6] = [0.01, -0.02, 0.005]
-    y, dy, dq = prob.predict(theta)
+    y, dy, dq = predict(theta)
     h = 1e-7
     for k in range(theta.size):
         e = np.zeros_like(theta)
         e[k] = h
-        fd = (prob.predict(theta + e)[0] - prob.predict(theta - e)[0]) / (2 * h)
+        fd = (predict(theta + e)[0] - predict(theta - e)[0]) / (2 * h)
         np.testing.assert_allclose(dy[:, :, k], fd, atol=5e-8)
 
 

@@ -5,7 +5,9 @@ import pytest
 
 from vecpin.measurement.campaign import read_campaign, write_campaign
 from vecpin.errors import CampaignFileError
-from vecpin.identification.fit import E0_NAMES, Setup, _MixedProblem
+from vecpin.identification.likelihood import Likelihood
+from vecpin.measurement.instruments.tracker import E0_NAMES
+from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register, registered_errors
@@ -95,14 +97,14 @@ def test_mixed_problem_jacobian_matches_finite_differences(flow, rng):
     setup.stations[1] = (*register(nominal[r1], c.xyz[r1]), np.zeros(6))
     setup.pivots[0] = sim.truth.pivot.copy()  # small residuals: C held at the linearisation (ILM)
     for inst in ("cartesian", "range"):
-        prob = _MixedProblem(model, c, NoiseModel.default(flow, inst), setup)
+        prob = Likelihood(model, c, NoiseModel.default(flow, inst), setup)
         theta = rng.normal(size=len(prob.sigma)) * 1e-5
-        w, J, _ = prob.evaluate(theta)
+        w, J = prob.evaluate(theta).flat()
         h = 1e-8
         for k in range(len(theta)):
             e = np.zeros_like(theta)
             e[k] = h
-            fd = (prob.evaluate(theta + e)[0] - prob.evaluate(theta - e)[0]) / (2 * h) * prob.sigma[k]
+            fd = (prob.evaluate(theta + e).flat()[0] - prob.evaluate(theta - e).flat()[0]) / (2 * h) * prob.sigma[k]
             # C_i is held at the linearisation (ILM), so compare at 1% of the column scale
             assert np.allclose(J[:, k], fd, rtol=1e-2, atol=1e-2 * np.abs(J[:, k]).max() + 1e-6), k
 
@@ -142,7 +144,8 @@ def test_mixed_campaign_file(flow, tmp_path):
 
 def test_mixed_campaigns_through_the_other_tools(flow, tmp_path):
     """Order sweep, scene and report judge the station-0 tracker rows; the diagnosis
-    refuses mixed campaigns with a clear message."""
+    takes mixed campaigns through the same likelihood (it refused them before the one
+    likelihood existed) and names nothing on this clean one."""
     import meshcat
 
     from vecpin.diagnosis.diagnose import diagnose
@@ -157,5 +160,38 @@ def test_mixed_campaigns_through_the_other_tools(flow, tmp_path):
     model = make_model("ap", flow, 3).fit(c)
     facts = build_scene(meshcat.Visualizer(window=RecordingWindow()), model, c, row=5)
     assert np.isfinite(facts["exaggeration"]) and facts["rows"] == 160
-    with pytest.raises(VecpinError, match="single-station"):
-        diagnose(flow, c)
+    d = diagnose(flow, c, order=6, effects=["backlash", "gantry_skew"])
+    assert not d.accepted and np.isfinite(d.base["heldout_mean_mm"])
+
+
+def test_diagnosis_of_a_range_only_campaign_whitens_with_the_range_variance(flow):
+    """The diagnosis linearises the same likelihood as the fit: a multilateration row has
+    one equation, the range residual over sqrt(sigma_R(R)^2 + axis noise along the line of
+    sight) - computed here independently (finite-difference d range / d q). Before the
+    one likelihood, the diagnosis whitened every non-Cartesian campaign as spherical."""
+    from vecpin.identification.crossval import Linearised
+    sim = simulate(flow, seed=9, design=Design(n_commands=60, stations=4), tracker_noise=LT)
+    c = sim.campaign
+    noise = NoiseModel.default(flow, "range")
+    noise.tracker = LT
+    model = make_model("ap", flow, 2).fit(c, noise)
+    lin = Linearised(model, c, noise)
+    rows = c.tracker_rows
+    assert np.all(lin.w[rows, 1:] == 0) and lin.n_equations == len(rows)
+
+    def ranges(q):
+        tip = model.predict(q, c.tool[rows], frame="machine")
+        return np.array([np.linalg.norm(model.setup_.to_tracker(tip[k:k + 1], int(c.station[r]))[0])
+                         for k, r in enumerate(rows)])
+    q = c.q[rows]
+    Ry = ranges(q)
+    h = 1e-7
+    var_axes = np.zeros(len(rows))
+    for j in range(flow.n_axes):
+        dq = np.zeros_like(q)
+        dq[:, j] = h
+        d = (ranges(q + dq) - ranges(q - dq)) / (2 * h)
+        var_axes += (d * noise.axis_sigma[j]) ** 2
+    Rm = np.linalg.norm(c.xyz[rows], axis=1)
+    expected = (Rm - Ry) / np.sqrt(LT.sigma_range(Rm) ** 2 + var_axes)
+    np.testing.assert_allclose(lin.w[rows, 0], expected, rtol=1e-4, atol=1e-6)

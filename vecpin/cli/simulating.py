@@ -1,12 +1,14 @@
 """``vecpin simulate``: a laser-tracker campaign on a machine with known errors."""
 from __future__ import annotations
 
+import argparse
+
 from vecpin.cli.common import machine
 
 
 def run_simulate(args) -> int:
     from vecpin.simulation.simulate import Design, parse_zone
-    from vecpin.simulation.trueeffects import parse_true_effect
+    from vecpin.models.effects import parse_effect
     from vecpin.workflows.simulating import simulate_to_dir
     m = machine(args.machine)
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
@@ -14,14 +16,28 @@ def run_simulate(args) -> int:
                     tools_mm=tuple(args.tools) if args.tools else Design().tools_mm,
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
                     stations=args.stations, ballbar_points=args.ballbar)
-    effects = [parse_true_effect(e, m) for e in args.effect]
+    effects = [parse_effect(e, m) for e in args.effect]
     run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, mean_error_mm=args.mean_error)
     print("\n".join(run.lines()))
     return 0
 
 
+class _HelpEffects(argparse.Action):
+    """--help-effects: every effect's keys with units and defaults, then exit."""
+
+    def __init__(self, option_strings, dest, **kw):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from vecpin.models.effects import effects_help
+        print(effects_help())
+        parser.exit()
+
+
 def register(sub) -> None:
     s = sub.add_parser("simulate", help="simulate a laser-tracker campaign on a machine with known errors")
+    s.add_argument("--help-effects", action=_HelpEffects, help="list the effects of --effect with their keys, units "
+                   "and defaults, then exit")
     s.add_argument("machine")
     s.add_argument("--out", required=True, help="output folder (campaign.csv, validation.csv, validation_truth.csv, truth.json)")
     s.add_argument("--seed", type=int, default=0)

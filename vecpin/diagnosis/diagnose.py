@@ -29,97 +29,16 @@ from typing import Callable
 import numpy as np
 from scipy import linalg, stats
 
-from vecpin.measurement.campaign import Campaign
-from vecpin.models.effects import REGISTRY, Effect, InstrumentShift
-from vecpin.errors import VecpinError
-from vecpin.measurement.features import Features
-from vecpin.identification.fit import E0_PRIORS, predict_tracker
+from vecpin.errors import InputError, VecpinError
+from vecpin.fileio import OutputSet
+from vecpin.identification.crossval import Linearised, command_folds
+from vecpin.identification.likelihood import predict_tracker
 from vecpin.kinematics.machine import Machine
-from vecpin.models import ErrorModel, make_model
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
-from vecpin.selection.orders import command_folds
-from vecpin.measurement.tracker import spherical_jacobian
-
-
-# ---------------------------------------------------------------------- linear core
-class Linearised:
-    """The fitted model's least-squares problem at its solution, in Cartesian tracker
-    coordinates, whitened per row, parameters scaled by their priors (psi)."""
-
-    def __init__(self, model: ErrorModel, campaign: Campaign, noise: NoiseModel, feats: Features):
-        self.model, self.campaign, self.noise, self.feats = model, campaign, noise, feats
-        theta = np.r_[model.e0_, model.b_]
-        y, dy, dq = predict_tracker(model, campaign.q, campaign.tool, theta, model.setup_, feats)
-        self.y = y
-        self.r = campaign.xyz - y                                       # (N,3) m
-        self.sigma = np.r_[E0_PRIORS, model.priors]
-        keep = np.ones(theta.size, bool)
-        names = ["E0"] * 6 + model.parameter_names
-        removed = set(model.report_.removed)
-        keep[[k for k, n in enumerate(names) if n in removed]] = False
-        self.keep = keep
-        C = np.einsum("pij,j,pkj->pik", dq, noise.axis_sigma**2, dq)
-        if noise.instrument == "cartesian":
-            C = C + np.eye(3) * noise.cartesian_sigma**2
-        else:
-            from vecpin.measurement.tracker import cartesian_to_spherical
-            H = spherical_jacobian(y)
-            Hi = np.linalg.inv(H)
-            sig = noise.tracker.sigma_spherical(cartesian_to_spherical(campaign.xyz)[:, 0])
-            C = C + np.einsum("pij,pj,pkj->pik", Hi, sig**2, Hi)
-        self.Linv = np.linalg.inv(np.linalg.cholesky(C))               # (N,3,3)
-        self.w = np.einsum("pij,pj->pi", self.Linv, self.r)             # whitened residual
-        self.psi0 = (theta / self.sigma)[keep]
-        self.A = dy[:, :, keep] * self.sigma[keep]                      # unwhitened, psi-scaled
-        self.J = np.einsum("pij,pjk->pik", self.Linv, self.A)
-
-    def columns(self, D: np.ndarray, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Extra psi-scaled columns: unwhitened (N,3,k) and whitened."""
-        A = D * prior
-        return A, np.einsum("pij,pjk->pik", self.Linv, A)
-
-    def grams(self, J: np.ndarray, folds: np.ndarray) -> dict:
-        """Normal equations per fold: {fold: (J_f^T J_f, J_f^T w_f)} and the totals."""
-        out = {}
-        for f in np.unique(folds):
-            sel = folds == f
-            Jf = J[sel].reshape(-1, J.shape[-1])
-            out[f] = (Jf.T @ Jf, Jf.T @ self.w[sel].ravel())
-        out["all"] = (sum(v[0] for v in out.values()), sum(v[1] for v in out.values()))
-        return out
-
-    def extend_grams(self, base: dict, J0: np.ndarray, J1: np.ndarray, folds: np.ndarray) -> dict:
-        """Grams of [J0, J1] from those of J0 plus the cross blocks of the new columns."""
-        out = {}
-        for f in np.unique(folds):
-            sel = folds == f
-            a = J0[sel].reshape(-1, J0.shape[-1])
-            b = J1[sel].reshape(-1, J1.shape[-1])
-            G0, g0 = base[f]
-            C = a.T @ b
-            out[f] = (np.block([[G0, C], [C.T, b.T @ b]]), np.r_[g0, b.T @ self.w[sel].ravel()])
-        out["all"] = (sum(v[0] for k, v in out.items()), sum(v[1] for k, v in out.items()))
-        return out
-
-    def evaluate(self, A: np.ndarray, J: np.ndarray, psi0: np.ndarray, folds: np.ndarray,
-                 grams: dict | None = None) -> dict:
-        """Full-data chi2 and held-out residuals of the linear model with these columns."""
-        grams = grams or self.grams(J, folds)
-        G, g = grams["all"]
-        eye = np.eye(len(psi0))
-        step = linalg.solve(G + eye, g - psi0, assume_a="pos")
-        res_w = self.w.ravel() - J.reshape(-1, J.shape[-1]) @ step
-        chi2 = float(res_w @ res_w + (psi0 + step) @ (psi0 + step))
-        p_eff = float(np.trace(linalg.solve(G + eye, G, assume_a="pos")))
-        held = np.empty_like(self.r)
-        held_w = np.empty_like(self.w)
-        for f in np.unique(folds):
-            te = folds == f
-            Gf, gf = grams[f]
-            s = linalg.solve(G - Gf + eye, g - gf - psi0, assume_a="pos")
-            held[te] = self.r[te] - np.einsum("pik,k->pi", A[te], s)
-            held_w[te] = self.w[te] - np.einsum("pik,k->pi", J[te], s)
-        return {"chi2": chi2, "p_eff": p_eff, "heldout": held, "heldout_w": held_w}
+from vecpin.models import ErrorModel, make_model
+from vecpin.models.effects import REGISTRY, Effect
 
 
 # ---------------------------------------------------------------------- results
@@ -203,16 +122,17 @@ class Diagnosis:
         return "\n".join(lines)
 
     def write(self, out_dir: str | Path) -> dict[str, Path]:
+        """diagnosis.json, model_base.json, model_best.json, report.md and figures/,
+        committed together (an interruption leaves the previous set)."""
         import json
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        paths = {"diagnosis": out / "diagnosis.json", "model_base": out / "model_base.json",
-                 "model_best": out / "model_best.json", "report": out / "report.md"}
-        paths["diagnosis"].write_text(json.dumps(self.to_dict(), indent=1, default=float))
-        self.base_model.save(paths["model_base"])
-        self.best_model.save(paths["model_best"])
+
         from vecpin.diagnosis.report import write_report
-        write_report(self, paths["report"])
+        with OutputSet(out_dir) as out:
+            paths = {"diagnosis": out.write_text("diagnosis.json", json.dumps(self.to_dict(), indent=1, default=float))}
+            self.base_model.save(out.path("model_base.json"))
+            self.best_model.save(out.path("model_best.json"))
+            paths["model_base"], paths["model_best"] = out.final("model_base.json"), out.final("model_best.json")
+            paths["report"] = write_report(self, out)
         return paths
 
 
@@ -301,14 +221,32 @@ def _evidence(effect: Effect, score: EffectScore, loc: dict) -> str:
 
 
 def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
+    """Every candidate instance of the named effects (row-flagging effects excluded)."""
     out = []
     for name in names:
-        if name == "outliers":
-            continue
         if name not in REGISTRY:
-            raise VecpinError(f"unknown effect '{name}' (known: {', '.join(list(REGISTRY) + ['outliers'])})")
-        out += REGISTRY[name].candidates(machine, feats)
+            raise InputError(f"unknown effect '{name}' (known: {', '.join(REGISTRY)})")
+        if not REGISTRY[name].flags_rows:
+            out += REGISTRY[name].candidates(machine, feats)
     return out
+
+
+def _effect_columns(model: ErrorModel, lin: Linearised, effect: Effect, camp: Campaign, feats: Features,
+                    prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ψ-scaled columns (A, J) of a candidate effect's parameters at the current fit."""
+    k = effect.n_parameters
+    A = np.zeros(lin.r.shape + (k,))
+    J = np.zeros_like(A)
+    if "tracker" in effect.kinds:  # acts on the measured point only: no kinematics needed
+        a, j = lin.tracker_columns(effect.tracker(np.nan_to_num(lin.y), feats), prior)
+        A, J = A + a, J + j
+    if "command" in effect.kinds or "tip" in effect.kinds:
+        trial = model.with_effects(model.effects + [effect])
+        b = np.r_[model.b_, np.zeros(k)]
+        D = trial.tool_tip(camp.q, camp.tool, b, jacobian=True, features=feats).J_b[:, :, -k:]
+        a, j = lin.point_columns(D, prior)
+        A, J = A + a, J + j
+    return A, J
 
 
 def _score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, base_eval: dict,
@@ -322,7 +260,7 @@ def _score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, ba
     ev = lin.evaluate(A, J, psi, folds, grams)
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
-    dof = max(lin.w.size - ev["p_eff"], 1.0)
+    dof = max(lin.n_equations - ev["p_eff"], 1.0)
     F = (d_chi2 / k) / (ev["chi2"] / dof)
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0)
     return ev
@@ -345,12 +283,10 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
     F-test passes ``alpha`` / (candidates in the round) and it shrinks the held-out mean
     by at least ``min_shrink_pct`` (statistically real and practically worth a term)."""
     t0 = time.perf_counter()
-    if campaign.mixed:
-        raise VecpinError(f"{campaign.source}: the diagnosis works on single-station tracker campaigns; this one has "
-                          "ball bar rows or several stations (diagnose the station-0 tracker rows on their own)")
     say = progress or (lambda s: None)
     noise = noise or NoiseModel.default(machine, "spherical")
-    names = list(REGISTRY) + ["outliers"] if effects in ("all", None) else list(effects)
+    names = list(REGISTRY) if effects in ("all", None) else list(effects)
+    flaggers = [n for n in names if n in REGISTRY and REGISTRY[n].flags_rows]
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
 
     def base_fit(camp, effs):
@@ -367,7 +303,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
     first_eval = base_eval
     scores: list[EffectScore] = []
     outliers = np.array([], int)
-    if "outliers" in names:
+    if flaggers:
         for _ in range(3):
             new = flag_outliers(lin, fold[rows], base_eval)
             if new.size == 0:
@@ -405,7 +341,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
     candidates = candidate_effects(machine, feats, names)
     for rnd in range(1, max_effects + 1):
         remaining = [c for c in candidates if c.label not in {a.label for a in accepted}
-                     and not (isinstance(c, InstrumentShift) and any(isinstance(a, InstrumentShift) for a in accepted))]
+                     and not (c.scanned and any(type(a) is type(c) for a in accepted))]
         if not remaining:
             break
         say(f"round {rnd}: scoring {len(remaining)} candidates against "
@@ -413,31 +349,23 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
         base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
         base_grams = cur_lin.grams(cur_lin.J, fold_r)
         round_scores = []
-        shift_best = None
-        theta = np.r_[cur_model.e0_, cur_model.b_]
+        scan_best: dict[type, tuple] = {}
         for c in remaining:
             c.prepare(camp, feats)
-            if c.kinds == ("tracker",):  # acts on the measured point only: no kinematics needed
-                D = c.tracker(cur_lin.y, feats)
-            else:
-                trial = cur_model.with_effects(cur_model.effects + [c])
-                th = np.r_[theta, np.zeros(c.n_parameters)]
-                D = predict_tracker(trial, camp.q, camp.tool, th, cur_model.setup_, feats)[1][:, :, -c.n_parameters:]
             prior = np.array([p.prior for p in c.parameters()])
-            cols = cur_lin.columns(D, prior)
-            if isinstance(c, InstrumentShift):
-                # scanned step time: cheap full-data chi2 first, cross-validate the best only
+            cols = _effect_columns(cur_model, cur_lin, c, camp, feats, prior)
+            if c.scanned:
+                # one family scanned over a parameter: cheap full-data chi2 first, cross-validate the best only
                 G, g = cur_lin.extend_grams(base_grams, cur_lin.J, cols[1], fold_r)["all"]
-                g = g - np.r_[cur_lin.psi0, np.zeros(6)]
+                g = g - np.r_[cur_lin.psi0, np.zeros(cols[1].shape[-1])]
                 chi2 = -float(g @ linalg.solve(G + np.eye(len(g)), g, assume_a="pos"))  # chi2 up to a constant
-                if shift_best is None or chi2 < shift_best[0]:
-                    shift_best = (chi2, c, cols)
+                if type(c) not in scan_best or chi2 < scan_best[type(c)][0]:
+                    scan_best[type(c)] = (chi2, c, cols)
                 continue
             round_scores.append((c, _score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), 1))
-        n_shift = sum(isinstance(c, InstrumentShift) for c in remaining)
-        if shift_best is not None:
-            round_scores.append((shift_best[1], _score(cur_lin, base_cols, shift_best[2], fold_r, cur_eval, base_grams),
-                                 n_shift))
+        for kind, (_, c, cols) in scan_best.items():
+            n_scan = sum(type(x) is kind for x in remaining)
+            round_scores.append((c, _score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), n_scan))
         m_tests = sum(k for _, _, k in round_scores)
         best = None
         before = np.linalg.norm(cur_eval["heldout"], axis=1) * 1e3
@@ -447,7 +375,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
             sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                              float(before.mean()), float(after.mean()), float(before.max()), float(after.max()),
                              False, rnd, effect=c)
-            sc.bic_gain = float(ev["d_chi2"] - ev["k"] * math.log(cur_lin.w.size))
+            sc.bic_gain = float(ev["d_chi2"] - ev["k"] * math.log(cur_lin.n_equations))
             sig = ev["p"] < thr and after.mean() < before.mean() * (1 - min_shrink_pct / 100)
             # among significant candidates the most economical explanation wins (BIC gain)
             if sig and (best is None or sc.bic_gain > best[0].bic_gain):

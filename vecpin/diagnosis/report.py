@@ -29,10 +29,9 @@ def _breakdown_figure(ax, b: dict) -> None:
     ax.tick_params(labelsize=7)
 
 
-def write_report(diag, path: str | Path) -> None:
-    path = Path(path)
-    figdir = path.parent / "figures"
-    figdir.mkdir(parents=True, exist_ok=True)
+def write_report(diag, out) -> Path:
+    """report.md and its figures into ``out`` (a :class:`vecpin.fileio.OutputSet`);
+    returns where report.md lands."""
     loc = diag.localization["breakdowns"]
     keys = list(loc)
     ncol = 4
@@ -45,7 +44,7 @@ def write_report(diag, path: str | Path) -> None:
     axes[0, 0].legend(fontsize=6)
     fig.suptitle("Where the residual lies: held-out residuals of the base model", fontsize=11)
     fig.tight_layout()
-    fig.savefig(figdir / "breakdowns.png", dpi=90)
+    fig.savefig(out.path("figures/breakdowns.png"), dpi=90)
     plt.close(fig)
     eff = [e for e in diag.effects[:12]]
     fig, ax = plt.subplots(figsize=(8, 0.35 * len(eff) + 1.2))
@@ -55,7 +54,7 @@ def write_report(diag, path: str | Path) -> None:
     ax.set_xlabel("held-out mean residual shrink [%] (green: significant)")
     ax.axvline(0, color="k", lw=0.8)
     fig.tight_layout()
-    fig.savefig(figdir / "effects.png", dpi=90)
+    fig.savefig(out.path("figures/effects.png"), dpi=90)
     plt.close(fig)
     held = np.linalg.norm(diag.heldout_base, axis=1) * 1e3
     fig, ax = plt.subplots(figsize=(8, 3))
@@ -65,7 +64,7 @@ def write_report(diag, path: str | Path) -> None:
     ax.set_xlabel("row (measurement order)")
     ax.set_ylabel("held-out |residual| [mm]")
     fig.tight_layout()
-    fig.savefig(figdir / "rows.png", dpi=90)
+    fig.savefig(out.path("figures/rows.png"), dpi=90)
     plt.close(fig)
 
     b = diag.base
@@ -91,4 +90,4 @@ def write_report(diag, path: str | Path) -> None:
     lines += ["", "![breakdowns](figures/breakdowns.png)", "", "![rows](figures/rows.png)", ""]
     if diag.outlier_rows:
         lines += [f"Outlier rows (0-based): {', '.join(map(str, diag.outlier_rows))}", ""]
-    path.write_text("\n".join(lines))
+    return out.write_text("report.md", "\n".join(lines))

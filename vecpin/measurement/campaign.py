@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.errors import CampaignFileError
+from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 
 RESERVED = ("tool", "x", "y", "z")
@@ -321,12 +322,12 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
     mixed = campaign.mixed
     if mixed:
         header += ["instrument", "station", "r", "pivot"]
-    with open(path, "w", newline="") as fh:
-        fh.write(",".join(header) + "\n")
-        for i in range(len(campaign)):
-            cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
-            if mixed:
-                bb = campaign.instrument[i] == "ballbar"
-                cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
-                          f"{campaign.radius[i] * 1e3:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
-            fh.write(",".join(cells) + "\n")
+    lines = [",".join(header)]
+    for i in range(len(campaign)):
+        cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
+        if mixed:
+            bb = campaign.instrument[i] == "ballbar"
+            cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
+                      f"{campaign.radius[i] * 1e3:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
+        lines.append(",".join(cells))
+    write_text(path, "\n".join(lines) + "\n")

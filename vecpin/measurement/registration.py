@@ -1,13 +1,14 @@
 """Rigid registration of the tracker frame to the machine frame.
 
-Least-squares rotation and translation (Kabsch / Umeyama without scale) mapping
-machine-frame points onto tracker-frame points: ``p_tracker ≈ R p_machine + t``.
+Least-squares rotation and translation (Kabsch, by scipy's ``Rotation.align_vectors``)
+mapping machine-frame points onto tracker-frame points: ``p_tracker ≈ R p_machine + t``.
 Used to place the tracker from nominal kinematics with no user guess; the small
 remaining correction ``E_0`` (Paper I eq. 10) is identified with the model.
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from vecpin.errors import VecpinError
 
@@ -19,13 +20,11 @@ def register(p_machine: np.ndarray, p_tracker: np.ndarray, weights: np.ndarray |
     w = np.ones(len(P)) if weights is None else np.asarray(weights, float)
     w = w / w.sum()
     cp, cq = w @ P, w @ Q
-    H = (P - cp).T @ ((Q - cq) * w[:, None])
-    sv = np.linalg.svd(H, compute_uv=False)
-    if sv[1] < 1e-9 * max(sv[0], 1e-300):
+    sv = np.linalg.svd((P - cp) * np.sqrt(w)[:, None], compute_uv=False)
+    if len(sv) < 2 or sv[1] < 1e-9 * max(sv[0], 1e-300):
         raise VecpinError("the measured points are (nearly) collinear: the tracker frame cannot be registered")
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T))
-    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    rot, _ = Rotation.align_vectors(Q - cq, P - cp, weights=w)
+    R = rot.as_matrix()
     return R, cq - R @ cp
 
 

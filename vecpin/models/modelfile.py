@@ -1,139 +1,179 @@
 """Versioned JSON files of fitted models.
 
 A model file is self-contained: it embeds the machine's URDF (with its SHA-256),
-the model definition (kind, bases, offsets, priors), every parameter with its
-standard deviation in mm or degrees, the tracker pose, the noise settings and the
-fit report. ``format`` is ``"vecpin-model"``, ``version`` 1.
+the model definition (kind, bases, offsets, priors, effects), every parameter with
+its standard deviation in mm or degrees, the tracker pose, the noise settings and the
+fit report. ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp
+or timing, so the same fit writes the same bytes.
+
+This module knows the file, not the model classes: :func:`load_model` takes the
+factory that builds a model by kind (:func:`vecpin.models.make_model`).
 """
 from __future__ import annotations
 
-import datetime
 import hashlib
 import json
-import math
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
-from vecpin.models.basis import AxisBasis
-from vecpin.errors import VecpinError
-from vecpin.identification.fit import E0_NAMES, FitReport, Setup
+from vecpin.errors import ModelFileError, VecpinError
+from vecpin.fileio import write_text
+from vecpin.identification.report import FitReport
 from vecpin.kinematics.machine import Machine
-from vecpin.models import ErrorModel, make_model
+from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.setup import Setup
+from vecpin.models.basis import AxisBasis
+from vecpin.models.effects.base import effect_from_dict
+from vecpin.units import QUANTITY_UNITS, SI_PER_UNIT
 
 FORMAT = "vecpin-model"
 VERSION = 1
+READS = (1,)
+MAX_FILE_BYTES = 200_000_000
 
 
-UNITS = {"length": ("mm", 1e3), "angle": ("deg", 180 / math.pi), "ratio": ("ratio", 1.0)}
-FROM_UNIT = {"mm": 1e-3, "deg": math.pi / 180, "ratio": 1.0}
+def basis_to_dict(axis, B: AxisBasis) -> dict:
+    """One axis basis in user units (mm or deg)."""
+    return {"kind": B.kind, "order": B.order, "harmonics": list(B.harmonics),
+            "lower": float(axis.to_user(B.lower)), "upper": float(axis.to_user(B.upper)), "rotary": B.rotary}
 
 
-def _unit(quantity: str) -> tuple[str, float]:
-    return UNITS[quantity]
+def basis_from_dict(axis, b: dict) -> AxisBasis:
+    return AxisBasis(float(axis.to_si(b["lower"])), float(axis.to_si(b["upper"])), int(b["order"]), b["kind"],
+                     tuple(b["harmonics"]), bool(b["rotary"]))
 
 
-def model_to_dict(model: ErrorModel) -> dict:
-    model._check_fitted()
+def model_to_dict(model) -> dict:
+    """The file's content for a fitted model (see the module docstring)."""
     m = model.machine
     std = np.sqrt(np.clip(np.diag(model.cov_), 0, None))
     removed = set(model.report_.removed)
     params = []
     quantities = ["length"] * 3 + ["angle"] * 3 + [p.quantity for p in model.parameters]
-    priors = list(np.r_[1e-2 * np.ones(6), model.priors])
-    for k, (name, value, s, q, pr) in enumerate(zip(list(E0_NAMES) + model.parameter_names,
-                                                    np.r_[model.e0_, model.b_], std, quantities, priors)):
-        unit, f = _unit(q)
-        params.append({"name": name, "value": float(value * f), "std": float(s * f), "prior": float(pr * f),
+    priors = np.r_[np.full(6, POSE_PRIOR), model.priors]
+    for name, value, s, q, pr in zip(list(E0_NAMES) + model.parameter_names, np.r_[model.e0_, model.b_], std,
+                                     quantities, priors):
+        unit, si = QUANTITY_UNITS[q]
+        params.append({"name": name, "value": float(value / si), "std": float(s / si), "prior": float(pr / si),
                        "unit": unit, "removed": name in removed})
-    bases = [{"kind": B.kind, "order": B.order, "harmonics": list(B.harmonics),
-              "lower": float(a.to_user(B.lower)), "upper": float(a.to_user(B.upper)), "rotary": B.rotary}
-             for a, B in zip(m.axes, model.bases)]
+    report = model.report_.to_dict()
+    report.pop("seconds", None)  # timing is not part of the result: reruns write the same bytes
+    setup = model.setup_
     return {
         "format": FORMAT, "version": VERSION,
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "units": {"length": "mm", "angle": "deg", "ap_parameters": "unit of the output axis (mm or deg)"},
         "machine": {"name": m.name, "source": m.source, "urdf_sha256": hashlib.sha256(m.urdf_xml.encode()).hexdigest(),
                     "axes": [{"name": a.name, "kind": a.kind, "unit": a.unit, "lower": a.lower_user, "upper": a.upper_user}
                              for a in m.axes],
                     "urdf": m.urdf_xml},
-        "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind, "axis_bases": bases,
+        "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind,
+                  "axis_bases": [basis_to_dict(a, B) for a, B in zip(m.axes, model.bases)],
                   "tool_lengths_mm": None if model.tool_lengths is None else [t * 1e3 for t in model.tool_lengths],
                   "prior_scale": model.prior_scale, "effects": [e.to_dict() for e in model.effects]},
-        "tracker": {"rotation": model.setup_.R.tolist(), "translation_mm": (model.setup_.t * 1e3).tolist(),
+        "tracker": {"rotation": setup.R.tolist(), "translation_mm": (setup.t * 1e3).tolist(),
                     "meaning": "p_tracker = R (E_0 p_machine) + t",
                     "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * 1e3).tolist(),
                                           "correction": [float(v) for v in e]}
-                                 for s, (R, t, e) in model.setup_.stations.items()},
-                    "pivots_mm": {str(p): (c * 1e3).tolist() for p, c in model.setup_.pivots.items()}},
+                                 for s, (R, t, e) in setup.stations.items()},
+                    "pivots_mm": {str(p): (c * 1e3).tolist() for p, c in setup.pivots.items()}},
         "noise": model.noise_.to_dict(m),
         "parameters": params,
-        "fit": model.report_.to_dict(),
+        "fit": report,
     }
 
 
-def save_model(model: ErrorModel, path: str | Path) -> None:
-    Path(path).write_text(json.dumps(model_to_dict(model), indent=1))
+def save_model(model, path: str | Path) -> None:
+    """Write the model file atomically."""
+    write_text(path, json.dumps(model_to_dict(model), indent=1))
 
 
-def load_model(path: str | Path) -> ErrorModel:
+def load_model(path: str | Path, factory: Callable):
+    """Read a model file; ``factory(kind, machine, order, **options)`` builds the model."""
     path = Path(path)
     if not path.is_file():
-        raise VecpinError(f"{path}: no such model file")
+        raise ModelFileError(path, "no such model file")
+    if path.stat().st_size > MAX_FILE_BYTES:
+        raise ModelFileError(path, f"{path.stat().st_size} bytes is far more than any model file")
     try:
-        d = json.loads(path.read_text())
+        d = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise VecpinError(f"{path}: not a JSON model file ({exc})") from None
+        raise ModelFileError(path, f"not a JSON model file ({exc})") from None
+    except RecursionError:
+        raise ModelFileError(path, "not a model file (nested beyond any model file's depth)") from None
     if not isinstance(d, dict) or d.get("format") != FORMAT:
-        raise VecpinError(f"{path}: not a vecpin model file (format '{d.get('format') if isinstance(d, dict) else '?'}')")
-    if d.get("version") != VERSION:
-        raise VecpinError(f"{path}: model file version {d.get('version')} is not supported (this vecpin reads {VERSION})")
+        raise ModelFileError(path, f"not a vecpin model file (format '{d.get('format') if isinstance(d, dict) else '?'}')",
+                             "format")
+    if d.get("version") not in READS:
+        raise ModelFileError(path, f"model file version {d.get('version')} is not supported (this vecpin reads "
+                             f"{', '.join(map(str, READS))})", "version")
     try:
-        return _from_dict(d, path)
-    except (KeyError, TypeError, ValueError) as exc:
-        if isinstance(exc, VecpinError):
+        return _from_dict(d, path, factory)
+    except VecpinError as exc:
+        if isinstance(exc, ModelFileError):
             raise
-        raise VecpinError(f"{path}: damaged model file ({type(exc).__name__}: {exc})") from None
+        raise ModelFileError(path, str(exc)) from None
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        field = exc.args[0] if isinstance(exc, KeyError) and exc.args else None
+        raise ModelFileError(path, f"damaged model file ({type(exc).__name__}: {exc})",
+                             field if isinstance(field, str) else None) from None
 
 
-def _from_dict(d: dict, path: Path) -> ErrorModel:
+def _finite(path, field: str, values) -> np.ndarray:
+    a = np.asarray(values, float)
+    if not np.all(np.isfinite(a)):
+        raise ModelFileError(path, "holds a value that is not a finite number", field)
+    return a
+
+
+def _rotation(path, field: str, values) -> np.ndarray:
+    R = _finite(path, field, values)
+    if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise ModelFileError(path, "is not a rotation matrix (orthonormal, determinant +1)", field)
+    return R
+
+
+def _from_dict(d: dict, path: Path, factory: Callable):
     md = d["machine"]
     xml = md["urdf"]
     if hashlib.sha256(xml.encode()).hexdigest() != md["urdf_sha256"]:
-        raise VecpinError(f"{path}: the embedded URDF does not match its checksum")
+        raise ModelFileError(path, "the embedded URDF does not match its checksum", "machine.urdf")
     machine = Machine.from_urdf_string(xml, source=md.get("source", md["name"]))
     spec = d["model"]
     bases = None
     if spec["basis"] == "custom":
-        bases = [AxisBasis(float(a.to_si(b["lower"])), float(a.to_si(b["upper"])), int(b["order"]), b["kind"],
-                           tuple(b["harmonics"]), bool(b["rotary"])) for a, b in zip(machine.axes, spec["axis_bases"])]
+        bases = [basis_from_dict(a, b) for a, b in zip(machine.axes, spec["axis_bases"])]
     tools = None if spec["tool_lengths_mm"] is None else [t * 1e-3 for t in spec["tool_lengths_mm"]]
-    from vecpin.models.effects import effect_from_dict
     effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
-    model = make_model(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",
-                       tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases, effects=effects)
+    model = factory(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",
+                    tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases, effects=effects)
     by_name = {p["name"]: p for p in d["parameters"]}
     names = list(E0_NAMES) + model.parameter_names
     missing = [n for n in names if n not in by_name]
     if missing:
-        raise VecpinError(f"{path}: parameters missing from the file: {', '.join(missing[:5])}")
+        raise ModelFileError(path, f"parameters missing from the file: {', '.join(missing[:5])}", "parameters")
     theta = np.empty(len(names))
     std = np.empty(len(names))
     for k, n in enumerate(names):
         p = by_name[n]
-        f = FROM_UNIT[p["unit"]]
+        f = SI_PER_UNIT[p["unit"]]
         theta[k], std[k] = p["value"] * f, p["std"] * f
+    _finite(path, "parameters", np.r_[theta, std])
     model.e0_, model.b_ = theta[:6], theta[6:]
     model.cov_ = np.diag(std**2)
     tr = d["tracker"]
-    model.setup_ = Setup(np.array(tr["rotation"], float), np.array(tr["translation_mm"], float) * 1e-3, theta[:6].copy())
+    model.setup_ = Setup(_rotation(path, "tracker.rotation", tr["rotation"]),
+                         _finite(path, "tracker.translation_mm", tr["translation_mm"]) * 1e-3, theta[:6].copy())
     for s, st in tr.get("stations", {}).items():
-        model.setup_.stations[int(s)] = (np.array(st["rotation"], float), np.array(st["translation_mm"], float) * 1e-3,
-                                         np.array(st["correction"], float))
+        model.setup_.stations[int(s)] = (_rotation(path, f"tracker.stations.{s}.rotation", st["rotation"]),
+                                         _finite(path, f"tracker.stations.{s}", st["translation_mm"]) * 1e-3,
+                                         _finite(path, f"tracker.stations.{s}", st["correction"]))
     for p, c in tr.get("pivots_mm", {}).items():
-        model.setup_.pivots[int(p)] = np.array(c, float) * 1e-3
+        model.setup_.pivots[int(p)] = _finite(path, f"tracker.pivots_mm.{p}", c) * 1e-3
     model.noise_ = NoiseModel.from_dict(d["noise"], machine)
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
+    fields.setdefault("seconds", 0.0)
     model.report_ = FitReport(**fields)
     return model

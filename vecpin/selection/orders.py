@@ -15,6 +15,7 @@ import numpy as np
 
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
+from vecpin.identification.crossval import command_folds
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register
@@ -66,15 +67,6 @@ class OrderSweep:
         if self.basis != "chebyshev":
             lines.append("* Fourier series on rotary axes travelling more than a turn, Chebyshev elsewhere")
         return "\n".join(lines)
-
-
-def command_folds(campaign: Campaign, k: int, rng: np.random.Generator) -> np.ndarray:
-    """Fold index per row; rows with the same axis command share a fold."""
-    keys = np.round(campaign.q, 9)
-    _, group = np.unique(keys, axis=0, return_inverse=True)
-    group = np.asarray(group).ravel()
-    perm = rng.permutation(group.max() + 1)
-    return perm[group] % k
 
 
 def _dist_mm(err: np.ndarray) -> np.ndarray:

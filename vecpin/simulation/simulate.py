@@ -17,7 +17,9 @@ from scipy.stats import qmc
 
 from vecpin.measurement.campaign import Campaign, write_campaign
 from vecpin.errors import VecpinError
+from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
+from vecpin.simulation.effects import EffectSpec
 from vecpin.simulation.truth import TrueMachine
 
 PAPER_I_TOOLS_MM = (214.88, 312.86)
@@ -133,16 +135,16 @@ class Simulation:
     validation_truth: Campaign
 
     def write(self, out_dir: str | Path) -> dict[str, Path]:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        """campaign.csv, validation.csv, validation_truth.csv and truth.json, committed together."""
         m = self.truth.machine
-        paths = {"campaign": out / "campaign.csv", "validation": out / "validation.csv",
-                 "validation_truth": out / "validation_truth.csv", "truth": out / "truth.json"}
-        write_campaign(paths["campaign"], self.campaign, m)
-        write_campaign(paths["validation"], self.validation, m)
-        write_campaign(paths["validation_truth"], self.validation_truth, m)
-        self.truth.save(paths["truth"])
-        return paths
+        names = {"campaign": "campaign.csv", "validation": "validation.csv",
+                 "validation_truth": "validation_truth.csv", "truth": "truth.json"}
+        with OutputSet(out_dir) as out:
+            write_campaign(out.path(names["campaign"]), self.campaign, m)
+            write_campaign(out.path(names["validation"]), self.validation, m)
+            write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
+            self.truth.save(out.path(names["truth"]))
+        return {k: out.final(v) for k, v in names.items()}
 
 
 def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Generator, tool: float,
@@ -192,15 +194,16 @@ def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
              effects: list | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
-    unless ``truth`` is given). ``effects``: :class:`~vecpin.trueeffects.TrueEffect`
-    list acting on the true machine, scaled to their strength on this campaign; the
-    validation files carry them too (except gross errors)."""
+    unless ``truth`` is given). ``effects``: effects acting on the true machine
+    (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
+    to their strength on this campaign; the validation files carry them too (except
+    gross errors)."""
     from vecpin.measurement.features import Features
     design = design or Design()
     rng = np.random.default_rng(seed)
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
     if effects:
-        truth.effects = list(effects)
+        truth.effects = [e.build(machine) if isinstance(e, EffectSpec) else e for e in effects]
     q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
     tools = np.asarray(design.tools_mm, float) * 1e-3
     qs = np.vstack([q] * len(tools))
@@ -223,7 +226,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
     feats_v = Features.from_campaign(Campaign(machine.axis_names, qv, tv, np.zeros((len(qv), 3)), extra_v))
-    clean = [e for e in truth.effects if e.name != "outliers"]
+    clean = [e for e in truth.effects if not e.flags_rows]
     all_effects, truth.effects = truth.effects, clean
     validation = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, rng, feats_v), extra_v,
                           f"simulated seed {seed}, validation")

@@ -19,6 +19,7 @@ import numpy as np
 
 from vecpin.models.basis import chebyshev, normalise
 from vecpin.kinematics.errorframes import ErrorFrames
+from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import Tracker, TrackerNoise
 
@@ -78,10 +79,10 @@ class SimulatedMachine:
         q = np.atleast_2d(np.asarray(q, float))
         active = self.effects if features is not None else []
         for e in active:
-            q = q + e.command(self.machine, q, features)
+            q = q + e.simulate_command(q, features)
         tip, tool_dir = self.geometric_tip(q, np.broadcast_to(np.asarray(tool, float), (len(q),)))
         for e in active:
-            tip = e.tip(self.machine, q, tip, tool_dir, features)
+            tip = e.simulate_tip(q, tip, tool_dir, features)
         return tip
 
     def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
@@ -106,13 +107,13 @@ class SimulatedMachine:
         y = tracker.to_tracker(self.tool_tip(q, tool, features))
         if features is not None:
             for e in self.effects:
-                y = e.tracker(y, features)
+                y = e.simulate_tracker(y, features)
         if rng is None:
             return y
         y = tracker.add_noise(y, rng)
         if features is not None:
             for e in self.effects:
-                y = e.gross(y)
+                y = e.simulate_gross(y)
         return y
 
     def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
@@ -121,7 +122,7 @@ class SimulatedMachine:
         effects, self.effects = self.effects, []
         base = self.measure(q, tool, None, features)
         for e in effects:
-            if e.name == "outliers":
+            if e.flags_rows:
                 continue
             e.scale = 1.0
             self.effects = [e]
@@ -150,7 +151,7 @@ class TrueMachine(SimulatedMachine):
     tracker: Tracker
     perturbations: list[list[ErrorFunction | None]] | None = None
     harmonics: list[tuple[float, ...]] | None = None
-    effects: list = field(default_factory=list)  # TrueEffect, applied when features are given
+    effects: list = field(default_factory=list)  # simulated effects (vecpin.models.effects), with features
     stations: list = field(default_factory=list)  # further tracker positions (Tracker), ids 1, 2, ...
     _frames: ErrorFrames | None = field(default=None, repr=False)
 
@@ -216,7 +217,7 @@ class TrueMachine(SimulatedMachine):
                 "axis_perturbations": self._perturbations_dict(),
                 "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
                 "tracker": self.tracker.to_dict(),
-                "effects": [e.to_dict() for e in self.effects],
+                "effects": [e.simulation_dict() for e in self.effects],
                 "stations": [s.to_dict() for s in self.stations]}
 
     def _perturbations_dict(self) -> dict:
@@ -231,7 +232,7 @@ class TrueMachine(SimulatedMachine):
         return out
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+        write_text(path, json.dumps(self.to_dict(), indent=1))
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "TrueMachine":

@@ -1,0 +1,58 @@
+"""What a fit tells: χ² against its band, residuals, conditioning, removed terms."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class FitReport:
+    """Figures of one fit. Residuals in mm (``residuals_mm``: overall and per tool);
+    ``chi2_expected`` is the number of equations less the effective parameters."""
+
+    model: str
+    order: int
+    instrument: str
+    n_rows: int
+    n_equations: int
+    n_parameters: int
+    removed: list[str]
+    weak: list[str]
+    effective_parameters: float
+    chi2: float
+    chi2_expected: float
+    chi2_sigma: float
+    condition_number: float
+    iterations: int
+    converged: bool
+    seconds: float
+    residuals_mm: dict
+    warnings: list[str]
+    tool_lengths_mm: list[float] = field(default_factory=list)
+
+    @property
+    def chi2_band(self) -> tuple[float, float]:
+        return (self.chi2_expected - 3 * self.chi2_sigma, self.chi2_expected + 3 * self.chi2_sigma)
+
+    @property
+    def chi2_in_band(self) -> bool:
+        lo, hi = self.chi2_band
+        return lo <= self.chi2 <= hi
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["chi2_band"] = list(self.chi2_band)
+        d["chi2_in_band"] = self.chi2_in_band
+        return d
+
+    def summary(self) -> str:
+        lo, hi = self.chi2_band
+        verdict = "in band" if self.chi2_in_band else ("ABOVE band: misfit or noise model too optimistic"
+                                                        if self.chi2 > hi else "BELOW band: noise model too pessimistic")
+        lines = [f"{self.model} model, order {self.order}, {self.instrument} instrument noise: {self.n_rows} rows, "
+                 f"{self.n_parameters} parameters ({len(self.removed)} redundant removed, "
+                 f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",
+                 f"chi2 = {self.chi2:.1f}, expected {self.chi2_expected:.1f} ± {self.chi2_sigma:.1f} "
+                 f"(3σ band {lo:.1f} .. {hi:.1f}): {verdict}",
+                 f"condition number (prior-scaled, kept terms): {self.condition_number:.3g}"]
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)

@@ -1,0 +1,53 @@
+"""The measurement setup: where the instruments stand relative to the machine.
+
+Tracker stations: ``p_tracker = R (exp3(e_rot) p + e_trans) + t`` maps a machine-frame
+point p [m] into the frame of a tracker station; (R, t) come from the rigid
+registration of the nominal kinematics and the small correction ``e`` (eq. 10's
+``E_0`` for station 0) is identified with the model. Ball bar pivots: the centre
+sockets [m] in the machine frame.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vecpin.kinematics.so3 import exp3, right_jacobian, skew
+
+POSE_NAMES = ("dx", "dy", "dz", "ex", "ey", "ez")
+
+
+@dataclass
+class Setup:
+    """The tracker pose of station 0 (``R``, ``t``, correction ``e0``: dx, dy, dz [m],
+    ex, ey, ez [rad]); ``stations``: other tracker positions {id: (R, t, e)};
+    ``pivots``: ball bar centre sockets {id: centre (3,) [m], machine frame}."""
+
+    R: np.ndarray
+    t: np.ndarray
+    e0: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    stations: dict = field(default_factory=dict)
+    pivots: dict = field(default_factory=dict)
+
+    def pose(self, station: int = 0):
+        """(R, t, e) of a station."""
+        return (self.R, self.t, self.e0) if station == 0 else self.stations[station]
+
+    def to_tracker(self, p: np.ndarray, station: int = 0) -> np.ndarray:
+        R, t, e = self.pose(station)
+        return to_station(p, R, t, e)[0]
+
+
+def to_station(p: np.ndarray, R: np.ndarray, t: np.ndarray, e: np.ndarray, jacobian: bool = False):
+    """Machine-frame points p (N,3) [m] in a station's frame ``R (exp3(e_rot) p + e_trans) + t``.
+
+    Returns (y (N,3), dy/dp (3,3) or None, dy/de (N,3,6) or None)."""
+    R0 = exp3(e[3:])
+    y = (p @ R0.T + e[:3]) @ R.T + t
+    if not jacobian:
+        return y, None, None
+    RR = R @ R0
+    de = np.empty((len(y), 3, 6))
+    de[:, :, :3] = R
+    de[:, :, 3:] = -np.einsum("ij,pjk,kl->pil", RR, skew(p), right_jacobian(e[3:]))
+    return y, RR, de

@@ -1,0 +1,89 @@
+"""Gantry skew: a small rotation after an axis whose angle depends on the other axes
+(seed Section 2.3, eq. 23-24: the Ingersoll's twin gantry drives)."""
+from __future__ import annotations
+
+import numpy as np
+
+from vecpin.kinematics.so3 import exp3, skew
+from vecpin.models.basis import normalise
+from vecpin.models.effects.base import Effect, Key, axis_chebyshev, register
+
+
+@register
+class GantrySkew(Effect):
+    """Rotation after axis ``axes[0]`` about its frame axis ``about`` (x, y or z) by
+    ``theta(q) = sum_k sum_j a_kj T_j(u_k)`` over the other axes k (seed eq. 23-24).
+
+    Simulated as an exact rotation of everything after the axis by an angle
+    ~ sin(0.8 pi u + phase) of the axis ``depends``."""
+
+    name = "gantry_skew"
+    summary = "a rotation after an axis whose angle depends on the other axes (eq. 23-24)"
+    kinds = ("tip",)
+    axis_count = 1
+    geometric = True
+    keys = (Key("about", "x", "", "frame axis of the rotation", str, ("x", "y", "z")),
+            Key("depends", None, "", "axis the simulated angle varies along (default: the first axis)", str))
+
+    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, **kw):
+        super().__init__(machine, axes, about=about, order=order, **kw)
+        self.about, self.order = about, int(order)
+        if self.options.get("depends"):
+            machine.axis(self.options["depends"])
+        self.others = [a.name for a in machine.axes if a.name != self.axes[0]]
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}[{self.axes[0]}/{self.about}]"
+
+    def parameters(self):
+        return [self._p(f"{k}.{j}", "angle", 1e-3) for k in self.others for j in range(1, self.order + 1)]
+
+    def _basis(self, q):
+        return np.concatenate([axis_chebyshev(self.machine, k, q, self.order) for k in self.others], axis=1)
+
+    def tip(self, ctx, feats):
+        F = ctx.frames(self.axes[0])
+        axis_w = F[:, :3, "xyz".index(self.about)]
+        lever = np.cross(axis_w, ctx.tip - F[:, :3, 3])  # d tip / d angle
+        return lever[:, :, None] * self._basis(ctx.q)[:, None, :]
+
+    def tip_gradient(self, ctx, feats, theta):
+        F = ctx.frames(self.axes[0])
+        axis_w = F[:, :3, "xyz".index(self.about)]
+        return skew(axis_w * (self._basis(ctx.q) @ theta)[:, None])
+
+    @classmethod
+    def candidates(cls, machine, feats):
+        return [cls(machine, (a.name,), about=c) for a in machine.axes[:-1] if a.kind == "linear" for c in "xyz"]
+
+    def simulate_tip(self, q, tip, tool_dir, feats):
+        rng = self._rng()
+        m = self.machine
+        dep = m.axis(self.options.get("depends") or m.axis_names[0])
+        phase = rng.uniform(0, 2 * np.pi)
+        angle = 1e-4 * self.scale * np.sin(0.8 * np.pi * normalise(q[:, dep.index], dep.lower, dep.upper) + phase)
+        F = m.joint_frames(q, self.axes[0])
+        axis_w = F[:, :3, "xyz".index(self.about)]
+        R = exp3(axis_w * angle[:, None])  # exact rotation of everything after the axis
+        return F[:, :3, 3] + np.einsum("pij,pj->pi", R, tip - F[:, :3, 3])
+
+    def advice(self, values, std):
+        m = self.machine
+        a = self.axes[0]
+        # angle range over the travel of each other axis, from its Chebyshev series
+        u = np.linspace(-1, 1, 201)
+        lines = []
+        k = 0
+        for other in self.others:
+            c = values[k:k + self.order]
+            ang = np.polynomial.chebyshev.chebval(u, np.r_[0.0, c])
+            travel = m.axis(other).travel
+            if m.axis(other).kind == "linear" and travel > 0:
+                slope = (ang[-1] - ang[0]) / travel * 1e6  # µrad per m
+                lines.append(f"{self.label}: rotation about {a}'s {self.about} axis varies by "
+                             f"{np.ptp(ang) * 1e6:.1f} µrad over {other} ({slope:+.1f} µrad/m)")
+            k += self.order
+        lines.append(f"{self.label}: geometric; the tables carry it (vecpin tables with model_best.json); on a gantry "
+                     f"with two drives it is a differential table between the drives of {a}")
+        return lines

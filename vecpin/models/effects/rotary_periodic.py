@@ -1,0 +1,55 @@
+"""Higher harmonics of a rotary axis' angle (gear, worm or encoder errors)."""
+from __future__ import annotations
+
+import numpy as np
+
+from vecpin.models.effects.base import Effect, in_every_output, register, tip_unit
+
+
+@register
+class RotaryPeriodic(Effect):
+    """Harmonics ``h_min..h_max`` of a rotary axis' angle in every command.
+
+    Simulated as 5th and 7th harmonics of the angle in every command."""
+
+    name = "rotary_periodic"
+    summary = "higher harmonics of a rotary axis' angle in every command"
+    kinds = ("command",)
+    axis_count = 1
+    geometric = True
+
+    def __init__(self, machine, axes=(), h_min: int = 4, h_max: int = 8, **kw):
+        super().__init__(machine, axes, h_min=h_min, h_max=h_max, **kw)
+        self.h = list(range(int(h_min), int(h_max) + 1))
+
+    def parameters(self):
+        out = []
+        for ao in self.machine.axes:
+            q = "length" if ao.kind == "linear" else "angle"
+            out += [self._p(f"{ao.name}.{f}{h}", q, 1e-3) for h in self.h for f in ("cos", "sin")]
+        return out
+
+    def command(self, q, feats):
+        ang = q[:, self.machine.axis(self.axes[0]).index]
+        cols = np.stack([f(h * ang) for h in self.h for f in (np.cos, np.sin)], axis=1)
+        return in_every_output(cols, self.machine.n_axes)
+
+    @classmethod
+    def candidates(cls, machine, feats):
+        return [cls(machine, (a.name,)) for a in machine.axes if a.kind == "rotary"]
+
+    def simulate_command(self, q, feats):
+        rng = self._rng()
+        ang = q[:, self.machine.axis(self.axes[0]).index]
+        unit = tip_unit(self.machine)
+        dq = np.zeros_like(q)
+        for o in range(self.machine.n_axes):
+            c5, s5, c7, s7 = rng.normal(size=4) * unit[o]
+            dq[:, o] = c5 * np.cos(5 * ang) + s5 * np.sin(5 * ang) + 0.6 * (c7 * np.cos(7 * ang) + s7 * np.sin(7 * ang))
+        return dq * self.scale
+
+    def advice(self, values, std):
+        a = self.axes[0]
+        return [f"{self.label}: harmonics {self.h[0]}..{self.h[-1]} per turn of {a}: geometric; the tables on input "
+                f"{a} carry them when they have enough points per turn (at least {4 * self.h[-1]}); a worm or encoder "
+                "error of this order is worth a mechanical check"]
