@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.models.basis import AxisBasis
-from vecpin.errors import VecpinError
+from vecpin.errors import InputError, ModelFileError, VecpinError
 from vecpin.identification.fit import E0_NAMES, FitReport, Setup
 from vecpin.kinematics.machine import Machine
 from vecpin.models import ErrorModel, make_model
@@ -47,8 +47,8 @@ def model_to_dict(model: ErrorModel) -> dict:
         unit, f = _unit(q)
         params.append({"name": name, "value": float(value * f), "std": float(s * f), "prior": float(pr * f),
                        "unit": unit, "removed": name in removed})
-    bases = [{"kind": B.kind, "order": B.order, "harmonics": list(B.harmonics),
-              "lower": float(a.to_user(B.lower)), "upper": float(a.to_user(B.upper)), "rotary": B.rotary}
+    bases = [B.to_dict(a.scale) | {"lower": float(a.to_user(B.lower)), "upper": float(a.to_user(B.upper)),
+                                   "rotary": B.rotary}
              for a, B in zip(m.axes, model.bases)]
     return {
         "format": FORMAT, "version": VERSION,
@@ -106,8 +106,13 @@ def _from_dict(d: dict, path: Path) -> ErrorModel:
     spec = d["model"]
     bases = None
     if spec["basis"] == "custom":
-        bases = [AxisBasis(float(a.to_si(b["lower"])), float(a.to_si(b["upper"])), int(b["order"]), b["kind"],
-                           tuple(b["harmonics"]), bool(b["rotary"])) for a, b in zip(machine.axes, spec["axis_bases"])]
+        bases = []
+        for a, b in zip(machine.axes, spec["axis_bases"]):
+            try:
+                bases.append(AxisBasis.from_dict(b, float(a.to_si(b["lower"])), float(a.to_si(b["upper"])),
+                                                 bool(b["rotary"]), a.scale))
+            except InputError as exc:
+                raise ModelFileError(path, f"the basis of axis {a.name} is invalid ({exc})", "model.axis_bases") from None
     tools = None if spec["tool_lengths_mm"] is None else [t * 1e-3 for t in spec["tool_lengths_mm"]]
     from vecpin.models.effects import effect_from_dict
     effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
