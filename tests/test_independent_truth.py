@@ -104,7 +104,7 @@ def test_family_magnitude_and_share(family):
     assert 0.45 < mean(truth) < 0.55
     own = _bare(m, [t for t in truth.terms if t.family != "background"])
     assert 0.5 * DEFAULT_SHARE[family] < mean(own) / 0.5 < 1.6 * DEFAULT_SHARE[family]
-    assert 0.004 < abs(truth.gauge_error) * 1e2 < 0.011  # 40-100 µm
+    assert 40e-6 <= abs(truth.gauge_error) <= 100e-6
 
 
 @pytest.mark.parametrize("family", FAMILIES)

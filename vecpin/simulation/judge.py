@@ -5,9 +5,9 @@ and a campaign design, :func:`judge` simulates the campaign, fits
 
 1. vecpin's default model (``make_model("ap", machine, 6, basis="auto")``),
 2. a grid of fixed choices (6-DoF / AP x Chebyshev / auto x orders 2..8),
-3. the oracle: a 6-DoF model whose per-axis bases contain the true error family
-   (``truth.oracle_bases()`` of an :class:`IndependentMachine`, ``family_bases()`` of a
-   :class:`TrueMachine`); for a truth that mixes axes there is none, and the row shows
+3. the oracle: a model whose per-axis bases contain the true error family
+   (6-DoF with ``truth.oracle_bases()`` of an :class:`IndependentMachine`; a
+   :class:`TrueMachine`'s ``family_bases()`` with its own model kind); for a truth that mixes axes there is none, and the row shows
    the floor of its separable part instead (the same fit on the machine without the
    mixing terms, same seed and design),
 
@@ -178,7 +178,8 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
     if oracle:
         ob = _oracle_bases(truth)
         if ob is not None:
-            run("oracle: 6dof, true family bases", "6dof", "custom", max(B.order for B in ob), bases=ob)
+            kind = "ap" if getattr(truth, "perturbations", None) else "6dof"  # a TrueMachine of the AP family
+            run(f"oracle: {kind}, true family bases", kind, "custom", max(B.order for B in ob), bases=ob)
         elif hasattr(truth, "separable_part"):
             part = truth.separable_part()
             sim2 = simulate(machine, seed=seed, design=design, truth=part)

@@ -95,7 +95,8 @@ def _background_basis(a, order: int | None = None, harmonics: tuple[float, ...] 
     widened by a Chebyshev ``order``, ``harmonics`` and ``bumps``."""
     if a.kind == "linear":
         return AxisBasis(a.lower, a.upper, 3 if order is None else max(order, 3), "chebyshev", harmonics, False, bumps=bumps)
-    return AxisBasis(a.lower, a.upper, order or 0, "chebyshev", tuple(sorted({1.0, 2.0} | set(harmonics))), True, bumps=bumps)
+    per_turn = tuple(sorted({1.0, 2.0} | set(harmonics)))
+    return AxisBasis(a.lower, a.upper, order or 0, "chebyshev", per_turn, True, bumps=bumps)
 
 
 def windup(machine: Machine, rng: np.random.Generator):
@@ -165,30 +166,34 @@ def mixed(machine: Machine, rng: np.random.Generator):
     terms, bases = [], [_background_basis(a) for a in machine.axes]
     lin = [a.index for a in machine.axes if a.kind == "linear"]
     rot = [a.index for a in machine.axes if a.kind == "rotary"]
+    extension = lambda k: Shape(k, (0.5, 0.5))  # noqa: E731  0 at one end of the travel, 1 at the other
     if len(lin) >= 2:
         ram, cross = lin[-1], lin[-2]
         ram_dir = _along(machine.axes[ram])
         for c in (3, 4, 5):  # ram sag: tilt growing with extension, varying along the cross axis
             if c - 3 == ram_dir:
                 continue
-            terms.append(Term(ram, c, float(rng.choice([-1, 1]) * 80 * URAD),
-                              (Shape(ram, (0.5, 0.5)), Shape(cross, (), _harm(rng, [rng.uniform(1.0, 2.5)], 0.8))), "mixed:ram_sag"))
+            size = float(rng.choice([-1, 1]) * 80 * URAD)
+            along_cross = Shape(cross, (), _harm(rng, [rng.uniform(1.0, 2.5)], 0.8))
+            terms.append(Term(ram, c, size, (extension(ram), along_cross), "mixed:ram_sag"))
         w1, w2 = rng.uniform(1.0, 3.0, 2)
         for c in (0, 1, 2):  # a deformation field of the bed, base frame
-            terms.append(Term(BASE, c, float(rng.normal() * 60 * UM),
-                              (Shape(lin[0], (), _harm(rng, [w1], 0.8)), Shape(lin[1], (), _harm(rng, [w2], 0.8))), "mixed:bed_field"))
+            size = float(rng.normal() * 60 * UM)
+            field_x, field_y = Shape(lin[0], (), _harm(rng, [w1], 0.8)), Shape(lin[1], (), _harm(rng, [w2], 0.8))
+            terms.append(Term(BASE, c, size, (field_x, field_y), "mixed:bed_field"))
         for c in (3, 4, 5):  # bridge twist under the load of the saddle
-            terms.append(Term(lin[0], c, float(rng.normal() * 40 * URAD),
-                              (Shape(lin[0], (1.0, float(rng.normal() * 0.5))), Shape(lin[1], (0.0, 1.0, float(rng.normal() * 0.3)))),
-                              "mixed:bridge_twist"))
+            size = float(rng.normal() * 40 * URAD)
+            bridge = Shape(lin[0], (1.0, float(rng.normal() * 0.5)))
+            saddle = Shape(lin[1], (0.0, 1.0, float(rng.normal() * 0.3)))
+            terms.append(Term(lin[0], c, size, (bridge, saddle), "mixed:bridge_twist"))
     if rot and lin:
         head, ram = rot[-1], lin[-1]
         for c in range(6):  # head droop: depends on the head's orientation and the ram's extension
             if c % 3 == _along(machine.axes[head]):
                 continue
-            size = 60 * UM if c < 3 else 60 * URAD
-            terms.append(Term(head, c, float(rng.normal() * size),
-                              (Shape(head, (), _harm(rng, [1.0], 0.8)), Shape(ram, (0.5, 0.5))), "mixed:head_droop"))
+            size = float(rng.normal() * (60 * UM if c < 3 else 60 * URAD))
+            orientation = Shape(head, (), _harm(rng, [1.0], 0.8))
+            terms.append(Term(head, c, size, (orientation, extension(ram)), "mixed:head_droop"))
     return terms, bases
 
 
