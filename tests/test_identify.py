@@ -209,3 +209,29 @@ def test_order_sweep_with_validation_file_has_table_two_shape(flow, sims):
     ap0 = order_sweep(flow, sim.campaign, "ap", [0], validation=sim.validation).rows[0]
     assert sweep.rows[0].ident_mean < ap0.ident_mean
     assert "Uncompensated" in sweep.table() and "<- best" in sweep.table()
+
+
+@pytest.mark.parametrize("mistake, message", [
+    ("inches", "25.4 times"), ("swapped", "mirror image"), ("mirrored", "mirror image"),
+    ("tool_in_metres", r"row\(s\) lie"), ("another_machine", "not this machine's campaign")])
+def test_unit_and_frame_mistakes_are_refused_after_registration(flow, mistake, message):
+    """Mistakes that pass the file checks (plausible numbers in every column) cannot
+    give a 'fitted' model: the registration of the nominal tips finds them."""
+    sim = simulate(flow, seed=2, design=Design(n_commands=40))
+    c = sim.campaign
+    if mistake == "inches":
+        c.xyz = c.xyz * 25.4
+    elif mistake == "swapped":
+        c.xyz = c.xyz[:, [1, 0, 2]]
+    elif mistake == "mirrored":
+        c.xyz = c.xyz * [1.0, 1.0, -1.0]
+    elif mistake == "tool_in_metres":  # one row typed 0.21488 (metres) where mm were meant: 0.21 mm tool
+        c.tool = c.tool.copy()
+        c.tool[7] = c.tool[7] * 1e-3
+    elif mistake == "another_machine":
+        rng = np.random.default_rng(1)
+        c.q = c.q[rng.permutation(len(c.q))]
+    with pytest.raises(VecpinError, match=message) as e:
+        make_model("ap", flow, 2).fit(c)
+    if mistake == "tool_in_metres":
+        assert e.value.row == c.lines[7]

@@ -24,6 +24,7 @@ from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import check_registration
 from vecpin.measurement.setup import Setup
 from vecpin.measurement.stats import residual_stats
 
@@ -41,6 +42,15 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
     lik = Likelihood(model, ref, cart, Setup(np.eye(3), np.zeros(3)), instrument="cartesian")
     _, J = lik.evaluate(np.zeros(lik.n_unknowns)).flat()
     return find_redundant(J)
+
+
+def _check_units_and_frame(machine, campaign: Campaign) -> None:
+    """Refuse unit mistakes, mirrored frames and mistyped rows before fitting."""
+    trk = campaign.tracker_rows
+    nominal = machine.tool_tip(campaign.q[trk], campaign.tool[trk])
+    for s in np.unique(campaign.station[trk]):
+        sel = campaign.station[trk] == s
+        check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
 
 
 def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = None, *, max_iter: int = 30,
@@ -63,6 +73,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         features = Features.from_campaign(campaign)
         for e in model.effects:
             e.prepare(campaign, features)
+    _check_units_and_frame(model.machine, campaign)
     lik = Likelihood(model, campaign, noise, features=features)
     P = lik.n_unknowns
 

@@ -63,6 +63,7 @@ class Campaign:
     station: np.ndarray | None = None      # (N,) tracker position id
     radius: np.ndarray | None = None       # (N,) ball bar radius [m] (NaN on tracker rows)
     pivot: np.ndarray | None = None        # (N,) ball bar pivot id (-1 on tracker rows)
+    lines: np.ndarray | None = None        # (N,) line number of each row in its file (header = 1)
 
     def __post_init__(self):
         n = len(self.tool)
@@ -74,6 +75,8 @@ class Campaign:
             self.radius = np.full(n, np.nan)
         if self.pivot is None:
             self.pivot = np.full(n, -1, int)
+        if self.lines is None:
+            self.lines = np.arange(2, n + 2)
 
     def __len__(self) -> int:
         return len(self.tool)
@@ -111,7 +114,7 @@ class Campaign:
         rows = np.asarray(rows)
         return Campaign(list(self.axis_names), self.q[rows], self.tool[rows], self.xyz[rows],
                         {k: v[rows] for k, v in self.extra.items()}, self.source,
-                        self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows])
+                        self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows], self.lines[rows])
 
     def tool_lengths(self) -> np.ndarray:
         """Distinct tool lengths [m] (sorted)."""
@@ -174,7 +177,7 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
     _check_extra(name, extra, rows)
     return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name,
-                    instrument, station, radius, pivot)
+                    instrument, station, radius, pivot, rows)
 
 
 def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.ndarray):

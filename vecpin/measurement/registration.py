@@ -33,3 +33,56 @@ def registered_errors(p_machine: np.ndarray, p_tracker: np.ndarray) -> np.ndarra
     machine points: the 'uncompensated' volumetric error of the seed's tables."""
     R, t = register(p_machine, p_tracker)
     return p_tracker - (p_machine @ R.T + t)
+
+
+# scale factors of the usual unit mistakes: measured / nominal
+_UNIT_SCALES = {25.4: "x, y, z in inches while the commands are mm (or the commands in mm/25.4)",
+                1 / 25.4: "the commands in inches while x, y, z are mm",
+                10.0: "x, y, z in 1/10 mm or the commands in cm", 0.1: "x, y, z in cm",
+                1000.0: "x, y, z in µm", 0.001: "x, y, z in metres"}
+RESIDUAL_LIMIT = 0.02  # m: no machine worth measuring is this far from its nominal kinematics after registration
+
+
+def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str = "campaign",
+                       rows: np.ndarray | None = None) -> None:
+    """Refuse a campaign whose measured points cannot be the nominal tool tips seen by a
+    tracker: a scale of a unit mistake, a mirror image (a left-handed tracker frame:
+    two columns swapped or one negated), or residuals of centimetres after the rigid
+    registration. ``rows``: file line numbers of the points, for the messages."""
+    from vecpin.errors import CampaignFileError
+    P = np.asarray(p_machine, float)
+    Q = np.asarray(p_tracker, float)
+    if len(P) < 4:
+        return
+    cp, cq = P.mean(0), Q.mean(0)
+    A, B = P - cp, Q - cq
+    sa = np.sqrt((A**2).sum() / len(A))
+    sb = np.sqrt((B**2).sum() / len(B))
+    if sa <= 0 or sb <= 0:
+        return
+    U, S, Vt = np.linalg.svd(A.T @ B)
+    d = np.sign(np.linalg.det(U @ Vt))
+    scale = float((S[0] + S[1] + d * S[2]) / (A**2).sum())  # Umeyama: best scale with a proper rotation
+    mirror = (U @ Vt).T if d < 0 else None  # the best orthogonal map is a reflection
+    for s, cause in _UNIT_SCALES.items():
+        if abs(np.log(scale / s)) < 0.05:
+            raise CampaignFileError(source, f"the measured points are {scale:.4g} times the size of the commanded "
+                                    f"ones: {cause}? Files are mm; fix the units and fit again", column="x")
+    R, t = register(P, Q)
+    res = np.linalg.norm(Q - (P @ R.T + t), axis=1)
+    if mirror is not None:
+        res_mirror = np.linalg.norm(B - A @ mirror.T, axis=1)
+        if np.sqrt((res_mirror**2).mean()) < 0.2 * np.sqrt((res**2).mean()):
+            raise CampaignFileError(source, "the measured points are a mirror image of the commanded ones: a "
+                                    "left-handed tracker frame (two of x, y, z swapped, or one negated)", column="x")
+    rms = float(np.sqrt(np.median(res**2)))
+    if rms > RESIDUAL_LIMIT:
+        raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * 1e3:.1f} mm "
+                                "(median) from the nominal tool tips: this is not this machine's campaign, or the "
+                                "axis columns are in the wrong units or order")
+    bad = np.flatnonzero(res > max(10 * np.median(res) + 1e-4, RESIDUAL_LIMIT))
+    if bad.size and bad.size <= max(1, len(res) // 20):
+        row = int(rows[bad[0]]) if rows is not None else None
+        raise CampaignFileError(source, f"{bad.size} row(s) lie {res[bad[0]] * 1e3:.1f} mm from the nominal tool tip "
+                                "while the others fit within a few: a mistyped command or tool length (metres for mm?) "
+                                "or a wrong point; fix or delete the row", row=row)

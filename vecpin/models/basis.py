@@ -1,10 +1,20 @@
-"""Position-dependent error functions: Chebyshev series over an axis' travel.
+"""Position-dependent error functions: series over an axis' travel.
 
 Paper I eq. 5-6: ``f(x) = a_0 c_0(x) + ... + a_m c_m(x)`` with ``x`` the axis
-position normalised to [-1, 1] over its travel. Rotary axes that travel more than
-a turn may use a Fourier series in the angle instead (``kind="fourier"``): order m
-gives ``1, cos q, sin q, ..., cos(k q), sin(k q)`` with ``k = ceil(m/2)`` (same
-number of terms ``m + 1`` when m is even).
+position normalised to [-1, 1] over its travel (``kind="chebyshev"``). Other kinds:
+
+* ``"fourier"`` (rotary axes travelling more than a turn): order m gives
+  ``1, cos q, sin q, ..., cos(k q), sin(k q)`` with ``k = ceil(m/2)`` (same number of
+  terms ``m + 1`` when m is even), q the angle [rad]: errors that repeat every turn.
+* ``"fourier_trend"``: the Fourier columns of order m plus a Chebyshev trend
+  ``c_1(x) .. c_t(x)`` over the travel (``trend = t``): errors that repeat every turn
+  on top of a slow drift over a multi-turn travel (wind-up, thermal drift).
+* ``"bspline"``: a clamped B-spline of degree ``order`` on [lower, upper] with the
+  interior ``knots`` [m or rad]: local, smooth errors. The B-splines sum to one, so
+  the constant replaces the first of them and the span is unchanged.
+
+Any kind may append ``harmonics`` (cos/sin of frequency w) and Gaussian ``bumps``
+``exp(-(q - c)^2 / (2 s^2))`` of given centre c and width s [m or rad].
 """
 from __future__ import annotations
 
@@ -12,6 +22,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.interpolate import BSpline
+
+from vecpin.errors import InputError
 
 
 def normalise(q: np.ndarray, lower: float, upper: float) -> np.ndarray:
@@ -46,17 +59,23 @@ def chebyshev_derivative(x: np.ndarray, order: int) -> np.ndarray:
     return out
 
 
+KINDS = ("chebyshev", "fourier", "fourier_trend", "bspline")
+
+
 @dataclass(frozen=True)
 class AxisBasis:
     """Basis functions of one axis' position.
 
-    ``kind`` is ``"chebyshev"`` (normalised over [lower, upper]) or ``"fourier"``
-    (argument: the angle in rad, for rotary axes). ``harmonics`` appends
-    ``cos(w t), sin(w t)`` columns for each frequency w, with ``t = q`` [rad] on a
-    rotary axis and ``t = pi * u`` (u normalised) on a linear one: a family that
-    contains smooth non-polynomial errors exactly. ``values(q)`` is (N, size),
-    ``derivative(q)`` the derivative with respect to q [per m or per rad].
-    Column 0 is always the constant.
+    ``kind`` is one of :data:`KINDS` (see the module text); ``order`` is the series
+    order (chebyshev, fourier, fourier_trend) or the spline degree (bspline).
+    ``harmonics`` appends ``cos(w t), sin(w t)`` columns for each frequency w, with
+    ``t = q`` [rad] on a rotary axis (w cycles per turn) and ``t = pi * u`` (u
+    normalised) on a linear one: a family that contains smooth non-polynomial errors
+    exactly. ``trend``: Chebyshev trend order of ``fourier_trend``. ``knots``:
+    interior knots of ``bspline`` [m or rad], increasing, inside (lower, upper).
+    ``bumps``: (centre, width) pairs [m or rad] of appended Gaussian columns.
+    ``values(q)`` is (N, size), ``derivative(q)`` the derivative with respect to q
+    [per m or per rad]. Column 0 is always the constant.
     """
 
     lower: float
@@ -65,48 +84,127 @@ class AxisBasis:
     kind: str = "chebyshev"
     harmonics: tuple[float, ...] = ()
     rotary: bool = False
+    trend: int = 0
+    knots: tuple[float, ...] = ()
+    bumps: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self):
+        set_ = lambda name, v: object.__setattr__(self, name, v)  # noqa: E731 (frozen dataclass)
+        set_("harmonics", tuple(float(w) for w in self.harmonics))
+        set_("knots", tuple(float(k) for k in self.knots))
+        set_("bumps", tuple((float(c), float(s)) for c, s in self.bumps))
+        where = f"axis basis '{self.kind}' on [{self.lower:g}, {self.upper:g}]"
+        if self.kind not in KINDS:
+            raise InputError(f"{where}: unknown kind (choose {', '.join(KINDS)})")
+        if not self.upper > self.lower:
+            raise InputError(f"{where}: the travel needs lower < upper")
+        if self.order < 0 or self.trend < 0:
+            raise InputError(f"{where}: order and trend must be >= 0")
+        if self.kind == "bspline":
+            if self.order < 1:
+                raise InputError(f"{where}: the spline degree (order) must be >= 1")
+            k = np.asarray(self.knots)
+            if k.size and (np.any(np.diff(k) <= 0) or k[0] <= self.lower or k[-1] >= self.upper):
+                raise InputError(f"{where}: interior knots must increase strictly inside the travel")
+        elif self.knots:
+            raise InputError(f"{where}: knots belong to the 'bspline' kind only")
+        if self.trend and self.kind != "fourier_trend":
+            raise InputError(f"{where}: a trend belongs to the 'fourier_trend' kind only")
+        if any(s <= 0 for _, s in self.bumps):
+            raise InputError(f"{where}: bump widths must be > 0")
 
     @property
     def size(self) -> int:
-        return self.order + 1 + 2 * len(self.harmonics)
+        return self._series_size() + 2 * len(self.harmonics) + len(self.bumps)
+
+    def _series_size(self) -> int:
+        if self.kind == "fourier_trend":
+            return self.order + 1 + self.trend
+        if self.kind == "bspline":
+            return len(self.knots) + self.order + 1
+        return self.order + 1
 
     def _argument(self, q):
         return (q, 1.0) if self.rotary else (math.pi * normalise(q, self.lower, self.upper), 2.0 * math.pi / (self.upper - self.lower))
 
-    def values(self, q: np.ndarray) -> np.ndarray:
-        q = np.asarray(q, float)
-        if self.kind == "chebyshev":
-            cols = [chebyshev(normalise(q, self.lower, self.upper), self.order)]
-        else:
-            c = [np.ones_like(q)]
-            for j in range(1, self.order + 1):
-                k = math.ceil(j / 2)
+    def _spline(self) -> BSpline:
+        """The clamped B-splines as one vector-valued spline (coefficients: identity)."""
+        k = self.order
+        t = np.r_[[self.lower] * (k + 1), self.knots, [self.upper] * (k + 1)]
+        return BSpline(t, np.eye(len(t) - k - 1), k, extrapolate=True)
+
+    def _fourier(self, q: np.ndarray, derivative: bool) -> np.ndarray:
+        c = [np.zeros_like(q) if derivative else np.ones_like(q)]
+        for j in range(1, self.order + 1):
+            k = math.ceil(j / 2)
+            if derivative:
+                c.append(-k * np.sin(k * q) if j % 2 else k * np.cos(k * q))
+            else:
                 c.append(np.cos(k * q) if j % 2 else np.sin(k * q))
-            cols = [np.stack(c, axis=-1)]
-        if self.harmonics:
-            t, _ = self._argument(q)
-            cols.append(np.stack([f(w * t) for w in self.harmonics for f in (np.cos, np.sin)], axis=-1))
-        return np.concatenate(cols, axis=-1)
+        return np.stack(c, axis=-1)
+
+    def _series(self, q: np.ndarray, derivative: bool) -> np.ndarray:
+        u = normalise(q, self.lower, self.upper)
+        scale = 2.0 / (self.upper - self.lower)  # d u / d q
+        if self.kind == "chebyshev":
+            return chebyshev_derivative(u, self.order) * scale if derivative else chebyshev(u, self.order)
+        if self.kind == "fourier":
+            return self._fourier(q, derivative)
+        if self.kind == "fourier_trend":
+            trend = chebyshev_derivative(u, self.trend) * scale if derivative else chebyshev(u, self.trend)
+            return np.concatenate([self._fourier(q, derivative), trend[..., 1:]], axis=-1)
+        spl = self._spline()
+        vals = (spl.derivative() if derivative else spl)(q)
+        vals[..., 0] = 0.0 if derivative else 1.0  # the constant replaces the first B-spline
+        return vals
+
+    def values(self, q: np.ndarray) -> np.ndarray:
+        return self._columns(np.asarray(q, float), derivative=False)
 
     def derivative(self, q: np.ndarray) -> np.ndarray:
-        q = np.asarray(q, float)
-        if self.kind == "chebyshev":
-            scale = 2.0 / (self.upper - self.lower)
-            cols = [chebyshev_derivative(normalise(q, self.lower, self.upper), self.order) * scale]
-        else:
-            c = [np.zeros_like(q)]
-            for j in range(1, self.order + 1):
-                k = math.ceil(j / 2)
-                c.append(-k * np.sin(k * q) if j % 2 else k * np.cos(k * q))
-            cols = [np.stack(c, axis=-1)]
+        return self._columns(np.asarray(q, float), derivative=True)
+
+    def _columns(self, q: np.ndarray, derivative: bool) -> np.ndarray:
+        cols = [self._series(q, derivative)]
         if self.harmonics:
             t, dt = self._argument(q)
-            cols.append(np.stack([d for w in self.harmonics for d in (-w * dt * np.sin(w * t), w * dt * np.cos(w * t))], axis=-1))
+            if derivative:
+                cols.append(np.stack([d for w in self.harmonics for d in (-w * dt * np.sin(w * t), w * dt * np.cos(w * t))], axis=-1))
+            else:
+                cols.append(np.stack([f(w * t) for w in self.harmonics for f in (np.cos, np.sin)], axis=-1))
+        if self.bumps:
+            c = np.array([b[0] for b in self.bumps])
+            s = np.array([b[1] for b in self.bumps])
+            z = (q[..., None] - c) / s
+            g = np.exp(-0.5 * z**2)
+            cols.append(-z / s * g if derivative else g)
         return np.concatenate(cols, axis=-1)
 
     def labels(self) -> list[str]:
-        """Column names: the order for series terms, cos/sin with the frequency for harmonics."""
-        return [str(j) for j in range(self.order + 1)] + [f"{f}{w:g}" for w in self.harmonics for f in ("cos", "sin")]
+        """Column names: the order for series terms (``t1..`` for a trend, ``s1..`` for
+        B-splines), cos/sin with the frequency for harmonics, ``g1..`` for bumps."""
+        if self.kind == "bspline":
+            out = ["0"] + [f"s{j}" for j in range(1, self._series_size())]
+        else:
+            out = [str(j) for j in range(self.order + 1)] + [f"t{j}" for j in range(1, self.trend + 1)]
+        return out + [f"{f}{w:g}" for w in self.harmonics for f in ("cos", "sin")] + \
+            [f"g{j}" for j in range(1, len(self.bumps) + 1)]
 
-    def to_dict(self) -> dict:
-        return {"kind": self.kind, "order": self.order, "harmonics": list(self.harmonics)}
+    def to_dict(self, unit: float = 1.0) -> dict:
+        """The definition (without the travel); knot and bump positions divided by
+        ``unit`` (SI per user unit of the axis: 1e-3 for mm, pi/180 for degrees)."""
+        d = {"kind": self.kind, "order": self.order, "harmonics": list(self.harmonics)}
+        if self.kind == "fourier_trend":
+            d["trend"] = self.trend
+        if self.knots:
+            d["knots"] = [k / unit for k in self.knots]
+        if self.bumps:
+            d["bumps"] = [[c / unit, s / unit] for c, s in self.bumps]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict, lower: float, upper: float, rotary: bool, unit: float = 1.0) -> "AxisBasis":
+        """Inverse of :meth:`to_dict` for an axis travelling [lower, upper] (SI)."""
+        return cls(lower, upper, int(d["order"]), d["kind"], tuple(d.get("harmonics", ())), bool(rotary),
+                   int(d.get("trend", 0)), tuple(k * unit for k in d.get("knots", ())),
+                   tuple((c * unit, s * unit) for c, s in d.get("bumps", ())))

@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.errors import ModelFileError, VecpinError
+from vecpin.errors import InputError, ModelFileError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.identification.report import FitReport
 from vecpin.kinematics.machine import Machine
@@ -37,13 +37,13 @@ MAX_FILE_BYTES = 200_000_000
 
 def basis_to_dict(axis, B: AxisBasis) -> dict:
     """One axis basis in user units (mm or deg)."""
-    return {"kind": B.kind, "order": B.order, "harmonics": list(B.harmonics),
-            "lower": float(axis.to_user(B.lower)), "upper": float(axis.to_user(B.upper)), "rotary": B.rotary}
+    return B.to_dict(axis.scale) | {"lower": float(axis.to_user(B.lower)), "upper": float(axis.to_user(B.upper)),
+                                    "rotary": B.rotary}
 
 
 def basis_from_dict(axis, b: dict) -> AxisBasis:
-    return AxisBasis(float(axis.to_si(b["lower"])), float(axis.to_si(b["upper"])), int(b["order"]), b["kind"],
-                     tuple(b["harmonics"]), bool(b["rotary"]))
+    return AxisBasis.from_dict(b, float(axis.to_si(b["lower"])), float(axis.to_si(b["upper"])), bool(b["rotary"]),
+                               axis.scale)
 
 
 def model_to_dict(model) -> dict:
@@ -144,7 +144,12 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     spec = d["model"]
     bases = None
     if spec["basis"] == "custom":
-        bases = [basis_from_dict(a, b) for a, b in zip(machine.axes, spec["axis_bases"])]
+        bases = []
+        for a, b in zip(machine.axes, spec["axis_bases"]):
+            try:
+                bases.append(basis_from_dict(a, b))
+            except InputError as exc:
+                raise ModelFileError(path, f"the basis of axis {a.name} is invalid ({exc})", "model.axis_bases") from None
     tools = None if spec["tool_lengths_mm"] is None else [t * 1e-3 for t in spec["tool_lengths_mm"]]
     effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
     model = factory(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",

@@ -1,0 +1,189 @@
+"""Judging fits against a simulated true machine: noise-free validation errors.
+
+For a machine, a true machine (any :class:`~vecpin.simulation.truth.SimulatedMachine`)
+and a campaign design, :func:`judge` simulates the campaign, fits
+
+1. vecpin's default model (``make_model("ap", machine, 6, basis="auto")``),
+2. a grid of fixed choices (6-DoF / AP x Chebyshev / auto x orders 2..8),
+3. the oracle: a model whose per-axis bases contain the true error family
+   (6-DoF with ``truth.oracle_bases()`` of an :class:`IndependentMachine`; a
+   :class:`TrueMachine`'s ``family_bases()`` with its own model kind); for a truth that mixes axes there is none, and the row shows
+   the floor of its separable part instead (the same fit on the machine without the
+   mixing terms, same seed and design),
+
+and measures each on fresh commands: the distance between the model's prediction,
+placed with the tracker pose it identified, and the noise-free true tracker reading
+(the way tests/test_identify.py judges fits). Everything printed is mm.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vecpin.errors import VecpinError
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import registered_errors
+from vecpin.models import make_model
+from vecpin.simulation.simulate import PAPER_I_TOOLS_MM, Design, simulate
+from vecpin.simulation.truth import uniform_commands
+from vecpin.units import norm_mm
+
+DEFAULT_CHOICE = ("ap", "auto", 6)  # what `vecpin fit` uses without model flags (before issue 11)
+
+
+@dataclass
+class Row:
+    """One fitted model: ``label``; kind/basis/order (basis "custom" for the oracle);
+    parameters; noise-free validation mean and max distance [mm]; fit time [s];
+    ``note`` (why a fit failed, or what the row is)."""
+
+    label: str
+    kind: str
+    basis: str
+    order: int
+    n_parameters: int = 0
+    mean_mm: float = float("nan")
+    max_mm: float = float("nan")
+    seconds: float = 0.0
+    note: str = ""
+
+
+@dataclass
+class Judgement:
+    """The rows of one (machine, truth, design) and the uncompensated reference [mm]."""
+
+    machine: str
+    family: str
+    uncompensated_mean_mm: float
+    rows: list[Row] = field(default_factory=list)
+    default_key: tuple[str, str, int] = DEFAULT_CHOICE  # ("ap", "chebyshev", 6) where auto is Chebyshev
+
+    def find(self, kind: str, basis: str, order: int) -> Row | None:
+        for r in self.rows:
+            if (r.kind, r.basis, r.order) == (kind, basis, order) and not r.label.startswith("oracle"):
+                return r
+        return None
+
+    @property
+    def default(self) -> Row:
+        return self.find(*self.default_key)
+
+    @property
+    def grid(self) -> list[Row]:
+        return [r for r in self.rows if r.basis in ("chebyshev", "auto")]
+
+    @property
+    def best_fixed(self) -> Row:
+        """The grid row with the smallest validation mean."""
+        ok = [r for r in self.grid if np.isfinite(r.mean_mm)]
+        return min(ok, key=lambda r: r.mean_mm)
+
+    @property
+    def oracle(self) -> Row | None:
+        for r in self.rows:
+            if r.label.startswith("oracle"):
+                return r
+        return None
+
+    def format(self, grid: bool = True) -> str:
+        """A printable table (mm) with the ratio of each row to the oracle row."""
+        o = self.oracle
+        ref = o.mean_mm if o is not None and np.isfinite(o.mean_mm) else float("nan")
+        lines = [f"{self.machine} / {self.family}: uncompensated {self.uncompensated_mean_mm:.4f} mm mean "
+                 "(noise-free validation, nominal kinematics registered)",
+                 f"  {'fit':<34s} {'params':>6s} {'mean mm':>9s} {'max mm':>9s} {'/oracle':>8s} {'s':>5s}"]
+        best = self.best_fixed
+
+        def line(tag, r):
+            ratio = r.mean_mm / ref if np.isfinite(ref) else float("nan")
+            note = f"  {r.note}" if r.note else ""
+            return (f"  {tag + r.label:<34s} {r.n_parameters:6d} {r.mean_mm:9.4f} {r.max_mm:9.4f} "
+                    f"{ratio:8.2f} {r.seconds:5.1f}{note}")
+        lines.append(line("default: ", self.default))
+        if grid:
+            lines += [line("", r) for r in self.grid if r is not self.default]
+        lines.append(line("best fixed: ", best))
+        if o is not None:
+            lines.append(line("", o))
+        return "\n".join(lines)
+
+
+def validation_commands(machine: Machine, n_commands: int = 500, tools_mm=PAPER_I_TOOLS_MM,
+                        seed: int = 99) -> tuple[np.ndarray, np.ndarray]:
+    """Fresh commands [m, rad] uniform over the axis limits, each with every tool [m]:
+    (q (n_commands * n_tools, n), tool (same rows,))."""
+    q = uniform_commands(machine, n_commands, np.random.default_rng(seed))
+    tools = np.asarray(tools_mm, float) * 1e-3
+    return np.vstack([q] * len(tools)), np.repeat(tools, n_commands)
+
+
+def validation_error(model, truth, q: np.ndarray, tool: np.ndarray) -> tuple[float, float]:
+    """(mean, max) [mm] distance between the fitted model's prediction in the tracker
+    frame (its identified pose) and the noise-free true reading."""
+    d = norm_mm(model.predict(q, tool) - truth.measure(q, tool, None))
+    return float(d.mean()), float(d.max())
+
+
+def _oracle_bases(truth):
+    if hasattr(truth, "oracle_bases"):
+        return truth.oracle_bases()
+    if hasattr(truth, "family_bases"):
+        return truth.family_bases()
+    return None
+
+
+def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 0,
+          kinds=("6dof", "ap"), bases=("chebyshev", "auto"), orders=range(2, 9), noise: NoiseModel | None = None,
+          n_validation: int = 500, oracle: bool = True, progress=None) -> Judgement:
+    """Simulate a campaign (``design``, ``seed``) on ``truth`` and judge the default fit,
+    the grid ``kinds x bases x orders`` and the oracle on ``n_validation`` fresh
+    commands x the design's tools. ``noise``: the fit's noise model (default: spherical
+    tracker noise with the truth's tracker figures and the default axis noise).
+    ``auto`` rows are skipped where they equal ``chebyshev`` (no rotary axis travelling
+    more than a turn)."""
+    design = design or Design()
+    noise = noise or NoiseModel.default(machine, "spherical", tracker=truth.tracker.noise)
+    sim = simulate(machine, seed=seed, design=design, truth=truth)
+    q, tool = validation_commands(machine, n_validation, design.tools_mm, seed=seed + 1_000_003)
+    exact = truth.measure(q, tool, None)
+    unc = float(norm_mm(registered_errors(machine.tool_tip(q, tool), exact)).mean())
+    out = Judgement(machine.name, getattr(truth, "family", type(truth).__name__), unc)
+    multi_turn = any(a.kind == "rotary" and a.travel > 2 * np.pi for a in machine.axes)
+
+    def run(label, kind, basis_name, order, campaign=sim.campaign, judged=truth, **kw):
+        row = Row(label, kind, basis_name, order)
+        t0 = time.perf_counter()
+        try:
+            model = make_model(kind, machine, order, **kw).fit(campaign, noise)
+            row.mean_mm, row.max_mm = validation_error(model, judged, q, tool)
+            row.n_parameters = model.n_parameters + 6
+        except VecpinError as exc:
+            row.note = f"failed: {exc}"
+        row.seconds = time.perf_counter() - t0
+        out.rows.append(row)
+        if progress:
+            progress(f"{out.machine} {out.family} {label}: {row.mean_mm:.4f} mm")
+        return row
+
+    if not multi_turn:
+        out.default_key = ("ap", "chebyshev", 6)
+    choices = [(k, b, o) for k in kinds for b in bases for o in orders if b == "chebyshev" or multi_turn]
+    if out.default_key not in choices:
+        choices.insert(0, out.default_key)
+    for k, b, o in choices:
+        run(f"{k} {b} {o}", k, b, o, basis=b)
+    if oracle:
+        ob = _oracle_bases(truth)
+        if ob is not None:
+            kind = "ap" if getattr(truth, "perturbations", None) else "6dof"  # a TrueMachine of the AP family
+            run(f"oracle: {kind}, true family bases", kind, "custom", max(B.order for B in ob), bases=ob)
+        elif hasattr(truth, "separable_part"):
+            part = truth.separable_part()
+            sim2 = simulate(machine, seed=seed, design=design, truth=part)
+            r = run("oracle: separable part only", "6dof", "custom", max(B.order for B in part.bases),
+                    campaign=sim2.campaign, judged=part, bases=part.bases)
+            r.note = "errors mix axes: no per-axis oracle; floor of the machine without the mixing terms"
+    return out
