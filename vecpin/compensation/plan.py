@@ -72,7 +72,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
     F = U * np.sqrt(np.clip(w, 0.0, None))                    # cov = F F^T
     z = np.random.default_rng(seed).standard_normal((draws, F.shape[1])) @ F.T  # (S, P)
-    e = r[None] + np.einsum("nip,sp->sni", out.J_b, z)        # (S, N, 3)
+    e = r.ravel()[None] + z @ out.J_b.reshape(3 * len(q), -1).T   # (S, 3N)
     # a rigid motion of the whole workspace is not observable from tracker data (the
     # tracker pose absorbs it) and does not affect parts: remove it from every draw
     c = nominal - nominal.mean(axis=0)
@@ -80,8 +80,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     G[:, :, :3] = np.eye(3)
     G[:, :, 3:] = -np.cross(c[:, :, None], np.eye(3)[None], axis=1)  # d(w x c)/dw = -[c]x
     Q, _ = np.linalg.qr(G.reshape(-1, 6))
-    flat = e.reshape(draws, -1)
-    flat = flat - (flat @ Q) @ Q.T
+    flat = e - (e @ Q) @ Q.T
     means = np.linalg.norm(flat.reshape(draws, -1, 3), axis=2).mean(axis=1) * MM_PER_M
     return float(means.mean()), float(np.percentile(means, 16)), float(np.percentile(means, 84))
 

@@ -119,6 +119,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     for a in list(forbid_output) + list(modulo_axes):
         m.axis(a)
     modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
+    if max_tables is not None:
+        limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
     fmt.check(m, prof, limits, modulo)
     if sign_test is not None:
         if fmt.read is None:
