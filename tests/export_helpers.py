@@ -18,16 +18,21 @@ E_XX_MM = np.array([0.012, 0.008, 0.005, 0.002, 0.0])
 E_YX_MM = np.array([-0.004, -0.001, 0.003, 0.002, 0.0])
 
 _LIMIT = '<limit lower="{lo}" upper="{hi}" effort="1" velocity="1"/>'
+_PI = 3.14159265358979
 TINY_URDF = f"""<?xml version="1.0"?>
 <robot name="tiny_xyzc">
   <link name="base"/>
-  <joint name="X" type="prismatic"><parent link="base"/><child link="x"/><axis xyz="1 0 0"/>{_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
+  <joint name="X" type="prismatic"><parent link="base"/><child link="x"/><axis xyz="1 0 0"/>
+    {_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
   <link name="x"/>
-  <joint name="Y" type="prismatic"><parent link="x"/><child link="y"/><axis xyz="0 1 0"/>{_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
+  <joint name="Y" type="prismatic"><parent link="x"/><child link="y"/><axis xyz="0 1 0"/>
+    {_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
   <link name="y"/>
-  <joint name="Z" type="prismatic"><parent link="y"/><child link="z"/><axis xyz="0 0 1"/>{_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
+  <joint name="Z" type="prismatic"><parent link="y"/><child link="z"/><axis xyz="0 0 1"/>
+    {_LIMIT.format(lo=-0.2, hi=0.0)}</joint>
   <link name="z"/>
-  <joint name="C" type="revolute"><parent link="z"/><child link="c"/><axis xyz="0 0 1"/>{_LIMIT.format(lo=-3.14159265358979, hi=3.14159265358979)}</joint>
+  <joint name="C" type="revolute"><parent link="z"/><child link="c"/><axis xyz="0 0 1"/>
+    {_LIMIT.format(lo=-_PI, hi=_PI)}</joint>
   <link name="c"/>
   <joint name="tool_mount" type="fixed"><parent link="c"/><child link="spindle"/><origin xyz="0.05 0 0.1"/></joint>
   <link name="spindle"/>

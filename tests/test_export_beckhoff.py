@@ -9,7 +9,7 @@ from vecpin.errors import ControllerFileError, ControllerLimitError
 from vecpin.export import beckhoff, iso230
 from vecpin.export.common import ExportJob
 from vecpin.fileio import OutputSet
-from vecpin.units import from_mm, to_mm
+from vecpin.units import to_mm
 
 FIX = DATA / "beckhoff"
 

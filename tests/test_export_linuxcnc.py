@@ -10,7 +10,6 @@ from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import linuxcnc
 from vecpin.export.common import ExportJob
 from vecpin.fileio import OutputSet
-from vecpin.units import from_mm, to_mm
 
 FIX = DATA / "linuxcnc"
 

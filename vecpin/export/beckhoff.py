@@ -132,7 +132,8 @@ def write(job: ExportJob) -> list[str]:
         axis = n[len("achskw_"):-len(".lis")]
         st += [_key(f"achs_kw_log_ax_nr[{i}]", prof.axis(axis).number), _key(f"achs_kw[{i}]", n)]
     if comps:
-        st += [_key("vol_comp[0].file_name", VOL_LIST), _key("vol_comp[0].max_records", sum(len(c.positions) for c in comps))]
+        st += [_key("vol_comp[0].file_name", VOL_LIST),
+               _key("vol_comp[0].max_records", sum(len(c.positions) for c in comps))]
     job.out.write_text(STARTUP, "\n".join(st) + "\n")
     job.out.write_text(README, _readme(job, comps))
     return names + [STARTUP, README]

@@ -37,7 +37,7 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
-from vecpin.export.common import ControllerFormat, ExportJob, decimal, equidistant, read_lines, to_float, to_int
+from vecpin.export.common import ControllerFormat, ExportJob, decimal, read_lines, to_float, to_int
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 

@@ -139,7 +139,8 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     moves = _moves(st)
     if dialect == "heidenhain":
         name = f"SIGNTEST_{tag}.H"
-        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; vecpin sign test of table {st.table}: read {st.output_axis} at each STOP"]
+        lines = [f"BEGIN PGM SIGNTEST_{tag} MM",
+                 f"; vecpin sign test of table {st.table}: read {st.output_axis} at each STOP"]
         for k, (a, p) in enumerate(moves, 1):
             lines += [f"L {address}{a:+.3f} R0 F{f} M91", f"L {address}{p:+.3f} R0 F{f} M91",
                       f"; reading {k}: {st.input_axis} at {p:g} {st.input_unit}", "STOP"]
@@ -196,7 +197,8 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "
          "readings. Run the program again and write rows `on,<command>,<reading>`.",
-         f"4. `vecpin evaluate MODEL.json SIGNTEST_{tag}.csv --sign-test SIGNTEST_{tag}.json` says whether the sign is right.",
+         f"4. `vecpin evaluate MODEL.json SIGNTEST_{tag}.csv --sign-test SIGNTEST_{tag}.json` says whether the "
+         "sign is right.",
          "",
          f"Prediction: switching the table on changes (reading at {st.positions[1]:g}) - (reading at "
          f"{st.positions[0]:g}) by **{st.predicted:+.4f} {st.output_unit}** (corrections {st.corrections[0]:+.4f} and "
