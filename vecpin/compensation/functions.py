@@ -285,13 +285,14 @@ class CompensationReport:
     def table(self) -> str:
         base = self.rows[0].mean
         with_spread = any(r.spread is not None for r in self.rows)
-        head = f"  {'compensation':<38s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"
+        width = max([38] + [len(r.label) for r in self.rows])
+        head = f"  {'compensation':<{width}s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"
         if with_spread:
             head += f"   {'mean mm with parameter uncertainty [68%]':<40s}"
         lines = ([f"  {self.basis}"] if self.basis else []) + [head]
         for r in self.rows:
             red = "-" if r is self.rows[0] else f"{100 * (1 - r.mean / base):8.1f}%"
-            line = f"  {r.label:<38s} {r.tables if r.tables else '':>6} {r.mean:9.4f} {r.max:9.4f} {red:>9s}"
+            line = f"  {r.label:<{width}s} {r.tables if r.tables else '':>6} {r.mean:9.4f} {r.max:9.4f} {red:>9s}"
             if r.spread is not None:
                 line += f"   {r.spread[0]:.4f} [{r.spread[1]:.4f}, {r.spread[2]:.4f}]"
             lines.append(line)

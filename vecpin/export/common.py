@@ -29,8 +29,10 @@ from vecpin.kinematics.machine import Machine
 class ExportJob:
     """One export: the tables (SI, vecpin convention), the machine, its controller
     profile and limits, the model (for formats that export its error functions), the
-    output set, the table points, and ``notes`` for the user (removed constants,
-    warnings), which the command prints."""
+    output set, the table points, ``notes`` for the user (removed constants,
+    warnings), which the command prints, and ``constants``: per axis, the correction
+    [m or rad] a pitch table could not carry (zero at the reference point), which the
+    user may set as a reference-point shift."""
 
     tables: TableSet
     machine: Machine
@@ -40,6 +42,15 @@ class ExportJob:
     model: object | None = None
     points: int = 1024
     notes: list[str] = field(default_factory=list)
+    constants: dict[str, float] = field(default_factory=dict)
+
+
+def constant_note(axis, value_user: float, file: str) -> str:
+    """The note for a constant a pitch table cannot carry."""
+    what = ("it shifts the whole workspace along the axis (a work offset absorbs it)" if axis.kind == "linear" else
+            "it turns everything after the axis: set it as a reference-point shift")
+    return (f"{axis.name}: the correction at the reference point ({value_user:+.4f} {axis.unit}) is not in {file} (the "
+            f"table is zero there); {what}")
 
 
 @dataclass(frozen=True)

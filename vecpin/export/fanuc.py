@@ -45,7 +45,8 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
-from vecpin.export.common import ControllerFormat, ExportJob, decimal, equidistant, read_lines, to_float, to_int
+from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, read_lines, to_float,
+                                  to_int)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 
@@ -243,9 +244,9 @@ def write(job: ExportJob) -> list[str]:
         job.notes.append(f"{g.axis}: magnification {g.magnification} (resolution {g.magnification * g.unit:g} {unit}), "
                          f"{g.last - g.first + 1} points of {decimal(g.interval, 6)} {unit}, largest value "
                          f"{int(np.abs(g.values).max(initial=0))} of +-{int(FORMAT.extra_limit(prof, 'max_pitch_value'))}")
+        job.constants[g.axis] = float(m.axis(g.axis).to_si(g.offset))
         if abs(g.offset) > 0:
-            job.notes.append(f"{g.axis}: the correction at the reference position ({g.offset:+.4f} {unit}) cannot be "
-                             "carried by a Fanuc pitch table (zero there); the compensated axis is off by it")
+            job.notes.append(constant_note(m.axis(g.axis), g.offset, PITCH_FILE))
     if cross:
         job.notes.append(f"straightness ({', '.join(t.name for t in cross)}): no Fanuc file written; enter the values "
                          f"of {STRAIGHT_FILE} by hand (see {README})")

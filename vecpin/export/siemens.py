@@ -37,7 +37,7 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
-from vecpin.export.common import ControllerFormat, ExportJob, decimal, read_lines, to_float, to_int
+from vecpin.export.common import ControllerFormat, ExportJob, constant_note, decimal, read_lines, to_float, to_int
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 
@@ -127,11 +127,9 @@ def write(job: ExportJob) -> list[str]:
     lines.append("M17")
     job.out.write_text(EEC_FILE, "\n".join(lines) + "\n")
     for a, c in constants.items():
+        job.constants[a] = float(m.axis(a).to_si(c))
         if abs(c) > 0:
-            unit = m.axis(a).unit
-            job.notes.append(f"{a}: the correction at the reference point ({c:+.4f} {unit}) is not in {EEC_FILE} (an EEC "
-                             f"table is zero there); the compensated {a} is off by this constant: add it to the "
-                             "reference point offset or leave it to the workpiece zero")
+            job.notes.append(constant_note(m.axis(a), c, EEC_FILE))
     job.out.write_text(README, _readme(job, cross, pitch, constants))
     return [CEC_FILE, EEC_FILE, README]
 

@@ -143,7 +143,7 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
                  f"; vecpin sign test of table {st.table}: read {st.output_axis} at each STOP"]
         for k, (a, p) in enumerate(moves, 1):
             lines += [f"L {address}{a:+.3f} R0 F{f} M91", f"L {address}{p:+.3f} R0 F{f} M91",
-                      f"; reading {k}: {st.input_axis} at {p:g} {st.input_unit}", "STOP"]
+                      f"; reading {k}: {st.input_axis} at {decimal(p, 3)} {st.input_unit}", "STOP"]
         lines.append(f"END PGM SIGNTEST_{tag} MM")
         return name, "\n".join(f"{n} {ln}" for n, ln in enumerate(lines)) + "\n"
     if dialect == "siemens":
@@ -162,7 +162,7 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
         for x in (a, p):
             lines.append(f"N{n} G90 G53 G01 {address}{x:.3f} F{f}")
             n += 10
-        lines.append(f"N{n} M00 {c0}{up(f'reading {k}: {st.input_axis} at {p:g} {st.input_unit}')}{c1}")
+        lines.append(f"N{n} M00 {c0}{up(f'reading {k}: {st.input_axis} at {decimal(p, 3)} {st.input_unit}')}{c1}")
         n += 10
     lines.append(f"N{n} M30")
     if dialect == "fanuc":
@@ -191,8 +191,8 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"({st.sign_rule}).", "",
          f"1. Mount an indicator (or use the tracker) reading the **{st.output_axis}** position, positive when "
          f"{st.output_axis} moves in its + direction. Any zero.",
-         f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} to {st.positions[0]:g} and "
-         f"{st.positions[1]:g} {st.input_unit}, each approached from below). At each stop write a row "
+         f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} to {decimal(st.positions[0], 3)} and "
+         f"{decimal(st.positions[1], 3)} {st.input_unit}, each approached from below). At each stop write a row "
          f"`off,<command>,<reading>` into `SIGNTEST_{tag}.csv` ({st.output_unit}). Repeat runs add rows.",
          f"3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "
@@ -200,8 +200,8 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"4. `vecpin evaluate MODEL.json SIGNTEST_{tag}.csv --sign-test SIGNTEST_{tag}.json` says whether the "
          "sign is right.",
          "",
-         f"Prediction: switching the table on changes (reading at {st.positions[1]:g}) - (reading at "
-         f"{st.positions[0]:g}) by **{st.predicted:+.4f} {st.output_unit}** (corrections {st.corrections[0]:+.4f} and "
+         f"Prediction: switching the table on changes (reading at {decimal(st.positions[1], 3)}) - (reading at "
+         f"{decimal(st.positions[0], 3)}) by **{st.predicted:+.4f} {st.output_unit}** (corrections {st.corrections[0]:+.4f} and "
          f"{st.corrections[1]:+.4f}). The opposite sign gives {-st.predicted:+.4f}; about 0 means the table is not "
          "active; a multiple means a wrong unit or magnification.", ""]
     if address == st.input_axis and p.program_name is None:
@@ -277,12 +277,12 @@ def read_check(path: str | Path, st: SignTest) -> dict[tuple[str, int], list[flo
         hits = [k for k, p in enumerate(st.positions) if abs(cmd - p) <= 1e-3]
         if not hits:
             raise CampaignFileError(path, f"command {cmd:g} is neither test position "
-                                    f"({st.positions[0]:g}, {st.positions[1]:g} {st.input_unit})", no, "command")
+                                    f"({decimal(st.positions[0], 3)}, {decimal(st.positions[1], 3)} {st.input_unit})", no, "command")
         out.setdefault((state, hits[0]), []).append(reading)
     for state in ("off", "on"):
         for k, p in enumerate(st.positions):
             if (state, k) not in out:
-                raise CampaignFileError(path, f"no reading with compensation {state} at {p:g} {st.input_unit}")
+                raise CampaignFileError(path, f"no reading with compensation {state} at {decimal(p, 3)} {st.input_unit}")
     return out
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
-from vecpin.compensation.tables import TableSet
+from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import InputError
 from vecpin.export import generic
 from vecpin.export.common import ControllerFormat, ExportJob
@@ -95,7 +95,7 @@ class TableRun:
         out += [f"  {n}" for n in self.notes]
         if self.sign_test is not None:
             st = self.sign_test
-            out.append(f"  sign test {st.table}: {st.input_axis} at {st.positions[0]:g} and {st.positions[1]:g} "
+            out.append(f"  sign test {st.table}: {st.input_axis} at {st.positions[0]:.3f} and {st.positions[1]:.3f} "
                        f"{st.input_unit}, predicted shift {st.predicted:+.4f} {st.output_unit} "
                        f"(SIGNTEST_{st.table.upper()}.md)")
         out += [f"  wrote {f}" for f in self.files]
@@ -158,6 +158,12 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             names += write_sign_test(out, st, fmt.dialect, prof, notes)
     if as_written is not None and fmt.name != "generic":
         add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
+        if any(abs(c) > 0 for c in job.constants.values()):
+            shifted = TableSet(as_written.axis_names, [
+                CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
+                                  t.values + (job.constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
+                for t in as_written.tables], as_written.gauge_offset_change)
+            add_as_written_row(plan, model, shifted, "files + reference shifts (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
 
