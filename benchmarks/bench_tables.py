@@ -72,7 +72,7 @@ def main():
     sets = {"full": full, "chosen": finalise(problem, chosen)[0], "pitch": problem.solve(pitch_names(m)).discretise(256),
             "full, 256 points": problem.solve(all_table_names(m)).discretise(256)}
     one_per_output = [n for k, n in enumerate(chosen) if n[0] not in {c[0] for c in chosen[:k]}]
-    sets["one per output"] = finalise(problem, one_per_output)[0]
+    sets["one per output"] = finalise(problem, one_per_output, 1000)[0]
     axes = {a.name: {"nc_name": a.name + "1", "number": k + 1, "reference_position": 0.0, "detection_unit": 0.001}
             for k, a in enumerate(m.axes)}
     prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes,
