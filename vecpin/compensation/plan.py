@@ -99,6 +99,9 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
     Every limit is checked before the first solve."""
+    if limits is not None and not isinstance(limits, ControllerLimits):
+        raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
+                         "vecpin.export.registry.get_format(name).limits")
     lim = limits or NO_LIMITS
     m = model.machine
     model._check_fitted()
