@@ -1,12 +1,16 @@
-"""Table generation and selection speed (issue 4 targets).
+"""Table generation and selection speed (issue 4 targets), controller files (issue 13).
 
 Choosing 6 of 20 cross tables exactly: the seed estimated 550 h for an exhaustive
 search (38,760 combinations at 10 min each) and took 5.2 h with its GA; target here
-<= 30 s for the exact search. Also prints the GA's time and result on the same problem.
+<= 30 s for the exact search. Also prints the GA's time and result on the same problem,
+the cost of the parameter-uncertainty spread of a report row, and the time to write and
+read back each controller's files.
 
 Run: python benchmarks/bench_tables.py
 """
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -15,7 +19,12 @@ from vecpin.compensation.functions import TableProblem, all_table_names, from_ap
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
-from vecpin.compensation.selection import Constraints, exact_search, genetic_search, impact_heuristic
+from vecpin.compensation.plan import parameter_spread
+from vecpin.compensation.selection import Constraints, exact_search, finalise, genetic_search, impact_heuristic
+from vecpin.export.common import ExportJob
+from vecpin.export.profile import ControllerProfile
+from vecpin.export.registry import get_format
+from vecpin.fileio import OutputSet
 
 
 def main():
@@ -52,6 +61,42 @@ def main():
         h = impact_heuristic(problem, cons)
         print(f"  {'':<16s} {'heuristic':<10s} {h.seconds:8.2f} {h.evaluations:8d} {h.mean_mm:8.4f} {h.max_mm:8.4f}  {' '.join(h.tables)}")
     print("  target: exact search <= 30 s")
+
+    t0 = time.perf_counter()
+    spread = parameter_spread(model, full, problem.q, problem.L)
+    print(f"\nParameter-uncertainty spread of one report row (200 draws, {len(problem.q)} points, "
+          f"{model.n_parameters} parameters): {time.perf_counter() - t0:.2f} s; full tables "
+          f"{spread[0]:.4f} mm [{spread[1]:.4f}, {spread[2]:.4f}]")
+
+    chosen = exact_search(problem, Constraints(6)).tables
+    sets = {"full": full, "chosen": finalise(problem, chosen)[0], "pitch": problem.solve(pitch_names(m)).discretise(256),
+            "full, 256 points": problem.solve(all_table_names(m)).discretise(256)}
+    one_per_output = [n for k, n in enumerate(chosen) if n[0] not in {c[0] for c in chosen[:k]}]
+    sets["one per output"] = finalise(problem, one_per_output, 1000)[0]
+    axes = {a.name: {"nc_name": a.name + "1", "number": k + 1, "reference_position": 0.0, "detection_unit": 0.001}
+            for k, a in enumerate(m.axes)}
+    prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes,
+                                        "options": {"rotary_any_range": True}})
+    print("\nController files (write, then read back with the format's reader):")
+    print(f"  {'controller':<14s} {'tables':>6s} {'points':>7s} {'write s':>8s} {'read s':>7s} {'files':>6s} {'kB':>8s}")
+    for name, which in (("siemens-840d", "full"), ("fanuc-30i", "chosen"), ("linuxcnc", "pitch"),
+                        ("beckhoff", "one per output"), ("heidenhain", "full, 256 points"), ("iso230", "full"),
+                        ("generic", "full")):
+        fmt = get_format(name)
+        tables = sets[which]
+        with tempfile.TemporaryDirectory() as d:
+            t0 = time.perf_counter()
+            with OutputSet(d) as out:
+                names = fmt.write(ExportJob(tables, m, prof, fmt.limits_for(prof), out, model, 256))
+            t_write = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            if fmt.read is not None:
+                fmt.read(Path(d), m, prof)
+            t_read = time.perf_counter() - t0
+            size = sum(p.stat().st_size for p in Path(d).iterdir()) / 1024
+        points = max(len(t.values) for t in tables.tables)
+        print(f"  {name:<14s} {len(tables.tables):6d} {points:7d} {t_write:8.3f} "
+              f"{t_read if fmt.read else float('nan'):7.3f} {len(names):6d} {size:8.0f}")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,13 @@ no-X-output constraint costs more than no-circular), not the digits. Errors are
 model-predicted over the identification commands x 2 tools, as in Paper II; the
 last column applies the same tables to the simulated true machine.
 
-Run: python examples/paper2_tables.py [--seed N]
+At the end the exact choice is written as Fanuc 30i files (5 pitch tables as a
+parameter tape, the 6 straightness tables as values for entry by hand), and every pitch
+value is checked against the controller's range. The controller profile used for that
+is illustrative (axis numbers 1-5, reference positions at 0, 0.001 mm/deg detection
+units): a real machine's come from its parameters.
+
+Run: python examples/paper2_tables.py [--seed N] [--out DIR]
 """
 import argparse
 
@@ -20,6 +26,10 @@ from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
 from vecpin.compensation.selection import Constraints, exact_search, finalise, genetic_search, impact_heuristic
+from vecpin.export import fanuc
+from vecpin.export.common import ExportJob
+from vecpin.export.profile import ControllerProfile
+from vecpin.fileio import OutputSet
 
 SEED = {
     "table2": [("Model", "0.036", "-"), ("Full tables", "0.031", "-"), ("Pitch only", "0.142", "-")],
@@ -32,6 +42,7 @@ SEED = {
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="paper2_fanuc", help="folder for the Fanuc 30i files (default paper2_fanuc)")
     args = ap.parse_args()
     m = vecpin.Machine.load("flow_xyzcb")
     sim = simulate(m, seed=args.seed, mean_error_mm=0.65)
@@ -91,6 +102,40 @@ def main():
         e = exact_search(problem, cons)
         print(f"  {label:<12s} GA runs: " + ", ".join(f"{r.mean_mm:.4f}" for r in runs)
               + f" | exact {e.mean_mm:.4f} {' '.join(e.tables)}")
+
+
+    print(f"\nFanuc 30i files for the exact choice ({' '.join(ex.tables)}), written to {args.out}/:")
+    tables, _, _ = finalise(problem, ex.tables)
+    axes = {a.name: {"number": k + 1, "reference_position": 0.0, "detection_unit": 0.001} for k, a in enumerate(m.axes)}
+    prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes},
+                                       "illustrative profile of the example")
+    with OutputSet(args.out) as out:
+        job = ExportJob(tables, m, prof, fanuc.FORMAT.limits_for(prof), out, model)
+        names = fanuc.write(job)
+    limit = fanuc.FORMAT.extra_limit(prof, "max_pitch_value")
+    grids = fanuc.read_grids(args.out, m, prof)
+    print(f"  {'axis':<5s} {'points':>6s} {'interval':>10s} {'magnification':>13s} {'largest value':>13s}")
+    for g in grids:
+        print(f"  {g.axis:<5s} {g.last - g.first + 1:6d} {g.interval:10.3f} {g.magnification:13d} "
+              f"{int(abs(g.values).max()):13d}")
+    fits = all(abs(g.values).max() <= limit and g.magnification <= fanuc.FORMAT.extra_limit(prof, "max_magnification")
+               for g in grids)
+    print(f"  every pitch value within +-{limit} x magnification: {'yes' if fits else 'NO'}; "
+          f"{len(ex.tables)} straightness tables in STRAIGHTNESS.CSV (entered by hand, see README_FANUC.md)")
+    back = fanuc.read(args.out, m, prof)
+    back.gauge_offset_change = tables.gauge_offset_change
+    print(f"  as written (constants at the reference removed, rounded): model-predicted mean "
+          f"{np.linalg.norm(compensated_errors(problem.actual, m, back, problem.q, problem.L), axis=1).mean() * 1e3:.4f} mm,"
+          f" on the true machine {on_truth(back) * 1e3:.4f} mm")
+    offsets = {g.axis: g.offset for g in fanuc.grids(tables, m, prof)}   # [mm or deg] at the reference
+    for t in back.tables:
+        if t.is_pitch:
+            t.values = t.values + m.axis(t.input_axis).to_si(offsets[t.input_axis])
+    print(f"  with those constants set as reference-position shifts: model-predicted mean "
+          f"{np.linalg.norm(compensated_errors(problem.actual, m, back, problem.q, problem.L), axis=1).mean() * 1e3:.4f} mm,"
+          f" on the true machine {on_truth(back) * 1e3:.4f} mm ("
+          + ", ".join(f"{a} {v:+.4f} {m.axis(a).unit}" for a, v in offsets.items()) + ")")
+    print("  files: " + ", ".join(names))
 
 
 if __name__ == "__main__":

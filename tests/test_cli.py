@@ -93,8 +93,12 @@ def test_fit_and_evaluate_bad_input(simulated, tmp_path, capsys):
     assert "not a vecpin model file" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("controller, extra", [("generic", []), ("siemens-840d", ["--axis-map", "X=X1"]),
-                                               ("fanuc-30i", ["--method", "ga"]), ("generic", ["--max-tables", "4", "--no-circular", "--forbid-output", "X", "--method", "heuristic"])])
+PROFILE = str(DATA / "controllers" / "flow_xyzcb_profile.json")
+
+
+@pytest.mark.parametrize("controller, extra", [("generic", []), ("siemens-840d", ["--profile", PROFILE, "--axis-map", "X=X1"]),
+                                               ("fanuc-30i", ["--profile", PROFILE, "--method", "ga"]),
+                                               ("generic", ["--max-tables", "4", "--no-circular", "--forbid-output", "X", "--method", "heuristic"])])
 def test_tables_command(simulated, tmp_path, capsys, controller, extra):
     model = tmp_path / "m.json"
     assert main(["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--order", "4", "--out", str(model), "--quiet"]) == 0
@@ -103,11 +107,13 @@ def test_tables_command(simulated, tmp_path, capsys, controller, extra):
     assert main(["tables", str(model), "--controller", controller, "--out", str(out_dir), "--quiet"] + extra) == 0
     out = capsys.readouterr().out
     assert "pitch only" in out and "full tables" in out and "gauge line" in out
+    assert "model-predicted" in out and "every row on these points" in out   # honest labels
     assert (out_dir / "tables.json").is_file()
     if controller == "siemens-840d":
         assert (out_dir / "NC_CEC.INI").is_file() and (out_dir / "README_SIEMENS.md").is_file()
+        assert "files as written" in out
     if controller == "fanuc-30i":
-        assert (out_dir / "PITCH.TXT").is_file() and "selection (genetic)" in out
+        assert (out_dir / "PITCH.TXT").is_file() and (out_dir / "CNC-PARA.TXT").is_file() and "selection (genetic)" in out
     if "--forbid-output" in extra:
         line = [ln for ln in out.splitlines() if ln.strip().startswith("tables:")][0]
         assert not any(t.startswith("x") and t != "xx" for t in line.split()[1:])
@@ -117,6 +123,11 @@ def test_tables_command_errors(simulated, tmp_path, capsys):
     model = tmp_path / "m.json"
     assert main(["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--order", "3", "--out", str(model), "--quiet"]) == 0
     assert main(["tables", str(model), "--controller", "siemens-840d", "--max-tables", "70", "--out", str(tmp_path / "t")]) == 2
-    assert "at most 62" in capsys.readouterr().err
+    assert "at most 64" in capsys.readouterr().err
     assert main(["tables", str(model), "--forbid-output", "Q", "--out", str(tmp_path / "t")]) == 2
     assert "no axis 'Q'" in capsys.readouterr().err
+    assert main(["tables", str(model), "--points", "10000000", "--out", str(tmp_path / "t")]) == 2
+    assert "--points 10000000" in capsys.readouterr().err
+    assert main(["tables", str(model), "--controller", "fanuc-30i", "--out", str(tmp_path / "t")]) == 2
+    err = capsys.readouterr().err
+    assert "controlled-axis number" in err and "--profile" in err and "Traceback" not in err

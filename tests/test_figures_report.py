@@ -10,6 +10,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.selection.orders import order_sweep
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.compensation.plan import plan_tables
+from vecpin.export.registry import get_format
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +38,7 @@ def test_repeatability_is_eq22(setup):
 def test_figures_are_drawn(setup, tmp_path):
     m, sim, model = setup
     c = sim.campaign
-    plan = plan_tables(model, "fanuc-30i", n_commands=200)
+    plan = plan_tables(model, get_format("fanuc-30i").limits, n_commands=200)
     assert _is_image(figures.compensation_grid(m, {"chosen": plan.tables}, tmp_path / "grid.png"), 30000)
     d = {"nominal": np.linalg.norm(model.residuals(c), axis=1) * 10, "model": np.linalg.norm(model.residuals(c), axis=1)}
     assert _is_image(figures.residual_histograms(d, tmp_path / "hist.png"))

@@ -118,8 +118,8 @@ def test_modulo_tables_on_a_rotary_axis_past_a_turn(flow, fitted):
     from vecpin.compensation.plan import plan_tables
     _, models = fitted
     for kind, model in models.items():
-        plain = plan_tables(model, "generic", n_commands=400)
-        modulo = plan_tables(model, "generic", n_commands=400, modulo_axes=["C"])
+        plain = plan_tables(model, n_commands=400)
+        modulo = plan_tables(model, n_commands=400, modulo_axes=["C"])
         c_tables = [t for t in modulo.tables.tables if t.input_axis == "C"]
         assert len(c_tables) == 5 and all(t.modulo for t in c_tables)
         assert all(abs(t.end - t.start - 2 * math.pi) < 1e-12 for t in c_tables)
@@ -128,6 +128,6 @@ def test_modulo_tables_on_a_rotary_axis_past_a_turn(flow, fitted):
         assert full_modulo == pytest.approx(full_plain, abs=2e-3)  # mm
     cheb = make_model("ap", flow, 4, basis="chebyshev").fit(fitted[0].campaign)
     with pytest.raises(VecpinError, match="not periodic"):
-        plan_tables(cheb, "generic", n_commands=200, modulo_axes=["C"])
+        plan_tables(cheb, n_commands=200, modulo_axes=["C"])
     with pytest.raises(VecpinError, match="only rotary axes"):
-        plan_tables(cheb, "generic", n_commands=200, modulo_axes=["X"])
+        plan_tables(cheb, n_commands=200, modulo_axes=["X"])

@@ -28,7 +28,7 @@ def test_scene_content_without_a_server(fitted):
     model, c = fitted
     window = RecordingWindow()
     vis = meshcat.Visualizer(window=window)
-    tables = plan_tables(model, "generic", n_commands=200).tables
+    tables = plan_tables(model, n_commands=200).tables
     facts = build_scene(vis, model, c, row=7, tables=tables)
     objects = window.paths("set_object")
     for group in ("measured", "nominal", "identified", "errors", "residuals", "compensated", "selected"):

@@ -1,4 +1,4 @@
-"""``vecpin tables``: compensation tables of a fitted model for a controller."""
+"""``vecpin tables``: compensation tables of a fitted model for a controller; the sign check."""
 from __future__ import annotations
 
 from vecpin.cli.common import progress
@@ -13,27 +13,51 @@ def run_tables(args) -> int:
     for a in args.forbid_output:
         m.axis(a)
     commands = read_campaign(args.commands, m) if args.commands else None
-    run = make_tables(model, args.out, args.controller, max_tables=args.max_tables, no_circular=args.no_circular,
-                      forbid_output=args.forbid_output, method=args.method, points=args.points, tools_mm=args.tools,
-                      modulo_axes=args.modulo, commands=commands, axis_map=parse_axis_map(args.axis_map, m),
-                      progress=progress(not args.quiet))
-    print("\n".join(run.lines(args.model, args.controller, args.points)))
+    run = make_tables(model, args.out, args.controller, profile=args.profile, axis_map=parse_axis_map(args.axis_map, m),
+                      max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
+                      method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,
+                      commands=commands, sign_test=args.sign_test, progress=progress(not args.quiet))
+    print("\n".join(run.lines(args.model)))
+    return 0
+
+
+def run_sign_check(args) -> int:
+    """``vecpin evaluate MODEL CHECK.csv --sign-test SIGNTEST_X.json``."""
+    from vecpin.models import ErrorModel
+    from vecpin.workflows.tables import check_sign
+    model = ErrorModel.load(args.model)
+    verdict = check_sign(args.sign_test, args.csv, model.machine)
+    print("\n".join(verdict.lines()))
     return 0
 
 
 def register(sub) -> None:
+    from vecpin.export.registry import controller_names
     s = sub.add_parser("tables", help="compensation tables of a fitted model for a controller (Paper I §3.3, Paper II)")
-    s.add_argument("model")
-    s.add_argument("--controller", default="generic", choices=["siemens-840d", "fanuc-30i", "generic"])
-    s.add_argument("--max-tables", type=int, help="cross tables to choose (pitch tables are always in)")
+    s.add_argument("model", help="fitted model file (JSON)")
+    s.add_argument("--controller", default="generic", choices=controller_names(),
+                   help="controller whose files to write (default generic: tables.json/csv only)")
+    s.add_argument("--profile", metavar="JSON",
+                   help="the machine's controller profile: NC axis names, reference positions [mm/deg], modulo axes, "
+                        "detection units, limits (see the README)")
+    s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
+                   help="NC axis name of a joint (wins over the profile's nc_name)")
+    s.add_argument("--max-tables", type=int, help="cross tables to choose (default: as many as the controller "
+                                                  "holds; pitch tables are always in)")
     s.add_argument("--no-circular", action="store_true", help="never use table ij together with ji")
     s.add_argument("--forbid-output", action="append", default=[], metavar="AXIS", help="axis that cannot be corrected")
-    s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"], help="subset selection method")
-    s.add_argument("--points", type=int, default=1024, help="points per table (default 1024)")
+    s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"],
+                   help="subset selection method (default exact)")
+    s.add_argument("--points", type=int,
+                   help="points per table (default: 1024 or the controller's maximum if smaller)")
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
-    s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME", help="NC axis names (Siemens)")
-    s.add_argument("--modulo", action="append", default=[], metavar="AXIS", help="rotary input axis with modulo tables (one turn)")
+    s.add_argument("--modulo", action="append", default=[], metavar="AXIS",
+                   help="rotary input axis with modulo tables over one turn 0..360 deg (also: \"modulo\": true in "
+                        "the profile)")
     s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on")
-    s.add_argument("--out", required=True)
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--sign-test", metavar="AXIS|TABLE",
+                   help="also write a sign-test NC program and instructions for this axis' pitch table or this "
+                        "table (e.g. X or yx); judge it with vecpin evaluate --sign-test")
+    s.add_argument("--out", required=True, help="output folder")
+    s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.set_defaults(func=run_tables)

@@ -37,6 +37,9 @@ def run_fit(args) -> int:
 
 
 def run_evaluate(args) -> int:
+    if args.sign_test:
+        from vecpin.cli.compensating import run_sign_check
+        return run_sign_check(args)
     from vecpin.fileio import write_text
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
@@ -99,6 +102,8 @@ def register(sub) -> None:
     s.add_argument("csv")
     s.add_argument("--json", help="also write the figures to this JSON file")
     s.add_argument("--reregister", action="store_true", help="the tracker was moved: register its pose to this file first")
+    s.add_argument("--sign-test", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
+                                                       "whether the controller applies the table with the right sign")
     s.set_defaults(func=run_evaluate)
 
     s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")

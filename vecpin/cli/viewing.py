@@ -16,7 +16,7 @@ def run_view(args) -> int:
     tables = None
     if not args.no_tables:
         from vecpin.compensation.plan import plan_tables
-        tables = plan_tables(model, "generic", n_commands=400).tables
+        tables = plan_tables(model, n_commands=400).tables
     if args.html:
         facts = write_html(args.html, model, c, args.row, args.exaggerate, tables)
         print(f"wrote {args.html}: errors x{facts['exaggeration']:.0f}, largest {facts['max_error_mm']:.3f} mm, "

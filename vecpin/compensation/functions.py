@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy import linalg
@@ -250,22 +250,53 @@ def pitch_names(machine: Machine) -> list[str]:
     return [(a.name + a.name).lower() for a in machine.axes]
 
 
+class ReportRow(NamedTuple):
+    """One row of a :class:`CompensationReport`: volumetric errors [mm] over the report's points.
+
+    ``spread``: (mean over parameter draws, 16th, 84th percentile) [mm] of the mean
+    error on machines that differ from the model by its parameter uncertainty, or None."""
+
+    label: str
+    mean: float
+    max: float
+    tables: int = 0
+    spread: tuple[float, float, float] | None = None
+
+
 @dataclass
 class CompensationReport:
-    """Volumetric errors [mm] of the actual machine before and after compensation."""
+    """Volumetric errors [mm] before and after compensation, every row on the same points.
 
-    rows: list[tuple[str, float, float, int]] = field(default_factory=list)  # label, mean, max, tables
+    ``basis`` says what the rows are (e.g. "model-predicted at 1000 commands x 2 tools"):
+    rows predicted by a model are a prediction for the model, not a measurement of the
+    machine. ``notes`` are printed under the table (what the spread means, figures on
+    other points such as the fit residual)."""
 
-    def add(self, label: str, err: np.ndarray, n_tables: int = 0) -> None:
+    rows: list[ReportRow] = field(default_factory=list)
+    basis: str = ""
+    notes: list[str] = field(default_factory=list)
+
+    def add(self, label: str, err: np.ndarray, n_tables: int = 0,
+            spread: tuple[float, float, float] | None = None) -> None:
+        """A row from tool-tip errors (N,3) [m]."""
         d = np.linalg.norm(err, axis=1) * 1e3
-        self.rows.append((label, float(d.mean()), float(d.max()), n_tables))
+        self.rows.append(ReportRow(label, float(d.mean()), float(d.max()), n_tables, spread))
 
     def table(self) -> str:
-        base = self.rows[0][1]
-        lines = [f"  {'compensation':<34s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"]
-        for label, mean, mx, nt in self.rows:
-            red = "-" if label == self.rows[0][0] else f"{100 * (1 - mean / base):8.1f}%"
-            lines.append(f"  {label:<34s} {nt if nt else '':>6} {mean:9.4f} {mx:9.4f} {red:>9s}")
+        base = self.rows[0].mean
+        with_spread = any(r.spread is not None for r in self.rows)
+        width = max([38] + [len(r.label) for r in self.rows])
+        head = f"  {'compensation':<{width}s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"
+        if with_spread:
+            head += f"   {'mean mm with parameter uncertainty [68%]':<40s}"
+        lines = ([f"  {self.basis}"] if self.basis else []) + [head]
+        for r in self.rows:
+            red = "-" if r is self.rows[0] else f"{100 * (1 - r.mean / base):8.1f}%"
+            line = f"  {r.label:<{width}s} {r.tables if r.tables else '':>6} {r.mean:9.4f} {r.max:9.4f} {red:>9s}"
+            if r.spread is not None:
+                line += f"   {r.spread[0]:.4f} [{r.spread[1]:.4f}, {r.spread[2]:.4f}]"
+            lines.append(line)
+        lines += [f"  {n}" for n in self.notes]
         return "\n".join(lines)
 
 

@@ -1,9 +1,16 @@
-"""From a fitted model to the tables a controller loads (issue workflow in one call).
+"""From a fitted model to the tables a controller holds (one call).
 
 Full tables when the controller takes them all (AP: eq. 17; 6-DoF: projection, eq.
-18-19); otherwise the best admissible subset (Paper II), re-solved on the model. The
-report gives the model-predicted volumetric error over quasi-random commands and the
-campaign's tool lengths: uncompensated, full tables, pitch only, the chosen set.
+18-19); otherwise the best admissible subset (Paper II), re-solved on the model.
+The controller enters only as :class:`~vecpin.compensation.limits.ControllerLimits`
+(plain data the export layer resolves from a controller name and profile), so this
+layer knows no file format.
+
+The report is honest about what it is: every row is the *model-predicted* volumetric
+error on the same points (quasi-random or campaign commands x tool lengths), and
+each compensated row carries the spread of that prediction over the model's
+parameter uncertainty (draws from its covariance ``cov_``): a full table set that
+cancels the model to 0.0002 mm is still only as good as the model on the machine.
 """
 from __future__ import annotations
 
@@ -11,79 +18,182 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors, from_ap_model,
-                           model_as_actual, pitch_names, pseudo_commands)
-from vecpin.export.controllers import Controller, get_controller
-from vecpin.errors import VecpinError
-from vecpin.models import APModel, ErrorModel
-from vecpin.compensation.tables import TableSet
+from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors,
+                                           from_ap_model, model_as_actual, pitch_names, pseudo_commands)
+from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
+from vecpin.compensation.tables import TableSet
+from vecpin.errors import InputError, VecpinError
+from vecpin.models import APModel, ErrorModel
+from vecpin.units import MM_PER_M, from_mm
 
 DEFAULT_TOOLS_MM = (214.88, 312.86)
+METHODS = ("exact", "ga", "heuristic")
 
 
 @dataclass
 class TablePlan:
+    """Tables for one controller: the set to write, the selection (None when every
+    table fits), the report, the linearised problem and the limits it obeyed."""
+
     tables: TableSet
-    controller: Controller
+    limits: ControllerLimits
     selection: Selection | None
     report: CompensationReport
     problem: TableProblem
+    points: int
 
 
-def plan_tables(model: ErrorModel, controller: str | Controller = "generic", *, max_tables: int | None = None,
-                no_circular: bool | None = None, forbid_output=(), points: int = 1024, method: str = "exact",
+def covariance_kind(model: ErrorModel) -> str:
+    """'full' when the model carries its parameter covariance, 'diagonal' when only
+    standard deviations survive (a model read from a file)."""
+    cov = model.cov_
+    return "diagonal" if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0 else "full"
+
+
+def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
+                     draws: int = 200, seed: int = 0) -> tuple[float, float, float]:
+    """Mean volumetric error [mm] of ``tables`` on machines that differ from the model
+    by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
+
+    Each draw is ``b_ + db`` with ``db ~ N(0, cov_b)``; the compensated error is
+    linearised around the model, ``e(b_ + db) = e(b_) + J_b db`` (tool tip in the
+    machine frame at the compensated commands, nominal with the changed T_offset).
+    The draws are seeded: reruns print the same figures."""
+    q = np.atleast_2d(np.asarray(q, float))
+    tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
+    if tables is None:
+        qc, nominal = q, model.machine.tool_tip(q, tool)
+    else:
+        qc, nominal = tables.apply(q), model.machine.tool_tip(q, tool + tables.gauge_offset_change)
+    out = model.tool_tip(qc, tool, model.b_, jacobian=True)
+    r = out.tip - nominal                                      # (N, 3) [m]
+    cov = np.asarray(model.cov_, float)[6:, 6:]
+    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
+    F = U * np.sqrt(np.clip(w, 0.0, None))                    # cov = F F^T
+    z = np.random.default_rng(seed).standard_normal((draws, F.shape[1])) @ F.T  # (S, P)
+    e = r.ravel()[None] + z @ out.J_b.reshape(3 * len(q), -1).T   # (S, 3N)
+    # a rigid motion of the whole workspace is not observable from tracker data (the
+    # tracker pose absorbs it) and does not affect parts: remove it from every draw
+    c = nominal - nominal.mean(axis=0)
+    G = np.zeros((len(q), 3, 6))
+    G[:, :, :3] = np.eye(3)
+    G[:, :, 3:] = -np.cross(c[:, :, None], np.eye(3)[None], axis=1)  # d(w x c)/dw = -[c]x
+    Q, _ = np.linalg.qr(G.reshape(-1, 6))
+    flat = e - (e @ Q) @ Q.T
+    means = np.linalg.norm(flat.reshape(draws, -1, 3), axis=2).mean(axis=1) * MM_PER_M
+    return float(means.mean()), float(np.percentile(means, 16)), float(np.percentile(means, 84))
+
+
+def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, max_tables: int | None = None,
+                no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int = 1000, tools_mm=None, table_order: int | None = None, seed: int = 0,
-                modulo_axes=(), commands: np.ndarray | None = None, progress=None) -> TablePlan:
-    """Compensation tables of a fitted model for a controller.
+                modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
+                progress=None) -> TablePlan:
+    """Compensation tables of a fitted model under a controller's ``limits``
+    (None: no controller limit, vecpin's generic files).
 
-    The pseudo-measurements are ``commands`` [m, rad] (e.g. a campaign's) or
-    ``n_commands`` quasi-random ones, each with every tool length (``tools_mm``, default
-    the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn and repeat."""
-    ctl = get_controller(controller) if isinstance(controller, str) else controller
+    ``points`` per table (default: the controller's, at most 1024). The
+    pseudo-measurements are ``commands`` [m, rad] (e.g. a campaign's) or
+    ``n_commands`` quasi-random ones, each with every tool length (``tools_mm``,
+    default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
+    and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
+    Every limit is checked before the first solve."""
+    if limits is not None and not isinstance(limits, ControllerLimits):
+        raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
+                         "vecpin.export.registry.get_format(name).limits")
+    lim = limits or NO_LIMITS
     m = model.machine
-    tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or DEFAULT_TOOLS_MM
-    if len(tools_mm) < 2:
-        tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
-    tools = np.array(tools_mm, float) * 1e-3
-    actual = model_as_actual(model)
+    model._check_fitted()
+    # ---- everything a user can get wrong, before any heavy work
+    n_points = lim.points(points)
+    if method not in METHODS:
+        raise InputError(f"--method {method}: choose one of {', '.join(METHODS)}")
+    for a in forbid_output:
+        m.axis(a)
     for a in modulo_axes:
         if m.axis(a).kind != "rotary":
             raise VecpinError(f"only rotary axes have modulo tables, not {a}")
+    if isinstance(model, APModel):
+        for a in modulo_axes:
+            if model.bases[m.axis(a).index].kind != "fourier":
+                raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
+                                  "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
+    cross = [n for n in all_table_names(m) if n[0] != n[1]]
+    pitch_only = not lim.cross_tables
+    need_subset = not pitch_only and (max_tables is not None or bool(no_circular) or bool(forbid_output)
+                                      or lim.needs_selection(m.axis_names))
+    cons = None
+    if pitch_only and max_tables:
+        lim.constraints(max_tables, axis_names=m.axis_names)  # raises: this controller takes no cross tables
+    if need_subset:
+        cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
+    tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or DEFAULT_TOOLS_MM
+    if len(tools_mm) < 2:
+        tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
+    tools = from_mm(np.array(tools_mm, float))
+    if commands is None and n_commands < 1:
+        raise InputError(f"n_commands {n_commands}: give at least one command")
+
+    actual = model_as_actual(model)
     q = pseudo_commands(m, n_commands, seed) if commands is None else np.unique(np.asarray(commands, float), axis=0)
     order = table_order if table_order is not None else max(model.order, 2)
     problem = TableProblem(actual, m, q, tools, order=order, basis=model.basis, modulo_axes=tuple(modulo_axes))
-    cross = [n for n in all_table_names(m) if n[0] != n[1]]
-    need_subset = (max_tables is not None or no_circular or forbid_output
-                   or (ctl.max_cross_tables is not None and ctl.max_cross_tables < len(cross)))
-    report = CompensationReport()
-    err = lambda ts: compensated_errors(actual, m, ts, problem.q, problem.L)  # noqa: E731
-    report.add("uncompensated", err(None))
-    fit_res = model.report_.residuals_mm["all"]
-    report.rows.append(("model (fit residual, measured)", fit_res["mean"], fit_res["max"], 0))
+    where = (f"{len(q)} quasi-random commands" if commands is None else f"{len(q)} campaign commands")
+    report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
+                                      f"{', '.join(f'{t:g}' for t in tools_mm)} mm (every row on these points):")
+
+    with_spread = uncertainty and covariance_kind(model) == "full"
+
+    def add(label, ts, n):
+        spread = parameter_spread(model, ts, problem.q, problem.L) if with_spread else None
+        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L), n, spread)
+
+    add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
     if isinstance(model, APModel):
-        full = from_ap_model(model, modulo_axes).discretise(points)
+        full = from_ap_model(model, modulo_axes).discretise(n_points)
     else:
-        full = problem.solve(all_table_names(m)).discretise(points)
-    report.add(f"full tables ({len(full.tables)})", err(full), len(full.tables))
-    pitch = problem.solve(pitch_names(m)).discretise(points)
-    report.add("pitch only", err(pitch), len(pitch.tables))
+        full = problem.solve(all_table_names(m)).discretise(n_points)
+    label = "full tables (model-predicted)" if not pitch_only else f"full tables (not loadable on {lim.name})"
+    add(label, full, len(full.tables))
+    pitch = problem.solve(pitch_names(m)).discretise(n_points)
+    add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
-    tables = full
-    if need_subset:
-        cons = ctl.constraints(max_tables, no_circular, tuple(forbid_output))
+    tables = pitch if pitch_only else full
+    if cons is not None:
         if progress:
-            progress(f"choosing {cons.max_tables} of the cross tables ({method})")
+            progress(f"choosing {cons.max_tables} of the {len(cross)} cross tables ({method})")
         if method == "exact":
-            selection = exact_search(problem, cons, n_points=points)
+            selection = exact_search(problem, cons, n_points=n_points)
         elif method == "ga":
-            selection = genetic_search(problem, cons, seed=seed, n_points=points)
-        elif method == "heuristic":
-            selection = impact_heuristic(problem, cons, n_points=points)
+            selection = genetic_search(problem, cons, seed=seed, n_points=n_points)
         else:
-            raise VecpinError(f"unknown selection method '{method}' (exact, ga, heuristic)")
-        tables = problem.solve(pitch_names(m) + selection.tables).discretise(points)
-        report.add(f"{method}: {' '.join(selection.tables)}", err(tables), len(tables.tables))
-    return TablePlan(tables, ctl, selection, report, problem)
+            selection = impact_heuristic(problem, cons, n_points=n_points)
+        tables = problem.solve(pitch_names(m) + selection.tables).discretise(n_points)
+        add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
+    lim.check_tables(tables)
+    fit_res = model.report_.residuals_mm["all"]
+    if with_spread:
+        report.notes.append("last column: mean over 200 seeded draws of the parameters from the model's covariance, "
+                            "compensated error linearised around the model, rigid motion of the whole workspace "
+                            "removed (not observable from tracker data, no effect on parts); [16th, 84th percentile]")
+    elif uncertainty:
+        report.notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
+                            "keeps no correlations), and without correlations the spread would be meaningless")
+    report.notes.append(f"the model's own fit residual (measured, on the campaign's points, not these): mean "
+                        f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
+                        "expected to do better than the model fits it")
+    return TablePlan(tables, lim, selection, report, problem, n_points)
+
+
+def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:
+    """Add the row of the tables as a controller will hold them (read back from the
+    written files: resampled, rounded, constants removed), on the plan's points."""
+    actual = model_as_actual(model)
+    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L)
+    with_spread = any(r.spread is not None for r in plan.report.rows)
+    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L) if with_spread else None
+    plan.report.add(label, err, len(tables.tables), spread)
+

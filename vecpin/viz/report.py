@@ -73,7 +73,8 @@ def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Cam
 
     say("compensation tables")
     from vecpin.compensation.plan import plan_tables
-    plan = plan_tables(model, controller, max_tables=max_tables)
+    from vecpin.export.registry import get_format
+    plan = plan_tables(model, get_format(controller).limits, max_tables=max_tables)
     parts += ["<h2>Compensation tables</h2>",
               f"<p>Controller {html.escape(controller)}; tables {html.escape(' '.join(plan.tables.names()))}; "
               f"gauge-line change {plan.tables.gauge_offset_change * 1e3:+.4f} mm.</p>",
@@ -87,7 +88,7 @@ def write_report(model: ErrorModel, campaign: Campaign, out_dir, validation: Cam
     parts.append('<img src="figures/tables.png" alt="compensation functions">')
     if plan.selection is not None:
         from vecpin.compensation.selection import genetic_search
-        cons = plan.controller.constraints(max_tables)
+        cons = plan.limits.constraints(max_tables, axis_names=m.axis_names)
         hist = {f"mutation {r:.0%}": [genetic_search(plan.problem, cons, mutation=r, seed=s).history for s in range(5)]
                 for r in (0.0, 0.2, 0.85)}
         figures.ga_convergence_figure(hist, out / "figures" / "ga.png")

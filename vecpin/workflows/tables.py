@@ -1,15 +1,31 @@
-"""From a fitted model to controller files (the ``tables`` command)."""
+"""From a fitted model to controller files (the ``tables`` command), and the sign check.
+
+The controller name resolves to its format (:mod:`vecpin.export.registry`); the
+machine's controller profile and ``--axis-map`` supply the facts the writer needs;
+the format's limits, overridden by the profile, go down to the table layer. Every
+limit and every missing fact is checked before the first solve. After writing, the
+files are read back with the format's reader: the report gets a row for the tables
+as the controller will hold them, and the sign test predicts from them.
+"""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.plan import TablePlan, plan_tables
+from vecpin.compensation.limits import ControllerLimits
+from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
+from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import InputError
-from vecpin.export.controllers import write_fanuc, write_generic, write_siemens
+from vecpin.export import generic
+from vecpin.export.common import ControllerFormat, ExportJob
+from vecpin.export.profile import ControllerProfile
+from vecpin.export.registry import get_format
+from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, find_table, plan_sign_test, read_check,
+                                    write_sign_test)
+from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
 
@@ -36,53 +52,126 @@ def parse_axis_map(items: list[str], machine) -> dict[str, str]:
     return out
 
 
+def resolve(controller: str, machine, profile: ControllerProfile | str | Path | None = None,
+            axis_map: dict[str, str] | None = None) -> tuple[ControllerFormat, ControllerProfile, ControllerLimits]:
+    """(format, profile, limits) of a controller name for a machine; the profile's facts
+    are checked against the machine (no table work yet)."""
+    fmt = get_format(controller)
+    if profile is None:
+        prof = ControllerProfile()
+    elif isinstance(profile, ControllerProfile):
+        prof = profile
+    else:
+        prof = ControllerProfile.load(profile)
+    prof = prof.with_axis_map(axis_map or {})
+    prof.check_machine(machine, controller)
+    limits = fmt.limits_for(prof)
+    return fmt, prof, limits
+
+
 @dataclass
 class TableRun:
     plan: TablePlan
     files: list[Path]
     commands_source: str | None
+    controller: str
+    notes: list[str] = field(default_factory=list)
+    as_written: TableSet | None = None
+    sign_test: SignTest | None = None
 
-    def lines(self, model_name: str, controller: str, points: int) -> list[str]:
+    def lines(self, model_name: str) -> list[str]:
         plan = self.plan
         m_name = plan.problem.machine.name
-        out = [f"compensation tables for {m_name} ({controller}), model {model_name}"]
-        grid = (f"resampled to the controller's grid, at most {plan.controller.max_points} points"
-                if controller == "fanuc-30i" else f"{points} points each")
+        out = [f"compensation tables for {m_name} ({self.controller}), model {model_name}"]
+        grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
+                else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
         out.append(f"  gauge line (T_offset) change: {plan.tables.gauge_offset_change * 1e3:+.4f} mm")
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
                        f"{s.evaluations} combinations scored")
-        where = f"the commands of {self.commands_source}" if self.commands_source else "1000 quasi-random commands"
-        tools = ", ".join(f"{t * 1e3:g}" for t in plan.problem.tools)
-        out.append(f"  predicted volumetric error (model, {where} x tools {tools} mm):")
         out.append(plan.report.table())
+        out += [f"  {n}" for n in self.notes]
+        if self.sign_test is not None:
+            st = self.sign_test
+            out.append(f"  sign test {st.table}: {st.input_axis} at {st.positions[0]:.3f} and {st.positions[1]:.3f} "
+                       f"{st.input_unit}, predicted shift {st.predicted:+.4f} {st.output_unit} "
+                       f"(SIGNTEST_{st.table.upper()}.md)")
         out += [f"  wrote {f}" for f in self.files]
         return out
 
 
-def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "generic", *, max_tables: int | None = None,
-                no_circular: bool = False, forbid_output=(), method: str = "exact", points: int = 1024,
-                tools_mm=None, modulo_axes=(), commands: Campaign | None = None, axis_map: dict | None = None,
+def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "generic", *,
+                profile: ControllerProfile | str | Path | None = None, axis_map: dict | None = None,
+                max_tables: int | None = None, no_circular: bool = False, forbid_output=(), method: str = "exact",
+                points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
+                sign_test: str | None = None, uncertainty: bool = True,
                 progress: Callable[[str], None] | None = None) -> TableRun:
-    """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files."""
+    """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
+
+    ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
+    names that win over the profile's; ``sign_test``: an axis (its pitch table) or a
+    table name for which to write a sign-test program."""
     m = model.machine
-    for a in forbid_output:
+    fmt, prof, limits = resolve(controller, m, profile, axis_map)
+    limits.points(points)                                 # before any heavy work
+    for a in list(forbid_output) + list(modulo_axes):
         m.axis(a)
+    modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
+    if max_tables is not None:
+        limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
+    fmt.check(m, prof, limits, modulo)
+    if sign_test is not None:
+        if fmt.read is None:
+            raise InputError(f"--sign-test: {controller} writes no tables a controller applies")
+        key = sign_test.strip().lower()
+        if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
+                                                                          for i in m.axis_names}:
+            raise InputError(f"--sign-test {sign_test}: neither an axis nor a table of {m.name}")
+    check_output_dir(out_dir)
     q = None
     if commands is not None:
         q = commands.q
         if tools_mm is None:
             tools_mm = [float(t * 1e3) for t in commands.tool_lengths()]
-    plan = plan_tables(model, controller, max_tables=max_tables, no_circular=no_circular or None,
+    plan = plan_tables(model, limits, max_tables=max_tables, no_circular=no_circular or None,
                        forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
-                       modulo_axes=list(modulo_axes), commands=None if q is None else np.asarray(q), progress=progress)
-    if controller == "siemens-840d":
-        files = write_siemens(plan.tables, m, out_dir, axis_map or {}, plan.controller)
-    elif controller == "fanuc-30i":
-        files = write_fanuc(plan.tables, m, out_dir, plan.controller)
-    else:
-        files = []
-    files += write_generic(plan.tables, m, out_dir)
-    return TableRun(plan, files, None if commands is None else commands.source)
+                       modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
+                       progress=progress)
+    if progress:
+        progress(f"writing the {controller} files")
+    notes: list[str] = []
+    as_written = None
+    st = None
+    with OutputSet(out_dir) as out:
+        job = ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes)
+        names = fmt.write(job) if fmt.name != "generic" else []
+        names += generic.write(job)
+        if fmt.read is not None:
+            stage = out.path(names[0]).parent
+            as_written = fmt.read(stage, m, prof)
+            as_written.gauge_offset_change = plan.tables.gauge_offset_change
+        if sign_test is not None:
+            table = find_table(as_written, m, sign_test)
+            st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
+            names += write_sign_test(out, st, fmt.dialect, prof, notes)
+    if as_written is not None and fmt.name != "generic":
+        add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
+        if any(abs(c) > 0 for c in job.constants.values()):
+            shifted = TableSet(as_written.axis_names, [
+                CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
+                                  t.values + (job.constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
+                for t in as_written.tables], as_written.gauge_offset_change)
+            add_as_written_row(plan, model, shifted, "files + reference shifts (model-predicted)")
+    files = [Path(out_dir) / n for n in names]
+    return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
+
+
+def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> SignVerdict:
+    """Judge a sign test from its CSV of readings (``vecpin evaluate --sign-test``)."""
+    st = SignTest.load(test_path)
+    if machine is not None and st.machine != machine.name:
+        raise InputError(f"--sign-test {test_path}: the test is for machine '{st.machine}', the model for "
+                         f"'{machine.name}'")
+    return evaluate_sign_test(st, read_check(check_csv, st))

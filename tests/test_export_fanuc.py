@@ -1,0 +1,149 @@
+"""Fanuc 30i: the backup form (N0xxxxQ1 / N1xxxxQ0), anchoring at the reference position,
+rotary-axis type, magnification and value range. Fixtures: tests/data/controllers/fanuc
+(form of the real 0i-MF backup github IlyasMIM/HM100TS; point rule B-63980EN p.100)."""
+import math
+import re
+
+import numpy as np
+import pytest
+from export_helpers import DATA, E_XX_MM, E_YX_MM, X_MM, fixture_tables, profile, tiny_machine
+
+from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
+from vecpin.export import fanuc
+from vecpin.export.common import ExportJob
+from vecpin.fileio import OutputSet
+from vecpin.units import from_mm, to_mm
+
+FIX = DATA / "fanuc"
+
+
+def write(tables, machine, prof, out_dir):
+    with OutputSet(out_dir) as out:
+        job = ExportJob(tables, machine, prof, fanuc.LIMITS, out)
+        fanuc.write(job)
+    return job.notes
+
+
+def five_points(**kw):
+    """The fixture's grid: 5 points per axis -> interval 50 mm over X -200 .. 0."""
+    return profile(limits={"pitch_points_per_axis": 5}, **kw)
+
+
+def test_reader_parses_the_backup_form():
+    """Point n at (n - 3620) x 3624 from the reference; values are correction increments per section."""
+    m = tiny_machine()
+    back = fanuc.read(FIX, m, profile())
+    xx = back.table("xx")
+    assert back.names() == ["xx"]                                        # A2, A3 have no table (0, 0, 0)
+    np.testing.assert_allclose(to_mm(xx.positions), [-250, -200, -150, -100, -50, 0, 50])
+    np.testing.assert_allclose(to_mm(xx(from_mm(X_MM))), -E_XX_MM, atol=1e-12)
+
+
+def test_writer_reproduces_the_backup_form(tmp_path):
+    m = tiny_machine()
+    write(fixture_tables(m), m, five_points(), tmp_path)
+    para = (tmp_path / "CNC-PARA.TXT").read_text().splitlines()
+    pitch = (tmp_path / "PITCH.TXT").read_text().splitlines()
+    assert para[0] == "%" and para[-1] == "%" and pitch[0] == "%" and pitch[-1] == "%"
+    assert all(re.fullmatch(r"N0\d{4}Q1(A\d+P-?\d+(\.\d+)?)+", ln) for ln in para[1:-1])
+    assert all(re.fullmatch(r"N1\d{4}Q0P-?\d+", ln) for ln in pitch[1:-1])
+    assert "N03624Q1A1P50.0" in para and "N03625Q1A1P0.0" in para     # reals with a decimal point
+    assert "N03620Q1A1P3" in para and "N03621Q1A1P0" in para and "N03622Q1A1P4" in para
+    fix = {int(n): int(v) for n, v in re.findall(r"N1(\d{4})Q0P(-?\d+)", (FIX / "PITCH.TXT").read_text())}
+    ours = [int(v) for v in re.findall(r"Q0P(-?\d+)", "\n".join(pitch))]
+    assert ours == [fix[n] for n in range(2, 7)]                          # the same sections, numbered from 0
+    back = fanuc.read(tmp_path, m, five_points())
+    np.testing.assert_allclose(to_mm(back.table("xx")(from_mm(X_MM))), -E_XX_MM, atol=1e-12)
+
+
+def test_table_is_anchored_at_the_reference_position_from_the_profile(tmp_path):
+    """Parameter 1240 (machine coordinate of the reference position) from the profile:
+    the points sit at reference + k x interval and the correction is zero there."""
+    m = tiny_machine()
+    t = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.05, 0.04, 0.03, 0.02, 0.01])))
+    notes = write(TableSet(m.axis_names, [t]), m, five_points(X={"reference_position": -75.0}), tmp_path)
+    g = fanuc.read_grids(tmp_path, m, five_points(X={"reference_position": -75.0}))[0]
+    assert g.reference_position == -75.0
+    assert np.allclose((g.position(np.arange(g.first, g.last + 1)) + 75.0) % g.interval, 0.0, atol=1e-9)
+    back = fanuc.grid_table(g, m)
+    assert to_mm(back(from_mm(-75.0))) == pytest.approx(0.0, abs=1e-12)
+    assert any("+0.0250 mm" in n for n in notes)                        # t(-75) = 0.025: the constant removed
+    x = np.linspace(-200, -35, 34)            # inside the last grid point: the linear table is exact there
+    np.testing.assert_allclose(to_mm(back(from_mm(x))) + 0.025, to_mm(t(from_mm(x))), atol=1e-3)
+
+
+def test_rotary_axis_type_reference_value_equals_the_last(tmp_path):
+    """B-63980EN p.100: over a turn the values sum to zero, and the reference point
+    (= most negative point) gets the same value as the last point."""
+    m = tiny_machine()
+    c = np.linspace(0, 2 * math.pi, 361)
+    t = CompensationTable("C", "C", 0.0, c[1], np.radians(0.01 * np.sin(c) + 0.004 * np.cos(3 * c)), modulo=True)
+    prof = profile(C={"modulo": True}, limits={"pitch_points_per_axis": 73})
+    write(TableSet(m.axis_names, [t]), m, prof, tmp_path)
+    g = fanuc.read_grids(tmp_path, m, prof)[0]
+    para = (tmp_path / "CNC-PARA.TXT").read_text()
+    assert "N03625Q1A4P360.0" in para and g.first == g.reference and g.interval == 5.0
+    assert g.values[1:].sum() == 0 and g.values[0] == g.values[-1] != 0
+    back = fanuc.grid_table(g, m)
+    q = np.radians(np.linspace(-400, 400, 97))
+    np.testing.assert_allclose(np.degrees(back(q)), np.degrees(t(q) - t(0.0)), atol=2e-3)
+
+
+def test_magnification_is_chosen_and_the_range_checked(tmp_path):
+    m = tiny_machine()
+    steep = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.0, 0.3, 0.6, 0.9, 1.2])))
+    write(TableSet(m.axis_names, [steep]), m, five_points(), tmp_path)
+    g = fanuc.read_grids(tmp_path, m, five_points())[0]
+    assert g.magnification == 3 and np.abs(g.values).max() <= 127          # 300 units per section at mag 1
+    with pytest.raises(ControllerLimitError, match="magnification"):
+        write(TableSet(m.axis_names, [steep]), m, profile(limits={"pitch_points_per_axis": 5,
+                                                                    "max_magnification": 2}), tmp_path / "b")
+
+
+def test_straightness_is_written_for_entry_by_hand(tmp_path):
+    m = tiny_machine()
+    notes = write(fixture_tables(m), m, five_points(), tmp_path)
+    rows = (tmp_path / "STRAIGHTNESS.CSV").read_text().splitlines()
+    assert rows[0].startswith("#") and "not a Fanuc file" in rows[0]
+    assert "yx,X,1,0,-150.0,mm,Y,2,0.001,mm,1" in rows                   # correction = -e_YX(-150)
+    readme = (tmp_path / "README_FANUC.md").read_text()
+    assert "by hand" in readme and "moving axis X (A1), compensation axis Y (A2)" in readme
+    assert any("by hand" in n for n in notes)
+    back = fanuc.read(tmp_path, m, five_points())
+    np.testing.assert_allclose(to_mm(back.table("yx")(from_mm(X_MM))), -E_YX_MM, atol=1e-12)
+
+
+def test_missing_facts_and_point_budget():
+    m = tiny_machine()
+    with pytest.raises(InputError, match="controlled-axis number"):
+        fanuc.check(m, profile(Y={"number": None}), fanuc.LIMITS)
+    with pytest.raises(InputError, match=r"reference position in mm \(parameter 1240"):
+        fanuc.check(m, profile(Y={"reference_position": None}), fanuc.LIMITS)
+    with pytest.raises(InputError, match="detection unit"):
+        fanuc.check(m, profile(C={"detection_unit": None}), fanuc.LIMITS)
+    t = [CompensationTable(a, a, -0.2, 0.05, np.zeros(5)) for a in "XYZ"]
+    with pytest.raises(ControllerLimitError, match="pitch_points_total"):
+        fanuc.grids(TableSet(m.axis_names, t), m, profile(limits={"pitch_points_total": 5}))
+    g = fanuc.grids(TableSet(m.axis_names, t), m, profile(limits={"pitch_points_total": 9}))
+    assert [x.last - x.first + 1 for x in g] == [3, 3, 3] and g[2].last == 8      # 9 // 3 points each, from 0
+
+
+@pytest.mark.parametrize("bad, message, line", [
+    ("N10003Q0P3", "N10003Q0Px", 6),                      # line 1 is the leader
+    ("N03624Q1A1P50.0A2P0.0A3P0.0", "N03624Q1A1P50.0A2", 7),
+    ("N03621Q1A1P1A2P0A3P0", "N03621Q1A1P6A2P0A3P0", 4),
+])
+def test_bad_tapes_name_file_and_line(tmp_path, bad, message, line):
+    for f in ("CNC-PARA.TXT", "PITCH.TXT"):
+        text = (FIX / f).read_text()
+        (tmp_path / f).write_text(text.replace(bad, message))
+    with pytest.raises(ControllerFileError) as exc:
+        fanuc.read(tmp_path, tiny_machine(), profile())
+    assert exc.value.line == line
+
+
+def test_a_cut_tape_is_refused(tmp_path):
+    (tmp_path / "CNC-PARA.TXT").write_text("%\nN03620Q1A1P5\n")
+    with pytest.raises(ControllerFileError, match="no closing %"):
+        fanuc.read(tmp_path, tiny_machine(), profile())

@@ -1,0 +1,77 @@
+"""Heidenhain .COM / .CMA: the technical-manual form, round trip, limits.
+Fixtures: tests/data/controllers/heidenhain (MANUALplus 620 TM p.716/718; pyLSV2 table syntax)."""
+import math
+
+import numpy as np
+import pytest
+from export_helpers import DATA, E_XX_MM, E_YX_MM, X_MM, fixture_tables, profile, tiny_machine
+
+from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.errors import ControllerFileError, ControllerLimitError
+from vecpin.export import heidenhain
+from vecpin.export.common import ExportJob
+from vecpin.fileio import OutputSet
+from vecpin.units import to_mm
+
+FIX = DATA / "heidenhain"
+
+
+def named_profile(**kw):
+    return profile(X={"nc_name": "X"}, Y={"nc_name": "Y"}, Z={"nc_name": "Z"}, C={"nc_name": "C"}, **kw)
+
+
+def write(tables, machine, prof, out_dir):
+    with OutputSet(out_dir) as out:
+        heidenhain.write(ExportJob(tables, machine, prof, heidenhain.LIMITS, out))
+
+
+def test_reader_parses_the_documented_tables():
+    m = tiny_machine()
+    back = heidenhain.read(FIX, m, named_profile())
+    assert sorted(back.names()) == ["xx", "yx"]
+    np.testing.assert_allclose(to_mm(back.table("xx").positions), X_MM)
+    np.testing.assert_allclose(to_mm(back.table("xx").values), -E_XX_MM, atol=1e-12)
+    np.testing.assert_allclose(to_mm(back.table("yx").values), -E_YX_MM, atol=1e-12)
+
+
+def test_writer_reproduces_the_documented_tables(tmp_path):
+    """Byte for byte up to [END] (the fixture's provenance line follows it)."""
+    m = tiny_machine()
+    write(fixture_tables(m), m, named_profile(), tmp_path)
+    for name in ("X.COM", "CONFIG.CMA"):
+        fix = (FIX / name).read_text().split("[END]")[0]
+        assert (tmp_path / name).read_text() == fix + "[END]\n"
+
+
+def test_round_trip_with_a_modulo_rotary_input(tmp_path):
+    m = tiny_machine()
+    c = np.linspace(0, 2 * math.pi, 181)
+    ts = [CompensationTable("C", "C", 0.0, c[1], np.radians(0.01 * np.sin(c)), modulo=True),
+          CompensationTable("C", "X", 0.0, c[1], 2e-5 * np.cos(c), modulo=True)]
+    write(TableSet(m.axis_names, ts), m, named_profile(), tmp_path)
+    back = heidenhain.read(tmp_path, m, named_profile())
+    q = np.radians(np.linspace(-400, 400, 101))
+    for t in ts:
+        bt = back.table(t.name)
+        assert bt.modulo
+        np.testing.assert_allclose(bt(q), t(q), atol=np.radians(0.5e-4) if t.output_axis == "C" else 0.5e-7)
+
+
+def test_limits(tmp_path):
+    m = tiny_machine()
+    assert heidenhain.LIMITS.max_points == 256
+    with pytest.raises(ControllerLimitError, match="0..360"):
+        heidenhain.check(m, named_profile(), heidenhain.LIMITS, [])        # C travels -180 .. 180
+    heidenhain.check(m, named_profile(), heidenhain.LIMITS, ["C"])
+    heidenhain.check(m, named_profile(options={"rotary_any_range": True}), heidenhain.LIMITS, [])
+
+
+def test_bad_table_names_file_and_line(tmp_path):
+    (tmp_path / "CONFIG.CMA").write_text((FIX / "CONFIG.CMA").read_text())
+    (tmp_path / "X.COM").write_text((FIX / "X.COM").read_text().replace("-0.0010", "-0.00x0"))
+    with pytest.raises(ControllerFileError, match="not a number") as exc:
+        heidenhain.read(tmp_path, tiny_machine(), named_profile())
+    assert exc.value.line == 4 and exc.value.path == str(tmp_path / "X.COM")
+    (tmp_path / "X.COM").write_text((FIX / "X.COM").read_text().replace("[END]", ""))
+    with pytest.raises(ControllerFileError, match=r"no \[END\]"):
+        heidenhain.read(tmp_path, tiny_machine(), named_profile())

@@ -1,0 +1,139 @@
+"""The tables workflow: limits and missing facts refused before any computation, the
+profile, honest report rows (same points, parameter uncertainty), reproducible files."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vecpin.compensation import plan as plan_module
+from vecpin.compensation.functions import compensated_errors, model_as_actual
+from vecpin.compensation.plan import parameter_spread, plan_tables
+from vecpin.errors import ControllerLimitError, InputError
+from vecpin.export.profile import ControllerProfile
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import registered_errors
+from vecpin.models import make_model
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.workflows.tables import make_tables
+
+PROFILE = {"format": "vecpin-controller-profile", "version": 1}
+
+
+@pytest.fixture(scope="module")
+def model(machines):
+    flow = machines["flow_xyzcb"]
+    sim = simulate(flow, seed=5, design=Design(n_commands=150))
+    return make_model("ap", flow, 3).fit(sim.campaign, NoiseModel.default(flow, "spherical"))
+
+
+@pytest.fixture
+def no_solving(monkeypatch):
+    def refuse(*a, **k):
+        raise AssertionError("the table problem was built before the limits were checked")
+    monkeypatch.setattr(plan_module, "TableProblem", refuse)
+
+
+def test_limits_and_missing_facts_are_refused_before_computing(model, tmp_path, no_solving):
+    with pytest.raises(ControllerLimitError, match="--points 10000000"):
+        make_tables(model, tmp_path, "generic", points=10_000_000)
+    with pytest.raises(ControllerLimitError, match="--points 10000000"):
+        plan_tables(model, points=10_000_000)
+    with pytest.raises(ControllerLimitError, match="at most 200 points"):
+        make_tables(model, tmp_path, "siemens-828d", points=1024)
+    with pytest.raises(InputError, match="reference position"):
+        make_tables(model, tmp_path, "fanuc-30i", profile=ControllerProfile.from_dict(
+            PROFILE | {"axes": {a: {"number": k + 1} for k, a in enumerate(model.machine.axis_names)}}))
+    with pytest.raises(InputError, match="X=NAME"):
+        make_tables(model, tmp_path, "siemens-840d", axis_map={"Y": "Y1"})
+    with pytest.raises(ControllerLimitError, match="pitch tables only"):
+        make_tables(model, tmp_path, "linuxcnc", max_tables=3)
+    with pytest.raises(InputError, match="--sign-test Q"):
+        make_tables(model, tmp_path, "linuxcnc", sign_test="Q")
+
+
+def test_profile_checks(model, tmp_path):
+    m = model.machine
+    with pytest.raises(InputError, match="'axes.X.refrence_position': unknown"):
+        ControllerProfile.from_dict(PROFILE | {"axes": {"X": {"refrence_position": 0.0}}})
+    with pytest.raises(InputError, match="'axes.X.number': a whole number"):
+        ControllerProfile.from_dict(PROFILE | {"axes": {"X": {"number": "1"}}})
+    with pytest.raises(InputError, match="has no axis 'W'"):
+        ControllerProfile.from_dict(PROFILE | {"axes": {"W": {}}}).check_machine(m, "generic")
+    with pytest.raises(InputError, match="for machine 'snk_120v'"):
+        ControllerProfile.from_dict(PROFILE | {"machine": "snk_120v"}).check_machine(m, "generic")
+    with pytest.raises(InputError, match="both have nc_name 'X1'"):
+        ControllerProfile.from_dict(PROFILE | {"axes": {"X": {"nc_name": "X1"}, "Y": {"nc_name": "X1"}}}
+                                    ).check_machine(m, "generic")
+    with pytest.raises(InputError, match="only rotary axes are modulo"):
+        ControllerProfile.from_dict(PROFILE | {"axes": {"X": {"modulo": True}}}).check_machine(m, "generic")
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps(PROFILE | {"axes": {"X": {"nc_name": "X1"}}}))
+    prof = ControllerProfile.load(p).with_axis_map({"X": "X9"})
+    assert prof.axis("X").nc_name == "X9" and prof.axis_by_nc_name("X9") == "X"
+    with pytest.raises(InputError, match="'max_points' is not a limit"):
+        from vecpin.export.registry import get_format
+        get_format("fanuc-30i").limits_for(ControllerProfile.from_dict(PROFILE | {"limits": {"max_points": 3}}))
+
+
+def test_report_rows_share_points_and_carry_the_parameter_spread(model):
+    plan = plan_tables(model, n_commands=300)
+    rep = plan.report
+    assert "every row on these points" in rep.basis and "300 quasi-random commands" in rep.basis
+    assert all("model" in r.label for r in rep.rows)
+    assert any("fit residual" in n and "not these" in n for n in rep.notes)
+    full = [r for r in rep.rows if r.label.startswith("full")][0]
+    assert full.mean < 0.002 and full.spread[0] > 5 * full.mean      # the model cancels itself; the data do not
+    assert all(r.spread is not None and r.spread[1] <= r.spread[0] <= r.spread[2] for r in rep.rows)
+    # a model read from a file keeps standard deviations only: no spread, said so
+    model2 = make_model("ap", model.machine, 3)
+    model2.__dict__.update({k: v for k, v in model.__dict__.items() if k.endswith("_")})
+    model2.cov_ = np.diag(np.diag(model.cov_))
+    rep2 = plan_tables(model2, n_commands=100).report
+    assert all(r.spread is None for r in rep2.rows) and any("standard deviations only" in n for n in rep2.notes)
+
+
+def test_parameter_spread_matches_nonlinear_draws(model):
+    """The linearised spread against the model evaluated at parameter draws (no linearisation)."""
+    plan = plan_tables(model, n_commands=200, uncertainty=False)
+    q, L, m = plan.problem.q, plan.problem.L, model.machine
+    lin = parameter_spread(model, plan.tables, q, L, draws=400, seed=1)
+    rng = np.random.default_rng(7)
+    cov = model.cov_[6:, 6:]
+    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
+    F = U * np.sqrt(np.clip(w, 0, None))
+    b0 = model.b_.copy()
+    means = []
+    nominal = m.tool_tip(q, L + plan.tables.gauge_offset_change)
+    for _ in range(60):
+        b = b0 + F @ rng.standard_normal(len(b0))
+        tip = model.tool_tip(plan.tables.apply(q), L, b, jacobian=False).tip
+        means.append(np.linalg.norm(registered_errors(nominal, tip), axis=1).mean() * 1e3)
+    assert np.mean(means) == pytest.approx(lin[0], rel=0.1)
+    assert np.std(means) == pytest.approx((lin[2] - lin[1]) / 2, rel=0.5)
+    actual = compensated_errors(model_as_actual(model), m, plan.tables, q, L)
+    assert np.linalg.norm(actual, axis=1).mean() * 1e3 < lin[0]
+
+
+def test_profile_modulo_axes_give_modulo_tables_and_pitch_only_controllers(model, tmp_path):
+    prof = ControllerProfile.from_dict(PROFILE | {"axes": {"C": {"modulo": True}}})
+    run = make_tables(model, tmp_path / "g", "generic", profile=prof, uncertainty=False)
+    assert all(t.modulo for t in run.plan.tables.tables if t.input_axis == "C")
+    run = make_tables(model, tmp_path / "l", "linuxcnc", uncertainty=False)
+    assert sorted(run.plan.tables.names()) == ["bb", "cc", "xx", "yy", "zz"]
+    labels = [r.label for r in run.plan.report.rows]
+    assert "full tables (not loadable on linuxcnc)" in labels and "files as written (model-predicted)" in labels
+    written = [r for r in run.plan.report.rows if r.label.startswith("files")][0]
+    pitch = [r for r in run.plan.report.rows if r.label.startswith("pitch")][0]
+    assert written.mean == pytest.approx(pitch.mean, rel=1e-3)           # 256 points, 1 nm: what was planned
+
+
+def test_reruns_write_identical_files(model, tmp_path):
+    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    for d in ("a", "b"):
+        make_tables(model, tmp_path / d, "fanuc-30i", profile=prof, max_tables=1, method="heuristic",
+                    sign_test="X", uncertainty=False)
+    names = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "b").iterdir()) and len(names) > 8
+    for n in names:
+        assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n

@@ -1,0 +1,165 @@
+"""What every controller format shares: the format description, the export job,
+number formatting and line-numbered reading.
+
+A :class:`ControllerFormat` is data plus two functions: ``write(job)`` puts the
+controller's files into the job's :class:`~vecpin.fileio.OutputSet` and returns
+their names; ``read(folder, machine, profile)`` parses them back into a
+:class:`~vecpin.compensation.tables.TableSet` in vecpin's convention (SI; a table
+value is the increment added to the command of the output axis, i.e. the
+correction, minus the error). Readers raise
+:class:`~vecpin.errors.ControllerFileError` naming file and line.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from vecpin.compensation.limits import ControllerLimits
+from vecpin.compensation.tables import TableSet
+from vecpin.errors import ControllerFileError, InputError
+from vecpin.export.profile import ControllerProfile
+from vecpin.fileio import OutputSet
+from vecpin.kinematics.machine import Machine
+
+
+@dataclass
+class ExportJob:
+    """One export: the tables (SI, vecpin convention), the machine, its controller
+    profile and limits, the model (for formats that export its error functions), the
+    output set, the table points, ``notes`` for the user (removed constants,
+    warnings), which the command prints, and ``constants``: per axis, the correction
+    [m or rad] a pitch table could not carry (zero at the reference point), which the
+    user may set as a reference-point shift."""
+
+    tables: TableSet
+    machine: Machine
+    profile: ControllerProfile
+    limits: ControllerLimits
+    out: OutputSet
+    model: object | None = None
+    points: int = 1024
+    notes: list[str] = field(default_factory=list)
+    constants: dict[str, float] = field(default_factory=dict)
+
+
+def constant_note(axis, value_user: float, file: str) -> str:
+    """The note for a constant a pitch table cannot carry."""
+    what = ("it shifts the whole workspace along the axis (a work offset absorbs it)" if axis.kind == "linear" else
+            "it turns everything after the axis: set it as a reference-point shift")
+    return (f"{axis.name}: the correction at the reference point ({value_user:+.4f} {axis.unit}) is not in {file} (the "
+            f"table is zero there); {what}")
+
+
+@dataclass(frozen=True)
+class ControllerFormat:
+    """A controller's table format.
+
+    ``limits``: defaults (a profile may override them); ``check``: raises before any
+    heavy work when the profile lacks a fact the writer needs (given the modulo axes); ``files``, ``sign``,
+    ``source``, ``to_check``: the README's controller table; ``dialect``: the NC
+    language of the sign-test program; ``main_files``: file names ``read`` needs."""
+
+    name: str
+    title: str
+    limits: ControllerLimits
+    write: Callable[[ExportJob], list[str]]
+    read: Callable[[Path, Machine, ControllerProfile], TableSet] | None
+    check: Callable[[Machine, ControllerProfile, ControllerLimits, list], None]
+    files: str
+    sign: str
+    source: str
+    to_check: str
+    dialect: str = "din"
+    needs_model: bool = False
+    extra_limits: dict = field(default_factory=dict)
+
+    def extra_limit(self, profile: ControllerProfile, name: str):
+        """A format-specific limit: the profile's value or the format's default."""
+        value = profile.limit(name, self.extra_limits[name])
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
+            raise InputError(f"{profile.where}, limits: '{name}' must be a number > 0, not {value!r}")
+        return value
+
+    def limits_for(self, profile: ControllerProfile) -> ControllerLimits:
+        """The limits with the profile's overrides (``"limits": {...}``); names that are
+        neither table limits nor this format's own (``extra_limits``) are errors."""
+        unknown = sorted(k for k in profile.limits if k not in _TABLE_LIMITS and k not in self.extra_limits)
+        if unknown:
+            raise InputError(f"{profile.where}, limits: '{unknown[0]}' is not a limit of {self.name} (known: "
+                             f"{', '.join(sorted(_TABLE_LIMITS | set(self.extra_limits)))})")
+        values = {k: v for k, v in profile.limits.items() if k in _TABLE_LIMITS}
+        return self.limits.overridden(values, f"{profile.where}, limits") if values else self.limits
+
+
+_TABLE_LIMITS = {"max_cross_tables", "max_cross_points", "max_pitch_points", "no_circular", "forbid_output"}
+
+
+def no_check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits, modulo_axes=()) -> None:
+    """For formats that need no machine-side fact."""
+
+
+# ---------------------------------------------------------------------- numbers
+def decimal(v: float, decimals: int = 6) -> str:
+    """Shortest decimal with a point, at most ``decimals`` places: 0.003, -200.0, 0.0."""
+    s = f"{float(v):.{decimals}f}".rstrip("0")
+    if s.endswith("."):
+        s += "0"
+    if s in ("-0.0", ""):
+        s = "0.0"
+    return s
+
+
+def signed(v: float, decimals: int = 4) -> str:
+    """Fixed decimals with an explicit sign: +0.0120, -200.0000 (zero: +0.0000)."""
+    s = f"{float(v):+.{decimals}f}"
+    return "+" + s[1:] if s.startswith("-") and float(s) == 0 else s
+
+
+def to_float(text: str, path, line: int, what: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise ControllerFileError(path, f"{what} '{text}' is not a number", line) from None
+    if not np.isfinite(v):
+        raise ControllerFileError(path, f"{what} '{text}' is not a finite number", line)
+    return v
+
+
+def to_int(text: str, path, line: int, what: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise ControllerFileError(path, f"{what} '{text}' is not a whole number", line) from None
+
+
+def read_lines(path: Path, encoding: str = "utf-8") -> list[str]:
+    """The file's lines (no line ends); a missing or undecodable file is a ControllerFileError."""
+    path = Path(path)
+    if not path.is_file():
+        raise ControllerFileError(path, "no such file")
+    try:
+        return path.read_text(encoding=encoding).splitlines()
+    except UnicodeDecodeError as exc:
+        raise ControllerFileError(path, f"not a text file ({exc.reason} at byte {exc.start})") from None
+
+
+def equidistant(path, positions: np.ndarray, line: int | None, what: str = "positions",
+                tol: float | None = None) -> tuple[float, float]:
+    """(start, step) of equally spaced ascending positions (within ``tol``, default a
+    millionth of the step); otherwise a ControllerFileError."""
+    positions = np.asarray(positions, float)
+    if len(positions) < 2:
+        raise ControllerFileError(path, f"a table needs at least 2 {what}", line)
+    d = np.diff(positions)
+    if np.any(d <= 0):
+        k = int(np.argmax(d <= 0))
+        raise ControllerFileError(path, f"{what} must increase: {positions[k + 1]:g} follows {positions[k]:g}", line)
+    step = (positions[-1] - positions[0]) / (len(positions) - 1)
+    tol = 1e-6 * max(abs(step), 1.0) if tol is None else tol
+    if np.abs(positions - (positions[0] + step * np.arange(len(positions)))).max() > tol:
+        raise ControllerFileError(path, f"{what} are not equally spaced (vecpin tables are; steps {d.min():g} .. "
+                                  f"{d.max():g})", line)
+    return float(positions[0]), float(step)

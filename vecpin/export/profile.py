@@ -1,0 +1,221 @@
+"""A machine's controller profile: the machine-side facts a controller file needs.
+
+A compensation file that a controller accepts with the wrong axis, reference point
+or unit silently makes the machine worse, so vecpin never guesses these facts: a
+writer that needs one and does not find it stops with a message naming the axis,
+the field and what the controller uses it for. The facts live in a small JSON file
+(``--profile``), one per machine and controller::
+
+    {
+     "format": "vecpin-controller-profile", "version": 1,
+     "machine": "flow_xyzcb", "controller": "fanuc-30i",
+     "axes": {
+      "X": {"nc_name": "X1", "number": 1, "reference_position": 0.0, "detection_unit": 0.001},
+      "C": {"nc_name": "C1", "number": 4, "reference_position": 0.0, "detection_unit": 0.001, "modulo": false}
+     },
+     "limits": {"max_cross_points": 500},
+     "options": {"comp_file_type": 1}
+    }
+
+Positions and units are the NC's, in mm (linear) or degrees (rotary). vecpin's axis
+commands are the NC's machine coordinates (a campaign records the commanded axis
+positions), so a reference position is given in the same coordinates as the tables.
+
+Axis fields (all optional; each format says which it needs):
+
+================== ===================================================================
+``nc_name``         the controller's name of the machine axis (Siemens ``X1``, Heidenhain
+                    and Beckhoff axis names)
+``general_name``    Siemens general axis name ``AXn`` (CEC tables use it when given)
+``program_name``    the axis address in part programs (sign-test program; default: the
+                    vecpin axis name, flagged in the instructions)
+``number``          Fanuc controlled-axis number (``A<n>``), LinuxCNC joint number,
+                    Beckhoff logical axis number
+``reference_position``  NC machine coordinate of the reference point [mm or deg]
+``modulo``          the NC treats this rotary axis as modulo (positions 0..360 deg)
+``detection_unit``  detection unit [mm or deg] (Fanuc pitch data count in it)
+================== ===================================================================
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from vecpin.errors import InputError
+
+FORMAT = "vecpin-controller-profile"
+VERSION = 1
+
+AXIS_FIELDS = {
+    "nc_name": str, "general_name": str, "program_name": str, "number": int,
+    "reference_position": float, "modulo": bool, "detection_unit": float,
+}
+TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
+
+
+@dataclass(frozen=True)
+class AxisProfile:
+    """The controller's facts about one machine axis (None: not given)."""
+
+    nc_name: str | None = None
+    general_name: str | None = None
+    program_name: str | None = None
+    number: int | None = None
+    reference_position: float | None = None
+    modulo: bool | None = None
+    detection_unit: float | None = None
+
+
+@dataclass
+class ControllerProfile:
+    """Facts about one machine's controller; ``where`` names their source in messages."""
+
+    axes: dict[str, AxisProfile] = field(default_factory=dict)
+    limits: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+    machine: str | None = None
+    controller: str | None = None
+    where: str = "controller profile (--profile)"
+
+    # ------------------------------------------------------------------ files
+    @classmethod
+    def load(cls, path: str | Path) -> "ControllerProfile":
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"--profile {path}: no such file")
+        try:
+            d = json.loads(path.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(f"--profile {path}: not a JSON file ({exc})") from None
+        return cls.from_dict(d, str(path))
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str = "controller profile") -> "ControllerProfile":
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise InputError(f"{where}: not a vecpin controller profile (\"format\" must be \"{FORMAT}\")")
+        if d.get("version") != VERSION:
+            raise InputError(f"{where}: profile version {d.get('version')!r} is not supported (this vecpin reads {VERSION})")
+        unknown = sorted(set(d) - TOP_FIELDS)
+        if unknown:
+            raise InputError(f"{where}: unknown field '{unknown[0]}' (known: {', '.join(sorted(TOP_FIELDS))})")
+        axes = {}
+        raw_axes = d.get("axes", {})
+        if not isinstance(raw_axes, dict):
+            raise InputError(f"{where}, field 'axes': an object of axis name -> facts")
+        for name, facts in raw_axes.items():
+            if not isinstance(facts, dict):
+                raise InputError(f"{where}, field 'axes.{name}': an object of facts")
+            values = {}
+            for key, value in facts.items():
+                if key not in AXIS_FIELDS:
+                    raise InputError(f"{where}, field 'axes.{name}.{key}': unknown (known: {', '.join(AXIS_FIELDS)})")
+                values[key] = _typed(value, AXIS_FIELDS[key], f"{where}, field 'axes.{name}.{key}'")
+            axes[name] = AxisProfile(**values)
+        for key in ("limits", "options"):
+            if not isinstance(d.get(key, {}), dict):
+                raise InputError(f"{where}, field '{key}': an object of name -> value")
+        return cls(axes, dict(d.get("limits", {})), dict(d.get("options", {})), d.get("machine"),
+                   d.get("controller"), where)
+
+    def to_dict(self) -> dict:
+        axes = {a: {k: v for k, v in dataclasses.asdict(p).items() if v is not None} for a, p in self.axes.items()}
+        out = {"format": FORMAT, "version": VERSION}
+        if self.machine:
+            out["machine"] = self.machine
+        if self.controller:
+            out["controller"] = self.controller
+        out["axes"] = axes
+        if self.limits:
+            out["limits"] = self.limits
+        if self.options:
+            out["options"] = self.options
+        return out
+
+    # ------------------------------------------------------------------ facts
+    def axis(self, name: str) -> AxisProfile:
+        return self.axes.get(name, AxisProfile())
+
+    def need(self, axis: str, key: str, controller: str, purpose: str):
+        """The fact ``key`` of ``axis``, or an error saying where to give it."""
+        value = getattr(self.axis(axis), key)
+        if value is None:
+            hint = (f"--axis-map {axis}=NAME or " if key == "nc_name" else "")
+            raise InputError(f"{controller} needs the {purpose} of axis {axis}: give {hint}\"{key}\" under "
+                             f"axes.{axis} in the controller profile (--profile; {self.where})")
+        return value
+
+    def limit(self, name: str, default):
+        return self.limits.get(name, default)
+
+    def option(self, name: str, default):
+        return self.options.get(name, default)
+
+    def modulo_axes(self) -> list[str]:
+        return [a for a, p in self.axes.items() if p.modulo]
+
+    def check_machine(self, machine, controller: str) -> None:
+        """Every profile axis exists on the machine; machine and controller names agree."""
+        if self.machine and self.machine != machine.name:
+            raise InputError(f"{self.where}: the profile is for machine '{self.machine}', the model for '{machine.name}'")
+        if self.controller and self.controller != controller:
+            raise InputError(f"{self.where}: the profile is for controller '{self.controller}', not '{controller}' "
+                             "(--controller)")
+        for a in self.axes:
+            if a not in machine.axis_names:
+                raise InputError(f"{self.where}, field 'axes.{a}': machine {machine.name} has no axis '{a}' "
+                                 f"(axes: {', '.join(machine.axis_names)})")
+        for a, p in self.axes.items():
+            if p.modulo and machine.axis(a).kind != "rotary":
+                raise InputError(f"{self.where}, field 'axes.{a}.modulo': only rotary axes are modulo, {a} is linear")
+            if p.detection_unit is not None and p.detection_unit <= 0:
+                raise InputError(f"{self.where}, field 'axes.{a}.detection_unit': must be > 0")
+        names = [(p.nc_name, a) for a, p in self.axes.items() if p.nc_name]
+        seen: dict[str, str] = {}
+        for n, a in names:
+            if n in seen:
+                raise InputError(f"{self.where}: axes {seen[n]} and {a} both have nc_name '{n}'; each machine axis "
+                                 "needs its own")
+            seen[n] = a
+
+    def with_axis_map(self, axis_map: dict[str, str]) -> "ControllerProfile":
+        """A copy with NC axis names from ``--axis-map`` (they win over the file)."""
+        if not axis_map:
+            return self
+        axes = dict(self.axes)
+        for a, n in axis_map.items():
+            axes[a] = dataclasses.replace(self.axis(a), nc_name=n)
+        where = self.where if self.axes or self.limits else "--axis-map"
+        return dataclasses.replace(self, axes=axes, where=where)
+
+    def axis_by_nc_name(self, name: str) -> str | None:
+        """The vecpin axis whose nc_name or general_name is ``name``."""
+        for a, p in self.axes.items():
+            if name in (p.nc_name, p.general_name):
+                return a
+        return None
+
+    def axis_by_number(self, number: int) -> str | None:
+        for a, p in self.axes.items():
+            if p.number == number:
+                return a
+        return None
+
+
+def _typed(value, kind, where: str):
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{where}: a number, not {value!r}")
+        return float(value)
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{where}: a whole number, not {value!r}")
+        return value
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"{where}: true or false, not {value!r}")
+        return value
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"{where}: a non-empty text, not {value!r}")
+    return value.strip()

@@ -1,0 +1,329 @@
+"""SINUMERIK 840D sl and 828D: sag/angularity (CEC) and measuring-system error (EEC) tables.
+
+Files (Function Manual Extended Functions K3, "Interpolatory compensation"):
+
+* ``NC_CEC.INI`` - ``%_N_NC_CEC_INI``, ``CHANDATA(1)``, then per cross table ``t``:
+  ``$AN_CEC[t,N]`` values, ``$AN_CEC_INPUT_AXIS[t]=(AX1)`` (base axis, its setpoint
+  is the input), ``$AN_CEC_OUTPUT_AXIS[t]=(AX2)`` (compensated axis), ``_STEP``,
+  ``_MIN``, ``_MAX`` (positions of the first and last point), ``_DIRECTION`` (0: both
+  directions), ``_MULT_BY_TABLE`` (0: none), ``_IS_MODULO``; ends with ``M17``.
+  Axis names in parentheses, general axis names ``AXn`` in multi-channel systems
+  (K3 03/2013 p.248-249; 802D sl K3 p.222 example).
+* ``AX_EEC.INI`` - ``%_N_AX_EEC_INI``, ``CHANDATA(1)``, per pitch table
+  ``$AA_ENC_COMP[0,N,X1]`` and ``_STEP``, ``_MIN``, ``_MAX``, ``_IS_MODULO`` with the
+  machine axis name (K3 03/2013 p.242 example; 840D sl 09/2009 p.363-364).
+
+Sign (CERTAIN, both): "A positive compensation value causes the corresponding machine
+axis to move in the negative direction" (EEC: K3 03/2013 p.238, 808D p.106; CEC, sag
+section: 840D sl FM 01/2008 p.357, 03/2009 p.372). A file value is therefore the
+*error* of the (output) axis, minus vecpin's table value (the correction).
+
+EEC tables must be zero at the reference point (prevents a position jump when the
+compensation switches on after referencing, K3 p.238): the writer subtracts the
+correction at the profile's reference position and reports the constant. Below MIN
+and above MAX the end values hold; modulo tables repeat (MIN 0, MAX 360).
+
+Limits: 828D "sag compensation, multi-dimensional" gives fixed 8 tables x 200 points
+(K3 03/2013 p.264); on the 840D sl the points per table are machine data (MD18342
+CEC, MD38000 EEC) and the seed reports 64 tables; a profile sets the real ones.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.compensation.limits import ControllerLimits
+from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.errors import ControllerFileError, InputError
+from vecpin.export.common import ControllerFormat, ExportJob, constant_note, decimal, read_lines, to_float, to_int
+from vecpin.export.profile import ControllerProfile
+from vecpin.kinematics.machine import Machine
+
+CEC_FILE, EEC_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "README_SIEMENS.md"
+
+LIMITS_840D = ControllerLimits(
+    "siemens-840d", max_cross_tables=64,
+    source="840D sl: points per table from MD18342 (CEC) / MD38000 (EEC), tables: 64 per the seed (Section 2.2); "
+           "set your machine's in the profile")
+LIMITS_828D = ControllerLimits(
+    "siemens-828d", max_cross_tables=8, max_cross_points=200, fixed=("max_cross_tables", "max_cross_points"),
+    source="828D sag compensation option: fixed 8 tables x 200 points, not extendable (K3 03/2013 p.264)")
+
+
+# ---------------------------------------------------------------------- facts
+def _cec_name(profile: ControllerProfile, axis: str, controller: str) -> str:
+    p = profile.axis(axis)
+    return p.general_name or profile.need(axis, "nc_name", controller, "machine axis name (e.g. X1, or AXn)")
+
+
+def check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits, modulo_axes=()) -> None:
+    """Every axis needs its NC name; every axis a reference point (pitch tables on all)."""
+    for a in machine.axes:
+        profile.need(a.name, "nc_name", limits.name, "machine axis name (e.g. X1)")
+        profile.need(a.name, "reference_position", limits.name,
+                     f"reference point position in {a.unit} (the EEC table must be zero there)")
+
+
+def _modulo_notes(job: ExportJob) -> None:
+    for a in job.machine.axes:
+        if a.kind != "rotary" or a.upper_user - a.lower_user < 360.0 - 1e-9:
+            continue
+        p = job.profile.axis(a.name)
+        if p.modulo is None and not any(t.modulo for t in job.tables.tables if t.input_axis == a.name):
+            job.notes.append(f"warning: {a.name} travels {a.upper_user - a.lower_user:g} deg and its tables cover the "
+                             f"whole travel; if the NC treats {a.name} as a modulo axis, its tables must be modulo "
+                             f"(0..360): set \"modulo\": true for {a.name} in the profile (or --modulo {a.name})")
+        if p.modulo and not all(t.modulo for t in job.tables.tables if t.input_axis == a.name):
+            raise InputError(f"{job.profile.where}: {a.name} is a modulo axis but its tables are not modulo: make "
+                             f"the tables with --modulo {a.name}")
+
+
+# ---------------------------------------------------------------------- writer
+def write(job: ExportJob) -> list[str]:
+    """``NC_CEC.INI``, ``AX_EEC.INI`` and ``README_SIEMENS.md`` into the job's output set."""
+    m, prof, ctl = job.machine, job.profile, job.limits.name
+    job.limits.check_tables(job.tables)
+    _modulo_notes(job)
+    cross = [t for t in job.tables.tables if not t.is_pitch]
+    pitch = [t for t in job.tables.tables if t.is_pitch]
+    lines = ["%_N_NC_CEC_INI", "CHANDATA(1)",
+             f"; vecpin sag/angularity compensation (CEC), machine {m.name}, {ctl}",
+             "; value = error of the compensation axis [mm or deg]: a positive value moves it in the negative direction"]
+    for k, t in enumerate(cross):
+        ai, ao = m.axis(t.input_axis), m.axis(t.output_axis)
+        name_in, name_out = _cec_name(prof, ai.name, ctl), _cec_name(prof, ao.name, ctl)
+        pos, vals = ai.to_user(t.positions), -ao.to_user(t.values)
+        lines.append(f"; table {k}: {ao.name} ({name_out}) as a function of {ai.name} ({name_in})")
+        lines += [f"$AN_CEC[{k},{j}]={decimal(v, 6 if ao.kind == 'linear' else 8)} ; {name_out} at {name_in} = "
+                  f"{decimal(x, 4)} {ai.unit}" for j, (x, v) in enumerate(zip(pos, vals))]
+        lines += [f"$AN_CEC_INPUT_AXIS[{k}]=({name_in})", f"$AN_CEC_OUTPUT_AXIS[{k}]=({name_out})",
+                  f"$AN_CEC_STEP[{k}]={decimal(ai.to_user(t.step), 9)}",
+                  f"$AN_CEC_MIN[{k}]={decimal(ai.to_user(t.start), 6)}",
+                  f"$AN_CEC_MAX[{k}]={decimal(ai.to_user(t.end), 6)}",
+                  f"$AN_CEC_DIRECTION[{k}]=0", f"$AN_CEC_MULT_BY_TABLE[{k}]=0", f"$AN_CEC_IS_MODULO[{k}]={int(t.modulo)}"]
+    lines.append("M17")
+    job.out.write_text(CEC_FILE, "\n".join(lines) + "\n")
+
+    lines = ["%_N_AX_EEC_INI", "CHANDATA(1)",
+             f"; vecpin measuring-system error compensation (EEC), machine {m.name}, {ctl}",
+             "; value = measuring-system error [mm or deg], zero at the reference point: a positive value moves "
+             "the axis in the negative direction"]
+    constants = {}
+    for t in pitch:
+        a = m.axis(t.input_axis)
+        ax = prof.need(a.name, "nc_name", ctl, "machine axis name (e.g. X1)")
+        ref = prof.need(a.name, "reference_position", ctl, f"reference point position in {a.unit}")
+        c0 = float(t(a.to_si(ref)))  # correction at the reference point [SI]
+        constants[a.name] = a.to_user(c0)
+        pos, vals = a.to_user(t.positions), -a.to_user(t.values - c0)
+        lines += [f"$AA_ENC_COMP[0,{j},{ax}]={decimal(v, 6 if a.kind == 'linear' else 8)} ; {ax} = {decimal(x, 4)} "
+                  f"{a.unit}" for j, (x, v) in enumerate(zip(pos, vals))]
+        lines += [f"$AA_ENC_COMP_STEP[0,{ax}]={decimal(a.to_user(t.step), 9)}",
+                  f"$AA_ENC_COMP_MIN[0,{ax}]={decimal(a.to_user(t.start), 6)}",
+                  f"$AA_ENC_COMP_MAX[0,{ax}]={decimal(a.to_user(t.end), 6)}",
+                  f"$AA_ENC_COMP_IS_MODULO[0,{ax}]={int(t.modulo)}"]
+    lines.append("M17")
+    job.out.write_text(EEC_FILE, "\n".join(lines) + "\n")
+    for a, c in constants.items():
+        job.constants[a] = float(m.axis(a).to_si(c))
+        if abs(c) > 0:
+            job.notes.append(constant_note(m.axis(a), c, EEC_FILE))
+    job.out.write_text(README, _readme(job, cross, pitch, constants))
+    return [CEC_FILE, EEC_FILE, README]
+
+
+def _readme(job: ExportJob, cross, pitch, constants) -> str:
+    m, prof, ctl = job.machine, job.profile, job.limits.name
+    nc = lambda a: prof.axis(a).nc_name  # noqa: E731
+    s = [f"# Compensation for {m.name} ({ctl})", "",
+         f"`{CEC_FILE}`: cross tables as sag/angularity compensation (CEC); `{EEC_FILE}`: pitch tables as",
+         "measuring-system error compensation (EEC). Both are part programs: load them with the compensation",
+         "switched off (MD32700 = 0, MD32710 = 0), then enable it (K3 03/2013 p.237, p.245).", "",
+         "## Sign and zero", "",
+         "Every value is the **error** of the compensated axis (actual minus nominal): a positive value moves the",
+         "axis in the negative direction (K3 p.238 for EEC; sag section p.357/p.372 for CEC). EEC tables are zero at",
+         "the reference point (the profile's `reference_position`); the constants this removed:", ""]
+    s += [f"- {a}: {c:+.4f} {m.axis(a).unit} (correction at the reference point)" for a, c in constants.items()]
+    s += ["", "## Machine data", ""]
+    if ctl == "siemens-828d":
+        s += ["828D: the sag compensation option gives 8 tables of 200 points; MD18342 need not be set (K3 p.264).", ""]
+    else:
+        s += ["Changing MD18342 or MD38000 reformats the static user memory at the next run-up: back up first.", ""]
+        s += [f"- `MD18342 $MN_MM_CEC_MAX_POINTS[{k}]` >= {len(t.values)}  (table {k}: {t.name})"
+              for k, t in enumerate(cross)]
+    s += [f"- `MD38000 $MA_MM_ENC_COMP_MAX_POINTS[0, {nc(t.input_axis)}]` >= {len(t.values)}" for t in pitch]
+    outs = sorted({t.output_axis for t in cross})
+    s += ["", "To enable after loading:", ""]
+    s += [f"- `MD32710 $MA_CEC_ENABLE[{nc(a)}]` = 1" for a in outs]
+    s += [f"- `SD41300 $SN_CEC_TABLE_ENABLE[{k}]` = 1  ({t.name})" for k, t in enumerate(cross)]
+    s += [f"- `MD32700 $MA_ENC_COMP_ENABLE[0, {nc(t.input_axis)}]` = 1" for t in pitch]
+    s += ["", "## Monitoring", "",
+          "The total CEC value of an axis and its rate of change are monitored. The machine data names below are",
+          "from memory, not from a manual seen by vecpin (check them in your K3 manual):", ""]
+    for a in outs:
+        ao = m.axis(a)
+        ts = [t for t in cross if t.output_axis == a]
+        total = sum(np.abs(ao.to_user(t.values)).max() for t in ts)
+        slope = sum(np.abs(np.diff(ao.to_user(t.values)) / m.axis(t.input_axis).to_user(t.step)).max() for t in ts)
+        s.append(f"- {a} ({nc(a)}): total CEC value at most {total:.4f} {ao.unit} -> `MD32720 $MA_CEC_MAX_SUM` above "
+                 f"it; it changes by at most {slope:.2e} {ao.unit} per unit of input travel -> `MD32730 "
+                 "$MA_CEC_MAX_VELO` (percent of the axis' maximum velocity MD32000) above that ratio x 100")
+    s += ["", "## Gauge line", "",
+          f"Change the gauge-line (spindle face to last rotary axis) offset of the 5-axis transformation by "
+          f"{job.tables.gauge_offset_change * 1e3:+.4f} mm.", "",
+          "## Before relying on the tables", "",
+          "- Run the sign test (`vecpin tables ... --sign-test AXIS`) for one table of each file.",
+          "- Beyond MIN/MAX the end values hold; modulo tables repeat every turn.",
+          "- Check the axis names: general axis names AXn are required in multi-channel systems (K3 p.248).", ""]
+    return "\n".join(s)
+
+
+# ---------------------------------------------------------------------- reader
+_CEC = re.compile(r"^\$AN_CEC(?:_([A-Z_]+))?\[\s*(\d+)\s*(?:,\s*(\d+)\s*)?\]\s*=\s*(\S+)$")
+_EEC = re.compile(r"^\$AA_ENC_COMP(?:_([A-Z_]+))?\[\s*([01])\s*,\s*(?:(\d+)\s*,\s*)?([A-Za-z_][A-Za-z0-9_]*)\s*\]"
+                  r"\s*=\s*(\S+)$")
+_CEC_KEYS = {"INPUT_AXIS", "OUTPUT_AXIS", "STEP", "MIN", "MAX", "DIRECTION", "MULT_BY_TABLE", "IS_MODULO",
+             "INPUT_NCU", "OUTPUT_NCU"}
+_EEC_KEYS = {"STEP", "MIN", "MAX", "IS_MODULO"}
+
+
+def _statements(path: Path, header: str):
+    """(line number, statement) of an INI part program, comments removed; checks the
+    header and that nothing but blank lines follows M17."""
+    lines = read_lines(path)
+    out, seen_header, ended = [], False, False
+    for no, raw in enumerate(lines, 1):
+        text = raw.split(";", 1)[0].strip()
+        if not text:
+            continue
+        if ended:
+            raise ControllerFileError(path, f"'{text}' after the end of the program (M17)", no)
+        if not seen_header:
+            if text != header:
+                raise ControllerFileError(path, f"the first line must be {header}, not '{text}'", no)
+            seen_header = True
+            continue
+        if re.fullmatch(r"CHANDATA\(\s*\d+\s*\)", text):
+            continue
+        if text in ("M17", "M30", "M02", "M2"):
+            ended = True
+            continue
+        out.append((no, text))
+    if not seen_header:
+        raise ControllerFileError(path, f"empty file (expected {header})", 1)
+    if not ended:
+        raise ControllerFileError(path, "no M17 at the end: the file is cut short", len(lines))
+    return out
+
+
+def _axis_of(path, profile: ControllerProfile, name: str, no: int) -> str:
+    a = profile.axis_by_nc_name(name)
+    if a is None:
+        raise ControllerFileError(path, f"axis '{name}' is not in the controller profile (nc_name or general_name "
+                                  "of an axis)", no)
+    return a
+
+
+def _table(path, machine, inp, out, values: dict, keys: dict, line: int, what: str, sign: float) -> CompensationTable:
+    for k in ("STEP", "MIN", "MAX", "IS_MODULO"):
+        if k not in keys:
+            raise ControllerFileError(path, f"{what}: no _{k} line", line)
+    n = len(values)
+    if sorted(values) != list(range(n)):
+        missing = sorted(set(range(max(values) + 1)) - set(values)) if values else [0]
+        raise ControllerFileError(path, f"{what}: value {missing[0]} is missing", line)
+    step, lo, hi = (to_float(keys[k][1], path, keys[k][0], k) for k in ("STEP", "MIN", "MAX"))
+    if step <= 0 or hi <= lo:
+        raise ControllerFileError(path, f"{what}: needs STEP > 0 and MAX > MIN (STEP {step:g}, MIN {lo:g}, MAX {hi:g})",
+                                  keys["STEP"][0])
+    count = (hi - lo) / step + 1
+    if abs(count - n) > 1e-6 * n:
+        raise ControllerFileError(path, f"{what}: (MAX - MIN) / STEP + 1 = {count:g} points, but the file has {n} "
+                                  "values", keys["MAX"][0])
+    ai, ao = machine.axis(inp), machine.axis(out)
+    modulo = to_int(keys["IS_MODULO"][1], path, keys["IS_MODULO"][0], "IS_MODULO")
+    vals = np.array([values[j] for j in range(n)]) * sign
+    return CompensationTable(ai.name, ao.name, float(ai.to_si(lo)), float(ai.to_si((hi - lo) / (n - 1))),
+                             ao.to_si(vals), bool(modulo))
+
+
+def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet:
+    """Parse ``NC_CEC.INI`` and ``AX_EEC.INI`` back into vecpin tables (corrections, SI).
+
+    EEC tables come back zero at the reference point (the constant is not in the
+    file); the gauge-line change is not in these files (0)."""
+    folder = Path(folder)
+    tables = []
+    path = folder / CEC_FILE
+    cec: dict[int, dict] = {}
+    for no, text in _statements(path, "%_N_NC_CEC_INI"):
+        mt = _CEC.match(text)
+        if not mt:
+            raise ControllerFileError(path, f"'{text}' is not a $AN_CEC assignment", no)
+        key, t, j, val = mt.group(1), int(mt.group(2)), mt.group(3), mt.group(4)
+        d = cec.setdefault(t, {"values": {}, "keys": {}, "line": no})
+        if key is None:
+            if j is None:
+                raise ControllerFileError(path, "$AN_CEC needs [table, point]", no)
+            d["values"][int(j)] = to_float(val, path, no, "value")
+        elif key not in _CEC_KEYS:
+            raise ControllerFileError(path, f"unknown variable $AN_CEC_{key}", no)
+        else:
+            d["keys"][key] = (no, val)
+    for t in sorted(cec):
+        d, keys = cec[t], cec[t]["keys"]
+        for k in ("INPUT_AXIS", "OUTPUT_AXIS"):
+            if k not in keys:
+                raise ControllerFileError(path, f"table {t}: no $AN_CEC_{k} line", d["line"])
+        for k in ("DIRECTION", "MULT_BY_TABLE"):
+            if k in keys and to_int(keys[k][1], path, keys[k][0], k) != 0:
+                raise ControllerFileError(path, f"table {t}: $AN_CEC_{k} = {keys[k][1]} (direction-dependent or "
+                                          "multiplied tables are not vecpin tables)", keys[k][0])
+        names = [(keys[k][0], keys[k][1].strip("()")) for k in ("INPUT_AXIS", "OUTPUT_AXIS")]
+        inp, out = (_axis_of(path, profile, n, no) for no, n in names)
+        tables.append(_table(path, machine, inp, out, d["values"], keys, d["line"], f"table {t}", -1.0))
+    path = folder / EEC_FILE
+    eec: dict[tuple, dict] = {}
+    for no, text in _statements(path, "%_N_AX_EEC_INI"):
+        mt = _EEC.match(text)
+        if not mt:
+            raise ControllerFileError(path, f"'{text}' is not a $AA_ENC_COMP assignment", no)
+        key, e, j, ax, val = mt.group(1), int(mt.group(2)), mt.group(3), mt.group(4), mt.group(5)
+        d = eec.setdefault((e, ax), {"values": {}, "keys": {}, "line": no})
+        if key is None:
+            if j is None:
+                raise ControllerFileError(path, "$AA_ENC_COMP needs [system, point, axis]", no)
+            d["values"][int(j)] = to_float(val, path, no, "value")
+        elif key not in _EEC_KEYS:
+            raise ControllerFileError(path, f"unknown variable $AA_ENC_COMP_{key}", no)
+        else:
+            d["keys"][key] = (no, val)
+    axes_seen = {}
+    for (e, ax), d in eec.items():
+        a = _axis_of(path, profile, ax, d["line"])
+        if a in axes_seen:
+            raise ControllerFileError(path, f"{a} has tables for two measuring systems; vecpin reads one", d["line"])
+        axes_seen[a] = e
+        tables.append(_table(path, machine, a, a, d["values"], d["keys"], d["line"], f"{ax}", -1.0))
+    return TableSet(machine.axis_names, tables, 0.0)
+
+
+FORMAT_840D = ControllerFormat(
+    "siemens-840d", "SINUMERIK 840D sl", LIMITS_840D, write, read, check,
+    files=f"`{CEC_FILE}` (cross tables, CEC), `{EEC_FILE}` (pitch tables, EEC), `{README}` (machine data)",
+    sign="file value = error of the compensated axis; positive moves the axis negative (EEC and CEC, CERTAIN); "
+         "EEC zero at the reference point (constant reported)",
+    source="SINUMERIK K3 Function Manual 03/2013 p.237-249, 840D sl 09/2009 p.361-364, 01/2008 p.357, 03/2009 p.372; "
+           "802D sl K3 p.222",
+    to_check="MD18342/MD38000 sizes, table count, monitoring MD names (MD32720/MD32730 from memory), AXn names in "
+             "multi-channel systems, sign of one CEC table (sign test)",
+    dialect="siemens")
+
+FORMAT_828D = ControllerFormat(
+    "siemens-828d", "SINUMERIK 828D", LIMITS_828D, write, read, check,
+    files=FORMAT_840D.files, sign=FORMAT_840D.sign,
+    source="as 840D sl; 8 x 200 fixed: K3 03/2013 p.264; 828D K3 08/2018 p.299 (end values hold)",
+    to_check="EEC points per axis (MD38000), monitoring MD names, sign of one CEC table (sign test)",
+    dialect="siemens")
