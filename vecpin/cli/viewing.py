@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from vecpin.cli.common import parse_orders, progress
 from vecpin.errors import InputError
+from vecpin.export.registry import controller_names
 
 
 def run_view(args) -> int:
@@ -59,7 +60,8 @@ def register(sub) -> None:
     s.add_argument("--out", required=True)
     s.add_argument("--validation", help="validation CSV for the before/after table and the order sweep")
     s.add_argument("--orders", help="also run the order sweep, e.g. 0-7")
-    s.add_argument("--controller", default="generic", choices=["siemens-840d", "fanuc-30i", "generic"])
+    s.add_argument("--controller", default="generic", choices=controller_names(),
+                   help="controller whose limits and files the report uses (default generic)")
     s.add_argument("--max-tables", type=int)
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=run_report)
