@@ -32,9 +32,20 @@ def add_noise_args(s: argparse.ArgumentParser) -> None:
     s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default 0.02)")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
                    help="spherical tracker noise: range sigma = R_MM + R_PPM*R, transverse = T_MM + T_PPM*R")
-    s.add_argument("--basis", default="auto", choices=["auto", "chebyshev"],
-                   help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> None:
+    """--model, --basis, --order: what to fix of the model (default: the data choose)."""
+    s.add_argument("--model", choices=["auto", "6dof", "ap"], default=default_kind,
+                   help="error model: 6dof (Paper I eq. 3-6), ap (axis perturbation, eq. 7-8) or auto: chosen by "
+                        f"held-out data (default {default_kind})")
+    s.add_argument("--basis", choices=["auto", "chebyshev", "fourier", "fourier_trend", "spline"], default="auto",
+                   help="basis of the error functions: chebyshev over the travel (the seed's), fourier (per turn on "
+                        "rotary axes travelling more than a turn), fourier_trend (per turn plus a trend over the "
+                        "travel), spline (cubic B-splines), or auto: chosen per axis by held-out data (default)")
+    s.add_argument("--order", default="auto",
+                   help="series order (a whole number), or auto: chosen by held-out data, per axis (default)")
 
 
 def noise(args, m):

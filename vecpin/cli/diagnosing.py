@@ -1,7 +1,7 @@
 """``vecpin diagnose``: where the residual lies, which effect causes it, how far it shrinks."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_noise_args, machine, noise, progress
+from vecpin.cli.common import add_model_args, add_noise_args, machine, noise, progress
 
 
 def run_diagnose(args) -> int:
@@ -24,8 +24,7 @@ def register(sub) -> None:
     s.add_argument("machine")
     s.add_argument("csv")
     s.add_argument("--out", required=True)
-    s.add_argument("--model", choices=["6dof", "ap"], default="6dof")
-    s.add_argument("--order", type=int, default=6)
+    add_model_args(s)
     s.add_argument("--effects", default="all", help="all, or a comma list of: gantry_skew, coupled_axes, thermal, "
                    "backlash, rotary_periodic, instrument_shift, outliers")
     s.add_argument("--folds", type=int, default=5)

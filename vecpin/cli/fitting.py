@@ -5,29 +5,32 @@ import json
 
 import numpy as np
 
-from vecpin.cli.common import add_noise_args, machine, noise, parse_orders, progress
+from vecpin.cli.common import add_model_args, add_noise_args, machine, noise, parse_orders, progress
 
 
 def run_fit(args) -> int:
+    from vecpin.fileio import check_output_file
     from vecpin.measurement.campaign import read_campaign
-    from vecpin.models import make_model
     from vecpin.units import norm_mm
+    from vecpin.workflows.fitting import fit_campaign
     from vecpin.workflows.summary import per_tool_table
     m = machine(args.machine)
+    check_output_file(args.out)
     c = read_campaign(args.csv, m)
-    say = progress(not args.quiet)
-    tools = [float(t) for t in c.tool_lengths()] if args.tool_corrections else None
-    model = make_model(args.model, m, args.order, basis=args.basis, tool_lengths=tools, prior_scale=args.prior_scale)
-    say(f"fitting {args.model} order {args.order} ({model.n_parameters + 6} parameters) to {len(c)} rows of {args.csv}")
-    model.fit(c, noise(args, m), progress=say, underdetermined=args.underdetermined)
+    run = fit_campaign(m, c, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
+                       tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
+                       underdetermined=args.underdetermined, folds=args.folds, progress=progress(not args.quiet))
+    model = run.model
     model.save(args.out)
+    if run.choice is not None:
+        print(run.choice.table())
     rep = model.report_
     print(rep.summary())
     if rep.removed:
         print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
     c0 = c.primary()
     rows = [("uncompensated (nominal kinematics)", norm_mm(c0.xyz - model.predict_nominal(c0.q, c0.tool))),
-            (f"{args.model} model, order {args.order}", norm_mm(model.residuals(c0)))]
+            (model.label(), norm_mm(model.residuals(c0)))]
     print("\n".join(per_tool_table(rows, c0.tool)))
     if c.ballbar_rows.size:
         d = np.abs(model.ballbar_residuals(c)) * 1e3
@@ -62,9 +65,20 @@ def run_orders(args) -> int:
     c = read_campaign(args.csv, m)
     v = read_campaign(args.validation, m) if args.validation else None
     say = progress(not args.quiet)
-    for kind in args.model:
-        sweep = order_sweep(m, c, kind, parse_orders(args.orders), validation=v, folds=args.folds,
-                            noise=noise(args, m), basis=args.basis, progress=say)
+    orders = parse_orders(args.orders)
+    if v is None:  # a view of the model choice: linearised CV over the same candidates
+        from vecpin.selection.choice import choose_model
+        fam = tuple(dict.fromkeys((args.basis, "chebyshev")))
+        choice = choose_model(m, c, noise(args, m), kinds=tuple(args.model), families=fam, plans=(args.basis,),
+                              orders=orders, per_axis=False, folds=args.folds, progress=say)
+        print(choice.table(limit=len(choice.candidates)))
+        for kind in args.model:
+            best = min((x for x in choice.candidates if x.kind == kind), key=lambda x: x.mean)
+            print(f"best {kind} order on held-out data ({args.folds}-fold CV, linearised): {best.axes[0].order}")
+        return 0
+    for kind in args.model:  # Paper I Table 2: every order fitted, judged on the validation file
+        sweep = order_sweep(m, c, kind, orders, validation=v, folds=args.folds, noise=noise(args, m),
+                            basis="chebyshev" if args.basis == "chebyshev" else "auto", progress=say)
         print(sweep.table())
         print(f"best {kind} order on held-out data ({sweep.method}): {sweep.best.order}\n")
     return 0
@@ -78,8 +92,8 @@ def run_demo(args) -> int:
     print("\n".join(res.table()))
     print(f"files in {args.out}: " + ", ".join(p.name for p in res.files))
     out = Path(args.out)
-    print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --model ap --order {args.order} --spherical "
-          f"--out {out / 'model_ap.json'}; vecpin evaluate {out / 'model_ap.json'} {out / 'validation.csv'}")
+    print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --spherical --out {out / 'model.json'}; "
+          f"vecpin evaluate {out / 'model.json'} {out / 'validation.csv'}")
     return 0
 
 
@@ -87,8 +101,8 @@ def register(sub) -> None:
     s = sub.add_parser("fit", help="identify an error model from a campaign CSV (maximum likelihood)")
     s.add_argument("machine")
     s.add_argument("csv")
-    s.add_argument("--model", choices=["6dof", "ap"], default="ap")
-    s.add_argument("--order", type=int, default=6)
+    add_model_args(s)
+    s.add_argument("--folds", type=int, default=5, help="cross-validation folds of the model choice (default 5)")
     s.add_argument("--out", required=True, help="model file to write (JSON)")
     s.add_argument("--tool-corrections", action="store_true", help="also fit a length correction per tool")
     s.add_argument("--prior-scale", type=float, default=1.0, help="multiply every parameter prior sigma")
@@ -111,7 +125,11 @@ def register(sub) -> None:
     s.add_argument("csv")
     s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"])
     s.add_argument("--orders", default="0-7", help="e.g. 0-7 or 2,4,6")
-    s.add_argument("--validation", help="validation CSV (default: k-fold cross-validation)")
+    s.add_argument("--validation", help="validation CSV: every order fitted and judged on it (Paper I Table 2); "
+                   "default: k-fold cross-validation of the linearised candidates")
+    s.add_argument("--basis", choices=["chebyshev", "fourier"], default="chebyshev",
+                   help="chebyshev everywhere (the seed's, default) or fourier per turn on rotary axes travelling "
+                        "more than a turn")
     s.add_argument("--folds", type=int, default=5)
     add_noise_args(s)
     s.set_defaults(func=run_orders)

@@ -37,8 +37,9 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
-from vecpin.models import ErrorModel, make_model
+from vecpin.models import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect
+from vecpin.selection.choice import choose_or_fix
 
 
 # ---------------------------------------------------------------------- results
@@ -106,7 +107,7 @@ class Diagnosis:
 
     def summary(self) -> str:
         b = self.base
-        lines = [f"base {b['model']} model: held-out mean {b['heldout_mean_mm']:.4f} mm, max {b['heldout_max_mm']:.4f} mm "
+        lines = [f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max {b['heldout_max_mm']:.4f} mm "
                  f"({b['folds']}-fold CV over {b['rows']} rows)"]
         if self.outlier_rows:
             lines.append(f"outliers: rows {', '.join(map(str, self.outlier_rows))} (0-based) flagged and left out")
@@ -275,25 +276,30 @@ def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float 
     return np.flatnonzero(s / scale > limit)
 
 
-def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: int = 6, effects="all",
+def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
-    """Run the diagnosis; see the module docstring. An effect is accepted when its
-    F-test passes ``alpha`` / (candidates in the round) and it shrinks the held-out mean
-    by at least ``min_shrink_pct`` (statistically real and practically worth a term)."""
+    """Run the diagnosis; see the module docstring. The base model is the one the data
+    choose (:func:`vecpin.selection.choice.choose_or_fix`; ``model``, ``basis`` and
+    ``order`` fix any of it). An effect is accepted when its F-test passes ``alpha`` /
+    (candidates in the round) and it shrinks the held-out mean by at least
+    ``min_shrink_pct`` (statistically real and practically worth a term)."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
+    if not (0 < alpha < 1):
+        raise InputError(f"--alpha {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) if effects in ("all", None) else list(effects)
     flaggers = [n for n in names if n in REGISTRY and REGISTRY[n].flags_rows]
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
+    proto, choice = choose_or_fix(machine, campaign, noise, model, basis, order, folds=folds, progress=say)
 
     def base_fit(camp, effs):
-        return make_model(model, machine, order, basis=basis, effects=effs).fit(camp, noise)
+        return proto.with_effects(effs).fit(camp, noise)
 
     # ---- base model and outliers
-    say(f"fitting the base {model} model, order {order}")
+    say(f"fitting the base model, {proto.label()}")
     camp = campaign
     rows = np.arange(len(campaign))
     base_model = base_fit(camp, [])
@@ -328,7 +334,8 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "6dof", order: i
     feats = Features.from_campaign(campaign).subset(rows)
     fold_r = fold[rows]
     held_mm = np.linalg.norm(base_eval["heldout"], axis=1) * 1e3
-    base_info = {"model": model, "order": order, "basis": basis, "heldout_mean_mm": float(held_mm.mean()),
+    base_info = {"model": proto.kind, "order": proto.order, "basis": proto.label(), "label": proto.label(),
+                 "choice": None if choice is None else choice.to_dict(), "heldout_mean_mm": float(held_mm.mean()),
                  "heldout_max_mm": float(held_mm.max()), "folds": folds, "rows": int(len(rows)),
                  "chi2_per_expected": base_model.report_.chi2 / base_model.report_.chi2_expected}
     tips = base_model.predict(camp.q, camp.tool, "machine")

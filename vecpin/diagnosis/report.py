@@ -69,7 +69,7 @@ def write_report(diag, out) -> Path:
 
     b = diag.base
     lines = [f"# Diagnosis of {diag.machine.name}", "",
-             f"Base model: {b['model']}, order {b['order']} ({b['basis']} basis), {b['rows']} rows, "
+             f"Base model: {b['label']} (chosen by held-out data unless fixed), {b['rows']} rows, "
              f"{b['folds']}-fold cross-validation grouped by command. Held-out mean {b['heldout_mean_mm']:.4f} mm, "
              f"max {b['heldout_max_mm']:.4f} mm; chi2/expected {b['chi2_per_expected']:.2f}.", "",
              "## Which effect", "",

@@ -240,6 +240,12 @@ class ErrorModel:
                 grad += e.tracker_gradient(y, features, b[sl])
         return shift, D, grad
 
+    def label(self) -> str:
+        """A short name: kind and bases, e.g. '6-DoF cheb6' or 'AP cheb4/cheb4/cheb4/fourier6+trend2/cheb4'."""
+        name = {"6dof": "6-DoF", "ap": "AP"}.get(self.kind, self.kind)
+        labels = [B.short_label() for B in self.bases]
+        return f"{name} {labels[0] if len(set(labels)) == 1 else '/'.join(labels)}"
+
     def describe(self) -> dict:
         return {"kind": self.kind, "order": self.order, "basis": self.basis_kind,
                 "axis_bases": [B.to_dict() for B in self.bases], "tool_lengths_mm":

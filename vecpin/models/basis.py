@@ -180,6 +180,17 @@ class AxisBasis:
             cols.append(-z / s * g if derivative else g)
         return np.concatenate(cols, axis=-1)
 
+    def short_label(self) -> str:
+        """The kind and order in a few characters: cheb6, fourier8, fourier6+trend2, spline7..."""
+        if self.kind == "bspline":
+            text = f"spline{len(self.knots)}" + ("" if self.order == 3 else f"(deg {self.order})")
+        elif self.kind == "fourier_trend":
+            text = f"fourier{self.order}+trend{self.trend}"
+        else:
+            text = f"{'cheb' if self.kind == 'chebyshev' else self.kind}{self.order}"
+        extra = len(self.harmonics) + len(self.bumps)
+        return text + (f"+{extra}" if extra else "")
+
     def labels(self) -> list[str]:
         """Column names: the order for series terms (``t1..`` for a trend, ``s1..`` for
         B-splines), cos/sin with the frequency for harmonics, ``g1..`` for bumps."""

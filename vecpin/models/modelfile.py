@@ -82,6 +82,7 @@ def model_to_dict(model) -> dict:
         "noise": model.noise_.to_dict(m),
         "parameters": params,
         "fit": report,
+        "selection": getattr(model, "selection_", None),
     }
 
 
@@ -181,4 +182,6 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     fields.setdefault("seconds", 0.0)
     model.report_ = FitReport(**fields)
+    if d.get("selection") is not None:
+        model.selection_ = d["selection"]
     return model

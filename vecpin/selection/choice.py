@@ -35,7 +35,7 @@ from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
-from vecpin.models import make_model
+from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
 
@@ -295,11 +295,12 @@ def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
-                 families=FAMILIES, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5, seed: int = 0,
-                 progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 families=FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
+                 seed: int = 0, progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds``, ``families``, ``orders``: what to try (a fixed choice restricts them);
+    ``plans``: the families tried on every axis at once (default ``families``);
     ``per_axis``: refine each axis' basis around the best common one."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
@@ -332,7 +333,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
         prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds)
-        for plan in ("chebyshev", "fourier", "fourier_trend", "spline"):
+        for plan in (plans or families):
             if plan not in families:
                 continue
             for o in (orders if plan in ("chebyshev", "fourier", "fourier_trend") else [None]):
@@ -411,3 +412,56 @@ def _subsample(campaign: Campaign, seed: int) -> Campaign:
     per = np.bincount(group)
     keep_groups = order[np.cumsum(per[order]) <= MAX_SELECTION_ROWS]
     return campaign.subset(np.flatnonzero(np.isin(group, keep_groups)))
+
+
+def parse_order(text) -> int | str:
+    """'auto' or a whole number >= 0."""
+    if str(text).strip().lower() == "auto":
+        return "auto"
+    try:
+        v = int(str(text))
+    except ValueError:
+        raise InputError(f"--order {text!r}: 'auto' or a whole number >= 0") from None
+    if v < 0:
+        raise InputError(f"--order {text}: the order must be >= 0")
+    return v
+
+
+def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> ErrorModel:
+    """The model of a fully fixed choice: ``basis`` on the axes it applies to (Fourier
+    families on rotary axes that travel more than a turn), Chebyshev elsewhere."""
+    if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
+        return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
+    axes = []
+    for a in machine.axes:
+        if basis == "spline":
+            axes.append(AxisChoice("spline", max(order, 1)))
+        elif basis == "fourier_trend" and multiturn(a):
+            axes.append(AxisChoice("fourier_trend", max(order + order % 2, 2), 2))
+        else:
+            axes.append(AxisChoice("chebyshev", order))
+    return make_model(kind, machine, order, bases=[c.basis(a) for a, c in zip(machine.axes, axes)], **opts)
+
+
+BASES = ("auto",) + FAMILIES
+
+
+def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
+                  order: int | str = "auto", *, folds: int = 5, progress: Callable[[str], None] | None = None,
+                  **opts):
+    """(unfitted model, the choice or None): the model the data choose, with any of
+    ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
+    fixed choice builds the model directly. ``opts``: model options (tool_lengths...)."""
+    if kind not in ("auto",) + KINDS:
+        raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
+    if basis not in BASES:
+        raise InputError(f"--basis {basis}: one of {', '.join(BASES)}")
+    order = parse_order(order)
+    if kind != "auto" and basis != "auto" and order != "auto":
+        return fixed_model(machine, kind, basis, order, **opts), None
+    families = FAMILIES if basis == "auto" else tuple(dict.fromkeys((basis, "chebyshev")))
+    choice = choose_model(machine, campaign, noise, kinds=KINDS if kind == "auto" else (kind,), families=families,
+                          plans=None if basis == "auto" else (basis,),
+                          orders=CHEB_ORDERS if order == "auto" else (order,),
+                          per_axis=order == "auto" and basis == "auto", folds=folds, progress=progress)
+    return choice.chosen.model(machine, **opts), choice

@@ -1,0 +1,38 @@
+"""Fit a campaign with the model the data choose (the ``fit`` command).
+
+With no model options the kind, the basis of every axis and the order are chosen by
+held-out data (:func:`vecpin.selection.choice.choose_model`); ``kind``, ``basis`` and
+``order`` fix any of them. The chosen model is then fitted by maximum likelihood and
+carries the choice (``selection_``, written into its model file)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import ErrorModel
+from vecpin.selection.choice import ModelChoice, choose_or_fix
+
+
+@dataclass
+class FitRun:
+    model: ErrorModel
+    choice: ModelChoice | None
+
+
+def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kind: str = "auto",
+                 basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
+                 prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5,
+                 progress: Callable[[str], None] | None = None) -> FitRun:
+    """Choose (where not fixed) and fit the model of ``campaign``."""
+    opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
+            "prior_scale": prior_scale}
+    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
+    if progress:
+        progress(f"fitting the {model.kind} model ({model.n_parameters + 6} parameters) to {len(campaign)} rows")
+    model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)
+    if choice is not None:
+        model.selection_ = choice.to_dict()
+    return FitRun(model, choice)
