@@ -43,8 +43,8 @@ KINDS = ("6dof", "ap")
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
 CHEB_ORDERS = tuple(range(0, 9))
 FOURIER_ORDERS = (2, 4, 6, 8, 10, 12)
-TRENDS = (1, 2, 4)
-SPLINE_KNOTS = {"short": (3, 7), "multiturn": (3, 7, 15)}
+TRENDS = (1, 2, 4, 6, 8)
+SPLINE_KNOTS = {"short": (3, 7, 15), "multiturn": (3, 7, 15)}
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 
 
