@@ -46,13 +46,32 @@ def model_as_actual(model: ErrorModel) -> ActualMachine:
 
 
 def truth_as_actual(truth) -> ActualMachine:
-    """A simulated true machine as the actual machine (for checking tables against truth)."""
+    """A simulated true machine as the actual machine (for checking tables against
+    truth, and for the table floor). Asked for a Jacobian it gives the nominal one: the
+    true errors are small, so it only steers the Gauss-Newton steps; the tip is true."""
 
     def actual(q, tool, jacobian=False):
-        if jacobian:
-            raise VecpinError("the true machine gives no Jacobian; project from a model")
-        return truth.tool_tip(q, tool), None
+        tip = truth.tool_tip(q, tool)
+        return tip, (truth.machine.kinematics(q, tool, True).jacobian if jacobian else None)
     return actual
+
+
+TABLE_KNOTS = 15  # interior knots of the table functions: finer than any model's functions, coarser than a table
+
+
+def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS) -> list[AxisBasis]:
+    """Table functions able to follow any model: cubic B-splines with ``knots``
+    uniform interior knots over the travel of each input axis; a modulo axis a
+    Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
+    out = []
+    for a in machine.axes:
+        rot = a.kind == "rotary"
+        if a.name in modulo_axes:
+            out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
+        else:
+            k = tuple(np.linspace(a.lower, a.upper, knots + 2)[1:-1])
+            out.append(AxisBasis(a.lower, a.upper, 3, "bspline", rotary=rot, knots=k))
+    return out
 
 
 def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=()) -> list[AxisBasis]:
@@ -78,15 +97,21 @@ class CompensationFunctions:
     coef: dict[tuple[str, str], np.ndarray]
     gauge_offset_change: float = 0.0
     modulo_axes: tuple[str, ...] = ()
+    hold: dict[str, tuple[float, float]] | None = None  # input axis -> measured (lo, hi) [m, rad]: constant outside
 
     @property
     def names(self) -> list[str]:
         return [(o + i).lower() for o, i in self.coef]
 
     def function(self, output_axis: str, input_axis: str, q_in: np.ndarray) -> np.ndarray:
+        """t_oi at input positions [m, rad]; held at its value at the edge of the measured
+        range beyond it (a table must not extrapolate what was never measured)."""
         i = self.machine.axis(input_axis).index
         c = self.coef[(output_axis, input_axis)]
-        B = self.bases[i].values(np.asarray(q_in, float))
+        q_in = np.asarray(q_in, float)
+        if self.hold and input_axis in self.hold and input_axis not in self.modulo_axes:
+            q_in = np.clip(q_in, *self.hold[input_axis])
+        B = self.bases[i].values(q_in)
         return B[:, :c.size] @ c if output_axis == input_axis else B[:, 1:1 + c.size] @ c
 
     def increments(self, q: np.ndarray) -> np.ndarray:
@@ -133,10 +158,14 @@ def from_ap_model(model: APModel, modulo_axes=()) -> CompensationFunctions:
     return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes))
 
 
-def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0) -> np.ndarray:
-    """Quasi-random (scrambled Halton) commands over the axis space [m, rad]."""
+def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.ndarray | None = None,
+                    upper: np.ndarray | None = None) -> np.ndarray:
+    """Quasi-random (scrambled Halton) commands [m, rad] over the axis space, or over
+    the box ``lower``..``upper`` (e.g. the measured region)."""
+    lo = machine.lower if lower is None else np.asarray(lower, float)
+    hi = machine.upper if upper is None else np.asarray(upper, float)
     u = qmc.Halton(machine.n_axes, seed=seed).random(n)
-    return machine.lower + u * (machine.upper - machine.lower)
+    return lo + u * (hi - lo)
 
 
 class TableProblem:
@@ -149,12 +178,14 @@ class TableProblem:
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
-                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-9):
+                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-9, bases: list[AxisBasis] | None = None):
         self.actual, self.machine = actual, machine
         self.tools = np.asarray(tools, float)
         self.q = np.repeat(np.asarray(commands, float), len(self.tools), axis=0)
         self.L = np.tile(self.tools, len(commands))
-        self.bases = table_bases(machine, order, basis, modulo_axes)
+        self.bases = bases if bases is not None else table_bases(machine, order, basis, modulo_axes)
+        self.hold = None  # measured range per input axis: tables held constant beyond it
+        self.free_gauge = True  # False: the gauge line (T_offset) stays as it is
         self.modulo_axes = tuple(modulo_axes)
         self.ridge = ridge
         n = machine.n_axes
@@ -195,8 +226,21 @@ class TableProblem:
         self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
 
     def columns(self, names) -> np.ndarray:
-        """Columns of dT and of the given tables (pitch tables must be named)."""
-        return np.concatenate([[0]] + [self.blocks[n.lower()] for n in names])
+        """Columns of dT (unless the gauge line is fixed) and of the given tables."""
+        head = [[0]] if self.free_gauge else []
+        return np.concatenate(head + [self.blocks[n.lower()] for n in names]).astype(int)
+
+    def gauge_std(self, names, J_b: np.ndarray, cov_b: np.ndarray) -> float:
+        """Standard deviation [m] of the gauge-line change of the tables ``names`` from the
+        model's parameter covariance ``cov_b`` (SI), with ``J_b`` (R,3,P) the model's
+        d tip / d b at the problem's pseudo-measurements: dT is linear in the errors the
+        tables cancel, so var(dT) = r cov r with r = d dT / d b."""
+        cols = self.columns(names)
+        G = self.G[np.ix_(cols, cols)]
+        G = G + self.ridge * np.diag(np.diag(G))
+        z = linalg.solve(G, np.eye(len(cols))[0], assume_a="pos")      # row 0 of G^-1
+        r = -(self.A[:, cols] @ z) @ J_b.reshape(self.A.shape[0], -1)      # d dT / d b
+        return float(np.sqrt(max(r @ cov_b @ r, 0.0)))
 
     def solve_linear(self, names) -> np.ndarray:
         """Least-squares unknowns (full length, zeros outside the subset) of the linearised problem."""
@@ -218,7 +262,8 @@ class TableProblem:
         for n in names:
             o, i = self.pairs[self.names.index(n.lower())]
             coef[(o, i)] = x[self.blocks[n.lower()]].copy()
-        return CompensationFunctions(self.machine, self.bases, coef, float(x[0]), self.modulo_axes)
+        return CompensationFunctions(self.machine, self.bases, coef, float(x[0]) if self.free_gauge else 0.0,
+                                     self.modulo_axes, self.hold)
 
     def solve(self, names, iterations: int = 3) -> CompensationFunctions:
         """Tables restricted to ``names`` by Gauss-Newton on the actual machine

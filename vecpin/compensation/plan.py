@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors,
-                                           from_ap_model, model_as_actual, pitch_names, pseudo_commands)
+                                           from_ap_model, model_as_actual, pitch_names, pseudo_commands,
+                                           rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -136,10 +137,20 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         raise InputError(f"n_commands {n_commands}: give at least one command")
 
     actual = model_as_actual(model)
-    q = pseudo_commands(m, n_commands, seed) if commands is None else np.unique(np.asarray(commands, float), axis=0)
-    order = table_order if table_order is not None else max(model.order, 2)
-    problem = TableProblem(actual, m, q, tools, order=order, basis=model.basis, modulo_axes=tuple(modulo_axes))
-    where = (f"{len(q)} quasi-random commands" if commands is None else f"{len(q)} campaign commands")
+    lo, hi = measured_box(model)
+    if commands is None:
+        q = pseudo_commands(m, n_commands, seed, lo, hi)
+        where = f"{len(q)} quasi-random commands in the measured region"
+    else:
+        q = np.unique(np.asarray(commands, float), axis=0)
+        where = f"{len(q)} campaign commands"
+    # table functions that can follow any model (splines finer than its functions);
+    # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
+    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes)),
+                           modulo_axes=tuple(modulo_axes))
+    problem.hold = {a.name: (lo[a.index], hi[a.index]) for a in m.axes
+                    if lo[a.index] > a.lower + 1e-9 or hi[a.index] < a.upper - 1e-9}
+    gauge_note = _gauge_significance(model, problem, pitch_names(m) if pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
                                       f"{', '.join(f'{t:g}' for t in tools_mm)} mm (every row on these points):")
 
@@ -152,8 +163,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    if isinstance(model, APModel):
-        full = from_ap_model(model, modulo_axes).discretise(n_points)
+    if isinstance(model, APModel) and not problem.hold and problem.free_gauge:
+        full = from_ap_model(model, modulo_axes).discretise(n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(n_points)
     label = "full tables (model-predicted)" if not pitch_only else f"full tables (not loadable on {lim.name})"
@@ -165,12 +176,15 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if cons is not None:
         if progress:
             progress(f"choosing {cons.max_tables} of the {len(cross)} cross tables ({method})")
+        search = TableProblem(actual, m, q, tools, order=table_order or 8, basis="auto",
+                              modulo_axes=tuple(modulo_axes))
+        search.free_gauge = problem.free_gauge
         if method == "exact":
-            selection = exact_search(problem, cons, n_points=n_points)
+            selection = exact_search(search, cons, n_points=n_points)
         elif method == "ga":
-            selection = genetic_search(problem, cons, seed=seed, n_points=n_points)
+            selection = genetic_search(search, cons, seed=seed, n_points=n_points)
         else:
-            selection = impact_heuristic(problem, cons, n_points=n_points)
+            selection = impact_heuristic(search, cons, n_points=n_points)
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(n_points)
         add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
     lim.check_tables(tables)
@@ -182,10 +196,46 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     elif uncertainty:
         report.notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
                             "keeps no correlations), and without correlations the spread would be meaningless")
+    report.notes.append(gauge_note)
+    if problem.hold:
+        report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
+                            + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "
+                                        f"{m.axis(a).unit})" for a, v in problem.hold.items())
+                            + ": a table must not extrapolate what was never measured")
     report.notes.append(f"the model's own fit residual (measured, on the campaign's points, not these): mean "
                         f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
                         "expected to do better than the model fits it")
     return TablePlan(tables, lim, selection, report, problem, n_points)
+
+
+def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
+    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
+    whole travel for a model that does not record it."""
+    m = model.machine
+    rng = getattr(model.report_, "measured_range", None) or {}
+    lo, hi = m.lower.copy(), m.upper.copy()
+    for a in m.axes:
+        if a.name in rng:
+            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
+            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
+                lo[a.index], hi[a.index] = a.lower, a.upper
+    return lo, hi
+
+
+def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
+    """Decide whether the gauge-line (T_offset) change is applied: only when it is at
+    least twice its standard deviation from the model's parameter covariance."""
+    x = problem.solve_linear(names)
+    cov_b = np.asarray(model.cov_, float)[6:, 6:]
+    J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True).J_b
+    sd = problem.gauge_std(names, J_b, cov_b)
+    dT = float(x[0])
+    kind = "" if covariance_kind(model) == "full" else " (standard deviations only: correlations not kept in the file)"
+    if abs(dT) >= 2 * sd:
+        return f"gauge-line (T_offset) change {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} mm{kind}: applied"
+    problem.free_gauge = False
+    return (f"gauge-line (T_offset) change {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} mm{kind}: not significant "
+            "(below 2 standard deviations), not applied")
 
 
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:

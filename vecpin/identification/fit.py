@@ -18,7 +18,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
-from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant
+from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant, redundant_from_r
 from vecpin.identification.report import FitReport
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
@@ -53,6 +53,12 @@ def _check_units_and_frame(machine, campaign: Campaign) -> None:
         check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
 
 
+def measured_range(machine, campaign: Campaign) -> dict:
+    """{axis: [lowest, highest] command} [mm or deg] the campaign measured."""
+    return {a.name: [float(a.to_user(campaign.q[:, a.index].min())), float(a.to_user(campaign.q[:, a.index].max()))]
+            for a in machine.axes}
+
+
 def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = None, *, max_iter: int = 30,
         tol: float = 1e-9, remove_redundant: bool = True, underdetermined: bool = False,
         progress: Callable[[str], None] | None = None):
@@ -77,12 +83,11 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     lik = Likelihood(model, campaign, noise, features=features)
     P = lik.n_unknowns
 
-    def evaluate(psi):
-        return lik.evaluate(psi * lik.sigma).flat()
+    def normal_equations(psi, jacobian):
+        return lik.normal_equations(psi * lik.sigma, jacobian)
 
-    ev0 = lik.evaluate(np.zeros(P))
-    n_eq = ev0.n_equations
-    _, J0 = ev0.flat()
+    _, G0, _, n_eq = lik.normal_equations(np.zeros(P))
+    norms = np.sqrt(np.diag(G0))
     keep = np.ones(P, bool)
     ratio = np.ones(P)
     if remove_redundant:
@@ -91,15 +96,16 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
         else:
-            red, ratio = find_redundant(J0)
+            red, ratio = redundant_from_r(lik.r_factor(np.zeros(P)), norms)
         keep = ~red
-    n_active = int(active_columns(J0).sum())
+    n_active = int(active_columns(norms).sum())
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
         raise IdentifiabilityError(
-            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} parameters of a "
-            f"{getattr(model, 'kind', '')} model of order {getattr(model, 'order', '?')}: lower the order or use fewer "
-            "terms, measure more points, or fit with --underdetermined to let the priors decide the rest")
-    sol = gauss_newton(evaluate, P, keep, max_iter=max_iter, tol=tol, progress=progress)
+            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns (6 tracker-pose "
+            f"corrections and {n_active - 6} model terms of the {getattr(model, 'kind', '')} model): use fewer terms "
+            "(a lower --order or a fixed --basis chebyshev), measure more points, or fit with --underdetermined to let "
+            "the priors decide the rest")
+    sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress)
     theta = sol.psi * lik.sigma
     setup = lik.setup
     setup.e0 = theta[:6].copy()
@@ -113,16 +119,15 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         elif blk.instrument.row_kind == "ballbar":
             k = int(campaign.pivot[blk.rows[0]])
             setup.pivots[k] = setup.pivots[k] + theta[blk.unknowns]
-    Ja = sol.J[:, keep]
-    JtJ = Ja.T @ Ja
+    JtJ = sol.G[np.ix_(keep, keep)]
     Ninv = linalg.inv(JtJ + np.eye(keep.sum()))
     cov = np.zeros((P, P))
     sk = lik.sigma[keep]
     cov[np.ix_(keep, keep)] = Ninv * np.outer(sk, sk)
     p_eff = float(np.trace(Ninv @ JtJ))
     dof = max(n_eq - p_eff, 1.0)
-    sv = linalg.svdvals(Ja)
-    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    ev = np.clip(linalg.eigvalsh(JtJ), 0.0, None)
+    cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else float("inf")
     names = lik.names
     weak = [names[k] for k in np.flatnonzero(keep & (ratio < WEAK_RATIO))]
     warnings = []
@@ -131,12 +136,12 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
                         + ", ".join(weak[:12]) + (" ..." if len(weak) > 12 else ""))
     if not sol.converged:
         warnings.append(f"did not converge in {max_iter} iterations")
-    final = lik.evaluate(theta, jacobian=False)
     trk = campaign.tracker_rows
-    stats_ = residual_stats(campaign.xyz[trk] - final.y[trk], campaign.tool[trk])
+    stats_ = residual_stats(campaign.xyz[trk] - lik.predicted_points(theta)[trk], campaign.tool[trk])
     instrument = noise.instrument
     report = FitReport(getattr(model, "kind", "model"), getattr(model, "order", -1), instrument, len(campaign), n_eq, P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(sol.objective),
                        dof, float(np.sqrt(2 * dof)), cond, sol.iterations, sol.converged, time.perf_counter() - t0,
-                       stats_, warnings, [float(L * 1e3) for L in campaign.tool_lengths()])
+                       stats_, warnings, [float(L * 1e3) for L in campaign.tool_lengths()],
+                       measured_range(model.machine, campaign))
     return theta, setup, cov, report

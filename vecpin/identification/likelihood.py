@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from scipy import linalg
 
 from vecpin.errors import IdentifiabilityError
 from vecpin.measurement.campaign import Campaign
@@ -33,6 +34,7 @@ from vecpin.measurement.registration import register
 from vecpin.measurement.setup import Setup, to_station
 
 E0_PRIORS = np.full(6, POSE_PRIOR)
+CHUNK_ROWS = 20000  # rows per piece when normal equations are accumulated
 
 
 class ParametricModel(Protocol):
@@ -155,63 +157,105 @@ class Likelihood:
         return theta
 
     def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False) -> Evaluation:
-        """The stacked problem at ``theta`` (SI)."""
-        c, m = self.campaign, self.model
-        N, P = len(c), self.n_unknowns
-        b = theta[6:6 + self.n_model]
-        bsl = slice(6, 6 + self.n_model)
-        mt = m.tool_tip(c.q, c.tool, b, jacobian=jacobian, features=self.features)
-        w = np.zeros((N, 3))
-        metric = np.zeros((N, 3))
+        """The stacked problem at ``theta`` (SI), every row at once."""
+        N, P = len(self.campaign), self.n_unknowns
+        w, metric = np.zeros((N, 3)), np.zeros((N, 3))
         valid = np.zeros((N, 3), bool)
         y_all = np.full((N, 3), np.nan)
         J = np.zeros((N, 3, P)) if jacobian else None
         A = np.zeros((N, 3, P)) if jacobian else None
         ops = {k: np.zeros((N, 3, 3)) for k in ("Gw", "Gy", "Gm", "Gmy")} if operators else None
+        for rows, pc in self._pieces(theta, jacobian, operators):
+            w[rows], metric[rows], valid[rows] = pc["w"], pc["metric"], pc["valid"]
+            if pc["y"] is not None:
+                y_all[rows] = pc["y"]
+            if jacobian:
+                J[rows], A[rows] = pc["J"], pc["A"]
+            if operators:
+                for k in ops:
+                    ops[k][rows] = pc[k]
+        return Evaluation(w, J, valid, metric, A, y_all, **(ops or {}))
+
+    def normal_equations(self, theta: np.ndarray, jacobian: bool = True, chunk: int = CHUNK_ROWS):
+        """(chi2 = |w|^2, G = J^T J, g = J^T w, equations) at ``theta``, accumulated over
+        blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
+        Without ``jacobian`` G and g are None (a trial point's chi2 only)."""
+        P = self.n_unknowns
+        chi2, n_eq = 0.0, 0
+        G = np.zeros((P, P)) if jacobian else None
+        g = np.zeros(P) if jacobian else None
+        for rows, pc in self._pieces(theta, jacobian, False, chunk):
+            wf = pc["w"].ravel()
+            chi2 += float(wf @ wf)
+            n_eq += int(pc["valid"].sum())
+            if jacobian:
+                Jf = pc["J"].reshape(wf.size, P)
+                G += Jf.T @ Jf
+                g += Jf.T @ wf
+        return chi2, G, g, n_eq
+
+    def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
+        """(N,3) predicted instrument-frame points [m] (NaN on rows without one)."""
+        y = np.full((len(self.campaign), 3), np.nan)
+        for rows, pc in self._pieces(theta, False, False, chunk):
+            if pc["y"] is not None:
+                y[rows] = pc["y"]
+        return y
+
+    def r_factor(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
+        """R of the QR decomposition of the whitened Jacobian J (rows stacked), accumulated
+        piece by piece (R^T R = J^T J with the numerics of QR, for the redundancy test)."""
+        R = np.zeros((0, self.n_unknowns))
+        for rows, pc in self._pieces(theta, True, False, chunk):
+            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)])
+            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
+        return R
+
+    def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None):
+        """(rows, arrays of those rows) for every block of rows sharing an instrument's
+        unknowns, in pieces of at most ``chunk`` rows."""
+        c, m = self.campaign, self.model
+        P = self.n_unknowns
+        b = theta[6:6 + self.n_model]
+        bsl = slice(6, 6 + self.n_model)
         sig2 = self.noise.axis_sigma**2
         for blk in self.blocks:
-            rows = blk.rows
-            stash = {}
-            terms = None
-            if self._tracker_effects and blk.instrument.row_kind == "tracker":
-                feats = self.features.subset(rows)
-
-                def terms(y, _rows, feats=feats, stash=stash):
-                    shift, D, grad = m.tracker_terms(y, feats, b)
-                    stash["D"], stash["y"] = D, y
-                    return shift, grad
-            eq = blk.instrument.equations(c, rows, mt.tip[rows], self.setup, theta[blk.unknowns], terms)
-            if eq.y is not None:
-                y_all[rows] = eq.y
-            valid[rows] = eq.valid
-            metric[rows] = eq.metric
-            if mt.J_q is not None:
-                Aq = eq.dr_dp @ mt.J_q[rows]
-                C = np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S
-            else:
-                C = eq.S
-            L = np.linalg.cholesky(C)
-            w[rows] = np.linalg.solve(L, eq.r[..., None])[..., 0]
-            if jacobian:
-                D = np.zeros((len(rows), 3, P))
-                D[:, :, bsl] = eq.dr_dp @ mt.J_b[rows]
-                D[:, :, blk.unknowns] += eq.dr_du
-                Dm = np.zeros_like(D)
-                Dm[:, :, bsl] = eq.dmetric_dp @ mt.J_b[rows]
-                Dm[:, :, blk.unknowns] += eq.dmetric_du
-                if "D" in stash:  # tracker-frame effect columns
-                    D[:, :, bsl] += eq.dr_dy @ stash["D"]
-                    Dm[:, :, bsl] += (-stash["D"] if eq.metric.shape[1] == 3 and eq.valid.all() else
-                                      eq.dr_dy @ stash["D"])
-                J[rows] = np.linalg.solve(L, D) * self.sigma
-                A[rows] = Dm * self.sigma
-            if operators:
-                ops["Gw"][rows] = np.linalg.solve(L, eq.dr_dp)
-                ops["Gm"][rows] = eq.dmetric_dp
-                if eq.dr_dy is not None:
-                    ops["Gy"][rows] = np.linalg.solve(L, eq.dr_dy)
-                    ops["Gmy"][rows] = -np.eye(3) if eq.valid.all() else eq.dr_dy
-        return Evaluation(w, J, valid, metric, A, y_all, **(ops or {}))
+            parts = [blk.rows] if not chunk else np.array_split(blk.rows, max(1, -(-len(blk.rows) // chunk)))
+            for rows in parts:
+                feats = self.features.subset(rows) if self.features is not None else None
+                # d tip / d q is needed for the positioning noise even when no Jacobian is asked
+                mt = m.tool_tip(c.q[rows], c.tool[rows], b, jacobian=True, features=feats)
+                stash = {}
+                terms = None
+                if self._tracker_effects and blk.instrument.row_kind == "tracker":
+                    def terms(y, _rows, feats=feats, stash=stash):
+                        shift, D, grad = m.tracker_terms(y, feats, b)
+                        stash["D"] = D
+                        return shift, grad
+                eq = blk.instrument.equations(c, rows, mt.tip, self.setup, theta[blk.unknowns], terms)
+                Aq = eq.dr_dp @ mt.J_q
+                L = np.linalg.cholesky(np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S)
+                pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
+                      "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
+                if jacobian:
+                    D = np.zeros((len(rows), 3, P))
+                    D[:, :, bsl] = eq.dr_dp @ mt.J_b
+                    D[:, :, blk.unknowns] += eq.dr_du
+                    Dm = np.zeros_like(D)
+                    Dm[:, :, bsl] = eq.dmetric_dp @ mt.J_b
+                    Dm[:, :, blk.unknowns] += eq.dmetric_du
+                    if "D" in stash:  # tracker-frame effect columns
+                        D[:, :, bsl] += eq.dr_dy @ stash["D"]
+                        Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
+                    pc["J"] = np.linalg.solve(L, D) * self.sigma
+                    pc["A"] = Dm * self.sigma
+                if operators:
+                    pc["Gw"] = np.linalg.solve(L, eq.dr_dp)
+                    pc["Gm"] = eq.dmetric_dp
+                    pc["Gy"] = np.linalg.solve(L, eq.dr_dy) if eq.dr_dy is not None else np.zeros((len(rows), 3, 3))
+                    pc["Gmy"] = ((-np.eye(3) if eq.valid.all() else eq.dr_dy) if eq.dr_dy is not None
+                                 else np.zeros((len(rows), 3, 3)))
+                yield rows, pc
 
 
 def predict_tracker(model: ParametricModel, q: np.ndarray, tool: np.ndarray, theta: np.ndarray, setup: Setup,

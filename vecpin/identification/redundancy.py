@@ -17,22 +17,23 @@ WEAK_RATIO = 1e-3         # below, the design barely tells the term from earlier
 INSENSITIVE = 1e-9        # column norm relative to the largest: the term does not move the tool tip
 
 
-def active_columns(J: np.ndarray) -> np.ndarray:
-    """Columns that move anything at all."""
-    norms = np.linalg.norm(J, axis=0)
+def active_columns(norms: np.ndarray) -> np.ndarray:
+    """Columns that move anything at all, from their norms."""
     return norms > INSENSITIVE * norms.max()
 
 
 def find_redundant(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Columns of J (prior-scaled sensitivity) that earlier columns already explain.
     Returns (redundant mask, ratio per column)."""
-    norms = np.linalg.norm(J, axis=0)
-    active = active_columns(J)
-    ratio = np.zeros(J.shape[1])
-    Rm = linalg.qr(J[:, active], mode="r", check_finite=False)[0]
-    k = min(Rm.shape)
-    diag = np.abs(np.diag(Rm[:k, :k]))
-    r_active = np.zeros(active.sum())
-    r_active[:k] = diag / norms[active][:k]
-    ratio[active] = r_active
+    return redundant_from_r(linalg.qr(J, mode="r", check_finite=False)[0], np.linalg.norm(J, axis=0))
+
+
+def redundant_from_r(R: np.ndarray, norms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """As :func:`find_redundant` from the R factor of J (QR in priority order, e.g.
+    accumulated block by block) and J's column norms."""
+    active = active_columns(norms)
+    k = min(R.shape)
+    ratio = np.zeros(len(norms))
+    ratio[:k] = np.abs(np.diag(R[:k, :k])) / np.where(norms[:k] > 0, norms[:k], 1.0)
+    ratio[~active] = 0.0
     return ratio < REDUNDANT_RATIO, ratio

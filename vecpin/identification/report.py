@@ -28,6 +28,7 @@ class FitReport:
     residuals_mm: dict
     warnings: list[str]
     tool_lengths_mm: list[float] = field(default_factory=list)
+    measured_range: dict = field(default_factory=dict)  # axis -> [lowest, highest] command measured [mm or deg]
 
     @property
     def chi2_band(self) -> tuple[float, float]:

@@ -25,69 +25,71 @@ LAMBDA_MIN = 1e-9
 @dataclass
 class Solution:
     psi: np.ndarray           # prior-scaled unknowns (removed terms 0)
-    w: np.ndarray             # whitened residuals at psi (flat)
-    J: np.ndarray             # dw/dpsi at psi (flat rows, all columns)
+    chi2: float               # |w|^2 at psi
+    G: np.ndarray             # J^T J at psi (J = dw/dpsi, all columns)
+    g: np.ndarray             # J^T w at psi
     objective: float          # |w|^2 + |psi|^2
     iterations: int
     converged: bool
 
 
-def _finite(w: np.ndarray, what: str) -> None:
-    if not np.all(np.isfinite(w)):
+def _finite(value: float, what: str) -> None:
+    if not np.isfinite(value):
         raise ConvergenceError(f"the residuals became {what} non-finite: the model was evaluated far outside what the "
                                "data support (check units and the axis columns)")
 
 
-def gauss_newton(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], P: int, keep: np.ndarray,
+def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, keep: np.ndarray,
                  max_iter: int = 30, tol: float = 1e-9, progress: Callable[[str], None] | None = None) -> Solution:
     """Minimise ``|w(psi)|^2 + |psi|^2`` over the ``keep`` columns, from psi = 0.
 
-    ``evaluate(psi) -> (w (E,), J (E, P))`` with J = dw/dpsi."""
+    ``normal_equations(psi, jacobian) -> (|w|^2, J^T J, J^T w, ...)`` with J = dw/dpsi
+    (G and g may be None without ``jacobian``: a trial point needs its chi2 only)."""
     psi = np.zeros(P)
-    w, J = evaluate(psi)
-    _finite(w, "at the start")
-    obj = float(w @ w)
+    chi2, G, g = normal_equations(psi, True)[:3]
+    _finite(chi2, "at the start")
+    obj = chi2
     converged = False
     it = 0
     lam = LAMBDA_START
     eye = np.eye(int(keep.sum()))
     for it in range(1, max_iter + 1):
-        Ja = J[:, keep]
-        Nm = Ja.T @ Ja + eye
-        g = Ja.T @ w + psi[keep]
+        Nm = G[np.ix_(keep, keep)] + eye
+        grad = g[keep] + psi[keep]
         accepted = False
         for _ in range(MAX_DAMPING + 1):
             try:
-                step = -linalg.solve(Nm + lam * np.diag(np.diag(Nm)), g, assume_a="pos", check_finite=False)
+                step = -linalg.solve(Nm + lam * np.diag(np.diag(Nm)), grad, assume_a="pos", check_finite=False)
             except (linalg.LinAlgError, ValueError):
                 lam *= 10
                 continue
             trial = psi.copy()
             trial[keep] += step
-            w_new, J_new = evaluate(trial)
-            if np.all(np.isfinite(w_new)):
-                obj_new = float(w_new @ w_new + trial @ trial)
-                if obj_new <= obj:
-                    accepted = True
-                    break
+            chi2_new = normal_equations(trial, False)[0]
+            if np.isfinite(chi2_new) and chi2_new + trial @ trial <= obj:
+                accepted = True
+                break
             lam *= 10
         if not accepted:
             # no damping lowers the objective: a minimum to numerical precision when the
             # decrease a full Gauss-Newton step promises is negligible; otherwise stuck
-            promised = float(g @ linalg.lstsq(Nm, g)[0])
+            promised = float(grad @ linalg.lstsq(Nm, grad)[0])
             if promised <= 1e-6 * max(obj, 1.0):
                 converged = True
                 break
-            raise ConvergenceError(f"the fit cannot lower chi2 = {obj:.6g} any further (a step promised {promised:.3g} after "
-                                   f"{MAX_DAMPING} damping increases in iteration {it}): the problem is badly "
+            raise ConvergenceError(f"the fit cannot lower chi2 = {obj:.6g} any further (a step promised {promised:.3g} "
+                                   f"after {MAX_DAMPING} damping increases in iteration {it}): the problem is badly "
                                    "conditioned or the data contradict the model (check units, outliers, the noise "
                                    "settings)")
+        obj_new = chi2_new + trial @ trial
         decrease = obj - obj_new
-        psi, w, J, obj = trial, w_new, J_new, obj_new
+        psi = trial
+        chi2, G, g = normal_equations(psi, True)[:3]
+        obj = chi2 + psi @ psi
         lam = max(lam / 10, LAMBDA_MIN)
         if progress:
             progress(f"iteration {it}: chi2 {obj:.6g}, step {np.abs(step).max():.3g}")
         if decrease <= tol * max(obj, 1.0) or np.abs(step).max() < 1e-10:
             converged = True
             break
-    return Solution(psi, w, J, obj, it, converged)
+    return Solution(psi, chi2, G, g, obj, it, converged)

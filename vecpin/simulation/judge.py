@@ -27,6 +27,9 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import registered_errors
 from vecpin.models import make_model
+from vecpin.compensation.plan import plan_tables
+from vecpin.selection.choice import choose_or_fix
+from vecpin.simulation.floor import table_floor, true_compensated_error
 from vecpin.simulation.simulate import PAPER_I_TOOLS_MM, Design, simulate
 from vecpin.simulation.truth import uniform_commands
 from vecpin.units import norm_mm
@@ -60,10 +63,18 @@ class Judgement:
     uncompensated_mean_mm: float
     rows: list[Row] = field(default_factory=list)
     default_key: tuple[str, str, int] = DEFAULT_CHOICE  # ("ap", "chebyshev", 6) where auto is Chebyshev
+    choice: object = None                 # the model choice of the selected row
+    tables_mm: tuple[float, float] | None = None   # true compensated error of vecpin's tables (mean, max)
+    floor_mm: tuple[float, float] | None = None    # the table floor (mean, max)
+    uncompensated_true_mm: tuple[float, float] | None = None
+
+    @property
+    def selected(self) -> Row | None:
+        return next((r for r in self.rows if r.basis == "selected"), None)
 
     def find(self, kind: str, basis: str, order: int) -> Row | None:
         for r in self.rows:
-            if (r.kind, r.basis, r.order) == (kind, basis, order) and not r.label.startswith("oracle"):
+            if (r.kind, r.basis, r.order) == (kind, basis, order) and not r.label.startswith(("oracle", "selected")):
                 return r
         return None
 
@@ -137,7 +148,8 @@ def _oracle_bases(truth):
 
 def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 0,
           kinds=("6dof", "ap"), bases=("chebyshev", "auto"), orders=range(2, 9), noise: NoiseModel | None = None,
-          n_validation: int = 500, oracle: bool = True, progress=None) -> Judgement:
+          n_validation: int = 500, oracle: bool = True, selected: bool = False, tables: bool = False,
+          progress=None) -> Judgement:
     """Simulate a campaign (``design``, ``seed``) on ``truth`` and judge the default fit,
     the grid ``kinds x bases x orders`` and the oracle on ``n_validation`` fresh
     commands x the design's tools. ``noise``: the fit's noise model (default: spherical
@@ -168,6 +180,20 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
             progress(f"{out.machine} {out.family} {label}: {row.mean_mm:.4f} mm")
         return row
 
+    if selected:  # the model the data choose (vecpin fit's default), and its tables against the floor
+        t0 = time.perf_counter()
+        proto, choice = choose_or_fix(machine, sim.campaign, noise)
+        model = proto.fit(sim.campaign, noise)
+        row = Row("selected: " + model.label(), model.kind, "selected", -1, model.n_parameters + 6,
+                  *validation_error(model, truth, q, tool), time.perf_counter() - t0)
+        row.note = f"held-out {choice.chosen.mean:.4f} mm"
+        out.rows.append(row)
+        out.choice = choice
+        if tables:
+            plan = plan_tables(model, uncertainty=False)
+            out.tables_mm = true_compensated_error(truth, plan.tables, q, tool)
+            out.floor_mm = (lambda f: (f.mean_mm, f.max_mm))(table_floor(truth, q, tool))
+            out.uncompensated_true_mm = true_compensated_error(truth, None, q, tool)
     if not multi_turn:
         out.default_key = ("ap", "chebyshev", 6)
     choices = [(k, b, o) for k in kinds for b in bases for o in orders if b == "chebyshev" or multi_turn]

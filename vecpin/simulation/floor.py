@@ -1,0 +1,58 @@
+"""The table floor: the best tables that exist for a simulated true machine.
+
+Tables are separable (each a function of one axis) while a machine's errors mix axes
+through its kinematics, so even perfect knowledge of the machine leaves a residual.
+:func:`table_floor` fits the tables straight to the true machine (simulation only: a
+real machine is never known this well), with the same table functions, limits and
+pseudo-measurements vecpin uses for a model; the ratio of vecpin's true compensated
+error to this floor says how much the identification costs."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, pitch_names,
+                                           pseudo_commands, rich_table_bases, truth_as_actual)
+from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
+from vecpin.compensation.selection import exact_search
+from vecpin.compensation.tables import TableSet
+from vecpin.units import norm_mm
+
+PAPER_I_TOOLS = (0.21488, 0.31286)
+
+
+@dataclass
+class Floor:
+    """The floor tables and their true compensated error [mm] on the judged points."""
+
+    tables: TableSet
+    mean_mm: float
+    max_mm: float
+
+
+def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: np.ndarray) -> tuple[float, float]:
+    """(mean, max) [mm] of the true machine commanded through ``tables`` (None:
+    uncompensated) against the nominal kinematics, after the best rigid registration
+    (a rigid motion of the whole machine is not observable and does not affect parts)."""
+    d = norm_mm(compensated_errors(truth_as_actual(truth), truth.machine, tables, q, tool, register=True))
+    return float(d.mean()), float(d.max())
+
+
+def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS, n_commands: int = 1500,
+                tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0) -> Floor:
+    """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
+    with tool lengths ``tool`` [m]."""
+    m = truth.machine
+    actual = truth_as_actual(truth)
+    pseudo = pseudo_commands(m, n_commands, seed)
+    problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
+    names = all_table_names(m)
+    if not limits.cross_tables:
+        names = pitch_names(m)
+    elif limits.needs_selection(m.axis_names):
+        search = TableProblem(actual, m, pseudo, tools, order=8, basis="auto")
+        chosen = exact_search(search, limits.constraints(None, axis_names=m.axis_names), n_points=n_points)
+        names = pitch_names(m) + chosen.tables
+    tables = problem.solve(names).discretise(n_points)
+    return Floor(tables, *true_compensated_error(truth, tables, q, tool))
