@@ -1,45 +1,78 @@
-"""Machines: a URDF serial chain loaded into Pinocchio, nominal tool-tip kinematics.
+"""Machines: a URDF kinematic tree, nominal tool-tip kinematics on one or two branches.
 
-A vecpin machine is a serial chain from the base link to a link named ``spindle``
-whose origin lies on the gauge line; the tool points along −z of ``spindle``
-(the seed's tool vector ``p_Tl`` with ``u = (0, 0, -1)``, Paper I eq. 9). The
-*axes* are the actuated (prismatic or revolute) joints of that chain, in chain
-order from the base.
+A vecpin machine is a URDF tree rooted at its base link (the machine frame):
 
-Internally everything is SI (m, rad) in the machine base frame; the user-facing
-unit of an axis is mm (linear) or degrees (rotary), see :class:`Axis`.
+* the **head branch(es)** from the base to the tool link(s): ``spindle`` by default,
+  whose origin lies on the gauge line, the tool pointing along its -z (the seed's tool
+  vector ``p_Tl`` with ``u = (0, 0, -1)``, Paper I eq. 9). A machine may have several
+  tool points driven by one command set (Spar Mill 23: ``spindle`` and ``spindle_2``);
+  any link can be named the tool link, with its tool axis (robots: ``tool0`` / ``flange``,
+  tool along +z);
+* optionally a **table branch** from the base to a link named ``workpiece`` (the table
+  frame of a trunnion or rotary table). The tool tip that matters for machining is the
+  tip *relative to the workpiece*, ``p_rel = T_bw(q)^-1 p_tip(q)``; a tracker standing
+  on the floor sees the tip in the base frame.
 
-Kinematics are computed by Pinocchio, one call per pose (the Python loop costs
-about 4 µs a pose); tool length enters in closed form so one forward pass serves
-every tool.
+The **axes** are the independent actuated joints (prismatic, revolute) on these
+branches, in this order (the column order of every ``q`` array in vecpin): walking from
+the base outward along the path to each tool link in turn (tool points in their order),
+then along the path to ``workpiece``; a joint met again is not repeated. On a trunnion
+XYZAC this gives X Y Z A C: head axes first, then table axes. ``<mimic>`` joints are not
+axes: they follow their source axis (``value = multiplier * q_source + offset``).
+Joints off these branches (gripper fingers, cable carriers) are fixed at zero, with a
+note in :attr:`Machine.notes`.
+
+Frames (argument ``frame``): ``"base"`` (what a floor tracker sees) or ``"workpiece"``
+(what compensation tables correct). The default is ``"workpiece"`` on a machine with a
+workpiece link and ``"base"`` otherwise; on a machine without a workpiece both are the
+base frame.
+
+Kinematics are numpy-vectorised over poses (:mod:`vecpin.kinematics.tree`); Pinocchio
+(:attr:`Machine.model`) is kept for the URDF's visual geometry and joint names, and is
+used in the tests as an independent check. Internally everything is SI (m, rad); the
+user-facing unit of an axis is mm (linear) or degrees (rotary), see :class:`Axis`.
 """
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from vecpin.errors import MachineError
+from vecpin.errors import InputError, MachineError
+from vecpin.kinematics.so3 import exp3
+from vecpin.kinematics.tree import KinematicTree, Node, point_columns
+from vecpin.kinematics.urdf import MOVABLE, UrdfJoint, UrdfTree, check_text, read_urdf
+from vecpin.units import to_mm
 
 SPINDLE_LINK = "spindle"
-TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # in the spindle frame
+WORKPIECE_LINK = "workpiece"
+TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # default tool axis in the tool link frame
+#: tool links named like ROS tool flanges: the tool points along their +z by default
+ROS_FLANGE_LINKS = ("tool0", "flange")
+#: campaign CSV columns an axis must not be named like (case-sensitive: "X" is fine)
+RESERVED_NAMES = ("x", "y", "z", "tool", "time", "temperature", "instrument", "station", "r", "pivot",
+                  "target", "point")
+#: load options of bundled machines whose URDF (kept as published) has no 'spindle'
+BUNDLED_OPTIONS = {"ur5": {"tool_link": "tool0"}}
 
-_JOINT_KINDS = {"prismatic": "linear", "revolute": "rotary"}
+Frame = Literal["base", "workpiece"]
 
 
 @dataclass(frozen=True)
 class Axis:
-    """One actuated joint of the chain.
+    """One actuated joint (an independent axis) of the machine.
 
     ``lower``/``upper`` are the URDF limits in SI (m or rad); ``direction`` is the
-    joint axis in the joint frame. ``index`` is the position in chain order (the
-    column order of every ``q`` array in vecpin), ``idx_q`` the index in Pinocchio's
-    configuration vector.
+    joint axis in the joint frame. ``index`` is the position in vecpin's axis order
+    (the column order of every ``q`` array), ``idx_q`` the index in Pinocchio's
+    configuration vector, ``joint_id`` Pinocchio's joint id. ``side`` is "head" (on
+    the path to a tool link), "table" (on the path to the workpiece only) or "both".
     """
 
     name: str
@@ -50,6 +83,7 @@ class Axis:
     index: int
     idx_q: int
     joint_id: int
+    side: Literal["head", "table", "both"] = "head"
 
     @property
     def unit(self) -> str:
@@ -81,18 +115,44 @@ class Axis:
         return self.upper - self.lower
 
 
-class TipKinematics(NamedTuple):
-    """Batched tool-tip kinematics in the machine base frame (SI).
+@dataclass(frozen=True)
+class MimicJoint:
+    """A joint that follows an axis: value = multiplier * q[axis] + offset [m or rad]."""
 
-    ``tip``: (N, 3) tool-tip positions [m]; ``rotation``: (N, 3, 3) spindle
-    orientations; ``spindle``: (N, 3) gauge-line points [m]; ``jacobian``: (N, 3, n)
-    d tip / d q [m/m or m/rad], or ``None`` when not requested.
+    name: str
+    axis: str
+    multiplier: float
+    offset: float
+
+
+class TipKinematics(NamedTuple):
+    """Batched tool-point kinematics in one frame (SI).
+
+    ``tip``: (N, 3) tool-tip (target) positions [m]; ``rotation``: (N, 3, 3) tool-link
+    orientations; ``spindle``: (N, 3) tool-link origins (gauge-line points) [m];
+    ``jacobian``: (N, 3, n) d tip / d q [m/m or m/rad], or ``None`` when not requested;
+    ``tool_dir``: (N, 3) unit tool direction (d tip / d tool length); ``frame``: the frame
+    all of these are expressed in ("base" or "workpiece").
     """
 
     tip: np.ndarray
     rotation: np.ndarray
     spindle: np.ndarray
     jacobian: np.ndarray | None
+    tool_dir: np.ndarray
+    frame: str
+
+
+class WorkpiecePoints(NamedTuple):
+    """Points fixed in the workpiece frame, expressed in the base frame (SI).
+
+    ``xyz`` (N,3) [m]; ``J_q`` (N,3,n) d xyz / d q; ``J_p`` (N,3,3) d xyz / d p_wp (the
+    workpiece orientation); Jacobians ``None`` when not requested.
+    """
+
+    xyz: np.ndarray
+    J_q: np.ndarray | None
+    J_p: np.ndarray | None
 
 
 def bundled_machines() -> list[str]:
@@ -105,93 +165,240 @@ def _bundled_path(name: str) -> Path | None:
     return Path(str(res)) if res.is_file() else None
 
 
+def parse_tool_axis(text: str) -> np.ndarray:
+    """'+z', '-z', 'x', '-y', ... -> unit vector in the tool link frame."""
+    m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", str(text))
+    if not m:
+        raise InputError(f"--tool-axis '{text}': write one of +x, -x, +y, -y, +z, -z "
+                         "(the tool link's axis the tool points along)")
+    v = np.zeros(3)
+    v["xyz".index(m.group(2).lower())] = -1.0 if m.group(1) == "-" else 1.0
+    return v
+
+
+def _axis_name(v: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(v)))
+    return ("-" if v[k] < 0 else "+") + "xyz"[k]
+
+
 class Machine:
-    """A machine tool loaded from URDF into Pinocchio.
+    """A machine loaded from URDF: axes, tool points, optional workpiece branch.
 
     Build with :meth:`load` (bundled name or path), :meth:`from_urdf_file` or
-    :meth:`from_urdf_string`.
+    :meth:`from_urdf_string`. ``tool_link``: the tool link name, a comma-separated list
+    or a sequence of names (several tool points driven by the same commands); default
+    ``spindle`` plus ``spindle_2``, ``spindle_3``, ... when present. ``tool_axis``:
+    "+x", "-x", "+y", "-y", "+z" or "-z" of the tool link; default -z, or +z for a ROS
+    tool flange (``tool0``, ``flange``).
     """
 
-    def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None):
+    def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None, *,
+                 tool_link: str | Sequence[str] | None = None, tool_axis: str | None = None):
         self.urdf_xml = urdf_xml
         self.source = source
         self.urdf_path = urdf_path  # the file it came from, if any
-        try:
-            model = pin.buildModelFromXML(urdf_xml)
-        except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
-            raise MachineError(f"{source}: not a readable URDF ({exc})") from None
-        self.model: pin.Model = model
-        self.name: str = model.name
-        if not model.existFrame(SPINDLE_LINK):
-            raise MachineError(f"{source}: no link named '{SPINDLE_LINK}' (the gauge-line link the tool is mounted to)")
-        self.spindle_frame_id: int = model.getFrameId(SPINDLE_LINK)
-        self.axes: tuple[Axis, ...] = self._chain_axes()
-        self._data = model.createData()
-        self._idx_q = np.array([a.idx_q for a in self.axes])
+        tree = read_urdf(urdf_xml, source)  # checks everything before Pinocchio's parser sees it
+        self.tree: UrdfTree = tree
+        self.notes: list[str] = list(tree.notes)
+        self.name: str = tree.name
+        self.tool_links: tuple[str, ...] = self._resolve_tool_links(tool_link)
+        self._resolve_tool_axis(tool_axis)
+        self.workpiece_link: str | None = WORKPIECE_LINK if WORKPIECE_LINK in tree.links else None
+        if self.workpiece_link in self.tool_links:
+            raise MachineError(f"{source}: '{WORKPIECE_LINK}' is the table frame, it cannot be a tool link")
+        self.model: pin.Model = self._pinocchio_model()
+        self._build_axes()
+        self._data = self.model.createData()
+        self.spindle_frame_id: int = self.model.getFrameId(self.tool_links[0])
 
     # ------------------------------------------------------------------ loading
     @classmethod
-    def load(cls, name_or_path: str | Path) -> "Machine":
+    def load(cls, name_or_path: str | Path, *, tool_link: str | Sequence[str] | None = None,
+             tool_axis: str | None = None) -> "Machine":
         """Load a bundled machine by name (see :func:`bundled_machines`) or a URDF file."""
         p = Path(name_or_path)
-        if p.suffix.lower() == ".urdf" or p.exists():
-            return cls.from_urdf_file(p)
+        if p.suffix.lower() in (".urdf", ".xacro", ".xml") or p.exists():
+            return cls.from_urdf_file(p, tool_link=tool_link, tool_axis=tool_axis)
         bundled = _bundled_path(str(name_or_path))
         if bundled is None:
             raise MachineError(
                 f"'{name_or_path}' is neither a URDF file nor a bundled machine "
                 f"(bundled: {', '.join(bundled_machines())})")
-        m = cls.from_urdf_file(bundled)
+        defaults = BUNDLED_OPTIONS.get(str(name_or_path), {})
+        m = cls.from_urdf_file(bundled, tool_link=tool_link or defaults.get("tool_link"),
+                               tool_axis=tool_axis or defaults.get("tool_axis"))
         m.source = str(name_or_path)
         return m
 
     @classmethod
-    def from_urdf_file(cls, path: str | Path) -> "Machine":
+    def from_urdf_file(cls, path: str | Path, *, tool_link: str | Sequence[str] | None = None,
+                       tool_axis: str | None = None) -> "Machine":
         path = Path(path)
+        if path.suffix.lower() == ".xacro":
+            check_text(b"", str(path))  # raises the xacro message
         if not path.is_file():
             raise MachineError(f"{path}: no such URDF file")
-        return cls(path.read_text(), source=str(path), urdf_path=path)
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise MachineError(f"{path}: cannot read the file ({exc.strerror})") from None
+        return cls(check_text(data, str(path)), source=str(path), urdf_path=path, tool_link=tool_link,
+                   tool_axis=tool_axis)
 
     @classmethod
-    def from_urdf_string(cls, xml: str, source: str = "<string>") -> "Machine":
-        return cls(xml, source=source)
+    def from_urdf_string(cls, xml: str, source: str = "<string>", *, tool_link: str | Sequence[str] | None = None,
+                         tool_axis: str | None = None) -> "Machine":
+        return cls(xml, source=source, tool_link=tool_link, tool_axis=tool_axis)
 
-    def _chain_axes(self) -> tuple[Axis, ...]:
-        model = self.model
-        # joints on the path base -> spindle
-        chain = []
-        j = model.frames[self.spindle_frame_id].parentJoint
-        while j > 0:
-            chain.append(j)
-            j = model.parents[j]
-        chain.reverse()
-        off_chain = [model.names[j] for j in range(1, model.njoints) if j not in chain]
-        if off_chain:
-            raise MachineError(
-                f"{self.source}: joints {off_chain} are not on the chain from the base to '{SPINDLE_LINK}'; "
-                "a vecpin machine is a single serial chain (make other joints fixed)")
-        axes = []
-        for i, jid in enumerate(chain):
-            jm = model.joints[jid]
-            short = jm.shortname()
-            if jm.nq != 1 or jm.nv != 1:
-                hint = " (a URDF 'continuous' joint: declare it 'revolute' with wide limits)" if jm.nq == 2 else ""
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' is {short}, not a 1-DoF axis{hint}")
-            if "Prismatic" in short or short.startswith("JointModelP"):
-                kind = "linear"
-            elif "Revolute" in short or short.startswith("JointModelR"):
-                kind = "rotary"
+    @property
+    def load_options(self) -> dict[str, str]:
+        """The options that reproduce this machine from its URDF (for model files)."""
+        return {"tool_link": ",".join(self.tool_links), "tool_axis": self.tool_axis_name}
+
+    def _resolve_tool_links(self, tool_link) -> tuple[str, ...]:
+        tree, source = self.tree, self.source
+        if tool_link is None:
+            names = [SPINDLE_LINK]
+            k = 2
+            while f"{SPINDLE_LINK}_{k}" in tree.links:
+                names.append(f"{SPINDLE_LINK}_{k}")
+                k += 1
+        elif isinstance(tool_link, str):
+            names = [s.strip() for s in tool_link.split(",")]
+        else:
+            names = [str(s).strip() for s in tool_link]
+        if not names or any(not n for n in names):
+            raise InputError(f"--tool-link '{tool_link}': give a link name (or several, comma-separated)")
+        if len(set(names)) != len(names):
+            raise InputError(f"--tool-link '{tool_link}': a link is named twice")
+        for n in names:
+            if n not in tree.links:
+                leaves = [lk for lk in tree.leaves() if lk != WORKPIECE_LINK]
+                default = " (the default tool link, on the gauge line)" if tool_link is None else ""
+                raise MachineError(
+                    f"{source}: no link named '{n}'{default}; candidate end links: {', '.join(leaves)}; "
+                    "name the tool link with --tool-link NAME (Machine.load(..., tool_link=NAME))")
+        return tuple(names)
+
+    def _resolve_tool_axis(self, tool_axis) -> None:
+        link = self.tool_links[0]
+        if tool_axis is None:
+            if link in ROS_FLANGE_LINKS:
+                tool_axis = "+z"
+                self.notes.append(f"tool along +z of '{link}' (ROS tool-flange convention; --tool-axis to change)")
             else:
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' has unsupported type {short}")
-            lo = float(model.lowerPositionLimit[jm.idx_q])
-            hi = float(model.upperPositionLimit[jm.idx_q])
-            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' needs finite limits with lower < upper")
-            direction = _joint_direction(jm)
-            axes.append(Axis(model.names[jid], kind, lo, hi, direction, i, jm.idx_q, jid))
-        if not axes:
-            raise MachineError(f"{self.source}: no actuated joint between the base and '{SPINDLE_LINK}'")
-        return tuple(axes)
+                tool_axis = "-z"
+                if not link.startswith(SPINDLE_LINK):
+                    self.notes.append(f"tool along -z of '{link}' (the default; --tool-axis if it points elsewhere)")
+        self.tool_axis: np.ndarray = parse_tool_axis(tool_axis)
+        self.tool_axis_name: str = _axis_name(self.tool_axis)
+
+    def _pinocchio_model(self) -> pin.Model:
+        has_mimic = any(j.mimic is not None for j in self.tree.joints.values())
+        try:
+            model = pin.buildModelFromXML(self.urdf_xml, mimic=has_mimic) if has_mimic \
+                else pin.buildModelFromXML(self.urdf_xml)
+        except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
+            if not has_mimic:
+                raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
+            try:
+                model = pin.buildModelFromXML(self.urdf_xml)
+            except Exception as exc2:
+                raise MachineError(f"{self.source}: not a readable URDF ({exc2})") from None
+            self.notes.append("Pinocchio could not build the <mimic> joints; its model (used for the 3-D "
+                              "scene only) carries them as separate joints")
+        return model
+
+    def _build_axes(self) -> None:
+        """Axes in vecpin's order, mimic joints, and the compiled kinematic tree."""
+        tree, source = self.tree, self.source
+        targets = list(self.tool_links) + ([self.workpiece_link] if self.workpiece_link else [])
+        on_branch: list[str] = []
+        head: set[str] = set()
+        for t in targets:
+            for jn in tree.path(t):
+                if t != self.workpiece_link:
+                    head.add(jn)
+                if jn not in on_branch:
+                    on_branch.append(jn)
+        table = set(tree.path(self.workpiece_link)) if self.workpiece_link else set()
+        for jn in on_branch:
+            j = tree.joints[jn]
+            if j.type == "continuous":
+                raise MachineError(f"{source}: joint '{jn}' is continuous, not a 1-DoF axis with limits "
+                                   "(a URDF 'continuous' joint: declare it 'revolute' with wide limits)")
+            if j.type not in MOVABLE + ("fixed",):
+                raise MachineError(f"{source}: joint '{jn}' is a {j.type} joint; a machine axis is "
+                                   "prismatic or revolute (or fixed)")
+        axis_joints = [jn for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is None]
+        if not axis_joints:
+            raise MachineError(f"{source}: no actuated joint between the base and "
+                               f"{' / '.join(repr(t) for t in targets)}")
+        index = {jn: k for k, jn in enumerate(axis_joints)}
+        axes = []
+        for k, jn in enumerate(axis_joints):
+            j = tree.joints[jn]
+            _check_axis_name(jn, source)
+            if j.lower is None or j.upper is None or not j.upper > j.lower:
+                raise MachineError(f"{source}: joint '{jn}' needs finite limits with lower < upper "
+                                   f"(<limit lower=\"{j.lower}\" upper=\"{j.upper}\">)")
+            jid = self.model.getJointId(jn) if self.model.existJointName(jn) else -1
+            idx_q = self.model.joints[jid].idx_q if jid >= 0 else -1
+            side = "both" if (jn in head and jn in table) else ("table" if jn in table else "head")
+            axes.append(Axis(jn, "linear" if j.type == "prismatic" else "rotary", float(j.lower), float(j.upper),
+                             tuple(float(v) for v in j.axis), k, idx_q, jid, side))
+        self.axes: tuple[Axis, ...] = tuple(axes)
+        # the kinematic tree: moving joints on the branches; fixed ones folded into placements
+        nodes: list[Node] = []
+        at_link: dict[str, tuple[int, np.ndarray]] = {tree.root: (-1, np.eye(4))}
+        mimics: list[MimicJoint] = []
+        node_of: dict[str, int] = {}
+        for jn in on_branch:
+            j = tree.joints[jn]
+            parent_node, T = at_link[j.parent]
+            if j.type in MOVABLE and (j.mimic is None or j.mimic[0] in index):
+                src, mult, off = (index[jn], 1.0, 0.0) if j.mimic is None else (index[j.mimic[0]], j.mimic[1], j.mimic[2])
+                kind = "linear" if j.type == "prismatic" else "rotary"
+                node_of[jn] = len(nodes)
+                nodes.append(Node(jn, parent_node, T @ j.origin, kind, j.axis, src, mult, off))
+                at_link[j.child] = (len(nodes) - 1, np.eye(4))
+                if j.mimic is not None:
+                    mimics.append(MimicJoint(jn, j.mimic[0], mult, off))
+            else:
+                M = T @ j.origin
+                if j.type in MOVABLE:  # a mimic joint whose source is off the branches: fixed at its offset
+                    M = M @ _motion(j, j.mimic[2])
+                    self.notes.append(f"joint '{jn}' mimics '{j.mimic[0]}', which is off the tool and workpiece "
+                                      f"branches (fixed at 0): '{jn}' is fixed at its offset {j.mimic[2]:g}")
+                at_link[j.child] = (parent_node, M)
+        self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
+        off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch and j.type != "fixed"]
+        if off_branch:
+            self.notes.append(f"joints off the tool and workpiece branches are treated as fixed at 0: "
+                              f"{', '.join(off_branch)}")
+        self.kin = KinematicTree(nodes, {t: at_link[t] for t in targets}, len(axes))
+        self.node_of: dict[str, int] = node_of
+        self._G_tool = np.stack([self.kin.gains(t) for t in self.tool_links])  # (P, M, n)
+        self._G_wp = self.kin.gains(self.workpiece_link) if self.workpiece_link else np.zeros_like(self._G_tool[0])
+        self._pin_map = self._pinocchio_map(index, node_of, nodes)
+
+    def _pinocchio_map(self, index, node_of, nodes):
+        """(idx_q, source axis, multiplier, offset) arrays filling Pinocchio's q from axis values."""
+        rows = []
+        for jid in range(1, self.model.njoints):
+            jm = self.model.joints[jid]
+            if jm.nq != 1 or "Mimic" in jm.shortname():
+                continue
+            name = self.model.names[jid]
+            if name in index:
+                rows.append((jm.idx_q, index[name], 1.0, 0.0))
+            elif name in node_of:
+                nd = nodes[node_of[name]]
+                rows.append((jm.idx_q, nd.source, nd.multiplier, nd.offset))
+        if not rows:
+            return np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0)
+        a = np.array(rows)
+        return a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]
 
     # ------------------------------------------------------------------ facts
     @property
@@ -209,6 +416,24 @@ class Machine:
         raise MachineError(f"machine '{self.name}' has no axis '{name}' (axes: {', '.join(self.axis_names)})")
 
     @property
+    def has_workpiece(self) -> bool:
+        """True when the machine has a table branch (a ``workpiece`` link)."""
+        return self.workpiece_link is not None
+
+    @property
+    def default_frame(self) -> str:
+        """"workpiece" on a machine with a workpiece link, else "base"."""
+        return "workpiece" if self.has_workpiece else "base"
+
+    @property
+    def head_axes(self) -> list[str]:
+        return [a.name for a in self.axes if a.side != "table"]
+
+    @property
+    def table_axes(self) -> list[str]:
+        return [a.name for a in self.axes if a.side != "head"]
+
+    @property
     def lower(self) -> np.ndarray:
         return np.array([a.lower for a in self.axes])
 
@@ -224,97 +449,209 @@ class Machine:
         """(N, n) axis commands in m/rad -> mm/deg."""
         return np.asarray(q_si, float) / np.array([a.scale for a in self.axes])
 
-    def gauge_offset(self) -> float:
-        """Distance [m] from the last axis' joint frame to the gauge line along the tool (T_offset)."""
-        f = self.model.frames[self.spindle_frame_id]
-        return float(f.placement.translation @ (f.placement.rotation @ TOOL_DIRECTION))
+    def gauge_offset(self, point: int = 0) -> float:
+        """Distance [m] along the tool from the last axis' joint frame on the way to tool
+        point ``point`` to its gauge line (T_offset)."""
+        _, T = self.kin.frames[self.tool_links[point]]
+        return float(T[:3, 3] @ (T[:3, :3] @ self.tool_axis))
+
+    @property
+    def layout(self) -> str:
+        """Short layout description: the URDF's ``layout:`` comment line, else derived."""
+        return self.tree.layout_tag or self.derived_layout()
+
+    def derived_layout(self) -> str:
+        """Layout from the structure: axis letters, where the rotaries are, tool points."""
+        names = self.axis_names
+        word = "".join(names) if all(len(n) == 1 for n in names) else f"{self.n_axes} axes"
+        rot = [a for a in self.axes if a.kind == "rotary"]
+        if len(rot) == self.n_axes and self.n_axes >= 4 and not self.has_workpiece:
+            out = f"{self.n_axes}-axis arm"
+        else:
+            out = word
+            head_rot = [a.name for a in rot if a.side != "table"]
+            table_rot = [a.name for a in rot if a.side != "head"]
+            if table_rot:
+                out += f", table rotaries {', '.join(table_rot)}"
+            if head_rot:
+                out += f", head rotaries {', '.join(head_rot)}"
+        if len(self.tool_links) > 1:
+            out += f", {len(self.tool_links)} tool points ({', '.join(self.tool_links)})"
+        return out
 
     # ------------------------------------------------------------------ kinematics
     def full_q(self, q: np.ndarray) -> np.ndarray:
-        """Map chain-ordered axis values (n,) or (N, n) to Pinocchio's configuration order."""
+        """Map axis values (n,) or (N, n) to Pinocchio's configuration vector (mimic joints
+        that Pinocchio carries as joints get their values; joints off the branches 0)."""
         q = np.asarray(q, float)
         out = np.zeros(q.shape[:-1] + (self.model.nq,))
-        out[..., self._idx_q] = q
+        idx, src, mult, off = self._pin_map
+        out[..., idx] = q[..., src] * mult + off
         return out
 
-    def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True) -> TipKinematics:
-        """Nominal tool tip for N poses.
+    def _frame(self, frame: str | None) -> str:
+        if frame is None:
+            return self.default_frame
+        if frame not in ("base", "workpiece"):
+            raise InputError(f"frame '{frame}': choose 'base' (the machine frame a floor tracker sees) "
+                             "or 'workpiece' (the table frame)")
+        return frame
 
-        q: (N, n) axis commands [m, rad] in chain order; tool: (N,) or scalar tool
-        length [m] from the gauge line. Returns :class:`TipKinematics` in the base frame.
-        The Jacobian is d tip / d q (linear velocity of the tool tip), from
-        Pinocchio's spindle-frame Jacobian shifted to the tip.
+    def _points(self, point, N: int) -> np.ndarray | int:
+        P = len(self.tool_links)
+        if np.ndim(point) == 0:
+            k = int(point)
+            if not 0 <= k < P:
+                raise InputError(f"tool point {k} out of range (tool points: {', '.join(self.tool_links)})")
+            return k
+        pt = np.asarray(point)
+        if pt.shape != (N,) or not np.issubdtype(pt.dtype, np.integer):
+            raise InputError(f"point: one integer tool-point index per pose ({N}), got shape {pt.shape}")
+        if pt.size and (pt.min() < 0 or pt.max() >= P):
+            raise InputError(f"tool point index out of range 0..{P - 1} (tool points: {', '.join(self.tool_links)})")
+        return pt
+
+    def _tool_frames(self, poses, pt, N) -> tuple[np.ndarray, np.ndarray]:
+        if np.ndim(pt) == 0:
+            return self.kin.frame(poses, self.tool_links[pt])
+        R = np.empty((N, 3, 3))
+        p = np.empty((N, 3))
+        for k in np.unique(pt):
+            rows = pt == k
+            Rk, pk = self.kin.frame(poses, self.tool_links[k])
+            R[rows], p[rows] = Rk[rows], pk[rows]
+        return R, p
+
+    def _gains(self, pt, frame: str) -> np.ndarray:
+        G = self._G_tool[pt]  # (M, n) or (N, M, n)
+        return G - self._G_wp if frame == "workpiece" else G
+
+    def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True, *,
+                   frame: Frame | None = None, point: int | np.ndarray = 0,
+                   offset: np.ndarray | None = None) -> TipKinematics:
+        """Nominal tool point for N poses.
+
+        q: (N, n) axis commands [m, rad] in axis order; tool: (N,) or scalar tool length
+        [m] from the gauge line along the tool axis; offset: (3,) or (N, 3) further target
+        offset [m] in the tool link frame (a reflector off the tool axis; d tip / d offset
+        is ``rotation``); point: tool point index (int) or one per pose (N,) into
+        :attr:`tool_links`; frame: "base" or "workpiece" (default :attr:`default_frame`).
+        The Jacobian is d tip / d q (analytic).
         """
         q = np.atleast_2d(np.asarray(q, float))
-        n_pose = q.shape[0]
-        tool = np.broadcast_to(np.asarray(tool, float), (n_pose,))
-        H, J6 = frame_poses(self.model, self._data, self.spindle_frame_id, self.full_q(q), jacobian)
-        R = H[:, :3, :3]
-        spindle = H[:, :3, 3]
-        r = (R @ TOOL_DIRECTION) * tool[:, None]  # gauge line -> tip, base frame
-        tip = spindle + r
-        J = shift_to_point(J6, r)[:, :, self._idx_v()] if jacobian else None
-        return TipKinematics(tip, R, spindle, J)
+        N = q.shape[0]
+        frame = self._frame(frame)
+        pt = self._points(point, N)
+        tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        poses = self.kin.forward(q)
+        R, o = self._tool_frames(poses, pt, N)
+        u = R @ self.tool_axis
+        local = tool[:, None] * self.tool_axis
+        if offset is not None:
+            local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
+        tip = o + np.einsum("pij,pj->pi", R, local)
+        J = None
+        if jacobian:
+            v0, w = self.kin.twists(poses)
+            J = point_columns(v0, w, tip, self._gains(pt, frame))
+        if frame == "workpiece" and self.has_workpiece:
+            Rw, pw = self.kin.frame(poses, self.workpiece_link)
+            RwT = np.swapaxes(Rw, 1, 2)
+            tip = np.einsum("pij,pj->pi", RwT, tip - pw)
+            o = np.einsum("pij,pj->pi", RwT, o - pw)
+            R = RwT @ R
+            u = np.einsum("pij,pj->pi", RwT, u)
+            if jacobian:
+                J = RwT @ J
+        return TipKinematics(tip, R, o, J, u, frame)
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0, *, frame: Frame | None = None,
+                 point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
+        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`)."""
+        return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+
+    def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
+        """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        if self.has_workpiece:
+            out[:, :3, :3], out[:, :3, 3] = self.kin.frame(self.kin.forward(q), self.workpiece_link)
+        return out
+
+    def workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, jacobian: bool = True) -> WorkpiecePoints:
+        """Points fixed in the workpiece frame (table nests, targets), in the base frame.
+
+        q: (N, n) [m, rad]; p_wp: (3,) or (N, 3) [m] in the workpiece frame. Returns
+        positions (N,3) [m], d/dq (N,3,n) and d/dp_wp (N,3,3). Without a workpiece link
+        the points are fixed in the base frame (d/dq = 0, d/dp_wp = I).
+        """
+        q = np.atleast_2d(np.asarray(q, float))
+        N = q.shape[0]
+        p = np.broadcast_to(np.asarray(p_wp, float), (N, 3))
+        if not self.has_workpiece:
+            J_q = np.zeros((N, 3, self.n_axes)) if jacobian else None
+            J_p = np.broadcast_to(np.eye(3), (N, 3, 3)).copy() if jacobian else None
+            return WorkpiecePoints(p.copy(), J_q, J_p)
+        poses = self.kin.forward(q)
+        Rw, pw = self.kin.frame(poses, self.workpiece_link)
+        xyz = pw + np.einsum("pij,pj->pi", Rw, p)
+        if not jacobian:
+            return WorkpiecePoints(xyz, None, None)
+        v0, w = self.kin.twists(poses)
+        return WorkpiecePoints(xyz, point_columns(v0, w, xyz, self._G_wp), Rw)
 
     def joint_frames(self, q: np.ndarray, axis: str) -> np.ndarray:
         """(N,4,4) placements in the base frame of an axis' joint frame after its motion."""
         q = np.atleast_2d(np.asarray(q, float))
-        jid = self.axis(axis).joint_id
-        qf = self.full_q(q)
-        out = np.empty((len(q), 4, 4))
-        for i in range(len(q)):
-            pin.forwardKinematics(self.model, self._data, qf[i])
-            out[i] = self._data.oMi[jid].homogeneous
+        i = self.node_of[self.axis(axis).name]
+        poses = self.kin.forward(q)
+        out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        out[:, :3, :3], out[:, :3, 3] = poses.R[i], poses.p[i]
         return out
 
-    def _idx_v(self) -> np.ndarray:
-        return np.array([self.model.joints[a.joint_id].idx_v for a in self.axes])
-
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0) -> np.ndarray:
-        """(N, 3) nominal tool-tip positions [m] in the base frame."""
-        return self.kinematics(q, tool, jacobian=False).tip
-
     def describe(self) -> str:
-        """Human summary: axes with kinds and limits (user units), frames."""
+        """Human summary: layout, axes with kinds, sides and limits (user units), frames, notes."""
+        order = "head branch (base -> tool) then table branch (base -> workpiece)" if self.has_workpiece \
+            else "chain order from the base"
         lines = [f"machine {self.name}  ({self.source})",
-                 f"  {self.n_axes} axes in chain order (base -> spindle):"]
+                 f"  layout: {self.layout}",
+                 f"  {self.n_axes} axes, {order}:"]
         for a in self.axes:
             d = " ".join(f"{v:g}" for v in a.direction)
-            lines.append(f"    {a.name:<8s} {a.kind:<7s} axis [{d}]  limits {a.lower_user:12.4f} .. {a.upper_user:12.4f} {a.unit}")
-        lines.append(f"  gauge line: link '{SPINDLE_LINK}', {self.gauge_offset()*1e3:.3f} mm from the last axis frame; tool along -z")
+            lines.append(f"    {a.name:<8s} {a.kind:<7s} {a.side:<5s} axis [{d}]  limits "
+                         f"{a.lower_user:12.4f} .. {a.upper_user:12.4f} {a.unit}")
+        for mj in self.mimic_joints:
+            off = f" {mj.offset:+g}" if mj.offset else ""
+            lines.append(f"    {mj.name:<8s} follows {mj.axis}: {mj.name} = {mj.multiplier:g} * {mj.axis}{off}")
+        for k, link in enumerate(self.tool_links):
+            what = "gauge line: link" if link.startswith(SPINDLE_LINK) else "tool link:"
+            lines.append(f"  {what} '{link}' (tool point {k}), {to_mm(self.gauge_offset(k)):.3f} mm from the "
+                         f"last axis frame; tool along {self.tool_axis_name}")
+        if self.has_workpiece:
+            lines.append(f"  workpiece: link '{self.workpiece_link}' (table axes {', '.join(self.table_axes)}); "
+                         "tool tips relative to it by default")
         frames = [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
         lines.append(f"  links: {', '.join(frames)}")
+        for note in self.notes:
+            lines.append(f"  note: {note}")
         return "\n".join(lines)
 
 
-def frame_poses(model: pin.Model, data: pin.Data, frame_id: int, configurations: np.ndarray,
-                jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Placements (N,4,4) of one frame and, if asked, its LOCAL_WORLD_ALIGNED Jacobians
-    (N,6,nv) [linear; angular] for N Pinocchio configurations: one Pinocchio call per pose."""
-    n = len(configurations)
-    H = np.empty((n, 4, 4))
-    if not jacobian:
-        for i in range(n):
-            pin.forwardKinematics(model, data, configurations[i])
-            H[i] = pin.updateFramePlacement(model, data, frame_id).homogeneous
-        return H, None
-    J6 = np.empty((n, 6, model.nv))
-    for i in range(n):
-        J6[i] = pin.computeFrameJacobian(model, data, configurations[i], frame_id, pin.LOCAL_WORLD_ALIGNED)
-        H[i] = data.oMf[frame_id].homogeneous
-    return H, J6
+def _motion(j: UrdfJoint, value: float) -> np.ndarray:
+    """(4,4) motion of a joint by value [m or rad] in its joint frame."""
+    T = np.eye(4)
+    if j.type == "prismatic":
+        T[:3, 3] = j.axis * value
+    else:
+        T[:3, :3] = exp3(j.axis * value)
+    return T
 
 
-def shift_to_point(J6: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Linear-velocity Jacobian (N,3,nv) of a point rigidly offset by r (N,3) from the
-    frame origin: v_point = v + w x r."""
-    return J6[:, :3, :] - np.cross(r[:, :, None], J6[:, 3:, :], axisa=1, axisb=1, axisc=1)
-
-
-def _joint_direction(jm) -> tuple[float, float, float]:
-    short = jm.shortname()
-    for suffix, vec in (("X", (1.0, 0.0, 0.0)), ("Y", (0.0, 1.0, 0.0)), ("Z", (0.0, 0.0, 1.0))):
-        if short.endswith(suffix) and ("Unaligned" not in short):
-            return vec
-    ax = np.asarray(jm.extract().axis if hasattr(jm, "extract") else jm.axis, float)
-    return tuple(float(v) for v in ax)
+def _check_axis_name(name: str, source: str) -> None:
+    if name in RESERVED_NAMES:
+        raise MachineError(f"{source}: axis joint '{name}' is named like the campaign column '{name}' "
+                           f"(reserved: {', '.join(RESERVED_NAMES)}); rename the joint in the URDF "
+                           "(names are case-sensitive: 'X' is fine)")
+    if re.search(r"[\s,\"']", name) or not name.isprintable():
+        raise MachineError(f"{source}: axis joint '{name}' has a space, comma or quote in its name, which "
+                           "breaks campaign CSV columns; rename the joint in the URDF")

@@ -33,17 +33,34 @@ def _coefficients(theta: np.ndarray):
 def exp3(w: np.ndarray) -> np.ndarray:
     """Rotation matrices exp([w]x) for (..., 3) rotation vectors [rad]."""
     w = np.asarray(w, float)
-    a, b, _ = _coefficients(np.linalg.norm(w, axis=-1))
-    K = skew(w)
-    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+    t2 = np.einsum("...i,...i->...", w, w)
+    a, b, _ = _coefficients(np.sqrt(t2))
+    return np.eye(3) + a[..., None, None] * skew(w) + b[..., None, None] * _skew_squared(w, t2)
 
 
 def right_jacobian(w: np.ndarray) -> np.ndarray:
     """Right Jacobian Jr(w) of exp3: exp(w + dw) = exp(w) exp(Jr(w) dw) to first order."""
     w = np.asarray(w, float)
-    _, b, c = _coefficients(np.linalg.norm(w, axis=-1))
+    t2 = np.einsum("...i,...i->...", w, w)
+    _, b, c = _coefficients(np.sqrt(t2))
+    return np.eye(3) - b[..., None, None] * skew(w) + c[..., None, None] * _skew_squared(w, t2)
+
+
+def _skew_squared(w: np.ndarray, t2: np.ndarray) -> np.ndarray:
+    """[w]x^2 = w w^T - |w|^2 I, without a batched matrix product."""
+    return w[..., :, None] * w[..., None, :] - t2[..., None, None] * np.eye(3)
+
+
+def exp3_and_right_jacobian(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(exp3(w), Jr(w)) for (..., 3) rotation vectors, sharing the work."""
+    w = np.asarray(w, float)
+    t2 = np.einsum("...i,...i->...", w, w)
+    a, b, c = _coefficients(np.sqrt(t2))
     K = skew(w)
-    return np.eye(3) - b[..., None, None] * K + c[..., None, None] * (K @ K)
+    K2 = _skew_squared(w, t2)
+    eye = np.eye(3)
+    return (eye + a[..., None, None] * K + b[..., None, None] * K2,
+            eye - b[..., None, None] * K + c[..., None, None] * K2)
 
 
 def quaternion_xyzw(w: np.ndarray) -> np.ndarray:
