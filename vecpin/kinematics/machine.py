@@ -45,9 +45,8 @@ import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
-from vecpin.kinematics.so3 import exp3
 from vecpin.kinematics.tree import KinematicTree, Node, point_columns
-from vecpin.kinematics.urdf import MOVABLE, UrdfJoint, UrdfTree, check_text, read_urdf
+from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
 
 SPINDLE_LINK = "spindle"
@@ -228,6 +227,9 @@ class Machine:
         m = cls.from_urdf_file(bundled, tool_link=tool_link or defaults.get("tool_link"),
                                tool_axis=tool_axis or defaults.get("tool_axis"))
         m.source = str(name_or_path)
+        if tool_link is None and "tool_link" in defaults:
+            m.notes.insert(0, f"tool link '{defaults['tool_link']}': the bundled default for this machine "
+                              "(its URDF has no 'spindle')")
         return m
 
     @classmethod
@@ -330,7 +332,18 @@ class Machine:
             if j.type not in MOVABLE + ("fixed",):
                 raise MachineError(f"{source}: joint '{jn}' is a {j.type} joint; a machine axis is "
                                    "prismatic or revolute (or fixed)")
-        axis_joints = [jn for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is None]
+        # axes: independent movable joints in path order; a mimic joint brings in its source axis
+        axis_joints: list[str] = []
+        for jn in on_branch:
+            j = tree.joints[jn]
+            if j.type in MOVABLE:
+                a = jn if j.mimic is None else j.mimic[0]
+                if a not in axis_joints:
+                    axis_joints.append(a)
+                    if jn in head:
+                        head.add(a)
+                    if jn in table:
+                        table.add(a)
         if not axis_joints:
             raise MachineError(f"{source}: no actuated joint between the base and "
                                f"{' / '.join(repr(t) for t in targets)}")
@@ -356,7 +369,7 @@ class Machine:
         for jn in on_branch:
             j = tree.joints[jn]
             parent_node, T = at_link[j.parent]
-            if j.type in MOVABLE and (j.mimic is None or j.mimic[0] in index):
+            if j.type in MOVABLE:
                 src, mult, off = (index[jn], 1.0, 0.0) if j.mimic is None else (index[j.mimic[0]], j.mimic[1], j.mimic[2])
                 kind = "linear" if j.type == "prismatic" else "rotary"
                 node_of[jn] = len(nodes)
@@ -365,12 +378,7 @@ class Machine:
                 if j.mimic is not None:
                     mimics.append(MimicJoint(jn, j.mimic[0], mult, off))
             else:
-                M = T @ j.origin
-                if j.type in MOVABLE:  # a mimic joint whose source is off the branches: fixed at its offset
-                    M = M @ _motion(j, j.mimic[2])
-                    self.notes.append(f"joint '{jn}' mimics '{j.mimic[0]}', which is off the tool and workpiece "
-                                      f"branches (fixed at 0): '{jn}' is fixed at its offset {j.mimic[2]:g}")
-                at_link[j.child] = (parent_node, M)
+                at_link[j.child] = (parent_node, T @ j.origin)
         self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
         off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch and j.type != "fixed"]
         if off_branch:
@@ -616,13 +624,14 @@ class Machine:
         lines = [f"machine {self.name}  ({self.source})",
                  f"  layout: {self.layout}",
                  f"  {self.n_axes} axes, {order}:"]
+        width = max([8] + [len(a.name) for a in self.axes] + [len(mj.name) for mj in self.mimic_joints])
         for a in self.axes:
             d = " ".join(f"{v:g}" for v in a.direction)
-            lines.append(f"    {a.name:<8s} {a.kind:<7s} {a.side:<5s} axis [{d}]  limits "
+            lines.append(f"    {a.name:<{width}s} {a.kind:<7s} {a.side:<5s} axis [{d}]  limits "
                          f"{a.lower_user:12.4f} .. {a.upper_user:12.4f} {a.unit}")
         for mj in self.mimic_joints:
             off = f" {mj.offset:+g}" if mj.offset else ""
-            lines.append(f"    {mj.name:<8s} follows {mj.axis}: {mj.name} = {mj.multiplier:g} * {mj.axis}{off}")
+            lines.append(f"    {mj.name:<{width}s} follows {mj.axis}: {mj.name} = {mj.multiplier:g} * {mj.axis}{off}")
         for k, link in enumerate(self.tool_links):
             what = "gauge line: link" if link.startswith(SPINDLE_LINK) else "tool link:"
             lines.append(f"  {what} '{link}' (tool point {k}), {to_mm(self.gauge_offset(k)):.3f} mm from the "
@@ -635,16 +644,6 @@ class Machine:
         for note in self.notes:
             lines.append(f"  note: {note}")
         return "\n".join(lines)
-
-
-def _motion(j: UrdfJoint, value: float) -> np.ndarray:
-    """(4,4) motion of a joint by value [m or rad] in its joint frame."""
-    T = np.eye(4)
-    if j.type == "prismatic":
-        T[:3, 3] = j.axis * value
-    else:
-        T[:3, :3] = exp3(j.axis * value)
-    return T
 
 
 def _check_axis_name(name: str, source: str) -> None:

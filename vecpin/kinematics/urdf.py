@@ -101,8 +101,11 @@ def check_text(data: bytes, source: str) -> str:
 
 
 def _xacro_message(source: str) -> str:
-    stem = re.sub(r"\.xacro$", "", source, flags=re.IGNORECASE)
-    stem = stem if stem.lower().endswith(".urdf") else stem + ".urdf"
+    if source.lower().endswith(".xacro"):
+        stem = source[:-len(".xacro")]
+        stem = stem if stem.lower().endswith(".urdf") else stem + ".urdf"
+    else:  # xacro content in a file named like a URDF
+        stem = re.sub(r"\.(urdf|xml)$", "", source, flags=re.IGNORECASE) + "_expanded.urdf"
     return (f"{source}: a xacro macro file, not a URDF: expand the xacro first "
             f"(xacro {source} > {stem})")
 
@@ -188,7 +191,9 @@ def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> 
         vals = [float(v) for v in parts]
     except ValueError:
         raise MachineError(f"{what} is '{text}', not {n} numbers") from None
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+    if len(vals) != n:
+        raise MachineError(f"{what} is '{text}', not {n} numbers")
+    if not all(math.isfinite(v) for v in vals):
         raise MachineError(f"{what} is '{text}', not {n} finite numbers")
     return np.array(vals)
 
