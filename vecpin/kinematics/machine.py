@@ -308,7 +308,7 @@ class Machine:
             except Exception as exc2:
                 raise MachineError(f"{self.source}: not a readable URDF ({exc2})") from None
             self.notes.append("Pinocchio could not build the <mimic> joints; its model (used for the 3-D "
-                              "scene only) carries them as separate joints")
+                              "scene and joint names) carries them as separate joints")
         return model
 
     def _build_axes(self) -> None:
@@ -340,10 +340,10 @@ class Machine:
                 a = jn if j.mimic is None else j.mimic[0]
                 if a not in axis_joints:
                     axis_joints.append(a)
-                    if jn in head:
-                        head.add(a)
-                    if jn in table:
-                        table.add(a)
+                if jn in head:
+                    head.add(a)
+                if jn in table:
+                    table.add(a)
         if not axis_joints:
             raise MachineError(f"{source}: no actuated joint between the base and "
                                f"{' / '.join(repr(t) for t in targets)}")
