@@ -211,3 +211,55 @@ def test_so3_helpers_match_pinocchio(rng):
         np.testing.assert_allclose(Jr[i], pin.Jexp3(w[i]), atol=1e-12)
         np.testing.assert_allclose(pin.Quaternion(qt[i][3], *qt[i][:3]).toRotationMatrix(), R[i], atol=1e-13)
     np.testing.assert_allclose(so3.log3(R), w * (np.linalg.norm(w, axis=1) < np.pi)[:, None], atol=1e-9)
+
+
+def test_error_joints_are_pinocchio_free_flyers_after_every_slot(machines):
+    """The error transforms live in Pinocchio: one free-flyer joint right after every slot
+    joint (axes, then mimic joints), carrying the slot joint's children."""
+    for name in ("trunnion_xyzac", "spar_mill_23"):
+        m = machines[name]
+        ef = ErrorFrames(m)
+        model = ef.model
+        for s in ef.slot_names:
+            assert model.existJointName(s + "__error")
+            j, e = model.getJointId(s), model.getJointId(s + "__error")
+            assert model.joints[e].shortname() == "JointModelFreeFlyer" and model.parents[e] == j
+            assert [c for c in range(1, model.njoints) if model.parents[c] == j] == [e]
+        assert model.nv == ef.n_slots * 7  # 1-DoF slot joints (mimic joints too) + 6 per error joint
+
+
+LIMIT = "<limit lower='-1' upper='1' effort='1' velocity='1'/>"
+LATE_SOURCE = ("<robot name='late_source'><link name='base'/><link name='head'/><link name='spindle'/>"
+               "<link name='workpiece'/>"
+               "<joint name='M' type='prismatic'><parent link='base'/><child link='head'/><axis xyz='0 1 0'/>"
+               f"{LIMIT}<mimic joint='X' multiplier='-1' offset='0.05'/></joint>"
+               "<joint name='g' type='fixed'><parent link='head'/><child link='spindle'/>"
+               "<origin xyz='0 0 0.3'/></joint>"
+               "<joint name='X' type='prismatic'><parent link='base'/><child link='workpiece'/><axis xyz='1 0 0'/>"
+               f"{LIMIT}</joint></robot>")
+
+
+def test_error_slots_when_pinocchio_cannot_build_the_mimic_joint(rng):
+    """Mimic joint M (head, along y) met before its source X (table, along x): Pinocchio
+    refuses the mimic, vecpin sets M itself. Without rotation errors a translation error
+    on the head slot moves the relative tip by +delta, one on the table slot by -delta
+    (both slot frames are aligned with the base); Jacobians against finite differences."""
+    from vecpin import Machine
+    m = Machine.from_urdf_string(LATE_SOURCE)
+    ef = ErrorFrames(m)
+    assert ef.slot_names == ["X", "M"] and list(ef.slot_axis) == [0, 0]
+    N = 6
+    q = rng.uniform(-1, 1, (N, 1))
+    delta = rng.normal(size=(N, 2, 3)) * 1e-3
+    zero = np.zeros((N, 2, 3))
+    out = ef.tool_tip(q, delta, zero, 0.1, jacobian=False)
+    np.testing.assert_allclose(out.tip, m.tool_tip(q, 0.1) + delta[:, 1] - delta[:, 0], atol=1e-15)
+    eps = rng.normal(size=(N, 2, 3)) * 1e-2
+    for frame in ("workpiece", "base"):
+        out = ef.tool_tip(q, delta, eps, 0.1, frame=frame)
+        J_d, J_e = _fd_errors(lambda d, e: ef.tool_tip(q, d, e, 0.1, False, frame=frame).tip, delta, eps)
+        np.testing.assert_allclose(out.J_delta, J_d, atol=1e-8)
+        np.testing.assert_allclose(out.J_eps, J_e, atol=1e-8)
+        fd_q = (ef.tool_tip(q + 1e-6, delta, eps, 0.1, False, frame=frame).tip
+                - ef.tool_tip(q - 1e-6, delta, eps, 0.1, False, frame=frame).tip) / 2e-6
+        np.testing.assert_allclose(out.J_q[:, :, 0], fd_q, atol=1e-8)

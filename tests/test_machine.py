@@ -116,6 +116,89 @@ def test_tool_tip_matches_pinocchio(machines, name, rng):
             np.testing.assert_allclose(kin.rotation[i], data.oMf[fid].rotation, atol=1e-12)
 
 
+@pytest.mark.parametrize("name", sorted(CLOSED_FORMS))
+def test_jacobians_match_pinocchio_frame_jacobians(machines, name, rng):
+    """vecpin reads placements and Jacobian columns out of one computeJointJacobians call
+    per pose (probe joints); Pinocchio's documented per-frame API, on a model loaded
+    separately, must give the same tool-link and workpiece Jacobians (LOCAL_WORLD_ALIGNED:
+    velocity of the frame origin, in base axes; mimic joints summed into their source)."""
+    m = machines[name]
+    model = pin.buildModelFromUrdf(str(m.urdf_path), mimic=True)
+    data = model.createData()
+    q = uniform_commands(m, 10, rng)
+    cols = [model.joints[model.getJointId(a)].idx_v for a in m.axis_names]
+    links = list(m.tool_links) + (["workpiece"] if m.has_workpiece else [])
+    for k, link in enumerate(links):
+        fid = model.getFrameId(link, pin.FrameType.BODY)
+        if link == "workpiece":
+            got = m.workpiece_points(q, np.zeros(3)).J_q
+        else:
+            got = m.kinematics(q, 0.0, frame="base", point=k).jacobian
+        for i in range(len(q)):
+            qp = pin.neutral(model)
+            for j, a in enumerate(m.axis_names):
+                qp[model.joints[model.getJointId(a)].idx_q] = q[i, j]
+            Jf = pin.computeFrameJacobian(model, data, qp, fid, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(got[i], Jf[:3, cols], atol=1e-12)
+
+
+MIMIC_LIMIT = "<limit lower='-1' upper='1' effort='1' velocity='1'/>"
+
+
+def _mimic_joint(name, parent, child, jtype, axis, extra=""):
+    return (f"<joint name='{name}' type='{jtype}'><parent link='{parent}'/><child link='{child}'/>"
+            f"<axis xyz='{axis}'/>{MIMIC_LIMIT}{extra}</joint>")
+
+
+def test_mimic_joint_follows_multiplier_and_offset(rng):
+    """Z = 2 X + 0.1 (prismatic) and C = -3 X + 0.2 (revolute about z) follow the one axis X;
+    the spindle sits 0.05 m along x of C's frame. Closed form:
+    tip = (X + 0.05 cos C, 0.05 sin C, Z - tool), d tip / dX = (1 + 0.15 sin C, -0.15 cos C, 2)."""
+    xml = ("<robot name='mimics'>" + "".join(f"<link name='{n}'/>" for n in ("base", "a", "b", "c", "spindle"))
+           + _mimic_joint("X", "base", "a", "prismatic", "1 0 0")
+           + _mimic_joint("Z", "a", "b", "prismatic", "0 0 1", "<mimic joint='X' multiplier='2' offset='0.1'/>")
+           + _mimic_joint("C", "b", "c", "revolute", "0 0 1", "<mimic joint='X' multiplier='-3' offset='0.2'/>")
+           + "<joint name='g' type='fixed'><parent link='c'/><child link='spindle'/><origin xyz='0.05 0 0'/></joint>"
+           + "</robot>")
+    m = vecpin.Machine.from_urdf_string(xml)
+    assert m.axis_names == ["X"] and [(j.name, j.axis, j.multiplier, j.offset) for j in m.mimic_joints] == \
+        [("Z", "X", 2.0, 0.1), ("C", "X", -3.0, 0.2)]
+    assert [m.model.joints[m.model.getJointId(n)].shortname() for n in ("Z", "C")] == ["JointModelMimic"] * 2
+    q = rng.uniform(-1, 1, (20, 1))
+    tool = rng.uniform(0, 0.3, 20)
+    X, Z, C = q[:, 0], 2 * q[:, 0] + 0.1, -3 * q[:, 0] + 0.2
+    kin = m.kinematics(q, tool)
+    np.testing.assert_allclose(kin.tip, np.stack([X + 0.05 * np.cos(C), 0.05 * np.sin(C), Z - tool], -1), atol=1e-15)
+    np.testing.assert_allclose(kin.jacobian[:, :, 0],
+                               np.stack([1 + 0.15 * np.sin(C), -0.15 * np.cos(C), np.full(20, 2.0)], -1), atol=1e-14)
+    np.testing.assert_allclose(m.full_q(q), q)  # Pinocchio's mimic joints read X's entry
+
+
+def test_mimic_joints_pinocchio_cannot_build_are_set_by_vecpin(rng):
+    """A mimic joint met before its source (here on the tool branch, its source X on the
+    table branch) is refused by Pinocchio's mimic support; the joint is then an ordinary
+    joint of the model set to multiplier * X + offset, with a note. Closed form: the
+    spindle at (0, 0.05 - X, 0.3), the workpiece at (X, 0, 0): relative tip
+    (-X, 0.05 - X, 0.3 - tool), d/dX = (-1, -1, 0); the base-frame tip moves with (0, -1, 0)."""
+    xml = ("<robot name='late_source'>"
+           + "".join(f"<link name='{n}'/>" for n in ("base", "head", "spindle", "workpiece"))
+           + _mimic_joint("M", "base", "head", "prismatic", "0 1 0", "<mimic joint='X' multiplier='-1' offset='0.05'/>")
+           + "<joint name='g' type='fixed'><parent link='head'/><child link='spindle'/><origin xyz='0 0 0.3'/></joint>"
+           + _mimic_joint("X", "base", "workpiece", "prismatic", "1 0 0") + "</robot>")
+    m = vecpin.Machine.from_urdf_string(xml)
+    assert any("Pinocchio could not build the <mimic> joints" in n for n in m.notes)
+    assert m.axis_names == ["X"] and m.axis("X").side == "both" and m.model.nq == 2
+    q = rng.uniform(-1, 1, (10, 1))
+    X = q[:, 0]
+    kin = m.kinematics(q, 0.1)
+    np.testing.assert_allclose(kin.tip, np.stack([-X, 0.05 - X, np.full(10, 0.2)], -1), atol=1e-15)
+    np.testing.assert_allclose(kin.jacobian[:, :, 0], np.broadcast_to([-1.0, -1.0, 0.0], (10, 3)), atol=1e-15)
+    np.testing.assert_allclose(m.kinematics(q, 0.1, frame="base").jacobian[:, :, 0],
+                               np.broadcast_to([0.0, -1.0, 0.0], (10, 3)), atol=1e-15)
+    np.testing.assert_allclose(m.full_q(q)[:, [m.model.joints[m.model.getJointId(n)].idx_q for n in ("M", "X")]],
+                               np.stack([0.05 - X, X], -1), atol=1e-15)
+
+
 def _fd(f, x, h):
     """Central differences of f over the columns of x (N, n) -> (N, 3, n)."""
     cols = []

@@ -13,20 +13,37 @@ slide with its own errors, driven by its source axis (:attr:`ErrorFrames.slot_ax
 Callers give ``delta``/``eps`` for the n axes only (mimic slots then carry no error) or
 for all slots; the error Jacobians have as many slots as the errors given.
 
+**Pinocchio model.** A copy of the machine's Pinocchio model in which a free-flyer joint
+follows every slot joint: ``E_k`` is that joint's configuration ``(delta_k, quat(eps_k))``,
+so the error transform is exact (no small-angle matrix) and Pinocchio computes the
+erroneous kinematics and every Jacobian column in one call per pose. The copy is built
+from the URDF with ``<mimic>`` joints as ordinary joints (set from their source axis)
+so that each carries its own error joint. Frames and probes as in
+:mod:`vecpin.kinematics.batch`.
+
+The free-flyer's velocity is a twist ``(v, w)`` in its own (child) frame; its
+translation is ``delta`` in the parent (axis) frame, so ``d delta = R_E v`` and
+``d tip / d delta = J_v R_E^T``; its rotation ``R_E = exp3(eps)`` moves with
+``w = Jr(eps) d eps`` (Jr the right Jacobian of exp3), so ``d tip / d eps = J_w Jr(eps)``.
+
 Frames as in :class:`vecpin.kinematics.machine.Machine`: the tool tip in the base frame
 or relative to the workpiece (errors of table axes move the workpiece, and enter the
 relative tip with the opposite sign to head errors); points fixed in the workpiece frame
-in the base frame. Jacobians are analytic (see :mod:`vecpin.kinematics.tree`).
+in the base frame.
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
+import pinocchio as pin
 
 from vecpin.errors import InputError
-from vecpin.kinematics.machine import Frame, Machine
-from vecpin.kinematics.tree import cross, point_columns
+from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
+from vecpin.kinematics.machine import Frame, Machine, configuration_map, fill_configurations
+from vecpin.kinematics.so3 import exp3_and_right_jacobian, quaternion_xyzw
+
+ERROR_JOINT_SUFFIX = "__error"
 
 
 class ErrorTip(NamedTuple):
@@ -61,25 +78,48 @@ class ErrorWorkpiecePoints(NamedTuple):
 
 
 class ErrorFrames:
-    """The machine's kinematic tree with a 6-DoF error transform after every moving joint."""
+    """The machine's Pinocchio model with a 6-DoF error joint after every slot joint."""
 
     def __init__(self, machine: Machine):
         self.machine = machine
-        self.kin = machine.kin
-        nodes = [machine.node_of[a.name] for a in machine.axes]
-        nodes += [machine.node_of[mj.name] for mj in machine.mimic_joints]
-        self._slot_node = np.array(nodes, int)
         self.slot_names: list[str] = machine.axis_names + [mj.name for mj in machine.mimic_joints]
-        self.slot_axis = np.array([self.kin.nodes[i].source for i in nodes], int)
-        M = len(self.kin.nodes)
-        self._mask_tool = np.stack([self.kin.mask(t) for t in machine.tool_links])  # (P, M)
-        self._mask_wp = self.kin.mask(machine.workpiece_link) if machine.has_workpiece else np.zeros(M, bool)
+        self.slot_axis = np.array([a.index for a in machine.axes]
+                                  + [machine.axis(mj.axis).index for mj in machine.mimic_joints], int)
+        slot = {name: k for k, name in enumerate(self.slot_names)}
+        nominal = machine.model_without_mimic()
+        model = pin.Model()
+        model.name = nominal.name + "_with_errors"
+        new_id = {0: 0}
+        error_joint = [0] * len(self.slot_names)
+        for jid in range(1, nominal.njoints):
+            name = nominal.names[jid]
+            j = model.addJoint(new_id[nominal.parents[jid]], nominal.joints[jid], nominal.jointPlacements[jid], name)
+            new_id[jid] = j
+            if name in slot:
+                e = model.addJoint(j, pin.JointModelFreeFlyer(), pin.SE3.Identity(), name + ERROR_JOINT_SUFFIX)
+                new_id[jid] = e  # the joint's children hang after its error transform
+                error_joint[slot[name]] = e
+        links = machine.tool_links + ((machine.workpiece_link,) if machine.has_workpiece else ())
+        frames = {}
+        for link in links:
+            f = nominal.frames[nominal.getFrameId(link, pin.FrameType.BODY)]
+            frames[link] = (new_id[f.parentJoint], f.placement)
+        self.model: pin.Model = model
+        self._probes = FrameProbes(model, frames)
+        self._fill, gain = configuration_map(model, machine.axes, machine.mimic_joints, mimic_in_model=False)
+        self._q_err = np.array([model.joints[e].idx_q for e in error_joint])
+        self._v_err = np.array([model.joints[e].idx_vExtended for e in error_joint])
+        self._moves_tool = np.stack([self._probes.moves(t) for t in machine.tool_links]).astype(float)  # (P, c)
+        self._moves_wp = (self._probes.moves(machine.workpiece_link).astype(float) if machine.has_workpiece
+                          else np.zeros(self._probes.n_columns))
+        self._G_tool = gain * self._moves_tool[:, :, None]  # (P, c, n)
+        self._G_wp = gain * self._moves_wp[:, None]
 
     @property
     def n_slots(self) -> int:
         return len(self.slot_names)
 
-    def _node_errors(self, delta, eps, N: int):
+    def _checked_errors(self, delta, eps, N: int) -> tuple[np.ndarray, np.ndarray]:
         delta = np.asarray(delta, float)
         eps = np.asarray(eps, float)
         n, S = self.machine.n_axes, self.n_slots
@@ -87,29 +127,28 @@ class ErrorFrames:
                 or delta.shape[1] not in (n, S):
             raise InputError(f"errors: delta and eps must be (N, {n}, 3) or (N, {S}, 3) for N = {N} poses, "
                              f"got {delta.shape} and {eps.shape}")
-        M = len(self.kin.nodes)
-        used = delta.shape[1]
-        d = np.zeros((N, M, 3))
-        e = np.zeros((N, M, 3))
-        d[:, self._slot_node[:used]] = delta
-        e[:, self._slot_node[:used]] = eps
-        return d, e, used
+        return delta, eps
 
-    def _error_columns(self, poses, x: np.ndarray, mask: np.ndarray, used: int):
-        """(J_delta, J_eps) (N,3,S,3) of points x (N,3) carried by frames whose moving
-        nodes are ``mask`` ((M,) or (N,M), entries 1, 0 or -1)."""
-        nodes = self._slot_node[:used]
-        m = mask[..., nodes].astype(float)
-        if m.ndim == 1:
-            m = np.broadcast_to(m, (len(x), used))
-        N = len(x)
-        Rm = self.kin.stacked(poses.R_motion, nodes, N, (3, 3))  # (N,S,3,3)
-        J_delta = np.swapaxes(Rm * m[:, :, None, None], 1, 2)  # (N,3,S,3)
-        W = self.kin.stacked(poses.R, nodes, N, (3, 3)) @ poses.Jr_eps[:, nodes]  # angular velocity of d eps
-        o = self.kin.stacked(poses.p, nodes, N, (3,))
-        # column c: w_c x (x - o) = (o - x) x w_c, with the columns of W as rows
-        lever = cross((o - x[:, None, :])[:, :, None, :], np.swapaxes(W, 2, 3))  # (N,S,c,3)
-        J_eps = np.transpose(lever * m[:, :, None, None], (0, 3, 1, 2))
+    def configuration(self, q: np.ndarray, delta: np.ndarray, eps: np.ndarray) -> np.ndarray:
+        """Pinocchio configurations (N, nq) of the error model (with its probes) for axis
+        commands q (N, n) and errors delta, eps (N, S', 3) on the first S' slots."""
+        qa = fill_configurations(self._probes.neutral, self._fill, q)
+        used = delta.shape[1]
+        idx = self._q_err[:used, None] + np.arange(7)  # (S', 7): x y z, qx qy qz qw
+        qa[:, idx] = np.concatenate([delta, quaternion_xyzw(eps)], axis=-1)
+        return qa
+
+    def _error_columns(self, V: np.ndarray, moves: np.ndarray, eps: np.ndarray):
+        """(J_delta, J_eps) (N,3,S',3) from point velocities V (N,3,c) and the weights
+        ``moves`` ((c,) or (N,c): 1 moves the point, 0 not, -1 moves the reference frame)."""
+        used = eps.shape[1]
+        cols = self._v_err[:used]
+        w = moves[..., cols]  # (S',) or (N, S')
+        VE = V[:, :, cols[:, None] + np.arange(6)]  # (N, 3, S', 6): unit twists of each error joint
+        VE = np.transpose(VE, (0, 2, 1, 3)) * (w[..., :, None, None] if w.ndim == 2 else w[:, None, None])
+        RE, Jr = exp3_and_right_jacobian(eps)  # (N, S', 3, 3)
+        J_delta = np.transpose(VE[..., :3] @ np.swapaxes(RE, -1, -2), (0, 2, 1, 3))
+        J_eps = np.transpose(VE[..., 3:] @ Jr, (0, 2, 1, 3))
         return J_delta, J_eps
 
     def tool_tip(self, q: np.ndarray, delta: np.ndarray, eps: np.ndarray, tool: np.ndarray | float,
@@ -129,29 +168,28 @@ class ErrorFrames:
         frame = m._frame(frame)
         pt = m._points(point, N)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
-        d, e, used = self._node_errors(delta, eps, N)
-        poses = self.kin.forward(q, d, e)
-        R, o = m._tool_frames(poses, pt, N)
+        delta, eps = self._checked_errors(delta, eps, N)
+        J6 = self._probes.jacobians(self.configuration(q, delta, eps))
+        R, o = m._tool_placements(self._probes, J6, pt)
         u = R @ m.tool_axis
         local = tool[:, None] * m.tool_axis
         if offset is not None:
             local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
-        tip = o + np.einsum("pij,pj->pi", R, local)
+        tip = o + apply(R, local)
         relative = frame == "workpiece" and m.has_workpiece
         J_q = J_delta = J_eps = None
         if jacobian:
-            v0, w = self.kin.twists(poses)
-            J_q = point_columns(v0, w, tip, m._gains(pt, frame))
-            mask = self._mask_tool[pt].astype(int)
-            if relative:
-                mask = mask - self._mask_wp
-            J_delta, J_eps = self._error_columns(poses, tip, mask, used)
+            V = point_velocities(J6, tip, self._probes.n_columns)
+            G = self._G_tool[pt] - self._G_wp if relative else self._G_tool[pt]
+            J_q = V @ G
+            moves = self._moves_tool[pt] - self._moves_wp if relative else self._moves_tool[pt]
+            J_delta, J_eps = self._error_columns(V, moves, eps)
         if relative:
-            Rw, pw = self.kin.frame(poses, m.workpiece_link)
+            Rw, pw = self._probes.placement(J6, m.workpiece_link)
             RwT = np.swapaxes(Rw, 1, 2)
-            tip = np.einsum("pij,pj->pi", RwT, tip - pw)
+            tip = apply_transposed(Rw, tip - pw)
             R = RwT @ R
-            u = np.einsum("pij,pj->pi", RwT, u)
+            u = apply_transposed(Rw, u)
             if jacobian:
                 J_q = RwT @ J_q
                 J_delta = (RwT @ J_delta.reshape(N, 3, -1)).reshape(J_delta.shape)
@@ -166,19 +204,19 @@ class ErrorFrames:
         q = np.atleast_2d(np.asarray(q, float))
         N = q.shape[0]
         p = np.broadcast_to(np.asarray(p_wp, float), (N, 3))
-        d, e, used = self._node_errors(delta, eps, N)
+        delta, eps = self._checked_errors(delta, eps, N)
+        used = delta.shape[1]
         if not m.has_workpiece:
             if not jacobian:
                 return ErrorWorkpiecePoints(p.copy(), None, None, None, None)
             return ErrorWorkpiecePoints(p.copy(), np.zeros((N, 3, m.n_axes)),
                                         np.broadcast_to(np.eye(3), (N, 3, 3)).copy(),
                                         np.zeros((N, 3, used, 3)), np.zeros((N, 3, used, 3)))
-        poses = self.kin.forward(q, d, e)
-        Rw, pw = self.kin.frame(poses, m.workpiece_link)
-        xyz = pw + np.einsum("pij,pj->pi", Rw, p)
+        J6 = self._probes.jacobians(self.configuration(q, delta, eps))
+        Rw, pw = self._probes.placement(J6, m.workpiece_link)
+        xyz = pw + apply(Rw, p)
         if not jacobian:
             return ErrorWorkpiecePoints(xyz, None, None, None, None)
-        v0, w = self.kin.twists(poses)
-        J_q = point_columns(v0, w, xyz, m._G_wp)
-        J_delta, J_eps = self._error_columns(poses, xyz, self._mask_wp.astype(int), used)
-        return ErrorWorkpiecePoints(xyz, J_q, Rw, J_delta, J_eps)
+        V = point_velocities(J6, xyz, self._probes.n_columns)
+        J_delta, J_eps = self._error_columns(V, self._moves_wp, eps)
+        return ErrorWorkpiecePoints(xyz, V @ self._G_wp, Rw, J_delta, J_eps)

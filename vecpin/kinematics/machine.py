@@ -27,10 +27,13 @@ Frames (argument ``frame``): ``"base"`` (what a floor tracker sees) or ``"workpi
 workpiece link and ``"base"`` otherwise; on a machine without a workpiece both are the
 base frame.
 
-Kinematics are numpy-vectorised over poses (:mod:`vecpin.kinematics.tree`); Pinocchio
-(:attr:`Machine.model`) is kept for the URDF's visual geometry and joint names, and is
-used in the tests as an independent check. Internally everything is SI (m, rad); the
-user-facing unit of an axis is mm (linear) or degrees (rotary), see :class:`Axis`.
+Kinematics are Pinocchio's: the checked URDF text is loaded into a Pinocchio model
+(:attr:`Machine.model`, ``<mimic>`` joints honoured), and one Pinocchio call per pose
+gives the placements and Jacobians of the tool links and the workpiece
+(:mod:`vecpin.kinematics.batch`); tool lengths, target offsets, the change to the
+workpiece frame and the Jacobian algebra are numpy over all poses at once. Internally
+everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or degrees
+(rotary), see :class:`Axis`.
 """
 from __future__ import annotations
 
@@ -45,7 +48,7 @@ import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
-from vecpin.kinematics.tree import KinematicTree, Node, point_columns
+from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
 
@@ -208,7 +211,8 @@ class Machine:
         self.model: pin.Model = self._pinocchio_model()
         self._build_axes()
         self._data = self.model.createData()
-        self.spindle_frame_id: int = self.model.getFrameId(self.tool_links[0])
+        self.spindle_frame_id: int = self.model.getFrameId(self.tool_links[0], pin.FrameType.BODY)
+        self._build_kinematics()
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -296,23 +300,37 @@ class Machine:
         self.tool_axis_name: str = _axis_name(self.tool_axis)
 
     def _pinocchio_model(self) -> pin.Model:
-        has_mimic = any(j.mimic is not None for j in self.tree.joints.values())
+        """The URDF as a Pinocchio model; ``<mimic>`` joints as Pinocchio mimic joints when
+        Pinocchio can build them, else as ordinary joints that vecpin sets from their source."""
+        self._mimic_in_model = any(j.mimic is not None for j in self.tree.joints.values())
         try:
-            model = pin.buildModelFromXML(self.urdf_xml, mimic=has_mimic) if has_mimic \
+            return pin.buildModelFromXML(self.urdf_xml, mimic=True) if self._mimic_in_model \
                 else pin.buildModelFromXML(self.urdf_xml)
         except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
-            if not has_mimic:
+            if not self._mimic_in_model:
                 raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
-            try:
-                model = pin.buildModelFromXML(self.urdf_xml)
-            except Exception as exc2:
-                raise MachineError(f"{self.source}: not a readable URDF ({exc2})") from None
-            self.notes.append("Pinocchio could not build the <mimic> joints; its model (used for the 3-D "
-                              "scene and joint names) carries them as separate joints")
+            reason = str(exc)
+        self._mimic_in_model = False
+        try:
+            model = pin.buildModelFromXML(self.urdf_xml)
+        except Exception as exc:
+            raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
+        self.notes.append(f"Pinocchio could not build the <mimic> joints ({reason}); they are ordinary joints "
+                          "of its model that vecpin sets from their source axis (multiplier * source + offset)")
         return model
 
+    def model_without_mimic(self) -> pin.Model:
+        """The URDF as a Pinocchio model whose ``<mimic>`` joints are ordinary joints (one
+        configuration entry each): the base of :class:`~vecpin.kinematics.errorframes.ErrorFrames`,
+        which gives every mimic joint its own error transform."""
+        if not self._mimic_in_model:
+            return self.model
+        if self._plain_model is None:
+            self._plain_model = pin.buildModelFromXML(self.urdf_xml)
+        return self._plain_model
+
     def _build_axes(self) -> None:
-        """Axes in vecpin's order, mimic joints, and the compiled kinematic tree."""
+        """Axes in vecpin's order (with their sides), mimic joints, notes on joints off the branches."""
         tree, source = self.tree, self.source
         targets = list(self.tool_links) + ([self.workpiece_link] if self.workpiece_link else [])
         on_branch: list[str] = []
@@ -347,7 +365,6 @@ class Machine:
         if not axis_joints:
             raise MachineError(f"{source}: no actuated joint between the base and "
                                f"{' / '.join(repr(t) for t in targets)}")
-        index = {jn: k for k, jn in enumerate(axis_joints)}
         axes = []
         for k, jn in enumerate(axis_joints):
             j = tree.joints[jn]
@@ -361,52 +378,30 @@ class Machine:
             axes.append(Axis(jn, "linear" if j.type == "prismatic" else "rotary", float(j.lower), float(j.upper),
                              tuple(float(v) for v in j.axis), k, idx_q, jid, side))
         self.axes: tuple[Axis, ...] = tuple(axes)
-        # the kinematic tree: moving joints on the branches; fixed ones folded into placements
-        nodes: list[Node] = []
-        at_link: dict[str, tuple[int, np.ndarray]] = {tree.root: (-1, np.eye(4))}
-        mimics: list[MimicJoint] = []
-        node_of: dict[str, int] = {}
-        for jn in on_branch:
-            j = tree.joints[jn]
-            parent_node, T = at_link[j.parent]
-            if j.type in MOVABLE:
-                src, mult, off = (index[jn], 1.0, 0.0) if j.mimic is None else (index[j.mimic[0]], j.mimic[1], j.mimic[2])
-                kind = "linear" if j.type == "prismatic" else "rotary"
-                node_of[jn] = len(nodes)
-                nodes.append(Node(jn, parent_node, T @ j.origin, kind, j.axis, src, mult, off))
-                at_link[j.child] = (len(nodes) - 1, np.eye(4))
-                if j.mimic is not None:
-                    mimics.append(MimicJoint(jn, j.mimic[0], mult, off))
-            else:
-                at_link[j.child] = (parent_node, T @ j.origin)
+        mimics = [MimicJoint(jn, tree.joints[jn].mimic[0], tree.joints[jn].mimic[1], tree.joints[jn].mimic[2])
+                  for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is not None]
         self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
         off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch and j.type != "fixed"]
         if off_branch:
             self.notes.append(f"joints off the tool and workpiece branches are treated as fixed at 0: "
                               f"{', '.join(off_branch)}")
-        self.kin = KinematicTree(nodes, {t: at_link[t] for t in targets}, len(axes))
-        self.node_of: dict[str, int] = node_of
-        self._G_tool = np.stack([self.kin.gains(t) for t in self.tool_links])  # (P, M, n)
-        self._G_wp = self.kin.gains(self.workpiece_link) if self.workpiece_link else np.zeros_like(self._G_tool[0])
-        self._pin_map = self._pinocchio_map(index, node_of, nodes)
 
-    def _pinocchio_map(self, index, node_of, nodes):
-        """(idx_q, source axis, multiplier, offset) arrays filling Pinocchio's q from axis values."""
-        rows = []
-        for jid in range(1, self.model.njoints):
-            jm = self.model.joints[jid]
-            if jm.nq != 1 or "Mimic" in jm.shortname():
-                continue
-            name = self.model.names[jid]
-            if name in index:
-                rows.append((jm.idx_q, index[name], 1.0, 0.0))
-            elif name in node_of:
-                nd = nodes[node_of[name]]
-                rows.append((jm.idx_q, nd.source, nd.multiplier, nd.offset))
-        if not rows:
-            return np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0)
-        a = np.array(rows)
-        return a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]
+    def _build_kinematics(self) -> None:
+        """Probe frames on the tool links and the workpiece, and the maps between vecpin's
+        axis values and Pinocchio's configuration and Jacobian columns."""
+        model = self.model
+        self._plain_model: pin.Model | None = None
+        frames = {}
+        for link in self.tool_links + ((self.workpiece_link,) if self.workpiece_link else ()):
+            f = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+            frames[link] = (f.parentJoint, f.placement)
+        self._probes = FrameProbes(model, frames)
+        self._joint_probes: FrameProbes | None = None
+        self._frame_placements = {link: pin.SE3(pl) for link, (_, pl) in frames.items()}
+        self._fill, self._gain = configuration_map(model, self.axes, self.mimic_joints, self._mimic_in_model)
+        self._G_tool = np.stack([self._gain * self._probes.moves(t)[:, None] for t in self.tool_links])  # (P, c, n)
+        self._G_wp = (self._gain * self._probes.moves(self.workpiece_link)[:, None] if self.workpiece_link
+                      else np.zeros_like(self._gain))
 
     # ------------------------------------------------------------------ facts
     @property
@@ -460,8 +455,8 @@ class Machine:
     def gauge_offset(self, point: int = 0) -> float:
         """Distance [m] along the tool from the last axis' joint frame on the way to tool
         point ``point`` to its gauge line (T_offset)."""
-        _, T = self.kin.frames[self.tool_links[point]]
-        return float(T[:3, 3] @ (T[:3, :3] @ self.tool_axis))
+        pl = self._frame_placements[self.tool_links[point]]
+        return float(pl.translation @ (pl.rotation @ self.tool_axis))
 
     @property
     def layout(self) -> str:
@@ -489,13 +484,13 @@ class Machine:
 
     # ------------------------------------------------------------------ kinematics
     def full_q(self, q: np.ndarray) -> np.ndarray:
-        """Map axis values (n,) or (N, n) to Pinocchio's configuration vector (mimic joints
-        that Pinocchio carries as joints get their values; joints off the branches 0)."""
-        q = np.asarray(q, float)
-        out = np.zeros(q.shape[:-1] + (self.model.nq,))
-        idx, src, mult, off = self._pin_map
-        out[..., idx] = q[..., src] * mult + off
-        return out
+        """Map axis values (n,) or (N, n) to Pinocchio's configuration vector of :attr:`model`
+        (mimic joints follow their source; joints off the branches at Pinocchio's neutral, 0)."""
+        return fill_configurations(self._probes.neutral[:self.model.nq], self._fill, np.asarray(q, float))
+
+    def _jacobians(self, q: np.ndarray) -> np.ndarray:
+        """(N, 6, nv_extended) Pinocchio world Jacobians of the probed model for q (N, n)."""
+        return self._probes.jacobians(fill_configurations(self._probes.neutral, self._fill, q))
 
     def _frame(self, frame: str | None) -> str:
         if frame is None:
@@ -519,20 +514,17 @@ class Machine:
             raise InputError(f"tool point index out of range 0..{P - 1} (tool points: {', '.join(self.tool_links)})")
         return pt
 
-    def _tool_frames(self, poses, pt, N) -> tuple[np.ndarray, np.ndarray]:
+    def _tool_placements(self, probes: FrameProbes, J6: np.ndarray, pt) -> tuple[np.ndarray, np.ndarray]:
+        """(R, p) of the tool link of every row in the base frame; rows grouped by tool point."""
         if np.ndim(pt) == 0:
-            return self.kin.frame(poses, self.tool_links[pt])
+            return probes.placement(J6, self.tool_links[pt])
+        N = len(J6)
         R = np.empty((N, 3, 3))
         p = np.empty((N, 3))
         for k in np.unique(pt):
             rows = pt == k
-            Rk, pk = self.kin.frame(poses, self.tool_links[k])
-            R[rows], p[rows] = Rk[rows], pk[rows]
+            R[rows], p[rows] = probes.placement(J6[rows], self.tool_links[k])
         return R, p
-
-    def _gains(self, pt, frame: str) -> np.ndarray:
-        G = self._G_tool[pt]  # (M, n) or (N, M, n)
-        return G - self._G_wp if frame == "workpiece" else G
 
     def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True, *,
                    frame: Frame | None = None, point: int | np.ndarray = 0,
@@ -544,31 +536,40 @@ class Machine:
         offset [m] in the tool link frame (a reflector off the tool axis; d tip / d offset
         is ``rotation``); point: tool point index (int) or one per pose (N,) into
         :attr:`tool_links`; frame: "base" or "workpiece" (default :attr:`default_frame`).
-        The Jacobian is d tip / d q (analytic).
+
+        Pinocchio gives the tool link and workpiece placements and the joint Jacobian
+        columns (one call per pose). The Jacobian d tip / d q is the velocity of the tip
+        point ``v0 + w × tip`` summed over the columns that move the tool link (a mimic
+        joint's column counts for its source axis). Relative to the workpiece,
+        ``p_rel = R_w^T (p_tip - p_w)`` and
+        ``d p_rel = R_w^T (d p_tip - d p_w - w_w × (p_tip - p_w))``, where the bracket is
+        the tip's velocity minus that of the workpiece-fixed point at the tip, so columns
+        shared by both branches cancel.
         """
         q = np.atleast_2d(np.asarray(q, float))
         N = q.shape[0]
         frame = self._frame(frame)
         pt = self._points(point, N)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
-        poses = self.kin.forward(q)
-        R, o = self._tool_frames(poses, pt, N)
+        J6 = self._jacobians(q)
+        R, o = self._tool_placements(self._probes, J6, pt)
         u = R @ self.tool_axis
         local = tool[:, None] * self.tool_axis
         if offset is not None:
             local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
-        tip = o + np.einsum("pij,pj->pi", R, local)
+        tip = o + apply(R, local)
+        relative = frame == "workpiece" and self.has_workpiece
         J = None
         if jacobian:
-            v0, w = self.kin.twists(poses)
-            J = point_columns(v0, w, tip, self._gains(pt, frame))
-        if frame == "workpiece" and self.has_workpiece:
-            Rw, pw = self.kin.frame(poses, self.workpiece_link)
+            G = self._G_tool[pt] - self._G_wp if relative else self._G_tool[pt]  # (c, n) or (N, c, n)
+            J = point_velocities(J6, tip, self._probes.n_columns) @ G
+        if relative:
+            Rw, pw = self._probes.placement(J6, self.workpiece_link)
             RwT = np.swapaxes(Rw, 1, 2)
-            tip = np.einsum("pij,pj->pi", RwT, tip - pw)
-            o = np.einsum("pij,pj->pi", RwT, o - pw)
+            tip = apply_transposed(Rw, tip - pw)
+            o = apply_transposed(Rw, o - pw)
             R = RwT @ R
-            u = np.einsum("pij,pj->pi", RwT, u)
+            u = apply_transposed(Rw, u)
             if jacobian:
                 J = RwT @ J
         return TipKinematics(tip, R, o, J, u, frame)
@@ -583,7 +584,7 @@ class Machine:
         q = np.atleast_2d(np.asarray(q, float))
         out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
         if self.has_workpiece:
-            out[:, :3, :3], out[:, :3, 3] = self.kin.frame(self.kin.forward(q), self.workpiece_link)
+            out[:, :3, :3], out[:, :3, 3] = self._probes.placement(self._jacobians(q), self.workpiece_link)
         return out
 
     def workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, jacobian: bool = True) -> WorkpiecePoints:
@@ -600,21 +601,23 @@ class Machine:
             J_q = np.zeros((N, 3, self.n_axes)) if jacobian else None
             J_p = np.broadcast_to(np.eye(3), (N, 3, 3)).copy() if jacobian else None
             return WorkpiecePoints(p.copy(), J_q, J_p)
-        poses = self.kin.forward(q)
-        Rw, pw = self.kin.frame(poses, self.workpiece_link)
-        xyz = pw + np.einsum("pij,pj->pi", Rw, p)
+        J6 = self._jacobians(q)
+        Rw, pw = self._probes.placement(J6, self.workpiece_link)
+        xyz = pw + apply(Rw, p)
         if not jacobian:
             return WorkpiecePoints(xyz, None, None)
-        v0, w = self.kin.twists(poses)
-        return WorkpiecePoints(xyz, point_columns(v0, w, xyz, self._G_wp), Rw)
+        return WorkpiecePoints(xyz, point_velocities(J6, xyz, self._probes.n_columns) @ self._G_wp, Rw)
 
     def joint_frames(self, q: np.ndarray, axis: str) -> np.ndarray:
         """(N,4,4) placements in the base frame of an axis' joint frame after its motion."""
         q = np.atleast_2d(np.asarray(q, float))
-        i = self.node_of[self.axis(axis).name]
-        poses = self.kin.forward(q)
+        a = self.axis(axis)
+        if self._joint_probes is None:
+            self._joint_probes = FrameProbes(self.model, {b.name: (b.joint_id, pin.SE3.Identity()) for b in self.axes})
+        probes = self._joint_probes
         out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
-        out[:, :3, :3], out[:, :3, 3] = poses.R[i], poses.p[i]
+        J6 = probes.jacobians(fill_configurations(probes.neutral, self._fill, q))
+        out[:, :3, :3], out[:, :3, 3] = probes.placement(J6, a.name)
         return out
 
     def describe(self) -> str:
@@ -654,3 +657,46 @@ def _check_axis_name(name: str, source: str) -> None:
     if re.search(r"[\s,\"']", name) or not name.isprintable():
         raise MachineError(f"{source}: axis joint '{name}' has a space, comma or quote in its name, which "
                            "breaks campaign CSV columns; rename the joint in the URDF")
+
+
+def configuration_map(model: pin.Model, axes: Sequence[Axis], mimic_joints: Sequence[MimicJoint],
+                      mimic_in_model: bool) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """How vecpin's axis values drive a Pinocchio model built from the machine's URDF.
+
+    Returns ``fill = (idx_q, source, multiplier, offset)``: configuration entry
+    ``idx_q[r]`` is ``multiplier[r] * q[source[r]] + offset[r]``, and ``gain``
+    (nv_extended, n): Jacobian column c moves with axis k at rate ``gain[c, k]``.
+    An axis joint has gain 1 on its column. A ``<mimic>`` joint that Pinocchio models
+    as a mimic joint (``mimic_in_model``) reads its source's entry itself and has its own
+    column already scaled by the multiplier (gain 1); one that is an ordinary joint of
+    the model gets its value from the map and gain ``multiplier``.
+    """
+    index = {a.name: a.index for a in axes}
+    rows: list[tuple[int, int, float, float]] = []
+    gain = np.zeros((model.nvExtended, len(axes)))
+    for jid in range(1, model.njoints):
+        name = model.names[jid]
+        jm = model.joints[jid]
+        if name in index:
+            rows.append((jm.idx_q, index[name], 1.0, 0.0))
+            gain[jm.idx_vExtended, index[name]] = 1.0
+    for mj in mimic_joints:
+        jm = model.joints[model.getJointId(mj.name)]
+        k = index[mj.axis]
+        if mimic_in_model:
+            gain[jm.idx_vExtended, k] = 1.0
+        else:
+            rows.append((jm.idx_q, k, mj.multiplier, mj.offset))
+            gain[jm.idx_vExtended, k] = mj.multiplier
+    a = np.array(rows, float).reshape(-1, 4)
+    return (a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), gain
+
+
+def fill_configurations(template: np.ndarray, fill: tuple[np.ndarray, ...], q: np.ndarray) -> np.ndarray:
+    """Configurations (..., nq) from axis values q (..., n): ``template`` (Pinocchio's
+    neutral configuration) with the entries of ``fill`` (see :func:`configuration_map`) set."""
+    idx, src, mult, off = fill
+    out = np.empty(q.shape[:-1] + template.shape)
+    out[...] = template
+    out[..., idx] = q[..., src] * mult + off
+    return out

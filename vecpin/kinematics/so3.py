@@ -35,7 +35,7 @@ def exp3(w: np.ndarray) -> np.ndarray:
     w = np.asarray(w, float)
     t2 = np.einsum("...i,...i->...", w, w)
     a, b, _ = _coefficients(np.sqrt(t2))
-    return np.eye(3) + a[..., None, None] * skew(w) + b[..., None, None] * _skew_squared(w, t2)
+    return _combination(w, t2, a, b)
 
 
 def right_jacobian(w: np.ndarray) -> np.ndarray:
@@ -43,12 +43,7 @@ def right_jacobian(w: np.ndarray) -> np.ndarray:
     w = np.asarray(w, float)
     t2 = np.einsum("...i,...i->...", w, w)
     _, b, c = _coefficients(np.sqrt(t2))
-    return np.eye(3) - b[..., None, None] * skew(w) + c[..., None, None] * _skew_squared(w, t2)
-
-
-def _skew_squared(w: np.ndarray, t2: np.ndarray) -> np.ndarray:
-    """[w]x^2 = w w^T - |w|^2 I, without a batched matrix product."""
-    return w[..., :, None] * w[..., None, :] - t2[..., None, None] * np.eye(3)
+    return _combination(w, t2, -b, c)
 
 
 def exp3_and_right_jacobian(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -56,11 +51,25 @@ def exp3_and_right_jacobian(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     w = np.asarray(w, float)
     t2 = np.einsum("...i,...i->...", w, w)
     a, b, c = _coefficients(np.sqrt(t2))
-    K = skew(w)
-    K2 = _skew_squared(w, t2)
-    eye = np.eye(3)
-    return (eye + a[..., None, None] * K + b[..., None, None] * K2,
-            eye - b[..., None, None] * K + c[..., None, None] * K2)
+    return _combination(w, t2, a, b), _combination(w, t2, -b, c)
+
+
+def _combination(w: np.ndarray, t2: np.ndarray, s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
+    """I + s1 [w]x + s2 [w]x^2 = (1 - s2 |w|^2) I + s1 [w]x + s2 w w^T, entry by entry
+    (no batched matrix products: fast on many small matrices)."""
+    out = (s2[..., None] * w)[..., :, None] * w[..., None, :]
+    d = 1.0 - s2 * t2
+    sw = s1[..., None] * w
+    out[..., 0, 0] += d
+    out[..., 1, 1] += d
+    out[..., 2, 2] += d
+    out[..., 1, 0] += sw[..., 2]
+    out[..., 0, 1] -= sw[..., 2]
+    out[..., 0, 2] += sw[..., 1]
+    out[..., 2, 0] -= sw[..., 1]
+    out[..., 2, 1] += sw[..., 0]
+    out[..., 1, 2] -= sw[..., 0]
+    return out
 
 
 def quaternion_xyzw(w: np.ndarray) -> np.ndarray:
