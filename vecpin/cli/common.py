@@ -18,9 +18,22 @@ def progress(enabled: bool = True):
     return say
 
 
-def machine(name: str):
+def machine(name: str, args=None):
+    """Load a machine (bundled name or URDF path) with the --tool-link/--tool-axis options
+    of ``args`` when the command has them (see :func:`add_machine_args`)."""
     from vecpin.kinematics.machine import Machine
-    return Machine.load(name)
+    return Machine.load(name, tool_link=getattr(args, "tool_link", None), tool_axis=getattr(args, "tool_axis", None))
+
+
+def add_machine_args(s: argparse.ArgumentParser) -> None:
+    """--tool-link and --tool-axis, for every command that takes a machine."""
+    s.add_argument("--tool-link", metavar="LINK[,LINK2]",
+                   help="URDF link the tool is mounted to, its origin on the gauge line (default: 'spindle', plus "
+                        "'spindle_2', ... when present; a ROS arm: tool0). Several links, comma-separated, are "
+                        "several tool points driven by the same axis commands")
+    s.add_argument("--tool-axis", metavar="AXIS",
+                   help="axis of the tool link the tool points along: +x, -x, +y, -y, +z or -z (default -z; +z for "
+                        "ROS tool flanges 'tool0' and 'flange'); write a negative axis as --tool-axis=-z")
 
 
 def add_noise_args(s: argparse.ArgumentParser) -> None:

@@ -1,45 +1,80 @@
-"""Machines: a URDF serial chain loaded into Pinocchio, nominal tool-tip kinematics.
+"""Machines: a URDF kinematic tree, nominal tool-tip kinematics on one or two branches.
 
-A vecpin machine is a serial chain from the base link to a link named ``spindle``
-whose origin lies on the gauge line; the tool points along −z of ``spindle``
-(the seed's tool vector ``p_Tl`` with ``u = (0, 0, -1)``, Paper I eq. 9). The
-*axes* are the actuated (prismatic or revolute) joints of that chain, in chain
-order from the base.
+A vecpin machine is a URDF tree rooted at its base link (the machine frame):
 
-Internally everything is SI (m, rad) in the machine base frame; the user-facing
-unit of an axis is mm (linear) or degrees (rotary), see :class:`Axis`.
+* the **head branch(es)** from the base to the tool link(s): ``spindle`` by default,
+  whose origin lies on the gauge line, the tool pointing along its -z (the seed's tool
+  vector ``p_Tl`` with ``u = (0, 0, -1)``, Paper I eq. 9). A machine may have several
+  tool points driven by one command set (Spar Mill 23: ``spindle`` and ``spindle_2``);
+  any link can be named the tool link, with its tool axis (robots: ``tool0`` / ``flange``,
+  tool along +z);
+* optionally a **table branch** from the base to a link named ``workpiece`` (the table
+  frame of a trunnion or rotary table). The tool tip that matters for machining is the
+  tip *relative to the workpiece*, ``p_rel = T_bw(q)^-1 p_tip(q)``; a tracker standing
+  on the floor sees the tip in the base frame.
 
-Kinematics are computed by Pinocchio, one call per pose (the Python loop costs
-about 4 µs a pose); tool length enters in closed form so one forward pass serves
-every tool.
+The **axes** are the independent actuated joints (prismatic, revolute) on these
+branches, in this order (the column order of every ``q`` array in vecpin): walking from
+the base outward along the path to each tool link in turn (tool points in their order),
+then along the path to ``workpiece``; a joint met again is not repeated. On a trunnion
+XYZAC this gives X Y Z A C: head axes first, then table axes. ``<mimic>`` joints are not
+axes: they follow their source axis (``value = multiplier * q_source + offset``).
+Joints off these branches (gripper fingers, cable carriers) are fixed at zero, with a
+note in :attr:`Machine.notes`.
+
+Frames (argument ``frame``): ``"base"`` (what a floor tracker sees) or ``"workpiece"``
+(what compensation tables correct). The default is ``"workpiece"`` on a machine with a
+workpiece link and ``"base"`` otherwise; on a machine without a workpiece both are the
+base frame.
+
+Kinematics are Pinocchio's: the checked URDF text is loaded into a Pinocchio model
+(:attr:`Machine.model`, ``<mimic>`` joints honoured), and one Pinocchio call per pose
+gives the placements and Jacobians of the tool links and the workpiece
+(:mod:`vecpin.kinematics.batch`); tool lengths, target offsets, the change to the
+workpiece frame and the Jacobian algebra are numpy over all poses at once. Internally
+everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or degrees
+(rotary), see :class:`Axis`.
 """
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from vecpin.errors import MachineError
+from vecpin.errors import InputError, MachineError
+from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
+from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
+from vecpin.units import to_mm
 
 SPINDLE_LINK = "spindle"
-TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # in the spindle frame
+WORKPIECE_LINK = "workpiece"
+TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # default tool axis in the tool link frame
+#: tool links named like ROS tool flanges: the tool points along their +z by default
+ROS_FLANGE_LINKS = ("tool0", "flange")
+#: campaign CSV columns an axis must not be named like (case-sensitive: "X" is fine)
+RESERVED_NAMES = ("x", "y", "z", "tool", "time", "temperature", "instrument", "station", "r", "pivot",
+                  "target", "point")
+#: load options of bundled machines whose URDF (kept as published) has no 'spindle'
+BUNDLED_OPTIONS = {"ur5": {"tool_link": "tool0"}}
 
-_JOINT_KINDS = {"prismatic": "linear", "revolute": "rotary"}
+Frame = Literal["base", "workpiece"]
 
 
 @dataclass(frozen=True)
 class Axis:
-    """One actuated joint of the chain.
+    """One actuated joint (an independent axis) of the machine.
 
     ``lower``/``upper`` are the URDF limits in SI (m or rad); ``direction`` is the
-    joint axis in the joint frame. ``index`` is the position in chain order (the
-    column order of every ``q`` array in vecpin), ``idx_q`` the index in Pinocchio's
-    configuration vector.
+    joint axis in the joint frame. ``index`` is the position in vecpin's axis order
+    (the column order of every ``q`` array), ``idx_q`` the index in Pinocchio's
+    configuration vector, ``joint_id`` Pinocchio's joint id. ``side`` is "head" (on
+    the path to a tool link), "table" (on the path to the workpiece only) or "both".
     """
 
     name: str
@@ -50,6 +85,7 @@ class Axis:
     index: int
     idx_q: int
     joint_id: int
+    side: Literal["head", "table", "both"] = "head"
 
     @property
     def unit(self) -> str:
@@ -81,18 +117,44 @@ class Axis:
         return self.upper - self.lower
 
 
-class TipKinematics(NamedTuple):
-    """Batched tool-tip kinematics in the machine base frame (SI).
+@dataclass(frozen=True)
+class MimicJoint:
+    """A joint that follows an axis: value = multiplier * q[axis] + offset [m or rad]."""
 
-    ``tip``: (N, 3) tool-tip positions [m]; ``rotation``: (N, 3, 3) spindle
-    orientations; ``spindle``: (N, 3) gauge-line points [m]; ``jacobian``: (N, 3, n)
-    d tip / d q [m/m or m/rad], or ``None`` when not requested.
+    name: str
+    axis: str
+    multiplier: float
+    offset: float
+
+
+class TipKinematics(NamedTuple):
+    """Batched tool-point kinematics in one frame (SI).
+
+    ``tip``: (N, 3) tool-tip (target) positions [m]; ``rotation``: (N, 3, 3) tool-link
+    orientations; ``spindle``: (N, 3) tool-link origins (gauge-line points) [m];
+    ``jacobian``: (N, 3, n) d tip / d q [m/m or m/rad], or ``None`` when not requested;
+    ``tool_dir``: (N, 3) unit tool direction (d tip / d tool length); ``frame``: the frame
+    all of these are expressed in ("base" or "workpiece").
     """
 
     tip: np.ndarray
     rotation: np.ndarray
     spindle: np.ndarray
     jacobian: np.ndarray | None
+    tool_dir: np.ndarray
+    frame: str
+
+
+class WorkpiecePoints(NamedTuple):
+    """Points fixed in the workpiece frame, expressed in the base frame (SI).
+
+    ``xyz`` (N,3) [m]; ``J_q`` (N,3,n) d xyz / d q; ``J_p`` (N,3,3) d xyz / d p_wp (the
+    workpiece orientation); Jacobians ``None`` when not requested.
+    """
+
+    xyz: np.ndarray
+    J_q: np.ndarray | None
+    J_p: np.ndarray | None
 
 
 def bundled_machines() -> list[str]:
@@ -105,93 +167,241 @@ def _bundled_path(name: str) -> Path | None:
     return Path(str(res)) if res.is_file() else None
 
 
+def parse_tool_axis(text: str) -> np.ndarray:
+    """'+z', '-z', 'x', '-y', ... -> unit vector in the tool link frame."""
+    m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", str(text))
+    if not m:
+        raise InputError(f"--tool-axis '{text}': write one of +x, -x, +y, -y, +z, -z "
+                         "(the tool link's axis the tool points along)")
+    v = np.zeros(3)
+    v["xyz".index(m.group(2).lower())] = -1.0 if m.group(1) == "-" else 1.0
+    return v
+
+
+def _axis_name(v: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(v)))
+    return ("-" if v[k] < 0 else "+") + "xyz"[k]
+
+
 class Machine:
-    """A machine tool loaded from URDF into Pinocchio.
+    """A machine loaded from URDF: axes, tool points, optional workpiece branch.
 
     Build with :meth:`load` (bundled name or path), :meth:`from_urdf_file` or
-    :meth:`from_urdf_string`.
+    :meth:`from_urdf_string`. ``tool_link``: the tool link name, a comma-separated list
+    or a sequence of names (several tool points driven by the same commands); default
+    ``spindle`` plus ``spindle_2``, ``spindle_3``, ... when present. ``tool_axis``:
+    "+x", "-x", "+y", "-y", "+z" or "-z" of the tool link; default -z, or +z for a ROS
+    tool flange (``tool0``, ``flange``).
     """
 
-    def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None):
+    def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None, *,
+                 tool_link: str | Sequence[str] | None = None, tool_axis: str | None = None):
         self.urdf_xml = urdf_xml
         self.source = source
         self.urdf_path = urdf_path  # the file it came from, if any
-        try:
-            model = pin.buildModelFromXML(urdf_xml)
-        except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
-            raise MachineError(f"{source}: not a readable URDF ({exc})") from None
-        self.model: pin.Model = model
-        self.name: str = model.name
-        if not model.existFrame(SPINDLE_LINK):
-            raise MachineError(f"{source}: no link named '{SPINDLE_LINK}' (the gauge-line link the tool is mounted to)")
-        self.spindle_frame_id: int = model.getFrameId(SPINDLE_LINK)
-        self.axes: tuple[Axis, ...] = self._chain_axes()
-        self._data = model.createData()
-        self._idx_q = np.array([a.idx_q for a in self.axes])
+        tree = read_urdf(urdf_xml, source)  # checks everything before Pinocchio's parser sees it
+        self.tree: UrdfTree = tree
+        self.notes: list[str] = list(tree.notes)
+        self.name: str = tree.name
+        self.tool_links: tuple[str, ...] = self._resolve_tool_links(tool_link)
+        self._resolve_tool_axis(tool_axis)
+        self.workpiece_link: str | None = WORKPIECE_LINK if WORKPIECE_LINK in tree.links else None
+        if self.workpiece_link in self.tool_links:
+            raise MachineError(f"{source}: '{WORKPIECE_LINK}' is the table frame, it cannot be a tool link")
+        self.model: pin.Model = self._pinocchio_model()
+        self._build_axes()
+        self._data = self.model.createData()
+        self.spindle_frame_id: int = self.model.getFrameId(self.tool_links[0], pin.FrameType.BODY)
+        self._build_kinematics()
 
     # ------------------------------------------------------------------ loading
     @classmethod
-    def load(cls, name_or_path: str | Path) -> "Machine":
+    def load(cls, name_or_path: str | Path, *, tool_link: str | Sequence[str] | None = None,
+             tool_axis: str | None = None) -> "Machine":
         """Load a bundled machine by name (see :func:`bundled_machines`) or a URDF file."""
         p = Path(name_or_path)
-        if p.suffix.lower() == ".urdf" or p.exists():
-            return cls.from_urdf_file(p)
+        if p.suffix.lower() in (".urdf", ".xacro", ".xml") or p.exists():
+            return cls.from_urdf_file(p, tool_link=tool_link, tool_axis=tool_axis)
         bundled = _bundled_path(str(name_or_path))
         if bundled is None:
             raise MachineError(
                 f"'{name_or_path}' is neither a URDF file nor a bundled machine "
                 f"(bundled: {', '.join(bundled_machines())})")
-        m = cls.from_urdf_file(bundled)
+        defaults = BUNDLED_OPTIONS.get(str(name_or_path), {})
+        m = cls.from_urdf_file(bundled, tool_link=tool_link or defaults.get("tool_link"),
+                               tool_axis=tool_axis or defaults.get("tool_axis"))
         m.source = str(name_or_path)
+        if tool_link is None and "tool_link" in defaults:
+            m.notes.insert(0, f"tool link '{defaults['tool_link']}': the bundled default for this machine "
+                              "(its URDF has no 'spindle')")
         return m
 
     @classmethod
-    def from_urdf_file(cls, path: str | Path) -> "Machine":
+    def from_urdf_file(cls, path: str | Path, *, tool_link: str | Sequence[str] | None = None,
+                       tool_axis: str | None = None) -> "Machine":
         path = Path(path)
+        if path.suffix.lower() == ".xacro":
+            check_text(b"", str(path))  # raises the xacro message
         if not path.is_file():
             raise MachineError(f"{path}: no such URDF file")
-        return cls(path.read_text(), source=str(path), urdf_path=path)
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise MachineError(f"{path}: cannot read the file ({exc.strerror})") from None
+        return cls(check_text(data, str(path)), source=str(path), urdf_path=path, tool_link=tool_link,
+                   tool_axis=tool_axis)
 
     @classmethod
-    def from_urdf_string(cls, xml: str, source: str = "<string>") -> "Machine":
-        return cls(xml, source=source)
+    def from_urdf_string(cls, xml: str, source: str = "<string>", *, tool_link: str | Sequence[str] | None = None,
+                         tool_axis: str | None = None) -> "Machine":
+        return cls(xml, source=source, tool_link=tool_link, tool_axis=tool_axis)
 
-    def _chain_axes(self) -> tuple[Axis, ...]:
-        model = self.model
-        # joints on the path base -> spindle
-        chain = []
-        j = model.frames[self.spindle_frame_id].parentJoint
-        while j > 0:
-            chain.append(j)
-            j = model.parents[j]
-        chain.reverse()
-        off_chain = [model.names[j] for j in range(1, model.njoints) if j not in chain]
-        if off_chain:
-            raise MachineError(
-                f"{self.source}: joints {off_chain} are not on the chain from the base to '{SPINDLE_LINK}'; "
-                "a vecpin machine is a single serial chain (make other joints fixed)")
-        axes = []
-        for i, jid in enumerate(chain):
-            jm = model.joints[jid]
-            short = jm.shortname()
-            if jm.nq != 1 or jm.nv != 1:
-                hint = " (a URDF 'continuous' joint: declare it 'revolute' with wide limits)" if jm.nq == 2 else ""
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' is {short}, not a 1-DoF axis{hint}")
-            if "Prismatic" in short or short.startswith("JointModelP"):
-                kind = "linear"
-            elif "Revolute" in short or short.startswith("JointModelR"):
-                kind = "rotary"
+    @property
+    def load_options(self) -> dict[str, str]:
+        """The options that reproduce this machine from its URDF (for model files)."""
+        return {"tool_link": ",".join(self.tool_links), "tool_axis": self.tool_axis_name}
+
+    def _resolve_tool_links(self, tool_link) -> tuple[str, ...]:
+        tree, source = self.tree, self.source
+        if tool_link is None:
+            names = [SPINDLE_LINK]
+            k = 2
+            while f"{SPINDLE_LINK}_{k}" in tree.links:
+                names.append(f"{SPINDLE_LINK}_{k}")
+                k += 1
+        elif isinstance(tool_link, str):
+            names = [s.strip() for s in tool_link.split(",")]
+        else:
+            names = [str(s).strip() for s in tool_link]
+        if not names or any(not n for n in names):
+            raise InputError(f"--tool-link '{tool_link}': give a link name (or several, comma-separated)")
+        if len(set(names)) != len(names):
+            raise InputError(f"--tool-link '{tool_link}': a link is named twice")
+        for n in names:
+            if n not in tree.links:
+                leaves = [lk for lk in tree.leaves() if lk != WORKPIECE_LINK]
+                default = " (the default tool link, on the gauge line)" if tool_link is None else ""
+                raise MachineError(
+                    f"{source}: no link named '{n}'{default}; candidate end links: {', '.join(leaves)}; "
+                    "name the tool link with --tool-link NAME (Machine.load(..., tool_link=NAME))")
+        return tuple(names)
+
+    def _resolve_tool_axis(self, tool_axis) -> None:
+        link = self.tool_links[0]
+        if tool_axis is None:
+            if link in ROS_FLANGE_LINKS:
+                tool_axis = "+z"
+                self.notes.append(f"tool along +z of '{link}' (ROS tool-flange convention; --tool-axis to change)")
             else:
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' has unsupported type {short}")
-            lo = float(model.lowerPositionLimit[jm.idx_q])
-            hi = float(model.upperPositionLimit[jm.idx_q])
-            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
-                raise MachineError(f"{self.source}: joint '{model.names[jid]}' needs finite limits with lower < upper")
-            direction = _joint_direction(jm)
-            axes.append(Axis(model.names[jid], kind, lo, hi, direction, i, jm.idx_q, jid))
-        if not axes:
-            raise MachineError(f"{self.source}: no actuated joint between the base and '{SPINDLE_LINK}'")
-        return tuple(axes)
+                tool_axis = "-z"
+                if not link.startswith(SPINDLE_LINK):
+                    self.notes.append(f"tool along -z of '{link}' (the default; --tool-axis if it points elsewhere)")
+        self.tool_axis: np.ndarray = parse_tool_axis(tool_axis)
+        self.tool_axis_name: str = _axis_name(self.tool_axis)
+
+    def _pinocchio_model(self) -> pin.Model:
+        """The URDF as a Pinocchio model; ``<mimic>`` joints as Pinocchio mimic joints when
+        Pinocchio can build them, else as ordinary joints that vecpin sets from their source."""
+        self._mimic_in_model = any(j.mimic is not None for j in self.tree.joints.values())
+        try:
+            return pin.buildModelFromXML(self.urdf_xml, mimic=True) if self._mimic_in_model \
+                else pin.buildModelFromXML(self.urdf_xml)
+        except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
+            if not self._mimic_in_model:
+                raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
+            reason = str(exc)
+        self._mimic_in_model = False
+        try:
+            model = pin.buildModelFromXML(self.urdf_xml)
+        except Exception as exc:
+            raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
+        self.notes.append(f"Pinocchio could not build the <mimic> joints ({reason}); they are ordinary joints "
+                          "of its model that vecpin sets from their source axis (multiplier * source + offset)")
+        return model
+
+    def model_without_mimic(self) -> pin.Model:
+        """The URDF as a Pinocchio model whose ``<mimic>`` joints are ordinary joints (one
+        configuration entry each): the base of :class:`~vecpin.kinematics.errorframes.ErrorFrames`,
+        which gives every mimic joint its own error transform."""
+        if not self._mimic_in_model:
+            return self.model
+        if self._plain_model is None:
+            self._plain_model = pin.buildModelFromXML(self.urdf_xml)
+        return self._plain_model
+
+    def _build_axes(self) -> None:
+        """Axes in vecpin's order (with their sides), mimic joints, notes on joints off the branches."""
+        tree, source = self.tree, self.source
+        targets = list(self.tool_links) + ([self.workpiece_link] if self.workpiece_link else [])
+        on_branch: list[str] = []
+        head: set[str] = set()
+        for t in targets:
+            for jn in tree.path(t):
+                if t != self.workpiece_link:
+                    head.add(jn)
+                if jn not in on_branch:
+                    on_branch.append(jn)
+        table = set(tree.path(self.workpiece_link)) if self.workpiece_link else set()
+        for jn in on_branch:
+            j = tree.joints[jn]
+            if j.type == "continuous":
+                raise MachineError(f"{source}: joint '{jn}' is continuous, not a 1-DoF axis with limits "
+                                   "(a URDF 'continuous' joint: declare it 'revolute' with wide limits)")
+            if j.type not in MOVABLE + ("fixed",):
+                raise MachineError(f"{source}: joint '{jn}' is a {j.type} joint; a machine axis is "
+                                   "prismatic or revolute (or fixed)")
+        # axes: independent movable joints in path order; a mimic joint brings in its source axis
+        axis_joints: list[str] = []
+        for jn in on_branch:
+            j = tree.joints[jn]
+            if j.type in MOVABLE:
+                a = jn if j.mimic is None else j.mimic[0]
+                if a not in axis_joints:
+                    axis_joints.append(a)
+                if jn in head:
+                    head.add(a)
+                if jn in table:
+                    table.add(a)
+        if not axis_joints:
+            raise MachineError(f"{source}: no actuated joint between the base and "
+                               f"{' / '.join(repr(t) for t in targets)}")
+        axes = []
+        for k, jn in enumerate(axis_joints):
+            j = tree.joints[jn]
+            _check_axis_name(jn, source)
+            if j.lower is None or j.upper is None or not j.upper > j.lower:
+                raise MachineError(f"{source}: joint '{jn}' needs finite limits with lower < upper "
+                                   f"(<limit lower=\"{j.lower}\" upper=\"{j.upper}\">)")
+            jid = self.model.getJointId(jn) if self.model.existJointName(jn) else -1
+            idx_q = self.model.joints[jid].idx_q if jid >= 0 else -1
+            side = "both" if (jn in head and jn in table) else ("table" if jn in table else "head")
+            axes.append(Axis(jn, "linear" if j.type == "prismatic" else "rotary", float(j.lower), float(j.upper),
+                             tuple(float(v) for v in j.axis), k, idx_q, jid, side))
+        self.axes: tuple[Axis, ...] = tuple(axes)
+        mimics = [MimicJoint(jn, tree.joints[jn].mimic[0], tree.joints[jn].mimic[1], tree.joints[jn].mimic[2])
+                  for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is not None]
+        self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
+        off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch and j.type != "fixed"]
+        if off_branch:
+            self.notes.append(f"joints off the tool and workpiece branches are treated as fixed at 0: "
+                              f"{', '.join(off_branch)}")
+
+    def _build_kinematics(self) -> None:
+        """Probe frames on the tool links and the workpiece, and the maps between vecpin's
+        axis values and Pinocchio's configuration and Jacobian columns."""
+        model = self.model
+        self._plain_model: pin.Model | None = None
+        frames = {}
+        for link in self.tool_links + ((self.workpiece_link,) if self.workpiece_link else ()):
+            f = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+            frames[link] = (f.parentJoint, f.placement)
+        self._probes = FrameProbes(model, frames)
+        self._joint_probes: FrameProbes | None = None
+        self._frame_placements = {link: pin.SE3(pl) for link, (_, pl) in frames.items()}
+        self._fill, self._gain = configuration_map(model, self.axes, self.mimic_joints, self._mimic_in_model)
+        self._G_tool = np.stack([self._gain * self._probes.moves(t)[:, None] for t in self.tool_links])  # (P, c, n)
+        self._G_wp = (self._gain * self._probes.moves(self.workpiece_link)[:, None] if self.workpiece_link
+                      else np.zeros_like(self._gain))
 
     # ------------------------------------------------------------------ facts
     @property
@@ -209,6 +419,24 @@ class Machine:
         raise MachineError(f"machine '{self.name}' has no axis '{name}' (axes: {', '.join(self.axis_names)})")
 
     @property
+    def has_workpiece(self) -> bool:
+        """True when the machine has a table branch (a ``workpiece`` link)."""
+        return self.workpiece_link is not None
+
+    @property
+    def default_frame(self) -> str:
+        """"workpiece" on a machine with a workpiece link, else "base"."""
+        return "workpiece" if self.has_workpiece else "base"
+
+    @property
+    def head_axes(self) -> list[str]:
+        return [a.name for a in self.axes if a.side != "table"]
+
+    @property
+    def table_axes(self) -> list[str]:
+        return [a.name for a in self.axes if a.side != "head"]
+
+    @property
     def lower(self) -> np.ndarray:
         return np.array([a.lower for a in self.axes])
 
@@ -224,97 +452,251 @@ class Machine:
         """(N, n) axis commands in m/rad -> mm/deg."""
         return np.asarray(q_si, float) / np.array([a.scale for a in self.axes])
 
-    def gauge_offset(self) -> float:
-        """Distance [m] from the last axis' joint frame to the gauge line along the tool (T_offset)."""
-        f = self.model.frames[self.spindle_frame_id]
-        return float(f.placement.translation @ (f.placement.rotation @ TOOL_DIRECTION))
+    def gauge_offset(self, point: int = 0) -> float:
+        """Distance [m] along the tool from the last axis' joint frame on the way to tool
+        point ``point`` to its gauge line (T_offset)."""
+        pl = self._frame_placements[self.tool_links[point]]
+        return float(pl.translation @ (pl.rotation @ self.tool_axis))
+
+    @property
+    def layout(self) -> str:
+        """Short layout description: the URDF's ``layout:`` comment line, else derived."""
+        return self.tree.layout_tag or self.derived_layout()
+
+    def derived_layout(self) -> str:
+        """Layout from the structure: axis letters, where the rotaries are, tool points."""
+        names = self.axis_names
+        word = "".join(names) if all(len(n) == 1 for n in names) else f"{self.n_axes} axes"
+        rot = [a for a in self.axes if a.kind == "rotary"]
+        if len(rot) == self.n_axes and self.n_axes >= 4 and not self.has_workpiece:
+            out = f"{self.n_axes}-axis arm"
+        else:
+            out = word
+            head_rot = [a.name for a in rot if a.side != "table"]
+            table_rot = [a.name for a in rot if a.side != "head"]
+            if table_rot:
+                out += f", table rotaries {', '.join(table_rot)}"
+            if head_rot:
+                out += f", head rotaries {', '.join(head_rot)}"
+        if len(self.tool_links) > 1:
+            out += f", {len(self.tool_links)} tool points ({', '.join(self.tool_links)})"
+        return out
 
     # ------------------------------------------------------------------ kinematics
     def full_q(self, q: np.ndarray) -> np.ndarray:
-        """Map chain-ordered axis values (n,) or (N, n) to Pinocchio's configuration order."""
-        q = np.asarray(q, float)
-        out = np.zeros(q.shape[:-1] + (self.model.nq,))
-        out[..., self._idx_q] = q
-        return out
+        """Map axis values (n,) or (N, n) to Pinocchio's configuration vector of :attr:`model`
+        (mimic joints follow their source; joints off the branches at Pinocchio's neutral, 0)."""
+        return fill_configurations(self._probes.neutral[:self.model.nq], self._fill, np.asarray(q, float))
 
-    def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True) -> TipKinematics:
-        """Nominal tool tip for N poses.
+    def _jacobians(self, q: np.ndarray) -> np.ndarray:
+        """(N, 6, nv_extended) Pinocchio world Jacobians of the probed model for q (N, n)."""
+        return self._probes.jacobians(fill_configurations(self._probes.neutral, self._fill, q))
 
-        q: (N, n) axis commands [m, rad] in chain order; tool: (N,) or scalar tool
-        length [m] from the gauge line. Returns :class:`TipKinematics` in the base frame.
-        The Jacobian is d tip / d q (linear velocity of the tool tip), from
-        Pinocchio's spindle-frame Jacobian shifted to the tip.
+    def _frame(self, frame: str | None) -> str:
+        if frame is None:
+            return self.default_frame
+        if frame not in ("base", "workpiece"):
+            raise InputError(f"frame '{frame}': choose 'base' (the machine frame a floor tracker sees) "
+                             "or 'workpiece' (the table frame)")
+        return frame
+
+    def _points(self, point, N: int) -> np.ndarray | int:
+        P = len(self.tool_links)
+        if np.ndim(point) == 0:
+            k = int(point)
+            if not 0 <= k < P:
+                raise InputError(f"tool point {k} out of range (tool points: {', '.join(self.tool_links)})")
+            return k
+        pt = np.asarray(point)
+        if pt.shape != (N,) or not np.issubdtype(pt.dtype, np.integer):
+            raise InputError(f"point: one integer tool-point index per pose ({N}), got shape {pt.shape}")
+        if pt.size and (pt.min() < 0 or pt.max() >= P):
+            raise InputError(f"tool point index out of range 0..{P - 1} (tool points: {', '.join(self.tool_links)})")
+        return pt
+
+    def _tool_placements(self, probes: FrameProbes, J6: np.ndarray, pt) -> tuple[np.ndarray, np.ndarray]:
+        """(R, p) of the tool link of every row in the base frame; rows grouped by tool point."""
+        if np.ndim(pt) == 0:
+            return probes.placement(J6, self.tool_links[pt])
+        N = len(J6)
+        R = np.empty((N, 3, 3))
+        p = np.empty((N, 3))
+        for k in np.unique(pt):
+            rows = pt == k
+            R[rows], p[rows] = probes.placement(J6[rows], self.tool_links[k])
+        return R, p
+
+    def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True, *,
+                   frame: Frame | None = None, point: int | np.ndarray = 0,
+                   offset: np.ndarray | None = None) -> TipKinematics:
+        """Nominal tool point for N poses.
+
+        q: (N, n) axis commands [m, rad] in axis order; tool: (N,) or scalar tool length
+        [m] from the gauge line along the tool axis; offset: (3,) or (N, 3) further target
+        offset [m] in the tool link frame (a reflector off the tool axis; d tip / d offset
+        is ``rotation``); point: tool point index (int) or one per pose (N,) into
+        :attr:`tool_links`; frame: "base" or "workpiece" (default :attr:`default_frame`).
+
+        Pinocchio gives the tool link and workpiece placements and the joint Jacobian
+        columns (one call per pose). The Jacobian d tip / d q is the velocity of the tip
+        point ``v0 + w × tip`` summed over the columns that move the tool link (a mimic
+        joint's column counts for its source axis). Relative to the workpiece,
+        ``p_rel = R_w^T (p_tip - p_w)`` and
+        ``d p_rel = R_w^T (d p_tip - d p_w - w_w × (p_tip - p_w))``, where the bracket is
+        the tip's velocity minus that of the workpiece-fixed point at the tip, so columns
+        shared by both branches cancel.
         """
         q = np.atleast_2d(np.asarray(q, float))
-        n_pose = q.shape[0]
-        tool = np.broadcast_to(np.asarray(tool, float), (n_pose,))
-        H, J6 = frame_poses(self.model, self._data, self.spindle_frame_id, self.full_q(q), jacobian)
-        R = H[:, :3, :3]
-        spindle = H[:, :3, 3]
-        r = (R @ TOOL_DIRECTION) * tool[:, None]  # gauge line -> tip, base frame
-        tip = spindle + r
-        J = shift_to_point(J6, r)[:, :, self._idx_v()] if jacobian else None
-        return TipKinematics(tip, R, spindle, J)
+        N = q.shape[0]
+        frame = self._frame(frame)
+        pt = self._points(point, N)
+        tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        J6 = self._jacobians(q)
+        R, o = self._tool_placements(self._probes, J6, pt)
+        u = R @ self.tool_axis
+        local = tool[:, None] * self.tool_axis
+        if offset is not None:
+            local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
+        tip = o + apply(R, local)
+        relative = frame == "workpiece" and self.has_workpiece
+        J = None
+        if jacobian:
+            G = self._G_tool[pt] - self._G_wp if relative else self._G_tool[pt]  # (c, n) or (N, c, n)
+            J = point_velocities(J6, tip, self._probes.n_columns) @ G
+        if relative:
+            Rw, pw = self._probes.placement(J6, self.workpiece_link)
+            RwT = np.swapaxes(Rw, 1, 2)
+            tip = apply_transposed(Rw, tip - pw)
+            o = apply_transposed(Rw, o - pw)
+            R = RwT @ R
+            u = apply_transposed(Rw, u)
+            if jacobian:
+                J = RwT @ J
+        return TipKinematics(tip, R, o, J, u, frame)
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0, *, frame: Frame | None = None,
+                 point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
+        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`)."""
+        return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+
+    def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
+        """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        if self.has_workpiece:
+            out[:, :3, :3], out[:, :3, 3] = self._probes.placement(self._jacobians(q), self.workpiece_link)
+        return out
+
+    def workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, jacobian: bool = True) -> WorkpiecePoints:
+        """Points fixed in the workpiece frame (table nests, targets), in the base frame.
+
+        q: (N, n) [m, rad]; p_wp: (3,) or (N, 3) [m] in the workpiece frame. Returns
+        positions (N,3) [m], d/dq (N,3,n) and d/dp_wp (N,3,3). Without a workpiece link
+        the points are fixed in the base frame (d/dq = 0, d/dp_wp = I).
+        """
+        q = np.atleast_2d(np.asarray(q, float))
+        N = q.shape[0]
+        p = np.broadcast_to(np.asarray(p_wp, float), (N, 3))
+        if not self.has_workpiece:
+            J_q = np.zeros((N, 3, self.n_axes)) if jacobian else None
+            J_p = np.broadcast_to(np.eye(3), (N, 3, 3)).copy() if jacobian else None
+            return WorkpiecePoints(p.copy(), J_q, J_p)
+        J6 = self._jacobians(q)
+        Rw, pw = self._probes.placement(J6, self.workpiece_link)
+        xyz = pw + apply(Rw, p)
+        if not jacobian:
+            return WorkpiecePoints(xyz, None, None)
+        return WorkpiecePoints(xyz, point_velocities(J6, xyz, self._probes.n_columns) @ self._G_wp, Rw)
 
     def joint_frames(self, q: np.ndarray, axis: str) -> np.ndarray:
         """(N,4,4) placements in the base frame of an axis' joint frame after its motion."""
         q = np.atleast_2d(np.asarray(q, float))
-        jid = self.axis(axis).joint_id
-        qf = self.full_q(q)
-        out = np.empty((len(q), 4, 4))
-        for i in range(len(q)):
-            pin.forwardKinematics(self.model, self._data, qf[i])
-            out[i] = self._data.oMi[jid].homogeneous
+        a = self.axis(axis)
+        if self._joint_probes is None:
+            self._joint_probes = FrameProbes(self.model, {b.name: (b.joint_id, pin.SE3.Identity()) for b in self.axes})
+        probes = self._joint_probes
+        out = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        J6 = probes.jacobians(fill_configurations(probes.neutral, self._fill, q))
+        out[:, :3, :3], out[:, :3, 3] = probes.placement(J6, a.name)
         return out
 
-    def _idx_v(self) -> np.ndarray:
-        return np.array([self.model.joints[a.joint_id].idx_v for a in self.axes])
-
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0) -> np.ndarray:
-        """(N, 3) nominal tool-tip positions [m] in the base frame."""
-        return self.kinematics(q, tool, jacobian=False).tip
-
     def describe(self) -> str:
-        """Human summary: axes with kinds and limits (user units), frames."""
+        """Human summary: layout, axes with kinds, sides and limits (user units), frames, notes."""
+        order = "head branch (base -> tool) then table branch (base -> workpiece)" if self.has_workpiece \
+            else "chain order from the base"
         lines = [f"machine {self.name}  ({self.source})",
-                 f"  {self.n_axes} axes in chain order (base -> spindle):"]
+                 f"  layout: {self.layout}",
+                 f"  {self.n_axes} axes, {order}:"]
+        width = max([8] + [len(a.name) for a in self.axes] + [len(mj.name) for mj in self.mimic_joints])
         for a in self.axes:
             d = " ".join(f"{v:g}" for v in a.direction)
-            lines.append(f"    {a.name:<8s} {a.kind:<7s} axis [{d}]  limits {a.lower_user:12.4f} .. {a.upper_user:12.4f} {a.unit}")
-        lines.append(f"  gauge line: link '{SPINDLE_LINK}', {self.gauge_offset()*1e3:.3f} mm from the last axis frame; tool along -z")
+            lines.append(f"    {a.name:<{width}s} {a.kind:<7s} {a.side:<5s} axis [{d}]  limits "
+                         f"{a.lower_user:12.4f} .. {a.upper_user:12.4f} {a.unit}")
+        for mj in self.mimic_joints:
+            off = f" {mj.offset:+g}" if mj.offset else ""
+            lines.append(f"    {mj.name:<{width}s} follows {mj.axis}: {mj.name} = {mj.multiplier:g} * {mj.axis}{off}")
+        for k, link in enumerate(self.tool_links):
+            what = "gauge line: link" if link.startswith(SPINDLE_LINK) else "tool link:"
+            lines.append(f"  {what} '{link}' (tool point {k}), {to_mm(self.gauge_offset(k)):.3f} mm from the "
+                         f"last axis frame; tool along {self.tool_axis_name}")
+        if self.has_workpiece:
+            lines.append(f"  workpiece: link '{self.workpiece_link}' (table axes {', '.join(self.table_axes)}); "
+                         "tool tips relative to it by default")
         frames = [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
         lines.append(f"  links: {', '.join(frames)}")
+        for note in self.notes:
+            lines.append(f"  note: {note}")
         return "\n".join(lines)
 
 
-def frame_poses(model: pin.Model, data: pin.Data, frame_id: int, configurations: np.ndarray,
-                jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Placements (N,4,4) of one frame and, if asked, its LOCAL_WORLD_ALIGNED Jacobians
-    (N,6,nv) [linear; angular] for N Pinocchio configurations: one Pinocchio call per pose."""
-    n = len(configurations)
-    H = np.empty((n, 4, 4))
-    if not jacobian:
-        for i in range(n):
-            pin.forwardKinematics(model, data, configurations[i])
-            H[i] = pin.updateFramePlacement(model, data, frame_id).homogeneous
-        return H, None
-    J6 = np.empty((n, 6, model.nv))
-    for i in range(n):
-        J6[i] = pin.computeFrameJacobian(model, data, configurations[i], frame_id, pin.LOCAL_WORLD_ALIGNED)
-        H[i] = data.oMf[frame_id].homogeneous
-    return H, J6
+def _check_axis_name(name: str, source: str) -> None:
+    if name in RESERVED_NAMES:
+        raise MachineError(f"{source}: axis joint '{name}' is named like the campaign column '{name}' "
+                           f"(reserved: {', '.join(RESERVED_NAMES)}); rename the joint in the URDF "
+                           "(names are case-sensitive: 'X' is fine)")
+    if re.search(r"[\s,\"']", name) or not name.isprintable():
+        raise MachineError(f"{source}: axis joint '{name}' has a space, comma or quote in its name, which "
+                           "breaks campaign CSV columns; rename the joint in the URDF")
 
 
-def shift_to_point(J6: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Linear-velocity Jacobian (N,3,nv) of a point rigidly offset by r (N,3) from the
-    frame origin: v_point = v + w x r."""
-    return J6[:, :3, :] - np.cross(r[:, :, None], J6[:, 3:, :], axisa=1, axisb=1, axisc=1)
+def configuration_map(model: pin.Model, axes: Sequence[Axis], mimic_joints: Sequence[MimicJoint],
+                      mimic_in_model: bool) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """How vecpin's axis values drive a Pinocchio model built from the machine's URDF.
+
+    Returns ``fill = (idx_q, source, multiplier, offset)``: configuration entry
+    ``idx_q[r]`` is ``multiplier[r] * q[source[r]] + offset[r]``, and ``gain``
+    (nv_extended, n): Jacobian column c moves with axis k at rate ``gain[c, k]``.
+    An axis joint has gain 1 on its column. A ``<mimic>`` joint that Pinocchio models
+    as a mimic joint (``mimic_in_model``) reads its source's entry itself and has its own
+    column already scaled by the multiplier (gain 1); one that is an ordinary joint of
+    the model gets its value from the map and gain ``multiplier``.
+    """
+    index = {a.name: a.index for a in axes}
+    rows: list[tuple[int, int, float, float]] = []
+    gain = np.zeros((model.nvExtended, len(axes)))
+    for jid in range(1, model.njoints):
+        name = model.names[jid]
+        jm = model.joints[jid]
+        if name in index:
+            rows.append((jm.idx_q, index[name], 1.0, 0.0))
+            gain[jm.idx_vExtended, index[name]] = 1.0
+    for mj in mimic_joints:
+        jm = model.joints[model.getJointId(mj.name)]
+        k = index[mj.axis]
+        if mimic_in_model:
+            gain[jm.idx_vExtended, k] = 1.0
+        else:
+            rows.append((jm.idx_q, k, mj.multiplier, mj.offset))
+            gain[jm.idx_vExtended, k] = mj.multiplier
+    a = np.array(rows, float).reshape(-1, 4)
+    return (a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), gain
 
 
-def _joint_direction(jm) -> tuple[float, float, float]:
-    short = jm.shortname()
-    for suffix, vec in (("X", (1.0, 0.0, 0.0)), ("Y", (0.0, 1.0, 0.0)), ("Z", (0.0, 0.0, 1.0))):
-        if short.endswith(suffix) and ("Unaligned" not in short):
-            return vec
-    ax = np.asarray(jm.extract().axis if hasattr(jm, "extract") else jm.axis, float)
-    return tuple(float(v) for v in ax)
+def fill_configurations(template: np.ndarray, fill: tuple[np.ndarray, ...], q: np.ndarray) -> np.ndarray:
+    """Configurations (..., nq) from axis values q (..., n): ``template`` (Pinocchio's
+    neutral configuration) with the entries of ``fill`` (see :func:`configuration_map`) set."""
+    idx, src, mult, off = fill
+    out = np.empty(q.shape[:-1] + template.shape)
+    out[...] = template
+    out[..., idx] = q[..., src] * mult + off
+    return out

@@ -33,17 +33,43 @@ def _coefficients(theta: np.ndarray):
 def exp3(w: np.ndarray) -> np.ndarray:
     """Rotation matrices exp([w]x) for (..., 3) rotation vectors [rad]."""
     w = np.asarray(w, float)
-    a, b, _ = _coefficients(np.linalg.norm(w, axis=-1))
-    K = skew(w)
-    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+    t2 = np.einsum("...i,...i->...", w, w)
+    a, b, _ = _coefficients(np.sqrt(t2))
+    return _combination(w, t2, a, b)
 
 
 def right_jacobian(w: np.ndarray) -> np.ndarray:
     """Right Jacobian Jr(w) of exp3: exp(w + dw) = exp(w) exp(Jr(w) dw) to first order."""
     w = np.asarray(w, float)
-    _, b, c = _coefficients(np.linalg.norm(w, axis=-1))
-    K = skew(w)
-    return np.eye(3) - b[..., None, None] * K + c[..., None, None] * (K @ K)
+    t2 = np.einsum("...i,...i->...", w, w)
+    _, b, c = _coefficients(np.sqrt(t2))
+    return _combination(w, t2, -b, c)
+
+
+def exp3_and_right_jacobian(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(exp3(w), Jr(w)) for (..., 3) rotation vectors, sharing the work."""
+    w = np.asarray(w, float)
+    t2 = np.einsum("...i,...i->...", w, w)
+    a, b, c = _coefficients(np.sqrt(t2))
+    return _combination(w, t2, a, b), _combination(w, t2, -b, c)
+
+
+def _combination(w: np.ndarray, t2: np.ndarray, s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
+    """I + s1 [w]x + s2 [w]x^2 = (1 - s2 |w|^2) I + s1 [w]x + s2 w w^T, entry by entry
+    (no batched matrix products: fast on many small matrices)."""
+    out = (s2[..., None] * w)[..., :, None] * w[..., None, :]
+    d = 1.0 - s2 * t2
+    sw = s1[..., None] * w
+    out[..., 0, 0] += d
+    out[..., 1, 1] += d
+    out[..., 2, 2] += d
+    out[..., 1, 0] += sw[..., 2]
+    out[..., 0, 1] -= sw[..., 2]
+    out[..., 0, 2] += sw[..., 1]
+    out[..., 2, 0] -= sw[..., 1]
+    out[..., 2, 1] += sw[..., 0]
+    out[..., 1, 2] -= sw[..., 0]
+    return out
 
 
 def quaternion_xyzw(w: np.ndarray) -> np.ndarray:
