@@ -13,7 +13,9 @@ position (the point minus the approach distance on every axis, for ``below``), t
 the URDF's axis coordinates (mm, degrees): the program assumes a work offset at the
 URDF zero and no tool length or tool-centre-point transformation (TRAORI, G43.4).
 Values are written with 3 decimals (the plan's commands are on a 0.001 mm / 0.001 deg
-grid, so the program visits exactly the template's commands).
+grid, so the program visits exactly the template's commands); a Siemens axis address of
+more than one character takes ``=`` (``X1=100.000``), as the 840D requires for extended
+addresses.
 """
 from __future__ import annotations
 
@@ -48,8 +50,9 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
 
 
 def _words(machine: Machine, names: list[str], q: np.ndarray) -> str:
+    """Axis words; an address longer than one letter takes '=' (Siemens: ``X1=100.0``)."""
     q_user = machine.to_user(q[None])[0]
-    return " ".join(f"{n}{v:.3f}" for n, v in zip(names, q_user))
+    return " ".join(f"{n}{'=' if len(n) > 1 else ''}{v:.3f}" for n, v in zip(names, q_user))
 
 
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
