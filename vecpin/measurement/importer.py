@@ -393,7 +393,18 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         idx, amb = resolve_columns(cells, user, machine.axis_names, want_axes)
         return all(idx.get(f, -1) >= 0 for f in "xyz") or any(f in amb for f in "xyz")
 
-    table = read_export_table(path, delimiter, is_header)
+    try:
+        table = read_export_table(path, delimiter, is_header)
+    except CampaignFileError as exc:
+        given = {f: user[f] for f in "xyz" if f in user}
+        if not exc.reason.startswith("no header line") or not given:
+            raise
+        first = read_export_table(path, delimiter)
+        missing = [f"{f}='{c}'" for f, c in given.items() if c not in first.header and
+                   c.lower() not in [h.lower() for h in first.header]]
+        raise CampaignFileError(exc.path, f"--columns names {', '.join(missing) or given} but no header line has "
+                                f"{'that column' if len(missing) == 1 else 'those columns'}; line {first.header_line} "
+                                f"has: {', '.join(first.header)}", row=first.header_line) from None
     name = table.path
     header = table.header
     idx, amb = resolve_columns(header, user, machine.axis_names, want_axes)
