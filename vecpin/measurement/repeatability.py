@@ -28,7 +28,6 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.tracker import TrackerNoise
 
 SESSION_GAP_S = 1800.0  # s: repeats further apart than this belong to different sessions
-MEAN_NORM_3D = float(np.sqrt(8 / np.pi) / np.sqrt(3))  # E|x| / sqrt(E|x|^2) for an isotropic 3D Gaussian
 
 
 def repeat_groups(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
@@ -160,11 +159,15 @@ def drift(campaign: Campaign) -> Drift | None:
 
 
 def instrument_repeatability(campaign: Campaign, noise: TrackerNoise | None = None, repeats: int = 4) -> float:
-    """Mean eq. 22 reading [m] the tracker alone would give at the campaign's mean range
-    for points measured ``repeats`` times: E|r| of a 3D Gaussian with the range sigma and
-    two transverse sigmas, scaled by (1 - 1/Nt) (deviation from the mean of Nt readings)."""
+    """Mean eq. 22 reading [m] the tracker alone would give for the campaign's points
+    measured ``repeats`` times: per point the noise is Gaussian with the range sigma and
+    the two angle sigmas times the range (the azimuth one times sin(zenith)), in the
+    tracker's own frame; eq. 22 scales its covariance by (1 - 1/Nt). E|r| is taken over a
+    fixed set of 4000 standard normal draws (seed 0), averaged over the points."""
+    from vecpin.measurement.tracker import cartesian_to_spherical
     noise = noise or TrackerNoise()
-    R = float(np.mean(np.linalg.norm(campaign.primary().xyz, axis=1)))
-    s_r = noise.sigma_range(R)
-    s_t = noise.transverse_const + noise.transverse_ppm * R
-    return float(MEAN_NORM_3D * np.sqrt((1 - 1 / repeats) * (s_r ** 2 + 2 * s_t ** 2)))
+    s = cartesian_to_spherical(campaign.primary().xyz)
+    sig = noise.sigma_spherical(s[:, 0]) * np.c_[np.ones(len(s)), s[:, 0], s[:, 0] * np.sin(s[:, 1])]
+    z = np.random.default_rng(0).standard_normal((4000, 3))
+    r = np.linalg.norm(sig[:, None, :] * z[None, :, :], axis=2).mean(axis=1)
+    return float(np.sqrt(1 - 1 / repeats) * r.mean())
