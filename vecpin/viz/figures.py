@@ -174,16 +174,17 @@ def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] 
     size = np.linalg.norm(e, axis=1)
     fig, ax = plt.subplots(figsize=(7, 5.0))
     qv = ax.quiver(a.to_user(U.ravel()), b.to_user(V.ravel()), e[:, 0], e[:, 1], size, cmap="turbo", angles="xy")
-    fig.colorbar(qv, ax=ax, label="volumetric error [mm] (3D length)")
+    fig.colorbar(qv, ax=ax, label="volumetric error [mm] (3D length)", shrink=0.75)
     key = _nice(float(np.percentile(np.hypot(e[:, 0], e[:, 1]), 90)) or 1e-3)
-    ax.quiverkey(qv, X=0.80, Y=1.035, U=key, label=f"arrow: {key:g} mm in the {a.name}{b.name} plane",
-                 labelpos="E", fontproperties={"size": 7})
+    ax.quiverkey(qv, X=0.03, Y=1.03, U=key, label=f"arrow key: {key:g} mm (in-plane component)",
+                 labelpos="E", coordinates="axes", fontproperties={"size": 7})
     held = ", ".join(f"{ax_.name} = {ax_.to_user(q0[ax_.index]):.1f} {ax_.unit}" for ax_ in machine.axes
                      if ax_.name not in (a.name, b.name))
     held = (held + ", " if held else "") + f"tool {tool * 1e3:.1f} mm"
     ax.set_xlabel(f"{a.name} [{a.unit}]")
     ax.set_ylabel(f"{b.name} [{b.unit}]")
-    ax.set_title((title or f"errors in the {a.name}{b.name} plane") + f"\nheld fixed: {held}", fontsize=8, loc="left")
+    ax.set_title((title or f"errors in the {a.name}{b.name} plane") + f"\nheld fixed: {held}", fontsize=8, loc="left",
+                 pad=16)
     ax.set_aspect("equal", adjustable="box")
     return _save(fig, path)
 

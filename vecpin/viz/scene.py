@@ -218,6 +218,7 @@ function vecpinShow(name) {{
     for (const p of vecpinNodes[g]) {{ viewer.set_property(p, "visible", g === name); }}
     document.getElementById("vecpin-bar-" + g).style.display = (g === name) ? "block" : "none";
   }}
+  viewer.set_dirty();  // the viewer draws only when told that something changed
 }}</script>"""
     return (f'<div id="vecpin-legend"><div><b>{html.escape(title)}</b></div><div>show one group:</div>'
             + "".join(rows) + "".join(bars) +
