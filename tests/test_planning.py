@@ -219,7 +219,7 @@ def test_gcode_reader_rejects_what_the_programs_must_not_contain(flow):
 def test_plan_files_are_byte_identical_on_rerun(flow, tmp_path):
     s = PlanSettings(**SMALL)
     a = plan_to_dir(flow, tmp_path / "a", s)
-    b = plan_to_dir(flow, tmp_path / "b", PlanSettings(**SMALL))
+    plan_to_dir(flow, tmp_path / "b", PlanSettings(**SMALL))
     names = sorted(p.name for p in a.files)
     assert names == sorted(["plan.csv", "PLAN_840D.MPF", "O1000.nc", "plan.ngc", "plan.png", "plan.json"])
     for n in names:

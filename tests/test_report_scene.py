@@ -45,17 +45,21 @@ def shoot(page, out, size="1000,700"):
 def turbo_strips(img, vertical: bool, min_len: int = 120) -> int:
     """Number of pixel lines (columns if ``vertical``) holding a run of >= ``min_len``
     pixels whose colours follow matplotlib's turbo map from one end to the other."""
+    from scipy.spatial import cKDTree
     lut = matplotlib.colormaps["turbo"](np.linspace(0, 1, 256))[:, :3] * 255
     a = img.transpose(1, 0, 2) if vertical else img
+    idx = np.full(a.shape[:2], -1)
+    coloured = np.ptp(a, axis=2) > 40  # grey, white and black are not on the map
+    d, k = cKDTree(lut).query(a[coloured])
+    idx[coloured] = np.where(d < 30, k, -1)
     found = 0
-    for line in a[:, :, :]:
-        d = np.linalg.norm(line[:, None, :] - lut[None, :, :], axis=2)
-        idx = np.where(d.min(axis=1) < 30, d.argmin(axis=1), -1)
-        good = idx >= 0
-        # runs of turbo-coloured pixels
+    for line in idx:
+        good = line >= 0
+        if good.sum() < min_len:
+            continue
         edges = np.flatnonzero(np.diff(np.r_[0, good.astype(int), 0]))
         for s, e in zip(edges[::2], edges[1::2]):
-            run = idx[s:e]
+            run = line[s:e]
             if e - s >= min_len and abs(int(run[-1]) - int(run[0])) > 180 and \
                     np.mean(np.diff(run) * np.sign(run[-1] - run[0]) >= -3) > 0.95:
                 found += 1

@@ -1,7 +1,7 @@
 """``vecpin assess`` (is compensation worth it?) and ``vecpin verify`` (before and after)."""
 from __future__ import annotations
 
-from vecpin.cli.common import machine
+from vecpin.cli.common import machine, progress
 from vecpin.errors import InputError
 
 
@@ -45,7 +45,8 @@ def run_verify(args) -> int:
     m = model.machine if model is not None else machine(args.machine)
     tables, src = load_tables(args.tables, m) if args.tables else (None, None)
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
-    v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src)
+    v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
+                      progress=progress(not args.quiet))
     print("\n".join(v.lines()))
     return 0
 
@@ -77,4 +78,5 @@ def register(sub) -> None:
     s.add_argument("--tables", help="the table set that was active (tables.json or its folder): its gauge-line change "
                    "enters the commanded positions (default: none, 0 mm assumed)")
     s.add_argument("--out", help="folder for verify.json and verify.png (Fig. 11) (default: print only)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_verify)

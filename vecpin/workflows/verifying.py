@@ -118,13 +118,16 @@ def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.
 
 
 def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None = None,
-           tables: TableSet | None = None, tables_source: str | None = None) -> Verification:
-    """The two runs side by side (see the module text)."""
+           tables: TableSet | None = None, tables_source: str | None = None, progress=None) -> Verification:
+    """The two runs side by side (see the module text); ``progress(msg)`` hears of the
+    slow step (tables computed from the model)."""
     b, a = before.primary(), after.primary()
     notes = []
     tables_from = f"tables {tables_source}" if tables is not None else "no tables given: 0 assumed (give --tables)"
     if tables is None and model is not None:
         from vecpin.compensation.plan import plan_tables
+        if progress:
+            progress("no --tables: computing the tables from the model (generic controller)")
         tables = plan_tables(model, "generic", n_commands=600).tables
         tables_from = "tables computed from the model (generic controller, full set); give --tables for the real ones"
     dT = tables.gauge_offset_change if tables is not None else 0.0
