@@ -230,7 +230,7 @@ def test_import_cli(flow, day, tmp_path, capsys):
     out = tmp_path / "campaign.csv"
     assert main(["import", str(p), "--machine", "flow_xyzcb", "--plan", str(d / "plan.csv"), "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "semicolon-separated, decimal ','" in text and "coordinates in in" in text
+    assert "semicolon-separated, decimal ','" in text and "coordinates in inches" in text
     np.testing.assert_allclose(read_campaign(out, flow).xyz, c.xyz, atol=1e-6)
     assert main(["import", str(p), "--machine", "flow_xyzcb", "--plan", str(d / "plan.csv"), "--units", "mm",
                  "--out", str(out)]) == 2

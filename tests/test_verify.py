@@ -55,7 +55,9 @@ def test_verify_labels_reduction_and_prediction(flow, fitted):
     assert v.reduction("mean") > 80.0 and "Paper I Table 3" in text and "0.038" in text
     # the model's prediction sits beside the measured figures, close for the uncompensated run
     assert v.before.predicted.mean() == pytest.approx(v.before.measured.mean(), rel=0.15)
-    assert v.after.predicted.mean() < v.after.measured.mean()
+    # compensated: the model's residual on the uncompensated run plus what the tables leave: the measured
+    # compensated run differs from it by fresh noise only
+    assert v.after.predicted.mean() == pytest.approx(v.after.measured.mean(), rel=0.35)
     # the gauge-line change of the tables enters the commanded positions
     without = verify(flow, comp.validation, comp.compensated)
     if abs(tables.gauge_offset_change) > 20e-6:

@@ -91,6 +91,6 @@ def test_whole_day_on_the_command_line(tmp_path, capsys, flow):
                  "--model", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(d / "verify")]) == 0
     text = capsys.readouterr().out
     assert "tab-separated, decimal ','" in text and "joined with the plan" in text and "by order" in text
-    assert "coordinates in in" in text and "WORTHWHILE" in text
+    assert "coordinates in inches" in text and "WORTHWHILE" in text
     js = json.loads((d / "verify" / "verify.json").read_text())
     assert js["reduction_of_mean_pct"] > 60.0

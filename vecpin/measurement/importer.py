@@ -39,6 +39,7 @@ from vecpin.measurement.registration import registered_errors
 from vecpin.units import M_PER_MM, norm_mm
 
 LENGTH_UNITS = {"mm": 1.0, "in": 25.4, "m": 1000.0}   # mm per unit
+UNIT_NAMES = {"mm": "millimetres", "in": "inches", "m": "metres"}
 COMMENT_PREFIXES = ("#", "//", "!")
 MEAS_WORDS = {"meas", "measured", "measurement", "actual", "act", "value", "val", "pos", "position", "coord",
               "coordinate", "coordinates", "point", "pt", "smr", "target", "tip"}
@@ -290,7 +291,7 @@ class ImportResult:
         out = [f"imported {len(c)} measured points from {self.export}"
                + (f", joined with the plan {self.plan} {self.joined_by}" if self.plan else ""),
                f"  read as: {DELIMITER_NAMES[self.delimiter]}-separated, decimal '{self.decimal}', {self.encoding}",
-               f"  coordinates in {self.units} ({self.units_reason}); written in mm",
+               f"  coordinates in {UNIT_NAMES[self.units]} ({self.units_reason}); written in mm",
                "  columns: " + ", ".join(f"{k} <- '{v}'" for k, v in self.columns.items())]
         if self.temperature_unit and self.temperature_unit != "C":
             out.append(f"  temperature in °{self.temperature_unit}, written in °C")
