@@ -5,18 +5,28 @@ import argparse
 import os
 import sys
 
-from vecpin.cli import compensating, diagnosing, fitting, machines, simulating, viewing
+from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
+                        viewing)
 from vecpin.errors import VecpinError
 
-COMMAND_MODULES = (machines, simulating, fitting, compensating, diagnosing, viewing)
+COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="vecpin", description="Volumetric error compensation of machine tools.")
+    p.add_argument("--version", action="version", version=f"vecpin {_version()}", help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     for module in COMMAND_MODULES:
         module.register(sub)
     return p
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("vecpin")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "unknown (not installed)"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from vecpin.cli.common import machine
 
 
@@ -17,7 +19,27 @@ def run_simulate(args) -> int:
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
                     stations=args.stations, ballbar_points=args.ballbar)
     effects = [parse_effect(e, m) for e in args.effect]
-    run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, mean_error_mm=args.mean_error)
+    plan = tables = truth = None
+    if args.plan:
+        from vecpin.measurement.plantemplate import read_template
+        t = read_template(args.plan, m)
+        plan = (t.q, t.tool)
+    if args.tables:
+        from vecpin.workflows.verifying import load_tables
+        tables = load_tables(args.tables, m)[0]
+    if args.truth:
+        from vecpin.errors import InputError
+        from vecpin.simulation.truth import TrueMachine
+        try:
+            truth = TrueMachine.load(args.truth, m)
+        except (OSError, KeyError, ValueError) as exc:
+            raise InputError(f"--truth {args.truth}: not a truth file of {m.name} ({exc})") from None
+    tracker = None
+    if args.tracker:
+        from vecpin.cli.planning import parse_floats
+        tracker = np.array(parse_floats(args.tracker, "--tracker", 3)) * 1e-3
+    run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, plan=plan, tables=tables,
+                          truth=truth, tracker_position=tracker, mean_error_mm=args.mean_error)
     print("\n".join(run.lines()))
     return 0
 
@@ -38,21 +60,37 @@ def register(sub) -> None:
     s = sub.add_parser("simulate", help="simulate a laser-tracker campaign on a machine with known errors")
     s.add_argument("--help-effects", action=_HelpEffects, help="list the effects of --effect with their keys, units "
                    "and defaults, then exit")
-    s.add_argument("machine")
-    s.add_argument("--out", required=True, help="output folder (campaign.csv, validation.csv, validation_truth.csv, truth.json)")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--points", type=int, default=295, help="commands (each measured with every tool); default 295 as Paper I")
-    s.add_argument("--validation", type=int, default=35, help="validation commands (short tool); default 35")
-    s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default 214.88 312.86)")
-    s.add_argument("--method", default="random", choices=["random", "sobol", "halton"])
+    s.add_argument("machine", help="bundled machine name or URDF path")
+    s.add_argument("--out", required=True, help="output folder (campaign.csv, validation.csv, validation_truth.csv, "
+                   "truth.json; with --tables also validation_compensated.csv and its noise-free twin)")
+    s.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same true machine and "
+                   "files (default 0)")
+    s.add_argument("--points", type=int, default=295, help="commands, each measured with every tool (default 295 as "
+                   "Paper I; ignored with --plan)")
+    s.add_argument("--validation", type=int, default=35, help="quasi-random validation commands, short tool "
+                   "(default 35 as Paper I)")
+    s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default 214.88 312.86 as Paper I)")
+    s.add_argument("--method", default="random", choices=["random", "sobol", "halton"],
+                   help="how the identification commands are drawn (default random, as Paper I)")
+    s.add_argument("--plan", help="measure a plan's template (plan.csv from vecpin plan) in its order instead of "
+                   "drawing commands (default: none)")
+    s.add_argument("--tables", help="tables.json (or its folder, from vecpin tables): also run the validation commands "
+                   "on the true machine through these tables (default: none)")
+    s.add_argument("--truth", help="truth.json of an earlier simulation: simulate that true machine instead of a new "
+                   "random one (default: random from --seed and --mean-error)")
+    s.add_argument("--tracker", metavar="X,Y,Z", help="where the simulated tracker stands, machine base frame, mm "
+                   "(e.g. the plan's position; default: 2 m in front of the workspace, random offset)")
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
-                   help="exclusion zone in mm/deg (repeatable)")
-    s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm")
+                   help="exclusion zone in mm/deg (repeatable; default none)")
+    s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm "
+                   "(default 0.65)")
     s.add_argument("--stations", type=int, default=1, help="tracker positions measuring every command (default 1)")
-    s.add_argument("--ballbar", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere (eq. 63-64)")
+    s.add_argument("--ballbar", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere "
+                   "(eq. 63-64; default 0)")
     s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
-                   help="append a repeatability sequence: POINTS commands measured TIMES times each (eq. 22)")
+                   help="append a repeatability sequence: POINTS commands measured TIMES times each (eq. 22; "
+                        "default none)")
     s.add_argument("--effect", action="append", default=[], metavar="NAME:key=value,...",
                    help="add an unmodelled effect to the true machine, e.g. gantry_skew:axes=Y,about=x,depends=X,"
-                        "strength=0.05 (strength: RMS tool-tip displacement, mm); repeatable")
+                        "strength=0.05 (strength: RMS tool-tip displacement, mm); repeatable (default none)")
     s.set_defaults(func=run_simulate)

@@ -6,28 +6,55 @@ from vecpin.errors import InputError
 from vecpin.export.registry import controller_names
 
 
+def parse_exaggeration(text: str | None):
+    """'500' (every group) or 'errors=500,residuals=3000' -> float or {group: factor}."""
+    if text is None:
+        return None
+    try:
+        if "=" not in text:
+            v = float(text)
+            if v <= 0:
+                raise ValueError
+            return v
+        out = {}
+        for part in text.split(","):
+            k, v = part.split("=")
+            k = k.strip()
+            if k not in ("errors", "residuals", "compensated") or float(v) <= 0:
+                raise ValueError
+            out[k] = float(v)
+        return out
+    except ValueError:
+        raise InputError(f"--exaggerate '{text}': a factor > 0 for every group, or GROUP=FACTOR pairs "
+                         "(groups: errors, residuals, compensated), e.g. errors=500,residuals=3000") from None
+
+
 def run_view(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.viz.scene import serve, write_html
+    from vecpin.viz.scene import legend_lines, serve, write_html
     model = ErrorModel.load(args.model)
     c = read_campaign(args.csv, model.machine)
     if not 0 <= args.row < len(c):
         raise InputError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
+    if args.show == "compensated" and args.no_tables:
+        raise InputError("--show compensated needs the tables: drop --no-tables")
+    ex = parse_exaggeration(args.exaggerate)
     tables = None
     if not args.no_tables:
         from vecpin.compensation.plan import plan_tables
         tables = plan_tables(model, n_commands=400).tables
     if args.html:
-        facts = write_html(args.html, model, c, args.row, args.exaggerate, tables)
-        print(f"wrote {args.html}: errors x{facts['exaggeration']:.0f}, largest {facts['max_error_mm']:.3f} mm, "
-              f"{facts['commands']} scene commands; open it in a browser (no server needed)")
+        facts = write_html(args.html, model, c, args.row, ex, tables, args.show)
+        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
+        print("\n".join(legend_lines(facts)))
         return 0
 
     def ready(url, facts):
-        print(f"meshcat scene at {url}  (errors x{facts['exaggeration']:.0f}; groups under /vecpin can be "
-              "switched on and off in Open Controls > Scene); Ctrl-C to stop", flush=True)
-    serve(model, c, args.row, args.exaggerate, tables, ready)
+        print(f"meshcat scene at {url}; one group is shown at a time (switch them in Open Controls > Scene > "
+              "vecpin); Ctrl-C to stop", flush=True)
+        print("\n".join(legend_lines(facts)), flush=True)
+    serve(model, c, args.row, ex, tables, ready, args.show)
     return 0
 
 
@@ -35,33 +62,43 @@ def run_report(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
     from vecpin.viz.report import write_report
-    model = ErrorModel.load(args.model)
-    c = read_campaign(args.csv, model.machine)
-    v = read_campaign(args.validation, model.machine) if args.validation else None
-    page = write_report(model, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
+    models = [ErrorModel.load(p) for p in args.model]
+    c = read_campaign(args.csv, models[0].machine)
+    v = read_campaign(args.validation, models[0].machine) if args.validation else None
+    page = write_report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
                         controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
-    print(f"wrote {page} (with figures/ and scene.html)")
+    print(f"wrote {page} (with figures/ and scene.html) for {len(models)} model{'s' if len(models) > 1 else ''}")
     return 0
 
 
 def register(sub) -> None:
     s = sub.add_parser("view", help="meshcat scene of measured vs modelled tool tips (interactive, or --html)")
-    s.add_argument("model")
-    s.add_argument("csv")
-    s.add_argument("--row", type=int, default=0, help="measurement row to pose the machine at (0-based)")
-    s.add_argument("--exaggerate", type=float, help="error vector scale (default: largest error = 8%% of the workspace)")
-    s.add_argument("--html", help="write a self-contained page instead of starting a server")
-    s.add_argument("--no-tables", action="store_true", help="skip the compensated view")
+    s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
+    s.add_argument("csv", help="campaign CSV the model was fitted to (or one measured with the same tracker pose)")
+    s.add_argument("--row", type=int, default=0, help="measurement row to pose the machine at, 0-based (default 0)")
+    s.add_argument("--exaggerate", metavar="FACTOR|GROUP=FACTOR,...",
+                   help="error vector scale, dimensionless: one factor for every group or per group (errors, "
+                        "residuals, compensated); default: each group's largest vector = 8%% of the workspace")
+    s.add_argument("--show", choices=["errors", "residuals", "compensated"], default="errors",
+                   help="the group visible at first (default errors); the others can be switched on")
+    s.add_argument("--html", help="write a self-contained page to this file instead of starting a server "
+                   "(default: start a server)")
+    s.add_argument("--no-tables", action="store_true", help="skip the compensated view (default: tables for a "
+                   "generic controller)")
     s.set_defaults(func=run_view)
 
-    s = sub.add_parser("report", help="one HTML page: tables, the seed's figures, the 3D scene")
-    s.add_argument("model")
-    s.add_argument("csv")
-    s.add_argument("--out", required=True)
-    s.add_argument("--validation", help="validation CSV for the before/after table and the order sweep")
-    s.add_argument("--orders", help="also run the order sweep, e.g. 0-7")
+    s = sub.add_parser("report", help="one HTML page for one or more models: tables, the seed's figures "
+                       "(Fig. 9-11), the 3D scene")
+    s.add_argument("model", nargs="+", help="fitted model files (JSON), e.g. a 6-DoF and an AP model of the same "
+                   "campaign")
+    s.add_argument("csv", help="the identification campaign CSV")
+    s.add_argument("--out", required=True, help="output folder (index.html, figures/, scene.html)")
+    s.add_argument("--validation", help="validation CSV for the before/after table and the order sweep "
+                   "(default: none; the sweep then cross-validates)")
+    s.add_argument("--orders", help="also run the order sweep, e.g. 0-7 or 2,4,6 (default: no sweep; slow: "
+                   "one fit per order and model, five per order without --validation)")
     s.add_argument("--controller", default="generic", choices=controller_names(),
-                   help="controller whose limits and files the report uses (default generic)")
-    s.add_argument("--max-tables", type=int)
-    s.add_argument("--quiet", action="store_true")
+                   help="controller the tables are for (default generic: every table)")
+    s.add_argument("--max-tables", type=int, help="cross tables to choose (default: the controller's limit)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_report)

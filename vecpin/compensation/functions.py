@@ -216,7 +216,7 @@ class TableProblem:
 
     def _linearise(self) -> None:
         nominal = self.machine.kinematics(self.q, self.L, jacobian=False)
-        self.u_nominal = nominal.rotation[:, :, 2] * -1.0
+        self.u_nominal = nominal.tool_dir
         tip, J = self.actual(self.q, self.L, True)
         self.e0 = (tip - nominal.tip).ravel()
         self.A = self._design(J, self.u_nominal)

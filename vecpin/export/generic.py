@@ -37,3 +37,12 @@ FORMAT = ControllerFormat(
     sign="value = correction added to the command of the output axis (minus the error)",
     source="vecpin (Paper I eq. 13-16)",
     to_check="how your controller takes tables: its sign, zero point and units")
+
+
+def write_tables(tables: TableSet, machine: Machine, out_dir) -> list[Path]:
+    """``tables.json`` and ``tables.csv`` into ``out_dir`` (committed together)."""
+    from vecpin.fileio import OutputSet
+    with OutputSet(out_dir) as out:
+        out.write_text(JSON_FILE, json.dumps(tables.to_dict(machine), indent=1) + "\n")
+        tables.save_csv(out.path(CSV_FILE), machine)
+    return [out.final(JSON_FILE), out.final(CSV_FILE)]

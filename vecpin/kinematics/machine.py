@@ -37,151 +37,18 @@ everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or deg
 """
 from __future__ import annotations
 
-import math
-import re
-from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
-from typing import Literal, NamedTuple, Sequence
+from typing import Sequence
 
 import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
+from vecpin.kinematics.axes import (  # noqa: F401 (re-exported: callers import them from here)
+    BUNDLED_OPTIONS, RESERVED_NAMES, ROS_FLANGE_LINKS, SPINDLE_LINK, TOOL_DIRECTION, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
-
-SPINDLE_LINK = "spindle"
-WORKPIECE_LINK = "workpiece"
-TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # default tool axis in the tool link frame
-#: tool links named like ROS tool flanges: the tool points along their +z by default
-ROS_FLANGE_LINKS = ("tool0", "flange")
-#: campaign CSV columns an axis must not be named like (case-sensitive: "X" is fine)
-RESERVED_NAMES = ("x", "y", "z", "tool", "time", "temperature", "instrument", "station", "r", "pivot",
-                  "target", "point")
-#: load options of bundled machines whose URDF (kept as published) has no 'spindle'
-BUNDLED_OPTIONS = {"ur5": {"tool_link": "tool0"}}
-
-Frame = Literal["base", "workpiece"]
-
-
-@dataclass(frozen=True)
-class Axis:
-    """One actuated joint (an independent axis) of the machine.
-
-    ``lower``/``upper`` are the URDF limits in SI (m or rad); ``direction`` is the
-    joint axis in the joint frame. ``index`` is the position in vecpin's axis order
-    (the column order of every ``q`` array), ``idx_q`` the index in Pinocchio's
-    configuration vector, ``joint_id`` Pinocchio's joint id. ``side`` is "head" (on
-    the path to a tool link), "table" (on the path to the workpiece only) or "both".
-    """
-
-    name: str
-    kind: Literal["linear", "rotary"]
-    lower: float
-    upper: float
-    direction: tuple[float, float, float]
-    index: int
-    idx_q: int
-    joint_id: int
-    side: Literal["head", "table", "both"] = "head"
-
-    @property
-    def unit(self) -> str:
-        """The user unit of this axis: ``"mm"`` or ``"deg"``."""
-        return "mm" if self.kind == "linear" else "deg"
-
-    @property
-    def scale(self) -> float:
-        """SI value per user unit (0.001 m/mm or pi/180 rad/deg)."""
-        return 1e-3 if self.kind == "linear" else math.pi / 180.0
-
-    def to_si(self, value_user):
-        return np.asarray(value_user, dtype=float) * self.scale
-
-    def to_user(self, value_si):
-        return np.asarray(value_si, dtype=float) / self.scale
-
-    @property
-    def lower_user(self) -> float:
-        return float(self.lower / self.scale)
-
-    @property
-    def upper_user(self) -> float:
-        return float(self.upper / self.scale)
-
-    @property
-    def travel(self) -> float:
-        """Travel in SI (m or rad)."""
-        return self.upper - self.lower
-
-
-@dataclass(frozen=True)
-class MimicJoint:
-    """A joint that follows an axis: value = multiplier * q[axis] + offset [m or rad]."""
-
-    name: str
-    axis: str
-    multiplier: float
-    offset: float
-
-
-class TipKinematics(NamedTuple):
-    """Batched tool-point kinematics in one frame (SI).
-
-    ``tip``: (N, 3) tool-tip (target) positions [m]; ``rotation``: (N, 3, 3) tool-link
-    orientations; ``spindle``: (N, 3) tool-link origins (gauge-line points) [m];
-    ``jacobian``: (N, 3, n) d tip / d q [m/m or m/rad], or ``None`` when not requested;
-    ``tool_dir``: (N, 3) unit tool direction (d tip / d tool length); ``frame``: the frame
-    all of these are expressed in ("base" or "workpiece").
-    """
-
-    tip: np.ndarray
-    rotation: np.ndarray
-    spindle: np.ndarray
-    jacobian: np.ndarray | None
-    tool_dir: np.ndarray
-    frame: str
-
-
-class WorkpiecePoints(NamedTuple):
-    """Points fixed in the workpiece frame, expressed in the base frame (SI).
-
-    ``xyz`` (N,3) [m]; ``J_q`` (N,3,n) d xyz / d q; ``J_p`` (N,3,3) d xyz / d p_wp (the
-    workpiece orientation); Jacobians ``None`` when not requested.
-    """
-
-    xyz: np.ndarray
-    J_q: np.ndarray | None
-    J_p: np.ndarray | None
-
-
-def bundled_machines() -> list[str]:
-    """Names of the machines shipped in ``robots/``."""
-    return sorted(p.name[:-5] for p in resources.files("vecpin.robots").iterdir() if p.name.endswith(".urdf"))
-
-
-def _bundled_path(name: str) -> Path | None:
-    res = resources.files("vecpin.robots").joinpath(name + ".urdf")
-    return Path(str(res)) if res.is_file() else None
-
-
-def parse_tool_axis(text: str) -> np.ndarray:
-    """'+z', '-z', 'x', '-y', ... -> unit vector in the tool link frame."""
-    m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", str(text))
-    if not m:
-        raise InputError(f"--tool-axis '{text}': write one of +x, -x, +y, -y, +z, -z "
-                         "(the tool link's axis the tool points along)")
-    v = np.zeros(3)
-    v["xyz".index(m.group(2).lower())] = -1.0 if m.group(1) == "-" else 1.0
-    return v
-
-
-def _axis_name(v: np.ndarray) -> str:
-    k = int(np.argmax(np.abs(v)))
-    return ("-" if v[k] < 0 else "+") + "xyz"[k]
-
 
 class Machine:
     """A machine loaded from URDF: axes, tool points, optional workpiece branch.
@@ -647,56 +514,3 @@ class Machine:
         for note in self.notes:
             lines.append(f"  note: {note}")
         return "\n".join(lines)
-
-
-def _check_axis_name(name: str, source: str) -> None:
-    if name in RESERVED_NAMES:
-        raise MachineError(f"{source}: axis joint '{name}' is named like the campaign column '{name}' "
-                           f"(reserved: {', '.join(RESERVED_NAMES)}); rename the joint in the URDF "
-                           "(names are case-sensitive: 'X' is fine)")
-    if re.search(r"[\s,\"']", name) or not name.isprintable():
-        raise MachineError(f"{source}: axis joint '{name}' has a space, comma or quote in its name, which "
-                           "breaks campaign CSV columns; rename the joint in the URDF")
-
-
-def configuration_map(model: pin.Model, axes: Sequence[Axis], mimic_joints: Sequence[MimicJoint],
-                      mimic_in_model: bool) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """How vecpin's axis values drive a Pinocchio model built from the machine's URDF.
-
-    Returns ``fill = (idx_q, source, multiplier, offset)``: configuration entry
-    ``idx_q[r]`` is ``multiplier[r] * q[source[r]] + offset[r]``, and ``gain``
-    (nv_extended, n): Jacobian column c moves with axis k at rate ``gain[c, k]``.
-    An axis joint has gain 1 on its column. A ``<mimic>`` joint that Pinocchio models
-    as a mimic joint (``mimic_in_model``) reads its source's entry itself and has its own
-    column already scaled by the multiplier (gain 1); one that is an ordinary joint of
-    the model gets its value from the map and gain ``multiplier``.
-    """
-    index = {a.name: a.index for a in axes}
-    rows: list[tuple[int, int, float, float]] = []
-    gain = np.zeros((model.nvExtended, len(axes)))
-    for jid in range(1, model.njoints):
-        name = model.names[jid]
-        jm = model.joints[jid]
-        if name in index:
-            rows.append((jm.idx_q, index[name], 1.0, 0.0))
-            gain[jm.idx_vExtended, index[name]] = 1.0
-    for mj in mimic_joints:
-        jm = model.joints[model.getJointId(mj.name)]
-        k = index[mj.axis]
-        if mimic_in_model:
-            gain[jm.idx_vExtended, k] = 1.0
-        else:
-            rows.append((jm.idx_q, k, mj.multiplier, mj.offset))
-            gain[jm.idx_vExtended, k] = mj.multiplier
-    a = np.array(rows, float).reshape(-1, 4)
-    return (a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), gain
-
-
-def fill_configurations(template: np.ndarray, fill: tuple[np.ndarray, ...], q: np.ndarray) -> np.ndarray:
-    """Configurations (..., nq) from axis values q (..., n): ``template`` (Pinocchio's
-    neutral configuration) with the entries of ``fill`` (see :func:`configuration_map`) set."""
-    idx, src, mult, off = fill
-    out = np.empty(q.shape[:-1] + template.shape)
-    out[...] = template
-    out[..., idx] = q[..., src] * mult + off
-    return out

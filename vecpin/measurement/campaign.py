@@ -206,6 +206,12 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
 
 
 def _check_header(name: str, header: list[str], machine: Machine) -> None:
+    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
+        sep = "semicolons" if ";" in header[0] else "tabs"
+        raise CampaignFileError(name, f"the header is one cell with {sep} in it: this file is {sep[:-1]}-separated "
+                                "(a tracker export or a spreadsheet in a decimal-comma locale?), but campaign files are "
+                                "comma-separated with a decimal point; convert it with 'vecpin import "
+                                f"{name} --machine {machine.name} [--plan PLAN.csv] --out campaign.csv'", row=1)
     seen: dict[str, int] = {}
     for j, h in enumerate(header):
         if h == "":

@@ -51,7 +51,7 @@ class APModel(ErrorModel):
         """What every basis shares at zero perturbation: (tool direction (N,3), d tip / d q
         (N,3,n)); :meth:`assemble` turns it into d tip / d b."""
         kin = self.machine.kinematics(q, tool, True)
-        return kin.rotation[:, :, 2] * -1.0, kin.jacobian
+        return kin.tool_dir, kin.jacobian
 
     def assemble(self, J: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray) -> np.ndarray:
         """d tip / d b (N,3,P_base) from d tip / d q (N,3,n) and the basis values B (N,n,K)."""
@@ -65,7 +65,7 @@ class APModel(ErrorModel):
         B = self._basis_values(q)[:, :, 1:]  # (N, n, K-1)
         qp = q + c + np.einsum("pim,mij->pj", B, a)
         kin = self.machine.kinematics(qp, self._effective_tool(tool, b), jacobian)
-        tool_dir = kin.rotation[:, :, 2] * -1.0
+        tool_dir = kin.tool_dir
         if not jacobian:
             return ModelTip(kin.tip, None, None, tool_dir)
         J = kin.jacobian  # (N,3,n) at the perturbed commands

@@ -68,7 +68,7 @@ def model_to_dict(model) -> dict:
         "machine": {"name": m.name, "source": m.source, "urdf_sha256": hashlib.sha256(m.urdf_xml.encode()).hexdigest(),
                     "axes": [{"name": a.name, "kind": a.kind, "unit": a.unit, "lower": a.lower_user, "upper": a.upper_user}
                              for a in m.axes],
-                    "urdf": m.urdf_xml},
+                    "urdf": m.urdf_xml, "load_options": m.load_options},
         "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind,
                   "axis_bases": [basis_to_dict(a, B) for a, B in zip(m.axes, model.bases)],
                   "tool_lengths_mm": None if model.tool_lengths is None else [t * 1e3 for t in model.tool_lengths],
@@ -141,7 +141,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     xml = md["urdf"]
     if hashlib.sha256(xml.encode()).hexdigest() != md["urdf_sha256"]:
         raise ModelFileError(path, "the embedded URDF does not match its checksum", "machine.urdf")
-    machine = Machine.from_urdf_string(xml, source=md.get("source", md["name"]))
+    machine = Machine.from_urdf_string(xml, source=md.get("source", md["name"]), **md.get("load_options", {}))
     spec = d["model"]
     bases = None
     if spec["basis"] == "custom":

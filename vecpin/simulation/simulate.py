@@ -20,6 +20,7 @@ from vecpin.errors import VecpinError
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.effects import EffectSpec
+from vecpin.planning.zones import parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported here)
 from vecpin.simulation.truth import TrueMachine
 
 PAPER_I_TOOLS_MM = (214.88, 312.86)
@@ -73,25 +74,8 @@ def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: 
 
 
 def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
-    lo = machine.lower.copy() - 1.0
-    hi = machine.upper.copy() + 1.0
-    for name, (a, b) in zone.items():
-        ax = machine.axis(name)
-        lo[ax.index], hi[ax.index] = sorted((float(ax.to_si(a)), float(ax.to_si(b))))
-    return lo, hi
-
-
-def parse_zone(text: str) -> dict[str, tuple[float, float]]:
-    """'X=0:500,B=-111:-80' -> {'X': (0, 500), 'B': (-111, -80)} (mm/deg)."""
-    zone = {}
-    for part in text.split(","):
-        try:
-            name, rng_ = part.split("=")
-            a, b = rng_.split(":")
-            zone[name.strip()] = (float(a), float(b))
-        except ValueError:
-            raise VecpinError(f"exclusion zone '{text}': write AXIS=LO:HI[,AXIS=LO:HI...] in mm/deg") from None
-    return zone
+    """(low, high) [m, rad] of an exclusion zone (see :func:`vecpin.planning.zones.zone_bounds`)."""
+    return zone_bounds(machine, zone)
 
 
 def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
@@ -133,16 +117,24 @@ class Simulation:
     campaign: Campaign
     validation: Campaign
     validation_truth: Campaign
+    compensated: Campaign | None = None        # the validation commands run through the tables (noisy)
+    compensated_truth: Campaign | None = None  # the same, noise-free
 
     def write(self, out_dir: str | Path) -> dict[str, Path]:
         """campaign.csv, validation.csv, validation_truth.csv and truth.json, committed together."""
         m = self.truth.machine
         names = {"campaign": "campaign.csv", "validation": "validation.csv",
                  "validation_truth": "validation_truth.csv", "truth": "truth.json"}
+        if self.compensated is not None:
+            names |= {"validation_compensated": "validation_compensated.csv",
+                      "validation_compensated_truth": "validation_compensated_truth.csv"}
         with OutputSet(out_dir) as out:
             write_campaign(out.path(names["campaign"]), self.campaign, m)
             write_campaign(out.path(names["validation"]), self.validation, m)
             write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
+            if self.compensated is not None:
+                write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
+                write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
             self.truth.save(out.path(names["truth"]))
         return {k: out.final(v) for k, v in names.items()}
 
@@ -192,23 +184,44 @@ def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
-             effects: list | None = None, **truth_options) -> Simulation:
+             effects: list | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None, tables=None,
+             tracker_position: np.ndarray | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
     (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
     to their strength on this campaign; the validation files carry them too (except
-    gross errors)."""
+    gross errors).
+
+    ``plan``: (commands (N,n) [m, rad], tool lengths (N,) [m]) measured in that order
+    instead of the design's commands (a plan's template measured as if for real).
+    ``tables``: a :class:`~vecpin.compensation.tables.TableSet`; the validation commands
+    are then also run on the true machine through the tables (compensated command =
+    command + table increments, eq. 15) and measured: ``compensated`` (noisy) and
+    ``compensated_truth`` (noise-free). The rows keep the programmed commands; the
+    controller's gauge-line change belongs to the tables, not to the files. The other
+    outputs are the same with or without ``tables``. ``tracker_position`` (3,) [m],
+    machine frame: where the tracker stands (as planned), keeping its random heading."""
     from vecpin.measurement.features import Features
     design = design or Design()
     rng = np.random.default_rng(seed)
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
+    if tracker_position is not None:
+        from vecpin.measurement.tracker import Tracker
+        R = truth.tracker.rotation
+        truth.tracker = Tracker(R, -R @ np.asarray(tracker_position, float), truth.tracker.noise)
     if effects:
         truth.effects = [e.build(machine) if isinstance(e, EffectSpec) else e for e in effects]
-    q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
     tools = np.asarray(design.tools_mm, float) * 1e-3
-    qs = np.vstack([q] * len(tools))
-    tool = np.repeat(tools, len(q))
-    if design.repeat_points and design.repeat_times:
+    if plan is not None:
+        qs, tool = np.atleast_2d(np.asarray(plan[0], float)), np.asarray(plan[1], float)
+        if len(qs) != len(tool) or qs.shape[1:] != (machine.n_axes,):
+            raise VecpinError("a plan gives one command per row (N, n axes) and one tool length per row")
+        tools = tool[:1]  # the validation run uses the plan's first holder
+    else:
+        q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
+        qs = np.vstack([q] * len(tools))
+        tool = np.repeat(tools, len(q))
+    if plan is None and design.repeat_points and design.repeat_times:
         pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]
         seqs = [pick[rng.permutation(len(pick))] for _ in range(design.repeat_times)]
         qs = np.vstack([qs] + seqs)
@@ -232,5 +245,15 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
                           f"simulated seed {seed}, validation")
     exact = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, None, feats_v), dict(extra_v),
                      f"simulated seed {seed}, noise-free")
+    comp = comp_exact = None
+    if tables is not None:  # after everything else: the other outputs do not change
+        qc = tables.apply(qv)
+        times_c = measurement_times(qv, machine, design, start=times_v[-1] + 600.0)
+        extra_c = {"time": times_c, "temperature": workshop_temperature(times_c, rng)}
+        feats_c = Features.from_campaign(Campaign(machine.axis_names, qc, tv, np.zeros((len(qv), 3)), extra_c))
+        comp = Campaign(machine.axis_names, qv, tv, truth.measure(qc, tv, rng, feats_c), extra_c,
+                        f"simulated seed {seed}, validation with the tables")
+        comp_exact = Campaign(machine.axis_names, qv, tv, truth.measure(qc, tv, None, feats_c), dict(extra_c),
+                              f"simulated seed {seed}, validation with the tables, noise-free")
     truth.effects = all_effects
-    return Simulation(truth, campaign, validation, exact)
+    return Simulation(truth, campaign, validation, exact, comp, comp_exact)

@@ -76,19 +76,60 @@ def compensation_grid(machine: Machine, solutions: dict, path, n: int = 200) -> 
     return path
 
 
-def residual_histograms(errors_mm: dict, path, bins: int = 40) -> Path:
-    """Histograms of volumetric errors |e| [mm], one per label (e.g. nominal, 6-DoF, AP)."""
-    fig, ax = plt.subplots(figsize=(7, 3.6))
-    hi = max(float(np.max(v)) for v in errors_mm.values())
-    edges = np.linspace(0, hi, bins + 1)
-    for j, (label, d) in enumerate(errors_mm.items()):
-        d = np.asarray(d)
-        ax.hist(d, bins=edges, alpha=0.55, color=COLORS[j % len(COLORS)],
-                label=f"{label}: mean {d.mean():.3f}, max {d.max():.3f} mm")
-    ax.set_xlabel("volumetric error [mm]")
-    ax.set_ylabel("measurements")
-    ax.legend(fontsize=8)
+def histogram_layout(errors_mm: dict, max_bins: int = 40, ratio: float = 4.0) -> list[tuple[list[str], np.ndarray]]:
+    """Panels and bin edges for histograms of series of very different size: series whose
+    largest value is within ``ratio`` of a panel's largest share that panel; each panel
+    has its own bins from 0 to its largest value (about 2 sqrt(n) bins, 8 .. ``max_bins``),
+    so a model residual ten times smaller than the uncompensated error is not squeezed
+    into one or two bars. Returns [(labels, edges)] from the largest series down."""
+    items = sorted(errors_mm.items(), key=lambda kv: -float(np.max(kv[1])))
+    panels: list[list[str]] = []
+    tops: list[float] = []
+    for label, d in items:
+        top = float(np.max(d))
+        if panels and top * ratio >= tops[-1]:
+            panels[-1].append(label)
+        else:
+            panels.append([label])
+            tops.append(top)
+    out = []
+    for labels, top in zip(panels, tops):
+        n = max(len(errors_mm[k]) for k in labels)
+        bins = int(np.clip(2 * np.sqrt(n), 8, max_bins))
+        out.append((labels, np.linspace(0.0, top * 1.02 if top > 0 else 1.0, bins + 1)))
+    return out
+
+
+def residual_histograms(errors_mm: dict, path, bins: int = 40, title: str = "", predicted: dict | None = None) -> Path:
+    """Histograms of volumetric errors |e| [mm], one series per label (Paper I Fig. 9:
+    nominal, 6-DoF, AP; Fig. 11: compensated). Series of very different size get panels
+    of their own with their own bins (:func:`histogram_layout`). ``predicted``: label ->
+    predicted distances [mm], drawn as a dashed line at their mean."""
+    layout = histogram_layout(errors_mm, bins)
+    fig, axs = plt.subplots(len(layout), 1, figsize=(7, 2.5 + 1.7 * len(layout)), squeeze=False)
+    names = list(errors_mm)
+    for ax, (labels, edges) in zip(axs[:, 0], layout):
+        for label in labels:
+            j = names.index(label)
+            d = np.asarray(errors_mm[label])
+            ax.hist(d, bins=edges, alpha=0.55, color=COLORS[j % len(COLORS)],
+                    label=f"{label}: mean {d.mean():.3f}, max {d.max():.3f} mm (n={d.size})")
+            if predicted and label in predicted:
+                pm = float(np.mean(predicted[label]))
+                ax.axvline(pm, color=COLORS[j % len(COLORS)], ls="--", lw=1.2,
+                           label=f"{label}: model-predicted mean {pm:.3f} mm")
+        ax.set_xlabel(f"volumetric error [mm] (bin width {(edges[1] - edges[0]) * 1e3:.1f} µm)")
+        ax.set_ylabel("measurements")
+        ax.legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
     return _save(fig, path)
+
+
+def before_after_histograms(measured_mm: dict, predicted_mm: dict, path, title: str = "") -> Path:
+    """Paper I Fig. 11: measured validation errors of runs before and after compensation,
+    each with the model-predicted mean beside it when given."""
+    return residual_histograms(measured_mm, path, title=title, predicted=predicted_mm or None)
 
 
 def order_sweep_figure(sweeps: list, path) -> Path:
@@ -107,12 +148,21 @@ def order_sweep_figure(sweeps: list, path) -> Path:
     return _save(fig, path)
 
 
+def _nice(x: float) -> float:
+    """A round number (1, 2 or 5 times a power of ten) near x > 0."""
+    e = 10 ** np.floor(np.log10(x))
+    return float(min((1, 2, 5, 10), key=lambda m: abs(m * e - x)) * e)
+
+
 def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] = ("X", "Y"), n: int = 12,
                       fixed: dict | None = None, tool: float = 0.25, title: str = "") -> Path:
-    """Errors on a grid of two linear axes (others at ``fixed`` or mid-travel) as vectors
-    in that plane, coloured by the full 3D size. ``errors_fn(q, tool) -> (N,3) [m]``."""
+    """Errors on a grid of two linear axes (others at ``fixed`` or mid-travel, rotary axes
+    at 0) as vectors in that plane, coloured by the full 3D size [mm], with an arrow-scale
+    key; the title says which axes and tool length [m] the grid holds fixed.
+    ``errors_fn(q, tool) -> (N,3) [m]``."""
     a, b = machine.axis(plane[0]), machine.axis(plane[1])
-    q0 = np.array([(ax.lower + ax.upper) / 2 if ax.kind == "linear" else 0.0 for ax in machine.axes])
+    q0 = np.array([(ax.lower + ax.upper) / 2 if ax.kind == "linear" else min(max(0.0, ax.lower), ax.upper)
+                   for ax in machine.axes])
     for k, v in (fixed or {}).items():
         q0[machine.axis(k).index] = machine.axis(k).to_si(v)
     u = np.linspace(a.lower, a.upper, n)
@@ -122,12 +172,19 @@ def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] 
     q[:, a.index], q[:, b.index] = U.ravel(), V.ravel()
     e = errors_fn(q, np.full(len(q), tool)) * 1e3
     size = np.linalg.norm(e, axis=1)
-    fig, ax = plt.subplots(figsize=(7, 4.8))
+    fig, ax = plt.subplots(figsize=(7, 5.0))
     qv = ax.quiver(a.to_user(U.ravel()), b.to_user(V.ravel()), e[:, 0], e[:, 1], size, cmap="turbo", angles="xy")
-    fig.colorbar(qv, ax=ax, label="volumetric error [mm]")
+    fig.colorbar(qv, ax=ax, label="volumetric error [mm] (3D length)", shrink=0.75)
+    key = _nice(float(np.percentile(np.hypot(e[:, 0], e[:, 1]), 90)) or 1e-3)
+    ax.quiverkey(qv, X=0.03, Y=1.03, U=key, label=f"arrow key: {key:g} mm (in-plane component)",
+                 labelpos="E", coordinates="axes", fontproperties={"size": 7})
+    held = ", ".join(f"{ax_.name} = {ax_.to_user(q0[ax_.index]):.1f} {ax_.unit}" for ax_ in machine.axes
+                     if ax_.name not in (a.name, b.name))
+    held = (held + ", " if held else "") + f"tool {tool * 1e3:.1f} mm"
     ax.set_xlabel(f"{a.name} [{a.unit}]")
     ax.set_ylabel(f"{b.name} [{b.unit}]")
-    ax.set_title(title or f"errors in the {a.name}{b.name} plane (arrows: in-plane components)", fontsize=9)
+    ax.set_title((title or f"errors in the {a.name}{b.name} plane") + f"\nheld fixed: {held}", fontsize=8, loc="left",
+                 pad=16)
     ax.set_aspect("equal", adjustable="box")
     return _save(fig, path)
 
@@ -171,3 +228,74 @@ def ga_convergence_figure(histories: dict, path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def _pairs(machine: Machine) -> list[tuple[int, int]]:
+    n = machine.n_axes
+    if n == 1:
+        return [(0, 0)]
+    pairs = [(0, 1)]
+    if n >= 3:
+        pairs.append((0, 2) if n == 3 else (1, 2))
+    if n >= 4:
+        pairs.append((n - 2, n - 1))
+    return pairs
+
+
+def plan_figure(plan, path, max_removed: int = 1500) -> Path:
+    """Paper I Fig. 6: where the planned commands lie in axis space, and where candidates
+    were removed for collision avoidance (exclusion zones, "CA") and line of sight
+    ("LoS"); last panel: the tool tips seen from above with the tracker position."""
+    m = plan.machine
+    pairs = _pairs(m)
+    cols = len(pairs) + 1
+    fig, axs = plt.subplots(1, cols, figsize=(4.2 * cols, 4.0), squeeze=False)
+    axs = axs[0]
+    rng = np.random.default_rng(0)
+    ca = np.flatnonzero(plan.removed == "exclusion")
+    los = np.flatnonzero(plan.removed == "sight")
+    ca = ca if len(ca) <= max_removed else np.sort(rng.choice(ca, max_removed, replace=False))
+    los = los if len(los) <= max_removed else np.sort(rng.choice(los, max_removed, replace=False))
+    qu = m.to_user(plan.candidates)
+    cu = m.to_user(plan.commands)
+    for ax, (i, j) in zip(axs, pairs):
+        ai, aj = m.axes[i], m.axes[j]
+        ax.scatter(qu[ca, i], qu[ca, j], s=9, marker="x", color="tab:orange", lw=0.7, alpha=0.7,
+                   label=f"removed: collision avoidance ({(plan.removed == 'exclusion').sum()})")
+        ax.scatter(qu[los, i], qu[los, j], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.7,
+                   label=f"removed: line of sight ({(plan.removed == 'sight').sum()})")
+        ax.scatter(cu[:, i], cu[:, j], s=14, color="tab:blue", edgecolor="k", lw=0.3,
+                   label=f"planned ({len(cu)} commands)")
+        ax.set_xlabel(f"{ai.name} [{ai.unit}]")
+        ax.set_ylabel(f"{aj.name} [{aj.unit}]")
+        ax.set_xlim(ai.lower_user, ai.upper_user)
+        ax.set_ylim(aj.lower_user, aj.upper_user)
+        ax.grid(alpha=0.3)
+    handles, labels = axs[0].get_legend_handles_labels()
+    ax = axs[-1]
+    L = float(plan.tools[0])
+    tips = m.tool_tip(plan.commands, L) * 1e3
+    lt = m.tool_tip(plan.candidates[los], L) * 1e3 if len(los) else np.zeros((0, 3))
+    ax.scatter(lt[:, 0], lt[:, 1], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.6)
+    ax.scatter(tips[:, 0], tips[:, 1], s=12, color="tab:blue", edgecolor="k", lw=0.3)
+    tr = plan.tracker * 1e3
+    ax.scatter([tr[0]], [tr[1]], s=160, marker="^", color="k", label="tracker")
+    ax.annotate(f"tracker\n({tr[0]:.0f}, {tr[1]:.0f}, {tr[2]:.0f}) mm", tr[:2], textcoords="offset points",
+                xytext=(8, 6), fontsize=7)
+    ax.set_xlabel("tool tip x [mm] (machine frame)")
+    ax.set_ylabel("tool tip y [mm]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title(f"tool tips from above, holder {L * 1e3:.2f} mm", fontsize=8)
+    ax.grid(alpha=0.3)
+    c = plan.counts()
+    fig.suptitle(f"Measurement plan for {m.name}: {len(cu)} commands from {c['candidates']} candidates "
+                 f"({c['exclusion']} in exclusion zones, {c['sight']} out of sight)  (Paper I Fig. 6)", fontsize=9)
+    handles.append(ax.collections[-1])
+    labels.append("tracker position")
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.95))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return path

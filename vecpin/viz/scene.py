@@ -7,17 +7,21 @@ The scene (machine base frame, metres):
   measured points are mapped into the machine frame through the fitted tracker pose;
 * ``/vecpin/errors``: measured minus nominal, ``/vecpin/residuals``: measured minus
   identified, ``/vecpin/compensated``: the model-predicted error left by the
-  compensation tables - all drawn from the nominal tip, exaggerated by a factor and
-  coloured by size (blue small, red large);
+  compensation tables - all drawn from the nominal tip, each group exaggerated by its
+  own factor and coloured by size on its own scale (blue 0, red its largest vector);
+  one group is visible at a time (meshcat's ``visible`` property);
 * ``/vecpin/tracker``: the tracker's pose; ``/vecpin/selected``: the selected row.
 
 Every group is a node of meshcat's scene tree, so each can be switched on and off in
 the viewer. :class:`RecordingWindow` records the commands instead of sending them to a
 server: :func:`static_html` turns them into one self-contained page (no server, port
-or subprocess) that can be mailed.
+or subprocess) that can be mailed; its overlay lists the groups (one shown at a time)
+with their exaggeration and a colour bar in mm.
 """
 from __future__ import annotations
 
+import html
+import json
 import warnings
 from pathlib import Path
 
@@ -62,17 +66,23 @@ class RecordingWindow:
     def paths(self, kind: str | None = None) -> list[str]:
         return [k[1] for k in self.commands if kind is None or k[0] == kind]
 
-    def static_html(self, title: str = "vecpin") -> str:
+    def static_html(self, title: str = "vecpin", legend: str | None = None) -> str:
+        """One self-contained page with the recorded scene; ``legend``: HTML of an overlay
+        (default: the title in a box)."""
         root, create_command = _server_helpers()
         js = Path(root, "main.min.js").read_text()
         cmds = "".join(create_command(b) for b in self.commands.values())
+        overlay = legend if legend is not None else f'<div id="vecpin-legend">{html.escape(title)}</div>'
         return f"""<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>{title}</title>
+<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body {{margin: 0;}} #meshcat-pane {{width: 100vw; height: 100vh; overflow: hidden;}}
-#vecpin-legend {{position: absolute; left: 10px; bottom: 10px; font: 12px sans-serif; background: rgba(255,255,255,0.85);
-padding: 6px 8px; border-radius: 4px;}}</style></head>
+#vecpin-legend {{position: absolute; left: 10px; top: 10px; font: 12px sans-serif; background: rgba(255,255,255,0.92);
+padding: 8px 10px; border-radius: 4px; max-width: 380px; border: 1px solid #888;}}
+#vecpin-legend .bar {{width: 260px; height: 14px; border: 1px solid #444; margin-top: 4px;}}
+#vecpin-legend .ticks {{width: 262px; display: flex; justify-content: space-between; font-size: 11px;}}
+#vecpin-legend label {{display: block; margin: 2px 0;}}</style></head>
 <body><div id="meshcat-pane"></div>
-<div id="vecpin-legend">{title}</div>
+{overlay}
 <script>{js}</script>
 <script>var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 {cmds}</script>
@@ -100,11 +110,32 @@ def _points(p: np.ndarray, color: np.ndarray | tuple, size: float) -> g.Points:
                     g.PointsMaterial(size=size))  # meshcat points always use vertex colours
 
 
-def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0, exaggerate: float | None = None,
-                tables=None) -> dict:
+GROUPS = {  # group -> (legend text, scene nodes it shows)
+    "errors": ("measured − nominal (uncompensated errors), with measured and identified tips",
+               ("errors", "measured", "identified")),
+    "residuals": ("measured − identified (model residuals)", ("residuals",)),
+    "compensated": ("error left by the compensation tables (model-predicted)", ("compensated",)),
+}
+
+
+def _exaggeration(exaggerate, group: str, span: float, largest: float) -> float:
+    if isinstance(exaggerate, dict) and group in exaggerate:
+        return float(exaggerate[group])
+    if isinstance(exaggerate, (int, float)):
+        return float(exaggerate)
+    return 0.08 * span / max(largest, 1e-12)  # the largest vector: 8 % of the workspace
+
+
+def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0, exaggerate=None,
+                tables=None, show: str = "errors") -> dict:
     """Fill ``vis`` with the machine and the campaign's tips and errors. ``model``: a
     fitted error model; ``tables``: a TableSet for the compensated view (optional).
-    Returns facts of the scene (exaggeration, largest error, counts)."""
+
+    Each vector group (:data:`GROUPS`) has its own exaggeration (``exaggerate``: one
+    factor for all, {group: factor}, or None: the group's largest vector drawn at 8 %
+    of the workspace) and its own colour scale (blue 0 .. red at its largest vector);
+    only the group ``show`` is visible at first. Returns facts of the scene, with
+    ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
     m: Machine = model.machine
     campaign = campaign.primary()  # the rows the fitted tracker pose describes
     row = min(row, len(campaign) - 1)
@@ -112,32 +143,42 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     _machine_geometry(vis, m, campaign.q[row])
     nominal = m.tool_tip(campaign.q, campaign.tool)
     identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
-    measured = _to_machine(model, campaign.xyz)
+    measured = to_machine_frame(model, campaign.xyz)
     err = measured - nominal
     res = measured - identified
-    size = np.linalg.norm(err, axis=1)
-    span = float(np.linalg.norm(np.ptp(nominal, axis=0)))
-    k = exaggerate if exaggerate is not None else 0.08 * span / max(size.max(), 1e-12)
-    vmax = float(size.max())
-    root = vis["vecpin"]
-    pt = 0.012 * span / 6
-    root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
-    root["measured"].set_object(_points(nominal + k * err, error_colors(size, vmax), 1.6 * pt))
-    root["identified"].set_object(_points(nominal + k * (identified - nominal), (0.15, 0.35, 0.9), pt))
-    root["errors"].set_object(_segments(nominal, k * err, error_colors(size, vmax)))
-    root["residuals"].set_object(_segments(identified + (k - 1) * (identified - nominal) * 0, k * res,
-                                           error_colors(np.linalg.norm(res, axis=1), vmax)))
-    facts = {"exaggeration": k, "max_error_mm": vmax * 1e3, "rows": len(campaign),
-             "max_residual_mm": float(np.linalg.norm(res, axis=1).max() * 1e3)}
+    vectors = {"errors": err, "residuals": res}
     if tables is not None:
         from vecpin.compensation.functions import compensated_errors, model_as_actual
-        comp = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
-        csize = np.linalg.norm(comp, axis=1)
-        root["compensated"].set_object(_segments(nominal, k * comp, error_colors(csize, vmax)))
-        facts["max_compensated_mm"] = float(csize.max() * 1e3)
+        vectors["compensated"] = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
+    if show not in vectors:
+        from vecpin.errors import InputError
+        raise InputError(f"--show {show}: one of {', '.join(vectors)}")
+    span = float(np.linalg.norm(np.ptp(nominal, axis=0)))
+    root = vis["vecpin"]
+    pt = 0.012 * span / 6
+    groups = []
+    for name, vec in vectors.items():
+        size = np.linalg.norm(vec, axis=1)
+        vmax = float(size.max())
+        k = _exaggeration(exaggerate, name, span, vmax)
+        col = error_colors(size, vmax)
+        root[name].set_object(_segments(nominal, k * vec, col))
+        if name == "errors":
+            root["measured"].set_object(_points(nominal + k * err, col, 1.6 * pt))
+            root["identified"].set_object(_points(nominal + k * (identified - nominal), (0.15, 0.35, 0.9), pt))
+        for node in GROUPS[name][1]:
+            root[node].set_property("visible", name == show)
+        groups.append({"name": name, "label": GROUPS[name][0], "exaggeration": k, "max_mm": vmax * 1e3,
+                       "visible": name == show})
+    root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
+    g0 = groups[0]
+    facts = {"exaggeration": g0["exaggeration"], "max_error_mm": g0["max_mm"], "rows": len(campaign),
+             "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": row}
+    if tables is not None:
+        facts["max_compensated_mm"] = groups[2]["max_mm"]
     sel = root["selected"]
     sel.set_object(g.Sphere(0.025 * span / 6), g.MeshLambertMaterial(color=0xFFD400))
-    sel.set_transform(tf.translation_matrix(nominal[row] + k * err[row]))
+    sel.set_transform(tf.translation_matrix(nominal[row] + g0["exaggeration"] * err[row]))
     _tracker(root["tracker"], model, span)
     # the viewer orbits the origin: bring the workspace centre there
     centre = 0.5 * (nominal.min(axis=0) + nominal.max(axis=0))
@@ -148,6 +189,43 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     return facts
 
 
+def _gradient_css(n: int = 11) -> str:
+    cols = error_colors(np.linspace(0, 1, n), 1.0).T
+    stops = ", ".join(f"rgb({int(r * 255)},{int(g_ * 255)},{int(b * 255)}) {100 * k / (n - 1):.0f}%"
+                      for k, (r, g_, b) in enumerate(cols))
+    return f"linear-gradient(to right, {stops})"
+
+
+def legend_html(title: str, groups: list[dict]) -> str:
+    """The overlay of a static scene: the groups as radio buttons (one shown at a time),
+    each with its exaggeration and a colour bar in mm; always-shown items listed."""
+    grad = _gradient_css()
+    rows, bars = [], []
+    for gr in groups:
+        checked = " checked" if gr["visible"] else ""
+        rows.append(f'<label><input type="radio" name="vecpin-group" value="{gr["name"]}"{checked} '
+                    f'onchange="vecpinShow(this.value)"> {html.escape(gr["label"])}, '
+                    f'×{gr["exaggeration"]:.0f}</label>')
+        vmax = gr["max_mm"]
+        bars.append(f'<div class="vecpin-bar" id="vecpin-bar-{gr["name"]}" style="display:'
+                    f'{"block" if gr["visible"] else "none"}"><div>colour: length of the {gr["name"]} vectors [mm]'
+                    f'</div><div class="bar" style="background: {grad};"></div><div class="ticks"><span>0</span>'
+                    f'<span>{vmax / 2:.3f}</span><span>{vmax:.3f} mm</span></div></div>')
+    nodes = {gr["name"]: [f"meshcat/vecpin/{n}".split("/") for n in GROUPS[gr["name"]][1]] for gr in groups}
+    script = f"""<script>var vecpinNodes = {json.dumps(nodes)};
+function vecpinShow(name) {{
+  for (const g in vecpinNodes) {{
+    for (const p of vecpinNodes[g]) {{ viewer.set_property(p, "visible", g === name); }}
+    document.getElementById("vecpin-bar-" + g).style.display = (g === name) ? "block" : "none";
+  }}
+  viewer.set_dirty();  // the viewer draws only when told that something changed
+}}</script>"""
+    return (f'<div id="vecpin-legend"><div><b>{html.escape(title)}</b></div><div>show one group:</div>'
+            + "".join(rows) + "".join(bars) +
+            '<div style="margin-top:4px;color:#444">always shown: nominal tips (grey), the selected row (yellow), '
+            "the tracker (grey sphere with axes)</div></div>" + script)
+
+
 def _features(model, campaign):
     if not model.effects:
         return None
@@ -155,8 +233,8 @@ def _features(model, campaign):
     return Features.from_campaign(campaign)
 
 
-def _to_machine(model, xyz: np.ndarray) -> np.ndarray:
-    """Tracker-frame points into the machine frame through the fitted pose and E_0."""
+def to_machine_frame(model, xyz: np.ndarray) -> np.ndarray:
+    """Tracker-frame points (N,3) [m] into the machine frame through the fitted pose and E_0."""
     from vecpin.kinematics.so3 import exp3
     s = model.setup_
     p = (xyz - s.t) @ s.R  # R^T (y - t)
@@ -176,7 +254,7 @@ def _tracker(node, model, span: float) -> None:
     from vecpin.kinematics.so3 import exp3
     s = model.setup_
     R = exp3(s.e0[3:]).T @ s.R.T  # tracker axes in the machine frame
-    pos = _to_machine(model, np.zeros((1, 3)))[0]
+    pos = to_machine_frame(model, np.zeros((1, 3)))[0]
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R, pos
     node.set_transform(T)
@@ -186,27 +264,35 @@ def _tracker(node, model, span: float) -> None:
     node["axes"].set_object(g.triad(0.3))
 
 
-def write_html(path: str | Path, model, campaign: Campaign, row: int = 0, exaggerate: float | None = None,
-               tables=None) -> dict:
-    """A self-contained scene page (no server needed)."""
+def write_html(path: str | Path, model, campaign: Campaign, row: int = 0, exaggerate=None,
+               tables=None, show: str = "errors") -> dict:
+    """A self-contained scene page (no server needed) with the legend and colour bars."""
     window = RecordingWindow()
     vis = meshcat.Visualizer(window=window)
-    facts = build_scene(vis, model, campaign, row, exaggerate, tables)
-    title = (f"vecpin: {model.machine.name}, {model.kind} model; errors x{facts['exaggeration']:.0f} "
-             f"(largest {facts['max_error_mm']:.3f} mm; blue small, red large); row {row} in yellow")
-    write_text(path, window.static_html(title))
+    facts = build_scene(vis, model, campaign, row, exaggerate, tables, show)
+    title = f"vecpin: {model.machine.name}, {model.kind} model, row {facts['row']} posed"
+    write_text(path, window.static_html(title, legend_html(title, facts["groups"])))
     facts["commands"] = len(window.commands)
     return facts
 
 
-def serve(model, campaign: Campaign, row: int = 0, exaggerate: float | None = None, tables=None,
-          ready=None) -> None:
+def legend_lines(facts: dict) -> list[str]:
+    """The legend as text (for the live server, whose page has no overlay)."""
+    out = []
+    for gr in facts["groups"]:
+        out.append(f"  /vecpin/{gr['name']:<12s} {gr['label']}: x{gr['exaggeration']:.0f}, colour 0 .. "
+                   f"{gr['max_mm']:.3f} mm (blue .. red){'  [shown]' if gr['visible'] else ''}")
+    return out
+
+
+def serve(model, campaign: Campaign, row: int = 0, exaggerate=None, tables=None,
+          ready=None, show: str = "errors") -> None:
     """Start a meshcat server with the scene and keep it until Ctrl-C; ``ready(url, facts)``
     is called once the scene is up. The server process is killed on the way out."""
     import time
     vis = meshcat.Visualizer()
     try:
-        facts = build_scene(vis, model, campaign, row, exaggerate, tables)
+        facts = build_scene(vis, model, campaign, row, exaggerate, tables, show)
         if ready:
             ready(vis.url(), facts)
         while True:

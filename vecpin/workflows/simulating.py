@@ -18,6 +18,8 @@ class SimulationRun:
     design: Design
     paths: dict[str, Path]
     seed: int = 0
+    planned: bool = False
+    gauge_change: float = 0.0  # m, the tables' T_offset change (compensated run)
 
     def lines(self) -> list[str]:
         sim, design = self.simulation, self.design
@@ -31,19 +33,30 @@ class SimulationRun:
             more = (f" + {len(full) - len(c)} rows of {design.stations - 1} more stations and "
                     f"{full.ballbar_rows.size} ball bar rows")
         dist = np.linalg.norm(c.xyz, axis=1)
-        out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({design.n_commands} commands x "
-               f"{len(design.tools_mm)} tools {', '.join(f'{t:g}' for t in design.tools_mm)} mm), "
+        what = (f"the plan's rows in its order, holders {', '.join(f'{t * 1e3:g}' for t in c.tool_lengths())} mm"
+                if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "
+                f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
+        out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
                f"{len(sim.validation)} validation rows",
                error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * 1e3),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * 1e3),
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
+        if sim.compensated is not None:
+            v, cv = sim.validation, sim.compensated
+            out.append(error_summary("validation run, uncompensated", registered_errors(
+                m.tool_tip(v.q, v.tool), v.xyz) * 1e3))
+            out.append(error_summary("validation run through the tables", registered_errors(
+                m.tool_tip(cv.q, cv.tool + self.gauge_change), cv.xyz) * 1e3))
         out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
         return out
 
 
 def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design: Design | None = None,
                     effects: list | None = None, **truth_options) -> SimulationRun:
-    """Simulate a campaign (see :func:`vecpin.simulation.simulate.simulate`) and write its files."""
+    """Simulate a campaign (see :func:`vecpin.simulation.simulate.simulate`; ``plan``,
+    ``tables``, ``truth`` and the truth options pass through) and write its files."""
     design = design or Design()
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
-    return SimulationRun(sim, design, sim.write(out_dir), seed)
+    tables = truth_options.get("tables")
+    return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,
+                         0.0 if tables is None else tables.gauge_offset_change)

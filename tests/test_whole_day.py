@@ -1,0 +1,96 @@
+"""The whole day end to end: the example (examples/whole_day.py) at a small size, and the
+same chain through the command line. Plan -> the plan measured on a simulated true
+machine -> a foreign export (semicolon, decimal comma, inches, renamed columns) ->
+import -> fit -> tables -> the compensated machine -> verify, beside Paper I Table 3."""
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gcode import parse
+from vecpin.cli import main
+from vecpin.compensation.functions import compensated_errors, truth_as_actual
+from vecpin.measurement.campaign import read_campaign
+from vecpin.measurement.plantemplate import read_template
+from vecpin.units import norm_mm
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "whole_day.py"
+
+
+@pytest.fixture(scope="module")
+def day(tmp_path_factory):
+    spec = importlib.util.spec_from_file_location("whole_day", EXAMPLE)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = tmp_path_factory.mktemp("day")
+    return out, mod.run(out, points=60, order=3, seed=3, say=lambda s: None)
+
+
+def test_import_recovers_what_was_measured(day, flow):
+    out, r = day
+    sim, imp = r["simulation"], r["imported"]
+    assert (imp.delimiter, imp.decimal, imp.units) == (";", ",", "in")
+    assert imp.unmeasured == [18, 19]  # the two rows the export left out
+    keep = np.setdiff1d(np.arange(len(sim.campaign)), [17, 18])
+    np.testing.assert_allclose(imp.campaign.xyz, sim.campaign.xyz[keep], atol=1e-6 * 25.4e-3)
+    np.testing.assert_allclose(imp.campaign.q, sim.campaign.q[keep])
+    np.testing.assert_allclose(imp.campaign.temperature, sim.campaign.temperature[keep], atol=1e-3)
+    c = read_campaign(out / "campaign.csv", flow)
+    np.testing.assert_allclose(c.xyz, imp.campaign.xyz, atol=1e-9)
+
+
+def test_the_plan_program_drives_the_measured_rows(day, flow):
+    out, r = day
+    t = read_template(out / "plan" / "plan.csv", flow)
+    axes = {a.name: (a.lower_user, a.upper_user) for a in flow.axes}
+    prog = parse((out / "plan" / "PLAN_840D.MPF").read_text(), "siemens-840d", axes)
+    g1 = np.array([[mv[1][a] for a in flow.axis_names] for mv in prog.moves if mv[0] == 1])
+    np.testing.assert_allclose(g1, flow.to_user(r["simulation"].campaign.q), atol=5e-4)
+    assert len(t) == len(g1)
+
+
+def test_decision_and_verification_beside_the_seed(day, flow):
+    out, r = day
+    a, v = r["assessment"], r["verification"]
+    assert a.verdict == "worthwhile" and a.long_mm is not None
+    # Paper I Table 3: -93.1 % (6-DoF) and -92.2 % (AP) of the mean; a small simulated campaign gets close
+    assert v.reduction("mean") > 75.0
+    assert v.after.measured.mean() < 0.1 and v.before.measured.mean() > 0.3
+    # the measured compensated run against the truth seen through the same tables (noise-free)
+    after = r["after"]
+    truth_d = norm_mm(compensated_errors(truth_as_actual(r["truth"]), flow, r["tables"], after.validation.q,
+                                         after.validation.tool, register=True))
+    assert v.after.measured.mean() == pytest.approx(truth_d.mean(), abs=0.015)
+    js = json.loads((out / "verify" / "verify.json").read_text())
+    assert js["seed_table3"][1]["mean_mm"] == 0.038 and js["compensated"]["label"].startswith("compensated")
+
+
+def test_whole_day_on_the_command_line(tmp_path, capsys, flow):
+    d = tmp_path
+    assert main(["plan", "flow_xyzcb", "--points", "40", "--order", "2", "--candidates", "400", "--repeat", "4", "4",
+                 "--tracker", "3000,-2300,-300", "--out", str(d / "plan"), "--quiet"]) == 0
+    assert main(["simulate", "flow_xyzcb", "--plan", str(d / "plan" / "plan.csv"), "--tracker", "3000,-2300,-300",
+                 "--seed", "8", "--validation", "25", "--out", str(d / "sim")]) == 0
+    # the tracker software's export: tab-separated, decimal comma, inches, its own column names, no point names
+    c = read_campaign(d / "sim" / "campaign.csv", flow)
+    rows = ["Meas X\tMeas Y\tMeas Z\tTime (s)"] + [
+        "\t".join(f"{v:.6f}".replace(".", ",") for v in (*(p * 1000 / 25.4), t)) for p, t in zip(c.xyz, c.time)]
+    (d / "export.txt").write_text("\n".join(rows) + "\n")
+    assert main(["import", str(d / "export.txt"), "--machine", "flow_xyzcb", "--plan", str(d / "plan" / "plan.csv"),
+                 "--out", str(d / "campaign.csv")]) == 0
+    assert main(["assess", str(d / "campaign.csv"), "--machine", "flow_xyzcb", "--session-gap-min", "5"]) == 0
+    assert main(["fit", "flow_xyzcb", str(d / "campaign.csv"), "--model", "ap", "--order", "2", "--spherical",
+                 "--out", str(d / "model.json"), "--quiet"]) == 0
+    assert main(["tables", str(d / "model.json"), "--out", str(d / "tables"), "--quiet"]) == 0
+    assert main(["simulate", "flow_xyzcb", "--truth", str(d / "sim" / "truth.json"), "--plan",
+                 str(d / "plan" / "plan.csv"), "--tracker", "3000,-2300,-300", "--validation", "25", "--tables",
+                 str(d / "tables"), "--out", str(d / "after")]) == 0
+    assert main(["verify", str(d / "after" / "validation.csv"), str(d / "after" / "validation_compensated.csv"),
+                 "--model", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(d / "verify")]) == 0
+    text = capsys.readouterr().out
+    assert "tab-separated, decimal ','" in text and "joined with the plan" in text and "by order" in text
+    assert "coordinates in inches" in text and "WORTHWHILE" in text
+    js = json.loads((d / "verify" / "verify.json").read_text())
+    assert js["reduction_of_mean_pct"] > 60.0

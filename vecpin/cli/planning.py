@@ -1,0 +1,117 @@
+"""``vecpin plan``: choose the commands of a campaign and write the template, NC programs
+and the point-distribution figure."""
+from __future__ import annotations
+
+from vecpin.cli.common import machine, progress
+from vecpin.errors import InputError
+
+
+def parse_floats(text: str, option: str, count: int | None = None) -> tuple[float, ...]:
+    """'1,2,3' -> (1.0, 2.0, 3.0); ``count`` numbers exactly when given."""
+    try:
+        vals = tuple(float(v) for v in str(text).split(","))
+    except ValueError:
+        vals = ()
+    if not vals or (count is not None and len(vals) != count):
+        what = f"{count} numbers" if count else "numbers"
+        raise InputError(f"{option} '{text}': write {what} separated by commas, e.g. "
+                         + ("3000,-2200,-300" if count == 3 else "214.88,312.86"))
+    return vals
+
+
+def plan_noise(args, m):
+    from vecpin.measurement.noise import noise_from_options
+    return noise_from_options(m, "cartesian" if args.cartesian else "spherical",
+                              repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
+                              tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
+
+
+def run_plan(args) -> int:
+    from vecpin.planning.plan import PlanSettings
+    from vecpin.planning.zones import parse_zone
+    from vecpin.workflows.planning import plan_to_dir
+    from vecpin.workflows.tables import parse_axis_map
+    m = machine(args.machine)
+    settings = PlanSettings(
+        n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=args.model, order=args.order,
+        basis=args.basis, noise=plan_noise(args, m),
+        tracker_mm=parse_floats(args.tracker, "--tracker", 3) if args.tracker else None,
+        exclude=[parse_zone(z, "--exclude") for z in args.exclude],
+        zone=parse_zone(args.zone, "--zone") if args.zone else None, method=args.method, approach=args.approach,
+        approach_mm=args.approach_mm, approach_deg=args.approach_deg,
+        repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
+        sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
+        target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
+        candidates=args.candidates, seed=args.seed)
+    run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
+                      dwell_s=args.dwell, feed_mm_min=args.feed, axis_map=parse_axis_map(args.axis_map, m),
+                      compare_with=args.compare, progress=progress(not args.quiet))
+    print("\n".join(run.lines()))
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("plan", help="plan a laser-tracker campaign: D-optimal commands, exclusion zones, line of "
+                       "sight, short travel; writes the campaign template, NC programs and Paper I Fig. 6")
+    s.add_argument("machine", help="bundled machine name or URDF path")
+    s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, plan.png, "
+                   "plan.json)")
+    s.add_argument("--points", type=int, default=100, help="commands to measure, each with every holder length "
+                   "(default 100; Paper I measured 295)")
+    s.add_argument("--tools", default="214.88,312.86", metavar="L1,L2",
+                   help="target holder lengths from the gauge line, mm (default 214.88,312.86 as Paper I)")
+    s.add_argument("--tracker", metavar="X,Y,Z", help="tracker head position in the machine base frame, mm "
+                   "(default: 2 m in front of the tool-tip workspace, at its lowest height)")
+    s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
+                   help="exclusion zone in axis space, mm/deg: commands inside are not measured (collision "
+                        "avoidance); repeatable (default: none)")
+    s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="measurement zone in axis space, mm/deg: plan only "
+                   "inside it (calibration in zones); default: the whole travel")
+    s.add_argument("--model", choices=["ap", "6dof"], default="ap", help="model the campaign is for (default ap)")
+    s.add_argument("--order", type=int, default=6, help="series order of that model (default 6, as Paper I)")
+    s.add_argument("--basis", default="auto", choices=["auto", "chebyshev"],
+                   help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
+    s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",
+                   help="doptimal: greedy D-optimal choice (default); random: at random, as Paper I did")
+    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default max(2000, 10 x points))")
+    s.add_argument("--approach", choices=["below", "above", "both", "none"], default="below",
+                   help="approach every point from below on every axis (default), from above, both (each point "
+                        "twice, to measure backlash), or none")
+    s.add_argument("--approach-mm", type=float, default=5.0, help="approach distance on linear axes, mm (default 5)")
+    s.add_argument("--approach-deg", type=float, default=1.0, help="approach distance on rotary axes, deg (default 1)")
+    s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
+                   help="repeated points (eq. 22): POINTS commands measured TIMES times, half of the sequences at the "
+                        "start and half at the end (default: none)")
+    s.add_argument("--no-sight", action="store_true", help="do not test the line of sight (default: test it)")
+    s.add_argument("--geometry", choices=["auto", "collision", "visual"], default="auto",
+                   help="URDF geometry that blocks the sight line (default auto: collision if any, else visual)")
+    s.add_argument("--tool-radius-mm", type=float, default=10.0,
+                   help="radius of the target holder, which can block its own target, mm (default 10; 0: ignore)")
+    s.add_argument("--target-clearance-mm", type=float, default=19.1,
+                   help="radius of the retroreflector; the sight line ends this far from the target centre, mm "
+                        "(default 19.1, a 1.5 in SMR)")
+    s.add_argument("--rapid-mm-min", type=float, help="rapid speed of the linear axes for the order, mm/min "
+                   "(default: URDF velocity limits)")
+    s.add_argument("--rapid-deg-min", type=float, help="rapid speed of the rotary axes, deg/min "
+                   "(default: URDF velocity limits)")
+    s.add_argument("--dwell", type=float, default=4.0, help="dwell at every point for the tracker, s (default 4)")
+    s.add_argument("--feed", type=float, default=1000.0, help="feed of the final approach move, mm/min (default 1000)")
+    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
+                   help="NC program to write; repeatable (default: all three)")
+    s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
+                   help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
+    s.add_argument("--compare", action="append", default=[], metavar="PLAN.csv|random",
+                   help="also judge another plan's template (or 'random': the same number of commands at random) "
+                        "with the same model and noise; repeatable")
+    s.add_argument("--cartesian", action="store_true", help="static Cartesian tracker noise instead of the range-dependent "
+                   "spherical model (default: spherical)")
+    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default 0.02; with --cartesian)")
+    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
+                   help="spherical tracker noise: range sigma = R_MM + R_PPM*R, transverse = T_MM + T_PPM*R "
+                        "(default 0.003 0.5 0.005 2.5)")
+    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
+    s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg "
+                   "(default 0.0015)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
+    s.set_defaults(func=run_plan)

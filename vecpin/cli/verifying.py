@@ -1,0 +1,82 @@
+"""``vecpin assess`` (is compensation worth it?) and ``vecpin verify`` (before and after)."""
+from __future__ import annotations
+
+from vecpin.cli.common import machine, progress
+from vecpin.errors import InputError
+
+
+def run_assess(args) -> int:
+    from vecpin.workflows.assessing import assess_campaign, assess_numbers
+    if args.csv:
+        if not args.machine:
+            raise InputError("assess CSV needs --machine (bundled name or URDF path)")
+        from vecpin.measurement.campaign import read_campaign
+        from vecpin.measurement.tracker import TrackerNoise
+        m = machine(args.machine)
+        noise = None
+        if args.tracker_noise:
+            a, b, c, d = args.tracker_noise
+            noise = TrackerNoise(a * 1e-3, b * 1e-6, c * 1e-3, d * 1e-6)
+        res = assess_campaign(read_campaign(args.csv, m), m, noise, session_gap=args.session_gap_min * 60.0)
+    else:
+        if args.mean_error is None:
+            raise InputError("give a campaign CSV with repeated points, or the numbers: --mean-error and --long-term "
+                             "(and --short-term, --max-error) in mm")
+        res = assess_numbers(args.mean_error, args.long_term, args.short_term, args.max_error)
+    print("\n".join(res.lines()))
+    if args.json:
+        import json
+
+        from vecpin.fileio import write_text
+        write_text(args.json, json.dumps(res.to_dict(), indent=1) + "\n")
+        print(f"  wrote {args.json}")
+    return 0
+
+
+def run_verify(args) -> int:
+    from vecpin.measurement.campaign import read_campaign
+    from vecpin.workflows.verifying import load_tables, verify_to_dir
+    model = None
+    if args.model:
+        from vecpin.models import ErrorModel
+        model = ErrorModel.load(args.model)
+    if model is None and not args.machine:
+        raise InputError("verify needs --machine, or --model (whose machine is used)")
+    m = model.machine if model is not None else machine(args.machine)
+    tables, src = load_tables(args.tables, m) if args.tables else (None, None)
+    before, after = read_campaign(args.before, m), read_campaign(args.after, m)
+    v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
+                      progress=progress(not args.quiet))
+    print("\n".join(v.lines()))
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("assess", help="is volumetric compensation worth it? repeatability (eq. 22, Table 2.8) against "
+                       "the uncompensated error, with what limits the result (Section 2.4)")
+    s.add_argument("csv", nargs="?", help="campaign CSV with repeated points (same command and tool measured several "
+                   "times; vecpin plan --repeat)")
+    s.add_argument("--machine", help="bundled machine name or URDF path (needed with a CSV)")
+    s.add_argument("--session-gap-min", type=float, default=30.0,
+                   help="repeats further apart than this are different sessions (short vs long term), min (default 30)")
+    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
+                   help="tracker noise for the instrument floor: range sigma = R_MM + R_PPM*R, transverse = T_MM + "
+                        "T_PPM*R (default 0.003 0.5 0.005 2.5)")
+    s.add_argument("--mean-error", type=float, help="without a CSV: uncompensated mean volumetric error, mm")
+    s.add_argument("--max-error", type=float, help="without a CSV: uncompensated max volumetric error, mm (optional)")
+    s.add_argument("--long-term", type=float, help="without a CSV: long-term repeatability (mean of eq. 22), mm")
+    s.add_argument("--short-term", type=float, help="without a CSV: short-term repeatability (mean of eq. 22), mm")
+    s.add_argument("--json", help="also write the figures to this JSON file (default: none)")
+    s.set_defaults(func=run_assess)
+
+    s = sub.add_parser("verify", help="uncompensated and compensated validation runs side by side (Paper I Table 3, "
+                       "Fig. 11), with the model's prediction")
+    s.add_argument("before", help="validation run of the machine WITHOUT the tables (campaign CSV)")
+    s.add_argument("after", help="validation run WITH the tables active (campaign CSV; commands as programmed)")
+    s.add_argument("--machine", help="bundled machine name or URDF path (default: the model's machine)")
+    s.add_argument("--model", help="fitted model file: its predicted errors beside the measured ones (default: none)")
+    s.add_argument("--tables", help="the table set that was active (tables.json or its folder): its gauge-line change "
+                   "enters the commanded positions (default: none, 0 mm assumed)")
+    s.add_argument("--out", help="folder for verify.json and verify.png (Fig. 11) (default: print only)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
+    s.set_defaults(func=run_verify)

@@ -1,0 +1,309 @@
+"""A measurement plan in one call: candidates, exclusion zones and line of sight, the
+D-optimal choice, the order and approach, the predicted uncertainty (Paper I Section 4,
+Fig. 6; eq. 22 for repeated points).
+
+1. Candidates: a scrambled Halton set over the axis space (inside a measurement zone if
+   one is given, and far enough from the limits for the approach move), on the NC grid
+   (0.001 mm, 0.001 deg).
+2. Removed: candidates in an exclusion zone ("CA") and those the tracker cannot see with
+   every target holder length ("LoS").
+3. Chosen: greedy D-optimal on the model's whitened parameter Jacobian
+   (:mod:`~vecpin.planning.doptimal`), or at random (Paper I's way, for comparison).
+4. Order: a short tour for the first holder, reversed for the next; optional repeated
+   points (eq. 22) measured at the start and again at the end, each sequence in a new
+   random order, for short- and long-term repeatability.
+5. Prediction: covariance of the parameters from all planned rows and the error it
+   leaves at quasi-random validation commands (:mod:`~vecpin.planning.information`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.stats import qmc
+
+from vecpin.errors import InputError
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.plantemplate import PlanTemplate
+from vecpin.models import make_model
+from vecpin.planning import route
+from vecpin.planning.doptimal import greedy_d_optimal
+from vecpin.planning.information import Information, PredictedError, validation_commands
+from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
+                                       default_tracker_position)
+from vecpin.planning.zones import Zone, clip_to_zone, inside
+
+PAPER_I_TOOLS_MM = (214.88, 312.86)
+
+
+@dataclass
+class PlanSettings:
+    """What to plan (user units where a user types them).
+
+    ``n_points``: commands, each measured with every holder length ``tools_mm`` [mm];
+    ``model``/``order``/``basis``: the model the campaign is for; ``noise``: the fit's
+    noise model (default: spherical tracker noise); ``tracker_mm`` (3,) [mm] machine base
+    frame (default: 2 m in front of the workspace); ``exclude``: exclusion zones;
+    ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
+    below/above/both/none with distances ``approach_mm`` [mm], ``approach_deg`` [deg];
+    ``repeat_points`` x ``repeat_times``: repeated points at the start and at the end;
+    ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
+    ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
+    ``candidates``: candidate commands (default max(2000, 10 n)); ``validation_points``:
+    quasi-random commands the predicted error is judged on."""
+
+    n_points: int = 100
+    tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
+    model: str = "ap"
+    order: int = 4
+    basis: str = "auto"
+    noise: NoiseModel | None = None
+    tracker_mm: tuple[float, float, float] | None = None
+    exclude: list[Zone] = field(default_factory=list)
+    zone: Zone | None = None
+    method: str = "doptimal"
+    approach: str = "below"
+    approach_mm: float = 5.0
+    approach_deg: float = 1.0
+    repeat_points: int = 0
+    repeat_times: int = 0
+    sight: bool = True
+    geometry: str = "auto"
+    tool_radius_mm: float = DEFAULT_TOOL_RADIUS * 1e3
+    target_clearance_mm: float = DEFAULT_TARGET_CLEARANCE * 1e3
+    rapid_mm_min: float | None = None
+    rapid_deg_min: float | None = None
+    candidates: int | None = None
+    validation_points: int = 500
+    seed: int = 0
+
+    def check(self) -> None:
+        if self.n_points < 1:
+            raise InputError(f"--points {self.n_points}: plan at least one command")
+        if not self.tools_mm or min(self.tools_mm) < 0:
+            raise InputError("--tools: holder lengths are mm >= 0")
+        if self.method not in ("doptimal", "random"):
+            raise InputError(f"--method '{self.method}': doptimal or random")
+        if (self.repeat_points or self.repeat_times) and (self.repeat_points < 1 or self.repeat_times < 2):
+            raise InputError("--repeat POINTS TIMES: POINTS >= 1 commands, each measured TIMES >= 2 times")
+        if self.order < 0:
+            raise InputError(f"--order {self.order}: orders are >= 0")
+
+
+@dataclass
+class PlanScore:
+    """How well a set of planned rows determines the model: ``log_det`` of the normal
+    matrix, the gauge-line (T_offset) uncertainty [m], how many counted terms end below
+    10 % of their prior sigma, the predicted validation error and the move time [s]."""
+
+    label: str
+    rows: int
+    commands: int
+    log_det: float
+    t_offset_sigma: float
+    well_determined: int
+    counted: int
+    predicted: PredictedError
+    travel_s: float
+
+    def line(self) -> str:
+        p = self.predicted
+        return (f"  {self.label:<28s} {self.commands:6d} {self.rows:6d} {self.log_det:10.1f} "
+                f"{self.t_offset_sigma * 1e3:9.4f} {self.well_determined:5d}/{self.counted:<5d} "
+                f"{p.model_mean * 1e3:9.4f} {p.model_max * 1e3:9.4f} {p.measured_mean * 1e3:9.4f} "
+                f"{self.travel_s / 60:8.1f}")
+
+    @staticmethod
+    def header() -> list[str]:
+        return [f"  {'plan':<28s} {'cmds':>6s} {'rows':>6s} {'log det N':>10s} {'σ T_off':>9s} {'<10% prior':>11s} "
+                f"{'model mean':>9s} {'model max':>9s} {'valid mean':>9s} {'moves min':>8s}",
+                f"  {'':<28s} {'':>6s} {'':>6s} {'':>10s} {'mm':>9s} {'':>11s} {'mm':>9s} {'mm':>9s} {'mm':>9s}"]
+
+
+@dataclass
+class Plan:
+    """A planned campaign (SI inside): ``template`` (rows in measurement order),
+    ``commands`` (the chosen commands, first-holder order), ``candidates`` and why
+    each was removed (``removed``: '' kept, 'zone' outside the measurement zone never
+    happens, 'exclusion', 'sight'), ``sight_by`` (the solid that blocked it),
+    ``tracker`` (3,) [m], ``score`` of the plan, ``information`` the linearised problem."""
+
+    machine: Machine
+    settings: PlanSettings
+    template: PlanTemplate
+    commands: np.ndarray
+    candidates: np.ndarray
+    removed: np.ndarray
+    sight_by: np.ndarray
+    tracker: np.ndarray
+    tracker_given: bool
+    steps: np.ndarray
+    score: PlanScore
+    information: Information
+    covariance: np.ndarray
+    travel_random_s: float
+    geometry: str
+    box: tuple[np.ndarray, np.ndarray]
+    validation: np.ndarray
+
+    @property
+    def tools(self) -> np.ndarray:
+        return np.array(self.settings.tools_mm, float) * 1e-3
+
+    def counts(self) -> dict[str, int]:
+        return {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
+                "sight": int((self.removed == "sight").sum()), "kept": int((self.removed == "").sum())}
+
+
+def quantise(machine: Machine, q: np.ndarray, resolution: float = 1e-3) -> np.ndarray:
+    """Commands [m, rad] on the NC grid: ``resolution`` mm on linear, deg on rotary axes."""
+    return machine.to_si(np.round(machine.to_user(q) / resolution) * resolution)
+
+
+def candidate_commands(machine: Machine, n: int, lower: np.ndarray, upper: np.ndarray, seed: int = 0) -> np.ndarray:
+    """n scrambled-Halton commands in [lower, upper] [m, rad], on the NC grid and inside."""
+    u = qmc.Halton(machine.n_axes, seed=seed).random(n)
+    q = quantise(machine, lower + u * (upper - lower))
+    return np.clip(q, lower, upper)
+
+
+def _spread(q: np.ndarray, k: int, speed: np.ndarray) -> np.ndarray:
+    """k indices of q spread over the axis space (farthest-point sampling in move time)."""
+    chosen = [0]
+    d = route.move_times(q, q[0], speed)
+    for _ in range(1, min(k, len(q))):
+        j = int(np.argmax(d))
+        chosen.append(j)
+        d = np.minimum(d, route.move_times(q, q[j], speed))
+    return np.array(chosen)
+
+
+def make_plan(machine: Machine, settings: PlanSettings | None = None,
+              progress: Callable[[str], None] | None = None) -> Plan:
+    """Plan a campaign for ``machine`` (see the module text)."""
+    s = settings or PlanSettings()
+    s.check()
+    say = progress or (lambda msg: None)
+    noise = s.noise or NoiseModel.default(machine, "spherical")
+    tools = np.array(s.tools_mm, float) * 1e-3
+    tracker = default_tracker_position(machine) if s.tracker_mm is None else np.asarray(s.tracker_mm, float) * 1e-3
+    steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
+    lo, hi = clip_to_zone(machine, s.zone)
+    alo, ahi = route.approach_margin(machine, s.approach, steps)
+    lo, hi = np.maximum(lo, alo), np.minimum(hi, ahi)
+    if np.any(hi <= lo):
+        raise InputError("the measurement zone leaves no room for the approach moves: widen --zone or shorten "
+                         "--approach-mm/--approach-deg")
+    speed = route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min)
+
+    n_cand = s.candidates or max(2000, 10 * s.n_points)
+    say(f"{n_cand} candidate commands (scrambled Halton, seed {s.seed})")
+    cand = candidate_commands(machine, n_cand, lo, hi, s.seed)
+    removed = np.full(len(cand), "", dtype=object)
+    removed[inside(machine, cand, s.exclude)] = "exclusion"
+    sight_by = np.full(len(cand), "", dtype=object)
+    geometry = "not tested"
+    if s.sight:
+        sl = SightLine(machine, tracker, geometry=s.geometry, tool_radius=s.tool_radius_mm * 1e-3,
+                       target_clearance=s.target_clearance_mm * 1e-3)
+        geometry = sl.geometry
+        inside_solids = sl.inside_fixed()
+        if inside_solids:
+            raise InputError(f"--tracker: the tracker position lies inside the machine's geometry "
+                             f"({', '.join(inside_solids)}); place it where it can stand")
+        test = np.flatnonzero(removed == "")
+        say(f"line of sight for {len(test)} commands x {len(tools)} holder lengths ({geometry} geometry)")
+        for L in tools:
+            res = sl.check(cand[test], L)
+            hit = res.blocked & (sight_by[test] == "")
+            sight_by[test[hit]] = res.by[hit]
+        removed[sight_by != ""] = "sight"
+    ok = np.flatnonzero(removed == "")
+    if len(ok) < s.n_points:
+        raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones and the line "
+                         f"of sight; ask for fewer --points, more --candidates, or move the tracker")
+
+    model = make_model(s.model, machine, s.order, basis=s.basis)
+    say(f"{s.model} model of order {s.order}: {model.n_parameters + 6} parameters; judging redundancy")
+    info = Information(model, noise, tracker, tools)
+    if s.method == "doptimal":
+        say(f"whitened Jacobian of {len(ok)} candidates")
+        W = info.rows(cand[ok])
+        pick, _ = greedy_d_optimal(W, s.n_points, info.keep, progress=say)
+    else:
+        pick = np.random.default_rng(s.seed).choice(len(ok), s.n_points, replace=False)
+    chosen = cand[ok[pick]]
+
+    say("ordering the points")
+    order = route.order_points(chosen, speed)
+    chosen = chosen[order]
+    rng = np.random.default_rng(s.seed + 1)
+    passes_q, passes_t = [], []
+    rep_q = chosen[_spread(chosen, s.repeat_points, speed)] if s.repeat_points else np.zeros((0, machine.n_axes))
+    seqs = [rep_q[rng.permutation(len(rep_q))] for _ in range(s.repeat_times)] if s.repeat_points else []
+    half = (len(seqs) + 1) // 2
+    for sq in seqs[:half]:
+        passes_q.append(sq)
+        passes_t.append(np.full(len(sq), tools[0]))
+    for k, L in enumerate(tools):
+        passes_q.append(chosen if k % 2 == 0 else chosen[::-1])
+        passes_t.append(np.full(len(chosen), L))
+    for sq in seqs[half:]:
+        passes_q.append(sq)
+        passes_t.append(np.full(len(sq), tools[0]))
+    q_cmd = np.vstack(passes_q)
+    t_cmd = np.concatenate(passes_t)
+    idx, sign = route.approach_rows(q_cmd, s.approach)
+    q_rows, t_rows = q_cmd[idx], t_cmd[idx]
+    approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
+    template = PlanTemplate(np.arange(1, len(q_rows) + 1), q_rows, t_rows, approach, "plan")
+
+    say("predicted uncertainty")
+    vq = validation_commands(machine, s.validation_points, *clip_to_zone(machine, s.zone), seed=s.seed + 7)
+    vq = vq[~inside(machine, vq, s.exclude)]
+    score, cov = score_rows(info, template.q, template.tool, vq, tools[0], f"this plan ({s.method})",
+                           travel_s=_moves(template, steps, speed), commands=len(chosen))
+    shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
+    t_random = route.travel_time(np.vstack([shuffled] * len(tools)), speed)
+    return Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
+                score, info, cov, t_random, geometry, (lo, hi), vq)
+
+
+def _moves(template: PlanTemplate, steps: np.ndarray, speed: np.ndarray) -> float:
+    """Move time [s] of the rows in order, through each row's approach position."""
+    q = template.q
+    if template.approach is None:
+        return route.travel_time(q, speed)
+    pre = q - template.approach * steps
+    path = np.empty((2 * len(q), q.shape[1]))
+    path[0::2], path[1::2] = pre, q
+    return route.travel_time(path, speed)
+
+
+def score_rows(info: Information, q: np.ndarray, tool: np.ndarray, validation: np.ndarray, validation_tool: float,
+               label: str, travel_s: float = float("nan"), commands: int | None = None) -> tuple[PlanScore, np.ndarray]:
+    """Score measured rows (q (N,n) [m, rad], tool (N,) [m]) with ``info``: the covariance and
+    the predicted error at ``validation`` commands with ``validation_tool`` [m]."""
+    W = info.row_blocks(np.asarray(q, float), np.asarray(tool, float))
+    cov = info.covariance(W)
+    sd = np.sqrt(np.diag(cov))
+    kept = info.keep.copy()
+    kept[:6] = False  # E_0 belongs to the set-up, not the machine
+    well = int(np.sum(sd[kept] < 0.1 * info.sigma[kept]))
+    pred = info.predicted_errors(cov, validation, validation_tool)
+    n_cmd = commands if commands is not None else len(np.unique(np.round(q, 9), axis=0))
+    return PlanScore(label, len(q), n_cmd, info.log_det(W), float(sd[6]), well, int(kept.sum()), pred, travel_s), cov
+
+
+def compare(plan: Plan, others: list[tuple[str, PlanTemplate]]) -> list[PlanScore]:
+    """Scores of other plans (label, template) judged with ``plan``'s model, noise, tracker
+    and validation commands, after ``plan``'s own score."""
+    speed = route.axis_speeds(plan.machine, plan.settings.rapid_mm_min, plan.settings.rapid_deg_min)
+    out = [plan.score]
+    for label, t in others:
+        sc, _ = score_rows(plan.information, t.q, t.tool, plan.validation, float(plan.tools[0]), label,
+                           travel_s=_moves(t, plan.steps, speed))
+        out.append(sc)
+    return out

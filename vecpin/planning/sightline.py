@@ -1,0 +1,319 @@
+"""Line of sight from the laser tracker to the target, past the machine's own geometry.
+
+Paper I Fig. 6 removes points where the tracker cannot see the target ("LoS"). Here the
+obstacles are the machine's URDF geometry posed at each command: the collision geometry
+when the URDF has any, else the visual geometry (boxes, cylinders, spheres and meshes),
+plus the tool holder as a cylinder from the gauge line to the target. The sight line is
+the segment from the tracker head to the target centre, cut short by
+``target_clearance`` at the target end (the retroreflector's own radius: the holder
+the target sits on does not block its own centre). A command is blocked when that
+segment meets any solid.
+
+Every test is closed form and vectorised over poses: slab test for boxes, quadratic
+intervals for cylinders (axis along local z, as URDF and Pinocchio define them) and
+spheres, Möller-Trumbore for mesh triangles. Frames: machine base frame, metres.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from vecpin.errors import MachineError
+from vecpin.kinematics.machine import Machine
+
+DEFAULT_TOOL_RADIUS = 0.010       # m, radius of the target holder (tool shank)
+DEFAULT_TARGET_CLEARANCE = 0.0191  # m, radius of a 1.5 in retroreflector (38.1 mm ball)
+
+
+@dataclass
+class Solid:
+    """One obstacle: ``kind`` "box" (``size`` = half sides (3,)), "cylinder" (radius,
+    half length along local z), "sphere" (radius,) or "mesh" (``vertices`` (V,3),
+    ``triangles`` (T,3) in the local frame). ``placement`` (4,4) is the solid's pose in
+    the frame of joint ``joint`` (0: the fixed base)."""
+
+    name: str
+    kind: str
+    joint: int
+    placement: np.ndarray
+    size: np.ndarray
+    vertices: np.ndarray | None = None
+    triangles: np.ndarray | None = None
+
+
+@dataclass
+class SightResult:
+    """``blocked`` (N,) per command; ``by`` (N,) name of the first solid met ('' if
+    visible); ``distance`` (N,) tracker-to-target distance [m]."""
+
+    blocked: np.ndarray
+    by: np.ndarray
+    distance: np.ndarray
+
+
+def _load_geometry(machine: Machine, which: str) -> tuple[pin.GeometryModel, str]:
+    dirs = [str(machine.urdf_path.parent)] if machine.urdf_path is not None else []
+    kinds = {"collision": pin.GeometryType.COLLISION, "visual": pin.GeometryType.VISUAL}
+    order = ["collision", "visual"] if which == "auto" else [which]
+    last = None
+    for k in order:
+        try:
+            gm = pin.buildGeomFromUrdfString(machine.model, machine.urdf_xml, kinds[k], package_dirs=dirs)
+        except (RuntimeError, ValueError) as exc:
+            raise MachineError(f"{machine.source}: its {k} geometry cannot be loaded ({exc}); "
+                               "a mesh file may be missing") from None
+        last = (gm, k)
+        if gm.ngeoms:
+            return gm, k
+    return last
+
+
+def solids_from_urdf(machine: Machine, which: str = "auto") -> tuple[list[Solid], str]:
+    """The machine's obstacles and which geometry they came from ("collision"/"visual").
+
+    ``which``: "auto" (collision if the URDF has any, else visual), "collision" or
+    "visual". Geometry types other than box, cylinder, sphere and mesh raise."""
+    gm, used = _load_geometry(machine, which)
+    out = []
+    for go in gm.geometryObjects:
+        g = go.geometry
+        kind = type(g).__name__
+        M = go.placement.homogeneous.copy()
+        if kind == "Box":
+            out.append(Solid(go.name, "box", go.parentJoint, M, np.asarray(g.halfSide, float).copy()))
+        elif kind == "Cylinder":
+            out.append(Solid(go.name, "cylinder", go.parentJoint, M, np.array([g.radius, g.halfLength])))
+        elif kind == "Sphere":
+            out.append(Solid(go.name, "sphere", go.parentJoint, M, np.array([g.radius])))
+        elif kind.startswith("BVHModel"):
+            V = np.asarray(g.vertices(), float).copy()
+            T = np.array([[g.tri_indices(i)[j] for j in range(3)] for i in range(g.num_tris)], int)
+            out.append(Solid(go.name, "mesh", go.parentJoint, M, np.zeros(0), V, T))
+        else:
+            raise MachineError(f"{machine.source}: geometry '{go.name}' is a {kind}; the sight-line test knows "
+                               "boxes, cylinders, spheres and meshes")
+    return out, used
+
+
+class SightLine:
+    """Line-of-sight test for one machine and one tracker position.
+
+    ``tracker`` (3,) [m], machine base frame: the centre of the tracker head.
+    ``tool_radius`` [m] (0: no holder), ``target_clearance`` [m]: see the module text.
+    """
+
+    def __init__(self, machine: Machine, tracker: np.ndarray, *, geometry: str = "auto",
+                 tool_radius: float = DEFAULT_TOOL_RADIUS, target_clearance: float = DEFAULT_TARGET_CLEARANCE,
+                 solids: list[Solid] | None = None):
+        self.machine = machine
+        self.tracker = np.asarray(tracker, float).reshape(3)
+        if solids is None:
+            solids, self.geometry = solids_from_urdf(machine, geometry)
+        else:
+            self.geometry = "given"
+        self.solids = solids
+        self.tool_radius = float(tool_radius)
+        self.target_clearance = float(target_clearance)
+        self._data = machine.model.createData()
+
+    # ------------------------------------------------------------------ poses
+    def solid_poses(self, q: np.ndarray) -> np.ndarray:
+        """(N, S, 4, 4) placement of every solid in the base frame at commands q (N,n)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        m = self.machine
+        joints = sorted({s.joint for s in self.solids})
+        oMi = np.empty((len(q), m.model.njoints, 4, 4))
+        oMi[:] = np.eye(4)
+        qf = m.full_q(q)
+        for i in range(len(q)):  # one Pinocchio call per pose (~1 µs)
+            pin.forwardKinematics(m.model, self._data, qf[i])
+            for j in joints:
+                oMi[i, j] = self._data.oMi[j].homogeneous
+        return np.stack([oMi[:, s.joint] @ s.placement for s in self.solids], axis=1) if self.solids else \
+            np.zeros((len(q), 0, 4, 4))
+
+    def inside_fixed(self) -> list[str]:
+        """Names of fixed solids (on the base) that contain the tracker position."""
+        out = []
+        for s in self.solids:
+            if s.joint != 0:
+                continue
+            p = np.linalg.solve(s.placement, np.r_[self.tracker, 1.0])[:3][None]
+            if _contains(s, p)[0]:
+                out.append(s.name)
+        return out
+
+    # ------------------------------------------------------------------ test
+    def check(self, q: np.ndarray, tool: np.ndarray | float) -> SightResult:
+        """Which commands q (N,n) [m, rad] with tool lengths [m] the tracker cannot see."""
+        q = np.atleast_2d(np.asarray(q, float))
+        N = len(q)
+        tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        kin = self.machine.kinematics(q, tool, jacobian=False)
+        target = kin.tip
+        seg = target - self.tracker
+        dist = np.linalg.norm(seg, axis=1)
+        keep = np.clip(1.0 - self.target_clearance / np.maximum(dist, 1e-12), 0.0, 1.0)
+        p0 = np.broadcast_to(self.tracker, (N, 3))
+        p1 = self.tracker + seg * keep[:, None]
+        blocked = np.zeros(N, bool)
+        by = np.full(N, "", dtype=object)
+        poses = self.solid_poses(q)
+        for k, s in enumerate(self.solids):
+            H = poses[:, k]
+            hit = _segment_hits(s, _to_local(H, p0), _to_local(H, p1))
+            new = hit & ~blocked
+            by[new] = s.name
+            blocked |= hit
+        if self.tool_radius > 0:
+            # the holder: a cylinder along the tool from the gauge line to the target
+            H = np.zeros((N, 4, 4))
+            H[:, :3, :3] = kin.rotation
+            H[:, :3, 3] = kin.spindle - kin.rotation[:, :, 2] * (tool / 2)[:, None]
+            H[:, 3, 3] = 1.0
+            hit = _segment_cylinder(_to_local(H, p0), _to_local(H, p1), np.full(N, self.tool_radius), tool / 2)
+            new = hit & ~blocked
+            by[new] = "tool holder"
+            blocked |= hit
+        return SightResult(blocked, by, dist)
+
+
+# ---------------------------------------------------------------------- geometry
+def _to_local(H: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Points p (N,3) in the base frame into the frames H (N,4,4)."""
+    R, t = H[:, :3, :3], H[:, :3, 3]
+    return np.einsum("nji,nj->ni", R, p - t)
+
+
+def _contains(s: Solid, p: np.ndarray) -> np.ndarray:
+    if s.kind == "box":
+        return np.all(np.abs(p) <= s.size, axis=1)
+    if s.kind == "cylinder":
+        return (np.hypot(p[:, 0], p[:, 1]) <= s.size[0]) & (np.abs(p[:, 2]) <= s.size[1])
+    if s.kind == "sphere":
+        return np.linalg.norm(p, axis=1) <= s.size[0]
+    # mesh: a ray to +x crosses a closed surface an odd number of times from inside
+    far = p + np.array([1e3, 0.0, 0.0])
+    n_cross = _segment_triangles(p, far, s.vertices, s.triangles, count=True)
+    return n_cross % 2 == 1
+
+
+def _segment_hits(s: Solid, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    N = len(p0)
+    if s.kind == "box":
+        return _segment_box(p0, p1, s.size)
+    if s.kind == "cylinder":
+        return _segment_cylinder(p0, p1, np.full(N, s.size[0]), np.full(N, s.size[1]))
+    if s.kind == "sphere":
+        return _segment_sphere(p0, p1, s.size[0])
+    return _segment_triangles(p0, p1, s.vertices, s.triangles) > 0
+
+
+def _interval_and(lo, hi, a, b):
+    return np.maximum(lo, a), np.minimum(hi, b)
+
+
+def _slab(p0: np.ndarray, d: np.ndarray, half) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter interval [t0, t1] of p0 + t d inside |x| <= half (per component, N,)."""
+    par = np.abs(d) < 1e-15
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (-half - p0) / d
+        b = (half - p0) / d
+    t0, t1 = np.minimum(a, b), np.maximum(a, b)
+    inside = np.abs(p0) <= half
+    t0 = np.where(par, np.where(inside, -np.inf, np.inf), t0)
+    t1 = np.where(par, np.where(inside, np.inf, -np.inf), t1)
+    return t0, t1
+
+
+def _segment_box(p0: np.ndarray, p1: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """(N,) does the segment p0-p1 (local frame) meet the box |x_i| <= half_i?"""
+    t0, t1 = _slab(p0, p1 - p0, half[None, :])
+    lo = np.maximum(t0.max(axis=1), 0.0)
+    hi = np.minimum(t1.min(axis=1), 1.0)
+    return lo <= hi
+
+
+def _quadratic_interval(a, b, c):
+    """Interval of t where a t^2 + b t + c <= 0 (a >= 0); empty as (inf, -inf)."""
+    lo = np.full(a.shape, np.inf)
+    hi = np.full(a.shape, -np.inf)
+    flat = a < 1e-30
+    lo = np.where(flat & (c <= 0), -np.inf, lo)
+    hi = np.where(flat & (c <= 0), np.inf, hi)
+    disc = b * b - 4 * a * c
+    ok = ~flat & (disc >= 0)
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo = np.where(ok, (-b - sq) / (2 * a), lo)
+        hi = np.where(ok, (-b + sq) / (2 * a), hi)
+    return lo, hi
+
+
+def _segment_cylinder(p0: np.ndarray, p1: np.ndarray, radius: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """(N,) does the segment meet the cylinder x^2 + y^2 <= r^2, |z| <= half?"""
+    d = p1 - p0
+    a = d[:, 0] ** 2 + d[:, 1] ** 2
+    b = 2 * (p0[:, 0] * d[:, 0] + p0[:, 1] * d[:, 1])
+    c = p0[:, 0] ** 2 + p0[:, 1] ** 2 - radius ** 2
+    lo, hi = _quadratic_interval(a, b, c)
+    z0, z1 = _slab(p0[:, 2], d[:, 2], half)
+    lo, hi = _interval_and(lo, hi, z0, z1)
+    lo, hi = _interval_and(lo, hi, 0.0, 1.0)
+    return lo <= hi
+
+
+def _segment_sphere(p0: np.ndarray, p1: np.ndarray, radius: float) -> np.ndarray:
+    d = p1 - p0
+    lo, hi = _quadratic_interval(np.einsum("ni,ni->n", d, d), 2 * np.einsum("ni,ni->n", p0, d),
+                                 np.einsum("ni,ni->n", p0, p0) - radius ** 2)
+    lo, hi = _interval_and(lo, hi, 0.0, 1.0)
+    return lo <= hi
+
+
+def _segment_triangles(p0: np.ndarray, p1: np.ndarray, V: np.ndarray, T: np.ndarray, count: bool = False,
+                       chunk: int = 200_000) -> np.ndarray:
+    """(N,) number of triangles the segments cross (Möller-Trumbore, t in [0, 1])."""
+    N = len(p0)
+    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    e1, e2 = B - A, C - A
+    out = np.zeros(N, int)
+    step = max(1, chunk // max(len(T), 1))
+    for s in range(0, N, step):
+        o = p0[s:s + step, None, :]
+        d = (p1 - p0)[s:s + step, None, :]
+        h = np.cross(d, e2[None])
+        a = np.einsum("ntk,tk->nt", h, e1)
+        ok = np.abs(a) > 1e-18
+        f = np.where(ok, 1.0 / np.where(ok, a, 1.0), 0.0)
+        sv = o - A[None]
+        u = f * np.einsum("ntk,ntk->nt", sv, h)
+        qv = np.cross(sv, e1[None])
+        v = f * np.einsum("ntk,ntk->nt", d, qv)
+        t = f * np.einsum("tk,ntk->nt", e2, qv)
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
+        out[s:s + step] = hit.sum(axis=1)
+    return out
+
+
+def default_tracker_position(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> np.ndarray:
+    """A tracker standing ``distance`` [m] in front (-y side) of the tool-tip workspace,
+    at the height of its lowest tip, centred in x: the usual set-up for a gantry."""
+    from scipy.stats import qmc
+    u = qmc.Halton(machine.n_axes, seed=0).random(256)
+    tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool)
+    lo, hi = tips.min(axis=0), tips.max(axis=0)
+    return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]])
+
+
+def describe_solids(solids: list[Solid]) -> str:
+    kinds = {}
+    for s in solids:
+        kinds[s.kind] = kinds.get(s.kind, 0) + 1
+    return ", ".join(f"{v} {k}{'es' if k == 'box' and v > 1 else ('s' if v > 1 else '')}" for k, v in kinds.items())
+
+
+__all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "describe_solids",
+           "DEFAULT_TOOL_RADIUS", "DEFAULT_TARGET_CLEARANCE"]

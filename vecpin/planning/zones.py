@@ -1,0 +1,67 @@
+"""Boxes in axis space: exclusion zones (collision avoidance, Paper I Fig. 6 "CA") and
+measurement zones (a machine calibrated in zones, Section 2.6).
+
+A zone is written ``AXIS=LO:HI[,AXIS=LO:HI...]`` in mm and degrees, e.g.
+``X=0:500,B=-111:-80``; axes not named are unbounded. A command lies in the zone when
+every named axis is inside its interval (bounds included).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from vecpin.errors import InputError
+from vecpin.kinematics.machine import Machine
+
+Zone = dict[str, tuple[float, float]]  # axis name -> (low, high) in mm or deg
+
+
+def parse_zone(text: str, option: str = "--exclude") -> Zone:
+    """'X=0:500,B=-111:-80' -> {'X': (0.0, 500.0), 'B': (-111.0, -80.0)} (mm/deg)."""
+    zone: Zone = {}
+    for part in str(text).split(","):
+        try:
+            name, rng_ = part.split("=")
+            a, b = rng_.split(":")
+            name = name.strip()
+            if not name:
+                raise ValueError
+            zone[name] = (float(a), float(b))
+        except ValueError:
+            raise InputError(f"{option} '{text}': an exclusion zone or measurement zone is written "
+                             "AXIS=LO:HI[,AXIS=LO:HI...] in mm/deg, e.g. X=0:500,B=-111:-80") from None
+    return zone
+
+
+def zone_bounds(machine: Machine, zone: Zone) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (n,) [m, rad] of a zone; unnamed axes get bounds beyond their limits."""
+    lo = machine.lower.copy() - 1.0
+    hi = machine.upper.copy() + 1.0
+    for name, (a, b) in zone.items():
+        ax = machine.axis(name)
+        lo[ax.index], hi[ax.index] = sorted((float(ax.to_si(a)), float(ax.to_si(b))))
+    return lo, hi
+
+
+def inside(machine: Machine, q: np.ndarray, zones) -> np.ndarray:
+    """(N,) True where a command q (N,n) [m, rad] lies in any of the zones."""
+    q = np.atleast_2d(np.asarray(q, float))
+    hit = np.zeros(len(q), bool)
+    for z in zones:
+        lo, hi = zone_bounds(machine, z)
+        hit |= np.all((q >= lo) & (q <= hi), axis=1)
+    return hit
+
+
+def clip_to_zone(machine: Machine, zone: Zone | None) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) [m, rad] of the axis space a measurement zone leaves (the whole travel
+    without one); a zone reaching beyond a limit is cut at the limit."""
+    lo, hi = machine.lower.copy(), machine.upper.copy()
+    if zone:
+        zl, zh = zone_bounds(machine, zone)
+        lo, hi = np.maximum(lo, zl), np.minimum(hi, zh)
+        bad = np.flatnonzero(hi <= lo)
+        if bad.size:
+            a = machine.axes[bad[0]]
+            raise InputError(f"--zone: the interval of {a.name} lies outside its limits "
+                             f"[{a.lower_user:g}, {a.upper_user:g}] {a.unit}")
+    return lo, hi

@@ -1,0 +1,130 @@
+"""Plan a campaign and write its files (the ``plan`` command).
+
+Files, written together (:class:`vecpin.fileio.OutputSet`): ``plan.csv`` (the campaign
+template: commands and holder lengths in measurement order, empty x/y/z), the NC
+programs ``PLAN_840D.MPF`` (Siemens 840D), ``O1000.nc`` (Fanuc), ``plan.ngc`` (plain
+G-code), ``plan.png`` (Paper I Fig. 6: kept and removed points, tracker) and
+``plan.json`` (settings, counts and predicted figures; no time stamps, so a rerun
+writes the same bytes).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from vecpin.fileio import OutputSet, check_output_dir
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.plantemplate import PlanTemplate, read_template
+from vecpin.planning.ncprogram import DIALECTS, program_name, write_program
+from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
+from vecpin.units import to_mm
+
+
+@dataclass
+class PlanRun:
+    plan: Plan
+    files: list[Path]
+    comparison: list[PlanScore] = field(default_factory=list)
+
+    def lines(self) -> list[str]:
+        p, s = self.plan, self.plan.settings
+        m = p.machine
+        c = p.counts()
+        tr = to_mm(p.tracker)
+        where = "given" if p.tracker_given else "assumed 2 m in front of the workspace; give --tracker X,Y,Z"
+        out = [f"measurement plan for {m.name}: {len(p.commands)} commands x {len(s.tools_mm)} holder lengths "
+               f"({', '.join(f'{t:g}' for t in s.tools_mm)} mm) = {len(p.template)} rows",
+               f"  model {s.model} order {s.order}: {p.information.P} parameters with E_0, "
+               f"{int((~p.information.keep).sum())} that no design identifies left out",
+               f"  tracker at ({tr[0]:.0f}, {tr[1]:.0f}, {tr[2]:.0f}) mm, machine frame ({where})",
+               f"  candidates {c['candidates']}: {c['exclusion']} in exclusion zones (CA), {c['sight']} out of sight (LoS, "
+               f"{p.geometry} geometry), {c['kept']} left; chosen {s.method}"]
+        if c["sight"]:
+            names, counts = np.unique(p.sight_by[p.removed == "sight"].astype(str), return_counts=True)
+            top = sorted(zip(counts, names), reverse=True)[:4]
+            out.append("  sight blocked by: " + ", ".join(f"{n} ({k})" for k, n in top))
+        if s.repeat_points:
+            out.append(f"  repeated points (eq. 22): {s.repeat_points} commands x {s.repeat_times} sequences, "
+                       "half at the start and half at the end (short- and long-term repeatability)")
+        sc = p.score
+        pr = sc.predicted
+        out += [f"  approach: {s.approach} ({s.approach_mm:g} mm / {s.approach_deg:g} deg); moves "
+                f"{sc.travel_s / 60:.1f} min in this order (the same commands in random order: "
+                f"{p.travel_random_s / 60:.1f} min)",
+                f"  predicted (linearised covariance, {pr.points} quasi-random validation commands, holder "
+                f"{s.tools_mm[0]:g} mm, best-fit rigid motion removed):",
+                f"    model error from parameter uncertainty: mean {to_mm(pr.model_mean):.4f} mm, max "
+                f"{to_mm(pr.model_max):.4f} mm (1-sigma RMS {to_mm(pr.rms_1sigma):.4f} mm)",
+                f"    validation residual incl. measurement noise: mean {to_mm(pr.measured_mean):.4f} mm, max "
+                f"{to_mm(pr.measured_max):.4f} mm",
+                f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; {sc.well_determined} of "
+                f"{sc.counted} counted terms below 10% of their prior",
+                "    (what the model cannot describe adds to these: judge it with a validation run)"]
+        if self.comparison:
+            out.append("  comparison (same model, noise, tracker and validation commands):")
+            out += PlanScore.header() + [x.line() for x in self.comparison]
+        out += [f"  wrote {f}" for f in self.files]
+        return out
+
+    def to_dict(self) -> dict:
+        p, s = self.plan, self.plan.settings
+
+        def score(x: PlanScore) -> dict:
+            pr = x.predicted
+            return {"label": x.label, "rows": x.rows, "commands": x.commands, "log_det": round(x.log_det, 6),
+                    "t_offset_sigma_mm": round(float(to_mm(x.t_offset_sigma)), 6),
+                    "well_determined": x.well_determined, "counted": x.counted,
+                    "model_mean_mm": round(float(to_mm(pr.model_mean)), 6),
+                    "model_max_mm": round(float(to_mm(pr.model_max)), 6),
+                    "validation_mean_mm": round(float(to_mm(pr.measured_mean)), 6),
+                    "validation_max_mm": round(float(to_mm(pr.measured_max)), 6),
+                    "moves_min": round(x.travel_s / 60, 4)}
+        return {"format": "vecpin-plan", "version": 1, "machine": p.machine.name,
+                "settings": {"points": s.n_points, "tools_mm": list(s.tools_mm), "model": s.model, "order": s.order,
+                             "method": s.method, "approach": s.approach, "approach_mm": s.approach_mm,
+                             "approach_deg": s.approach_deg, "repeat": [s.repeat_points, s.repeat_times],
+                             "exclude": [{k: list(v) for k, v in z.items()} for z in s.exclude],
+                             "zone": None if s.zone is None else {k: list(v) for k, v in s.zone.items()},
+                             "seed": s.seed, "noise": p.information.noise.to_dict(p.machine)},
+                "tracker_mm": [round(float(v), 6) for v in to_mm(p.tracker)], "tracker_given": p.tracker_given,
+                "counts": p.counts(), "geometry": p.geometry,
+                "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
+                "moves_random_order_min": round(p.travel_random_s / 60, 4)}
+
+
+def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=tuple(DIALECTS),
+                dwell_s: float = 4.0, feed_mm_min: float = 1000.0, axis_map: dict | None = None,
+                compare_with: list[str] = (), progress: Callable[[str], None] | None = None) -> PlanRun:
+    """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
+
+    ``compare_with``: other plans to judge beside this one: template CSV paths, or
+    "random" (the same number of commands at random from the same candidates)."""
+    check_output_dir(out_dir)
+    from vecpin.viz.figures import plan_figure
+    plan = make_plan(machine, settings, progress)
+    others: list[tuple[str, PlanTemplate]] = []
+    for c in compare_with:
+        if c == "random":
+            from dataclasses import replace
+            rp = make_plan(machine, replace(settings, method="random"), None)
+            others.append(("random commands", rp.template))
+        else:
+            others.append((Path(c).name, read_template(c, machine)))
+    comparison = compare(plan, others) if others else []
+    files = []
+    with OutputSet(out_dir) as out:
+        files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
+        for d in dialects:
+            text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, feed_mm_min=feed_mm_min,
+                                 axis_map=axis_map, title=f"for {machine.name}")
+            files.append(out.write_text(program_name(d), text))
+        plan_figure(plan, out.path("plan.png"))
+        files.append(out.final("plan.png"))
+        run = PlanRun(plan, files, comparison)
+        files.append(out.final("plan.json"))
+        out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
+    return run

@@ -1,0 +1,204 @@
+"""Before and after: the uncompensated and the compensated validation runs of a machine
+side by side (the ``verify`` command; Paper I Table 3 and Fig. 11).
+
+Each run is judged on its own: the distance of every measured point from the commanded
+position (nominal kinematics, after the best-fit rigid motion of the run, as the seed's
+volumetric errors). For the compensated run the commanded position uses the
+controller's changed gauge line: nominal tool length + the tables' ``T_offset`` change.
+With a fitted model the predicted figures stand beside the measured ones: without the
+tables, the model's errors at the run's commands; with them, the error the tables leave
+of the model plus (when both runs measure the same commands) the model's residual on
+the uncompensated run - what the model does not describe stays after compensation
+(Paper I: "The compensated accuracy in Table 3 is comparable with the model accuracy").
+The tables are those given, or computed from the model for a generic controller.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.compensation.functions import compensated_errors, model_as_actual
+from vecpin.compensation.tables import TableSet
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.stats import distance_stats
+from vecpin.models import ErrorModel
+from vecpin.units import M_PER_MM, norm_mm
+
+SEED_TABLE3 = [("Uncompensated", 0.551, None, 0.940, None), ("6-DoF Tables", 0.038, 93.1, 0.099, 89.5),
+               ("AP Tables", 0.043, 92.2, 0.094, 90.0)]
+
+
+@dataclass
+class Run:
+    """One validation run: distances [mm] per row, measured and (with a model) predicted."""
+
+    label: str
+    source: str
+    tool: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray | None = None
+
+
+@dataclass
+class Verification:
+    before: Run
+    after: Run
+    gauge_change_mm: float
+    tables_from: str
+    model_label: str | None
+    same_commands: bool
+    notes: list[str] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+
+    def reduction(self, stat: str, tool_key: str = "all") -> float:
+        b = distance_stats(self.before.measured, self.before.tool)[tool_key][stat]
+        a = distance_stats(self.after.measured, self.after.tool)[tool_key][stat]
+        return 100.0 * (1 - a / b)
+
+    def lines(self) -> list[str]:
+        pred = self.before.predicted is not None
+        w = max(20, len(self.before.label), len(self.after.label))
+        head = f"  {'run':<{w}s} {'tools':<18s} {'n':>4s} {'mean mm':>9s} {'reduct.':>8s} {'max mm':>9s} {'reduct.':>8s}"
+        if pred:
+            head += f" | {'model mean':>10s} {'max':>8s}"
+        out = ["verification: validation runs of the real machine before and after compensation "
+               "(Paper I Table 3 layout)", head]
+        sb = distance_stats(self.before.measured, self.before.tool)
+        sa = distance_stats(self.after.measured, self.after.tool)
+        keys = list(sb) if len(sb) > 2 else ["all"]
+        for run, st in ((self.before, sb), (self.after, sa)):
+            pst = distance_stats(run.predicted, run.tool) if run.predicted is not None else None
+            for k in keys:
+                if k not in st:
+                    continue
+                s = st[k]
+                red_mean = red_max = "--"
+                if run is self.after and k in sb:
+                    red_mean = f"{100 * (1 - s['mean'] / sb[k]['mean']):7.1f}%"
+                    red_max = f"{100 * (1 - s['max'] / sb[k]['max']):7.1f}%"
+                label = run.label if k == "all" else ""
+                line = (f"  {label:<{w}s} {k:<18s} {s['n']:4d} {s['mean']:9.4f} {red_mean:>8s} {s['max']:9.4f} "
+                        f"{red_max:>8s}")
+                if pst is not None:
+                    line += f" | {pst[k]['mean']:10.4f} {pst[k]['max']:8.4f}"
+                out.append(line)
+        out.append(f"  compensated run judged against the commanded positions with the gauge line changed by "
+                   f"{self.gauge_change_mm:+.4f} mm ({self.tables_from})")
+        if pred:
+            out.append(f"  model: {self.model_label} (best-fit rigid motion removed)")
+        out.append("  seed, Paper I Table 3 (real laboratory XYZCB, 35 validation points, short tool):")
+        for name, mean, rm, mx, rx in SEED_TABLE3:
+            out.append(f"    {name:<16s} mean {mean:.3f} mm" + (f" ({rm:.1f}%)" if rm else "") +
+                       f", max {mx:.3f} mm" + (f" ({rx:.1f}%)" if rx else ""))
+        out += [f"  note: {n}" for n in self.notes]
+        out += [f"  wrote {f}" for f in self.files]
+        return out
+
+    def to_dict(self) -> dict:
+        def run(r: Run) -> dict:
+            d = {"label": r.label, "file": r.source, "units": "mm", "measured": distance_stats(r.measured, r.tool)}
+            if r.predicted is not None:
+                d["predicted"] = distance_stats(r.predicted, r.tool)
+            return d
+        return {"format": "vecpin-verify", "version": 1, "uncompensated": run(self.before),
+                "compensated": run(self.after), "gauge_change_mm": self.gauge_change_mm,
+                "tables": self.tables_from, "model": self.model_label,
+                "reduction_of_mean_pct": self.reduction("mean"), "reduction_of_max_pct": self.reduction("max"),
+                "same_commands": self.same_commands, "notes": self.notes,
+                "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
+
+
+def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.0) -> np.ndarray:
+    """Distances [mm] of the measured points from the commanded positions (nominal tool
+    length + ``gauge_change`` [m]) after the run's own best-fit rigid motion."""
+    c = campaign.primary()
+    return norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + gauge_change), c.xyz))
+
+
+def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None = None,
+           tables: TableSet | None = None, tables_source: str | None = None, progress=None) -> Verification:
+    """The two runs side by side (see the module text); ``progress(msg)`` hears of the
+    slow step (tables computed from the model)."""
+    b, a = before.primary(), after.primary()
+    notes = []
+    tables_from = f"tables {tables_source}" if tables is not None else "no tables given: 0 assumed (give --tables)"
+    if tables is None and model is not None:
+        from vecpin.compensation.plan import plan_tables
+        if progress:
+            progress("no --tables: computing the tables from the model (generic controller)")
+        tables = plan_tables(model, n_commands=600, uncertainty=False).tables
+        tables_from = "tables computed from the model (generic controller, full set); give --tables for the real ones"
+    dT = tables.gauge_offset_change if tables is not None else 0.0
+    before_run = Run(f"uncompensated ({Path(before.source).name})", before.source, b.tool, run_distances(machine, b))
+    after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, run_distances(machine, a, dT))
+    label = None
+    same = len(a) == len(b) and np.allclose(a.q, b.q, atol=1e-9) and np.allclose(a.tool, b.tool, atol=1e-9)
+    if model is not None:
+        actual = model_as_actual(model)
+        before_run.predicted = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
+        comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
+        ref = machine.tool_tip(a.q, a.tool + dT)
+        if same:
+            # plus what the model does not describe: its residual on the uncompensated run (machine frame)
+            from vecpin.measurement.registration import register
+            R, t = register(machine.tool_tip(b.q, b.tool), b.xyz)
+            feats = None
+            if model.effects:
+                from vecpin.measurement.features import Features
+                feats = Features.from_campaign(b)
+            resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
+            after_run.predicted = norm_mm(registered_errors(ref, ref + comp + resid))
+            label = (f"{model.kind} order {model.order}; compensated: the model's residual on the uncompensated run "
+                     "plus the error its tables leave of the model")
+        else:
+            after_run.predicted = norm_mm(registered_errors(ref, ref + comp))
+            label = (f"{model.kind} order {model.order}; compensated: the error the tables leave of the model only "
+                     "(different commands, so the model's residual cannot be added)")
+    if not same:
+        notes.append("the two runs measure different commands: compare the statistics, not the points")
+    if after_run.measured.mean() >= before_run.measured.mean():
+        notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
+                     "AFTER really the run with them?")
+    return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes)
+
+
+def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: str | Path | None, **kw) -> Verification:
+    """:func:`verify`, and with ``out_dir`` also ``verify.json`` and ``verify.png`` (Fig. 11)."""
+    v = verify(machine, before, after, **kw)
+    if out_dir is None:
+        return v
+    from vecpin.fileio import OutputSet
+    from vecpin.viz.figures import before_after_histograms
+    with OutputSet(out_dir) as out:
+        runs = {v.before.label: v.before, v.after.label: v.after}
+        before_after_histograms({k: r.measured for k, r in runs.items()},
+                                {k: r.predicted for k, r in runs.items() if r.predicted is not None},
+                                out.path("verify.png"),
+                                title="Validation runs before and after compensation (Paper I Fig. 11)")
+        v.files = [out.final("verify.png"), out.final("verify.json")]
+        out.write_text("verify.json", json.dumps(v.to_dict(), indent=1) + "\n")
+    return v
+
+
+def load_tables(path: str | Path, machine: Machine) -> tuple[TableSet, str]:
+    """A table set from a ``tables.json`` file or a folder holding one (``vecpin tables --out``)."""
+    from vecpin.errors import InputError
+    p = Path(path)
+    if p.is_dir():
+        cand = p / "tables.json"
+        if not cand.is_file():
+            found = sorted(x.name for x in p.glob("*.json"))
+            raise InputError(f"--tables {p}: no tables.json in that folder (found: {', '.join(found) or 'nothing'})")
+        p = cand
+    if not p.is_file():
+        raise InputError(f"--tables {p}: no such file or folder")
+    try:
+        ts = TableSet.load_json(p, machine)
+    except (ValueError, KeyError) as exc:
+        raise InputError(f"--tables {p}: not a vecpin table file ({exc})") from None
+    return ts, str(p)
