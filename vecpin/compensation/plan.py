@@ -106,6 +106,14 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     lim = limits or NO_LIMITS
     m = model.machine
     model._check_fitted()
+    left_out = []
+    if model.row_dependent:  # tables carry geometry: row-dependent effects get advice instead
+        std = model.std_
+        for e, sl in model.effect_slices():
+            if not e.geometric:
+                left_out.append(f"{e.label} is not in the tables (it depends on the rows, not the position): "
+                                + "; ".join(e.advice(model.b_[sl], std[sl])))
+        model = model.geometric_part()[0]
     # ---- everything a user can get wrong, before any heavy work
     n_points = lim.points(points)
     if method not in METHODS:
@@ -197,6 +205,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         report.notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
                             "keeps no correlations), and without correlations the spread would be meaningless")
     report.notes.append(gauge_note)
+    report.notes += left_out
     if problem.hold:
         report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
                             + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "

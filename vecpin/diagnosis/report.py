@@ -1,4 +1,5 @@
-"""The human report of a diagnosis: markdown with figures of the breakdowns."""
+"""The human report of a diagnosis: three plain sentences, the effects with their
+evidence and advice, where the residual lies (figures of the breakdowns)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,20 +10,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from vecpin.units import MM_PER_M  # noqa: E402
+
 
 def _breakdown_figure(ax, b: dict) -> None:
     bins = b["bins"]
-    if "from" in bins[0]:
-        x = [(e["from"] + e["to"]) / 2 for e in bins]
-    else:
-        x = [e["value"] for e in bins]
-    mean = np.array([e["mean_mm"] for e in bins]) * 1e3
+    x = [(e["from"] + e["to"]) / 2 for e in bins] if "from" in bins[0] else [e["value"] for e in bins]
+    mean = np.array([e["mean_mm"] for e in bins]) * 1e3          # mm -> µm
     vec = np.array([e["mean_vector_mm"] for e in bins]) * 1e3
     ax.plot(x, mean, "ko-", label="|residual| mean")
     for k, (c, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
         ax.plot(x, vec[:, k], "s--", color=col, ms=3, lw=1, label=f"mean {c}")
     ax.axhline(0, color="0.7", lw=0.8)
-    title = b["coordinate"] + (" - structured" if b["structured"] else "")
+    title = b["coordinate"] + (f" - structured (p = {b['p']:.0e})" if b["structured"] else "")
     ax.set_title(title, fontsize=9, color="tab:red" if b["structured"] else "black")
     ax.set_xlabel(f"{b['coordinate']} [{b['unit']}]" if b["unit"] else b["coordinate"], fontsize=8)
     ax.set_ylabel("held-out residual [µm]", fontsize=8)
@@ -42,21 +42,22 @@ def write_report(diag, out) -> Path:
     for ax in axes.ravel()[len(keys):]:
         ax.axis("off")
     axes[0, 0].legend(fontsize=6)
-    fig.suptitle("Where the residual lies: held-out residuals of the base model", fontsize=11)
+    fig.suptitle("Where the residual lies: held-out residuals of the base model (µm)", fontsize=11)
     fig.tight_layout()
     fig.savefig(out.path("figures/breakdowns.png"), dpi=90)
     plt.close(fig)
-    eff = [e for e in diag.effects[:12]]
-    fig, ax = plt.subplots(figsize=(8, 0.35 * len(eff) + 1.2))
+    eff = diag.effects[:12]
+    fig, ax = plt.subplots(figsize=(8, 0.35 * max(len(eff), 1) + 1.2))
     y = np.arange(len(eff))[::-1]
-    ax.barh(y, [e.shrink_pct for e in eff], color=["tab:green" if e.significant else "0.7" for e in eff])
+    ax.barh(y, [e.shrink_pct for e in eff],
+            color=["tab:green" if e.accepted else ("tab:olive" if e.significant else "0.7") for e in eff])
     ax.set_yticks(y, [e.label for e in eff], fontsize=7)
-    ax.set_xlabel("held-out mean residual shrink [%] (green: significant)")
+    ax.set_xlabel("held-out mean residual shrink [%] (green: accepted; olive: significant, not taken)")
     ax.axvline(0, color="k", lw=0.8)
     fig.tight_layout()
     fig.savefig(out.path("figures/effects.png"), dpi=90)
     plt.close(fig)
-    held = np.linalg.norm(diag.heldout_base, axis=1) * 1e3
+    held = np.linalg.norm(diag.heldout_base, axis=1) * MM_PER_M
     fig, ax = plt.subplots(figsize=(8, 3))
     ax.plot(np.arange(len(held)), held, ".", ms=3)
     if diag.outlier_rows:
@@ -68,25 +69,35 @@ def write_report(diag, out) -> Path:
     plt.close(fig)
 
     b = diag.base
-    lines = [f"# Diagnosis of {diag.machine.name}", "",
+    lines = [f"# Diagnosis of {diag.machine.name}", ""] + [s + "  " for s in diag.headline()] + ["",
              f"Base model: {b['label']} (chosen by held-out data unless fixed), {b['rows']} rows, "
              f"{b['folds']}-fold cross-validation grouped by command. Held-out mean {b['heldout_mean_mm']:.4f} mm, "
-             f"max {b['heldout_max_mm']:.4f} mm; chi2/expected {b['chi2_per_expected']:.2f}.", "",
-             "## Which effect", "",
-             "| rank | effect | significant | held-out mean before (mm) | after (mm) | shrink | p-value | evidence |",
-             "|---|---|---|---|---|---|---|---|"]
+             f"max {b['heldout_max_mm']:.4f} mm; chi2/expected {b['chi2_per_expected']:.2f}.", ""]
+    if diag.base_finding:
+        lines += [diag.base_finding, ""]
+    lines += ["## Which effect", "",
+              "An effect is *significant* when the F-test within the fit and the paired test on held-out rows both "
+              "pass their Bonferroni threshold and it shrinks the held-out mean enough; the most economical "
+              "significant effect of each round is *accepted* into the model.", "",
+              "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | p (fit) | "
+              "p (held-out) |", "|---|---|---|---|---|---|---|---|---|"]
     for k, e in enumerate(diag.effects, 1):
-        lines.append(f"| {k} | {e.label} | {'yes' if e.significant else 'no'} | {e.heldout_mean_mm_before:.4f} | "
-                     f"{e.heldout_mean_mm_after:.4f} | {e.shrink_pct:.1f}% | {e.p_value:.1e} | {e.evidence} |")
+        lines.append(f"| {k} | {e.label} | {'yes' if e.significant else 'no'} | {'yes' if e.accepted else 'no'} | "
+                     f"{e.heldout_mean_mm_before:.4f} | {e.heldout_mean_mm_after:.4f} | {e.shrink_pct:.1f}% | "
+                     f"{e.p_value:.1e} | {e.p_heldout:.1e} |")
+    for e in diag.accepted:
+        lines += ["", f"**{e.label}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
     m, x = diag.best_heldout()
-    lines += ["", f"Best model (base + significant effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",
-              "![effects](figures/effects.png)", "", "## Where the residual lies", ""]
-    lines.append("| breakdown | bin-mean chi2/dof | p (bin means) | p (trend) | structured |")
-    lines.append("|---|---|---|---|---|")
+    lines += ["", f"Best model (base + accepted effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",
+              "![effects](figures/effects.png)", "", "## Where the residual lies", "",
+              "| breakdown | F (bins) | p (bins) | F (trend) | p (trend) | structured |", "|---|---|---|---|---|---|"]
     for k in keys:
         v = loc[k]
-        lines.append(f"| {k} | {v['systematic_chi2'] / v['systematic_dof']:.2f} | {v['p_systematic']:.1e} | "
-                     f"{v['p_trend']:.1e} | {'yes' if v['structured'] else 'no'} |")
+        lines.append(f"| {k} | {v['F_bins']:.2f} | {v['p_bins']:.1e} | {v['F_trend']:.2f} | {v['p_trend']:.1e} | "
+                     f"{'yes' if v['structured'] else 'no'} |")
+    if diag.unexplained:
+        lines += ["", "Still structured after the accepted effects (unexplained): "
+                  + ", ".join(diag.unexplained) + "."]
     lines += ["", "![breakdowns](figures/breakdowns.png)", "", "![rows](figures/rows.png)", ""]
     if diag.outlier_rows:
         lines += [f"Outlier rows (0-based): {', '.join(map(str, diag.outlier_rows))}", ""]

@@ -169,6 +169,25 @@ class ErrorModel:
                           tool_lengths=self.tool_lengths, prior_scale=self.prior_scale,
                           bases=self.bases if self.basis_kind == "custom" else None, effects=effects)
 
+    def geometric_part(self) -> tuple["ErrorModel", list]:
+        """(this fitted model with only its geometric effects, the row-dependent effects
+        left out): what tables can carry. Parameters, covariance and setup are kept."""
+        self._check_fitted()
+        dropped = [e for e in self.effects if not e.geometric]
+        if not dropped:
+            return self, []
+        kept = [e for e in self.effects if e.geometric]
+        new = self.with_effects(kept)
+        idx = list(range(len(self.base_parameters)))
+        idx += [i for e, sl in self.effect_slices() if e.geometric for i in range(sl.start, sl.stop)]
+        full = np.r_[np.arange(6), 6 + np.array(idx, int)]
+        new.b_, new.e0_, new.setup_ = self.b_[idx], self.e0_, self.setup_
+        new.cov_ = self.cov_[np.ix_(full, full)]
+        new.noise_, new.report_ = self.noise_, self.report_
+        if hasattr(self, "selection_"):
+            new.selection_ = self.selection_
+        return new, dropped
+
     @property
     def row_dependent(self) -> bool:
         """True when an effect depends on the rows (time, temperature, move order)."""

@@ -74,10 +74,11 @@ class SimulatedMachine:
         raise NotImplementedError
 
     def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
-        """Noise-free true tool tip (N,3) [m], machine base frame; with ``features`` the
-        simulated effects that act on the commands and the tip are included."""
+        """Noise-free true tool tip (N,3) [m], machine base frame. Geometric effects (a
+        skew, coupled axes) are part of the machine and always act; row-dependent ones
+        (thermal, backlash) act when ``features`` (time, temperature, move order) are given."""
         q = np.atleast_2d(np.asarray(q, float))
-        active = self.effects if features is not None else []
+        active = [e for e in self.effects if features is not None or e.geometric]
         for e in active:
             q = q + e.simulate_command(q, features)
         tip, tool_dir = self.geometric_tip(q, np.broadcast_to(np.asarray(tool, float), (len(q),)))

@@ -79,7 +79,7 @@ class GantrySkew(Effect):
             c = values[k:k + self.order]
             ang = np.polynomial.chebyshev.chebval(u, np.r_[0.0, c])
             travel = m.axis(other).travel
-            if m.axis(other).kind == "linear" and travel > 0:
+            if m.axis(other).kind == "linear" and travel > 0 and np.ptp(ang) > 1e-6:
                 slope = (ang[-1] - ang[0]) / travel * 1e6  # µrad per m
                 lines.append(f"{self.label}: rotation about {a}'s {self.about} axis varies by "
                              f"{np.ptp(ang) * 1e6:.1f} µrad over {other} ({slope:+.1f} µrad/m)")

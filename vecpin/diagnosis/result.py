@@ -1,0 +1,155 @@
+"""What a diagnosis found: the scores of every candidate, the accepted effects with
+their evidence and advice, the outliers, where the residual lies, and three plain
+sentences that say it."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.fileio import OutputSet
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
+from vecpin.models import ErrorModel
+from vecpin.models.effects import Effect
+
+
+@dataclass
+class EffectScore:
+    """One candidate's scores. ``significant``: both tests below the threshold and a
+    held-out shrink worth a term; ``accepted``: taken into the model (the most
+    economical significant candidate of its round)."""
+
+    name: str
+    label: str
+    axes: list[str]
+    n_parameters: int
+    delta_chi2: float
+    f_statistic: float
+    p_value: float
+    threshold: float
+    heldout_mean_mm_before: float
+    heldout_mean_mm_after: float
+    heldout_max_mm_before: float
+    heldout_max_mm_after: float
+    significant: bool = False
+    round: int = 1
+    evidence: str = ""
+    bic_gain: float = float("nan")
+    p_heldout: float = float("nan")
+    accepted: bool = False
+    explains: list[str] = field(default_factory=list)
+    advice: list[str] = field(default_factory=list)
+    effect: Effect | None = field(default=None, repr=False)
+
+    @property
+    def shrink_pct(self) -> float:
+        return 100.0 * (1 - self.heldout_mean_mm_after / self.heldout_mean_mm_before)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "label": self.label, "axes": self.axes, "significant": bool(self.significant),
+                "accepted": bool(self.accepted), "heldout_mean_mm_before": self.heldout_mean_mm_before,
+                "heldout_mean_mm_after": self.heldout_mean_mm_after, "heldout_max_mm_before": self.heldout_max_mm_before,
+                "heldout_max_mm_after": self.heldout_max_mm_after, "shrink_pct": self.shrink_pct,
+                "evidence": self.evidence, "explains": self.explains, "advice": self.advice,
+                "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
+                "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
+                "round": self.round, "bic_gain": self.bic_gain,
+                "options": self.effect.options if self.effect is not None else {}}
+
+
+@dataclass
+class Diagnosis:
+    machine: Machine
+    base: dict
+    effects: list[EffectScore]
+    outlier_rows: list[int]
+    localization: dict
+    base_model: ErrorModel
+    best_model: ErrorModel
+    heldout_base: np.ndarray          # (N,3) m, held-out residuals of the base model
+    campaign: Campaign
+    seconds: float
+    best: tuple[float, float] = (float("nan"), float("nan"))  # held-out mean/max [mm] of the best model
+    localization_final: dict | None = None
+    unexplained: list[str] = field(default_factory=list)
+    base_finding: str = ""
+
+    @property
+    def accepted(self) -> list[EffectScore]:
+        return [e for e in self.effects if e.accepted]
+
+    def best_heldout(self) -> tuple[float, float]:
+        return self.best
+
+    def headline(self) -> list[str]:
+        """Three plain sentences: where the gap lies, which effect(s) and how much they
+        shrink it, what to do."""
+        b = self.base
+        loc = self.localization
+        where = [loc["breakdowns"][k]["coordinate"] for k in loc["most_structured"][:3]]
+        s1 = (f"Where: after the base model ({b['label']}) the held-out residual is {b['heldout_mean_mm']:.4f} mm on "
+              "average" + (f" and structured along {', '.join(where)}." if where else
+                           ", with no structure beyond the scatter along any axis, time, temperature or direction."))
+        if self.base_finding:
+            s1 += " " + self.base_finding
+        acc = [e for e in self.accepted if e.name != "outliers"]
+        m, _ = self.best
+        if acc:
+            s2 = (f"Which: {', '.join(e.label for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
+                  f"{b['heldout_mean_mm']:.4f} -> {m:.4f} mm ({100 * (1 - m / b['heldout_mean_mm']):.0f}% smaller).")
+        else:
+            s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
+        if self.outlier_rows:
+            s2 += f" {len(self.outlier_rows)} rows are gross errors and were left out."
+        todo = [e.advice[0] for e in self.accepted if e.advice]
+        s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
+                                                          "(vecpin tables model_base.json).")
+        if self.unexplained:
+            s3 += (" Not explained by any candidate: structure along "
+                   + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")
+        return [s1, s2, s3]
+
+    def to_dict(self) -> dict:
+        return {"headline": self.headline(), "base": self.base, "base_finding": self.base_finding,
+                "effects": [e.to_dict() for e in self.effects], "outlier_rows": self.outlier_rows,
+                "localization": self.localization, "localization_final": self.localization_final,
+                "unexplained": self.unexplained,
+                "best": {"effects": [e.label for e in self.accepted], "heldout_mean_mm": self.best[0],
+                         "heldout_max_mm": self.best[1]},
+                "units": "mm; p-values are probabilities; localisation bins in the coordinate's unit"}
+
+    def summary(self) -> str:
+        b = self.base
+        lines = self.headline() + ["",
+                                   f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max "
+                                   f"{b['heldout_max_mm']:.4f} mm ({b['folds']}-fold CV over {b['rows']} rows)"]
+        if self.outlier_rows:
+            lines.append(f"outliers: rows {', '.join(map(str, self.outlier_rows))} (0-based) flagged and left out")
+        lines.append(f"  {'rank':>4s} {'effect':<34s} {'signif.':>7s} {'accepted':>8s} {'before':>8s} {'after':>8s} "
+                     f"{'shrink':>7s} {'p (fit)':>9s} {'p (held)':>9s}")
+        for k, e in enumerate(self.effects[:12], 1):
+            lines.append(f"  {k:4d} {e.label:<34s} {'yes' if e.significant else 'no':>7s} "
+                         f"{'yes' if e.accepted else 'no':>8s} {e.heldout_mean_mm_before:8.4f} "
+                         f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.p_value:9.2e} {e.p_heldout:9.2e}")
+        for e in self.accepted:
+            lines.append(f"accepted: {e.label}: {e.evidence}")
+            lines += [f"  advice: {a}" for a in e.advice]
+        m, x = self.best
+        lines.append(f"best model: held-out mean {m:.4f} mm, max {x:.4f} mm "
+                     f"({100 * (1 - m / b['heldout_mean_mm']):.1f}% below the base)")
+        return "\n".join(lines)
+
+    def write(self, out_dir: str | Path) -> dict[str, Path]:
+        """diagnosis.json, model_base.json, model_best.json, report.md and figures/,
+        committed together (an interruption leaves the previous set)."""
+        from vecpin.diagnosis.report import write_report
+        with OutputSet(out_dir) as out:
+            paths = {"diagnosis": out.write_text("diagnosis.json", json.dumps(self.to_dict(), indent=1, default=float))}
+            self.base_model.save(out.path("model_base.json"))
+            self.best_model.save(out.path("model_best.json"))
+            paths["model_base"], paths["model_best"] = out.final("model_base.json"), out.final("model_best.json")
+            paths["report"] = write_report(self, out)
+        return paths

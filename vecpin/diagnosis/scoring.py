@@ -1,0 +1,109 @@
+"""Which effect: candidate effects scored against the current model by linearised
+cross-validation and two tests that must both pass.
+
+* **Within the fit**: the F-test of the chi-square reduction the effect's terms buy,
+  over the scatter left (robust to a misjudged noise scale).
+* **On held-out data**: a paired test of the per-row held-out distances before and
+  after (one-sided t on their differences): the effect must predict rows it did not
+  see better, by more than their scatter.
+
+Both against ``alpha`` / (candidates in the round) (Bonferroni). Columns of a
+candidate come from the current model's kinematics (d tip / d q, the tip and tool
+direction, computed once per round): the candidate's terms are linear in its
+parameters, so no trial model is built.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import stats
+
+from vecpin.errors import InputError
+from vecpin.identification.crossval import Linearised
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.features import Features
+from vecpin.models import ErrorModel
+from vecpin.models.effects import REGISTRY, Effect, TipContext
+from vecpin.units import MM_PER_M
+
+
+def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
+    """Every candidate instance of the named effects (row-flagging effects excluded)."""
+    out = []
+    for name in names:
+        if name not in REGISTRY:
+            raise InputError(f"unknown effect '{name}' (known: {', '.join(REGISTRY)})")
+        if not REGISTRY[name].flags_rows:
+            out += REGISTRY[name].candidates(machine, feats)
+    return out
+
+
+class Kinematics:
+    """What the current model gives every candidate: tips, tool directions and d tip / d q
+    at the campaign's rows (machine frame), computed once."""
+
+    def __init__(self, model: ErrorModel, campaign, feats: Features):
+        self.model = model
+        self.q = campaign.q
+        mt = model.tool_tip(campaign.q, campaign.tool, model.b_, jacobian=True, features=feats)
+        self.tip, self.J_q, self.tool_dir = mt.tip, mt.J_q, mt.tool_dir
+        self.ctx = TipContext(model.machine, campaign.q, mt.tip, mt.tool_dir)
+
+
+def effect_columns(kin: Kinematics, lin: Linearised, effect: Effect, feats: Features) -> tuple[np.ndarray, np.ndarray]:
+    """ψ-scaled columns (A metric, J whitened) of a candidate effect's parameters."""
+    prior = np.array([p.prior for p in effect.parameters()])
+    k = len(prior)
+    A = np.zeros(lin.r.shape + (k,))
+    J = np.zeros_like(A)
+    if "tracker" in effect.kinds:  # acts on the measured point only
+        a, j = lin.tracker_columns(effect.tracker(np.nan_to_num(lin.y), feats), prior)
+        A, J = A + a, J + j
+    D = np.zeros((len(kin.q), 3, k))
+    if "command" in effect.kinds:
+        D += np.einsum("pin,pnk->pik", kin.J_q, effect.command(kin.q, feats))
+    if "tip" in effect.kinds:
+        D += effect.tip(kin.ctx, feats)
+    if "command" in effect.kinds or "tip" in effect.kinds:
+        a, j = lin.point_columns(D, prior)
+        A, J = A + a, J + j
+    return A, J
+
+
+def distances_mm(lin: Linearised, held: np.ndarray) -> np.ndarray:
+    """Per judged row the held-out distance [mm] (3-D points; ranges/radii otherwise)."""
+    rows = lin.point_rows if lin.point_rows.any() else np.ones(len(held), bool)
+    return np.linalg.norm(held[rows], axis=1) * MM_PER_M
+
+
+def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, base_eval: dict,
+          base_grams: dict) -> dict:
+    """The candidate's linearised CV and both tests (see the module docstring)."""
+    A0, J0, psi0 = base
+    A1, J1 = cand_cols
+    A = np.concatenate([A0, A1], axis=-1)
+    J = np.concatenate([J0, J1], axis=-1)
+    psi = np.r_[psi0, np.zeros(A1.shape[-1])]
+    grams = lin.extend_grams(base_grams, J0, J1, folds)
+    ev = lin.evaluate(A, J, psi, folds, grams)
+    d_chi2 = base_eval["chi2"] - ev["chi2"]
+    k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
+    dof = max(lin.n_equations - ev["p_eff"], 1.0)
+    F = (d_chi2 / k) / (ev["chi2"] / dof)
+    before, after = distances_mm(lin, base_eval["heldout"]), distances_mm(lin, ev["heldout"])
+    delta = before - after
+    sd = float(np.std(delta, ddof=1)) if delta.size > 1 else 0.0
+    t = float(delta.mean() / (sd / math.sqrt(delta.size))) if sd > 0 else (math.inf if delta.mean() > 0 else 0.0)
+    ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
+              p_heldout=float(stats.t.sf(t, max(delta.size - 1, 1))), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
+    return ev
+
+
+def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float = 1e-3) -> np.ndarray:
+    """Rows whose held-out whitened residual is too large to be noise, judged against
+    the robust (median) dispersion of all rows, Bonferroni over the rows."""
+    s = np.sum(base_eval["heldout_w"] ** 2, axis=1)
+    scale = np.median(s) / stats.chi2.median(3)
+    limit = stats.chi2.isf(p / len(s), 3)
+    return np.flatnonzero(s / scale > limit)
