@@ -27,8 +27,8 @@ from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError, VecpinError
 from vecpin.models import APModel, ErrorModel
 from vecpin.units import MM_PER_M, from_mm
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
-DEFAULT_TOOLS_MM = (214.88, 312.86)
 METHODS = ("exact", "ga", "heuristic")
 
 
@@ -137,7 +137,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         lim.constraints(max_tables, axis_names=m.axis_names)  # raises: this controller takes no cross tables
     if need_subset:
         cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
-    tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or DEFAULT_TOOLS_MM
+    tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM
     if len(tools_mm) < 2:
         tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
     tools = from_mm(np.array(tools_mm, float))

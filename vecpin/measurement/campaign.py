@@ -34,6 +34,7 @@ RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
 INSTRUMENTS = ("tracker", "ballbar")
 AXIS_LETTERS = set("XYZABCUVW")
+PAPER_I_TOOLS_MM = (214.88, 312.86)  # the seed's two tool lengths (Paper I): the default of designs and tables
 LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
 
 

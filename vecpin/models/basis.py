@@ -33,30 +33,17 @@ def normalise(q: np.ndarray, lower: float, upper: float) -> np.ndarray:
 
 
 def chebyshev(x: np.ndarray, order: int) -> np.ndarray:
-    """(N, order+1) Chebyshev polynomials c_0..c_order at x (recursion eq. 6)."""
-    x = np.asarray(x, float)
-    out = np.empty(x.shape + (order + 1,))
-    out[..., 0] = 1.0
-    if order >= 1:
-        out[..., 1] = x
-    for k in range(2, order + 1):
-        out[..., k] = 2.0 * x * out[..., k - 1] - out[..., k - 2]
-    return out
+    """(..., order+1) Chebyshev polynomials c_0..c_order at x (eq. 6; numpy's chebvander)."""
+    return np.polynomial.chebyshev.chebvander(np.asarray(x, float), order)
 
 
 def chebyshev_derivative(x: np.ndarray, order: int) -> np.ndarray:
-    """(N, order+1) d c_k / d x, from c_k' = k U_{k-1}."""
+    """(..., order+1) d c_k / d x: the derivatives' Chebyshev coefficients (chebder) at x."""
     x = np.asarray(x, float)
-    U = np.empty(x.shape + (max(order, 1),))
-    U[..., 0] = 1.0
-    if order >= 2:
-        U[..., 1] = 2.0 * x
-    for k in range(2, order):
-        U[..., k] = 2.0 * x * U[..., k - 1] - U[..., k - 2]
-    out = np.zeros(x.shape + (order + 1,))
-    for k in range(1, order + 1):
-        out[..., k] = k * U[..., k - 1]
-    return out
+    if order == 0:
+        return np.zeros(x.shape + (1,))
+    D = np.polynomial.chebyshev.chebder(np.eye(order + 1), axis=0)  # (order, order+1): column k is c_k'
+    return np.polynomial.chebyshev.chebvander(x, order - 1) @ D
 
 
 KINDS = ("chebyshev", "fourier", "fourier_trend", "bspline")

@@ -34,8 +34,8 @@ from vecpin.planning.information import Information, PredictedError, validation_
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
                                        default_tracker_position)
 from vecpin.planning.zones import Zone, clip_to_zone, inside
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
-PAPER_I_TOOLS_MM = (214.88, 312.86)
 
 
 @dataclass

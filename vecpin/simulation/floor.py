@@ -17,9 +17,10 @@ from vecpin.compensation.functions import (TableProblem, all_table_names, compen
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
 from vecpin.compensation.tables import TableSet
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.units import norm_mm
 
-PAPER_I_TOOLS = (0.21488, 0.31286)
+PAPER_I_TOOLS = tuple(t * 1e-3 for t in PAPER_I_TOOLS_MM)  # m
 
 
 @dataclass

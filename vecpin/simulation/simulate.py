@@ -22,8 +22,8 @@ from vecpin.kinematics.machine import Machine
 from vecpin.simulation.effects import EffectSpec
 from vecpin.planning.zones import parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported here)
 from vecpin.simulation.truth import TrueMachine
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
-PAPER_I_TOOLS_MM = (214.88, 312.86)
 
 
 @dataclass
@@ -80,7 +80,6 @@ def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
 
 def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
     """Append rows of further tracker stations (same commands) and of a ball bar."""
-    from vecpin.measurement.tracker import TrackerNoise
     m = truth.machine
     parts = [campaign]
     n = len(campaign)
