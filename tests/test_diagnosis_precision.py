@@ -119,3 +119,22 @@ def test_report_opens_with_three_plain_sentences(flow, tmp_path):
     means = [b["mean_mm"] for v in j["localization"]["breakdowns"].values() for b in v["bins"]]
     assert 0.005 < np.median(means) < 1.0          # millimetres, not metres
     assert j["effects"][0]["accepted"] and j["effects"][0]["explains"]
+
+
+def test_model_best_goes_into_tables_view_and_report(flow, tmp_path, capsys):
+    """A best model with a geometric effect (skew: into the tables) and a row-dependent one
+    (thermal: advice instead) is accepted by tables, view and report."""
+    sim = simulate(flow, seed=14, design=DESIGN,
+                   effects=[EffectSpec("thermal", (), 0.08, seed=3),
+                            EffectSpec("gantry_skew", ("Y",), 0.05, {"about": "x", "depends": "X"}, seed=1)])
+    d = diagnose(flow, sim.campaign, effects=["thermal", "gantry_skew", "backlash"])
+    assert {e.name for e in d.accepted} == {"thermal", "gantry_skew"}
+    paths = d.write(tmp_path / "diag")
+    from vecpin.measurement.campaign import write_campaign
+    write_campaign(tmp_path / "c.csv", sim.campaign, flow)
+    best = str(paths["model_best"])
+    assert main(["tables", best, "--out", str(tmp_path / "t"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "thermal[X,Y,Z] is not in the tables" in out and "ppm/K" in out
+    assert main(["view", best, str(tmp_path / "c.csv"), "--html", str(tmp_path / "s.html")]) == 0
+    assert main(["report", best, str(tmp_path / "c.csv"), "--out", str(tmp_path / "r"), "--quiet"]) == 0

@@ -36,11 +36,14 @@ ActualMachine = Callable[[np.ndarray, np.ndarray, bool], tuple]
 
 
 def model_as_actual(model: ErrorModel) -> ActualMachine:
-    """The fitted model as the 'actual' machine (machine base frame, no tracker)."""
+    """The fitted model as the 'actual' machine (machine base frame, no tracker). Only its
+    geometry: effects that depend on the rows (thermal, backlash, an instrument shift)
+    are left out, as tables cannot carry them."""
     model._check_fitted()
+    geometric = model.geometric_part()[0] if model.row_dependent else model
 
     def actual(q, tool, jacobian=True):
-        out = model.tool_tip(q, tool, model.b_, jacobian)
+        out = geometric.tool_tip(q, tool, geometric.b_, jacobian)
         return out.tip, out.J_q
     return actual
 

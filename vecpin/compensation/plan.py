@@ -30,6 +30,7 @@ from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
 METHODS = ("exact", "ga", "heuristic")
+HOLD_MARGIN = 0.02  # unmeasured share of an axis' travel at an end beyond which tables are held constant
 
 
 @dataclass
@@ -156,8 +157,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
     problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes)),
                            modulo_axes=tuple(modulo_axes))
+    # held where the campaign left a real part of the travel unmeasured (a random design
+    # never reaches the very limits: 2% of the travel is not extrapolation)
     problem.hold = {a.name: (lo[a.index], hi[a.index]) for a in m.axes
-                    if lo[a.index] > a.lower + 1e-9 or hi[a.index] < a.upper - 1e-9}
+                    if lo[a.index] > a.lower + HOLD_MARGIN * a.travel or hi[a.index] < a.upper - HOLD_MARGIN * a.travel}
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
                                       f"{', '.join(f'{t:g}' for t in tools_mm)} mm (every row on these points):")
