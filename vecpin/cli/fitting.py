@@ -6,6 +6,7 @@ import json
 import numpy as np
 
 from vecpin.cli.common import add_model_args, add_noise_args, machine, noise, parse_orders, progress
+from vecpin.units import MM_PER_M
 
 
 def run_fit(args) -> int:
@@ -33,7 +34,7 @@ def run_fit(args) -> int:
             (model.label(), norm_mm(model.residuals(c0)))]
     print("\n".join(per_tool_table(rows, c0.tool)))
     if c.ballbar_rows.size:
-        d = np.abs(model.ballbar_residuals(c)) * 1e3
+        d = np.abs(model.ballbar_residuals(c)) * MM_PER_M
         print(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
     print(f"wrote {args.out}")
     return 0

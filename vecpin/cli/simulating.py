@@ -6,6 +6,7 @@ import argparse
 import numpy as np
 
 from vecpin.cli.common import machine
+from vecpin.units import M_PER_MM
 
 
 def run_simulate(args) -> int:
@@ -37,7 +38,7 @@ def run_simulate(args) -> int:
     tracker = None
     if args.tracker:
         from vecpin.cli.planning import parse_floats
-        tracker = np.array(parse_floats(args.tracker, "--tracker", 3)) * 1e-3
+        tracker = np.array(parse_floats(args.tracker, "--tracker", 3)) * M_PER_MM
     run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, plan=plan, tables=tables,
                           truth=truth, tracker_position=tracker, mean_error_mm=args.mean_error)
     print("\n".join(run.lines()))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from vecpin.cli.common import machine, progress
 from vecpin.errors import InputError
+from vecpin.units import M_PER_MM
 
 
 def run_assess(args) -> int:
@@ -16,7 +17,7 @@ def run_assess(args) -> int:
         noise = None
         if args.tracker_noise:
             a, b, c, d = args.tracker_noise
-            noise = TrackerNoise(a * 1e-3, b * 1e-6, c * 1e-3, d * 1e-6)
+            noise = TrackerNoise(a * M_PER_MM, b * 1e-6, c * M_PER_MM, d * 1e-6)
         res = assess_campaign(read_campaign(args.csv, m), m, noise, session_gap=args.session_gap_min * 60.0)
     else:
         if args.mean_error is None:

@@ -30,6 +30,7 @@ from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.models import APModel, ErrorModel
 from vecpin.compensation.tables import CompensationTable, TableSet, table_grid
+from vecpin.units import MM_PER_M
 
 # actual(q, tool, jacobian) -> (tip (N,3) machine frame [m], d tip / d q (N,3,n) or None)
 ActualMachine = Callable[[np.ndarray, np.ndarray, bool], tuple]
@@ -327,7 +328,7 @@ class CompensationReport:
     def add(self, label: str, err: np.ndarray, n_tables: int = 0,
             spread: tuple[float, float, float] | None = None) -> None:
         """A row from tool-tip errors (N,3) [m]."""
-        d = np.linalg.norm(err, axis=1) * 1e3
+        d = np.linalg.norm(err, axis=1) * MM_PER_M
         self.rows.append(ReportRow(label, float(d.mean()), float(d.max()), n_tables, spread))
 
     def table(self) -> str:

@@ -33,6 +33,7 @@ from scipy import linalg
 
 from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names
 from vecpin.errors import VecpinError
+from vecpin.units import MM_PER_M
 
 
 @dataclass(frozen=True)
@@ -133,7 +134,7 @@ def finalise(problem: TableProblem, names: list[str], n_points: int = 1024):
     the mean/max volumetric error [mm] over the pseudo-measurements."""
     tables = problem.solve(pitch_names(problem.machine) + list(names)).discretise(n_points)
     err = compensated_errors(problem.actual, problem.machine, tables, problem.q, problem.L)
-    d = np.linalg.norm(err, axis=1) * 1e3
+    d = np.linalg.norm(err, axis=1) * MM_PER_M
     return tables, float(d.mean()), float(d.max())
 
 
@@ -159,9 +160,9 @@ def exact_search(problem: TableProblem, constraints: Constraints, finalists: int
     for j in order:
         names = [cand[i] for i in combos[j]]
         _, mean, mx = finalise(problem, names, n_points)
-        fin.append((names, float(scores[j] * 1e3), mean))
+        fin.append((names, float(scores[j] * MM_PER_M), mean))
         if best is None or mean < best[2]:
-            best = (names, float(scores[j] * 1e3), mean, mx)
+            best = (names, float(scores[j] * MM_PER_M), mean, mx)
     return Selection("exact", best[0], best[1], best[2], best[3], time.perf_counter() - t0,
                      scorer.evaluations, finalists=fin)
 
@@ -219,7 +220,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
     for _gen in range(generations):
         pop.sort(key=fitness)
         current = fitness(pop[0])
-        history.append(current * 1e3)
+        history.append(current * MM_PER_M)
         if current < best - 1e-15:
             best, stale = current, 0
         else:
@@ -239,7 +240,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
     pop.sort(key=fitness)
     names = sorted(pop[0])
     _, mean, mx = finalise(problem, names, n_points)
-    return Selection("genetic", names, fitness(pop[0]) * 1e3, mean, mx, time.perf_counter() - t0,
+    return Selection("genetic", names, fitness(pop[0]) * MM_PER_M, mean, mx, time.perf_counter() - t0,
                      len(cache), history=history)
 
 
@@ -254,7 +255,7 @@ def impact_heuristic(problem: TableProblem, constraints: Constraints, n_points: 
     for name in every:
         x = problem.solve_linear(pitch_names(m) + [n for n in every if n != name])
         e = (problem.e0 + problem.A @ x).reshape(-1, 3)
-        ranking.append((name, float(np.linalg.norm(e, axis=1).mean() * 1e3)))
+        ranking.append((name, float(np.linalg.norm(e, axis=1).mean() * MM_PER_M)))
     ranking.sort(key=lambda r: -r[1])
     chosen: list[str] = []
     for name, _ in ranking:
@@ -264,5 +265,5 @@ def impact_heuristic(problem: TableProblem, constraints: Constraints, n_points: 
             break
     scorer = Scorer(problem)
     _, mean, mx = finalise(problem, chosen, n_points)
-    return Selection("heuristic", sorted(chosen), scorer.score(chosen) * 1e3, mean, mx, time.perf_counter() - t0,
+    return Selection("heuristic", sorted(chosen), scorer.score(chosen) * MM_PER_M, mean, mx, time.perf_counter() - t0,
                      len(every) + 1, ranking=ranking)

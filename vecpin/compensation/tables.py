@@ -21,6 +21,7 @@ import numpy as np
 
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M, M_PER_MM
 
 
 @dataclass
@@ -108,7 +109,7 @@ class TableSet:
                          "start": float(ai.to_user(t.start)), "step": float(ai.to_user(t.step)),
                          "points": len(t.values), "values": [float(v) for v in ao.to_user(t.values)]})
         return {"format": "vecpin-tables", "version": 1, "machine": machine.name,
-                "gauge_offset_change_mm": self.gauge_offset_change * 1e3,
+                "gauge_offset_change_mm": self.gauge_offset_change * MM_PER_M,
                 "convention": "compensated command = command + sum of tables (eq. 15-16); linear interpolation; "
                               "end values hold beyond the ends; modulo tables repeat every turn",
                 "tables": tabs}
@@ -125,7 +126,7 @@ class TableSet:
             ai, ao = machine.axis(e["input_axis"]), machine.axis(e["output_axis"])
             tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(e["start"])), float(ai.to_si(e["step"])),
                                             ao.to_si(np.array(e["values"], float)), bool(e["modulo"])))
-        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * 1e-3, d.get("machine", ""))
+        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * M_PER_MM, d.get("machine", ""))
 
     @classmethod
     def load_json(cls, path: str | Path, machine: Machine) -> "TableSet":
@@ -140,7 +141,7 @@ class TableSet:
                 pos, val = ai.to_user(t.positions), ao.to_user(t.values)
                 for k in range(len(val)):
                     fh.write(f"{t.name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}\n")
-            fh.write(f"# gauge_offset_change_mm,{self.gauge_offset_change * 1e3:.6f}\n")
+            fh.write(f"# gauge_offset_change_mm,{self.gauge_offset_change * MM_PER_M:.6f}\n")
 
 
 def table_grid(axis, n_points: int, modulo: bool) -> tuple[float, float]:

@@ -16,8 +16,8 @@ from vecpin.units import MM_PER_M  # noqa: E402
 def _breakdown_figure(ax, b: dict) -> None:
     bins = b["bins"]
     x = [(e["from"] + e["to"]) / 2 for e in bins] if "from" in bins[0] else [e["value"] for e in bins]
-    mean = np.array([e["mean_mm"] for e in bins]) * 1e3          # mm -> µm
-    vec = np.array([e["mean_vector_mm"] for e in bins]) * 1e3
+    mean = np.array([e["mean_mm"] for e in bins]) * MM_PER_M          # mm -> µm
+    vec = np.array([e["mean_vector_mm"] for e in bins]) * MM_PER_M
     ax.plot(x, mean, "ko-", label="|residual| mean")
     for k, (c, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
         ax.plot(x, vec[:, k], "s--", color=col, ms=3, lw=1, label=f"mean {c}")

@@ -49,6 +49,7 @@ from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, de
                                   to_int)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 PARA_FILE, PITCH_FILE, STRAIGHT_FILE, README = "CNC-PARA.TXT", "PITCH.TXT", "STRAIGHTNESS.CSV", "README_FANUC.md"
 
@@ -318,7 +319,7 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
         s.append("No cross tables in this set.")
     s += ["", "## Gauge line", "",
           f"Change the tool-length / pivot offset of the 5-axis transformation by "
-          f"{job.tables.gauge_offset_change * 1e3:+.4f} mm.", "",
+          f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
           "## Before relying on the tables", "",
           "- The sign of the pitch data (correction, not error) is inferred: run the sign test (`--sign-test AXIS`).",
           "- The value range (+-" + str(max_value) + " per point) and magnification range are inferred; the total "

@@ -30,6 +30,7 @@ from vecpin.errors import ControllerFileError, ControllerLimitError
 from vecpin.export.common import ControllerFormat, ExportJob, equidistant, read_lines, signed, to_float
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 CMA_FILE, README = "CONFIG.CMA", "README_HEIDENHAIN.md"
 MAX_ENTRIES = 256  # TNC 407 TM p.622: a .COM with more entries is an error (module 9095 error 3)
@@ -118,7 +119,7 @@ def _readme(job: ExportJob, cma) -> str:
           "- At most 256 entries per `.COM` (TNC 407); rotary positions 0..360.",
           "- The header's exact form on your control (version field, `#STRUCTBEGIN`) may differ: compare with a",
           "  table saved by the control.",
-          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * 1e3:+.4f} mm.", ""]
+          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]
     return "\n".join(s)
 
 

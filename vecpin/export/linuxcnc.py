@@ -37,6 +37,7 @@ from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export.common import ControllerFormat, ExportJob, equidistant, read_lines
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 README = "README_LINUXCNC.md"
 COMP_SIZE = 256     # EMCMOT_COMP_SIZE, src/emc/motion/motion.h:396
@@ -106,7 +107,7 @@ def _readme(job: ExportJob, kind: int) -> str:
           "- With `COMP_FILE` set, `BACKLASH` is not used; forward and reverse columns are equal here.",
           "- Below the first and above the last nominal the end values hold. At most 256 lines per joint.",
           "- Joint = axis on trivial kinematics; on other kinematics the file belongs to the joint.",
-          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * 1e3:+.4f} mm.", ""]
+          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]
     return "\n".join(s)
 
 

@@ -40,6 +40,7 @@ from vecpin.errors import ControllerFileError, InputError
 from vecpin.export.common import ControllerFormat, ExportJob, constant_note, decimal, read_lines, to_float, to_int
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 CEC_FILE, EEC_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "README_SIEMENS.md"
 
@@ -172,7 +173,7 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
                  "$MA_CEC_MAX_VELO` (percent of the axis' maximum velocity MD32000) above that ratio x 100")
     s += ["", "## Gauge line", "",
           f"Change the gauge-line (spindle face to last rotary axis) offset of the 5-axis transformation by "
-          f"{job.tables.gauge_offset_change * 1e3:+.4f} mm.", "",
+          f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
           "## Before relying on the tables", "",
           "- Run the sign test (`vecpin tables ... --sign-test AXIS`) for one table of each file.",
           "- Beyond MIN/MAX the end values hold; modulo tables repeat every turn.",

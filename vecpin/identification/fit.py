@@ -27,6 +27,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_registration
 from vecpin.measurement.setup import Setup
 from vecpin.measurement.stats import residual_stats
+from vecpin.units import MM_PER_M
 
 
 def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: NoiseModel, n: int = 1000):
@@ -142,6 +143,6 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     report = FitReport(getattr(model, "kind", "model"), getattr(model, "order", -1), instrument, len(campaign), n_eq, P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(sol.objective),
                        dof, float(np.sqrt(2 * dof)), cond, sol.iterations, sol.converged, time.perf_counter() - t0,
-                       stats_, warnings, [float(L * 1e3) for L in campaign.tool_lengths()],
+                       stats_, warnings, [float(L * MM_PER_M) for L in campaign.tool_lengths()],
                        measured_range(model.machine, campaign))
     return theta, setup, cov, report

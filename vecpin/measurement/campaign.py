@@ -29,6 +29,7 @@ import numpy as np
 from vecpin.errors import CampaignFileError
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M, M_PER_MM
 
 RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
@@ -177,7 +178,7 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     station, radius, pivot = _instrument_columns(name, col, instrument, rows)
     extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
     _check_extra(name, extra, rows)
-    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name,
+    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
                     instrument, station, radius, pivot, rows)
 
 
@@ -201,7 +202,7 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
         if bad.size:
             raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm: expected mm (radius > 1 mm)",
                                     row=int(rows[bad[0]]), column="r")
-        radius = np.where(bb, col["r"] * 1e-3, np.nan)
+        radius = np.where(bb, col["r"] * M_PER_MM, np.nan)
         pivot = np.where(bb, np.nan_to_num(col["pivot"], nan=-1), -1).astype(int)
     return station, radius, pivot
 
@@ -327,8 +328,8 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
     q_user = machine.to_user(campaign.q)
     header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra)
     fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4 + ["%.6f"] * len(campaign.extra)
-    cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool * 1e3] + \
-        [campaign.xyz[:, k] * 1e3 for k in range(3)] + [np.asarray(v, float) for v in campaign.extra.values()]
+    cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool * MM_PER_M] + \
+        [campaign.xyz[:, k] * MM_PER_M for k in range(3)] + [np.asarray(v, float) for v in campaign.extra.values()]
     mixed = campaign.mixed
     if mixed:
         header += ["instrument", "station", "r", "pivot"]
@@ -338,6 +339,6 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
         if mixed:
             bb = campaign.instrument[i] == "ballbar"
             cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
-                      f"{campaign.radius[i] * 1e3:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
+                      f"{campaign.radius[i] * MM_PER_M:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
         lines.append(",".join(cells))
     write_text(path, "\n".join(lines) + "\n")

@@ -14,6 +14,7 @@ import numpy as np
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical, spherical_jacobian, wrap_angle
+from vecpin.units import MM_PER_M, M_PER_MM
 
 DEFAULT_LINEAR_SIGMA = 0.006e-3   # m, axis repeatability (Paper I measured 18 µm mean incl. the tracker)
 DEFAULT_ROTARY_SIGMA = np.radians(0.0015)  # rad
@@ -64,14 +65,14 @@ class NoiseModel:
 
     def to_dict(self, machine: Machine) -> dict:
         return {"axis_sigma": {a.name: float(a.to_user(s)) for a, s in zip(machine.axes, self.axis_sigma)},
-                "instrument": self.instrument, "cartesian_sigma_mm": self.cartesian_sigma * 1e3,
-                "tracker": self.tracker.to_dict(), "ballbar_sigma_mm": self.ballbar_sigma * 1e3}
+                "instrument": self.instrument, "cartesian_sigma_mm": self.cartesian_sigma * MM_PER_M,
+                "tracker": self.tracker.to_dict(), "ballbar_sigma_mm": self.ballbar_sigma * MM_PER_M}
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "NoiseModel":
         sig = np.array([float(a.to_si(d["axis_sigma"][a.name])) for a in machine.axes])
-        return cls(sig, d["instrument"], d["cartesian_sigma_mm"] * 1e-3, TrackerNoise.from_dict(d["tracker"]),
-                   d.get("ballbar_sigma_mm", DEFAULT_BALLBAR_SIGMA * 1e3) * 1e-3)
+        return cls(sig, d["instrument"], d["cartesian_sigma_mm"] * M_PER_MM, TrackerNoise.from_dict(d["tracker"]),
+                   d.get("ballbar_sigma_mm", DEFAULT_BALLBAR_SIGMA * MM_PER_M) * M_PER_MM)
 
 
 def _sigma(value, option: str, unit: str) -> float:
@@ -94,14 +95,14 @@ def noise_from_options(machine: Machine, instrument: str = "cartesian", *, repea
     sig = noise.axis_sigma.copy()
     for k, a in enumerate(machine.axes):
         if a.kind == "linear" and repeatability_mm is not None:
-            sig[k] = _sigma(repeatability_mm, "--repeatability-mm", "mm") * 1e-3
+            sig[k] = _sigma(repeatability_mm, "--repeatability-mm", "mm") * M_PER_MM
         if a.kind == "rotary" and repeatability_deg is not None:
             sig[k] = np.radians(_sigma(repeatability_deg, "--repeatability-deg", "degrees"))
     noise.axis_sigma = sig
     if tracker_sigma_mm is not None:
-        noise.cartesian_sigma = _sigma(tracker_sigma_mm, "--tracker-sigma-mm", "mm") * 1e-3
+        noise.cartesian_sigma = _sigma(tracker_sigma_mm, "--tracker-sigma-mm", "mm") * M_PER_MM
     if ballbar_sigma_mm is not None:
-        noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "--ballbar-sigma-mm", "mm") * 1e-3
+        noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "--ballbar-sigma-mm", "mm") * M_PER_MM
     if tracker_noise is not None:
         from vecpin.errors import InputError
         vals = [float(v) for v in tracker_noise]
@@ -109,5 +110,5 @@ def noise_from_options(machine: Machine, instrument: str = "cartesian", *, repea
             raise InputError(f"--tracker-noise {' '.join(map(str, tracker_noise))}: four numbers >= 0 (range mm, "
                              "range ppm, transverse mm, transverse ppm), with a nonzero range and transverse noise")
         a, b, c, d = vals
-        noise.tracker = TrackerNoise(a * 1e-3, b * 1e-6, c * 1e-3, d * 1e-6)
+        noise.tracker = TrackerNoise(a * M_PER_MM, b * 1e-6, c * M_PER_MM, d * 1e-6)
     return noise

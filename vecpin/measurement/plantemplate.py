@@ -24,7 +24,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.kinematics.machine import Machine
-from vecpin.units import to_mm
+from vecpin.units import M_PER_MM, to_mm
 
 
 @dataclass
@@ -129,4 +129,4 @@ def read_template(path: str | Path, machine: Machine) -> PlanTemplate:
     if bad.size:
         raise CampaignFileError(name, f"negative tool length {tool[bad[0]]:g} mm", row=int(lines[bad[0]]), column="tool")
     approach = vals[:, 2 + n:].astype(int) if has_app else None
-    return PlanTemplate(point.astype(int), machine.to_si(q_user), tool * 1e-3, approach, name)
+    return PlanTemplate(point.astype(int), machine.to_si(q_user), tool * M_PER_MM, approach, name)

@@ -11,6 +11,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from vecpin.errors import VecpinError
+from vecpin.units import MM_PER_M
 
 
 def register(p_machine: np.ndarray, p_tracker: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -77,12 +78,12 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
                                     "left-handed tracker frame (two of x, y, z swapped, or one negated)", column="x")
     rms = float(np.sqrt(np.median(res**2)))
     if rms > RESIDUAL_LIMIT:
-        raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * 1e3:.1f} mm "
+        raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * MM_PER_M:.1f} mm "
                                 "(median) from the nominal tool tips: this is not this machine's campaign, or the "
                                 "axis columns are in the wrong units or order")
     bad = np.flatnonzero(res > max(10 * np.median(res) + 1e-4, RESIDUAL_LIMIT))
     if bad.size and bad.size <= max(1, len(res) // 20):
         row = int(rows[bad[0]]) if rows is not None else None
-        raise CampaignFileError(source, f"{bad.size} row(s) lie {res[bad[0]] * 1e3:.1f} mm from the nominal tool tip "
+        raise CampaignFileError(source, f"{bad.size} row(s) lie {res[bad[0]] * MM_PER_M:.1f} mm from the nominal tool tip "
                                 "while the others fit within a few: a mistyped command or tool length (metres for mm?) "
                                 "or a wrong point; fix or delete the row", row=row)

@@ -3,14 +3,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.units import norm_mm
+from vecpin.units import MM_PER_M, norm_mm
 
 
 def distance_stats(d: np.ndarray, tool: np.ndarray) -> dict:
     """n/mean/max/RMS of distances d (any unit), overall and per tool length [m]."""
     out = {"all": _stats(d)}
     for L in np.unique(np.round(tool, 9)):
-        out[f"tool {L * 1e3:.3f} mm"] = _stats(d[np.isclose(tool, L, atol=1e-7)])
+        out[f"tool {L * MM_PER_M:.3f} mm"] = _stats(d[np.isclose(tool, L, atol=1e-7)])
     return out
 
 

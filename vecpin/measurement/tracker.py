@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from vecpin.units import MM_PER_M, M_PER_MM
 
 
 @dataclass(frozen=True)
@@ -42,11 +43,11 @@ class TrackerNoise:
         return np.stack([self.sigma_range(R), sa, sa], axis=-1)
 
     def to_dict(self) -> dict:
-        return {k: v * 1e3 for k, v in asdict(self).items()} | {"units": "mm and mm/mm"}
+        return {k: v * MM_PER_M for k, v in asdict(self).items()} | {"units": "mm and mm/mm"}
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrackerNoise":
-        return cls(**{k: float(d[k]) * 1e-3 for k in ("range_const", "range_ppm", "transverse_const", "transverse_ppm")})
+        return cls(**{k: float(d[k]) * M_PER_MM for k in ("range_const", "range_ppm", "transverse_const", "transverse_ppm")})
 
 
 def cartesian_to_spherical(p: np.ndarray) -> np.ndarray:
@@ -119,10 +120,10 @@ class Tracker:
         return spherical_to_cartesian(s)
 
     def to_dict(self) -> dict:
-        return {"rotation": self.rotation.tolist(), "translation_mm": (self.translation * 1e3).tolist(),
+        return {"rotation": self.rotation.tolist(), "translation_mm": (self.translation * MM_PER_M).tolist(),
                 "noise": self.noise.to_dict()}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Tracker":
-        return cls(np.array(d["rotation"], float), np.array(d["translation_mm"], float) * 1e-3,
+        return cls(np.array(d["rotation"], float), np.array(d["translation_mm"], float) * M_PER_MM,
                    TrackerNoise.from_dict(d["noise"]))

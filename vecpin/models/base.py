@@ -42,6 +42,7 @@ from vecpin.models import modelfile
 from vecpin.models.basis import AxisBasis
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
+from vecpin.units import MM_PER_M
 
 MODELS: dict[str, type["ErrorModel"]] = {}
 
@@ -111,7 +112,7 @@ class ErrorModel:
     def _offset_parameters(self) -> list[Parameter]:
         p = [Parameter("T_offset", "length", DEFAULT_PRIORS["offset"] * self.prior_scale, -1, "offsets")]
         for L in self.tool_lengths or []:
-            p.append(Parameter(f"tool[{L * 1e3:.3f}mm]", "length", DEFAULT_PRIORS["offset"] * self.prior_scale, -1, "offsets"))
+            p.append(Parameter(f"tool[{L * MM_PER_M:.3f}mm]", "length", DEFAULT_PRIORS["offset"] * self.prior_scale, -1, "offsets"))
         return p
 
     def _model_parameters(self) -> list[Parameter]:
@@ -268,7 +269,7 @@ class ErrorModel:
     def describe(self) -> dict:
         return {"kind": self.kind, "order": self.order, "basis": self.basis_kind,
                 "axis_bases": [B.to_dict() for B in self.bases], "tool_lengths_mm":
-                None if self.tool_lengths is None else [t * 1e3 for t in self.tool_lengths],
+                None if self.tool_lengths is None else [t * MM_PER_M for t in self.tool_lengths],
                 "prior_scale": self.prior_scale}
 
     # --------------------------------------------------------------- estimator API

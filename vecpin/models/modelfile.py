@@ -27,7 +27,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
 from vecpin.models.basis import AxisBasis
 from vecpin.models.effects.base import effect_from_dict
-from vecpin.units import QUANTITY_UNITS, SI_PER_UNIT
+from vecpin.units import MM_PER_M, M_PER_MM, QUANTITY_UNITS, SI_PER_UNIT
 
 FORMAT = "vecpin-model"
 VERSION = 1
@@ -71,14 +71,14 @@ def model_to_dict(model) -> dict:
                     "urdf": m.urdf_xml, "load_options": m.load_options},
         "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind,
                   "axis_bases": [basis_to_dict(a, B) for a, B in zip(m.axes, model.bases)],
-                  "tool_lengths_mm": None if model.tool_lengths is None else [t * 1e3 for t in model.tool_lengths],
+                  "tool_lengths_mm": None if model.tool_lengths is None else [t * MM_PER_M for t in model.tool_lengths],
                   "prior_scale": model.prior_scale, "effects": [e.to_dict() for e in model.effects]},
-        "tracker": {"rotation": setup.R.tolist(), "translation_mm": (setup.t * 1e3).tolist(),
+        "tracker": {"rotation": setup.R.tolist(), "translation_mm": (setup.t * MM_PER_M).tolist(),
                     "meaning": "p_tracker = R (E_0 p_machine) + t",
-                    "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * 1e3).tolist(),
+                    "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * MM_PER_M).tolist(),
                                           "correction": [float(v) for v in e]}
                                  for s, (R, t, e) in setup.stations.items()},
-                    "pivots_mm": {str(p): (c * 1e3).tolist() for p, c in setup.pivots.items()}},
+                    "pivots_mm": {str(p): (c * MM_PER_M).tolist() for p, c in setup.pivots.items()}},
         "noise": model.noise_.to_dict(m),
         "parameters": params,
         "fit": report,
@@ -151,7 +151,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
                 bases.append(basis_from_dict(a, b))
             except InputError as exc:
                 raise ModelFileError(path, f"the basis of axis {a.name} is invalid ({exc})", "model.axis_bases") from None
-    tools = None if spec["tool_lengths_mm"] is None else [t * 1e-3 for t in spec["tool_lengths_mm"]]
+    tools = None if spec["tool_lengths_mm"] is None else [t * M_PER_MM for t in spec["tool_lengths_mm"]]
     effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
     model = factory(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",
                     tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases, effects=effects)
@@ -171,13 +171,13 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     model.cov_ = np.diag(std**2)
     tr = d["tracker"]
     model.setup_ = Setup(_rotation(path, "tracker.rotation", tr["rotation"]),
-                         _finite(path, "tracker.translation_mm", tr["translation_mm"]) * 1e-3, theta[:6].copy())
+                         _finite(path, "tracker.translation_mm", tr["translation_mm"]) * M_PER_MM, theta[:6].copy())
     for s, st in tr.get("stations", {}).items():
         model.setup_.stations[int(s)] = (_rotation(path, f"tracker.stations.{s}.rotation", st["rotation"]),
-                                         _finite(path, f"tracker.stations.{s}", st["translation_mm"]) * 1e-3,
+                                         _finite(path, f"tracker.stations.{s}", st["translation_mm"]) * M_PER_MM,
                                          _finite(path, f"tracker.stations.{s}", st["correction"]))
     for p, c in tr.get("pivots_mm", {}).items():
-        model.setup_.pivots[int(p)] = _finite(path, f"tracker.pivots_mm.{p}", c) * 1e-3
+        model.setup_.pivots[int(p)] = _finite(path, f"tracker.pivots_mm.{p}", c) * M_PER_MM
     model.noise_ = NoiseModel.from_dict(d["noise"], machine)
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     fields.setdefault("seconds", 0.0)

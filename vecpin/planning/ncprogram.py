@@ -26,6 +26,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
+from vecpin.units import MM_PER_M
 
 DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
 _FANUC_AXES = set("XYZABCUVW")
@@ -91,7 +92,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     tools = np.unique(np.round(template.tool, 9))
     head = [f"vecpin measurement plan {title}".strip(),
             f"machine {machine.name}: {len(template)} points, target holder lengths "
-            + ", ".join(f"{t * 1e3:.3f} mm" for t in tools),
+            + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
             "axis positions in the URDF axis coordinates, mm and degrees; work offset at the URDF zero;",
             "no tool length compensation, no TRAORI / G43.4 (the plan commands axes, not the tool tip)",
             f"each point: rapid to its approach position, {g1} at F{feed_mm_min:g} to the point, dwell {dwell_s:g} s",
@@ -104,10 +105,10 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     for i in range(len(template)):
         L = float(template.tool[i])
         if current_tool is None or abs(L - current_tool) > 1e-9:
-            msg = (f"mount the target holder of {L * 1e3:.3f} mm (gauge line to target centre), "
+            msg = (f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), "
                    "then cycle start")
-            out.append(comment(f"holder length change: {L * 1e3:.3f} mm" if current_tool is not None else
-                               f"holder length {L * 1e3:.3f} mm"))
+            out.append(comment(f"holder length change: {L * MM_PER_M:.3f} mm" if current_tool is not None else
+                               f"holder length {L * MM_PER_M:.3f} mm"))
             out.append(f"M0 {comment(msg)}" if not fanuc else f"M00 {comment(msg)}")
             current_tool = L
         q = template.q[i]

@@ -35,6 +35,7 @@ from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RA
                                        default_tracker_position)
 from vecpin.planning.zones import Zone, clip_to_zone, inside
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.units import MM_PER_M, M_PER_MM
 
 
 
@@ -71,8 +72,8 @@ class PlanSettings:
     repeat_times: int = 0
     sight: bool = True
     geometry: str = "auto"
-    tool_radius_mm: float = DEFAULT_TOOL_RADIUS * 1e3
-    target_clearance_mm: float = DEFAULT_TARGET_CLEARANCE * 1e3
+    tool_radius_mm: float = DEFAULT_TOOL_RADIUS * MM_PER_M
+    target_clearance_mm: float = DEFAULT_TARGET_CLEARANCE * MM_PER_M
     rapid_mm_min: float | None = None
     rapid_deg_min: float | None = None
     candidates: int | None = None
@@ -111,8 +112,8 @@ class PlanScore:
     def line(self) -> str:
         p = self.predicted
         return (f"  {self.label:<28s} {self.commands:6d} {self.rows:6d} {self.log_det:10.1f} "
-                f"{self.t_offset_sigma * 1e3:9.4f} {self.well_determined:5d}/{self.counted:<5d} "
-                f"{p.model_mean * 1e3:9.4f} {p.model_max * 1e3:9.4f} {p.measured_mean * 1e3:9.4f} "
+                f"{self.t_offset_sigma * MM_PER_M:9.4f} {self.well_determined:5d}/{self.counted:<5d} "
+                f"{p.model_mean * MM_PER_M:9.4f} {p.model_max * MM_PER_M:9.4f} {p.measured_mean * MM_PER_M:9.4f} "
                 f"{self.travel_s / 60:8.1f}")
 
     @staticmethod
@@ -150,7 +151,7 @@ class Plan:
 
     @property
     def tools(self) -> np.ndarray:
-        return np.array(self.settings.tools_mm, float) * 1e-3
+        return np.array(self.settings.tools_mm, float) * M_PER_MM
 
     def counts(self) -> dict[str, int]:
         return {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
@@ -187,8 +188,8 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     s.check()
     say = progress or (lambda msg: None)
     noise = s.noise or NoiseModel.default(machine, "spherical")
-    tools = np.array(s.tools_mm, float) * 1e-3
-    tracker = default_tracker_position(machine) if s.tracker_mm is None else np.asarray(s.tracker_mm, float) * 1e-3
+    tools = np.array(s.tools_mm, float) * M_PER_MM
+    tracker = default_tracker_position(machine) if s.tracker_mm is None else np.asarray(s.tracker_mm, float) * M_PER_MM
     steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
     lo, hi = clip_to_zone(machine, s.zone)
     alo, ahi = route.approach_margin(machine, s.approach, steps)
@@ -206,8 +207,8 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     sight_by = np.full(len(cand), "", dtype=object)
     geometry = "not tested"
     if s.sight:
-        sl = SightLine(machine, tracker, geometry=s.geometry, tool_radius=s.tool_radius_mm * 1e-3,
-                       target_clearance=s.target_clearance_mm * 1e-3)
+        sl = SightLine(machine, tracker, geometry=s.geometry, tool_radius=s.tool_radius_mm * M_PER_MM,
+                       target_clearance=s.target_clearance_mm * M_PER_MM)
         geometry = sl.geometry
         inside_solids = sl.inside_fixed()
         if inside_solids:

@@ -16,6 +16,7 @@ import numpy as np
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.units import M_PER_MM
 
 APPROACHES = ("below", "above", "both", "none")
 
@@ -25,7 +26,7 @@ def axis_speeds(machine: Machine, rapid_mm_min: float | None = None, rapid_deg_m
     v = np.asarray(machine.model.velocityLimit, float)[[a.idx_q for a in machine.axes]].copy()
     for k, a in enumerate(machine.axes):
         if a.kind == "linear" and rapid_mm_min is not None:
-            v[k] = rapid_mm_min * 1e-3 / 60.0
+            v[k] = rapid_mm_min * M_PER_MM / 60.0
         if a.kind == "rotary" and rapid_deg_min is not None:
             v[k] = np.radians(rapid_deg_min) / 60.0
     bad = [a.name for a, s in zip(machine.axes, v) if not np.isfinite(s) or s <= 0]
@@ -98,7 +99,7 @@ def approach_steps(machine: Machine, approach_mm: float, approach_deg: float) ->
     """(n,) approach distance per axis [m, rad]."""
     if not (approach_mm >= 0 and approach_deg >= 0):
         raise InputError("--approach-mm and --approach-deg are distances >= 0")
-    return np.array([approach_mm * 1e-3 if a.kind == "linear" else np.radians(approach_deg) for a in machine.axes])
+    return np.array([approach_mm * M_PER_MM if a.kind == "linear" else np.radians(approach_deg) for a in machine.axes])
 
 
 def approach_rows(q: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray]:

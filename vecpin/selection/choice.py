@@ -38,6 +38,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
+from vecpin.units import MM_PER_M, M_PER_MM
 
 KINDS = ("6dof", "ap")
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
@@ -231,7 +232,7 @@ class _Problem:
                 if kind == "6dof":
                     for comp in range(6):
                         index[(i, name, comp)] = len(cols)
-                        cols.append(S[:, :, i, comp] * F[:, f, None] * 1e-3)
+                        cols.append(S[:, :, i, comp] * F[:, f, None] * M_PER_MM)
                 else:
                     for j in range(n):
                         index[(i, name, j)] = len(cols)
@@ -240,7 +241,7 @@ class _Problem:
             for i in range(n):
                 for comp in range(6):
                     index[(i, "0", comp)] = len(cols)
-                    cols.append(S[:, :, i, comp] * 1e-3)
+                    cols.append(S[:, :, i, comp] * M_PER_MM)
         D = np.stack(cols, axis=-1)                                     # d tip / d psi (N,3,P)
         self.J = np.concatenate([ev.J[:, :, :6], np.einsum("pij,pjk->pik", ev.Gw, D)], axis=-1)
         self.A = np.concatenate([ev.A[:, :, :6], np.einsum("pij,pjk->pik", ev.Gm, D)], axis=-1)
@@ -255,7 +256,7 @@ class _Problem:
         # each fold's estimate comes from the normal equations of the other folds
         self.train = [(G - Gf, g - gf) for Gf, gf in grams]
         self.test = [(np.flatnonzero(fold == f), self.A[fold == f]) for f in range(folds)]
-        self.uncompensated = np.linalg.norm(ev.metric[self.judged], axis=1) * 1e3
+        self.uncompensated = np.linalg.norm(ev.metric[self.judged], axis=1) * MM_PER_M
 
     def columns(self, choice: tuple[AxisChoice, ...]) -> np.ndarray:
         """Column indices of a candidate: E_0, T_offset, then its functions."""
@@ -280,7 +281,7 @@ class _Problem:
         psi = -_cho_solve(L, rhs)
         for (te, A_te), p in zip(self.test, psi):
             held[te] = self.metric[te] + A_te[:, :, cols] @ p
-        return np.linalg.norm(held[self.judged], axis=1) * 1e3
+        return np.linalg.norm(held[self.judged], axis=1) * MM_PER_M
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols = self.columns(choice)

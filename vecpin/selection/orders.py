@@ -19,6 +19,7 @@ from vecpin.identification.crossval import command_folds
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register
+from vecpin.units import MM_PER_M
 
 
 @dataclass
@@ -70,7 +71,7 @@ class OrderSweep:
 
 
 def _dist_mm(err: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(err, axis=1) * 1e3
+    return np.linalg.norm(err, axis=1) * MM_PER_M
 
 
 def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,

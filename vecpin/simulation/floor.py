@@ -18,9 +18,9 @@ from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
 from vecpin.compensation.tables import TableSet
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
-from vecpin.units import norm_mm
+from vecpin.units import M_PER_MM, norm_mm
 
-PAPER_I_TOOLS = tuple(t * 1e-3 for t in PAPER_I_TOOLS_MM)  # m
+PAPER_I_TOOLS = tuple(t * M_PER_MM for t in PAPER_I_TOOLS_MM)  # m
 
 
 @dataclass

@@ -32,7 +32,7 @@ from vecpin.selection.choice import choose_or_fix
 from vecpin.simulation.floor import table_floor, true_compensated_error
 from vecpin.simulation.simulate import PAPER_I_TOOLS_MM, Design, simulate
 from vecpin.simulation.truth import uniform_commands
-from vecpin.units import norm_mm
+from vecpin.units import M_PER_MM, norm_mm
 
 DEFAULT_CHOICE = ("ap", "auto", 6)  # what `vecpin fit` uses without model flags (before issue 11)
 
@@ -127,7 +127,7 @@ def validation_commands(machine: Machine, n_commands: int = 500, tools_mm=PAPER_
     """Fresh commands [m, rad] uniform over the axis limits, each with every tool [m]:
     (q (n_commands * n_tools, n), tool (same rows,))."""
     q = uniform_commands(machine, n_commands, np.random.default_rng(seed))
-    tools = np.asarray(tools_mm, float) * 1e-3
+    tools = np.asarray(tools_mm, float) * M_PER_MM
     return np.vstack([q] * len(tools)), np.repeat(tools, n_commands)
 
 

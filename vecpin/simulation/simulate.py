@@ -23,6 +23,7 @@ from vecpin.simulation.effects import EffectSpec
 from vecpin.planning.zones import parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported here)
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.units import M_PER_MM
 
 
 
@@ -91,9 +92,9 @@ def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rn
         parts.append(Campaign(m.axis_names, campaign.q, campaign.tool, xyz, {}, campaign.source,
                               station=np.full(n, s)))
     if design.ballbar_points:
-        tool = design.tools_mm[0] * 1e-3
-        q, pivot = ballbar_commands(m, design.ballbar_points, design.ballbar_radius_mm * 1e-3, rng, tool)
-        r = truth.measure_radius(q, np.full(len(q), tool), pivot, design.ballbar_sigma_mm * 1e-3, rng)
+        tool = design.tools_mm[0] * M_PER_MM
+        q, pivot = ballbar_commands(m, design.ballbar_points, design.ballbar_radius_mm * M_PER_MM, rng, tool)
+        r = truth.measure_radius(q, np.full(len(q), tool), pivot, design.ballbar_sigma_mm * M_PER_MM, rng)
         parts.append(Campaign(m.axis_names, q, np.full(len(q), tool), np.full((len(q), 3), np.nan), {}, campaign.source,
                               np.full(len(q), "ballbar", dtype=object), np.zeros(len(q), int), r, np.zeros(len(q), int)))
         truth.pivot = pivot
@@ -210,7 +211,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         truth.tracker = Tracker(R, -R @ np.asarray(tracker_position, float), truth.tracker.noise)
     if effects:
         truth.effects = [e.build(machine) if isinstance(e, EffectSpec) else e for e in effects]
-    tools = np.asarray(design.tools_mm, float) * 1e-3
+    tools = np.asarray(design.tools_mm, float) * M_PER_MM
     if plan is not None:
         qs, tool = np.atleast_2d(np.asarray(plan[0], float)), np.asarray(plan[1], float)
         if len(qs) != len(tool) or qs.shape[1:] != (machine.n_axes,):

@@ -22,6 +22,7 @@ from vecpin.kinematics.errorframes import ErrorFrames
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import Tracker, TrackerNoise
+from vecpin.units import MM_PER_M, M_PER_MM
 
 COMPONENTS = ("dx", "dy", "dz", "ex", "ey", "ez")  # translations [m], rotations [rad], axis-local frame
 
@@ -128,7 +129,7 @@ class SimulatedMachine:
             e.scale = 1.0
             self.effects = [e]
             rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
-            e.scale = e.strength_mm * 1e-3 / rms if rms > 0 else 0.0
+            e.scale = e.strength_mm * M_PER_MM / rms if rms > 0 else 0.0
         self.effects = effects
 
 
@@ -213,7 +214,7 @@ class TrueMachine(SimulatedMachine):
             axes[a.name] = comp
         return {"format": "vecpin-truth", "version": 1, "machine": self.machine.name,
                 "units": {"dx dy dz": "mm", "ex ey ez": "deg", "gauge_error": "mm", "repeatability": "mm or deg"},
-                "axis_errors": axes, "gauge_error": self.gauge_error * 1e3,
+                "axis_errors": axes, "gauge_error": self.gauge_error * MM_PER_M,
                 "harmonics": {a.name: list(h) for a, h in zip(self.machine.axes, self.harmonics or [()] * self.machine.n_axes)},
                 "axis_perturbations": self._perturbations_dict(),
                 "repeatability": {a.name: float(a.to_user(s)) for a, s in zip(self.machine.axes, self.repeatability)},
@@ -256,7 +257,7 @@ class TrueMachine(SimulatedMachine):
                         s = 1e-3 if aj.kind == "linear" else math.pi / 180
                         pert[i][j] = ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]])
         harm = [tuple(d.get("harmonics", {}).get(a.name, ())) for a in machine.axes]
-        return cls(machine, errors, d["gauge_error"] * 1e-3, rep, Tracker.from_dict(d["tracker"]), pert, harm)
+        return cls(machine, errors, d["gauge_error"] * M_PER_MM, rep, Tracker.from_dict(d["tracker"]), pert, harm)
 
     @classmethod
     def load(cls, path: str | Path, machine: Machine) -> "TrueMachine":
@@ -328,12 +329,12 @@ class TrueMachine(SimulatedMachine):
         nominal = machine.tool_tip(q, tool)
         for _ in range(3):
             mean = np.linalg.norm(raw.tool_tip(q, tool) - nominal, axis=1).mean()
-            s = mean_error_mm * 1e-3 / mean
+            s = mean_error_mm * M_PER_MM / mean
             raw.errors = [[f.scaled(s) for f in row] for row in raw.errors]
             if raw.perturbations:
                 raw.perturbations = [[f.scaled(s) for f in row] for row in raw.perturbations]
         gauge = float(rng.choice([-1, 1]) * rng.uniform(0.04e-3, 0.1e-3))
-        rep = np.array([repeatability_mm * 1e-3 if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
+        rep = np.array([repeatability_mm * M_PER_MM if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
         tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
         return cls(machine, raw.errors, gauge, rep, tracker, raw.perturbations, harmonics)
 

@@ -24,6 +24,7 @@ import numpy as np  # noqa: E402
 
 from vecpin.measurement.campaign import Campaign  # noqa: E402
 from vecpin.kinematics.machine import Machine  # noqa: E402
+from vecpin.units import MM_PER_M
 
 COLORS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
 
@@ -53,7 +54,7 @@ def compensation_grid(machine: Machine, solutions: dict, path, n: int = 200) -> 
                 if name not in tables.names():
                     continue
                 y = tables.table(name)(x)
-                y = y * 1e3 * 1e3 if ao.kind == "linear" else np.degrees(y)
+                y = y * MM_PER_M * MM_PER_M if ao.kind == "linear" else np.degrees(y)
                 ax.plot(ai.to_user(x), y, color=COLORS[j % len(COLORS)], lw=1.2, label=label)
                 drawn = True
             if not drawn:
@@ -118,7 +119,7 @@ def residual_histograms(errors_mm: dict, path, bins: int = 40, title: str = "", 
                 pm = float(np.mean(predicted[label]))
                 ax.axvline(pm, color=COLORS[j % len(COLORS)], ls="--", lw=1.2,
                            label=f"{label}: model-predicted mean {pm:.3f} mm")
-        ax.set_xlabel(f"volumetric error [mm] (bin width {(edges[1] - edges[0]) * 1e3:.1f} µm)")
+        ax.set_xlabel(f"volumetric error [mm] (bin width {(edges[1] - edges[0]) * MM_PER_M:.1f} µm)")
         ax.set_ylabel("measurements")
         ax.legend(fontsize=7)
     if title:
@@ -170,7 +171,7 @@ def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] 
     U, V = np.meshgrid(u, v)
     q = np.tile(q0, (U.size, 1))
     q[:, a.index], q[:, b.index] = U.ravel(), V.ravel()
-    e = errors_fn(q, np.full(len(q), tool)) * 1e3
+    e = errors_fn(q, np.full(len(q), tool)) * MM_PER_M
     size = np.linalg.norm(e, axis=1)
     fig, ax = plt.subplots(figsize=(7, 5.0))
     qv = ax.quiver(a.to_user(U.ravel()), b.to_user(V.ravel()), e[:, 0], e[:, 1], size, cmap="turbo", angles="xy")
@@ -180,7 +181,7 @@ def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] 
                  labelpos="E", coordinates="axes", fontproperties={"size": 7})
     held = ", ".join(f"{ax_.name} = {ax_.to_user(q0[ax_.index]):.1f} {ax_.unit}" for ax_ in machine.axes
                      if ax_.name not in (a.name, b.name))
-    held = (held + ", " if held else "") + f"tool {tool * 1e3:.1f} mm"
+    held = (held + ", " if held else "") + f"tool {tool * MM_PER_M:.1f} mm"
     ax.set_xlabel(f"{a.name} [{a.unit}]")
     ax.set_ylabel(f"{b.name} [{b.unit}]")
     ax.set_title((title or f"errors in the {a.name}{b.name} plane") + f"\nheld fixed: {held}", fontsize=8, loc="left",
@@ -204,14 +205,14 @@ def repeatability(campaign: Campaign) -> np.ndarray:
 
 def repeatability_figure(campaign: Campaign, path, bins: int = 25) -> Path | None:
     """Histogram of eq. 22 over the repeated commands of the campaign (None if none)."""
-    r = repeatability(campaign) * 1e3
+    r = repeatability(campaign) * MM_PER_M
     if r.size == 0:
         return None
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.hist(r * 1e3, bins=bins, color="tab:blue", alpha=0.8)
+    ax.hist(r * MM_PER_M, bins=bins, color="tab:blue", alpha=0.8)
     ax.set_xlabel("distance from the mean of its repeats [µm] (eq. 22)")
     ax.set_ylabel("measurements")
-    ax.set_title(f"repeatability: mean {r.mean() * 1e3:.1f} µm, std {r.std() * 1e3:.1f} µm, max {r.max() * 1e3:.1f} µm",
+    ax.set_title(f"repeatability: mean {r.mean() * MM_PER_M:.1f} µm, std {r.std() * MM_PER_M:.1f} µm, max {r.max() * MM_PER_M:.1f} µm",
                  fontsize=9)
     return _save(fig, path)
 
@@ -274,18 +275,18 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     handles, labels = axs[0].get_legend_handles_labels()
     ax = axs[-1]
     L = float(plan.tools[0])
-    tips = m.tool_tip(plan.commands, L) * 1e3
-    lt = m.tool_tip(plan.candidates[los], L) * 1e3 if len(los) else np.zeros((0, 3))
+    tips = m.tool_tip(plan.commands, L) * MM_PER_M
+    lt = m.tool_tip(plan.candidates[los], L) * MM_PER_M if len(los) else np.zeros((0, 3))
     ax.scatter(lt[:, 0], lt[:, 1], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.6)
     ax.scatter(tips[:, 0], tips[:, 1], s=12, color="tab:blue", edgecolor="k", lw=0.3)
-    tr = plan.tracker * 1e3
+    tr = plan.tracker * MM_PER_M
     ax.scatter([tr[0]], [tr[1]], s=160, marker="^", color="k", label="tracker")
     ax.annotate(f"tracker\n({tr[0]:.0f}, {tr[1]:.0f}, {tr[2]:.0f}) mm", tr[:2], textcoords="offset points",
                 xytext=(8, 6), fontsize=7)
     ax.set_xlabel("tool tip x [mm] (machine frame)")
     ax.set_ylabel("tool tip y [mm]")
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title(f"tool tips from above, holder {L * 1e3:.2f} mm", fontsize=8)
+    ax.set_title(f"tool tips from above, holder {L * MM_PER_M:.2f} mm", fontsize=8)
     ax.grid(alpha=0.3)
     c = plan.counts()
     fig.suptitle(f"Measurement plan for {m.name}: {len(cu)} commands from {c['candidates']} candidates "

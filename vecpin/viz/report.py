@@ -22,7 +22,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
-from vecpin.units import norm_mm
+from vecpin.units import MM_PER_M, norm_mm
 from vecpin.viz import figures
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:20px auto;color:#222}
@@ -143,7 +143,7 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
         for lab, plan in zip(labels, plans):
             parts += [f"<p><b>{html.escape(lab)}</b>: controller {html.escape(controller)}; tables "
                       f"{html.escape(' '.join(plan.tables.names()))}; gauge-line change "
-                      f"{plan.tables.gauge_offset_change * 1e3:+.4f} mm.</p>",
+                      f"{plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm.</p>",
                       _table(["compensation (model-predicted)", "tables", "mean mm", "max mm"],
                              [[r[0], str(r[3] or ""), r[1], r[2]] for r in plan.report.rows])]
         solutions = {f"{lab} tables": plan.tables for lab, plan in zip(labels, plans)}

@@ -36,6 +36,7 @@ import umsgpack
 from vecpin.fileio import write_text
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 
 def _server_helpers():
@@ -168,7 +169,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
             root["identified"].set_object(_points(nominal + k * (identified - nominal), (0.15, 0.35, 0.9), pt))
         for node in GROUPS[name][1]:
             root[node].set_property("visible", name == show)
-        groups.append({"name": name, "label": GROUPS[name][0], "exaggeration": k, "max_mm": vmax * 1e3,
+        groups.append({"name": name, "label": GROUPS[name][0], "exaggeration": k, "max_mm": vmax * MM_PER_M,
                        "visible": name == show})
     root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
     g0 = groups[0]

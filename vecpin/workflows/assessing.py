@@ -36,7 +36,7 @@ from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.repeatability import (SESSION_GAP_S, RepeatabilityStats, drift, instrument_repeatability,
                                               repeat_groups, repeatability)
 from vecpin.measurement.tracker import TrackerNoise
-from vecpin.units import norm_mm
+from vecpin.units import MM_PER_M, norm_mm
 
 FACTOR_BEST, FACTOR_TYPICAL = 2.0, 3.0   # compensated mean / repeatability reached in the seed
 WORTHWHILE, MARGINAL = 30.0, 10.0        # % predicted reduction of the mean error
@@ -90,9 +90,9 @@ class Assessment:
                        "more repeatable than can be measured (Paper I)")
         if self.long_mm is not None and self.short_mm is not None and self.long_mm > 2 * self.short_mm:
             t = (f" while the temperature moved {self.temperature_range_k:.1f} K" if self.temperature_range_k else "")
-            d = (f"; drift of repeated points {self.drift_mm_per_h * 1e3:.1f} µm/h" if self.drift_mm_per_h else "")
+            d = (f"; drift of repeated points {self.drift_mm_per_h * MM_PER_M:.1f} µm/h" if self.drift_mm_per_h else "")
             if self.drift_mm_per_k:
-                d += f", {self.drift_mm_per_k * 1e3:.1f} µm/K"
+                d += f", {self.drift_mm_per_k * MM_PER_M:.1f} µm/K"
             out.append(f"thermal drift: long-term repeatability {self.long_mm:.4f} mm is {self.long_mm / self.short_mm:.1f} "
                        f"times the short-term {self.short_mm:.4f} mm{t}{d} (as on the Master Mill: 4 °F over 5.8 h)")
         out.append(f"repeatability: the {self.repeatability_kind} repeatability {self.repeatability_mm:.4f} mm bounds "
@@ -168,11 +168,11 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
                                                                                  "optimistic)")
     d = drift(c)
     nt = int(np.median(np.bincount(group)[np.bincount(group) > 1]))
-    a = Assessment(float(err.mean()), float(err.max()), rep * 1e3, kind,
-                   None if short is None else short.mean * 1e3, None if long is None else long.mean * 1e3,
-                   instrument_repeatability(c, tracker_noise, max(nt, 2)) * 1e3,
-                   None if d is None or not np.isfinite(d.per_hour) else d.per_hour * 1e3,
-                   None if d is None or d.per_kelvin is None else d.per_kelvin * 1e3,
+    a = Assessment(float(err.mean()), float(err.max()), rep * MM_PER_M, kind,
+                   None if short is None else short.mean * MM_PER_M, None if long is None else long.mean * MM_PER_M,
+                   instrument_repeatability(c, tracker_noise, max(nt, 2)) * MM_PER_M,
+                   None if d is None or not np.isfinite(d.per_hour) else d.per_hour * MM_PER_M,
+                   None if d is None or d.per_kelvin is None else d.per_kelvin * MM_PER_M,
                    None if d is None else d.hours, None if d is None else d.temperature_range,
                    [s for s in (short, long) if s is not None], campaign.source)
     return a

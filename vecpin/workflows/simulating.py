@@ -10,6 +10,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors
 from vecpin.simulation.simulate import Design, Simulation, simulate
 from vecpin.workflows.summary import error_summary
+from vecpin.units import MM_PER_M
 
 
 @dataclass
@@ -33,20 +34,20 @@ class SimulationRun:
             more = (f" + {len(full) - len(c)} rows of {design.stations - 1} more stations and "
                     f"{full.ballbar_rows.size} ball bar rows")
         dist = np.linalg.norm(c.xyz, axis=1)
-        what = (f"the plan's rows in its order, holders {', '.join(f'{t * 1e3:g}' for t in c.tool_lengths())} mm"
+        what = (f"the plan's rows in its order, holders {', '.join(f'{t * MM_PER_M:g}' for t in c.tool_lengths())} mm"
                 if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "
                 f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
                f"{len(sim.validation)} validation rows",
-               error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * 1e3),
-               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * 1e3),
+               error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * MM_PER_M),
+               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M),
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
         if sim.compensated is not None:
             v, cv = sim.validation, sim.compensated
             out.append(error_summary("validation run, uncompensated", registered_errors(
-                m.tool_tip(v.q, v.tool), v.xyz) * 1e3))
+                m.tool_tip(v.q, v.tool), v.xyz) * MM_PER_M))
             out.append(error_summary("validation run through the tables", registered_errors(
-                m.tool_tip(cv.q, cv.tool + self.gauge_change), cv.xyz) * 1e3))
+                m.tool_tip(cv.q, cv.tool + self.gauge_change), cv.xyz) * MM_PER_M))
         out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
         return out
 

@@ -28,6 +28,7 @@ from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, f
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
+from vecpin.units import MM_PER_M
 
 
 def parse_axis_map(items: list[str], machine) -> dict[str, str]:
@@ -86,7 +87,7 @@ class TableRun:
         grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
-        out.append(f"  gauge line (T_offset) change: {plan.tables.gauge_offset_change * 1e3:+.4f} mm")
+        out.append(f"  gauge line (T_offset) change: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm")
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
@@ -134,7 +135,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     if commands is not None:
         q = commands.q
         if tools_mm is None:
-            tools_mm = [float(t * 1e3) for t in commands.tool_lengths()]
+            tools_mm = [float(t * MM_PER_M) for t in commands.tool_lengths()]
     plan = plan_tables(model, limits, max_tables=max_tables, no_circular=no_circular or None,
                        forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
                        modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,

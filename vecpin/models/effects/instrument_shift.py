@@ -7,6 +7,7 @@ import numpy as np
 from vecpin.errors import VecpinError
 from vecpin.kinematics.so3 import exp3, skew
 from vecpin.models.effects.base import Effect, Key, register
+from vecpin.units import MM_PER_M
 
 
 @register
@@ -74,6 +75,6 @@ class InstrumentShift(Effect):
         return out
 
     def advice(self, values, std):
-        return [f"{self.label}: the tracker moved by {np.linalg.norm(values[:3]) * 1e3:.4f} mm and "
+        return [f"{self.label}: the tracker moved by {np.linalg.norm(values[:3]) * MM_PER_M:.4f} mm and "
                 f"{np.linalg.norm(values[3:]) * 1e6:.1f} µrad at t = {self.t0:g} s: fix the stand and re-register "
                 "on the reference nests, or re-measure the rows after the step; not in the tables"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.models.effects.base import Effect, Key, register
+from vecpin.units import M_PER_MM
 
 
 @register
@@ -28,7 +29,7 @@ class Outliers(Effect):
         rows = np.sort(rng.choice(n, k, replace=False))
         self.outlier_rows = rows
         v = rng.normal(size=(k, 3))
-        v = v / np.linalg.norm(v, axis=1)[:, None] * self.strength_mm * 1e-3 * rng.uniform(1.0, 2.0, (k, 1))
+        v = v / np.linalg.norm(v, axis=1)[:, None] * self.strength_mm * M_PER_MM * rng.uniform(1.0, 2.0, (k, 1))
         out = y.copy()
         out[rows] += v
         return out

@@ -24,7 +24,7 @@ from vecpin.simulation.independent.chain import URDFChain, error_transform
 from vecpin.simulation.independent.families import DEFAULT_SHARE, FAMILIES, GENERATORS, background
 from vecpin.simulation.independent.functions import BASE, COMPONENTS, Shape, Term
 from vecpin.simulation.truth import SimulatedMachine, place_tracker, uniform_commands
-from vecpin.units import MM_PER_M, RAD_PER_DEG
+from vecpin.units import MM_PER_M, M_PER_MM, RAD_PER_DEG
 
 FORMAT = "vecpin-independent-truth"
 
@@ -191,14 +191,14 @@ class IndependentMachine(SimulatedMachine):
 
         def scaled(ts, target_mm, times):
             for _ in range(times):  # the errors are small: nearly linear in their size
-                factor = target_mm * 1e-3 / mean_error(ts)
+                factor = target_mm * M_PER_MM / mean_error(ts)
                 ts = [t.scaled(factor) for t in ts]
             return ts
 
         both = scaled(scaled(back, (1 - share) * mean_error_mm, 2) + scaled(terms, share * mean_error_mm, 2),
                       mean_error_mm, 3)
         gauge = float(rng.choice([-1, 1]) * rng.uniform(0.04e-3, 0.1e-3))
-        rep = np.array([repeatability_mm * 1e-3 if a.kind == "linear" else math.radians(repeatability_deg)
+        rep = np.array([repeatability_mm * M_PER_MM if a.kind == "linear" else math.radians(repeatability_deg)
                         for a in machine.axes])
         tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
         return cls(machine, both, family, bases, gauge, rep, tracker, seed, _chain=raw._chain)
