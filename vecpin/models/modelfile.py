@@ -82,8 +82,20 @@ def model_to_dict(model) -> dict:
         "noise": model.noise_.to_dict(m),
         "parameters": params,
         "fit": report,
+        "correlations": _correlations(model, std),
         "selection": getattr(model, "selection_", None),
     }
+
+
+def _correlations(model, std: np.ndarray) -> dict:
+    """The parameter correlations (E_0 and model terms that were estimated, in the order
+    of ``parameters``), lower triangle row by row, 6 decimals: with the standard
+    deviations they give back the covariance (tables' uncertainty, significance tests)."""
+    idx = np.flatnonzero(std > 0)
+    C = model.cov_[np.ix_(idx, idx)] / np.outer(std[idx], std[idx])
+    rows = [[round(float(v), 6) for v in C[i, :i]] for i in range(len(idx))]
+    return {"index": [int(i) for i in idx], "lower": rows,
+            "meaning": "corr[i][j] for j < i of the parameters listed by index (0 = E0.dx)"}
 
 
 def save_model(model, path: str | Path) -> None:
@@ -169,6 +181,19 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     _finite(path, "parameters", np.r_[theta, std])
     model.e0_, model.b_ = theta[:6], theta[6:]
     model.cov_ = np.diag(std**2)
+    corr = d.get("correlations")
+    if corr:  # files of earlier versions keep standard deviations only
+        idx = np.asarray(corr["index"], int)
+        if idx.size and (idx.max() >= len(names) or len(corr["lower"]) != idx.size):
+            raise ModelFileError(path, "the correlations do not match the parameters", "correlations")
+        C = np.eye(idx.size)
+        for i, row in enumerate(corr["lower"]):
+            if len(row) != i:
+                raise ModelFileError(path, f"correlation row {i} has {len(row)} values, not {i}", "correlations")
+            C[i, :i] = row
+            C[:i, i] = row
+        _finite(path, "correlations", C)
+        model.cov_[np.ix_(idx, idx)] = C * np.outer(std[idx], std[idx])
     tr = d["tracker"]
     model.setup_ = Setup(_rotation(path, "tracker.rotation", tr["rotation"]),
                          _finite(path, "tracker.translation_mm", tr["translation_mm"]) * M_PER_MM, theta[:6].copy())
