@@ -93,6 +93,18 @@ def test_report_rows_share_points_and_carry_the_parameter_spread(model):
     assert all(r.spread is None for r in rep2.rows) and any("standard deviations only" in n for n in rep2.notes)
 
 
+def test_a_model_read_back_from_its_file_keeps_the_spread(model, tmp_path):
+    """Model files keep the correlations: the spread of a read-back model equals the
+    in-session one (6-decimal correlations)."""
+    from vecpin.models import ErrorModel
+    model.save(tmp_path / "m.json")
+    back = ErrorModel.load(tmp_path / "m.json")
+    a = plan_tables(model, n_commands=100).report
+    b = plan_tables(back, n_commands=100).report
+    for ra, rb in zip(a.rows, b.rows):
+        assert rb.spread is not None and abs(ra.spread[0] - rb.spread[0]) <= 0.01 * ra.spread[0] + 1e-7
+
+
 def test_parameter_spread_matches_nonlinear_draws(model):
     """The linearised spread against the model evaluated at parameter draws (no linearisation)."""
     plan = plan_tables(model, n_commands=200, uncertainty=False)

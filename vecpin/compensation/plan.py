@@ -206,7 +206,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                             "removed (not observable from tracker data, no effect on parts); [16th, 84th percentile]")
     elif uncertainty:
         report.notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
-                            "keeps no correlations), and without correlations the spread would be meaningless")
+                            "of an earlier vecpin kept no correlations), and without them the spread would be "
+                            "meaningless; refit to get it")
     report.notes.append(gauge_note)
     report.notes += left_out
     if problem.hold:
@@ -242,7 +243,7 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True).J_b
     sd = problem.gauge_std(names, J_b, cov_b)
     dT = float(x[0])
-    kind = "" if covariance_kind(model) == "full" else " (standard deviations only: correlations not kept in the file)"
+    kind = "" if covariance_kind(model) == "full" else " (standard deviations only: the file kept no correlations)"
     if abs(dT) >= 2 * sd:
         return f"gauge-line (T_offset) change {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} mm{kind}: applied"
     problem.free_gauge = False
