@@ -1,3 +1,9 @@
+import os
+
+# the tests run small matrices one after another: one BLAS thread is faster, and much
+# faster on a loaded machine, than threads contending for the cores (set before numpy loads)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import numpy as np
 import pytest
 
