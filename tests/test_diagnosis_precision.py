@@ -89,7 +89,7 @@ def test_effect_specifications_refuse_what_they_do_not_know(flow):
     for text, msg in [("backlash", "needs axes="), ("gantry_skew:strength=0.05", "needs axes="),
                       ("thermal:foo=1", "unknown key 'foo'"), ("backlash:axes=X,strength=abc", "not a float"),
                       ("backlash:axes=Q", "no axis 'Q'"), ("nothing", "unknown effect"),
-                      ("gantry_skew:axes=Y,about=w", "one of x, y, z"), ("thermal:strength=-1", "must be > 0")]:
+                      ("gantry_skew:axes=Y,about=w", "one of x, y, z"), ("thermal:strength=-1", "outside")]:
         with pytest.raises(Exception, match=msg):
             parse_effect(text, flow)
     text = effects_help()

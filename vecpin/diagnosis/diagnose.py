@@ -36,7 +36,7 @@ from vecpin.diagnosis.result import Diagnosis, EffectScore
 from vecpin.diagnosis.scoring import Kinematics, candidate_effects, distances_mm, effect_columns, flag_outliers, score
 from vecpin.errors import InputError
 from vecpin.identification.crossval import Linearised, command_folds
-from vecpin.identification.likelihood import predict_tracker
+from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
@@ -151,7 +151,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
                  "heldout_max_mm": float(held.max()), "folds": folds, "rows": int(len(rows)),
                  "chi2_per_expected": base_model.report_.chi2 / base_model.report_.chi2_expected}
     tips = base_model.predict(camp.q, camp.tool, "machine", features=feats)
-    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], tips, feats=feats)
+    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], tips, feats=feats, valid=lin.valid)
     held_base_all = base_eval["heldout"]
 
     # ---- forward selection over candidate effects
@@ -209,7 +209,8 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         cur_model = base_fit(camp, list(accepted))
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                           cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats)
+                           cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
+                           valid=cur_lin.valid)
         sc.evidence, sc.explains = _evidence(sc, cur_loc, new_loc)
         twins = [c.label for c, e, _ in round_scores if c is not sc.effect and abs(e["d_chi2"] - ev["d_chi2"])
                  <= 1e-3 * abs(ev["d_chi2"]) and e["p"] < thr]
@@ -219,10 +220,9 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
 
     # ---- outliers judged again under the final model: rows it explains are not outliers
     if outliers.size:
-        sub = campaign.subset(outliers)
-        y = predict_tracker(cur_model, sub.q, sub.tool, np.r_[cur_model.e0_, cur_model.b_], cur_model.setup_,
-                            all_feats.subset(outliers), False)[0]
-        r = np.linalg.norm(sub.xyz - y, axis=1)
+        sub = campaign.subset(outliers)  # their residuals through the one likelihood, each row in its own frame
+        lik = Likelihood(cur_model, sub, noise, setup=cur_model.setup_, features=all_feats.subset(outliers))
+        r = np.linalg.norm(lik.evaluate(lik.theta_of(cur_model), jacobian=False).metric, axis=1)
         typical = np.linalg.norm(cur_eval["heldout"], axis=1)
         limit = np.sqrt(stats.chi2.isf(1e-3 / len(campaign), 3) / 3) * np.sqrt(np.mean(typical**2))
         still = outliers[r > limit]
@@ -243,11 +243,13 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             held = distances_mm(blin, bev["heldout"])
             base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(camp)))
             loc = localise(machine, camp, bev["heldout"], bev["heldout_w"],
-                           base_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats)
+                           base_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
+                           valid=blin.valid)
             held_base_all = bev["heldout"]
             cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
             cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                               cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats)
+                               cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
+                               valid=cur_lin.valid)
     best_mm = distances_mm(cur_lin, cur_eval["heldout"])
     unexplained = list(cur_loc["most_structured"])
     # advice from the best model's fitted numbers

@@ -19,13 +19,16 @@ from vecpin.measurement.features import Features
 from vecpin.units import MM_PER_M
 
 
-def breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bins: int, label: str, unit: str,
-              categorical: bool = False) -> dict:
+def _breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bins: int, label: str, unit: str,
+              categorical: bool = False, equations: np.ndarray | None = None) -> dict:
     """Bins of one coordinate: per bin the rows, the mean distance [mm] and mean vector
     [mm] of the held-out residuals ``held_m`` (N,3) [m]; the F tests on the whitened
-    residuals ``held_w`` (N,3)."""
+    residuals ``held_w`` (N,3), whose rows carry ``equations`` (N,) real equations (3 for a
+    tracker point, 1 for a range or a ball-bar radius; the rest is padding)."""
     values = np.asarray(values, float)
     N = len(values)
+    eqs = np.full(N, 3) if equations is None else np.asarray(equations)
+    per_row = float(eqs.mean())
     if categorical:
         keys = np.unique(values)
         idx = np.searchsorted(keys, values)
@@ -55,26 +58,33 @@ def breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bins
         bins.append(entry)
     grand = held_w.mean(axis=0)
     between -= N * float(grand @ grand)  # structure beyond a common offset
-    df_b, df_w = 3 * max(k_used - 1, 1), 3 * max(N - k_used, 1)
+    df_b, df_w = per_row * max(k_used - 1, 1), max(float(eqs.sum()) - per_row * k_used, 1.0)
     F_bins = (between / df_b) / max(within / df_w, 1e-300)
     x = (values - values.mean()) / (values.std() + 1e-300)
     centred = held_w - grand
     slope = (x @ centred) / (x @ x) if x @ x > 0 else np.zeros(3)
     ss_trend = float(slope @ slope * (x @ x))
     ss_rest = float(np.sum((centred - np.outer(x, slope)) ** 2))
-    F_trend = (ss_trend / 3) / max(ss_rest / (3 * max(N - 2, 1)), 1e-300)
+    df_t, df_r = per_row, max(float(eqs.sum()) - 2 * per_row, 1.0)
+    F_trend = (ss_trend / df_t) / max(ss_rest / df_r, 1e-300)
     return {"coordinate": label, "unit": unit, "bins": bins,
             "F_bins": float(F_bins), "p_bins": float(stats.f.sf(F_bins, df_b, df_w)),
-            "F_trend": float(F_trend), "p_trend": float(stats.f.sf(F_trend, 3, 3 * max(N - 2, 1))),
+            "F_trend": float(F_trend), "p_trend": float(stats.f.sf(F_trend, df_t, df_r)),
             "scatter": float(within / df_w)}
 
 
 def localise(machine: Machine, campaign: Campaign, held_m: np.ndarray, held_w: np.ndarray, tips: np.ndarray,
-             n_bins: int = 8, alpha: float = 0.01, feats: Features | None = None) -> dict:
+             n_bins: int = 8, alpha: float = 0.01, feats: Features | None = None,
+             valid: np.ndarray | None = None) -> dict:
     """Every breakdown of the held-out residuals ``held_m`` [m] / ``held_w`` (whitened);
-    ``tips`` (N,3) [m] the modelled tool tips, machine frame."""
+    ``tips`` (N,3) [m] the modelled tool tips, machine frame; ``valid`` (N,3) the real
+    equations of each row (default: three)."""
     out = {}
     feats = feats or Features.from_campaign(campaign)
+    eqs = None if valid is None else np.asarray(valid).sum(axis=1)
+
+    def breakdown(*args, **kw):
+        return _breakdown(*args, equations=eqs, **kw)
     for a in machine.axes:
         out[f"axis:{a.name}"] = breakdown(a.to_user(campaign.q[:, a.index]), held_m, held_w, n_bins, a.name, a.unit)
     for a in machine.axes:

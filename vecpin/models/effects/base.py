@@ -52,6 +52,8 @@ class Key:
     help: str
     kind: type = float
     choices: tuple = ()
+    lo: float | None = None   # allowed range (inclusive) of a number
+    hi: float | None = None
 
     def parse(self, text: str, where: str):
         try:
@@ -62,11 +64,15 @@ class Key:
             raise InputError(f"{where}: {self.name}={text!r} must be a finite number")
         if self.choices and v not in self.choices:
             raise InputError(f"{where}: {self.name} is one of {', '.join(map(str, self.choices))}, not {text!r}")
+        if (self.lo is not None and v < self.lo) or (self.hi is not None and v > self.hi):
+            rng = f"{'' if self.lo is None else self.lo} .. {'' if self.hi is None else self.hi}"
+            raise InputError(f"{where}: {self.name}={text!r} is outside {rng} {self.unit}".rstrip())
         return v
 
 
-COMMON_KEYS = (Key("strength", 0.05, "mm", "RMS tool-tip displacement the effect causes over the campaign"),
-               Key("seed", 0, "", "seed of the effect's random shape", int))
+COMMON_KEYS = (Key("strength", 0.05, "mm", "RMS tool-tip displacement the effect causes over the campaign",
+                   lo=1e-9, hi=1000.0),
+               Key("seed", 0, "", "seed of the effect's random shape", int, lo=0))
 
 
 @dataclass
@@ -100,6 +106,7 @@ class Effect:
     summary: ClassVar[str] = ""
     kinds: ClassVar[tuple[str, ...]] = ()
     axis_count: ClassVar[int] = 0
+    axis_kinds: ClassVar[tuple[str, ...]] = ("linear", "rotary")  # kinds of axis a specification may name
     keys: ClassVar[tuple[Key, ...]] = ()
     geometric: ClassVar[bool] = False
     scanned: ClassVar[bool] = False
@@ -233,10 +240,18 @@ def parse_effect(text: str, machine: Machine) -> Effect:
         else:
             raise InputError(f"{where}: unknown key '{k}' for {name} (keys: axes, {', '.join(keys)}; "
                              "see vecpin simulate --help-effects)")
+    if axes is not None and not cls.axis_count and not cls.default_axes(machine):
+        raise InputError(f"{where}: {name} takes no axes= (it concerns the whole machine)")
     axes = cls.default_axes(machine) if axes is None else axes
     if cls.axis_count and len(axes) != cls.axis_count:
         raise InputError(f"{where}: {name} needs axes= with {cls.axis_count} axis name(s) joined by '+', e.g. "
                          f"axes={'+'.join(machine.axis_names[:cls.axis_count])}")
+    if len(set(axes)) != len(axes):
+        raise InputError(f"{where}: the axes of {name} must differ, not {'+'.join(axes)}")
+    wrong = [a for a in axes if machine.axis(a).kind not in cls.axis_kinds]
+    if wrong:
+        raise InputError(f"{where}: {name} acts on {' or '.join(cls.axis_kinds)} axes; {wrong[0]} is "
+                         f"{machine.axis(wrong[0]).kind}")
     if values.get("strength", 1.0) <= 0:
         raise InputError(f"{where}: strength is the RMS displacement in mm and must be > 0")
     opts = {k.name: values.get(k.name, k.default) for k in cls.keys if values.get(k.name, k.default) is not None}

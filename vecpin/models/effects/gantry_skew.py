@@ -21,6 +21,7 @@ class GantrySkew(Effect):
     summary = "a rotation after an axis whose angle depends on the other axes (eq. 23-24)"
     kinds = ("tip",)
     axis_count = 1
+    axis_kinds = ("linear",)
     geometric = True
     keys = (Key("about", "x", "", "frame axis of the rotation", str, ("x", "y", "z")),
             Key("depends", None, "", "axis the simulated angle varies along (default: the first axis)", str))

@@ -21,7 +21,8 @@ class InstrumentShift(Effect):
     summary = "the tracker knocked: a rigid step of the measured points at an unknown time"
     kinds = ("tracker",)
     scanned = True
-    keys = (Key("at", 0.5, "fraction", "when the simulated step happens, as a fraction of the campaign's time"),)
+    keys = (Key("at", 0.5, "fraction", "when the simulated step happens, as a fraction of the campaign's time",
+                lo=0.0, hi=1.0),)
 
     def __init__(self, machine, axes=(), t0: float = 0.0, **kw):
         super().__init__(machine, axes, t0=t0, **kw)

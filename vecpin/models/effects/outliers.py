@@ -16,7 +16,7 @@ class Outliers(Effect):
     name = "outliers"
     summary = "gross errors on a few rows (flagged and left out, not a model term)"
     flags_rows = True
-    keys = (Key("fraction", 0.01, "fraction", "share of rows with a gross error"),)
+    keys = (Key("fraction", 0.01, "fraction", "share of rows with a gross error", lo=1e-6, hi=0.5),)
 
     def __init__(self, machine, axes=(), **kw):
         super().__init__(machine, axes, **kw)

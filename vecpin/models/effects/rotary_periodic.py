@@ -16,6 +16,7 @@ class RotaryPeriodic(Effect):
     summary = "higher harmonics of a rotary axis' angle in every command"
     kinds = ("command",)
     axis_count = 1
+    axis_kinds = ("rotary",)
     geometric = True
 
     def __init__(self, machine, axes=(), h_min: int = 4, h_max: int = 8, **kw):

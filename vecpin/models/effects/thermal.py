@@ -19,7 +19,8 @@ class Thermal(Effect):
     name = "thermal"
     summary = "linear-axis scale and spindle growth with the temperature (or time)"
     kinds = ("command", "tip")
-    keys = (Key("t_ref", 20.0, "degC", "reference temperature of the simulated expansion"),)
+    keys = (Key("t_ref", 20.0, "degC", "reference temperature of the simulated expansion", lo=-50.0, hi=100.0),)
+    axis_kinds = ("linear",)
 
     def __init__(self, machine, axes=(), driver: str = "temperature", t_ref: float = 20.0, **kw):
         axes = axes or self.default_axes(machine)
@@ -61,7 +62,11 @@ class Thermal(Effect):
 
     @classmethod
     def candidates(cls, machine, feats):
-        return [cls(machine, driver="temperature" if feats.temperature is not None else "time")]
+        """Against temperature when the campaign has it, else against elapsed time; none
+        without either (row numbers are not hours)."""
+        if feats.temperature is not None:
+            return [cls(machine, driver="temperature")]
+        return [cls(machine, driver="time")] if feats.has_time else []
 
     def _sim_delta(self, feats) -> np.ndarray:
         if feats.temperature is not None:
@@ -71,9 +76,9 @@ class Thermal(Effect):
     def simulate_command(self, q, feats):
         d = self._sim_delta(feats)
         dq = np.zeros_like(q)
-        for a in self.machine.axes:
-            if a.kind == "linear":
-                dq[:, a.index] = 11.5e-6 * q[:, a.index] * d
+        for name in self.axes:  # the heated axes (default: every linear axis)
+            a = self.machine.axis(name)
+            dq[:, a.index] = 11.5e-6 * q[:, a.index] * d
         return dq * self.scale
 
     def simulate_tip(self, q, tip, tool_dir, feats):
