@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors,
-                                           from_ap_model, model_as_actual, pitch_names, pseudo_commands,
-                                           rich_table_bases)
+from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
+                                           compensated_errors, from_ap_model, model_as_actual, nominal_tip,
+                                           pitch_names, pseudo_commands, rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -53,7 +53,7 @@ def covariance_kind(model: ErrorModel) -> str:
 
 
 def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
-                     draws: int = 200, seed: int = 0) -> tuple[float, float, float]:
+                     draws: int = 200, seed: int = 0, point=0) -> tuple[float, float, float]:
     """Mean volumetric error [mm] of ``tables`` on machines that differ from the model
     by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
 
@@ -64,10 +64,10 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
-        qc, nominal = q, model.machine.tool_tip(q, tool)
+        qc, nominal = q, nominal_tip(model.machine, q, tool, point)
     else:
-        qc, nominal = tables.apply(q), model.machine.tool_tip(q, tool + tables.gauge_offset_change)
-    out = model.tool_tip(qc, tool, model.b_, jacobian=True)
+        qc, nominal = tables.apply(q), nominal_tip(model.machine, q, tool + tables.gauge_offset_change, point)
+    out = model.tool_tip(qc, tool, model.b_, jacobian=True, frame=FRAME, point=point)
     r = out.tip - nominal                                      # (N, 3) [m]
     cov = np.asarray(model.cov_, float)[6:, 6:]
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
@@ -157,8 +157,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     with_spread = uncertainty and covariance_kind(model) == "full"
 
     def add(label, ts, n):
-        spread = parameter_spread(model, ts, problem.q, problem.L) if with_spread else None
-        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L), n, spread)
+        spread = parameter_spread(model, ts, problem.q, problem.L, point=problem._pt) if with_spread else None
+        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread)
 
     add("uncompensated (model)", None, 0)
     if progress:
@@ -227,7 +227,7 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     least twice its standard deviation from the model's parameter covariance."""
     x = problem.solve_linear(names)
     cov_b = np.asarray(model.cov_, float)[6:, 6:]
-    J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True).J_b
+    J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True, frame=FRAME, point=problem._pt).J_b
     sd = problem.gauge_std(names, J_b, cov_b)
     dT = float(x[0])
     kind = "" if covariance_kind(model) == "full" else " (standard deviations only: correlations not kept in the file)"
@@ -242,8 +242,9 @@ def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, lab
     """Add the row of the tables as a controller will hold them (read back from the
     written files: resampled, rounded, constants removed), on the plan's points."""
     actual = model_as_actual(model)
-    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L)
+    pt = plan.problem._pt
+    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
-    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L) if with_spread else None
+    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt) if with_spread else None
     plan.report.add(label, err, len(tables.tables), spread)
 
