@@ -26,6 +26,7 @@ from vecpin.compensation.selection import Selection, exact_search, genetic_searc
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError, VecpinError
 from vecpin.models import APModel, ErrorModel
+from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 
 DEFAULT_TOOLS_MM = (214.88, 312.86)
@@ -90,7 +91,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int = 1000, tools_mm=None, table_order: int | None = None, seed: int = 0,
                 modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
-                progress=None) -> TablePlan:
+                zone: dict | None = None, progress=None) -> TablePlan:
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
@@ -99,6 +100,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``n_commands`` quasi-random ones, each with every tool length (``tools_mm``,
     default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
+    ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
+    calibrated in zones, seed Section 2.6), within what the model's campaign measured.
     Every limit is checked before the first solve."""
     if limits is not None and not isinstance(limits, ControllerLimits):
         raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
@@ -138,6 +141,14 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
 
     actual = model_as_actual(model)
     lo, hi = measured_box(model)
+    if zone:
+        zl, zh = clip_to_zone(m, zone)
+        lo, hi = np.maximum(lo, zl), np.minimum(hi, zh)
+        if np.any(hi < lo):
+            a = m.axes[int(np.argmax(hi < lo))]
+            raise InputError(f"--zone: the zone's interval of {a.name} lies outside what the model's campaign measured "
+                             f"({a.to_user(measured_box(model)[0][a.index]):g} .. "
+                             f"{a.to_user(measured_box(model)[1][a.index]):g} {a.unit})")
     if commands is None:
         q = pseudo_commands(m, n_commands, seed, lo, hi)
         where = f"{len(q)} quasi-random commands in the measured region"

@@ -18,7 +18,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
-from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant, redundant_from_r
+from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant
 from vecpin.identification.report import FitReport
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
@@ -97,7 +97,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
         else:
-            red, ratio = redundant_from_r(lik.r_factor(np.zeros(P)), norms)
+            red, ratio = lik.redundancy(np.zeros(P), norms)
         keep = ~red
     n_active = int(active_columns(norms).sum())
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):

@@ -32,7 +32,7 @@ from typing import Protocol
 import numpy as np
 from scipy import linalg
 
-from vecpin.errors import IdentifiabilityError
+from vecpin.identification.redundancy import redundant_from_r
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments import instrument_for
 from vecpin.measurement.instruments.points import PointRequest, initial_setup, nominal_points
@@ -277,6 +277,30 @@ class Likelihood:
             stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)])
             R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
         return R
+
+    def priority(self) -> np.ndarray:
+        """Column order of the redundancy test (earlier columns are kept): E_0, then the
+        target offsets and nest positions, then the model parameters and the other
+        instrument unknowns. A target's offset cannot be told from the constant error
+        transform after the last axis before it (nor a nest's position from the table's),
+        and it is the offset a metrologist asks for: the offsets win, the constant terms
+        they explain are removed."""
+        points = [self.index[n] for n in self.extra_names if n.startswith(("target", "nest"))]
+        rest = [k for k in range(6, self.n_unknowns) if k not in set(points)]
+        return np.r_[np.arange(6), np.array(points, int), np.array(rest, int)].astype(int)
+
+    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
+        """(redundant mask, ratio per unknown) of the QR test in :meth:`priority` order
+        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order."""
+        order = self.priority()
+        R = np.zeros((0, self.n_unknowns))
+        for rows, pc in self._pieces(theta, True, False, chunk):
+            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
+            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
+        red_p, ratio_p = redundant_from_r(R, norms[order])
+        red, ratio = np.empty_like(red_p), np.empty_like(ratio_p)
+        red[order], ratio[order] = red_p, ratio_p
+        return red, ratio
 
     def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None):
         """(rows, arrays of those rows) for every block of rows sharing an instrument's
