@@ -62,6 +62,30 @@ def truth_as_actual(truth) -> ActualMachine:
     return actual
 
 
+RIGID_TOLERANCE = 1e-7  # m, rad: a rigid motion below this is none
+
+
+def registered_actual(actual: ActualMachine, machine: Machine, q: np.ndarray, tools) -> tuple[ActualMachine, bool]:
+    """(the actual machine moved by the rigid motion that best puts it on the nominal
+    kinematics over commands q x tools x tool points, whether it moved at all). A rigid
+    motion of the whole machine (or of where the part sits) is not observable from
+    tracker data and does not affect parts: tables must not be spent on one."""
+    from vecpin.measurement.registration import register
+    tools = np.asarray(tools, float)
+    P = len(machine.tool_links)
+    qq = np.tile(np.repeat(np.asarray(q, float), len(tools), axis=0), (P, 1))
+    tt = np.tile(tools, len(q) * P)
+    pt = 0 if P == 1 else np.repeat(np.arange(P), len(q) * len(tools))
+    R, t = register(actual(qq, tt, False, pt)[0], nominal_tip(machine, qq, tt, pt))
+    if np.abs(R - np.eye(3)).max() < RIGID_TOLERANCE and np.abs(t).max() < RIGID_TOLERANCE:
+        return actual, False
+
+    def moved(q, tool, jacobian=False, point=0):
+        tip, J = actual(q, tool, jacobian, point)
+        return tip @ R.T + t, (None if J is None else R @ J)
+    return moved, True
+
+
 def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:
     """The controller's nominal tool tip (N,3) [m] relative to the workpiece."""
     return machine.tool_tip(q, tool, frame=FRAME, point=point)
@@ -70,18 +94,23 @@ def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:
 TABLE_KNOTS = 15  # interior knots of the table functions: finer than any model's functions, coarser than a table
 
 
-def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS) -> list[AxisBasis]:
+def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS, lower: np.ndarray | None = None,
+                     upper: np.ndarray | None = None) -> list[AxisBasis]:
     """Table functions able to follow any model: cubic B-splines with ``knots``
-    uniform interior knots over the travel of each input axis; a modulo axis a
-    Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
+    uniform interior knots over the travel of each input axis (or over ``lower`` ..
+    ``upper`` [m, rad]: the region the tables are fitted in, held beyond it); a modulo
+    axis a Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
     out = []
+    lo = machine.lower if lower is None else np.asarray(lower, float)
+    hi = machine.upper if upper is None else np.asarray(upper, float)
     for a in machine.axes:
         rot = a.kind == "rotary"
         if a.name in modulo_axes:
             out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
         else:
-            k = tuple(np.linspace(a.lower, a.upper, knots + 2)[1:-1])
-            out.append(AxisBasis(a.lower, a.upper, 3, "bspline", rotary=rot, knots=k))
+            l, h = (lo[a.index], hi[a.index]) if hi[a.index] > lo[a.index] else (a.lower, a.upper)
+            k = tuple(np.linspace(l, h, knots + 2)[1:-1])
+            out.append(AxisBasis(l, h, 3, "bspline", rotary=rot, knots=k))
     return out
 
 
@@ -233,6 +262,13 @@ class TableProblem:
         nominal = self.machine.kinematics(self.q, self.L, jacobian=False, frame=FRAME, point=self._pt)
         self.u_nominal = nominal.tool_dir
         tip, J = self.actual(self.q, self.L, True, self._pt)
+        # a linear axis moving along the tool everywhere (the W quill of an XYZBAW head) does what a gauge-line
+        # change does: its pitch table carries it, and the two together have no unique solution
+        Jn = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
+        along = np.abs(np.einsum("pik,pi->pk", Jn, self.u_nominal)).min(axis=0) > 1 - 1e-6
+        self.along_tool = [a.name for a in self.machine.axes if a.kind == "linear" and along[a.index]]
+        if self.along_tool:
+            self.free_gauge = False
         self.e0 = (tip - nominal.tip).ravel()
         self.A = self._design(J, self.u_nominal)
         self.G = self.A.T @ self.A

@@ -20,7 +20,7 @@ import numpy as np
 
 from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
                                            compensated_errors, from_ap_model, model_as_actual, nominal_tip,
-                                           pitch_names, pseudo_commands, rich_table_bases)
+                                           pitch_names, pseudo_commands, registered_actual, rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -155,9 +155,11 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     else:
         q = np.unique(np.asarray(commands, float), axis=0)
         where = f"{len(q)} campaign commands"
+    # a rigid motion of the model's whole workspace (weakly held constants, where the part sits) is not the tables'
+    actual, moved = registered_actual(actual, m, q, tools)
     # table functions that can follow any model (splines finer than its functions);
     # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
-    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes)),
+    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
                            modulo_axes=tuple(modulo_axes))
     problem.hold = {a.name: (lo[a.index], hi[a.index]) for a in m.axes
                     if lo[a.index] > a.lower + 1e-9 or hi[a.index] < a.upper - 1e-9}
@@ -174,7 +176,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    if isinstance(model, APModel) and not problem.hold and problem.free_gauge:
+    if isinstance(model, APModel) and not problem.hold and problem.free_gauge and not moved:
         full = from_ap_model(model, modulo_axes).discretise(n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(n_points)
@@ -236,6 +238,9 @@ def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
 def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     """Decide whether the gauge-line (T_offset) change is applied: only when it is at
     least twice its standard deviation from the model's parameter covariance."""
+    if problem.along_tool:
+        return (f"gauge-line (T_offset) change: not used, {', '.join(problem.along_tool)} moves along the tool and its "
+                "pitch table carries the same correction")
     x = problem.solve_linear(names)
     cov_b = np.asarray(model.cov_, float)[6:, 6:]
     J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True, frame=FRAME, point=problem._pt).J_b
@@ -252,7 +257,7 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:
     """Add the row of the tables as a controller will hold them (read back from the
     written files: resampled, rounded, constants removed), on the plan's points."""
-    actual = model_as_actual(model)
+    actual = plan.problem.actual  # the model as the plan saw it (its rigid motion removed)
     pt = plan.problem._pt
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)

@@ -12,12 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, nominal_tip,
-                                           pitch_names, pseudo_commands, rich_table_bases, truth_as_actual)
+from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, pitch_names,
+                                           pseudo_commands, registered_actual, rich_table_bases, truth_as_actual)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
 from vecpin.compensation.tables import TableSet
-from vecpin.measurement.registration import register
 from vecpin.units import norm_mm
 
 PAPER_I_TOOLS = (0.21488, 0.31286)
@@ -45,31 +44,13 @@ def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: 
     return float(d.mean()), float(d.max())
 
 
-def _registered(actual, machine, q: np.ndarray, tools: np.ndarray):
-    """The actual machine moved by the rigid motion that best puts it on the nominal
-    kinematics over commands q x tools x tool points: tables cannot and need not correct
-    a rigid motion of the whole machine (or of where the part sits), so the floor's
-    tables are not spent on one (vecpin's model never sees it: the tracker pose and the
-    nests absorb it)."""
-    P = len(machine.tool_links)
-    qq = np.tile(np.repeat(q, len(tools), axis=0), (P, 1))
-    tt = np.tile(tools, len(q) * P)
-    pt = 0 if P == 1 else np.repeat(np.arange(P), len(q) * len(tools))
-    R, t = register(actual(qq, tt, False, pt)[0], nominal_tip(machine, qq, tt, pt))
-
-    def moved(q, tool, jacobian=False, point=0):
-        tip, J = actual(q, tool, jacobian, point)
-        return tip @ R.T + t, (None if J is None else R @ J)
-    return moved
-
-
 def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS, n_commands: int = 1500,
                 tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0) -> Floor:
     """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
     with tool lengths ``tool`` [m]."""
     m = truth.machine
     pseudo = pseudo_commands(m, n_commands, seed)
-    actual = _registered(truth_as_actual(truth), m, pseudo, np.asarray(tools, float))
+    actual = registered_actual(truth_as_actual(truth), m, pseudo, tools)[0]
     problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
     names = all_table_names(m)
     if not limits.cross_tables:
