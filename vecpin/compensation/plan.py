@@ -20,7 +20,7 @@ import numpy as np
 
 from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
                                            compensated_errors, from_ap_model, model_as_actual, nominal_tip,
-                                           pitch_names, pseudo_commands, registered_actual, rich_table_bases)
+                                           pitch_names, pseudo_commands, rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -155,8 +155,6 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     else:
         q = np.unique(np.asarray(commands, float), axis=0)
         where = f"{len(q)} campaign commands"
-    # a rigid motion of the model's whole workspace (weakly held constants, where the part sits) is not the tables'
-    actual, moved = registered_actual(actual, m, q, tools)
     # table functions that can follow any model (splines finer than its functions);
     # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
     problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
@@ -176,7 +174,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    if isinstance(model, APModel) and not problem.hold and problem.free_gauge and not moved:
+    if isinstance(model, APModel) and not problem.hold and problem.free_gauge:
         full = from_ap_model(model, modulo_axes).discretise(n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(n_points)
@@ -257,7 +255,7 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:
     """Add the row of the tables as a controller will hold them (read back from the
     written files: resampled, rounded, constants removed), on the plan's points."""
-    actual = plan.problem.actual  # the model as the plan saw it (its rigid motion removed)
+    actual = model_as_actual(model)
     pt = plan.problem._pt
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
