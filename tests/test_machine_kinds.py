@@ -249,3 +249,31 @@ def test_subset_and_campaign_defaults():
     assert c.plain and not c.mixed and list(c.point) == [0] * 4
     c.target[1] = "T1"
     assert not c.plain and c.subset([1, 2]).target[0] == "T1"
+
+
+def test_command_line_nests_targets_zones_and_drives(tmp_path, capsys):
+    """simulate --nests/--target, fit --targets/--zone/--tool-link, tables --zone with a
+    twin-drive profile: the new options run end to end and say what they did."""
+    from vecpin.cli import main
+    t = tmp_path / "t"
+    assert main(["simulate", "trunnion_xyzac", "--out", str(t), "--points", "60", "--nests", "2", "--seed", "3"]) == 0
+    assert "120 table nest rows (2 nests)" in capsys.readouterr().out
+    assert main(["fit", "trunnion_xyzac", str(t / "campaign.csv"), "--spherical", "--model", "6dof", "--basis",
+                 "chebyshev", "--order", "3", "--zone", "C=-720:0", "--out", str(t / "m.json"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "zone C=-720:0:" in out and "nest 1 (workpiece frame):" in out and "nest 2" in out
+    assert main(["tables", str(t / "m.json"), "--out", str(t / "tab"), "--quiet"]) == 0
+    assert "zone C=-720:0: tables fitted" in capsys.readouterr().out
+    r = tmp_path / "r"
+    assert main(["simulate", "ur5", "--out", str(r), "--points", "60", "--target", "0,0,100", "--target",
+                 "150,0,60", "--seed", "1"]) == 0
+    assert (r / "targets.csv").is_file() and "T1 0.000, 0.000, 100.000" in capsys.readouterr().out
+    assert main(["fit", str(_bundled_path("ur5")), str(r / "campaign.csv"), "--tool-link", "tool0", "--model", "6dof",
+                 "--basis", "chebyshev", "--order", "2", "--targets", str(r / "targets.csv"),
+                 "--out", str(r / "m.json"), "--quiet"]) == 0
+    assert "target T" not in capsys.readouterr().out  # known targets: nothing to find
+    assert main(["fit", "ur5", str(r / "campaign.csv"), "--model", "6dof", "--basis", "chebyshev", "--order", "2",
+                 "--out", str(r / "m2.json"), "--quiet"]) == 0
+    assert "target T2 (tool link frame):" in capsys.readouterr().out
+    assert main(["fit", "trunnion_xyzac", str(t / "campaign.csv"), "--zone", "W=0:1", "--out", str(t / "x.json")]) == 2
+    assert "no axis 'W'" in capsys.readouterr().err

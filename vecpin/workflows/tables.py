@@ -221,7 +221,7 @@ def drives_readme(out: OutputSet, tables: TableSet, xm, prof: ControllerProfile,
                      f"drive {fol.nc_name or fol.general_name or fol.number or f} ({f}); {len(names)} tables: "
                      + " ".join(names))
         if a in differential:
-            lines.append(f"  - gantry skew as a differential between the drives (leading +, following -) from "
+            lines.append("  - gantry skew as a differential between the drives (leading +, following -) from "
                          + ", ".join(t.input_axis for t in differential[a]) + "; already added to the tables above")
     out.write_text("DRIVES.md", "\n".join(lines) + "\n")
     tables.save_csv(out.path("tables_drives.csv"), xm)
