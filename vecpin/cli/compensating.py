@@ -1,7 +1,7 @@
 """``vecpin tables``: compensation tables of a fitted model for a controller; the sign check."""
 from __future__ import annotations
 
-from vecpin.cli.common import progress
+from vecpin.cli.common import progress, zone_option
 
 
 def run_tables(args) -> int:
@@ -13,7 +13,6 @@ def run_tables(args) -> int:
     for a in args.forbid_output:
         m.axis(a)
     commands = read_campaign(args.commands, m) if args.commands else None
-    from vecpin.cli.fitting import zone_option
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)

@@ -5,7 +5,8 @@ import json
 
 import numpy as np
 
-from vecpin.cli.common import add_machine_args, add_model_args, add_noise_args, machine, noise, parse_orders, progress
+from vecpin.cli.common import (add_machine_args, add_model_args, add_noise_args, machine, noise, parse_orders, progress,
+                               zone_option)
 
 
 def read_fit_campaign(args, m):
@@ -15,12 +16,6 @@ def read_fit_campaign(args, m):
     if getattr(args, "targets", None):
         c.targets = read_targets(args.targets)
     return c
-
-
-def zone_option(text):
-    """``--zone AXIS=LO:HI[,...]`` (mm/deg) or None."""
-    from vecpin.planning.zones import parse_zone
-    return parse_zone(text, "--zone") if text else None
 
 
 def run_fit(args) -> int:

@@ -17,8 +17,9 @@ order, and these columns (any order):
   is known from a targets file (:func:`read_targets`) or found by the fit. On a ``nest``
   row (a reflector in a nest fixed on the machine table) the nest's id; its position
   in the workpiece frame is found by the fit;
-* optional ``point``: the tool point measured (its index 0, 1, ... or its link name,
-  e.g. ``spindle_2``), for machines with several tool points driven by one command set.
+* optional ``tool_point``: the tool point measured (its index 0, 1, ... or its link
+  name, e.g. ``spindle_2``), for machines with several tool points driven by one command
+  set (``point``, as planned campaigns use it, is the plan's point number: kept as data).
 
 Reading rejects bad input with a :class:`~vecpin.errors.CampaignFileError` naming
 the file, the row (line number, header = 1) and the column. In memory a
@@ -39,7 +40,7 @@ from vecpin.kinematics.machine import Machine
 
 RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
-POINT_COLUMNS = ("target", "point")  # text columns: which point a row measured
+POINT_COLUMNS = ("target", "tool_point")  # text columns: which point a row measured
 INSTRUMENTS = ("tracker", "ballbar", "nest")
 AXIS_LETTERS = set("XYZABCUVW")
 LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
@@ -239,13 +240,14 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
 
 
 def _point_target_columns(name: str, header: list[str], body: list, instrument: np.ndarray, machine: Machine):
-    """(point (N,) tool point index, target (N,) id text) from the ``point`` and ``target``
-    columns; a nest row must name its nest, a point is an index or a tool link's name."""
+    """(point (N,) tool point index, target (N,) id text) from the ``tool_point`` and
+    ``target`` columns; a nest row must name its nest, a tool point is an index or a tool
+    link's name."""
     n = len(body)
     point, target = np.zeros(n, int), np.full(n, "", dtype=object)
     links = list(machine.tool_links)
-    if "point" in header:
-        j = header.index("point")
+    if "tool_point" in header:
+        j = header.index("tool_point")
         for k, (lineno, cells) in enumerate(body):
             cell = cells[j].strip()
             if cell == "":
@@ -258,8 +260,8 @@ def _point_target_columns(name: str, header: list[str], body: list, instrument: 
             except ValueError:
                 v = math.nan
             if not (v == int(v) if math.isfinite(v) else False) or not 0 <= v < len(links):
-                raise CampaignFileError(name, f"point '{cell}': a tool point index 0..{len(links) - 1} or a tool link "
-                                        f"name ({', '.join(links)})", row=lineno, column="point")
+                raise CampaignFileError(name, f"tool point '{cell}': a tool point index 0..{len(links) - 1} or a tool "
+                                        f"link name ({', '.join(links)})", row=lineno, column="tool_point")
             point[k] = int(v)
     if "target" in header:
         j = header.index("target")
@@ -443,15 +445,15 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
 
 
 def _point_target_cells(campaign: Campaign, machine: Machine) -> tuple[list[str], list[list[str]]]:
-    """The ``target`` and ``point`` columns of a campaign file (only when used): header
-    cells and per-row cells (the point as its tool link's name)."""
+    """The ``target`` and ``tool_point`` columns of a campaign file (only when used):
+    header cells and per-row cells (the tool point as its link's name)."""
     header = []
     use_target = bool(np.any(campaign.target != ""))
     use_point = bool(np.any(campaign.point != 0))
     if use_target:
         header.append("target")
     if use_point:
-        header.append("point")
+        header.append("tool_point")
     rows = []
     for i in range(len(campaign)):
         cells = []
