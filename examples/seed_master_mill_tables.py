@@ -97,7 +97,7 @@ def main():
     model = d.best_model
     print(d.summary())
 
-    print(f"\nTable 2.9: model residual errors (seed: thou; vecpin: mm, simulated, model {model.label()} + "
+    print(f"\nTable 2.9: model residual errors, mm (seed: its thou converted; vecpin: simulated, model {model.label()} + "
           f"{', '.join(e.label for e in d.accepted) or 'no effect'})")
     print(f"  {'model':<22s} {'seed id mean':>12s} {'max':>6s} {'val mean':>8s} {'max':>6s} | "
           f"{'id mean':>8s} {'max':>7s} {'val mean':>8s} {'max':>7s}")
