@@ -177,24 +177,26 @@ def test_workpiece_point_error_jacobians(machines, name, rng):
 
 
 def test_models_with_zero_parameters_give_the_nominal_relative_tip(machines, rng):
-    """APModel (through Machine.kinematics) and SixDofModel (through ErrorFrames) need no
-    change to work on a two-branch machine: with zero parameters both give the nominal
+    """APModel (through Machine.kinematics) and SixDofModel (through ErrorFrames) work on a
+    two-branch machine: asked for the tip relative to the workpiece (models default to
+    the base frame, what a tracker sees), with zero parameters both give the nominal
     tool tip relative to the workpiece, and their Jacobians match finite differences."""
     from closed_forms import trunnion_xyzac
     m = machines["trunnion_xyzac"]
     q = uniform_commands(m, 12, rng)
     for model in (SixDofModel(m, 3), APModel(m, 3)):
         b = np.zeros(model.n_parameters)
-        out = model.tool_tip(q, 0.2, b)
+        out = model.tool_tip(q, 0.2, b, frame="workpiece")
         np.testing.assert_allclose(out.tip, trunnion_xyzac(q, np.full(12, 0.2)), atol=1e-12)
         np.testing.assert_allclose(out.tool_dir, m.kinematics(q, 0.2).tool_dir, atol=1e-15)
         b = rng.normal(size=model.n_parameters) * 1e-4
-        out = model.tool_tip(q, 0.2, b)
+        out = model.tool_tip(q, 0.2, b, frame="workpiece")
         h = 1e-7
         for k in rng.choice(model.n_parameters, 12, replace=False):
             e = np.zeros_like(b)
             e[k] = h
-            fd = (model.tool_tip(q, 0.2, b + e, False).tip - model.tool_tip(q, 0.2, b - e, False).tip) / (2 * h)
+            fd = (model.tool_tip(q, 0.2, b + e, False, frame="workpiece").tip
+                  - model.tool_tip(q, 0.2, b - e, False, frame="workpiece").tip) / (2 * h)
             np.testing.assert_allclose(out.J_b[:, :, k], fd, atol=3e-8)
 
 

@@ -27,21 +27,25 @@ def _bare(machine, terms=(), gauge=0.0):
     return IndependentMachine(machine, list(terms), "none", bases, gauge, np.zeros(n), Tracker())
 
 
-SERIAL = [n for n in bundled_machines() if not (m := vecpin.Machine.load(n)).has_workpiece
-          and not m.mimic_joints and len(m.tool_links) == 1 and m.tool_axis_name == "-z"]
-
-
-@pytest.mark.parametrize("source", SERIAL + [str(DATA / "skewed_xyzcb.urdf")] + list(LAYOUTS))
+@pytest.mark.parametrize("source", bundled_machines() + [str(DATA / "skewed_xyzcb.urdf")] + list(LAYOUTS))
 def test_error_free_chain_equals_pinocchio(source, rng):
-    """The XML reader's 4x4 chain with no errors is vecpin's Pinocchio machine to 1e-12 m
-    (the skewed test URDF has rpy origins, tilted axes and fixed joints between axes)."""
+    """The XML reader's 4x4 paths with no errors are vecpin's Pinocchio machine to 1e-12 m
+    on every bundled machine: every tool point, the base frame and relative to the
+    workpiece, target offsets, workpiece points (the skewed test URDF has rpy origins,
+    tilted axes and fixed joints between axes; Spar Mill 23 mimic joints; the arm +z)."""
     m = layout(source) if source in LAYOUTS else vecpin.Machine.load(source)
     q = uniform_commands(m, 300, rng)
     tool = rng.uniform(0.0, 0.4, len(q))
-    tip, u = _bare(m).geometric_tip(q, tool)
-    kin = m.kinematics(q, tool, jacobian=False)
-    assert np.abs(tip - kin.tip).max() < 1e-12
-    assert np.abs(u + kin.rotation[:, :, 2]).max() < 1e-12
+    offset = rng.normal(size=(len(q), 3)) * 0.1
+    truth = _bare(m)
+    for k in range(len(m.tool_links)):
+        for frame in ("base", "workpiece"):
+            tip, u = truth.geometric_tip(q, tool, frame=frame, point=k, offset=offset)
+            kin = m.kinematics(q, tool, jacobian=False, frame=frame, point=k, offset=offset)
+            assert np.abs(tip - kin.tip).max() < 1e-12
+            assert np.abs(u - kin.tool_dir).max() < 1e-12
+    p = rng.normal(size=(len(q), 3)) * 0.2
+    assert np.abs(truth.geometric_workpiece_points(q, p) - m.workpiece_points(q, p, False).xyz).max() < 1e-12
 
 
 def test_error_transforms_agree_with_vecpins_6dof_convention(flow, rng):

@@ -87,3 +87,9 @@ def parse_orders(text: str) -> list[int]:
     if not out or min(out) < 0:
         raise InputError(f"--orders '{text}': orders are whole numbers >= 0")
     return out
+
+
+def zone_option(text):
+    """``--zone AXIS=LO:HI[,...]`` (mm/deg) as a zone, or None."""
+    from vecpin.planning.zones import parse_zone
+    return parse_zone(text, "--zone") if text else None

@@ -1,7 +1,7 @@
 """``vecpin tables``: compensation tables of a fitted model for a controller; the sign check."""
 from __future__ import annotations
 
-from vecpin.cli.common import progress
+from vecpin.cli.common import progress, zone_option
 
 
 def run_tables(args) -> int:
@@ -13,10 +13,13 @@ def run_tables(args) -> int:
     for a in args.forbid_output:
         m.axis(a)
     commands = read_campaign(args.commands, m) if args.commands else None
+    zone = zone_option(args.zone)
+    for a in zone or {}:
+        m.axis(a)
     run = make_tables(model, args.out, args.controller, profile=args.profile, axis_map=parse_axis_map(args.axis_map, m),
                       max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
                       method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,
-                      commands=commands, sign_test=args.sign_test, progress=progress(not args.quiet))
+                      commands=commands, sign_test=args.sign_test, zone=zone, progress=progress(not args.quiet))
     print("\n".join(run.lines(args.model)))
     return 0
 
@@ -58,6 +61,9 @@ def register(sub) -> None:
     s.add_argument("--sign-test", metavar="AXIS|TABLE",
                    help="also write a sign-test NC program and instructions for this axis' pitch table or this "
                         "table (e.g. X or yx); judge it with vecpin evaluate --sign-test")
+    s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
+                   help="fit the tables in this region of axis space only, mm/deg (default: the zone the model was "
+                        "fitted in, else the whole measured region)")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.set_defaults(func=run_tables)

@@ -1,13 +1,13 @@
 """``vecpin diagnose``: where the residual lies, which effect causes it, how far it shrinks."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_model_args, add_noise_args, machine, noise, progress
+from vecpin.cli.common import add_machine_args, add_model_args, add_noise_args, machine, noise, progress
 
 
 def run_diagnose(args) -> int:
     from vecpin.diagnosis.diagnose import diagnose
     from vecpin.measurement.campaign import read_campaign
-    m = machine(args.machine)
+    m = machine(args.machine, args)
     c = read_campaign(args.csv, m)
     effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
     d = diagnose(m, c, model=args.model, order=args.order, effects=effects, noise=noise(args, m), folds=args.folds,
@@ -22,6 +22,7 @@ def run_diagnose(args) -> int:
 def register(sub) -> None:
     s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
     s.add_argument("machine")
+    add_machine_args(s)
     s.add_argument("csv")
     s.add_argument("--out", required=True)
     add_model_args(s)

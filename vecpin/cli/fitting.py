@@ -5,24 +5,40 @@ import json
 
 import numpy as np
 
-from vecpin.cli.common import add_model_args, add_noise_args, machine, noise, parse_orders, progress
+from vecpin.cli.common import (add_machine_args, add_model_args, add_noise_args, machine, noise, parse_orders, progress,
+                               zone_option)
 from vecpin.units import MM_PER_M
+
+
+def read_fit_campaign(args, m):
+    """The campaign CSV with the known target offsets of ``--targets`` (if given)."""
+    from vecpin.measurement.campaign import read_campaign, read_targets
+    c = read_campaign(args.csv, m)
+    if getattr(args, "targets", None):
+        c.targets = read_targets(args.targets)
+    return c
 
 
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
-    from vecpin.measurement.campaign import read_campaign
     from vecpin.units import norm_mm
-    from vecpin.workflows.fitting import fit_campaign
+    from vecpin.workflows.fitting import fit_campaign, zone_rows
     from vecpin.workflows.summary import per_tool_table
-    m = machine(args.machine)
+    m = machine(args.machine, args)
     check_output_file(args.out)
-    c = read_campaign(args.csv, m)
+    c = read_fit_campaign(args, m)
+    zone = zone_option(args.zone)
+    for a in zone or {}:
+        m.axis(a)
     run = fit_campaign(m, c, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
                        tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
-                       underdetermined=args.underdetermined, folds=args.folds, progress=progress(not args.quiet))
+                       underdetermined=args.underdetermined, folds=args.folds, zone=zone,
+                       progress=progress(not args.quiet))
     model = run.model
     model.save(args.out)
+    if zone:
+        print(f"zone {args.zone}: {run.rows_in_zone} of the {run.rows} rows were commanded in it")
+        c = zone_rows(m, c, zone)
     if run.choice is not None:
         print(run.choice.table())
     rep = model.report_
@@ -30,14 +46,35 @@ def run_fit(args) -> int:
     if rep.removed:
         print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
     c0 = c.primary()
-    rows = [("uncompensated (nominal kinematics)", norm_mm(c0.xyz - model.predict_nominal(c0.q, c0.tool))),
+    rows = [("uncompensated (nominal kinematics)", norm_mm(model.nominal_residuals(c0))),
             (model.label(), norm_mm(model.residuals(c0)))]
     print("\n".join(per_tool_table(rows, c0.tool)))
+    if c.nest_rows.size:
+        cn = c.subset(c.nest_rows[c.station[c.nest_rows] == 0])
+        if len(cn):
+            print(f"  table nest rows (station 0): {len(cn)}, residual mean "
+                  f"{norm_mm(model.residuals(cn)).mean():.4f} mm (uncompensated "
+                  f"{norm_mm(model.nominal_residuals(cn)).mean():.4f} mm)")
+    print("\n".join(fitted_points_lines(model)))
     if c.ballbar_rows.size:
         d = np.abs(model.ballbar_residuals(c)) * MM_PER_M
         print(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
     print(f"wrote {args.out}")
     return 0
+
+
+def fitted_points_lines(model) -> list[str]:
+    """The fitted table nests (workpiece frame) and tool targets (tool link frame), mm ± 1 sigma."""
+    out = []
+    su = model.setup_
+    for kind, store, frame in (("nest", su.nests, "workpiece frame"), ("target", su.targets, "tool link frame")):
+        for k, v in store.items():
+            sd = [su.std.get(f"{kind}{k}.{c}", 0.0) * MM_PER_M for c in "xyz"]
+            cells = ", ".join(f"{x * MM_PER_M:.4f} ± {e:.4f}" if e > 0 else f"{x * MM_PER_M:.4f} (fixed)" for x, e in zip(v, sd))
+            out.append(f"  {kind} {k} ({frame}): {cells} mm")
+    if any(s == 0 for s in su.std.values()) or (su.targets and not su.std):
+        out.append("  (fixed: a coordinate the design cannot tell from the model's terms stays at its start value)")
+    return out
 
 
 def run_evaluate(args) -> int:
@@ -49,7 +86,9 @@ def run_evaluate(args) -> int:
     from vecpin.models import ErrorModel
     from vecpin.workflows.evaluation import evaluate
     model = ErrorModel.load(args.model)
-    ev = evaluate(model, read_campaign(args.csv, model.machine), reregister=args.reregister)
+    camp = read_campaign(args.csv, model.machine)
+    camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
+    ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone))
     print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
     print("\n".join(ev.lines()))
@@ -62,7 +101,7 @@ def run_evaluate(args) -> int:
 def run_orders(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.selection.orders import order_sweep
-    m = machine(args.machine)
+    m = machine(args.machine, args)
     c = read_campaign(args.csv, m)
     v = read_campaign(args.validation, m) if args.validation else None
     say = progress(not args.quiet)
@@ -109,6 +148,13 @@ def register(sub) -> None:
     s.add_argument("--prior-scale", type=float, default=1.0, help="multiply every parameter prior sigma")
     s.add_argument("--underdetermined", action="store_true",
                    help="accept fewer equations than parameters (the priors decide the rest)")
+    s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
+                   help="fit only the rows commanded in this region of axis space, mm/deg (a machine calibrated in "
+                        "zones, seed Table 2.12); the model file records it and vecpin tables uses it (default: all rows)")
+    s.add_argument("--targets", metavar="CSV",
+                   help="known tool-target offsets: a CSV 'target,x,y,z' in mm in the tool link frame; targets of the "
+                        "campaign's 'target' column not in it are found by the fit (default: all found by the fit)")
+    add_machine_args(s)
     add_noise_args(s)
     s.set_defaults(func=run_fit)
 
@@ -119,6 +165,8 @@ def register(sub) -> None:
     s.add_argument("--reregister", action="store_true", help="the tracker was moved: register its pose to this file first")
     s.add_argument("--sign-test", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
                                                        "whether the controller applies the table with the right sign")
+    s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="judge only the rows commanded in this region, mm/deg "
+                                                             "(default: all rows)")
     s.set_defaults(func=run_evaluate)
 
     s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")
@@ -131,7 +179,8 @@ def register(sub) -> None:
     s.add_argument("--basis", choices=["chebyshev", "fourier"], default="chebyshev",
                    help="chebyshev everywhere (the seed's, default) or fourier per turn on rotary axes travelling "
                         "more than a turn")
-    s.add_argument("--folds", type=int, default=5)
+    s.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    add_machine_args(s)
     add_noise_args(s)
     s.set_defaults(func=run_orders)
 

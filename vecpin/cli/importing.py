@@ -1,12 +1,12 @@
 """``vecpin import``: a tracker-software export into a campaign CSV."""
 from __future__ import annotations
 
-from vecpin.cli.common import machine
+from vecpin.cli.common import add_machine_args, machine
 
 
 def run_import(args) -> int:
     from vecpin.workflows.importing import import_to_file
-    m = machine(args.machine)
+    m = machine(args.machine, args)
     res = import_to_file(args.export, m, args.out, args.plan, columns=args.columns, units=args.units,
                          delimiter=args.delimiter, decimal=args.decimal, time_format=args.time_format,
                          temperature_unit=args.temperature_unit, tool_mm=args.tool_mm,
@@ -21,6 +21,7 @@ def register(sub) -> None:
                        "inches) and join it with the plan into a campaign CSV")
     s.add_argument("export", help="the tracker software's export (CSV/TXT)")
     s.add_argument("--machine", required=True, help="bundled machine name or URDF path")
+    add_machine_args(s)
     s.add_argument("--plan", help="the plan's campaign template (plan.csv from vecpin plan): commands and holder lengths "
                    "(default: none; then the export must have the axis columns)")
     s.add_argument("--out", required=True, help="campaign CSV to write (mm, deg, comma-separated)")

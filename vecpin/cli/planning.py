@@ -2,7 +2,7 @@
 and the point-distribution figure."""
 from __future__ import annotations
 
-from vecpin.cli.common import machine, progress
+from vecpin.cli.common import add_machine_args, machine, progress
 from vecpin.errors import InputError
 
 
@@ -31,7 +31,7 @@ def run_plan(args) -> int:
     from vecpin.planning.zones import parse_zone
     from vecpin.workflows.planning import plan_to_dir
     from vecpin.workflows.tables import parse_axis_map
-    m = machine(args.machine)
+    m = machine(args.machine, args)
     settings = PlanSettings(
         n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=args.model, order=args.order,
         basis=args.basis, noise=plan_noise(args, m),
@@ -54,6 +54,7 @@ def register(sub) -> None:
     s = sub.add_parser("plan", help="plan a laser-tracker campaign: D-optimal commands, exclusion zones, line of "
                        "sight, short travel; writes the campaign template, NC programs and Paper I Fig. 6")
     s.add_argument("machine", help="bundled machine name or URDF path")
+    add_machine_args(s)
     s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, plan.png, "
                    "plan.json)")
     s.add_argument("--points", type=int, default=100, help="commands to measure, each with every holder length "

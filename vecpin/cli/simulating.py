@@ -5,7 +5,7 @@ import argparse
 
 import numpy as np
 
-from vecpin.cli.common import machine
+from vecpin.cli.common import add_machine_args, machine
 from vecpin.units import M_PER_MM
 
 
@@ -13,12 +13,18 @@ def run_simulate(args) -> int:
     from vecpin.simulation.simulate import Design, parse_zone
     from vecpin.models.effects import parse_effect
     from vecpin.workflows.simulating import simulate_to_dir
-    m = machine(args.machine)
+    from vecpin.cli.planning import parse_floats
+    from vecpin.errors import InputError
+    m = machine(args.machine, args)
+    targets = tuple(tuple(parse_floats(t, "--target", 3)) for t in args.target)
+    if args.nests is not None and args.nests < 0:
+        raise InputError(f"--nests {args.nests}: a number of table nests >= 0")
     design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
                     exclusion_zones=[parse_zone(z) for z in args.exclude],
                     tools_mm=tuple(args.tools) if args.tools else Design().tools_mm,
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
-                    stations=args.stations, ballbar_points=args.ballbar)
+                    stations=args.stations, ballbar_points=args.ballbar, nests=args.nests, targets_mm=targets,
+                    known_targets=args.known_targets)
     effects = [parse_effect(e, m) for e in args.effect]
     plan = tables = truth = None
     if args.plan:
@@ -62,6 +68,7 @@ def register(sub) -> None:
     s.add_argument("--help-effects", action=_HelpEffects, help="list the effects of --effect with their keys, units "
                    "and defaults, then exit")
     s.add_argument("machine", help="bundled machine name or URDF path")
+    add_machine_args(s)
     s.add_argument("--out", required=True, help="output folder (campaign.csv, validation.csv, validation_truth.csv, "
                    "truth.json; with --tables also validation_compensated.csv and its noise-free twin)")
     s.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same true machine and "
@@ -86,6 +93,16 @@ def register(sub) -> None:
     s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm "
                    "(default 0.65)")
     s.add_argument("--stations", type=int, default=1, help="tracker positions measuring every command (default 1)")
+    s.add_argument("--nests", type=int, metavar="N",
+                   help="reflectors in N nests fixed on the table, read at every command (nest rows; their positions "
+                        "are found by the fit). Default: 3 on a machine with a table branch (a 'workpiece' link), "
+                        "else 0")
+    s.add_argument("--target", action="append", default=[], metavar="X,Y,Z",
+                   help="a reflector on the tool at this offset from the tool link origin, mm in the tool link frame "
+                        "(repeatable: several targets per pose, ids T1, T2, ...; read instead of the --tools; the true "
+                        "offsets go to targets.csv; default: the tool tips)")
+    s.add_argument("--known-targets", action="store_true",
+                   help="the campaign's targets are known (else the fit finds their offsets; default unknown)")
     s.add_argument("--ballbar", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere "
                    "(eq. 63-64; default 0)")
     s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),

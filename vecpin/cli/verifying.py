@@ -1,7 +1,7 @@
 """``vecpin assess`` (is compensation worth it?) and ``vecpin verify`` (before and after)."""
 from __future__ import annotations
 
-from vecpin.cli.common import machine, progress
+from vecpin.cli.common import add_machine_args, machine, progress
 from vecpin.errors import InputError
 from vecpin.units import M_PER_MM
 
@@ -13,7 +13,7 @@ def run_assess(args) -> int:
             raise InputError("assess CSV needs --machine (bundled name or URDF path)")
         from vecpin.measurement.campaign import read_campaign
         from vecpin.measurement.tracker import TrackerNoise
-        m = machine(args.machine)
+        m = machine(args.machine, args)
         noise = None
         if args.tracker_noise:
             a, b, c, d = args.tracker_noise
@@ -43,7 +43,7 @@ def run_verify(args) -> int:
         model = ErrorModel.load(args.model)
     if model is None and not args.machine:
         raise InputError("verify needs --machine, or --model (whose machine is used)")
-    m = model.machine if model is not None else machine(args.machine)
+    m = model.machine if model is not None else machine(args.machine, args)
     tables, src = load_tables(args.tables, m) if args.tables else (None, None)
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
@@ -58,6 +58,7 @@ def register(sub) -> None:
     s.add_argument("csv", nargs="?", help="campaign CSV with repeated points (same command and tool measured several "
                    "times; vecpin plan --repeat)")
     s.add_argument("--machine", help="bundled machine name or URDF path (needed with a CSV)")
+    add_machine_args(s)
     s.add_argument("--session-gap-min", type=float, default=30.0,
                    help="repeats further apart than this are different sessions (short vs long term), min (default 30)")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
@@ -75,6 +76,7 @@ def register(sub) -> None:
     s.add_argument("before", help="validation run of the machine WITHOUT the tables (campaign CSV)")
     s.add_argument("after", help="validation run WITH the tables active (campaign CSV; commands as programmed)")
     s.add_argument("--machine", help="bundled machine name or URDF path (default: the model's machine)")
+    add_machine_args(s)
     s.add_argument("--model", help="fitted model file: its predicted errors beside the measured ones (default: none)")
     s.add_argument("--tables", help="the table set that was active (tables.json or its folder): its gauge-line change "
                    "enters the commanded positions (default: none, 0 mm assumed)")

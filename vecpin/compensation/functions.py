@@ -6,6 +6,11 @@ series in the input axis, like the model's, and the controller's gauge-line offs
 follows the controller's nominal kinematics:
 ``F_a(q + t(q), L) ≈ F_n(q, L + dT)`` for every command and tool.
 
+The tool tip that matters is the tip *relative to the workpiece* (on a machine with a
+table branch; the base frame otherwise): what a compensated machine cuts into a part.
+On a machine with several tool points driven by one command set (Spar Mill 23's
+mirrored spindles) the tables serve every tool point at once.
+
 * AP model: ``t = -q_hat`` and ``dT`` = the model's gauge-line correction (eq. 17).
 * Any model (6-DoF, AP, a true simulated machine): the pseudo-measurement projection
   (eq. 18-19): Gauss-Newton on ``sum |F_a(q + t(q)) - F_n(q, L + dT)|^2`` over
@@ -32,19 +37,20 @@ from vecpin.models import APModel, ErrorModel
 from vecpin.compensation.tables import CompensationTable, TableSet, table_grid
 from vecpin.units import MM_PER_M
 
-# actual(q, tool, jacobian) -> (tip (N,3) machine frame [m], d tip / d q (N,3,n) or None)
-ActualMachine = Callable[[np.ndarray, np.ndarray, bool], tuple]
+# actual(q, tool, jacobian, point) -> (tip (N,3) relative to the workpiece [m], d tip / d q (N,3,n) or None)
+ActualMachine = Callable[..., tuple]
+FRAME = "workpiece"  # tables correct the tool relative to the part (the base frame on a serial machine)
 
 
 def model_as_actual(model: ErrorModel) -> ActualMachine:
-    """The fitted model as the 'actual' machine (machine base frame, no tracker). Only its
-    geometry: effects that depend on the rows (thermal, backlash, an instrument shift)
-    are left out, as tables cannot carry them."""
+    """The fitted model as the 'actual' machine (tool tip relative to the workpiece, no
+    tracker). Only its geometry: effects that depend on the rows (thermal, backlash, an
+    instrument shift) are left out, as tables cannot carry them."""
     model._check_fitted()
     geometric = model.geometric_part()[0] if model.row_dependent else model
 
-    def actual(q, tool, jacobian=True):
-        out = geometric.tool_tip(q, tool, geometric.b_, jacobian)
+    def actual(q, tool, jacobian=True, point=0):
+        out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
         return out.tip, out.J_q
     return actual
 
@@ -54,27 +60,61 @@ def truth_as_actual(truth) -> ActualMachine:
     truth, and for the table floor). Asked for a Jacobian it gives the nominal one: the
     true errors are small, so it only steers the Gauss-Newton steps; the tip is true."""
 
-    def actual(q, tool, jacobian=False):
-        tip = truth.tool_tip(q, tool)
-        return tip, (truth.machine.kinematics(q, tool, True).jacobian if jacobian else None)
+    def actual(q, tool, jacobian=False, point=0):
+        tip = truth.tool_tip(q, tool, frame=FRAME, point=point)
+        return tip, (truth.machine.kinematics(q, tool, True, frame=FRAME, point=point).jacobian if jacobian else None)
     return actual
+
+
+RIGID_TOLERANCE = 1e-7  # m, rad: a rigid motion below this is none
+
+
+def registered_actual(actual: ActualMachine, machine: Machine, q: np.ndarray, tools) -> tuple[ActualMachine, bool]:
+    """(the actual machine moved by the rigid motion that best puts it on the nominal
+    kinematics over commands q x tools x tool points, whether it moved at all). A rigid
+    motion of the whole machine (or of where the part sits) is not observable from
+    tracker data and does not affect parts: tables must not be spent on one."""
+    from vecpin.measurement.registration import register
+    tools = np.asarray(tools, float)
+    P = len(machine.tool_links)
+    qq = np.tile(np.repeat(np.asarray(q, float), len(tools), axis=0), (P, 1))
+    tt = np.tile(tools, len(q) * P)
+    pt = 0 if P == 1 else np.repeat(np.arange(P), len(q) * len(tools))
+    R, t = register(actual(qq, tt, False, pt)[0], nominal_tip(machine, qq, tt, pt))
+    if np.abs(R - np.eye(3)).max() < RIGID_TOLERANCE and np.abs(t).max() < RIGID_TOLERANCE:
+        return actual, False
+
+    def moved(q, tool, jacobian=False, point=0):
+        tip, J = actual(q, tool, jacobian, point)
+        return tip @ R.T + t, (None if J is None else R @ J)
+    return moved, True
+
+
+def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:
+    """The controller's nominal tool tip (N,3) [m] relative to the workpiece."""
+    return machine.tool_tip(q, tool, frame=FRAME, point=point)
 
 
 TABLE_KNOTS = 15  # interior knots of the table functions: finer than any model's functions, coarser than a table
 
 
-def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS) -> list[AxisBasis]:
+def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS, lower: np.ndarray | None = None,
+                     upper: np.ndarray | None = None) -> list[AxisBasis]:
     """Table functions able to follow any model: cubic B-splines with ``knots``
-    uniform interior knots over the travel of each input axis; a modulo axis a
-    Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
+    uniform interior knots over the travel of each input axis (or over ``lower`` ..
+    ``upper`` [m, rad]: the region the tables are fitted in, held beyond it); a modulo
+    axis a Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
     out = []
+    lo = machine.lower if lower is None else np.asarray(lower, float)
+    hi = machine.upper if upper is None else np.asarray(upper, float)
     for a in machine.axes:
         rot = a.kind == "rotary"
         if a.name in modulo_axes:
             out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
         else:
-            k = tuple(np.linspace(a.lower, a.upper, knots + 2)[1:-1])
-            out.append(AxisBasis(a.lower, a.upper, 3, "bspline", rotary=rot, knots=k))
+            l, h = (lo[a.index], hi[a.index]) if hi[a.index] > lo[a.index] else (a.lower, a.upper)
+            k = tuple(np.linspace(l, h, knots + 2)[1:-1])
+            out.append(AxisBasis(l, h, 3, "bspline", rotary=rot, knots=k))
     return out
 
 
@@ -175,7 +215,8 @@ def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.nd
 class TableProblem:
     """The table problem linearised around the actual machine (eq. 18-19).
 
-    Pseudo-measurements: every command in ``commands`` with every tool in ``tools``.
+    Pseudo-measurements: every command in ``commands`` with every tool in ``tools`` at
+    every tool point of the machine (``point``, (R,)), tips relative to the workpiece.
     Unknowns: the gauge-line change dT and the coefficients of all n x n table
     functions. ``A x + e0`` approximates the compensated errors (3R,) with ``x`` the
     unknowns; :meth:`cost` of any subset of tables is then a small solve.
@@ -185,14 +226,16 @@ class TableProblem:
                  basis: str = "auto", modulo_axes=(), ridge: float = 1e-9, bases: list[AxisBasis] | None = None):
         self.actual, self.machine = actual, machine
         self.tools = np.asarray(tools, float)
-        self.q = np.repeat(np.asarray(commands, float), len(self.tools), axis=0)
-        self.L = np.tile(self.tools, len(commands))
+        P = len(machine.tool_links)
+        commands = np.asarray(commands, float)
+        self.q = np.tile(np.repeat(commands, len(self.tools), axis=0), (P, 1))
+        self.L = np.tile(self.tools, len(commands) * P)
+        self.point = np.repeat(np.arange(P), len(commands) * len(self.tools))
         self.bases = bases if bases is not None else table_bases(machine, order, basis, modulo_axes)
         self.hold = None  # measured range per input axis: tables held constant beyond it
         self.free_gauge = True  # False: the gauge line (T_offset) stays as it is
         self.modulo_axes = tuple(modulo_axes)
         self.ridge = ridge
-        n = machine.n_axes
         self.pairs = [(ao.name, ai.name) for ao in machine.axes for ai in machine.axes]
         self.names = [(o + i).lower() for o, i in self.pairs]
         # column layout: [dT] + one block per pair
@@ -219,15 +262,27 @@ class TableProblem:
         return A.reshape(3 * R, self.n_columns)
 
     def _linearise(self) -> None:
-        nominal = self.machine.kinematics(self.q, self.L, jacobian=False)
+        nominal = self.machine.kinematics(self.q, self.L, jacobian=False, frame=FRAME, point=self._pt)
         self.u_nominal = nominal.tool_dir
-        tip, J = self.actual(self.q, self.L, True)
+        tip, J = self.actual(self.q, self.L, True, self._pt)
+        # a linear axis moving along the tool everywhere (the W quill of an XYZBAW head) does what a gauge-line
+        # change does: its pitch table carries it, and the two together have no unique solution
+        Jn = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
+        along = np.abs(np.einsum("pik,pi->pk", Jn, self.u_nominal)).min(axis=0) > 1 - 1e-6
+        self.along_tool = [a.name for a in self.machine.axes if a.kind == "linear" and along[a.index]]
+        if self.along_tool:
+            self.free_gauge = False
         self.e0 = (tip - nominal.tip).ravel()
         self.A = self._design(J, self.u_nominal)
         self.G = self.A.T @ self.A
         self.g = self.A.T @ self.e0
         self.e0e0 = float(self.e0 @ self.e0)
         self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
+
+    @property
+    def _pt(self):
+        """The tool point of every row (one int on a machine with one tool point)."""
+        return 0 if len(self.machine.tool_links) == 1 else self.point
 
     def columns(self, names) -> np.ndarray:
         """Columns of dT (unless the gauge line is fixed) and of the given tables."""
@@ -278,8 +333,8 @@ class TableProblem:
         for _ in range(iterations):
             f = self.functions(x, names)
             qc = self.q + f.increments(self.q)
-            tip, J = self.actual(qc, self.L, True)
-            nominal = self.machine.tool_tip(self.q, self.L + x[0])
+            tip, J = self.actual(qc, self.L, True, self._pt)
+            nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = (tip - nominal).ravel()
             A = self._design(J, self.u_nominal)[:, cols]
             G = A.T @ A
@@ -350,9 +405,10 @@ class CompensationReport:
 
 
 def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet | None,
-                       q: np.ndarray, tool: np.ndarray, register: bool = False) -> np.ndarray:
-    """Tool-tip errors (N,3) [m] of the actual machine under ``tables`` against the
-    controller's nominal kinematics (with the changed T_offset); None: uncompensated.
+                       q: np.ndarray, tool: np.ndarray, register: bool = False, point=0) -> np.ndarray:
+    """Tool-tip errors (N,3) [m], relative to the workpiece, of the actual machine under
+    ``tables`` against the controller's nominal kinematics (with the changed T_offset);
+    None: uncompensated. ``point``: tool point index, one or per row.
 
     ``register``: remove the best-fit rigid motion first. Use it when the actual
     machine's frame is not the model's (a simulated truth): a rigid motion of the
@@ -361,9 +417,10 @@ def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
-        tip, nominal = actual(q, tool, False)[0], machine.tool_tip(q, tool)
+        tip, nominal = actual(q, tool, False, point)[0], nominal_tip(machine, q, tool, point)
     else:
-        tip, nominal = actual(tables.apply(q), tool, False)[0], machine.tool_tip(q, tool + tables.gauge_offset_change)
+        tip = actual(tables.apply(q), tool, False, point)[0]
+        nominal = nominal_tip(machine, q, tool + tables.gauge_offset_change, point)
     if register:
         from vecpin.measurement.registration import registered_errors
         return registered_errors(nominal, tip)

@@ -18,14 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (CompensationReport, TableProblem, all_table_names, compensated_errors,
-                                           from_ap_model, model_as_actual, pitch_names, pseudo_commands,
-                                           rich_table_bases)
+from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
+                                           compensated_errors, from_ap_model, model_as_actual, nominal_tip,
+                                           pitch_names, pseudo_commands, rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError, VecpinError
 from vecpin.models import APModel, ErrorModel
+from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
@@ -54,7 +55,7 @@ def covariance_kind(model: ErrorModel) -> str:
 
 
 def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
-                     draws: int = 200, seed: int = 0) -> tuple[float, float, float]:
+                     draws: int = 200, seed: int = 0, point=0) -> tuple[float, float, float]:
     """Mean volumetric error [mm] of ``tables`` on machines that differ from the model
     by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
 
@@ -65,10 +66,10 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
-        qc, nominal = q, model.machine.tool_tip(q, tool)
+        qc, nominal = q, nominal_tip(model.machine, q, tool, point)
     else:
-        qc, nominal = tables.apply(q), model.machine.tool_tip(q, tool + tables.gauge_offset_change)
-    out = model.tool_tip(qc, tool, model.b_, jacobian=True)
+        qc, nominal = tables.apply(q), nominal_tip(model.machine, q, tool + tables.gauge_offset_change, point)
+    out = model.tool_tip(qc, tool, model.b_, jacobian=True, frame=FRAME, point=point)
     r = out.tip - nominal                                      # (N, 3) [m]
     cov = np.asarray(model.cov_, float)[6:, 6:]
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
@@ -91,7 +92,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int = 1000, tools_mm=None, table_order: int | None = None, seed: int = 0,
                 modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
-                progress=None) -> TablePlan:
+                zone: dict | None = None, progress=None) -> TablePlan:
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
@@ -100,6 +101,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``n_commands`` quasi-random ones, each with every tool length (``tools_mm``,
     default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
+    ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
+    calibrated in zones, seed Section 2.6), within what the model's campaign measured.
     Every limit is checked before the first solve."""
     if limits is not None and not isinstance(limits, ControllerLimits):
         raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
@@ -147,6 +150,14 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
 
     actual = model_as_actual(model)
     lo, hi = measured_box(model)
+    if zone:
+        zl, zh = clip_to_zone(m, zone)
+        lo, hi = np.maximum(lo, zl), np.minimum(hi, zh)
+        if np.any(hi < lo):
+            a = m.axes[int(np.argmax(hi < lo))]
+            raise InputError(f"--zone: the zone's interval of {a.name} lies outside what the model's campaign measured "
+                             f"({a.to_user(measured_box(model)[0][a.index]):g} .. "
+                             f"{a.to_user(measured_box(model)[1][a.index]):g} {a.unit})")
     if commands is None:
         q = pseudo_commands(m, n_commands, seed, lo, hi)
         where = f"{len(q)} quasi-random commands in the measured region"
@@ -155,7 +166,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         where = f"{len(q)} campaign commands"
     # table functions that can follow any model (splines finer than its functions);
     # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
-    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes)),
+    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
                            modulo_axes=tuple(modulo_axes))
     # held where the campaign left a real part of the travel unmeasured (a random design
     # never reaches the very limits: 2% of the travel is not extrapolation)
@@ -168,8 +179,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     with_spread = uncertainty and covariance_kind(model) == "full"
 
     def add(label, ts, n):
-        spread = parameter_spread(model, ts, problem.q, problem.L) if with_spread else None
-        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L), n, spread)
+        spread = parameter_spread(model, ts, problem.q, problem.L, point=problem._pt) if with_spread else None
+        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread)
 
     add("uncompensated (model)", None, 0)
     if progress:
@@ -238,9 +249,12 @@ def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
 def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     """Decide whether the gauge-line (T_offset) change is applied: only when it is at
     least twice its standard deviation from the model's parameter covariance."""
+    if problem.along_tool:
+        return (f"gauge-line (T_offset) change: not used, {', '.join(problem.along_tool)} moves along the tool and its "
+                "pitch table carries the same correction")
     x = problem.solve_linear(names)
     cov_b = np.asarray(model.cov_, float)[6:, 6:]
-    J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True).J_b
+    J_b = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True, frame=FRAME, point=problem._pt).J_b
     sd = problem.gauge_std(names, J_b, cov_b)
     dT = float(x[0])
     kind = "" if covariance_kind(model) == "full" else " (standard deviations only: the file kept no correlations)"
@@ -255,8 +269,9 @@ def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, lab
     """Add the row of the tables as a controller will hold them (read back from the
     written files: resampled, rounded, constants removed), on the plan's points."""
     actual = model_as_actual(model)
-    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L)
+    pt = plan.problem._pt
+    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
-    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L) if with_spread else None
+    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt) if with_spread else None
     plan.report.add(label, err, len(tables.tables), spread)
 

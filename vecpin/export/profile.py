@@ -34,7 +34,20 @@ Axis fields (all optional; each format says which it needs):
 ``reference_position``  NC machine coordinate of the reference point [mm or deg]
 ``modulo``          the NC treats this rotary axis as modulo (positions 0..360 deg)
 ``detection_unit``  detection unit [mm or deg] (Fanuc pitch data count in it)
+``following``       a gantry axis driven by two motors (seed Section 2.5, the Master
+                    Mill's X: AX1 leading, AX8 following): the *following* drive's facts
+                    (the same fields; the axis' own facts are the leading drive's). Every
+                    table that corrects the axis is written for both drives.
+``drive_separation_mm``  [dx, dy, dz] from the leading to the following drive [mm],
+                    machine base frame: with it a diagnosed gantry skew (a rotation
+                    after the axis) becomes a differential table between the drives
 ================== ===================================================================
+
+A twin-drive axis::
+
+      "X": {"nc_name": "X1", "number": 1, "reference_position": 0.0,
+            "following": {"nc_name": "X2", "number": 8, "reference_position": 0.0},
+            "drive_separation_mm": [0.0, 4200.0, 0.0]}
 """
 from __future__ import annotations
 
@@ -52,6 +65,7 @@ AXIS_FIELDS = {
     "nc_name": str, "general_name": str, "program_name": str, "number": int,
     "reference_position": float, "modulo": bool, "detection_unit": float,
 }
+DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by :func:`_drive_facts`)
 TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
 
 
@@ -66,6 +80,8 @@ class AxisProfile:
     reference_position: float | None = None
     modulo: bool | None = None
     detection_unit: float | None = None
+    following: "AxisProfile | None" = None                        # the following drive of a twin-drive axis
+    drive_separation_mm: tuple[float, float, float] | None = None  # leading -> following drive, base frame [mm]
 
 
 @dataclass
@@ -107,10 +123,13 @@ class ControllerProfile:
         for name, facts in raw_axes.items():
             if not isinstance(facts, dict):
                 raise InputError(f"{where}, field 'axes.{name}': an object of facts")
-            values = {}
+            values = _drive_facts(facts, f"{where}, field 'axes.{name}")
             for key, value in facts.items():
+                if key in DRIVE_FIELDS:
+                    continue
                 if key not in AXIS_FIELDS:
-                    raise InputError(f"{where}, field 'axes.{name}.{key}': unknown (known: {', '.join(AXIS_FIELDS)})")
+                    raise InputError(f"{where}, field 'axes.{name}.{key}': unknown (known: "
+                                     f"{', '.join(list(AXIS_FIELDS) + list(DRIVE_FIELDS))})")
                 values[key] = _typed(value, AXIS_FIELDS[key], f"{where}, field 'axes.{name}.{key}'")
             axes[name] = AxisProfile(**values)
         for key in ("limits", "options"):
@@ -120,7 +139,7 @@ class ControllerProfile:
                    d.get("controller"), where)
 
     def to_dict(self) -> dict:
-        axes = {a: {k: v for k, v in dataclasses.asdict(p).items() if v is not None} for a, p in self.axes.items()}
+        axes = {a: _axis_dict(p) for a, p in self.axes.items()}
         out = {"format": FORMAT, "version": VERSION}
         if self.machine:
             out["machine"] = self.machine
@@ -171,7 +190,16 @@ class ControllerProfile:
                 raise InputError(f"{self.where}, field 'axes.{a}.modulo': only rotary axes are modulo, {a} is linear")
             if p.detection_unit is not None and p.detection_unit <= 0:
                 raise InputError(f"{self.where}, field 'axes.{a}.detection_unit': must be > 0")
+        for a, p in self.axes.items():
+            if (p.following or p.drive_separation_mm) and machine.axis(a).kind != "linear":
+                raise InputError(f"{self.where}, field 'axes.{a}.following': twin drives belong to a linear (gantry) "
+                                 f"axis, {a} is rotary")
+            if p.drive_separation_mm and not p.following:
+                raise InputError(f"{self.where}, field 'axes.{a}.drive_separation_mm': give the following drive "
+                                 f"('following') of {a} too")
         names = [(p.nc_name, a) for a, p in self.axes.items() if p.nc_name]
+        names += [(p.following.nc_name, f"{a} (following drive)") for a, p in self.axes.items()
+                  if p.following and p.following.nc_name]
         seen: dict[str, str] = {}
         for n, a in names:
             if n in seen:
@@ -201,6 +229,44 @@ class ControllerProfile:
             if p.number == number:
                 return a
         return None
+
+
+def twin_axes(profile: "ControllerProfile") -> list[str]:
+    """The axes the profile gives a following drive."""
+    return [a for a, p in profile.axes.items() if p.following is not None]
+
+
+def _drive_facts(facts: dict, where: str) -> dict:
+    """``following`` (an axis' facts) and ``drive_separation_mm`` (3 numbers) of one axis."""
+    out = {}
+    if "following" in facts:
+        f = facts["following"]
+        if not isinstance(f, dict):
+            raise InputError(f"{where}.following': an object of the following drive's facts (nc_name, number, ...)")
+        vals = {}
+        for key, value in f.items():
+            if key not in AXIS_FIELDS or key == "modulo":
+                raise InputError(f"{where}.following.{key}': unknown (known: "
+                                 f"{', '.join(k for k in AXIS_FIELDS if k != 'modulo')})")
+            vals[key] = _typed(value, AXIS_FIELDS[key], f"{where}.following.{key}'")
+        out["following"] = AxisProfile(**vals)
+    if "drive_separation_mm" in facts:
+        v = facts["drive_separation_mm"]
+        if (not isinstance(v, list) or len(v) != 3 or any(isinstance(x, bool) or not isinstance(x, (int, float))
+                                                          for x in v)):
+            raise InputError(f"{where}.drive_separation_mm': [dx, dy, dz] in mm from the leading to the following "
+                             "drive, machine base frame")
+        out["drive_separation_mm"] = tuple(float(x) for x in v)
+    return out
+
+
+def _axis_dict(p: AxisProfile) -> dict:
+    out = {k: v for k, v in dataclasses.asdict(p).items() if v is not None and k not in DRIVE_FIELDS}
+    if p.following is not None:
+        out["following"] = _axis_dict(p.following)
+    if p.drive_separation_mm is not None:
+        out["drive_separation_mm"] = list(p.drive_separation_mm)
+    return out
 
 
 def _typed(value, kind, where: str):

@@ -18,7 +18,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
-from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant, redundant_from_r
+from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant
 from vecpin.identification.report import FitReport
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
@@ -38,17 +38,18 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
     q = m.lower + u * (m.upper - m.lower)
     qq = np.repeat(q, len(tools), axis=0)
     tt = np.tile(tools, len(q))
-    ref = Campaign(m.axis_names, qq, tt, m.tool_tip(qq, tt), {}, "reference design")
+    ref = Campaign(m.axis_names, qq, tt, m.tool_tip(qq, tt, frame="base"), {}, "reference design")
     cart = NoiseModel(noise.axis_sigma, "cartesian", noise.cartesian_sigma)
     lik = Likelihood(model, ref, cart, Setup(np.eye(3), np.zeros(3)), instrument="cartesian")
     _, J = lik.evaluate(np.zeros(lik.n_unknowns)).flat()
     return find_redundant(J)
 
 
-def _check_units_and_frame(machine, campaign: Campaign) -> None:
-    """Refuse unit mistakes, mirrored frames and mistyped rows before fitting."""
-    trk = campaign.tracker_rows
-    nominal = machine.tool_tip(campaign.q[trk], campaign.tool[trk])
+def _check_units_and_frame(lik: Likelihood, campaign: Campaign) -> None:
+    """Refuse unit mistakes, mirrored frames and mistyped rows before fitting (the
+    likelihood's starting points: nominal tool tips, targets and nests)."""
+    trk = np.flatnonzero(campaign.instrument != "ballbar")
+    nominal = lik.nominal[trk]
     for s in np.unique(campaign.station[trk]):
         sel = campaign.station[trk] == s
         check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
@@ -80,8 +81,8 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         features = Features.from_campaign(campaign)
         for e in model.effects:
             e.prepare(campaign, features)
-    _check_units_and_frame(model.machine, campaign)
     lik = Likelihood(model, campaign, noise, features=features)
+    _check_units_and_frame(lik, campaign)
     P = lik.n_unknowns
 
     def normal_equations(psi, jacobian):
@@ -97,7 +98,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
         else:
-            red, ratio = redundant_from_r(lik.r_factor(np.zeros(P)), norms)
+            red, ratio = lik.redundancy(np.zeros(P), norms)
         keep = ~red
     n_active = int(active_columns(norms).sum())
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
@@ -108,18 +109,6 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
             "the priors decide the rest")
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress)
     theta = sol.psi * lik.sigma
-    setup = lik.setup
-    setup.e0 = theta[:6].copy()
-    for blk in lik.blocks:  # fold the instruments' unknowns into the setup
-        if blk.unknowns.start < 6 + model.n_parameters:
-            continue
-        if blk.instrument.row_kind == "tracker":
-            s = int(campaign.station[blk.rows[0]])
-            R_, t_, _ = setup.stations[s]
-            setup.stations[s] = (R_, t_, theta[blk.unknowns].copy())
-        elif blk.instrument.row_kind == "ballbar":
-            k = int(campaign.pivot[blk.rows[0]])
-            setup.pivots[k] = setup.pivots[k] + theta[blk.unknowns]
     JtJ = sol.G[np.ix_(keep, keep)]
     Ninv = linalg.inv(JtJ + np.eye(keep.sum()))
     cov = np.zeros((P, P))
@@ -139,6 +128,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         warnings.append(f"did not converge in {max_iter} iterations")
     trk = campaign.tracker_rows
     stats_ = residual_stats(campaign.xyz[trk] - lik.predicted_points(theta)[trk], campaign.tool[trk])
+    setup = lik.fold(theta, cov)  # the instruments' unknowns into the setup
     instrument = noise.instrument
     report = FitReport(getattr(model, "kind", "model"), getattr(model, "order", -1), instrument, len(campaign), n_eq, P,
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(sol.objective),

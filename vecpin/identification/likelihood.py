@@ -14,8 +14,15 @@ this module stacks them (three per row, padded) for the fit
 (:mod:`vecpin.identification.fit`), the cross-validation of model choices
 (:mod:`vecpin.identification.crossval`) and the diagnosis alike.
 
-The unknowns are ``θ = [E_0 (6), b (model parameters), the instruments' own
-(other stations' pose corrections, ball bar pivots)]``, SI.
+Each instrument says which machine point its rows measure (a point on the tool: the
+tip of one tool point, or a target off the tool axis; or a point fixed on the table: a
+nest); the model predicts that point in the base frame, and the Jacobians chain:
+``dr/dθ = dr/dp (dp/db, dp/d(target offset or nest position)) + dr/du``.
+
+The unknowns are ``θ = [E_0 (6), b (model parameters), the instruments' own (other
+stations' pose corrections, ball bar pivots, tool-target offsets, nest positions)]``,
+SI. Unknowns are named; blocks of rows that name the same unknown (the nest rows and
+the tool rows of one tracker station, one target seen from two stations) share it.
 """
 from __future__ import annotations
 
@@ -25,13 +32,13 @@ from typing import Protocol
 import numpy as np
 from scipy import linalg
 
-from vecpin.errors import IdentifiabilityError
+from vecpin.identification.redundancy import redundant_from_r
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments import instrument_for
+from vecpin.measurement.instruments.points import PointRequest, initial_setup, nominal_points
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
-from vecpin.measurement.setup import Setup, to_station
+from vecpin.measurement.setup import POSE_NAMES, Setup, to_station
 
 E0_PRIORS = np.full(6, POSE_PRIOR)
 CHUNK_ROWS = 20000  # rows per piece when normal equations are accumulated
@@ -48,18 +55,26 @@ class ParametricModel(Protocol):
     @property
     def priors(self) -> np.ndarray: ...
 
-    def tool_tip(self, q, tool, b, jacobian: bool = True, features=None): ...
+    def tool_tip(self, q, tool, b, jacobian: bool = True, features=None, *, frame="base", point=0, offset=None): ...
+
+    def workpiece_points(self, q, p_wp, b, jacobian: bool = True, features=None): ...
 
     def tracker_terms(self, y, features, b): ...
 
 
 @dataclass
 class Block:
-    """Rows of one instrument that share unknowns (one station, one pivot)."""
+    """Rows of one instrument that share unknowns (one station, one pivot).
+
+    ``unknowns``: indices in theta of the block's unknowns, the instrument's own first
+    (``first`` of them: what its equations differentiate), then those of the points its
+    rows measure (target offsets, nest positions); ``request``: which points."""
 
     instrument: object
     rows: np.ndarray
-    unknowns: slice  # its own unknowns in theta
+    unknowns: np.ndarray
+    first: int
+    request: PointRequest
 
 
 @dataclass
@@ -95,66 +110,118 @@ class Evaluation:
 class Likelihood:
     """The whitened, prior-scaled least-squares problem of ``model`` on ``campaign``.
 
-    ``setup``: the tracker poses and pivots; registered from the nominal kinematics when
-    None (station 0's rows anchor the frame). ``instrument``: how tracker rows are read
-    ("cartesian", "spherical", "range"; default ``noise.instrument``)."""
+    ``setup``: the tracker poses, pivots, nests and targets; placed from the nominal
+    kinematics when None (station 0's rows anchor the frame), completed where it lacks
+    a station, nest or target of this campaign. ``instrument``: how tracker (and nest)
+    rows are read ("cartesian", "spherical", "range"; default ``noise.instrument``)."""
 
     def __init__(self, model: ParametricModel, campaign: Campaign, noise: NoiseModel, setup: Setup | None = None,
                  features=None, instrument: str | None = None):
         self.model, self.campaign, self.noise, self.features = model, campaign, noise, features
         tracker = instrument or noise.instrument
-        nominal = model.machine.tool_tip(campaign.q, campaign.tool)
-        if setup is None:
-            setup = self._register(campaign, nominal)
-        self.setup = setup
-        nb = 6 + model.n_parameters
-        extras, sigma = [], [E0_PRIORS, np.asarray(model.priors, float)]
+        machine = model.machine
+        self.setup = setup = initial_setup(machine, campaign, setup)
+        names = list(E0_NAMES) + list(model.parameter_names)
+        index = {n: k for k, n in enumerate(names)}
+        extra_sigma: list[float] = []
         self.blocks: list[Block] = []
+        self.nominal = np.full((len(campaign), 3), np.nan)  # machine-frame points at the start (no model)
         kinds = {"tracker": tracker, "ballbar": "ballbar"}
         for kind in np.unique(campaign.instrument):
             inst = instrument_for(kinds.get(kind, kind), noise)
+            if hasattr(inst, "read_with"):  # nest rows are read as the tracker rows are
+                inst.read_with(instrument_for(tracker, noise))
             rows = np.flatnonzero(campaign.instrument == kind)
             for _, g in sorted(inst.groups(campaign, rows).items()):
-                own = inst.unknowns(campaign, g, nominal[g], setup)
-                if own and own[0].startswith("E0."):
-                    sl = slice(0, 6)
-                else:
-                    start = nb + sum(len(s) for s in sigma[2:])
-                    sl = slice(start, start + len(own))
-                    extras += own
-                    sigma.append(inst.priors(own))
-                self.blocks.append(Block(inst, g, sl))
-        self.extra_names = extras
-        self.names = list(E0_NAMES) + list(model.parameter_names) + extras
-        self.sigma = np.concatenate(sigma)
+                req, point_names = inst.request(campaign, g, setup)
+                nominal = nominal_points(machine, campaign.q[g], req)
+                self.nominal[g] = nominal
+                own = inst.unknowns(campaign, g, nominal, setup)
+                if req.unknown is not None:
+                    req.unknown = np.where(req.unknown >= 0, req.unknown + len(own), -1)
+                block_names = own + point_names
+                priors = inst.priors(block_names) if block_names else np.zeros(0)
+                idx = []
+                for name, prior in zip(block_names, priors):
+                    if name not in index:
+                        index[name] = len(names)
+                        names.append(name)
+                        extra_sigma.append(float(prior))
+                    idx.append(index[name])
+                self.blocks.append(Block(inst, g, np.array(idx, int), len(own), req))
         self.n_model = model.n_parameters
+        self.index = index
+        self.names = names
+        self.extra_names = names[6 + self.n_model:]
+        self.sigma = np.concatenate([E0_PRIORS, np.asarray(model.priors, float), np.array(extra_sigma)])
         self._tracker_effects = bool(getattr(model, "effects", None)) and any(
             "tracker" in e.kinds for e in model.effects)
-
-    @staticmethod
-    def _register(campaign: Campaign, nominal: np.ndarray) -> Setup:
-        trk = campaign.tracker_rows
-        r0 = trk[campaign.station[trk] == 0]
-        if r0.size < 3:
-            raise IdentifiabilityError(f"{campaign.source}: tracker station 0 needs at least 3 rows; it anchors the "
-                                       "machine frame")
-        return Setup(*register(nominal[r0], campaign.xyz[r0]))
 
     @property
     def n_unknowns(self) -> int:
         return self.sigma.size
 
+    def _extras(self):
+        """(index, kind, id, component) of every instrument unknown: kind "station",
+        "pivot", "nest" or "target"."""
+        for name in self.extra_names:
+            head, comp = name.rsplit(".", 1)
+            for kind in ("station", "pivot", "nest", "target"):
+                if head.startswith(kind):
+                    yield self.index[name], kind, head[len(kind):], comp
+                    break
+
     def theta_of(self, model) -> np.ndarray:
         """The unknowns of a fitted model (its E_0, parameters and station corrections;
-        pivot corrections are folded into the setup, so zero)."""
+        pivot, nest and target corrections are folded into the setup, so zero)."""
         theta = np.zeros(self.n_unknowns)
         theta[:6] = model.e0_
         theta[6:6 + self.n_model] = model.b_
-        for blk in self.blocks:
-            if blk.unknowns.start >= 6 + self.n_model and blk.instrument.row_kind == "tracker":
-                s = int(self.campaign.station[blk.rows[0]])
-                theta[blk.unknowns] = self.setup.stations[s][2]
+        for k, kind, key, comp in self._extras():
+            if kind == "station":
+                theta[k] = self.setup.stations[int(key)][2][POSE_NAMES.index(comp)]
         return theta
+
+    def fold(self, theta: np.ndarray, cov: np.ndarray | None = None) -> Setup:
+        """Put the fitted instrument unknowns into the setup: E_0, station corrections;
+        pivots, nests and targets moved by their corrections (with their standard
+        deviations [m] from ``cov``, the covariance of theta, in ``setup.std``)."""
+        setup = self.setup
+        setup.e0 = theta[:6].copy()
+        for k, kind, key, comp in self._extras():
+            if kind == "station":
+                R_, t_, e = setup.stations[int(key)]
+                e = np.array(e, float)
+                e[POSE_NAMES.index(comp)] = theta[k]
+                setup.stations[int(key)] = (R_, t_, e)
+                continue
+            store = {"pivot": setup.pivots, "nest": setup.nests, "target": setup.targets}[kind]
+            ident = int(key) if kind == "pivot" else key
+            v = np.array(store[ident], float)
+            v["xyz".index(comp)] += theta[k]
+            store[ident] = v
+            if cov is not None and kind in ("nest", "target"):
+                setup.std[f"{kind}{key}.{comp}"] = float(np.sqrt(max(cov[k, k], 0.0)))
+        return setup
+
+    def sensitivity(self, model) -> tuple[np.ndarray, np.ndarray]:
+        """What a model kind's columns share at every row's starting point (no errors):
+        (tool direction (N,3): the gauge line's column, zero on nest rows; the model's
+        ``sensitivity``, per row from its request). Used by the model choice."""
+        c = self.campaign
+        T = np.zeros((len(c), 3))
+        S = None
+        for blk in self.blocks:
+            req, rows = blk.request, blk.rows
+            if req.kind == "workpiece":
+                Tb, Sb = model.workpiece_sensitivity(c.q[rows], req.p_wp)
+            else:
+                Tb, Sb = model.sensitivity(c.q[rows], req.tool, frame="base", point=_one(req.point),
+                                           offset=req.offset if np.any(req.offset) else None)
+            if S is None:
+                S = np.zeros((len(c),) + Sb.shape[1:])
+            T[rows], S[rows] = Tb, Sb
+        return T, S
 
     def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False) -> Evaluation:
         """The stacked problem at ``theta`` (SI), every row at once."""
@@ -211,6 +278,30 @@ class Likelihood:
             R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
         return R
 
+    def priority(self) -> np.ndarray:
+        """Column order of the redundancy test (earlier columns are kept): E_0, then the
+        target offsets and nest positions, then the model parameters and the other
+        instrument unknowns. A target's offset cannot be told from the constant error
+        transform after the last axis before it (nor a nest's position from the table's),
+        and it is the offset a metrologist asks for: the offsets win, the constant terms
+        they explain are removed."""
+        points = [self.index[n] for n in self.extra_names if n.startswith(("target", "nest"))]
+        rest = [k for k in range(6, self.n_unknowns) if k not in set(points)]
+        return np.r_[np.arange(6), np.array(points, int), np.array(rest, int)].astype(int)
+
+    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
+        """(redundant mask, ratio per unknown) of the QR test in :meth:`priority` order
+        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order."""
+        order = self.priority()
+        R = np.zeros((0, self.n_unknowns))
+        for rows, pc in self._pieces(theta, True, False, chunk):
+            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
+            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
+        red_p, ratio_p = redundant_from_r(R, norms[order])
+        red, ratio = np.empty_like(red_p), np.empty_like(ratio_p)
+        red[order], ratio[order] = red_p, ratio_p
+        return red, ratio
+
     def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None):
         """(rows, arrays of those rows) for every block of rows sharing an instrument's
         unknowns, in pieces of at most ``chunk`` rows."""
@@ -220,30 +311,37 @@ class Likelihood:
         bsl = slice(6, 6 + self.n_model)
         sig2 = self.noise.axis_sigma**2
         for blk in self.blocks:
-            parts = [blk.rows] if not chunk else np.array_split(blk.rows, max(1, -(-len(blk.rows) // chunk)))
-            for rows in parts:
+            n = len(blk.rows)
+            parts = [np.arange(n)] if not chunk else np.array_split(np.arange(n), max(1, -(-n // chunk)))
+            u = theta[blk.unknowns]
+            own = blk.unknowns[:blk.first]
+            for pos in parts:
+                rows = blk.rows[pos]
                 feats = self.features.subset(rows) if self.features is not None else None
-                # d tip / d q is needed for the positioning noise even when no Jacobian is asked
-                mt = m.tool_tip(c.q[rows], c.tool[rows], b, jacobian=True, features=feats)
+                # d point / d q is needed for the positioning noise even when no Jacobian is asked
+                p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats)
                 stash = {}
                 terms = None
-                if self._tracker_effects and blk.instrument.row_kind == "tracker":
+                if self._tracker_effects and blk.instrument.row_kind in ("tracker", "nest"):
                     def terms(y, _rows, feats=feats, stash=stash):
                         shift, D, grad = m.tracker_terms(y, feats, b)
                         stash["D"] = D
                         return shift, grad
-                eq = blk.instrument.equations(c, rows, mt.tip, self.setup, theta[blk.unknowns], terms)
-                Aq = eq.dr_dp @ mt.J_q
+                eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms)
+                Aq = eq.dr_dp @ J_q
                 L = np.linalg.cholesky(np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S)
                 pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
                       "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
                 if jacobian:
                     D = np.zeros((len(rows), 3, P))
-                    D[:, :, bsl] = eq.dr_dp @ mt.J_b
-                    D[:, :, blk.unknowns] += eq.dr_du
+                    D[:, :, bsl] = eq.dr_dp @ J_b
+                    D[:, :, own] += eq.dr_du
                     Dm = np.zeros_like(D)
-                    Dm[:, :, bsl] = eq.dmetric_dp @ mt.J_b
-                    Dm[:, :, blk.unknowns] += eq.dmetric_du
+                    Dm[:, :, bsl] = eq.dmetric_dp @ J_b
+                    Dm[:, :, own] += eq.dmetric_du
+                    if dp_du is not None:  # target offsets, nest positions: through the point
+                        D[:, :, blk.unknowns] += eq.dr_dp @ dp_du
+                        Dm[:, :, blk.unknowns] += eq.dmetric_dp @ dp_du
                     if "D" in stash:  # tracker-frame effect columns
                         D[:, :, bsl] += eq.dr_dy @ stash["D"]
                         Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
@@ -258,12 +356,41 @@ class Likelihood:
                 yield rows, pc
 
 
+def _one(point: np.ndarray):
+    """A tool point index array as one int when every row has the same (a cheaper call)."""
+    point = np.asarray(point)
+    return int(point[0]) if point.size and np.all(point == point[0]) else point
+
+
+def model_point(model: ParametricModel, q: np.ndarray, req: PointRequest, u: np.ndarray, b: np.ndarray,
+                features=None):
+    """The model's prediction of the requested points in the base frame: (p (n,3) [m],
+    d p / d b (n,3,P), d p / d q (n,3,n_axes), d p / d u (n,3,U) or None), u the block's
+    unknowns (target offset or nest position corrections among them)."""
+    local, cols = req.with_unknowns(u)
+    if req.kind == "workpiece":
+        wp = model.workpiece_points(q, local, b, True, features)
+        p, J_b, J_q, J_local = wp.xyz, wp.J_b, wp.J_q, wp.J_p
+    else:
+        mt = model.tool_tip(q, req.tool, b, True, features, frame="base", point=_one(req.point),
+                            offset=local if np.any(local) else None)
+        p, J_b, J_q, J_local = mt.tip, mt.J_b, mt.J_q, mt.rotation
+    if cols is None:
+        return p, J_b, J_q, None
+    dp_du = np.zeros((len(q), 3, len(u)))
+    r = np.flatnonzero(cols[:, 0] >= 0)
+    for j in range(3):  # d p / d (local coordinate j) = column j of the frame's rotation
+        dp_du[r, :, cols[r, j]] = J_local[r, :, j]
+    return p, J_b, J_q, dp_du
+
+
 def predict_tracker(model: ParametricModel, q: np.ndarray, tool: np.ndarray, theta: np.ndarray, setup: Setup,
-                    features=None, jacobian: bool = True):
-    """Modelled station-0 tracker readings y (N,3) [m]; with ``jacobian`` also
+                    features=None, jacobian: bool = True, *, point=0, offset=None):
+    """Modelled station-0 tracker readings y (N,3) [m] of the tool tips (tool point
+    ``point``, target ``offset`` [m] in the tool link frame); with ``jacobian`` also
     d y / d theta (N,3,P+6) and d y / d q (N,3,n). theta = [E_0, b]."""
     e0, b = theta[:6], theta[6:]
-    mt = model.tool_tip(q, tool, b, jacobian=jacobian, features=features)
+    mt = model.tool_tip(q, tool, b, jacobian=jacobian, features=features, frame="base", point=point, offset=offset)
     y, RR, de = to_station(mt.tip, setup.R, setup.t, e0, jacobian)
     if not jacobian:
         if getattr(model, "effects", None) and any("tracker" in e.kinds for e in model.effects):

@@ -8,10 +8,18 @@ order, and these columns (any order):
 * ``x``, ``y``, ``z``: the measured tool tip in the tracker frame [mm];
 * optional ``time`` [s], ``temperature`` [°C] and any other numeric columns, which
   are kept (``Campaign.extra``) for the effects that use them;
-* optional ``instrument``: ``tracker`` (default) or ``ballbar``; tracker rows may give
-  ``station`` (integer id of the tracker position, default 0); ball bar rows give ``r``
-  (the measured radius [mm]) and ``pivot`` (integer id of the ball bar's centre
-  socket) and leave ``x``, ``y``, ``z`` empty.
+* optional ``instrument``: ``tracker`` (default), ``nest`` or ``ballbar``; tracker and
+  nest rows may give ``station`` (integer id of the tracker position, default 0); ball
+  bar rows give ``r`` (the measured radius [mm]) and ``pivot`` (integer id of the ball
+  bar's centre socket) and leave ``x``, ``y``, ``z`` empty;
+* optional ``target``: on a ``tracker`` row the id of the reflector on the tool (empty:
+  the tool tip, ``tool`` mm along the tool axis); its offset [mm] in the tool link frame
+  is known from a targets file (:func:`read_targets`) or found by the fit. On a ``nest``
+  row (a reflector in a nest fixed on the machine table) the nest's id; its position
+  in the workpiece frame is found by the fit;
+* optional ``tool_point``: the tool point measured (its index 0, 1, ... or its link
+  name, e.g. ``spindle_2``), for machines with several tool points driven by one command
+  set (``point``, as planned campaigns use it, is the plan's point number: kept as data).
 
 Reading rejects bad input with a :class:`~vecpin.errors.CampaignFileError` naming
 the file, the row (line number, header = 1) and the column. In memory a
@@ -33,7 +41,8 @@ from vecpin.units import MM_PER_M, M_PER_MM
 
 RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
-INSTRUMENTS = ("tracker", "ballbar")
+POINT_COLUMNS = ("target", "tool_point")  # text columns: which point a row measured
+INSTRUMENTS = ("tracker", "ballbar", "nest")
 AXIS_LETTERS = set("XYZABCUVW")
 PAPER_I_TOOLS_MM = (214.88, 312.86)  # the seed's two tool lengths (Paper I): the default of designs and tables
 LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
@@ -52,7 +61,9 @@ class Campaign:
 
     q: (N, n) axis commands [m, rad], chain order of ``axis_names``;
     tool: (N,) tool lengths [m]; xyz: (N, 3) tracker-frame positions [m];
-    extra: optional per-row columns (``time`` [s], ``temperature`` [°C], others as read).
+    extra: optional per-row columns (``time`` [s], ``temperature`` [°C], others as read);
+    point: (N,) tool point index; target: (N,) target or nest id ("" = the tool tip);
+    targets: known tool-target offsets {id: (3,) [m] in the tool link frame}.
     """
 
     axis_names: list[str]
@@ -66,6 +77,9 @@ class Campaign:
     radius: np.ndarray | None = None       # (N,) ball bar radius [m] (NaN on tracker rows)
     pivot: np.ndarray | None = None        # (N,) ball bar pivot id (-1 on tracker rows)
     lines: np.ndarray | None = None        # (N,) line number of each row in its file (header = 1)
+    point: np.ndarray | None = None        # (N,) tool point index (0: the first tool link)
+    target: np.ndarray | None = None       # (N,) target id on tracker rows, nest id on nest rows ("" = none)
+    targets: dict = field(default_factory=dict)  # known tool-target offsets {id: (3,) [m], tool link frame}
 
     def __post_init__(self):
         n = len(self.tool)
@@ -79,6 +93,10 @@ class Campaign:
             self.pivot = np.full(n, -1, int)
         if self.lines is None:
             self.lines = np.arange(2, n + 2)
+        if self.point is None:
+            self.point = np.zeros(n, int)
+        if self.target is None:
+            self.target = np.full(n, "", dtype=object)
 
     def __len__(self) -> int:
         return len(self.tool)
@@ -91,6 +109,17 @@ class Campaign:
     def ballbar_rows(self) -> np.ndarray:
         return np.flatnonzero(self.instrument == "ballbar")
 
+    @property
+    def nest_rows(self) -> np.ndarray:
+        """Rows measuring a reflector in a table nest (tracker readings of a workpiece point)."""
+        return np.flatnonzero(self.instrument == "nest")
+
+    @property
+    def plain(self) -> bool:
+        """True when every row is a tool tip (no nest, no target, tool point 0): the
+        rows the nominal tool tip alone predicts."""
+        return not (len(self.nest_rows) or np.any(self.point != 0) or np.any(self.target != ""))
+
     def primary(self) -> "Campaign":
         """The tracker rows of station 0: the rows one tracker pose describes (itself when
         the campaign is not mixed)."""
@@ -101,7 +130,8 @@ class Campaign:
     @property
     def mixed(self) -> bool:
         """True when the campaign has ball bar rows or several tracker stations."""
-        return bool(len(self.ballbar_rows) or len(np.unique(self.station[self.tracker_rows])) > 1)
+        return bool(len(self.ballbar_rows) or len(self.nest_rows)
+                    or len(np.unique(self.station[self.tracker_rows])) > 1)
 
     @property
     def time(self) -> np.ndarray | None:
@@ -116,7 +146,8 @@ class Campaign:
         rows = np.asarray(rows)
         return Campaign(list(self.axis_names), self.q[rows], self.tool[rows], self.xyz[rows],
                         {k: v[rows] for k, v in self.extra.items()}, self.source,
-                        self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows], self.lines[rows])
+                        self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows], self.lines[rows],
+                        self.point[rows], self.target[rows], dict(self.targets))
 
     def tool_lengths(self) -> np.ndarray:
         """Distinct tool lengths [m] (sorted)."""
@@ -145,18 +176,19 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     values = np.empty((len(body), len(header)))
     ji = header.index("instrument") if "instrument" in header else None
     instrument = np.full(len(body), "tracker", dtype=object)
-    optional_by_kind = {"tracker": {"r", "pivot"}, "ballbar": {"x", "y", "z", "station"}}
+    optional_by_kind = {"tracker": {"r", "pivot"}, "ballbar": {"x", "y", "z", "station"}, "nest": {"r", "pivot"}}
+    text = {j for j, h in enumerate(header) if h in POINT_COLUMNS}
     for k, (lineno, cells) in enumerate(body):
         if len(cells) != len(header):
             raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}", row=lineno)
         if ji is not None:
             kind = cells[ji].strip().lower() or "tracker"
             if kind not in INSTRUMENTS:
-                raise CampaignFileError(name, f"unknown instrument '{cells[ji].strip()}' (tracker or ballbar)",
+                raise CampaignFileError(name, f"unknown instrument '{cells[ji].strip()}' ({', '.join(INSTRUMENTS)})",
                                         row=lineno, column="instrument")
             instrument[k] = kind
         for j, cell in enumerate(cells):
-            if j == ji:
+            if j == ji or j in text:
                 values[k, j] = np.nan
             elif cell.strip() == "" and header[j] in optional_by_kind[instrument[k]]:
                 values[k, j] = np.nan
@@ -176,10 +208,12 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     if trk.sum() >= 10:
         _check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
     station, radius, pivot = _instrument_columns(name, col, instrument, rows)
-    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
+    point, target = _point_target_columns(name, header, body, instrument, machine)
+    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names
+             and h not in INSTRUMENT_COLUMNS and h not in POINT_COLUMNS}
     _check_extra(name, extra, rows)
     return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
-                    instrument, station, radius, pivot, rows)
+                    instrument, station, radius, pivot, rows, point, target)
 
 
 def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.ndarray):
@@ -205,6 +239,72 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
         radius = np.where(bb, col["r"] * M_PER_MM, np.nan)
         pivot = np.where(bb, np.nan_to_num(col["pivot"], nan=-1), -1).astype(int)
     return station, radius, pivot
+
+
+def _point_target_columns(name: str, header: list[str], body: list, instrument: np.ndarray, machine: Machine):
+    """(point (N,) tool point index, target (N,) id text) from the ``tool_point`` and
+    ``target`` columns; a nest row must name its nest, a tool point is an index or a tool
+    link's name."""
+    n = len(body)
+    point, target = np.zeros(n, int), np.full(n, "", dtype=object)
+    links = list(machine.tool_links)
+    if "tool_point" in header:
+        j = header.index("tool_point")
+        for k, (lineno, cells) in enumerate(body):
+            cell = cells[j].strip()
+            if cell == "":
+                continue
+            if cell in links:
+                point[k] = links.index(cell)
+                continue
+            try:
+                v = float(cell)
+            except ValueError:
+                v = math.nan
+            if not (v == int(v) if math.isfinite(v) else False) or not 0 <= v < len(links):
+                raise CampaignFileError(name, f"tool point '{cell}': a tool point index 0..{len(links) - 1} or a tool "
+                                        f"link name ({', '.join(links)})", row=lineno, column="tool_point")
+            point[k] = int(v)
+    if "target" in header:
+        j = header.index("target")
+        for k, (lineno, cells) in enumerate(body):
+            cell = cells[j].strip()
+            if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'")):
+                raise CampaignFileError(name, f"target '{cell}': an id without spaces, commas or quotes", row=lineno,
+                                        column="target")
+            target[k] = cell
+    missing = np.flatnonzero((instrument == "nest") & (target == ""))
+    if missing.size:
+        lineno = body[missing[0]][0]
+        raise CampaignFileError(name, "a nest row names its nest in the 'target' column (the id of the nest on "
+                                "the table)", row=lineno, column="target")
+    return point, target
+
+
+def read_targets(path: str | Path) -> dict[str, np.ndarray]:
+    """Known tool-target offsets from a small CSV ``target,x,y,z`` (mm, in the tool link
+    frame: the spindle's or the robot flange's) -> {id: offset (3,) [m]}. Targets a
+    campaign names that are not in the file are found by the fit."""
+    path = Path(path)
+    name = str(path)
+    if not path.is_file():
+        raise CampaignFileError(name, "no such targets file")
+    try:
+        lines = list(csv.reader(path.read_text(encoding="utf-8-sig").splitlines()))
+    except UnicodeDecodeError as exc:
+        raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    rows = [(i + 1, [c.strip() for c in ln]) for i, ln in enumerate(lines) if any(c.strip() for c in ln)]
+    if not rows or rows[0][1][:4] != ["target", "x", "y", "z"]:
+        raise CampaignFileError(name, "a targets file starts with the header 'target,x,y,z' (offsets in mm in the "
+                                "tool link frame)", row=1)
+    out: dict[str, np.ndarray] = {}
+    for lineno, cells in rows[1:]:
+        if len(cells) < 4 or not cells[0]:
+            raise CampaignFileError(name, "a row is: target id, x, y, z [mm]", row=lineno)
+        if cells[0] in out:
+            raise CampaignFileError(name, f"target '{cells[0]}' is given twice", row=lineno, column="target")
+        out[cells[0]] = np.array([_parse_cell(name, c, lineno, h) for c, h in zip(cells[1:4], "xyz")]) * M_PER_MM
+    return out
 
 
 def _check_header(name: str, header: list[str], machine: Machine) -> None:
@@ -333,6 +433,8 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
     mixed = campaign.mixed
     if mixed:
         header += ["instrument", "station", "r", "pivot"]
+    point_header, point_cells = _point_target_cells(campaign, machine)
+    header += point_header
     lines = [",".join(header)]
     for i in range(len(campaign)):
         cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
@@ -340,5 +442,33 @@ def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> No
             bb = campaign.instrument[i] == "ballbar"
             cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
                       f"{campaign.radius[i] * MM_PER_M:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
-        lines.append(",".join(cells))
+        lines.append(",".join(cells + point_cells[i]))
+    write_text(path, "\n".join(lines) + "\n")
+
+
+def _point_target_cells(campaign: Campaign, machine: Machine) -> tuple[list[str], list[list[str]]]:
+    """The ``target`` and ``tool_point`` columns of a campaign file (only when used):
+    header cells and per-row cells (the tool point as its link's name)."""
+    header = []
+    use_target = bool(np.any(campaign.target != ""))
+    use_point = bool(np.any(campaign.point != 0))
+    if use_target:
+        header.append("target")
+    if use_point:
+        header.append("tool_point")
+    rows = []
+    for i in range(len(campaign)):
+        cells = []
+        if use_target:
+            cells.append(str(campaign.target[i]))
+        if use_point:
+            cells.append(machine.tool_links[int(campaign.point[i])])
+        rows.append(cells)
+    return header, rows
+
+
+def write_targets(path: str | Path, targets: dict) -> None:
+    """A targets file (``target,x,y,z`` in mm) for :func:`read_targets`."""
+    lines = ["target,x,y,z"] + [f"{k}," + ",".join(f"{v * MM_PER_M:.6f}" for v in np.asarray(o, float))
+                                for k, o in targets.items()]
     write_text(path, "\n".join(lines) + "\n")

@@ -310,7 +310,7 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
     if hint == "conflict":
         raise CampaignFileError(name, f"{hint_reason} ({', '.join(header[idx[f]] for f in 'xyz')}): give --units",
                                 row=table.header_line)
-    nominal_mm = machine.tool_tip(q, tool) / M_PER_MM
+    nominal_mm = machine.tool_tip(q, tool, frame="base") / M_PER_MM
     g_nom, g_meas = _gyration(nominal_mm), _gyration(raw)
     spread_unit = None
     if g_nom > 1.0 and len(raw) >= 4:

@@ -21,13 +21,20 @@ POSE_NAMES = ("dx", "dy", "dz", "ex", "ey", "ez")
 class Setup:
     """The tracker pose of station 0 (``R``, ``t``, correction ``e0``: dx, dy, dz [m],
     ex, ey, ez [rad]); ``stations``: other tracker positions {id: (R, t, e)};
-    ``pivots``: ball bar centre sockets {id: centre (3,) [m], machine frame}."""
+    ``pivots``: ball bar centre sockets {id: centre (3,) [m], machine frame};
+    ``nests``: table nests {id: position (3,) [m], workpiece frame}; ``targets``: tool
+    targets whose offsets the fit estimates {id: offset (3,) [m], tool link frame};
+    ``std``: standard deviations [m] of the fitted nest and target coordinates by
+    unknown name (``nest<id>.x``, ``target<id>.y``, ...)."""
 
     R: np.ndarray
     t: np.ndarray
     e0: np.ndarray = field(default_factory=lambda: np.zeros(6))
     stations: dict = field(default_factory=dict)
     pivots: dict = field(default_factory=dict)
+    nests: dict = field(default_factory=dict)
+    targets: dict = field(default_factory=dict)
+    std: dict = field(default_factory=dict)
 
     def pose(self, station: int = 0):
         """(R, t, e) of a station."""

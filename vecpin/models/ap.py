@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.models.base import ErrorModel, ModelTip, register_model
+from vecpin.models.base import ErrorModel, ModelPoints, ModelTip, register_model
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 
 
@@ -47,11 +47,18 @@ class APModel(ErrorModel):
         c, a = self.split(b)
         return c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a)
 
-    def sensitivity(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def sensitivity(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
+                    offset=None) -> tuple[np.ndarray, np.ndarray]:
         """What every basis shares at zero perturbation: (tool direction (N,3), d tip / d q
         (N,3,n)); :meth:`assemble` turns it into d tip / d b."""
-        kin = self.machine.kinematics(q, tool, True)
+        kin = self.machine.kinematics(q, tool, True, frame=frame, point=point, offset=offset)
         return kin.tool_dir, kin.jacobian
+
+    def workpiece_sensitivity(self, q: np.ndarray, p_wp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :meth:`sensitivity` for points fixed in the workpiece frame (base frame); the
+        tool direction is zero (the gauge line does not move a table nest)."""
+        wp = self.machine.workpiece_points(q, p_wp, True)
+        return np.zeros((len(q), 3)), wp.J_q
 
     def assemble(self, J: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray) -> np.ndarray:
         """d tip / d b (N,3,P_base) from d tip / d q (N,3,n) and the basis values B (N,n,K)."""
@@ -59,19 +66,29 @@ class APModel(ErrorModel):
         J_a = np.einsum("pxj,pim->pxmij", J, B[:, :, 1:])[:, :, self._mask[1:], :].reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J, J_a], axis=-1)
 
-    def _base_tool_tip(self, q, tool, b, jacobian=True) -> ModelTip:
-        N, n = q.shape
+    def _perturbed(self, q, b):
+        """(q + q_hat(q), d q_hat_j / d q_i (N,n,n))."""
         c, a = self.split(b)
-        B = self._basis_values(q)[:, :, 1:]  # (N, n, K-1)
-        qp = q + c + np.einsum("pim,mij->pj", B, a)
-        kin = self.machine.kinematics(qp, self._effective_tool(tool, b), jacobian)
-        tool_dir = kin.tool_dir
+        qp = q + c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a)
+        D = np.einsum("pim,mij->pij", self._basis_values(q, derivative=True)[:, :, 1:], a)
+        return qp, D
+
+    def _base_tool_tip(self, q, tool, b, jacobian=True, *, frame="base", point=0, offset=None) -> ModelTip:
+        qp, D = self._perturbed(q, b)
+        kin = self.machine.kinematics(qp, self._effective_tool(tool, b), jacobian, frame=frame, point=point,
+                                      offset=offset)
         if not jacobian:
-            return ModelTip(kin.tip, None, None, tool_dir)
+            return ModelTip(kin.tip, None, None, kin.tool_dir, kin.rotation)
         J = kin.jacobian  # (N,3,n) at the perturbed commands
-        J_b = self.assemble(J, self._basis_values(q), tool, tool_dir)
-        D = np.einsum("pim,mij->pij", self._basis_values(q, derivative=True)[:, :, 1:], a)  # d q_hat_j / d q_i
+        J_b = self.assemble(J, self._basis_values(q), tool, kin.tool_dir)
         J_q = J + np.einsum("pxj,pij->pxi", J, D)
-        return ModelTip(kin.tip, J_b, J_q, tool_dir)
+        return ModelTip(kin.tip, J_b, J_q, kin.tool_dir, kin.rotation)
 
-
+    def _base_workpiece_points(self, q, p_wp, b, jacobian=True) -> ModelPoints:
+        qp, D = self._perturbed(q, b)
+        wp = self.machine.workpiece_points(qp, p_wp, jacobian)
+        if not jacobian:
+            return ModelPoints(wp.xyz, None, None, None)
+        z = np.zeros((len(q), 3))
+        J_b = self.assemble(wp.J_q, self._basis_values(q), z[:, 0], z)
+        return ModelPoints(wp.xyz, J_b, wp.J_q + np.einsum("pxj,pij->pxi", wp.J_q, D), wp.J_p)

@@ -26,6 +26,7 @@ Parameters are ordered by priority (offsets, then every order-0 term, then order
 """
 from __future__ import annotations
 
+import copy
 import math
 from typing import NamedTuple
 
@@ -33,7 +34,7 @@ import numpy as np
 
 from vecpin.errors import InputError, VecpinError
 from vecpin.identification.fit import fit as ml_fit
-from vecpin.identification.likelihood import predict_tracker
+from vecpin.identification.likelihood import Likelihood, predict_tracker
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
@@ -53,14 +54,36 @@ def register_model(cls: type["ErrorModel"]) -> type["ErrorModel"]:
     return cls
 
 
+FRAMES = ("base", "workpiece")
+
+
 class ModelTip(NamedTuple):
-    """tip (N,3) [m] machine frame; J_b (N,3,P); J_q (N,3,n) total d tip / d q;
-    tool_dir (N,3) unit tool direction."""
+    """tip (N,3) [m] in the frame asked for; J_b (N,3,P); J_q (N,3,n) total d tip / d q;
+    tool_dir (N,3) unit tool direction; rotation (N,3,3): tool link orientation, which
+    is d tip / d target offset (offsets are in the tool link frame)."""
 
     tip: np.ndarray
     J_b: np.ndarray | None
     J_q: np.ndarray | None
     tool_dir: np.ndarray
+    rotation: np.ndarray | None = None
+
+
+class ModelPoints(NamedTuple):
+    """Points fixed in the model's workpiece frame (table nests), in the base frame:
+    xyz (N,3) [m]; J_b (N,3,P); J_q (N,3,n); J_p (N,3,3) d xyz / d p_wp."""
+
+    xyz: np.ndarray
+    J_b: np.ndarray | None
+    J_q: np.ndarray | None
+    J_p: np.ndarray | None
+
+
+def check_frame(frame: str) -> str:
+    if frame not in FRAMES:
+        raise InputError(f"frame '{frame}': 'base' (the machine frame a floor tracker sees) or 'workpiece' "
+                         "(the table frame compensation corrects)")
+    return frame
 
 
 class ErrorModel:
@@ -153,7 +176,11 @@ class ErrorModel:
         return out
 
     # --------------------------------------------------------------- kinematics
-    def _base_tool_tip(self, q: np.ndarray, tool: np.ndarray, b: np.ndarray, jacobian: bool) -> ModelTip:
+    def _base_tool_tip(self, q: np.ndarray, tool: np.ndarray, b: np.ndarray, jacobian: bool, *,
+                       frame: str = "base", point=0, offset=None) -> ModelTip:
+        raise NotImplementedError
+
+    def _base_workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, b: np.ndarray, jacobian: bool) -> ModelPoints:
         raise NotImplementedError
 
     def effect_slices(self) -> list[tuple]:
@@ -185,8 +212,9 @@ class ErrorModel:
         new.b_, new.e0_, new.setup_ = self.b_[idx], self.e0_, self.setup_
         new.cov_ = self.cov_[np.ix_(full, full)]
         new.noise_, new.report_ = self.noise_, self.report_
-        if hasattr(self, "selection_"):
-            new.selection_ = self.selection_
+        for attr in ("selection_", "zone_"):
+            if hasattr(self, attr):
+                setattr(new, attr, getattr(self, attr))
         return new, dropped
 
     @property
@@ -195,33 +223,30 @@ class ErrorModel:
         return any(not e.geometric for e in self.effects)
 
     def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, b: np.ndarray, jacobian: bool = True,
-                 features: Features | None = None) -> ModelTip:
-        """Tool tip of the model with parameters b, machine base frame (SI). ``features``
-        are needed when effects depend on the rows (geometric effects need none)."""
+                 features: Features | None = None, *, frame: str = "base", point: int | np.ndarray = 0,
+                 offset: np.ndarray | None = None) -> ModelTip:
+        """Tool tip of the model with parameters b (SI). ``frame``: "base" (the machine
+        frame a floor tracker sees, default) or "workpiece" (relative to the model's
+        workpiece frame: what compensation corrects; the base frame on a machine without
+        a workpiece). ``point``: tool point index, one or per pose; ``offset`` (3,) or
+        (N,3) [m]: a target offset in the tool link frame. ``features`` are needed when
+        effects depend on the rows (geometric effects need none)."""
         q = np.atleast_2d(np.asarray(q, float))
         N = len(q)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        frame = check_frame(frame)
         nb = len(self.base_parameters)
-        kinematic = [(e, sl) for e, sl in self.effect_slices() if "command" in e.kinds or "tip" in e.kinds]
+        kinematic = self._kinematic_effects(features)
+        where = {"frame": frame, "point": point, "offset": offset}
         if not kinematic:
-            return self._plain_tip(q, tool, b, jacobian)
-        if features is None and any(not e.geometric for e, _ in kinematic):
-            raise VecpinError("this model has effects (" + ", ".join(e.label for e in self.effects) +
-                              ") that depend on the rows: evaluate it on a campaign (time, temperature, row order)")
-        S_all = []
-        q_eff = q.copy()
-        for e, sl in kinematic:
-            if "command" in e.kinds:
-                S = e.command(q, features)
-                q_eff = q_eff + np.einsum("pnk,k->pn", S, b[sl])
-                S_all.append((sl, S))
-        out = self._base_tool_tip(q_eff, tool, b[:nb], jacobian)  # tip effects need only tip and tool direction
+            return self._plain_tip(q, tool, b, jacobian, **where)
+        if frame == "workpiece" and self.machine.has_workpiece and any("tip" in e.kinds for e, _ in kinematic):
+            return self._relative_tip(q, tool, b, jacobian, features, point, offset)
+        q_eff, S_all = self._command_effects(q, b, kinematic, features)
+        out = self._base_tool_tip(q_eff, tool, b[:nb], jacobian, **where)  # tip effects need only tip and tool direction
         tip = out.tip.copy()
-        J_cmd = np.zeros((N, 3, len(self.parameters) - nb)) if jacobian else None
+        J_cmd = self._command_columns(out.J_q, S_all, N) if jacobian else None
         J_tip = np.zeros_like(J_cmd) if jacobian else None
-        for sl, S in S_all:
-            if jacobian:  # through the base kinematics at the perturbed commands
-                J_cmd[:, :, sl.start - nb:sl.stop - nb] += np.einsum("pin,pnk->pik", out.J_q, S)
         ctx = TipContext(self.machine, q_eff, out.tip, out.tool_dir)
         grad = np.zeros((N, 3, 3))
         for e, sl in kinematic:
@@ -232,16 +257,76 @@ class ErrorModel:
                     J_tip[:, :, sl.start - nb:sl.stop - nb] += D
                     grad += e.tip_gradient(ctx, features, b[sl])
         if not jacobian:
-            return ModelTip(tip, None, None, out.tool_dir)
+            return ModelTip(tip, None, None, out.tool_dir, out.rotation)
         # tip displacements that move with the tip (a rotation's lever arm): chain rule
         M = np.eye(3) + grad
         J_b = np.concatenate([M @ out.J_b, M @ J_cmd + J_tip], axis=-1)
-        return ModelTip(tip, J_b, M @ out.J_q, out.tool_dir)
+        return ModelTip(tip, J_b, M @ out.J_q, out.tool_dir, M @ out.rotation)
 
-    def _plain_tip(self, q, tool, b, jacobian) -> ModelTip:
+    def workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, b: np.ndarray, jacobian: bool = True,
+                         features: Features | None = None) -> ModelPoints:
+        """Points fixed in the model's (erroneous) workpiece frame at p_wp (3,) or (N,3) [m],
+        in the base frame, with d/db, d/dq and d/dp_wp: what a floor tracker sees of a
+        target in a table nest. Command effects move the table axes too; tip effects act
+        on the tool only."""
+        q = np.atleast_2d(np.asarray(q, float))
+        N = len(q)
+        nb = len(self.base_parameters)
+        p_wp = np.broadcast_to(np.asarray(p_wp, float), (N, 3))
+        kinematic = self._kinematic_effects(features)
+        q_eff, S_all = self._command_effects(q, b, kinematic, features)
+        out = self._base_workpiece_points(q_eff, p_wp, b[:nb], jacobian)
+        if not jacobian or nb == len(self.parameters):
+            return out
+        J_b = np.concatenate([out.J_b, self._command_columns(out.J_q, S_all, N)], axis=-1)
+        return out._replace(J_b=J_b)
+
+    def _kinematic_effects(self, features) -> list[tuple]:
+        kinematic = [(e, sl) for e, sl in self.effect_slices() if "command" in e.kinds or "tip" in e.kinds]
+        if kinematic and features is None and any(not e.geometric for e, _ in kinematic):
+            raise VecpinError("this model has effects (" + ", ".join(e.label for e in self.effects) +
+                              ") that depend on the rows: evaluate it on a campaign (time, temperature, row order)")
+        return kinematic
+
+    def _command_effects(self, q, b, kinematic, features):
+        """Commands perturbed by the command effects, and their (slice, S) pairs."""
+        S_all = []
+        q_eff = q.copy()
+        for e, sl in kinematic:
+            if "command" in e.kinds:
+                S = e.command(q, features)
+                q_eff = q_eff + np.einsum("pnk,k->pn", S, b[sl])
+                S_all.append((sl, S))
+        return q_eff, S_all
+
+    def _command_columns(self, J_q, S_all, N) -> np.ndarray:
+        """Effect columns (N,3,P_effects): command effects through d point / d q."""
+        nb = len(self.base_parameters)
+        J = np.zeros((N, 3, len(self.parameters) - nb))
+        for sl, S in S_all:
+            J[:, :, sl.start - nb:sl.stop - nb] += np.einsum("pin,pnk->pik", J_q, S)
+        return J
+
+    def _relative_tip(self, q, tool, b, jacobian, features, point, offset) -> ModelTip:
+        """The tip relative to the workpiece from the base-frame tip (with tip effects,
+        which act in the base frame) and the workpiece frame: ``p_rel = R_w^T (p - p_w)``,
+        ``d p_rel = R_w^T (d p - d W p_rel)`` with ``W p_rel`` the workpiece-fixed point
+        at the tip."""
+        base = self.tool_tip(q, tool, b, jacobian, features, frame="base", point=point, offset=offset)
+        w0 = self.workpiece_points(q, np.zeros(3), b, True, features)
+        Rw = w0.J_p
+        RwT = np.swapaxes(Rw, 1, 2)
+        rel = np.einsum("pij,pj->pi", RwT, base.tip - w0.xyz)
+        u = np.einsum("pij,pj->pi", RwT, base.tool_dir)
+        if not jacobian:
+            return ModelTip(rel, None, None, u, RwT @ base.rotation)
+        wp = self.workpiece_points(q, rel, b, True, features)
+        return ModelTip(rel, RwT @ (base.J_b - wp.J_b), RwT @ (base.J_q - wp.J_q), u, RwT @ base.rotation)
+
+    def _plain_tip(self, q, tool, b, jacobian, **where) -> ModelTip:
         """The base kinematics; effect columns (tracker-frame effects only) are zero here."""
         nb = len(self.base_parameters)
-        out = self._base_tool_tip(q, tool, b[:nb], jacobian)
+        out = self._base_tool_tip(q, tool, b[:nb], jacobian, **where)
         if not jacobian or nb == len(self.parameters):
             return out
         pad = np.zeros(out.J_b.shape[:2] + (len(self.parameters) - nb,))
@@ -297,49 +382,76 @@ class ErrorModel:
         self._check_fitted()
         return np.sqrt(np.diag(self.cov_)[6:])
 
-    def predict(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker", features=None) -> np.ndarray:
-        """Modelled tool tips (N,3) [m] for commands q (N,n) [m, rad] and tool
-        lengths [m], in the tracker frame of the fitted campaign or the machine frame.
-        ``features``: per-row time/temperature/directions, for models with effects."""
+    def predict(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker", features=None, *,
+                point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
+        """Modelled tool tips (N,3) [m] for commands q (N,n) [m, rad] and tool lengths
+        [m]: in the tracker frame of the fitted campaign ("tracker"), the machine base
+        frame ("machine") or relative to the workpiece ("workpiece"). ``point``, ``offset``:
+        tool point and target offset [m] (tool link frame). ``features``: per-row
+        time/temperature/directions, for models with effects."""
         self._check_fitted()
-        if frame not in ("tracker", "machine"):
-            raise InputError("frame is 'tracker' or 'machine'")
+        if frame not in ("tracker", "machine", "workpiece"):
+            raise InputError("frame is 'tracker', 'machine' or 'workpiece'")
         if frame == "tracker":
-            return predict_tracker(self, q, tool, np.r_[self.e0_, self.b_], self.setup_, features, False)[0]
-        return self.tool_tip(q, tool, self.b_, jacobian=False, features=features).tip
+            return predict_tracker(self, q, tool, np.r_[self.e0_, self.b_], self.setup_, features, False,
+                                   point=point, offset=offset)[0]
+        return self.tool_tip(q, tool, self.b_, jacobian=False, features=features, point=point, offset=offset,
+                             frame="base" if frame == "machine" else "workpiece").tip
 
-    def predict_nominal(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
+    def predict_nominal(self, q: np.ndarray, tool: np.ndarray | float, *, point: int | np.ndarray = 0,
+                        offset: np.ndarray | None = None) -> np.ndarray:
         """Nominal tool tips (N,3) [m] placed with the tracker pose registered on the nominal
         kinematics (no E_0): the seed's 'uncompensated' reference."""
         self._check_fitted()
-        return self.machine.tool_tip(q, tool) @ self.setup_.R.T + self.setup_.t
+        return self.machine.tool_tip(q, tool, frame="base", point=point, offset=offset) @ self.setup_.R.T + self.setup_.t
 
-    def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
-        """Measured minus modelled tool tips (N,3) [m], each tracker row in its station's
-        frame (NaN on rows without a point, e.g. ball bar rows). ``reregister``: fit the
-        tracker pose to this campaign first (the tracker was moved). Effects take time,
-        temperature and approach directions from the campaign's rows."""
-        self._check_fitted()
-        feats = Features.from_campaign(campaign) if self.effects else None
-        if not campaign.mixed and not reregister:
-            return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, np.r_[self.e0_, self.b_],
-                                                  self.setup_, feats, False)[0]
-        tip = self.tool_tip(campaign.q, campaign.tool, self.b_, jacobian=False, features=feats).tip
-        if reregister:
-            return registered_errors(tip, campaign.xyz)
-        out = np.full((len(campaign), 3), np.nan)
-        for s in np.unique(campaign.station[campaign.tracker_rows]):
-            rows = campaign.tracker_rows[campaign.station[campaign.tracker_rows] == s]
+    def _row_points(self, campaign, theta: np.ndarray | None) -> np.ndarray:
+        """Predicted tracker readings (N,3) [m] of every row with a point (tool tips,
+        targets, nests; NaN on ball bar rows) at the fitted setup; ``theta=None``: the
+        fitted model, else these unknowns (zeros: the nominal machine)."""
+        for s in np.unique(campaign.station[campaign.instrument != "ballbar"]):
             if int(s) != 0 and int(s) not in self.setup_.stations:
                 raise VecpinError(f"{campaign.source}: station {s} was not in the fitted campaign")
-            out[rows] = campaign.xyz[rows] - self.setup_.to_tracker(tip[rows], int(s))
-        return out
+        feats = Features.from_campaign(campaign) if self.effects else None
+        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=feats)
+        return lik.predicted_points(lik.theta_of(self) if theta is None else theta)
+
+    def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
+        """Measured minus modelled points (N,3) [m], each tracker or nest row in its
+        station's frame (NaN on rows without a point, e.g. ball bar rows). ``reregister``:
+        fit the tracker pose to this campaign first (the tracker was moved). Effects take
+        time, temperature and approach directions from the campaign's rows."""
+        self._check_fitted()
+        feats = Features.from_campaign(campaign) if self.effects else None
+        if campaign.plain and not reregister and not campaign.mixed:
+            return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, np.r_[self.e0_, self.b_],
+                                                  self.setup_, feats, False)[0]
+        if reregister:
+            out = np.full((len(campaign), 3), np.nan)
+            y = self._row_points(campaign, None)
+            for s in np.unique(campaign.station[campaign.instrument != "ballbar"]):
+                rows = np.flatnonzero((campaign.instrument != "ballbar") & (campaign.station == s))
+                p = self.setup_.pose(int(s))
+                machine_frame = (y[rows] - p[1]) @ p[0]  # back to (corrected) machine coordinates
+                out[rows] = registered_errors(machine_frame, campaign.xyz[rows])
+            return out
+        return campaign.xyz - self._row_points(campaign, None)
+
+    def nominal_residuals(self, campaign) -> np.ndarray:
+        """Measured minus nominal points (N,3) [m] with the fitted tracker poses, nests and
+        targets but no model (b = 0, no E_0): the 'uncompensated' column of the reports."""
+        self._check_fitted()
+        if campaign.plain and not campaign.mixed:
+            return campaign.xyz - self.predict_nominal(campaign.q, campaign.tool)
+        feats = Features.from_campaign(campaign) if self.effects else None
+        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=feats)
+        return campaign.xyz - lik.predicted_points(np.zeros(lik.n_unknowns))
 
     def ballbar_residuals(self, campaign) -> np.ndarray:
         """Measured minus modelled ball bar radius [m] for the campaign's ball bar rows."""
         self._check_fitted()
         bb = campaign.ballbar_rows
-        tip = self.tool_tip(campaign.q[bb], campaign.tool[bb], self.b_, jacobian=False).tip
+        tip = self.tool_tip(campaign.q[bb], campaign.tool[bb], self.b_, jacobian=False, point=campaign.point[bb]).tip
         centres = np.array([self.setup_.pivots[int(p)] for p in campaign.pivot[bb]])
         return campaign.radius[bb] - np.linalg.norm(tip - centres, axis=1)
 

@@ -2,8 +2,8 @@
 
 A model file is self-contained: it embeds the machine's URDF (with its SHA-256),
 the model definition (kind, bases, offsets, priors, effects), every parameter with
-its standard deviation in mm or degrees, the tracker pose, the noise settings and the
-fit report. ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp
+its standard deviation in mm or degrees, the tracker pose (with the fitted table nests
+and tool targets), the measurement zone, the noise settings and the fit report. ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp
 or timing, so the same fit writes the same bytes.
 
 This module knows the file, not the model classes: :func:`load_model` takes the
@@ -78,12 +78,14 @@ def model_to_dict(model) -> dict:
                     "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * MM_PER_M).tolist(),
                                           "correction": [float(v) for v in e]}
                                  for s, (R, t, e) in setup.stations.items()},
-                    "pivots_mm": {str(p): (c * MM_PER_M).tolist() for p, c in setup.pivots.items()}},
+                    "pivots_mm": {str(p): (c * MM_PER_M).tolist() for p, c in setup.pivots.items()},
+                    **_points_to_dict(setup)},
         "noise": model.noise_.to_dict(m),
         "parameters": params,
         "fit": report,
         "correlations": _correlations(model, std),
         "selection": getattr(model, "selection_", None),
+        "zone": _zone_to_dict(getattr(model, "zone_", None)),
     }
 
 
@@ -96,6 +98,24 @@ def _correlations(model, std: np.ndarray) -> dict:
     rows = [[round(float(v), 6) for v in C[i, :i]] for i in range(len(idx))]
     return {"index": [int(i) for i in idx], "lower": rows,
             "meaning": "corr[i][j] for j < i of the parameters listed by index (0 = E0.dx)"}
+
+
+def _points_to_dict(setup) -> dict:
+    """Fitted table nests (workpiece frame) and tool targets (tool link frame), mm, with
+    their standard deviations; only when the campaign had them."""
+    out = {}
+    for kind, store in (("nests", setup.nests), ("targets", setup.targets)):
+        if not store:
+            continue
+        out[f"{kind}_mm"] = {str(k): [float(v) * MM_PER_M for v in c] for k, c in store.items()}
+        key = kind[:-1]
+        out[f"{kind}_std_mm"] = {str(k): [setup.std.get(f"{key}{k}.{c}", 0.0) * MM_PER_M for c in "xyz"] for k in store}
+    return out
+
+
+def _zone_to_dict(zone) -> dict | None:
+    """The measurement zone the model was fitted in: {axis: [low, high]} mm/deg, or None."""
+    return None if not zone else {a: [float(lo), float(hi)] for a, (lo, hi) in zone.items()}
 
 
 def save_model(model, path: str | Path) -> None:
@@ -203,6 +223,16 @@ def _from_dict(d: dict, path: Path, factory: Callable):
                                          _finite(path, f"tracker.stations.{s}", st["correction"]))
     for p, c in tr.get("pivots_mm", {}).items():
         model.setup_.pivots[int(p)] = _finite(path, f"tracker.pivots_mm.{p}", c) * M_PER_MM
+    for kind, store in (("nests", model.setup_.nests), ("targets", model.setup_.targets)):
+        for k, c in tr.get(f"{kind}_mm", {}).items():
+            store[k] = _finite(path, f"tracker.{kind}_mm.{k}", c) * M_PER_MM
+            for comp, sd in zip("xyz", tr.get(f"{kind}_std_mm", {}).get(k, [0.0] * 3)):
+                model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
+    zone = d.get("zone")
+    if zone:
+        for a in zone:
+            machine.axis(a)
+        model.zone_ = {a: (float(lo), float(hi)) for a, (lo, hi) in zone.items()}
     model.noise_ = NoiseModel.from_dict(d["noise"], machine)
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     fields.setdefault("seconds", 0.0)

@@ -94,7 +94,7 @@ class Information:
         fit's own likelihood (:mod:`vecpin.identification.likelihood`) at the nominal
         machine, the tracker frame parallel to the machine's at ``tracker``."""
         m = self.model
-        tip = m.machine.tool_tip(q, tool)
+        tip = m.machine.tool_tip(q, tool, frame="base")
         camp = Campaign(m.machine.axis_names, q, tool, tip - self.tracker, {}, "plan")
         lik = Likelihood(m, camp, self.noise, Setup(np.eye(3), -self.tracker))
         return -lik.evaluate(np.zeros(lik.n_unknowns)).J  # d (whitened prediction) / d psi

@@ -151,7 +151,7 @@ class SightLine:
         q = np.atleast_2d(np.asarray(q, float))
         N = len(q)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
-        kin = self.machine.kinematics(q, tool, jacobian=False)
+        kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
         target = kin.tip
         seg = target - self.tracker
         dist = np.linalg.norm(seg, axis=1)
@@ -303,7 +303,7 @@ def default_tracker_position(machine: Machine, tool: float = 0.25, distance: flo
     at the height of its lowest tip, centred in x: the usual set-up for a gantry."""
     from scipy.stats import qmc
     u = qmc.Halton(machine.n_axes, seed=0).random(256)
-    tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool)
+    tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool, frame="base")
     lo, hi = tips.min(axis=0), tips.max(axis=0)
     return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]])
 

@@ -218,7 +218,12 @@ class _Problem:
         point = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
         self.judged = point if point.any() else ev.valid[:, 0]
         self.metric, self.fold = ev.metric, fold
-        tool_dir, S = make_model(kind, machine, 0).sensitivity(c.q, c.tool)
+        # every row's own point (tool tip, target, nest) through the one likelihood's requests
+        proto = make_model(kind, machine, 0)
+        tool_dir, S = lik.sensitivity(proto)
+        # E_0 and the instruments' unknowns (stations, pivots, targets, nests) are in every candidate
+        self.fixed = np.r_[np.arange(6), np.arange(6 + lik.n_model, lik.n_unknowns)]
+        self.slots = list(proto.slot_axis) if kind == "6dof" else list(range(machine.n_axes))
         n = machine.n_axes
         cols, index = [tool_dir * DEFAULT_PRIORS["offset"]], {("T_offset",): 0}
         prior = np.array([DEFAULT_PRIORS["length"] if a.kind == "linear" else DEFAULT_PRIORS["angle"] for a in machine.axes])
@@ -226,25 +231,29 @@ class _Problem:
             for j in range(n):
                 index[("offset", j)] = len(cols)
                 cols.append(S[:, :, j] * prior[j])
-        for i, a in enumerate(machine.axes):
-            names, F = _axis_functions(a, options[i], c.q[:, i])
-            for f, name in enumerate(names):
-                if kind == "6dof":
+        functions = [_axis_functions(a, options[i], c.q[:, i]) for i, a in enumerate(machine.axes)]
+        if kind == "6dof":  # per slot (an axis or a mimic joint), in its driving axis' functions
+            for s, i in enumerate(self.slots):
+                names, F = functions[i]
+                for f, name in enumerate(names):
                     for comp in range(6):
-                        index[(i, name, comp)] = len(cols)
-                        cols.append(S[:, :, i, comp] * F[:, f, None] * M_PER_MM)
-                else:
+                        index[(s, name, comp)] = len(cols)
+                        cols.append(S[:, :, s, comp] * F[:, f, None] * M_PER_MM)
+        else:
+            for i in range(n):
+                names, F = functions[i]
+                for f, name in enumerate(names):
                     for j in range(n):
                         index[(i, name, j)] = len(cols)
                         cols.append(S[:, :, j] * F[:, f, None] * prior[j])
-        if kind == "6dof":  # the constant of every axis' six components
-            for i in range(n):
+        if kind == "6dof":  # the constant of every slot's six components
+            for s in range(len(self.slots)):
                 for comp in range(6):
-                    index[(i, "0", comp)] = len(cols)
-                    cols.append(S[:, :, i, comp] * M_PER_MM)
-        D = np.stack(cols, axis=-1)                                     # d tip / d psi (N,3,P)
-        self.J = np.concatenate([ev.J[:, :, :6], np.einsum("pij,pjk->pik", ev.Gw, D)], axis=-1)
-        self.A = np.concatenate([ev.A[:, :, :6], np.einsum("pij,pjk->pik", ev.Gm, D)], axis=-1)
+                    index[(s, "0", comp)] = len(cols)
+                    cols.append(S[:, :, s, comp] * M_PER_MM)
+        D = np.stack(cols, axis=-1)                                     # d point / d psi (N,3,P)
+        self.J = np.concatenate([ev.J[:, :, self.fixed], np.einsum("pij,pjk->pik", ev.Gw, D)], axis=-1)
+        self.A = np.concatenate([ev.A[:, :, self.fixed], np.einsum("pij,pjk->pik", ev.Gm, D)], axis=-1)
         self.index = index
         w = ev.w
         grams = []
@@ -259,17 +268,20 @@ class _Problem:
         self.uncompensated = np.linalg.norm(ev.metric[self.judged], axis=1) * MM_PER_M
 
     def columns(self, choice: tuple[AxisChoice, ...]) -> np.ndarray:
-        """Column indices of a candidate: E_0, T_offset, then its functions."""
+        """Column indices of a candidate: E_0 and the instruments' unknowns, T_offset,
+        then its functions (6-DoF: on every slot the axis drives)."""
         idx = [0]
         n = self.machine.n_axes
-        per = 6 if self.kind == "6dof" else n
+        nf = len(self.fixed)
         if self.kind == "ap":
             idx += [self.index[("offset", j)] for j in range(n)]
-        for i, c in enumerate(choice):
-            if self.kind == "6dof":
-                idx += [self.index[(i, "0", k)] for k in range(6)]
-            idx += [self.index[(i, name, k)] for name in c.functions() for k in range(per)]
-        return np.r_[np.arange(6), 6 + np.array(idx, int)]
+            for i, c in enumerate(choice):
+                idx += [self.index[(i, name, k)] for name in c.functions() for k in range(n)]
+        else:
+            for s, i in enumerate(self.slots):
+                idx += [self.index[(s, "0", k)] for k in range(6)]
+                idx += [self.index[(s, name, k)] for name in choice[i].functions() for k in range(6)]
+        return np.r_[np.arange(nf), nf + np.array(idx, int)]
 
     def heldout(self, cols: np.ndarray) -> np.ndarray:
         """Held-out distances [mm] of the judged rows for the candidate with these columns."""
@@ -285,7 +297,7 @@ class _Problem:
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - 6, self.heldout(cols))
+        return Candidate(self.kind, choice, len(cols) - len(self.fixed), self.heldout(cols))
 
 
 def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -86,11 +86,11 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
         judged[campaign.tracker_rows[campaign.station[campaign.tracker_rows] == 0]] = True
     primary = campaign.primary()
     validation = validation.primary() if validation is not None else None
-    nominal = machine.tool_tip(campaign.q, campaign.tool)
+    nominal = machine.tool_tip(campaign.q, campaign.tool, frame="base")
     R, t = register(nominal[judged], campaign.xyz[judged])
     ui = _dist_mm(primary.xyz - (nominal[judged] @ R.T + t))
     if validation is not None:
-        uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool) @ R.T + t))
+        uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool, frame="base") @ R.T + t))
         method = "validation file"
     else:
         fold = command_folds(campaign, folds, np.random.default_rng(seed))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, pitch_names,
-                                           pseudo_commands, rich_table_bases, truth_as_actual)
+                                           pseudo_commands, registered_actual, rich_table_bases, truth_as_actual)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
 from vecpin.compensation.tables import TableSet
@@ -34,9 +34,14 @@ class Floor:
 
 def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: np.ndarray) -> tuple[float, float]:
     """(mean, max) [mm] of the true machine commanded through ``tables`` (None:
-    uncompensated) against the nominal kinematics, after the best rigid registration
-    (a rigid motion of the whole machine is not observable and does not affect parts)."""
-    d = norm_mm(compensated_errors(truth_as_actual(truth), truth.machine, tables, q, tool, register=True))
+    uncompensated) against the nominal kinematics, the tool tip relative to the workpiece
+    (of every tool point), after the best rigid registration (a rigid motion of the whole
+    machine, or of the part, is not observable and does not affect parts)."""
+    m = truth.machine
+    P = len(m.tool_links)
+    qq, tt = np.tile(q, (P, 1)), np.tile(tool, P)
+    point = 0 if P == 1 else np.repeat(np.arange(P), len(q))
+    d = norm_mm(compensated_errors(truth_as_actual(truth), m, tables, qq, tt, register=True, point=point))
     return float(d.mean()), float(d.max())
 
 
@@ -45,8 +50,8 @@ def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits
     """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
     with tool lengths ``tool`` [m]."""
     m = truth.machine
-    actual = truth_as_actual(truth)
     pseudo = pseudo_commands(m, n_commands, seed)
+    actual = registered_actual(truth_as_actual(truth), m, pseudo, tools)[0]
     problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
     names = all_table_names(m)
     if not limits.cross_tables:

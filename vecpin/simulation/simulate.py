@@ -47,6 +47,13 @@ class Design:
     ballbar_points: int = 0  # ball bar rows on a sphere about one pivot (eq. 63-64)
     ballbar_radius_mm: float = 254.0
     ballbar_sigma_mm: float = 0.0025
+    nests: int | None = None   # reflectors in table nests read at every command (None: 3 on a machine with a workpiece)
+    targets_mm: tuple = ()     # reflector offsets (x, y, z) [mm] in the tool link frame, read at every command
+    known_targets: bool = False  # the campaign carries the target offsets (else the fit finds them)
+    all_points: bool = True    # measure every tool point of a machine with several (Spar Mill's two spindles)
+
+    def n_nests(self, machine: Machine) -> int:
+        return (3 if machine.has_workpiece else 0) if self.nests is None else int(self.nests)
 
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
@@ -79,8 +86,84 @@ def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
     return zone_bounds(machine, zone)
 
 
-def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
-    """Append rows of further tracker stations (same commands) and of a ball bar."""
+@dataclass
+class Rows:
+    """What each simulated row measures: commands q [m, rad], tool [m], tool ``point``,
+    ``target`` id, ``instrument`` ("tracker" or "nest"), target ``offset`` (N,3) [m]
+    (tool link frame) and ``nest`` position (N,3) [m] (workpiece frame, nest rows)."""
+
+    q: np.ndarray
+    tool: np.ndarray
+    point: np.ndarray
+    target: np.ndarray
+    instrument: np.ndarray
+    offset: np.ndarray
+    nest: np.ndarray
+
+    @classmethod
+    def tips(cls, q, tool, point=0) -> "Rows":
+        n = len(q)
+        return cls(q, np.asarray(tool, float), np.broadcast_to(point, (n,)).astype(int), np.full(n, "", dtype=object),
+                   np.full(n, "tracker", dtype=object), np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def __add__(self, other: "Rows") -> "Rows":
+        return Rows(*(np.concatenate([a, b]) for a, b in zip(self.__dict__.values(), other.__dict__.values())))
+
+    def measure(self, truth, rng, features=None, station: int = 0) -> np.ndarray:
+        """Tracker readings (N,3) [m] of every row (tool tips, targets, nests)."""
+        xyz = np.empty((len(self.q), 3))
+        nest = self.instrument == "nest"
+        tool = ~nest
+        f = (lambda sel: features.subset(np.flatnonzero(sel))) if features is not None else (lambda sel: None)
+        if tool.any():
+            xyz[tool] = truth.measure(self.q[tool], self.tool[tool], rng, f(tool), station, point=self.point[tool],
+                                      offset=self.offset[tool] if np.any(self.offset) else None)
+        if nest.any():
+            xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), station, nest=self.nest[nest])
+        return xyz
+
+
+def nest_positions(machine: Machine, n: int, seed: int) -> dict[str, np.ndarray]:
+    """n nests [m] on the table, workpiece frame: evenly around a circle of 40 % of the
+    table reach (half the span of the tool tips relative to the workpiece, at most
+    0.3 m) at heights 20-80 mm, ids "1", "2", ... (a seeded rng of their own)."""
+    rng = np.random.default_rng([seed, 14])
+    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
+    rel = machine.tool_tip(q, 0.2, frame="workpiece")
+    reach = min(0.3, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
+    out = {}
+    for k in range(n):
+        a = 2 * np.pi * (k + rng.uniform(0.0, 0.5)) / max(n, 1)
+        out[str(k + 1)] = np.array([reach * np.cos(a), reach * np.sin(a), rng.uniform(0.02, 0.08)])
+    return out
+
+
+def design_rows(machine: Machine, design: Design, q: np.ndarray, tools: np.ndarray, seed: int):
+    """(Rows, nests {id: (3,)}, targets {id: (3,)}): every command with every tool (or
+    every target) at every tool point, then every command at every table nest."""
+    points = range(len(machine.tool_links)) if design.all_points else range(1)
+    targets = {f"T{k + 1}": np.asarray(v, float) * M_PER_MM for k, v in enumerate(design.targets_mm)}
+    rows = None
+    for p in points:
+        if targets:
+            for tid, off in targets.items():
+                r = Rows.tips(q, np.zeros(len(q)), p)
+                r.target[:], r.offset[:] = tid, off
+                rows = r if rows is None else rows + r
+        else:
+            for t in tools:
+                r = Rows.tips(q, np.full(len(q), t), p)
+                rows = r if rows is None else rows + r
+    nests = nest_positions(machine, design.n_nests(machine), seed)
+    for nid, pos in nests.items():
+        r = Rows.tips(q, np.full(len(q), tools[0]))
+        r.instrument[:], r.target[:], r.nest[:] = "nest", nid, pos
+        rows = rows + r
+    return rows, nests, targets
+
+
+def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
+    """Append rows of further tracker stations (same rows) and of a ball bar."""
     m = truth.machine
     parts = [campaign]
     n = len(campaign)
@@ -88,9 +171,9 @@ def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rn
         if len(truth.stations) < s:
             from vecpin.simulation.truth import place_tracker
             truth.stations.append(place_tracker(m, rng, truth.tracker.noise, 2.0, side=2 * np.pi * s / design.stations))
-        xyz = truth.measure(campaign.q, campaign.tool, rng, station=s)
+        xyz = rows.measure(truth, rng, station=s)
         parts.append(Campaign(m.axis_names, campaign.q, campaign.tool, xyz, {}, campaign.source,
-                              station=np.full(n, s)))
+                              campaign.instrument, np.full(n, s), point=campaign.point, target=campaign.target))
     if design.ballbar_points:
         tool = design.tools_mm[0] * M_PER_MM
         q, pivot = ballbar_commands(m, design.ballbar_points, design.ballbar_radius_mm * M_PER_MM, rng, tool)
@@ -102,7 +185,9 @@ def _more_instruments(campaign: Campaign, truth: TrueMachine, design: Design, rn
     out = Campaign(m.axis_names, np.vstack([p.q for p in parts]), np.concatenate([p.tool for p in parts]),
                    np.vstack([p.xyz for p in parts]), {}, campaign.source,
                    np.concatenate([p.instrument for p in parts]), np.concatenate([p.station for p in parts]),
-                   np.concatenate([p.radius for p in parts]), np.concatenate([p.pivot for p in parts]))
+                   np.concatenate([p.radius for p in parts]), np.concatenate([p.pivot for p in parts]),
+                   point=np.concatenate([p.point for p in parts]), target=np.concatenate([p.target for p in parts]),
+                   targets=dict(campaign.targets))
     t = np.r_[campaign.time, t_end + 15.0 * np.arange(1, len(out) - n + 1)]
     out.extra = {"time": t, "temperature": np.r_[campaign.temperature, np.full(len(out) - n, campaign.temperature[-1])]}
     return out
@@ -119,12 +204,18 @@ class Simulation:
     validation_truth: Campaign
     compensated: Campaign | None = None        # the validation commands run through the tables (noisy)
     compensated_truth: Campaign | None = None  # the same, noise-free
+    nests: dict = field(default_factory=dict)    # true nest positions {id: (3,) [m], workpiece frame}
+    targets: dict = field(default_factory=dict)  # true target offsets {id: (3,) [m], tool link frame}
 
     def write(self, out_dir: str | Path) -> dict[str, Path]:
-        """campaign.csv, validation.csv, validation_truth.csv and truth.json, committed together."""
+        """campaign.csv, validation.csv, validation_truth.csv and truth.json (and targets.csv:
+        the true target offsets, a known-targets file), committed together."""
+        from vecpin.measurement.campaign import write_targets
         m = self.truth.machine
         names = {"campaign": "campaign.csv", "validation": "validation.csv",
                  "validation_truth": "validation_truth.csv", "truth": "truth.json"}
+        if self.targets:
+            names["targets"] = "targets.csv"
         if self.compensated is not None:
             names |= {"validation_compensated": "validation_compensated.csv",
                       "validation_compensated_truth": "validation_compensated_truth.csv"}
@@ -136,6 +227,8 @@ class Simulation:
                 write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
                 write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
             self.truth.save(out.path(names["truth"]))
+            if self.targets:
+                write_targets(out.path(names["targets"]), self.targets)
         return {k: out.final(v) for k, v in names.items()}
 
 
@@ -150,7 +243,7 @@ def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Gen
     if pivot is None:  # the table centre, low in Z, where the whole hemisphere is reachable
         q_mid = (machine.lower + machine.upper) / 2
         q_mid[3:] = 0.0
-        pivot = machine.tool_tip(q_mid[None], tool)[0] - np.array([0.0, 0.0, 0.35 * radius])
+        pivot = machine.tool_tip(q_mid[None], tool, frame="base")[0] - np.array([0.0, 0.0, 0.35 * radius])
     out = []
     for _ in range(200):
         m = 4 * n
@@ -161,7 +254,7 @@ def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Gen
         for a in machine.axes[3:]:
             span = min(a.upper, np.radians(40)) - max(a.lower, -np.radians(40))
             q[:, a.index] = max(a.lower, -np.radians(40)) + rng.random(m) * span
-        offset = machine.tool_tip(q, tool)  # tip with the linear axes at zero
+        offset = machine.tool_tip(q, tool, frame="base")  # tip with the linear axes at zero
         q[:, :3] = p - offset
         ok = np.all((q >= machine.lower) & (q <= machine.upper), axis=1)
         out += list(q[ok])
@@ -217,23 +310,25 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         if len(qs) != len(tool) or qs.shape[1:] != (machine.n_axes,):
             raise VecpinError("a plan gives one command per row (N, n axes) and one tool length per row")
         tools = tool[:1]  # the validation run uses the plan's first holder
+        rows, nests, targets = Rows.tips(qs, tool), {}, {}
     else:
         q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
-        qs = np.vstack([q] * len(tools))
-        tool = np.repeat(tools, len(q))
+        rows, nests, targets = design_rows(machine, design, q, tools, seed)
     if plan is None and design.repeat_points and design.repeat_times:
         pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]
         seqs = [pick[rng.permutation(len(pick))] for _ in range(design.repeat_times)]
-        qs = np.vstack([qs] + seqs)
-        tool = np.r_[tool, np.full(len(pick) * design.repeat_times, tools[0])]
+        rows = rows + Rows.tips(np.vstack(seqs), np.full(len(pick) * design.repeat_times, tools[0]))
+    qs, tool = rows.q, rows.tool
     t = measurement_times(qs, machine, design)
     extra = {"time": t, "temperature": workshop_temperature(t, rng)}
     feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
     if truth.effects:
         truth.calibrate_effects(qs, tool, feats)
-    campaign = Campaign(machine.axis_names, qs, tool, truth.measure(qs, tool, rng, feats), extra, f"simulated seed {seed}")
+    campaign = Campaign(machine.axis_names, qs, tool, rows.measure(truth, rng, feats), extra, f"simulated seed {seed}",
+                        rows.instrument.copy(), point=rows.point.copy(), target=rows.target.copy(),
+                        targets=dict(targets) if design.known_targets else {})
     if design.stations > 1 or design.ballbar_points:
-        campaign = _more_instruments(campaign, truth, design, rng, seed)
+        campaign = _more_instruments(campaign, rows, truth, design, rng, seed)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
     tv = np.full(len(qv), tools[0])
     times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)
@@ -256,4 +351,4 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         comp_exact = Campaign(machine.axis_names, qv, tv, truth.measure(qc, tv, None, feats_c), dict(extra_c),
                               f"simulated seed {seed}, validation with the tables, noise-free")
     truth.effects = all_effects
-    return Simulation(truth, campaign, validation, exact, comp, comp_exact)
+    return Simulation(truth, campaign, validation, exact, comp, comp_exact, nests, targets)

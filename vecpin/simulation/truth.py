@@ -69,23 +69,59 @@ class SimulatedMachine:
     stations: list
     effects: list
 
-    def geometric_tip(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(tip (N,3) [m], unit tool direction (N,3)) in the machine base frame for
-        commands q (N,n) [m, rad] and tool lengths (N,) [m] from the nominal gauge line."""
+    def geometric_tip(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
+                      offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(tip (N,3) [m], unit tool direction (N,3)) for commands q (N,n) [m, rad] and
+        tool lengths (N,) [m] from the nominal gauge line: in the machine base frame, or
+        relative to the true workpiece frame (``frame="workpiece"``); tool point
+        ``point`` (index or (N,) indices), target ``offset`` (3,) or (N,3) [m] in the tool
+        link frame."""
         raise NotImplementedError
 
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None) -> np.ndarray:
-        """Noise-free true tool tip (N,3) [m], machine base frame. Geometric effects (a
-        skew, coupled axes) are part of the machine and always act; row-dependent ones
-        (thermal, backlash) act when ``features`` (time, temperature, move order) are given."""
+    def geometric_workpiece_points(self, q: np.ndarray, p_wp: np.ndarray) -> np.ndarray:
+        """(N,3) [m] points fixed at p_wp (3,) or (N,3) [m] in the true workpiece frame, in
+        the base frame (a table nest); fixed in the base frame without a workpiece."""
+        raise NotImplementedError
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, features=None, *, frame: str = "base", point=0,
+                 offset: np.ndarray | None = None) -> np.ndarray:
+        """Noise-free true tool tip (N,3) [m] in the base frame (or relative to the
+        workpiece). Geometric effects (a skew, coupled axes) are part of the machine and
+        always act; row-dependent ones (thermal, backlash) act when ``features`` (time,
+        temperature, move order) are given (tip effects act in the base frame)."""
         q = np.atleast_2d(np.asarray(q, float))
         active = [e for e in self.effects if features is not None or e.geometric]
         for e in active:
             q = q + e.simulate_command(q, features)
-        tip, tool_dir = self.geometric_tip(q, np.broadcast_to(np.asarray(tool, float), (len(q),)))
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
+        tip_effects = any(type(e).simulate_tip is not _base_simulate_tip(e) for e in active)
+        relative = frame == "workpiece" and self.machine.has_workpiece
+        if relative and tip_effects:  # effects act on the base-frame tip: move it there, then relative
+            tip, tool_dir = self.geometric_tip(q, tool, frame="base", point=point, offset=offset)
+            for e in active:
+                tip = e.simulate_tip(q, tip, tool_dir, features)
+            R, o = self.workpiece_frame(q)
+            return np.einsum("pji,pj->pi", R, tip - o)
+        tip, tool_dir = self.geometric_tip(q, tool, frame=frame, point=point, offset=offset)
         for e in active:
             tip = e.simulate_tip(q, tip, tool_dir, features)
         return tip
+
+    def workpiece_frame(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(R (N,3,3), origin (N,3)) of the true workpiece frame in the base frame (from
+        four of its points: the frame is rigid)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        o = self.geometric_workpiece_points(q, np.zeros(3))
+        R = np.stack([self.geometric_workpiece_points(q, e) - o for e in np.eye(3)], axis=-1)
+        return R, o
+
+    def workpiece_points(self, q: np.ndarray, p_wp: np.ndarray, features=None) -> np.ndarray:
+        """True points fixed in the workpiece frame (N,3) [m], base frame, with the command
+        effects (geometric ones always, row-dependent ones when ``features`` are given)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        for e in [e for e in self.effects if features is not None or e.geometric]:
+            q = q + e.simulate_command(q, features)
+        return self.geometric_workpiece_points(q, p_wp)
 
     def measure_radius(self, q: np.ndarray, tool: np.ndarray, pivot: np.ndarray, sigma: float,
                        rng: np.random.Generator | None) -> np.ndarray:
@@ -97,16 +133,22 @@ class SimulatedMachine:
         return r if rng is None else r + rng.normal(0, sigma, len(r))
 
     def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
-                features=None, station: int = 0) -> np.ndarray:
+                features=None, station: int = 0, *, point=0, offset: np.ndarray | None = None,
+                nest: np.ndarray | None = None) -> np.ndarray:
         """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
         true kinematics (with the simulated effects when ``features`` are given), the
         tracker pose, tracker noise in spherical coordinates and gross errors.
-        ``rng=None``: noise-free (and no gross errors)."""
+        ``rng=None``: noise-free (and no gross errors). The point read is the tool tip
+        of tool point ``point`` with target ``offset`` [m] (tool link frame), or, with
+        ``nest`` (3,) or (N,3) [m], a reflector fixed at that position in the workpiece
+        frame."""
         q = np.atleast_2d(np.asarray(q, float))
         if rng is not None:
             q = q + rng.standard_normal(q.shape) * self.repeatability
         tracker = self.tracker if station == 0 else self.stations[station - 1]
-        y = tracker.to_tracker(self.tool_tip(q, tool, features))
+        p = (self.workpiece_points(q, nest, features) if nest is not None
+             else self.tool_tip(q, tool, features, point=point, offset=offset))
+        y = tracker.to_tracker(p)
         if features is not None:
             for e in self.effects:
                 y = e.simulate_tracker(y, features)
@@ -137,7 +179,8 @@ class SimulatedMachine:
 class TrueMachine(SimulatedMachine):
     """Ground truth for simulated campaigns (SI inside).
 
-    errors[k][c]: error function of axis k, component c in :data:`COMPONENTS`;
+    errors[k][c]: error function of slot k (the axes, then mimic joints: :func:`error_slots`),
+    component c in :data:`COMPONENTS`;
     perturbations[i][j]: optional axis perturbation f_ij (input i, output j), the
     AP form of error (eq. 7-8), applied to the commands before the 6-DoF chain;
     harmonics[k]: the harmonic frequencies axis k's functions use (the family);
@@ -164,13 +207,16 @@ class TrueMachine(SimulatedMachine):
         return self._frames
 
     def error_values(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """delta (N,n,3) [m] and eps (N,n,3) [rad] of every axis at commands q."""
+        """delta (N,S,3) [m] and eps (N,S,3) [rad] of every slot (axes, then mimic joints,
+        each a function of its driving axis) at commands q."""
         q = np.atleast_2d(q)
-        N, n = q.shape
-        vals = np.zeros((N, n, 6))
-        for k, a in enumerate(self.machine.axes):
+        slots = error_slots(self.machine)
+        vals = np.zeros((len(q), len(slots), 6))
+        for k, (_, a, _) in enumerate(slots):
+            if k >= len(self.errors):
+                break
             for c in range(6):
-                vals[:, k, c] = self.errors[k][c](q[:, k], a.lower, a.upper, a.kind == "rotary")
+                vals[:, k, c] = self.errors[k][c](q[:, a.index], a.lower, a.upper, a.kind == "rotary")
         return vals[..., :3], vals[..., 3:]
 
     def perturbed(self, q: np.ndarray) -> np.ndarray:
@@ -194,24 +240,31 @@ class TrueMachine(SimulatedMachine):
         return [AxisBasis(a.lower, a.upper, order, "chebyshev", tuple(h), a.kind == "rotary")
                 for a, h in zip(self.machine.axes, harm)]
 
-    def geometric_tip(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def geometric_tip(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
+                      offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Tip and tool direction of the 6-DoF error chain after the axis perturbations."""
-        q = self.perturbed(q)
+        q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
         delta, eps = self.error_values(q)
-        out = self.frames.tool_tip(q, delta, eps, tool + self.gauge_error, jacobian=False)
+        out = self.frames.tool_tip(q, delta, eps, np.asarray(tool, float) + self.gauge_error, jacobian=False,
+                                   frame=frame, point=point, offset=offset)
         return out.tip, out.tool_dir
+
+    def geometric_workpiece_points(self, q: np.ndarray, p_wp: np.ndarray) -> np.ndarray:
+        q = self.perturbed(np.atleast_2d(np.asarray(q, float)))
+        delta, eps = self.error_values(q)
+        return self.frames.workpiece_points(q, delta, eps, p_wp, jacobian=False).xyz
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
         axes = {}
-        for k, a in enumerate(self.machine.axes):
+        for k, (name, a, _) in enumerate(error_slots(self.machine)):
             comp = {}
-            for c, name in enumerate(COMPONENTS):
+            for c, cname in enumerate(COMPONENTS):
                 f = self.errors[k][c]
                 s = 1e3 if c < 3 else 180 / math.pi
-                comp[name] = {"chebyshev": [v * s for v in f.chebyshev],
-                              "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
-            axes[a.name] = comp
+                comp[cname] = {"chebyshev": [v * s for v in f.chebyshev],
+                               "harmonics": [[w, x * s, y * s] for w, x, y in f.harmonics]}
+            axes[name] = comp
         return {"format": "vecpin-truth", "version": 1, "machine": self.machine.name,
                 "units": {"dx dy dz": "mm", "ex ey ez": "deg", "gauge_error": "mm", "repeatability": "mm or deg"},
                 "axis_errors": axes, "gauge_error": self.gauge_error * MM_PER_M,
@@ -239,11 +292,11 @@ class TrueMachine(SimulatedMachine):
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "TrueMachine":
         errors = []
-        for a in machine.axes:
+        for slot, _, _ in error_slots(machine):
             row = []
             for c, name in enumerate(COMPONENTS):
                 s = 1e-3 if c < 3 else math.pi / 180
-                e = d["axis_errors"][a.name][name]
+                e = d["axis_errors"].get(slot, {}).get(name, {"chebyshev": [], "harmonics": []})
                 row.append(ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]]))
             errors.append(row)
         rep = np.array([float(a.to_si(d["repeatability"][a.name])) for a in machine.axes])
@@ -283,18 +336,19 @@ class TrueMachine(SimulatedMachine):
         um, urad = 1e-6, 1e-6
         n = machine.n_axes
         harmonics = [(float(rng.uniform(0.5, 1.5)),) if a.kind == "linear" else (1.0, 2.0) for a in machine.axes]
-        errors = [[ErrorFunction() for _ in range(6)] for _ in machine.axes]
+        slots = error_slots(machine)
+        errors = [[ErrorFunction() for _ in range(6)] for _ in slots]
         perturbations = None
         if family == "6dof":
-            for k, a in enumerate(machine.axes):
-                along = int(np.argmax(np.abs(a.direction)))
+            for k, (_, a, direction) in enumerate(slots):
+                along = int(np.argmax(np.abs(direction)))
                 for c in range(6):
                     if a.kind == "linear":
                         s = 50 * um if c < 3 else 30 * urad
                         cheb = rng.normal(size=5) * s / (1 + np.arange(5)) ** 1.5
                         if c == along:
                             cheb[1] += rng.choice([-1, 1]) * 100 * um  # scale (pitch) error dominates positioning
-                        w = harmonics[k][0]
+                        w = harmonics[a.index][0]
                         harm = [(w, rng.normal() * s / 2, rng.normal() * s / 2)]
                     elif c < 3:  # location offset (constant in the moving frame: eccentric circle) and runout
                         cheb = [rng.normal() * (150 * um if c != along else 50 * um)]
@@ -326,9 +380,9 @@ class TrueMachine(SimulatedMachine):
         # scale to the requested mean volumetric error (errors are small: nearly linear)
         q = uniform_commands(machine, 400, rng)
         tool = rng.uniform(0.15, 0.35, len(q))
-        nominal = machine.tool_tip(q, tool)
+        nominal = machine.tool_tip(q, tool, frame="workpiece")  # the error that matters: tool vs part
         for _ in range(3):
-            mean = np.linalg.norm(raw.tool_tip(q, tool) - nominal, axis=1).mean()
+            mean = np.linalg.norm(raw.tool_tip(q, tool, frame="workpiece") - nominal, axis=1).mean()
             s = mean_error_mm * M_PER_MM / mean
             raw.errors = [[f.scaled(s) for f in row] for row in raw.errors]
             if raw.perturbations:
@@ -337,6 +391,21 @@ class TrueMachine(SimulatedMachine):
         rep = np.array([repeatability_mm * M_PER_MM if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
         tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
         return cls(machine, raw.errors, gauge, rep, tracker, raw.perturbations, harmonics)
+
+
+def error_slots(machine: Machine) -> list[tuple[str, object, tuple]]:
+    """(joint name, driving axis, joint direction) of every error transform: the axes,
+    then the mimic joints (a mirrored head's slides are parts of their own)."""
+    out = [(a.name, a, a.direction) for a in machine.axes]
+    for mj in machine.mimic_joints:
+        out.append((mj.name, machine.axis(mj.axis), tuple(machine.tree.joints[mj.name].axis)))
+    return out
+
+
+def _base_simulate_tip(effect):
+    """The base class' simulate_tip (no tip effect), to tell which effects move the tip."""
+    from vecpin.models.effects.base import Effect
+    return Effect.simulate_tip
 
 
 def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -350,7 +419,7 @@ def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNois
     on the floor level of the workspace, with a random heading and a tilt below 2°.
     ``side`` [rad] turns the stand position about the workspace centre (other stations)."""
     q = uniform_commands(machine, 200, rng)
-    tips = machine.tool_tip(q, 0.25)
+    tips = np.vstack([machine.tool_tip(q, 0.25, frame="base", point=k) for k in range(len(machine.tool_links))])
     lo, hi = tips.min(axis=0), tips.max(axis=0)
     centre = (lo + hi) / 2
     position = np.array([centre[0] + rng.uniform(-0.2, 0.2) * (hi[0] - lo[0]), lo[1] - distance_m,

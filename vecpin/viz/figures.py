@@ -275,8 +275,8 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     handles, labels = axs[0].get_legend_handles_labels()
     ax = axs[-1]
     L = float(plan.tools[0])
-    tips = m.tool_tip(plan.commands, L) * MM_PER_M
-    lt = m.tool_tip(plan.candidates[los], L) * MM_PER_M if len(los) else np.zeros((0, 3))
+    tips = m.tool_tip(plan.commands, L, frame="base") * MM_PER_M
+    lt = m.tool_tip(plan.candidates[los], L, frame="base") * MM_PER_M if len(los) else np.zeros((0, 3))
     ax.scatter(lt[:, 0], lt[:, 1], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.6)
     ax.scatter(tips[:, 0], tips[:, 1], s=12, color="tab:blue", edgecolor="k", lw=0.3)
     tr = plan.tracker * MM_PER_M

@@ -66,8 +66,8 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.n
     measured = to_machine_frame(model, c.xyz)
     residual = measured - model.predict(c.q, c.tool, "machine", features=feats)
     comp = model.predict(tables.apply(c.q), c.tool, "machine", features=feats) - \
-        m.tool_tip(c.q, c.tool + tables.gauge_offset_change)
-    nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change)
+        m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
+    nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
     return norm_mm(registered_errors(nominal, nominal + residual + comp))
 
 
@@ -158,7 +158,7 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
         say("compensated errors at the measured points")
         judged = validation.primary() if validation is not None else campaign.primary()
         where = "validation" if validation is not None else "identification"
-        comp = {"uncompensated": norm_mm(registered_errors(m.tool_tip(judged.q, judged.tool), judged.xyz))}
+        comp = {"uncompensated": norm_mm(registered_errors(m.tool_tip(judged.q, judged.tool, frame="base"), judged.xyz))}
         for lab, mod, plan in zip(labels, models, plans):
             comp[f"{lab} tables"] = predicted_compensated(mod, plan.tables, judged)
         figures.residual_histograms(comp, fig("histogram_compensated.png"),

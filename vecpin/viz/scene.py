@@ -142,7 +142,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     row = min(row, len(campaign) - 1)
     vis.delete()
     _machine_geometry(vis, m, campaign.q[row])
-    nominal = m.tool_tip(campaign.q, campaign.tool)
+    nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
     identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
     measured = to_machine_frame(model, campaign.xyz)
     err = measured - nominal

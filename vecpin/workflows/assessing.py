@@ -162,7 +162,7 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
                          "(--mean-error, --long-term)")
     group, _ = repeat_groups(c)
     _, first = np.unique(group, return_index=True)
-    err = norm_mm(registered_errors(machine.tool_tip(c.q, c.tool), c.xyz))[np.sort(first)]
+    err = norm_mm(registered_errors(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz))[np.sort(first)]
     short, long = stats["short"], stats["long"]
     rep, kind = (long.mean, "long-term") if long is not None else (short.mean, "short-term (no long-term repeats: "
                                                                                  "optimistic)")

@@ -44,13 +44,20 @@ class Evaluation:
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
 
 
-def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False) -> Evaluation:
-    """Judge ``model`` on ``campaign`` (its station-0 tracker rows). ``reregister``: the
-    tracker was moved, so its pose is fitted to this campaign first."""
+def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zone=None) -> Evaluation:
+    """Judge ``model`` on ``campaign`` (its station-0 tracker rows; of those commanded in
+    ``zone`` {axis: (low, high)} mm/deg when given). ``reregister``: the tracker was
+    moved, so its pose is fitted to this campaign first."""
+    if zone:
+        from vecpin.workflows.fitting import zone_rows
+        campaign = zone_rows(model.machine, campaign, zone)
     c = campaign.primary()
-    if reregister:
-        d_nom = norm_mm(registered_errors(model.machine.tool_tip(c.q, c.tool), c.xyz))
-    else:
-        d_nom = norm_mm(c.xyz - model.predict_nominal(c.q, c.tool))
+    if c.plain:
+        nominal = model.machine.tool_tip(c.q, c.tool, frame="base")
+        d_nom = (norm_mm(registered_errors(nominal, c.xyz)) if reregister
+                 else norm_mm(c.xyz - model.predict_nominal(c.q, c.tool)))
+    else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
+        res = model.nominal_residuals(c)
+        d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))

@@ -3,16 +3,23 @@
 With no model options the kind, the basis of every axis and the order are chosen by
 held-out data (:func:`vecpin.selection.choice.choose_model`); ``kind``, ``basis`` and
 ``order`` fix any of them. The chosen model is then fitted by maximum likelihood and
-carries the choice (``selection_``, written into its model file)."""
+carries the choice (``selection_``, written into its model file).
+
+A *zone* (``zone``: {axis: (low, high)} mm/deg, Section 2.6's East/West) restricts the
+fit to the rows commanded inside it: a machine calibrated in zones gets one model (and
+one table set) per zone, each recording its zone.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable
 
+from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel
+from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
 
 
@@ -20,13 +27,29 @@ from vecpin.selection.choice import ModelChoice, choose_or_fix
 class FitRun:
     model: ErrorModel
     choice: ModelChoice | None
+    rows_in_zone: int | None = None  # rows the zone kept (None: no zone)
+    rows: int = 0                    # rows of the campaign
+
+
+def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "--zone") -> Campaign:
+    """The rows of ``campaign`` commanded inside ``zone`` (refused when too few remain)."""
+    keep = inside(machine, campaign.q, [zone])
+    need = min_rows(machine.n_axes)
+    if keep.sum() < need:
+        text = ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
+        raise InputError(f"{option} {text}: only {int(keep.sum())} of the {len(campaign)} rows of {campaign.source} "
+                         f"lie in the zone; a fit needs at least {need}")
+    return campaign.subset(keep)
 
 
 def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
-                 prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5,
+                 prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
                  progress: Callable[[str], None] | None = None) -> FitRun:
-    """Choose (where not fixed) and fit the model of ``campaign``."""
+    """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``)."""
+    rows = len(campaign)
+    if zone:
+        campaign = zone_rows(machine, campaign, zone)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
     model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
@@ -35,4 +58,6 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)
     if choice is not None:
         model.selection_ = choice.to_dict()
-    return FitRun(model, choice)
+    if zone:
+        model.zone_ = dict(zone)
+    return FitRun(model, choice, len(campaign) if zone else None, rows)

@@ -27,11 +27,13 @@ class SimulationRun:
         m = sim.truth.machine
         full = sim.campaign
         c = full.primary()  # the summary: station 0's tracker rows
-        nominal = m.tool_tip(c.q, c.tool)
-        true_tip = sim.truth.tool_tip(c.q, c.tool)
+        offset = np.array([sim.targets.get(t, np.zeros(3)) for t in c.target]) if sim.targets else None
+        nominal = m.tool_tip(c.q, c.tool, frame="base", point=c.point, offset=offset)
+        true_tip = sim.truth.tool_tip(c.q, c.tool, point=c.point, offset=offset)
         more = ""
         if full.mixed:
-            more = (f" + {len(full) - len(c)} rows of {design.stations - 1} more stations and "
+            more = (f" + {len(full) - len(c)} rows: {design.stations - 1} more stations, "
+                    f"{full.nest_rows.size} table nest rows ({len(sim.nests)} nests), "
                     f"{full.ballbar_rows.size} ball bar rows")
         dist = np.linalg.norm(c.xyz, axis=1)
         what = (f"the plan's rows in its order, holders {', '.join(f'{t * MM_PER_M:g}' for t in c.tool_lengths())} mm"
@@ -39,15 +41,22 @@ class SimulationRun:
                 f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
                f"{len(sim.validation)} validation rows",
-               error_summary("true vs nominal tip (machine frame)", (true_tip - nominal) * MM_PER_M),
+               error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M),
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
+        if m.has_workpiece:
+            rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
+            out.append(error_summary("true vs nominal tip relative to the workpiece", registered_errors(
+                m.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset), rel) * MM_PER_M))
+        if sim.targets:
+            out.append("  tool targets (true offsets, tool link frame, mm): " + "; ".join(
+                f"{k} " + ", ".join(f"{v * MM_PER_M:.3f}" for v in o) for k, o in sim.targets.items()))
         if sim.compensated is not None:
             v, cv = sim.validation, sim.compensated
             out.append(error_summary("validation run, uncompensated", registered_errors(
-                m.tool_tip(v.q, v.tool), v.xyz) * MM_PER_M))
+                m.tool_tip(v.q, v.tool, frame="base"), v.xyz) * MM_PER_M))
             out.append(error_summary("validation run through the tables", registered_errors(
-                m.tool_tip(cv.q, cv.tool + self.gauge_change), cv.xyz) * MM_PER_M))
+                m.tool_tip(cv.q, cv.tool + self.gauge_change, frame="base"), cv.xyz) * MM_PER_M))
         out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
         return out
 

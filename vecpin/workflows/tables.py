@@ -9,6 +9,7 @@ as the controller will hold them, and the sign test predicts from them.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -19,7 +20,7 @@ from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import InputError
-from vecpin.export import generic
+from vecpin.export import drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import get_format
@@ -107,13 +108,16 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                 profile: ControllerProfile | str | Path | None = None, axis_map: dict | None = None,
                 max_tables: int | None = None, no_circular: bool = False, forbid_output=(), method: str = "exact",
                 points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
-                sign_test: str | None = None, uncertainty: bool = True,
+                sign_test: str | None = None, uncertainty: bool = True, zone=None,
                 progress: Callable[[str], None] | None = None) -> TableRun:
     """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
 
     ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
     names that win over the profile's; ``sign_test``: an axis (its pitch table) or a
-    table name for which to write a sign-test program."""
+    table name for which to write a sign-test program; ``zone``: {axis: (low, high)}
+    mm/deg, the region the tables are fitted in (default: the model's zone). A profile
+    axis with a following drive gets its tables for both drives, and a gantry skew of
+    the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
     fmt, prof, limits = resolve(controller, m, profile, axis_map)
     limits.points(points)                                 # before any heavy work
@@ -122,7 +126,9 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
     if max_tables is not None:
         limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
-    fmt.check(m, prof, limits, modulo)
+    _, xm, xprof = drives.expand(TableSet(m.axis_names, []), m, prof)  # the writers' view: drives as axes
+    fmt.check(xm, xprof, limits, modulo)
+    zone = model_zone(model) if zone is None else zone
     if sign_test is not None:
         if fmt.read is None:
             raise InputError(f"--sign-test: {controller} writes no tables a controller applies")
@@ -136,37 +142,91 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         q = commands.q
         if tools_mm is None:
             tools_mm = [float(t * MM_PER_M) for t in commands.tool_lengths()]
-    plan = plan_tables(model, limits, max_tables=max_tables, no_circular=no_circular or None,
+    notes: list[str] = []
+    differential, taken = {}, []
+    if drives.twin_axes(prof):
+        differential, taken, dnotes = drives.skew_differential(model, prof, limits.points(points))
+        notes += dnotes
+    planned = _without(model, taken)
+    plan = plan_tables(planned, limits, max_tables=max_tables, no_circular=no_circular or None,
                        forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
                        modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
-                       progress=progress)
+                       zone=zone, progress=progress)
     if progress:
         progress(f"writing the {controller} files")
-    notes: list[str] = []
     as_written = None
     st = None
+    xtables, xm, xprof = drives.expand(plan.tables, m, prof, differential)
     with OutputSet(out_dir) as out:
-        job = ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes)
+        job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes)
         names = fmt.write(job) if fmt.name != "generic" else []
-        names += generic.write(job)
+        names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes))
+        if xm is not m:
+            names += drives_readme(out, xtables, xm, prof, differential)
         if fmt.read is not None:
             stage = out.path(names[0]).parent
-            as_written = fmt.read(stage, m, prof)
+            as_written = drives.fold(fmt.read(stage, xm, xprof), m, prof)
             as_written.gauge_offset_change = plan.tables.gauge_offset_change
+        if zone:
+            notes.append("zone " + zone_text(zone) + ": tables fitted to the model in this region only (load them "
+                         "when the machine works there)")
         if sign_test is not None:
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
             names += write_sign_test(out, st, fmt.dialect, prof, notes)
     if as_written is not None and fmt.name != "generic":
-        add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
+        add_as_written_row(plan, planned, as_written, "files as written (model-predicted)")
         if any(abs(c) > 0 for c in job.constants.values()):
             shifted = TableSet(as_written.axis_names, [
                 CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
                                   t.values + (job.constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
                 for t in as_written.tables], as_written.gauge_offset_change)
-            add_as_written_row(plan, model, shifted, "files + reference shifts (model-predicted)")
+            add_as_written_row(plan, planned, shifted, "files + reference shifts (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
+
+
+def model_zone(model) -> dict | None:
+    """The zone a model was fitted in ({axis: (low, high)} mm/deg), or None."""
+    return getattr(model, "zone_", None)
+
+
+def zone_text(zone: dict) -> str:
+    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
+
+
+def _without(model: ErrorModel, effects: list) -> ErrorModel:
+    """The model with these effects' parameters at zero (what the other tables carry once
+    the drives take a gantry skew)."""
+    if not effects:
+        return model
+    out = copy.copy(model)
+    b = model.b_.copy()
+    for e, sl in model.effect_slices():
+        if any(e is t for t in effects):
+            b[sl] = 0.0
+    out.b_ = b
+    return out
+
+
+def drives_readme(out: OutputSet, tables: TableSet, xm, prof: ControllerProfile, differential: dict) -> list[str]:
+    """``DRIVES.md`` and ``tables_drives.csv``: which tables go to which drive of a twin-drive axis."""
+    lines = ["# Twin-drive axes", "",
+             "Every table that corrects a twin-drive axis is loaded for both drives (seed Section 2.5: 30 tables "
+             "on the Master Mill). `tables_drives.csv` lists them per drive (mm/deg); `tables.json` keeps the "
+             "machine's axes (the mean of the drives).", ""]
+    for f, a in xm.leading.items():
+        lead, fol = prof.axis(a), prof.axis(a).following
+        names = [t.name for t in tables.tables if t.output_axis in (a, f)]
+        lines.append(f"- {a}: leading drive {lead.nc_name or lead.general_name or lead.number or a}, following "
+                     f"drive {fol.nc_name or fol.general_name or fol.number or f} ({f}); {len(names)} tables: "
+                     + " ".join(names))
+        if a in differential:
+            lines.append("  - gantry skew as a differential between the drives (leading +, following -) from "
+                         + ", ".join(t.input_axis for t in differential[a]) + "; already added to the tables above")
+    out.write_text("DRIVES.md", "\n".join(lines) + "\n")
+    tables.save_csv(out.path("tables_drives.csv"), xm)
+    return ["DRIVES.md", "tables_drives.csv"]
 
 
 def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> SignVerdict:

@@ -117,7 +117,7 @@ def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.
     """Distances [mm] of the measured points from the commanded positions (nominal tool
     length + ``gauge_change`` [m]) after the run's own best-fit rigid motion."""
     c = campaign.primary()
-    return norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + gauge_change), c.xyz))
+    return norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + gauge_change, frame="base"), c.xyz))
 
 
 def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None = None,
@@ -142,11 +142,11 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         actual = model_as_actual(model)
         before_run.predicted = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
         comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
-        ref = machine.tool_tip(a.q, a.tool + dT)
+        ref = machine.tool_tip(a.q, a.tool + dT, frame="base")
         if same:
             # plus what the model does not describe: its residual on the uncompensated run (machine frame)
             from vecpin.measurement.registration import register
-            R, t = register(machine.tool_tip(b.q, b.tool), b.xyz)
+            R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
             feats = None
             if model.effects:
                 from vecpin.measurement.features import Features

@@ -33,7 +33,8 @@ class BallBar(Instrument):
         return [f"pivot{k}.{c}" for c in "xyz"]
 
     def priors(self, names: list[str]) -> np.ndarray:
-        return np.full(len(names), PIVOT_PRIOR)
+        from vecpin.measurement.instruments.points import POINT_PRIOR
+        return np.array([POINT_PRIOR if n.startswith("target") else PIVOT_PRIOR for n in names])
 
     def equations(self, campaign, rows, p, setup, u, tracker_terms=None) -> Equations:
         k = int(campaign.pivot[rows[0]])

@@ -12,9 +12,15 @@ into one (N, 3) array), each with
 * a *metric* residual in metres (a point difference, a range or a radius) that
   reports and cross-validation quote.
 
-The likelihood (:mod:`vecpin.identification.likelihood`) adds the machine's own
-positioning noise, whitens and stacks them. To add an instrument, write one module
-with a subclass of :class:`Instrument` and decorate it with :func:`register`.
+An instrument also says which machine point its rows measure (:meth:`Instrument.request`,
+a :class:`~vecpin.measurement.instruments.points.PointRequest`): a point on the tool
+(the tip, or a target off the tool axis) or a point fixed on the table (a nest), with
+the unknowns of that point (target offsets, nest positions) named after its own.
+
+The likelihood (:mod:`vecpin.identification.likelihood`) asks the model for those
+points, adds the machine's own positioning noise, whitens and stacks the equations.
+To add an instrument, write one module with a subclass of :class:`Instrument` and
+decorate it with :func:`register`.
 """
 from __future__ import annotations
 
@@ -85,8 +91,16 @@ class Instrument:
         """Names of the block's own unknowns; sets their starting values in ``setup``."""
         return []
 
+    def request(self, campaign, rows: np.ndarray, setup):
+        """(PointRequest, names of the point's unknowns): the points the rows measure.
+        Default: the tool tip (or a tool target) of the row's tool point."""
+        from vecpin.measurement.instruments.points import tool_request
+        return tool_request(campaign, rows, setup, 0)
+
     def equations(self, campaign, rows: np.ndarray, p: np.ndarray, setup, u: np.ndarray,
                   tracker_terms=None) -> Equations:
+        """Equations of the rows given the predicted machine-frame points p (n,3) and the
+        block's own unknowns u (those :meth:`unknowns` named)."""
         raise NotImplementedError
 
     def pad(self, n: int) -> dict:

@@ -37,7 +37,9 @@ class TrackerInstrument(Instrument):
         return [f"station{s}.{c}" for c in POSE_NAMES]
 
     def priors(self, names: list[str]) -> np.ndarray:
-        return np.full(len(names), POSE_PRIOR)
+        """Pose corrections: POSE_PRIOR; target offsets and nest positions: POINT_PRIOR."""
+        from vecpin.measurement.instruments.points import POINT_PRIOR
+        return np.array([POINT_PRIOR if n.startswith(("target", "nest")) else POSE_PRIOR for n in names])
 
     def observe(self, x: np.ndarray, y: np.ndarray):
         """(r (n,k), H = dr/dy sign-free d h/d y (n,k,3), S (n,k,k)) for readings x and

@@ -1,9 +1,11 @@
-"""A second reader of a machine's URDF: the serial chain as vectorised 4x4 transforms.
+"""A second reader of a machine's URDF: its branches as vectorised 4x4 transforms.
 
 Written without Pinocchio (and without vecpin's kinematics) so a simulated true
 machine does not share code with the models it judges: the URDF is parsed with the
-standard XML library, each joint becomes ``origin (xyz, rpy) @ motion(q)`` and the
-chain is multiplied out for N poses at once as (N,4,4) arrays. URDF conventions
+standard XML library, each joint becomes ``origin (xyz, rpy) @ motion(q)`` and each
+path from the root link (to the tool links, to the workpiece link of a table machine)
+is multiplied out for N poses at once as (N,4,4) arrays; a ``<mimic>`` joint follows
+its source (``multiplier * q + offset``, the URDF specification). URDF conventions
 (ROS REP 103 / the URDF joint specification): ``rpy`` is roll about x, then pitch
 about y, then yaw about z, all about the fixed parent axes, so R = Rz(yaw) Ry(pitch)
 Rx(roll); a revolute joint turns about its unit ``axis`` (default x) by q [rad],
@@ -67,37 +69,62 @@ def error_transform(delta: np.ndarray, eps: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ChainJoint:
-    """One joint on the base -> spindle path: ``origin`` (4,4) parent -> joint frame,
-    ``kind`` "fixed", "prismatic" or "revolute", unit ``axis`` in the joint frame."""
+    """One joint on a path from the base: ``origin`` (4,4) parent -> joint frame,
+    ``kind`` "fixed", "prismatic" or "revolute", unit ``axis`` in the joint frame;
+    ``mimic``: (source joint, multiplier, offset) for a joint that follows another."""
 
     name: str
     kind: str
     origin: np.ndarray
     axis: np.ndarray
+    mimic: tuple[str, float, float] | None = None
 
 
 class URDFChain:
-    """The base -> ``spindle`` chain of a URDF as 4x4 transforms (SI, base frame).
+    """The URDF's paths from the root link to the tool links and the workpiece, as 4x4
+    transforms (SI, base frame).
 
-    ``axis_names``: actuated joints in chain order (the columns of every q array)."""
+    ``tool_links``: the links whose origin the tool hangs from (default ``spindle``);
+    ``tool_axis`` (3,): the tool direction in those links (default -z); ``workpiece``:
+    the table frame link (default ``workpiece`` when the URDF has it); ``axis_names``:
+    the column order of every q array (default: the actuated joints on the paths in path
+    order, tool links first). A ``<mimic>`` joint moves by ``multiplier * q_source +
+    offset``; joints on no path are ignored (fixed)."""
 
-    def __init__(self, urdf_xml: str, source: str = "<string>"):
+    def __init__(self, urdf_xml: str, source: str = "<string>", *, tool_links=(SPINDLE_LINK,),
+                 tool_axis=(0.0, 0.0, -1.0), workpiece: str | None = "workpiece", axis_names=None):
         try:
             robot = ET.fromstring(urdf_xml)
         except ET.ParseError as exc:
             raise MachineError(f"{source}: not readable XML ({exc})") from None
-        by_child = {}
-        for j in robot.findall("joint"):
-            by_child[j.find("child").get("link")] = j
-        joints, link = [], SPINDLE_LINK
-        while link in by_child:
-            j = by_child[link]
-            joints.append(j)
+        self._by_child = {j.find("child").get("link"): j for j in robot.findall("joint")}
+        links = {lk.get("name") for lk in robot.findall("link")}
+        self.tool_links = tuple(tool_links)
+        self.tool_axis = np.asarray(tool_axis, float)
+        self.workpiece = workpiece if workpiece in links else None
+        self.paths: dict[str, list[ChainJoint]] = {}
+        for link in self.tool_links + ((self.workpiece,) if self.workpiece else ()):
+            self.paths[link] = self._path(link, source)
+        order = []
+        for link in self.paths:
+            for j in self.paths[link]:
+                a = j.mimic[0] if j.mimic else j.name
+                if j.kind != "fixed" and a not in order:
+                    order.append(a)
+        self.axis_names = list(axis_names) if axis_names is not None else order
+        self._column = {a: k for k, a in enumerate(self.axis_names)}
+        self.joints = self.paths[self.tool_links[0]]  # the first tool link's chain
+
+    def _path(self, link: str, source: str) -> list[ChainJoint]:
+        raw = []
+        while link in self._by_child:
+            j = self._by_child[link]
+            raw.append(j)
             link = j.find("parent").get("link")
-        if not joints:
-            raise MachineError(f"{source}: no joint chain leads to the link '{SPINDLE_LINK}'")
-        self.joints: list[ChainJoint] = []
-        for j in reversed(joints):
+        if not raw:
+            raise MachineError(f"{source}: no joint chain leads to the link '{link}'")
+        out = []
+        for j in reversed(raw):
             kind = j.get("type")
             if kind not in ("fixed", "prismatic", "revolute"):
                 raise MachineError(f"{source}: joint '{j.get('name')}' of type '{kind}' is not a machine axis")
@@ -108,35 +135,54 @@ class URDFChain:
                 T[:3, 3] = [float(v) for v in o.get("xyz", "0 0 0").split()]
             a = j.find("axis")
             axis = np.array([float(v) for v in a.get("xyz").split()]) if a is not None else np.array([1.0, 0.0, 0.0])
-            self.joints.append(ChainJoint(j.get("name"), kind, T, axis / np.linalg.norm(axis)))
-        self.axis_names = [j.name for j in self.joints if j.kind != "fixed"]
+            m = j.find("mimic")
+            mimic = None if m is None else (m.get("joint"), float(m.get("multiplier", "1")), float(m.get("offset", "0")))
+            out.append(ChainJoint(j.get("name"), kind, T, axis / np.linalg.norm(axis), mimic))
+        return out
 
-    def spindle_pose(self, q: np.ndarray, errors: list[np.ndarray | None] | None = None) -> np.ndarray:
-        """(N,4,4) pose of the spindle (gauge-line) frame in the base frame for commands
-        q (N,n) [m, rad]. ``errors[k]``: (N,4,4) transform after axis k's motion, or None."""
+    def pose(self, link: str, q: np.ndarray, errors: dict | None = None) -> np.ndarray:
+        """(N,4,4) pose of ``link`` in the base frame for commands q (N,n) [m, rad].
+        ``errors[joint name]``: (N,4,4) transform right after that joint's motion."""
         q = np.atleast_2d(np.asarray(q, float))
         N = len(q)
         T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
-        k = 0
-        for j in self.joints:
+        for j in self.paths[link]:
             T = T @ j.origin
             if j.kind == "fixed":
                 continue
+            if j.mimic is None:
+                v = q[:, self._column[j.name]]
+            else:
+                v = j.mimic[1] * q[:, self._column[j.mimic[0]]] + j.mimic[2]
             M = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
             if j.kind == "revolute":
-                M[:, :3, :3] = rotation_about(j.axis, q[:, k])
+                M[:, :3, :3] = rotation_about(j.axis, v)
             else:
-                M[:, :3, 3] = q[:, k, None] * j.axis
+                M[:, :3, 3] = v[:, None] * j.axis
             T = T @ M
-            if errors is not None and errors[k] is not None:
-                T = T @ errors[k]
-            k += 1
+            if errors and errors.get(j.name) is not None:
+                T = T @ errors[j.name]
         return T
 
-    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, errors=None) -> tuple[np.ndarray, np.ndarray]:
+    def spindle_pose(self, q: np.ndarray, errors: list[np.ndarray | None] | None = None) -> np.ndarray:
+        """(N,4,4) pose of the first tool link; ``errors[k]``: transform after axis k."""
+        return self.pose(self.tool_links[0], q, self._by_axis(errors))
+
+    def _by_axis(self, errors):
+        if errors is None or isinstance(errors, dict):
+            return errors
+        return {a: e for a, e in zip(self.axis_names, errors)}
+
+    def tool_tip(self, q: np.ndarray, tool: np.ndarray | float, errors=None, *, point: int = 0,
+                 offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(tip (N,3) [m], unit tool direction (N,3)) in the base frame; the tool of
-        length ``tool`` [m] from the gauge line points along -z of the spindle frame."""
-        T = self.spindle_pose(q, errors)
-        u = -T[:, :3, 2]
+        length ``tool`` [m] points along ``tool_axis`` of tool link ``point``; ``offset``
+        (3,) or (N,3) [m] a further target offset in that link's frame. ``errors``: a
+        list per axis or a dict per joint name of (N,4,4) transforms."""
+        T = self.pose(self.tool_links[point], q, self._by_axis(errors))
+        u = T[:, :3, :3] @ self.tool_axis
         tool = np.broadcast_to(np.asarray(tool, float), (len(T),))
-        return T[:, :3, 3] + u * tool[:, None], u
+        tip = T[:, :3, 3] + u * tool[:, None]
+        if offset is not None:
+            tip = tip + np.einsum("pij,pj->pi", T[:, :3, :3], np.broadcast_to(np.asarray(offset, float), tip.shape))
+        return tip, u

@@ -60,7 +60,9 @@ class IndependentMachine(SimulatedMachine):
     @property
     def chain(self) -> URDFChain:
         if self._chain is None:
-            self._chain = URDFChain(self.machine.urdf_xml, self.machine.source)
+            m = self.machine  # which links and axis order: the machine's options; the kinematics: the chain's own
+            self._chain = URDFChain(m.urdf_xml, m.source, tool_links=m.tool_links, tool_axis=m.tool_axis,
+                                    workpiece=m.workpiece_link, axis_names=m.axis_names)
         return self._chain
 
     # ------------------------------------------------------------------ kinematics
@@ -82,15 +84,41 @@ class IndependentMachine(SimulatedMachine):
                 local[:, t.target, t.component] += v
         return local, base
 
-    def geometric_tip(self, q: np.ndarray, tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """True tip (N,3) [m] and unit tool direction in the base frame: the URDF chain with
-        an exact error transform after every axis, the base-frame field added to the tip
-        and the gauge-line error along the tool."""
-        q = np.atleast_2d(np.asarray(q, float))
+    def _errors(self, q: np.ndarray):
         local, base = self.error_values(q)
-        errors = [error_transform(local[:, k, :3], local[:, k, 3:]) for k in range(self.machine.n_axes)]
-        tip, u = self.chain.tool_tip(q, np.asarray(tool, float) + self.gauge_error, errors)
-        return tip + base, u
+        names = self.machine.axis_names
+        return {names[k]: error_transform(local[:, k, :3], local[:, k, 3:]) for k in range(len(names))}, base
+
+    def geometric_tip(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
+                      offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """True tip (N,3) [m] and unit tool direction: the URDF paths with an exact error
+        transform after every axis, the base-frame field added to the tip and the
+        gauge-line error along the tool; in the base frame or relative to the (erroneous)
+        workpiece frame."""
+        q = np.atleast_2d(np.asarray(q, float))
+        errors, base = self._errors(q)
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),)) + self.gauge_error
+        pt = np.broadcast_to(np.asarray(point), (len(q),))
+        tip, u = np.empty((len(q), 3)), np.empty((len(q), 3))
+        off = None if offset is None else np.broadcast_to(np.asarray(offset, float), (len(q), 3))
+        for k in np.unique(pt):
+            r = pt == k
+            sub = {n: e[r] for n, e in errors.items()}
+            tip[r], u[r] = self.chain.tool_tip(q[r], tool[r], sub, point=int(k), offset=None if off is None else off[r])
+        tip = tip + base
+        if frame == "workpiece" and self.chain.workpiece:
+            T = np.linalg.inv(self.chain.pose(self.chain.workpiece, q, errors))
+            tip = np.einsum("pij,pj->pi", T[:, :3, :3], tip) + T[:, :3, 3]
+            u = np.einsum("pij,pj->pi", T[:, :3, :3], u)
+        return tip, u
+
+    def geometric_workpiece_points(self, q: np.ndarray, p_wp: np.ndarray) -> np.ndarray:
+        q = np.atleast_2d(np.asarray(q, float))
+        p = np.broadcast_to(np.asarray(p_wp, float), (len(q), 3))
+        if not self.chain.workpiece:
+            return p.copy()
+        T = self.chain.pose(self.chain.workpiece, q, self._errors(q)[0])
+        return np.einsum("pij,pj->pi", T[:, :3, :3], p) + T[:, :3, 3]
 
     # ------------------------------------------------------------------ oracle
     @property
@@ -183,11 +211,12 @@ class IndependentMachine(SimulatedMachine):
         raw = cls(machine, [], family, bases, 0.0, np.zeros(n), Tracker(), seed)
         q = uniform_commands(machine, 400, rng)
         tool = rng.uniform(0.15, 0.35, len(q))
-        nominal, _ = raw.chain.tool_tip(q, tool)
+        bare = replace(raw, gauge_error=0.0)
+        nominal = bare.geometric_tip(q, tool, frame="workpiece")[0]  # the error that matters: tool vs part
 
         def mean_error(ts):
             raw.terms = ts
-            return np.linalg.norm(raw.geometric_tip(q, tool)[0] - nominal, axis=1).mean()
+            return np.linalg.norm(raw.geometric_tip(q, tool, frame="workpiece")[0] - nominal, axis=1).mean()
 
         def scaled(ts, target_mm, times):
             for _ in range(times):  # the errors are small: nearly linear in their size

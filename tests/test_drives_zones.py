@@ -1,0 +1,155 @@
+"""Twin-drive axes (seed Section 2.5: the Master Mill's X with AX1 leading and AX8
+following, 30 tables) and zones (Section 2.6, Table 2.12: East/West).
+
+Independent truths: the seed's table count (25 + 5), the geometry of a beam whose two
+drives move apart (closed form), the profile and zone texts a user writes."""
+import json
+
+import numpy as np
+import pytest
+
+from vecpin.compensation.plan import plan_tables
+from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.errors import InputError
+from vecpin.export import drives
+from vecpin.export.profile import ControllerProfile
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import ErrorModel, make_model
+from vecpin.models.effects.base import axis_chebyshev
+from vecpin.models.effects.gantry_skew import GantrySkew
+from vecpin.planning.zones import parse_zone
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.workflows.fitting import fit_campaign
+from vecpin.workflows.tables import make_tables
+
+SEPARATION_MM = 5200.0  # ASSUMED: the Master Mill's X drives on either side of a 4 m Y travel
+
+
+def _profile(nc=False):
+    axes = {"X": {"following": {}, "drive_separation_mm": [0.0, SEPARATION_MM, 0.0]}}
+    if nc:
+        names = {"X": "AX1", "Y": "AX2", "Z": "AX3", "C": "AX4", "A": "AX5"}
+        axes = {a: {"nc_name": n, "reference_position": 0.0 if a != "Z" else 800.0} for a, n in names.items()}
+        axes["X"] |= {"following": {"nc_name": "AX8", "reference_position": 0.0},
+                      "drive_separation_mm": [0.0, SEPARATION_MM, 0.0]}
+    return ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes})
+
+
+@pytest.fixture(scope="module")
+def skewed_model(machines):
+    """An AP model of the Master Mill with a gantry skew of X about z, fitted on a small
+    simulated campaign, then given known skew parameters."""
+    m = machines["master_mill"]
+    sim = simulate(m, seed=3, design=Design(n_commands=80, n_validation=5))
+    model = make_model("ap", m, 2, effects=[GantrySkew(m, ("X",), about="z")])
+    model.fit(sim.campaign, NoiseModel.default(m, "spherical"))
+    (_, sl), = model.effect_slices()
+    model.b_[sl] = np.linspace(-40e-6, 30e-6, sl.stop - sl.start)
+    return model
+
+
+def test_profile_reads_and_writes_twin_drives():
+    p = _profile(nc=True)
+    x = p.axis("X")
+    assert x.following.nc_name == "AX8" and x.drive_separation_mm == (0.0, SEPARATION_MM, 0.0)
+    back = ControllerProfile.from_dict(json.loads(json.dumps(p.to_dict())))
+    assert back.axis("X") == x and drives.twin_axes(back) == ["X"]
+    bad = {"format": "vecpin-controller-profile", "version": 1}
+    for axes, msg in (({"X": {"drive_separation_mm": [1, 2]}}, r"\[dx, dy, dz\]"),
+                      ({"X": {"following": {"speed": 3}}}, "following.speed"),
+                      ({"X": {"following": "AX8"}}, "following drive's facts")):
+        with pytest.raises(InputError, match=msg):
+            ControllerProfile.from_dict(bad | {"axes": axes})
+
+
+def test_profile_refuses_a_rotary_twin_and_a_separation_without_drive(machines):
+    m = machines["master_mill"]
+    for axes, msg in (({"C": {"following": {}}}, "rotary"), ({"X": {"drive_separation_mm": [0, 1, 0]}}, "following")):
+        p = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes})
+        with pytest.raises(InputError, match=msg):
+            p.check_machine(m, "generic")
+
+
+def test_thirty_tables_for_the_master_mill(skewed_model, tmp_path):
+    """25 tables of a 5-axis machine, plus the 5 that correct X for the following drive:
+    the seed's 30 (Section 2.5); the Siemens files hold the following drive's pitch table
+    and its straightness tables under its own NC name."""
+    run = make_tables(skewed_model, tmp_path / "g", "generic", profile=_profile(), uncertainty=False)
+    assert len(run.plan.tables.tables) == 25
+    lines = (tmp_path / "g" / "tables_drives.csv").read_text().splitlines()
+    names = {ln.split(",")[0] for ln in lines[1:] if not ln.startswith("#")}
+    assert len(names) == 30 and {"x2x2", "x2y", "x2z", "x2c", "x2a"} <= names
+    assert "AX8" not in (tmp_path / "g" / "DRIVES.md").read_text() and "X2" in (tmp_path / "g" / "DRIVES.md").read_text()
+    run = make_tables(skewed_model, tmp_path / "s", "siemens-840d", profile=_profile(nc=True), uncertainty=False)
+    cec = (tmp_path / "s" / "NC_CEC.INI").read_text()
+    eec = (tmp_path / "s" / "AX_EEC.INI").read_text()
+    # 20 cross tables + 4 for the following drive, 5 pitch tables + the following drive's
+    assert cec.count("$AN_CEC_OUTPUT_AXIS") == 24 and cec.count("$AN_CEC_OUTPUT_AXIS[") == 24 and "=(AX8)" in cec
+    assert eec.count("$AA_ENC_COMP_STEP") == 6 and "$AA_ENC_COMP_STEP[0,AX8]" in eec
+    assert run.as_written is not None and len(run.as_written.tables) == 25  # folded back to the machine's axes
+
+
+def test_skew_differential_is_half_the_separation_times_the_angle(skewed_model):
+    """The differential tables: leading drive +k theta, following -k theta with
+    k = (w x s) . x / 2 = -S/2 for a yaw (w = z) of an X gantry whose drives are S apart
+    along y. Moving the drives so turns the beam by -theta: the skew is cancelled."""
+    m = skewed_model.machine
+    tables, taken, notes = drives.skew_differential(skewed_model, _profile(), 201)
+    assert len(taken) == 1 and [t.input_axis for t in tables["X"]] == ["Y", "Z", "C", "A"]
+    (eff, sl), = skewed_model.effect_slices()
+    theta = skewed_model.b_[sl]
+    S = SEPARATION_MM * 1e-3
+    for j, t in enumerate(tables["X"]):
+        q = np.zeros((len(t.values), m.n_axes))
+        q[:, m.axis(t.input_axis).index] = t.positions
+        angle = axis_chebyshev(m, t.input_axis, q, eff.order) @ theta[j * eff.order:(j + 1) * eff.order]
+        lead, follow = t.values, -t.values
+        # drives at y = -S/2 (leading) and +S/2 (following): a turn phi about z moves them by -phi*y along x
+        phi = -(follow - lead) / S
+        np.testing.assert_allclose(phi, -angle, atol=1e-15)
+        np.testing.assert_allclose(lead, -S / 2 * angle, atol=1e-15)
+    assert "differential" in " ".join(notes)
+
+
+def test_expand_and_fold(machines):
+    m = machines["master_mill"]
+    ts = TableSet(m.axis_names, [CompensationTable("X", "X", -8.0, 0.1, np.linspace(0, 1e-5, 161)),
+                                 CompensationTable("Y", "X", -2.0, 0.1, np.linspace(0, 2e-6, 41)),
+                                 CompensationTable("X", "Y", -8.0, 0.1, np.linspace(0, 3e-6, 161))])
+    diff = {"X": [CompensationTable("Y", "X", -2.0, 0.1, np.full(41, 5e-6))]}
+    xt, xm, xp = drives.expand(ts, m, _profile(), diff)
+    assert xm.axis_names[-1] == "X2" and xm.axis("X2").lower == m.axis("X").lower
+    byname = {t.name: t for t in xt.tables}
+    assert set(byname) == {"xx", "xy", "yx", "x2x2", "x2y"}
+    np.testing.assert_allclose(byname["xy"].values - byname["x2y"].values, 1e-5)  # +d on the leading, -d following
+    back = drives.fold(xt, m, _profile())
+    for t in ts.tables:
+        np.testing.assert_allclose(back.table(t.name).values, t.values, atol=1e-18)
+
+
+def test_zone_fit_records_and_restricts(machines, tmp_path):
+    """--zone: the fit uses only the rows commanded in the zone, the model file keeps the
+    zone, the tables are fitted (and held) in it; a zone the campaign never reached or
+    too small is refused with the option's name."""
+    m = machines["production_xyzbaw"]
+    sim = simulate(m, seed=2, design=Design(n_commands=160, n_validation=5))
+    west = parse_zone("X=11430:18415", "--zone")
+    run = fit_campaign(m, sim.campaign, NoiseModel.default(m, "spherical"), kind="ap", basis="chebyshev", order=3,
+                       zone=west)
+    inside = sim.campaign.q[:, 0] <= 18.415
+    assert run.rows_in_zone == int(inside.sum()) and run.model.report_.n_rows == int(inside.sum())
+    assert run.model.report_.measured_range["X"][1] <= 18415.0
+    run.model.save(tmp_path / "west.json")
+    back = ErrorModel.load(tmp_path / "west.json")
+    assert back.zone_ == {"X": (11430.0, 18415.0)}
+    plan = plan_tables(back, uncertainty=False, n_commands=200)
+    assert plan.problem.q[:, 0].max() <= 18.415 + 1e-9 and "X" in plan.problem.hold
+    narrow = plan_tables(back, uncertainty=False, n_commands=200, zone=parse_zone("X=12000:13000", "--zone"))
+    assert narrow.problem.q[:, 0].min() >= 12.0 - 1e-9 and narrow.problem.q[:, 0].max() <= 13.0 + 1e-9
+    with pytest.raises(InputError, match="--zone.*outside what the model's campaign measured"):
+        plan_tables(back, uncertainty=False, zone=parse_zone("X=20000:21000", "--zone"))
+    with pytest.raises(InputError, match="--zone X=11430:11500: only"):
+        fit_campaign(m, sim.campaign, NoiseModel.default(m), kind="ap", basis="chebyshev", order=2,
+                     zone=parse_zone("X=11430:11500", "--zone"))
+    with pytest.raises(InputError, match="AXIS=LO:HI"):
+        parse_zone("X=1-2", "--zone")
