@@ -20,13 +20,16 @@ the file, the row (line number, header = 1) and the column. In memory a
 from __future__ import annotations
 
 import csv
+import io
 import math
+import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from vecpin.errors import CampaignFileError
+from vecpin.errors import CampaignFileError, VecpinWarning
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 
@@ -34,6 +37,7 @@ RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
 INSTRUMENTS = ("tracker", "ballbar")
 AXIS_LETTERS = set("XYZABCUVW")
+TEMPERATURE_RANGE_C = (-20.0, 45.0)  # air temperatures of a workshop in which machines are measured, °C
 LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
 
 
@@ -122,8 +126,18 @@ class Campaign:
 
 
 # ---------------------------------------------------------------------- reading
+MAX_XYZ_MM = 200_000.0   # no tracker reads a point 200 m away: larger x, y, z are not a measurement
+MAX_TOOL_MM = 10_000.0   # nor is a tool 10 m long
+MAX_ID = 9999            # station and pivot ids are small whole numbers
+CELL_SHOWN = 40          # characters of a bad cell quoted in a message
+
+
 def read_campaign(path: str | Path, machine: Machine) -> Campaign:
-    """Read and validate a campaign CSV for ``machine``; see the module docstring."""
+    """Read and validate a campaign CSV for ``machine``; see the module docstring.
+
+    Plain files (one number per cell, no blank lines, no ``instrument`` column) are
+    parsed by numpy in one pass; any file the fast parser does not take, or any value it
+    finds wrong, is parsed again cell by cell for the message with row and column."""
     path = Path(path)
     name = str(path)
     if not path.is_file():
@@ -132,25 +146,87 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
-    lines = [ln for ln in csv.reader(text.splitlines())]
-    if not lines or all(not any(c.strip() for c in ln) for ln in lines):
+    first, _, body_text = text.partition("\n")
+    if not text.strip():
         raise CampaignFileError(name, "the file is empty (expected a header line and one row per measurement)")
-    header = [h.strip() for h in lines[0]]
-    _check_header(name, header, machine)
-    body = [(i + 2, ln) for i, ln in enumerate(lines[1:]) if any(c.strip() for c in ln)]
-    if not body:
-        raise CampaignFileError(name, "the file has a header but no measurement rows")
-    values = np.empty((len(body), len(header)))
+    header = [h.strip() for h in _split_header(name, first)]
+    _check_header(name, header, machine, body_text)
+    parsed = _parse_fast(path, header, body_text)
+    if parsed is None:
+        parsed = _parse_rows(name, header, body_text)
+    values, instrument, rows = parsed
+    del text, body_text
+    col = {h: values[:, j] for j, h in enumerate(header)}
+    need = min_rows(machine.n_axes)
+    if len(rows) < need:
+        raise CampaignFileError(name, f"only {len(rows)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}")
+    q_user = np.column_stack([col[a.name] for a in machine.axes])
+    _check_axes(name, q_user, rows, machine)
+    tool_mm = col["tool"]
+    _check_tool(name, tool_mm, rows)
+    xyz_mm = np.column_stack([col["x"], col["y"], col["z"]])
+    trk = instrument == "tracker"
+    _check_xyz_range(name, xyz_mm, rows)
+    if trk.sum() >= 10:
+        _check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
+    station, radius, pivot = _instrument_columns(name, col, instrument, rows)
+    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
+    _check_extra(name, extra, rows)
+    _warn_duplicates(name, values, rows)
+    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name,
+                    instrument, station, radius, pivot, rows)
+
+
+def _split_header(name: str, line: str) -> list[str]:
+    try:
+        return next(csv.reader([line]), [])
+    except csv.Error as exc:
+        raise CampaignFileError(name, f"the header cannot be split into cells ({exc})", row=1) from None
+
+
+def _parse_fast(path: Path, header: list[str], body: str):
+    """(values (N, columns), instrument (N,), line numbers (N,)) by numpy's parser, or
+    None when the file needs the cell-by-cell reader (blank lines, an ``instrument``
+    column, empty or non-numeric cells, wrong cell counts, values that are not finite)."""
+    if not body.strip() or "instrument" in header or re.search(r"\n[ \t,]*\n", "\n" + body.rstrip()):
+        return None
+    try:
+        values = np.loadtxt(path, delimiter=",", comments=None, skiprows=1, ndmin=2, dtype=float, quotechar='"',
+                            encoding="utf-8-sig")
+    except (ValueError, IndexError):
+        return None
+    if values.shape[1] != len(header) or not np.all(np.isfinite(values)):
+        return None
+    return values, np.full(len(values), "tracker", dtype=object), np.arange(2, len(values) + 2)
+
+
+def _parse_rows(name: str, header: list[str], body: str):
+    """The cell-by-cell reader: the first bad cell raises with its row and column."""
+    n_max = body.count("\n") + 1
+    values = np.empty((n_max, len(header)))
+    instrument = np.full(n_max, "tracker", dtype=object)
+    rows = np.empty(n_max, int)
     ji = header.index("instrument") if "instrument" in header else None
-    instrument = np.full(len(body), "tracker", dtype=object)
     optional_by_kind = {"tracker": {"r", "pivot"}, "ballbar": {"x", "y", "z", "station"}}
-    for k, (lineno, cells) in enumerate(body):
+    reader = csv.reader(io.StringIO(body))
+    k = 0
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            break
+        except csv.Error as exc:
+            raise CampaignFileError(name, f"the line cannot be split into cells ({exc}): a cell this long is not a "
+                                    "number; is this a campaign file?", row=reader.line_num + 1) from None
+        lineno = reader.line_num + 1
+        if not any(c.strip() for c in cells):
+            continue
         if len(cells) != len(header):
             raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}", row=lineno)
         if ji is not None:
             kind = cells[ji].strip().lower() or "tracker"
             if kind not in INSTRUMENTS:
-                raise CampaignFileError(name, f"unknown instrument '{cells[ji].strip()}' (tracker or ballbar)",
+                raise CampaignFileError(name, f"unknown instrument '{_shown(cells[ji])}' (tracker or ballbar)",
                                         row=lineno, column="instrument")
             instrument[k] = kind
         for j, cell in enumerate(cells):
@@ -160,24 +236,17 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
                 values[k, j] = np.nan
             else:
                 values[k, j] = _parse_cell(name, cell, lineno, header[j])
-    rows = np.array([ln for ln, _ in body])
-    col = {h: values[:, j] for j, h in enumerate(header)}
-    need = min_rows(machine.n_axes)
-    if len(body) < need:
-        raise CampaignFileError(name, f"only {len(body)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}")
-    q_user = np.column_stack([col[a.name] for a in machine.axes])
-    _check_axes(name, q_user, rows, machine)
-    tool_mm = col["tool"]
-    _check_tool(name, tool_mm, rows)
-    xyz_mm = np.column_stack([col["x"], col["y"], col["z"]])
-    trk = instrument == "tracker"
-    if trk.sum() >= 10:
-        _check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
-    station, radius, pivot = _instrument_columns(name, col, instrument, rows)
-    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names and h not in INSTRUMENT_COLUMNS}
-    _check_extra(name, extra, rows)
-    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * 1e-3, xyz_mm * 1e-3, extra, name,
-                    instrument, station, radius, pivot, rows)
+        rows[k] = lineno
+        k += 1
+    if k == 0:
+        raise CampaignFileError(name, "the file has a header but no measurement rows")
+    return values[:k], instrument[:k], rows[:k]
+
+
+def _shown(cell: str) -> str:
+    """A cell as quoted in a message: stripped, and cut when it is long."""
+    s = cell.strip()
+    return s if len(s) <= CELL_SHOWN else f"{s[:CELL_SHOWN]}... ({len(s)} characters)"
 
 
 def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.ndarray):
@@ -186,10 +255,10 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
     station = np.zeros(n, int)
     if "station" in col:
         s = col["station"]
-        bad = np.flatnonzero(~bb & ((s != np.round(s)) | (s < 0)))
+        bad = np.flatnonzero(~bb & ((s != np.round(s)) | (s < 0) | (s > MAX_ID)))
         if bad.size:
-            raise CampaignFileError(name, f"station must be a whole number >= 0, not {s[bad[0]]:g}",
-                                    row=int(rows[bad[0]]), column="station")
+            raise CampaignFileError(name, f"station must be a whole number 0 .. {MAX_ID} (an id of the tracker "
+                                    f"position), not {s[bad[0]]:g}", row=int(rows[bad[0]]), column="station")
         station = np.where(bb, 0, np.nan_to_num(s)).astype(int)
     radius, pivot = np.full(n, np.nan), np.full(n, -1, int)
     if bb.any():
@@ -200,12 +269,21 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
         if bad.size:
             raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm: expected mm (radius > 1 mm)",
                                     row=int(rows[bad[0]]), column="r")
+        bad = np.flatnonzero(bb & (col["r"] > MAX_TOOL_MM))
+        if bad.size:
+            raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm is longer than any ball bar",
+                                    row=int(rows[bad[0]]), column="r")
+        p = col["pivot"]
+        bad = np.flatnonzero(bb & ((p != np.round(p)) | (p < 0) | (p > MAX_ID)))
+        if bad.size:
+            raise CampaignFileError(name, f"pivot must be a whole number 0 .. {MAX_ID} (an id of the ball bar's "
+                                    f"centre socket), not {p[bad[0]]:g}", row=int(rows[bad[0]]), column="pivot")
         radius = np.where(bb, col["r"] * 1e-3, np.nan)
         pivot = np.where(bb, np.nan_to_num(col["pivot"], nan=-1), -1).astype(int)
     return station, radius, pivot
 
 
-def _check_header(name: str, header: list[str], machine: Machine) -> None:
+def _check_header(name: str, header: list[str], machine: Machine, body: str = "") -> None:
     if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
         sep = "semicolons" if ";" in header[0] else "tabs"
         raise CampaignFileError(name, f"the header is one cell with {sep} in it: this file is {sep[:-1]}-separated "
@@ -227,6 +305,10 @@ def _check_header(name: str, header: list[str], machine: Machine) -> None:
         if h in joint_names or (len(h) == 1 and h in AXIS_LETTERS):
             raise CampaignFileError(name, f"looks like an axis, but machine '{machine.name}' has axes "
                                     f"{', '.join(axes)}: is this file for another machine?", row=1, column=h)
+    if header[0].startswith("#") and any(a not in seen for a in axes):
+        where = _header_line(body, machine)
+        raise CampaignFileError(name, "line 1 is a comment ('#...'), but a campaign file starts with its header line "
+                                f"(the column names){where}: delete the comment lines", row=1)
     for a in axes:
         if a not in seen:
             near = [h for h in header if h.lower() == a.lower() and h not in RESERVED]
@@ -237,6 +319,15 @@ def _check_header(name: str, header: list[str], machine: Machine) -> None:
         if r not in seen:
             what = "tool length [mm] from the gauge line" if r == "tool" else "tracker coordinate [mm]"
             raise CampaignFileError(name, f"missing column: {what}", row=1, column=r)
+
+
+def _header_line(body: str, machine: Machine) -> str:
+    """' (found on line k)' when a later line of the file is the header, else ''."""
+    for k, line in enumerate(body.split("\n", 50)[:50]):
+        cells = {c.strip() for c in line.split(",")}
+        if set(machine.axis_names) <= cells:
+            return f"; the header is line {k + 2}"
+    return ""
 
 
 def _fixed_joint_names(machine: Machine) -> set[str]:
@@ -251,9 +342,9 @@ def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
     try:
         v = float(s)
     except ValueError:
-        raise CampaignFileError(name, f"'{s}' is not a number", row=lineno, column=column) from None
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a number", row=lineno, column=column) from None
     if not math.isfinite(v):
-        raise CampaignFileError(name, f"'{s}' is not a finite number", row=lineno, column=column)
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a finite number", row=lineno, column=column)
     return v
 
 
@@ -285,9 +376,24 @@ def _check_tool(name: str, tool_mm: np.ndarray, rows: np.ndarray) -> None:
     bad = np.flatnonzero(tool_mm < 0)
     if bad.size:
         raise CampaignFileError(name, f"negative tool length {tool_mm[bad[0]]:g} mm", row=int(rows[bad[0]]), column="tool")
+    bad = np.flatnonzero(tool_mm > MAX_TOOL_MM)
+    if bad.size:
+        raise CampaignFileError(name, f"tool length {tool_mm[bad[0]]:g} mm is longer than any tool (> "
+                                f"{MAX_TOOL_MM:g} mm): 'tool' is in mm from the gauge line", row=int(rows[bad[0]]),
+                                column="tool")
     if np.all(tool_mm < 1.0) and np.any(tool_mm > 0):
         raise CampaignFileError(name, f"all tool lengths are below 1 mm (max {tool_mm.max():g}): they look like metres, "
                                 "but 'tool' is in mm", column="tool")
+
+
+def _check_xyz_range(name: str, xyz_mm: np.ndarray, rows: np.ndarray) -> None:
+    """x, y, z of a tracker row lie within a tracker's reach (NaN: no point on the row)."""
+    far = np.abs(np.nan_to_num(xyz_mm)) > MAX_XYZ_MM
+    if far.any():
+        k, j = np.argwhere(far)[0]
+        raise CampaignFileError(name, f"{xyz_mm[k, j]:g} mm is no tracker reading (more than {MAX_XYZ_MM / 1e3:g} m "
+                                "from the tracker): x, y, z are in mm; fix or delete the row", row=int(rows[k]),
+                                column="xyz"[j])
 
 
 def _check_xyz_units(name: str, xyz_mm: np.ndarray, q_user: np.ndarray, machine: Machine) -> None:
@@ -311,11 +417,31 @@ def _check_extra(name: str, extra: dict[str, np.ndarray], rows: np.ndarray) -> N
                                     "measurement order", row=int(rows[k]), column="time")
     T = extra.get("temperature")
     if T is not None:
-        bad = np.flatnonzero((T < -50) | (T > 100))
+        bad = np.flatnonzero((T < TEMPERATURE_RANGE_C[0]) | (T > TEMPERATURE_RANGE_C[1]))
         if bad.size:
-            hint = " (kelvin? temperature is in °C)" if T[bad[0]] > 200 else ""
-            raise CampaignFileError(name, f"temperature {T[bad[0]]:g} °C is not a workshop temperature{hint}",
-                                    row=int(rows[bad[0]]), column="temperature")
+            v = T[bad[0]]
+            hint = (" (kelvin? temperature is in °C)" if v > 200 else
+                    f" ({(v - 32) / 1.8:.1f} °C if it is °F: temperature is in °C; convert the column, or import the "
+                    "export with vecpin import --temperature-unit F)" if 32 <= v <= 130 else "")
+            raise CampaignFileError(name, f"temperature {v:g} °C is not a workshop temperature ({TEMPERATURE_RANGE_C[0]:g} "
+                                    f".. {TEMPERATURE_RANGE_C[1]:g} °C){hint}", row=int(rows[bad[0]]), column="temperature")
+
+
+def _warn_duplicates(name: str, values: np.ndarray, rows: np.ndarray) -> None:
+    """Warn about rows that repeat an earlier row in every cell: a block pasted twice (a
+    real repeat measurement differs in the last digits of x, y, z)."""
+    if len(values) < 2:
+        return
+    v = np.ascontiguousarray(np.nan_to_num(values, nan=np.inf))
+    keys = v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    dup = np.flatnonzero(first[inverse.ravel()] != np.arange(len(keys)))
+    if dup.size:
+        k = dup[0]
+        warnings.warn(VecpinWarning(f"{name}: {dup.size} row(s) repeat an earlier row in every cell (row "
+                                    f"{rows[k]} = row {rows[first[inverse.ravel()[k]]]}): a block pasted twice? They "
+                                    "count as extra measurements; delete the copies unless they are real repeats"),
+                      stacklevel=3)
 
 
 # ---------------------------------------------------------------------- writing

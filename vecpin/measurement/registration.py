@@ -79,10 +79,24 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
     if rms > RESIDUAL_LIMIT:
         raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * 1e3:.1f} mm "
                                 "(median) from the nominal tool tips: this is not this machine's campaign, or the "
-                                "axis columns are in the wrong units or order")
+                                "axis or tool columns are in the wrong units (inches or cm for mm?) or order")
     bad = np.flatnonzero(res > max(10 * np.median(res) + 1e-4, RESIDUAL_LIMIT))
     if bad.size and bad.size <= max(1, len(res) // 20):
         row = int(rows[bad[0]]) if rows is not None else None
         raise CampaignFileError(source, f"{bad.size} row(s) lie {res[bad[0]] * 1e3:.1f} mm from the nominal tool tip "
                                 "while the others fit within a few: a mistyped command or tool length (metres for mm?) "
                                 "or a wrong point; fix or delete the row", row=row)
+
+
+def check_same_pose(predicted: np.ndarray, measured: np.ndarray, source: str, model_source: str) -> None:
+    """Refuse to judge a model on a campaign whose points (tracker frame, [m]) lie far from
+    where the model's fitted tracker pose puts the nominal tool tips: the tracker was
+    moved, or the campaign is of another machine. Judging it anyway gives a meaningless
+    'reduction' (the residual is the pose difference, metres)."""
+    from vecpin.errors import CampaignFileError
+    d = np.linalg.norm(np.asarray(measured, float) - np.asarray(predicted, float), axis=1)
+    d = d[np.isfinite(d)]
+    if d.size and float(np.median(d)) > RESIDUAL_LIMIT:
+        raise CampaignFileError(source, f"its points lie {np.median(d) * 1e3:.1f} mm (median) from where the tracker "
+                                f"pose of {model_source} puts them: the tracker was moved (give --reregister to "
+                                "register it to this campaign), or this is another machine's campaign")

@@ -38,6 +38,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
+from vecpin.selection.orders import check_folds
 
 KINDS = ("6dof", "ap")
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
@@ -304,8 +305,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     ``per_axis``: refine each axis' basis around the best common one."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
-    if int(folds) != folds or folds < 2:
-        raise InputError(f"--folds {folds}: cross-validation needs at least 2 folds")
+    check_folds(campaign, folds)
     orders = sorted(set(int(o) for o in orders))
     if not orders or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")

@@ -15,15 +15,16 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
-from vecpin.measurement.campaign import Campaign, write_campaign
-from vecpin.errors import VecpinError
+from vecpin.measurement.campaign import MAX_ID, Campaign, min_rows, read_campaign, write_campaign
+from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.effects import EffectSpec
-from vecpin.planning.zones import parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported here)
+from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported)
 from vecpin.simulation.truth import TrueMachine
 
 PAPER_I_TOOLS_MM = (214.88, 312.86)
+MAX_ROWS = 2_000_000  # rows one simulation writes (about 0.5 kB of memory each while simulating)
 
 
 @dataclass
@@ -46,6 +47,53 @@ class Design:
     ballbar_points: int = 0  # ball bar rows on a sphere about one pivot (eq. 63-64)
     ballbar_radius_mm: float = 254.0
     ballbar_sigma_mm: float = 0.0025
+
+    def check(self, machine: Machine, planned_rows: int | None = None) -> None:
+        """Refuse, before any work, a design whose files vecpin could not read back or
+        that is too large to hold (names the ``vecpin simulate`` option).
+        ``planned_rows``: the rows of a plan measured instead of drawn commands."""
+        need = min_rows(machine.n_axes)
+        _whole("--validation", self.n_validation, need, f"a campaign of a {machine.n_axes}-axis machine needs at "
+               f"least {need} rows")
+        _whole("--stations", self.stations, 1, "tracker positions", MAX_ID + 1)
+        _whole("--ballbar", self.ballbar_points, 0, "ball bar rows")
+        tools = np.asarray(self.tools_mm, float)
+        if tools.size == 0 or not np.all(np.isfinite(tools)) or np.any(tools < 0) or np.any(tools > 10_000):
+            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: tool lengths are mm from the gauge line, "
+                             "0 .. 10000 (e.g. 214.88 312.86)")
+        if np.all(tools < 1.0):
+            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: every length is below 1 mm; tool lengths "
+                             "are mm (e.g. 214.88 312.86), not metres")
+        if self.repeat_points or self.repeat_times:
+            if int(self.repeat_points) != self.repeat_points or int(self.repeat_times) != self.repeat_times or \
+                    self.repeat_points < 1 or self.repeat_times < 2:
+                raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: POINTS >= 1 commands, each "
+                                 "measured TIMES >= 2 times")
+        for zone in self.exclusion_zones:
+            check_zone_axes(machine, zone, "--exclude")
+        if self.method not in ("random", "sobol", "halton"):
+            raise InputError(f"--method {self.method}: random, sobol or halton")
+        if planned_rows is None:
+            _whole("--points", self.n_commands, 1, "commands")
+            per_station = self.n_commands * len(tools)
+            if per_station < need:
+                raise InputError(f"--points {self.n_commands}: {per_station} rows ({self.n_commands} commands x "
+                                 f"{len(tools)} tools), but a campaign of a {machine.n_axes}-axis machine needs at "
+                                 f"least {need}; give --points {math.ceil(need / len(tools))} or more")
+            repeats = min(self.repeat_points, self.n_commands) * self.repeat_times
+        else:
+            per_station, repeats = planned_rows, 0
+        rows = per_station * self.stations + self.ballbar_points + repeats + self.n_validation
+        if rows > MAX_ROWS:
+            raise InputError(f"the design has {rows:,} rows (--points x --tools x --stations, --repeat, --ballbar, "
+                             f"--validation); vecpin simulates at most {MAX_ROWS:,} rows at once (about "
+                             f"{rows * 500 / 1e9:.0f} GB of memory for these); simulate fewer")
+
+
+def _whole(option: str, value, lowest: int, what: str, highest: int | None = None) -> None:
+    if int(value) != value or value < lowest or (highest is not None and value > highest):
+        top = f" .. {highest}" if highest is not None else " or more"
+        raise InputError(f"{option} {value}: a whole number {lowest}{top} ({what})")
 
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
@@ -70,7 +118,7 @@ def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: 
         out = np.vstack([out, q[keep]])
         if len(out) >= n:
             return out[:n]
-    raise VecpinError("the exclusion zones leave (almost) no room for commands")
+    raise InputError("--exclude: the exclusion zones leave (almost) no room for commands; make them smaller")
 
 
 def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
@@ -122,21 +170,39 @@ class Simulation:
 
     def write(self, out_dir: str | Path) -> dict[str, Path]:
         """campaign.csv, validation.csv, validation_truth.csv and truth.json, committed together."""
+        with OutputSet(out_dir) as out:
+            return self.write_into(out)
+
+    def write_into(self, out: OutputSet) -> dict[str, Path]:
+        """The files of :meth:`write` staged into ``out`` (a larger result's set); each
+        campaign file is read back first: a file vecpin would refuse is never written."""
         m = self.truth.machine
         names = {"campaign": "campaign.csv", "validation": "validation.csv",
                  "validation_truth": "validation_truth.csv", "truth": "truth.json"}
         if self.compensated is not None:
             names |= {"validation_compensated": "validation_compensated.csv",
                       "validation_compensated_truth": "validation_compensated_truth.csv"}
-        with OutputSet(out_dir) as out:
-            write_campaign(out.path(names["campaign"]), self.campaign, m)
-            write_campaign(out.path(names["validation"]), self.validation, m)
-            write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
-            if self.compensated is not None:
-                write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
-                write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
-            self.truth.save(out.path(names["truth"]))
+        write_campaign(out.path(names["campaign"]), self.campaign, m)
+        write_campaign(out.path(names["validation"]), self.validation, m)
+        write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
+        if self.compensated is not None:
+            write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
+            write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
+        self.truth.save(out.path(names["truth"]))
+        for key, fname in names.items():
+            if fname.endswith(".csv"):
+                _read_back(out.path(fname), m)
         return {k: out.final(v) for k, v in names.items()}
+
+
+def _read_back(path: Path, machine: Machine) -> None:
+    """A simulated file that vecpin would refuse to read is not written (the whole set is
+    dropped): say why, so the options can be changed."""
+    try:
+        read_campaign(path, machine)
+    except VecpinError as exc:
+        raise InputError(f"the simulated {path.name} would not be readable ({exc}); change the simulation "
+                         "options") from None
 
 
 def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Generator, tool: float,
@@ -203,7 +269,15 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     machine frame: where the tracker stands (as planned), keeping its random heading."""
     from vecpin.measurement.features import Features
     design = design or Design()
-    rng = np.random.default_rng(seed)
+    if int(seed) != seed or seed < 0:
+        raise InputError(f"--seed {seed}: a whole number >= 0")
+    design.check(machine, None if plan is None else len(plan[1]))
+    mean = truth_options.get("mean_error_mm")
+    if mean is not None and not (np.isfinite(mean) and 0 < mean <= 100):
+        raise InputError(f"--mean-error {mean}: the mean volumetric error of the true machine, mm > 0 (e.g. 0.65)")
+    if tracker_position is not None and not np.all(np.isfinite(tracker_position)):
+        raise InputError("--tracker: three finite numbers, mm")
+    rng = np.random.default_rng(int(seed))
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
     if tracker_position is not None:
         from vecpin.measurement.tracker import Tracker

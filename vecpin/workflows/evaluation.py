@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import check_registration, check_same_pose, registered_errors
 from vecpin.models import ErrorModel
 from vecpin.units import norm_mm
 from vecpin.measurement.stats import distance_stats
@@ -44,13 +44,20 @@ class Evaluation:
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
 
 
-def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False) -> Evaluation:
+def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False,
+             model_source: str = "the model") -> Evaluation:
     """Judge ``model`` on ``campaign`` (its station-0 tracker rows). ``reregister``: the
-    tracker was moved, so its pose is fitted to this campaign first."""
+    tracker was moved, so its pose is fitted to this campaign first. A campaign the
+    model's tracker pose (or, re-registered, the machine's nominal kinematics) cannot
+    describe is refused (:func:`~vecpin.measurement.registration.check_same_pose`)."""
     c = campaign.primary()
     if reregister:
-        d_nom = norm_mm(registered_errors(model.machine.tool_tip(c.q, c.tool), c.xyz))
+        nominal = model.machine.tool_tip(c.q, c.tool)
+        check_registration(nominal, c.xyz, c.source, c.lines)
+        d_nom = norm_mm(registered_errors(nominal, c.xyz))
     else:
-        d_nom = norm_mm(c.xyz - model.predict_nominal(c.q, c.tool))
+        predicted = model.predict_nominal(c.q, c.tool)
+        check_same_pose(predicted, c.xyz, c.source, model_source)
+        d_nom = norm_mm(c.xyz - predicted)
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))

@@ -10,10 +10,12 @@ from dataclasses import dataclass
 from typing import Callable
 
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel
 from vecpin.selection.choice import ModelChoice, choose_or_fix
+from vecpin.selection.orders import check_folds
 
 
 @dataclass
@@ -27,6 +29,9 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5,
                  progress: Callable[[str], None] | None = None) -> FitRun:
     """Choose (where not fixed) and fit the model of ``campaign``."""
+    check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
+    if noise.instrument == "range":
+        check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
     model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
