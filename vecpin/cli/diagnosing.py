@@ -15,8 +15,11 @@ def run_diagnose(args) -> int:
     nm = noise(args, m)
     c = read_campaign(args.csv, m)
     effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
-    if not effects:
-        raise InputError(f"--effects '{args.effects}': 'all' or a comma list of effect names (e.g. thermal,backlash)")
+    from vecpin.models.effects import REGISTRY
+    unknown = [e for e in effects if e not in REGISTRY] if effects != "all" else []
+    if not effects or unknown:
+        raise InputError(f"--effects '{args.effects}': 'all' or a comma list of effect names"
+                         + (f"; unknown effect '{unknown[0]}'" if unknown else "") + f" (known: {', '.join(REGISTRY)})")
     check_folds(c, args.folds)
     if args.multilateration:
         from vecpin.measurement.instruments.multilateration import check_stations

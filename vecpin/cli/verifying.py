@@ -42,6 +42,9 @@ def run_assess(args) -> int:
 def run_verify(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.workflows.verifying import load_tables, verify_to_dir
+    if args.out:
+        from vecpin.fileio import check_output_dir
+        check_output_dir(args.out)
     model = None
     if args.model:
         from vecpin.models import ErrorModel

@@ -173,7 +173,7 @@ def ridged(G: np.ndarray, ridge: float) -> np.ndarray:
     piece beyond the measured range, where the tables are held constant) gets a tiny
     diagonal instead of none, so its coefficient solves to 0 rather than failing."""
     d = np.diag(G)
-    floor = 1e-6 * max(float(d.max(initial=0.0)), 1e-300)
+    floor = 1e-3 * max(float(d.max(initial=0.0)), 1e-300)
     return G + ridge * np.diag(np.maximum(d, floor))
 
 

@@ -342,7 +342,9 @@ def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
     try:
         v = float(s)
     except ValueError:
-        raise CampaignFileError(name, f"'{_shown(s)}' is not a number", row=lineno, column=column) from None
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a number: every cell of a campaign is a number (mm, deg, "
+                                "s, °C); fix the cell, or delete the column if it holds notes", row=lineno,
+                                column=column) from None
     if not math.isfinite(v):
         raise CampaignFileError(name, f"'{_shown(s)}' is not a finite number", row=lineno, column=column)
     return v

@@ -56,6 +56,10 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         return
     cp, cq = P.mean(0), Q.mean(0)
     A, B = P - cp, Q - cq
+    sv = np.linalg.svd(A, compute_uv=False)
+    if sv[1] <= 1e-9 * max(sv[0], 1e-300) or sv[0] < 1e-6:
+        raise CampaignFileError(source, "the commanded tool tips lie on a line (or at one point), so the tracker "
+                                "frame cannot be registered; measure commands spread over the travel")
     sa = np.sqrt((A**2).sum() / len(A))
     sb = np.sqrt((B**2).sum() / len(B))
     if sa <= 0 or sb <= 0:
@@ -74,7 +78,8 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         res_mirror = np.linalg.norm(B - A @ mirror.T, axis=1)
         if np.sqrt((res_mirror**2).mean()) < 0.2 * np.sqrt((res**2).mean()):
             raise CampaignFileError(source, "the measured points are a mirror image of the commanded ones: a "
-                                    "left-handed tracker frame (two of x, y, z swapped, or one negated)", column="x")
+                                    "left-handed tracker frame (two of x, y, z swapped, or one negated); fix the "
+                                    "columns and fit again", column="x")
     rms = float(np.sqrt(np.median(res**2)))
     if rms > RESIDUAL_LIMIT:
         raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * 1e3:.1f} mm "
@@ -88,12 +93,25 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
                                 "or a wrong point; fix or delete the row", row=row)
 
 
-def check_same_pose(predicted: np.ndarray, measured: np.ndarray, source: str, model_source: str) -> None:
-    """Refuse to judge a model on a campaign whose points (tracker frame, [m]) lie far from
-    where the model's fitted tracker pose puts the nominal tool tips: the tracker was
-    moved, or the campaign is of another machine. Judging it anyway gives a meaningless
-    'reduction' (the residual is the pose difference, metres)."""
+def check_campaign_frames(machine, campaign) -> None:
+    """:func:`check_registration` of every tracker station of a campaign against the
+    machine's nominal tool tips (before a campaign is judged or fitted)."""
+    trk = campaign.tracker_rows
+    nominal = machine.tool_tip(campaign.q[trk], campaign.tool[trk])
+    for s in np.unique(campaign.station[trk]):
+        sel = campaign.station[trk] == s
+        check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
+
+
+def check_same_pose(nominal: np.ndarray, predicted: np.ndarray, measured: np.ndarray, source: str,
+                    model_source: str, rows: np.ndarray | None = None) -> None:
+    """Refuse to judge a model on a campaign that is not a campaign of this machine
+    (:func:`check_registration` of the nominal tool tips ``nominal``, machine frame) or
+    whose points (tracker frame, [m]) lie far from where the model's fitted tracker pose
+    puts the nominal tool tips (``predicted``): the tracker was moved. Judging it anyway
+    gives a meaningless 'reduction' (the residual is the pose difference, metres)."""
     from vecpin.errors import CampaignFileError
+    check_registration(nominal, measured, source, rows)
     d = np.linalg.norm(np.asarray(measured, float) - np.asarray(predicted, float), axis=1)
     d = d[np.isfinite(d)]
     if d.size and float(np.median(d)) > RESIDUAL_LIMIT:

@@ -35,6 +35,7 @@ from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
@@ -306,6 +307,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
+    check_campaign_frames(machine, campaign)
     orders = sorted(set(int(o) for o in orders))
     if not orders or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")

@@ -19,7 +19,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.identification.crossval import command_folds
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import check_campaign_frames, register
 
 
 @dataclass
@@ -94,14 +94,17 @@ def check_orders(machine: Machine, campaign: Campaign, kinds, orders, *, folds: 
     if folds is not None:
         eq = eq * (folds - 1) // folds
     for kind in kinds:
-        too_many = [o for o in sorted(set(orders)) if make_model(kind, machine, o, basis=basis).n_parameters + 6 > eq]
-        if too_many:
-            ok = [o for o in range(0, max(orders) + 1) if make_model(kind, machine, o, basis=basis).n_parameters + 6 <= eq]
-            hint = f"orders up to {ok[-1]}" if ok else "no order: measure more points"
-            o = too_many[0]
-            raise InputError(f"{option}: order {o} of the {kind} model has "
-                             f"{make_model(kind, machine, o, basis=basis).n_parameters + 6} unknowns, but {campaign.source} "
-                             f"gives {eq} equations{' in each fold' if folds else ''}; this campaign determines {hint}")
+        def unknowns(o: int) -> int:
+            return make_model(kind, machine, o, basis=basis).n_parameters + 6
+        if unknowns(max(orders)) <= eq:
+            continue
+        best = -1  # the terms grow with the order: scan up to the first order the campaign cannot determine
+        while best < max(orders) and unknowns(best + 1) <= eq:
+            best += 1
+        o = min(x for x in orders if x > best)
+        hint = f"orders up to {best}" if best >= 0 else "no order: measure more points"
+        raise InputError(f"{option}: order {o} of the {kind} model has {unknowns(o)} unknowns, but {campaign.source} "
+                         f"gives {eq} equations{' in each fold' if folds else ''}; this campaign determines {hint}")
 
 
 def check_folds(campaign: Campaign | None, folds: int, option: str = "--folds") -> None:
@@ -124,6 +127,8 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
     noise = noise or NoiseModel.default(machine, "cartesian")
     check_orders(machine, campaign, [kind], orders, folds=None if validation is not None else folds, noise=noise,
                  basis="chebyshev" if basis == "chebyshev" else "auto")
+    for c in (campaign, validation) if validation is not None else (campaign,):
+        check_campaign_frames(machine, c)
     # distances are judged on the rows one tracker pose describes (station 0's tracker rows)
     judged = np.ones(len(campaign), bool)
     if campaign.mixed:

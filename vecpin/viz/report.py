@@ -84,9 +84,15 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
     from vecpin.models.modelfile import check_same_machine
     for k, mod in enumerate(models[1:], 2):
         check_same_machine(m, mod.machine, "model 1", f"model {k}")
-    c0 = campaign.primary()
-    for k, mod in enumerate(models, 1):
-        check_same_pose(mod.predict_nominal(c0.q, c0.tool), c0.xyz, campaign.source, f"model {k}")
+    if orders:
+        from vecpin.selection.orders import check_orders
+        check_orders(m, campaign, ("6dof", "ap"), orders, folds=None if validation is not None else 5,
+                     noise=models[0].noise_)
+    for c in (campaign, validation) if validation is not None else (campaign,):
+        c0 = c.primary()  # measured with the tracker pose the models were fitted with
+        for k, mod in enumerate(models, 1):
+            check_same_pose(m.tool_tip(c0.q, c0.tool), mod.predict_nominal(c0.q, c0.tool), c0.xyz, c.source,
+                            f"model {k}", c0.lines)
     labels = _labels(models)
     out_set = OutputSet(out_dir)
     with out_set as out:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -71,7 +72,7 @@ class RecordingWindow:
         (default: the title in a box)."""
         root, create_command = _server_helpers()
         js = Path(root, "main.min.js").read_text()
-        cmds = "".join(create_command(b) for b in self.commands.values())
+        cmds = "".join(create_command(b) for b in _renumbered(list(self.commands.values())))
         overlay = legend if legend is not None else f'<div id="vecpin-legend">{html.escape(title)}</div>'
         return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
@@ -88,6 +89,20 @@ padding: 8px 10px; border-radius: 4px; max-width: 380px; border: 1px solid #888;
 {cmds}</script>
 </body></html>
 """
+
+
+_UUID = re.compile(rb"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
+
+
+def _renumbered(commands: list[bytes]) -> list[bytes]:
+    """The commands with meshcat's time-based object uuids replaced, in order of first
+    appearance, by fixed ones of the same length (msgpack stays valid): the same scene
+    gives the same page."""
+    seen: dict[bytes, bytes] = {}
+
+    def fixed(m: re.Match) -> bytes:
+        return seen.setdefault(m.group(0), f"00000000-0000-4000-8000-{len(seen):012x}".encode())
+    return [_UUID.sub(fixed, c) for c in commands]
 
 
 def error_colors(size: np.ndarray, vmax: float) -> np.ndarray:
@@ -139,7 +154,8 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     m: Machine = model.machine
     campaign = campaign.primary()  # the rows the fitted tracker pose describes
     from vecpin.measurement.registration import check_same_pose
-    check_same_pose(model.predict_nominal(campaign.q, campaign.tool), campaign.xyz, campaign.source, "the model")
+    check_same_pose(m.tool_tip(campaign.q, campaign.tool), model.predict_nominal(campaign.q, campaign.tool),
+                    campaign.xyz, campaign.source, "the model", campaign.lines)
     row = min(row, len(campaign) - 1)
     vis.delete()
     notes = _machine_geometry(vis, m, campaign.q[row], mesh_dirs(model))

@@ -57,7 +57,7 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False,
         d_nom = norm_mm(registered_errors(nominal, c.xyz))
     else:
         predicted = model.predict_nominal(c.q, c.tool)
-        check_same_pose(predicted, c.xyz, c.source, model_source)
+        check_same_pose(model.machine.tool_tip(c.q, c.tool), predicted, c.xyz, c.source, model_source, c.lines)
         d_nom = norm_mm(c.xyz - predicted)
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))

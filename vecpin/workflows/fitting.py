@@ -6,9 +6,11 @@ held-out data (:func:`vecpin.selection.choice.choose_model`); ``kind``, ``basis`
 carries the choice (``selection_``, written into its model file)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
+from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign
@@ -30,6 +32,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
                  progress: Callable[[str], None] | None = None) -> FitRun:
     """Choose (where not fixed) and fit the model of ``campaign``."""
     check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
+    if not (math.isfinite(prior_scale) and prior_scale > 0):
+        raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number (default 1)")
     if noise.instrument == "range":
         check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,

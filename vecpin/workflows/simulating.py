@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors
 from vecpin.simulation.simulate import Design, Simulation, simulate
@@ -55,6 +56,7 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
                     effects: list | None = None, **truth_options) -> SimulationRun:
     """Simulate a campaign (see :func:`vecpin.simulation.simulate.simulate`; ``plan``,
     ``tables``, ``truth`` and the truth options pass through) and write its files."""
+    check_output_dir(out_dir)
     design = design or Design()
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
