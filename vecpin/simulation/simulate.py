@@ -24,6 +24,7 @@ from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # no
 from vecpin.simulation.truth import TrueMachine
 
 PAPER_I_TOOLS_MM = (214.88, 312.86)
+DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
 MAX_ROWS = 2_000_000  # rows one simulation writes (about 0.5 kB of memory each while simulating)
 
 
@@ -48,13 +49,13 @@ class Design:
     ballbar_radius_mm: float = 254.0
     ballbar_sigma_mm: float = 0.0025
 
-    def check(self, machine: Machine, planned_rows: int | None = None) -> None:
-        """Refuse, before any work, a design whose files vecpin could not read back or
-        that is too large to hold (names the ``vecpin simulate`` option).
+    def check(self, machine: Machine, planned_rows: int | None = None, files: bool = False) -> None:
+        """Refuse, before any work, a design that is too large to hold or, with ``files``,
+        whose files vecpin could not read back (names the ``vecpin simulate`` option).
         ``planned_rows``: the rows of a plan measured instead of drawn commands."""
-        need = min_rows(machine.n_axes)
+        need = min_rows(machine.n_axes) if files else 1
         _whole("--validation", self.n_validation, need, f"a campaign of a {machine.n_axes}-axis machine needs at "
-               f"least {need} rows")
+               f"least {need} rows" if files else "validation commands")
         _whole("--stations", self.stations, 1, "tracker positions", MAX_ID + 1)
         _whole("--ballbar", self.ballbar_points, 0, "ball bar rows")
         tools = np.asarray(self.tools_mm, float)
@@ -76,7 +77,7 @@ class Design:
         if planned_rows is None:
             _whole("--points", self.n_commands, 1, "commands")
             per_station = self.n_commands * len(tools)
-            if per_station < need:
+            if files and per_station < need:
                 raise InputError(f"--points {self.n_commands}: {per_station} rows ({self.n_commands} commands x "
                                  f"{len(tools)} tools), but a campaign of a {machine.n_axes}-axis machine needs at "
                                  f"least {need}; give --points {math.ceil(need / len(tools))} or more")
@@ -244,9 +245,12 @@ def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: fl
 
 
 def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Air temperature [°C]: 20 °C, a slow daily swing, a drift and 0.02 °C sensor noise."""
+    """Air temperature [°C]: 20 °C, a slow daily swing, a drift of 0.2 °C per 8 h that levels
+    off after three days (a workshop does not warm for ever: a very long simulated campaign
+    stays readable) and 0.02 °C sensor noise."""
     phase = rng.uniform(0, 2 * math.pi)
-    return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + 0.2 * t / 28800 + rng.normal(0, 0.02, len(t))
+    drift = 0.2 * np.minimum(t, DRIFT_LEVELS_OFF_S) / 28800
+    return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + drift + rng.normal(0, 0.02, len(t))
 
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
