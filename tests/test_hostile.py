@@ -713,6 +713,14 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
                                               ["--machine trunnion_xyzbc", "--model", "use files of one machine"]),
     "verify --tables missing": (lambda b, w: ["verify", b.val, b.val, "--machine", "flow_xyzcb", "--tables",
                                               w / "none"], ["--tables", "no such file or folder"]),
+    "evaluate --sign-test missing": (lambda b, w: ["evaluate", b.model, b.csv, "--sign-test", w / "none.json"],
+                                     ["--sign-test", "no such file"]),
+    "plan --compare missing (before planning)": (lambda b, w: ["plan", "flow_xyzcb", "--out", w / "p", "--compare",
+                                                               w / "none.csv"], ["none.csv", "no such plan file"]),
+    "plan --feed inf": (lambda b, w: ["plan", "flow_xyzcb", "--out", w / "p", "--feed", "inf"],
+                        ["--feed inf", "mm/min > 0"]),
+    "simulate --plan not a plan": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--plan", b.csv],
+                                   ["row 1", "column 'point'", "plan template"]),
     # info
     "info unknown machine": (lambda b, w: ["info", "flow_xyzcbb"], ["'flow_xyzcbb'", "bundled:"]),
     "info --tool-link unknown": (lambda b, w: ["info", "flow_xyzcb", "--tool-link", "holder"],
@@ -1127,3 +1135,56 @@ def test_mesh_resolution_against_the_files(work):
     out, missing = resolve_meshes(xml, [work])
     assert missing == ["meshes/gone.stl"]
     assert str((work / "pkg" / "meshes" / "a.stl").resolve()) in out and "gone.stl" not in out and "<box" in out
+
+
+# ============================================================ 10. more ways a campaign goes wrong
+def test_campaign_without_station_0(base, work, capsys):
+    """Rows of stations 1 and 2 only: the model's tracker pose (station 0) describes none."""
+    c = base.table.copy().add_column("station", [str(1 + k % 2) for k in range(len(base.table.rows))])
+    path = c.write(work / "stations12.csv")
+    refused(["evaluate", base.model, path], capsys, str(path), "column 'station'", "no tracker rows of station 0",
+            "number the stations from 0")
+    refused(["view", base.model, path, "--html", work / "v.html", "--no-tables"], capsys, "no tracker rows of station 0")
+
+
+def test_tool_column_varying_row_to_row(base, work, capsys, rng):
+    """A measured tool length on every row (60 different lengths): the printout sums them up
+    and the tables are posed on four lengths spanning them (not 60 x the pseudo-points)."""
+    c = base.table.copy()
+    for r in c.rows:
+        r[c.col("tool")] = "%.6f" % (float(r[c.col("tool")]) + rng.normal(0, 0.002))
+    path = c.write(work / "tools.csv")
+    out = ok(["fit", "flow_xyzcb", path, "--out", work / "m.json"] + FIT_FAST, capsys).out
+    assert "60 different tool lengths" in out and "tool 214." not in out
+    out = ok(["tables", work / "m.json", "--out", work / "t", "--quiet"], capsys).out
+    assert "60 different tool lengths in the fit: the tables are fitted on 4" in out
+
+
+def test_import_of_fahrenheit_temperatures(base, work, capsys):
+    """An export with °F in an unlabelled temperature column is not written as °C (the
+    campaign would not read back); with --temperature-unit F it is converted: (F - 32) / 1.8."""
+    c = base.table.copy()
+    celsius = np.array([float(r[c.col("temperature")]) for r in c.rows])
+    for r, t in zip(c.rows, celsius):
+        r[c.col("temperature")] = "%.4f" % (t * 1.8 + 32)
+    export = c.write(work / "export.csv")
+    out = work / "campaign.csv"
+    refused(["import", export, "--machine", "flow_xyzcb", "--out", out], capsys, str(export), "column 'temperature'",
+            "look like °F", "give --temperature-unit F")
+    assert not out.exists()
+    ok(["import", export, "--machine", "flow_xyzcb", "--out", out, "--temperature-unit", "F"], capsys)
+    got = np.genfromtxt(out, delimiter=",", names=True)["temperature"]
+    np.testing.assert_allclose(got, celsius, atol=1e-4)
+
+
+def test_import_never_replaces_a_campaign_with_one_that_does_not_read_back(base, work, capsys, monkeypatch):
+    """The imported campaign is staged and read back before it replaces the old file."""
+    import vecpin.measurement.importer as imp
+    out = work / "campaign.csv"
+    out.write_text("the previous campaign\n")
+    real = imp.campaign_text
+    monkeypatch.setattr(imp, "campaign_text", lambda c, m: real(c, m).replace(",", ";"))
+    refused(["import", base.csv, "--machine", "flow_xyzcb", "--out", out], capsys, str(out), "would not be readable",
+            "nothing was written")
+    assert out.read_text() == "the previous campaign\n"
+    assert not [p for p in work.iterdir() if p.name.startswith(".vecpin-staging")]

@@ -29,6 +29,7 @@ from vecpin.models import APModel, ErrorModel
 from vecpin.units import MM_PER_M, from_mm
 
 DEFAULT_TOOLS_MM = (214.88, 312.86)
+MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
 METHODS = ("exact", "ga", "heuristic")
 
 
@@ -145,6 +146,12 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
             raise InputError(f"--tools {' '.join(f'{v:g}' for v in t)}: tool lengths are mm from the gauge line, "
                              "0 .. 10000 (e.g. 214.88 312.86)")
     tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or DEFAULT_TOOLS_MM
+    tools_note = None
+    if len(tools_mm) > MAX_TABLE_TOOLS:  # a tool column measured row by row: as many lengths as rows
+        lo, hi = float(min(tools_mm)), float(max(tools_mm))
+        tools_note = (f"{len(tools_mm)} different tool lengths in the fit: the tables are fitted on "
+                      f"{MAX_TABLE_TOOLS} spanning {lo:g} .. {hi:g} mm (give --tools to choose)")
+        tools_mm = [float(v) for v in np.linspace(lo, hi, MAX_TABLE_TOOLS)]
     if len(tools_mm) < 2:
         tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
     tools = from_mm(np.array(tools_mm, float))
@@ -214,6 +221,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes.append(gauge_note)
     if only_pitch_note:
         report.notes.append(only_pitch_note)
+    if tools_note:
+        report.notes.append(tools_note)
     if problem.hold:
         report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
                             + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "

@@ -93,6 +93,18 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
                                 "or a wrong point; fix or delete the row", row=row)
 
 
+def station0(campaign, what: str = "the model's tracker pose"):
+    """The rows a fitted tracker pose describes (station 0's tracker rows), refused when
+    there are none (a campaign measured only from other stations, or only by ball bar)."""
+    from vecpin.errors import CampaignFileError
+    c = campaign.primary()
+    if len(c.tracker_rows) == 0:
+        raise CampaignFileError(campaign.source, f"no tracker rows of station 0, the station {what} describes; "
+                                "number the stations from 0 (the 'station' column) or give a campaign with them",
+                                column="station")
+    return c
+
+
 def check_campaign_frames(machine, campaign) -> None:
     """:func:`check_registration` of every tracker station of a campaign against the
     machine's nominal tool tips (before a campaign is judged or fitted)."""

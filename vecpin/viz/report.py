@@ -88,8 +88,9 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
         from vecpin.selection.orders import check_orders
         check_orders(m, campaign, ("6dof", "ap"), orders, folds=None if validation is not None else 5,
                      noise=models[0].noise_)
+    from vecpin.measurement.registration import station0
     for c in (campaign, validation) if validation is not None else (campaign,):
-        c0 = c.primary()  # measured with the tracker pose the models were fitted with
+        c0 = station0(c)  # measured with the tracker pose the models were fitted with
         for k, mod in enumerate(models, 1):
             check_same_pose(m.tool_tip(c0.q, c0.tool), mod.predict_nominal(c0.q, c0.tool), c0.xyz, c.source,
                             f"model {k}", c0.lines)

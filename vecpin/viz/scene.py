@@ -152,8 +152,8 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     only the group ``show`` is visible at first. Returns facts of the scene, with
     ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
     m: Machine = model.machine
-    campaign = campaign.primary()  # the rows the fitted tracker pose describes
-    from vecpin.measurement.registration import check_same_pose
+    from vecpin.measurement.registration import check_same_pose, station0
+    campaign = station0(campaign)  # the rows the fitted tracker pose describes
     check_same_pose(m.tool_tip(campaign.q, campaign.tool), model.predict_nominal(campaign.q, campaign.tool),
                     campaign.xyz, campaign.source, "the model", campaign.lines)
     row = min(row, len(campaign) - 1)

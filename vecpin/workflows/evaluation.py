@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import check_registration, check_same_pose, registered_errors
+from vecpin.measurement.registration import check_registration, check_same_pose, registered_errors, station0
 from vecpin.models import ErrorModel
 from vecpin.units import norm_mm
 from vecpin.measurement.stats import distance_stats
@@ -50,7 +50,7 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False,
     tracker was moved, so its pose is fitted to this campaign first. A campaign the
     model's tracker pose (or, re-registered, the machine's nominal kinematics) cannot
     describe is refused (:func:`~vecpin.measurement.registration.check_same_pose`)."""
-    c = campaign.primary()
+    c = station0(campaign)
     if reregister:
         nominal = model.machine.tool_tip(c.q, c.tool)
         check_registration(nominal, c.xyz, c.source, c.lines)
