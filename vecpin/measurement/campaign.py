@@ -159,7 +159,8 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     col = {h: values[:, j] for j, h in enumerate(header)}
     need = min_rows(machine.n_axes)
     if len(rows) < need:
-        raise CampaignFileError(name, f"only {len(rows)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}")
+        raise CampaignFileError(name, f"only {len(rows)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}: "
+                                "measure more points")
     q_user = np.column_stack([col[a.name] for a in machine.axes])
     _check_axes(name, q_user, rows, machine)
     tool_mm = col["tool"]
@@ -222,7 +223,8 @@ def _parse_rows(name: str, header: list[str], body: str):
         if not any(c.strip() for c in cells):
             continue
         if len(cells) != len(header):
-            raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}", row=lineno)
+            raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}: fix the row (a comma "
+                                    "missing or too many?) or delete it", row=lineno)
         if ji is not None:
             kind = cells[ji].strip().lower() or "tracker"
             if kind not in INSTRUMENTS:
@@ -295,7 +297,8 @@ def _check_header(name: str, header: list[str], machine: Machine, body: str = ""
         if h == "":
             raise CampaignFileError(name, f"header cell {j + 1} is empty; every column needs a name", row=1)
         if h in seen:
-            raise CampaignFileError(name, f"duplicate column name (columns {seen[h] + 1} and {j + 1})", row=1, column=h)
+            raise CampaignFileError(name, f"duplicate column name (columns {seen[h] + 1} and {j + 1}): rename or delete "
+                                    "one", row=1, column=h)
         seen[h] = j
     axes = machine.axis_names
     joint_names = set(machine.model.names) | _fixed_joint_names(machine)
@@ -314,11 +317,12 @@ def _check_header(name: str, header: list[str], machine: Machine, body: str = ""
             near = [h for h in header if h.lower() == a.lower() and h not in RESERVED]
             hint = f" (found '{near[0]}': names are case-sensitive)" if near else ""
             raise CampaignFileError(name, f"missing axis column for machine '{machine.name}' "
-                                    f"(axes: {', '.join(axes)}){hint}", row=1, column=a)
+                                    f"(axes: {', '.join(axes)}){hint}: add the column, or give the machine the "
+                                    "file was measured on", row=1, column=a)
     for r in RESERVED:
         if r not in seen:
             what = "tool length [mm] from the gauge line" if r == "tool" else "tracker coordinate [mm]"
-            raise CampaignFileError(name, f"missing column: {what}", row=1, column=r)
+            raise CampaignFileError(name, f"missing column: {what}; add it", row=1, column=r)
 
 
 def _header_line(body: str, machine: Machine) -> str:
@@ -346,7 +350,8 @@ def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
                                 "s, °C); fix the cell, or delete the column if it holds notes", row=lineno,
                                 column=column) from None
     if not math.isfinite(v):
-        raise CampaignFileError(name, f"'{_shown(s)}' is not a finite number", row=lineno, column=column)
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a finite number: fill in the measured value or delete "
+                                "the row", row=lineno, column=column)
     return v
 
 
@@ -360,7 +365,8 @@ def _check_axes(name: str, q_user: np.ndarray, rows: np.ndarray, machine: Machin
             k = bad[0]
             more = f" ({bad.size - 1} more rows too)" if bad.size > 1 else ""
             raise CampaignFileError(name, f"command {v[k]:g} {a.unit} is outside the axis limits "
-                                    f"[{lo:g}, {hi:g}] {a.unit}{more}", row=int(rows[k]), column=a.name)
+                                    f"[{lo:g}, {hi:g}] {a.unit}{more}: a typo, or a file of another machine? Fix "
+                                    "or delete the row", row=int(rows[k]), column=a.name)
         span = float(v.max() - v.min())
         if len(v) >= 10 and span > 0:
             if a.kind == "linear" and (hi - lo) >= 50.0:
@@ -377,7 +383,8 @@ def _check_axes(name: str, q_user: np.ndarray, rows: np.ndarray, machine: Machin
 def _check_tool(name: str, tool_mm: np.ndarray, rows: np.ndarray) -> None:
     bad = np.flatnonzero(tool_mm < 0)
     if bad.size:
-        raise CampaignFileError(name, f"negative tool length {tool_mm[bad[0]]:g} mm", row=int(rows[bad[0]]), column="tool")
+        raise CampaignFileError(name, f"negative tool length {tool_mm[bad[0]]:g} mm: tool lengths are mm from the gauge "
+                                "line, >= 0; fix the row", row=int(rows[bad[0]]), column="tool")
     bad = np.flatnonzero(tool_mm > MAX_TOOL_MM)
     if bad.size:
         raise CampaignFileError(name, f"tool length {tool_mm[bad[0]]:g} mm is longer than any tool (> "
