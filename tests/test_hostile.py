@@ -561,7 +561,7 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     "simulate --points 2 (unreadable)": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "2"],
                                          ["--points 2", "at least 5", "--points 3 or more"]),
     "simulate --points 1e8": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "100000000"],
-                              ["200,000,035 rows", "at most 2,000,000", "GB"]),
+                              ["200,000,035 rows", "at most 1,300,000", "600 GB"]),
     "simulate --seed -1": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--seed", "-1"],
                            ["--seed -1", ">= 0"]),
     "simulate --stations 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--stations", "0"],
@@ -1064,14 +1064,15 @@ def test_interrupted_result_leaves_the_previous_set_and_reruns_are_identical(bas
     assert not [p for p in out.iterdir() if p.name.startswith(".vecpin-staging")]
 
 
-def test_reruns_of_fit_import_and_evaluate_are_identical(base, work, capsys):
+def test_reruns_of_single_file_results_are_identical(base, work, capsys):
     for k in (1, 2):
         ok(["fit", "flow_xyzcb", base.csv, "--out", work / f"m{k}.json"] + FIT_FAST, capsys)
         ok(["import", base.csv, "--machine", "flow_xyzcb", "--out", work / f"i{k}.csv"], capsys)
         ok(["evaluate", base.model, base.val, "--json", work / f"e{k}.json"], capsys)
         ok(["assess", "--mean-error", "0.5", "--long-term", "0.01", "--json", work / f"a{k}.json"], capsys)
-    for stem in ("m", "i", "e", "a"):
-        suffix = ".csv" if stem == "i" else ".json"
+        ok(["view", base.model, base.csv, "--html", work / f"v{k}.html", "--no-tables"], capsys)
+    for stem in ("m", "i", "e", "a", "v"):
+        suffix = {"i": ".csv", "v": ".html"}.get(stem, ".json")
         assert (work / f"{stem}1{suffix}").read_bytes() == (work / f"{stem}2{suffix}").read_bytes(), stem
     text = (work / "m1.json").read_text()
     assert "seconds" not in text and "time" not in json.loads(text)["fit"]

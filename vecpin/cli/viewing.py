@@ -12,6 +12,7 @@ def parse_exaggeration(text: str | None):
     """'500' (every group) or 'errors=500,residuals=3000' -> float or {group: factor}."""
     if text is None:
         return None
+
     def factor(v: str) -> float:
         f = float(v)
         if not (math.isfinite(f) and f > 0):

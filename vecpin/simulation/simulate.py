@@ -25,7 +25,8 @@ from vecpin.simulation.truth import TrueMachine
 
 PAPER_I_TOOLS_MM = (214.88, 312.86)
 DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
-MAX_ROWS = 2_000_000  # rows one simulation writes (about 0.5 kB of memory each while simulating)
+SIMULATION_BYTES_PER_ROW = 3000  # peak memory of a simulation per row (measured: 2.9 GB for 1,000,000 rows)
+MAX_ROWS = 1_300_000  # rows one simulation holds: about 4 GB at the peak
 
 
 @dataclass
@@ -87,8 +88,8 @@ class Design:
         rows = per_station * self.stations + self.ballbar_points + repeats + self.n_validation
         if rows > MAX_ROWS:
             raise InputError(f"the design has {rows:,} rows (--points x --tools x --stations, --repeat, --ballbar, "
-                             f"--validation); vecpin simulates at most {MAX_ROWS:,} rows at once (about "
-                             f"{rows * 500 / 1e9:.0f} GB of memory for these); simulate fewer")
+                             f"--validation); vecpin simulates at most {MAX_ROWS:,} rows at once (these would need "
+                             f"about {rows * SIMULATION_BYTES_PER_ROW / 1e9:.0f} GB of memory); simulate fewer")
 
 
 def _whole(option: str, value, lowest: int, what: str, highest: int | None = None) -> None:

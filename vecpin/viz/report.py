@@ -80,7 +80,7 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
     say = progress or (lambda s: None)
     check_output_dir(out_dir)
     m = models[0].machine
-    from vecpin.measurement.registration import check_same_pose
+    from vecpin.measurement.registration import check_same_pose, station0
     from vecpin.models.modelfile import check_same_machine
     for k, mod in enumerate(models[1:], 2):
         check_same_machine(m, mod.machine, "model 1", f"model {k}")
@@ -88,7 +88,6 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
         from vecpin.selection.orders import check_orders
         check_orders(m, campaign, ("6dof", "ap"), orders, folds=None if validation is not None else 5,
                      noise=models[0].noise_)
-    from vecpin.measurement.registration import station0
     for c in (campaign, validation) if validation is not None else (campaign,):
         c0 = station0(c)  # measured with the tracker pose the models were fitted with
         for k, mod in enumerate(models, 1):
