@@ -3,7 +3,7 @@ for real in headless Chromium when it is installed (.ci/run installs it)."""
 import shutil
 import subprocess
 import tempfile
-from pathlib import Path
+
 
 import meshcat
 import numpy as np

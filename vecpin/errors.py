@@ -16,12 +16,20 @@ status 2, never a traceback. The subclasses say what kind of problem it is:
 :class:`ControllerLimitError` a table set the controller cannot hold
 :class:`OutputError`          an output path that cannot be written
 ============================ ==========================================================
+
+Input that is valid but suspicious (rows pasted twice, ...) gives a
+:class:`VecpinWarning` (Python's ``warnings``); the command line prints it as one line
+``vecpin: warning: ...`` and goes on.
 """
 from __future__ import annotations
 
 
 class VecpinError(ValueError):
     """Bad input that the user can fix; the message says what and where."""
+
+
+class VecpinWarning(UserWarning):
+    """Valid but suspicious input: the work goes on, the message says what to check."""
 
 
 class InputError(VecpinError):

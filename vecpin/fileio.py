@@ -51,13 +51,13 @@ def write_text(path: str | Path, text: str) -> Path:
 def _parent_ok(path: Path) -> None:
     parent = path.parent
     if not parent.exists():
-        raise OutputError(f"{path}: the folder {parent} does not exist")
+        raise OutputError(f"{path}: the folder {parent} does not exist; create it first or give another path")
     if not parent.is_dir():
-        raise OutputError(f"{path}: {parent} is a file, not a folder")
+        raise OutputError(f"{path}: {parent} is a file, not a folder; give a path in a folder")
     if path.is_dir():
         raise OutputError(f"{path}: is a folder; give a file name")
     if not os.access(parent, os.W_OK):
-        raise OutputError(f"{path}: no permission to write in {parent}")
+        raise OutputError(f"{path}: no permission to write in {parent}; give a folder you can write in")
 
 
 def check_output_file(path: str | Path, option: str = "--out") -> Path:
@@ -78,9 +78,9 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     while not p.exists():
         p = p.parent
     if not p.is_dir():
-        raise OutputError(f"{option} {path}: {p} is a file, not a folder")
+        raise OutputError(f"{option} {path}: {p} is a file, not a folder; give another output folder")
     if not os.access(p, os.W_OK):
-        raise OutputError(f"{option} {path}: no permission to write in {p}")
+        raise OutputError(f"{option} {path}: no permission to write in {p}; give a folder you can write in")
     return path
 
 

@@ -7,11 +7,13 @@ from vecpin.cli.common import progress, zone_option
 def run_tables(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.workflows.tables import make_tables, parse_axis_map
+    from vecpin.fileio import check_output_dir
+    from vecpin.workflows.tables import make_tables, named_axis, parse_axis_map
+    check_output_dir(args.out)
     model = ErrorModel.load(args.model)
     m = model.machine
     for a in args.forbid_output:
-        m.axis(a)
+        named_axis(m, a, "--forbid-output")
     commands = read_campaign(args.commands, m) if args.commands else None
     zone = zone_option(args.zone)
     for a in zone or {}:

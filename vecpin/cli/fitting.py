@@ -81,14 +81,16 @@ def run_evaluate(args) -> int:
     if args.sign_test:
         from vecpin.cli.compensating import run_sign_check
         return run_sign_check(args)
-    from vecpin.fileio import write_text
+    from vecpin.fileio import check_output_file, write_text
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
     from vecpin.workflows.evaluation import evaluate
+    if args.json:
+        check_output_file(args.json, "--json")
     model = ErrorModel.load(args.model)
     camp = read_campaign(args.csv, model.machine)
     camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
-    ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone))
+    ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
     print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
     print("\n".join(ev.lines()))
@@ -106,10 +108,17 @@ def run_orders(args) -> int:
     v = read_campaign(args.validation, m) if args.validation else None
     say = progress(not args.quiet)
     orders = parse_orders(args.orders)
+    nm = noise(args, m)
+    if args.multilateration:
+        from vecpin.measurement.instruments.multilateration import check_stations
+        check_stations(c)
+    from vecpin.selection.orders import check_orders
+    check_orders(m, c, args.model, orders, folds=None if v is not None else args.folds, noise=nm,
+                 basis="chebyshev" if args.basis == "chebyshev" else "auto")
     if v is None:  # a view of the model choice: linearised CV over the same candidates
         from vecpin.selection.choice import choose_model
         fam = tuple(dict.fromkeys((args.basis, "chebyshev")))
-        choice = choose_model(m, c, noise(args, m), kinds=tuple(args.model), families=fam, plans=(args.basis,),
+        choice = choose_model(m, c, nm, kinds=tuple(args.model), families=fam, plans=(args.basis,),
                               orders=orders, per_axis=False, folds=args.folds, progress=say)
         print(choice.table(limit=len(choice.candidates)))
         for kind in args.model:
@@ -117,7 +126,7 @@ def run_orders(args) -> int:
             print(f"best {kind} order on held-out data ({args.folds}-fold CV, linearised): {best.axes[0].order}")
         return 0
     for kind in args.model:  # Paper I Table 2: every order fitted, judged on the validation file
-        sweep = order_sweep(m, c, kind, orders, validation=v, folds=args.folds, noise=noise(args, m),
+        sweep = order_sweep(m, c, kind, orders, validation=v, folds=args.folds, noise=nm,
                             basis="chebyshev" if args.basis == "chebyshev" else "auto", progress=say)
         print(sweep.table())
         print(f"best {kind} order on held-out data ({sweep.method}): {sweep.best.order}\n")

@@ -4,10 +4,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
                         viewing)
-from vecpin.errors import VecpinError
+from vecpin.errors import VecpinError, VecpinWarning
 
 COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
 
@@ -29,8 +30,26 @@ def _version() -> str:
         return "unknown (not installed)"
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """vecpin's warnings as one line on stderr; other libraries' warnings as Python prints them."""
+    if issubclass(category, VecpinWarning):
+        print(f"vecpin: warning: {message}", file=sys.stderr, flush=True)
+    else:
+        _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
+
+
+_PYTHON_SHOWWARNING = warnings.showwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", VecpinWarning)
+        warnings.showwarning = _show_warning
+        return _run(args)
+
+
+def _run(args) -> int:
     try:
         return args.func(args)
     except VecpinError as exc:

@@ -1,23 +1,28 @@
 """``vecpin assess`` (is compensation worth it?) and ``vecpin verify`` (before and after)."""
 from __future__ import annotations
 
+import math
+
 from vecpin.cli.common import add_machine_args, machine, progress
 from vecpin.errors import InputError
-from vecpin.units import M_PER_MM
 
 
 def run_assess(args) -> int:
     from vecpin.workflows.assessing import assess_campaign, assess_numbers
+    if args.json:
+        from vecpin.fileio import check_output_file
+        check_output_file(args.json, "--json")
     if args.csv:
         if not args.machine:
             raise InputError("assess CSV needs --machine (bundled name or URDF path)")
         from vecpin.measurement.campaign import read_campaign
-        from vecpin.measurement.tracker import TrackerNoise
+        from vecpin.measurement.noise import noise_from_options
         m = machine(args.machine, args)
         noise = None
         if args.tracker_noise:
-            a, b, c, d = args.tracker_noise
-            noise = TrackerNoise(a * M_PER_MM, b * 1e-6, c * M_PER_MM, d * 1e-6)
+            noise = noise_from_options(m, "spherical", tracker_noise=args.tracker_noise).tracker
+        if not (math.isfinite(args.session_gap_min) and args.session_gap_min > 0):
+            raise InputError(f"--session-gap-min {args.session_gap_min}: minutes > 0 (default 30)")
         res = assess_campaign(read_campaign(args.csv, m), m, noise, session_gap=args.session_gap_min * 60.0)
     else:
         if args.mean_error is None:
@@ -37,6 +42,9 @@ def run_assess(args) -> int:
 def run_verify(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.workflows.verifying import load_tables, verify_to_dir
+    if args.out:
+        from vecpin.fileio import check_output_dir
+        check_output_dir(args.out)
     model = None
     if args.model:
         from vecpin.models import ErrorModel
@@ -44,6 +52,9 @@ def run_verify(args) -> int:
     if model is None and not args.machine:
         raise InputError("verify needs --machine, or --model (whose machine is used)")
     m = model.machine if model is not None else machine(args.machine, args)
+    if model is not None and args.machine:
+        from vecpin.models.modelfile import check_same_machine
+        check_same_machine(machine(args.machine, args), model.machine, f"--machine {args.machine}", f"--model {args.model}")
     tables, src = load_tables(args.tables, m) if args.tables else (None, None)
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,

@@ -1,6 +1,8 @@
 """``vecpin view`` and ``report``: the meshcat scene and the HTML report."""
 from __future__ import annotations
 
+import math
+
 from vecpin.cli.common import parse_orders, progress
 from vecpin.errors import InputError
 from vecpin.export.registry import controller_names
@@ -10,19 +12,22 @@ def parse_exaggeration(text: str | None):
     """'500' (every group) or 'errors=500,residuals=3000' -> float or {group: factor}."""
     if text is None:
         return None
+
+    def factor(v: str) -> float:
+        f = float(v)
+        if not (math.isfinite(f) and f > 0):
+            raise ValueError
+        return f
     try:
         if "=" not in text:
-            v = float(text)
-            if v <= 0:
-                raise ValueError
-            return v
+            return factor(text)
         out = {}
         for part in text.split(","):
             k, v = part.split("=")
             k = k.strip()
-            if k not in ("errors", "residuals", "compensated") or float(v) <= 0:
+            if k not in ("errors", "residuals", "compensated") or k in out:
                 raise ValueError
-            out[k] = float(v)
+            out[k] = factor(v)
         return out
     except ValueError:
         raise InputError(f"--exaggerate '{text}': a factor > 0 for every group, or GROUP=FACTOR pairs "
@@ -33,13 +38,16 @@ def run_view(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
     from vecpin.viz.scene import legend_lines, serve, write_html
+    if args.html:
+        from vecpin.fileio import check_output_file
+        check_output_file(args.html, "--html")
+    ex = parse_exaggeration(args.exaggerate)
     model = ErrorModel.load(args.model)
     c = read_campaign(args.csv, model.machine)
     if not 0 <= args.row < len(c):
         raise InputError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
     if args.show == "compensated" and args.no_tables:
         raise InputError("--show compensated needs the tables: drop --no-tables")
-    ex = parse_exaggeration(args.exaggerate)
     tables = None
     if not args.no_tables:
         from vecpin.compensation.plan import plan_tables

@@ -212,6 +212,15 @@ def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.nd
     return lo + u * (hi - lo)
 
 
+def ridged(G: np.ndarray, ridge: float) -> np.ndarray:
+    """``G`` with ``ridge`` times its diagonal added; a column without any data (a spline
+    piece beyond the measured range, where the tables are held constant) gets a tiny
+    diagonal instead of none, so its coefficient solves to 0 rather than failing."""
+    d = np.diag(G)
+    floor = 1e-3 * max(float(d.max(initial=0.0)), 1e-300)
+    return G + ridge * np.diag(np.maximum(d, floor))
+
+
 class TableProblem:
     """The table problem linearised around the actual machine (eq. 18-19).
 
@@ -296,7 +305,7 @@ class TableProblem:
         tables cancel, so var(dT) = r cov r with r = d dT / d b."""
         cols = self.columns(names)
         G = self.G[np.ix_(cols, cols)]
-        G = G + self.ridge * np.diag(np.diag(G))
+        G = ridged(G, self.ridge)
         z = linalg.solve(G, np.eye(len(cols))[0], assume_a="pos")      # row 0 of G^-1
         r = -(self.A[:, cols] @ z) @ J_b.reshape(self.A.shape[0], -1)      # d dT / d b
         return float(np.sqrt(max(r @ cov_b @ r, 0.0)))
@@ -305,7 +314,7 @@ class TableProblem:
         """Least-squares unknowns (full length, zeros outside the subset) of the linearised problem."""
         cols = self.columns(names)
         G = self.G[np.ix_(cols, cols)]
-        G = G + self.ridge * np.diag(np.diag(G))
+        G = ridged(G, self.ridge)
         x = np.zeros(self.n_columns)
         x[cols] = -linalg.solve(G, self.g[cols], assume_a="pos")
         return x
@@ -338,7 +347,7 @@ class TableProblem:
             e = (tip - nominal).ravel()
             A = self._design(J, self.u_nominal)[:, cols]
             G = A.T @ A
-            G = G + self.ridge * np.diag(np.diag(G))
+            G = ridged(G, self.ridge)
             dx = -linalg.solve(G, A.T @ e, assume_a="pos")
             x[cols] += dx
             if np.abs(dx).max() < 1e-12:

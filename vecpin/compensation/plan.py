@@ -30,6 +30,7 @@ from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 
+MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
 METHODS = ("exact", "ga", "heuristic")
 HOLD_MARGIN = 0.02  # unmeasured share of an axis' travel at an end beyond which tables are held constant
 
@@ -125,8 +126,13 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     for a in forbid_output:
         m.axis(a)
     for a in modulo_axes:
-        if m.axis(a).kind != "rotary":
-            raise VecpinError(f"only rotary axes have modulo tables, not {a}")
+        ax = m.axis(a)
+        if ax.kind != "rotary":
+            raise InputError(f"--modulo {a}: only rotary axes have modulo tables, not the linear axis {a}")
+        if ax.upper_user - ax.lower_user < 360.0 - 1e-9:
+            raise InputError(f"--modulo {a}: {a} travels {ax.upper_user - ax.lower_user:g} deg "
+                             f"({ax.lower_user:g} .. {ax.upper_user:g}), less than a turn, so a table over one turn "
+                             f"that repeats does not apply; leave out --modulo {a} (its table spans the travel)")
     if isinstance(model, APModel):
         for a in modulo_axes:
             if model.bases[m.axis(a).index].kind != "fourier":
@@ -139,9 +145,25 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     cons = None
     if pitch_only and max_tables:
         lim.constraints(max_tables, axis_names=m.axis_names)  # raises: this controller takes no cross tables
+    only_pitch_note = None
     if need_subset:
         cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
+        if cons.max_tables == 0 or not cons.candidates(m.axis_names):
+            only_pitch_note = ("--max-tables 0" if cons.max_tables == 0 else "every cross table is forbidden "
+                               "(--forbid-output and the controller's rules)") + ": pitch tables only"
+            cons = None
+    if tools_mm is not None:
+        t = np.asarray(tools_mm, float)
+        if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0 or t.max() > 10_000:
+            raise InputError(f"--tools {' '.join(f'{v:g}' for v in t)}: tool lengths are mm from the gauge line, "
+                             "0 .. 10000 (e.g. 214.88 312.86)")
     tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM
+    tools_note = None
+    if len(tools_mm) > MAX_TABLE_TOOLS:  # a tool column measured row by row: as many lengths as rows
+        lo, hi = float(min(tools_mm)), float(max(tools_mm))
+        tools_note = (f"{len(tools_mm)} different tool lengths in the fit: the tables are fitted on "
+                      f"{MAX_TABLE_TOOLS} spanning {lo:g} .. {hi:g} mm (give --tools to choose)")
+        tools_mm = [float(v) for v in np.linspace(lo, hi, MAX_TABLE_TOOLS)]
     if len(tools_mm) < 2:
         tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
     tools = from_mm(np.array(tools_mm, float))
@@ -194,7 +216,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     pitch = problem.solve(pitch_names(m)).discretise(n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
-    tables = pitch if pitch_only else full
+    tables = pitch if pitch_only or only_pitch_note else full
     if cons is not None:
         if progress:
             progress(f"choosing {cons.max_tables} of the {len(cross)} cross tables ({method})")
@@ -221,6 +243,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                             "meaningless; refit to get it")
     report.notes.append(gauge_note)
     report.notes += left_out
+    if only_pitch_note:
+        report.notes.append(only_pitch_note)
+    if tools_note:
+        report.notes.append(tools_note)
     if problem.hold:
         report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
                             + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.errors import VecpinError
+from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M, M_PER_MM
 
@@ -115,7 +116,7 @@ class TableSet:
                 "tables": tabs}
 
     def save_json(self, path: str | Path, machine: Machine) -> None:
-        Path(path).write_text(json.dumps(self.to_dict(machine), indent=1))
+        write_text(path, json.dumps(self.to_dict(machine), indent=1))
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "TableSet":
@@ -134,14 +135,14 @@ class TableSet:
 
     def save_csv(self, path: str | Path, machine: Machine) -> None:
         """One row per table point: table, input, output, index, input position, value (mm/deg)."""
-        with open(path, "w") as fh:
-            fh.write("table,input_axis,output_axis,modulo,index,input_position,value\n")
-            for t in self.tables:
-                ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
-                pos, val = ai.to_user(t.positions), ao.to_user(t.values)
-                for k in range(len(val)):
-                    fh.write(f"{t.name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}\n")
-            fh.write(f"# gauge_offset_change_mm,{self.gauge_offset_change * MM_PER_M:.6f}\n")
+        lines = ["table,input_axis,output_axis,modulo,index,input_position,value"]
+        for t in self.tables:
+            ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
+            pos, val = ai.to_user(t.positions), ao.to_user(t.values)
+            lines += [f"{t.name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}"
+                      for k in range(len(val))]
+        lines.append(f"# gauge_offset_change_mm,{self.gauge_offset_change * MM_PER_M:.6f}")
+        write_text(path, "\n".join(lines) + "\n")
 
 
 def table_grid(axis, n_points: int, modulo: bool) -> tuple[float, float]:

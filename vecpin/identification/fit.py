@@ -24,7 +24,7 @@ from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import check_registration
+from vecpin.measurement.registration import check_campaign_frames, check_registration
 from vecpin.measurement.setup import Setup
 from vecpin.measurement.stats import residual_stats
 from vecpin.units import MM_PER_M
@@ -81,6 +81,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         features = Features.from_campaign(campaign)
         for e in model.effects:
             e.prepare(campaign, features)
+    check_campaign_frames(model.machine, campaign)  # tool-tip rows, before the tracker pose is registered
     lik = Likelihood(model, campaign, noise, features=features)
     _check_units_and_frame(lik, campaign)
     P = lik.n_unknowns

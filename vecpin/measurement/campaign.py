@@ -28,7 +28,9 @@ the file, the row (line number, header = 1) and the column. In memory a
 from __future__ import annotations
 
 import csv
+import io
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,14 +40,13 @@ from vecpin.errors import CampaignFileError
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M, M_PER_MM
+from vecpin.measurement.campaignchecks import (MAX_TOOL_MM, RESERVED, check_axes, check_extra, check_header, check_tool,
+                                              check_xyz_range, check_xyz_units, warn_duplicates)
 
-RESERVED = ("tool", "x", "y", "z")
 INSTRUMENT_COLUMNS = ("instrument", "station", "r", "pivot")
 POINT_COLUMNS = ("target", "tool_point")  # text columns: which point a row measured
 INSTRUMENTS = ("tracker", "ballbar", "nest")
-AXIS_LETTERS = set("XYZABCUVW")
 PAPER_I_TOOLS_MM = (214.88, 312.86)  # the seed's two tool lengths (Paper I): the default of designs and tables
-LIMIT_TOLERANCE = 1e-6  # fraction of the travel a command may exceed a limit by (rounding)
 
 
 def min_rows(n_axes: int) -> int:
@@ -155,8 +156,16 @@ class Campaign:
 
 
 # ---------------------------------------------------------------------- reading
+MAX_ID = 9999            # station and pivot ids are small whole numbers
+CELL_SHOWN = 40          # characters of a bad cell quoted in a message
+
+
 def read_campaign(path: str | Path, machine: Machine) -> Campaign:
-    """Read and validate a campaign CSV for ``machine``; see the module docstring."""
+    """Read and validate a campaign CSV for ``machine``; see the module docstring.
+
+    Plain files (one number per cell, no blank lines, no ``instrument`` column) are
+    parsed by numpy in one pass; any file the fast parser does not take, or any value it
+    finds wrong, is parsed again cell by cell for the message with row and column."""
     path = Path(path)
     name = str(path)
     if not path.is_file():
@@ -165,26 +174,94 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
-    lines = [ln for ln in csv.reader(text.splitlines())]
-    if not lines or all(not any(c.strip() for c in ln) for ln in lines):
+    first, _, body_text = text.partition("\n")
+    if not text.strip():
         raise CampaignFileError(name, "the file is empty (expected a header line and one row per measurement)")
-    header = [h.strip() for h in lines[0]]
-    _check_header(name, header, machine)
-    body = [(i + 2, ln) for i, ln in enumerate(lines[1:]) if any(c.strip() for c in ln)]
-    if not body:
-        raise CampaignFileError(name, "the file has a header but no measurement rows")
-    values = np.empty((len(body), len(header)))
+    header = [h.strip() for h in _split_header(name, first)]
+    check_header(name, header, machine, body_text)
+    parsed = _parse_fast(path, header, body_text)
+    if parsed is None:
+        parsed = _parse_rows(name, header, body_text)
+    values, instrument, rows, texts = parsed
+    del text, body_text
+    col = {h: values[:, j] for j, h in enumerate(header)}
+    need = min_rows(machine.n_axes)
+    if len(rows) < need:
+        raise CampaignFileError(name, f"only {len(rows)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}: "
+                                "measure more points")
+    q_user = np.column_stack([col[a.name] for a in machine.axes])
+    check_axes(name, q_user, rows, machine)
+    tool_mm = col["tool"]
+    check_tool(name, tool_mm, rows)
+    xyz_mm = np.column_stack([col["x"], col["y"], col["z"]])
+    trk = instrument == "tracker"
+    check_xyz_range(name, xyz_mm, rows)
+    if trk.sum() >= 10:
+        check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
+    station, radius, pivot = _instrument_columns(name, col, instrument, rows)
+    point, target = _point_target_columns(name, texts, rows, instrument, machine)
+    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names
+             and h not in INSTRUMENT_COLUMNS and h not in POINT_COLUMNS}
+    check_extra(name, extra, rows)
+    codes = [np.unique(a.astype(str), return_inverse=True)[1].ravel() for a in (instrument, *texts.values())]
+    warn_duplicates(name, np.column_stack([values, *codes]) if len(codes) > 1 else values, rows)
+    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
+                    instrument, station, radius, pivot, rows, point, target)
+
+
+def _split_header(name: str, line: str) -> list[str]:
+    try:
+        return next(csv.reader([line]), [])
+    except csv.Error as exc:
+        raise CampaignFileError(name, f"the header cannot be split into cells ({exc})", row=1) from None
+
+
+def _parse_fast(path: Path, header: list[str], body: str):
+    """(values (N, columns), instrument (N,), line numbers (N,)) by numpy's parser, or
+    None when the file needs the cell-by-cell reader (blank lines, an ``instrument``,
+    ``target`` or ``tool_point`` column, empty or non-numeric cells, wrong cell counts, values that are not finite)."""
+    if not body.strip() or "instrument" in header or any(h in POINT_COLUMNS for h in header) or re.search(r"\n[ \t,]*\n", "\n" + body.rstrip()):
+        return None
+    try:
+        values = np.loadtxt(path, delimiter=",", comments=None, skiprows=1, ndmin=2, dtype=float, quotechar='"',
+                            encoding="utf-8-sig")
+    except (ValueError, IndexError):
+        return None
+    if values.shape[1] != len(header) or not np.all(np.isfinite(values)):
+        return None
+    return values, np.full(len(values), "tracker", dtype=object), np.arange(2, len(values) + 2), {}
+
+
+def _parse_rows(name: str, header: list[str], body: str):
+    """The cell-by-cell reader: the first bad cell raises with its row and column."""
+    n_max = body.count("\n") + 1
+    values = np.empty((n_max, len(header)))
+    instrument = np.full(n_max, "tracker", dtype=object)
+    rows = np.empty(n_max, int)
     ji = header.index("instrument") if "instrument" in header else None
-    instrument = np.full(len(body), "tracker", dtype=object)
     optional_by_kind = {"tracker": {"r", "pivot"}, "ballbar": {"x", "y", "z", "station"}, "nest": {"r", "pivot"}}
     text = {j for j, h in enumerate(header) if h in POINT_COLUMNS}
-    for k, (lineno, cells) in enumerate(body):
+    texts = {header[j]: np.full(n_max, "", dtype=object) for j in text}
+    reader = csv.reader(io.StringIO(body))
+    k = 0
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            break
+        except csv.Error as exc:
+            raise CampaignFileError(name, f"the line cannot be split into cells ({exc}): a cell this long is not a "
+                                    "number; is this a campaign file?", row=reader.line_num + 1) from None
+        lineno = reader.line_num + 1
+        if not any(c.strip() for c in cells):
+            continue
         if len(cells) != len(header):
-            raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}", row=lineno)
+            raise CampaignFileError(name, f"{len(cells)} cells where the header has {len(header)}: fix the row (a comma "
+                                    "missing or too many?) or delete it", row=lineno)
         if ji is not None:
             kind = cells[ji].strip().lower() or "tracker"
             if kind not in INSTRUMENTS:
-                raise CampaignFileError(name, f"unknown instrument '{cells[ji].strip()}' ({', '.join(INSTRUMENTS)})",
+                raise CampaignFileError(name, f"unknown instrument '{_shown(cells[ji])}' ({', '.join(INSTRUMENTS)})",
                                         row=lineno, column="instrument")
             instrument[k] = kind
         for j, cell in enumerate(cells):
@@ -194,26 +271,19 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
                 values[k, j] = np.nan
             else:
                 values[k, j] = _parse_cell(name, cell, lineno, header[j])
-    rows = np.array([ln for ln, _ in body])
-    col = {h: values[:, j] for j, h in enumerate(header)}
-    need = min_rows(machine.n_axes)
-    if len(body) < need:
-        raise CampaignFileError(name, f"only {len(body)} rows; a fit of a {machine.n_axes}-axis machine needs at least {need}")
-    q_user = np.column_stack([col[a.name] for a in machine.axes])
-    _check_axes(name, q_user, rows, machine)
-    tool_mm = col["tool"]
-    _check_tool(name, tool_mm, rows)
-    xyz_mm = np.column_stack([col["x"], col["y"], col["z"]])
-    trk = instrument == "tracker"
-    if trk.sum() >= 10:
-        _check_xyz_units(name, xyz_mm[trk], q_user[trk], machine)
-    station, radius, pivot = _instrument_columns(name, col, instrument, rows)
-    point, target = _point_target_columns(name, header, body, instrument, machine)
-    extra = {h: col[h] for h in header if h not in RESERVED and h not in machine.axis_names
-             and h not in INSTRUMENT_COLUMNS and h not in POINT_COLUMNS}
-    _check_extra(name, extra, rows)
-    return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
-                    instrument, station, radius, pivot, rows, point, target)
+        for j in text:
+            texts[header[j]][k] = cells[j].strip()
+        rows[k] = lineno
+        k += 1
+    if k == 0:
+        raise CampaignFileError(name, "the file has a header but no measurement rows")
+    return values[:k], instrument[:k], rows[:k], {h: t[:k] for h, t in texts.items()}
+
+
+def _shown(cell: str) -> str:
+    """A cell as quoted in a message: stripped, and cut when it is long."""
+    s = cell.strip()
+    return s if len(s) <= CELL_SHOWN else f"{s[:CELL_SHOWN]}... ({len(s)} characters)"
 
 
 def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.ndarray):
@@ -222,10 +292,10 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
     station = np.zeros(n, int)
     if "station" in col:
         s = col["station"]
-        bad = np.flatnonzero(~bb & ((s != np.round(s)) | (s < 0)))
+        bad = np.flatnonzero(~bb & ((s != np.round(s)) | (s < 0) | (s > MAX_ID)))
         if bad.size:
-            raise CampaignFileError(name, f"station must be a whole number >= 0, not {s[bad[0]]:g}",
-                                    row=int(rows[bad[0]]), column="station")
+            raise CampaignFileError(name, f"station must be a whole number 0 .. {MAX_ID} (an id of the tracker "
+                                    f"position), not {s[bad[0]]:g}", row=int(rows[bad[0]]), column="station")
         station = np.where(bb, 0, np.nan_to_num(s)).astype(int)
     radius, pivot = np.full(n, np.nan), np.full(n, -1, int)
     if bb.any():
@@ -236,48 +306,50 @@ def _instrument_columns(name: str, col: dict, instrument: np.ndarray, rows: np.n
         if bad.size:
             raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm: expected mm (radius > 1 mm)",
                                     row=int(rows[bad[0]]), column="r")
+        bad = np.flatnonzero(bb & (col["r"] > MAX_TOOL_MM))
+        if bad.size:
+            raise CampaignFileError(name, f"ball bar radius {col['r'][bad[0]]:g} mm is longer than any ball bar",
+                                    row=int(rows[bad[0]]), column="r")
+        p = col["pivot"]
+        bad = np.flatnonzero(bb & ((p != np.round(p)) | (p < 0) | (p > MAX_ID)))
+        if bad.size:
+            raise CampaignFileError(name, f"pivot must be a whole number 0 .. {MAX_ID} (an id of the ball bar's "
+                                    f"centre socket), not {p[bad[0]]:g}", row=int(rows[bad[0]]), column="pivot")
         radius = np.where(bb, col["r"] * M_PER_MM, np.nan)
         pivot = np.where(bb, np.nan_to_num(col["pivot"], nan=-1), -1).astype(int)
     return station, radius, pivot
 
 
-def _point_target_columns(name: str, header: list[str], body: list, instrument: np.ndarray, machine: Machine):
+def _point_target_columns(name: str, texts: dict, rows: np.ndarray, instrument: np.ndarray, machine: Machine):
     """(point (N,) tool point index, target (N,) id text) from the ``tool_point`` and
-    ``target`` columns; a nest row must name its nest, a tool point is an index or a tool
-    link's name."""
-    n = len(body)
+    ``target`` columns (``texts``: their cells per row); a nest row must name its nest,
+    a tool point is an index or a tool link's name."""
+    n = len(rows)
     point, target = np.zeros(n, int), np.full(n, "", dtype=object)
     links = list(machine.tool_links)
-    if "tool_point" in header:
-        j = header.index("tool_point")
-        for k, (lineno, cells) in enumerate(body):
-            cell = cells[j].strip()
-            if cell == "":
-                continue
-            if cell in links:
-                point[k] = links.index(cell)
-                continue
-            try:
-                v = float(cell)
-            except ValueError:
-                v = math.nan
-            if not (v == int(v) if math.isfinite(v) else False) or not 0 <= v < len(links):
-                raise CampaignFileError(name, f"tool point '{cell}': a tool point index 0..{len(links) - 1} or a tool "
-                                        f"link name ({', '.join(links)})", row=lineno, column="tool_point")
-            point[k] = int(v)
-    if "target" in header:
-        j = header.index("target")
-        for k, (lineno, cells) in enumerate(body):
-            cell = cells[j].strip()
-            if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'")):
-                raise CampaignFileError(name, f"target '{cell}': an id without spaces, commas or quotes", row=lineno,
-                                        column="target")
-            target[k] = cell
+    for k, cell in enumerate(texts.get("tool_point", ())):
+        if cell == "":
+            continue
+        if cell in links:
+            point[k] = links.index(cell)
+            continue
+        try:
+            v = float(cell)
+        except ValueError:
+            v = math.nan
+        if not (v == int(v) if math.isfinite(v) else False) or not 0 <= v < len(links):
+            raise CampaignFileError(name, f"tool point '{_shown(cell)}': a tool point index 0..{len(links) - 1} or a "
+                                    f"tool link name ({', '.join(links)})", row=int(rows[k]), column="tool_point")
+        point[k] = int(v)
+    for k, cell in enumerate(texts.get("target", ())):
+        if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'")):
+            raise CampaignFileError(name, f"target '{_shown(cell)}': an id without spaces, commas or quotes",
+                                    row=int(rows[k]), column="target")
+        target[k] = cell
     missing = np.flatnonzero((instrument == "nest") & (target == ""))
     if missing.size:
-        lineno = body[missing[0]][0]
         raise CampaignFileError(name, "a nest row names its nest in the 'target' column (the id of the nest on "
-                                "the table)", row=lineno, column="target")
+                                "the table)", row=int(rows[missing[0]]), column="target")
     return point, target
 
 
@@ -307,45 +379,6 @@ def read_targets(path: str | Path) -> dict[str, np.ndarray]:
     return out
 
 
-def _check_header(name: str, header: list[str], machine: Machine) -> None:
-    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
-        sep = "semicolons" if ";" in header[0] else "tabs"
-        raise CampaignFileError(name, f"the header is one cell with {sep} in it: this file is {sep[:-1]}-separated "
-                                "(a tracker export or a spreadsheet in a decimal-comma locale?), but campaign files are "
-                                "comma-separated with a decimal point; convert it with 'vecpin import "
-                                f"{name} --machine {machine.name} [--plan PLAN.csv] --out campaign.csv'", row=1)
-    seen: dict[str, int] = {}
-    for j, h in enumerate(header):
-        if h == "":
-            raise CampaignFileError(name, f"header cell {j + 1} is empty; every column needs a name", row=1)
-        if h in seen:
-            raise CampaignFileError(name, f"duplicate column name (columns {seen[h] + 1} and {j + 1})", row=1, column=h)
-        seen[h] = j
-    axes = machine.axis_names
-    joint_names = set(machine.model.names) | _fixed_joint_names(machine)
-    for h in header:
-        if h in axes or h in RESERVED:
-            continue
-        if h in joint_names or (len(h) == 1 and h in AXIS_LETTERS):
-            raise CampaignFileError(name, f"looks like an axis, but machine '{machine.name}' has axes "
-                                    f"{', '.join(axes)}: is this file for another machine?", row=1, column=h)
-    for a in axes:
-        if a not in seen:
-            near = [h for h in header if h.lower() == a.lower() and h not in RESERVED]
-            hint = f" (found '{near[0]}': names are case-sensitive)" if near else ""
-            raise CampaignFileError(name, f"missing axis column for machine '{machine.name}' "
-                                    f"(axes: {', '.join(axes)}){hint}", row=1, column=a)
-    for r in RESERVED:
-        if r not in seen:
-            what = "tool length [mm] from the gauge line" if r == "tool" else "tracker coordinate [mm]"
-            raise CampaignFileError(name, f"missing column: {what}", row=1, column=r)
-
-
-def _fixed_joint_names(machine: Machine) -> set[str]:
-    import re
-    return set(re.findall(r"<joint\s+name=\"([^\"]+)\"", machine.urdf_xml))
-
-
 def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
     s = cell.strip()
     if s == "":
@@ -353,71 +386,13 @@ def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
     try:
         v = float(s)
     except ValueError:
-        raise CampaignFileError(name, f"'{s}' is not a number", row=lineno, column=column) from None
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a number: every cell of a campaign is a number (mm, deg, "
+                                "s, °C); fix the cell, or delete the column if it holds notes", row=lineno,
+                                column=column) from None
     if not math.isfinite(v):
-        raise CampaignFileError(name, f"'{s}' is not a finite number", row=lineno, column=column)
+        raise CampaignFileError(name, f"'{_shown(s)}' is not a finite number: fill in the measured value or delete "
+                                "the row", row=lineno, column=column)
     return v
-
-
-def _check_axes(name: str, q_user: np.ndarray, rows: np.ndarray, machine: Machine) -> None:
-    for j, a in enumerate(machine.axes):
-        v = q_user[:, j]
-        lo, hi = a.lower_user, a.upper_user
-        tol = LIMIT_TOLERANCE * (hi - lo)
-        bad = np.flatnonzero((v < lo - tol) | (v > hi + tol))
-        if bad.size:
-            k = bad[0]
-            more = f" ({bad.size - 1} more rows too)" if bad.size > 1 else ""
-            raise CampaignFileError(name, f"command {v[k]:g} {a.unit} is outside the axis limits "
-                                    f"[{lo:g}, {hi:g}] {a.unit}{more}", row=int(rows[k]), column=a.name)
-        span = float(v.max() - v.min())
-        if len(v) >= 10 and span > 0:
-            if a.kind == "linear" and (hi - lo) >= 50.0:
-                # metres where mm are expected: the whole column fits inside the limits / 1000
-                if span <= (hi - lo) / 200 and np.all(np.abs(v) <= max(abs(lo), abs(hi)) / 1000 * 1.001 + 1e-9):
-                    raise CampaignFileError(name, f"values span only {span:g} mm of a {hi - lo:g} mm travel: "
-                                            "they look like metres, but axis columns are in mm", column=a.name)
-            if a.kind == "rotary" and (hi - lo) >= 20.0:
-                if span <= math.radians(hi - lo) * 1.001 and np.all(np.abs(v) <= math.radians(max(abs(lo), abs(hi))) * 1.001):
-                    raise CampaignFileError(name, f"values span only {span:g} deg of a {hi - lo:g} deg travel: "
-                                            "they look like radians, but rotary axis columns are in degrees", column=a.name)
-
-
-def _check_tool(name: str, tool_mm: np.ndarray, rows: np.ndarray) -> None:
-    bad = np.flatnonzero(tool_mm < 0)
-    if bad.size:
-        raise CampaignFileError(name, f"negative tool length {tool_mm[bad[0]]:g} mm", row=int(rows[bad[0]]), column="tool")
-    if np.all(tool_mm < 1.0) and np.any(tool_mm > 0):
-        raise CampaignFileError(name, f"all tool lengths are below 1 mm (max {tool_mm.max():g}): they look like metres, "
-                                "but 'tool' is in mm", column="tool")
-
-
-def _check_xyz_units(name: str, xyz_mm: np.ndarray, q_user: np.ndarray, machine: Machine) -> None:
-    lin = [j for j, a in enumerate(machine.axes) if a.kind == "linear"]
-    if not lin or len(xyz_mm) < 10:
-        return
-    cmd_span = float(np.linalg.norm(np.ptp(q_user[:, lin], axis=0)))
-    meas_span = float(np.linalg.norm(np.ptp(xyz_mm, axis=0)))
-    if cmd_span > 100.0 and meas_span < cmd_span / 100:
-        raise CampaignFileError(name, f"the measured points span {meas_span:g} mm while the commands span {cmd_span:g} mm: "
-                                "x, y, z look like metres, but they are in mm", column="x")
-
-
-def _check_extra(name: str, extra: dict[str, np.ndarray], rows: np.ndarray) -> None:
-    t = extra.get("time")
-    if t is not None:
-        back = np.flatnonzero(np.diff(t) < 0)
-        if back.size:
-            k = back[0] + 1
-            raise CampaignFileError(name, f"time goes backwards ({t[k - 1]:g} s then {t[k]:g} s): rows must be in "
-                                    "measurement order", row=int(rows[k]), column="time")
-    T = extra.get("temperature")
-    if T is not None:
-        bad = np.flatnonzero((T < -50) | (T > 100))
-        if bad.size:
-            hint = " (kelvin? temperature is in °C)" if T[bad[0]] > 200 else ""
-            raise CampaignFileError(name, f"temperature {T[bad[0]]:g} °C is not a workshop temperature{hint}",
-                                    row=int(rows[bad[0]]), column="temperature")
 
 
 # ---------------------------------------------------------------------- writing

@@ -164,6 +164,8 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         raise InputError(f"--decimal '{decimal}': auto, '.' or ','")
     if temperature_unit not in ("auto", "C", "F", "K"):
         raise InputError(f"--temperature-unit '{temperature_unit}': auto, C, F or K")
+    if tool_mm is not None and not (math.isfinite(tool_mm) and 0 <= tool_mm <= 10_000):
+        raise InputError(f"--tool-mm {tool_mm}: the holder length from the gauge line, mm (0 .. 10000)")
     user = parse_column_map(columns, machine) if isinstance(columns, str) or columns is None else dict(columns)
     template = read_template(plan, machine) if isinstance(plan, (str, Path)) else plan
     want_axes = template is None
@@ -404,8 +406,15 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
 def write_imported(result: ImportResult, machine: Machine, path: str | Path) -> Path:
     """Write the campaign CSV and read it back with :func:`read_campaign` (the check
     every campaign file passes)."""
-    from vecpin.fileio import write_text
+    from vecpin.fileio import OutputSet
     from vecpin.measurement.campaign import read_campaign
-    p = write_text(path, campaign_text(result.campaign, machine))
-    read_campaign(p, machine)
-    return p
+    path = Path(path)
+    with OutputSet(path.parent) as out:  # committed only when it reads back
+        staged = out.path(path.name)
+        staged.write_text(campaign_text(result.campaign, machine), encoding="utf-8")
+        try:
+            read_campaign(staged, machine)
+        except CampaignFileError as exc:
+            raise CampaignFileError(path, f"the imported campaign would not be readable ({exc.reason}); nothing was "
+                                    "written", exc.row, exc.column) from None
+    return path

@@ -57,6 +57,10 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         return
     cp, cq = P.mean(0), Q.mean(0)
     A, B = P - cp, Q - cq
+    sv = np.linalg.svd(A, compute_uv=False)
+    if sv[1] <= 1e-9 * max(sv[0], 1e-300) or sv[0] < 1e-6:
+        raise CampaignFileError(source, "the commanded tool tips lie on a line (or at one point), so the tracker "
+                                "frame cannot be registered; measure commands spread over the travel")
     sa = np.sqrt((A**2).sum() / len(A))
     sb = np.sqrt((B**2).sum() / len(B))
     if sa <= 0 or sb <= 0:
@@ -75,15 +79,57 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         res_mirror = np.linalg.norm(B - A @ mirror.T, axis=1)
         if np.sqrt((res_mirror**2).mean()) < 0.2 * np.sqrt((res**2).mean()):
             raise CampaignFileError(source, "the measured points are a mirror image of the commanded ones: a "
-                                    "left-handed tracker frame (two of x, y, z swapped, or one negated)", column="x")
+                                    "left-handed tracker frame (two of x, y, z swapped, or one negated); fix the "
+                                    "columns and fit again", column="x")
     rms = float(np.sqrt(np.median(res**2)))
     if rms > RESIDUAL_LIMIT:
         raise CampaignFileError(source, f"after the best rigid registration the points are still {rms * MM_PER_M:.1f} mm "
                                 "(median) from the nominal tool tips: this is not this machine's campaign, or the "
-                                "axis columns are in the wrong units or order")
+                                "axis or tool columns are in the wrong units (inches or cm for mm?) or order")
     bad = np.flatnonzero(res > max(10 * np.median(res) + 1e-4, RESIDUAL_LIMIT))
     if bad.size and bad.size <= max(1, len(res) // 20):
         row = int(rows[bad[0]]) if rows is not None else None
         raise CampaignFileError(source, f"{bad.size} row(s) lie {res[bad[0]] * MM_PER_M:.1f} mm from the nominal tool tip "
                                 "while the others fit within a few: a mistyped command or tool length (metres for mm?) "
                                 "or a wrong point; fix or delete the row", row=row)
+
+
+def station0(campaign, what: str = "the model's tracker pose"):
+    """The rows a fitted tracker pose describes (station 0's tracker rows), refused when
+    there are none (a campaign measured only from other stations, or only by ball bar)."""
+    from vecpin.errors import CampaignFileError
+    c = campaign.primary()
+    if len(c.tracker_rows) == 0:
+        raise CampaignFileError(campaign.source, f"no tracker rows of station 0, the station {what} describes; "
+                                "number the stations from 0 (the 'station' column) or give a campaign with them",
+                                column="station")
+    return c
+
+
+def check_campaign_frames(machine, campaign) -> None:
+    """:func:`check_registration` of every tracker station of a campaign against the
+    machine's nominal tool tips (before a campaign is judged or fitted): the rows of tool
+    tips (targets of unknown offset and table nests are checked by the fit, from the
+    likelihood's starting points)."""
+    trk = np.flatnonzero((campaign.instrument == "tracker") & (campaign.target == ""))
+    nominal = machine.tool_tip(campaign.q[trk], campaign.tool[trk], frame="base", point=campaign.point[trk])
+    for s in np.unique(campaign.station[trk]):
+        sel = campaign.station[trk] == s
+        check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
+
+
+def check_same_pose(nominal: np.ndarray, predicted: np.ndarray, measured: np.ndarray, source: str,
+                    model_source: str, rows: np.ndarray | None = None) -> None:
+    """Refuse to judge a model on a campaign that is not a campaign of this machine
+    (:func:`check_registration` of the nominal tool tips ``nominal``, machine frame) or
+    whose points (tracker frame, [m]) lie far from where the model's fitted tracker pose
+    puts the nominal tool tips (``predicted``): the tracker was moved. Judging it anyway
+    gives a meaningless 'reduction' (the residual is the pose difference, metres)."""
+    from vecpin.errors import CampaignFileError
+    check_registration(nominal, measured, source, rows)
+    d = np.linalg.norm(np.asarray(measured, float) - np.asarray(predicted, float), axis=1)
+    d = d[np.isfinite(d)]
+    if d.size and float(np.median(d)) > RESIDUAL_LIMIT:
+        raise CampaignFileError(source, f"its points lie {np.median(d) * MM_PER_M:.1f} mm (median) from where the tracker "
+                                f"pose of {model_source} puts them: the tracker was moved (give --reregister to "
+                                "register it to this campaign), or this is another machine's campaign")

@@ -35,6 +35,18 @@ READS = (1,)
 MAX_FILE_BYTES = 200_000_000
 
 
+def urdf_sha256(machine: Machine) -> str:
+    """SHA-256 of the machine's URDF text: two machines are the same machine when it matches."""
+    return hashlib.sha256(machine.urdf_xml.encode()).hexdigest()
+
+
+def check_same_machine(a: Machine, b: Machine, what_a: str, what_b: str) -> None:
+    """Refuse to combine files of two different machines (URDF checksum and load options)."""
+    if urdf_sha256(a) != urdf_sha256(b) or a.load_options != b.load_options:
+        raise InputError(f"{what_a} is for machine '{a.name}' ({a.source}) and {what_b} for machine '{b.name}' "
+                         f"({b.source}), whose URDFs or tool options differ: use files of one machine")
+
+
 def basis_to_dict(axis, B: AxisBasis) -> dict:
     """One axis basis in user units (mm or deg)."""
     return B.to_dict(axis.scale) | {"lower": float(axis.to_user(B.lower)), "upper": float(axis.to_user(B.upper)),
@@ -65,10 +77,11 @@ def model_to_dict(model) -> dict:
     return {
         "format": FORMAT, "version": VERSION,
         "units": {"length": "mm", "angle": "deg", "ap_parameters": "unit of the output axis (mm or deg)"},
-        "machine": {"name": m.name, "source": m.source, "urdf_sha256": hashlib.sha256(m.urdf_xml.encode()).hexdigest(),
+        "machine": {"name": m.name, "source": m.source, "urdf_sha256": urdf_sha256(m),
                     "axes": [{"name": a.name, "kind": a.kind, "unit": a.unit, "lower": a.lower_user, "upper": a.upper_user}
                              for a in m.axes],
-                    "urdf": m.urdf_xml, "load_options": m.load_options},
+                    "urdf": m.urdf_xml, "load_options": m.load_options,
+                    "urdf_dir": str(m.urdf_path.parent.resolve()) if m.urdf_path is not None else None},
         "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind,
                   "axis_bases": [basis_to_dict(a, B) for a, B in zip(m.axes, model.bases)],
                   "tool_lengths_mm": None if model.tool_lengths is None else [t * MM_PER_M for t in model.tool_lengths],
@@ -239,4 +252,6 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     model.report_ = FitReport(**fields)
     if d.get("selection") is not None:
         model.selection_ = d["selection"]
+    # where relative meshes of the embedded URDF are looked for (the scene): its folder, then the model file's
+    model.mesh_dirs_ = [str(x) for x in (md.get("urdf_dir"), path.resolve().parent) if x]
     return model

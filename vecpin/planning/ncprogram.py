@@ -19,6 +19,7 @@ addresses.
 """
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -56,6 +57,14 @@ def _words(machine: Machine, names: list[str], q: np.ndarray) -> str:
     return " ".join(f"{n}{'=' if len(n) > 1 else ''}{v:.3f}" for n, v in zip(names, q_user))
 
 
+def check_program_options(dwell_s: float, feed_mm_min: float) -> None:
+    """The dwell [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
+    if not (math.isfinite(dwell_s) and dwell_s > 0):
+        raise InputError(f"--dwell {dwell_s}: the dwell is a time in seconds > 0")
+    if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
+        raise InputError(f"--feed {feed_mm_min}: the approach feed is mm/min > 0")
+
+
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   feed_mm_min: float = 1000.0, axis_map: dict[str, str] | None = None, program_number: int = 1000,
                   title: str = "") -> str:
@@ -65,10 +74,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     ``feed_mm_min`` [mm/min] for the final approach."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
-    if not dwell_s > 0:
-        raise InputError(f"--dwell {dwell_s}: the dwell is a time in seconds > 0")
-    if not feed_mm_min > 0:
-        raise InputError(f"--feed {feed_mm_min}: the approach feed is mm/min > 0")
+    check_program_options(dwell_s, feed_mm_min)
     names = nc_axis_names(machine, dialect, axis_map)
     siemens, fanuc = dialect == "siemens-840d", dialect == "fanuc"
 

@@ -33,10 +33,14 @@ from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
                                        default_tracker_position)
-from vecpin.planning.zones import Zone, clip_to_zone, inside
+from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone, inside
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.units import MM_PER_M, M_PER_MM
 
+
+
+MAX_POINTS = 10_000         # commands of one plan
+MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
 
 
 @dataclass
@@ -81,16 +85,43 @@ class PlanSettings:
     seed: int = 0
 
     def check(self) -> None:
+        """Every option inside its meaning, before any work (names the option)."""
         if self.n_points < 1:
             raise InputError(f"--points {self.n_points}: plan at least one command")
-        if not self.tools_mm or min(self.tools_mm) < 0:
-            raise InputError("--tools: holder lengths are mm >= 0")
+        if self.n_points > MAX_POINTS:
+            raise InputError(f"--points {self.n_points}: at most {MAX_POINTS} commands (at 15 s a point, "
+                             f"{self.n_points * len(self.tools_mm) * 15 / 3600:.0f} h of tracker time); plan fewer")
+        tools = np.asarray(self.tools_mm, float)
+        if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
+            raise InputError("--tools: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
         if self.method not in ("doptimal", "random"):
             raise InputError(f"--method '{self.method}': doptimal or random")
         if (self.repeat_points or self.repeat_times) and (self.repeat_points < 1 or self.repeat_times < 2):
             raise InputError("--repeat POINTS TIMES: POINTS >= 1 commands, each measured TIMES >= 2 times")
         if self.order < 0:
             raise InputError(f"--order {self.order}: orders are >= 0")
+        if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):
+            raise InputError("--tracker: three finite numbers, mm")
+        if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
+            raise InputError(f"--candidates {self.candidates}: between --points ({self.n_points}) and "
+                             f"{MAX_CANDIDATES} candidate commands")
+        if self.seed < 0:
+            raise InputError(f"--seed {self.seed}: a whole number >= 0")
+        for option, v in (("--tool-radius-mm", self.tool_radius_mm), ("--target-clearance-mm", self.target_clearance_mm)):
+            if not (np.isfinite(v) and v >= 0):
+                raise InputError(f"{option} {v}: a length in mm >= 0")
+        for option, v in (("--rapid-mm-min", self.rapid_mm_min), ("--rapid-deg-min", self.rapid_deg_min)):
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"{option} {v}: a rapid speed > 0")
+
+    def check_model(self, machine: Machine, n_parameters: int) -> None:
+        """The planned rows can determine the model: at least as many equations as unknowns."""
+        rows = self.n_points * len(self.tools_mm) + self.repeat_points * self.repeat_times
+        eq = 3 * rows if self.noise is None or self.noise.instrument != "range" else rows
+        if n_parameters + 6 > eq:
+            raise InputError(f"--order {self.order}: the {self.model} model of {machine.name} has {n_parameters + 6} "
+                             f"unknowns, but {self.n_points} commands x {len(self.tools_mm)} holders give {eq} "
+                             "equations; plan more --points or a lower --order")
 
 
 @dataclass
@@ -186,6 +217,10 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     """Plan a campaign for ``machine`` (see the module text)."""
     s = settings or PlanSettings()
     s.check()
+    for z in s.exclude:
+        check_zone_axes(machine, z, "--exclude")
+    if s.zone:
+        check_zone_axes(machine, s.zone, "--zone")
     say = progress or (lambda msg: None)
     noise = s.noise or NoiseModel.default(machine, "spherical")
     tools = np.array(s.tools_mm, float) * M_PER_MM
@@ -227,6 +262,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
                          f"of sight; ask for fewer --points, more --candidates, or move the tracker")
 
     model = make_model(s.model, machine, s.order, basis=s.basis)
+    s.check_model(machine, model.n_parameters)
     say(f"{s.model} model of order {s.order}: {model.n_parameters + 6} parameters; judging redundancy")
     info = Information(model, noise, tracker, tools)
     if s.method == "doptimal":

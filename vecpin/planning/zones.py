@@ -25,11 +25,27 @@ def parse_zone(text: str, option: str = "--exclude") -> Zone:
             name = name.strip()
             if not name:
                 raise ValueError
-            zone[name] = (float(a), float(b))
+            lo, hi = float(a), float(b)
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                raise ValueError
         except ValueError:
             raise InputError(f"{option} '{text}': an exclusion zone or measurement zone is written "
                              "AXIS=LO:HI[,AXIS=LO:HI...] in mm/deg, e.g. X=0:500,B=-111:-80") from None
+        if not lo < hi:
+            raise InputError(f"{option} '{text}': {name}={a.strip()}:{b.strip()} is empty; write the lower end first "
+                             f"({name}={b.strip()}:{a.strip()})")
+        if name in zone:
+            raise InputError(f"{option} '{text}': axis {name} appears twice in one zone")
+        zone[name] = (lo, hi)
     return zone
+
+
+def check_zone_axes(machine: Machine, zone: Zone, option: str = "--exclude") -> None:
+    """Every axis a zone names is an axis of ``machine`` (the option named when not)."""
+    for name in zone:
+        if name not in machine.axis_names:
+            raise InputError(f"{option}: machine '{machine.name}' has no axis '{name}' (axes: "
+                             f"{', '.join(machine.axis_names)})")
 
 
 def zone_bounds(machine: Machine, zone: Zone) -> tuple[np.ndarray, np.ndarray]:

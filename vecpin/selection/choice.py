@@ -35,9 +35,11 @@ from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
+from vecpin.selection.orders import check_folds
 from vecpin.units import MM_PER_M, M_PER_MM
 
 KINDS = ("6dof", "ap")
@@ -317,8 +319,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     ``per_axis``: refine each axis' basis around the best common one."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
-    if int(folds) != folds or folds < 2:
-        raise InputError(f"--folds {folds}: cross-validation needs at least 2 folds")
+    check_folds(campaign, folds)
+    check_campaign_frames(machine, campaign)
     orders = sorted(set(int(o) for o in orders))
     if not orders or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")

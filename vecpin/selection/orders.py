@@ -13,12 +13,13 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.errors import InputError
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
 from vecpin.identification.crossval import command_folds
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import check_campaign_frames, register
 from vecpin.units import MM_PER_M
 
 
@@ -74,11 +75,61 @@ def _dist_mm(err: np.ndarray) -> np.ndarray:
     return np.linalg.norm(err, axis=1) * MM_PER_M
 
 
+def campaign_equations(campaign: Campaign, noise: NoiseModel | None = None) -> int:
+    """Equations a campaign gives a fit: 3 per tracker row (1 with ranges only), 1 per ball bar row."""
+    per_row = 1 if noise is not None and noise.instrument == "range" else 3
+    return per_row * len(campaign.tracker_rows) + len(campaign.ballbar_rows)
+
+
+def check_orders(machine: Machine, campaign: Campaign, kinds, orders, *, folds: int | None = None,
+                 noise: NoiseModel | None = None, basis: str = "chebyshev", option: str = "--orders") -> None:
+    """Refuse, before any fit, orders whose models have more unknowns than the campaign
+    (each fold's training part with ``folds``) has equations, and folds that the
+    campaign's distinct commands cannot fill."""
+    orders = list(orders)
+    if not orders or min(orders) < 0:
+        raise InputError(f"{option}: orders are whole numbers >= 0")
+    if folds is not None:
+        check_folds(campaign, folds)
+    eq = campaign_equations(campaign, noise)
+    if folds is not None:
+        eq = eq * (folds - 1) // folds
+    for kind in kinds:
+        def unknowns(o: int) -> int:
+            return make_model(kind, machine, o, basis=basis).n_parameters + 6
+        if unknowns(max(orders)) <= eq:
+            continue
+        best = -1  # the terms grow with the order: scan up to the first order the campaign cannot determine
+        while best < max(orders) and unknowns(best + 1) <= eq:
+            best += 1
+        o = min(x for x in orders if x > best)
+        hint = f"orders up to {best}" if best >= 0 else "no order: measure more points"
+        raise InputError(f"{option}: order {o} of the {kind} model has {unknowns(o)} unknowns, but {campaign.source} "
+                         f"gives {eq} equations{' in each fold' if folds else ''}; this campaign determines {hint}")
+
+
+def check_folds(campaign: Campaign | None, folds: int, option: str = "--folds") -> None:
+    """k-fold cross-validation needs 2 <= k <= the campaign's distinct commands (rows of
+    one command share a fold); ``campaign`` None: only the first."""
+    if int(folds) != folds or folds < 2:
+        raise InputError(f"{option} {folds}: cross-validation needs at least 2 folds")
+    if campaign is None:
+        return
+    n = len(np.unique(np.round(campaign.q, 9), axis=0))
+    if folds > n:
+        raise InputError(f"{option} {folds}: {campaign.source} has {n} distinct commands, and the rows of one command "
+                         f"share a fold; use at most {n} folds (5 or 10 is usual)")
+
+
 def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,
                 validation: Campaign | None = None, folds: int = 5, noise: NoiseModel | None = None,
                 basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
     """Fit ``kind`` ("6dof"/"ap") at every order; judge on ``validation`` or by k-fold CV."""
     noise = noise or NoiseModel.default(machine, "cartesian")
+    check_orders(machine, campaign, [kind], orders, folds=None if validation is not None else folds, noise=noise,
+                 basis="chebyshev" if basis == "chebyshev" else "auto")
+    for c in (campaign, validation) if validation is not None else (campaign,):
+        check_campaign_frames(machine, c)
     # distances are judged on the rows one tracker pose describes (station 0's tracker rows)
     judged = np.ones(len(campaign), bool)
     if campaign.mixed:

@@ -15,16 +15,19 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
-from vecpin.measurement.campaign import Campaign, write_campaign
-from vecpin.errors import VecpinError
+from vecpin.measurement.campaign import MAX_ID, Campaign, min_rows, read_campaign, write_campaign
+from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.effects import EffectSpec
-from vecpin.planning.zones import parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported here)
+from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported)
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.units import M_PER_MM
 
+DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
+SIMULATION_BYTES_PER_ROW = 3000  # peak memory of a simulation per row (measured: 2.9 GB for 1,000,000 rows)
+MAX_ROWS = 1_300_000  # rows one simulation holds: about 4 GB at the peak
 
 
 @dataclass
@@ -55,6 +58,53 @@ class Design:
     def n_nests(self, machine: Machine) -> int:
         return (3 if machine.has_workpiece else 0) if self.nests is None else int(self.nests)
 
+    def check(self, machine: Machine, planned_rows: int | None = None, files: bool = False) -> None:
+        """Refuse, before any work, a design that is too large to hold or, with ``files``,
+        whose files vecpin could not read back (names the ``vecpin simulate`` option).
+        ``planned_rows``: the rows of a plan measured instead of drawn commands."""
+        need = min_rows(machine.n_axes) if files else 1
+        _whole("--validation", self.n_validation, need, f"a campaign of a {machine.n_axes}-axis machine needs at "
+               f"least {need} rows" if files else "validation commands")
+        _whole("--stations", self.stations, 1, "tracker positions", MAX_ID + 1)
+        _whole("--ballbar", self.ballbar_points, 0, "ball bar rows")
+        tools = np.asarray(self.tools_mm, float)
+        if tools.size == 0 or not np.all(np.isfinite(tools)) or np.any(tools < 0) or np.any(tools > 10_000):
+            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: tool lengths are mm from the gauge line, "
+                             "0 .. 10000 (e.g. 214.88 312.86)")
+        if np.all(tools < 1.0):
+            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: every length is below 1 mm; tool lengths "
+                             "are mm (e.g. 214.88 312.86), not metres")
+        if self.repeat_points or self.repeat_times:
+            if int(self.repeat_points) != self.repeat_points or int(self.repeat_times) != self.repeat_times or \
+                    self.repeat_points < 1 or self.repeat_times < 2:
+                raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: POINTS >= 1 commands, each "
+                                 "measured TIMES >= 2 times")
+        for zone in self.exclusion_zones:
+            check_zone_axes(machine, zone, "--exclude")
+        if self.method not in ("random", "sobol", "halton"):
+            raise InputError(f"--method {self.method}: random, sobol or halton")
+        if planned_rows is None:
+            _whole("--points", self.n_commands, 1, "commands")
+            per_station = self.n_commands * len(tools)
+            if files and per_station < need:
+                raise InputError(f"--points {self.n_commands}: {per_station} rows ({self.n_commands} commands x "
+                                 f"{len(tools)} tools), but a campaign of a {machine.n_axes}-axis machine needs at "
+                                 f"least {need}; give --points {math.ceil(need / len(tools))} or more")
+            repeats = min(self.repeat_points, self.n_commands) * self.repeat_times
+        else:
+            per_station, repeats = planned_rows, 0
+        rows = per_station * self.stations + self.ballbar_points + repeats + self.n_validation
+        if rows > MAX_ROWS:
+            raise InputError(f"the design has {rows:,} rows (--points x --tools x --stations, --repeat, --ballbar, "
+                             f"--validation); vecpin simulates at most {MAX_ROWS:,} rows at once (these would need "
+                             f"about {rows * SIMULATION_BYTES_PER_ROW / 1e9:.0f} GB of memory); simulate fewer")
+
+
+def _whole(option: str, value, lowest: int, what: str, highest: int | None = None) -> None:
+    if int(value) != value or value < lowest or (highest is not None and value > highest):
+        top = f" .. {highest}" if highest is not None else " or more"
+        raise InputError(f"{option} {value}: a whole number {lowest}{top} ({what})")
+
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
                     exclusion_zones=(), scramble_seed: int | None = None) -> np.ndarray:
@@ -78,7 +128,7 @@ def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: 
         out = np.vstack([out, q[keep]])
         if len(out) >= n:
             return out[:n]
-    raise VecpinError("the exclusion zones leave (almost) no room for commands")
+    raise InputError("--exclude: the exclusion zones leave (almost) no room for commands; make them smaller")
 
 
 def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
@@ -210,6 +260,12 @@ class Simulation:
     def write(self, out_dir: str | Path) -> dict[str, Path]:
         """campaign.csv, validation.csv, validation_truth.csv and truth.json (and targets.csv:
         the true target offsets, a known-targets file), committed together."""
+        with OutputSet(out_dir) as out:
+            return self.write_into(out)
+
+    def write_into(self, out: OutputSet) -> dict[str, Path]:
+        """The files of :meth:`write` staged into ``out`` (a larger result's set); each
+        campaign file is read back first: a file vecpin would refuse is never written."""
         from vecpin.measurement.campaign import write_targets
         m = self.truth.machine
         names = {"campaign": "campaign.csv", "validation": "validation.csv",
@@ -219,17 +275,29 @@ class Simulation:
         if self.compensated is not None:
             names |= {"validation_compensated": "validation_compensated.csv",
                       "validation_compensated_truth": "validation_compensated_truth.csv"}
-        with OutputSet(out_dir) as out:
-            write_campaign(out.path(names["campaign"]), self.campaign, m)
-            write_campaign(out.path(names["validation"]), self.validation, m)
-            write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
-            if self.compensated is not None:
-                write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
-                write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
-            self.truth.save(out.path(names["truth"]))
-            if self.targets:
-                write_targets(out.path(names["targets"]), self.targets)
+        write_campaign(out.path(names["campaign"]), self.campaign, m)
+        write_campaign(out.path(names["validation"]), self.validation, m)
+        write_campaign(out.path(names["validation_truth"]), self.validation_truth, m)
+        if self.compensated is not None:
+            write_campaign(out.path(names["validation_compensated"]), self.compensated, m)
+            write_campaign(out.path(names["validation_compensated_truth"]), self.compensated_truth, m)
+        self.truth.save(out.path(names["truth"]))
+        if self.targets:
+            write_targets(out.path(names["targets"]), self.targets)
+        for key, fname in names.items():
+            if fname.endswith(".csv") and key != "targets":
+                _read_back(out.path(fname), m)
         return {k: out.final(v) for k, v in names.items()}
+
+
+def _read_back(path: Path, machine: Machine) -> None:
+    """A simulated file that vecpin would refuse to read is not written (the whole set is
+    dropped): say why, so the options can be changed."""
+    try:
+        read_campaign(path, machine)
+    except VecpinError as exc:
+        raise InputError(f"the simulated {path.name} would not be readable ({exc}); change the simulation "
+                         "options") from None
 
 
 def ballbar_commands(machine: Machine, n: int, radius: float, rng: np.random.Generator, tool: float,
@@ -271,9 +339,12 @@ def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: fl
 
 
 def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Air temperature [°C]: 20 °C, a slow daily swing, a drift and 0.02 °C sensor noise."""
+    """Air temperature [°C]: 20 °C, a slow daily swing, a drift of 0.2 °C per 8 h that levels
+    off after three days (a workshop does not warm for ever: a very long simulated campaign
+    stays readable) and 0.02 °C sensor noise."""
     phase = rng.uniform(0, 2 * math.pi)
-    return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + 0.2 * t / 28800 + rng.normal(0, 0.02, len(t))
+    drift = 0.2 * np.minimum(t, DRIFT_LEVELS_OFF_S) / 28800
+    return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + drift + rng.normal(0, 0.02, len(t))
 
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
@@ -296,7 +367,15 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     machine frame: where the tracker stands (as planned), keeping its random heading."""
     from vecpin.measurement.features import Features
     design = design or Design()
-    rng = np.random.default_rng(seed)
+    if int(seed) != seed or seed < 0:
+        raise InputError(f"--seed {seed}: a whole number >= 0")
+    design.check(machine, None if plan is None else len(plan[1]))
+    mean = truth_options.get("mean_error_mm")
+    if mean is not None and not (np.isfinite(mean) and 0 < mean <= 100):
+        raise InputError(f"--mean-error {mean}: the mean volumetric error of the true machine, mm > 0 (e.g. 0.65)")
+    if tracker_position is not None and not np.all(np.isfinite(tracker_position)):
+        raise InputError("--tracker: three finite numbers, mm")
+    rng = np.random.default_rng(int(seed))
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
     if tracker_position is not None:
         from vecpin.measurement.tracker import Tracker

@@ -80,11 +80,19 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
     say = progress or (lambda s: None)
     check_output_dir(out_dir)
     m = models[0].machine
-    for mod in models[1:]:
-        if mod.machine.axis_names != m.axis_names:
-            from vecpin.errors import InputError
-            raise InputError(f"the models are of different machines ({m.name}, {mod.machine.name}): one report "
-                             "covers one machine")
+    from vecpin.measurement.registration import check_same_pose, station0
+    from vecpin.models.modelfile import check_same_machine
+    for k, mod in enumerate(models[1:], 2):
+        check_same_machine(m, mod.machine, "model 1", f"model {k}")
+    if orders:
+        from vecpin.selection.orders import check_orders
+        check_orders(m, campaign, ("6dof", "ap"), orders, folds=None if validation is not None else 5,
+                     noise=models[0].noise_)
+    for c in (campaign, validation) if validation is not None else (campaign,):
+        c0 = station0(c)  # measured with the tracker pose the models were fitted with
+        for k, mod in enumerate(models, 1):
+            check_same_pose(m.tool_tip(c0.q, c0.tool, frame="base"), mod.predict_nominal(c0.q, c0.tool), c0.xyz, c.source,
+                            f"model {k}", c0.lines)
     labels = _labels(models)
     out_set = OutputSet(out_dir)
     with out_set as out:
@@ -194,7 +202,8 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
 
         say("3D scene")
         from vecpin.viz.scene import write_html
-        write_html(out.path("scene.html"), models[0], campaign.primary(), 0, None, plans[0].tables)
+        facts = write_html(out.path("scene.html"), models[0], campaign.primary(), 0, None, plans[0].tables)
+        parts += [f'<p class="note">3D scene: {html.escape(n)}</p>' for n in facts.get("notes", [])]
         page = out.write_text("index.html", f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>vecpin report "
                               f"{html.escape(m.name)}</title><style>{CSS}</style></head><body>" + "\n".join(parts)
                               + "</body></html>")

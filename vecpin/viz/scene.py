@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -72,7 +73,7 @@ class RecordingWindow:
         (default: the title in a box)."""
         root, create_command = _server_helpers()
         js = Path(root, "main.min.js").read_text()
-        cmds = "".join(create_command(b) for b in self.commands.values())
+        cmds = "".join(create_command(b) for b in _renumbered(list(self.commands.values())))
         overlay = legend if legend is not None else f'<div id="vecpin-legend">{html.escape(title)}</div>'
         return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
@@ -89,6 +90,20 @@ padding: 8px 10px; border-radius: 4px; max-width: 380px; border: 1px solid #888;
 {cmds}</script>
 </body></html>
 """
+
+
+_UUID = re.compile(rb"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
+
+
+def _renumbered(commands: list[bytes]) -> list[bytes]:
+    """The commands with meshcat's time-based object uuids replaced, in order of first
+    appearance, by fixed ones of the same length (msgpack stays valid): the same scene
+    gives the same page."""
+    seen: dict[bytes, bytes] = {}
+
+    def fixed(m: re.Match) -> bytes:
+        return seen.setdefault(m.group(0), f"00000000-0000-4000-8000-{len(seen):012x}".encode())
+    return [_UUID.sub(fixed, c) for c in commands]
 
 
 def error_colors(size: np.ndarray, vmax: float) -> np.ndarray:
@@ -138,10 +153,13 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     only the group ``show`` is visible at first. Returns facts of the scene, with
     ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
     m: Machine = model.machine
-    campaign = campaign.primary()  # the rows the fitted tracker pose describes
+    from vecpin.measurement.registration import check_same_pose, station0
+    campaign = station0(campaign)  # the rows the fitted tracker pose describes
+    check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
+                    campaign.xyz, campaign.source, "the model", campaign.lines)
     row = min(row, len(campaign) - 1)
     vis.delete()
-    _machine_geometry(vis, m, campaign.q[row])
+    notes = _machine_geometry(vis, m, campaign.q[row], mesh_dirs(model))
     nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
     identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
     measured = to_machine_frame(model, campaign.xyz)
@@ -174,7 +192,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
     g0 = groups[0]
     facts = {"exaggeration": g0["exaggeration"], "max_error_mm": g0["max_mm"], "rows": len(campaign),
-             "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": row}
+             "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": row, "notes": notes}
     if tables is not None:
         facts["max_compensated_mm"] = groups[2]["max_mm"]
     sel = root["selected"]
@@ -242,13 +260,68 @@ def to_machine_frame(model, xyz: np.ndarray) -> np.ndarray:
     return (p - s.e0[:3]) @ exp3(s.e0[3:])
 
 
-def _machine_geometry(vis, m: Machine, q: np.ndarray) -> None:
+def mesh_dirs(model) -> list[Path]:
+    """Folders a relative mesh of the model's URDF is looked for in: the URDF's own folder
+    (a machine loaded from a file), the folder recorded in the model file, the model
+    file's folder."""
+    m = model.machine
+    dirs = [m.urdf_path.parent] if m.urdf_path is not None else []
+    return dirs + [Path(d) for d in getattr(model, "mesh_dirs_", [])]
+
+
+def resolve_meshes(urdf_xml: str, dirs: list[Path]) -> tuple[str, list[str]]:
+    """The URDF with every visual mesh file name made absolute where the file is found
+    (relative to ``dirs``; ``package://PKG/...`` under a folder or its PKG subfolder), and
+    every visual whose mesh is found nowhere left out. Returns (URDF text, missing files)."""
+    import xml.etree.ElementTree as ET
+    if "<mesh" not in urdf_xml:
+        return urdf_xml, []
+    root = ET.fromstring(urdf_xml)
+    missing: list[str] = []
+    for link in root.iter("link"):
+        for vis_el in list(link.findall("visual")):
+            mesh = vis_el.find("geometry/mesh")
+            if mesh is None:
+                continue
+            name = mesh.get("filename", "")
+            found = _find_mesh(name, dirs)
+            if found is None:
+                missing.append(name)
+                link.remove(vis_el)
+            else:
+                mesh.set("filename", str(found))
+    return ET.tostring(root, encoding="unicode"), missing
+
+
+def _find_mesh(name: str, dirs: list[Path]) -> Path | None:
+    if name.startswith("file://"):
+        name = name[len("file://"):]
+    tries: list[Path] = []
+    if name.startswith("package://"):
+        pkg, _, rest = name[len("package://"):].partition("/")
+        for d in dirs:
+            tries += [d / rest, d / pkg / rest, d.parent / pkg / rest]
+    elif Path(name).is_absolute():
+        tries.append(Path(name))
+    else:
+        tries += [d / name for d in dirs]
+    return next((t.resolve() for t in tries if t.is_file()), None)
+
+
+def _machine_geometry(vis, m: Machine, q: np.ndarray, dirs: list[Path] | None = None) -> list[str]:
+    """Draw the machine's visual geometry posed at ``q``; returns notes (meshes left out)."""
     from pinocchio.visualize import MeshcatVisualizer
-    visual = pin.buildGeomFromUrdfString(m.model, m.urdf_xml, pin.GeometryType.VISUAL)
+    xml, missing = resolve_meshes(m.urdf_xml, dirs or [])
+    visual = pin.buildGeomFromUrdfString(m.model, xml, pin.GeometryType.VISUAL)
     viz = MeshcatVisualizer(m.model, pin.GeometryModel(), visual)
     viz.initViewer(viewer=vis)
     viz.loadViewerModel(rootNodeName="machine")
     viz.display(m.full_q(q))
+    if not missing:
+        return []
+    where = ", ".join(str(d) for d in dirs) if dirs else "no folder known"
+    return [f"drawn without {len(missing)} mesh file(s) not found ({', '.join(sorted(set(missing))[:3])}; looked in "
+            f"{where}): put the meshes beside the URDF or the model file"]
 
 
 def _tracker(node, model, span: float) -> None:
@@ -283,6 +356,7 @@ def legend_lines(facts: dict) -> list[str]:
     for gr in facts["groups"]:
         out.append(f"  /vecpin/{gr['name']:<12s} {gr['label']}: x{gr['exaggeration']:.0f}, colour 0 .. "
                    f"{gr['max_mm']:.3f} mm (blue .. red){'  [shown]' if gr['visible'] else ''}")
+    out += [f"  note: {n}" for n in facts.get("notes", [])]
     return out
 
 

@@ -26,13 +26,14 @@ be better than can be measured).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import check_registration, registered_errors
 from vecpin.measurement.repeatability import (SESSION_GAP_S, RepeatabilityStats, drift, instrument_repeatability,
                                               repeat_groups, repeatability)
 from vecpin.measurement.tracker import TrackerNoise
@@ -141,8 +142,16 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
     from vecpin.errors import InputError
     if not mean_error_mm > 0:
         raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
+    if not math.isfinite(mean_error_mm):
+        raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
+    for option, v in (("--long-term", long_term_mm), ("--short-term", short_term_mm), ("--max-error", max_error_mm)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{option} {v}: a positive number of mm")
+    if max_error_mm is not None and max_error_mm < mean_error_mm:
+        raise InputError(f"--max-error {max_error_mm:g} is below --mean-error {mean_error_mm:g}: the largest error "
+                         "cannot be smaller than the mean; check the two numbers")
     rep = long_term_mm if long_term_mm is not None else short_term_mm
-    if rep is None or not rep > 0:
+    if rep is None:
         raise InputError("give the long-term (--long-term) or short-term (--short-term) repeatability in mm (> 0)")
     kind = "long-term" if long_term_mm is not None else "short-term (long-term unknown: optimistic)"
     return Assessment(mean_error_mm, max_error_mm, rep, kind, short_term_mm, long_term_mm, instrument_mm)
@@ -154,7 +163,10 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
     registered distance of the measured points from the nominal tool tips (every row
     once: repeats after the first are left out)."""
     from vecpin.errors import InputError
+    if not (math.isfinite(session_gap) and session_gap > 0):
+        raise InputError(f"--session-gap-min {session_gap / 60:g}: minutes > 0 (default 30)")
     c = campaign.primary()
+    check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
     stats = repeatability(c, session_gap)
     if stats["short"] is None and stats["long"] is None:
         raise InputError(f"{campaign.source}: no command is measured twice with the same tool, so the repeatability is "

@@ -8,10 +8,12 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.errors import InputError
+from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
-from vecpin.simulation.simulate import simulate
+from vecpin.simulation.simulate import Design, simulate
 from vecpin.units import norm_mm
 from vecpin.workflows.fitting import fit_campaign
 
@@ -51,14 +53,24 @@ class DemoResult:
 
 def run_demo(out_dir: str | Path, seed: int = 0, order: int = 6,
              progress: Callable[[str], None] | None = None) -> DemoResult:
-    """Simulate, fit the 6-DoF and AP models at ``order``, write the files into ``out_dir``."""
+    """Simulate, fit the 6-DoF and AP models at ``order``, write the files into ``out_dir``
+    (all together, once everything is computed)."""
     say = progress or (lambda s: None)
     m = Machine.load("flow_xyzcb")
+    design = Design()
+    if int(order) != order or order < 0:
+        raise InputError(f"--order {order}: the seed's series order, a whole number >= 0 (default 6)")
+    eq = 3 * design.n_commands * len(design.tools_mm)
+    for kind in ("6dof", "ap"):
+        unknowns = make_model(kind, m, order).n_parameters + 6
+        if unknowns > eq:
+            raise InputError(f"--order {order}: the {kind} model has {unknowns} unknowns, more than the {eq} equations "
+                             "of Paper I's campaign; the seed used order 6")
+    check_output_dir(out_dir)
     say("simulating Paper I's campaign on flow_xyzcb (295 commands x 2 tools, 35 validation points)")
-    sim = simulate(m, seed=seed, mean_error_mm=0.65)
-    paths = sim.write(out_dir)
+    sim = simulate(m, seed=seed, design=design, mean_error_mm=0.65)
     c, v, exact = sim.campaign, sim.validation, sim.validation_truth
-    rows, files = [], list(paths.values())
+    rows = []
     noise = NoiseModel.default(m, "spherical")
     run = fit_campaign(m, c, noise, progress=say)  # the default: the model the data choose
     fits = [("chosen: " + run.model.label(), run.model, "model.json")]
@@ -66,12 +78,13 @@ def run_demo(out_dir: str | Path, seed: int = 0, order: int = 6,
         say(f"fitting the {kind} model, order {order} (the seed's choice)")
         fits.append((f"{'6-DoF' if kind == '6dof' else 'AP'} order {order}", make_model(kind, m, order).fit(c, noise),
                      f"model_{kind}.json"))
-    for label, model, name in fits:
-        path = Path(out_dir) / name
-        model.save(path)
-        files.append(path)
-        rows.append(DemoRow(label, norm_mm(model.residuals(c)), norm_mm(model.residuals(v)),
-                            norm_mm(model.residuals(exact)), model.report_.seconds))
+    with OutputSet(out_dir) as out:
+        files = list(sim.write_into(out).values())
+        for label, model, name in fits:
+            model.save(out.path(name))
+            files.append(out.final(name))
+            rows.append(DemoRow(label, norm_mm(model.residuals(c)), norm_mm(model.residuals(v)),
+                                norm_mm(model.residuals(exact)), model.report_.seconds))
     # the nominal tracker pose is the registration of the nominal kinematics: the same for both models
     nom = [norm_mm(x.xyz - model.predict_nominal(x.q, x.tool)) for x in (c, v, exact)]
     rows.insert(0, DemoRow("Uncompensated", *nom))

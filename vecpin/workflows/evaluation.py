@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import check_registration, check_same_pose, registered_errors, station0
 from vecpin.models import ErrorModel
 from vecpin.units import norm_mm
 from vecpin.measurement.stats import distance_stats
@@ -44,18 +44,26 @@ class Evaluation:
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
 
 
-def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zone=None) -> Evaluation:
+def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zone=None,
+             model_source: str = "the model") -> Evaluation:
     """Judge ``model`` on ``campaign`` (its station-0 tracker rows; of those commanded in
     ``zone`` {axis: (low, high)} mm/deg when given). ``reregister``: the tracker was
-    moved, so its pose is fitted to this campaign first."""
+    moved, so its pose is fitted to this campaign first. A campaign the model's tracker
+    pose (or, re-registered, the machine's nominal kinematics) cannot describe is refused
+    (:func:`~vecpin.measurement.registration.check_same_pose`)."""
     if zone:
         from vecpin.workflows.fitting import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
-    c = campaign.primary()
+    c = station0(campaign)
     if c.plain:
         nominal = model.machine.tool_tip(c.q, c.tool, frame="base")
-        d_nom = (norm_mm(registered_errors(nominal, c.xyz)) if reregister
-                 else norm_mm(c.xyz - model.predict_nominal(c.q, c.tool)))
+        if reregister:
+            check_registration(nominal, c.xyz, c.source, c.lines)
+            d_nom = norm_mm(registered_errors(nominal, c.xyz))
+        else:
+            predicted = model.predict_nominal(c.q, c.tool)
+            check_same_pose(nominal, predicted, c.xyz, c.source, model_source, c.lines)
+            d_nom = norm_mm(c.xyz - predicted)
     else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
         res = model.nominal_residuals(c)
         d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)

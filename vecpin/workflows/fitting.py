@@ -11,16 +11,31 @@ one table set) per zone, each recording its zone.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
+from vecpin.selection.orders import check_folds
+
+
+MAX_UNKNOWNS = 5000  # a fit holds a few dense unknowns x unknowns matrices: 5000 -> 200 MB each
+
+
+def check_size(model: ErrorModel) -> None:
+    """Refuse, before the fit, a model whose normal equations alone would take gigabytes."""
+    n = model.n_parameters + 6
+    if n > MAX_UNKNOWNS:
+        raise InputError(f"--order {model.order}: the {model.kind} model has {n} unknowns; its normal equations "
+                         f"would need about {4 * n * n * 8 / 1e9:.1f} GB (vecpin fits at most {MAX_UNKNOWNS} unknowns); "
+                         "use a lower --order")
 
 
 @dataclass
@@ -50,9 +65,15 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
+    check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
+    if not (math.isfinite(prior_scale) and prior_scale > 0):
+        raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number (default 1)")
+    if noise.instrument == "range":
+        check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
     model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
+    check_size(model)
     if progress:
         progress(f"fitting the {model.kind} model ({model.n_parameters + 6} parameters) to {len(campaign)} rows")
     model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)

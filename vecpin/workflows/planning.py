@@ -19,7 +19,7 @@ import numpy as np
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import DIALECTS, program_name, write_program
+from vecpin.planning.ncprogram import DIALECTS, check_program_options, program_name, write_program
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.units import to_mm
 
@@ -104,7 +104,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates)."""
     check_output_dir(out_dir)
+    check_program_options(dwell_s, feed_mm_min)
     from vecpin.viz.figures import plan_figure
+    templates = {c: read_template(c, machine) for c in compare_with if c != "random"}  # a bad file fails now
     plan = make_plan(machine, settings, progress)
     others: list[tuple[str, PlanTemplate]] = []
     for c in compare_with:
@@ -113,7 +115,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             rp = make_plan(machine, replace(settings, method="random"), None)
             others.append(("random commands", rp.template))
         else:
-            others.append((Path(c).name, read_template(c, machine)))
+            others.append((Path(c).name, templates[c]))
     comparison = compare(plan, others) if others else []
     files = []
     with OutputSet(out_dir) as out:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors
 from vecpin.simulation.simulate import Design, Simulation, simulate
@@ -65,7 +66,10 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
                     effects: list | None = None, **truth_options) -> SimulationRun:
     """Simulate a campaign (see :func:`vecpin.simulation.simulate.simulate`; ``plan``,
     ``tables``, ``truth`` and the truth options pass through) and write its files."""
+    check_output_dir(out_dir)
     design = design or Design()
+    plan = truth_options.get("plan")
+    design.check(machine, None if plan is None else len(plan[1]), files=True)  # files vecpin can read back
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
     return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,

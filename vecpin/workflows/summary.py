@@ -4,6 +4,10 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.measurement.stats import distance_stats
+from vecpin.units import MM_PER_M
+
+
+MAX_TOOLS_LISTED = 6  # tool lengths given a line each
 
 
 def per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list[str]:
@@ -12,11 +16,15 @@ def per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list
     lines = [f"  {'':<40s} {'n':>5s} {'mean mm':>9s} {'max mm':>9s} {'RMS mm':>9s}"]
     for label, d in rows:
         st = distance_stats(d, tool)
-        keys = list(st) if len(st) > 2 else ["all"]
+        keys = list(st) if 2 < len(st) <= MAX_TOOLS_LISTED + 1 else ["all"]
         for k in keys:
             s = st[k]
             name = label if k == "all" else f"    {k}"
             lines.append(f"  {name:<40s} {s['n']:5d} {s['mean']:9.4f} {s['max']:9.4f} {s['rms']:9.4f}")
+    n_tools = len(np.unique(np.round(np.asarray(tool, float), 9)))
+    if n_tools > MAX_TOOLS_LISTED:
+        lines.append(f"  ({n_tools} different tool lengths, {np.min(tool) * MM_PER_M:.3f} .. {np.max(tool) * MM_PER_M:.3f} mm: "
+                     "not listed one by one; is the tool column a measured length that varies row to row?)")
     return lines
 
 

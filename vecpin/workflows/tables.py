@@ -32,6 +32,14 @@ from vecpin.models import ErrorModel
 from vecpin.units import MM_PER_M
 
 
+def named_axis(machine, name: str, option: str):
+    """``machine.axis(name)``, the error naming the option that gave the name."""
+    if name not in machine.axis_names:
+        raise InputError(f"{option} {name}: machine '{machine.name}' has no axis '{name}' (axes: "
+                         f"{', '.join(machine.axis_names)}; names are case-sensitive)")
+    return machine.axis(name)
+
+
 def parse_axis_map(items: list[str], machine) -> dict[str, str]:
     """``JOINT=NCNAME`` items -> {joint: NC axis name}; every joint must exist and no two
     joints may share an NC name."""
@@ -40,7 +48,7 @@ def parse_axis_map(items: list[str], machine) -> dict[str, str]:
         if "=" not in it:
             raise InputError(f"--axis-map takes JOINT=NCNAME, not '{it}'")
         a, b = (x.strip() for x in it.split("=", 1))
-        machine.axis(a)
+        named_axis(machine, a, f"--axis-map {it}:")
         if not b:
             raise InputError(f"--axis-map {it}: the NC axis name is empty")
         out[a] = b
@@ -121,8 +129,10 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     m = model.machine
     fmt, prof, limits = resolve(controller, m, profile, axis_map)
     limits.points(points)                                 # before any heavy work
-    for a in list(forbid_output) + list(modulo_axes):
-        m.axis(a)
+    for a in forbid_output:
+        named_axis(m, a, "--forbid-output")
+    for a in modulo_axes:
+        named_axis(m, a, "--modulo")
     modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
     if max_tables is not None:
         limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)

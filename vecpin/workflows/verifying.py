@@ -24,7 +24,7 @@ from vecpin.compensation.functions import compensated_errors, model_as_actual
 from vecpin.compensation.tables import TableSet
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import check_registration, registered_errors
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 from vecpin.units import M_PER_MM, norm_mm
@@ -125,6 +125,8 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     """The two runs side by side (see the module text); ``progress(msg)`` hears of the
     slow step (tables computed from the model)."""
     b, a = before.primary(), after.primary()
+    for run in (b, a):  # a run of another machine, or in other units, is not a validation run of this one
+        check_registration(machine.tool_tip(run.q, run.tool, frame="base"), run.xyz, run.source, run.lines)
     notes = []
     tables_from = f"tables {tables_source}" if tables is not None else "no tables given: 0 assumed (give --tables)"
     if tables is None and model is not None:
@@ -169,6 +171,9 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
 
 def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: str | Path | None, **kw) -> Verification:
     """:func:`verify`, and with ``out_dir`` also ``verify.json`` and ``verify.png`` (Fig. 11)."""
+    if out_dir is not None:
+        from vecpin.fileio import check_output_dir
+        check_output_dir(out_dir)
     v = verify(machine, before, after, **kw)
     if out_dir is None:
         return v
@@ -199,6 +204,8 @@ def load_tables(path: str | Path, machine: Machine) -> tuple[TableSet, str]:
         raise InputError(f"--tables {p}: no such file or folder")
     try:
         ts = TableSet.load_json(p, machine)
-    except (ValueError, KeyError) as exc:
+    except (ValueError, KeyError, TypeError, OSError) as exc:
         raise InputError(f"--tables {p}: not a vecpin table file ({exc})") from None
+    if ts.source and ts.source != machine.name:
+        raise InputError(f"--tables {p}: the tables are for machine '{ts.source}', not '{machine.name}'")
     return ts, str(p)
