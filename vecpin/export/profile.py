@@ -161,8 +161,10 @@ class ControllerProfile:
         value = getattr(self.axis(axis), key)
         if value is None:
             hint = (f"--axis-map {axis}=NAME or " if key == "nc_name" else "")
+            where = "a controller profile (--profile FILE)" if self.where == "--axis-map" else f"the {self.where}"
             raise InputError(f"{controller} needs the {purpose} of axis {axis}: give {hint}\"{key}\" under "
-                             f"axes.{axis} in the controller profile (--profile; {self.where})")
+                             f"axes.{axis} in {where}, e.g. {{\"axes\": {{\"{axis}\": {{\"{key}\": ...}}}}}} "
+                             "(the README's controller section lists every field)")
         return value
 
     def limit(self, name: str, default):

@@ -49,6 +49,11 @@ class FitReport:
         lo, hi = self.chi2_band
         verdict = "in band" if self.chi2_in_band else ("ABOVE band: misfit or noise model too optimistic"
                                                         if self.chi2 > hi else "BELOW band: noise model too pessimistic")
+        if not self.chi2_in_band and self.chi2_expected > 0:
+            scale = (self.chi2 / self.chi2_expected) ** 0.5  # residuals / assumed noise, RMS over the equations
+            verdict += (f" (the residuals are {scale:.2f}x the assumed noise; if the model is right, the instrument and "
+                        "repeatability sigmas are that much " + ("smaller" if scale < 1 else "larger") +
+                        ": --tracker-sigma-mm / --tracker-noise, --repeatability-mm)")
         lines = [f"{self.model} model, order {self.order}, {self.instrument} instrument noise: {self.n_rows} rows, "
                  f"{self.n_parameters} parameters ({len(self.removed)} redundant removed, "
                  f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",

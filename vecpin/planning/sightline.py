@@ -298,14 +298,64 @@ def _segment_triangles(p0: np.ndarray, p1: np.ndarray, V: np.ndarray, T: np.ndar
     return out
 
 
+FRONT_SEES_ENOUGH = 0.75  # the usual front set-up is kept while it sees this share of the best position's tips
+
+
+def tracker_side(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> tuple[float, float]:
+    """(azimuth [rad] about the workspace centre, 0 = the usual front set-up; height [m]
+    of the tracker head) of a tracker standing ``distance`` [m] beyond the tool-tip
+    workspace. The front (-y side, at the height of the lowest tip, as for a gantry)
+    unless the machine's own URDF geometry hides most tool tips from there (a trunnion's
+    column stands on that side): then, of 8 directions x 3 heights (lowest tip, centre,
+    0.3 m above the highest tip), the one that sees the most tips of 128 commands.
+    Without geometry in the URDF: the front."""
+    from scipy.stats import qmc
+    u = qmc.Halton(machine.n_axes, seed=0).random(128)
+    q = machine.lower + u * (machine.upper - machine.lower)
+    tips = machine.tool_tip(q, tool, frame="base")
+    lo, hi = tips.min(axis=0), tips.max(axis=0)
+    centre = (lo + hi) / 2
+    try:
+        solids, _ = solids_from_urdf(machine)
+    except MachineError:
+        return 0.0, float(lo[2])
+    if not solids:
+        return 0.0, float(lo[2])
+    seen = []
+    for k in range(8):
+        az = k * np.pi / 4
+        for z in (lo[2], centre[2], hi[2] + 0.3):
+            pos = _around(tips, centre, az, distance, z)
+            seen.append((1.0 - SightLine(machine, pos, solids=solids).check(q, tool).blocked.mean(), az, float(z)))
+    best = max(v for v, _, _ in seen)
+    if seen[0][0] >= FRONT_SEES_ENOUGH * best:
+        return 0.0, float(lo[2])
+    _, az, z = max(seen, key=lambda t: t[0])
+    return az, z
+
+
+def _around(tips: np.ndarray, centre: np.ndarray, azimuth: float, distance: float, z: float) -> np.ndarray:
+    """A point ``distance`` [m] beyond the tips' extent in the direction -y turned by
+    ``azimuth`` about the vertical through ``centre``, at height z."""
+    d = np.array([np.sin(azimuth), -np.cos(azimuth), 0.0])
+    reach = float(((tips - centre) @ d).max())
+    pos = centre + (reach + distance) * d
+    pos[2] = z
+    return pos
+
+
 def default_tracker_position(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> np.ndarray:
-    """A tracker standing ``distance`` [m] in front (-y side) of the tool-tip workspace,
-    at the height of its lowest tip, centred in x: the usual set-up for a gantry."""
+    """A tracker standing ``distance`` [m] beyond the tool-tip workspace, centred on it:
+    in front (-y side) at the height of its lowest tip (the usual set-up for a gantry),
+    or where :func:`tracker_side` finds the tips in sight."""
     from scipy.stats import qmc
     u = qmc.Halton(machine.n_axes, seed=0).random(256)
     tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool, frame="base")
     lo, hi = tips.min(axis=0), tips.max(axis=0)
-    return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]])
+    az, z = tracker_side(machine, tool, distance)
+    if az == 0.0:
+        return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]])
+    return _around(tips, (lo + hi) / 2, az, distance, z)
 
 
 def describe_solids(solids: list[Solid]) -> str:
@@ -315,5 +365,5 @@ def describe_solids(solids: list[Solid]) -> str:
     return ", ".join(f"{v} {k}{'es' if k == 'box' and v > 1 else ('s' if v > 1 else '')}" for k, v in kinds.items())
 
 
-__all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "describe_solids",
+__all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "tracker_side", "describe_solids",
            "DEFAULT_TOOL_RADIUS", "DEFAULT_TARGET_CLEARANCE"]

@@ -22,6 +22,7 @@ from vecpin.kinematics.errorframes import ErrorFrames
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import Tracker, TrackerNoise
+from vecpin.planning.sightline import tracker_side
 from vecpin.units import MM_PER_M, M_PER_MM
 
 COMPONENTS = ("dx", "dy", "dz", "ex", "ey", "ez")  # translations [m], rotations [rad], axis-local frame
@@ -416,7 +417,9 @@ def uniform_commands(machine: Machine, n: int, rng: np.random.Generator) -> np.n
 def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNoise, distance_m: float,
                   side: float = 0.0) -> Tracker:
     """A tracker standing ``distance_m`` in front (-y side) of the tool-tip workspace,
-    on the floor level of the workspace, with a random heading and a tilt below 2°.
+    on the floor level of the workspace, with a random heading and a tilt below 2°; on a
+    machine whose geometry hides the tips from the front, on the side and at the height
+    where it sees them (:func:`vecpin.planning.sightline.tracker_side`).
     ``side`` [rad] turns the stand position about the workspace centre (other stations)."""
     q = uniform_commands(machine, 200, rng)
     tips = np.vstack([machine.tool_tip(q, 0.25, frame="base", point=k) for k in range(len(machine.tool_links))])
@@ -424,9 +427,12 @@ def place_tracker(machine: Machine, rng: np.random.Generator, noise: TrackerNois
     centre = (lo + hi) / 2
     position = np.array([centre[0] + rng.uniform(-0.2, 0.2) * (hi[0] - lo[0]), lo[1] - distance_m,
                          lo[2] + rng.uniform(0.0, 0.3) * (hi[2] - lo[2])])
-    if side:
+    az, height = tracker_side(machine, 0.25, distance_m)  # where the machine's geometry lets it see the tips
+    if az:
+        position[2] += height - lo[2]
+    if side or az:
         from vecpin.kinematics.so3 import exp3 as _exp3
-        position = centre + _exp3(np.array([0.0, 0.0, side])) @ (position - centre)
+        position = centre + _exp3(np.array([0.0, 0.0, side + az])) @ (position - centre)
     yaw = rng.uniform(-math.pi, math.pi)
     tilt_axis = rng.normal(size=3)
     tilt_axis[2] = 0

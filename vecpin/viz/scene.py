@@ -202,7 +202,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     # the viewer orbits the origin: bring the workspace centre there
     centre = 0.5 * (nominal.min(axis=0) + nominal.max(axis=0))
     vis.set_transform(tf.translation_matrix(-centre))
-    vis["/Cameras/default/rotated/<object>"].set_property("position", [0.55 * span, 0.4 * span, 0.75 * span])
+    vis["/Cameras/default/rotated/<object>"].set_property("position", _camera(model, centre, span))
     vis["/Background"].set_property("top_color", [0.95, 0.96, 0.98])
     vis["/Background"].set_property("bottom_color", [0.75, 0.78, 0.82])
     return facts
@@ -322,6 +322,20 @@ def _machine_geometry(vis, m: Machine, q: np.ndarray, dirs: list[Path] | None = 
     where = ", ".join(str(d) for d in dirs) if dirs else "no folder known"
     return [f"drawn without {len(missing)} mesh file(s) not found ({', '.join(sorted(set(missing))[:3])}; looked in "
             f"{where}): put the meshes beside the URDF or the model file"]
+
+
+def _camera(model, centre: np.ndarray, span: float) -> list[float]:
+    """Camera position for meshcat (its Y-up 'rotated' frame, relative to the workspace
+    centre): from the tracker's side of the machine, where the tracker sees the tool
+    tips (so no column or gantry beam stands between), 30 degrees above the floor, one
+    workspace diagonal (at least 1.5 m) away."""
+    tracker = to_machine_frame(model, np.zeros((1, 3)))[0]
+    d = tracker - centre
+    d[2] = 0.0
+    n = float(np.linalg.norm(d))
+    d = d / n if n > 1e-6 else np.array([0.59, -0.81, 0.0])
+    rel = max(span, 1.5) * (np.cos(np.pi / 6) * d + np.array([0.0, 0.0, np.sin(np.pi / 6)]))
+    return [float(rel[0]), float(rel[2]), float(-rel[1])]  # world (x, y, z) -> meshcat rotated (x, z, -y)
 
 
 def _tracker(node, model, span: float) -> None:
