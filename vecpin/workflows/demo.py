@@ -12,7 +12,7 @@ from vecpin.errors import InputError
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.noise import NoiseModel
-from vecpin.models import make_model
+from vecpin.models import MODELS, make_model
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.units import norm_mm
 from vecpin.workflows.fitting import fit_campaign
@@ -76,7 +76,7 @@ def run_demo(out_dir: str | Path, seed: int = 0, order: int = 6,
     fits = [("chosen: " + run.model.label(), run.model, "model.json")]
     for kind in ("6dof", "ap"):  # the seed's two models at its order, for Paper I Table 2
         say(f"fitting the {kind} model, order {order} (the seed's choice)")
-        fits.append((f"{'6-DoF' if kind == '6dof' else 'AP'} order {order}", make_model(kind, m, order).fit(c, noise),
+        fits.append((f"{MODELS[kind].display_name} order {order}", make_model(kind, m, order).fit(c, noise),
                      f"model_{kind}.json"))
     with OutputSet(out_dir) as out:
         files = list(sim.write_into(out).values())
