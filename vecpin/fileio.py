@@ -28,7 +28,7 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600: give the file the user's usual mode
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600: give the file the user's usual mode
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -37,10 +37,25 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     return path
 
 
-def _umask() -> int:
-    mask = os.umask(0)
+def _read_umask() -> int:
+    """The process umask, without changing it where the system tells it (Linux
+    ``/proc/self/status``, kernel 4.7+); elsewhere by setting and restoring it, which is
+    done once, at import, before vecpin starts any thread."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+# The umask at import: files get the mode a plain open() would give them (0o666 & ~umask).
+# Reading it per write would set the umask of every thread for a moment.
+_UMASK = _read_umask()
 
 
 def write_text(path: str | Path, text: str) -> Path:

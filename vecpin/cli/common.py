@@ -2,10 +2,29 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 
 from vecpin.errors import InputError
+from vecpin.measurement.noise import (DEFAULT_BALLBAR_SIGMA, DEFAULT_CARTESIAN_SIGMA, DEFAULT_LINEAR_SIGMA,
+                                      DEFAULT_ROTARY_SIGMA)
+from vecpin.measurement.tracker import TrackerNoise
+from vecpin.units import MM_PER_M
+
+MACHINE_HELP = "bundled machine name (vecpin info lists them) or URDF file"
+CAMPAIGN_HELP = "campaign CSV: commands in mm/deg, tool in mm, measured x, y, z in mm (see the README)"
+
+
+def noise_defaults() -> dict[str, str]:
+    """The noise model's defaults as the options write them (mm, deg, ppm)."""
+    t = TrackerNoise()
+    return {"repeatability_mm": f"{DEFAULT_LINEAR_SIGMA * MM_PER_M:g}",
+            "repeatability_deg": f"{math.degrees(DEFAULT_ROTARY_SIGMA):g}",
+            "tracker_sigma_mm": f"{DEFAULT_CARTESIAN_SIGMA * MM_PER_M:g}",
+            "ballbar_sigma_mm": f"{DEFAULT_BALLBAR_SIGMA * MM_PER_M:g}",
+            "tracker_noise": f"{t.range_const * MM_PER_M:g} {t.range_ppm * 1e6:g} {t.transverse_const * MM_PER_M:g} "
+                             f"{t.transverse_ppm * 1e6:g}"}
 
 
 def progress(enabled: bool = True):
@@ -37,15 +56,25 @@ def add_machine_args(s: argparse.ArgumentParser) -> None:
 
 
 def add_noise_args(s: argparse.ArgumentParser) -> None:
-    s.add_argument("--spherical", action="store_true", help="tracker noise in its native spherical coordinates (range dependent)")
-    s.add_argument("--multilateration", action="store_true", help="use the tracker ranges only (several stations)")
-    s.add_argument("--ballbar-sigma-mm", type=float, help="ball bar radius noise, mm (default 0.0025)")
-    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
-    s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg (default 0.0015)")
-    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default 0.02)")
+    d = noise_defaults()
+    s.add_argument("--spherical", action="store_true",
+                   help="tracker noise in its native spherical coordinates, growing with the range (--tracker-noise); "
+                        "default: Cartesian, the same in every direction (--tracker-sigma-mm)")
+    s.add_argument("--multilateration", action="store_true",
+                   help="use the tracker ranges only, one equation per row; needs several stations (default: all "
+                        "three coordinates)")
+    s.add_argument("--ballbar-sigma-mm", type=float,
+                   help=f"1-sigma noise of a ball bar's radius reading, mm (default {d['ballbar_sigma_mm']})")
+    s.add_argument("--repeatability-mm", type=float,
+                   help=f"1-sigma positioning noise of linear axes (Σ_v), mm (default {d['repeatability_mm']})")
+    s.add_argument("--repeatability-deg", type=float,
+                   help=f"1-sigma positioning noise of rotary axes (Σ_v), deg (default {d['repeatability_deg']})")
+    s.add_argument("--tracker-sigma-mm", type=float,
+                   help=f"1-sigma Cartesian tracker noise per coordinate, mm (default {d['tracker_sigma_mm']})")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise: range sigma = R_MM + R_PPM*R, transverse = T_MM + T_PPM*R")
-    s.add_argument("--quiet", action="store_true", help="no progress lines")
+                   help="spherical tracker noise (with --spherical): 1-sigma range noise = R_MM mm + R_PPM ppm of the "
+                        f"range, transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
 
 
 def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> None:

@@ -44,13 +44,16 @@ def register(sub) -> None:
                    help="controller whose files to write (default generic: tables.json/csv only)")
     s.add_argument("--profile", metavar="JSON",
                    help="the machine's controller profile: NC axis names, reference positions [mm/deg], modulo axes, "
-                        "detection units, limits (see the README)")
+                        "detection units, limits (see the README); default: none (enough for generic and iso230)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
-                   help="NC axis name of a joint (wins over the profile's nc_name)")
+                   help="NC axis name of a joint, wins over the profile's nc_name; repeatable (default: the "
+                        "profile's names)")
     s.add_argument("--max-tables", type=int, help="cross tables to choose (default: as many as the controller "
                                                   "holds; pitch tables are always in)")
-    s.add_argument("--no-circular", action="store_true", help="never use table ij together with ji")
-    s.add_argument("--forbid-output", action="append", default=[], metavar="AXIS", help="axis that cannot be corrected")
+    s.add_argument("--no-circular", action="store_true", help="never use table ij together with ji (default: "
+                   "allowed unless the controller forbids it)")
+    s.add_argument("--forbid-output", action="append", default=[], metavar="AXIS",
+                   help="axis whose command no table may change; repeatable (default: none)")
     s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"],
                    help="subset selection method (default exact)")
     s.add_argument("--points", type=int,
@@ -58,14 +61,16 @@ def register(sub) -> None:
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
     s.add_argument("--modulo", action="append", default=[], metavar="AXIS",
                    help="rotary input axis with modulo tables over one turn 0..360 deg (also: \"modulo\": true in "
-                        "the profile)")
-    s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on")
+                        "the profile); repeatable (default: none)")
+    s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on "
+                   "(default: 1000 quasi-random commands in the measured region, with the fit's tools)")
     s.add_argument("--sign-test", metavar="AXIS|TABLE",
                    help="also write a sign-test NC program and instructions for this axis' pitch table or this "
-                        "table (e.g. X or yx); judge it with vecpin evaluate --sign-test")
+                        "table (e.g. X or yx); judge it with vecpin evaluate --sign-test (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit the tables in this region of axis space only, mm/deg (default: the zone the model was "
                         "fitted in, else the whole measured region)")
-    s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--quiet", action="store_true", help="no progress lines")
+    s.add_argument("--out", required=True, help="output folder: tables.json, tables.csv (mm, deg), the controller's "
+                   "files and their README")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_tables)

@@ -1,7 +1,8 @@
 """``vecpin diagnose``: where the residual lies, which effect causes it, how far it shrinks."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, add_model_args, add_noise_args, machine, noise, progress
+from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args, machine,
+                               noise, progress)
 from vecpin.errors import InputError
 
 
@@ -35,14 +36,19 @@ def run_diagnose(args) -> int:
 
 def register(sub) -> None:
     s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
-    s.add_argument("machine")
+    from vecpin.models.effects import REGISTRY
+    s.add_argument("machine", help=MACHINE_HELP)
     add_machine_args(s)
-    s.add_argument("csv")
-    s.add_argument("--out", required=True)
+    s.add_argument("csv", help=CAMPAIGN_HELP)
+    s.add_argument("--out", required=True, help="output folder: diagnosis.json (mm), model_base.json, model_best.json, "
+                   "report.md with figures")
     add_model_args(s)
-    s.add_argument("--effects", default="all", help="all, or a comma list of: gantry_skew, coupled_axes, thermal, "
-                   "backlash, rotary_periodic, instrument_shift, outliers")
-    s.add_argument("--folds", type=int, default=5)
-    s.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm rate per round")
+    s.add_argument("--effects", default="all", help=f"effects to try: all, or a comma list of {', '.join(REGISTRY)} "
+                   "(default %(default)s)")
+    s.add_argument("--folds", type=int, default=5,
+                   help="cross-validation folds grouped by command, for the base model and every effect (default %(default)s)")
+    s.add_argument("--alpha", type=float, default=0.01,
+                   help="family-wise false-alarm rate per round of the forward selection, a probability, dimensionless "
+                        "(default %(default)s)")
     add_noise_args(s)
     s.set_defaults(func=run_diagnose)

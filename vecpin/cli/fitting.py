@@ -5,8 +5,8 @@ import json
 
 import numpy as np
 
-from vecpin.cli.common import (add_machine_args, add_model_args, add_noise_args, machine, noise, parse_orders, progress,
-                               zone_option)
+from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args, machine,
+                               noise, parse_orders, progress, zone_option)
 from vecpin.units import MM_PER_M
 
 
@@ -147,16 +147,20 @@ def run_demo(args) -> int:
 
 
 def register(sub) -> None:
-    s = sub.add_parser("fit", help="identify an error model from a campaign CSV (maximum likelihood)")
-    s.add_argument("machine")
-    s.add_argument("csv")
+    s = sub.add_parser("fit", help="choose and identify an error model from a campaign CSV (maximum likelihood)")
+    s.add_argument("machine", help=MACHINE_HELP)
+    s.add_argument("csv", help=CAMPAIGN_HELP)
     add_model_args(s)
-    s.add_argument("--folds", type=int, default=5, help="cross-validation folds of the model choice (default 5)")
-    s.add_argument("--out", required=True, help="model file to write (JSON)")
-    s.add_argument("--tool-corrections", action="store_true", help="also fit a length correction per tool")
-    s.add_argument("--prior-scale", type=float, default=1.0, help="multiply every parameter prior sigma")
+    s.add_argument("--folds", type=int, default=5,
+                   help="cross-validation folds of the model choice, grouped by command (default %(default)s)")
+    s.add_argument("--out", required=True, help="model file to write (JSON, mm and deg)")
+    s.add_argument("--tool-corrections", action="store_true",
+                   help="also fit a length correction per tool, mm (default: the gauge-line correction T_offset only)")
+    s.add_argument("--prior-scale", type=float, default=1.0,
+                   help="factor on every parameter's prior standard deviation (Σ_b), dimensionless, > 0 "
+                        "(default %(default)s)")
     s.add_argument("--underdetermined", action="store_true",
-                   help="accept fewer equations than parameters (the priors decide the rest)")
+                   help="accept fewer equations than parameters, the priors deciding the rest (default: refused)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit only the rows commanded in this region of axis space, mm/deg (a machine calibrated in "
                         "zones, seed Table 2.12); the model file records it and vecpin tables uses it (default: all rows)")
@@ -168,34 +172,43 @@ def register(sub) -> None:
     s.set_defaults(func=run_fit)
 
     s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV")
-    s.add_argument("model")
-    s.add_argument("csv")
-    s.add_argument("--json", help="also write the figures to this JSON file")
-    s.add_argument("--reregister", action="store_true", help="the tracker was moved: register its pose to this file first")
+    s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
+    s.add_argument("csv", help=CAMPAIGN_HELP + "; measured from the model's tracker pose unless --reregister")
+    s.add_argument("--json", help="also write the figures (mm) to this JSON file (default: print only)")
+    s.add_argument("--reregister", action="store_true",
+                   help="the tracker was moved: register its pose to this file first (default: the model's pose)")
     s.add_argument("--sign-test", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
-                                                       "whether the controller applies the table with the right sign")
+                                                       "whether the controller applies the table with the right sign; "
+                                                       "JSON is the SIGNTEST_*.json of vecpin tables (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="judge only the rows commanded in this region, mm/deg "
                                                              "(default: all rows)")
     s.set_defaults(func=run_evaluate)
 
     s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")
-    s.add_argument("machine")
-    s.add_argument("csv")
-    s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"])
-    s.add_argument("--orders", default="0-7", help="e.g. 0-7 or 2,4,6")
+    s.add_argument("machine", help=MACHINE_HELP)
+    s.add_argument("csv", help=CAMPAIGN_HELP)
+    s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"],
+                   help="model kinds to sweep, one or both (default: 6dof ap)")
+    s.add_argument("--orders", default="0-7",
+                   help="series orders to try: a range like 0-7 or a list like 2,4,6 (default %(default)s)")
     s.add_argument("--validation", help="validation CSV: every order fitted and judged on it (Paper I Table 2); "
                    "default: k-fold cross-validation of the linearised candidates")
     s.add_argument("--basis", choices=["chebyshev", "fourier"], default="chebyshev",
                    help="chebyshev everywhere (the seed's, default) or fourier per turn on rotary axes travelling "
                         "more than a turn")
-    s.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    s.add_argument("--folds", type=int, default=5, help="cross-validation folds grouped by command, without "
+                   "--validation (default %(default)s)")
     add_machine_args(s)
     add_noise_args(s)
     s.set_defaults(func=run_orders)
 
-    s = sub.add_parser("demo", help="simulate Paper I's campaign, fit both models, print the before/after table")
-    s.add_argument("--out", default="demo")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--order", type=int, default=6)
-    s.add_argument("--quiet", action="store_true")
+    s = sub.add_parser("demo", help="simulate Paper I's campaign, fit the model the data choose and the seed's two "
+                       "models, print the before/after table")
+    s.add_argument("--out", default="demo", help="output folder: campaign.csv, validation.csv, validation_truth.csv, "
+                   "truth.json, model.json (the chosen model), model_6dof.json, model_ap.json (default %(default)s)")
+    s.add_argument("--seed", type=int, default=0, help="random seed of the simulated machine and campaign: the same seed "
+                   "writes the same files (default %(default)s)")
+    s.add_argument("--order", type=int, default=6, help="series order of the 6-DoF and AP models fitted beside the "
+                   "chosen one, as Paper I (default %(default)s)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_demo)

@@ -20,7 +20,7 @@ def register(sub) -> None:
     s = sub.add_parser("import", help="read a tracker-software export (any column names, delimiter, decimal comma, "
                        "inches) and join it with the plan into a campaign CSV")
     s.add_argument("export", help="the tracker software's export (CSV/TXT)")
-    s.add_argument("--machine", required=True, help="bundled machine name or URDF path")
+    s.add_argument("--machine", required=True, help="bundled machine name (vecpin info lists them) or URDF path")
     add_machine_args(s)
     s.add_argument("--plan", help="the plan's campaign template (plan.csv from vecpin plan): commands and holder lengths "
                    "(default: none; then the export must have the axis columns)")

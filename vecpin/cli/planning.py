@@ -2,7 +2,7 @@
 and the point-distribution figure."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine, progress
+from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress
 from vecpin.errors import InputError
 
 
@@ -103,16 +103,19 @@ def register(sub) -> None:
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
     s.add_argument("--compare", action="append", default=[], metavar="PLAN.csv|random",
                    help="also judge another plan's template (or 'random': the same number of commands at random) "
-                        "with the same model and noise; repeatable")
+                        "with the same model and noise; repeatable (default: none)")
+    d = noise_defaults()
     s.add_argument("--cartesian", action="store_true", help="static Cartesian tracker noise instead of the range-dependent "
                    "spherical model (default: spherical)")
-    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default 0.02; with --cartesian)")
+    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default "
+                   f"{d['tracker_sigma_mm']}; with --cartesian)")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise: range sigma = R_MM + R_PPM*R, transverse = T_MM + T_PPM*R "
-                        "(default 0.003 0.5 0.005 2.5)")
-    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm (default 0.006)")
+                   help="spherical tracker noise: 1-sigma range noise = R_MM mm + R_PPM ppm of the range, "
+                        f"transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
+    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm "
+                   f"(default {d['repeatability_mm']})")
     s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg "
-                   "(default 0.0015)")
+                   f"(default {d['repeatability_deg']})")
     s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_plan)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from vecpin.cli.common import add_machine_args, machine, progress
+from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress
 from vecpin.errors import InputError
 
 
@@ -68,17 +68,18 @@ def register(sub) -> None:
                        "the uncompensated error, with what limits the result (Section 2.4)")
     s.add_argument("csv", nargs="?", help="campaign CSV with repeated points (same command and tool measured several "
                    "times; vecpin plan --repeat)")
-    s.add_argument("--machine", help="bundled machine name or URDF path (needed with a CSV)")
+    s.add_argument("--machine", help="bundled machine name or URDF path (needed with a CSV; default: none)")
     add_machine_args(s)
     s.add_argument("--session-gap-min", type=float, default=30.0,
                    help="repeats further apart than this are different sessions (short vs long term), min (default 30)")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="tracker noise for the instrument floor: range sigma = R_MM + R_PPM*R, transverse = T_MM + "
-                        "T_PPM*R (default 0.003 0.5 0.005 2.5)")
-    s.add_argument("--mean-error", type=float, help="without a CSV: uncompensated mean volumetric error, mm")
-    s.add_argument("--max-error", type=float, help="without a CSV: uncompensated max volumetric error, mm (optional)")
-    s.add_argument("--long-term", type=float, help="without a CSV: long-term repeatability (mean of eq. 22), mm")
-    s.add_argument("--short-term", type=float, help="without a CSV: short-term repeatability (mean of eq. 22), mm")
+                   help="tracker noise for the instrument floor: 1-sigma range noise = R_MM mm + R_PPM ppm of the "
+                        "range, transverse = T_MM mm + T_PPM ppm of the range (default "
+                        f"{noise_defaults()['tracker_noise']})")
+    s.add_argument("--mean-error", type=float, help="without a CSV: uncompensated mean volumetric error, mm (default: none)")
+    s.add_argument("--max-error", type=float, help="without a CSV: uncompensated max volumetric error, mm (optional; default: none)")
+    s.add_argument("--long-term", type=float, help="without a CSV: long-term repeatability (mean of eq. 22), mm (default: none)")
+    s.add_argument("--short-term", type=float, help="without a CSV: short-term repeatability (mean of eq. 22), mm (default: none)")
     s.add_argument("--json", help="also write the figures to this JSON file (default: none)")
     s.set_defaults(func=run_assess)
 

@@ -16,6 +16,7 @@ class APModel(ErrorModel):
     output j), in the unit of axis j [m or rad]; ``j.offset`` is the constant of q_hat_j."""
 
     kind = "ap"
+    display_name = "AP"
 
     def _model_parameters(self) -> list[Parameter]:
         axes = self.machine.axes

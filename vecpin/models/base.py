@@ -49,7 +49,10 @@ MODELS: dict[str, type["ErrorModel"]] = {}
 
 
 def register_model(cls: type["ErrorModel"]) -> type["ErrorModel"]:
-    """Make a model kind available by its ``kind`` (decorator)."""
+    """Make a model kind available by its ``kind`` (decorator); a kind that sets no
+    ``display_name`` of its own is shown by its ``kind``."""
+    if "display_name" not in cls.__dict__:
+        cls.display_name = cls.kind
     MODELS[cls.kind] = cls
     return cls
 
@@ -99,6 +102,7 @@ class ErrorModel:
     """
 
     kind = "base"
+    display_name = "base"  # the kind as printed in tables, figures and reports (e.g. '6-DoF')
 
     def __init__(self, machine: Machine, order: int = 6, basis: str = "auto",
                  tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
@@ -347,7 +351,7 @@ class ErrorModel:
 
     def label(self) -> str:
         """A short name: kind and bases, e.g. '6-DoF cheb6' or 'AP cheb4/cheb4/cheb4/fourier6+trend2/cheb4'."""
-        name = {"6dof": "6-DoF", "ap": "AP"}.get(self.kind, self.kind)
+        name = self.display_name
         labels = [B.short_label() for B in self.bases]
         return f"{name} {labels[0] if len(set(labels)) == 1 else '/'.join(labels)}"
 

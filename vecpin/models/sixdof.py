@@ -27,6 +27,7 @@ class SixDofModel(ErrorModel):
     joint, named as the URDF joint)."""
 
     kind = "6dof"
+    display_name = "6-DoF"
 
     def __init__(self, machine: Machine, order: int = 6, **kw):
         self.frames = ErrorFrames(machine)

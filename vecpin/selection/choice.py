@@ -36,7 +36,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
-from vecpin.models import ErrorModel, make_model
+from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.models.parameters import DEFAULT_PRIORS
 from vecpin.selection.orders import check_folds
@@ -148,7 +148,7 @@ class Candidate:
     def label(self) -> str:
         labels = [a.label() for a in self.axes]
         body = labels[0] if len(set(labels)) == 1 else "/".join(labels)
-        return f"{'6-DoF' if self.kind == '6dof' else 'AP'} {body}"
+        return f"{MODELS[self.kind].display_name} {body}"
 
     def bases(self, machine: Machine) -> list[AxisBasis]:
         return [c.basis(a) for a, c in zip(machine.axes, self.axes)]

@@ -17,7 +17,7 @@ from vecpin.errors import InputError
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
 from vecpin.identification.crossval import command_folds
-from vecpin.models import make_model
+from vecpin.models import MODELS, make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames, register
 from vecpin.units import MM_PER_M
@@ -60,7 +60,7 @@ class OrderSweep:
                  f"{held + ' mean':>18s} {'max':>7s} {'red.':>6s} | {'chi2/E':>6s}",
                  f"{'Uncompensated':<14s} {'--':>5s} {'':>6s} {'':>8s} | {ui[0]:10.3f} {ui[1]:7.3f} {'-':>6s} | "
                  f"{uh[0]:18.3f} {uh[1]:7.3f} {'-':>6s} |"]
-        name = {"6dof": "6-DoF", "ap": "AP"}[self.kind] + ("" if self.basis == "chebyshev" else "*")
+        name = MODELS[self.kind].display_name + ("" if self.basis == "chebyshev" else "*")
         best = self.best.order
         for r in self.rows:
             lines.append(f"{name:<14s} {r.order:5d} {r.n_parameters:6d} {r.seconds:8.2f} | {r.ident_mean:10.3f} {r.ident_max:7.3f} "

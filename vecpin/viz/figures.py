@@ -24,6 +24,7 @@ import numpy as np  # noqa: E402
 
 from vecpin.measurement.campaign import Campaign  # noqa: E402
 from vecpin.kinematics.machine import Machine  # noqa: E402
+from vecpin.models import MODELS  # noqa: E402
 from vecpin.units import MM_PER_M
 
 COLORS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
@@ -138,7 +139,7 @@ def order_sweep_figure(sweeps: list, path) -> Path:
     fig, ax = plt.subplots(figsize=(6.5, 3.8))
     for j, s in enumerate(sweeps):
         o = [r.order for r in s.rows]
-        name = {"6dof": "6-DoF", "ap": "AP"}[s.kind]
+        name = MODELS[s.kind].display_name
         ax.plot(o, [r.ident_mean for r in s.rows], "o-", color=COLORS[j], label=f"{name} identification")
         ax.plot(o, [r.heldout_mean for r in s.rows], "s--", color=COLORS[j], label=f"{name} {s.method}")
     ax.set_xlabel("series order")

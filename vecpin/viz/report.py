@@ -21,7 +21,7 @@ from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.stats import distance_stats
-from vecpin.models import ErrorModel
+from vecpin.models import MODELS, ErrorModel
 from vecpin.units import MM_PER_M, norm_mm
 from vecpin.viz import figures
 
@@ -29,7 +29,6 @@ CSS = """body{font-family:sans-serif;max-width:1100px;margin:20px auto;color:#22
 table{border-collapse:collapse;margin:8px 0 16px}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}
 th{background:#eef}td:first-child,th:first-child{text-align:left}img{max-width:100%;border:1px solid #ddd;margin:6px 0}
 .note{color:#555;font-size:90%}"""
-NAMES = {"6dof": "6-DoF", "ap": "AP"}
 
 
 def _table(header: list[str], rows: list[list]) -> str:
@@ -44,7 +43,7 @@ def _stats_rows(label: str, d: np.ndarray, tool: np.ndarray) -> list[list]:
 
 
 def model_label(model: ErrorModel) -> str:
-    return f"{NAMES.get(model.kind, model.kind)} order {model.order}"
+    return f"{model.display_name} order {model.order}"
 
 
 def _labels(models: list[ErrorModel]) -> list[str]:
@@ -132,7 +131,7 @@ def write_report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_
             from vecpin.selection.orders import order_sweep
             sweeps = []
             for k in ("6dof", "ap"):
-                say(f"order sweep {NAMES[k]} {orders} ({'validation file' if validation is not None else 'k-fold CV'})")
+                say(f"order sweep {MODELS[k].display_name} {orders} ({'validation file' if validation is not None else 'k-fold CV'})")
                 sweeps.append(order_sweep(m, campaign, k, orders, validation=validation, noise=models[0].noise_,
                                           progress=say))
             parts.append("<h2>Order selection (Paper I Table 2)</h2>")
