@@ -42,12 +42,19 @@ ActualMachine = Callable[..., tuple]
 FRAME = "workpiece"  # tables correct the tool relative to the part (the base frame on a serial machine)
 
 
+def geometric_model(model: ErrorModel) -> ErrorModel:
+    """The part of a fitted model that tables can carry: the model without its effects
+    that depend on the rows (thermal, backlash, an instrument shift); the model itself
+    when it has none. Everything that computes or judges tables uses this part (a
+    row-dependent effect cannot be evaluated without a campaign's rows)."""
+    model._check_fitted()
+    return model.geometric_part()[0] if model.row_dependent else model
+
+
 def model_as_actual(model: ErrorModel) -> ActualMachine:
     """The fitted model as the 'actual' machine (tool tip relative to the workpiece, no
-    tracker). Only its geometry: effects that depend on the rows (thermal, backlash, an
-    instrument shift) are left out, as tables cannot carry them."""
-    model._check_fitted()
-    geometric = model.geometric_part()[0] if model.row_dependent else model
+    tracker). Only its geometry (:func:`geometric_model`), as tables cannot carry the rest."""
+    geometric = geometric_model(model)
 
     def actual(q, tool, jacobian=True, point=0):
         out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)

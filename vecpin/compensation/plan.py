@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
-                                           compensated_errors, from_ap_model, model_as_actual, nominal_tip,
+                                           compensated_errors, from_ap_model, geometric_model, model_as_actual,
+                                           nominal_tip,
                                            pitch_names, pseudo_commands, rich_table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
@@ -63,7 +64,9 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     Each draw is ``b_ + db`` with ``db ~ N(0, cov_b)``; the compensated error is
     linearised around the model, ``e(b_ + db) = e(b_) + J_b db`` (tool tip in the
     machine frame at the compensated commands, nominal with the changed T_offset).
-    The draws are seeded: reruns print the same figures."""
+    The draws are seeded: reruns print the same figures. Only the model's geometric part
+    counts (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more."""
+    model = geometric_model(model)
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
@@ -293,7 +296,9 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
 
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:
     """Add the row of the tables as a controller will hold them (read back from the
-    written files: resampled, rounded, constants removed), on the plan's points."""
+    written files: resampled, rounded, constants removed), on the plan's points. Only
+    the model's geometric part is judged, as in :func:`plan_tables`."""
+    model = geometric_model(model)
     actual = model_as_actual(model)
     pt = plan.problem._pt
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
