@@ -149,3 +149,50 @@ def test_reruns_write_identical_files(model, tmp_path):
     assert names == sorted(p.name for p in (tmp_path / "b").iterdir()) and len(names) > 8
     for n in names:
         assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n
+
+
+@pytest.fixture(scope="module")
+def backlash_skew(machines):
+    """A model with a row-dependent effect (backlash of X) and a geometric one (a gantry
+    skew of Y about x), fitted on a campaign simulated with both; and that simulation."""
+    from vecpin.models.effects.backlash import Backlash
+    from vecpin.models.effects.gantry_skew import GantrySkew
+    from vecpin.simulation.effects import EffectSpec
+    flow = machines["flow_xyzcb"]
+    sim = simulate(flow, seed=6, design=Design(n_commands=120, n_validation=5),
+                   effects=[EffectSpec("backlash", ("X",), 0.03), EffectSpec("gantry_skew", ("Y",), 0.3,
+                                                                             {"about": "x", "depends": "Z"}, seed=2)])
+    model = make_model("ap", flow, 3, effects=[Backlash(flow, ("X",)), GantrySkew(flow, ("Y",), about="x")])
+    return sim, model.fit(sim.campaign, NoiseModel.default(flow, "spherical"))
+
+
+@pytest.mark.parametrize("controller", ["linuxcnc", "siemens-840d", "fanuc-30i"])
+def test_tables_of_a_model_with_backlash_and_skew(backlash_skew, controller, tmp_path):
+    """A model with backlash (row-dependent) gives tables for a controller with a reader:
+    the files are read back and judged on the model's geometric part (the skew in, the
+    backlash left to the controller's own backlash compensation, with advice). Truth
+    independent of vecpin's model: the true simulated machine (its skew, no backlash as
+    the geometry goes) commanded through the tables read back from the files."""
+    from vecpin.compensation.functions import truth_as_actual
+    sim, model = backlash_skew
+    assert model.row_dependent
+    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    run = make_tables(model, tmp_path / controller, controller, profile=prof)  # with the parameter spread
+    rows = {r.label.split(" (")[0]: r for r in run.plan.report.rows}
+    assert any(n.startswith("backlash[X] is not in the tables") for n in run.plan.report.notes)
+    written = rows["files + reference shifts"] if "files + reference shifts" in rows else rows["files as written"]
+    planned, = [r for r in run.plan.report.rows                           # the row of the set written
+                if not r.label.startswith("files") and r.tables == len(run.plan.tables.tables)]
+    assert written.mean == pytest.approx(planned.mean, rel=0.02, abs=2e-4)   # mm: the files hold what was planned
+    # the true machine (with its skew) through the tables: the skew is corrected, not only the model's AP part
+    m, q, L = model.machine, run.plan.problem.q, run.plan.problem.L
+    truth = truth_as_actual(sim.truth)
+    before = np.linalg.norm(compensated_errors(truth, m, None, q, L, register=True), axis=1).mean()
+    after = np.linalg.norm(compensated_errors(truth, m, run.plan.tables, q, L, register=True), axis=1).mean()
+    assert after < (0.3 if controller != "linuxcnc" else 0.8) * before   # tables cannot carry all of a skew
+    if controller == "siemens-840d":  # the same model without its skew: its tables leave the skew on the truth
+        from vecpin.workflows.tables import _without
+        geometric = [e for e, _ in model.effect_slices() if e.name == "gantry_skew"]
+        no_skew = plan_tables(_without(model, geometric), n_commands=300, uncertainty=False).tables
+        left = np.linalg.norm(compensated_errors(truth, m, no_skew, q, L, register=True), axis=1).mean()
+        assert left > 1.5 * after

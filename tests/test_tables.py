@@ -131,3 +131,84 @@ def test_modulo_tables_on_a_rotary_axis_past_a_turn(flow, fitted):
         plan_tables(cheb, n_commands=200, modulo_axes=["C"])
     with pytest.raises(VecpinError, match="only rotary axes"):
         plan_tables(cheb, n_commands=200, modulo_axes=["X"])
+
+
+SHORT_Y_MM = 1500.0  # the short campaign stops here: 41% of Y's travel (-2.5 .. 2557.3 mm) never measured
+
+
+@pytest.fixture(scope="module")
+def short_and_full(machines):
+    """One true machine (same seed) measured twice: over the whole workspace, and by a
+    campaign that never goes beyond Y = 1500 mm; AP models of both."""
+    from vecpin.simulation.simulate import Design
+    flow = machines["flow_xyzcb"]
+    noise = NoiseModel.default(flow, "spherical")
+    out = {}
+    for name, zones in (("full", []), ("short", [{"Y": (SHORT_Y_MM, 3000.0)}])):
+        sim = simulate(flow, seed=8, design=Design(n_commands=150, n_validation=5, exclusion_zones=zones),
+                       mean_error_mm=0.65)
+        out[name] = (sim, make_model("ap", flow, 4).fit(sim.campaign, noise))
+    return out
+
+
+def test_measured_box_is_what_the_campaign_commanded(short_and_full):
+    """measured_box: per axis the lowest and highest command of the model's campaign
+    (read from the campaign itself); the whole travel for a model that does not record
+    it and for an axis the campaign held still."""
+    import copy
+    from vecpin.compensation.plan import measured_box
+    sim, model = short_and_full["short"]
+    m = model.machine
+    lo, hi = measured_box(model)
+    np.testing.assert_allclose(lo, sim.campaign.q.min(axis=0), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hi, sim.campaign.q.max(axis=0), rtol=0, atol=1e-12)
+    assert hi[m.axis("Y").index] < SHORT_Y_MM * 1e-3
+    bare = copy.copy(model)
+    bare.report_ = copy.copy(model.report_)
+    bare.report_.measured_range = {}
+    np.testing.assert_array_equal(np.array(measured_box(bare)), [m.lower, m.upper])
+    bare.report_.measured_range = dict(model.report_.measured_range, Z=[400.0, 400.0])
+    z = m.axis("Z").index
+    assert measured_box(bare)[0][z] == m.lower[z] and measured_box(bare)[1][z] == m.upper[z]
+
+
+def test_a_campaign_short_of_an_axis_end_gives_held_tables(short_and_full):
+    """A campaign that stops short of an axis end (more than 1/16 of the travel): the
+    tables are finite, constant beyond the measured range (exactly: the same number at
+    every point beyond), and inside the measured range they compensate the true machine
+    about as well as tables from a campaign over the whole workspace."""
+    from vecpin.compensation.plan import measured_box, plan_tables
+    sim, short = short_and_full["short"]
+    _, full = short_and_full["full"]
+    m = short.machine
+    plan_s = plan_tables(short, n_commands=600, uncertainty=False)
+    plan_f = plan_tables(full, n_commands=600, uncertainty=False)
+    lo, hi = measured_box(short)
+    y = m.axis("Y").index
+    assert plan_s.problem.hold["Y"] == (lo[y], hi[y])
+    assert any(n.startswith("measured range") and "Y (" in n for n in plan_s.report.notes)
+    for t in plan_s.tables.tables:
+        assert np.all(np.isfinite(t.values)), t.name
+        if t.input_axis in plan_s.problem.hold:
+            a, b = plan_s.problem.hold[t.input_axis]
+            pos = t.positions
+            for side in (pos >= b, pos <= a):
+                if side.any():
+                    assert np.all(t.values[side] == t.values[side][0]), t.name
+    q = np.tile(m.axis("X").lower, (3, m.n_axes))
+    step = plan_s.tables.table("yy").step                          # from the first table point beyond the range
+    q[:, y] = [hi[y] + step, 0.5 * (hi[y] + m.upper[y]), m.upper[y]]
+    inc = plan_s.tables.increments(q)
+    assert np.all(inc[1:] == inc[0])      # the table set as a whole: nothing changes beyond the measured Y
+    # inside the measured range: the true machine through each set of tables
+    qi = pseudo_commands(m, 600, seed=21, lower=lo, upper=hi)
+    tool = np.tile(TOOLS, 300)
+    truth = truth_as_actual(sim.truth)
+    err = {k: np.linalg.norm(compensated_errors(truth, m, p.tables, qi, tool, register=True), axis=1).mean() * 1e3
+           for k, p in (("short", plan_s), ("full", plan_f))}
+    before = np.linalg.norm(compensated_errors(truth, m, None, qi, tool, register=True), axis=1).mean() * 1e3
+    noise_mm = short.report_.residuals_mm["all"]["mean"]             # what the fit cannot tell from noise
+    print(f"inside the measured range: uncompensated {before:.4f} mm, short campaign {err['short']:.4f} mm, "
+          f"full campaign {err['full']:.4f} mm, fit residual {noise_mm:.4f} mm")
+    assert err["short"] < 0.2 * before
+    assert err["short"] <= err["full"] + 0.5 * noise_mm

@@ -11,14 +11,20 @@ table branch; the base frame otherwise): what a compensated machine cuts into a 
 On a machine with several tool points driven by one command set (Spar Mill 23's
 mirrored spindles) the tables serve every tool point at once.
 
-* AP model: ``t = -q_hat`` and ``dT`` = the model's gauge-line correction (eq. 17).
+* AP model: ``t = -q_hat`` and ``dT`` = the model's gauge-line correction (eq. 17)
+  (:func:`from_ap_model`).
 * Any model (6-DoF, AP, a true simulated machine): the pseudo-measurement projection
   (eq. 18-19): Gauss-Newton on ``sum |F_a(q + t(q)) - F_n(q, L + dT)|^2`` over
   quasi-random commands and two tool lengths, with the model's analytic Jacobian.
 
+Which of the two a table set uses is decided in :func:`vecpin.compensation.plan.plan_tables`.
+Either way the functions are held constant beyond the region the tables are fitted
+in (the model's measured box, or a zone): a table must not extrapolate what was never
+measured.
+
 :class:`TableProblem` is that problem linearised around the model; it is linear in
 the table coefficients, which the subset selection of Paper II exploits
-(:mod:`vecpin.tableselect`).
+(:mod:`vecpin.compensation.selection`).
 """
 from __future__ import annotations
 
@@ -42,12 +48,19 @@ ActualMachine = Callable[..., tuple]
 FRAME = "workpiece"  # tables correct the tool relative to the part (the base frame on a serial machine)
 
 
+def geometric_model(model: ErrorModel) -> ErrorModel:
+    """The part of a fitted model that tables can carry: the model without its effects
+    that depend on the rows (thermal, backlash, an instrument shift); the model itself
+    when it has none. Everything that computes or judges tables uses this part (a
+    row-dependent effect cannot be evaluated without a campaign's rows)."""
+    model._check_fitted()
+    return model.geometric_part()[0] if model.row_dependent else model
+
+
 def model_as_actual(model: ErrorModel) -> ActualMachine:
     """The fitted model as the 'actual' machine (tool tip relative to the workpiece, no
-    tracker). Only its geometry: effects that depend on the rows (thermal, backlash, an
-    instrument shift) are left out, as tables cannot carry them."""
-    model._check_fitted()
-    geometric = model.geometric_part()[0] if model.row_dependent else model
+    tracker). Only its geometry (:func:`geometric_model`), as tables cannot carry the rest."""
+    geometric = geometric_model(model)
 
     def actual(q, tool, jacobian=True, point=0):
         out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
@@ -102,30 +115,57 @@ def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS,
                      upper: np.ndarray | None = None) -> list[AxisBasis]:
     """Table functions able to follow any model: cubic B-splines with ``knots``
     uniform interior knots over the travel of each input axis (or over ``lower`` ..
-    ``upper`` [m, rad]: the region the tables are fitted in, held beyond it); a modulo
-    axis a Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
+    ``upper`` [m, rad]: the region the tables are fitted in, the measured box, held
+    beyond it, so that every spline has pseudo-measurements under it); a modulo axis a
+    Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
     out = []
-    lo = machine.lower if lower is None else np.asarray(lower, float)
-    hi = machine.upper if upper is None else np.asarray(upper, float)
     for a in machine.axes:
         rot = a.kind == "rotary"
         if a.name in modulo_axes:
             out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
         else:
-            l, h = (lo[a.index], hi[a.index]) if hi[a.index] > lo[a.index] else (a.lower, a.upper)
+            l, h = _span(a, lower, upper)
             k = tuple(np.linspace(l, h, knots + 2)[1:-1])
             out.append(AxisBasis(l, h, 3, "bspline", rotary=rot, knots=k))
     return out
 
 
-def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=()) -> list[AxisBasis]:
+def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=(), lower: np.ndarray | None = None,
+                upper: np.ndarray | None = None) -> list[AxisBasis]:
     """Basis of the compensation functions of each *input* axis: Chebyshev over the
-    travel; Fourier on rotary axes travelling more than a turn (``basis="auto"``) and
-    on modulo axes (a modulo table must repeat every turn)."""
+    travel (or over ``lower`` .. ``upper`` [m, rad], the region the tables are fitted
+    in); Fourier on rotary axes travelling more than a turn (``basis="auto"``) and on
+    modulo axes (a modulo table must repeat every turn)."""
     out = []
     for a in machine.axes:
         periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.travel > 2 * math.pi))
-        out.append(AxisBasis(a.lower, a.upper, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
+        l, h = _span(a, lower, upper)
+        if periodic:
+            l, h = a.lower, a.upper
+        out.append(AxisBasis(l, h, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
+    return out
+
+
+def _span(axis, lower: np.ndarray | None, upper: np.ndarray | None) -> tuple[float, float]:
+    """(low, high) [m, rad] of an axis' table functions: ``lower``..``upper`` when given
+    and not empty, else the travel."""
+    if lower is None or upper is None or not upper[axis.index] > lower[axis.index]:
+        return axis.lower, axis.upper
+    return float(lower[axis.index]), float(upper[axis.index])
+
+
+def hold_ranges(machine: Machine, lower: np.ndarray, upper: np.ndarray, modulo_axes=()) -> dict[str, tuple[float, float]]:
+    """{input axis: (low, high) [m, rad]} of every axis whose region ``lower``..``upper``
+    (the measured box or a zone) leaves part of its travel out: the table functions are
+    held constant beyond it, exactly (their bases span only this region). Modulo axes
+    repeat every turn and are never held."""
+    out = {}
+    for a in machine.axes:
+        if a.name in modulo_axes:
+            continue
+        l, h = _span(a, lower, upper)
+        if l > a.lower or h < a.upper:
+            out[a.name] = (l, h)
     return out
 
 
@@ -180,10 +220,12 @@ class CompensationFunctions:
         return TableSet(self.machine.axis_names, tables, self.gauge_offset_change)
 
 
-def from_ap_model(model: APModel, modulo_axes=()) -> CompensationFunctions:
+def from_ap_model(model: APModel, modulo_axes=(), hold: dict[str, tuple[float, float]] | None = None
+                  ) -> CompensationFunctions:
     """Tables of an AP model: the negated perturbations (eq. 17) and its gauge-line
     correction as the change of T_offset. ``modulo_axes``: rotary inputs whose tables
-    repeat every turn (their basis must be periodic)."""
+    repeat every turn (their basis must be periodic); ``hold``: {axis: (low, high)}
+    [m, rad], the functions held constant beyond (the measured range)."""
     model._check_fitted()
     m = model.machine
     for a in modulo_axes:
@@ -199,7 +241,7 @@ def from_ap_model(model: APModel, modulo_axes=()) -> CompensationFunctions:
                 coef[(ao.name, ai.name)] = -np.r_[c[o], a[:B.size - 1, i, o]]
             else:
                 coef[(ao.name, ai.name)] = -a[:B.size - 1, i, o]
-    return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes))
+    return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes), hold or None)
 
 
 def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.ndarray | None = None,
@@ -213,9 +255,11 @@ def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.nd
 
 
 def ridged(G: np.ndarray, ridge: float) -> np.ndarray:
-    """``G`` with ``ridge`` times its diagonal added; a column without any data (a spline
-    piece beyond the measured range, where the tables are held constant) gets a tiny
-    diagonal instead of none, so its coefficient solves to 0 rather than failing."""
+    """``G`` with ``ridge`` times its diagonal added. A column without any data cannot
+    arise from :func:`rich_table_bases` over the measured box (every spline has
+    pseudo-commands under it); should one arise all the same (a caller's own bases
+    wider than its commands), it gets a tiny diagonal instead of none, so its
+    coefficient solves to 0 rather than failing."""
     d = np.diag(G)
     floor = 1e-3 * max(float(d.max(initial=0.0)), 1e-300)
     return G + ridge * np.diag(np.maximum(d, floor))
@@ -232,7 +276,8 @@ class TableProblem:
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
-                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-9, bases: list[AxisBasis] | None = None):
+                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-9, bases: list[AxisBasis] | None = None,
+                 hold: dict[str, tuple[float, float]] | None = None):
         self.actual, self.machine = actual, machine
         self.tools = np.asarray(tools, float)
         P = len(machine.tool_links)
@@ -241,7 +286,7 @@ class TableProblem:
         self.L = np.tile(self.tools, len(commands) * P)
         self.point = np.repeat(np.arange(P), len(commands) * len(self.tools))
         self.bases = bases if bases is not None else table_bases(machine, order, basis, modulo_axes)
-        self.hold = None  # measured range per input axis: tables held constant beyond it
+        self.hold = hold or None  # measured range per input axis [m, rad]: tables held constant beyond it
         self.free_gauge = True  # False: the gauge line (T_offset) stays as it is
         self.modulo_axes = tuple(modulo_axes)
         self.ridge = ridge
@@ -263,7 +308,7 @@ class TableProblem:
         R = len(self.q)
         A = np.empty((R, 3, self.n_columns))
         A[:, :, 0] = -u_nominal
-        Bv = [B.values(self.q[:, k]) for k, B in enumerate(self.bases)]
+        Bv = [B.values(self._held(k, self.q[:, k])) for k, B in enumerate(self.bases)]
         for (o, i), name in zip(self.pairs, self.names):
             oi, ii = m.axis(o).index, m.axis(i).index
             Bi = Bv[ii] if o == i else Bv[ii][:, 1:]
@@ -287,6 +332,14 @@ class TableProblem:
         self.g = self.A.T @ self.e0
         self.e0e0 = float(self.e0 @ self.e0)
         self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
+
+    def _held(self, k: int, q_in: np.ndarray) -> np.ndarray:
+        """Positions of input axis k as the table functions see them: clipped to the
+        held range (a command beyond the measured range gets the value at its edge)."""
+        a = self.machine.axes[k]
+        if self.hold and a.name in self.hold and a.name not in self.modulo_axes:
+            return np.clip(q_in, *self.hold[a.name])
+        return q_in
 
     @property
     def _pt(self):

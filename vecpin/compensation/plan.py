@@ -19,8 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
-                                           compensated_errors, from_ap_model, model_as_actual, nominal_tip,
-                                           pitch_names, pseudo_commands, rich_table_bases)
+                                           compensated_errors, from_ap_model, geometric_model, hold_ranges,
+                                           model_as_actual, nominal_tip, pitch_names, pseudo_commands,
+                                           rich_table_bases, table_bases)
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -63,7 +64,9 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     Each draw is ``b_ + db`` with ``db ~ N(0, cov_b)``; the compensated error is
     linearised around the model, ``e(b_ + db) = e(b_) + J_b db`` (tool tip in the
     machine frame at the compensated commands, nominal with the changed T_offset).
-    The draws are seeded: reruns print the same figures."""
+    The draws are seeded: reruns print the same figures. Only the model's geometric part
+    counts (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more."""
+    model = geometric_model(model)
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
@@ -186,14 +189,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     else:
         q = np.unique(np.asarray(commands, float), axis=0)
         where = f"{len(q)} campaign commands"
-    # table functions that can follow any model (splines finer than its functions);
-    # the subset search works on a cheaper Chebyshev problem, the chosen set is re-solved here
+    # table functions that can follow any model (splines finer than its functions) over the
+    # measured box (or zone): every spline has pseudo-commands under it, and beyond the box
+    # the functions are held constant, exactly - a table must not extrapolate what was
+    # never measured. The subset search works on a cheaper Chebyshev problem over the same
+    # box; the chosen set is re-solved here.
+    hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
     problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
-                           modulo_axes=tuple(modulo_axes))
-    # held where the campaign left a real part of the travel unmeasured (a random design
-    # never reaches the very limits: 2% of the travel is not extrapolation)
-    problem.hold = {a.name: (lo[a.index], hi[a.index]) for a in m.axes
-                    if lo[a.index] > a.lower + HOLD_MARGIN * a.travel or hi[a.index] < a.upper - HOLD_MARGIN * a.travel}
+                           modulo_axes=tuple(modulo_axes), hold=hold)
+    # a random design never reaches the very limits: only a real part of the travel left
+    # unmeasured (HOLD_MARGIN) is worth a note, and keeps the AP model's own functions out
+    unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
+                  or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
                                       f"{', '.join(f'{t:g}' for t in tools_mm)} mm (every row on these points):")
@@ -207,8 +214,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    if isinstance(model, APModel) and not problem.hold and problem.free_gauge:
-        full = from_ap_model(model, modulo_axes).discretise(n_points)  # eq. 17: the AP model is tables
+    if isinstance(model, APModel) and not unmeasured and problem.free_gauge:
+        full = from_ap_model(model, modulo_axes, hold).discretise(n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(n_points)
     label = "full tables (model-predicted)" if not pitch_only else f"full tables (not loadable on {lim.name})"
@@ -220,8 +227,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if cons is not None:
         if progress:
             progress(f"choosing {cons.max_tables} of the {len(cross)} cross tables ({method})")
-        search = TableProblem(actual, m, q, tools, order=table_order or 8, basis="auto",
-                              modulo_axes=tuple(modulo_axes))
+        search = TableProblem(actual, m, q, tools, modulo_axes=tuple(modulo_axes), hold=hold,
+                              bases=table_bases(m, table_order or 8, "auto", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
         if method == "exact":
             selection = exact_search(search, cons, n_points=n_points)
@@ -247,10 +254,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         report.notes.append(only_pitch_note)
     if tools_note:
         report.notes.append(tools_note)
-    if problem.hold:
+    if unmeasured:
         report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
                             + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "
-                                        f"{m.axis(a).unit})" for a, v in problem.hold.items())
+                                        f"{m.axis(a).unit})" for a, v in unmeasured.items())
                             + ": a table must not extrapolate what was never measured")
     report.notes.append(f"the model's own fit residual (measured, on the campaign's points, not these): mean "
                         f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
@@ -293,7 +300,9 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
 
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:
     """Add the row of the tables as a controller will hold them (read back from the
-    written files: resampled, rounded, constants removed), on the plan's points."""
+    written files: resampled, rounded, constants removed), on the plan's points. Only
+    the model's geometric part is judged, as in :func:`plan_tables`."""
+    model = geometric_model(model)
     actual = model_as_actual(model)
     pt = plan.problem._pt
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)

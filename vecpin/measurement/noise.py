@@ -65,6 +65,7 @@ class NoiseModel:
 
     def to_dict(self, machine: Machine) -> dict:
         return {"axis_sigma": {a.name: float(a.to_user(s)) for a, s in zip(machine.axes, self.axis_sigma)},
+                "axis_sigma_unit": "the axis' unit (mm or deg)",
                 "instrument": self.instrument, "cartesian_sigma_mm": self.cartesian_sigma * MM_PER_M,
                 "tracker": self.tracker.to_dict(), "ballbar_sigma_mm": self.ballbar_sigma * MM_PER_M}
 

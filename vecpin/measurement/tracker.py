@@ -43,7 +43,7 @@ class TrackerNoise:
         return np.stack([self.sigma_range(R), sa, sa], axis=-1)
 
     def to_dict(self) -> dict:
-        return {k: v * MM_PER_M for k, v in asdict(self).items()} | {"units": "mm and mm/mm"}
+        return {k: v * MM_PER_M for k, v in asdict(self).items()} | {"units": "mm; *_ppm in mm per m of range"}
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrackerNoise":

@@ -3,8 +3,16 @@
 A model file is self-contained: it embeds the machine's URDF (with its SHA-256),
 the model definition (kind, bases, offsets, priors, effects), every parameter with
 its standard deviation in mm or degrees, the tracker pose (with the fitted table nests
-and tool targets), the measurement zone, the noise settings and the fit report. ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp
-or timing, so the same fit writes the same bytes.
+and tool targets), the measurement zone, the noise settings and the fit report.
+``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp or timing, so
+the same fit writes the same bytes.
+
+Every number a user reads is in mm or degrees (a key ending ``_mm`` is mm; ``_mm_deg``
+holds mm for translations and degrees for rotations; axis values are in the axis' unit):
+parameters, tracker and station translations, station pose corrections
+(``correction_mm_deg``; files written before it hold ``correction`` in m and rad, still
+read), ball-bar pivots, table nests and tool targets with their standard deviations,
+axis travels and basis knots, the zone, the measured range and the residuals.
 
 This module knows the file, not the model classes: :func:`load_model` takes the
 factory that builds a model by kind (:func:`vecpin.models.make_model`).
@@ -89,7 +97,7 @@ def model_to_dict(model) -> dict:
         "tracker": {"rotation": setup.R.tolist(), "translation_mm": (setup.t * MM_PER_M).tolist(),
                     "meaning": "p_tracker = R (E_0 p_machine) + t",
                     "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * MM_PER_M).tolist(),
-                                          "correction": [float(v) for v in e]}
+                                          "correction_mm_deg": pose_correction_to_user(e)}
                                  for s, (R, t, e) in setup.stations.items()},
                     "pivots_mm": {str(p): (c * MM_PER_M).tolist() for p, c in setup.pivots.items()},
                     **_points_to_dict(setup)},
@@ -100,6 +108,27 @@ def model_to_dict(model) -> dict:
         "selection": getattr(model, "selection_", None),
         "zone": _zone_to_dict(getattr(model, "zone_", None)),
     }
+
+
+def pose_correction_to_user(e) -> list[float]:
+    """A station's small pose correction (dx, dy, dz [m], ex, ey, ez [rad]) as the file
+    holds it: mm and degrees."""
+    e = np.asarray(e, float)
+    return [float(v) for v in np.r_[e[:3] * MM_PER_M, np.degrees(e[3:])]]
+
+
+def pose_correction_from_file(path, field: str, st: dict) -> np.ndarray:
+    """A station's pose correction (SI) from the file: ``correction_mm_deg`` (mm, deg), or
+    the ``correction`` of files written before it (m, rad, the same version 1)."""
+    if "correction_mm_deg" in st:
+        v = _finite(path, f"{field}.correction_mm_deg", st["correction_mm_deg"])
+        if v.shape != (6,):
+            raise ModelFileError(path, "needs 6 numbers: dx, dy, dz [mm], ex, ey, ez [deg]", f"{field}.correction_mm_deg")
+        return np.r_[v[:3] * M_PER_MM, np.radians(v[3:])]
+    v = _finite(path, f"{field}.correction", st["correction"])
+    if v.shape != (6,):
+        raise ModelFileError(path, "needs 6 numbers: dx, dy, dz [m], ex, ey, ez [rad]", f"{field}.correction")
+    return v
 
 
 def _correlations(model, std: np.ndarray) -> dict:
@@ -232,8 +261,9 @@ def _from_dict(d: dict, path: Path, factory: Callable):
                          _finite(path, "tracker.translation_mm", tr["translation_mm"]) * M_PER_MM, theta[:6].copy())
     for s, st in tr.get("stations", {}).items():
         model.setup_.stations[int(s)] = (_rotation(path, f"tracker.stations.{s}.rotation", st["rotation"]),
-                                         _finite(path, f"tracker.stations.{s}", st["translation_mm"]) * M_PER_MM,
-                                         _finite(path, f"tracker.stations.{s}", st["correction"]))
+                                         _finite(path, f"tracker.stations.{s}.translation_mm",
+                                                 st["translation_mm"]) * M_PER_MM,
+                                         pose_correction_from_file(path, f"tracker.stations.{s}", st))
     for p, c in tr.get("pivots_mm", {}).items():
         model.setup_.pivots[int(p)] = _finite(path, f"tracker.pivots_mm.{p}", c) * M_PER_MM
     for kind, store in (("nests", model.setup_.nests), ("targets", model.setup_.targets)):
