@@ -124,7 +124,7 @@ def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=(
     on modulo axes (a modulo table must repeat every turn)."""
     out = []
     for a in machine.axes:
-        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.travel > 2 * math.pi))
+        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.multiturn))
         out.append(AxisBasis(a.lower, a.upper, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
     return out
 
