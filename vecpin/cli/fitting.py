@@ -108,6 +108,8 @@ def run_orders(args) -> int:
     v = read_campaign(args.validation, m) if args.validation else None
     say = progress(not args.quiet)
     orders = parse_orders(args.orders)
+    from vecpin.selection.choice import check_basis
+    check_basis(m, args.basis, "chebyshev")
     nm = noise(args, m)
     if args.multilateration:
         from vecpin.measurement.instruments.multilateration import check_stations

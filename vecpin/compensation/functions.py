@@ -138,7 +138,7 @@ def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=(
     modulo axes (a modulo table must repeat every turn)."""
     out = []
     for a in machine.axes:
-        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.travel > 2 * math.pi))
+        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.multiturn))
         l, h = _span(a, lower, upper)
         if periodic:
             l, h = a.lower, a.upper

@@ -101,7 +101,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             raise InputError(f"--effects: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
     flaggers = [n for n in names if REGISTRY[n].flags_rows]
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
-    proto, choice = choose_or_fix(machine, campaign, noise, model, basis, order, folds=folds, progress=say)
+    proto, choice = choose_or_fix(machine, campaign, noise, model, basis, order, folds=folds, seed=seed, progress=say)
 
     def base_fit(camp, effs):
         return proto.with_effects(effs).fit(camp, noise)

@@ -19,7 +19,7 @@ from scipy.stats import qmc
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
 from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant
-from vecpin.identification.report import FitReport
+from vecpin.identification.report import FitReport, describe_counts, unknown_counts
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
@@ -89,7 +89,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     def normal_equations(psi, jacobian):
         return lik.normal_equations(psi * lik.sigma, jacobian)
 
-    _, G0, _, n_eq = lik.normal_equations(np.zeros(P))
+    chi2_0, G0, g0, n_eq = lik.normal_equations(np.zeros(P))  # the solver starts from these (psi = 0)
     norms = np.sqrt(np.diag(G0))
     keep = np.ones(P, bool)
     ratio = np.ones(P)
@@ -101,14 +101,17 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         else:
             red, ratio = lik.redundancy(np.zeros(P), norms)
         keep = ~red
-    n_active = int(active_columns(norms).sum())
+    active = active_columns(norms)
+    n_active = int(active.sum())
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
+        counts = unknown_counts(lik.names, lik.n_model, active)
         raise IdentifiabilityError(
-            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns (6 tracker-pose "
-            f"corrections and {n_active - 6} model terms of the {getattr(model, 'kind', '')} model): use fewer terms "
+            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns "
+            f"({describe_counts(counts)}, of the {getattr(model, 'kind', '')} model): use fewer model terms "
             "(a lower --order or a fixed --basis chebyshev), measure more points, or fit with --underdetermined to let "
             "the priors decide the rest")
-    sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress)
+    sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
+                       start=(chi2_0, G0, g0))
     theta = sol.psi * lik.sigma
     JtJ = sol.G[np.ix_(keep, keep)]
     Ninv = linalg.inv(JtJ + np.eye(keep.sum()))
@@ -135,5 +138,5 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(sol.objective),
                        dof, float(np.sqrt(2 * dof)), cond, sol.iterations, sol.converged, time.perf_counter() - t0,
                        stats_, warnings, [float(L * MM_PER_M) for L in campaign.tool_lengths()],
-                       measured_range(model.machine, campaign))
+                       measured_range(model.machine, campaign), unknown_counts(names, lik.n_model))
     return theta, setup, cov, report

@@ -3,6 +3,37 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
+#: the words every output uses for what it counts, by the prefix of the unknowns' names
+COUNT_WORDS = (("model", "model terms"), ("pose", "tracker-pose unknowns"), ("pivot", "ball-bar pivot unknowns"),
+               ("nest", "nest-position unknowns"), ("target", "tool-target unknowns"))
+
+
+def unknown_counts(names: list[str], n_model: int, mask=None) -> dict[str, int]:
+    """How many of a fit's unknowns (``names``: E_0's six, the model's ``n_model`` terms,
+    then the instruments' own) are of each kind of :data:`COUNT_WORDS` (only those in
+    ``mask`` when given): model terms; tracker-pose unknowns (E_0, the correction of
+    station 0's pose, and the pose corrections of the other stations); ball-bar pivots,
+    nest positions and tool-target offsets."""
+    mask = np.ones(len(names), bool) if mask is None else np.asarray(mask, bool)
+    out = {k: 0 for k, _ in COUNT_WORDS}
+    for i, (name, m) in enumerate(zip(names, mask)):
+        if not m:
+            continue
+        if i < 6 or name.startswith("station"):
+            out["pose"] += 1
+        elif i < 6 + n_model:
+            out["model"] += 1
+        else:
+            out[next((k for k, _ in COUNT_WORDS[2:] if name.startswith(k)), "pose")] += 1
+    return out
+
+
+def describe_counts(counts: dict[str, int]) -> str:
+    """'163 model terms, 12 tracker-pose unknowns, 3 ball-bar pivot unknowns' (kinds with none left out)."""
+    return ", ".join(f"{counts[k]} {words}" for k, words in COUNT_WORDS if counts.get(k))
+
 
 @dataclass
 class FitReport:
@@ -29,6 +60,7 @@ class FitReport:
     warnings: list[str]
     tool_lengths_mm: list[float] = field(default_factory=list)
     measured_range: dict = field(default_factory=dict)  # axis -> [lowest, highest] command measured [mm or deg]
+    counts: dict = field(default_factory=dict)  # unknowns by kind (:func:`unknown_counts`), n_parameters in all
 
     @property
     def chi2_band(self) -> tuple[float, float]:
@@ -55,7 +87,8 @@ class FitReport:
                         "repeatability sigmas are that much " + ("smaller" if scale < 1 else "larger") +
                         ": --tracker-sigma-mm / --tracker-noise, --repeatability-mm)")
         lines = [f"{self.model} model, order {self.order}, {self.instrument} instrument noise: {self.n_rows} rows, "
-                 f"{self.n_parameters} parameters ({len(self.removed)} redundant removed, "
+                 f"{self.n_parameters} unknowns ({describe_counts(self.counts) + '; ' if self.counts else ''}"
+                 f"{len(self.removed)} redundant removed, "
                  f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",
                  f"chi2 = {self.chi2:.1f}, expected {self.chi2_expected:.1f} ± {self.chi2_sigma:.1f} "
                  f"(3σ band {lo:.1f} .. {hi:.1f}): {verdict}",

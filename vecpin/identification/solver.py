@@ -3,9 +3,13 @@
 Bounded and honest: each iteration tries at most :data:`MAX_DAMPING` increases of the
 Levenberg-Marquardt damping; a step is accepted only when it lowers the objective;
 when no damping finds a lower objective the current point is a minimum to numerical
-precision if the decrease a full step promises is negligible, and otherwise the solver raises
-:class:`~vecpin.errors.ConvergenceError` with what it saw. Non-finite residuals (a
-model evaluated far outside its travel, a unit mistake in the data) stop it at once.
+precision if the decrease a full step promises is negligible, and otherwise the solver
+raises :class:`~vecpin.errors.ConvergenceError` with what it saw. It raises as well when
+no damping makes the damped normal equations solvable (they are not positive definite).
+Non-finite residuals or normal equations at the start or at an accepted point (a model
+evaluated far outside its travel, a unit mistake in the data) stop it at once; a trial
+point whose residuals are not finite counts as a rejected step (the damping grows and a
+shorter step is tried).
 """
 from __future__ import annotations
 
@@ -33,21 +37,24 @@ class Solution:
     converged: bool
 
 
-def _finite(value: float, what: str) -> None:
-    if not np.isfinite(value):
-        raise ConvergenceError(f"the residuals became {what} non-finite: the model was evaluated far outside what the "
-                               "data support (check units and the axis columns)")
+def _finite(chi2: float, G, g, what: str) -> None:
+    if not (np.isfinite(chi2) and (G is None or np.isfinite(G).all()) and (g is None or np.isfinite(g).all())):
+        raise ConvergenceError(f"the residuals or their derivatives became non-finite {what}: the model was evaluated "
+                               "far outside what the data support (check units and the axis columns)")
 
 
 def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, keep: np.ndarray,
-                 max_iter: int = 30, tol: float = 1e-9, progress: Callable[[str], None] | None = None) -> Solution:
+                 max_iter: int = 30, tol: float = 1e-9, progress: Callable[[str], None] | None = None,
+                 start: tuple | None = None) -> Solution:
     """Minimise ``|w(psi)|^2 + |psi|^2`` over the ``keep`` columns, from psi = 0.
 
     ``normal_equations(psi, jacobian) -> (|w|^2, J^T J, J^T w, ...)`` with J = dw/dpsi
-    (G and g may be None without ``jacobian``: a trial point needs its chi2 only)."""
+    (G and g may be None without ``jacobian``: a trial point needs its chi2 only).
+    ``start``: (|w|^2, J^T J, J^T w) at psi = 0 when the caller has them already (the
+    fit evaluates them for its redundancy test), saving one evaluation with Jacobians."""
     psi = np.zeros(P)
-    chi2, G, g = normal_equations(psi, True)[:3]
-    _finite(chi2, "at the start")
+    chi2, G, g = (start if start is not None else normal_equations(psi, True))[:3]
+    _finite(chi2, G, g, "at the start")
     obj = chi2
     converged = False
     it = 0
@@ -56,25 +63,30 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
     for it in range(1, max_iter + 1):
         Nm = G[np.ix_(keep, keep)] + eye
         grad = g[keep] + psi[keep]
-        accepted = False
+        accepted = solved = False
         for _ in range(MAX_DAMPING + 1):
             try:
                 step = -linalg.solve(Nm + lam * np.diag(np.diag(Nm)), grad, assume_a="pos", check_finite=False)
             except (linalg.LinAlgError, ValueError):
                 lam *= 10
                 continue
+            solved = solved or bool(np.isfinite(step).all())
             trial = psi.copy()
             trial[keep] += step
             chi2_new = normal_equations(trial, False)[0]
             if np.isfinite(chi2_new) and chi2_new + trial @ trial <= obj:
                 accepted = True
                 break
-            lam *= 10
+            lam *= 10  # a longer step went uphill or left the region where the residuals are finite
+        if not solved:
+            raise ConvergenceError(f"no damping made the normal equations solvable in iteration {it} (they are not "
+                                   "positive definite: non-finite or contradictory derivatives); check units, the axis "
+                                   "columns and the noise settings")
         if not accepted:
             # no damping lowers the objective: a minimum to numerical precision when the
             # decrease a full Gauss-Newton step promises is negligible; otherwise stuck
             promised = float(grad @ linalg.lstsq(Nm, grad)[0])
-            if promised <= 1e-6 * max(obj, 1.0):
+            if 0 <= promised <= 1e-6 * max(obj, 1.0):
                 converged = True
                 break
             raise ConvergenceError(f"the fit cannot lower chi2 = {obj:.6g} any further (a step promised {promised:.3g} "
@@ -85,6 +97,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
         decrease = obj - obj_new
         psi = trial
         chi2, G, g = normal_equations(psi, True)[:3]
+        _finite(chi2, G, g, f"at the point accepted in iteration {it}")
         obj = chi2 + psi @ psi
         lam = max(lam / 10, LAMBDA_MIN)
         if progress:

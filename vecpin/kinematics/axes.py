@@ -79,6 +79,13 @@ class Axis:
         """Travel in SI (m or rad)."""
         return self.upper - self.lower
 
+    @property
+    def multiturn(self) -> bool:
+        """True for a rotary axis that travels more than one turn (2 pi rad, with 1e-9 rad
+        to spare so a travel of exactly one turn written in degrees is not one): the axes
+        whose errors may repeat every turn (Fourier series, modulo tables)."""
+        return self.kind == "rotary" and self.travel > 2 * math.pi + 1e-9
+
 
 @dataclass(frozen=True)
 class MimicJoint:

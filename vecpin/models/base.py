@@ -121,7 +121,7 @@ class ErrorModel:
         self.tool_lengths = None if tool_lengths is None else [float(t) for t in tool_lengths]
         if bases is None:
             bases = [AxisBasis(a.lower, a.upper, self.order,
-                               "fourier" if basis == "auto" and a.kind == "rotary" and a.travel > 2 * math.pi else "chebyshev",
+                               "fourier" if basis == "auto" and a.multiturn else "chebyshev",
                                rotary=a.kind == "rotary") for a in machine.axes]
             self.basis_kind = basis
         else:

@@ -38,21 +38,16 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
-from vecpin.models.parameters import DEFAULT_PRIORS
 from vecpin.selection.orders import check_folds
-from vecpin.units import MM_PER_M, M_PER_MM
+from vecpin.units import norm_mm
 
 KINDS = ("6dof", "ap")
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
 CHEB_ORDERS = tuple(range(0, 9))
 FOURIER_ORDERS = (2, 4, 6, 8, 10, 12)
 TRENDS = (1, 2, 4, 6, 8)
-SPLINE_KNOTS = {"short": (3, 7, 15), "multiturn": (3, 7, 15)}
+SPLINE_KNOTS = (3, 7, 15)
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
-
-
-def multiturn(axis) -> bool:
-    return axis.kind == "rotary" and axis.travel > 2 * math.pi + 1e-9
 
 
 @dataclass(frozen=True)
@@ -95,18 +90,23 @@ class AxisChoice:
                 "fourier_trend": f"fourier{self.order}+trend{self.trend}", "spline": f"spline{self.order}"}[self.family]
 
 
-def axis_options(axis, orders=CHEB_ORDERS, families=FAMILIES) -> list[AxisChoice]:
-    """Every basis worth trying on an axis."""
+def axis_options(axis, orders=CHEB_ORDERS, families=FAMILIES, fixed_order: bool = False) -> list[AxisChoice]:
+    """Every basis worth trying on an axis. ``fixed_order``: ``orders`` holds the one
+    order the user fixed, which defines every family's size: Chebyshev and Fourier
+    series of that order, Fourier plus a trend of at most that order, splines with
+    that many interior knots."""
     out = []
     if "chebyshev" in families:
         out += [AxisChoice("chebyshev", o) for o in orders]
-    if multiturn(axis):
+    if axis.multiturn:
         if "fourier" in families:
-            out += [AxisChoice("fourier", o) for o in FOURIER_ORDERS if o <= 2 * max(orders, default=0) + 2]
+            out += [AxisChoice("fourier", o) for o in
+                    (orders if fixed_order else [o for o in FOURIER_ORDERS if o <= 2 * max(orders, default=0) + 2])]
         if "fourier_trend" in families:
-            out += [AxisChoice("fourier_trend", o, t) for o in FOURIER_ORDERS[:4] for t in TRENDS]
+            out += [AxisChoice("fourier_trend", o, t) for o in (orders if fixed_order else FOURIER_ORDERS[:4])
+                    for t in TRENDS if not fixed_order or t <= o]
     if "spline" in families:
-        out += [AxisChoice("spline", k) for k in SPLINE_KNOTS["multiturn" if multiturn(axis) else "short"]]
+        out += [AxisChoice("spline", k) for k in (orders if fixed_order else SPLINE_KNOTS)]
     return out
 
 
@@ -159,7 +159,7 @@ class Candidate:
 
     def to_dict(self, machine: Machine) -> dict:
         return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
-                "terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max}
+                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max}
 
 
 @dataclass
@@ -176,21 +176,24 @@ class ModelChoice:
     rows: int
     uncompensated_mm: tuple[float, float]
     seconds: float
+    fixed_unknowns: int = 6  # tracker-pose and instrument unknowns in every candidate
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
                  f"command ({self.rows} rows judged, linearised), mm",
-                 f"  {'candidate':<58s} {'terms':>5s} {'held-out mean':>13s} {'max':>8s}",
-                 f"  {'uncompensated':<58s} {'':>5s} {self.uncompensated_mm[0]:13.4f} {self.uncompensated_mm[1]:8.4f}"]
+                 f"  {'candidate':<58s} {'model terms':>11s} {'held-out mean':>13s} {'max':>8s}",
+                 f"  {'uncompensated':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} {self.uncompensated_mm[1]:8.4f}"]
         shown = sorted(self.candidates, key=lambda c: c.mean)[:limit]
         if self.chosen not in shown:
             shown.append(self.chosen)
         for c in sorted(shown, key=lambda c: c.mean):
             mark = " <- chosen" if c is self.chosen else (" <- lowest" if c is self.best else "")
-            lines.append(f"  {c.label():<58s} {c.n_terms:5d} {c.mean:13.4f} {c.max:8.4f}{mark}")
+            lines.append(f"  {c.label():<58s} {c.n_terms:11d} {c.mean:13.4f} {c.max:8.4f}{mark}")
         if len(self.candidates) > len(shown):
             lines.append(f"  ({len(self.candidates) - len(shown)} more candidates scored, not shown)")
-        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} terms): {self.reason}")
+        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms): {self.reason}")
+        lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
+                     f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")
         return "\n".join(lines)
 
     def sweep(self, kind: str) -> list[Candidate]:
@@ -200,123 +203,161 @@ class ModelChoice:
 
     def to_dict(self) -> dict:
         return {"method": f"{self.folds}-fold cross-validation grouped by command, linearised at the nominal machine",
-                "rule": "one standard error: the fewest terms within one paired standard error of the lowest mean",
+                "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
-class _Problem:
-    """The linearised problem at the nominal machine, with every candidate function of
-    every axis for one model kind: fold normal equations of the whitened columns."""
+class _Design:
+    """The linearised problem at the nominal machine on one campaign, with every
+    candidate function of every axis for one model kind: whitened columns ``J``
+    (N,3,P), metric columns ``A`` (N,3,P), residuals ``w`` and ``metric`` (N,3).
 
-    def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options, fold, folds):
+    The first :attr:`n_fixed` columns are in every candidate: E_0 (station 0's pose
+    correction) and the instruments' own unknowns (other stations' poses, ball-bar
+    pivots, tool targets, nest positions). Then the model's offsets (T_offset, a length
+    per tool with ``tool_lengths``), the constants and the functions. Every column is
+    scaled by the prior standard deviation of its term in the model the candidate
+    builds (``opts``: the model options, ``prior_scale`` among them), so the unit ridge
+    of the solves is the model's own prior. ``setup``: the tracker poses to linearise at
+    (default: registered on this campaign)."""
+
+    def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options,
+                 opts: dict | None = None, setup=None):
         self.kind, self.machine = kind, machine
         c = campaign
-        zero = make_model("ap", machine, 0)
-        lik = Likelihood(zero, c, noise)
+        opts = {k: v for k, v in (opts or {}).items() if k in ("tool_lengths", "prior_scale")}
+        lik = Likelihood(make_model("ap", machine, 0), c, noise, setup=setup)
+        self.setup = lik.setup
         ev = lik.evaluate(np.zeros(lik.n_unknowns), operators=True)
         point = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
         self.judged = point if point.any() else ev.valid[:, 0]
-        self.metric, self.fold = ev.metric, fold
+        self.metric, self.w = ev.metric, ev.w
         # every row's own point (tool tip, target, nest) through the one likelihood's requests
-        proto = make_model(kind, machine, 0)
+        proto, proto1 = make_model(kind, machine, 0, **opts), make_model(kind, machine, 1, **opts)
         tool_dir, S = lik.sensitivity(proto)
         # E_0 and the instruments' unknowns (stations, pivots, targets, nests) are in every candidate
         self.fixed = np.r_[np.arange(6), np.arange(6 + lik.n_model, lik.n_unknowns)]
         self.slots = list(proto.slot_axis) if kind == "6dof" else list(range(machine.n_axes))
-        n = machine.n_axes
-        cols, index = [tool_dir * DEFAULT_PRIORS["offset"]], {("T_offset",): 0}
-        prior = np.array([DEFAULT_PRIORS["length"] if a.kind == "linear" else DEFAULT_PRIORS["angle"] for a in machine.axes])
-        if kind == "ap":  # a constant per output; per input axis its functions into every output
-            for j in range(n):
-                index[("offset", j)] = len(cols)
-                cols.append(S[:, :, j] * prior[j])
+        n, n_off = machine.n_axes, proto._n_offsets()
+        prior0 = proto.priors[n_off:]                                      # the constants' priors
+        prior1 = np.array([p.prior for p in proto1.base_parameters if p.order == 1])  # the functions'
+        off = proto._offset_columns(c.tool, tool_dir) * proto.priors[:n_off]
+        cols = [off[:, :, k] for k in range(n_off)]
+        index = {("offset", k): k for k in range(n_off)}
         functions = [_axis_functions(a, options[i], c.q[:, i]) for i, a in enumerate(machine.axes)]
-        if kind == "6dof":  # per slot (an axis or a mimic joint), in its driving axis' functions
-            for s, i in enumerate(self.slots):
-                names, F = functions[i]
-                for f, name in enumerate(names):
-                    for comp in range(6):
-                        index[(s, name, comp)] = len(cols)
-                        cols.append(S[:, :, s, comp] * F[:, f, None] * M_PER_MM)
-        else:
+        if kind == "ap":  # a constant per output; per input axis its functions into every output
+            prior1 = prior1.reshape(n, n)
+            for j in range(n):
+                index[("const", j)] = len(cols)
+                cols.append(S[:, :, j] * prior0[j])
             for i in range(n):
                 names, F = functions[i]
                 for f, name in enumerate(names):
                     for j in range(n):
                         index[(i, name, j)] = len(cols)
-                        cols.append(S[:, :, j] * F[:, f, None] * prior[j])
-        if kind == "6dof":  # the constant of every slot's six components
-            for s in range(len(self.slots)):
+                        cols.append(S[:, :, j] * F[:, f, None] * prior1[i, j])
+        else:  # per slot (an axis or a mimic joint): its constants, then its driving axis' functions
+            prior0, prior1 = prior0.reshape(-1, 6), prior1.reshape(-1, 6)
+            for s, i in enumerate(self.slots):
                 for comp in range(6):
                     index[(s, "0", comp)] = len(cols)
-                    cols.append(S[:, :, s, comp] * M_PER_MM)
+                    cols.append(S[:, :, s, comp] * prior0[s, comp])
+                names, F = functions[i]
+                for f, name in enumerate(names):
+                    for comp in range(6):
+                        index[(s, name, comp)] = len(cols)
+                        cols.append(S[:, :, s, comp] * F[:, f, None] * prior1[s, comp])
         D = np.stack(cols, axis=-1)                                     # d point / d psi (N,3,P)
-        self.J = np.concatenate([ev.J[:, :, self.fixed], np.einsum("pij,pjk->pik", ev.Gw, D)], axis=-1)
-        self.A = np.concatenate([ev.A[:, :, self.fixed], np.einsum("pij,pjk->pik", ev.Gm, D)], axis=-1)
+        self.J = np.concatenate([ev.J[:, :, self.fixed], ev.Gw @ D], axis=-1)
+        self.A = np.concatenate([ev.A[:, :, self.fixed], ev.Gm @ D], axis=-1)
         self.index = index
-        w = ev.w
-        grams = []
-        for f in range(folds):
-            sel = fold == f
-            Jf = self.J[sel].reshape(-1, self.J.shape[-1])
-            grams.append((Jf.T @ Jf, Jf.T @ w[sel].ravel()))
-        G, g = sum(v[0] for v in grams), sum(v[1] for v in grams)
-        # each fold's estimate comes from the normal equations of the other folds
-        self.train = [(G - Gf, g - gf) for Gf, gf in grams]
-        self.test = [(np.flatnonzero(fold == f), self.A[fold == f]) for f in range(folds)]
-        self.uncompensated = np.linalg.norm(ev.metric[self.judged], axis=1) * MM_PER_M
+        self.n_offsets = n_off
+        self.uncompensated = norm_mm(ev.metric[self.judged])
+
+    @property
+    def n_fixed(self) -> int:
+        return len(self.fixed)
 
     def columns(self, choice: tuple[AxisChoice, ...]) -> np.ndarray:
-        """Column indices of a candidate: E_0 and the instruments' unknowns, T_offset,
-        then its functions (6-DoF: on every slot the axis drives)."""
-        idx = [0]
+        """Column indices of a candidate: E_0 and the instruments' unknowns, the offsets,
+        then its constants and functions (6-DoF: on every slot the axis drives)."""
+        idx = [self.index[("offset", k)] for k in range(self.n_offsets)]
         n = self.machine.n_axes
-        nf = len(self.fixed)
         if self.kind == "ap":
-            idx += [self.index[("offset", j)] for j in range(n)]
+            idx += [self.index[("const", j)] for j in range(n)]
             for i, c in enumerate(choice):
                 idx += [self.index[(i, name, k)] for name in c.functions() for k in range(n)]
         else:
             for s, i in enumerate(self.slots):
                 idx += [self.index[(s, "0", k)] for k in range(6)]
                 idx += [self.index[(s, name, k)] for name in choice[i].functions() for k in range(6)]
-        return np.r_[np.arange(nf), nf + np.array(idx, int)]
+        return np.r_[np.arange(self.n_fixed), self.n_fixed + np.array(idx, int)]
+
+
+class _Problem(_Design):
+    """:class:`_Design` with the normal equations of every fold (folds grouped by
+    command): fold f's estimate comes from the normal equations less fold f's rows."""
+
+    def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options, fold, folds,
+                 opts: dict | None = None):
+        super().__init__(kind, machine, campaign, noise, options, opts)
+        grams = []
+        for f in range(folds):
+            sel = fold == f
+            Jf = self.J[sel].reshape(-1, self.J.shape[-1])
+            grams.append((Jf.T @ Jf, Jf.T @ self.w[sel].ravel()))
+        self.G, self.g = sum(v[0] for v in grams), sum(v[1] for v in grams)
+        self.G_train = np.stack([self.G - Gf for Gf, _ in grams])       # (folds, P, P)
+        self.g_train = np.stack([self.g - gf for _, gf in grams])
+        judged = np.flatnonzero(self.judged)
+        self.metric_judged = self.metric[judged]
+        # d metric / d psi of the judged rows, one contiguous row per column: (P, 3 n_judged)
+        self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[judged], -1, 0).reshape(self.A.shape[-1], -1))
+        self.pick = (np.repeat(fold[judged], 3), np.arange(3 * len(judged)))  # each row's own fold
 
     def heldout(self, cols: np.ndarray) -> np.ndarray:
         """Held-out distances [mm] of the judged rows for the candidate with these columns."""
-        held = np.empty_like(self.metric)
-        ix = np.ix_(cols, cols)
-        N = np.stack([Gt[ix] for Gt, _ in self.train]) + np.eye(len(cols))
-        rhs = np.stack([gt[cols] for _, gt in self.train])
-        L = np.linalg.cholesky(N)  # batched over the folds
-        psi = -_cho_solve(L, rhs)
-        for (te, A_te), p in zip(self.test, psi):
-            held[te] = self.metric[te] + A_te[:, :, cols] @ p
-        return np.linalg.norm(held[self.judged], axis=1) * MM_PER_M
+        N = self.G_train[:, cols[:, None], cols]
+        N[:, np.arange(len(cols)), np.arange(len(cols))] += 1.0               # the unit prior
+        g = self.g_train[:, cols]
+        psi = np.stack([-linalg.cho_solve(linalg.cho_factor(Nf, check_finite=False), gf, check_finite=False)
+                        for Nf, gf in zip(N, g)])                              # (folds, p): one solve per fold
+        change = (psi @ self.A_rows[cols])[self.pick]                         # each row from its fold's estimate
+        return norm_mm(self.metric_judged + change.reshape(-1, 3))
+
+    def estimate(self, cols: np.ndarray) -> np.ndarray:
+        """The candidate's linearised estimate from every row (prior-scaled, its columns)."""
+        return -np.linalg.solve(self.G[np.ix_(cols, cols)] + np.eye(len(cols)), self.g[cols])
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - len(self.fixed), self.heldout(cols))
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols))
 
 
-def _cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve (L L^T) x = b for stacked lower triangles L (k,p,p) and right sides b (k,p)."""
-    y = np.stack([linalg.solve_triangular(Lk, bk, lower=True, check_finite=False) for Lk, bk in zip(L, b)])
-    return np.stack([linalg.solve_triangular(Lk, yk, lower=True, trans="T", check_finite=False)
-                     for Lk, yk in zip(L, y)])
+def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, spline or auto") -> None:
+    """Refuse a per-turn basis (``fourier``, ``fourier_trend``) on a machine without a
+    rotary axis that travels more than a turn: it would apply to no axis."""
+    if basis in ("fourier", "fourier_trend") and not any(a.multiturn for a in machine.axes):
+        raise InputError(f"no rotary axis of {machine.name} travels more than a turn; --basis {basis} applies to "
+                         f"none: use {alternatives}")
 
 
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
                  families=FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
-                 seed: int = 0, progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 seed: int = 0, fixed_order: bool = False, opts: dict | None = None,
+                 progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds``, ``families``, ``orders``: what to try (a fixed choice restricts them);
     ``plans``: the families tried on every axis at once (default ``families``);
-    ``per_axis``: refine each axis' basis around the best common one."""
+    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``:
+    ``orders`` is one order the user fixed (splines then have that many knots, trends
+    are at most that order); ``seed``: the folds (and the subsample of a large
+    campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
+    priors and offsets every candidate carries."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
@@ -330,28 +371,30 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
+    plans = tuple(p for p in (plans or families) if p in families)
+    if plans and all(p in ("fourier", "fourier_trend") for p in plans):
+        check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
+                    or "chebyshev")
     noise = noise or NoiseModel.default(machine, "cartesian")
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [axis_options(a, orders, families) for a in machine.axes]
+    options = [axis_options(a, orders, families, fixed_order) for a in machine.axes]
     cands: list[Candidate] = []
-    seen: set = set()
+    scored: dict = {}
 
     def score(prob, choice):
         key = (prob.kind, choice)
-        if key not in seen:
-            seen.add(key)
-            cands.append(prob.candidate(choice))
-        return next(c for c in reversed(cands) if c.kind == prob.kind and c.axes == choice)
+        if key not in scored:
+            scored[key] = prob.candidate(choice)
+            cands.append(scored[key])
+        return scored[key]
 
     problems = {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds)
-        for plan in (plans or families):
-            if plan not in families:
-                continue
-            for o in (orders if plan in ("chebyshev", "fourier", "fourier_trend") else [None]):
+        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds, opts)
+        for plan in plans:
+            for o in (orders if plan != "spline" else [None]):
                 for plan_axes in _plans(machine, plan, o, options):
                     score(prob, plan_axes)
         say(f"{kind}: {sum(c.kind == kind for c in cands)} common-basis candidates scored")
@@ -375,11 +418,12 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     unc = problems[kinds[0]].uncompensated
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
-                       (float(unc.mean()), float(unc.max())), time.perf_counter() - t0)
+                       (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed)
 
 
 def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
-    """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one order."""
+    """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
+    order: a per-turn series of the lowest order offered that is at least ``order``."""
     out = []
     if plan == "spline":
         knots = sorted({o.order for opts in options for o in opts if o.family == "spline"})
@@ -387,16 +431,18 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
             out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
                              for opts in options))
         return out
+    cheb = AxisChoice("chebyshev", order)
     if plan == "chebyshev":
-        return [tuple(AxisChoice("chebyshev", order) for _ in machine.axes)]
-    fo = max(2, order + order % 2)
-    for t in (TRENDS if plan == "fourier_trend" else (0,)):
-        row = []
-        for a, opts in zip(machine.axes, options):
-            c = AxisChoice(plan, fo, t)
-            row.append(c if c in opts else AxisChoice("chebyshev", order))
-        if any(c.family == plan for c in row):
-            out.append(tuple(row))
+        return [tuple(cheb for _ in machine.axes)]
+    per_turn = [o for opts in options for o in opts if o.family == plan]
+    if not per_turn:
+        return out
+    fo = min((o.order for o in per_turn if o.order >= order), default=max(o.order for o in per_turn))
+    for t in sorted({o.trend for o in per_turn}):
+        c = AxisChoice(plan, fo, t)
+        row = tuple(c if c in opts else (cheb if cheb in opts else opts[0]) for opts in options)
+        if any(x.family == plan for x in row):
+            out.append(row)
     return out
 
 
@@ -412,8 +458,8 @@ def one_standard_error(cands: list[Candidate], best: Candidate) -> tuple[Candida
     chosen, se = min(ok, key=lambda x: (x[0].n_terms, x[0].mean))
     if chosen is best:
         return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
-    return chosen, se, (f"the fewest terms within one standard error ({se:.4f} mm) of the lowest held-out mean "
-                        f"({best.label()}, {best.n_terms} terms, {best.mean:.4f} mm)")
+    return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
+                        f"mean ({best.label()}, {best.n_terms} model terms, {best.mean:.4f} mm)")
 
 
 def _subsample(campaign: Campaign, seed: int) -> Campaign:
@@ -443,16 +489,19 @@ def parse_order(text) -> int | str:
 
 
 def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> ErrorModel:
-    """The model of a fully fixed choice: ``basis`` on the axes it applies to (Fourier
-    families on rotary axes that travel more than a turn), Chebyshev elsewhere."""
+    """The model of a fully fixed choice: ``basis`` on the axes it applies to (per-turn
+    families on rotary axes that travel more than a turn, Chebyshev elsewhere; a Fourier
+    series of ``order`` with a Chebyshev trend of order min(2, ``order``)); ``spline``: on
+    every axis, ``order`` interior knots."""
+    check_basis(machine, basis)
     if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
         return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
     axes = []
     for a in machine.axes:
         if basis == "spline":
-            axes.append(AxisChoice("spline", max(order, 1)))
-        elif basis == "fourier_trend" and multiturn(a):
-            axes.append(AxisChoice("fourier_trend", max(order + order % 2, 2), 2))
+            axes.append(AxisChoice("spline", order))
+        elif basis == "fourier_trend" and a.multiturn:
+            axes.append(AxisChoice("fourier_trend", order, min(2, order)))
         else:
             axes.append(AxisChoice("chebyshev", order))
     return make_model(kind, machine, order, bases=[c.basis(a) for a, c in zip(machine.axes, axes)], **opts)
@@ -462,21 +511,32 @@ BASES = ("auto",) + FAMILIES
 
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
-                  order: int | str = "auto", *, folds: int = 5, progress: Callable[[str], None] | None = None,
-                  **opts):
+                  order: int | str = "auto", *, folds: int = 5, seed: int = 0,
+                  progress: Callable[[str], None] | None = None, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of
     ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
-    fixed choice builds the model directly. ``opts``: model options (tool_lengths...)."""
+    fixed choice builds the model directly. ``opts``: model options (tool_lengths,
+    prior_scale), which the candidates carry too. A fixed ``order`` keeps the families
+    whose size it defines (Chebyshev and Fourier series of that order, trends up to it);
+    splines only with ``basis="spline"``, ``order`` then being the number of interior
+    knots. ``seed``: the cross-validation folds."""
     if kind not in ("auto",) + KINDS:
         raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
         raise InputError(f"--basis {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
+    check_basis(machine, basis)
     if kind != "auto" and basis != "auto" and order != "auto":
         return fixed_model(machine, kind, basis, order, **opts), None
-    families = FAMILIES if basis == "auto" else tuple(dict.fromkeys((basis, "chebyshev")))
+    if basis == "auto":
+        families = FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
+    elif basis == "spline" and order != "auto":
+        families = ("spline",)
+    else:
+        families = tuple(dict.fromkeys((basis, "chebyshev")))
     choice = choose_model(machine, campaign, noise, kinds=KINDS if kind == "auto" else (kind,), families=families,
                           plans=None if basis == "auto" else (basis,),
-                          orders=CHEB_ORDERS if order == "auto" else (order,),
-                          per_axis=order == "auto" and basis == "auto", folds=folds, progress=progress)
+                          orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
+                          per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
+                          progress=progress)
     return choice.chosen.model(machine, **opts), choice

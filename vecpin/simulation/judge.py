@@ -187,7 +187,7 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
     q, tool = validation_commands(machine, n_validation, design.tools_mm, seed=seed + 1_000_003)
     unc = uncompensated_error(truth, q, tool)
     out = Judgement(machine.name, getattr(truth, "family", type(truth).__name__), unc)
-    multi_turn = any(a.kind == "rotary" and a.travel > 2 * np.pi for a in machine.axes)
+    multi_turn = any(a.multiturn for a in machine.axes)
 
     def run(label, kind, basis_name, order, campaign=sim.campaign, judged=truth, **kw):
         row = Row(label, kind, basis_name, order)

@@ -75,7 +75,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
     check_size(model)
     if progress:
-        progress(f"fitting the {model.kind} model ({model.n_parameters + 6} parameters) to {len(campaign)} rows")
+        progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
     model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)
     if choice is not None:
         model.selection_ = choice.to_dict()

@@ -1,0 +1,116 @@
+"""The bounded damped Gauss-Newton of vecpin.identification.solver on problems whose
+answer is known in closed form, and on problems it must refuse: a linear least-squares
+problem with unit priors has the ridge solution (J^T J + I)^-1 (-J^T w0); a problem
+whose damped normal equations never solve, or whose steps always go uphill, raises
+ConvergenceError instead of returning a point; non-finite residuals at the start stop
+it at once, at a trial point they only shorten the step."""
+import numpy as np
+import pytest
+
+from vecpin.errors import ConvergenceError
+from vecpin.identification.solver import MAX_DAMPING, gauss_newton
+
+
+class Linear:
+    """w(psi) = w0 + J psi, with a count of the evaluations asked with Jacobians."""
+
+    def __init__(self, rng, n=40, p=6):
+        self.J = rng.normal(size=(n, p))
+        self.w0 = rng.normal(size=n) * 3
+        self.with_jacobian = 0
+        self.calls = 0
+
+    def __call__(self, psi, jacobian=True):
+        self.calls += 1
+        w = self.w0 + self.J @ psi
+        if not jacobian:
+            return float(w @ w), None, None
+        self.with_jacobian += 1
+        return float(w @ w), self.J.T @ self.J, self.J.T @ w
+
+    @property
+    def ridge(self):
+        return np.linalg.solve(self.J.T @ self.J + np.eye(self.J.shape[1]), -self.J.T @ self.w0)
+
+
+def test_linear_problem_reaches_the_ridge_solution(rng):
+    prob = Linear(rng)
+    keep = np.ones(6, bool)
+    sol = gauss_newton(prob, 6, keep)
+    np.testing.assert_allclose(sol.psi, prob.ridge, rtol=1e-8, atol=1e-10)
+    assert sol.converged
+    w = prob.w0 + prob.J @ prob.ridge
+    assert sol.objective == pytest.approx(w @ w + prob.ridge @ prob.ridge, rel=1e-10)
+
+
+def test_a_given_start_saves_one_evaluation_with_jacobians(rng):
+    a, b = Linear(rng), None
+    sol_a = gauss_newton(a, 6, np.ones(6, bool))
+    b = Linear(np.random.default_rng(12345))  # the same problem (the fixture's seed)
+    start = b(np.zeros(6), True)
+    counted = b.with_jacobian
+    sol_b = gauss_newton(b, 6, np.ones(6, bool), start=start)
+    np.testing.assert_allclose(sol_b.psi, sol_a.psi, rtol=1e-12)
+    assert b.with_jacobian - counted == a.with_jacobian - 1
+
+
+def test_removed_columns_stay_zero(rng):
+    prob = Linear(rng)
+    keep = np.array([True, True, False, True, False, True])
+    sol = gauss_newton(prob, 6, keep)
+    Jk = prob.J[:, keep]
+    expected = np.linalg.solve(Jk.T @ Jk + np.eye(4), -Jk.T @ prob.w0)
+    np.testing.assert_allclose(sol.psi[keep], expected, rtol=1e-8)
+    assert np.all(sol.psi[~keep] == 0)
+
+
+def test_normal_equations_that_never_solve_raise(rng):
+    """Normal equations that are not positive definite for any damping (a negative
+    J^T J: contradictory derivatives): every solve fails, the solver raises instead of
+    calling the start a minimum."""
+    def broken(psi, jacobian=True):
+        return 10.0, (-20.0 * np.eye(3) if jacobian else None), (np.ones(3) if jacobian else None)
+
+    with pytest.raises(ConvergenceError, match="not positive definite"):
+        gauss_newton(broken, 3, np.ones(3, bool))
+
+
+def test_a_step_that_always_goes_uphill_is_never_accepted(rng):
+    """The derivatives point the wrong way (g has the wrong sign): every damped step
+    raises the objective, none is accepted, and the step promised a real decrease, so
+    the solver raises (bounded: at most MAX_DAMPING + 1 trials in the one iteration)."""
+    prob = Linear(rng)
+
+    def uphill(psi, jacobian=True):
+        chi2, G, g = prob(psi, jacobian)
+        return chi2, G, (None if g is None else -g)
+
+    prob.calls = 0
+    with pytest.raises(ConvergenceError, match="cannot lower chi2"):
+        gauss_newton(uphill, 6, np.ones(6, bool))
+    assert prob.calls <= 1 + MAX_DAMPING + 1
+
+
+def test_non_finite_residuals_at_the_start_stop_at_once():
+    def nan(psi, jacobian=True):
+        return float("nan"), np.eye(2), np.zeros(2)
+
+    with pytest.raises(ConvergenceError, match="non-finite at the start"):
+        gauss_newton(nan, 2, np.ones(2, bool))
+
+
+def test_a_non_finite_trial_point_only_shortens_the_step(rng):
+    """Residuals that are not finite beyond |psi| = 0.4 (a model evaluated outside its
+    travel): the full step lands there, the damping shortens it, and the solver reaches
+    the constrained region's best point without raising."""
+    prob = Linear(rng)
+    assert np.abs(prob.ridge).max() > 0.4  # the unconstrained answer lies beyond
+
+    def fenced(psi, jacobian=True):
+        out = prob(psi, jacobian)
+        return (float("nan"),) + out[1:] if np.abs(psi).max() > 0.4 else out
+
+    sol = gauss_newton(fenced, 6, np.ones(6, bool), max_iter=60)
+    assert np.isfinite(sol.objective) and np.abs(sol.psi).max() <= 0.4
+    w0 = prob.w0 @ prob.w0
+    assert sol.objective < w0  # it went downhill from the start
