@@ -168,7 +168,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     as_written = None
     st = None
     xtables, xm, xprof = drives.expand(plan.tables, m, prof)
-    with OutputSet(out_dir) as out:
+    with OutputSet(out_dir, manifest="tables") as out:  # an earlier run's files it no longer writes go
         job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes)
         names = fmt.write(job) if fmt.name != "generic" else []
         names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes))
@@ -185,6 +185,9 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
             names += write_sign_test(out, st, fmt.dialect, prof, notes)
+    if out.removed:
+        notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
+                     "(unchanged since): " + ", ".join(p.name for p in out.removed))
     if as_written is not None and fmt.name != "generic":
         # the whole model: the drives' differential (read back from the files) turns the beam against its skew
         add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
