@@ -161,6 +161,23 @@ def test_a_differential_turns_the_beam_by_minus_2d_over_the_separation(machines)
     np.testing.assert_allclose(back.turn_tips(m, q, centre + r), centre + moved, atol=1e-15)
 
 
+def test_the_turn_relative_to_a_workpiece_is_the_base_frame_turn(machines):
+    """On a machine with a workpiece (a trunnion), turning a tip given relative to the
+    workpiece is turning it in the base frame, expressed in the workpiece frame."""
+    m = machines["trunnion_xyzac"]
+    diff = [CompensationTable("C", "X", m.axis("C").lower, 0.1, np.linspace(-50e-6, 50e-6, 64))]
+    ts = TableSet(m.axis_names, [], drives=drives.twin_drives(m, _profile(), {"X": diff}))
+    rng = np.random.default_rng(0)
+    q = m.lower + rng.random((6, m.n_axes)) * (m.upper - m.lower)
+    base = m.tool_tip(q, np.full(6, 0.2), frame="base")
+    T = m.workpiece_pose(q)
+    rel = np.einsum("pji,pj->pi", T[:, :3, :3], base - T[:, :3, 3])
+    turned = ts.turn_tips(m, q, base)
+    assert np.abs(turned - base).max() > 1e-6  # the turn moves the tips
+    np.testing.assert_allclose(ts.turn_tips(m, q, rel, "workpiece"),
+                               np.einsum("pji,pj->pi", T[:, :3, :3], turned - T[:, :3, 3]), atol=1e-13)
+
+
 @pytest.fixture(scope="module")
 def skewed_truth(machines):
     """A simulated Master Mill (AP-type errors of the seed's size, 0.295 mm) whose X gantry

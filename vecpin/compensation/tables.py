@@ -180,9 +180,12 @@ class TableSet:
 
     def turn_tips(self, machine: Machine, q: np.ndarray, tip: np.ndarray, frame: str = "base") -> np.ndarray:
         """Tool tips (N,3) [m] after the twin drives' differential turned their beams, at
-        the (compensated) commands q: every turn acts on the tool tip in the base frame
-        (as a gantry skew does); ``frame="workpiece"``: ``tip`` is relative to the
-        workpiece (its nominal pose at q) and so is the result."""
+        the axis positions q (the compensated commands: the differential is read there, as
+        a controller reads its tables' input axes; from the programmed command it differs
+        by a table value times the differential's slope, second order). Every turn acts on
+        the tool tip in the base frame (as a gantry skew does: the beam carries the tool);
+        ``frame="workpiece"``: ``tip`` is relative to the workpiece (its nominal pose at
+        q) and so is the result."""
         if not any(d.differential for d in self.drives):
             return tip
         q = np.atleast_2d(np.asarray(q, float))
