@@ -125,6 +125,127 @@ def test_expand_and_fold(machines):
     back = drives.fold(xt, m, _profile())
     for t in ts.tables:
         np.testing.assert_allclose(back.table(t.name).values, t.values, atol=1e-18)
+    (d,) = back.drives  # half the difference of the drives' tables: the differential
+    assert [t.name for t in d.differential] == ["xy"] and d.following == "X2"
+    np.testing.assert_allclose(d.differential[0].values, 5e-6, atol=1e-18)
+    assert drives.fold(back, m, _profile()) is back  # already on the machine's axes (tables.json)
+    one = drives.fold(TableSet(xm.axis_names, [CompensationTable("Z", "X2", -1.0, 0.5, np.full(5, 4e-6))]), m,
+                      _profile())  # on the following drive only: the gantry moves by half, the drives differ by all
+    np.testing.assert_allclose([one.table("xz").values, one.drives[0].differential[0].values], [[2e-6] * 5, [-2e-6] * 5])
+
+
+def test_a_differential_turns_the_beam_by_minus_2d_over_the_separation(machines):
+    """Closed form, by hand: drives S apart along y (leading at y = -S/2 from the beam's
+    centre, following at +S/2), X along x. A differential d (leading +d, following -d)
+    turns the beam about z by alpha = 2 d / S (= -2 d / |s x x| about s x x = -S z): a
+    point at the following drive, r = (0, S/2, 0) from the centre, goes to
+    (-S/2 sin alpha, S/2 cos alpha, 0), i.e. by -d along x to first order; a point on
+    the turn axis below the centre does not move; (a, 0, 0) moves by a sin alpha in y."""
+    m = machines["master_mill"]
+    S, d = SEPARATION_MM * 1e-3, 40e-6
+    diff = [CompensationTable("Y", "X", m.axis("Y").lower, 0.5, np.full(41, d))]
+    ts = TableSet(m.axis_names, [], drives=drives.twin_drives(m, _profile(), {"X": diff}))
+    q = np.clip(np.array([[0.3, 0.2, 0.1, 0.0, 0.0]]), m.lower, m.upper).repeat(4, axis=0)
+    centre = m.joint_frames(q, "X")[0, :3, 3]
+    np.testing.assert_allclose(m.joint_frames(q, "X")[0, :3, 0] @ m.axis("X").direction, [1, 0, 0][0], atol=1e-12)
+    a, alpha = 0.7, 2 * d / S
+    r = np.array([[0, S / 2, 0], [0, -S / 2, 0], [0, 0, -1.3], [a, 0, 0]])
+    moved = ts.turn_tips(m, q, centre + r) - centre
+    expect = np.array([[-S / 2 * np.sin(alpha), S / 2 * np.cos(alpha), 0],
+                       [S / 2 * np.sin(alpha), -S / 2 * np.cos(alpha), 0],
+                       [0, 0, -1.3], [a * np.cos(alpha), a * np.sin(alpha), 0]])
+    np.testing.assert_allclose(moved, expect, atol=1e-15)
+    np.testing.assert_allclose(moved[:2, 0] - r[:2, 0], [-d, d], rtol=1e-6)  # following -d, leading +d
+    # the same through a file: tables.json keeps the drives
+    back = TableSet.from_dict(json.loads(json.dumps(ts.to_dict(m))), m)
+    np.testing.assert_allclose(back.turn_tips(m, q, centre + r), centre + moved, atol=1e-15)
+
+
+def test_the_turn_relative_to_a_workpiece_is_the_base_frame_turn(machines):
+    """On a machine with a workpiece (a trunnion), turning a tip given relative to the
+    workpiece is turning it in the base frame, expressed in the workpiece frame."""
+    m = machines["trunnion_xyzac"]
+    diff = [CompensationTable("C", "X", m.axis("C").lower, 0.1, np.linspace(-50e-6, 50e-6, 64))]
+    ts = TableSet(m.axis_names, [], drives=drives.twin_drives(m, _profile(), {"X": diff}))
+    rng = np.random.default_rng(0)
+    q = m.lower + rng.random((6, m.n_axes)) * (m.upper - m.lower)
+    base = m.tool_tip(q, np.full(6, 0.2), frame="base")
+    T = m.workpiece_pose(q)
+    rel = np.einsum("pji,pj->pi", T[:, :3, :3], base - T[:, :3, 3])
+    turned = ts.turn_tips(m, q, base)
+    assert np.abs(turned - base).max() > 1e-6  # the turn moves the tips
+    np.testing.assert_allclose(ts.turn_tips(m, q, rel, "workpiece"),
+                               np.einsum("pji,pj->pi", T[:, :3, :3], turned - T[:, :3, 3]), atol=1e-13)
+
+
+@pytest.fixture(scope="module")
+def skewed_truth(machines):
+    """A simulated Master Mill (AP-type errors of the seed's size, 0.295 mm) whose X gantry
+    yaws about z with Z (a gantry skew, 0.06 mm RMS), and an AP model with the skew fitted
+    to its campaign."""
+    from vecpin.simulation.effects import EffectSpec
+    from vecpin.simulation.truth import TrueMachine
+    m = machines["master_mill"]
+    skew = EffectSpec("gantry_skew", ("X",), 0.06, {"about": "z", "depends": "Z"}, seed=3)
+    truth = TrueMachine.random(m, np.random.default_rng(4), mean_error_mm=0.295, family="ap")
+    design = Design(n_commands=150, n_validation=100)
+    sim = simulate(m, seed=4, truth=truth, effects=[skew], design=design)
+    model = make_model("ap", m, 3, effects=[GantrySkew(m, ("X",), about="z")])
+    model.fit(sim.campaign, NoiseModel.default(m, "spherical", tracker=truth.tracker.noise))
+    return truth, skew, design, sim, model
+
+
+def test_the_differential_shrinks_the_true_compensated_error(skewed_truth, tmp_path):
+    """tables.json carries the differential; the simulator (``simulate --tables``) and
+    ``verify`` turn the beam with it, and the true machine with its skew, commanded
+    through the tables, is closer to nominal with the differential than without it
+    (the same tables) and than with tables fitted to the whole model (a yaw whose lever
+    is the Y carriage's place on the beam is not a sum of one-axis tables)."""
+    from vecpin.simulation.floor import true_compensated_error
+    from vecpin.workflows.verifying import load_tables, verify
+    truth, skew, design, sim, model = skewed_truth
+    m = model.machine
+    make_tables(model, tmp_path / "t", "generic", profile=_profile(), uncertainty=False)
+    ts, _ = load_tables(tmp_path / "t", m)
+    (drive,) = ts.drives
+    assert drive.axis == "X" and drive.following == "X2" and [t.input_axis for t in drive.differential] == \
+        ["Y", "Z", "C", "A"]
+    np.testing.assert_allclose(drive.separation, [0, SEPARATION_MM * 1e-3, 0])
+    bare = TableSet(ts.axis_names, ts.tables, ts.gauge_offset_change, ts.source)  # the same without the differential
+    whole = plan_tables(model, uncertainty=False).tables
+    v = sim.validation
+    with_d, without_d = (true_compensated_error(truth, t, v.q, v.tool) for t in (ts, bare))
+    whole_mm = true_compensated_error(truth, whole, v.q, v.tool)
+    assert with_d[0] < 0.9 * without_d[0] and with_d[0] < 0.9 * whole_mm[0]
+    # the simulator measures the validation commands through the tables on the true machine
+    runs = {k: simulate(m, seed=4, truth=truth, effects=[skew], design=design, tables=t)
+            for k, t in (("with", ts), ("without", bare))}
+    after = {k: verify(m, r.validation, r.compensated, model, t, "t")
+             for (k, r), t in zip(runs.items(), (ts, bare))}
+    assert after["with"].after.measured.mean() < 0.9 * after["without"].after.measured.mean()
+    assert after["with"].after.predicted.mean() < 0.9 * after["without"].after.predicted.mean()
+    # noise-free: what the simulator measured through the tables is the closed form's turn
+    r = runs["with"]
+    np.testing.assert_allclose(r.compensated_truth.xyz, truth.tracker.to_tracker(
+        ts.turn_tips(m, ts.apply(v.q), truth.tool_tip(ts.apply(v.q), v.tool))), atol=1e-12)
+
+
+def test_files_as_written_keep_the_differential(skewed_model, tmp_path):
+    """Siemens files hold the differential in the leading and following drives' tables;
+    read back and folded it is the differential the table set carries (to the files'
+    rounding). (The Z reference position of 800 mm shifts Z's pitch table: the row with
+    the reference shifts is the controller's.)"""
+    run = make_tables(skewed_model, tmp_path / "s", "siemens-840d", profile=_profile(nc=True), uncertainty=False)
+    (want,), (got,) = run.plan.tables.drives, run.as_written.drives
+    assert [t.input_axis for t in got.differential] == [t.input_axis for t in want.differential]
+    for a, b in zip(got.differential, want.differential):
+        np.testing.assert_allclose(a(b.positions), b.values, atol=1e-9)
+    # the whole model (with its skew) through the files read back, the drives turning the beam, is
+    # compensated as well as the skew-free rest of the model through the planned tables
+    rows = {r.label: r for r in run.plan.report.rows}
+    full, files = rows["full tables (model-predicted)"], rows["files + reference shifts (model-predicted)"]
+    assert files.mean < full.mean + 0.002 and files.max < full.max + 0.005
+    assert rows["uncompensated (model)"].mean > 0.5
 
 
 def test_zone_fit_records_and_restricts(machines, tmp_path):

@@ -196,3 +196,48 @@ def test_tables_of_a_model_with_backlash_and_skew(backlash_skew, controller, tmp
         no_skew = plan_tables(_without(model, geometric), n_commands=300, uncertainty=False).tables
         left = np.linalg.norm(compensated_errors(truth, m, no_skew, q, L, register=True), axis=1).mean()
         assert left > 1.5 * after
+
+
+def test_a_manifest_removes_only_the_files_an_earlier_run_of_the_same_command_wrote(tmp_path):
+    """With a manifest, files the previous set wrote and this one does not are removed if
+    unchanged; a user's files, an edited file, a name leading out of the folder and the
+    sets of another command (or without a manifest) are never touched."""
+    from vecpin.fileio import OutputSet
+    d = tmp_path / "out"
+    with OutputSet(d, manifest="tables") as out:
+        for n in ("a.txt", "sub/b.txt", "c.txt"):
+            out.write_text(n, n)
+    (d / "user.txt").write_text("mine")
+    (d / "c.txt").write_text("edited by hand")
+    (tmp_path / "outside.txt").write_text("x")
+    manifest = d / ".vecpin-tables.manifest"
+    import hashlib
+    manifest.write_text(manifest.read_text() + hashlib.sha256(b"x").hexdigest() + "  ../outside.txt\n")
+    with OutputSet(d, manifest="other") as out:  # another command's set removes nothing
+        out.write_text("o.txt", "o")
+    assert (d / "sub" / "b.txt").is_file()
+    with OutputSet(d, manifest="tables") as out:
+        out.write_text("a.txt", "a2")
+    assert out.removed == [d / "sub" / "b.txt"] and not (d / "sub").exists()
+    assert sorted(p.name for p in d.iterdir()) == [".vecpin-other.manifest", ".vecpin-tables.manifest", "a.txt",
+                                                   "c.txt", "o.txt", "user.txt"]
+    assert (d / "c.txt").read_text() == "edited by hand" and (tmp_path / "outside.txt").is_file()
+    assert manifest.read_text().splitlines()[1:] == [hashlib.sha256(b"a2").hexdigest() + "  a.txt"]
+    with OutputSet(d) as out:  # no manifest: nothing removed
+        out.write_text("z.txt", "z")
+    assert (d / "a.txt").is_file() and (d / "c.txt").is_file()
+
+
+def test_tables_for_another_controller_replace_the_former_files(model, tmp_path):
+    """``vecpin tables`` into the folder of an earlier run for another controller: the
+    former controller's files go (they would be loaded by mistake), the user's stay."""
+    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    make_tables(model, tmp_path, "linuxcnc", profile=prof, uncertainty=False)
+    before = {p.name for p in tmp_path.iterdir()}
+    (tmp_path / "notes.txt").write_text("my notes")
+    run = make_tables(model, tmp_path, "generic", uncertainty=False)
+    after = {p.name for p in tmp_path.iterdir()}
+    gone = before - after
+    assert gone and not {"tables.json", "tables.csv"} & gone and "notes.txt" in after
+    assert after == {"tables.json", "tables.csv", ".vecpin-tables.manifest", "notes.txt"}
+    assert any("removed the files of an earlier" in n for n in run.notes)

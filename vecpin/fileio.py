@@ -5,8 +5,9 @@ go to a temporary file in the same folder, which is flushed, synced and renamed 
 target (``os.replace`` is atomic on one file system). A result of several files (a
 diagnosis, a table set, a simulation) is written with :class:`OutputSet`: every file is
 staged first and renamed into place only once all of them are complete, so an
-interruption leaves either the old set or the new one, never a new file beside old ones
-from the same run. :func:`check_output_dir` / :func:`check_output_file` test a path
+interruption leaves either the old set or the new one, never a half-written set. Files
+of an earlier run that the new set does not write stay where they are, unless the set
+keeps a *manifest* (see :class:`OutputSet`). :func:`check_output_dir` / :func:`check_output_file` test a path
 before the work starts, so a typo does not cost a long computation.
 """
 from __future__ import annotations
@@ -107,14 +108,24 @@ class OutputSet:
     ...     p = out.path("figure.png"); fig.savefig(p)   # any writer, into the staging folder
     Nothing appears in ``out_dir`` until the block ends without an exception; then each
     staged file is renamed into place. ``final(name)`` is where a file will end up.
+
+    Files already in ``out_dir`` that the set does not write are left alone, except with
+    ``manifest="NAME"`` (a command that owns its folder, e.g. ``tables``): the set then
+    records its files and their SHA-256 in ``.vecpin-NAME.manifest``, and removes the
+    files the previous manifest of the same NAME lists that this set no longer writes
+    (a former controller's files), but only those still unchanged since that run wrote
+    them; a file a user added or edited is never removed. ``removed``: what went.
     """
 
-    def __init__(self, out_dir: str | Path):
+    def __init__(self, out_dir: str | Path, manifest: str | None = None):
         self.dir = Path(out_dir)
         check_output_dir(self.dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
         self.written: list[Path] = []
+        self.kind = manifest
+        self.manifest = None if manifest is None else f".vecpin-{manifest}.manifest"
+        self.removed: list[Path] = []
 
     def path(self, name: str) -> Path:
         """A staging path for ``name`` (relative, may contain a subfolder)."""
@@ -147,14 +158,48 @@ class OutputSet:
                     if p.exists():
                         with open(p, "rb") as fh:
                             os.fsync(fh.fileno())
+                digests = {p.relative_to(self._stage).as_posix(): _sha256(p) for p in self.written
+                           if self.manifest and p.exists()}
                 for p in self.written:
                     if p.exists():
                         target = self.dir / p.relative_to(self._stage)
                         target.parent.mkdir(parents=True, exist_ok=True)
                         os.replace(p, target)
+                if self.manifest:
+                    self._remove_stale(digests)
+                    write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
+                               "name; the next run removes those it no longer writes, if unchanged\n"
+                               + "".join(f"{h}  {n}\n" for n, h in sorted(digests.items())))
         finally:
             _remove_tree(self._stage)
         return False
+
+
+    def _remove_stale(self, keep: dict[str, str]) -> None:
+        """Remove the files the previous manifest lists, that this set does not write and
+        that are unchanged since (same SHA-256); names that leave the folder are ignored."""
+        old = self.dir / self.manifest
+        if not old.is_file():
+            return
+        root = self.dir.resolve()
+        for line in old.read_text(encoding="utf-8", errors="replace").splitlines():
+            digest, _, name = line.partition("  ")
+            if line.startswith("#") or not name or name in keep:
+                continue
+            target = (self.dir / name).resolve()
+            if root not in target.parents or not target.is_file() or _sha256(target) != digest:
+                continue
+            target.unlink()
+            self.removed.append(self.dir / name)
+            parent = target.parent
+            while parent != root and not any(parent.iterdir()):  # a subfolder the earlier run made, now empty
+                parent.rmdir()
+                parent = parent.parent
+
+
+def _sha256(p: Path) -> str:
+    import hashlib
+    return hashlib.sha256(Path(p).read_bytes()).hexdigest()
 
 
 def _remove_tree(p: Path) -> None:

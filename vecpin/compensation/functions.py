@@ -470,7 +470,8 @@ def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet
                        q: np.ndarray, tool: np.ndarray, register: bool = False, point=0) -> np.ndarray:
     """Tool-tip errors (N,3) [m], relative to the workpiece, of the actual machine under
     ``tables`` against the controller's nominal kinematics (with the changed T_offset);
-    None: uncompensated. ``point``: tool point index, one or per row.
+    None: uncompensated. ``point``: tool point index, one or per row. The differential
+    tables of twin drives turn their beams (:meth:`TableSet.turn_tips`).
 
     ``register``: remove the best-fit rigid motion first. Use it when the actual
     machine's frame is not the model's (a simulated truth): a rigid motion of the
@@ -481,7 +482,8 @@ def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet
     if tables is None:
         tip, nominal = actual(q, tool, False, point)[0], nominal_tip(machine, q, tool, point)
     else:
-        tip = actual(tables.apply(q), tool, False, point)[0]
+        qc = tables.apply(q)
+        tip = tables.turn_tips(machine, qc, actual(qc, tool, False, point)[0], FRAME)  # twin drives turn their beam
         nominal = nominal_tip(machine, q, tool + tables.gauge_offset_change, point)
     if register:
         from vecpin.measurement.registration import registered_errors

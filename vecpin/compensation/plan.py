@@ -1,7 +1,8 @@
 """From a fitted model to the tables a controller holds (one call).
 
-Full tables when the controller takes them all (AP: eq. 17; 6-DoF: projection, eq.
-18-19); otherwise the best admissible subset (Paper II), re-solved on the model.
+Full tables when the controller takes them all (AP: eq. 17 when the gauge-line change
+is applied, no axis is held and no geometric effect is non-zero; else, and for 6-DoF:
+projection, eq. 18-19); otherwise the best admissible subset (Paper II), re-solved on the model.
 The controller enters only as :class:`~vecpin.compensation.limits.ControllerLimits`
 (plain data the export layer resolves from a controller name and profile), so this
 layer knows no file format.
@@ -214,7 +215,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    if isinstance(model, APModel) and not unmeasured and problem.free_gauge:
+    # eq. 17 (the AP model's perturbations are the tables) only when the perturbations are the whole
+    # model: a geometric effect (a gantry skew, non-zero) is not in them, the projection takes it
+    effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
+    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on:
         full = from_ap_model(model, modulo_axes, hold).discretise(n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(n_points)

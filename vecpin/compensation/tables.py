@@ -8,7 +8,9 @@ on a rotary input may be *modulo*: it covers one turn and repeats.
 
 Tables live in SI (m or rad, in the unit of the output axis); files are mm/deg. A
 :class:`TableSet` also carries the change of the controller's gauge-line offset
-``T_offset`` [m].
+``T_offset`` [m], and the :class:`TwinDrive` axes: a gantry axis driven by two motors
+whose *differential* table moves the drives apart and so turns the beam (seed Section
+2.5; the tables of the axis itself are the mean of its two drives).
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import numpy as np
 from vecpin.errors import VecpinError
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
+from vecpin.kinematics.so3 import exp3
 from vecpin.units import MM_PER_M, M_PER_MM
 
 
@@ -64,13 +67,88 @@ class CompensationTable:
 
 
 @dataclass
+class TwinDrive:
+    """A linear (gantry) axis driven by two motors, and the differential table between them.
+
+    The leading drive moves by the axis' tables plus ``d(q)``, the following drive by
+    the axis' tables minus ``d(q)``, with ``d`` the sum of the ``differential`` tables
+    [m] (each on its own input axis): the beam's centre follows the axis' tables and the
+    beam turns. With ``s`` the separation from the leading to the following drive and
+    ``x`` the axis direction (base frame), the drives at ``-s/2`` and ``+s/2`` from the
+    beam's centre, a turn ``phi`` about ``w`` moves a drive at ``r`` by ``phi (w x r) . x``
+    along the axis; the only turn that moves the drives along the axis is about
+    ``w = (s x x) / |s x x|``, and ``-2 d = phi |s x x|`` gives
+    ``phi = -2 d / |s x x|``. The beam turns about the origin of the axis' joint frame
+    (the beam's centre: the URDF places the axis there, the drives symmetric about it).
+    """
+
+    axis: str
+    following: str                      # vecpin's name of the following drive (e.g. X2)
+    separation: np.ndarray | None       # (3,) [m], base frame, leading -> following; None: not known
+    differential: list[CompensationTable] = field(default_factory=list)
+
+    def offset(self, q: np.ndarray, axis_names: list[str]) -> np.ndarray:
+        """d(q) (N,) [m]: the leading drive's share of the differential at commands q."""
+        q = np.atleast_2d(np.asarray(q, float))
+        idx = {a: k for k, a in enumerate(axis_names)}
+        out = np.zeros(len(q))
+        for t in self.differential:
+            out += t(q[:, idx[t.input_axis]])
+        return out
+
+    def turn(self, machine: Machine, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rotation vectors (N,3) [rad], pivots (N,3) [m]) of the beam at commands q
+        (base frame): ``phi w`` about the origin of the axis' joint frame."""
+        q = np.atleast_2d(np.asarray(q, float))
+        F = machine.joint_frames(q, self.axis)
+        if not self.differential or self.separation is None:
+            return np.zeros((len(q), 3)), F[:, :3, 3]
+        x = F[:, :3, :3] @ np.asarray(machine.axis(self.axis).direction, float)     # (N,3) axis direction
+        sx = np.cross(np.asarray(self.separation, float)[None], x)                   # s x x
+        n2 = np.einsum("pi,pi->p", sx, sx)
+        if np.any(n2 <= 0):
+            raise VecpinError(f"twin drives of {self.axis}: the drive separation is parallel to the axis, so a "
+                              "differential between the drives cannot turn the beam")
+        d = self.offset(q, machine.axis_names)
+        return (-2.0 * d / n2)[:, None] * sx, F[:, :3, 3]
+
+    def to_dict(self, machine: Machine) -> dict:
+        ax = machine.axis(self.axis)
+        return {"axis": self.axis, "following": self.following,
+                "separation_mm": None if self.separation is None else [float(v) * MM_PER_M for v in self.separation],
+                "differential": [_table_to_dict(t, machine.axis(t.input_axis), ax) for t in self.differential]}
+
+    @classmethod
+    def from_dict(cls, d: dict, machine: Machine) -> "TwinDrive":
+        ax = machine.axis(d["axis"])
+        sep = d.get("separation_mm")
+        return cls(ax.name, str(d["following"]), None if sep is None else np.asarray(sep, float) * M_PER_MM,
+                   [_table_from_dict(e, machine) for e in d.get("differential", [])])
+
+
+def _table_to_dict(t: "CompensationTable", ai, ao) -> dict:
+    return {"name": t.name, "input_axis": t.input_axis, "output_axis": t.output_axis,
+            "input_unit": ai.unit, "output_unit": ao.unit, "modulo": t.modulo,
+            "start": float(ai.to_user(t.start)), "step": float(ai.to_user(t.step)),
+            "points": len(t.values), "values": [float(v) for v in ao.to_user(t.values)]}
+
+
+def _table_from_dict(e: dict, machine: Machine) -> "CompensationTable":
+    ai, ao = machine.axis(e["input_axis"]), machine.axis(e["output_axis"])
+    return CompensationTable(ai.name, ao.name, float(ai.to_si(e["start"])), float(ai.to_si(e["step"])),
+                             ao.to_si(np.array(e["values"], float)), bool(e["modulo"]))
+
+
+@dataclass
 class TableSet:
-    """Tables of one machine plus the gauge-line offset change [m]."""
+    """Tables of one machine plus the gauge-line offset change [m] and the twin-drive
+    axes with their differential tables (:class:`TwinDrive`; none on most machines)."""
 
     axis_names: list[str]
     tables: list[CompensationTable] = field(default_factory=list)
     gauge_offset_change: float = 0.0
     source: str = ""
+    drives: list[TwinDrive] = field(default_factory=list)
 
     def names(self) -> list[str]:
         return [t.name for t in self.tables]
@@ -98,22 +176,46 @@ class TableSet:
     def subset(self, names) -> "TableSet":
         keep = {n.lower() for n in names}
         return TableSet(list(self.axis_names), [t for t in self.tables if t.name in keep or t.is_pitch],
-                        self.gauge_offset_change, self.source)
+                        self.gauge_offset_change, self.source, list(self.drives))
+
+    def turn_tips(self, machine: Machine, q: np.ndarray, tip: np.ndarray, frame: str = "base") -> np.ndarray:
+        """Tool tips (N,3) [m] after the twin drives' differential turned their beams, at
+        the axis positions q (the compensated commands: the differential is read there, as
+        a controller reads its tables' input axes; from the programmed command it differs
+        by a table value times the differential's slope, second order). Every turn acts on
+        the tool tip in the base frame (as a gantry skew does: the beam carries the tool);
+        ``frame="workpiece"``: ``tip`` is relative to the workpiece (its nominal pose at
+        q) and so is the result."""
+        if not any(d.differential for d in self.drives):
+            return tip
+        q = np.atleast_2d(np.asarray(q, float))
+        tip = np.asarray(tip, float)
+        T = machine.workpiece_pose(q) if frame == "workpiece" and machine.has_workpiece else None
+        if T is not None:
+            tip = np.einsum("pij,pj->pi", T[:, :3, :3], tip) + T[:, :3, 3]
+        for d in self.drives:
+            w, pivot = d.turn(machine, q)
+            tip = pivot + np.einsum("pij,pj->pi", exp3(w), tip - pivot)
+        if T is not None:
+            tip = np.einsum("pji,pj->pi", T[:, :3, :3], tip - T[:, :3, 3])
+        return tip
 
     # ------------------------------------------------------------ generic files
     def to_dict(self, machine: Machine) -> dict:
-        tabs = []
-        for t in self.tables:
-            ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
-            tabs.append({"name": t.name, "input_axis": t.input_axis, "output_axis": t.output_axis,
-                         "input_unit": ai.unit, "output_unit": ao.unit, "modulo": t.modulo,
-                         "start": float(ai.to_user(t.start)), "step": float(ai.to_user(t.step)),
-                         "points": len(t.values), "values": [float(v) for v in ao.to_user(t.values)]})
-        return {"format": "vecpin-tables", "version": 1, "machine": machine.name,
-                "gauge_offset_change_mm": self.gauge_offset_change * MM_PER_M,
-                "convention": "compensated command = command + sum of tables (eq. 15-16); linear interpolation; "
-                              "end values hold beyond the ends; modulo tables repeat every turn",
-                "tables": tabs}
+        tabs = [_table_to_dict(t, machine.axis(t.input_axis), machine.axis(t.output_axis)) for t in self.tables]
+        out = {"format": "vecpin-tables", "version": 1, "machine": machine.name,
+               "gauge_offset_change_mm": self.gauge_offset_change * MM_PER_M,
+               "convention": "compensated command = command + sum of tables (eq. 15-16); linear interpolation; "
+                             "end values hold beyond the ends; modulo tables repeat every turn",
+               "tables": tabs}
+        if self.drives:
+            out["drives_convention"] = (
+                "twin-drive axes: the tables above move the axis (the mean of its two drives); the leading drive "
+                "gets them plus the sum of the 'differential' tables, the following drive minus it, which turns the "
+                "beam by -2 d / |s x x| about s x x (s = separation_mm from the leading to the following drive, "
+                "x = the axis direction, base frame)")
+            out["drives"] = [d.to_dict(machine) for d in self.drives]
+        return out
 
     def save_json(self, path: str | Path, machine: Machine) -> None:
         write_text(path, json.dumps(self.to_dict(machine), indent=1))
@@ -122,12 +224,9 @@ class TableSet:
     def from_dict(cls, d: dict, machine: Machine) -> "TableSet":
         if d.get("format") != "vecpin-tables":
             raise VecpinError("not a vecpin table file")
-        tables = []
-        for e in d["tables"]:
-            ai, ao = machine.axis(e["input_axis"]), machine.axis(e["output_axis"])
-            tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(e["start"])), float(ai.to_si(e["step"])),
-                                            ao.to_si(np.array(e["values"], float)), bool(e["modulo"])))
-        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * M_PER_MM, d.get("machine", ""))
+        tables = [_table_from_dict(e, machine) for e in d["tables"]]
+        drives = [TwinDrive.from_dict(e, machine) for e in d.get("drives", [])]
+        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * M_PER_MM, d.get("machine", ""), drives)
 
     @classmethod
     def load_json(cls, path: str | Path, machine: Machine) -> "TableSet":

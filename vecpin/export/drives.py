@@ -20,7 +20,9 @@ drive d by ``theta (w x r_d) . x`` along the axis (``w`` the rotation axis, ``x`
 axis direction), so the leading drive gets ``+k theta`` and the following ``-k theta``
 with ``k = (w x s) . x / 2``: plus/minus half the separation times the angle. theta is
 a sum of one function per other axis (eq. 23-24), so the differential is one table per
-input axis for each drive.
+input axis for each drive. :func:`twin_drives` puts the differential into the table set
+(:class:`~vecpin.compensation.tables.TwinDrive`), so ``tables.json`` carries it and the
+simulator and ``verify`` turn the beam with it.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ import dataclasses
 
 import numpy as np
 
-from vecpin.compensation.tables import CompensationTable, TableSet, table_grid
+from vecpin.compensation.tables import CompensationTable, TableSet, TwinDrive, table_grid
 from vecpin.export.profile import ControllerProfile, twin_axes
 from vecpin.units import MM_PER_M, from_mm
 
@@ -80,15 +82,30 @@ class ExportMachine:
         return self._machine.joint_frames(np.atleast_2d(q)[:, :n], self.leading.get(axis, axis))
 
 
+def twin_drives(machine, profile: ControllerProfile,
+                differential: dict[str, list[CompensationTable]] | None = None) -> list[TwinDrive]:
+    """The profile's twin-drive axes as :class:`TwinDrive` (following drive's name, the
+    separation [m] or None, the ``differential`` tables of the leading drive, if any)."""
+    out = []
+    for a in twin_axes(profile):
+        sep = profile.axis(a).drive_separation_mm
+        out.append(TwinDrive(a, following_name(machine, a), None if sep is None else from_mm(np.asarray(sep, float)),
+                             list((differential or {}).get(a, []))))
+    return out
+
+
 def expand(tables: TableSet, machine, profile: ControllerProfile,
            differential: dict[str, list[CompensationTable]] | None = None):
     """(tables for the writers, ExportMachine, profile): every table whose output is a
     twin-drive axis copied for its following drive (a pitch table: input = the drive
     itself), the ``differential`` tables (per twin axis: tables of the *leading* drive,
-    added to the leading drive and subtracted from the following) folded in."""
+    added to the leading drive and subtracted from the following; default: those of
+    ``tables.drives``) folded in."""
     twins = twin_axes(profile)
     if not twins:
         return tables, machine, profile
+    if differential is None:
+        differential = {d.axis: d.differential for d in tables.drives if d.differential}
     extra = {following_name(machine, a): a for a in twins}
     xm = ExportMachine(machine, extra)
     out = [CompensationTable(t.input_axis, t.output_axis, t.start, t.step, t.values.copy(), t.modulo)
@@ -119,25 +136,33 @@ def _add(tables: list[CompensationTable], input_axis: str, output_axis: str, d: 
 
 def fold(tables: TableSet, machine, profile: ControllerProfile) -> TableSet:
     """Back from the writers' tables (as read from the files) to the machine's axes: the
-    correction of a twin-drive axis is the mean of its drives' (the differential, equal
-    and opposite, drops out)."""
+    correction of a twin-drive axis is the mean of its drives' and half their difference
+    is the differential (leading minus following, :attr:`TableSet.drives`). A set with
+    no table for a following drive (``tables.json``) is already on the machine's axes."""
     twins = twin_axes(profile)
-    if not twins:
-        return tables
     lead = {following_name(machine, a): a for a in twins}
+    if not any(t.output_axis in lead for t in tables.tables):
+        return tables
     groups: dict[tuple[str, str], list[CompensationTable]] = {}
     for t in tables.tables:
         o = lead.get(t.output_axis, t.output_axis)
         i = lead.get(t.input_axis, t.input_axis)
         groups.setdefault((i, o), []).append(t)
-    out = []
+    out, differential = [], {}
     for (i, o), ts in groups.items():
         ref = ts[0]
         vals = np.mean([t(ref.positions) for t in ts], axis=0)
         if o in twins and len(ts) == 1:  # a table on one drive only moves the gantry by half of it
             vals = vals / 2
+            d = vals if ts[0].output_axis == o else -vals  # leading only: +half; following only: -half
+        else:
+            by_out = {t.output_axis: t(ref.positions) for t in ts}
+            d = (by_out[o] - by_out[next(f for f, a in lead.items() if a == o)]) / 2 if o in twins else 0.0
+        if o in twins and np.any(d != 0):
+            differential.setdefault(o, []).append(CompensationTable(i, o, ref.start, ref.step, d, ref.modulo))
         out.append(CompensationTable(i, o, ref.start, ref.step, vals, ref.modulo))
-    return TableSet(list(machine.axis_names), out, tables.gauge_offset_change, tables.source)
+    return TableSet(list(machine.axis_names), out, tables.gauge_offset_change, tables.source,
+                    twin_drives(machine, profile, differential))
 
 
 def skew_differential(model, profile: ControllerProfile, n_points: int) -> tuple[dict, list, list[str]]:

@@ -347,6 +347,28 @@ def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + drift + rng.normal(0, 0.02, len(t))
 
 
+class _DriveTurn:
+    """The twin drives' differential of a table set acting on the true machine, as a
+    geometric tip effect: the beam turns (:meth:`TableSet.turn_tips`, base frame)."""
+
+    geometric, flags_rows = True, False
+
+    def __init__(self, tables, machine: Machine):
+        self.tables, self.machine = tables, machine
+
+    def simulate_command(self, q, feats):
+        return np.zeros_like(q)
+
+    def simulate_tip(self, q, tip, tool_dir, feats):
+        return self.tables.turn_tips(self.machine, q, tip)
+
+    def simulate_tracker(self, y, feats):
+        return y
+
+    def simulate_gross(self, y):
+        return y
+
+
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
              effects: list | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None, tables=None,
              tracker_position: np.ndarray | None = None, **truth_options) -> Simulation:
@@ -360,7 +382,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     instead of the design's commands (a plan's template measured as if for real).
     ``tables``: a :class:`~vecpin.compensation.tables.TableSet`; the validation commands
     are then also run on the true machine through the tables (compensated command =
-    command + table increments, eq. 15) and measured: ``compensated`` (noisy) and
+    command + table increments, eq. 15; the twin drives' differential turns their beam)
+    and measured: ``compensated`` (noisy) and
     ``compensated_truth`` (noise-free). The rows keep the programmed commands; the
     controller's gauge-line change belongs to the tables, not to the files. The other
     outputs are the same with or without ``tables``. ``tracker_position`` (3,) [m],
@@ -422,6 +445,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     comp = comp_exact = None
     if tables is not None:  # after everything else: the other outputs do not change
         qc = tables.apply(qv)
+        truth.effects = clean + [_DriveTurn(tables, machine)] if tables.drives else clean
         times_c = measurement_times(qv, machine, design, start=times_v[-1] + 600.0)
         extra_c = {"time": times_c, "temperature": workshop_temperature(times_c, rng)}
         feats_c = Features.from_campaign(Campaign(machine.axis_names, qc, tv, np.zeros((len(qv), 3)), extra_c))

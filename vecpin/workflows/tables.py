@@ -162,12 +162,13 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                        forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
                        modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
                        zone=zone, progress=progress)
+    plan.tables.drives = drives.twin_drives(m, prof, differential)  # tables.json carries the differential
     if progress:
         progress(f"writing the {controller} files")
     as_written = None
     st = None
-    xtables, xm, xprof = drives.expand(plan.tables, m, prof, differential)
-    with OutputSet(out_dir) as out:
+    xtables, xm, xprof = drives.expand(plan.tables, m, prof)
+    with OutputSet(out_dir, manifest="tables") as out:  # an earlier run's files it no longer writes go
         job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes)
         names = fmt.write(job) if fmt.name != "generic" else []
         names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes))
@@ -184,14 +185,18 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
             names += write_sign_test(out, st, fmt.dialect, prof, notes)
+    if out.removed:
+        notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
+                     "(unchanged since): " + ", ".join(p.name for p in out.removed))
     if as_written is not None and fmt.name != "generic":
-        add_as_written_row(plan, planned, as_written, "files as written (model-predicted)")
+        # the whole model: the drives' differential (read back from the files) turns the beam against its skew
+        add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
         if any(abs(c) > 0 for c in job.constants.values()):
             shifted = TableSet(as_written.axis_names, [
                 CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
                                   t.values + (job.constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
-                for t in as_written.tables], as_written.gauge_offset_change)
-            add_as_written_row(plan, planned, shifted, "files + reference shifts (model-predicted)")
+                for t in as_written.tables], as_written.gauge_offset_change, as_written.source, as_written.drives)
+            add_as_written_row(plan, model, shifted, "files + reference shifts (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
 
@@ -224,7 +229,9 @@ def drives_readme(out: OutputSet, tables: TableSet, xm, prof: ControllerProfile,
     lines = ["# Twin-drive axes", "",
              "Every table that corrects a twin-drive axis is loaded for both drives (seed Section 2.5: 30 tables "
              "on the Master Mill). `tables_drives.csv` lists them per drive (mm/deg); `tables.json` keeps the "
-             "machine's axes (the mean of the drives).", ""]
+             "machine's axes (the mean of the drives) and, under `drives`, each twin axis' separation and its "
+             "differential tables (the leading drive's share; `vecpin simulate --tables` and `vecpin verify` turn "
+             "the beam with them).", ""]
     for f, a in xm.leading.items():
         lead, fol = prof.axis(a), prof.axis(a).following
         names = [t.name for t in tables.tables if t.output_axis in (a, f)]
