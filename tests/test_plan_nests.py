@@ -1,0 +1,152 @@
+"""Plans for machines with table axes (trunnions): table nests in the plan, its template,
+its NC programs, a simulation of the plan and an import of a tracker export of it.
+
+Truths the tests compare against are not the planner's own choice: the numerical rank
+(SVD) of a dense design's Jacobian with and without the nests, the line of sight tested
+again nest by nest, the simulated true machine, and the simulated readings joined back
+by a second route (by name against by order)."""
+import numpy as np
+import pytest
+
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.importer import import_export
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.plantemplate import point_name, read_template
+from vecpin.models import make_model
+from vecpin.planning.ncprogram import write_program
+from vecpin.planning.plan import PlanSettings, make_plan
+from vecpin.planning.sightline import SightLine
+from vecpin.errors import CampaignFileError
+from vecpin.simulation.judge import uncompensated_error, validation_commands, validation_error
+from vecpin.simulation.simulate import simulate
+
+MODEL, ORDER = "6dof", 4   # the simulated truth has 6-DoF errors on every axis (an AP model cannot follow the table's)
+
+
+@pytest.fixture(scope="module")
+def trunnion_plan(machines):
+    m = machines["trunnion_xyzac"]
+    return make_plan(m, PlanSettings(n_points=80, model=MODEL, order=ORDER, candidates=800, validation_points=150))
+
+
+def _rank(W: np.ndarray) -> int:
+    s = np.linalg.svd(W, compute_uv=False)
+    return int(np.sum(s > 1e-8 * s[0]))
+
+
+def test_plan_with_nests_identifies_the_table_axis_terms(trunnion_plan):
+    """Counted against the SVD rank of a dense design (1000 quasi-random commands, every
+    holder, every nest): the terms no design identifies are P - rank(dense with nests);
+    the table-axis terms the nests add are the rank the nests add beyond their own 3
+    coordinates each; the plan's own rows reach the dense design's rank, so they identify
+    everything it does, and the table-axis terms end well below their prior (without the
+    nests most keep it)."""
+    p = trunnion_plan
+    info, bare = p.information, p.bare
+    assert len(p.nests) == 3 and p.machine.has_workpiece
+    m = p.machine
+    from scipy.stats import qmc
+    q = m.lower + qmc.Halton(m.n_axes, seed=3).random(1000) * (m.upper - m.lower)
+    dense = info.rows(q).reshape(-1, info.P)
+    dense_bare = bare.rows(q).reshape(-1, bare.P)
+    r_nests, r_bare = _rank(dense), _rank(dense_bare)
+    assert int((~info.keep).sum()) == info.P - r_nests
+    assert int((~bare.keep).sum()) == bare.P - r_bare
+    table = info.table_terms()
+    assert table.sum() == (r_nests - 9) - r_bare and table.sum() > 20
+    t = p.template
+    W = info.measurement_rows(t.q, t.tool, t.instrument, t.target).reshape(-1, info.P)
+    assert _rank(W) == r_nests
+    sd = np.sqrt(np.diag(info.covariance(W)))
+    ratio = sd[table] / info.sigma[table]
+    assert np.median(ratio) < 0.1 and ratio.max() < 0.8  # 52 terms: median 0.01, worst 0.68 (a nest-height term)
+    Wb = bare.row_blocks(t.q[t.tool_rows], t.tool[t.tool_rows]).reshape(-1, bare.P)
+    post = np.sqrt(np.diag(bare.posterior(Wb)))[:bare.P]
+    cols = np.flatnonzero(table[:bare.P])  # same model columns in both problems
+    assert np.median(post[cols] / bare.sigma[cols]) > 0.95  # (a few are combinations: a tool-tip row sees part)
+    assert p.without_nests.predicted.model_mean > 20 * p.score.predicted.model_mean
+
+
+def test_nest_rows_follow_their_command_and_the_line_of_sight(trunnion_plan):
+    """Each nest row repeats the command and holder of the tool row before it; nests are
+    read once per chosen command (first holder), and exactly the nests a fresh line-of-
+    sight test sees there."""
+    p = trunnion_plan
+    t = p.template
+    nest = t.instrument == "nest"
+    assert nest.sum() > 0 and t.instrument[0] == "tracker"
+    prev = np.maximum.accumulate(np.where(~nest, np.arange(len(t)), 0))
+    assert np.array_equal(t.q[nest], t.q[prev[nest]]) and np.all(t.tool[nest] == p.tools[0])
+    sl = SightLine(p.machine, p.tracker)
+    seen = np.column_stack([~sl.check_nests(p.commands, x, p.tools[0]).blocked for x in p.nests.values()])
+    assert nest.sum() == seen.sum() < seen.size  # some nests are hidden by the trunnion at some commands
+    for c, q in enumerate(p.commands):
+        rows = np.flatnonzero(nest & np.all(np.isclose(t.q, q, atol=1e-12), axis=1))
+        assert sorted(t.target[rows]) == sorted(np.array(list(p.nests))[seen[c]])
+
+
+def test_template_and_nc_program_carry_the_nests(trunnion_plan, tmp_path):
+    """The template CSV round-trips nest rows (instrument, nest id, planned position); the
+    NC program moves only to the tool rows and names the nest points at each dwell; a
+    nest row with another command than its tool row is refused with row and column."""
+    p, m = trunnion_plan, trunnion_plan.machine
+    f = tmp_path / "plan.csv"
+    f.write_text(p.template.to_csv(m))
+    t = read_template(f, m)
+    assert np.array_equal(t.instrument, p.template.instrument) and np.array_equal(t.target, p.template.target)
+    assert np.allclose(t.nest[t.nest_rows], p.template.nest[t.nest_rows], atol=1e-9)
+    assert {k: tuple(np.round(v, 9)) for k, v in t.nests().items()} == \
+        {k: tuple(np.round(v, 9)) for k, v in p.nests.items()}
+    prog = write_program("gcode", m, t, p.steps)
+    assert prog.count("G4 P") == len(t.tool_rows)
+    k = int(t.nest_rows[0])
+    assert f"read table nests {t.target[k]} as {point_name(t.point[k])}" in prog
+    lines = f.read_text().splitlines()
+    cells = lines[k + 1].split(",")
+    cells[1] = str(float(cells[1]) + 1.0)
+    lines[k + 1] = ",".join(cells)
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(CampaignFileError) as e:
+        read_template(f, m)
+    assert e.value.row == k + 2 and e.value.column == m.axis_names[0]
+
+
+def _export(campaign: Campaign, names, order) -> str:
+    """A foreign tracker export: semicolons, decimal commas, inches, rows in ``order``."""
+    rows = ["Name;Meas X [in];Meas Y [in];Meas Z [in]"]
+    for i in order:
+        x = campaign.xyz[i] * 1e3 / 25.4
+        rows.append(";".join([names[i]] + [f"{v:.7f}".replace(".", ",") for v in x]))
+    return "\n".join(rows) + "\n"
+
+
+def test_simulated_plan_imports_by_name_and_fits_the_table_axes(trunnion_plan, tmp_path):
+    """simulate the plan -> a foreign export with the nest points named after the template
+    and shuffled -> import joins every nest reading to its nest (the same as a join by
+    order of the unshuffled export) -> the fit relative to the workpiece is far below the
+    uncompensated error, where the same commands without the nest rows leave most of it."""
+    p, m = trunnion_plan, trunnion_plan.machine
+    sim = simulate(m, seed=4, plan=p.template, tracker_position=p.tracker)
+    c = sim.campaign
+    assert np.array_equal(c.instrument, p.template.instrument) and np.array_equal(c.target, p.template.target)
+    plan_csv = tmp_path / "plan.csv"
+    plan_csv.write_text(p.template.to_csv(m))
+    names = [point_name(k) for k in p.template.point]
+    shuffled = np.random.default_rng(0).permutation(len(c))
+    (tmp_path / "named.txt").write_text(_export(c, names, shuffled))
+    plain = _export(c, names, np.arange(len(c))).splitlines()
+    (tmp_path / "plain.txt").write_text("\n".join(r.split(";", 1)[1] for r in plain) + "\n")  # no names
+    by_name = import_export(tmp_path / "named.txt", m, plan_csv).campaign
+    by_order = import_export(tmp_path / "plain.txt", m, plan_csv).campaign
+    order = np.argsort(by_name.extra["point"])
+    assert np.array_equal(by_name.extra["point"][order], p.template.point)
+    for joined in (by_name.subset(order), by_order):
+        assert np.array_equal(joined.instrument, c.instrument) and np.array_equal(joined.target, c.target)
+        assert np.allclose(joined.xyz, c.xyz, atol=1e-9) and np.allclose(joined.q, c.q, atol=0)
+    noise = NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise)
+    q, tool = validation_commands(m, 150, seed=7)
+    unc = uncompensated_error(sim.truth, q, tool)
+    with_nests = validation_error(make_model(MODEL, m, ORDER).fit(by_name, noise), sim.truth, q, tool)[0]
+    tips = by_name.subset(by_name.tracker_rows)
+    without = validation_error(make_model(MODEL, m, ORDER).fit(tips, noise), sim.truth, q, tool)[0]
+    assert with_nests < 0.15 * unc and without > 0.7 * unc
