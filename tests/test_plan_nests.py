@@ -150,3 +150,27 @@ def test_simulated_plan_imports_by_name_and_fits_the_table_axes(trunnion_plan, t
     tips = by_name.subset(by_name.tracker_rows)
     without = validation_error(make_model(MODEL, m, ORDER).fit(tips, noise), sim.truth, q, tool)[0]
     assert with_nests < 0.15 * unc and without > 0.7 * unc
+
+
+def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(machines, tmp_path, capsys):
+    """The printout names the nests, the table-axis terms they identify and the error
+    relative to the workpiece with and without them; the tracker line says where it is
+    assumed and why, whole mm without "-0"; --nest on a machine without a table branch,
+    and --nests that disagrees with the --nest count, are refused naming the option."""
+    from vecpin.cli import main
+    args = ["plan", "trunnion_xyzac", "--points", "40", "--order", "2", "--candidates", "400", "--quiet",
+            "--nest", "A=100,0,40", "--nest", "B=-80,60,30", "--out", str(tmp_path / "p")]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "table nests: 2 reflectors" in out and "A (100, 0, 40); B (-80, 60, 30)" in out
+    assert "table-axis terms identified:" in out and "without them" in out
+    assert "on its +y side, from which the tips are in sight" in out and "-0," not in out and "(-0" not in out
+    t = read_template(tmp_path / "p" / "plan.csv", machines["trunnion_xyzac"])
+    assert set(t.target[t.nest_rows]) == {"A", "B"}
+    for argv, text in ((args[:-2] + ["--nests", "3", "--out", str(tmp_path / "q")], "--nests 3 but 2 --nest"),
+                       (["plan", "flow_xyzcb", "--points", "20", "--order", "1", "--nest", "1=0,0,0", "--out",
+                         str(tmp_path / "r")], "--nest: machine 'flow_xyzcb' has no table branch"),
+                       (args[:-2] + ["--nest", "C=1,2", "--out", str(tmp_path / "s")], "--nest 'C=1,2'")):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert text in err and "Traceback" not in err

@@ -252,6 +252,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         check_zone_axes(machine, z, "--exclude")
     if s.zone:
         check_zone_axes(machine, s.zone, "--zone")
+    nests = s.nest_places(machine)  # checked before any work
     say = progress or (lambda msg: None)
     noise = s.noise or NoiseModel.default(machine, "spherical")
     tools = np.array(s.tools_mm, float) * M_PER_MM
@@ -291,7 +292,6 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             hit = res.blocked & (sight_by[test] == "")
             sight_by[test[hit]] = res.by[hit]
         removed[sight_by != ""] = "sight"
-    nests = s.nest_places(machine)
     nest_seen = np.ones((len(cand), len(nests)), bool)
     if s.sight and nests:
         test = np.flatnonzero(removed == "")

@@ -65,12 +65,15 @@ class PlanRun:
                 f"{sc.travel_s / 60:.1f} min in this order (the same commands in random order: "
                 f"{p.travel_random_s / 60:.1f} min)",
                 f"  predicted (linearised covariance, {pr.points} quasi-random validation commands, holder "
-                f"{s.tools_mm[0]:g} mm, best-fit rigid motion removed):",
+                f"{s.tools_mm[0]:g} mm, " + ("tool tip relative to the workpiece, " if pr.frame == "workpiece" else "")
+                + "best-fit rigid motion removed):",
                 f"    model error from parameter uncertainty: mean {to_mm(pr.model_mean):.4f} mm, max "
                 f"{to_mm(pr.model_max):.4f} mm (1-sigma RMS {to_mm(pr.rms_1sigma):.4f} mm)",
                 f"    validation residual incl. measurement noise: mean {to_mm(pr.measured_mean):.4f} mm, max "
                 f"{to_mm(pr.measured_max):.4f} mm",
-                f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; {sc.well_determined} of "
+                (f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; " if info.keep[6] else
+                 "    gauge line T_offset: no design identifies it (another term moves every reading alike); ")
+                + f"{sc.well_determined} of "
                 f"{sc.counted} counted terms below 10% of their prior",
                 "    (what the model cannot describe adds to these: judge it with a validation run)"]
         if self.comparison:
