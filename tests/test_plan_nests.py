@@ -19,6 +19,7 @@ from vecpin.planning.sightline import SightLine
 from vecpin.errors import CampaignFileError
 from vecpin.simulation.judge import uncompensated_error, validation_commands, validation_error
 from vecpin.simulation.simulate import simulate
+from vecpin.units import to_mm
 
 MODEL, ORDER = "6dof", 4   # the simulated truth has 6-DoF errors on every axis (an AP model cannot follow the table's)
 
@@ -174,3 +175,27 @@ def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert text in err and "Traceback" not in err
+
+
+def test_predicted_error_matches_a_monte_carlo_of_simulate_and_fit(trunnion_plan):
+    """The plan's predicted error of the tool tip relative to the workpiece (linearised
+    covariance through the one likelihood, nests included) against 8 simulated campaigns
+    of the planned rows (nest readings too) from one true machine, each fitted with a
+    model of the truth's own error family (so model-form error is absent and only the
+    measurement noise spreads the fit): the mean validation error agrees within a factor
+    of 1.5 (measured: 0.0121 mm simulated, 0.0125 mm predicted)."""
+    from vecpin.planning.information import Information
+    from vecpin.planning.plan import score_rows
+    from vecpin.simulation.truth import TrueMachine
+    p, m = trunnion_plan, trunnion_plan.machine
+    truth = TrueMachine.random(m, np.random.default_rng(11))
+    noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
+    info = Information(make_model(MODEL, m, ORDER, bases=truth.family_bases()), noise, p.tracker, p.tools, nests=p.nests)
+    predicted = to_mm(score_rows(info, p.template, p.validation, p.tools[0], "plan")[0].predicted.model_mean)
+    tool = np.full(len(p.validation), p.tools[0])
+    runs = []
+    for seed in range(8):
+        sim = simulate(m, seed=seed, plan=p.template, truth=truth, tracker_position=p.tracker)
+        fitted = make_model(MODEL, m, ORDER, bases=truth.family_bases()).fit(sim.campaign, noise)
+        runs.append(validation_error(fitted, sim.truth, p.validation, tool)[0])
+    assert 1 / 1.5 < np.mean(runs) / predicted < 1.5
