@@ -199,3 +199,48 @@ def test_predicted_error_matches_a_monte_carlo_of_simulate_and_fit(trunnion_plan
         fitted = make_model(MODEL, m, ORDER, bases=truth.family_bases()).fit(sim.campaign, noise)
         runs.append(validation_error(fitted, sim.truth, p.validation, tool)[0])
     assert 1 / 1.5 < np.mean(runs) / predicted < 1.5
+
+
+# A rotary table C (about z at the origin) carrying the workpiece frame 0.5 m up, a spindle
+# on X-Y-Z far away, and one fixed post on the base: 0.95 < x < 1.05, -0.1 < y < 0.1,
+# 0 < z < 1. A nest at (0.5, 0, 0.05) in the workpiece frame is at
+# (0.5 cos C, 0.5 sin C, 0.55) on the base; the tracker at (3, 0, 0.55) sees it unless the
+# straight line crosses the post: at x = 1 the line is at y = 2 * 0.5 sin C / (3 - 0.5 cos C).
+NEST_URDF = """<robot name="nest_los">
+  <link name="base"><visual><origin xyz="1.0 0 0.5"/><geometry><box size="0.1 0.2 1.0"/></geometry></visual></link>
+  <joint name="C" type="revolute"><parent link="base"/><child link="table"/><axis xyz="0 0 1"/>
+    <limit lower="-3.14159" upper="3.14159" effort="1" velocity="1"/></joint>
+  <link name="table"/>
+  <joint name="wp" type="fixed"><parent link="table"/><child link="workpiece"/><origin xyz="0 0 0.5"/></joint>
+  <link name="workpiece"/>
+  <joint name="X" type="prismatic"><parent link="base"/><child link="xc"/><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="xc"/>
+  <joint name="Y" type="prismatic"><parent link="xc"/><child link="yc"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="yc"/>
+  <joint name="Z" type="prismatic"><parent link="yc"/><child link="spindle"/><axis xyz="0 0 1"/>
+    <origin xyz="-2 0 2"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>
+  <link name="spindle"/>
+</robot>"""
+
+
+def test_line_of_sight_to_a_nest_on_a_turning_table_in_closed_form():
+    """The nest is hidden by the post exactly where the closed form says (angles whose
+    line grazes the post's edge left out): the table turns the nest behind the post and
+    out again."""
+    from vecpin import Machine
+    m = Machine.from_urdf_string(NEST_URDF, "nest_los")
+    assert m.has_workpiece
+    sl = SightLine(m, np.array([3.0, 0.0, 0.55]), tool_radius=0.0, target_clearance=0.0)
+    C = np.radians(np.arange(-180.0, 180.0, 1.0))
+    xn, yn = 0.5 * np.cos(C), 0.5 * np.sin(C)   # the nest on the base, always behind the post (xn < 0.95)
+    y_faces = np.abs(np.array([(3 - x) * yn / (3 - xn) for x in (0.95, 1.05)]))  # the line at the post's faces
+    hidden = y_faces.max(axis=0) < 0.1
+    seen = y_faces.min(axis=0) > 0.1
+    clear = hidden | seen                       # angles whose line does not graze the post's edge
+    q = np.zeros((len(C), m.n_axes))
+    q[:, m.axis_names.index("C")] = C
+    blocked = sl.check_nests(q, np.array([0.5, 0.0, 0.05]), 0.1).blocked
+    assert clear.sum() > 300 and hidden.sum() > 20 and seen.sum() > 200
+    assert np.array_equal(blocked[clear], hidden[clear])
