@@ -157,7 +157,8 @@ def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(
     """The printout names the nests, the table-axis terms they identify and the error
     relative to the workpiece with and without them; the tracker line says where it is
     assumed and why, whole mm without "-0"; --nest on a machine without a table branch,
-    and --nests that disagrees with the --nest count, are refused naming the option."""
+    --nests that disagrees with the --nest count, and a --compare plan with other nests,
+    are refused naming the option."""
     from vecpin.cli import main
     args = ["plan", "trunnion_xyzac", "--points", "40", "--order", "2", "--candidates", "400", "--quiet",
             "--nest", "A=100,0,40", "--nest", "B=-80,60,30", "--out", str(tmp_path / "p")]
@@ -171,7 +172,9 @@ def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(
     for argv, text in ((args[:-2] + ["--nests", "3", "--out", str(tmp_path / "q")], "--nests 3 but 2 --nest"),
                        (["plan", "flow_xyzcb", "--points", "20", "--order", "1", "--nest", "1=0,0,0", "--out",
                          str(tmp_path / "r")], "--nest: machine 'flow_xyzcb' has no table branch"),
-                       (args[:-2] + ["--nest", "C=1,2", "--out", str(tmp_path / "s")], "--nest 'C=1,2'")):
+                       (args[:-2] + ["--nest", "C=1,2", "--out", str(tmp_path / "s")], "--nest 'C=1,2'"),
+                       (args[:4] + ["--quiet", "--compare", str(tmp_path / "p" / "plan.csv"), "--out",
+                                    str(tmp_path / "u")], "--compare plan.csv: nest 'A' is not one of the plan's")):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert text in err and "Traceback" not in err

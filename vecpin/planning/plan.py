@@ -426,7 +426,10 @@ def compare(plan: Plan, others: list[tuple[str, PlanTemplate]]) -> list[PlanScor
     speed = route.axis_speeds(plan.machine, plan.settings.rapid_mm_min, plan.settings.rapid_deg_min)
     out = [plan.score]
     for label, t in others:
-        sc, _ = score_rows(plan.information, t, plan.validation, float(plan.tools[0]), label,
-                           travel_s=_moves(t.take(t.tool_rows), plan.steps, speed))
+        try:
+            sc, _ = score_rows(plan.information, t, plan.validation, float(plan.tools[0]), label,
+                               travel_s=_moves(t, plan.steps, speed))
+        except InputError as exc:  # another plan's nests: judged only with this plan's nests
+            raise InputError(f"--compare {label}: {exc}; compare plans with the same --nests/--nest") from None
         out.append(sc)
     return out
