@@ -23,6 +23,7 @@ from vecpin.planning.ncprogram import write_program
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.sightline import SightLine, default_tracker_position
 from vecpin.simulation.simulate import simulate
+from vecpin.units import to_mm
 
 
 def timed(label, fn, *a, **k):
@@ -65,6 +66,34 @@ def main():
         res, dt = timed(f"import {len(rows) - 1} rows (semicolon, decimal comma, inches)", import_export,
                         d / "e.csv", m, d / "plan.csv")
         print(f"    {len(rows) / dt:,.0f} rows/s, units {res.units}")
+    table_machines()
+
+
+def table_machines():
+    """Machines with table axes: what the table nests add (table-axis terms identified,
+    predicted error of the tool tip relative to the workpiece), and what reading the
+    nests at only every 2nd or 4th command would give instead of at every command."""
+    from vecpin.planning.plan import score_rows
+    print("table machines: 100 commands x 2 holders, AP order 6, 3 table nests (predicted, tool tip relative to the "
+          "workpiece)")
+    for name in ("trunnion_xyzac", "trunnion_xyzbc", "head_table_bc"):
+        m = vecpin.Machine.load(name)
+        plan, dt = timed(f"{name}: plan with nests", make_plan, m, PlanSettings(n_points=100, order=6))
+        info, bare = plan.information, plan.bare
+        before = int((~bare.keep[bare.model_columns]).sum())
+        print(f"    table-axis terms identified {int(info.table_terms().sum())} (before: {before} left out); "
+              f"{len(plan.template.nest_rows)} nest rows")
+        t = plan.template
+        tool_rows = t.tool_rows
+        owner = np.maximum.accumulate(np.where(t.instrument != "nest", np.arange(len(t)), 0))
+        cmd = np.unique(owner[t.nest_rows], return_inverse=True)[1]   # which command each nest row follows
+        for every in (1, 2, 4):
+            rows = np.sort(np.r_[tool_rows, t.nest_rows[cmd % every == 0]])
+            sc, _ = score_rows(info, t.take(rows), plan.validation, float(plan.tools[0]), f"nests every {every}")
+            print(f"    nests read at every {every} command(s): {int((cmd % every == 0).sum()):4d} nest rows, "
+                  f"model error mean {to_mm(sc.predicted.model_mean):.4f} mm, max {to_mm(sc.predicted.model_max):.4f} mm")
+        w = plan.without_nests.predicted
+        print(f"    without nests: mean {to_mm(w.model_mean):.4f} mm, max {to_mm(w.model_max):.4f} mm")
 
 
 if __name__ == "__main__":

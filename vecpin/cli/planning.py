@@ -19,6 +19,19 @@ def parse_floats(text: str, option: str, count: int | None = None) -> tuple[floa
     return vals
 
 
+def parse_nest_options(texts: list[str]) -> dict[str, tuple[float, float, float]] | None:
+    """--nest ID=X,Y,Z (mm, workpiece frame), repeatable -> {id: (x, y, z) mm}."""
+    from vecpin.planning.nests import parse_nest
+    from vecpin.units import to_mm
+    out: dict[str, tuple[float, float, float]] = {}
+    for t in texts or []:
+        nid, xyz = parse_nest(t)
+        if nid in out:
+            raise InputError(f"--nest '{t}': nest {nid} is given twice; one position per nest id")
+        out[nid] = tuple(float(v) for v in to_mm(xyz))
+    return out or None
+
+
 def plan_noise(args, m):
     from vecpin.measurement.noise import noise_from_options
     return noise_from_options(m, "cartesian" if args.cartesian else "spherical",
@@ -42,7 +55,7 @@ def run_plan(args) -> int:
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed)
+        candidates=args.candidates, seed=args.seed, nests=args.nests, nest_mm=parse_nest_options(args.nest))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
                       dwell_s=args.dwell, feed_mm_min=args.feed, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare, progress=progress(not args.quiet))
@@ -62,7 +75,14 @@ def register(sub) -> None:
     s.add_argument("--tools", default="214.88,312.86", metavar="L1,L2",
                    help="target holder lengths from the gauge line, mm (default 214.88,312.86 as Paper I)")
     s.add_argument("--tracker", metavar="X,Y,Z", help="tracker head position in the machine base frame, mm "
-                   "(default: 2 m in front of the tool-tip workspace, at its lowest height)")
+                   "(default: 2 m beyond the tool-tip workspace on the side from which the tips are in sight: in "
+                   "front, at its lowest height, unless the machine's geometry hides them there)")
+    s.add_argument("--nests", type=int, help="reflectors in table nests read at every command's dwell, on a machine "
+                   "with table axes (a 'workpiece' link): the only readings that see the table axes (default 3 there, "
+                   "0 elsewhere; at most 20)")
+    s.add_argument("--nest", action="append", default=[], metavar="ID=X,Y,Z",
+                   help="a table nest where you place it: its id and position, mm in the workpiece (table) frame; "
+                        "repeatable, replaces the default places (default: on a circle on the table at 20-80 mm)")
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in axis space, mm/deg: commands inside are not measured (collision "
                         "avoidance); repeatable (default: none)")

@@ -29,8 +29,7 @@ def run_simulate(args) -> int:
     plan = tables = truth = None
     if args.plan:
         from vecpin.measurement.plantemplate import read_template
-        t = read_template(args.plan, m)
-        plan = (t.q, t.tool)
+        plan = read_template(args.plan, m)  # with its table nests, if any
     if args.tables:
         from vecpin.workflows.verifying import load_tables
         tables = load_tables(args.tables, m)[0]

@@ -241,6 +241,7 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
 
     # ---- commands
     joined_by = ""
+    instrument = target = nest_at = None
     unmeasured: list[int] = []
     unmatched: list[str] = []
     keep = np.arange(len(table.rows))
@@ -286,6 +287,9 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         tool = template.tool[rows_plan]
         point_no = template.point[rows_plan].astype(float)
         approach = template.approach[rows_plan] if template.approach is not None else None
+        if template.has_nests:  # nest readings keep their nest: the fit finds its position
+            instrument, target = template.instrument[rows_plan].copy(), template.target[rows_plan].copy()
+            nest_at = template.nest[rows_plan]
         raw = raw[keep]
     else:
         missing = [a for a in machine.axis_names if a not in idx]
@@ -313,6 +317,9 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         raise CampaignFileError(name, f"{hint_reason} ({', '.join(header[idx[f]] for f in 'xyz')}): give --units",
                                 row=table.header_line)
     nominal_mm = machine.tool_tip(q, tool, frame="base") / M_PER_MM
+    if instrument is not None:  # a nest reading: the planned nest on the table, posed at the command
+        on = instrument == "nest"
+        nominal_mm[on] = machine.workpiece_points(q[on], nest_at[on], jacobian=False).xyz / M_PER_MM
     g_nom, g_meas = _gyration(nominal_mm), _gyration(raw)
     spread_unit = None
     if g_nom > 1.0 and len(raw) >= 4:
@@ -370,6 +377,8 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         for j, a in enumerate(machine.axis_names):
             extra[f"approach_{a}"] = approach[:, j].astype(float)
     q, tool, xyz_mm = q[order], tool[order], xyz_mm[order]
+    if instrument is not None:
+        instrument, target = instrument[order], target[order]
     extra = {k: v[order] for k, v in extra.items()}
     rows_file = np.array(table.lines)[keep][order]
 
@@ -380,7 +389,7 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         raise CampaignFileError(name, f"after the best rigid fit the measured points lie {err.mean():.1f} mm (mean) from "
                                 f"the planned tool tips, far more than a machine's error: rows out of order, the wrong "
                                 f"plan, or another holder length? (worst: line {rows_file[worst]}, {err[worst]:.1f} mm)")
-    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name)
+    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, target=target)
     return ImportResult(campaign, name, None if template is None else template.source, table.delimiter, dec,
                         table.encoding, chosen, reason, columns_used, joined_by, unmeasured, unmatched, notes,
                         (float(err.mean()), float(err.max())), t_unit)
@@ -390,7 +399,8 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     """A campaign as CSV text in the format :func:`vecpin.measurement.campaign.write_campaign`
     writes (mm, deg; 6 decimals in mm, 8 in deg), extra columns after x, y, z."""
     q_user = machine.to_user(campaign.q)
-    header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra)
+    nests = len(campaign.nest_rows) > 0  # then also which rows read a table nest, and which
+    header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra) + (["instrument", "target"] if nests else [])
     fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4
     cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool / M_PER_MM] + \
         [campaign.xyz[:, k] / M_PER_MM for k in range(3)]
@@ -399,6 +409,8 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     for i in range(len(campaign)):
         cells = [f % c[i] for f, c in zip(fmts, cols)] + \
                 [f % v[i] for f, v in zip(extra_fmt, campaign.extra.values())]
+        if nests:
+            cells += [str(campaign.instrument[i]), str(campaign.target[i])]
         lines.append(",".join(cells))
     return "\n".join(lines) + "\n"
 

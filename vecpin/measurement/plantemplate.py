@@ -8,7 +8,19 @@ file (:mod:`vecpin.measurement.campaign`):
 * ``x``, ``y``, ``z``: empty, to be filled from the tracker (a filled template reads
   as a campaign);
 * optional ``approach_<AXIS>``: +1 when the axis reaches the point from below, -1 from
-  above, 0 straight from the previous point.
+  above, 0 straight from the previous point;
+* on a plan with table nests (a machine with table axes): ``instrument`` (``tracker``
+  for a tool-tip reading, ``nest`` for a reading of a reflector in a table nest, taken
+  at the dwell of the tool-tip row before it, the same command), ``target`` (the nest's
+  id on nest rows, empty on tool rows) and ``nest_x``, ``nest_y``, ``nest_z``: where the
+  nest was planned, mm in the workpiece (table) frame, on nest rows only (the fit finds
+  the real position; the planned one is the start, and where a simulation puts it).
+
+Every row has its own point number, nest rows too, so a tracker export whose points
+are named after the template (P0001, P0002, ...) joins by name, and one without names
+joins by order. A filled template of a plan without nests reads as a campaign; with
+nests, ``vecpin import`` makes the campaign (the planned nest positions are not
+campaign columns).
 
 :func:`read_template` checks a template the way :func:`read_campaign` checks a
 campaign: every problem names the file, row (line, header = 1) and column.
@@ -27,19 +39,55 @@ from vecpin.kinematics.machine import Machine
 from vecpin.units import M_PER_MM, to_mm
 
 
+NEST_COLUMNS = ("instrument", "target", "nest_x", "nest_y", "nest_z")
+
+
 @dataclass
 class PlanTemplate:
     """Planned rows (SI): ``point`` (N,) int, ``q`` (N,n) [m, rad] in the machine's chain
-    order, ``tool`` (N,) [m], ``approach`` (N,n) signs or None."""
+    order, ``tool`` (N,) [m], ``approach`` (N,n) signs or None; on a plan with table
+    nests ``instrument`` (N,) "tracker"/"nest", ``target`` (N,) nest id ("" on tool
+    rows) and ``nest`` (N,3) [m] planned nest position in the workpiece frame (NaN on
+    tool rows); None on a plan without nests."""
 
     point: np.ndarray
     q: np.ndarray
     tool: np.ndarray
     approach: np.ndarray | None = None
     source: str = "<plan>"
+    instrument: np.ndarray | None = None
+    target: np.ndarray | None = None
+    nest: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.point)
+
+    @property
+    def has_nests(self) -> bool:
+        return self.instrument is not None and bool(np.any(self.instrument == "nest"))
+
+    @property
+    def tool_rows(self) -> np.ndarray:
+        """Rows that read the tool tip (every row of a plan without nests)."""
+        return np.arange(len(self)) if self.instrument is None else np.flatnonzero(self.instrument != "nest")
+
+    @property
+    def nest_rows(self) -> np.ndarray:
+        return np.zeros(0, int) if self.instrument is None else np.flatnonzero(self.instrument == "nest")
+
+    def nests(self) -> dict[str, np.ndarray]:
+        """{nest id: planned position (3,) [m], workpiece frame} in the order first read."""
+        out: dict[str, np.ndarray] = {}
+        for i in self.nest_rows:
+            out.setdefault(str(self.target[i]), self.nest[i].copy())
+        return out
+
+    def take(self, rows) -> "PlanTemplate":
+        """The template of some rows (index array), order kept."""
+        rows = np.asarray(rows)
+        pick = (lambda a: None if a is None else a[rows])
+        return PlanTemplate(self.point[rows], self.q[rows], self.tool[rows], pick(self.approach), self.source,
+                            pick(self.instrument), pick(self.target), pick(self.nest))
 
     def to_csv(self, machine: Machine) -> str:
         """The template CSV text (mm, deg; 6 decimals in mm, 8 in deg, as campaign files)."""
@@ -47,6 +95,10 @@ class PlanTemplate:
         header = ["point"] + machine.axis_names + ["tool", "x", "y", "z"]
         if self.approach is not None:
             header += [f"approach_{a}" for a in machine.axis_names]
+        nests = self.has_nests
+        if nests:
+            header += list(NEST_COLUMNS)
+            nest_mm = to_mm(self.nest)
         lines = [",".join(header)]
         fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes]
         tool_mm = to_mm(self.tool)
@@ -54,6 +106,10 @@ class PlanTemplate:
             cells = [str(int(self.point[i]))] + [f % v for f, v in zip(fmts, q_user[i])] + [f"{tool_mm[i]:.6f}", "", "", ""]
             if self.approach is not None:
                 cells += [str(int(s)) for s in self.approach[i]]
+            if nests:
+                on_nest = self.instrument[i] == "nest"
+                cells += [str(self.instrument[i]), str(self.target[i]) if on_nest else ""]
+                cells += [f"{v:.6f}" for v in nest_mm[i]] if on_nest else ["", "", ""]
             lines.append(",".join(cells))
         return "\n".join(lines) + "\n"
 
@@ -129,4 +185,64 @@ def read_template(path: str | Path, machine: Machine) -> PlanTemplate:
     if bad.size:
         raise CampaignFileError(name, f"negative tool length {tool[bad[0]]:g} mm", row=int(lines[bad[0]]), column="tool")
     approach = vals[:, 2 + n:].astype(int) if has_app else None
-    return PlanTemplate(point.astype(int), machine.to_si(q_user), tool * M_PER_MM, approach, name)
+    instrument, target, nest = _nest_columns(name, idx, body, lines)
+    if instrument is not None:
+        at = np.maximum.accumulate(np.where(instrument != "nest", np.arange(len(body)), 0))  # the tool row before
+        moved = np.flatnonzero((instrument == "nest") & np.any(np.abs(q_user - q_user[at]) > 1e-9, axis=1))
+        if moved.size:
+            k = moved[0]
+            raise CampaignFileError(name, f"nest row {point[k]:g} has another command than the tool-tip row "
+                                    f"{point[at[k]]:g} before it: nests are read at that row's dwell, without moving",
+                                    row=int(lines[k]), column=machine.axis_names[int(np.argmax(
+                                        np.abs(q_user[k] - q_user[at[k]])))])
+    return PlanTemplate(point.astype(int), machine.to_si(q_user), tool * M_PER_MM, approach, name, instrument, target,
+                        nest)
+
+
+def _nest_columns(name: str, idx: dict[str, int], body: list, lines: np.ndarray):
+    """(instrument, target, nest (N,3) [m]) of a template with nest rows, or Nones."""
+    if "instrument" not in idx:
+        return None, None, None
+    n = len(body)
+    instrument = np.full(n, "tracker", dtype=object)
+    target = np.full(n, "", dtype=object)
+    nest = np.full((n, 3), np.nan)
+    for k, (line, cells) in enumerate(body):
+        kind = cells[idx["instrument"]].strip().lower() or "tracker"
+        if kind not in ("tracker", "nest"):
+            raise CampaignFileError(name, f"instrument '{kind}': a plan's rows read the tool tip (tracker) or a table "
+                                    "nest (nest)", row=line, column="instrument")
+        instrument[k] = kind
+        if kind != "nest":
+            continue
+        for c in ("target", "nest_x", "nest_y", "nest_z"):
+            if c not in idx:
+                raise CampaignFileError(name, f"a nest row needs the column '{c}' (the nest's id and its planned "
+                                        "position, mm in the workpiece frame)", row=1, column=c)
+        tid = cells[idx["target"]].strip()
+        if not tid or any(ch in tid for ch in " ,\"'"):
+            raise CampaignFileError(name, "a nest row names its nest in the 'target' column (an id without spaces, "
+                                    "commas or quotes)", row=line, column="target")
+        target[k] = tid
+        for j, c in enumerate(("nest_x", "nest_y", "nest_z")):
+            s = cells[idx[c]].strip()
+            try:
+                v = float(s)
+            except ValueError:
+                raise CampaignFileError(name, f"'{s}' is not a number (the planned nest position, mm)" if s else
+                                        "empty cell: a nest row gives its nest's planned position (mm, workpiece frame)",
+                                        row=line, column=c) from None
+            if not math.isfinite(v):
+                raise CampaignFileError(name, f"'{s}' is not a finite number", row=line, column=c)
+            nest[k, j] = v * M_PER_MM
+    seen: dict[str, int] = {}
+    for k in np.flatnonzero(instrument == "nest"):
+        first = seen.setdefault(str(target[k]), int(k))
+        if np.any(np.abs(nest[k] - nest[first]) > 1e-9):
+            raise CampaignFileError(name, f"nest {target[k]} is planned at two positions (rows {lines[first]} and "
+                                    f"{lines[k]}): one nest stays where it is for the whole campaign",
+                                    row=int(lines[k]), column="nest_x")
+    if instrument[0] == "nest":
+        raise CampaignFileError(name, "the first row reads a nest: nests are read at the dwell of a tool-tip row "
+                                "before them", row=int(lines[0]), column="instrument")
+    return instrument, target, nest

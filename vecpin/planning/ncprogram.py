@@ -95,9 +95,10 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     out: list[str] = []
     if fanuc:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
+    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
     head = [f"vecpin measurement plan {title}".strip(),
-            f"machine {machine.name}: {len(template)} points, target holder lengths "
+            f"machine {machine.name}: {len(template) - int(is_nest.sum())} points, target holder lengths "
             + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
             "axis positions in the URDF axis coordinates, mm and degrees; work offset at the URDF zero;",
             "no tool length compensation, no TRAORI / G43.4 (the plan commands axes, not the tool tip)",
@@ -109,6 +110,8 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     current_tool = None
     app = template.approach
     for i in range(len(template)):
+        if is_nest[i]:
+            continue  # read at the dwell of the tool row before it, see below
         L = float(template.tool[i])
         if current_tool is None or abs(L - current_tool) > 1e-9:
             msg = (f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), "
@@ -126,6 +129,12 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
             out.append(f"{g1} {_words(machine, names, q)} {feed}")
         else:
             out.append(f"{g0} {_words(machine, names, q)}")
+        j = i + 1
+        while j < len(template) and is_nest[j]:
+            j += 1
+        if j > i + 1:
+            out.append(comment("then read table nests " + ", ".join(
+                f"{template.target[k]} as {point_name(template.point[k])}" for k in range(i + 1, j))))
         out.append(dwell())
     out.append("M30" if dialect != "gcode" else "M2")
     if fanuc:

@@ -14,6 +14,11 @@ Fig. 6; eq. 22 for repeated points).
    random order, for short- and long-term repeatability.
 5. Prediction: covariance of the parameters from all planned rows and the error it
    leaves at quasi-random validation commands (:mod:`~vecpin.planning.information`).
+
+On a machine with table axes (a ``workpiece`` frame), reflectors in table nests
+(:mod:`~vecpin.planning.nests`) are read at every command's dwell with the first holder
+(the nests the tracker sees there): their rows, and the nests' unknown positions, count
+in the D-optimal choice and the prediction through the fit's one likelihood.
 """
 from __future__ import annotations
 
@@ -31,8 +36,9 @@ from vecpin.models import make_model
 from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
+from vecpin.planning.nests import check_nests, nest_positions
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
-                                       default_tracker_position)
+                                       default_tracker_placement, side_name)
 from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone, inside
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.units import MM_PER_M, M_PER_MM
@@ -50,14 +56,16 @@ class PlanSettings:
     ``n_points``: commands, each measured with every holder length ``tools_mm`` [mm];
     ``model``/``order``/``basis``: the model the campaign is for; ``noise``: the fit's
     noise model (default: spherical tracker noise); ``tracker_mm`` (3,) [mm] machine base
-    frame (default: 2 m in front of the workspace); ``exclude``: exclusion zones;
+    frame (default: 2 m beyond the workspace on the side the tips are seen from); ``exclude``: exclusion zones;
     ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
     below/above/both/none with distances ``approach_mm`` [mm], ``approach_deg`` [deg];
     ``repeat_points`` x ``repeat_times``: repeated points at the start and at the end;
     ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
     ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
     ``candidates``: candidate commands (default max(2000, 10 n)); ``validation_points``:
-    quasi-random commands the predicted error is judged on."""
+    quasi-random commands the predicted error is judged on; ``nests``: table nests read
+    at every command (None: 3 on a machine with a workpiece frame, else 0) at default
+    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them."""
 
     n_points: int = 100
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
@@ -83,6 +91,21 @@ class PlanSettings:
     candidates: int | None = None
     validation_points: int = 500
     seed: int = 0
+    nests: int | None = None
+    nest_mm: dict[str, tuple[float, float, float]] | None = None
+
+    def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
+        """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
+        if self.nest_mm:
+            if self.nests is not None and self.nests != len(self.nest_mm):
+                raise InputError(f"--nests {self.nests} but {len(self.nest_mm)} --nest positions given: give one or "
+                                 "the other (or the same count)")
+            out = {k: np.asarray(v, float) * M_PER_MM for k, v in self.nest_mm.items()}
+            check_nests(machine, out, "--nest")
+            return out
+        n = (3 if machine.has_workpiece else 0) if self.nests is None else self.nests
+        check_nests(machine, {str(k): 0 for k in range(n)}, "--nests")
+        return nest_positions(machine, n)
 
     def check(self) -> None:
         """Every option inside its meaning, before any work (names the option)."""
@@ -160,7 +183,11 @@ class Plan:
     ``commands`` (the chosen commands, first-holder order), ``candidates`` and why
     each was removed (``removed``: '' kept, 'zone' outside the measurement zone never
     happens, 'exclusion', 'sight'), ``sight_by`` (the solid that blocked it),
-    ``tracker`` (3,) [m], ``score`` of the plan, ``information`` the linearised problem."""
+    ``tracker`` (3,) [m] (``tracker_side``: the side of the workspace a default tracker
+    stands on, "" when given), ``score`` of the plan, ``information`` the linearised
+    problem; ``nests`` {id: (3,) [m], workpiece frame} read at the commands,
+    ``without_nests`` the score of the same commands without them and ``bare`` the
+    problem without them (None on a plan without nests)."""
 
     machine: Machine
     settings: PlanSettings
@@ -179,6 +206,10 @@ class Plan:
     geometry: str
     box: tuple[np.ndarray, np.ndarray]
     validation: np.ndarray
+    nests: dict[str, np.ndarray] = field(default_factory=dict)
+    without_nests: PlanScore | None = None
+    bare: Information | None = None
+    tracker_side: str = ""
 
     @property
     def tools(self) -> np.ndarray:
@@ -221,10 +252,15 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         check_zone_axes(machine, z, "--exclude")
     if s.zone:
         check_zone_axes(machine, s.zone, "--zone")
+    nests = s.nest_places(machine)  # checked before any work
     say = progress or (lambda msg: None)
     noise = s.noise or NoiseModel.default(machine, "spherical")
     tools = np.array(s.tools_mm, float) * M_PER_MM
-    tracker = default_tracker_position(machine) if s.tracker_mm is None else np.asarray(s.tracker_mm, float) * M_PER_MM
+    if s.tracker_mm is None:
+        tracker, azimuth = default_tracker_placement(machine)
+        side = side_name(azimuth)
+    else:
+        tracker, side = np.asarray(s.tracker_mm, float) * M_PER_MM, ""
     steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
     lo, hi = clip_to_zone(machine, s.zone)
     alo, ahi = route.approach_margin(machine, s.approach, steps)
@@ -256,6 +292,12 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             hit = res.blocked & (sight_by[test] == "")
             sight_by[test[hit]] = res.by[hit]
         removed[sight_by != ""] = "sight"
+    nest_seen = np.ones((len(cand), len(nests)), bool)
+    if s.sight and nests:
+        test = np.flatnonzero(removed == "")
+        say(f"line of sight for {len(test)} commands x {len(nests)} table nests")
+        for k, p_wp in enumerate(nests.values()):
+            nest_seen[test, k] = ~sl.check_nests(cand[test], p_wp, tools[0]).blocked
     ok = np.flatnonzero(removed == "")
     if len(ok) < s.n_points:
         raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones and the line "
@@ -264,52 +306,91 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     model = make_model(s.model, machine, s.order, basis=s.basis)
     s.check_model(machine, model.n_parameters)
     say(f"{s.model} model of order {s.order}: {model.n_parameters + 6} parameters; judging redundancy")
-    info = Information(model, noise, tracker, tools)
+    info = Information(model, noise, tracker, tools, nests=nests)
     if s.method == "doptimal":
-        say(f"whitened Jacobian of {len(ok)} candidates")
-        W = info.rows(cand[ok])
+        say(f"whitened Jacobian of {len(ok)} candidates" + (f" with {len(nests)} table nests" if nests else ""))
+        W = info.rows(cand[ok], nest_visible=nest_seen[ok])
         pick, _ = greedy_d_optimal(W, s.n_points, info.keep, progress=say)
     else:
         pick = np.random.default_rng(s.seed).choice(len(ok), s.n_points, replace=False)
     chosen = cand[ok[pick]]
+    chosen_seen = nest_seen[ok[pick]]
 
     say("ordering the points")
     order = route.order_points(chosen, speed)
-    chosen = chosen[order]
+    chosen, chosen_seen = chosen[order], chosen_seen[order]
     rng = np.random.default_rng(s.seed + 1)
-    passes_q, passes_t = [], []
+    passes_q, passes_t, passes_k = [], [], []
     rep_q = chosen[_spread(chosen, s.repeat_points, speed)] if s.repeat_points else np.zeros((0, machine.n_axes))
     seqs = [rep_q[rng.permutation(len(rep_q))] for _ in range(s.repeat_times)] if s.repeat_points else []
     half = (len(seqs) + 1) // 2
     for sq in seqs[:half]:
         passes_q.append(sq)
         passes_t.append(np.full(len(sq), tools[0]))
+        passes_k.append(np.full(len(sq), -1))
     for k, L in enumerate(tools):
         passes_q.append(chosen if k % 2 == 0 else chosen[::-1])
         passes_t.append(np.full(len(chosen), L))
+        passes_k.append(np.arange(len(chosen)) if k == 0 else np.full(len(chosen), -1))
     for sq in seqs[half:]:
         passes_q.append(sq)
         passes_t.append(np.full(len(sq), tools[0]))
+        passes_k.append(np.full(len(sq), -1))
     q_cmd = np.vstack(passes_q)
     t_cmd = np.concatenate(passes_t)
     idx, sign = route.approach_rows(q_cmd, s.approach)
-    q_rows, t_rows = q_cmd[idx], t_cmd[idx]
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
-    template = PlanTemplate(np.arange(1, len(q_rows) + 1), q_rows, t_rows, approach, "plan")
+    template = with_nest_rows(q_cmd[idx], t_cmd[idx], approach, np.concatenate(passes_k)[idx], chosen_seen, nests)
 
     say("predicted uncertainty")
     vq = validation_commands(machine, s.validation_points, *clip_to_zone(machine, s.zone), seed=s.seed + 7)
     vq = vq[~inside(machine, vq, s.exclude)]
-    score, cov = score_rows(info, template.q, template.tool, vq, tools[0], f"this plan ({s.method})",
-                           travel_s=_moves(template, steps, speed), commands=len(chosen))
+    score, cov = score_rows(info, template, vq, tools[0], f"this plan ({s.method})",
+                            travel_s=_moves(template, steps, speed), commands=len(chosen))
+    if nests:  # the same commands without the nests: what a tool-tip-only campaign would give
+        say("predicted uncertainty without the table nests")
+        bare = Information(model, noise, tracker, tools)
+        tips = template.take(template.tool_rows)
+        without, _ = score_rows(bare, tips, vq, tools[0], "the same without nests", travel_s=score.travel_s,
+                                commands=len(chosen))
+    else:
+        bare, without = info, None
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
     t_random = route.travel_time(np.vstack([shuffled] * len(tools)), speed)
     return Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
-                score, info, cov, t_random, geometry, (lo, hi), vq)
+                score, info, cov, t_random, geometry, (lo, hi), vq, nests, without, bare, side)
+
+
+def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,
+                   seen: np.ndarray, nests: dict[str, np.ndarray]) -> PlanTemplate:
+    """The template of tool-tip rows (q (N,n) [m, rad], tool (N,) [m], approach) with a
+    reading of every nest the tracker sees after each row of the first holder:
+    ``command`` (N,) index of the row's command into ``seen`` (C,K), -1 on rows without
+    nest readings (other holders, repeated points)."""
+    K = len(nests)
+    if not K:
+        return PlanTemplate(np.arange(1, len(q) + 1), q, tool, approach, "plan")
+    read = np.where(command[:, None] >= 0, seen[np.maximum(command, 0)], False)  # (N, K)
+    count = 1 + read.sum(axis=1)
+    src = np.repeat(np.arange(len(q)), count)                  # the tool row each template row belongs to
+    first = np.r_[0, np.cumsum(count)[:-1]]
+    is_nest = np.ones(len(src), bool)
+    is_nest[first] = False
+    ids = np.array(list(nests), dtype=object)
+    which = np.nonzero(read)[1]                                 # nest index of each nest row, row-major
+    instrument = np.where(is_nest, "nest", "tracker").astype(object)
+    target = np.full(len(src), "", dtype=object)
+    target[is_nest] = ids[which]
+    pos = np.full((len(src), 3), np.nan)
+    pos[is_nest] = np.array(list(nests.values()))[which]
+    return PlanTemplate(np.arange(1, len(src) + 1), q[src], tool[src], None if approach is None else approach[src],
+                        "plan", instrument, target, pos)
 
 
 def _moves(template: PlanTemplate, steps: np.ndarray, speed: np.ndarray) -> float:
-    """Move time [s] of the rows in order, through each row's approach position."""
+    """Move time [s] of the rows in order, through each row's approach position (nest
+    readings are taken at the dwell of the row before them: no move)."""
+    template = template.take(template.tool_rows)
     q = template.q
     if template.approach is None:
         return route.travel_time(q, speed)
@@ -319,17 +400,22 @@ def _moves(template: PlanTemplate, steps: np.ndarray, speed: np.ndarray) -> floa
     return route.travel_time(path, speed)
 
 
-def score_rows(info: Information, q: np.ndarray, tool: np.ndarray, validation: np.ndarray, validation_tool: float,
+def score_rows(info: Information, template: PlanTemplate, validation: np.ndarray, validation_tool: float,
                label: str, travel_s: float = float("nan"), commands: int | None = None) -> tuple[PlanScore, np.ndarray]:
-    """Score measured rows (q (N,n) [m, rad], tool (N,) [m]) with ``info``: the covariance and
-    the predicted error at ``validation`` commands with ``validation_tool`` [m]."""
-    W = info.row_blocks(np.asarray(q, float), np.asarray(tool, float))
+    """Score the rows of ``template`` (tool-tip and nest readings) with ``info``: the
+    covariance and the predicted error at ``validation`` commands with ``validation_tool``
+    [m] (the posterior: a term no row sees keeps its prior)."""
+    q, tool = template.q, template.tool
+    n = len(q)
+    instrument = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
+    target = template.target if template.target is not None else np.full(n, "", dtype=object)
+    W = info.measurement_rows(q, tool, instrument, target)
     cov = info.covariance(W)
     sd = np.sqrt(np.diag(cov))
     kept = info.keep.copy()
     kept[:6] = False  # E_0 belongs to the set-up, not the machine
     well = int(np.sum(sd[kept] < 0.1 * info.sigma[kept]))
-    pred = info.predicted_errors(cov, validation, validation_tool)
+    pred = info.predicted_errors(info.posterior(W), validation, validation_tool)
     n_cmd = commands if commands is not None else len(np.unique(np.round(q, 9), axis=0))
     return PlanScore(label, len(q), n_cmd, info.log_det(W), float(sd[6]), well, int(kept.sum()), pred, travel_s), cov
 
@@ -340,7 +426,10 @@ def compare(plan: Plan, others: list[tuple[str, PlanTemplate]]) -> list[PlanScor
     speed = route.axis_speeds(plan.machine, plan.settings.rapid_mm_min, plan.settings.rapid_deg_min)
     out = [plan.score]
     for label, t in others:
-        sc, _ = score_rows(plan.information, t.q, t.tool, plan.validation, float(plan.tools[0]), label,
-                           travel_s=_moves(t, plan.steps, speed))
+        try:
+            sc, _ = score_rows(plan.information, t, plan.validation, float(plan.tools[0]), label,
+                               travel_s=_moves(t, plan.steps, speed))
+        except InputError as exc:  # another plan's nests: judged only with this plan's nests
+            raise InputError(f"--compare {label}: {exc}; compare plans with the same --nests/--nest") from None
         out.append(sc)
     return out

@@ -149,10 +149,25 @@ class SightLine:
     def check(self, q: np.ndarray, tool: np.ndarray | float) -> SightResult:
         """Which commands q (N,n) [m, rad] with tool lengths [m] the tracker cannot see."""
         q = np.atleast_2d(np.asarray(q, float))
-        N = len(q)
-        tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
         kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
-        target = kin.tip
+        return self._sight(q, kin.tip, kin, tool)
+
+    def check_nests(self, q: np.ndarray, p_wp: np.ndarray, tool: np.ndarray | float) -> SightResult:
+        """Which readings of reflectors fixed in the workpiece (table) frame at p_wp (3,)
+        or (N,3) [m] the tracker cannot see at commands q (N,n) [m, rad]: the table nests
+        of a machine with table axes. The machine's geometry is posed at each command,
+        the holder of length ``tool`` [m] in the spindle included (it can hide a nest)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
+        target = self.machine.workpiece_points(q, p_wp, jacobian=False).xyz
+        kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
+        return self._sight(q, target, kin, tool)
+
+    def _sight(self, q: np.ndarray, target: np.ndarray, kin, tool: np.ndarray) -> SightResult:
+        """The sight lines from the tracker to ``target`` (N,3) [m], base frame, past the
+        solids posed at q and the holder of length ``tool`` (tool kinematics ``kin``)."""
+        N = len(q)
         seg = target - self.tracker
         dist = np.linalg.norm(seg, axis=1)
         keep = np.clip(1.0 - self.target_clearance / np.maximum(dist, 1e-12), 0.0, 1.0)
@@ -344,18 +359,32 @@ def _around(tips: np.ndarray, centre: np.ndarray, azimuth: float, distance: floa
     return pos
 
 
-def default_tracker_position(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> np.ndarray:
-    """A tracker standing ``distance`` [m] beyond the tool-tip workspace, centred on it:
-    in front (-y side) at the height of its lowest tip (the usual set-up for a gantry),
-    or where :func:`tracker_side` finds the tips in sight."""
+def default_tracker_placement(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> tuple[np.ndarray, float]:
+    """(position (3,) [m], azimuth [rad] of :func:`tracker_side`) of a tracker standing
+    ``distance`` [m] beyond the tool-tip workspace, centred on it: in front (-y side) at
+    the height of its lowest tip (the usual set-up for a gantry, azimuth 0), or where
+    :func:`tracker_side` finds the tips in sight."""
     from scipy.stats import qmc
     u = qmc.Halton(machine.n_axes, seed=0).random(256)
     tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool, frame="base")
     lo, hi = tips.min(axis=0), tips.max(axis=0)
     az, z = tracker_side(machine, tool, distance)
     if az == 0.0:
-        return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]])
-    return _around(tips, (lo + hi) / 2, az, distance, z)
+        return np.array([(lo[0] + hi[0]) / 2, lo[1] - distance, lo[2]]), 0.0
+    return _around(tips, (lo + hi) / 2, az, distance, z), az
+
+
+def default_tracker_position(machine: Machine, tool: float = 0.25, distance: float = 2.0) -> np.ndarray:
+    """The position [m] of :func:`default_tracker_placement`."""
+    return default_tracker_placement(machine, tool, distance)[0]
+
+
+def side_name(azimuth: float) -> str:
+    """The side of the workspace a tracker at ``azimuth`` (of :func:`tracker_side`)
+    stands on: "-y" (the front), "+y", "+x", "-x", or a corner such as "+x/-y"."""
+    d = np.array([np.sin(azimuth), -np.cos(azimuth)])
+    parts = [f"{'+' if v > 0 else '-'}{c}" for c, v in zip("xy", d) if abs(v) > 0.3]
+    return "/".join(parts)
 
 
 def describe_solids(solids: list[Solid]) -> str:
@@ -365,5 +394,6 @@ def describe_solids(solids: list[Solid]) -> str:
     return ", ".join(f"{v} {k}{'es' if k == 'box' and v > 1 else ('s' if v > 1 else '')}" for k, v in kinds.items())
 
 
-__all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "tracker_side", "describe_solids",
+__all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "default_tracker_placement",
+           "tracker_side", "side_name", "describe_solids",
            "DEFAULT_TOOL_RADIUS", "DEFAULT_TARGET_CLEARANCE"]

@@ -20,9 +20,11 @@ from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.effects import EffectSpec
+from vecpin.planning.nests import nest_positions  # noqa: F401  (the one placement, shared with planning)
 from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported)
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.units import M_PER_MM
 
 DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
@@ -171,21 +173,6 @@ class Rows:
         if nest.any():
             xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), station, nest=self.nest[nest])
         return xyz
-
-
-def nest_positions(machine: Machine, n: int, seed: int) -> dict[str, np.ndarray]:
-    """n nests [m] on the table, workpiece frame: evenly around a circle of 40 % of the
-    table reach (half the span of the tool tips relative to the workpiece, at most
-    0.3 m) at heights 20-80 mm, ids "1", "2", ... (a seeded rng of their own)."""
-    rng = np.random.default_rng([seed, 14])
-    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
-    rel = machine.tool_tip(q, 0.2, frame="workpiece")
-    reach = min(0.3, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
-    out = {}
-    for k in range(n):
-        a = 2 * np.pi * (k + rng.uniform(0.0, 0.5)) / max(n, 1)
-        out[str(k + 1)] = np.array([reach * np.cos(a), reach * np.sin(a), rng.uniform(0.02, 0.08)])
-    return out
 
 
 def design_rows(machine: Machine, design: Design, q: np.ndarray, tools: np.ndarray, seed: int):
@@ -370,7 +357,7 @@ class _DriveTurn:
 
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
-             effects: list | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None, tables=None,
+             effects: list | None = None, plan: "PlanTemplate | tuple[np.ndarray, np.ndarray] | None" = None, tables=None,
              tracker_position: np.ndarray | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
@@ -378,8 +365,10 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     to their strength on this campaign; the validation files carry them too (except
     gross errors).
 
-    ``plan``: (commands (N,n) [m, rad], tool lengths (N,) [m]) measured in that order
-    instead of the design's commands (a plan's template measured as if for real).
+    ``plan``: a :class:`~vecpin.measurement.plantemplate.PlanTemplate` (its nest rows
+    read reflectors at the planned nest positions, workpiece frame) or (commands (N,n)
+    [m, rad], tool lengths (N,) [m]), measured in that order instead of the design's
+    commands (a plan's template measured as if for real).
     ``tables``: a :class:`~vecpin.compensation.tables.TableSet`; the validation commands
     are then also run on the true machine through the tables (compensated command =
     command + table increments, eq. 15; the twin drives' differential turns their beam)
@@ -390,6 +379,9 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     machine frame: where the tracker stands (as planned), keeping its random heading."""
     from vecpin.measurement.features import Features
     design = design or Design()
+    template = plan if isinstance(plan, PlanTemplate) else None
+    if template is not None:
+        plan = (template.q, template.tool)
     if int(seed) != seed or seed < 0:
         raise InputError(f"--seed {seed}: a whole number >= 0")
     design.check(machine, None if plan is None else len(plan[1]))
@@ -413,6 +405,10 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
             raise VecpinError("a plan gives one command per row (N, n axes) and one tool length per row")
         tools = tool[:1]  # the validation run uses the plan's first holder
         rows, nests, targets = Rows.tips(qs, tool), {}, {}
+        if template is not None and template.has_nests:  # the nests stand where the plan put them
+            on = template.instrument == "nest"
+            rows.instrument[on], rows.target[on], rows.nest[on] = "nest", template.target[on], template.nest[on]
+            nests = template.nests()
     else:
         q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
         rows, nests, targets = design_rows(machine, design, q, tools, seed)

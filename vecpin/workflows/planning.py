@@ -34,15 +34,24 @@ class PlanRun:
         p, s = self.plan, self.plan.settings
         m = p.machine
         c = p.counts()
-        tr = to_mm(p.tracker)
-        where = "given" if p.tracker_given else "assumed 2 m in front of the workspace; give --tracker X,Y,Z"
+        tr = [int(round(float(v))) + 0 for v in to_mm(p.tracker)]  # whole mm, no "-0"
+        if p.tracker_given:
+            where = "given"
+        elif p.tracker_side in ("", "-y"):
+            where = "assumed 2 m in front of the workspace (-y side), at its lowest tip; give --tracker X,Y,Z"
+        else:
+            where = (f"assumed 2 m beyond the workspace on its {p.tracker_side} side, from which the tips are in "
+                     "sight; give --tracker X,Y,Z")
+        info = p.information
         out = [f"measurement plan for {m.name}: {len(p.commands)} commands x {len(s.tools_mm)} holder lengths "
                f"({', '.join(f'{t:g}' for t in s.tools_mm)} mm) = {len(p.template)} rows",
-               f"  model {s.model} order {s.order}: {p.information.P} parameters with E_0, "
-               f"{int((~p.information.keep).sum())} that no design identifies left out",
-               f"  tracker at ({tr[0]:.0f}, {tr[1]:.0f}, {tr[2]:.0f}) mm, machine frame ({where})",
+               f"  model {s.model} order {s.order}: {info.P} parameters with E_0"
+               + (f" and {len(p.nests)} nest positions" if p.nests else "")
+               + f", {int((~info.keep).sum())} that no design identifies left out",
+               f"  tracker at ({tr[0]}, {tr[1]}, {tr[2]}) mm, machine frame ({where})",
                f"  candidates {c['candidates']}: {c['exclusion']} in exclusion zones (CA), {c['sight']} out of sight (LoS, "
                f"{p.geometry} geometry), {c['kept']} left; chosen {s.method}"]
+        out += self.nest_lines()
         if c["sight"]:
             names, counts = np.unique(p.sight_by[p.removed == "sight"].astype(str), return_counts=True)
             top = sorted(zip(counts, names), reverse=True)[:4]
@@ -56,12 +65,15 @@ class PlanRun:
                 f"{sc.travel_s / 60:.1f} min in this order (the same commands in random order: "
                 f"{p.travel_random_s / 60:.1f} min)",
                 f"  predicted (linearised covariance, {pr.points} quasi-random validation commands, holder "
-                f"{s.tools_mm[0]:g} mm, best-fit rigid motion removed):",
+                f"{s.tools_mm[0]:g} mm, " + ("tool tip relative to the workpiece, " if pr.frame == "workpiece" else "")
+                + "best-fit rigid motion removed):",
                 f"    model error from parameter uncertainty: mean {to_mm(pr.model_mean):.4f} mm, max "
                 f"{to_mm(pr.model_max):.4f} mm (1-sigma RMS {to_mm(pr.rms_1sigma):.4f} mm)",
                 f"    validation residual incl. measurement noise: mean {to_mm(pr.measured_mean):.4f} mm, max "
                 f"{to_mm(pr.measured_max):.4f} mm",
-                f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; {sc.well_determined} of "
+                (f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; " if info.keep[6] else
+                 "    gauge line T_offset: no design identifies it (another term moves every reading alike); ")
+                + f"{sc.well_determined} of "
                 f"{sc.counted} counted terms below 10% of their prior",
                 "    (what the model cannot describe adds to these: judge it with a validation run)"]
         if self.comparison:
@@ -69,6 +81,31 @@ class PlanRun:
             out += PlanScore.header() + [x.line() for x in self.comparison]
         out += [f"  wrote {f}" for f in self.files]
         return out
+
+    def nest_lines(self) -> list[str]:
+        """What the table nests add (none on a machine without table axes)."""
+        p = self.plan
+        if not p.machine.has_workpiece:
+            return []
+        if not p.nests:
+            left = int((~p.information.keep[p.information.model_columns]).sum())
+            return [f"  no table nests (--nests 0): the tool tip alone never sees the table axes; {left} model terms "
+                    "stay unknown and uncorrected (plan with --nests 3 to read reflectors on the table)"]
+        t = p.template
+        seen = len(t.nest_rows)
+        table = int(p.information.table_terms().sum())
+        before = int((~p.bare.keep[p.bare.model_columns]).sum())
+        places = "; ".join(f"{k} ({', '.join(f'{v:.0f}' for v in to_mm(x) + 0.0)})" for k, x in p.nests.items())
+        a, b = p.score.predicted, p.without_nests.predicted
+        return [f"  table nests: {len(p.nests)} reflectors on the table, mm in the workpiece frame (planned; the fit "
+                f"finds them): {places}",
+                f"    read at the dwell of each command with the first holder: {seen} nest rows of "
+                f"{len(p.commands) * len(p.nests)} (the others are out of sight)",
+                f"    table-axis terms identified: {table} of the {before} model terms that tool-tip readings alone "
+                "leave out",
+                f"    predicted error of the tool tip relative to the workpiece: mean {to_mm(a.model_mean):.4f} mm, "
+                f"max {to_mm(a.model_max):.4f} mm with the nests; mean {to_mm(b.model_mean):.4f} mm, max "
+                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"]
 
     def to_dict(self) -> dict:
         p, s = self.plan, self.plan.settings
@@ -84,7 +121,7 @@ class PlanRun:
                     "validation_max_mm": round(float(to_mm(pr.measured_max)), 6),
                     "moves_min": round(x.travel_s / 60, 4)}
         return {"format": "vecpin-plan", "version": 1, "machine": p.machine.name,
-                "settings": {"points": s.n_points, "tools_mm": list(s.tools_mm), "model": s.model, "order": s.order,
+                "settings": {"points": s.n_points, "nests": len(p.nests), "tools_mm": list(s.tools_mm), "model": s.model, "order": s.order,
                              "method": s.method, "approach": s.approach, "approach_mm": s.approach_mm,
                              "approach_deg": s.approach_deg, "repeat": [s.repeat_points, s.repeat_times],
                              "exclude": [{k: list(v) for k, v in z.items()} for z in s.exclude],
@@ -92,7 +129,9 @@ class PlanRun:
                              "seed": s.seed, "noise": p.information.noise.to_dict(p.machine)},
                 "tracker_mm": [round(float(v), 6) for v in to_mm(p.tracker)], "tracker_given": p.tracker_given,
                 "counts": p.counts(), "geometry": p.geometry,
+                "nests_mm": {k: [round(float(v), 6) for v in to_mm(x)] for k, x in p.nests.items()},
                 "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
+                "without_nests": None if p.without_nests is None else score(p.without_nests),
                 "moves_random_order_min": round(p.travel_random_s / 60, 4)}
 
 

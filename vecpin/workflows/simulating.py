@@ -69,7 +69,7 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
     check_output_dir(out_dir)
     design = design or Design()
     plan = truth_options.get("plan")
-    design.check(machine, None if plan is None else len(plan[1]), files=True)  # files vecpin can read back
+    design.check(machine, None if plan is None else len(plan[1] if isinstance(plan, tuple) else plan.tool), files=True)  # files vecpin can read back
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
     return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,

@@ -1,0 +1,120 @@
+"""Table nests: where reflectors sit on the table of a machine with table axes.
+
+A floor tracker reading the tool tip never sees a table axis turn: the table axes of a
+trunnion or rotary-table machine are seen only through points fixed on the table
+(:mod:`vecpin.measurement.instruments.nest`). Their positions in the workpiece frame
+are unknown to the fit (found with the model), so a plan only needs them roughly: to
+judge what the nests tell (the information of their rows) and whether the tracker
+sees them (line of sight).
+
+:func:`nest_positions` is the one default placement: planning uses it for the plan and
+the simulator for the nests of a simulated campaign. Nests stand on the table, evenly
+around a circle of 80 % of the table's radius (from the URDF geometry of the link that
+carries the workpiece frame, when it has a table face at the workpiece frame's z = 0),
+and at most 40 % of half the span of the tool tips relative to the workpiece and 0.3 m,
+at heights of 20-80 mm above the face (different heights: the nests also see tilts).
+Frames: workpiece frame, metres.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from scipy.stats import qmc
+
+from vecpin.errors import InputError, MachineError
+from vecpin.kinematics.machine import Machine
+from vecpin.units import M_PER_MM
+
+MAX_NESTS = 20             # nests one plan or simulation places
+MAX_REACH = 0.3            # m: farthest a default nest stands from the table centre
+TABLE_SHARE = 0.8          # default nests on a circle of this share of the table radius
+FACE_TOLERANCE = 0.005     # m: a solid whose top lies this close to the workpiece plane is the table
+NEST_HEIGHTS = (0.02, 0.08)  # m: reflector centres above the table face
+_ID = re.compile(r"[A-Za-z0-9_.-]{1,16}")
+
+
+def table_radius(machine: Machine) -> float | None:
+    """Radius [m] of the largest circle about the workpiece origin inside the table face:
+    the URDF solids on the link that carries the workpiece frame whose top lies in the
+    workpiece frame's z = 0 plane (a cylinder along z, or a box), or None when the URDF
+    has no such geometry."""
+    if not machine.has_workpiece:
+        return None
+    from vecpin.planning.sightline import solids_from_urdf
+    try:
+        solids, _ = solids_from_urdf(machine)
+    except MachineError:
+        return None
+    model = machine.model
+    f = model.frames[model.getFrameId(machine.workpiece_link)]
+    inv_wp = np.linalg.inv(f.placement.homogeneous)
+    best = None
+    for s in solids:
+        if s.joint != f.parentJoint or s.kind not in ("cylinder", "box"):
+            continue
+        H = inv_wp @ s.placement              # the solid in the workpiece frame
+        R, c = H[:3, :3], H[:3, 3]
+        if abs(abs(R[2, 2]) - 1.0) > 1e-6:     # not lying flat on the face
+            continue
+        half_h = s.size[1] if s.kind == "cylinder" else s.size[2]
+        if abs(c[2] + half_h) > FACE_TOLERANCE:
+            continue
+        if s.kind == "cylinder":
+            r = s.size[0] - float(np.hypot(c[0], c[1]))
+        else:
+            # a box turned about z: the inscribed circle of its face, shifted by its centre
+            r = float(min(s.size[0], s.size[1])) - float(np.hypot(c[0], c[1]))
+        if r > 0 and (best is None or r > best):
+            best = r
+    return best
+
+
+def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndarray]:
+    """n default nests {id: (3,) [m], workpiece frame}, ids "1", "2", ... (see the
+    module text); the angles and heights come from a seeded rng of their own."""
+    if n < 0 or n > MAX_NESTS or int(n) != n:
+        raise InputError(f"--nests {n}: a whole number of table nests, 0 .. {MAX_NESTS}")
+    if n == 0:
+        return {}
+    rng = np.random.default_rng([seed, 14])
+    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
+    rel = machine.tool_tip(q, 0.2, frame="workpiece")
+    reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
+    table = table_radius(machine)
+    if table is not None:
+        reach = min(reach, TABLE_SHARE * table)
+    out = {}
+    for k in range(n):
+        a = 2 * np.pi * (k + rng.uniform(0.0, 0.5)) / n
+        out[str(k + 1)] = np.array([reach * np.cos(a), reach * np.sin(a), rng.uniform(*NEST_HEIGHTS)])
+    return out
+
+
+def parse_nest(text: str, option: str = "--nest") -> tuple[str, np.ndarray]:
+    """'ID=X,Y,Z' (mm, workpiece frame) -> (id, (3,) [m])."""
+    head, sep, tail = str(text).partition("=")
+    nid = head.strip()
+    try:
+        xyz = np.array([float(v) for v in tail.split(",")]) if sep else np.zeros(0)
+    except ValueError:
+        xyz = np.zeros(0)
+    if not sep or not _ID.fullmatch(nid) or xyz.size != 3 or not np.all(np.isfinite(xyz)):
+        raise InputError(f"{option} '{text}': write ID=X,Y,Z, the nest's id (letters, digits, _ . -) and its "
+                         "position in mm in the workpiece (table) frame, e.g. 1=120,0,40")
+    if np.any(np.abs(xyz) > 10_000):
+        raise InputError(f"{option} '{text}': a nest more than 10 m from the table origin; positions are mm")
+    return nid, xyz * M_PER_MM
+
+
+def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "--nest") -> None:
+    """Nests make sense only on a machine with a table branch; ids are unique (the
+    caller's dict) and few."""
+    if nests and not machine.has_workpiece:
+        raise InputError(f"{option}: machine '{machine.name}' has no table branch (no 'workpiece' link): a floor "
+                         "tracker sees its tool tips directly; plan without nests")
+    if len(nests) > MAX_NESTS:
+        raise InputError(f"{option}: {len(nests)} nests; at most {MAX_NESTS}")
+
+
+__all__ = ["nest_positions", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
