@@ -39,6 +39,14 @@ def plan_noise(args, m):
                               tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
 
 
+def plan_model(option: str, m) -> str:
+    """The model kind a plan is made for: ``option``, or for ``auto`` 6dof on a machine
+    with table axes (a 'workpiece' link) and ap elsewhere."""
+    if option != "auto":
+        return option
+    return "6dof" if m.has_workpiece else "ap"
+
+
 def run_plan(args) -> int:
     from vecpin.planning.plan import PlanSettings
     from vecpin.planning.zones import parse_zone
@@ -46,7 +54,7 @@ def run_plan(args) -> int:
     from vecpin.workflows.tables import parse_axis_map
     m = machine(args.machine, args)
     settings = PlanSettings(
-        n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=args.model, order=args.order,
+        n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=plan_model(args.model, m), order=args.order,
         basis=args.basis, noise=plan_noise(args, m),
         tracker_mm=parse_floats(args.tracker, "--tracker", 3) if args.tracker else None,
         exclude=[parse_zone(z, "--exclude") for z in args.exclude],
@@ -88,7 +96,10 @@ def register(sub) -> None:
                         "avoidance); repeatable (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="measurement zone in axis space, mm/deg: plan only "
                    "inside it (calibration in zones); default: the whole travel")
-    s.add_argument("--model", choices=["ap", "6dof"], default="ap", help="model the campaign is for (default ap)")
+    s.add_argument("--model", choices=["auto", "ap", "6dof"], default="auto",
+                   help="model the campaign is planned for: auto = 6dof on a machine with table axes (an axis "
+                        "perturbation cannot follow a table's tilt and wobble, which only nest readings see) and "
+                        "ap elsewhere, as Paper I (default auto)")
     s.add_argument("--order", type=int, default=6, help="series order of that model (default 6, as Paper I)")
     s.add_argument("--basis", default="auto", choices=["auto", "chebyshev"],
                    help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
