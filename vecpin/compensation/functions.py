@@ -316,13 +316,14 @@ class TableProblem:
         return A.reshape(3 * R, self.n_columns)
 
     def _linearise(self) -> None:
-        nominal = self.machine.kinematics(self.q, self.L, jacobian=False, frame=FRAME, point=self._pt)
+        nominal = self.machine.kinematics(self.q, self.L, jacobian=True, frame=FRAME, point=self._pt)
         self.u_nominal = nominal.tool_dir
         tip, J = self.actual(self.q, self.L, True, self._pt)
         # a linear axis moving along the tool everywhere (the W quill of an XYZBAW head) does what a gauge-line
-        # change does: its pitch table carries it, and the two together have no unique solution
-        Jn = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
-        along = np.abs(np.einsum("pik,pi->pk", Jn, self.u_nominal)).min(axis=0) > 1 - 1e-6
+        # change does: its pitch table carries it, and the two together have no unique solution. Judged on the
+        # nominal machine: the actual one's angular errors tilt the quill off the tool by up to mrad
+        Jn = nominal.jacobian / np.maximum(np.linalg.norm(nominal.jacobian, axis=1, keepdims=True), 1e-300)
+        along = np.abs(np.einsum("pik,pi->pk", Jn, self.u_nominal)).min(axis=0) > 1 - 1e-9
         self.along_tool = [a.name for a in self.machine.axes if a.kind == "linear" and along[a.index]]
         if self.along_tool:
             self.free_gauge = False
