@@ -115,6 +115,7 @@ def test_linearised_problem_predicts_the_nonlinear_error(flow, fitted):
 def test_modulo_tables_on_a_rotary_axis_past_a_turn(flow, fitted):
     """C travels 544 deg: modulo tables cover one turn and repeat; with a periodic model
     they compensate exactly like tables over the whole travel."""
+    from vecpin.compensation.plan import plan_tables
     from vecpin.errors import VecpinError
     _, models = fitted
     for kind, model in models.items():
