@@ -165,3 +165,31 @@ def test_judge_table_on_a_small_grid(flow):
     text = j.format()
     assert "default: ap auto 6" in text and "oracle" in text and "mm" in text
     assert 0.2 < j.uncompensated_mean_mm < 0.6
+
+
+def test_mimic_joints_carry_their_own_errors(machines, rng):
+    """Spar Mill's second head (mimic joints Y_2, Z_2, A_2) has errors of its own: a
+    constant translation after a mimic joint moves tool point 1 by exactly that length
+    and leaves tool point 0 alone; a random truth draws terms after every mimic joint
+    (functions of the axis it follows) and its file round-trips."""
+    m = machines["spar_mill_23"]
+    n = m.n_axes
+    q = uniform_commands(m, 50, rng)
+    slots = _bare(m).slots
+    assert [s for s, _ in slots[n:]] == [mj.name for mj in m.mimic_joints]
+    k = [s for s, _ in slots].index("Z_2")
+    moved = _bare(m, [Term(k, 0, 1e-4, (), "test", m.axis("Z").index)])
+    for pt, size in ((0, 0.0), (1, 1e-4)):
+        d = moved.geometric_tip(q, 0.2, point=pt)[0] - _bare(m).geometric_tip(q, 0.2, point=pt)[0]
+        assert np.allclose(np.linalg.norm(d, axis=1), size, atol=1e-12)
+    truth = IndependentMachine.random(m, "spline", seed=2)
+    mimic = [t for t in truth.terms if t.target >= n]
+    assert {t.target for t in mimic} == set(range(n, n + len(m.mimic_joints)))
+    assert all(t.separable and t.axis == slots[t.target][1] for t in mimic)
+    e1 = truth.geometric_tip(q, 0.2, point=1)[0] - _bare(m).geometric_tip(q, 0.2, point=1)[0]
+    no_mimic = IndependentMachine(m, [t for t in truth.terms if t.target < n], truth.family, truth.bases,
+                                  truth.gauge_error, truth.repeatability, truth.tracker)
+    e1_axes = no_mimic.geometric_tip(q, 0.2, point=1)[0] - _bare(m).geometric_tip(q, 0.2, point=1)[0]
+    assert np.linalg.norm(e1 - e1_axes, axis=1).mean() > 0.1 * np.linalg.norm(e1_axes, axis=1).mean()
+    back = IndependentMachine.from_dict(truth.to_dict(), m)
+    assert np.allclose(back.geometric_tip(q, 0.2, point=1)[0], truth.geometric_tip(q, 0.2, point=1)[0], atol=1e-12)

@@ -1,23 +1,30 @@
 """Diagnosing the sim-to-real gap: where the residual lies, which unmodelled effect
 causes it, how far it shrinks once the effect is added, and what to do.
 
-0. **The base model first.** The model the data choose (kind, per-axis bases, orders:
-   :mod:`vecpin.selection.choice`); a base model richer than the seed's 6-DoF order 6 is
-   itself a finding, with its shrink. Effects are scored against it.
-1. **Where.** Held-out residuals (k-fold cross-validation grouped by command) broken
+0. **Gross errors first.** A robust first pass (a quick AP order-4 fit, held-out
+   whitened residuals against their median level, each row with its own number of
+   equations) flags rows no noise explains, so they do not steer the choice of the base
+   model; the chosen base model flags again, and every flagged row is judged once more
+   under the final model (rows it explains are kept).
+1. **The base model.** The model the data choose (kind, per-axis bases, orders:
+   :mod:`vecpin.selection.choice`), on the rows left; a base model richer than the seed's
+   6-DoF order 6 is itself a finding, with its shrink. Effects are scored against it.
+2. **Where.** Held-out residuals (k-fold cross-validation grouped by command) broken
    down along every coordinate a cause could follow (:mod:`.localise`).
-2. **Which.** Every candidate effect (:mod:`vecpin.models.effects`, every choice of
+3. **Which.** Every candidate effect (:mod:`vecpin.models.effects`, every choice of
    axes) is scored against the current model (:mod:`.scoring`): it must pass an F-test
    within the fit *and* a paired test on held-out rows, both Bonferroni-corrected over
    the round, and shrink the held-out mean by a worthwhile amount. The most economical
    such candidate (BIC) is accepted, the model refitted with it, and the rest scored
    again against the improved model; the search stops at the first round with no
-   significant gain. Gross errors are flagged first and judged again at the end.
-3. **How far, and why.** Held-out mean/max before and after each accepted effect; the
+   significant gain.
+4. **How far, and why.** Held-out mean/max before and after each accepted effect; the
    breakdowns the effect explains (structured before, not after); breakdowns left
    structured at the end are reported as unexplained.
-4. **What to do.** Each accepted effect turns its fitted numbers into advice.
+5. **What to do.** Each accepted effect turns its fitted numbers into advice.
 
+Every row is judged with its own likelihood (tracker points from any station, nests,
+tool targets, ranges, ball bar radii: :mod:`vecpin.identification.likelihood`).
 Scoring uses the likelihood linearised at the current model: the models are linear in
 their parameters to about 1e-4, so cross-validation is a few small solves per
 candidate. Accepted effects are then fitted for real (nonlinear ML).
@@ -29,20 +36,21 @@ import time
 from typing import Callable
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg
 
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import Kinematics, candidate_effects, distances_mm, effect_columns, flag_outliers, score
-from vecpin.errors import InputError
+from vecpin.diagnosis.scoring import (Kinematics, beyond_noise, candidate_effects, distances_mm, effect_columns,
+                                      flag_outliers, robust_scale, score)
+from vecpin.errors import InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
-from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
-from vecpin.selection.choice import choose_or_fix
+from vecpin.selection.choice import choose_or_fix, fixed_model
+from vecpin.units import MM_PER_M
 
 SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
 
@@ -73,11 +81,78 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     gone = explained(loc_before, loc_after)
     what = (f"the residual was structured along {describe_structure(loc_before, gone)} and is not after it"
             if gone else "it explains no single breakdown on its own (its signature spreads over several)")
-    text = (f"{sc.label} ({sc.n_parameters} terms): {what}; held-out mean {sc.heldout_mean_mm_before:.4f} -> "
+    text = (f"{what}; held-out mean {sc.heldout_mean_mm_before:.4f} -> "
             f"{sc.heldout_mean_mm_after:.4f} mm ({sc.shrink_pct:.1f}%, p = {sc.p_heldout:.1e} on held-out rows); "
             f"chi2 down by {sc.delta_chi2:.0f} (F = {sc.f_statistic:.1f}, p = {sc.p_value:.1e}; threshold "
             f"{sc.threshold:.1e})")
     return text, gone
+
+
+OUTLIER_P = 1e-3  # family-wise false-alarm rate of the outlier test (Bonferroni over the rows)
+FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
+
+
+def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
+                say: Callable[[str], None]) -> np.ndarray:
+    """Rows with gross errors, flagged before the base model is chosen: a quick AP
+    order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
+    held-out whitened residuals judged against their median level (:func:`flag_outliers`),
+    refitted without the flagged rows up to three times. Flags nothing when that model
+    cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
+    it misfits, and the chosen base model judges)."""
+    rows = np.arange(len(campaign))
+    out = np.array([], int)
+    quick = fixed_model(machine, "ap", "fourier", 4)
+    try:
+        for _ in range(3):
+            camp = campaign.subset(rows) if out.size else campaign
+            fitted = quick.with_effects([]).fit(camp, noise)
+            lin = Linearised(fitted, camp, noise, feats.subset(rows))
+            new = flag_outliers(lin, fold[rows], lin.evaluate(lin.A, lin.J, lin.psi0, fold[rows]), OUTLIER_P)
+            if new.size == 0:
+                break
+            out = np.sort(np.r_[out, rows[new]])
+            if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
+                say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
+                    "the chosen base model judges them")
+                return np.array([], int)
+            rows = np.setdiff1d(np.arange(len(campaign)), out)
+    except VecpinError:
+        return np.array([], int)  # too few rows for the quick model: the chosen base model judges
+    if out.size:
+        say(f"first pass: {out.size} rows flagged as gross errors before the base model is chosen")
+    return out
+
+
+def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
+                   outliers: np.ndarray, lin: Linearised, ev: dict, alpha: float) -> EffectScore:
+    """The outliers' entry: the held-out residuals of the other rows under the base model
+    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``)."""
+    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
+    after = distances_mm(lin, ev["heldout"])
+    try:
+        with_them = proto.with_effects([]).fit(campaign, noise)
+        lin_all = Linearised(with_them, campaign, noise, feats)
+        held_all = lin_all.evaluate(lin_all.A, lin_all.J, lin_all.psi0, fold)["heldout"]
+        keep = np.zeros(len(campaign), bool)
+        keep[rows] = True
+        judged = lin_all.point_rows if lin_all.point_rows.any() else np.ones(len(campaign), bool)
+        before = np.linalg.norm(held_all[keep & judged], axis=1) * MM_PER_M
+    except VecpinError:
+        before = after
+    lines = campaign.lines[outliers]
+    shown = ", ".join(map(str, lines[:20])) + (" ..." if lines.size > 20 else "")
+    sc = EffectScore("outliers", "outliers", [], int(3 * outliers.size), 0.0,
+                     float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
+                     float(after.max()), True, 0, accepted=True)
+    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the p = {OUTLIER_P:g} "
+                   "(Bonferroni) limit of chi2 with each row's own number of equations, at the robust (median) noise "
+                   "level, and stay beyond it under the final model; the base model fitted with them predicts the "
+                   f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
+                   f"{sc.heldout_mean_mm_after:.4f} mm")
+    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
+                 "log for a broken beam; they are left out of the fit"]
+    return sc
 
 
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
@@ -101,7 +176,14 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             raise InputError(f"--effects: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
     flaggers = [n for n in names if REGISTRY[n].flags_rows]
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
-    proto, choice = choose_or_fix(machine, campaign, noise, model, basis, order, folds=folds, seed=seed, progress=say)
+    all_feats = Features.from_campaign(campaign)  # times and approach directions come from the whole file
+    scores: list[EffectScore] = []
+    outliers = np.array([], int)
+    if flaggers:
+        outliers = _first_pass(machine, campaign, noise, fold, all_feats, say)
+    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
+    camp = campaign.subset(rows) if outliers.size else campaign
+    proto, choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
 
     def base_fit(camp, effs):
         return proto.with_effects(effs).fit(camp, noise)
@@ -110,17 +192,11 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         lin_ = Linearised(model_, camp, noise, feats_)
         return lin_, lin_.evaluate(lin_.A, lin_.J, lin_.psi0, fold_)
 
-    # ---- base model and outliers
+    # ---- base model; gross errors it still sees
     say(f"fitting the base model, {proto.label()}")
-    all_feats = Features.from_campaign(campaign)  # times and approach directions come from the whole file
-    rows = np.arange(len(campaign))
-    camp = campaign
     base_model = base_fit(camp, [])
-    lin, base_eval = linearise(base_model, camp, all_feats, fold)
-    scores: list[EffectScore] = []
-    outliers = np.array([], int)
+    lin, base_eval = linearise(base_model, camp, all_feats.subset(rows), fold[rows])
     if flaggers:
-        first = distances_mm(lin, base_eval["heldout"])
         for _ in range(3):
             new = flag_outliers(lin, fold[rows], base_eval)
             if new.size == 0:
@@ -131,18 +207,6 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             say(f"{outliers.size} rows flagged as outliers; refitting without them")
             base_model = base_fit(camp, [])
             lin, base_eval = linearise(base_model, camp, all_feats.subset(rows), fold[rows])
-        if outliers.size:
-            after = distances_mm(lin, base_eval["heldout"])
-            before = first[np.isin(np.arange(len(first)), rows)] if first.size == len(campaign) else first
-            sc = EffectScore("outliers", "outliers", [], int(outliers.size * 3), 0.0, float("inf"), 0.0, alpha,
-                             float(before.mean()), float(after.mean()), float(before.max()), float(after.max()),
-                             True, 0, accepted=True)
-            sc.evidence = (f"{outliers.size} rows have held-out residuals beyond the p = 1e-3 (Bonferroni) limit of "
-                           f"chi2(3) at the robust noise level; without them the held-out mean of the other rows "
-                           f"falls from {sc.heldout_mean_mm_before:.4f} to {sc.heldout_mean_mm_after:.4f} mm")
-            sc.advice = [f"outliers: re-measure rows {', '.join(map(str, outliers[:20]))} (0-based) or check the "
-                         "tracker log for a broken beam; they are left out of the fit"]
-            scores.append(sc)
     feats = all_feats.subset(rows)
     fold_r = fold[rows]
     held = distances_mm(lin, base_eval["heldout"])
@@ -150,9 +214,10 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
                  "choice": None if choice is None else choice.to_dict(), "heldout_mean_mm": float(held.mean()),
                  "heldout_max_mm": float(held.max()), "folds": folds, "rows": int(len(rows)),
                  "chi2_per_expected": base_model.report_.chi2 / base_model.report_.chi2_expected}
-    tips = base_model.predict(camp.q, camp.tool, "machine", features=feats)
-    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], tips, feats=feats, valid=lin.valid)
+    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], Kinematics(base_model, lin, feats).point,
+                   feats=feats, valid=lin.valid)
     held_base_all = base_eval["heldout"]
+    blin, bev = lin, base_eval  # the base model's linearisation (kept up to date for the outliers' score)
 
     # ---- forward selection over candidate effects
     accepted: list[Effect] = []
@@ -165,7 +230,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             break
         say(f"round {rnd}: scoring {len(remaining)} candidates against "
             + ("the base model" if not accepted else "base + " + ", ".join(a.label for a in accepted)))
-        kin = Kinematics(cur_model, camp, feats)
+        kin = Kinematics(cur_model, cur_lin, feats)
         base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
         base_grams = cur_lin.grams(cur_lin.J, fold_r)
         round_scores, scan_best = [], {}
@@ -209,8 +274,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         cur_model = base_fit(camp, list(accepted))
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                           cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
-                           valid=cur_lin.valid)
+                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
         sc.evidence, sc.explains = _evidence(sc, cur_loc, new_loc)
         twins = [c.label for c, e, _ in round_scores if c is not sc.effect and abs(e["d_chi2"] - ev["d_chi2"])
                  <= 1e-3 * abs(ev["d_chi2"]) and e["p"] < thr]
@@ -220,36 +284,31 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
 
     # ---- outliers judged again under the final model: rows it explains are not outliers
     if outliers.size:
-        sub = campaign.subset(outliers)  # their residuals through the one likelihood, each row in its own frame
-        lik = Likelihood(cur_model, sub, noise, setup=cur_model.setup_, features=all_feats.subset(outliers))
-        r = np.linalg.norm(lik.evaluate(lik.theta_of(cur_model), jacobian=False).metric, axis=1)
-        typical = np.linalg.norm(cur_eval["heldout"], axis=1)
-        limit = np.sqrt(stats.chi2.isf(1e-3 / len(campaign), 3) / 3) * np.sqrt(np.mean(typical**2))
-        still = outliers[r > limit]
+        # their whitened residuals through the one likelihood (each row in its own frame, with
+        # its own equations: a tracker point of any station, a nest, a range, a ball bar radius),
+        # against the noise level of the rows the model was fitted to
+        ev = cur_model.row_residuals(campaign.subset(outliers), all_feats.subset(outliers))
+        scale = robust_scale(cur_eval["heldout_w"], cur_lin.valid)
+        still = outliers[beyond_noise(ev.w, ev.valid, scale, OUTLIER_P, len(campaign))]
         if still.size < outliers.size:
             say(f"{outliers.size - still.size} flagged rows are explained by the accepted effects: kept")
             outliers = still
             rows = np.setdiff1d(np.arange(len(campaign)), outliers)
             camp, feats, fold_r = campaign.subset(rows), all_feats.subset(rows), fold[rows]
             cur_model = base_fit(camp, list(accepted))
-            scores = [s for s in scores if s.name != "outliers" or outliers.size]
-            for s in scores:
-                if s.name == "outliers":
-                    s.n_parameters = int(3 * outliers.size)
-                    s.evidence = (f"{outliers.size} rows stay beyond the p = 1e-3 (Bonferroni) limit under the final "
-                                  f"model and are left out")
             base_model = base_fit(camp, [])
             blin, bev = linearise(base_model, camp, feats, fold_r)
             held = distances_mm(blin, bev["heldout"])
-            base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(camp)))
-            loc = localise(machine, camp, bev["heldout"], bev["heldout_w"],
-                           base_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
-                           valid=blin.valid)
+            base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(camp)),
+                             chi2_per_expected=base_model.report_.chi2 / base_model.report_.chi2_expected)
+            loc = localise(machine, camp, bev["heldout"], bev["heldout_w"], Kinematics(base_model, blin, feats).point,
+                           feats=feats, valid=blin.valid)
             held_base_all = bev["heldout"]
             cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
             cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                               cur_model.predict(camp.q, camp.tool, "machine", features=feats), feats=feats,
-                               valid=cur_lin.valid)
+                               Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
+    if outliers.size:
+        scores.append(_outlier_score(proto, campaign, noise, all_feats, fold, outliers, blin, bev, alpha))
     best_mm = distances_mm(cur_lin, cur_eval["heldout"])
     unexplained = list(cur_loc["most_structured"])
     # advice from the best model's fitted numbers
@@ -264,4 +323,4 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
     return Diagnosis(machine, base_info, ranked, [int(r) for r in outliers], loc, base_model, cur_model,
                      held_base_all, camp, time.perf_counter() - t0, (float(best_mm.mean()), float(best_mm.max())),
-                     cur_loc, unexplained, _base_finding(choice))
+                     cur_loc, unexplained, _base_finding(choice), [int(v) for v in campaign.lines[outliers]])

@@ -20,15 +20,18 @@ from vecpin.units import MM_PER_M
 
 
 def _breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bins: int, label: str, unit: str,
-              categorical: bool = False, equations: np.ndarray | None = None) -> dict:
+               categorical: bool = False, valid: np.ndarray | None = None) -> dict:
     """Bins of one coordinate: per bin the rows, the mean distance [mm] and mean vector
     [mm] of the held-out residuals ``held_m`` (N,3) [m]; the F tests on the whitened
-    residuals ``held_w`` (N,3), whose rows carry ``equations`` (N,) real equations (3 for a
-    tracker point, 1 for a range or a ball-bar radius; the rest is padding)."""
+    residuals ``held_w`` (N,3), whose rows carry the real equations ``valid`` (N,3) (all
+    three for a tracker point, the first for a range or a ball bar radius; the rest is
+    padding and is not counted). Each equation (component) has its own grand mean, bin
+    means and trend; sums of squares and degrees of freedom are pooled over the
+    components (a one-way analysis of variance and a regression on the coordinate of the
+    stacked equations, with a mean per component)."""
     values = np.asarray(values, float)
     N = len(values)
-    eqs = np.full(N, 3) if equations is None else np.asarray(equations)
-    per_row = float(eqs.mean())
+    valid = np.ones((N, 3), bool) if valid is None else np.asarray(valid, bool)
     if categorical:
         keys = np.unique(values)
         idx = np.searchsorted(keys, values)
@@ -39,16 +42,12 @@ def _breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bin
         idx = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, n_bins - 1)
         keys = np.arange(n_bins)
     held_mm = held_m * MM_PER_M
-    bins, between, within, k_used = [], 0.0, 0.0, 0
+    bins = []
     for k in range(len(keys)):
         sel = idx == k
         n = int(sel.sum())
         if n == 0:
             continue
-        wbar = held_w[sel].mean(axis=0)
-        between += n * float(wbar @ wbar)
-        within += float(np.sum((held_w[sel] - wbar) ** 2))
-        k_used += 1
         entry = {"n": n, "mean_mm": float(np.linalg.norm(held_mm[sel], axis=1).mean()),
                  "mean_vector_mm": [float(v) for v in held_mm[sel].mean(axis=0)]}
         if categorical:
@@ -56,16 +55,33 @@ def _breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bin
         else:
             entry["from"], entry["to"] = float(edges[k]), float(edges[k + 1])
         bins.append(entry)
-    grand = held_w.mean(axis=0)
-    between -= N * float(grand @ grand)  # structure beyond a common offset
-    df_b, df_w = per_row * max(k_used - 1, 1), max(float(eqs.sum()) - per_row * k_used, 1.0)
+    between = within = ss_trend = ss_rest = 0.0
+    df_b = df_w = df_t = df_r = 0.0
+    for c in range(3):
+        rc = valid[:, c]
+        n_c = int(rc.sum())
+        if n_c < 3:
+            continue
+        w, ix, v = held_w[rc, c], idx[rc], values[rc]
+        count = np.bincount(ix, minlength=len(keys))
+        total = np.bincount(ix, weights=w, minlength=len(keys))
+        used = count > 0
+        mean = np.where(used, total / np.maximum(count, 1), 0.0)
+        grand = w.mean()
+        between += float(np.sum(count[used] * (mean[used] - grand) ** 2))
+        within += float(np.sum((w - mean[ix]) ** 2))
+        df_b += int(used.sum()) - 1
+        df_w += n_c - int(used.sum())
+        x = v - v.mean()
+        xx = float(x @ x)
+        if xx > 0:
+            slope = float(x @ (w - grand)) / xx
+            ss_trend += slope**2 * xx
+            ss_rest += float(np.sum((w - grand - slope * x) ** 2))
+            df_t += 1
+            df_r += n_c - 2
+    df_b, df_w, df_t, df_r = max(df_b, 1.0), max(df_w, 1.0), max(df_t, 1.0), max(df_r, 1.0)
     F_bins = (between / df_b) / max(within / df_w, 1e-300)
-    x = (values - values.mean()) / (values.std() + 1e-300)
-    centred = held_w - grand
-    slope = (x @ centred) / (x @ x) if x @ x > 0 else np.zeros(3)
-    ss_trend = float(slope @ slope * (x @ x))
-    ss_rest = float(np.sum((centred - np.outer(x, slope)) ** 2))
-    df_t, df_r = per_row, max(float(eqs.sum()) - 2 * per_row, 1.0)
     F_trend = (ss_trend / df_t) / max(ss_rest / df_r, 1e-300)
     return {"coordinate": label, "unit": unit, "bins": bins,
             "F_bins": float(F_bins), "p_bins": float(stats.f.sf(F_bins, df_b, df_w)),
@@ -77,14 +93,13 @@ def localise(machine: Machine, campaign: Campaign, held_m: np.ndarray, held_w: n
              n_bins: int = 8, alpha: float = 0.01, feats: Features | None = None,
              valid: np.ndarray | None = None) -> dict:
     """Every breakdown of the held-out residuals ``held_m`` [m] / ``held_w`` (whitened);
-    ``tips`` (N,3) [m] the modelled tool tips, machine frame; ``valid`` (N,3) the real
-    equations of each row (default: three)."""
+    ``tips`` (N,3) [m] the modelled points the rows measure (tool tips, targets, nests),
+    machine frame; ``valid`` (N,3) the real equations of each row (default: three)."""
     out = {}
     feats = feats or Features.from_campaign(campaign)
-    eqs = None if valid is None else np.asarray(valid).sum(axis=1)
 
     def breakdown(*args, **kw):
-        return _breakdown(*args, equations=eqs, **kw)
+        return _breakdown(*args, valid=valid, **kw)
     for a in machine.axes:
         out[f"axis:{a.name}"] = breakdown(a.to_user(campaign.q[:, a.index]), held_m, held_w, n_bins, a.name, a.unit)
     for a in machine.axes:
@@ -100,7 +115,7 @@ def localise(machine: Machine, campaign: Campaign, held_m: np.ndarray, held_w: n
         out["tool"] = breakdown(campaign.tool * MM_PER_M, held_m, held_w, 0, "tool", "mm", categorical=True)
     out["row order"] = breakdown(np.arange(len(campaign), dtype=float), held_m, held_w, n_bins, "row", "")
     for k, c in enumerate("xyz"):
-        out[f"space:{c}"] = breakdown(tips[:, k] * MM_PER_M, held_m, held_w, n_bins, f"tool tip {c} (machine frame)",
+        out[f"space:{c}"] = breakdown(tips[:, k] * MM_PER_M, held_m, held_w, n_bins, f"measured point {c} (machine frame)",
                                       "mm")
     limit = alpha / len(out)
     for v in out.values():

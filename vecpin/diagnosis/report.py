@@ -86,7 +86,7 @@ def write_report(diag, out) -> Path:
                      f"{e.heldout_mean_mm_before:.4f} | {e.heldout_mean_mm_after:.4f} | {e.shrink_pct:.1f}% | "
                      f"{e.p_value:.1e} | {e.p_heldout:.1e} |")
     for e in diag.accepted:
-        lines += ["", f"**{e.label}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
+        lines += ["", f"**{e.headword}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
     m, x = diag.best_heldout()
     lines += ["", f"Best model (base + accepted effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",
               "![effects](figures/effects.png)", "", "## Where the residual lies", "",
@@ -99,6 +99,7 @@ def write_report(diag, out) -> Path:
         lines += ["", "Still structured after the accepted effects (unexplained): "
                   + ", ".join(diag.unexplained) + "."]
     lines += ["", "![breakdowns](figures/breakdowns.png)", "", "![rows](figures/rows.png)", ""]
-    if diag.outlier_rows:
-        lines += [f"Outlier rows (0-based): {', '.join(map(str, diag.outlier_rows))}", ""]
+    if diag.outlier_lines:
+        lines += [f"Outliers left out: file lines {', '.join(map(str, diag.outlier_lines))} of {diag.campaign.source}",
+                  ""]
     return out.write_text("report.md", "\n".join(lines))

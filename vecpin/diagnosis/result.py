@@ -45,6 +45,13 @@ class EffectScore:
     effect: Effect | None = field(default=None, repr=False)
 
     @property
+    def headword(self) -> str:
+        """The label and the size of the effect, e.g. 'backlash[X] (1 term)' (outliers: the label)."""
+        if self.name == "outliers":
+            return self.label
+        return f"{self.label} ({self.n_parameters} term{'' if self.n_parameters == 1 else 's'})"
+
+    @property
     def shrink_pct(self) -> float:
         return 100.0 * (1 - self.heldout_mean_mm_after / self.heldout_mean_mm_before)
 
@@ -76,6 +83,7 @@ class Diagnosis:
     localization_final: dict | None = None
     unexplained: list[str] = field(default_factory=list)
     base_finding: str = ""
+    outlier_lines: list[int] = field(default_factory=list)  # the outliers' line numbers in the campaign file
 
     @property
     def accepted(self) -> list[EffectScore]:
@@ -115,19 +123,22 @@ class Diagnosis:
     def to_dict(self) -> dict:
         return {"headline": self.headline(), "base": self.base, "base_finding": self.base_finding,
                 "effects": [e.to_dict() for e in self.effects], "outlier_rows": self.outlier_rows,
+                "outlier_lines": self.outlier_lines,
                 "localization": self.localization, "localization_final": self.localization_final,
                 "unexplained": self.unexplained,
                 "best": {"effects": [e.label for e in self.accepted], "heldout_mean_mm": self.best[0],
                          "heldout_max_mm": self.best[1]},
-                "units": "mm; p-values are probabilities; localisation bins in the coordinate's unit"}
+                "units": "mm; p-values are probabilities; localisation bins in the coordinate's unit; outlier_rows "
+                         "0-based row indices of the campaign, outlier_lines their line numbers in its file (header = 1)"}
 
     def summary(self) -> str:
         b = self.base
         lines = self.headline() + ["",
                                    f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max "
                                    f"{b['heldout_max_mm']:.4f} mm ({b['folds']}-fold CV over {b['rows']} rows)"]
-        if self.outlier_rows:
-            lines.append(f"outliers: rows {', '.join(map(str, self.outlier_rows))} (0-based) flagged and left out")
+        if self.outlier_lines:
+            lines.append(f"outliers: file lines {', '.join(map(str, self.outlier_lines))} of {self.campaign.source} "
+                         "flagged and left out")
         lines.append(f"  {'rank':>4s} {'effect':<34s} {'signif.':>7s} {'accepted':>8s} {'before':>8s} {'after':>8s} "
                      f"{'shrink':>7s} {'p (fit)':>9s} {'p (held)':>9s}")
         for k, e in enumerate(self.effects[:12], 1):
@@ -135,7 +146,7 @@ class Diagnosis:
                          f"{'yes' if e.accepted else 'no':>8s} {e.heldout_mean_mm_before:8.4f} "
                          f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.p_value:9.2e} {e.p_heldout:9.2e}")
         for e in self.accepted:
-            lines.append(f"accepted: {e.label}: {e.evidence}")
+            lines.append(f"accepted: {e.headword}: {e.evidence}")
             lines += [f"  advice: {a}" for a in e.advice]
         m, x = self.best
         lines.append(f"best model: held-out mean {m:.4f} mm, max {x:.4f} mm "

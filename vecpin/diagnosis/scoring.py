@@ -40,19 +40,52 @@ def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
 
 
 class Kinematics:
-    """What the current model gives every candidate: tips, tool directions and d tip / d q
-    at the campaign's rows (machine frame), computed once."""
+    """What the current model gives every candidate, computed once per round: per row the
+    point the row measures (its instrument's request in the likelihood: a tool tip, a
+    tool target of any tool point, or a point fixed on the table, a nest), in the base
+    frame, with d point / d q and the tool direction.
 
-    def __init__(self, model: ErrorModel, campaign, feats: Features):
-        self.model = model
-        self.q = campaign.q
-        mt = model.tool_tip(campaign.q, campaign.tool, model.b_, jacobian=True, features=feats)
-        self.tip, self.J_q, self.tool_dir = mt.tip, mt.J_q, mt.tool_dir
-        self.ctx = TipContext(model.machine, campaign.q, mt.tip, mt.tool_dir)
+    ``point`` (N,3) [m]; ``J_q`` (N,3,n); ``tool_dir`` (N,3) (zero on nest rows);
+    ``on_tool`` (N,) False on nest rows: a command effect moves the axes of both branches,
+    so it reaches a nest through the table axes (its own d point / d q), while a tip
+    effect displaces the tool only; ``ctx``: the :class:`TipContext` of the tool rows."""
+
+    def __init__(self, model: ErrorModel, lin: Linearised, feats: Features):
+        lik = lin.likelihood
+        q = lik.campaign.q
+        N, n = q.shape
+        theta = lik.theta_of(model)
+        b = model.b_
+        self.model, self.q = model, q
+        self.point, self.J_q = np.zeros((N, 3)), np.zeros((N, 3, n))
+        self.tool_dir, self.on_tool = np.zeros((N, 3)), np.ones(N, bool)
+        for blk in lik.blocks:
+            rows, req = blk.rows, blk.request
+            f = feats.subset(rows) if feats is not None else None
+            local, _ = req.with_unknowns(theta[blk.unknowns])
+            if req.kind == "workpiece":
+                wp = model.workpiece_points(q[rows], local, b, True, f)
+                self.point[rows], self.J_q[rows] = wp.xyz, wp.J_q
+                self.on_tool[rows] = False
+                continue
+            pt = req.point
+            mt = model.tool_tip(q[rows], req.tool, b, True, f, frame="base",
+                                point=int(pt[0]) if np.all(pt == pt[0]) else pt,
+                                offset=local if np.any(local) else None)
+            self.point[rows], self.J_q[rows], self.tool_dir[rows] = mt.tip, mt.J_q, mt.tool_dir
+        self.ctx = TipContext(model.machine, q, self.point, self.tool_dir)
+
+    @property
+    def tip(self) -> np.ndarray:
+        """The measured points (N,3) [m], base frame (tool tips, targets, nests)."""
+        return self.point
 
 
 def effect_columns(kin: Kinematics, lin: Linearised, effect: Effect, feats: Features) -> tuple[np.ndarray, np.ndarray]:
-    """ψ-scaled columns (A metric, J whitened) of a candidate effect's parameters."""
+    """ψ-scaled columns (A metric, J whitened) of a candidate effect's parameters: the
+    columns the model with the effect has at the current solution (command effects
+    through each row's own d point / d q, tip effects on tool rows only, tracker-frame
+    effects on the rows the effect says it moves, each in its station's frame)."""
     prior = np.array([p.prior for p in effect.parameters()])
     k = len(prior)
     A = np.zeros(lin.r.shape + (k,))
@@ -64,7 +97,7 @@ def effect_columns(kin: Kinematics, lin: Linearised, effect: Effect, feats: Feat
     if "command" in effect.kinds:
         D += np.einsum("pin,pnk->pik", kin.J_q, effect.command(kin.q, feats))
     if "tip" in effect.kinds:
-        D += effect.tip(kin.ctx, feats)
+        D += effect.tip(kin.ctx, feats) * kin.on_tool[:, None, None]
     if "command" in effect.kinds or "tip" in effect.kinds:
         a, j = lin.point_columns(D, prior)
         A, J = A + a, J + j
@@ -100,10 +133,34 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     return ev
 
 
+def row_equations(valid: np.ndarray) -> np.ndarray:
+    """(N,) the real equations of each row (3 for a tracker point, 1 for a range or a
+    ball bar radius)."""
+    return np.asarray(valid).sum(axis=1)
+
+
+def robust_scale(w: np.ndarray, valid: np.ndarray) -> float:
+    """The noise scale of whitened residuals w (N,3) whose rows carry ``valid`` equations:
+    the median over rows of |w_i|^2 / median of chi2(k_i) (1 when the whitening is right;
+    gross errors do not move a median)."""
+    s = np.sum(w**2, axis=1)
+    k = row_equations(valid)
+    return float(np.median(s / stats.chi2.median(np.maximum(k, 1))))
+
+
+def beyond_noise(w: np.ndarray, valid: np.ndarray, scale: float, p: float, n_tests: int) -> np.ndarray:
+    """(N,) True for rows whose whitened residual w is too large to be noise at the
+    given scale: chi2 with the row's own number of equations, beyond the p / n_tests
+    (Bonferroni) limit. A row whose residual is not a number is beyond."""
+    s = np.sum(w**2, axis=1) / scale
+    k = np.maximum(row_equations(valid), 1)
+    return ~(s <= stats.chi2.isf(p / n_tests, k))
+
+
 def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float = 1e-3) -> np.ndarray:
     """Rows whose held-out whitened residual is too large to be noise, judged against
-    the robust (median) dispersion of all rows, Bonferroni over the rows."""
-    s = np.sum(base_eval["heldout_w"] ** 2, axis=1)
-    scale = np.median(s) / stats.chi2.median(3)
-    limit = stats.chi2.isf(p / len(s), 3)
-    return np.flatnonzero(s / scale > limit)
+    the robust (median) dispersion of all rows, each row with its own number of
+    equations (a tracker point three, a range or a radius one), Bonferroni over the rows."""
+    w = base_eval["heldout_w"]
+    scale = robust_scale(w, lin.valid)
+    return np.flatnonzero(beyond_noise(w, lin.valid, scale, p, len(w)))

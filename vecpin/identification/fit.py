@@ -18,7 +18,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
-from vecpin.identification.redundancy import WEAK_RATIO, active_columns, find_redundant
+from vecpin.identification.redundancy import WEAK_RATIO, active_columns
 from vecpin.identification.report import FitReport, describe_counts, unknown_counts
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
@@ -32,17 +32,54 @@ from vecpin.units import MM_PER_M
 
 def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: NoiseModel, n: int = 1000):
     """Redundant terms judged on a rich quasi-random design (``n`` commands x ``tools``)
-    instead of the measured poses: only what no design could identify."""
+    instead of the measured poses: only what no design could identify. The design
+    measures what a full campaign of this machine would: the tool tips of every tool
+    point and, on a machine with a workpiece (table axes), :data:`REFERENCE_NESTS` points
+    fixed on the table (nests, positions unknown as in a real campaign): without them
+    the table axes would move nothing and all their terms would be removed.
+    Returns (redundant mask, ratio) over [E_0, b]."""
     m = model.machine
     u = qmc.Halton(m.n_axes, seed=0).random(n)
     q = m.lower + u * (m.upper - m.lower)
-    qq = np.repeat(q, len(tools), axis=0)
-    tt = np.tile(tools, len(q))
-    ref = Campaign(m.axis_names, qq, tt, m.tool_tip(qq, tt, frame="base"), {}, "reference design")
+    tools = np.atleast_1d(np.asarray(tools, float))
+    parts = []  # (q, tool, point, instrument, nest id, base-frame point) per block of rows
+    for k in range(len(getattr(m, "tool_links", ())) or 1):
+        qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
+        parts.append((qq, tt, np.full(len(qq), k), "tracker", "", m.tool_tip(qq, tt, frame="base", point=k)))
+    if getattr(m, "has_workpiece", False):
+        for nid, p_wp in reference_nests(m).items():
+            parts.append((q, np.full(len(q), tools[0]), np.zeros(len(q), int), "nest", nid,
+                          m.workpiece_points(q, p_wp, jacobian=False).xyz))
+    ref = Campaign(m.axis_names, np.vstack([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+                   np.vstack([p[5] for p in parts]), {}, "reference design",
+                   np.concatenate([np.full(len(p[0]), p[3], dtype=object) for p in parts]),
+                   point=np.concatenate([p[2] for p in parts]),
+                   target=np.concatenate([np.full(len(p[0]), p[4], dtype=object) for p in parts]))
     cart = NoiseModel(noise.axis_sigma, "cartesian", noise.cartesian_sigma)
     lik = Likelihood(model, ref, cart, Setup(np.eye(3), np.zeros(3)), instrument="cartesian")
-    _, J = lik.evaluate(np.zeros(lik.n_unknowns)).flat()
-    return find_redundant(J)
+    theta = np.zeros(lik.n_unknowns)
+    _, G, _, _ = lik.normal_equations(theta)
+    red, ratio = lik.redundancy(theta, np.sqrt(np.diag(G)))  # nest positions before the table's constant terms
+    k = 6 + lik.n_model
+    return red[:k], ratio[:k]
+
+
+REFERENCE_NESTS = 4  # table points of the reference design on a machine with a workpiece
+
+
+def reference_nests(machine) -> dict[str, np.ndarray]:
+    """{id: (3,) [m]} :data:`REFERENCE_NESTS` points fixed in the workpiece frame for the
+    reference design: on a circle of 40 % of the table's reach (half the span of the tool
+    tips relative to the workpiece, at most 0.3 m), at different heights (20-80 mm), so
+    that no three lie on a line through a table axis."""
+    q = machine.lower + qmc.Halton(machine.n_axes, seed=1).random(256) * (machine.upper - machine.lower)
+    rel = machine.tool_tip(q, 0.2, frame="workpiece")
+    reach = max(min(0.3, 0.2 * float(np.ptp(rel[:, :2], axis=0).min())), 0.05)
+    out = {}
+    for k in range(REFERENCE_NESTS):
+        a = 2 * np.pi * (k + 0.3 * (k % 2)) / REFERENCE_NESTS
+        out[f"ref{k + 1}"] = np.array([reach * np.cos(a), reach * np.sin(a), 0.02 + 0.02 * k])
+    return out
 
 
 def _check_units_and_frame(lik: Likelihood, campaign: Campaign) -> None:

@@ -409,37 +409,42 @@ class ErrorModel:
         self._check_fitted()
         return self.machine.tool_tip(q, tool, frame="base", point=point, offset=offset) @ self.setup_.R.T + self.setup_.t
 
-    def _row_points(self, campaign, theta: np.ndarray | None) -> np.ndarray:
-        """Predicted tracker readings (N,3) [m] of every row with a point (tool tips,
-        targets, nests; NaN on ball bar rows) at the fitted setup; ``theta=None``: the
-        fitted model, else these unknowns (zeros: the nominal machine)."""
+    def row_residuals(self, campaign, features: Features | None = None):
+        """The fitted model's residual of every row through the one likelihood (an
+        :class:`~vecpin.identification.likelihood.Evaluation` without Jacobians): ``metric``
+        (N,3) [m] measured minus modelled, each tracker or nest row in its station's frame
+        (a range or a ball bar radius in column 0 on rows read that way); ``w`` (N,3) the
+        same whitened by the row's noise (instrument and positioning); ``valid`` (N,3) the
+        row's real equations; ``y`` (N,3) [m] the modelled instrument-frame points (NaN on
+        ball bar rows). Tracker-frame effects act as in the fit (on the rows of the
+        station they concern). ``features``: per-row time, temperature, approach
+        directions and stations (default: from the campaign's own rows). Every residual
+        vecpin reports of a fitted model comes from here."""
+        self._check_fitted()
         for s in np.unique(campaign.station[campaign.instrument != "ballbar"]):
             if int(s) != 0 and int(s) not in self.setup_.stations:
                 raise VecpinError(f"{campaign.source}: station {s} was not in the fitted campaign")
-        feats = Features.from_campaign(campaign) if self.effects else None
-        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=feats)
-        return lik.predicted_points(lik.theta_of(self) if theta is None else theta)
+        if features is None and self.effects:
+            features = Features.from_campaign(campaign)
+        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=features)
+        return lik.evaluate(lik.theta_of(self), jacobian=False)
 
     def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
         """Measured minus modelled points (N,3) [m], each tracker or nest row in its
-        station's frame (NaN on rows without a point, e.g. ball bar rows). ``reregister``:
-        fit the tracker pose to this campaign first (the tracker was moved). Effects take
-        time, temperature and approach directions from the campaign's rows."""
-        self._check_fitted()
-        feats = Features.from_campaign(campaign) if self.effects else None
-        if campaign.plain and not reregister and not campaign.mixed:
-            return campaign.xyz - predict_tracker(self, campaign.q, campaign.tool, np.r_[self.e0_, self.b_],
-                                                  self.setup_, feats, False)[0]
-        if reregister:
-            out = np.full((len(campaign), 3), np.nan)
-            y = self._row_points(campaign, None)
-            for s in np.unique(campaign.station[campaign.instrument != "ballbar"]):
-                rows = np.flatnonzero((campaign.instrument != "ballbar") & (campaign.station == s))
-                p = self.setup_.pose(int(s))
-                machine_frame = (y[rows] - p[1]) @ p[0]  # back to (corrected) machine coordinates
-                out[rows] = registered_errors(machine_frame, campaign.xyz[rows])
-            return out
-        return campaign.xyz - self._row_points(campaign, None)
+        station's frame (NaN on rows without a point, e.g. ball bar rows), from
+        :meth:`row_residuals`. ``reregister``: fit the tracker pose to this campaign first
+        (the tracker was moved). Effects take time, temperature and approach directions
+        from the campaign's rows."""
+        y = self.row_residuals(campaign).y
+        if not reregister:
+            return campaign.xyz - y
+        out = np.full((len(campaign), 3), np.nan)
+        for s in np.unique(campaign.station[campaign.instrument != "ballbar"]):
+            rows = np.flatnonzero((campaign.instrument != "ballbar") & (campaign.station == s))
+            p = self.setup_.pose(int(s))
+            machine_frame = (y[rows] - p[1]) @ p[0]  # back to (corrected) machine coordinates
+            out[rows] = registered_errors(machine_frame, campaign.xyz[rows])
+        return out
 
     def nominal_residuals(self, campaign) -> np.ndarray:
         """Measured minus nominal points (N,3) [m] with the fitted tracker poses, nests and

@@ -163,15 +163,25 @@ class SimulatedMachine:
 
     def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
         """Scale every effect so that its RMS tool-tip displacement over these rows is
-        its ``strength_mm`` (outliers: the size of the gross errors)."""
+        its ``strength_mm`` (outliers: the size of the gross errors). On a machine with a
+        workpiece the displacement of a machine effect is that of the tip relative to the
+        workpiece (an effect of a table axis moves the part, not the tip in the base
+        frame); a tracker effect's is that of the readings."""
         effects, self.effects = self.effects, []
-        base = self.measure(q, tool, None, features)
+        relative = self.machine.has_workpiece
+
+        def displaced(e):
+            if relative and "tracker" not in e.kinds:
+                return self.tool_tip(q, tool, features, frame="workpiece")
+            return self.measure(q, tool, None, features)
         for e in effects:
             if e.flags_rows:
                 continue
+            base = displaced(e)
             e.scale = 1.0
             self.effects = [e]
-            rms = np.sqrt((np.linalg.norm(self.measure(q, tool, None, features) - base, axis=1) ** 2).mean())
+            rms = np.sqrt((np.linalg.norm(displaced(e) - base, axis=1) ** 2).mean())
+            self.effects = []
             e.scale = e.strength_mm * M_PER_MM / rms if rms > 0 else 0.0
         self.effects = effects
 

@@ -52,7 +52,8 @@ class TrackerInstrument(Instrument):
         y, RR, de = to_station(p, R, t, u, jacobian=True)
         n = len(rows)
         M = np.broadcast_to(np.eye(3), (n, 3, 3))
-        if tracker_terms is not None and s == 0:  # tracker-frame effects move the measured point
+        if tracker_terms is not None:  # tracker-frame effects move the point in this station's frame (the
+            # effect says which stations' rows it moves: models.effects.instrument_shift)
             shift, grad = tracker_terms(y, rows)
             y = y + shift
             M = np.eye(3) + grad

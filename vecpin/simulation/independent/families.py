@@ -29,7 +29,10 @@ mean volumetric error a family's content makes: local, short-wavelength errors
 
 Each generator returns the family's terms and, per axis, the :class:`AxisBasis` that
 contains that axis' separable terms *and* the background exactly (the oracle basis);
-``mixed`` has terms no per-axis basis contains.
+``mixed`` has terms no per-axis basis contains. A ``<mimic>`` joint (a joint that follows
+an axis, like the second head of a machine with mirrored spindles) gets errors of its
+own (:func:`mimic_terms`): the terms of the axis it follows, redrawn with the same
+structure, so the axis' oracle basis contains them too.
 """
 from __future__ import annotations
 
@@ -198,3 +201,21 @@ def mixed(machine: Machine, rng: np.random.Generator):
 
 
 GENERATORS = {"windup": windup, "periodic_drift": periodic_drift, "spline": spline, "bumps": bumps, "mixed": mixed}
+
+
+def mimic_terms(terms: list[Term], machine: Machine, rng: np.random.Generator) -> list[Term]:
+    """Errors of every ``<mimic>`` joint of the machine (slot n + m for the m-th): for each
+    term acting after the axis the joint follows, a term of the same component, size
+    and family acting after the joint, its shapes redrawn (:meth:`Shape.redrawn`) and
+    its sign random: the second head's errors are of the same kind as the first's but
+    its own. Base-frame terms are shared by every tool point already."""
+    out = []
+    n = machine.n_axes
+    for m, mj in enumerate(getattr(machine, "mimic_joints", ())):
+        k = machine.axis(mj.axis).index
+        for t in terms:
+            if t.target != k:
+                continue
+            shapes = tuple(s.redrawn(rng) for s in t.shapes)
+            out.append(Term(n + m, t.component, float(t.amplitude * rng.choice([-1.0, 1.0])), shapes, t.family, k))
+    return out

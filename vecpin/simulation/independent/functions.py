@@ -2,8 +2,10 @@
 
 A :class:`Term` is one error component (a translation [m] or rotation [rad]) of one
 place in the chain: right after an axis' motion, in that axis' moving frame (like a
-6-DoF error), or in the machine base frame (a translation of the tool tip, e.g. a
-deformation field of the bed). Its value is ``amplitude * prod_f shape_f(q_f)``:
+6-DoF error), right after a ``<mimic>`` joint's motion (a joint that follows an axis,
+e.g. the second head of a machine with mirrored spindles: its errors are its own,
+functions of the axis it follows), or in the machine base frame (a translation of the
+tool tip, e.g. a deformation field of the bed). Its value is ``amplitude * prod_f shape_f(q_f)``:
 one shape of the axis itself gives a separable error (the kind vecpin's models are
 built from); shapes of two or more axes give errors that mix axes.
 
@@ -44,6 +46,19 @@ class Shape:
     degree: int = 3
     bumps: tuple[tuple[float, float, float], ...] = ()
 
+    def redrawn(self, rng: np.random.Generator) -> "Shape":
+        """A shape of the same structure (Chebyshev length, harmonic frequencies, knots,
+        bump centres and widths) with new random coefficients of the same RMS: another
+        function the same basis contains."""
+        def draw(values):
+            v = np.asarray(values, float)
+            rms = float(np.sqrt(np.mean(v**2))) if v.size else 0.0
+            return tuple(float(x) for x in rng.normal(size=v.size) * rms)
+        harm = tuple((w, *draw([a, b])) for w, a, b in self.harmonics)
+        heights = draw([h for _, _, h in self.bumps])
+        return replace(self, cheb=draw(self.cheb), harmonics=harm, coefs=draw(self.coefs),
+                       bumps=tuple((c, s, h) for (c, s, _), h in zip(self.bumps, heights)))
+
     def __call__(self, q: np.ndarray, lower: float, upper: float, rotary: bool) -> np.ndarray:
         q = np.asarray(q, float)
         u = (2 * q - lower - upper) / (upper - lower)
@@ -81,20 +96,29 @@ class Shape:
 class Term:
     """One error component: ``amplitude * prod(shapes)`` [m or rad].
 
-    ``target``: the axis index after whose motion the error acts (moving frame), or
-    :data:`BASE` (base frame, translations only); ``component``: index into
-    :data:`COMPONENTS`; ``family``: a tag saying which part of the truth it is."""
+    ``target``: the slot after whose motion the error acts (moving frame): an axis index
+    0..n-1, or n + m for the machine's m-th ``<mimic>`` joint; or :data:`BASE` (base
+    frame, translations only); ``component``: index into :data:`COMPONENTS`; ``family``:
+    a tag saying which part of the truth it is; ``driver``: the axis a mimic joint's
+    slot follows (None: the target is an axis, its own driver)."""
 
     target: int
     component: int
     amplitude: float
     shapes: tuple[Shape, ...] = field(default_factory=tuple)
     family: str = ""
+    driver: int | None = None
+
+    @property
+    def axis(self) -> int:
+        """The axis whose position moves the joint the error follows."""
+        return self.target if self.driver is None else self.driver
 
     @property
     def separable(self) -> bool:
-        """True when the error depends only on the position of the axis it follows."""
-        return self.target != BASE and all(s.axis == self.target for s in self.shapes)
+        """True when the error depends only on the position of the axis that moves the
+        joint it follows (a per-slot 6-DoF form)."""
+        return self.target != BASE and all(s.axis == self.axis for s in self.shapes)
 
     def value(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, rotary: np.ndarray) -> np.ndarray:
         """(N,) value at commands q (N,n) [m, rad]; travel limits and kinds per axis."""

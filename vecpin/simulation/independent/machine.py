@@ -21,7 +21,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import Tracker, TrackerNoise
 from vecpin.models.basis import AxisBasis
 from vecpin.simulation.independent.chain import URDFChain, error_transform
-from vecpin.simulation.independent.families import DEFAULT_SHARE, FAMILIES, GENERATORS, background
+from vecpin.simulation.independent.families import DEFAULT_SHARE, FAMILIES, GENERATORS, background, mimic_terms
 from vecpin.simulation.independent.functions import BASE, COMPONENTS, Shape, Term
 from vecpin.simulation.truth import SimulatedMachine, place_tracker, uniform_commands
 from vecpin.units import MM_PER_M, M_PER_MM, RAD_PER_DEG
@@ -38,8 +38,8 @@ def _component_unit(c: int) -> float:
 class IndependentMachine(SimulatedMachine):
     """A simulated true machine whose kinematics and error functions vecpin did not write.
 
-    ``terms``: the error components (:class:`Term`, SI); ``family``: the name of the
-    family they were drawn from; ``bases``: per axis the :class:`AxisBasis` that
+    ``terms``: the error components (:class:`Term`, SI), after the axes and after every
+    ``<mimic>`` joint (:attr:`slots`); ``family``: the name of the family they were drawn from; ``bases``: per axis the :class:`AxisBasis` that
     contains every separable term of that axis (the oracle, see :meth:`oracle_bases`);
     ``gauge_error``: actual minus nominal gauge-line offset along the tool [m];
     ``repeatability``: (n,) 1-sigma axis noise [m, rad]; ``tracker``: pose and noise.
@@ -66,15 +66,24 @@ class IndependentMachine(SimulatedMachine):
         return self._chain
 
     # ------------------------------------------------------------------ kinematics
+    @property
+    def slots(self) -> list[tuple[str, int]]:
+        """(joint name, index of the axis that moves it) of every place errors act after:
+        the axes, then the machine's ``<mimic>`` joints (which follow an axis)."""
+        m = self.machine
+        return [(a.name, a.index) for a in m.axes] + \
+               [(mj.name, m.axis(mj.axis).index) for mj in getattr(m, "mimic_joints", ())]
+
     def _limits(self):
         m = self.machine
         return m.lower, m.upper, np.array([a.kind == "rotary" for a in m.axes])
 
     def error_values(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(errors (N,n,6) after each axis' motion [m, rad], base-frame translations (N,3) [m])."""
+        """(errors (N,S,6) after each slot's motion (the axes, then the mimic joints:
+        :attr:`slots`) [m, rad], base-frame translations (N,3) [m])."""
         q = np.atleast_2d(np.asarray(q, float))
         lo, hi, rot = self._limits()
-        local = np.zeros((len(q), self.machine.n_axes, 6))
+        local = np.zeros((len(q), len(self.slots), 6))
         base = np.zeros((len(q), 3))
         for t in self.terms:
             v = t.value(q, lo, hi, rot)
@@ -85,9 +94,9 @@ class IndependentMachine(SimulatedMachine):
         return local, base
 
     def _errors(self, q: np.ndarray):
+        """({joint name: (N,4,4) exact error transform after its motion}, base-frame translations)."""
         local, base = self.error_values(q)
-        names = self.machine.axis_names
-        return {names[k]: error_transform(local[:, k, :3], local[:, k, 3:]) for k in range(len(names))}, base
+        return {name: error_transform(local[:, k, :3], local[:, k, 3:]) for k, (name, _) in enumerate(self.slots)}, base
 
     def geometric_tip(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
                       offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -141,8 +150,9 @@ class IndependentMachine(SimulatedMachine):
         m = self.machine
         unit = [a.scale for a in m.axes]
         terms = []
+        slots = self.slots
         for t in self.terms:
-            terms.append({"at": "base frame" if t.target == BASE else m.axes[t.target].name,
+            terms.append({"at": "base frame" if t.target == BASE else slots[t.target][0],
                           "component": COMPONENTS[t.component],
                           "amplitude": t.amplitude / _component_unit(t.component),
                           "family": t.family,
@@ -151,8 +161,8 @@ class IndependentMachine(SimulatedMachine):
                 "units": {"amplitude": "mm (dx dy dz) or deg (ex ey ez)", "knots, bump centres and widths":
                           "mm or deg of the shape's axis", "gauge_error": "mm", "repeatability": "mm or deg",
                           "harmonics": "cycles per turn (rotary) or half-periods over the travel (linear)"},
-                "meaning": "error value = amplitude * product of the shapes; 'at' an axis: after its motion, "
-                           "in its moving frame (rotation vector); 'base frame': a tool-tip translation",
+                "meaning": "error value = amplitude * product of the shapes; 'at' an axis or a mimic joint: after "
+                           "its motion, in its moving frame (rotation vector); 'base frame': a tool-tip translation",
                 "terms": terms,
                 "oracle_bases": {a.name: B.to_dict(a.scale) for a, B in zip(m.axes, self.bases)},
                 "gauge_error": self.gauge_error * MM_PER_M,
@@ -166,14 +176,20 @@ class IndependentMachine(SimulatedMachine):
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "IndependentMachine":
-        idx = {a.name: a.index for a in machine.axes}
+        slots = [(a.name, a.index) for a in machine.axes] + \
+                [(mj.name, machine.axis(mj.axis).index) for mj in getattr(machine, "mimic_joints", ())]
+        idx = {name: k for k, (name, _) in enumerate(slots)}
         unit = [a.scale for a in machine.axes]
         terms = []
         for t in d["terms"]:
             c = COMPONENTS.index(t["component"])
             shapes = tuple(Shape.from_dict(s, unit[int(s["axis"])]) for s in t["shapes"])
-            terms.append(Term(BASE if t["at"] == "base frame" else idx[t["at"]], c,
-                              t["amplitude"] * _component_unit(c), shapes, t.get("family", "")))
+            if t["at"] != "base frame" and t["at"] not in idx:
+                raise InputError(f"independent truth: an error 'at' {t['at']!r}, which is no axis or mimic joint of "
+                                 f"{machine.name} ({', '.join(idx)})")
+            k = BASE if t["at"] == "base frame" else idx[t["at"]]
+            driver = slots[k][1] if k >= machine.n_axes else None
+            terms.append(Term(k, c, t["amplitude"] * _component_unit(c), shapes, t.get("family", ""), driver))
         bases = [AxisBasis.from_dict(d["oracle_bases"][a.name], a.lower, a.upper, a.kind == "rotary", a.scale)
                  for a in machine.axes]
         rep = np.array([float(a.to_si(d["repeatability"][a.name])) for a in machine.axes])
@@ -207,6 +223,8 @@ class IndependentMachine(SimulatedMachine):
         rng = np.random.default_rng(seed)
         back = background(machine, rng)
         terms, bases = GENERATORS[family](machine, rng)
+        back += mimic_terms(back, machine, rng)  # a mimic joint's errors are its own (no draws without one)
+        terms += mimic_terms(terms, machine, rng)
         n = machine.n_axes
         raw = cls(machine, [], family, bases, 0.0, np.zeros(n), Tracker(), seed)
         q = uniform_commands(machine, 400, rng)
