@@ -81,3 +81,20 @@ def test_outliers_on_a_two_station_campaign_are_named_by_file_line(machines, tmp
     for e in d.accepted:
         line = next(s for s in text.splitlines() if s.startswith(f"accepted: {e.headword}"))
         assert line.count(e.label) == 1, line
+
+
+def test_row_dependent_effects_act_on_every_station_of_a_simulated_campaign(machines):
+    """The program runs again for each further station: backlash (set by the approach
+    direction, the same in every run) moves station 1's readings exactly as it moves
+    station 0's. Same seed with and without the effect: the noise is the same, so the
+    difference is the effect alone, and its size per row is frame-free (a rotation
+    between the stations' frames keeps lengths)."""
+    m = machines["flow_xyzcb"]
+    design = Design(n_commands=40, n_validation=5, stations=2)
+    plain = simulate(m, seed=21, design=design).campaign
+    spec = TrueEffect("backlash", ("X",), 0.04, seed=2)
+    lost = simulate(m, seed=21, design=design, effects=[spec]).campaign
+    d = np.linalg.norm(lost.xyz - plain.xyz, axis=1)
+    s0, s1 = plain.station == 0, plain.station == 1
+    assert s0.sum() == s1.sum() and d[s0].max() > 1e-5
+    np.testing.assert_allclose(d[s1], d[s0], atol=1e-9)

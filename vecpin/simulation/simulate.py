@@ -24,6 +24,7 @@ from vecpin.planning.nests import nest_positions  # noqa: F401  (the one placeme
 from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported)
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.features import Features
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.units import M_PER_MM
 
@@ -204,11 +205,16 @@ def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design
     m = truth.machine
     parts = [campaign]
     n = len(campaign)
+    t_end, temp_end = campaign.time[-1], campaign.temperature[-1]
     for s in range(1, design.stations):
         if len(truth.stations) < s:
             from vecpin.simulation.truth import place_tracker
             truth.stations.append(place_tracker(m, rng, truth.tracker.noise, 2.0, side=2 * np.pi * s / design.stations))
-        xyz = rows.measure(truth, rng, station=s)
+        # the program runs again for this station, later: its rows carry their own time, temperature and
+        # approach directions, so row-dependent effects (thermal, backlash, a tracker step) act on them too
+        extra = {"time": t_end + 15.0 * np.arange(n * (s - 1) + 1, n * s + 1), "temperature": np.full(n, temp_end)}
+        feats = Features.from_campaign(Campaign(m.axis_names, campaign.q, campaign.tool, np.zeros((n, 3)), extra))
+        xyz = rows.measure(truth, rng, feats, station=s)
         parts.append(Campaign(m.axis_names, campaign.q, campaign.tool, xyz, {}, campaign.source,
                               campaign.instrument, np.full(n, s), point=campaign.point, target=campaign.target))
     if design.ballbar_points:
@@ -218,7 +224,6 @@ def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design
         parts.append(Campaign(m.axis_names, q, np.full(len(q), tool), np.full((len(q), 3), np.nan), {}, campaign.source,
                               np.full(len(q), "ballbar", dtype=object), np.zeros(len(q), int), r, np.zeros(len(q), int)))
         truth.pivot = pivot
-    t_end = campaign.time[-1]
     out = Campaign(m.axis_names, np.vstack([p.q for p in parts]), np.concatenate([p.tool for p in parts]),
                    np.vstack([p.xyz for p in parts]), {}, campaign.source,
                    np.concatenate([p.instrument for p in parts]), np.concatenate([p.station for p in parts]),
@@ -377,7 +382,6 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     controller's gauge-line change belongs to the tables, not to the files. The other
     outputs are the same with or without ``tables``. ``tracker_position`` (3,) [m],
     machine frame: where the tracker stands (as planned), keeping its random heading."""
-    from vecpin.measurement.features import Features
     design = design or Design()
     template = plan if isinstance(plan, PlanTemplate) else None
     if template is not None:
