@@ -102,7 +102,7 @@ def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: n
     it misfits, and the chosen base model judges)."""
     rows = np.arange(len(campaign))
     out = np.array([], int)
-    quick = fixed_model(machine, "ap", "fourier", 4)
+    quick = fixed_model(machine, "ap", "fourier" if any(a.multiturn for a in machine.axes) else "chebyshev", 4)
     try:
         for _ in range(3):
             camp = campaign.subset(rows) if out.size else campaign
