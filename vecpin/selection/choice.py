@@ -125,11 +125,6 @@ class ModelChoice:
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
-    def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
-        cols = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols))
-
-
 class _Problem(FoldedDesign):
     """:class:`~vecpin.selection.design.FoldedDesign` that scores candidates."""
 
