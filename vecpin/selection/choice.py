@@ -37,7 +37,7 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import CHEB_ORDERS, FAMILIES, AxisChoice, FoldedDesign, axis_options
+from vecpin.selection.design import CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options
 
 KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
@@ -45,12 +45,19 @@ MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by c
 
 @dataclass
 class Candidate:
-    """One model: kind, a basis per axis, held-out distances [mm] per judged row."""
+    """One model: kind, a basis per axis, held-out distances [mm] per judged row;
+    ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
+    penalised spline makes it smaller, :meth:`FoldedDesign.effective_terms`)."""
 
     kind: str
     axes: tuple[AxisChoice, ...]
     n_terms: int
     heldout: np.ndarray = field(repr=False)
+    effective_terms: float | None = None
+
+    @property
+    def size(self) -> float:
+        return self.n_terms if self.effective_terms is None else self.effective_terms
 
     @property
     def mean(self) -> float:
@@ -106,7 +113,9 @@ class ModelChoice:
             lines.append(f"  {c.label():<58s} {c.n_terms:11d} {c.mean:13.4f} {c.max:8.4f}{mark}")
         if len(self.candidates) > len(shown):
             lines.append(f"  ({len(self.candidates) - len(shown)} more candidates scored, not shown)")
-        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms): {self.reason}")
+        eff = self.chosen.effective_terms
+        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms"
+                     f"{'' if eff is None else f', {eff:.1f} effective after smoothing'}): {self.reason}")
         lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
                      f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")
         return "\n".join(lines)
@@ -129,8 +138,31 @@ class _Problem(FoldedDesign):
     """:class:`~vecpin.selection.design.FoldedDesign` that scores candidates."""
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
-        cols = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols))
+        cols, scale = self.columns(choice)
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols, scale))
+
+    def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
+        """Candidates that share most columns (one axis' basis or smoothing differs), at
+        about the cost of one (:meth:`FoldedDesign.heldout_blocks`)."""
+        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
+        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
+        shared = set(common)
+        blocks = [(np.array([j for j in d if j not in shared], int),
+                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
+        held = self.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
+        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
+
+    def size(self, cand: Candidate) -> float:
+        """The candidate's number of model terms for the one-SE rule, less what its
+        penalised splines' smoothing takes away: n_terms - (t_0 - t_λ), t the trace of
+        the hat matrix over its model columns with the penalties λ and without (λ = 0),
+        so that a penalised spline's heavily smoothed wiggles count little and every
+        other candidate is counted as before."""
+        if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
+            cols, scale = self.columns(cand.axes)
+            cand.effective_terms = cand.n_terms - (self.effective_terms(cols, np.ones_like(scale))
+                                                   - self.effective_terms(cols, scale))
+        return cand.size
 
 
 def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, spline or auto") -> None:
@@ -142,7 +174,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
 
 
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
-                 families=FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
+                 families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None,
                  progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
@@ -167,7 +199,9 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
-    plans = tuple(p for p in (plans or families) if p in families)
+    # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
+    plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
+                  if p in families)
     if plans and all(p in ("fourier", "fourier_trend") for p in plans):
         check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
                     or "chebyshev")
@@ -190,17 +224,21 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
         prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds, opts)
         for plan in plans:
-            for o in (orders if plan != "spline" else [None]):
+            for o in (orders if plan not in ("spline", "pspline") else [None]):
                 for plan_axes in _plans(machine, plan, o, options):
                     score(prob, plan_axes)
         say(f"{kind}: {sum(c.kind == kind for c in cands)} common-basis candidates scored")
     best = min(cands, key=lambda c: c.mean)
-    if per_axis:
-        prob = problems[best.kind]
-        cur = best
+    for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
+        cur = min((c for c in cands if c.kind == prob.kind), key=lambda c: c.mean)
         for _ in range(3):
             improved = False
             for i in range(machine.n_axes):
+                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
+                          if (prob.kind, t) not in scored]
+                for c in (prob.candidates(trials) if len(trials) > 1 else []):  # the other axes eliminated once
+                    scored[(prob.kind, c.axes)] = c
+                    cands.append(c)
                 for opt in options[i]:
                     trial = cur.axes[:i] + (opt,) + cur.axes[i + 1:]
                     c = score(prob, trial)
@@ -209,8 +247,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
             if not improved:
                 break
         say(f"refined axis by axis: {cur.label()}")
-        best = min(cands, key=lambda c: c.mean)
-    chosen, se, reason = one_standard_error(cands, best)
+    best = min(cands, key=lambda c: c.mean)
+    chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
     unc = problems[kinds[0]].uncompensated
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
@@ -227,6 +265,10 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
             out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
                              for opts in options))
         return out
+    if plan == "pspline":  # one knot count and smoothing on every axis
+        for c in dict.fromkeys(o for opts in options for o in opts if o.family == "pspline"):
+            out.append(tuple(c if c in opts else opts[0] for opts in options))
+        return out
     cheb = AxisChoice("chebyshev", order)
     if plan == "chebyshev":
         return [tuple(cheb for _ in machine.axes)]
@@ -242,8 +284,11 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
     return out
 
 
-def one_standard_error(cands: list[Candidate], best: Candidate) -> tuple[Candidate, float, str]:
-    """The fewest terms among the candidates within one paired standard error of the best."""
+def one_standard_error(cands: list[Candidate], best: Candidate,
+                       size: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
+    """The fewest terms among the candidates within one paired standard error of the best
+    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those within)."""
+    size = size or (lambda c: c.n_terms)
     n = best.heldout.size
     ok = []
     for c in cands:
@@ -251,7 +296,9 @@ def one_standard_error(cands: list[Candidate], best: Candidate) -> tuple[Candida
         se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
         if delta.mean() <= se:
             ok.append((c, se))
-    chosen, se = min(ok, key=lambda x: (x[0].n_terms, x[0].mean))
+    # sizes in whole terms: a smoothing that leaves as many effective terms as a plain
+    # candidate has ties with it, and the tie goes to the plain one (fewer nominal terms)
+    chosen, se = min(ok, key=lambda x: (round(size(x[0])), x[0].n_terms, x[0].mean))
     if chosen is best:
         return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
     return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
@@ -288,8 +335,11 @@ def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> 
     """The model of a fully fixed choice: ``basis`` on the axes it applies to (per-turn
     families on rotary axes that travel more than a turn, Chebyshev elsewhere; a Fourier
     series of ``order`` with a Chebyshev trend of order min(2, ``order``)); ``spline``: on
-    every axis, ``order`` interior knots."""
+    every axis, ``order`` interior knots. (A penalised spline is never fully fixed: its
+    smoothing is chosen by :func:`choose_model`.)"""
     check_basis(machine, basis)
+    if basis == "pspline":
+        raise InputError("--basis pspline: the smoothing is chosen by held-out data; use choose_or_fix")
     if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
         return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
     axes = []
@@ -314,20 +364,21 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     fixed choice builds the model directly. ``opts``: model options (tool_lengths,
     prior_scale), which the candidates carry too. A fixed ``order`` keeps the families
     whose size it defines (Chebyshev and Fourier series of that order, trends up to it);
-    splines only with ``basis="spline"``, ``order`` then being the number of interior
-    knots. ``seed``: the cross-validation folds."""
+    splines only with ``basis="spline"`` or ``"pspline"``, ``order`` then being the number
+    of interior knots; a penalised spline's smoothing is always chosen by held-out data.
+    ``seed``: the cross-validation folds."""
     if kind not in ("auto",) + KINDS:
         raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
         raise InputError(f"--basis {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
     check_basis(machine, basis)
-    if kind != "auto" and basis != "auto" and order != "auto":
+    if kind != "auto" and basis not in ("auto", "pspline") and order != "auto":
         return fixed_model(machine, kind, basis, order, **opts), None
     if basis == "auto":
-        families = FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
-    elif basis == "spline" and order != "auto":
-        families = ("spline",)
+        families = DEFAULT_FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
+    elif basis in ("spline", "pspline") and order != "auto":
+        families = (basis,)
     else:
         families = tuple(dict.fromkeys((basis, "chebyshev")))
     choice = choose_model(machine, campaign, noise, kinds=KINDS if kind == "auto" else (kind,), families=families,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
+from scipy.linalg import blas
 
 from vecpin.errors import InputError
 from vecpin.identification.likelihood import Likelihood
@@ -22,24 +23,32 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
-from vecpin.models.basis import AxisBasis
+from vecpin.models.basis import AxisBasis, smoothing_transform
 from vecpin.units import norm_mm
 
-FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
+FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline", "pspline")
+# what the default choice tries: the penalised splines' columns at no smoothing span every
+# plain spline on the uniform knots nested in theirs (3, 7, 15 in 31), so plain splines are
+# left to --basis spline
+DEFAULT_FAMILIES = ("chebyshev", "fourier", "fourier_trend", "pspline")
 CHEB_ORDERS = tuple(range(0, 9))
 FOURIER_ORDERS = (2, 4, 6, 8, 10, 12)
 TRENDS = (1, 2, 4, 6, 8)
 SPLINE_KNOTS = (3, 7, 15)
+PSPLINE_KNOTS = 31        # interior knots of the penalised splines: 32 intervals over the travel
+SMOOTHING = tuple(10.0 ** k for k in range(0, 9))  # their smoothing penalties λ, chosen by held-out data
 
 
 @dataclass(frozen=True)
 class AxisChoice:
     """The basis of one axis: ``family`` and ``order`` (series order; interior knots of
-    a spline), ``trend`` (Chebyshev trend order beside a Fourier series)."""
+    a spline), ``trend`` (Chebyshev trend order beside a Fourier series), ``smoothing``
+    (the penalty λ of a penalised spline, :mod:`vecpin.models.basis`)."""
 
     family: str
     order: int
     trend: int = 0
+    smoothing: float = 0.0
 
     def basis(self, axis) -> AxisBasis:
         rot = axis.kind == "rotary"
@@ -49,9 +58,10 @@ class AxisChoice:
             return AxisBasis(axis.lower, axis.upper, self.order, "fourier", rotary=rot)
         if self.family == "fourier_trend":
             return AxisBasis(axis.lower, axis.upper, self.order, "fourier_trend", rotary=rot, trend=self.trend)
-        if self.family == "spline":
+        if self.family in ("spline", "pspline"):
             knots = np.linspace(axis.lower, axis.upper, self.order + 2)[1:-1]
-            return AxisBasis(axis.lower, axis.upper, 3, "bspline", rotary=rot, knots=tuple(knots))
+            return AxisBasis(axis.lower, axis.upper, 3, "bspline" if self.family == "spline" else "pspline",
+                             rotary=rot, knots=tuple(knots), smoothing=self.smoothing)
         raise InputError(f"unknown basis family '{self.family}' (one of {', '.join(FAMILIES)})")
 
     def functions(self) -> tuple[str, ...]:
@@ -61,7 +71,15 @@ class AxisChoice:
         if self.family in ("fourier", "fourier_trend"):
             four = tuple(f"{'cos' if j % 2 else 'sin'}{math.ceil(j / 2)}" for j in range(1, self.order + 1))
             return four + tuple(f"c{j}" for j in range(1, self.trend + 1))
-        return tuple(f"b{self.order}.{i}" for i in range(1, self.order + 4))
+        return tuple(f"{'b' if self.family == 'spline' else 'p'}{self.order}.{i}" for i in range(1, self.order + 4))
+
+    def scales(self) -> np.ndarray:
+        """The factor of each of :meth:`functions` on the union's column: 1, except a
+        penalised spline's ``1 / sqrt(1 + λ e_j)`` (its union columns are those of λ = 0)."""
+        if self.family != "pspline":
+            return np.ones(len(self.functions()))
+        e = smoothing_transform(self.order + 3, 0.0)[1]
+        return 1.0 / np.sqrt(1.0 + self.smoothing * e)
 
     @property
     def size(self) -> int:
@@ -69,10 +87,11 @@ class AxisChoice:
 
     def label(self) -> str:
         return {"chebyshev": f"cheb{self.order}", "fourier": f"fourier{self.order}",
-                "fourier_trend": f"fourier{self.order}+trend{self.trend}", "spline": f"spline{self.order}"}[self.family]
+                "fourier_trend": f"fourier{self.order}+trend{self.trend}", "spline": f"spline{self.order}",
+                "pspline": f"pspline{self.order}@{self.smoothing:.3g}"}[self.family]
 
 
-def axis_options(axis, orders=CHEB_ORDERS, families=FAMILIES, fixed_order: bool = False) -> list[AxisChoice]:
+def axis_options(axis, orders=CHEB_ORDERS, families=DEFAULT_FAMILIES, fixed_order: bool = False) -> list[AxisChoice]:
     """Every basis worth trying on an axis. ``fixed_order``: ``orders`` holds the one
     order the user fixed, which defines every family's size: Chebyshev and Fourier
     series of that order, Fourier plus a trend of at most that order, splines with
@@ -89,6 +108,9 @@ def axis_options(axis, orders=CHEB_ORDERS, families=FAMILIES, fixed_order: bool 
                     for t in TRENDS if not fixed_order or t <= o]
     if "spline" in families:
         out += [AxisChoice("spline", k) for k in (orders if fixed_order else SPLINE_KNOTS)]
+    if "pspline" in families:
+        out += [AxisChoice("pspline", k, 0, lam) for k in (orders if fixed_order else (PSPLINE_KNOTS,))
+                for lam in SMOOTHING]
     return out
 
 
@@ -104,9 +126,10 @@ def axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list
     if four:
         names += list(AxisChoice("fourier", four).functions())
         cols.append(AxisChoice("fourier", four).basis(axis).values(q)[:, 1:])
-    for k in sorted({o.order for o in options if o.family == "spline"}):
-        names += list(AxisChoice("spline", k).functions())
-        cols.append(AxisChoice("spline", k).basis(axis).values(q)[:, 1:])
+    for fam in ("spline", "pspline"):
+        for k in sorted({o.order for o in options if o.family == fam}):
+            names += list(AxisChoice(fam, k).functions())
+            cols.append(AxisChoice(fam, k).basis(axis).values(q)[:, 1:])
     return names, (np.concatenate(cols, axis=1) if cols else np.zeros((len(q), 0)))
 
 
@@ -182,20 +205,26 @@ class Design:
     def n_fixed(self) -> int:
         return len(self.fixed)
 
-    def columns(self, choice: tuple[AxisChoice, ...]) -> np.ndarray:
-        """Column indices of a candidate: E_0 and the instruments' unknowns, the offsets,
-        then its constants and functions (6-DoF: on every slot the axis drives)."""
+    def columns(self, choice: tuple[AxisChoice, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """(column indices, factor on each) of a candidate: E_0 and the instruments'
+        unknowns, the offsets, then its constants and functions (6-DoF: on every slot the
+        axis drives); the factors are 1 except a penalised spline's (:meth:`AxisChoice.scales`)."""
         idx = [self.index[("offset", k)] for k in range(self.n_offsets)]
         n = self.machine.n_axes
+        one = [np.ones(len(idx))]
         if self.kind == "ap":
             idx += [self.index[("const", j)] for j in range(n)]
+            one.append(np.ones(n))
             for i, c in enumerate(choice):
                 idx += [self.index[(i, name, k)] for name in c.functions() for k in range(n)]
+                one.append(np.repeat(c.scales(), n))
         else:
             for s, i in enumerate(self.slots):
                 idx += [self.index[(s, "0", k)] for k in range(6)]
                 idx += [self.index[(s, name, k)] for name in choice[i].functions() for k in range(6)]
-        return np.r_[np.arange(self.n_fixed), self.n_fixed + np.array(idx, int)]
+                one += [np.ones(6), np.repeat(choice[i].scales(), 6)]
+        return (np.r_[np.arange(self.n_fixed), self.n_fixed + np.array(idx, int)],
+                np.concatenate([np.ones(self.n_fixed)] + one))
 
 
 class FoldedDesign(Design):
@@ -205,30 +234,96 @@ class FoldedDesign(Design):
     def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options, fold, folds,
                  opts: dict | None = None):
         super().__init__(kind, machine, campaign, noise, options, opts)
-        grams = []
+        P = self.J.shape[-1]
+        self.G_train, self.g_train = np.empty((folds, P, P)), np.empty((folds, P))   # first each fold's own
         for f in range(folds):
             sel = fold == f
-            Jf = self.J[sel].reshape(-1, self.J.shape[-1])
-            grams.append((Jf.T @ Jf, Jf.T @ self.w[sel].ravel()))
-        self.G, self.g = sum(v[0] for v in grams), sum(v[1] for v in grams)
-        self.G_train = np.stack([self.G - Gf for Gf, _ in grams])       # (folds, P, P)
-        self.g_train = np.stack([self.g - gf for _, gf in grams])
+            Jf = self.J[sel].reshape(-1, P)
+            U = blas.dsyrk(1.0, Jf.T, trans=0)                      # Jf^T Jf, upper triangle (symmetric)
+            self.G_train[f] = U
+            self.G_train[f] += np.triu(U, 1).T
+            self.g_train[f] = Jf.T @ self.w[sel].ravel()
+        self.G, self.g = self.G_train.sum(axis=0), self.g_train.sum(axis=0)
+        np.subtract(self.G, self.G_train, out=self.G_train)         # (folds, P, P): every fold left out
+        np.subtract(self.g, self.g_train, out=self.g_train)
         judged = np.flatnonzero(self.judged)
         self.metric_judged = self.metric[judged]
         # d metric / d psi of the judged rows, one contiguous row per column: (P, 3 n_judged)
         self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[judged], -1, 0).reshape(self.A.shape[-1], -1))
         self.pick = (np.repeat(fold[judged], 3), np.arange(3 * len(judged)))  # each row's own fold
 
-    def heldout(self, cols: np.ndarray) -> np.ndarray:
-        """Held-out distances [mm] of the judged rows for the candidate with these columns."""
-        N = self.G_train[:, cols[:, None], cols]
+    def heldout(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """Held-out distances [mm] of the judged rows for the candidate with these columns
+        (each times its factor)."""
+        N = self.G_train[:, cols[:, None], cols] * np.outer(scale, scale)
         N[:, np.arange(len(cols)), np.arange(len(cols))] += 1.0               # the unit prior
-        g = self.g_train[:, cols]
+        g = self.g_train[:, cols] * scale
         psi = np.stack([-linalg.cho_solve(linalg.cho_factor(Nf, check_finite=False), gf, check_finite=False)
                         for Nf, gf in zip(N, g)])                              # (folds, p): one solve per fold
-        change = (psi @ self.A_rows[cols])[self.pick]                         # each row from its fold's estimate
+        change = ((psi * scale) @ self.A_rows[cols])[self.pick]               # each row from its fold's estimate
         return norm_mm(self.metric_judged + change.reshape(-1, 3))
 
-    def estimate(self, cols: np.ndarray) -> np.ndarray:
-        """The candidate's linearised estimate from every row (prior-scaled, its columns)."""
-        return -np.linalg.solve(self.G[np.ix_(cols, cols)] + np.eye(len(cols)), self.g[cols])
+    def heldout_sweep(self, cols: np.ndarray, scales: list[np.ndarray]) -> list[np.ndarray]:
+        """:meth:`heldout` of one candidate's columns under several sets of factors (a
+        penalised spline at several smoothings): :meth:`heldout_blocks` with the columns
+        whose factor never changes as the common part."""
+        pen = np.any([s != scales[0] for s in scales], axis=0)
+        return self.heldout_blocks(cols[~pen], scales[0][~pen], [(cols[pen], s[pen]) for s in scales])
+
+    def heldout_blocks(self, F: np.ndarray, sF: np.ndarray,
+                       blocks: list[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+        """:meth:`heldout` of several candidates that share the columns ``F`` (factors
+        ``sF``) and differ in a block of columns ``P`` (factors ``sP``) each, e.g. one axis'
+        basis or smoothing: F is eliminated once per fold and each candidate solves only
+        the Schur complement of its block, S_P (G_PP - G_PF N_FF^-1 G_FP) S_P + I, whose
+        bracket is shared by blocks with the same columns. Returns one array per block;
+        the same algebra as :meth:`heldout`, rearranged."""
+        groups: dict = {}
+        for k, (P, _) in enumerate(blocks):
+            groups.setdefault(tuple(P), []).append(k)
+        psi = [np.zeros((len(self.G_train), len(F) + len(P))) for P, _ in blocks]
+        nF = len(F)
+        for f, (Gf, gf) in enumerate(zip(self.G_train, self.g_train)):
+            A = Gf[F[:, None], F] * np.outer(sF, sF)
+            A[np.arange(nF), np.arange(nF)] += 1.0                              # the unit prior
+            cho = linalg.cho_factor(A, check_finite=False)
+            y = linalg.cho_solve(cho, gf[F] * sF, check_finite=False)
+            for key, ks in groups.items():
+                P = np.array(key, int)
+                if not len(P):
+                    for k in ks:
+                        psi[k][f, :nF] = -sF * y
+                    continue
+                GFP = Gf[F[:, None], P] * sF[:, None]
+                X = linalg.cho_solve(cho, GFP, check_finite=False)
+                M = Gf[P[:, None], P] - GFP.T @ X                               # the Schur bracket
+                r = gf[P] - GFP.T @ y
+                for k in ks:
+                    sP = blocks[k][1]
+                    Sc = M * np.outer(sP, sP)
+                    Sc[np.arange(len(P)), np.arange(len(P))] += 1.0
+                    xP = -linalg.cho_solve(linalg.cho_factor(Sc, check_finite=False), sP * r, check_finite=False)
+                    psi[k][f, :nF] = sF * (-y - X @ (sP * xP))
+                    psi[k][f, nF:] = sP * xP
+        return [norm_mm(self.metric_judged + (p @ self.A_rows[np.r_[F, P]])[self.pick].reshape(-1, 3))
+                for p, (P, _) in zip(psi, blocks)]
+
+    def normal_matrix(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """The candidate's whitened normal matrix J^T J from every row (its scaled columns)."""
+        return self.G[np.ix_(cols, cols)] * np.outer(scale, scale)
+
+    def estimate(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """The candidate's linearised estimate from every row in the union's units: the
+        change of the point is ``D[..., cols] @ psi`` (the factor applied)."""
+        G = self.normal_matrix(cols, scale)
+        return -scale * np.linalg.solve(G + np.eye(len(cols)), scale * self.g[cols])
+
+    def effective_terms(self, cols: np.ndarray, scale: np.ndarray) -> float:
+        """The effective number of model terms, trace((G + I)^-1 G) over the model's
+        columns: what the data determine beyond the prior (a penalised spline's smooth
+        shapes count one each, its penalised wiggles little)."""
+        G = self.normal_matrix(cols, scale)
+        L = linalg.cholesky(G + np.eye(len(cols)), lower=True, check_finite=False)
+        Linv = linalg.solve_triangular(L, np.eye(len(cols)), lower=True, check_finite=False)
+        diag = 1.0 - np.einsum("ij,ij->j", Linv, Linv)   # diag((G + I)^-1 G) = 1 - diag((G + I)^-1)
+        return float(diag[self.n_fixed:].sum())
