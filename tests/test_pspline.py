@@ -164,6 +164,7 @@ def test_the_choice_takes_a_penalised_spline_where_wiggles_need_one(flow):
     assert chosen.mean < 0.8 * other, choice.table()
     assert chosen.effective_terms is not None and chosen.effective_terms < chosen.n_terms
     assert "effective after smoothing" in choice.table()
+    assert choice.to_dict()["chosen"]["effective_model_terms"] == chosen.effective_terms
 
 
 def test_smoothing_sweep_equals_one_solve_per_smoothing(portal):
@@ -200,12 +201,12 @@ def test_candidates_sharing_columns_equal_their_own_solves(portal):
     sim = simulate(portal, seed=4, design=Design(n_commands=40, n_validation=2))
     noise = NoiseModel.default(portal, "spherical")
     fold = command_folds(sim.campaign, 3, np.random.default_rng(0))
-    options = [axis_options(a) for a in portal.axes]
+    options = [axis_options(a, families=("chebyshev", "spline", "pspline")) for a in portal.axes]
     prob = _Problem("ap", portal, sim.campaign, noise, options, fold, 3)
     rest = (AxisChoice("pspline", 31, 0, 1e4), AxisChoice("chebyshev", 3), AxisChoice("chebyshev", 2),
             AxisChoice("chebyshev", 1))
     trials = [(o,) + rest for o in options[0]]
-    assert {o.family for o in options[0]} == {"chebyshev", "pspline"}
+    assert {o.family for o in options[0]} == {"chebyshev", "spline", "pspline"}
     for cand in prob.candidates(trials):
         np.testing.assert_allclose(cand.heldout, prob.candidate(cand.axes).heldout, rtol=1e-7, atol=1e-10)
         assert cand.n_terms == prob.candidate(cand.axes).n_terms

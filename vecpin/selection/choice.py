@@ -9,15 +9,17 @@ normal equations per model kind, over the union of every candidate function of e
 axis, serves the k-fold cross-validation of every candidate: a small solve per
 candidate and fold (folds grouped by command, both tools of a pose in one fold).
 
-Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over the
-travel (orders 0-8) and cubic B-splines with uniform knots (local errors); on a rotary
-axis that travels more than a turn also Fourier series per turn, alone or with a
-Chebyshev trend over the travel (errors that repeat every turn, and those that do not:
-cable wind-up, torsion, a gear behind the encoder, drift over a long travel). The
-search scores every model kind with one family on all axes at a common order, then
-refines axis by axis (family and order) from the best; the choice follows the
-one-standard-error rule: among the candidates whose held-out mean distance is within
-one paired standard error of the lowest, the one with the fewest terms.
+Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
+the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
+with ``--basis pspline`` penalised splines on 31 knots, their smoothing λ from the
+held-out data); on a rotary axis that travels more than a turn also Fourier series per
+turn, alone or with a Chebyshev trend over the travel (errors that repeat every turn,
+and those that do not: cable wind-up, torsion, a gear behind the encoder, drift over a
+long travel). The search scores every model kind with one family on all axes at a
+common order, then refines each kind axis by axis (every basis and smoothing of one axis
+with the other axes eliminated once); the choice follows the one-standard-error rule:
+among the candidates whose held-out mean distance is within one paired standard error
+of the lowest, the one with the fewest terms (a penalised spline's effective terms).
 """
 from __future__ import annotations
 
@@ -81,7 +83,8 @@ class Candidate:
 
     def to_dict(self, machine: Machine) -> dict:
         return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
-                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max}
+                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max} | \
+            ({} if self.effective_terms is None else {"effective_model_terms": self.effective_terms})
 
 
 @dataclass

@@ -27,10 +27,12 @@ from vecpin.models.basis import AxisBasis, smoothing_transform
 from vecpin.units import norm_mm
 
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline", "pspline")
-# what the default choice tries: the penalised splines' columns at no smoothing span every
-# plain spline on the uniform knots nested in theirs (3, 7, 15 in 31), so plain splines are
-# left to --basis spline
-DEFAULT_FAMILIES = ("chebyshev", "fourier", "fourier_trend", "pspline")
+# what the default choice tries. Penalised splines (--basis pspline) bring the spline and
+# bump truths of benchmarks/bench_fit.py within 1.0-1.1x and 1.6-1.8x of the true family's
+# fit (plain splines: 1.1-1.7x, 2.3-3.1x), but on production_xyzbaw a penalised spline on W
+# fits better while its tables land 1.29x off the table floor (plain: 1.13x), so they are
+# not in the default until the tables follow them (see the sel report)
+DEFAULT_FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
 CHEB_ORDERS = tuple(range(0, 9))
 FOURIER_ORDERS = (2, 4, 6, 8, 10, 12)
 TRENDS = (1, 2, 4, 6, 8)
