@@ -15,7 +15,7 @@ fixed-model fits, 10,000 rows (target <= 20 s, memory linear), and 1,000,000 row
 The 1,000,000 rows are written as a campaign CSV, then read (vecpin.read_campaign) and
 fitted in a fresh process, so its peak resident memory is the job's, not the simulation's.
 
-Run: python benchmarks/bench_fit.py [--quick] [--layouts ...] [--families ...] [--no-million]
+Run: python benchmarks/bench_fit.py [--quick] [--layouts ...] [--families ...] [--no-million] [--pspline]
 """
 import argparse
 import resource
@@ -163,12 +163,18 @@ def main():
     p.add_argument("--families", default=",".join(FAMILIES))
     p.add_argument("--no-million", action="store_true", help="skip the 1,000,000-row fit")
     p.add_argument("--part", choices=("1", "2", "both"), default="both")
+    p.add_argument("--pspline", action="store_true",
+                   help="let the default choice try penalised splines (31 knots, smoothing by held-out data) in place "
+                        "of plain splines: what the default would be with them")
     p.add_argument("--read-and-fit", metavar="CSV", help=argparse.SUPPRESS)  # the fresh process of the million rows
     args = p.parse_args()
     if args.read_and_fit:
         read_and_fit(args.read_and_fit)
         return
     layouts, families, orders = args.layouts.split(","), args.families.split(","), range(2, 9)
+    if args.pspline:
+        import vecpin.selection.choice as choice
+        choice.DEFAULT_FAMILIES = tuple(f if f != "spline" else "pspline" for f in choice.DEFAULT_FAMILIES)
     if args.quick:
         layouts, families, orders = ["portal_xyzcb", "head_xyzab"], ["windup", "spline", "mixed"], (4, 6, 8)
     if args.part in ("1", "both"):

@@ -68,7 +68,7 @@ def test_gaussian_bump_column():
     (dict(kind="spline"), "unknown kind"),
     (dict(kind="bspline", knots=(0.5, 0.4)), "knots must increase"),
     (dict(kind="bspline", knots=(2.5,)), "knots must increase"),
-    (dict(knots=(0.5,)), "'bspline' kind only"),
+    (dict(knots=(0.5,)), "spline kinds only"),
     (dict(trend=2), "'fourier_trend' kind only"),
     (dict(bumps=((1.0, 0.0),)), "widths must be > 0"),
 ])

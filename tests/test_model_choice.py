@@ -10,6 +10,7 @@ from vecpin.identification.crossval import command_folds
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.selection.choice import AxisChoice, Candidate, _Problem, axis_options, choose_model, choose_or_fix
+from vecpin.selection.design import FAMILIES
 from vecpin.simulation.floor import table_floor, true_compensated_error
 from vecpin.simulation.independent import IndependentMachine, layout
 from vecpin.simulation.judge import validation_commands, validation_error
@@ -24,7 +25,7 @@ def portal():
 
 def _problem(m, camp, kind, noise, folds=5):
     fold = command_folds(camp, folds, np.random.default_rng(0))
-    return _Problem(kind, m, camp, noise, [axis_options(a) for a in m.axes], fold, folds), fold
+    return _Problem(kind, m, camp, noise, [axis_options(a, families=FAMILIES) for a in m.axes], fold, folds), fold
 
 
 @pytest.mark.parametrize("kind", ["6dof", "ap"])
@@ -38,7 +39,7 @@ def test_candidate_columns_are_the_models_own_jacobian(portal, kind):
     prob, _ = _problem(portal, sim.campaign, kind, noise)
     choice = (AxisChoice("chebyshev", 3), AxisChoice("spline", 3), AxisChoice("chebyshev", 2),
               AxisChoice("fourier_trend", 4, 2), AxisChoice("chebyshev", 5))
-    cols = prob.columns(choice)
+    cols, _ = prob.columns(choice)
     model = Candidate(kind, choice, 0, np.zeros(1)).model(portal)
     lik = Likelihood(model, sim.campaign, noise)
     J = lik.evaluate(np.zeros(lik.n_unknowns)).J
@@ -178,12 +179,12 @@ def test_candidates_carry_the_users_priors_and_tool_corrections(portal):
     noise = NoiseModel.default(portal, "spherical")
     opts = {"prior_scale": 3.0, "tool_lengths": [float(t) for t in c.tool_lengths()]}
     fold = command_folds(c, 5, np.random.default_rng(0))
-    options = [axis_options(a) for a in portal.axes]
+    options = [axis_options(a, families=FAMILIES) for a in portal.axes]
     prob = _Problem("6dof", portal, c, noise, options, fold, 5, opts)
     plain = _Problem("6dof", portal, c, noise, options, fold, 5)
     choice = (AxisChoice("spline", 3), AxisChoice("chebyshev", 2), AxisChoice("chebyshev", 1),
               AxisChoice("fourier_trend", 4, 2), AxisChoice("chebyshev", 3))
-    cols = prob.columns(choice)
+    cols, _ = prob.columns(choice)
     model = Candidate("6dof", choice, 0, np.zeros(1)).model(portal, **opts)
     assert len(cols) - prob.n_fixed == model.n_parameters  # the offsets: T_offset and one per tool
     J = Likelihood(model, c, noise).evaluate(np.zeros(6 + model.n_parameters)).J
@@ -191,7 +192,7 @@ def test_candidates_carry_the_users_priors_and_tool_corrections(portal):
     for k in range(theirs.shape[1]):
         d = np.abs(ours - theirs[:, k:k + 1]).max(axis=0)
         assert d.min() < 1e-9 * (1 + np.abs(theirs[:, k]).max())
-    pc = plain.columns(choice)
+    pc, _ = plain.columns(choice)
     n = prob.n_fixed
     np.testing.assert_allclose(prob.J[:, :, :n], plain.J[:, :, :n])
     tools = len(opts["tool_lengths"])  # the plain problem has T_offset only

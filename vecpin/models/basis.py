@@ -12,6 +12,15 @@ position normalised to [-1, 1] over its travel (``kind="chebyshev"``). Other kin
 * ``"bspline"``: a clamped B-spline of degree ``order`` on [lower, upper] with the
   interior ``knots`` [m or rad]: local, smooth errors. The B-splines sum to one, so
   the constant replaces the first of them and the span is unchanged.
+* ``"pspline"``: the same B-splines as a *penalised* spline (Eilers and Marx's
+  P-splines): under the model's unit prior on its coefficients, a prior that the
+  spline's second differences are small, of strength ``smoothing`` (λ >= 0). The
+  non-constant B-splines are rotated to the eigenvectors of their second-difference
+  penalty ``Q = D^T D`` (Demmler-Reinsch: smoothest first, the straight line that Q does
+  not penalise first of all) and column j is scaled by ``1 / sqrt(1 + λ e_j)``, e_j the
+  j-th eigenvalue; the unit prior on these columns is then exactly the ridge
+  ``|c|^2 + λ |D c|^2`` on the B-spline coefficients. λ = 0 is the plain spline; a large
+  λ leaves the straight line and a few smooth shapes: the data (cross-validation) choose.
 
 Any kind may append ``harmonics`` (cos/sin of frequency w) and Gaussian ``bumps``
 ``exp(-(q - c)^2 / (2 s^2))`` of given centre c and width s [m or rad].
@@ -20,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.interpolate import BSpline
@@ -46,7 +56,23 @@ def chebyshev_derivative(x: np.ndarray, order: int) -> np.ndarray:
     return np.polynomial.chebyshev.chebvander(x, order - 1) @ D
 
 
-KINDS = ("chebyshev", "fourier", "fourier_trend", "bspline")
+KINDS = ("chebyshev", "fourier", "fourier_trend", "bspline", "pspline")
+SPLINE_KINDS = ("bspline", "pspline")
+
+
+@lru_cache(maxsize=64)
+def smoothing_transform(n: int, smoothing: float) -> tuple[np.ndarray, np.ndarray]:
+    """(T (n,n), e (n,)) of a penalised spline with ``n`` non-constant B-splines: columns
+    ``B T`` carry the unit prior of ``|c|^2 + smoothing |D c|^2`` (second differences of
+    the coefficients with the constant's coefficient c_0 = 0 in front); e: the penalty's
+    eigenvalues, smoothest first. Eigenvector signs are fixed (a positive weighted sum
+    against a fixed increasing weight) so every computer builds the same columns."""
+    D = np.diff(np.eye(n + 1), 2, axis=0)[:, 1:]
+    e, U = np.linalg.eigh(D.T @ D)
+    e = np.clip(e, 0.0, None)
+    w = 1.0 + np.arange(n) / n + (np.arange(n) / n) ** 2
+    U = U * np.where(w @ U < 0, -1.0, 1.0)
+    return U / np.sqrt(1.0 + smoothing * e), e
 
 
 @dataclass(frozen=True)
@@ -61,6 +87,7 @@ class AxisBasis:
     exactly. ``trend``: Chebyshev trend order of ``fourier_trend``. ``knots``:
     interior knots of ``bspline`` [m or rad], increasing, inside (lower, upper).
     ``bumps``: (centre, width) pairs [m or rad] of appended Gaussian columns.
+    ``smoothing``: the penalty λ of ``pspline`` (dimensionless, in units of the prior).
     ``values(q)`` is (N, size), ``derivative(q)`` the derivative with respect to q
     [per m or per rad]. Column 0 is always the constant.
     """
@@ -74,12 +101,14 @@ class AxisBasis:
     trend: int = 0
     knots: tuple[float, ...] = ()
     bumps: tuple[tuple[float, float], ...] = ()
+    smoothing: float = 0.0
 
     def __post_init__(self):
         set_ = lambda name, v: object.__setattr__(self, name, v)  # noqa: E731 (frozen dataclass)
         set_("harmonics", tuple(float(w) for w in self.harmonics))
         set_("knots", tuple(float(k) for k in self.knots))
         set_("bumps", tuple((float(c), float(s)) for c, s in self.bumps))
+        set_("smoothing", float(self.smoothing))
         where = f"axis basis '{self.kind}' on [{self.lower:g}, {self.upper:g}]"
         if self.kind not in KINDS:
             raise InputError(f"{where}: unknown kind (choose {', '.join(KINDS)})")
@@ -87,14 +116,18 @@ class AxisBasis:
             raise InputError(f"{where}: the travel needs lower < upper")
         if self.order < 0 or self.trend < 0:
             raise InputError(f"{where}: order and trend must be >= 0")
-        if self.kind == "bspline":
+        if self.kind in SPLINE_KINDS:
             if self.order < 1:
                 raise InputError(f"{where}: the spline degree (order) must be >= 1")
             k = np.asarray(self.knots)
             if k.size and (np.any(np.diff(k) <= 0) or k[0] <= self.lower or k[-1] >= self.upper):
                 raise InputError(f"{where}: interior knots must increase strictly inside the travel")
         elif self.knots:
-            raise InputError(f"{where}: knots belong to the 'bspline' kind only")
+            raise InputError(f"{where}: knots belong to the spline kinds only ('bspline', 'pspline')")
+        if not (math.isfinite(self.smoothing) and self.smoothing >= 0):
+            raise InputError(f"{where}: the smoothing must be a number >= 0")
+        if self.smoothing and self.kind != "pspline":
+            raise InputError(f"{where}: a smoothing belongs to the 'pspline' kind only")
         if self.trend and self.kind != "fourier_trend":
             raise InputError(f"{where}: a trend belongs to the 'fourier_trend' kind only")
         if any(s <= 0 for _, s in self.bumps):
@@ -107,7 +140,7 @@ class AxisBasis:
     def _series_size(self) -> int:
         if self.kind == "fourier_trend":
             return self.order + 1 + self.trend
-        if self.kind == "bspline":
+        if self.kind in SPLINE_KINDS:
             return len(self.knots) + self.order + 1
         return self.order + 1
 
@@ -143,6 +176,8 @@ class AxisBasis:
         spl = self._spline()
         vals = (spl.derivative() if derivative else spl)(q)
         vals[..., 0] = 0.0 if derivative else 1.0  # the constant replaces the first B-spline
+        if self.kind == "pspline":
+            vals[..., 1:] = vals[..., 1:] @ smoothing_transform(vals.shape[-1] - 1, self.smoothing)[0]
         return vals
 
     def values(self, q: np.ndarray) -> np.ndarray:
@@ -169,8 +204,10 @@ class AxisBasis:
 
     def short_label(self) -> str:
         """The kind and order in a few characters: cheb6, fourier8, fourier6+trend2, spline7..."""
-        if self.kind == "bspline":
-            text = f"spline{len(self.knots)}" + ("" if self.order == 3 else f"(deg {self.order})")
+        if self.kind in SPLINE_KINDS:
+            text = f"{'spline' if self.kind == 'bspline' else 'pspline'}{len(self.knots)}" + \
+                ("" if self.order == 3 else f"(deg {self.order})") + \
+                (f"@{self.smoothing:.3g}" if self.kind == "pspline" else "")
         elif self.kind == "fourier_trend":
             text = f"fourier{self.order}+trend{self.trend}"
         else:
@@ -180,9 +217,10 @@ class AxisBasis:
 
     def labels(self) -> list[str]:
         """Column names: the order for series terms (``t1..`` for a trend, ``s1..`` for
-        B-splines), cos/sin with the frequency for harmonics, ``g1..`` for bumps."""
-        if self.kind == "bspline":
-            out = ["0"] + [f"s{j}" for j in range(1, self._series_size())]
+        B-splines, ``p1..`` for a penalised spline's smoothest-first columns), cos/sin with
+        the frequency for harmonics, ``g1..`` for bumps."""
+        if self.kind in SPLINE_KINDS:
+            out = ["0"] + [f"{'s' if self.kind == 'bspline' else 'p'}{j}" for j in range(1, self._series_size())]
         else:
             out = [str(j) for j in range(self.order + 1)] + [f"t{j}" for j in range(1, self.trend + 1)]
         return out + [f"{f}{w:g}" for w in self.harmonics for f in ("cos", "sin")] + \
@@ -198,6 +236,8 @@ class AxisBasis:
             d["knots"] = [k / unit for k in self.knots]
         if self.bumps:
             d["bumps"] = [[c / unit, s / unit] for c, s in self.bumps]
+        if self.kind == "pspline":
+            d["smoothing"] = self.smoothing
         return d
 
     @classmethod
@@ -205,4 +245,4 @@ class AxisBasis:
         """Inverse of :meth:`to_dict` for an axis travelling [lower, upper] (SI)."""
         return cls(lower, upper, int(d["order"]), d["kind"], tuple(d.get("harmonics", ())), bool(rotary),
                    int(d.get("trend", 0)), tuple(k * unit for k in d.get("knots", ())),
-                   tuple((c * unit, s * unit) for c, s in d.get("bumps", ())))
+                   tuple((c * unit, s * unit) for c, s in d.get("bumps", ())), float(d.get("smoothing", 0.0)))

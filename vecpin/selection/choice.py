@@ -9,15 +9,17 @@ normal equations per model kind, over the union of every candidate function of e
 axis, serves the k-fold cross-validation of every candidate: a small solve per
 candidate and fold (folds grouped by command, both tools of a pose in one fold).
 
-Per axis the candidate bases are (:class:`AxisChoice`): Chebyshev series over the
-travel (orders 0-8) and cubic B-splines with uniform knots (local errors); on a rotary
-axis that travels more than a turn also Fourier series per turn, alone or with a
-Chebyshev trend over the travel (errors that repeat every turn, and those that do not:
-cable wind-up, torsion, a gear behind the encoder, drift over a long travel). The
-search scores every model kind with one family on all axes at a common order, then
-refines axis by axis (family and order) from the best; the choice follows the
-one-standard-error rule: among the candidates whose held-out mean distance is within
-one paired standard error of the lowest, the one with the fewest terms.
+Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
+the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
+with ``--basis pspline`` penalised splines on 31 knots, their smoothing λ from the
+held-out data); on a rotary axis that travels more than a turn also Fourier series per
+turn, alone or with a Chebyshev trend over the travel (errors that repeat every turn,
+and those that do not: cable wind-up, torsion, a gear behind the encoder, drift over a
+long travel). The search scores every model kind with one family on all axes at a
+common order, then refines each kind axis by axis (every basis and smoothing of one axis
+with the other axes eliminated once); the choice follows the one-standard-error rule:
+among the candidates whose held-out mean distance is within one paired standard error
+of the lowest, the one with the fewest terms (a penalised spline's effective terms).
 """
 from __future__ import annotations
 
@@ -27,11 +29,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy import linalg
 
 from vecpin.errors import InputError
 from vecpin.identification.crossval import command_folds
-from vecpin.identification.likelihood import Likelihood
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
@@ -39,103 +39,27 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.orders import check_folds
-from vecpin.units import norm_mm
+from vecpin.selection.design import CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options
 
 KINDS = ("6dof", "ap")
-FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline")
-CHEB_ORDERS = tuple(range(0, 9))
-FOURIER_ORDERS = (2, 4, 6, 8, 10, 12)
-TRENDS = (1, 2, 4, 6, 8)
-SPLINE_KNOTS = (3, 7, 15)
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
-
-
-@dataclass(frozen=True)
-class AxisChoice:
-    """The basis of one axis: ``family`` and ``order`` (series order; interior knots of
-    a spline), ``trend`` (Chebyshev trend order beside a Fourier series)."""
-
-    family: str
-    order: int
-    trend: int = 0
-
-    def basis(self, axis) -> AxisBasis:
-        rot = axis.kind == "rotary"
-        if self.family == "chebyshev":
-            return AxisBasis(axis.lower, axis.upper, self.order, "chebyshev", rotary=rot)
-        if self.family == "fourier":
-            return AxisBasis(axis.lower, axis.upper, self.order, "fourier", rotary=rot)
-        if self.family == "fourier_trend":
-            return AxisBasis(axis.lower, axis.upper, self.order, "fourier_trend", rotary=rot, trend=self.trend)
-        if self.family == "spline":
-            knots = np.linspace(axis.lower, axis.upper, self.order + 2)[1:-1]
-            return AxisBasis(axis.lower, axis.upper, 3, "bspline", rotary=rot, knots=tuple(knots))
-        raise InputError(f"unknown basis family '{self.family}' (one of {', '.join(FAMILIES)})")
-
-    def functions(self) -> tuple[str, ...]:
-        """Names of its non-constant functions in the union of :func:`_axis_functions`."""
-        if self.family == "chebyshev":
-            return tuple(f"c{j}" for j in range(1, self.order + 1))
-        if self.family in ("fourier", "fourier_trend"):
-            four = tuple(f"{'cos' if j % 2 else 'sin'}{math.ceil(j / 2)}" for j in range(1, self.order + 1))
-            return four + tuple(f"c{j}" for j in range(1, self.trend + 1))
-        return tuple(f"b{self.order}.{i}" for i in range(1, self.order + 4))
-
-    @property
-    def size(self) -> int:
-        return 1 + len(self.functions())
-
-    def label(self) -> str:
-        return {"chebyshev": f"cheb{self.order}", "fourier": f"fourier{self.order}",
-                "fourier_trend": f"fourier{self.order}+trend{self.trend}", "spline": f"spline{self.order}"}[self.family]
-
-
-def axis_options(axis, orders=CHEB_ORDERS, families=FAMILIES, fixed_order: bool = False) -> list[AxisChoice]:
-    """Every basis worth trying on an axis. ``fixed_order``: ``orders`` holds the one
-    order the user fixed, which defines every family's size: Chebyshev and Fourier
-    series of that order, Fourier plus a trend of at most that order, splines with
-    that many interior knots."""
-    out = []
-    if "chebyshev" in families:
-        out += [AxisChoice("chebyshev", o) for o in orders]
-    if axis.multiturn:
-        if "fourier" in families:
-            out += [AxisChoice("fourier", o) for o in
-                    (orders if fixed_order else [o for o in FOURIER_ORDERS if o <= 2 * max(orders, default=0) + 2])]
-        if "fourier_trend" in families:
-            out += [AxisChoice("fourier_trend", o, t) for o in (orders if fixed_order else FOURIER_ORDERS[:4])
-                    for t in TRENDS if not fixed_order or t <= o]
-    if "spline" in families:
-        out += [AxisChoice("spline", k) for k in (orders if fixed_order else SPLINE_KNOTS)]
-    return out
-
-
-def _axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """The union of the options' non-constant functions at positions q: (names, (N, F))."""
-    names, cols = [], []
-    cheb = max((o.order for o in options if o.family == "chebyshev"), default=0)
-    cheb = max([cheb] + [o.trend for o in options])
-    if cheb:
-        names += [f"c{j}" for j in range(1, cheb + 1)]
-        cols.append(AxisBasis(axis.lower, axis.upper, cheb, rotary=axis.kind == "rotary").values(q)[:, 1:])
-    four = max((o.order for o in options if o.family in ("fourier", "fourier_trend")), default=0)
-    if four:
-        names += list(AxisChoice("fourier", four).functions())
-        cols.append(AxisChoice("fourier", four).basis(axis).values(q)[:, 1:])
-    for k in sorted({o.order for o in options if o.family == "spline"}):
-        names += list(AxisChoice("spline", k).functions())
-        cols.append(AxisChoice("spline", k).basis(axis).values(q)[:, 1:])
-    return names, (np.concatenate(cols, axis=1) if cols else np.zeros((len(q), 0)))
 
 
 @dataclass
 class Candidate:
-    """One model: kind, a basis per axis, held-out distances [mm] per judged row."""
+    """One model: kind, a basis per axis, held-out distances [mm] per judged row;
+    ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
+    penalised spline makes it smaller, :meth:`FoldedDesign.effective_terms`)."""
 
     kind: str
     axes: tuple[AxisChoice, ...]
     n_terms: int
     heldout: np.ndarray = field(repr=False)
+    effective_terms: float | None = None
+
+    @property
+    def size(self) -> float:
+        return self.n_terms if self.effective_terms is None else self.effective_terms
 
     @property
     def mean(self) -> float:
@@ -159,7 +83,8 @@ class Candidate:
 
     def to_dict(self, machine: Machine) -> dict:
         return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
-                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max}
+                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max} | \
+            ({} if self.effective_terms is None else {"effective_model_terms": self.effective_terms})
 
 
 @dataclass
@@ -191,7 +116,9 @@ class ModelChoice:
             lines.append(f"  {c.label():<58s} {c.n_terms:11d} {c.mean:13.4f} {c.max:8.4f}{mark}")
         if len(self.candidates) > len(shown):
             lines.append(f"  ({len(self.candidates) - len(shown)} more candidates scored, not shown)")
-        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms): {self.reason}")
+        eff = self.chosen.effective_terms
+        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms"
+                     f"{'' if eff is None else f', {eff:.1f} effective after smoothing'}): {self.reason}")
         lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
                      f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")
         return "\n".join(lines)
@@ -210,131 +137,35 @@ class ModelChoice:
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
-class _Design:
-    """The linearised problem at the nominal machine on one campaign, with every
-    candidate function of every axis for one model kind: whitened columns ``J``
-    (N,3,P), metric columns ``A`` (N,3,P), residuals ``w`` and ``metric`` (N,3).
-
-    The first :attr:`n_fixed` columns are in every candidate: E_0 (station 0's pose
-    correction) and the instruments' own unknowns (other stations' poses, ball-bar
-    pivots, tool targets, nest positions). Then the model's offsets (T_offset, a length
-    per tool with ``tool_lengths``), the constants and the functions. Every column is
-    scaled by the prior standard deviation of its term in the model the candidate
-    builds (``opts``: the model options, ``prior_scale`` among them), so the unit ridge
-    of the solves is the model's own prior. ``setup``: the tracker poses to linearise at
-    (default: registered on this campaign)."""
-
-    def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options,
-                 opts: dict | None = None, setup=None):
-        self.kind, self.machine = kind, machine
-        c = campaign
-        opts = {k: v for k, v in (opts or {}).items() if k in ("tool_lengths", "prior_scale")}
-        lik = Likelihood(make_model("ap", machine, 0), c, noise, setup=setup)
-        self.setup = lik.setup
-        ev = lik.evaluate(np.zeros(lik.n_unknowns), operators=True)
-        point = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
-        self.judged = point if point.any() else ev.valid[:, 0]
-        self.metric, self.w = ev.metric, ev.w
-        # every row's own point (tool tip, target, nest) through the one likelihood's requests
-        proto, proto1 = make_model(kind, machine, 0, **opts), make_model(kind, machine, 1, **opts)
-        tool_dir, S = lik.sensitivity(proto)
-        # E_0 and the instruments' unknowns (stations, pivots, targets, nests) are in every candidate
-        self.fixed = np.r_[np.arange(6), np.arange(6 + lik.n_model, lik.n_unknowns)]
-        self.slots = list(proto.slot_axis) if kind == "6dof" else list(range(machine.n_axes))
-        n, n_off = machine.n_axes, proto._n_offsets()
-        prior0 = proto.priors[n_off:]                                      # the constants' priors
-        prior1 = np.array([p.prior for p in proto1.base_parameters if p.order == 1])  # the functions'
-        off = proto._offset_columns(c.tool, tool_dir) * proto.priors[:n_off]
-        cols = [off[:, :, k] for k in range(n_off)]
-        index = {("offset", k): k for k in range(n_off)}
-        functions = [_axis_functions(a, options[i], c.q[:, i]) for i, a in enumerate(machine.axes)]
-        if kind == "ap":  # a constant per output; per input axis its functions into every output
-            prior1 = prior1.reshape(n, n)
-            for j in range(n):
-                index[("const", j)] = len(cols)
-                cols.append(S[:, :, j] * prior0[j])
-            for i in range(n):
-                names, F = functions[i]
-                for f, name in enumerate(names):
-                    for j in range(n):
-                        index[(i, name, j)] = len(cols)
-                        cols.append(S[:, :, j] * F[:, f, None] * prior1[i, j])
-        else:  # per slot (an axis or a mimic joint): its constants, then its driving axis' functions
-            prior0, prior1 = prior0.reshape(-1, 6), prior1.reshape(-1, 6)
-            for s, i in enumerate(self.slots):
-                for comp in range(6):
-                    index[(s, "0", comp)] = len(cols)
-                    cols.append(S[:, :, s, comp] * prior0[s, comp])
-                names, F = functions[i]
-                for f, name in enumerate(names):
-                    for comp in range(6):
-                        index[(s, name, comp)] = len(cols)
-                        cols.append(S[:, :, s, comp] * F[:, f, None] * prior1[s, comp])
-        D = np.stack(cols, axis=-1)                                     # d point / d psi (N,3,P)
-        self.J = np.concatenate([ev.J[:, :, self.fixed], ev.Gw @ D], axis=-1)
-        self.A = np.concatenate([ev.A[:, :, self.fixed], ev.Gm @ D], axis=-1)
-        self.index = index
-        self.n_offsets = n_off
-        self.uncompensated = norm_mm(ev.metric[self.judged])
-
-    @property
-    def n_fixed(self) -> int:
-        return len(self.fixed)
-
-    def columns(self, choice: tuple[AxisChoice, ...]) -> np.ndarray:
-        """Column indices of a candidate: E_0 and the instruments' unknowns, the offsets,
-        then its constants and functions (6-DoF: on every slot the axis drives)."""
-        idx = [self.index[("offset", k)] for k in range(self.n_offsets)]
-        n = self.machine.n_axes
-        if self.kind == "ap":
-            idx += [self.index[("const", j)] for j in range(n)]
-            for i, c in enumerate(choice):
-                idx += [self.index[(i, name, k)] for name in c.functions() for k in range(n)]
-        else:
-            for s, i in enumerate(self.slots):
-                idx += [self.index[(s, "0", k)] for k in range(6)]
-                idx += [self.index[(s, name, k)] for name in choice[i].functions() for k in range(6)]
-        return np.r_[np.arange(self.n_fixed), self.n_fixed + np.array(idx, int)]
-
-
-class _Problem(_Design):
-    """:class:`_Design` with the normal equations of every fold (folds grouped by
-    command): fold f's estimate comes from the normal equations less fold f's rows."""
-
-    def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options, fold, folds,
-                 opts: dict | None = None):
-        super().__init__(kind, machine, campaign, noise, options, opts)
-        grams = []
-        for f in range(folds):
-            sel = fold == f
-            Jf = self.J[sel].reshape(-1, self.J.shape[-1])
-            grams.append((Jf.T @ Jf, Jf.T @ self.w[sel].ravel()))
-        self.G, self.g = sum(v[0] for v in grams), sum(v[1] for v in grams)
-        self.G_train = np.stack([self.G - Gf for Gf, _ in grams])       # (folds, P, P)
-        self.g_train = np.stack([self.g - gf for _, gf in grams])
-        judged = np.flatnonzero(self.judged)
-        self.metric_judged = self.metric[judged]
-        # d metric / d psi of the judged rows, one contiguous row per column: (P, 3 n_judged)
-        self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[judged], -1, 0).reshape(self.A.shape[-1], -1))
-        self.pick = (np.repeat(fold[judged], 3), np.arange(3 * len(judged)))  # each row's own fold
-
-    def heldout(self, cols: np.ndarray) -> np.ndarray:
-        """Held-out distances [mm] of the judged rows for the candidate with these columns."""
-        N = self.G_train[:, cols[:, None], cols]
-        N[:, np.arange(len(cols)), np.arange(len(cols))] += 1.0               # the unit prior
-        g = self.g_train[:, cols]
-        psi = np.stack([-linalg.cho_solve(linalg.cho_factor(Nf, check_finite=False), gf, check_finite=False)
-                        for Nf, gf in zip(N, g)])                              # (folds, p): one solve per fold
-        change = (psi @ self.A_rows[cols])[self.pick]                         # each row from its fold's estimate
-        return norm_mm(self.metric_judged + change.reshape(-1, 3))
-
-    def estimate(self, cols: np.ndarray) -> np.ndarray:
-        """The candidate's linearised estimate from every row (prior-scaled, its columns)."""
-        return -np.linalg.solve(self.G[np.ix_(cols, cols)] + np.eye(len(cols)), self.g[cols])
+class _Problem(FoldedDesign):
+    """:class:`~vecpin.selection.design.FoldedDesign` that scores candidates."""
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
-        cols = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols))
+        cols, scale = self.columns(choice)
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols, scale))
+
+    def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
+        """Candidates that share most columns (one axis' basis or smoothing differs), at
+        about the cost of one (:meth:`FoldedDesign.heldout_blocks`)."""
+        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
+        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
+        shared = set(common)
+        blocks = [(np.array([j for j in d if j not in shared], int),
+                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
+        held = self.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
+        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
+
+    def size(self, cand: Candidate) -> float:
+        """The candidate's number of model terms for the one-SE rule, less what its
+        penalised splines' smoothing takes away: n_terms - (t_0 - t_λ), t the trace of
+        the hat matrix over its model columns with the penalties λ and without (λ = 0),
+        so that a penalised spline's heavily smoothed wiggles count little and every
+        other candidate is counted as before."""
+        if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
+            cols, scale = self.columns(cand.axes)
+            cand.effective_terms = cand.n_terms - (self.effective_terms(cols, np.ones_like(scale))
+                                                   - self.effective_terms(cols, scale))
+        return cand.size
 
 
 def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, spline or auto") -> None:
@@ -346,7 +177,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
 
 
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
-                 families=FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
+                 families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None,
                  progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
@@ -371,7 +202,9 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
-    plans = tuple(p for p in (plans or families) if p in families)
+    # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
+    plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
+                  if p in families)
     if plans and all(p in ("fourier", "fourier_trend") for p in plans):
         check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
                     or "chebyshev")
@@ -394,17 +227,21 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
         prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds, opts)
         for plan in plans:
-            for o in (orders if plan != "spline" else [None]):
+            for o in (orders if plan not in ("spline", "pspline") else [None]):
                 for plan_axes in _plans(machine, plan, o, options):
                     score(prob, plan_axes)
         say(f"{kind}: {sum(c.kind == kind for c in cands)} common-basis candidates scored")
     best = min(cands, key=lambda c: c.mean)
-    if per_axis:
-        prob = problems[best.kind]
-        cur = best
+    for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
+        cur = min((c for c in cands if c.kind == prob.kind), key=lambda c: c.mean)
         for _ in range(3):
             improved = False
             for i in range(machine.n_axes):
+                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
+                          if (prob.kind, t) not in scored]
+                for c in (prob.candidates(trials) if len(trials) > 1 else []):  # the other axes eliminated once
+                    scored[(prob.kind, c.axes)] = c
+                    cands.append(c)
                 for opt in options[i]:
                     trial = cur.axes[:i] + (opt,) + cur.axes[i + 1:]
                     c = score(prob, trial)
@@ -413,8 +250,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
             if not improved:
                 break
         say(f"refined axis by axis: {cur.label()}")
-        best = min(cands, key=lambda c: c.mean)
-    chosen, se, reason = one_standard_error(cands, best)
+    best = min(cands, key=lambda c: c.mean)
+    chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
     unc = problems[kinds[0]].uncompensated
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
@@ -431,6 +268,10 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
             out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
                              for opts in options))
         return out
+    if plan == "pspline":  # one knot count and smoothing on every axis
+        for c in dict.fromkeys(o for opts in options for o in opts if o.family == "pspline"):
+            out.append(tuple(c if c in opts else opts[0] for opts in options))
+        return out
     cheb = AxisChoice("chebyshev", order)
     if plan == "chebyshev":
         return [tuple(cheb for _ in machine.axes)]
@@ -446,8 +287,11 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
     return out
 
 
-def one_standard_error(cands: list[Candidate], best: Candidate) -> tuple[Candidate, float, str]:
-    """The fewest terms among the candidates within one paired standard error of the best."""
+def one_standard_error(cands: list[Candidate], best: Candidate,
+                       size: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
+    """The fewest terms among the candidates within one paired standard error of the best
+    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those within)."""
+    size = size or (lambda c: c.n_terms)
     n = best.heldout.size
     ok = []
     for c in cands:
@@ -455,7 +299,9 @@ def one_standard_error(cands: list[Candidate], best: Candidate) -> tuple[Candida
         se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
         if delta.mean() <= se:
             ok.append((c, se))
-    chosen, se = min(ok, key=lambda x: (x[0].n_terms, x[0].mean))
+    # sizes in whole terms: a smoothing that leaves as many effective terms as a plain
+    # candidate has ties with it, and the tie goes to the plain one (fewer nominal terms)
+    chosen, se = min(ok, key=lambda x: (round(size(x[0])), x[0].n_terms, x[0].mean))
     if chosen is best:
         return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
     return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
@@ -492,8 +338,11 @@ def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> 
     """The model of a fully fixed choice: ``basis`` on the axes it applies to (per-turn
     families on rotary axes that travel more than a turn, Chebyshev elsewhere; a Fourier
     series of ``order`` with a Chebyshev trend of order min(2, ``order``)); ``spline``: on
-    every axis, ``order`` interior knots."""
+    every axis, ``order`` interior knots. (A penalised spline is never fully fixed: its
+    smoothing is chosen by :func:`choose_model`.)"""
     check_basis(machine, basis)
+    if basis == "pspline":
+        raise InputError("--basis pspline: the smoothing is chosen by held-out data; use choose_or_fix")
     if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
         return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
     axes = []
@@ -518,20 +367,21 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     fixed choice builds the model directly. ``opts``: model options (tool_lengths,
     prior_scale), which the candidates carry too. A fixed ``order`` keeps the families
     whose size it defines (Chebyshev and Fourier series of that order, trends up to it);
-    splines only with ``basis="spline"``, ``order`` then being the number of interior
-    knots. ``seed``: the cross-validation folds."""
+    splines only with ``basis="spline"`` or ``"pspline"``, ``order`` then being the number
+    of interior knots; a penalised spline's smoothing is always chosen by held-out data.
+    ``seed``: the cross-validation folds."""
     if kind not in ("auto",) + KINDS:
         raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
         raise InputError(f"--basis {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
     check_basis(machine, basis)
-    if kind != "auto" and basis != "auto" and order != "auto":
+    if kind != "auto" and basis not in ("auto", "pspline") and order != "auto":
         return fixed_model(machine, kind, basis, order, **opts), None
     if basis == "auto":
-        families = FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
-    elif basis == "spline" and order != "auto":
-        families = ("spline",)
+        families = DEFAULT_FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
+    elif basis in ("spline", "pspline") and order != "auto":
+        families = (basis,)
     else:
         families = tuple(dict.fromkeys((basis, "chebyshev")))
     choice = choose_model(machine, campaign, noise, kinds=KINDS if kind == "auto" else (kind,), families=families,
