@@ -14,6 +14,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.choice import AxisChoice
+from vecpin.selection.design import PSPLINE_KNOTS
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.simulation.truth import uniform_commands
 
@@ -123,7 +124,7 @@ def test_choice_columns_with_smoothing_are_the_models_own_jacobian(portal):
     fold = command_folds(c, 3, np.random.default_rng(0))
     options = [axis_options(a, families=("chebyshev", "pspline")) for a in portal.axes]
     prob = _Problem("ap", portal, c, noise, options, fold, 3)
-    choice = (AxisChoice("pspline", 31, 0, 1e3), AxisChoice("chebyshev", 2), AxisChoice("pspline", 31, 0, 1e6),
+    choice = (AxisChoice("pspline", PSPLINE_KNOTS, 0, 1e3), AxisChoice("chebyshev", 2), AxisChoice("pspline", PSPLINE_KNOTS, 0, 1e6),
               AxisChoice("chebyshev", 3), AxisChoice("chebyshev", 1))
     cols, scale = prob.columns(choice)
     assert (scale < 1).sum() > 0 and np.all(scale[:prob.n_fixed] == 1)
@@ -141,7 +142,7 @@ def test_choice_columns_with_smoothing_are_the_models_own_jacobian(portal):
 def test_the_choice_takes_a_penalised_spline_where_wiggles_need_one(flow):
     """Linear axes whose six errors wiggle six periods over the travel (20 µm), rotary
     axes with quadratics: no Chebyshev series of order <= 8 nor spline of <= 15 knots
-    follows them, a penalised 31-knot spline with its smoothing from held-out data does;
+    follows them, a penalised spline (PSPLINE_KNOTS knots) with its smoothing from held-out data does;
     the choice takes it on every axis, with a smoothing that is neither the least nor the
     most offered, and it is clearly below every other family held out."""
     from vecpin.selection.choice import choose_model
@@ -178,11 +179,11 @@ def test_smoothing_sweep_equals_one_solve_per_smoothing(portal):
     fold = command_folds(sim.campaign, 3, np.random.default_rng(0))
     options = [axis_options(a, families=("chebyshev", "pspline")) for a in portal.axes]
     prob = _Problem("6dof", portal, sim.campaign, noise, options, fold, 3)
-    rest = (AxisChoice("chebyshev", 2), AxisChoice("pspline", 31, 0, 1e4), AxisChoice("chebyshev", 3),
+    rest = (AxisChoice("chebyshev", 2), AxisChoice("pspline", PSPLINE_KNOTS, 0, 1e4), AxisChoice("chebyshev", 3),
             AxisChoice("chebyshev", 1))
     cols, scales = None, []
     for lam in (1.0, 1e3, 1e6):
-        c, s = prob.columns((AxisChoice("pspline", 31, 0, lam),) + rest)
+        c, s = prob.columns((AxisChoice("pspline", PSPLINE_KNOTS, 0, lam),) + rest)
         assert cols is None or np.array_equal(c, cols)
         cols = c
         scales.append(s)
@@ -203,7 +204,7 @@ def test_candidates_sharing_columns_equal_their_own_solves(portal):
     fold = command_folds(sim.campaign, 3, np.random.default_rng(0))
     options = [axis_options(a, families=("chebyshev", "spline", "pspline")) for a in portal.axes]
     prob = _Problem("ap", portal, sim.campaign, noise, options, fold, 3)
-    rest = (AxisChoice("pspline", 31, 0, 1e4), AxisChoice("chebyshev", 3), AxisChoice("chebyshev", 2),
+    rest = (AxisChoice("pspline", PSPLINE_KNOTS, 0, 1e4), AxisChoice("chebyshev", 3), AxisChoice("chebyshev", 2),
             AxisChoice("chebyshev", 1))
     trials = [(o,) + rest for o in options[0]]
     assert {o.family for o in options[0]} == {"chebyshev", "spline", "pspline"}

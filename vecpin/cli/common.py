@@ -86,9 +86,9 @@ def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> No
                    default="auto",
                    help="basis of the error functions: chebyshev over the travel (the seed's), fourier (per turn on "
                         "rotary axes travelling more than a turn), fourier_trend (per turn plus a trend over the "
-                        "travel), spline (cubic B-splines), pspline (penalised cubic B-splines, 31 interior knots "
+                        "travel), spline (cubic B-splines), pspline (penalised cubic B-splines, 15 interior knots "
                         "unless --order, smoothing chosen by held-out data), or auto: chebyshev, fourier, "
-                        "fourier_trend or spline, chosen per axis by held-out data (default)")
+                        "fourier_trend or pspline, chosen per axis by held-out data (default)")
     s.add_argument("--order", default="auto",
                    help="series order (a whole number: Chebyshev and Fourier series of that order, trends up to it; "
                         "with --basis spline or pspline the number of interior knots per axis), or auto: chosen by held-out "
