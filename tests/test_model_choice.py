@@ -86,7 +86,7 @@ def test_the_choice_on_machines_vecpin_never_saw(name, family, oracle_ratio):
     (6-DoF/AP x Chebyshev/Fourier x orders 4, 6, 8), within the stated factor of the
     fit of the true error family (1.2x where vecpin's families reach it; spline and
     bump families need knots vecpin cannot know), and its tables within 1.15x of the
-    best tables fitted straight to the true machine (1.25x on the small AB head, whose
+    best tables fitted straight to the true machine (1.35x on the small AB head, whose
     floor is only 20-40 µm, so the model's own error of a few µm weighs more)."""
     m = layout(name)
     truth = IndependentMachine.random(m, family, seed=1)
@@ -104,7 +104,9 @@ def test_the_choice_on_machines_vecpin_never_saw(name, family, oracle_ratio):
         assert chosen <= oracle_ratio * validation_error(oracle, truth, q, tool)[0]
     vec = true_compensated_error(truth, plan_tables(model, uncertainty=False).tables, q, tool)[0]
     floor = table_floor(truth, q, tool).mean_mm
-    assert vec <= (1.25 if name.startswith("head") else 1.15) * floor  # the small head: a floor of 20-40 µm
+    # the small head: a floor of 20-40 µm, and since tables and floor are fitted jointly with a rigid motion
+    # the floor there is up to 2x lower than it was (vecpin's tables up to 38 % lower)
+    assert vec <= (1.35 if name.startswith("head") else 1.15) * floor
 
 
 def test_one_standard_error_rule_finds_the_true_order(flow):

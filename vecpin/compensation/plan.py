@@ -31,6 +31,7 @@ from vecpin.models import APModel, ErrorModel
 from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.registration import rigid_motion_basis
 
 MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
 METHODS = ("exact", "ga", "heuristic")
@@ -83,11 +84,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     e = r.ravel()[None] + z @ out.J_b.reshape(3 * len(q), -1).T   # (S, 3N)
     # a rigid motion of the whole workspace is not observable from tracker data (the
     # tracker pose absorbs it) and does not affect parts: remove it from every draw
-    c = nominal - nominal.mean(axis=0)
-    G = np.zeros((len(q), 3, 6))
-    G[:, :, :3] = np.eye(3)
-    G[:, :, 3:] = -np.cross(c[:, :, None], np.eye(3)[None], axis=1)  # d(w x c)/dw = -[c]x
-    Q, _ = np.linalg.qr(G.reshape(-1, 6))
+    Q = rigid_motion_basis(nominal)
     flat = e - (e @ Q) @ Q.T
     means = np.linalg.norm(flat.reshape(draws, -1, 3), axis=2).mean(axis=1) * MM_PER_M
     return float(means.mean()), float(np.percentile(means, 16)), float(np.percentile(means, 84))

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import linalg
 
-from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names
+from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names, ridged
 from vecpin.errors import VecpinError
 from vecpin.units import MM_PER_M
 
@@ -86,7 +86,7 @@ class Scorer:
 
     def __init__(self, problem: TableProblem, ridge: float | None = None):
         self.problem = problem
-        G = problem.G + (problem.ridge if ridge is None else ridge) * np.diag(np.diag(problem.G))
+        G = ridged(problem.G, problem.ridge if ridge is None else ridge, problem.ridge_base)
         g = problem.g
         a = problem.columns(pitch_names(problem.machine))
         Gaa = G[np.ix_(a, a)]

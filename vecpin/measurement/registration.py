@@ -29,6 +29,18 @@ def register(p_machine: np.ndarray, p_tracker: np.ndarray, weights: np.ndarray |
     return R, cq - R @ cp
 
 
+def rigid_motion_basis(points: np.ndarray) -> np.ndarray:
+    """(3N, 6) orthonormal basis of the displacements of ``points`` (N,3) [m] under a
+    small rigid motion: translations, and rotations w about the points' centroid
+    (w x r = -[r]x w). Projecting a stacked error vector orthogonally to it is the
+    linearised best-fit registration."""
+    r = points - points.mean(axis=0)
+    B = np.zeros((len(points), 3, 6))
+    B[:, :, :3] = np.eye(3)
+    B[:, :, 3:] = -np.cross(r[:, :, None], np.eye(3)[None], axis=1)
+    return np.linalg.qr(B.reshape(-1, 6))[0]
+
+
 def registered_errors(p_machine: np.ndarray, p_tracker: np.ndarray) -> np.ndarray:
     """(N,3) residuals [same unit] of tracker points after the best rigid fit of the
     machine points: the 'uncompensated' volumetric error of the seed's tables."""
