@@ -245,7 +245,7 @@ def test_files_as_written_keep_the_differential(skewed_model, tmp_path):
     rows = {r.label: r for r in run.plan.report.rows}
     full, files = rows["full tables (model-predicted)"], rows["files + reference shifts (model-predicted)"]
     assert files.mean < full.mean + 0.002 and files.max < full.max + 0.005
-    assert rows["uncompensated (model)"].mean > 0.5
+    assert rows["uncompensated (model)"].mean > 0.3  # registered: the rigid part of the error does not count
 
 
 def test_zone_fit_records_and_restricts(machines, tmp_path):

@@ -493,7 +493,7 @@ class CompensationReport:
 
 
 def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet | None,
-                       q: np.ndarray, tool: np.ndarray, register: bool | None = None, point=0) -> np.ndarray:
+                       q: np.ndarray, tool: np.ndarray, register: bool = True, point=0) -> np.ndarray:
     """Tool-tip errors (N,3) [m], relative to the workpiece, of the actual machine under
     ``tables`` against the controller's nominal kinematics (with the changed T_offset);
     None: uncompensated. ``point``: tool point index, one or per row. The differential
@@ -502,11 +502,9 @@ def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet
     ``register``: remove the best-fit rigid motion first. Use it when the actual
     machine's frame is not the model's (a simulated truth): a rigid motion of the
     whole machine is not observable from tracker data and does not affect parts,
-    and the seed's volumetric errors are registered the same way. Default (None):
-    with tables (they are fitted jointly with the rigid motion they leave,
-    :class:`TableProblem`), not without."""
-    if register is None:
-        register = tables is not None
+    and the seed's volumetric errors are registered the same way. Default: registered,
+    with tables or without (tables are fitted jointly with the rigid motion they leave,
+    :class:`TableProblem`, and the uncompensated row is judged the same way)."""
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
