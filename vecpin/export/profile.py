@@ -69,6 +69,18 @@ DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by 
 TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
 
 
+
+def load_option_json(path: str | Path, option: str):
+    """The JSON content of a file given with ``option`` (a profile, a sign test); a
+    missing or unreadable file is an InputError naming the option and the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{option} {path}: no such file")
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{option} {path}: not a JSON file ({exc})") from None
+
 @dataclass(frozen=True)
 class AxisProfile:
     """The controller's facts about one machine axis (None: not given)."""
@@ -98,14 +110,7 @@ class ControllerProfile:
     # ------------------------------------------------------------------ files
     @classmethod
     def load(cls, path: str | Path) -> "ControllerProfile":
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"--profile {path}: no such file")
-        try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"--profile {path}: not a JSON file ({exc})") from None
-        return cls.from_dict(d, str(path))
+        return cls.from_dict(load_option_json(path, "--profile"), str(path))
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "controller profile") -> "ControllerProfile":

@@ -33,9 +33,10 @@ import numpy as np
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.export.common import decimal
-from vecpin.export.profile import ControllerProfile
+from vecpin.export.profile import ControllerProfile, load_option_json
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import read_text_file
 
 FORMAT = "vecpin-sign-test"
 VERSION = 1
@@ -90,13 +91,7 @@ class SignTest:
 
     @classmethod
     def load(cls, path: str | Path) -> "SignTest":
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"--sign-test {path}: no such file")
-        try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"--sign-test {path}: not a JSON file ({exc})") from None
+        d = load_option_json(path, "--sign-test")
         if not isinstance(d, dict) or d.get("format") != FORMAT or d.get("version") != VERSION:
             raise InputError(f"--sign-test {path}: not a vecpin sign-test file (written by vecpin tables --sign-test)")
         try:
@@ -246,12 +241,7 @@ class SignVerdict:
 def read_check(path: str | Path, st: SignTest) -> dict[tuple[str, int], list[float]]:
     """Readings per (state, position index) from a sign-test CSV."""
     path = Path(path)
-    if not path.is_file():
-        raise CampaignFileError(path, "no such file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise CampaignFileError(path, f"not a text file ({exc.reason})") from None
+    text = read_text_file(path, encoding="utf-8")
     rows = [r for r in csv.reader(io.StringIO(text))]
     body = [(no, r) for no, r in enumerate(rows, 1) if r and any(c.strip() for c in r)
             and not r[0].lstrip().startswith("#")]

@@ -160,20 +160,28 @@ MAX_ID = 9999            # station and pivot ids are small whole numbers
 CELL_SHOWN = 40          # characters of a bad cell quoted in a message
 
 
+def read_text_file(path: str | Path, missing: str = "no such file", encoding: str = "utf-8-sig") -> str:
+    """The text of a file the user gives (a campaign, a plan template, targets, a
+    sign-test reading): a missing file is a CampaignFileError saying ``missing``, an
+    undecodable one a CampaignFileError with the byte; a UTF-8 byte-order mark is
+    dropped."""
+    path = Path(path)
+    if not path.is_file():
+        raise CampaignFileError(str(path), missing)
+    try:
+        return path.read_text(encoding=encoding)
+    except UnicodeDecodeError as exc:
+        raise CampaignFileError(str(path), f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+
+
 def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     """Read and validate a campaign CSV for ``machine``; see the module docstring.
 
     Plain files (one number per cell, no blank lines, no ``instrument`` column) are
     parsed by numpy in one pass; any file the fast parser does not take, or any value it
     finds wrong, is parsed again cell by cell for the message with row and column."""
-    path = Path(path)
     name = str(path)
-    if not path.is_file():
-        raise CampaignFileError(name, "no such file")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    text = read_text_file(path)
     first, _, body_text = text.partition("\n")
     if not text.strip():
         raise CampaignFileError(name, "the file is empty (expected a header line and one row per measurement)")
@@ -357,14 +365,8 @@ def read_targets(path: str | Path) -> dict[str, np.ndarray]:
     """Known tool-target offsets from a small CSV ``target,x,y,z`` (mm, in the tool link
     frame: the spindle's or the robot flange's) -> {id: offset (3,) [m]}. Targets a
     campaign names that are not in the file are found by the fit."""
-    path = Path(path)
     name = str(path)
-    if not path.is_file():
-        raise CampaignFileError(name, "no such targets file")
-    try:
-        lines = list(csv.reader(path.read_text(encoding="utf-8-sig").splitlines()))
-    except UnicodeDecodeError as exc:
-        raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    lines = list(csv.reader(read_text_file(path, "no such targets file").splitlines()))
     rows = [(i + 1, [c.strip() for c in ln]) for i, ln in enumerate(lines) if any(c.strip() for c in ln)]
     if not rows or rows[0][1][:4] != ["target", "x", "y", "z"]:
         raise CampaignFileError(name, "a targets file starts with the header 'target,x,y,z' (offsets in mm in the "

@@ -36,6 +36,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import read_text_file
 from vecpin.units import M_PER_MM, to_mm
 
 
@@ -121,14 +122,8 @@ def point_name(point: int) -> str:
 
 def read_template(path: str | Path, machine: Machine) -> PlanTemplate:
     """Read a plan's campaign template (x, y, z may be empty or filled; they are ignored)."""
-    path = Path(path)
     name = str(path)
-    if not path.is_file():
-        raise CampaignFileError(name, "no such plan file (the campaign template written by 'vecpin plan')")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise CampaignFileError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    text = read_text_file(path, "no such plan file (the campaign template written by 'vecpin plan')")
     rows = [r for r in csv.reader(text.splitlines())]
     rows = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not rows:
