@@ -66,6 +66,7 @@ class Judgement:
     choice: object = None                 # the model choice of the selected row
     tables_mm: tuple[float, float] | None = None   # true compensated error of vecpin's tables (mean, max)
     floor_mm: tuple[float, float] | None = None    # the table floor (mean, max)
+    oracle_tables_mm: tuple[float, float] | None = None  # the oracle fit's tables on the true machine (mean, max)
     uncompensated_true_mm: tuple[float, float] | None = None
 
     @property
@@ -180,7 +181,8 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
     commands x the design's tools. ``noise``: the fit's noise model (default: spherical
     tracker noise with the truth's tracker figures and the default axis noise).
     ``auto`` rows are skipped where they equal ``chebyshev`` (no rotary axis travelling
-    more than a turn)."""
+    more than a turn). ``tables`` (with ``selected``): the true compensated error of the
+    selected model's tables and of the oracle's, and the table floor."""
     design = design or Design()
     noise = noise or NoiseModel.default(machine, "spherical", tracker=truth.tracker.noise)
     sim = simulate(machine, seed=seed, design=design, truth=truth)
@@ -189,13 +191,15 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
     out = Judgement(machine.name, getattr(truth, "family", type(truth).__name__), unc)
     multi_turn = any(a.multiturn for a in machine.axes)
 
-    def run(label, kind, basis_name, order, campaign=sim.campaign, judged=truth, **kw):
+    def run(label, kind, basis_name, order, campaign=sim.campaign, judged=truth, keep=None, **kw):
         row = Row(label, kind, basis_name, order)
         t0 = time.perf_counter()
         try:
             model = make_model(kind, machine, order, **kw).fit(campaign, noise)
             row.mean_mm, row.max_mm = validation_error(model, judged, q, tool)
             row.n_parameters = model.n_parameters + 6
+            if keep is not None:
+                keep.append(model)
         except VecpinError as exc:
             row.note = f"failed: {exc}"
         row.seconds = time.perf_counter() - t0
@@ -229,7 +233,11 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
         ob = _oracle_bases(truth)
         if ob is not None:
             kind = "ap" if getattr(truth, "perturbations", None) else "6dof"  # a TrueMachine of the AP family
-            run(f"oracle: {kind}, true family bases", kind, "custom", max(B.order for B in ob), bases=ob)
+            kept = []
+            run(f"oracle: {kind}, true family bases", kind, "custom", max(B.order for B in ob), keep=kept, bases=ob)
+            if tables and kept:  # the share of the table gap that the noise leaves even with perfect bases
+                out.oracle_tables_mm = true_compensated_error(truth, plan_tables(kept[0], uncertainty=False).tables,
+                                                              q, tool)
         elif hasattr(truth, "separable_part"):
             part = truth.separable_part()
             sim2 = simulate(machine, seed=seed, design=design, truth=part)
