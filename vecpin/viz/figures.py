@@ -247,7 +247,8 @@ def _pairs(machine: Machine) -> list[tuple[int, int]]:
 def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     """Paper I Fig. 6: where the planned commands lie in axis space, and where candidates
     were removed for collision avoidance (exclusion zones, "CA") and line of sight
-    ("LoS"); last panel: the tool tips seen from above with the tracker position."""
+    ("LoS"); last panel: the tool tips seen from above with the tracker position and,
+    on a plan with table nests, every nest reading where the table carries it."""
     m = plan.machine
     pairs = _pairs(m)
     cols = len(pairs) + 1
@@ -280,9 +281,18 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     lt = m.tool_tip(plan.candidates[los], L, frame="base") * MM_PER_M if len(los) else np.zeros((0, 3))
     ax.scatter(lt[:, 0], lt[:, 1], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.6)
     ax.scatter(tips[:, 0], tips[:, 1], s=12, color="tab:blue", edgecolor="k", lw=0.3)
+    nest_handle = None
+    tpl = plan.template
+    if tpl.has_nests:  # each nest reading where the table carries the nest at that row's command
+        rows = np.flatnonzero(tpl.instrument == "nest")
+        pts = m.workpiece_points(tpl.q[rows], tpl.nest[rows], jacobian=False).xyz * MM_PER_M
+        nest_handle = ax.scatter(pts[:, 0], pts[:, 1], s=10, marker="D", color="tab:green", edgecolor="k", lw=0.2,
+                                 alpha=0.6)
     tr = plan.tracker * MM_PER_M
     ax.scatter([tr[0]], [tr[1]], s=160, marker="^", color="k", label="tracker")
-    ax.annotate(f"tracker\n({tr[0]:.0f}, {tr[1]:.0f}, {tr[2]:.0f}) mm", tr[:2], textcoords="offset points",
+    tr_label = np.round(tr) + 0.0  # no "-0"
+    ax.annotate(f"tracker\n({tr_label[0]:.0f}, {tr_label[1]:.0f}, {tr_label[2]:.0f}) mm", tr[:2],
+                textcoords="offset points",
                 xytext=(8, 6), fontsize=7)
     ax.set_xlabel("tool tip x [mm] (machine frame)")
     ax.set_ylabel("tool tip y [mm]")
@@ -294,6 +304,10 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
                  f"({c['exclusion']} in exclusion zones, {c['sight']} out of sight)  (Paper I Fig. 6)", fontsize=9)
     handles.append(ax.collections[-1])
     labels.append("tracker position")
+    if nest_handle is not None:
+        handles.append(nest_handle)
+        labels.append(f"table nest readings ({int((tpl.instrument == 'nest').sum())} at {len(plan.nests)} nests, "
+                      "last panel)")
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.07, 1, 0.95))
     path = Path(path)
