@@ -20,7 +20,7 @@ import argparse
 import numpy as np
 
 import vecpin
-from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, model_as_actual, pitch_names,
+from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, model_as_actual,
                                  pseudo_commands, truth_as_actual)
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
@@ -95,7 +95,7 @@ def main():
           f"{on_truth(finalise(problem, ex.tables)[0]) * 1e3:9.4f}  {' '.join(ex.tables)}")
 
     print("\nPaper II Table 7: constraints (mean, mm)")
-    print(f"  seed: full 0.0310, average GA 0.0470, best GA 0.0445; no circular 0.0526-0.0571; no X output 0.0753")
+    print("  seed: full 0.0310, average GA 0.0470, best GA 0.0445; no circular 0.0526-0.0571; no X output 0.0753")
     for label, cons in [("none", Constraints(6)), ("no circular", Constraints(6, no_circular=True)),
                         ("no X output", Constraints(6, forbid_output=("X",)))]:
         runs = [genetic_search(problem, cons, seed=s) for s in range(5)]

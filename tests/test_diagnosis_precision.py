@@ -6,7 +6,6 @@ import pytest
 from vecpin.cli import main
 from vecpin.compensation.plan import plan_tables
 from vecpin.diagnosis.diagnose import diagnose
-from vecpin.errors import InputError
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, effects_help, parse_effect
 from vecpin.simulation.effects import EffectSpec

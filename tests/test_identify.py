@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from vecpin.errors import VecpinError
-from vecpin.identification.fit import fit
 from vecpin.identification.likelihood import predict_tracker
 from vecpin.measurement.instruments.tracker import E0_NAMES
 from vecpin.measurement.setup import Setup

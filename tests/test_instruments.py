@@ -6,7 +6,6 @@ import pytest
 from vecpin.measurement.campaign import read_campaign, write_campaign
 from vecpin.errors import CampaignFileError
 from vecpin.identification.likelihood import Likelihood
-from vecpin.measurement.instruments.tracker import E0_NAMES
 from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
@@ -149,7 +148,6 @@ def test_mixed_campaigns_through_the_other_tools(flow, tmp_path):
     import meshcat
 
     from vecpin.diagnosis.diagnose import diagnose
-    from vecpin.errors import VecpinError
     from vecpin.selection.orders import order_sweep
     from vecpin.viz.scene import RecordingWindow, build_scene
     sim = simulate(flow, seed=8, design=Design(n_commands=80, stations=2, ballbar_points=12))

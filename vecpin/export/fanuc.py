@@ -303,7 +303,7 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
           "zero and the reference point repeats the last point's value.", "",
           "## Straightness: by hand", ""]
     if cross:
-        s += [f"vecpin writes no straightness parameters: their numbers on the 30i family are not confirmed by a",
+        s += ["vecpin writes no straightness parameters: their numbers on the 30i family are not confirmed by a",
               "public source vecpin has seen. Fanuc straightness compensation (16i descriptions B-63522EN p.222-223)",
               "names a moving axis and a compensation axis and takes the compensation at points given by the",
               "moving axis' pitch point numbers as absolute values, linear in between; the 30i family also has",

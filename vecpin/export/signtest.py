@@ -189,7 +189,7 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} to {decimal(st.positions[0], 3)} and "
          f"{decimal(st.positions[1], 3)} {st.input_unit}, each approached from below). At each stop write a row "
          f"`off,<command>,<reading>` into `SIGNTEST_{tag}.csv` ({st.output_unit}). Repeat runs add rows.",
-         f"3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
+         "3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "
          "readings. Run the program again and write rows `on,<command>,<reading>`.",
          f"4. `vecpin evaluate MODEL.json SIGNTEST_{tag}.csv --sign-test SIGNTEST_{tag}.json` says whether the "
