@@ -9,6 +9,7 @@ import warnings
 from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
                         viewing)
 from vecpin.errors import VecpinError, VecpinWarning
+from vecpin.threads import blas_limited
 
 COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
 
@@ -51,7 +52,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args) -> int:
     try:
-        return args.func(args)
+        with blas_limited():
+            return args.func(args)
     except VecpinError as exc:
         print(f"vecpin: error: {exc}", file=sys.stderr)
         return 2

@@ -32,6 +32,7 @@ from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.registration import rigid_motion_basis
+from vecpin.threads import one_blas_thread
 
 MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
 METHODS = ("exact", "ga", "heuristic")
@@ -90,6 +91,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     return float(means.mean()), float(np.percentile(means, 16)), float(np.percentile(means, 84))
 
 
+@one_blas_thread
 def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, max_tables: int | None = None,
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int = 1000, tools_mm=None, table_order: int | None = None, seed: int = 0,

@@ -51,6 +51,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
 from vecpin.selection.choice import choose_or_fix, fixed_model
 from vecpin.units import MM_PER_M
+from vecpin.threads import one_blas_thread
 
 SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
 
@@ -155,6 +156,7 @@ def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features
     return sc
 
 
+@one_blas_thread
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,

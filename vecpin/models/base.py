@@ -44,6 +44,7 @@ from vecpin.models.basis import AxisBasis
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 from vecpin.units import MM_PER_M
+from vecpin.threads import one_blas_thread
 
 MODELS: dict[str, type["ErrorModel"]] = {}
 
@@ -362,6 +363,7 @@ class ErrorModel:
                 "prior_scale": self.prior_scale}
 
     # --------------------------------------------------------------- estimator API
+    @one_blas_thread
     def fit(self, campaign, noise: NoiseModel | None = None, *, remove_redundant: bool = True, max_iter: int = 30,
             underdetermined: bool = False, progress=None) -> "ErrorModel":
         """Identify the parameters from a campaign by maximum likelihood

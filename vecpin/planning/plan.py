@@ -42,6 +42,7 @@ from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RA
 from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone, inside
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.units import MM_PER_M, M_PER_MM
+from vecpin.threads import one_blas_thread
 
 
 
@@ -243,6 +244,7 @@ def _spread(q: np.ndarray, k: int, speed: np.ndarray) -> np.ndarray:
     return np.array(chosen)
 
 
+@one_blas_thread
 def make_plan(machine: Machine, settings: PlanSettings | None = None,
               progress: Callable[[str], None] | None = None) -> Plan:
     """Plan a campaign for ``machine`` (see the module text)."""

@@ -40,6 +40,7 @@ from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.orders import check_folds
 from vecpin.selection.design import CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options
+from vecpin.threads import one_blas_thread
 
 KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
@@ -176,6 +177,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
                          f"none: use {alternatives}")
 
 
+@one_blas_thread
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None,

@@ -1,0 +1,66 @@
+"""One BLAS thread while vecpin computes (vecpin/threads.py): the limit is what
+threadpoolctl reads back from the loaded OpenBLAS/MKL libraries, inside vecpin's entry
+points, and it is undone afterwards; VECPIN_BLAS_THREADS sets another count or none."""
+import numpy as np
+import pytest
+from threadpoolctl import threadpool_info
+
+import vecpin.identification.fit as fitmod
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import make_model
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.threads import blas_limited, blas_threads_wanted
+
+
+def blas_threads() -> list[int]:
+    return [d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"]
+
+
+@pytest.fixture
+def two_threads():
+    """The BLAS libraries with two threads (whatever the machine has), restored after."""
+    from threadpoolctl import threadpool_limits
+    before = blas_threads()
+    if not before:
+        pytest.skip("no BLAS library that threadpoolctl can see")
+    with threadpool_limits(limits=2, user_api="blas"):
+        yield
+    assert blas_threads() == before
+
+
+def test_the_block_runs_with_one_thread_and_restores(two_threads, monkeypatch):
+    monkeypatch.delenv("VECPIN_BLAS_THREADS", raising=False)
+    assert set(blas_threads()) == {2}
+    with blas_limited():
+        assert set(blas_threads()) == {1}
+        with blas_limited():           # nested: unchanged
+            assert set(blas_threads()) == {1}
+        assert set(blas_threads()) == {1}
+    assert set(blas_threads()) == {2}
+
+
+@pytest.mark.parametrize("value, wanted", [("0", 0), ("3", 3), ("", 1), ("many", 1), ("-2", 1)])
+def test_the_environment_sets_the_count(two_threads, monkeypatch, value, wanted):
+    monkeypatch.setenv("VECPIN_BLAS_THREADS", value)
+    assert blas_threads_wanted() == wanted
+    with blas_limited():
+        assert set(blas_threads()) == {2 if wanted == 0 else wanted}
+    assert set(blas_threads()) == {2}
+
+
+def test_a_model_fit_runs_with_one_thread(two_threads, flow, monkeypatch):
+    """Read inside the likelihood's fit itself, called through ErrorModel.fit."""
+    monkeypatch.delenv("VECPIN_BLAS_THREADS", raising=False)
+    seen = []
+    inner = fitmod.fit
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return inner(*args, **kwargs)
+    import vecpin.models.base as base
+    monkeypatch.setattr(base, "ml_fit", spy)
+    sim = simulate(flow, seed=0, design=Design(n_commands=40, n_validation=5))
+    model = make_model("ap", flow, 1).fit(sim.campaign, NoiseModel.default(flow))
+    assert np.all(np.isfinite(model.b_))
+    assert seen and set(seen[0]) == {1}
+    assert set(blas_threads()) == {2}

@@ -1,0 +1,77 @@
+"""How many threads the BLAS under numpy and scipy may use while vecpin computes.
+
+vecpin's heavy work is thousands of small and medium factorisations (the model choice
+solves a few hundred candidates x 5 folds, the fit a Gauss-Newton step per iteration,
+the diagnosis and the table search many small solves). A threaded OpenBLAS spends more
+on waking and parking its threads than it gains on matrices of that size. Measured on
+the 2-core development machine (numpy 2.4 with its bundled OpenBLAS 0.3.31, two
+threads by default), ``benchmarks/bench_fit.py``: the default fit of Paper I's 590 rows
+4.0 s with two BLAS threads, 1.2 s with one; the default fit of 10,000 rows 14.1 s and
+10.0 s; a fixed 6-DoF fit of 10,000 rows 5.4 s and 5.6 s (no gain from threads even
+there).
+
+So vecpin's entry points (:func:`one_blas_thread` on the model fit, the model choice,
+the diagnosis, the table planning and every command of the command line) run with one
+BLAS thread, through ``threadpoolctl`` (the scientific Python stack's tool for exactly
+this, as scikit-learn uses it). The environment variable ``VECPIN_BLAS_THREADS`` sets
+another number (``0``: leave the BLAS as it is, e.g. for a 1,000,000-row fit on a
+machine with many cores). Calls nest: an inner entry point inside an outer one costs
+nothing.
+"""
+from __future__ import annotations
+
+import functools
+import os
+import threading
+from contextlib import contextmanager
+
+ENV = "VECPIN_BLAS_THREADS"
+_state = threading.local()
+_controller = None
+
+
+def blas_threads_wanted() -> int:
+    """The BLAS thread count vecpin works with: ``VECPIN_BLAS_THREADS`` (0 = leave
+    the BLAS alone), 1 when unset or not a whole number >= 0."""
+    text = os.environ.get(ENV, "").strip()
+    try:
+        n = int(text)
+    except ValueError:
+        return 1
+    return n if n >= 0 else 1
+
+
+def _get_controller():
+    """One threadpoolctl controller for the process, made at the first use (by then
+    numpy's and scipy's BLAS libraries are loaded, vecpin imports both)."""
+    global _controller
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+        _controller = ThreadpoolController()
+    return _controller
+
+
+@contextmanager
+def blas_limited():
+    """Run the block with :func:`blas_threads_wanted` BLAS threads; nested blocks
+    inside it change nothing."""
+    depth = getattr(_state, "depth", 0)
+    n = blas_threads_wanted() if depth == 0 else 0
+    _state.depth = depth + 1
+    try:
+        if n > 0:
+            with _get_controller().limit(limits=n, user_api="blas"):
+                yield
+        else:
+            yield
+    finally:
+        _state.depth = depth
+
+
+def one_blas_thread(fn):
+    """Decorator: ``fn`` runs inside :func:`blas_limited`."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with blas_limited():
+            return fn(*args, **kwargs)
+    return wrapper
