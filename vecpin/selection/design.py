@@ -249,11 +249,16 @@ class FoldedDesign(Design):
         self.G, self.g = self.G_train.sum(axis=0), self.g_train.sum(axis=0)
         np.subtract(self.G, self.G_train, out=self.G_train)         # (folds, P, P): every fold left out
         np.subtract(self.g, self.g_train, out=self.g_train)
+        # the judged rows sorted by fold (a row is judged by its own fold's estimate only, so each
+        # fold's equations are one contiguous slice); d metric / d psi one contiguous row per
+        # column: (P, 3 n_judged)
         judged = np.flatnonzero(self.judged)
-        self.metric_judged = self.metric[judged]
-        # d metric / d psi of the judged rows, one contiguous row per column: (P, 3 n_judged)
-        self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[judged], -1, 0).reshape(self.A.shape[-1], -1))
-        self.pick = (np.repeat(fold[judged], 3), np.arange(3 * len(judged)))  # each row's own fold
+        self.judged_order = np.argsort(fold[judged], kind="stable")
+        sorted_rows = judged[self.judged_order]
+        self.metric_sorted = self.metric[sorted_rows]
+        self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[sorted_rows], -1, 0).reshape(self.A.shape[-1], -1))
+        ends = 3 * np.cumsum(np.bincount(fold[judged], minlength=folds))
+        self.fold_slices = [slice(int(a), int(b)) for a, b in zip(np.r_[0, ends[:-1]], ends)]
 
     def heldout(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """Held-out distances [mm] of the judged rows for the candidate with these columns
@@ -263,8 +268,23 @@ class FoldedDesign(Design):
         g = self.g_train[:, cols] * scale
         psi = np.stack([-linalg.cho_solve(linalg.cho_factor(Nf, check_finite=False), gf, check_finite=False)
                         for Nf, gf in zip(N, g)])                              # (folds, p): one solve per fold
-        change = ((psi * scale) @ self.A_rows[cols])[self.pick]               # each row from its fold's estimate
-        return norm_mm(self.metric_judged + change.reshape(-1, 3))
+        return self._heldout_distances(psi * scale, cols)
+
+    def _heldout_distances(self, psi: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Held-out distances [mm] of the judged rows (campaign order) from each fold's
+        estimate ``psi`` (folds, len(cols)) of the columns ``cols`` (factors applied):
+        every row changed by its own fold's estimate, computed for that fold's rows only."""
+        change = np.empty(self.A_rows.shape[1])
+        for f, sl in enumerate(self.fold_slices):
+            change[sl] = psi[f] @ self.A_rows[cols, sl]
+        return self._in_campaign_order(change)
+
+    def _in_campaign_order(self, change: np.ndarray) -> np.ndarray:
+        """Distances [mm] of the judged rows changed by ``change`` (3 n_judged, fold-sorted
+        as :attr:`A_rows`), returned in the campaign's order."""
+        out = np.empty(len(self.judged_order))
+        out[self.judged_order] = norm_mm(self.metric_sorted + change.reshape(-1, 3))
+        return out
 
     def heldout_sweep(self, cols: np.ndarray, scales: list[np.ndarray]) -> list[np.ndarray]:
         """:meth:`heldout` of one candidate's columns under several sets of factors (a
@@ -284,6 +304,11 @@ class FoldedDesign(Design):
         groups: dict = {}
         for k, (P, _) in enumerate(blocks):
             groups.setdefault(tuple(P), []).append(k)
+        # the union of every block's columns: one elimination of F per fold serves them all
+        # (the blocks of one axis overlap, e.g. Chebyshev orders nest)
+        U = np.unique(np.concatenate([np.asarray(P, int) for P, _ in blocks] + [np.zeros(0, int)]))
+        at = {int(c): i for i, c in enumerate(U)}
+        where = {key: np.array([at[int(c)] for c in key], int) for key in groups}
         psi = [np.zeros((len(self.G_train), len(F) + len(P))) for P, _ in blocks]
         nF = len(F)
         for f, (Gf, gf) in enumerate(zip(self.G_train, self.g_train)):
@@ -291,25 +316,35 @@ class FoldedDesign(Design):
             A[np.arange(nF), np.arange(nF)] += 1.0                              # the unit prior
             cho = linalg.cho_factor(A, check_finite=False)
             y = linalg.cho_solve(cho, gf[F] * sF, check_finite=False)
+            GFU = Gf[F[:, None], U] * sF[:, None]
+            XU = linalg.cho_solve(cho, GFU, check_finite=False)
+            MU = Gf[U[:, None], U] - GFU.T @ XU                                 # the Schur bracket of U
+            rU = gf[U] - GFU.T @ y
             for key, ks in groups.items():
-                P = np.array(key, int)
-                if not len(P):
+                if not key:
                     for k in ks:
                         psi[k][f, :nF] = -sF * y
                     continue
-                GFP = Gf[F[:, None], P] * sF[:, None]
-                X = linalg.cho_solve(cho, GFP, check_finite=False)
-                M = Gf[P[:, None], P] - GFP.T @ X                               # the Schur bracket
-                r = gf[P] - GFP.T @ y
+                w = where[key]
+                X, M, r = XU[:, w], MU[w[:, None], w], rU[w]                   # the block's share of U
                 for k in ks:
                     sP = blocks[k][1]
                     Sc = M * np.outer(sP, sP)
-                    Sc[np.arange(len(P)), np.arange(len(P))] += 1.0
+                    Sc[np.arange(len(w)), np.arange(len(w))] += 1.0
                     xP = -linalg.cho_solve(linalg.cho_factor(Sc, check_finite=False), sP * r, check_finite=False)
                     psi[k][f, :nF] = sF * (-y - X @ (sP * xP))
                     psi[k][f, nF:] = sP * xP
-        return [norm_mm(self.metric_judged + (p @ self.A_rows[np.r_[F, P]])[self.pick].reshape(-1, 3))
-                for p, (P, _) in zip(psi, blocks)]
+        # every block's change of the judged rows, fold by fold: the shared columns F for all
+        # blocks at once, then each group's own columns
+        change = np.empty((len(blocks), self.A_rows.shape[1]))
+        for f, sl in enumerate(self.fold_slices):
+            AU = self.A_rows[U, sl]
+            ch = np.stack([p[f, :nF] for p in psi]) @ self.A_rows[F, sl]
+            for key, ks in groups.items():
+                if key:
+                    ch[ks] += np.stack([psi[k][f, nF:] for k in ks]) @ AU[where[key]]
+            change[:, sl] = ch
+        return [self._in_campaign_order(c) for c in change]
 
     def normal_matrix(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """The candidate's whitened normal matrix J^T J from every row (its scaled columns)."""
