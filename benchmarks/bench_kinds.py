@@ -24,14 +24,19 @@ from vecpin.simulation.truth import TrueMachine
 from vecpin.workflows.fitting import fit_campaign
 
 MACHINES = ["master_mill", "spar_mill_23", "production_xyzbaw", "trunnion_xyzac", "trunnion_xyzbc", "head_table_bc"]
+# tracker stations of the campaign as the seed recommends it: on the long XYZBAW gantry the
+# single tracker's range noise limited the model and its check, "future implementations on this
+# machine should consider two laser tracker locations" (seed Section 2.6)
+SEED_STATIONS = {"production_xyzbaw": 2}
 
 
-def pipeline(name: str, seed: int, rows_factor: int = 1) -> tuple[str, float]:
+def pipeline(name: str, seed: int, rows_factor: int = 1, stations: int = 1) -> tuple[str, float]:
     """(printed line, tables / floor) of one machine and seed; ``rows_factor`` times the
-    default design's commands."""
+    default design's commands, each read from ``stations`` tracker stations."""
     m = vecpin.Machine.load(name)
     t0 = time.perf_counter()
-    sim = simulate(m, seed=seed, design=Design(n_commands=Design().n_commands * rows_factor, n_validation=5))
+    sim = simulate(m, seed=seed, design=Design(n_commands=Design().n_commands * rows_factor, n_validation=5,
+                                               stations=stations))
     noise = NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise)
     model = fit_campaign(m, sim.campaign, noise).model
     t_fit = time.perf_counter() - t0
@@ -47,7 +52,8 @@ def pipeline(name: str, seed: int, rows_factor: int = 1) -> tuple[str, float]:
     vec_o = true_compensated_error(sim.truth, plan_tables(oracle, uncertainty=False).tables, q, tool)[0]
     floor = table_floor(sim.truth, q, tool).mean_mm
     unc = uncompensated_error(sim.truth, q, tool)
-    return (f"  {name:<18s} {seed:4d} {len(sim.campaign):5d} {model.label():<42s} {unc:7.4f} {val:7.4f} {val_o:7.4f} "
+    tag = name if stations == 1 else f"{name} ({stations} st.)"
+    return (f"  {tag:<26s} {seed:4d} {len(sim.campaign):5d} {model.label():<42s} {unc:7.4f} {val:7.4f} {val_o:7.4f} "
             f"{val / val_o:6.2f} {vec:7.4f} {floor:7.4f} {vec / floor:6.2f} {vec_o / floor:6.2f} {t_fit:6.1f} "
             f"{t_tab:6.1f}"), vec / floor
 
@@ -92,7 +98,7 @@ def main():
     args = ap.parse_args()
     print("default fit and tables on every new bundled machine (mm; ratios: to the true family's fit, to the floor; "
           "'orcl' = the oracle fit's tables to the floor, the share of the gap that noise leaves with perfect bases)")
-    print(f"  {'machine':<18s} {'seed':>4s} {'rows':>5s} {'chosen model':<42s} {'uncomp':>7s} {'valid':>7s} "
+    print(f"  {'machine':<26s} {'seed':>4s} {'rows':>5s} {'chosen model':<42s} {'uncomp':>7s} {'valid':>7s} "
           f"{'oracle':>7s} {'ratio':>6s} {'tables':>7s} {'floor':>7s} {'ratio':>6s} {'orcl':>6s} {'fit s':>6s} {'tab s':>6s}")
     missed = []
     for name in MACHINES:
@@ -101,6 +107,11 @@ def main():
             print(line, flush=True)
             if ratio > 1.15:
                 missed.append((name, seed))
+    print("measured as the seed recommends (Section 2.6: two tracker locations on the long gantry)")
+    for name, stations in SEED_STATIONS.items():
+        for seed in range(1, args.seeds + 1):
+            line, ratio = pipeline(name, seed, stations=stations)
+            print(line, flush=True)
     if missed and args.more_rows:
         print(f"tables above 1.15x the floor, measured again with {args.more_rows}x the commands (the same machine and "
               "seed): a gap that closes is the identification noise's")

@@ -32,27 +32,34 @@ def _noise(machine, sim):
     return NoiseModel.default(machine, "spherical", tracker=sim.truth.tracker.noise)
 
 
+# tracker stations as the seed recommends for the machine: the long XYZBAW gantry's single tracker
+# limited its model (seed Section 2.6: "should consider two laser tracker locations"); with one
+# station its tables land at 1.13-1.23x the floor, the true error family's fit's at the same
+# 1.12-1.24x (benchmarks/bench_kinds.py), so that gap is the tracker's noise, not vecpin's bases
+SEED_STATIONS = {"production_xyzbaw": 2}
+
+
 @pytest.mark.parametrize("name", NEW_MACHINES)
 def test_default_fit_and_tables_reach_the_floor(machines, name):
     """simulate -> default fit (the model choice) -> tables: the noise-free validation of
     the fit (tool tip relative to the workpiece on table machines, both spindles on Spar
-    Mill) is within 1.25x of a fit with the true error family's bases, and the true
-    compensated error of vecpin's tables within 1.25x of the best tables fitted straight
-    to the true machine (the floor)."""
+    Mill) is within 1.15x of a fit with the true error family's bases, the true
+    compensated error of vecpin's tables within 1.15x of the best tables fitted straight
+    to the true machine (the floor, issue 11's target) and within 1.05x of the tables of
+    the true error family's fit (what perfect bases would give from the same data)."""
     m = machines[name]
-    sim = simulate(m, seed=1, design=Design(n_validation=5))
+    sim = simulate(m, seed=1, design=Design(n_validation=5, stations=SEED_STATIONS.get(name, 1)))
     noise = _noise(m, sim)
     model = fit_campaign(m, sim.campaign, noise).model
     q, tool = validation_commands(m, 200, seed=7)
     fitted = validation_error(model, sim.truth, q, tool)[0]
-    oracle = validation_error(make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise),
-                              sim.truth, q, tool)[0]
-    assert fitted <= 1.25 * oracle
+    oracle = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
+    assert fitted <= 1.15 * validation_error(oracle, sim.truth, q, tool)[0]
     assert fitted < 0.1 * uncompensated_error(sim.truth, q, tool)
-    tables = plan_tables(model, uncertainty=False).tables
-    vec = true_compensated_error(sim.truth, tables, q, tool)[0]
+    vec = true_compensated_error(sim.truth, plan_tables(model, uncertainty=False).tables, q, tool)[0]
     floor = table_floor(sim.truth, q, tool).mean_mm
-    assert vec <= 1.25 * floor
+    assert vec <= 1.15 * floor
+    assert vec <= 1.05 * true_compensated_error(sim.truth, plan_tables(oracle, uncertainty=False).tables, q, tool)[0]
     assert vec < 0.5 * true_compensated_error(sim.truth, None, q, tool)[0]
 
 
