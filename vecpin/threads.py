@@ -7,8 +7,8 @@ on waking and parking its threads than it gains on matrices of that size. Measur
 the 2-core development machine (numpy 2.4 with its bundled OpenBLAS 0.3.31, two
 threads by default), ``benchmarks/bench_fit.py``: the default fit of Paper I's 590 rows
 4.0 s with two BLAS threads, 1.2 s with one; the default fit of 10,000 rows 14.1 s and
-10.0 s; a fixed 6-DoF fit of 10,000 rows 5.4 s and 5.6 s (no gain from threads even
-there).
+10.0 s; a fixed 6-DoF fit of 10,000 rows 5.4 s and 5.6 s; only an AP fit of 1,000,000
+rows gains from the second thread (92 s against 99 s).
 
 So vecpin's entry points (:func:`one_blas_thread` on the model fit, the model choice,
 the diagnosis, the table planning and every command of the command line) run with one
