@@ -262,22 +262,8 @@ class FoldedDesign(Design):
 
     def heldout(self, cols: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """Held-out distances [mm] of the judged rows for the candidate with these columns
-        (each times its factor)."""
-        N = self.G_train[:, cols[:, None], cols] * np.outer(scale, scale)
-        N[:, np.arange(len(cols)), np.arange(len(cols))] += 1.0               # the unit prior
-        g = self.g_train[:, cols] * scale
-        psi = np.stack([-linalg.cho_solve(linalg.cho_factor(Nf, check_finite=False), gf, check_finite=False)
-                        for Nf, gf in zip(N, g)])                              # (folds, p): one solve per fold
-        return self._heldout_distances(psi * scale, cols)
-
-    def _heldout_distances(self, psi: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Held-out distances [mm] of the judged rows (campaign order) from each fold's
-        estimate ``psi`` (folds, len(cols)) of the columns ``cols`` (factors applied):
-        every row changed by its own fold's estimate, computed for that fold's rows only."""
-        change = np.empty(self.A_rows.shape[1])
-        for f, sl in enumerate(self.fold_slices):
-            change[sl] = psi[f] @ self.A_rows[cols, sl]
-        return self._in_campaign_order(change)
+        (each times its factor): :meth:`heldout_blocks` with every column shared."""
+        return self.heldout_blocks(cols, scale, [(np.zeros(0, int), np.zeros(0))])[0]
 
     def _in_campaign_order(self, change: np.ndarray) -> np.ndarray:
         """Distances [mm] of the judged rows changed by ``change`` (3 n_judged, fold-sorted
