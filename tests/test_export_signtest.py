@@ -118,7 +118,8 @@ def check_csv(path: Path, test: dict, applied, sign: float, rng) -> None:
 @pytest.mark.parametrize("case", list(CASES))
 def test_the_check_tells_the_documented_sign_from_the_opposite(model, tmp_path, case):
     controller, which, kw, rule = CASES[case]
-    run = make_tables(model, tmp_path, controller, profile=PROFILE, sign_test=which, uncertainty=False, **kw)
+    prof = PROFILE.with_name("flow_xyzcb_linuxcnc_profile.json") if controller == "linuxcnc" else PROFILE
+    run = make_tables(model, tmp_path, controller, profile=prof, sign_test=which, uncertainty=False, **kw)
     tag = run.sign_test.table.upper()
     test = json.loads((tmp_path / f"SIGNTEST_{tag}.json").read_text())
     applied = lambda x: rule(tmp_path, x)                                     # noqa: E731
@@ -137,7 +138,8 @@ def test_the_check_tells_the_documented_sign_from_the_opposite(model, tmp_path, 
 
 
 def test_inactive_tables_and_unit_errors_are_not_called_right(model, tmp_path):
-    make_tables(model, tmp_path, "linuxcnc", profile=PROFILE, sign_test="X", uncertainty=False)
+    make_tables(model, tmp_path, "linuxcnc", profile=PROFILE.with_name("flow_xyzcb_linuxcnc_profile.json"),
+                sign_test="X", uncertainty=False)
     test = json.loads((tmp_path / "SIGNTEST_XX.json").read_text())
     applied = lambda x: linuxcnc_type0(tmp_path, "X", x)                     # noqa: E731
     rng = np.random.default_rng(2)

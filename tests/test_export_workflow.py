@@ -46,8 +46,9 @@ def test_limits_and_missing_facts_are_refused_before_computing(model, tmp_path, 
             PROFILE | {"axes": {a: {"number": k + 1} for k, a in enumerate(model.machine.axis_names)}}))
     with pytest.raises(InputError, match="X=NAME"):
         make_tables(model, tmp_path, "siemens-840d", axis_map={"Y": "Y1"})
-    with pytest.raises(ControllerLimitError, match="pitch tables only"):
-        make_tables(model, tmp_path, "linuxcnc", max_tables=3)
+    with pytest.raises(ControllerLimitError, match="at most 0 cross tables, not 3"):
+        make_tables(model, tmp_path, "linuxcnc", max_tables=3,
+                    profile=ControllerProfile(limits={"max_cross_tables": 0}))
     with pytest.raises(InputError, match="--sign-test Q"):
         make_tables(model, tmp_path, "linuxcnc", sign_test="Q")
 
@@ -131,10 +132,12 @@ def test_profile_modulo_axes_give_modulo_tables_and_pitch_only_controllers(model
     prof = ControllerProfile.from_dict(PROFILE | {"axes": {"C": {"modulo": True}}})
     run = make_tables(model, tmp_path / "g", "generic", profile=prof, uncertainty=False)
     assert all(t.modulo for t in run.plan.tables.tables if t.input_axis == "C")
-    run = make_tables(model, tmp_path / "l", "linuxcnc", uncertainty=False)
+    pitch_only = ControllerProfile(limits={"max_cross_tables": 0})
+    run = make_tables(model, tmp_path / "l", "linuxcnc", profile=pitch_only, uncertainty=False)
     assert sorted(run.plan.tables.names()) == ["bb", "cc", "xx", "yy", "zz"]
+    assert not (tmp_path / "l" / "vecpin_vec.comp").exists()
     labels = [r.label for r in run.plan.report.rows]
-    assert "full tables (not loadable on linuxcnc)" in labels and "files as written (model-predicted)" in labels
+    assert {"full tables (model-predicted)", "pitch only (model-predicted)", "files as written (model-predicted)"} <= set(labels)
     written = [r for r in run.plan.report.rows if r.label.startswith("files")][0]
     pitch = [r for r in run.plan.report.rows if r.label.startswith("pitch")][0]
     assert written.mean == pytest.approx(pitch.mean, rel=1e-3)           # 256 points, 1 nm: what was planned
@@ -176,7 +179,8 @@ def test_tables_of_a_model_with_backlash_and_skew(backlash_skew, controller, tmp
     from vecpin.compensation.functions import truth_as_actual
     sim, model = backlash_skew
     assert model.row_dependent
-    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    prof = Path(__file__).parent / "data" / "controllers" / ("flow_xyzcb_linuxcnc_profile.json" if controller == "linuxcnc"
+                                                           else "flow_xyzcb_profile.json")
     run = make_tables(model, tmp_path / controller, controller, profile=prof)  # with the parameter spread
     rows = {r.label.split(" (")[0]: r for r in run.plan.report.rows}
     assert any(n.startswith("backlash[X] is not in the tables") for n in run.plan.report.notes)
@@ -189,7 +193,7 @@ def test_tables_of_a_model_with_backlash_and_skew(backlash_skew, controller, tmp
     truth = truth_as_actual(sim.truth)
     before = np.linalg.norm(compensated_errors(truth, m, None, q, L, register=True), axis=1).mean()
     after = np.linalg.norm(compensated_errors(truth, m, run.plan.tables, q, L, register=True), axis=1).mean()
-    assert after < (0.3 if controller != "linuxcnc" else 0.8) * before   # tables cannot carry all of a skew
+    assert after < 0.3 * before
     if controller == "siemens-840d":  # the same model without its skew: its tables leave the skew on the truth
         from vecpin.workflows.tables import _without
         geometric = [e for e, _ in model.effect_slices() if e.name == "gantry_skew"]
@@ -231,7 +235,7 @@ def test_a_manifest_removes_only_the_files_an_earlier_run_of_the_same_command_wr
 def test_tables_for_another_controller_replace_the_former_files(model, tmp_path):
     """``vecpin tables`` into the folder of an earlier run for another controller: the
     former controller's files go (they would be loaded by mistake), the user's stay."""
-    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_linuxcnc_profile.json"
     make_tables(model, tmp_path, "linuxcnc", profile=prof, uncertainty=False)
     before = {p.name for p in tmp_path.iterdir()}
     (tmp_path / "notes.txt").write_text("my notes")

@@ -1,0 +1,189 @@
+"""LinuxCNC volumetric compensation: the cross tables in a HAL component (``vecpin_vec.comp``).
+
+A LinuxCNC ``COMP_FILE`` corrects a joint from its own commanded position only
+(:mod:`vecpin.export.linuxcnc`), so the cross tables (straightness, squareness, the
+errors of the rotary axes: a joint corrected from *another* joint's position) need
+LinuxCNC's extension mechanism. vecpin writes them as a realtime HAL component for
+``halcompile`` with the tables compiled in (C arrays: no file is opened in the servo
+thread, so it also runs where realtime code cannot read files). Its function runs in
+the servo thread after ``motion-controller`` and sits between motion and the drives,
+per joint ``n``:
+
+* ``motor-pos-cmd-out-n = joint.n.motor-pos-cmd + c_n`` (to the drive), with
+  ``c_n = sum_i t_ni(joint.i.pos-cmd)``: each cross table read at the commanded joint
+  position of its input (vecpin's eq. 15-16: tables at the programmed command), linear
+  interpolation, end values held beyond the ends (as ``COMP_FILE`` and vecpin do);
+* ``motor-pos-fb-out-n = motor-pos-fb-n - c_n`` (to ``joint.n.motor-pos-fb``), so
+  motion sees the position it commanded: following error and DRO as without it.
+
+The pitch tables stay in the joints' ``COMP_FILE`` (added by motion to
+``motor-pos-cmd``): the joint gets pitch plus cross, vecpin's full table set.
+The correction only applies while ``enable`` is true (wire ``motion.is-all-homed``):
+when it switches, ``c`` moves to its new value at ``max-slew`` units/s, then follows
+the tables exactly (it is continuous in the commands). Why a HAL component and not a
+kinematics module: vecpin's tables live in joint space (machine axis commands), where
+the component acts; it works with trivkins and with every 5-axis kinematics module,
+whose joints are the machine axes, and leaves the kinematics (tool-centre point) alone.
+
+Joint positions are in the joints' machine units: mm and degrees (the INI's
+``LINEAR_UNITS = mm``, ``ANGULAR_UNITS = degree``).
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.errors import ControllerFileError
+from vecpin.export.common import read_lines
+from vecpin.kinematics.machine import Machine
+
+COMPONENT = "vecpin_vec"
+COMP_FILE = COMPONENT + ".comp"
+HAL_FILE = COMPONENT + ".hal"
+HAL_NAME = COMPONENT.replace("_", "-")        # halcompile turns '_' into '-' in HAL names
+DEFAULT_SLEW = 1.0                            # units/s while the correction switches on or off
+
+_TABLE = re.compile(r"^/\* table (?P<name>\w+): joint (?P<out>\d+) \((?P<oname>[^)]*)\) from joint (?P<inp>\d+) "
+                    r"\((?P<iname>[^)]*)\), start (?P<start>\S+), step (?P<step>\S+), (?P<n>\d+) points \*/$")
+
+
+def _number(v: float) -> str:
+    """A C double literal that reads back to the same float (17 significant digits)."""
+    s = repr(float(v))
+    return s if ("." in s or "e" in s or "inf" in s or "nan" in s) else s + ".0"
+
+
+def component_source(machine: Machine, tables: TableSet, joints: dict[str, int], n_joints: int) -> str:
+    """The ``halcompile`` source of the component for the cross tables of ``tables``
+    (SI, vecpin convention), written in joint units (mm, deg); ``joints``: LinuxCNC
+    joint number of every axis; ``n_joints``: the component's pin count (``[KINS] JOINTS``)."""
+    cross = [t for t in tables.tables if not t.is_pitch]
+    lines = [f'component {COMPONENT} "vecpin volumetric compensation of {machine.name}: cross tables between '
+             'motion and the drives";',
+             f'pin in float pos_cmd_#[{n_joints}] "joint.N.pos-cmd: commanded joint position (the tables\' input)";',
+             f'pin in float motor_pos_cmd_#[{n_joints}] "joint.N.motor-pos-cmd (pitch COMP_FILE already added)";',
+             f'pin out float motor_pos_cmd_out_#[{n_joints}] "to the drive: motor-pos-cmd + correction";',
+             f'pin in float motor_pos_fb_#[{n_joints}] "the drive\'s position feedback";',
+             f'pin out float motor_pos_fb_out_#[{n_joints}] "to joint.N.motor-pos-fb: feedback - correction";',
+             f'pin out float correction_#[{n_joints}] "the correction applied [mm or deg]";',
+             'pin in bit enable = 1 "apply the tables (wire motion.is-all-homed)";',
+             f'param rw float max_slew = {DEFAULT_SLEW} "units/s while the correction switches on or off";',
+             f'variable double applied[{n_joints}];',
+             'variable int ramping = 1;',
+             'variable int was_enabled = 0;',
+             'function _ fp;',
+             'license "GPL";',
+             'author "vecpin";',
+             ';;',
+             "/* written by vecpin: one table per cross correction, values in the output joint's units at",
+             "   start + k * step of the input joint; linear interpolation, end values held beyond the ends */",
+             "typedef struct { int out, in, n; double start, step; const double *v; } vecpin_table;"]
+    for k, t in enumerate(cross):
+        ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
+        start, step = float(ai.to_user(t.start)), float(ai.to_user(t.step))
+        values = ao.to_user(t.values)
+        lines.append(f"/* table {t.name}: joint {joints[t.output_axis]} ({ao.name}) from joint "
+                     f"{joints[t.input_axis]} ({ai.name}), start {_number(start)}, step {_number(step)}, "
+                     f"{len(values)} points */")
+        body = ", ".join(_number(v) for v in values)
+        lines.append(f"static const double vecpin_v{k}[{len(values)}] = {{{body}}};")
+    entries = [f"{{{joints[t.output_axis]}, {joints[t.input_axis]}, {len(t.values)}, "
+               f"{_number(machine.axis(t.input_axis).to_user(t.start))}, "
+               f"{_number(machine.axis(t.input_axis).to_user(t.step))}, vecpin_v{k}}}" for k, t in enumerate(cross)]
+    lines.append(f"#define VECPIN_N_TABLES {len(cross)}")
+    lines.append("static const vecpin_table vecpin_tables[VECPIN_N_TABLES + 1] = {"
+                 + ", ".join(entries + ["{0, 0, 0, 0.0, 0.0, 0}"]) + "};")
+    lines += [_FUNCTION.replace("N_JOINTS", str(n_joints)), ""]
+    return "\n".join(lines)
+
+
+_FUNCTION = r"""
+static double vecpin_lookup(const vecpin_table *t, double x) {
+    double u = (x - t->start) / t->step;
+    int k;
+    if (!(u > 0.0)) return t->v[0];
+    if (u >= t->n - 1) return t->v[t->n - 1];
+    k = (int)u;
+    return t->v[k] + (u - k) * (t->v[k + 1] - t->v[k]);
+}
+
+FUNCTION(_) {
+    double target[N_JOINTS];
+    double dmax = max_slew * fperiod;
+    int j, k, done = 1;
+    if (enable != was_enabled) ramping = 1;
+    was_enabled = enable;
+    for (j = 0; j < N_JOINTS; j++) target[j] = 0.0;
+    if (enable)
+        for (k = 0; k < VECPIN_N_TABLES; k++)
+            target[vecpin_tables[k].out] += vecpin_lookup(&vecpin_tables[k], pos_cmd(vecpin_tables[k].in));
+    for (j = 0; j < N_JOINTS; j++) {
+        double d = target[j] - applied[j];
+        if (ramping && d > dmax) { applied[j] += dmax; done = 0; }
+        else if (ramping && d < -dmax) { applied[j] -= dmax; done = 0; }
+        else applied[j] = target[j];
+        correction(j) = applied[j];
+        motor_pos_cmd_out(j) = motor_pos_cmd(j) + applied[j];
+        motor_pos_fb_out(j) = motor_pos_fb(j) - applied[j];
+    }
+    if (done) ramping = 0;
+}"""
+
+
+def hal_lines(joints: dict[str, int], n_joints: int, drive_cmd: dict[int, str] | None = None,
+              drive_fb: dict[int, str] | None = None) -> list[str]:
+    """HAL commands that load the component and wire its motion side; the drive side
+    (``motor-pos-cmd-out-N`` -> drive command, drive feedback -> ``motor-pos-fb-N``) is
+    given by ``drive_cmd`` / ``drive_fb`` pins per joint, or left as comments."""
+    out = [f"loadrt {COMPONENT}", f"addf {HAL_NAME}.0 servo-thread",
+           f"net vecpin-all-homed motion.is-all-homed => {HAL_NAME}.0.enable"]
+    for n in range(n_joints):
+        p = f"{HAL_NAME}.0"
+        out += [f"net vecpin-j{n}-pos-cmd joint.{n}.pos-cmd => {p}.pos-cmd-{n}",
+                f"net vecpin-j{n}-motor-cmd joint.{n}.motor-pos-cmd => {p}.motor-pos-cmd-{n}",
+                f"net vecpin-j{n}-motor-fb {p}.motor-pos-fb-out-{n} => joint.{n}.motor-pos-fb"]
+        if drive_cmd and n in drive_cmd:
+            out.append(f"net vecpin-j{n}-drive-cmd {p}.motor-pos-cmd-out-{n} => {drive_cmd[n]}")
+        else:
+            out.append(f"# net vecpin-j{n}-drive-cmd {p}.motor-pos-cmd-out-{n} => <joint {n}'s drive command pin>")
+        if drive_fb and n in drive_fb:
+            out.append(f"net vecpin-j{n}-drive-fb {drive_fb[n]} => {p}.motor-pos-fb-{n}")
+        else:
+            out.append(f"# net vecpin-j{n}-drive-fb <joint {n}'s drive feedback pin> => {p}.motor-pos-fb-{n}")
+    return out
+
+
+def read_component(path: Path, machine: Machine, joints: dict[str, int]) -> list[CompensationTable]:
+    """The cross tables of a ``vecpin_vec.comp`` (SI), from its table comments and arrays;
+    raises where the comment and the array disagree or a joint is not the profile's."""
+    path = Path(path)
+    lines = read_lines(path, "utf-8")
+    by_joint = {n: a for a, n in joints.items()}
+    tables = []
+    for no, ln in enumerate(lines, 1):
+        m = _TABLE.match(ln.strip())
+        if not m:
+            continue
+        nxt = lines[no] if no < len(lines) else ""
+        arr = re.match(r"^static const double vecpin_v\d+\[(\d+)\] = \{(.*)\};$", nxt.strip())
+        if arr is None:
+            raise ControllerFileError(path, "a table comment without its array on the next line", no)
+        values = np.array([float(v) for v in arr.group(2).split(",")])
+        n = int(m.group("n"))
+        if len(values) != n or int(arr.group(1)) != n:
+            raise ControllerFileError(path, f"table {m.group('name')}: {len(values)} values, the comment says {n}",
+                                      no + 1)
+        o, i = int(m.group("out")), int(m.group("inp"))
+        for j, name in ((o, m.group("oname")), (i, m.group("iname"))):
+            if by_joint.get(j) != name:
+                raise ControllerFileError(path, f"joint {j} is {name} in the file but "
+                                          f"{by_joint.get(j, 'no axis')} in the profile", no)
+        ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
+        tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(float(m.group("start")))),
+                                        float(ai.to_si(float(m.group("step")))), ao.to_si(values)))
+    if not tables:
+        raise ControllerFileError(path, "no table in the component")
+    return tables
