@@ -24,3 +24,19 @@ def flow(machines):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """One line on the real-controller tests (tests/test_linuxcnc_real.py): ran or skipped, and why."""
+    seen = {}
+    for outcome in ("passed", "failed", "skipped", "error"):
+        for rep in terminalreporter.stats.get(outcome, []):
+            if "test_linuxcnc_real.py" in getattr(rep, "nodeid", "") and rep.when in ("call", "setup"):
+                seen.setdefault(outcome, set()).add(rep.nodeid)
+    if seen:
+        counts = ", ".join(f"{len(v)} {k}" for k, v in seen.items())
+        why = ""
+        if "skipped" in seen:
+            rep = next(r for r in terminalreporter.stats["skipped"] if "test_linuxcnc_real.py" in r.nodeid)
+            why = f" ({rep.longrepr[2] if isinstance(rep.longrepr, tuple) else rep.longrepr})"
+        terminalreporter.write_line(f"real LinuxCNC controller tests: {counts}{why}")

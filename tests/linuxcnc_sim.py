@@ -181,3 +181,51 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
         raise RuntimeError(f"LinuxCNC driver: {out['error']}\n{r.stdout[-2000:]}")
     shutil.rmtree(work, ignore_errors=True)
     return out["rows"]
+
+
+class ControllerCommands:
+    """The commands a controller run produced, in the place of a TableSet where vecpin
+    judges a compensated machine (``compensated_errors``): ``apply(q)`` returns what the
+    controller sent to the joints for the commands ``q`` it was given (SI), in order."""
+
+    def __init__(self, q: "np.ndarray", qc: "np.ndarray", gauge_offset_change: float):
+        self.q, self.qc, self.gauge_offset_change = q, qc, gauge_offset_change
+
+    def apply(self, q):
+        import numpy as np
+        q = np.atleast_2d(q)
+        reps = len(q) // len(self.q)
+        if reps * len(self.q) != len(q) or not np.allclose(q, np.tile(self.q, (reps, 1)), atol=1e-9):
+            raise ValueError("judged on other commands than the controller ran")
+        return np.tile(self.qc, (reps, 1))
+
+    def turn_tips(self, machine, q, tip, frame="base"):
+        return tip
+
+
+def machine_run(m, folder: Path, q, joints: dict[str, int], kind: int, component: bool):
+    """vecpin's LinuxCNC files in ``folder`` on the real controller, commanded to ``q``
+    (N, n) [m, rad], joints numbered ``joints``: (commanded positions, COMP_FILE part, component
+    part), each (N, n) in mm/deg, axes in the machine's order."""
+    import numpy as np
+    order = sorted(m.axis_names, key=lambda a: joints[a])          # the configuration's joint order
+    ax = [m.axis(a) for a in order]
+    limits = [(float(a.to_user(a.lower - 0.1 * a.travel)), float(a.to_user(a.upper + 0.1 * a.travel))) for a in ax]
+    commands = [[float(a.to_user(row[a.index])) for a in ax] for row in np.atleast_2d(q)]
+    comp = {joints[a]: (f"comp_{a}.txt", kind) for a in m.axis_names if (Path(folder) / f"comp_{a}.txt").exists()}
+    rows = run(folder, order, [a.kind for a in ax], limits, commands, comp, "vecpin_vec.hal" if component else None)
+    pos = np.array([[r[f"joint.{joints[a]}.pos-cmd"] for a in m.axis_names] for r in rows])
+    pitch = np.array([[r[f"joint.{joints[a]}.motor-pos-cmd"] for a in m.axis_names] for r in rows]) - pos
+    cross = (np.array([[r[f"{HAL_NAME}.0.correction-{joints[a]}"] for a in m.axis_names] for r in rows])
+             if component else np.zeros_like(pitch))
+    if component:
+        out = np.array([[r[f"{HAL_NAME}.0.motor-pos-cmd-out-{joints[a]}"] for a in m.axis_names] for r in rows])
+        if np.abs(out - pos - pitch - cross).max() > 1e-9:
+            raise RuntimeError("the component's output is not motor-pos-cmd + correction")
+    return pos, pitch, cross
+
+
+def to_si(m, values_user):
+    """(N, n) mm/deg -> m/rad, axes in the machine's order."""
+    import numpy as np
+    return np.column_stack([m.axes[k].to_si(values_user[:, k]) for k in range(len(m.axes))])

@@ -54,25 +54,7 @@ def probe_commands(m, tables, rng, n_random=6):
 
 
 def run_controller(m, folder, q, joints: dict[str, int], kind: int, component: bool):
-    """LinuxCNC on vecpin's files in ``folder``: per command, the correction it applied
-    to every axis [mm or deg] (COMP_FILE part, component part), axes in machine order."""
-    order = sorted(m.axis_names, key=lambda a: joints[a])          # the configuration's joint order
-    letters = [a for a in order]
-    kinds = [m.axis(a).kind for a in order]
-    limits = [(float(m.axis(a).to_user(m.axis(a).lower)) - 0.1 * float(m.axis(a).to_user(m.axis(a).travel)),
-               float(m.axis(a).to_user(m.axis(a).upper)) + 0.1 * float(m.axis(a).to_user(m.axis(a).travel)))
-              for a in order]
-    commands = [[float(m.axis(a).to_user(row[m.axis(a).index])) for a in order] for row in q]
-    comp = {joints[a]: (linuxcnc.comp_file_name(a), kind) for a in m.axis_names}
-    rows = lcnc.run(folder, letters, kinds, limits, commands, comp, "vecpin_vec.hal" if component else None)
-    pos = np.array([[r[f"joint.{joints[a]}.pos-cmd"] for a in m.axis_names] for r in rows])
-    pitch = np.array([[r[f"joint.{joints[a]}.motor-pos-cmd"] for a in m.axis_names] for r in rows]) - pos
-    cross = (np.array([[r[f"vecpin-vec.0.correction-{joints[a]}"] for a in m.axis_names] for r in rows])
-             if component else np.zeros_like(pitch))
-    if component:
-        out = np.array([[r[f"vecpin-vec.0.motor-pos-cmd-out-{joints[a]}"] for a in m.axis_names] for r in rows])
-        np.testing.assert_allclose(out - pos, pitch + cross, atol=1e-12)
-    return pos, pitch, cross
+    return lcnc.machine_run(m, folder, q, joints, kind, component)
 
 
 def vecpin_corrections(m, tables: TableSet, pos_user: np.ndarray, which: str) -> np.ndarray:
@@ -127,3 +109,32 @@ def test_joint_numbering_follows_the_configuration(tmp_path):
     # the same files on a configuration in the machine's axis order would apply B's tables to C
     swapped = linuxcnc.joint_numbers(m, ControllerProfile())
     assert swapped["C"] == 3 and numbers["C"] == 4
+
+
+def test_a_fitted_model_through_the_controller_gets_the_full_tables_figure(tmp_path):
+    """simulate -> fit -> ``tables --controller linuxcnc`` -> LinuxCNC -> the true machine:
+    the commands the controller sends give the true machine vecpin's full-table error
+    (within 2 %), where pitch-only COMP_FILEs leave much more."""
+    from vecpin.compensation.functions import compensated_errors, truth_as_actual
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    from vecpin.simulation.judge import validation_commands
+    from vecpin.simulation.simulate import Design, simulate
+    from vecpin.units import norm_mm
+    from vecpin.workflows.tables import make_tables
+    m = vecpin.Machine.load("trunnion_xyzac")
+    sim = simulate(m, seed=4, design=Design(n_commands=200, n_validation=5))
+    model = make_model("6dof", m, 4).fit(sim.campaign, NoiseModel.default(m, "spherical"))
+    run = make_tables(model, tmp_path, "linuxcnc", uncertainty=False)
+    assert any(not t.is_pitch for t in run.plan.tables.tables)
+    lcnc.install_component(tmp_path / "vecpin_vec.comp")
+    q, tool = validation_commands(m, 10)
+    pos, pitch, cross = run_controller(m, tmp_path, q[:10], linuxcnc.joint_numbers(m, ControllerProfile()), 0, True)
+    sent = lcnc.ControllerCommands(q[:10], lcnc.to_si(m, pos + pitch + cross), run.plan.tables.gauge_offset_change)
+    truth = truth_as_actual(sim.truth)
+    err = lambda t: norm_mm(compensated_errors(truth, m, t, q, tool)).mean()   # noqa: E731
+    pitch_only = TableSet(m.axis_names, [t for t in run.plan.tables.tables if t.is_pitch],
+                          run.plan.tables.gauge_offset_change)
+    full, controller, uncompensated = err(run.plan.tables), err(sent), err(None)
+    assert controller == pytest.approx(full, rel=0.02)
+    assert controller < 0.5 * err(pitch_only) and controller < 0.3 * uncompensated
