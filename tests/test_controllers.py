@@ -65,15 +65,11 @@ def test_siemens_round_trip(flow, tables, tmp_path):
     eec = files[1].read_text()
     assert eec.startswith("%_N_AX_EEC_INI\nCHANDATA(1)") and "$AA_ENC_COMP[0,0,X1]=" in eec
     assert "$AA_ENC_COMP_STEP[0,C1]=" in eec
-    readme = files[2].read_text()
+    readme = files[3].read_text()
     assert "MD18342" in readme and "MD32710" in readme and "SD41300" in readme and "MD38000" in readme
     back = siemens.read(tmp_path, flow, prof)
     assert sorted(back.names()) == sorted(tables.names())
-    # the EEC tables come back zero at the reference point; add the reported constants back
-    const = {t.input_axis: float(t(0.0)) for t in tables.tables if t.is_pitch}
-    for t in back.tables:
-        if t.is_pitch:
-            t.values = t.values + const[t.input_axis]
+    # the EEC tables are zero at the reference point, MD_REFP.INI's reference point values carry the rest
     back.gauge_offset_change = tables.gauge_offset_change
     q = pseudo_commands(flow, 400, seed=2)
     np.testing.assert_allclose(back.increments(q), tables.increments(q), atol=2e-8)
@@ -94,16 +90,15 @@ def test_fanuc_round_trip_within_resolution(flow, tables, tmp_path):
     prof = flow_profile(flow)
     files, notes = write(fanuc.FORMAT, sub, flow, prof, tmp_path)
     para = files[0].read_text()
-    for p in ("N03620Q1A1P", "N03621Q1", "N03622Q1", "N03623Q1", "N03624Q1", "N03625Q1"):
+    for p in ("N03620Q1A1P", "N03621Q1", "N03622Q1", "N03623Q1", "N03624Q1", "N03625Q1", "N01240Q1A1P"):
         assert p in para
     assert "N10000Q0P" in files[1].read_text()
     back = fanuc.read(tmp_path, flow, prof)
     assert sorted(back.names()) == sorted(sub.names())
-    # the pitch tables are zero at the reference position: add the reported constants back
+    # the pitch tables are zero at the reference position; parameter 1240 (reference position) carries the rest
     const = {g.axis: g.offset for g in fanuc.grids(sub, flow, prof)}
-    for t in back.tables:
-        if t.is_pitch:
-            t.values = t.values + flow.axis(t.input_axis).to_si(const[t.input_axis])
+    for g in fanuc.grids(sub, flow, prof):
+        assert f"A{g.number}P{g.reference_position - const[g.axis]:.6f}".rstrip("0") in para
     q = pseudo_commands(flow, 400, seed=3)
     diff = np.abs(flow.to_user(back.increments(q) - sub.increments(q))).max(axis=0)
     assert np.all(diff[:3] < 0.003)       # mm: 128-point grid and 1 um units

@@ -45,15 +45,24 @@ def test_writer_reproduces_the_documented_form(tmp_path):
     assert (tmp_path / "NC_CEC.INI").read_text().splitlines()[1] == "CHANDATA(1)"
 
 
-def test_eec_is_zero_at_the_reference_point_and_the_constant_is_reported(tmp_path):
+def test_eec_is_zero_at_the_reference_point_and_the_constant_goes_into_md34100(tmp_path):
+    """The EEC table is zero at the reference point (K3 p.238); the correction there
+    lowers the reference point value MD34100 (the machine coordinate the control gives the
+    reference point: lower by c, and every command goes c further), so the files as a
+    whole carry the full table."""
     m = tiny_machine()
     t = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.30, 0.32, 0.33, 0.34, 0.35])))
     names, notes = write(TableSet(m.axis_names, [t]), m, profile(X={"reference_position": -100.0}), tmp_path)
     text = (tmp_path / "AX_EEC.INI").read_text()
     assert "$AA_ENC_COMP[0,2,X1]=0.0 ;" in text                       # X = -100: the reference point
     assert "$AA_ENC_COMP[0,0,X1]=0.03 ;" in text                      # error = -(0.30 - 0.33)
-    assert any("+0.3300 mm" in n and "reference point" in n for n in notes)
-    assert "X: +0.3300 mm" in (tmp_path / "README_SIEMENS.md").read_text()
+    refp = statements((tmp_path / "MD_REFP.INI").read_text())
+    assert refp[0] == "%_N_MD_REFP_INI" and "$MA_REFP_SET_POS[0,X1]=-100.33" in refp and refp[-1] == "M17"
+    assert any("+0.3300 mm" in n and "MD34100" in n and "MD_REFP.INI" in n for n in notes)
+    assert "X: +0.3300 mm (MD34100 -100.0 -> -100.33)" in (tmp_path / "README_SIEMENS.md").read_text()
+    back = siemens.read(tmp_path, m, profile(X={"reference_position": -100.0}))
+    np.testing.assert_allclose(to_mm(back.table("xx").values), [0.30, 0.32, 0.33, 0.34, 0.35], atol=1e-9)
+    (tmp_path / "MD_REFP.INI").unlink()                               # the tables alone: zero at the reference
     back = siemens.read(tmp_path, m, profile(X={"reference_position": -100.0}))
     np.testing.assert_allclose(to_mm(back.table("xx").values), [-0.03, -0.01, 0.0, 0.01, 0.02], atol=1e-9)
 

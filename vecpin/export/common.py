@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
-from vecpin.compensation.tables import TableSet
+from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
 from vecpin.export.profile import ControllerProfile
 from vecpin.fileio import OutputSet
@@ -45,12 +45,33 @@ class ExportJob:
     constants: dict[str, float] = field(default_factory=dict)
 
 
-def constant_note(axis, value_user: float, file: str) -> str:
-    """The note for a constant a pitch table cannot carry."""
-    what = ("it shifts the whole workspace along the axis (a work offset absorbs it)" if axis.kind == "linear" else
-            "it turns everything after the axis: set it as a reference-point shift")
+def constant_note(axis, value_user: float, file: str, datum: str, datum_file: str) -> str:
+    """The note for a constant a pitch table cannot carry, written as a reference-point datum."""
     return (f"{axis.name}: the correction at the reference point ({value_user:+.4f} {axis.unit}) is not in {file} (the "
-            f"table is zero there); {what}")
+            f"table is zero there): it is the new reference point value {datum} in {datum_file}; without it "
+            f"{axis.name} keeps this error everywhere")
+
+
+def new_reference_position(reference_user: float, correction_user: float) -> float:
+    """The reference point's machine coordinate [mm or deg] that adds ``correction`` to
+    every command of the axis.
+
+    A controller sets the axis' machine coordinate to the reference point value when it
+    references; commanding ``q`` then moves the axis ``q - value`` from the reference
+    point. Lowering the value by ``c`` moves it ``c`` further at every command: the
+    constant ``c`` of the axis' correction table, which a table zero at the reference
+    point cannot carry (Siemens MD34100 REFP_SET_POS, Fanuc parameter 1240: both "the
+    machine coordinate of the reference point")."""
+    return float(reference_user) - float(correction_user)
+
+
+def with_constants(tables: TableSet, constants: dict[str, float]) -> TableSet:
+    """``tables`` with each axis' constant [SI] added to its pitch table (a reference
+    point datum read back from the files)."""
+    out = [CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
+                             t.values + (constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
+           for t in tables.tables]
+    return TableSet(list(tables.axis_names), out, tables.gauge_offset_change, tables.source, list(tables.drives))
 
 
 @dataclass(frozen=True)

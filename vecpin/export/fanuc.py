@@ -45,7 +45,8 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
-from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, read_lines, to_float,
+from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, new_reference_position,
+                                  read_lines, to_float, with_constants,
                                   to_int)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
@@ -231,6 +232,8 @@ def write(job: ExportJob) -> list[str]:
     para.append(_param_line(3623, [(g.number, str(g.magnification)) for g in gs]))
     para.append(_param_line(3624, [(g.number, decimal(g.interval, 6)) for g in gs]))
     para.append(_param_line(3625, [(g.number, "360.0" if g.rotary_type else "0.0") for g in gs]))
+    para.append(_param_line(1240, [(g.number, decimal(new_reference_position(g.reference_position, g.offset), 6))
+                                   for g in gs]))
     para.append("%")
     job.out.write_text(PARA_FILE, "\n".join(para) + "\n")
     data = np.zeros(gs[-1].last + 1 if gs else 0, dtype=np.int64)
@@ -247,7 +250,8 @@ def write(job: ExportJob) -> list[str]:
                          f"{int(np.abs(g.values).max(initial=0))} of +-{int(FORMAT.extra_limit(prof, 'max_pitch_value'))}")
         job.constants[g.axis] = float(m.axis(g.axis).to_si(g.offset))
         if abs(g.offset) > 0:
-            job.notes.append(constant_note(m.axis(g.axis), g.offset, PITCH_FILE))
+            job.notes.append(constant_note(m.axis(g.axis), g.offset, PITCH_FILE, f"(parameter 1240, A{g.number})",
+                                           PARA_FILE))
     if cross:
         job.notes.append(f"straightness ({', '.join(t.name for t in cross)}): no Fanuc file written; enter the values "
                          f"of {STRAIGHT_FILE} by hand (see {README})")
@@ -298,7 +302,9 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
                  f"{g.offset:+.4f} {unit} |")
     s += ["", "Values are the change of the correction over the section ending at each point, in detection units x",
           "magnification (the smallest magnification whose values fit +-" + str(max_value) + "). The correction is zero at "
-          "the reference position; the constant in the last column is what the table cannot carry.",
+          "the reference position; the constant in the last column, which the table cannot carry, is in "
+          f"`{PARA_FILE}` as the new reference position (parameter 1240 = the profile's value minus the constant: the "
+          "axis then goes that much further at every command). Without 1240 each axis keeps its constant.",
           "Rotary-axis-type tables (3625 = 360.0) start at the reference point; their values over a turn sum to",
           "zero and the reference point repeats the last point's value.", "",
           "## Straightness: by hand", ""]
@@ -479,18 +485,27 @@ def read_straightness(path: Path, machine: Machine) -> list[CompensationTable]:
 
 
 def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet:
-    """Pitch tables from ``CNC-PARA.TXT`` + ``PITCH.TXT`` (zero at the reference; the
-    removed constants are not in the files) and cross tables from ``STRAIGHTNESS.CSV``."""
+    """Pitch tables from ``CNC-PARA.TXT`` + ``PITCH.TXT`` (zero at the reference, plus
+    the constant that a parameter 1240 in the tape adds: the profile's reference position
+    minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``."""
     folder = Path(folder)
-    tables = [grid_table(g, machine) for g in read_grids(folder, machine, profile)]
+    grids_ = read_grids(folder, machine, profile)
+    tables = [grid_table(g, machine) for g in grids_]
     if (folder / STRAIGHT_FILE).exists():
         tables += read_straightness(folder / STRAIGHT_FILE, machine)
-    return TableSet(machine.axis_names, tables, 0.0)
+    params, _ = read_tape(folder / PARA_FILE)
+    shifts = {}
+    for g in grids_:
+        if g.number in params.get(1240, {}):
+            text, no = params[1240][g.number]
+            value = to_float(text, folder / PARA_FILE, no, "parameter 1240")
+            shifts[g.axis] = float(machine.axis(g.axis).to_si(g.reference_position - value))
+    return with_constants(TableSet(machine.axis_names, tables, 0.0), shifts)
 
 
 FORMAT = ControllerFormat(
     "fanuc-30i", "Fanuc Series 30i family", LIMITS, write, read, check,
-    files=f"`{PARA_FILE}` (3620-3625), `{PITCH_FILE}` (pitch data), `{STRAIGHT_FILE}` (straightness values to "
+    files=f"`{PARA_FILE}` (3620-3625, 1240 carrying the constants), `{PITCH_FILE}` (pitch data), `{STRAIGHT_FILE}` (straightness values to "
           f"enter by hand), `{README}`",
     sign="pitch data = correction increments per section, zero at the reference position (sign INFERRED)",
     source="real 0i-MF backup (github IlyasMIM/HM100TS), 30i CNC-PARA.TXT (Jir8taiwan/FanucParameter2CSVoutput), "

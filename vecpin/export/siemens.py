@@ -13,14 +13,16 @@ Files (Function Manual Extended Functions K3, "Interpolatory compensation"):
   ``$AA_ENC_COMP[0,N,X1]`` and ``_STEP``, ``_MIN``, ``_MAX``, ``_IS_MODULO`` with the
   machine axis name (K3 03/2013 p.242 example; 840D sl 09/2009 p.363-364).
 
-Sign (CERTAIN, both): "A positive compensation value causes the corresponding machine
-axis to move in the negative direction" (EEC: K3 03/2013 p.238, 808D p.106; CEC, sag
-section: 840D sl FM 01/2008 p.357, 03/2009 p.372). A file value is therefore the
+Sign: "A positive compensation value causes the corresponding machine axis to move in
+the negative direction" (EEC: K3 03/2013 p.238, 808D p.106: CERTAIN). For CEC no stored
+public page states it: the same rule is ASSUMED and the sign test checks it. A file value is therefore the
 *error* of the (output) axis, minus vecpin's table value (the correction).
 
 EEC tables must be zero at the reference point (prevents a position jump when the
 compensation switches on after referencing, K3 p.238): the writer subtracts the
-correction at the profile's reference position and reports the constant. Below MIN
+correction at the profile's reference position and writes it as the new reference
+point value (``MD_REFP.INI``, MD34100 ``$MA_REFP_SET_POS``; see
+:func:`vecpin.export.common.new_reference_position`). Below MIN
 and above MAX the end values hold; modulo tables repeat (MIN 0, MAX 360).
 
 Limits: 828D "sag compensation, multi-dimensional" gives fixed 8 tables x 200 points
@@ -37,12 +39,13 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
-from vecpin.export.common import ControllerFormat, ExportJob, constant_note, decimal, read_lines, to_float, to_int
+from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, new_reference_position, read_lines,
+                                  to_float, to_int, with_constants)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M
 
-CEC_FILE, EEC_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "README_SIEMENS.md"
+CEC_FILE, EEC_FILE, REFP_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "MD_REFP.INI", "README_SIEMENS.md"
 
 LIMITS_840D = ControllerLimits(
     "siemens-840d", max_cross_tables=64,
@@ -127,12 +130,31 @@ def write(job: ExportJob) -> list[str]:
                   f"$AA_ENC_COMP_IS_MODULO[0,{ax}]={int(t.modulo)}"]
     lines.append("M17")
     job.out.write_text(EEC_FILE, "\n".join(lines) + "\n")
+    job.out.write_text(REFP_FILE, _refp_file(job, constants))
     for a, c in constants.items():
         job.constants[a] = float(m.axis(a).to_si(c))
         if abs(c) > 0:
-            job.notes.append(constant_note(m.axis(a), c, EEC_FILE))
+            job.notes.append(constant_note(m.axis(a), c, EEC_FILE, f"MD34100 $MA_REFP_SET_POS[0,{prof.axis(a).nc_name}]",
+                                           REFP_FILE))
     job.out.write_text(README, _readme(job, cross, pitch, constants))
-    return [CEC_FILE, EEC_FILE, README]
+    return [CEC_FILE, EEC_FILE, REFP_FILE, README]
+
+
+def _refp_file(job: ExportJob, constants: dict[str, float]) -> str:
+    """``MD_REFP.INI``: the reference point value (MD34100) of every axis with a pitch
+    table, lowered by the correction its EEC table (zero at the reference point) leaves."""
+    m, prof = job.machine, job.profile
+    lines = ["%_N_MD_REFP_INI", "CHANDATA(1)",
+             f"; vecpin reference point values, machine {m.name}: MD34100 = the profile's reference_position minus the "
+             "correction at the reference point (the constant the EEC table cannot carry)"]
+    for a, c in constants.items():
+        ax = m.axis(a)
+        ref = prof.axis(a).reference_position
+        new = new_reference_position(ref, c)
+        lines.append(f"$MA_REFP_SET_POS[0,{prof.axis(a).nc_name}]={decimal(new, 6 if ax.kind == 'linear' else 8)} ; "
+                     f"was {decimal(ref, 6)} {ax.unit}, correction {c:+.6f} {ax.unit}")
+    lines.append("M17")
+    return "\n".join(lines) + "\n"
 
 
 def _readme(job: ExportJob, cross, pitch, constants) -> str:
@@ -144,9 +166,16 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
          "switched off (MD32700 = 0, MD32710 = 0), then enable it (K3 03/2013 p.237, p.245).", "",
          "## Sign and zero", "",
          "Every value is the **error** of the compensated axis (actual minus nominal): a positive value moves the",
-         "axis in the negative direction (K3 p.238 for EEC; sag section p.357/p.372 for CEC). EEC tables are zero at",
-         "the reference point (the profile's `reference_position`); the constants this removed:", ""]
-    s += [f"- {a}: {c:+.4f} {m.axis(a).unit} (correction at the reference point)" for a, c in constants.items()]
+         "axis in the negative direction (K3 p.238 for EEC, CERTAIN; for CEC the same rule is ASSUMED: no public",
+         "page states it, so run the sign test on one CEC table). EEC tables are zero at the reference point (the",
+         f"profile's `reference_position`); the correction there goes into `{REFP_FILE}` as the new reference point",
+         "value MD34100 `$MA_REFP_SET_POS` (= old value - correction: the axis then goes that much further at every",
+         "command). Load it with the tables, then reference the axes again. Without it each axis keeps its constant:",
+         ""]
+    s += [f"- {a}: {c:+.4f} {m.axis(a).unit} (MD34100 {decimal(prof.axis(a).reference_position, 6)} -> "
+          f"{decimal(new_reference_position(prof.axis(a).reference_position, c), 6)})" for a, c in constants.items()]
+    s += ["", "Absolute encoders do not use MD34100: lower their absolute offset MD34090 `$MA_REFP_MOVE_DIST_CORR` by",
+          "the same correction instead (INFERRED from its definition, machine position = encoder value + offset)."]
     s += ["", "## Machine data", ""]
     if ctl == "siemens-828d":
         s += ["828D: the sag compensation option gives 8 tables of 200 points; MD18342 need not be set (K3 p.264).", ""]
@@ -253,8 +282,8 @@ def _table(path, machine, inp, out, values: dict, keys: dict, line: int, what: s
 def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet:
     """Parse ``NC_CEC.INI`` and ``AX_EEC.INI`` back into vecpin tables (corrections, SI).
 
-    EEC tables come back zero at the reference point (the constant is not in the
-    file); the gauge-line change is not in these files (0)."""
+    EEC tables are zero at the reference point; ``MD_REFP.INI`` (when there) adds the
+    constants back; the gauge-line change is not in these files (0)."""
     folder = Path(folder)
     tables = []
     path = folder / CEC_FILE
@@ -308,14 +337,35 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
             raise ControllerFileError(path, f"{a} has tables for two measuring systems; vecpin reads one", d["line"])
         axes_seen[a] = e
         tables.append(_table(path, machine, a, a, d["values"], d["keys"], d["line"], f"{ax}", -1.0))
-    return TableSet(machine.axis_names, tables, 0.0)
+    out = TableSet(machine.axis_names, tables, 0.0)
+    if (folder / REFP_FILE).exists():
+        out = with_constants(out, read_reference_shifts(folder / REFP_FILE, machine, profile))
+    return out
+
+
+_REFP = re.compile(r"^\$MA_REFP_SET_POS\[\s*0\s*,\s*([A-Za-z_][A-Za-z0-9_]*)\s*\]\s*=\s*(\S+)$")
+
+
+def read_reference_shifts(path: Path, machine: Machine, profile: ControllerProfile) -> dict[str, float]:
+    """Per axis, the correction [SI] that ``MD_REFP.INI``'s reference point values add
+    (the profile's reference_position minus the file's value)."""
+    out = {}
+    for no, text in _statements(path, "%_N_MD_REFP_INI"):
+        mt = _REFP.match(text)
+        if not mt:
+            raise ControllerFileError(path, f"'{text}' is not a $MA_REFP_SET_POS[0,AXIS] assignment", no)
+        a = _axis_of(path, profile, mt.group(1), no)
+        ref = profile.need(a, "reference_position", "siemens reader", "reference point position")
+        out[a] = float(machine.axis(a).to_si(ref - to_float(mt.group(2), path, no, "value")))
+    return out
 
 
 FORMAT_840D = ControllerFormat(
     "siemens-840d", "SINUMERIK 840D sl", LIMITS_840D, write, read, check,
-    files=f"`{CEC_FILE}` (cross tables, CEC), `{EEC_FILE}` (pitch tables, EEC), `{README}` (machine data)",
-    sign="file value = error of the compensated axis; positive moves the axis negative (EEC and CEC, CERTAIN); "
-         "EEC zero at the reference point (constant reported)",
+    files=f"`{CEC_FILE}` (cross tables, CEC), `{EEC_FILE}` (pitch tables, EEC), `{REFP_FILE}` (MD34100 reference "
+          f"point values carrying the EEC constants), `{README}` (machine data)",
+    sign="file value = error of the compensated axis; positive moves the axis negative (EEC: CERTAIN, K3 p.238; CEC: "
+         "ASSUMED the same, no public source: sign test); EEC zero at the reference point, the constant in MD34100",
     source="SINUMERIK K3 Function Manual 03/2013 p.237-249, 840D sl 09/2009 p.361-364, 01/2008 p.357, 03/2009 p.372; "
            "802D sl K3 p.222",
     to_check="MD18342/MD38000 sizes, table count, monitoring MD names (MD32720/MD32730 from memory), AXn names in "

@@ -21,7 +21,7 @@ from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import InputError
 from vecpin.export import drives, generic
-from vecpin.export.common import ControllerFormat, ExportJob
+from vecpin.export.common import ControllerFormat, ExportJob, with_constants
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import get_format
 from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, find_table, plan_sign_test, read_check,
@@ -191,12 +191,9 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     if as_written is not None and fmt.name != "generic":
         # the whole model: the drives' differential (read back from the files) turns the beam against its skew
         add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
-        if any(abs(c) > 0 for c in job.constants.values()):
-            shifted = TableSet(as_written.axis_names, [
-                CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
-                                  t.values + (job.constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
-                for t in as_written.tables], as_written.gauge_offset_change, as_written.source, as_written.drives)
-            add_as_written_row(plan, model, shifted, "files + reference shifts (model-predicted)")
+        if any(abs(c) > 0 for c in job.constants.values()):   # the loss if the reference point data are not loaded
+            without = with_constants(as_written, {a: -c for a, c in job.constants.items()})
+            add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
 
