@@ -1,17 +1,17 @@
 """The sign test tells a controller that applies the files as documented from one that
 applies them with the opposite sign.
 
-The simulated controllers below read the written files with their own small parsers and
-apply the values by the vendor's documented rule (sources in each function), on a machine
+The simulated controllers (tests/controller_appliers.py) read the written files with their
+own small parsers and apply the values by the vendor's documented rule, on a machine
 with its own axis error; the check's readings then go through ``vecpin evaluate
 --sign-test``. Nothing here uses vecpin's readers."""
 import csv
 import json
-import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from controller_appliers import beckhoff_ssfk, fanuc_pitch, linuxcnc_type0, siemens_cec, siemens_eec
 
 from vecpin.cli import main
 from vecpin.measurement.noise import NoiseModel
@@ -27,65 +27,6 @@ def model(machines):
     flow = machines["flow_xyzcb"]
     sim = simulate(flow, seed=4, design=Design(n_commands=150))
     return make_model("ap", flow, 3).fit(sim.campaign, NoiseModel.default(flow, "spherical"))
-
-
-# ---------------------------------------------------------------- simulated controllers
-def siemens_eec(folder: Path, axis: str, x_mm: np.ndarray) -> np.ndarray:
-    """K3 p.238: 'A positive compensation value causes the machine axis to move in the negative direction.'"""
-    text = (folder / "AX_EEC.INI").read_text()
-    vals = {int(n): float(v) for n, v in re.findall(rf"\$AA_ENC_COMP\[0,(\d+),{axis}\]=(\S+)", text)}
-    step = float(re.search(rf"\$AA_ENC_COMP_STEP\[0,{axis}\]=(\S+)", text).group(1))
-    lo = float(re.search(rf"\$AA_ENC_COMP_MIN\[0,{axis}\]=(\S+)", text).group(1))
-    v = np.array([vals[n] for n in range(len(vals))])
-    return -np.interp(x_mm, lo + step * np.arange(len(v)), v)
-
-
-def siemens_cec(folder: Path, inp: str, out: str, x_mm: np.ndarray) -> np.ndarray:
-    """K3 sag section (840D sl FM 03/2009 p.372): a positive value moves the compensation axis negative."""
-    text = (folder / "NC_CEC.INI").read_text()
-    t = next(k for k, i in re.findall(r"\$AN_CEC_INPUT_AXIS\[(\d+)\]=\((\w+)\)", text)
-             if i == inp and re.search(rf"\$AN_CEC_OUTPUT_AXIS\[{k}\]=\({out}\)", text))
-    vals = {int(n): float(v) for n, v in re.findall(rf"\$AN_CEC\[{t},(\d+)\]=(\S+)", text)}
-    step = float(re.search(rf"\$AN_CEC_STEP\[{t}\]=(\S+)", text).group(1))
-    lo = float(re.search(rf"\$AN_CEC_MIN\[{t}\]=(\S+)", text).group(1))
-    v = np.array([vals[n] for n in range(len(vals))])
-    return -np.interp(x_mm, lo + step * np.arange(len(v)), v)
-
-
-def fanuc_pitch(folder: Path, number: int, x_mm: np.ndarray, ref_mm=0.0, unit=0.001) -> np.ndarray:
-    """B-63980EN p.100: point n at (n - 3620) x 3624 from the reference; its value is the
-    compensation over the section ending at n, x 3623 detection units; zero at the reference."""
-    para = (folder / "CNC-PARA.TXT").read_text()
-    p = {int(n): re.search(rf"A{number}P(-?[\d.]+)", body).group(1)
-         for n, body in re.findall(r"N0(\d{4})Q1(\S+)", para)}
-    ref, first, last, mag, interval = int(p[3620]), int(p[3621]), int(p[3622]), int(p[3623]), float(p[3624])
-    data = {int(n): int(v) for n, v in re.findall(r"N1(\d{4})Q0P(-?\d+)", (folder / "PITCH.TXT").read_text())}
-    points = np.arange(first - 1, last + 1)
-    absolute = np.array([sum(data[k] for k in range(ref + 1, n + 1)) - sum(data[k] for k in range(n + 1, ref + 1))
-                         for n in points]) * mag * unit
-    return np.interp(x_mm, ref_mm + (points - ref) * interval, absolute)
-
-
-def linuxcnc_type0(folder: Path, axis: str, x_mm: np.ndarray) -> np.ndarray:
-    """usrmotintf.cc: trim = nominal - actual (type 0); control.c: motor_pos_cmd = pos_cmd + trim."""
-    rows = []
-    for ln in (folder / f"comp_{axis}.txt").read_text().splitlines():
-        try:
-            rows.append([float(v) for v in ln.split()[:3]])
-        except ValueError:
-            break
-    a = np.array(rows)
-    return np.interp(x_mm, a[:, 0], a[:, 0] - a[:, 1])
-
-
-def beckhoff_ssfk(folder: Path, axis: str, x_mm: np.ndarray) -> np.ndarray:
-    """TF5200: compensation value = actual - programmed (0.1 um); the NC takes it off the setpoint."""
-    kv = dict(ln.split(None, 1) for ln in (folder / f"achskw_{axis}.lis").read_text().splitlines()
-              if ln.strip() and not ln.startswith("#"))
-    n = int(kv["kw.ssfk.kw_nr_max"])
-    sp = np.array([int(kv[f"kw.ssfk.table[{i}].setpoint"]) for i in range(n)]) * 1e-4
-    pos = np.array([int(kv[f"kw.ssfk.table[{i}].pos"]) for i in range(n)]) * 1e-4
-    return -np.interp(x_mm, sp, pos)
 
 
 CASES = {
