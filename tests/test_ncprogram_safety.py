@@ -100,7 +100,20 @@ def test_plan_program_runs_safely_on_a_control_in_inch_mode_with_offsets(plans, 
     # the header counts the plan's rows
     counted = [int(x) for c in prog.comments[:12] for x in re.findall(r"^(\d+) points", c, re.I)]
     assert counted == [len(t)]
-    # the nests' read order is in the comments, in the template's order
+    # every row of the plan is read at one dwell where the machine stands at its axis values: the
+    # comment before each dwell names the points read there (tool target, then the nests in order)
+    row_of = {int(pt): k for k, pt in enumerate(t.point)}
+    read, comment = [], ""
+    for e in prog.events:
+        if e[0] == "comment":
+            comment = e[1]
+        elif e[0] == "dwell":
+            pts = [int(x) for x in re.findall(r"\bP(\d+)\b", comment.upper())]
+            assert pts and pts[0] == int(t.point[tool_rows[e[1]]])
+            for pt in pts:
+                np.testing.assert_allclose(at_dwell[e[1]], m.to_user(t.q[row_of[pt]]), atol=TOL)
+            read += pts
+    assert read == [int(x) for x in t.point]  # each row once, in the plan's order
     if name == "trunnion_xyzac":
         said = re.findall(r"(\w+) AS (P\d+)", " ".join(prog.comments).upper())
         named = [(str(t.target[i]).upper(), f"P{int(t.point[i]):04d}") for i in np.flatnonzero(t.instrument == "nest")]
@@ -145,6 +158,11 @@ def test_safe_height_option(plans, machines, tmp_path, capsys):
     assert main(args + ["--safe-z", "650", "--nest-dwell", "9", "--dialect", "fanuc"]) == 0
     prog = run((tmp_path / "p" / "O1000.nc").read_text(), "fanuc", _axes(m))
     assert _check_safe_moves(prog, m, 650.0, step) > 0
+    # the printed travel of the lifts and plunges is what the program moves Z alone
+    printed = float(re.search(r"Z to 650 mm .*?: ([\d.]+) m up and down", capsys.readouterr().out).group(1))
+    z_alone = sum(abs(mv.pos["Z"] - mv.before["Z"]) for mv in prog.moves if mv.axes == ("Z",)
+                  and mv.before["Z"] is not None)
+    assert printed == pytest.approx(z_alone / 1000, abs=0.051)
 
 
 def test_fanuc_comments_never_hold_a_semicolon(plans, machines):

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -114,6 +115,54 @@ def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: floa
         raise InputError(f"--feed {feed_mm_min}: the approach feed is mm/min > 0")
 
 
+@dataclass
+class Visit:
+    """One point of the program: its tool row ``row``, the retract axis' height before
+    the move to it (``lift`` [mm], None: it is high enough already), the approach position
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the nest rows read there."""
+    row: int
+    lift: float | None
+    a: np.ndarray
+    q: np.ndarray
+    nests: range
+
+
+def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
+           safe: float) -> tuple[list[Visit], float | None]:
+    """The program's points in order and the retract axis' final lift (None: none needed):
+    the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is and the next
+    approach position before every move between points."""
+    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    q_all = np.round(machine.to_user(template.q), 3)
+    step = machine.to_user(np.asarray(steps, float)[None])[0]
+    app = template.approach if template.approach is not None else np.zeros_like(template.q)
+    out: list[Visit] = []
+    cur = None
+    for i in np.flatnonzero(~is_nest):
+        a = np.round(q_all[i] - app[i] * step, 3)
+        to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
+        j = i + 1
+        while j < len(template) and is_nest[j]:
+            j += 1
+        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j)))
+        cur = float(q_all[i][r])
+    end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
+    return out, end
+
+
+def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
+                      retract: str | None = None) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm]."""
+    r, up = retract_axis(machine, retract)
+    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
+    total, cur = 0.0, None
+    for v in vs:
+        at = v.lift if v.lift is not None else cur
+        total += (abs(at - cur) if cur is not None else 0.0) + abs(at - v.a[r])
+        cur = float(v.q[r])
+    return total + (abs(end - cur) if end is not None else 0.0)
+
+
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
@@ -135,8 +184,6 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
-    q_all = np.round(machine.to_user(template.q), 3)
-    step = machine.to_user(np.asarray(steps, float)[None])[0]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
 
     def comment(text: str) -> str:
@@ -167,20 +214,12 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
             nc.restore_note(dialect),
             "run it first at a reduced rapid override and watch the moves"]
     out += [comment(h) for h in head] + nc.prologue(dialect)
-    cur: list[float | None] = [None] * machine.n_axes
+    route, end = visits(machine, template, steps, r, up, safe)
     current_tool = None
-
-    def lift(to: float) -> None:
-        if cur[r] is None or up * (to - cur[r]) > 1e-9:
-            out.append(move([r], {r: to}))
-            cur[r] = to
-
-    for i in range(len(template)):
-        if is_nest[i]:
-            continue  # read at the dwell of the tool row before it, see below
-        q = q_all[i]
-        a = np.round(q - app[i] * step, 3)
-        lift(max((safe, a[r]) + (() if cur[r] is None else (cur[r],)), key=lambda v: up * v))
+    for v in route:
+        i = v.row
+        if v.lift is not None:
+            out.append(move([r], {r: v.lift}))
         L = float(template.tool[i])
         if current_tool is None or abs(L - current_tool) > 1e-9:
             msg = f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), then cycle start"
@@ -191,21 +230,16 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
         out.append(comment(point_name(template.point[i])))
         for idx in (others, rotary, [r]):
             if idx:
-                out.append(move(idx, a))
+                out.append(move(idx, v.a))
         if np.any(app[i] != 0):
-            out += nc.approach(dialect, names, list(a), list(q), feed_mm_min)
-        cur = [float(v) for v in q]
-        j = i + 1
-        while j < len(template) and is_nest[j]:
-            j += 1
-        nests = range(i + 1, j)
+            out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
         read = f"read the tool target as {point_name(template.point[i])}"
-        if nests:
+        if v.nests:
             read += ", then the table nests in this order: " + ", ".join(
-                f"{template.target[k]} as {point_name(template.point[k])}" for k in nests)
-        out += [comment(read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(nests))]
-    if cur[r] is not None:
-        lift(max(safe, cur[r], key=lambda v: up * v))
+                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.nests)
+        out += [comment(read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.nests))]
+    if end is not None:
+        out.append(move([r], {r: end}))
     out += nc.epilogue(dialect)
     if dialect == nc.FANUC:
         out.append("%")

@@ -19,10 +19,11 @@ import numpy as np
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import (DIALECTS, check_program_options, program_name, retract_axis, safe_position,
-                                      write_program)
+from vecpin.planning.ncprogram import (DIALECTS, check_program_options, program_name, retract_axis,
+                                      retract_travel_mm, safe_position, write_program)
+from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
-from vecpin.units import to_mm
+from vecpin.units import M_PER_MM, to_mm
 
 
 @dataclass
@@ -30,6 +31,7 @@ class PlanRun:
     plan: Plan
     files: list[Path]
     comparison: list[PlanScore] = field(default_factory=list)
+    program: str = ""   # what the NC programs do between and at the points (one line)
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -80,6 +82,8 @@ class PlanRun:
         if self.comparison:
             out.append("  comparison (same model, noise, tracker and validation commands):")
             out += PlanScore.header() + [x.line() for x in self.comparison]
+        if self.program:
+            out.append(f"  NC programs: {self.program}")
         out += [f"  wrote {f}" for f in self.files]
         return out
 
@@ -172,7 +176,16 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             files.append(out.write_text(program_name(d), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
-        run = PlanRun(plan, files, comparison)
+        t = plan.template
+        nests = int(np.sum(t.instrument == "nest")) if t.instrument is not None else 0
+        dwells = (len(t) - nests) * dwell_s + nests * nest_dwell_s
+        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract)
+        speed = axis_speeds(machine, settings.rapid_mm_min, settings.rapid_deg_min)[r]
+        program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
+                   f"--safe-z) before every move between points: {lifts / 1000:.1f} m up and down, "
+                   f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
+                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
+        run = PlanRun(plan, files, comparison, program if dialects else "")
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
