@@ -152,9 +152,12 @@ def test_safe_height_option(plans, machines, tmp_path, capsys):
         write_program("gcode", m, p.template, p.steps, retract="C")
     args = ["plan", "flow_xyzcb", "--points", "16", "--order", "1", "--candidates", "200", "--quiet",
             "--out", str(tmp_path / "p")]
-    assert main(args + ["--safe-z", "-5"]) == 2
-    err = capsys.readouterr().err
-    assert "--safe-z -5" in err and "Traceback" not in err
+    for bad, said in ((["--safe-z", "-5"], "--safe-z -5: not a position inside the travel of Z (0 to 1001.8 mm"),
+                      (["--safe-z", "nan"], "--safe-z nan"), (["--nest-dwell", "0"], "--nest-dwell 0"),
+                      (["--retract-axis", "Q"], "--retract-axis Q: not a linear axis of flow_xyzcb (X, Y, Z)")):
+        assert main(args + bad) == 2
+        err = capsys.readouterr().err
+        assert said in err and "Traceback" not in err
     assert main(args + ["--safe-z", "650", "--nest-dwell", "9", "--dialect", "fanuc"]) == 0
     prog = run((tmp_path / "p" / "O1000.nc").read_text(), "fanuc", _axes(m))
     assert _check_safe_moves(prog, m, 650.0, step) > 0

@@ -51,11 +51,7 @@ def prologue(dialect: str) -> list[str]:
 
 def epilogue(dialect: str) -> list[str]:
     """The blocks after the last move: LinuxCNC restores the modal state, then the end."""
-    if dialect == SIEMENS:
-        return ["M30"]
-    if dialect == FANUC:
-        return ["M30"]
-    return ["M72", "M2"]
+    return ["M72", "M2"] if dialect == GCODE else ["M30"]
 
 
 def restore_note(dialect: str) -> str:

@@ -100,8 +100,8 @@ def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | Non
     if safe_z_mm is None:
         return round(hi if sign > 0 else lo, 3)
     if not (math.isfinite(safe_z_mm) and lo - 1e-9 <= safe_z_mm <= hi + 1e-9):
-        raise InputError(f"--safe-z {safe_z_mm:g}: outside the travel of {a.name} ({lo:g} to {hi:g} mm, machine "
-                         "coordinates)")
+        raise InputError(f"--safe-z {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
+                         "machine coordinates)")
     return round(float(safe_z_mm), 3)
 
 
