@@ -13,7 +13,9 @@ Sources, per dialect:
 
 * Siemens SINUMERIK 840D sl, Programming Manual Fundamentals: comments after ``;``;
   G groups 1 (G0 G1 G2 G3), 2 (G4, non-modal), 6 (G17 G18 G19), 7 (G40 G41 G42), 13
-  (G70 G71 G700 G710: inch / metric), 14 (G90 G91), 15 (G93 G94 G95); ``SUPA``
+  (G70 G71 G700 G710: inch / metric; G70 / G71 for lengths only, the feed stays in the
+  basic system, so a program sets its units with G700 / G710 here), 14 (G90 G91), 15
+  (G93 G94 G95); ``SUPA``
   non-modal suppression of all frames, DRF and external zero offsets: the block's axis
   values are machine coordinates; ``D0`` deselects the tool offset, ``TRAFOOF`` the
   transformation (``TRAORI``); ``G4 F<s>`` in a block of its own; an address of more
@@ -60,7 +62,7 @@ GROUPS = {
               2: {17, 18, 19}, 3: {90, 91}, 5: {93, 94, 95}, 6: {20, 21}, 7: {40, 41, 42}, 8: {43, 43.1, 49},
               12: {54, 55, 56, 57, 58, 59}, 13: {61, 64}},
 }
-ALLOWED_G = {0, 1, 4, 17, 20, 21, 40, 49, 53, 70, 71, 80, 90, 91, 94}  # what a measurement program may use
+ALLOWED_G = {0, 1, 4, 17, 20, 21, 40, 49, 53, 700, 710, 80, 90, 91, 94}  # what a measurement program may use
 ENDS = {"siemens-840d": {30}, "fanuc": {30}, "gcode": {2, 30}}
 
 
@@ -176,7 +178,7 @@ def run(text: str, dialect: str, axes: dict[str, tuple[float, float]], start: St
         for g in gs:
             grp = next((k for k, s in groups.items() if g in s), None)
             if grp is None or g not in ALLOWED_G or (g == 53 and dialect == "siemens-840d") \
-                    or (g in (70, 71) and dialect != "siemens-840d") or (g in (20, 21) and dialect == "siemens-840d"):
+                    or (g in (700, 710) and dialect != "siemens-840d") or (g in (20, 21) and dialect == "siemens-840d"):
                 raise GCodeError(f"line {n}: G{g:g} is not allowed here ({code!r})")
             if grp in seen:
                 raise GCodeError(f"line {n}: G{seen[grp]:g} and G{g:g} of one modal group in a block")
@@ -184,10 +186,10 @@ def run(text: str, dialect: str, axes: dict[str, tuple[float, float]], start: St
         machine = ("SUPA", "") in words if dialect == "siemens-840d" else 53 in gs
         rest = [(k, v) for k, v in words if k not in ("G", "SUPA")]
         for g in gs:
-            if g in (20, 21, 70, 71):
+            if g in (20, 21, 700, 710):
                 if dialect == "fanuc" and len(words) != 1:
                     raise GCodeError(f"line {n}: Fanuc wants G20/G21 in a block of its own")
-                units, units_set = ("mm" if g in (21, 71) else "inch"), True
+                units, units_set = ("mm" if g in (21, 710) else "inch"), True
             elif g in (90, 91):
                 distance = "abs" if g == 90 else "inc"
             elif g == 49:

@@ -122,8 +122,9 @@ def test_plan_program_runs_safely_on_a_control_in_inch_mode_with_offsets(plans, 
     if dialect == "gcode":
         assert prog.units_at_end == start.units
     else:
-        unit = "G21" if dialect == "fanuc" else "G71"
-        assert any(unit in c and "M30" in c for c in prog.comments)
+        unit = "G21" if dialect == "fanuc" else "G710"
+        header = " ".join(prog.comments[:20])
+        assert unit in header and "M30" in header[header.index(unit):]
     if dialect == "fanuc":
         assert all(";" not in c for c in prog.comments) and ";" not in text
 
@@ -203,7 +204,7 @@ def test_sign_test_program_runs_in_machine_coordinates_and_mm(machines, controll
     if dialect == "gcode":
         assert prog.units_at_end == "inch"
     else:
-        assert any(("G21" if dialect == "fanuc" else "G71") in c for c in prog.comments)
+        assert any(("G21" if dialect == "fanuc" else "G710") in c for c in prog.comments)
 
 
 def test_the_interpreter_refuses_unsafe_programs(machines):
@@ -211,7 +212,7 @@ def test_the_interpreter_refuses_unsafe_programs(machines):
     axes = {"X": (0.0, 1000.0), "Z": (0.0, 500.0)}
     ok = {"gcode": "G21\nG17 G40 G49 G80 G90 G94\nG90 G53 G0 X10 Z400\nG4 P1\nM2\n",
           "fanuc": "%\nO0001\nG21\nG17 G40 G49 G80 G90 G94\nG90 G53 G00 X10. Z400.\nG04 P1000\nM30\n%\n",
-          "siemens-840d": "G17 G40 G71 G90 G94\nTRAFOOF\nD0\nSUPA G0 X10 Z400\nG4 F1\nM30\n"}
+          "siemens-840d": "G17 G40 G710 G90 G94\nTRAFOOF\nD0\nSUPA G0 X10 Z400\nG4 F1\nM30\n"}
     for d, text in ok.items():
         prog = run(text, d, axes)
         assert prog.moves[0].pos == {"X": 10.0, "Z": 400.0} and prog.moves[0].frame == "machine"
@@ -222,8 +223,9 @@ def test_the_interpreter_refuses_unsafe_programs(machines):
            ("fanuc", "%\nO0001 (A; B)\nG21\nM30\n%\n", "parenthes"),
            ("fanuc", "%\nO0001\nG21\n(READ X; THEN Y)\nM30\n%\n", "parenthes"),
            ("fanuc", "%\nO0001\nG21 G90\nM30\n%\n", "own"),
-           ("siemens-840d", "G17 G40 G71 G90 G94\nD0\nSUPA G0 X10 Z400\nM30\n", "TRAORI"),
-           ("siemens-840d", "G17 G40 G71 G90 G94\nTRAFOOF\nD0\nG53 G0 X10 Z400\nM30\n", "G53")]
+           ("siemens-840d", "G17 G40 G710 G90 G94\nD0\nSUPA G0 X10 Z400\nM30\n", "TRAORI"),
+           ("siemens-840d", "G17 G40 G710 G90 G94\nTRAFOOF\nD0\nG53 G0 X10 Z400\nM30\n", "G53"),
+           ("siemens-840d", "G17 G40 G71 G90 G94\nTRAFOOF\nD0\nSUPA G0 X10 Z400\nM30\n", "G71")]
     for d, text, why in bad:
         with pytest.raises(GCodeError, match=why):
             run(text, d, axes)

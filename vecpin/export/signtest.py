@@ -160,7 +160,7 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     mc = {"siemens": "SUPA", "fanuc": "G53: at rapid traverse to the first position, then G91 G01 at the feed"}
     head = [what, f"machine coordinates ({mc.get(dialect, 'G53')}), each position approached from below at "
             f"F{FEED:g}", note]
-    lines = [nc.nc_comment(d, h) for h in head]
+    lines = [c for h in head for c in nc.comments(d, h)]
     blocks = list(start)
     cur = None
     for k, (a, p) in enumerate(moves, 1):

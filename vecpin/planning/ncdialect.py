@@ -5,13 +5,14 @@ Three dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use
 * ``siemens-840d`` (SINUMERIK 840D): comments after ``;``; ``SUPA`` in a positioning
   block suppresses every frame, the handwheel (DRF) and external zero offsets and
   PRESET for that block only (non-modal), so the axis words are machine coordinates;
-  ``G71`` mm, ``G17`` plane, ``G40`` no radius compensation, ``G90`` absolute, ``G94``
+  ``G710`` mm for lengths and feeds (``G71`` leaves the feed in the control's basic
+  system, inch on an inch machine), ``G17`` plane, ``G40`` no radius compensation, ``G90`` absolute, ``G94``
   feed per minute, ``TRAFOOF`` no kinematic transformation (TRAORI), ``D0`` no tool
   offset; the dwell is ``G4 F<s>`` in a block of its own; the end ``M30``, after which
   the control sets its reset G codes again (machine data MD20150 / MD20152).
 * ``fanuc`` (Series 0i/30i): comments in ``( )``, in capitals; a ``;`` is the end of a
   block in ISO code, so it never stands in a comment, nor does ``%`` (end of record);
-  ``G21`` in a block of its own first, then ``G17 G40 G49 G80 G90 G94`` (``G49`` also ends
+  ``G21`` (lengths and feeds) in a block of its own first, then ``G17 G40 G49 G80 G90 G94`` (``G49`` also ends
   ``G43.4``); ``G53`` (one-shot) with ``G90`` in each positioning block: machine
   coordinates, always at rapid traverse, so the final approach at a feed is an
   incremental ``G91 G01`` from the machine-coordinate approach position (an increment
@@ -25,6 +26,7 @@ Three dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use
 from __future__ import annotations
 
 import re
+import textwrap
 
 SIEMENS, FANUC, GCODE = "siemens-840d", "fanuc", "gcode"
 
@@ -40,10 +42,16 @@ def nc_comment(dialect: str, text: str) -> str:
     return f"({text})"
 
 
+def comments(dialect: str, text: str, width: int = 76) -> list[str]:
+    """``text`` as comment blocks of at most about ``width`` characters each (a control
+    shows a block on one line; some limit its length)."""
+    return [nc_comment(dialect, t) for t in textwrap.wrap(text, width)]
+
+
 def prologue(dialect: str) -> list[str]:
     """The blocks before the first move: units and a safety block (see the module docstring)."""
     if dialect == SIEMENS:
-        return ["G17 G40 G71 G90 G94", "TRAFOOF", "D0"]
+        return ["G17 G40 G710 G90 G94", "TRAFOOF", "D0"]
     if dialect == FANUC:
         return ["G21", "G17 G40 G49 G80 G90 G94"]
     return ["M70", "G21", "G17 G40 G49 G80 G90 G94"]
@@ -57,7 +65,7 @@ def epilogue(dialect: str) -> list[str]:
 def restore_note(dialect: str) -> str:
     """What the program leaves changed after its end (a header comment)."""
     if dialect == SIEMENS:
-        return ("the program sets G71 (mm) G17 G40 G90 G94 TRAFOOF D0; at M30 the control sets its reset values "
+        return ("the program sets G710 (mm, G71 with feeds in mm/min) G17 G40 G90 G94 TRAFOOF D0; at M30 the control sets its reset values "
                 "again (G codes: MD20150 / MD20152, tool offset: MD20110 / MD20120): check them if the next program "
                 "relies on G70 (inch) or an active tool offset")
     if dialect == FANUC:

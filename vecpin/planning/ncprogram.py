@@ -213,7 +213,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
             f"for the tool target and {nest_dwell_s:g} s per table nest read there",
             nc.restore_note(dialect),
             "run it first at a reduced rapid override and watch the moves"]
-    out += [comment(h) for h in head] + nc.prologue(dialect)
+    out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe)
     current_tool = None
     for v in route:
