@@ -232,3 +232,25 @@ def test_the_interpreter_refuses_unsafe_programs(machines):
     # without G53 the point lands where the work offset puts it
     prog = run("G21\nG17 G40 G49 G80 G90 G94\nG0 X10 Z400\nM2\n", "gcode", axes, Start(offset={"X": 5.0}))
     assert prog.moves[0].frame == "work" and prog.moves[0].pos["X"] == 15.0
+
+
+@pytest.mark.parametrize("approach", ["above", "both", "none"])
+def test_other_approaches_on_a_head_table_machine(machines, approach):
+    """head_table_bc (B in the head, C under the workpiece): from above, both ways (each
+    command twice) and without an approach the program still reaches every planned point
+    in machine coordinates with the moves that swing or travel made at the top of Z; from
+    above the last move runs down onto the point."""
+    m = machines["head_table_bc"]
+    p = make_plan(m, PlanSettings(n_points=20, order=1, candidates=200, validation_points=20, approach=approach))
+    t = p.template
+    for dialect in DIALECTS:
+        prog = run(write_program(dialect, m, t, p.steps), dialect, _axes(m))
+        dwell_at = [prog.moves[max(i for kind, i in prog.events[:k] if kind == "move")]
+                    for k, e in enumerate(prog.events) if e[0] == "dwell"]
+        tool_rows = t.instrument != "nest"   # (the table nests are read at the tool rows' dwells)
+        np.testing.assert_allclose([[mv.pos[a] for a in m.axis_names] for mv in dwell_at], m.to_user(t.q[tool_rows]),
+                                   atol=TOL)
+        step = np.array([APPROACH[a.unit] for a in m.axes])
+        assert _check_safe_moves(prog, m, m.axis("Z").upper_user, step) >= tool_rows.sum() // 2  # "both": pairs
+        if approach == "above":
+            assert all(mv.before["Z"] - mv.pos["Z"] == pytest.approx(5.0) and mv.code == 1 for mv in dwell_at)
