@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from controller_appliers import beckhoff_ssfk, fanuc_pitch, linuxcnc_type0, siemens_cec, siemens_eec
 
+from gcode import run
 from vecpin.cli import main
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
@@ -91,7 +92,7 @@ def test_inactive_tables_and_unit_errors_are_not_called_right(model, tmp_path):
         assert v.verdict == "unclear" and words in v.reason
 
 
-def test_program_instructions_and_the_evaluate_command(model, tmp_path, capsys):
+def test_program_instructions_and_the_evaluate_command(model, machines, tmp_path, capsys):
     model_path = tmp_path / "m.json"
     model.save(model_path)
     out = tmp_path / "t"
@@ -99,11 +100,16 @@ def test_program_instructions_and_the_evaluate_command(model, tmp_path, capsys):
                  "--sign-test", "X", "--out", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
     assert "sign test xx" in printed
-    prog = (out / "SIGNTEST_XX.MPF").read_text().splitlines()
     test = json.loads((out / "SIGNTEST_XX.json").read_text())
-    p1, p2 = test["positions"]
-    assert f"N20 G90 G53 G01 X{p1:.3f} F1000.0" in prog and prog[-1] == "N70 M30"
-    assert sum("M00" in ln for ln in prog) == 2
+    # the program as a SINUMERIK runs it (tests/gcode.py): machine coordinates (SUPA), from inch mode
+    flow = machines["flow_xyzcb"]
+    prog = run((out / "SIGNTEST_XX.MPF").read_text(), "siemens-840d", {"X": (flow.axis("X").lower_user,
+                                                                            flow.axis("X").upper_user)})
+    assert {mv.frame for mv in prog.moves} == {"machine"} and len(prog.stops) == 2
+    at_stops = [prog.moves[max(i for k, i in prog.events[:j] if k == "move")] for j, e in enumerate(prog.events)
+                if e[0] == "stop"]
+    assert [mv.pos["X"] for mv in at_stops] == pytest.approx(test["positions"], abs=5e-4)
+    assert all(mv.code == 1 and mv.before["X"] < mv.pos["X"] for mv in at_stops)
     assert "--sign-test SIGNTEST_XX.json" in (out / "SIGNTEST_XX.md").read_text()
     check = tmp_path / "check.csv"
     check_csv(check, test, lambda x: siemens_eec(out, "X1", x), -1.0, np.random.default_rng(3))

@@ -128,7 +128,7 @@ def test_join_by_name_reports_missing_and_rejects_unknown(flow, day):
     assert res.unmeasured == [4, 5] and len(res.campaign) == len(c) - 2
     text = p.read_text(encoding="utf-8").replace("P0007;", "Base;")
     (d / "e11.csv").write_text(text, encoding="utf-8")
-    with pytest.raises(CampaignFileError, match="'Base' does not end in a number") as e:
+    with pytest.raises(CampaignFileError, match="'Base' is no plan point name") as e:
         import_export(d / "e11.csv", flow, d / "plan.csv")
     assert e.value.column == "Name" and e.value.row == 7  # comment, header, P0001-P0003, P0006, P0007
     text = p.read_text(encoding="utf-8").replace("P0007;", "P0999;")
@@ -141,6 +141,38 @@ def test_join_by_name_reports_missing_and_rejects_unknown(flow, day):
     (d / "e13.csv").write_text(text, encoding="utf-8")
     with pytest.raises(CampaignFileError, match="measured twice"):
         import_export(d / "e13.csv", flow, d / "plan.csv")
+
+
+def test_names_join_whole_a_reference_point_never_joins_a_plan_point(flow, day):
+    """A tracker reference point named TR_REF1 (here measured where point 1 is not) is no
+    plan point: refused by name, skipped with --ignore-unmatched, and point 1 is joined to
+    the row named P0001 or, without one, reported unmeasured; Pt7, Point 7 and 7 name
+    point 7 (whole names)."""
+    d, t, c = day
+    p = export(d / "e40.csv", c, t)
+    lines = p.read_text(encoding="utf-8").splitlines()
+    ref = lines[2].split(";")                       # the P0001 row, as the reference point
+    ref[0] = "TR_REF1"
+    ref[3] = f"{float(ref[3].replace(',', '.')) + 100 / 25.4:.6f}".replace(".", ",")  # 100 mm from P0001
+    with_ref = lines[:2] + [";".join(ref)] + lines[2:]
+    (d / "e41.csv").write_text("\r\n".join(with_ref) + "\r\n", encoding="utf-8")
+    with pytest.raises(CampaignFileError, match="'TR_REF1' is no plan point name") as e:
+        import_export(d / "e41.csv", flow, d / "plan.csv")
+    assert e.value.row == 3 and e.value.column == "Name"
+    res = import_export(d / "e41.csv", flow, d / "plan.csv", ignore_unmatched=True)
+    assert res.unmatched == ["TR_REF1"] and res.unmeasured == []
+    np.testing.assert_allclose(res.campaign.xyz, c.xyz, atol=1e-7)   # point 1 from its own row
+    (d / "e42.csv").write_text("\r\n".join(lines[:2] + [";".join(ref)] + lines[3:]) + "\r\n", encoding="utf-8")
+    res = import_export(d / "e42.csv", flow, d / "plan.csv", ignore_unmatched=True)
+    assert res.unmatched == ["TR_REF1"] and res.unmeasured == [1] and len(res.campaign) == len(c) - 1
+    renamed = "\r\n".join(lines).replace("P0007;", "Pt7;").replace("P0008;", "Point 8;").replace("P0009;", "9;")
+    (d / "e43.csv").write_text(renamed + "\r\n", encoding="utf-8")
+    res = import_export(d / "e43.csv", flow, d / "plan.csv")
+    assert res.unmeasured == [] and res.unmatched == []
+    np.testing.assert_allclose(res.campaign.xyz, c.xyz, atol=1e-7)
+    (d / "e44.csv").write_text("\r\n".join(lines).replace("P0007;", "P0007_2;") + "\r\n", encoding="utf-8")
+    with pytest.raises(CampaignFileError, match="'P0007_2' is no plan point name"):
+        import_export(d / "e44.csv", flow, d / "plan.csv")
 
 
 def test_numbers_and_columns_problems_name_row_and_column(flow, day):

@@ -101,7 +101,7 @@ def test_template_and_nc_program_carry_the_nests(trunnion_plan, tmp_path):
     prog = write_program("gcode", m, t, p.steps)
     assert prog.count("G4 P") == len(t.tool_rows)
     k = int(t.nest_rows[0])
-    assert f"read table nests {t.target[k]} as {point_name(t.point[k])}" in prog
+    assert f"then the table nests in this order: {t.target[k]} as {point_name(t.point[k])}" in prog
     lines = f.read_text().splitlines()
     cells = lines[k + 1].split(",")
     cells[1] = str(float(cells[1]) + 1.0)

@@ -163,26 +163,26 @@ def _axes(machine, names=None):
 
 @pytest.mark.parametrize("dialect", list(DIALECTS))
 def test_nc_program_visits_the_template(flow, small_plan, dialect):
-    """Read back by the tests' own strict reader: only G0/G1/G4 (+ G90/G21|G71/G94, M0,
-    M30|M2) and the axis words, every value within the limits; every row of the template
-    is approached from below, reached with G1 at the feed, and followed by the dwell;
-    the holder changes are programmed stops naming the length."""
+    """Run by the tests' own interpreter (tests/gcode.py; the safety of the moves between
+    points: tests/test_ncprogram_safety.py): every row of the template is approached from
+    below, reached at the feed, and followed by the dwell; the holder changes are
+    programmed stops naming the length; each point's name is a comment."""
     p = small_plan
     t = p.template
     text = write_program(dialect, flow, t, p.steps, dwell_s=3.5, feed_mm_min=800.0)
     prog = parse(text, dialect, _axes(flow))
     assert len(prog.dwells) == len(t) and set(prog.dwells) == {3.5}
-    g1 = [mv for mv in prog.moves if mv[0] == 1]
-    g0 = [mv for mv in prog.moves if mv[0] == 0]
-    assert len(g1) == len(g0) == len(t)
-    cmd = np.array([[mv[1][a] for a in flow.axis_names] for mv in g1])
-    app = np.array([[mv[1][a] for a in flow.axis_names] for mv in g0])
+    g1 = [mv for mv in prog.moves if mv.code == 1]
+    assert len(g1) == len(t)
+    cmd = np.array([[mv.pos[a] for a in flow.axis_names] for mv in g1])
+    app = np.array([[mv.before[a] for a in flow.axis_names] for mv in g1])
     np.testing.assert_allclose(cmd, flow.to_user(t.q), atol=5e-4)
     np.testing.assert_allclose(cmd - app, np.tile(flow.to_user(p.steps), (len(t), 1)), atol=1e-3)
-    assert all(mv[2] == 800.0 for mv in g1)
-    # moves alternate: rapid to the approach point, G1 to the point, dwell
-    kinds = [e[0] for e in prog.events if e[0] in ("move", "dwell")]
-    assert kinds == ["move", "move", "dwell"] * len(t)
+    assert all(mv.feed == 800.0 for mv in g1)
+    # each point: the G1 to it, then its dwell
+    kinds = [("g1" if prog.moves[e[1]].code == 1 else "g0") if e[0] == "move" else e[0] for e in prog.events
+             if e[0] in ("move", "dwell")]
+    assert [k for i, k in enumerate(kinds) if i + 1 < len(kinds) and kinds[i + 1] == "dwell"] == ["g1"] * len(t)
     # holder changes: a stop before the first row, one when the length changes to 312.86 and back for the repeats
     assert len(prog.stops) == 3
     assert "214.880" in prog.stops[0][1] and "312.860" in prog.stops[1][1]
@@ -198,20 +198,23 @@ def test_nc_axis_names_and_options_are_checked(flow, small_plan):
         write_program("gcode", flow, p.template, p.steps, axis_map={"B": "C"})
     text = write_program("siemens-840d", flow, p.template, p.steps, axis_map={"B": "B1"})
     prog = parse(text, "siemens-840d", _axes(flow, ["X", "Y", "Z", "C", "B1"]))
-    assert len(prog.moves) == 2 * len(p.template)
+    assert sum(mv.code == 1 for mv in prog.moves) == len(p.template) and "B1=" in text
     with pytest.raises(InputError, match="--dwell"):
         write_program("gcode", flow, p.template, p.steps, dwell_s=0)
+    with pytest.raises(InputError, match="--nest-dwell"):
+        write_program("gcode", flow, p.template, p.steps, nest_dwell_s=-1)
 
 
 def test_gcode_reader_rejects_what_the_programs_must_not_contain(flow):
     axes = _axes(flow)
-    ok = "G90 G21 G94\nG0 X1 Y1 Z1 C0 B0\nG1 X1 Y1 Z2 C0 B0 F100\nG4 P1\nM2\n"
+    head = "G21\nG17 G40 G49 G80 G90 G94\n"
+    ok = head + "G90 G53 G0 X1 Y1 Z1 C0 B0\nG90 G53 G1 X1 Y1 Z2 C0 B0 F100\nG4 P1\nM2\n"
     parse(ok, "gcode", axes)
-    for bad in ("G90 G21 G94\nG0 X1 Y1 Z1 C0 B0\nG2 X1 Y1 Z1 C0 B0\nM2\n",       # an arc
-                "G90 G21 G94\nG0 X1 Y1 Z1 C0 B200\nM2\n",                        # beyond B's limit
-                "G90 G21 G94\nG0 X1 Y1 Z1 C0\nM2\n",                             # an axis missing
-                "G90 G21 G94\nG43 H1\nM2\n",                                     # tool length compensation
-                "G0 X1 Y1 Z1 C0 B0\nM2\n"):                                      # no G90/G21
+    for bad in (head + "G90 G53 G0 X1 Y1 Z1 C0 B0\nG90 G53 G2 X1 Y1 Z1 C0 B0\nM2\n",      # an arc
+                head + "G90 G53 G0 X1 Y1 Z1 C0 B200\nM2\n",                             # beyond B's limit
+                head + "G91 G1 X1 F100\nM2\n",                                         # from an unknown position
+                head + "G43 H1\nM2\n",                                                 # tool length compensation
+                "G90 G53 G0 X1 Y1 Z1 C0 B0\nM2\n"):                                   # no G21, no G49
         with pytest.raises(GCodeError):
             parse(bad, "gcode", axes)
 

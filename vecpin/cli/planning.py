@@ -65,7 +65,8 @@ def run_plan(args) -> int:
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
         candidates=args.candidates, seed=args.seed, nests=args.nests, nest_mm=parse_nest_options(args.nest))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
-                      dwell_s=args.dwell, feed_mm_min=args.feed, axis_map=parse_axis_map(args.axis_map, m),
+                      dwell_s=args.dwell, nest_dwell_s=args.nest_dwell, feed_mm_min=args.feed, safe_z_mm=args.safe_z,
+                      retract=args.retract_axis, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare, progress=progress(not args.quiet))
     print("\n".join(run.lines()))
     return 0
@@ -126,7 +127,15 @@ def register(sub) -> None:
                    "(default: URDF velocity limits)")
     s.add_argument("--rapid-deg-min", type=float, help="rapid speed of the rotary axes, deg/min "
                    "(default: URDF velocity limits)")
-    s.add_argument("--dwell", type=float, default=4.0, help="dwell at every point for the tracker, s (default 4)")
+    s.add_argument("--dwell", type=float, default=4.0, help="dwell at every point for the tracker to read the tool "
+                   "target, s (default 4)")
+    s.add_argument("--nest-dwell", type=float, default=15.0, help="further dwell per table nest read at a point, s "
+                   "(default 15: the operator moves the tracker to each nest)")
+    s.add_argument("--safe-z", type=float, metavar="MM", help="machine coordinate the retract axis (see --retract-axis) "
+                   "moves to before every move between points, mm; the other linear axes, then the rotary axes move "
+                   "there and it plunges to the next point (default: the end of its travel away from the work)")
+    s.add_argument("--retract-axis", metavar="AXIS", help="linear axis that lifts the tool off the work between "
+                   "points (default: the one along the tool at zero rotary angles, usually Z)")
     s.add_argument("--feed", type=float, default=1000.0, help="feed of the final approach move, mm/min (default 1000)")
     s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
                    help="NC program to write; repeatable (default: all three)")

@@ -37,6 +37,7 @@ from vecpin.export.profile import ControllerProfile, load_option_json
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import read_text_file
+from vecpin.planning import ncdialect as nc
 
 FORMAT = "vecpin-sign-test"
 VERSION = 1
@@ -127,41 +128,55 @@ def _moves(st: SignTest) -> list[tuple[float, float]]:
     return [(p - a, p) for p in st.positions]
 
 
+# the sign test's controllers -> the NC program dialects of vecpin.planning.ncdialect
+_NC = {"siemens": nc.SIEMENS, "fanuc": nc.FANUC, "linuxcnc": nc.GCODE}
+_DIN = (["G71", "G17 G40 G90", "D0"], ["M30"],  # Beckhoff TwinCAT CNC (DIN 66025): G71 mm, D0 no tool offset
+        "the program sets G71 (mm) G17 G40 G90 D0 and G53 (no zero offset, modal): check the units and the zero "
+        "offset the next program needs")
+
+
 def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
-    """(file name, text) of the NC program in the controller's language."""
+    """(file name, text) of the NC program in the controller's language: units and a
+    safety block first, every position in machine coordinates, each approached from
+    below at the feed, a programmed stop at each reading, then what the program changed
+    restored or named (see :mod:`vecpin.planning.ncdialect`)."""
     tag = st.table.upper()
-    f = decimal(FEED, 1)
     moves = _moves(st)
+    what = f"vecpin sign test of table {st.table}: read {st.output_axis} at each stop"
     if dialect == "heidenhain":
         name = f"SIGNTEST_{tag}.H"
-        lines = [f"BEGIN PGM SIGNTEST_{tag} MM",
-                 f"; vecpin sign test of table {st.table}: read {st.output_axis} at each STOP"]
+        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; {what}"]
+        f = decimal(FEED, 1)
         for k, (a, p) in enumerate(moves, 1):
             lines += [f"L {address}{a:+.3f} R0 F{f} M91", f"L {address}{p:+.3f} R0 F{f} M91",
                       f"; reading {k}: {st.input_axis} at {decimal(p, 3)} {st.input_unit}", "STOP"]
         lines.append(f"END PGM SIGNTEST_{tag} MM")
         return name, "\n".join(f"{n} {ln}" for n, ln in enumerate(lines)) + "\n"
-    if dialect == "siemens":
-        name, c0, c1 = f"SIGNTEST_{tag}.MPF", "; ", ""
-    elif dialect == "linuxcnc":
-        name, c0, c1 = f"signtest_{tag.lower()}.ngc", "(", ")"
-    else:  # fanuc and DIN 66025 (ISG, generic)
-        name, c0, c1 = f"SIGNTEST_{tag}.NC", "(", ")"
-    up = (lambda s: s.upper()) if dialect == "fanuc" else (lambda s: s)  # noqa: E731
-    lines = [f"{c0}{up(f'vecpin sign test of table {st.table}: read {st.output_axis} at each stop')}{c1}",
-             f"{c0}{up('machine coordinates (G53), each position approached from below')}{c1}"]
-    if dialect == "fanuc":
-        lines = ["%", "O9001"] + lines
-    n = 10
+    d = _NC.get(dialect, nc.GCODE)  # DIN 66025 (Beckhoff) writes comments and G53 blocks as LinuxCNC
+    name = {"siemens": f"SIGNTEST_{tag}.MPF", "linuxcnc": f"signtest_{tag.lower()}.ngc"}.get(dialect,
+                                                                                          f"SIGNTEST_{tag}.NC")
+    din = dialect not in _NC
+    start, end, note = (_DIN if din else (nc.prologue(d), nc.epilogue(d), nc.restore_note(d)))
+    mc = {"siemens": "SUPA", "fanuc": "G53: at rapid traverse to the first position, then G91 G01 at the feed"}
+    head = [what, f"machine coordinates ({mc.get(dialect, 'G53')}), each position approached from below at "
+            f"F{FEED:g}", note]
+    lines = [c for h in head for c in nc.comments(d, h)]
+    blocks = list(start)
+    cur = None
     for k, (a, p) in enumerate(moves, 1):
         for x in (a, p):
-            lines.append(f"N{n} G90 G53 G01 {address}{x:.3f} F{f}")
-            n += 10
-        lines.append(f"N{n} M00 {c0}{up(f'reading {k}: {st.input_axis} at {decimal(p, 3)} {st.input_unit}')}{c1}")
-        n += 10
-    lines.append(f"N{n} M30")
-    if dialect == "fanuc":
-        lines.append("%")
+            if d == nc.FANUC and cur is None:  # Fanuc's G53 always moves at rapid traverse
+                blocks.append(nc.rapid(d, [address], [x]))
+            else:
+                blocks += nc.approach(d, [address], [x if cur is None else cur], [x], FEED)
+            cur = x
+        blocks.append(nc.stop(d, f"reading {k}: {st.input_axis} at {decimal(p, 3)} {st.input_unit}"))
+    if din:
+        blocks = [b.replace("G90 G53 G1", "G90 G53 G01") for b in blocks]
+    blocks += end
+    lines += [f"N{10 * (i + 1)} {b}" for i, b in enumerate(blocks)]
+    if d == nc.FANUC:
+        lines = ["%", "O9001"] + lines + ["%"]
     return name, "\n".join(lines) + "\n"
 
 
@@ -203,7 +218,9 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
         s.append(f"The program addresses the axis as `{address}` (vecpin's name): check it is the axis' address in "
                  "your part programs (profile field `program_name`).")
     if dialect in ("din", "linuxcnc", "fanuc"):
-        s.append("Check that `G53` (machine coordinates) behaves on your control as the program assumes.")
+        s.append("Check that `G53` (machine coordinates) behaves on your control as the program assumes"
+                 + (": on Fanuc it moves at rapid traverse, so the first move to the first position is a rapid one."
+                    if dialect == "fanuc" else "."))
     if weak:
         s.append(f"Warning: the predicted shift is small ({st.predicted:+.4f} {st.output_unit}); use a resolution of "
                  "a tenth of it or better, and several runs.")

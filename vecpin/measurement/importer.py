@@ -6,8 +6,8 @@ comma, semicolon or tab between cells, a decimal point or a decimal comma, in
 millimetres or inches, with comment lines and a byte-order mark. This module reads such
 a file and joins it with the planned commands (the plan's campaign template,
 :mod:`vecpin.measurement.plantemplate`): by point number when the export names its
-points (the digits at the end of the name: ``P0007``, ``Pt7`` and ``7`` are point 7),
-else by order. The result is a campaign (:mod:`vecpin.measurement.campaign`).
+points (the whole name: ``P0007``, ``Pt7``, ``Point 7`` and ``7`` are point 7;
+``TR_REF1`` or ``P0007_2`` is no plan point), else by order. The result is a campaign (:mod:`vecpin.measurement.campaign`).
 
 Nothing is guessed silently: every choice (delimiter, decimal mark, units, columns,
 join) is either given by an option or detected from the file and stated in the
@@ -83,6 +83,16 @@ class ImportResult:
         out.append(f"  measured vs nominal after a best-fit rigid motion (the uncompensated error): mean "
                    f"{self.uncompensated_mm[0]:.4f} mm, max {self.uncompensated_mm[1]:.4f} mm")
         return out
+
+
+_PLAN_POINT = re.compile(r"(?:p|pt|point)?[ _-]*(\d+)", re.IGNORECASE)
+
+
+def plan_point_number(name: str) -> int:
+    """The plan point a whole export name names (``P0007``, ``Pt7``, ``Point 7``, ``7`` ->
+    7), or -1: a name with anything more (``TR_REF1``, ``P0007_2``) is no plan point."""
+    m = _PLAN_POINT.fullmatch(name.strip())
+    return int(m.group(1)) if m else -1
 
 
 def _error(table: ExportTable, msg: str, k: int | None = None, column: str | None = None):
@@ -248,22 +258,18 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
     point_no = None
     if template is not None:
         if "point" in idx:
-            nums = np.empty(len(table.rows), int)
-            for k, r in enumerate(table.rows):
-                m_ = re.search(r"(\d+)\s*$", r[idx["point"]])
-                if not m_:
-                    raise _error(table, f"point name '{r[idx['point']]}' does not end in a number, so it cannot be joined "
-                                 "with the plan's point numbers (P0001 ...); fix the name or join by order without "
-                                 "the point column (--columns point= is not given)", k, header[idx["point"]])
-                nums[k] = int(m_.group(1))
+            nums = np.array([plan_point_number(r[idx["point"]]) for r in table.rows], int)
             where = {int(p): i for i, p in enumerate(template.point)}
             known = np.array([n in where for n in nums])
             if not known.all():
                 bad = np.flatnonzero(~known)
                 if not ignore_unmatched:
-                    raise _error(table, f"point '{table.rows[bad[0]][idx['point']]}' (number {nums[bad[0]]}) is not in the "
-                                 f"plan {template.source} ({len(bad)} such rows; --ignore-unmatched skips them)",
-                                 int(bad[0]), header[idx["point"]])
+                    k, nm = int(bad[0]), table.rows[bad[0]][idx["point"]]
+                    what = (f"(number {nums[k]}) is not in the plan {template.source}" if nums[k] >= 0 else
+                            f"is no plan point name (a whole name: P0007, Pt7 or 7 for point 7, so a reference point "
+                            f"such as TR_REF1 never joins point 1) of {template.source}")
+                    raise _error(table, f"point '{nm}' {what} ({len(bad)} such rows; --ignore-unmatched skips them, "
+                                 "or join by order without the point column)", k, header[idx["point"]])
                 unmatched = [table.rows[k][idx["point"]] for k in bad]
             keep = np.flatnonzero(known)
             seen: dict[int, int] = {}
@@ -275,7 +281,7 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
                 seen[nums[k]] = k
             rows_plan = np.array([where[n] for n in nums[keep]], int)
             unmeasured = sorted(set(int(p) for p in template.point) - set(int(n) for n in nums[keep]))
-            joined_by = "by point number (the digits that end each name)"
+            joined_by = "by point number (names P0007, Pt7 or 7, whole)"
         else:
             if len(table.rows) != len(template):
                 raise CampaignFileError(name, f"the export has {len(table.rows)} points and the plan {len(template)}: "

@@ -1,32 +1,43 @@
 """NC programs that drive the machine through a plan and wait for the tracker.
 
-Three dialects, each using only: absolute positioning in mm (Siemens ``G90 G71 G94``,
-Fanuc ``G90 G21 G94``, plain ``G90 G21 G94``), rapid moves ``G0``, the final approach
-at a feed ``G1 ... F``, a dwell for the tracker (Siemens ``G4 F<s>`` in a block of its
-own, Fanuc ``G04 P<ms>``, plain G-code as LinuxCNC ``G4 P<s>``), a programmed stop
-``M0`` where the target holder (tool length) changes, and the end ``M30`` (plain: ``M2``).
-Comments: Siemens ``; ...``, Fanuc and plain ``( ... )`` (Fanuc in capitals).
+Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of each in
+:mod:`vecpin.planning.ncdialect`). Every program is safe to run as written:
 
-Every point is reached as the plan's approach says: a rapid move to the approach
-position (the point minus the approach distance on every axis, for ``below``), then
-``G1`` to the point, then the dwell. Axis words carry the machine's axis positions in
-the URDF's axis coordinates (mm, degrees): the program assumes a work offset at the
-URDF zero and no tool length or tool-centre-point transformation (TRAORI, G43.4).
-Values are written with 3 decimals (the plan's commands are on a 0.001 mm / 0.001 deg
-grid, so the program visits exactly the template's commands); a Siemens axis address of
-more than one character takes ``=`` (``X1=100.000``), as the 840D requires for extended
-addresses.
+* units and a safety block before the first move (mm; no tool length or radius
+  compensation, no canned cycle, no TRAORI; absolute; feed per minute), and at the end
+  the state restored where the dialect can (LinuxCNC ``M70`` / ``M72``), or the header
+  says what stays changed;
+* every positioning block in machine coordinates (``SUPA`` on Siemens, ``G53`` on Fanuc
+  and LinuxCNC), whatever work offset is active: the campaign records machine (axis)
+  coordinates, the URDF's, in mm and degrees;
+* between two points the *retract axis* (the linear axis along the tool at zero rotary
+  angles, usually Z; ``retract_axis``) first moves away from the work to a safe machine
+  position (``safe_z_mm``, default the end of its travel away from the work; higher
+  when a point is), then the other linear axes, then the rotary axes move to the next
+  point's approach position, then the retract axis plunges to it; the tool is raised in
+  the same way before each holder change (``M0``) and at the end;
+* each point is reached as the plan's approach says (from the approach position, the
+  point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
+  then a dwell for the tool target and every table nest read there (``dwell_s`` plus
+  ``nest_dwell_s`` per nest; the comment names the read order).
+
+The header counts the points as the rows of the plan (tool targets and nests). Values
+are written with 3 decimals (the plan's commands are on a 0.001 mm / 0.001 deg grid, so
+the program visits exactly the template's commands); a Siemens axis address of more
+than one character takes ``=`` (``X1=100.000``), as the 840D requires.
 """
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 
 import numpy as np
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
+from vecpin.planning import ncdialect as nc
 from vecpin.units import MM_PER_M
 
 DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
@@ -51,93 +62,186 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
     return names
 
 
-def _words(machine: Machine, names: list[str], q: np.ndarray) -> str:
-    """Axis words; an address longer than one letter takes '=' (Siemens: ``X1=100.0``)."""
-    q_user = machine.to_user(q[None])[0]
-    return " ".join(f"{n}{'=' if len(n) > 1 else ''}{v:.3f}" for n, v in zip(names, q_user))
 
 
-def check_program_options(dwell_s: float, feed_mm_min: float) -> None:
-    """The dwell [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
+def retract_axis(machine: Machine, name: str | None = None) -> tuple[int, int]:
+    """(index, sign) of the axis that lifts the tool off the work: ``name``, or the linear
+    axis whose motion is most nearly along the tool at zero rotary angles (mid-travel
+    linear axes; relative to the workpiece on a machine with table axes); ``sign`` +1
+    when its + direction moves the tool back from the work, else -1."""
+    lin = [a for a in machine.axes if a.kind == "linear"]
+    if name is not None and name not in [a.name for a in lin]:
+        raise InputError(f"--retract-axis {name}: not a linear axis of {machine.name} "
+                         f"({', '.join(a.name for a in lin) or 'it has none'})")
+    if not lin:
+        raise InputError(f"machine {machine.name} has no linear axis to retract the tool with")
+    q = np.array([(a.lower + a.upper) / 2 if a.kind == "linear" or not a.lower <= 0 <= a.upper else 0.0
+                  for a in machine.axes])
+    k = machine.kinematics(q[None], 0.0)
+    J, u = k.jacobian[0], k.tool_dir[0]
+    along = {a.index: -float(J[:, a.index] @ u) / max(float(np.linalg.norm(J[:, a.index])), 1e-12) for a in lin}
+    if name is not None:
+        i = machine.axis(name).index
+    else:
+        i = max(along, key=lambda j: (round(abs(along[j]), 6), machine.axes[j].upper - machine.axes[j].lower))
+        if abs(along[i]) < 0.7:
+            raise InputError(f"machine {machine.name}: no linear axis runs along the tool at zero rotary angles; "
+                             "give --retract-axis")
+    if abs(along[i]) < 1e-6:
+        raise InputError(f"--retract-axis {name}: it does not move the tool along its axis")
+    return i, 1 if along[i] > 0 else -1
+
+
+def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | None) -> float:
+    """The retract axis' safe machine position [mm]: ``safe_z_mm`` (inside the travel), or
+    the end of the travel away from the work."""
+    a = machine.axes[axis]
+    lo, hi = a.lower_user, a.upper_user
+    if safe_z_mm is None:
+        return round(hi if sign > 0 else lo, 3)
+    if not (math.isfinite(safe_z_mm) and lo - 1e-9 <= safe_z_mm <= hi + 1e-9):
+        raise InputError(f"--safe-z {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
+                         "machine coordinates)")
+    return round(float(safe_z_mm), 3)
+
+
+def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0) -> None:
+    """The dwells [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
     if not (math.isfinite(dwell_s) and dwell_s > 0):
         raise InputError(f"--dwell {dwell_s}: the dwell is a time in seconds > 0")
+    if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
+        raise InputError(f"--nest-dwell {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
     if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
         raise InputError(f"--feed {feed_mm_min}: the approach feed is mm/min > 0")
 
 
-def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
-                  feed_mm_min: float = 1000.0, axis_map: dict[str, str] | None = None, program_number: int = 1000,
-                  title: str = "") -> str:
-    """The NC program text visiting ``template``'s rows in order.
+@dataclass
+class Visit:
+    """One point of the program: its tool row ``row``, the retract axis' height before
+    the move to it (``lift`` [mm], None: it is high enough already), the approach position
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the nest rows read there."""
+    row: int
+    lift: float | None
+    a: np.ndarray
+    q: np.ndarray
+    nests: range
 
-    ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point;
-    ``feed_mm_min`` [mm/min] for the final approach."""
-    if dialect not in DIALECTS:
-        raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
-    check_program_options(dwell_s, feed_mm_min)
-    names = nc_axis_names(machine, dialect, axis_map)
-    siemens, fanuc = dialect == "siemens-840d", dialect == "fanuc"
 
-    def comment(text: str) -> str:
-        if siemens:
-            return f"; {text}"
-        text = text.replace("(", "[").replace(")", "]")
-        return f"({text.upper() if fanuc else text})"
-
-    def dwell() -> str:
-        if siemens:
-            return f"G4 F{dwell_s:.1f}"
-        if fanuc:
-            return f"G04 P{int(round(dwell_s * 1000))}"
-        return f"G4 P{dwell_s:.1f}"
-
-    g0, g1 = ("G00", "G01") if fanuc else ("G0", "G1")
-    out: list[str] = []
-    if fanuc:
-        out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
+def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
+           safe: float) -> tuple[list[Visit], float | None]:
+    """The program's points in order and the retract axis' final lift (None: none needed):
+    the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is and the next
+    approach position before every move between points."""
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
-    tools = np.unique(np.round(template.tool, 9))
-    head = [f"vecpin measurement plan {title}".strip(),
-            f"machine {machine.name}: {len(template) - int(is_nest.sum())} points, target holder lengths "
-            + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
-            "axis positions in the URDF axis coordinates, mm and degrees; work offset at the URDF zero;",
-            "no tool length compensation, no TRAORI / G43.4 (the plan commands axes, not the tool tip)",
-            f"each point: rapid to its approach position, {g1} at F{feed_mm_min:g} to the point, dwell {dwell_s:g} s",
-            "moves between points are direct: check them for collisions before running"]
-    out += [comment(h) for h in head]
-    out.append("G90 G71 G94" if siemens else "G90 G21 G94")
-    feed = f"F{feed_mm_min:.0f}." if fanuc else f"F{feed_mm_min:g}"
-    current_tool = None
-    app = template.approach
-    for i in range(len(template)):
-        if is_nest[i]:
-            continue  # read at the dwell of the tool row before it, see below
-        L = float(template.tool[i])
-        if current_tool is None or abs(L - current_tool) > 1e-9:
-            msg = (f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), "
-                   "then cycle start")
-            out.append(comment(f"holder length change: {L * MM_PER_M:.3f} mm" if current_tool is not None else
-                               f"holder length {L * MM_PER_M:.3f} mm"))
-            out.append(f"M0 {comment(msg)}" if not fanuc else f"M00 {comment(msg)}")
-            current_tool = L
-        q = template.q[i]
-        sign = app[i] if app is not None else np.zeros(machine.n_axes)
-        name = point_name(template.point[i])
-        out.append(comment(name))
-        if np.any(sign != 0):
-            out.append(f"{g0} {_words(machine, names, q - sign * steps)}")
-            out.append(f"{g1} {_words(machine, names, q)} {feed}")
-        else:
-            out.append(f"{g0} {_words(machine, names, q)}")
+    q_all = np.round(machine.to_user(template.q), 3)
+    step = machine.to_user(np.asarray(steps, float)[None])[0]
+    app = template.approach if template.approach is not None else np.zeros_like(template.q)
+    out: list[Visit] = []
+    cur = None
+    for i in np.flatnonzero(~is_nest):
+        a = np.round(q_all[i] - app[i] * step, 3)
+        to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
         j = i + 1
         while j < len(template) and is_nest[j]:
             j += 1
-        if j > i + 1:
-            out.append(comment("then read table nests " + ", ".join(
-                f"{template.target[k]} as {point_name(template.point[k])}" for k in range(i + 1, j))))
-        out.append(dwell())
-    out.append("M30" if dialect != "gcode" else "M2")
-    if fanuc:
+        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j)))
+        cur = float(q_all[i][r])
+    end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
+    return out, end
+
+
+def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
+                      retract: str | None = None) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm]."""
+    r, up = retract_axis(machine, retract)
+    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
+    total, cur = 0.0, None
+    for v in vs:
+        at = v.lift if v.lift is not None else cur
+        total += (abs(at - cur) if cur is not None else 0.0) + abs(at - v.a[r])
+        cur = float(v.q[r])
+    return total + (abs(end - cur) if end is not None else 0.0)
+
+
+def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
+                  nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
+                  retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
+                  title: str = "") -> str:
+    """The NC program text visiting ``template``'s rows in order (see the module docstring).
+
+    ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
+    the tool target, ``nest_dwell_s`` [s] more per table nest read there; ``feed_mm_min``
+    [mm/min] for the final approach; ``safe_z_mm`` [mm] the retract axis' safe machine
+    position (default: the end of its travel away from the work); ``retract``: the
+    retract axis' name (default: found from the kinematics)."""
+    if dialect not in DIALECTS:
+        raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    names = nc_axis_names(machine, dialect, axis_map)
+    r, up = retract_axis(machine, retract)
+    safe = safe_position(machine, r, up, safe_z_mm)
+    others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
+    rotary = [a.index for a in machine.axes if a.kind == "rotary"]
+    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    tools = np.unique(np.round(template.tool, 9))
+    app = template.approach if template.approach is not None else np.zeros_like(template.q)
+
+    def comment(text: str) -> str:
+        return nc.nc_comment(dialect, text)
+
+    def move(idx: list[int], values) -> str:
+        return nc.rapid(dialect, [names[j] for j in idx], [float(values[j]) for j in idx])
+
+    n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
+    mc = "SUPA" if dialect == nc.SIEMENS else "G53"
+    sweep = " ".join(names[j] for j in others) or "-"
+    rot = " ".join(names[j] for j in rotary)
+    out: list[str] = []
+    if dialect == nc.FANUC:
+        out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
+    head = [f"vecpin measurement plan {title}".strip(),
+            f"{len(template)} points, one per row of the plan: {n_tool} tool target points"
+            + (f" and {n_nest} table nest points read at their dwells" if n_nest else ""),
+            f"machine {machine.name}, target holder lengths " + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
+            f"axis positions in machine coordinates ({mc} in every positioning block): the URDF axis coordinates, "
+            "mm and degrees, whatever work offset is active",
+            "no tool length compensation (" + ("D0" if dialect == nc.SIEMENS else "G49") + "), no TRAORI / G43.4: "
+            "the plan commands axes, not the tool tip",
+            f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, --safe-z) or higher, then "
+            f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
+            f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
+            f"for the tool target and {nest_dwell_s:g} s per table nest read there",
+            nc.restore_note(dialect),
+            "run it first at a reduced rapid override and watch the moves"]
+    out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
+    route, end = visits(machine, template, steps, r, up, safe)
+    current_tool = None
+    for v in route:
+        i = v.row
+        if v.lift is not None:
+            out.append(move([r], {r: v.lift}))
+        L = float(template.tool[i])
+        if current_tool is None or abs(L - current_tool) > 1e-9:
+            msg = f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), then cycle start"
+            out.append(comment(f"holder length change: {L * MM_PER_M:.3f} mm" if current_tool is not None else
+                               f"holder length {L * MM_PER_M:.3f} mm"))
+            out.append(nc.stop(dialect, msg))
+            current_tool = L
+        out.append(comment(point_name(template.point[i])))
+        for idx in (others, rotary, [r]):
+            if idx:
+                out.append(move(idx, v.a))
+        if np.any(app[i] != 0):
+            out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
+        read = f"read the tool target as {point_name(template.point[i])}"
+        if v.nests:
+            read += ", then the table nests in this order: " + ", ".join(
+                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.nests)
+        out += [comment(read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.nests))]
+    if end is not None:
+        out.append(move([r], {r: end}))
+    out += nc.epilogue(dialect)
+    if dialect == nc.FANUC:
         out.append("%")
     return "\n".join(out) + "\n"
 

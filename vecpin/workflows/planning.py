@@ -19,9 +19,11 @@ import numpy as np
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import DIALECTS, check_program_options, program_name, write_program
+from vecpin.planning.ncprogram import (DIALECTS, check_program_options, program_name, retract_axis,
+                                      retract_travel_mm, safe_position, write_program)
+from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
-from vecpin.units import to_mm
+from vecpin.units import M_PER_MM, to_mm
 
 
 @dataclass
@@ -29,6 +31,7 @@ class PlanRun:
     plan: Plan
     files: list[Path]
     comparison: list[PlanScore] = field(default_factory=list)
+    program: str = ""   # what the NC programs do between and at the points (one line)
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -79,6 +82,8 @@ class PlanRun:
         if self.comparison:
             out.append("  comparison (same model, noise, tracker and validation commands):")
             out += PlanScore.header() + [x.line() for x in self.comparison]
+        if self.program:
+            out.append(f"  NC programs: {self.program}")
         out += [f"  wrote {f}" for f in self.files]
         return out
 
@@ -136,14 +141,19 @@ class PlanRun:
 
 
 def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=tuple(DIALECTS),
-                dwell_s: float = 4.0, feed_mm_min: float = 1000.0, axis_map: dict | None = None,
+                dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
+                safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
+    The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
+    ``retract``, ``axis_map``): :func:`vecpin.planning.ncprogram.write_program`.
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates)."""
     check_output_dir(out_dir)
-    check_program_options(dwell_s, feed_mm_min)
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    r, up = retract_axis(machine, retract)
+    safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
     from vecpin.viz.figures import plan_figure
     templates = {c: read_template(c, machine) for c in compare_with if c != "random"}  # a bad file fails now
     plan = make_plan(machine, settings, progress)
@@ -160,12 +170,22 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
         for d in dialects:
-            text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, feed_mm_min=feed_mm_min,
-                                 axis_map=axis_map, title=f"for {machine.name}")
+            text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
+                                 feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
+                                 title=f"for {machine.name}")
             files.append(out.write_text(program_name(d), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
-        run = PlanRun(plan, files, comparison)
+        t = plan.template
+        nests = int(np.sum(t.instrument == "nest")) if t.instrument is not None else 0
+        dwells = (len(t) - nests) * dwell_s + nests * nest_dwell_s
+        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract)
+        speed = axis_speeds(machine, settings.rapid_mm_min, settings.rapid_deg_min)[r]
+        program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
+                   f"--safe-z) before every move between points: {lifts / 1000:.1f} m up and down, "
+                   f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
+                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
+        run = PlanRun(plan, files, comparison, program if dialects else "")
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
