@@ -22,6 +22,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 USER = "vecpin-lcnc"
 HAL_NAME = "vecpin-vec"
 MODULES = Path("/usr/lib/linuxcnc/modules")
@@ -188,11 +190,10 @@ class ControllerCommands:
     judges a compensated machine (``compensated_errors``): ``apply(q)`` returns what the
     controller sent to the joints for the commands ``q`` it was given (SI), in order."""
 
-    def __init__(self, q: "np.ndarray", qc: "np.ndarray", gauge_offset_change: float):
+    def __init__(self, q: np.ndarray, qc: np.ndarray, gauge_offset_change: float):
         self.q, self.qc, self.gauge_offset_change = q, qc, gauge_offset_change
 
     def apply(self, q):
-        import numpy as np
         q = np.atleast_2d(q)
         reps = len(q) // len(self.q)
         if reps * len(self.q) != len(q) or not np.allclose(q, np.tile(self.q, (reps, 1)), atol=1e-9):
@@ -207,7 +208,6 @@ def machine_run(m, folder: Path, q, joints: dict[str, int], kind: int, component
     """vecpin's LinuxCNC files in ``folder`` on the real controller, commanded to ``q``
     (N, n) [m, rad], joints numbered ``joints``: (commanded positions, COMP_FILE part, component
     part), each (N, n) in mm/deg, axes in the machine's order."""
-    import numpy as np
     order = sorted(m.axis_names, key=lambda a: joints[a])          # the configuration's joint order
     ax = [m.axis(a) for a in order]
     limits = [(float(a.to_user(a.lower - 0.1 * a.travel)), float(a.to_user(a.upper + 0.1 * a.travel))) for a in ax]
@@ -227,5 +227,4 @@ def machine_run(m, folder: Path, q, joints: dict[str, int], kind: int, component
 
 def to_si(m, values_user):
     """(N, n) mm/deg -> m/rad, axes in the machine's order."""
-    import numpy as np
     return np.column_stack([m.axes[k].to_si(values_user[:, k]) for k in range(len(m.axes))])

@@ -271,7 +271,7 @@ def _readme(job: ExportJob, kind: int, joints: dict[str, int], cross: bool) -> s
         s += ["## The HAL component", "",
               f"1. Build and install it once, as root: `halcompile --install {hal.COMP_FILE}` (package",
               "   `linuxcnc-uspace-dev`). The tables are compiled in: new tables, new build.",
-              f"2. In the machine's HAL files, take `joint.N.motor-pos-cmd` and `joint.N.motor-pos-fb` off the drive",
+              "2. In the machine's HAL files, take `joint.N.motor-pos-cmd` and `joint.N.motor-pos-fb` off the drive",
               f"   nets; `{hal.HAL_FILE}` connects them to the component. Connect the component to the drives:",
               f"   `{hal.HAL_NAME}.0.motor-pos-cmd-out-N` is the drive's command (e.g. `pid.N.command`, a stepgen's",
               f"   `position-cmd`), the drive's feedback goes to `{hal.HAL_NAME}.0.motor-pos-fb-N` (the commented",
