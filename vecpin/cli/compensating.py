@@ -74,3 +74,26 @@ def register(sub) -> None:
                    "files and their README")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_tables)
+    register_profile(sub)
+
+
+def run_profile(args) -> int:
+    from vecpin.cli.common import machine
+    from vecpin.workflows.tables import write_profile_template
+    m = machine(args.machine, args)
+    path, blanks = write_profile_template(m, args.controller, args.out)
+    print(f"wrote {path}: the {args.controller} profile of {m.name} with {blanks} field(s) to fill in (null); each "
+          "field's meaning and where it is found on the control are in its \"comment\"")
+    return 0
+
+
+def register_profile(sub) -> None:
+    from vecpin.cli.common import add_machine_args
+    from vecpin.export.registry import controller_names
+    s = sub.add_parser("profile", help="write a controller profile to fill in: every field the controller's files "
+                                       "need, what it is and where it is on the control")
+    s.add_argument("machine", help="bundled machine name or URDF path")
+    s.add_argument("--controller", required=True, choices=controller_names(), help="the controller of the machine")
+    s.add_argument("--out", required=True, help="the profile file to write (JSON); an existing file is not replaced")
+    add_machine_args(s)
+    s.set_defaults(func=run_profile)

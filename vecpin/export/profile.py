@@ -130,7 +130,7 @@ class ControllerProfile:
                 raise InputError(f"{where}, field 'axes.{name}': an object of facts")
             values = _drive_facts(facts, f"{where}, field 'axes.{name}")
             for key, value in facts.items():
-                if key in DRIVE_FIELDS:
+                if key in DRIVE_FIELDS or (value is None and key in AXIS_FIELDS):   # null: not given (a template's)
                     continue
                 if key not in AXIS_FIELDS:
                     raise InputError(f"{where}, field 'axes.{name}.{key}': unknown (known: "

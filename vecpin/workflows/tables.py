@@ -250,3 +250,21 @@ def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> Si
         raise InputError(f"--sign-test {test_path}: the test is for machine '{st.machine}', the model for "
                          f"'{machine.name}'")
     return evaluate_sign_test(st, read_check(check_csv, st))
+
+
+def write_profile_template(machine, controller: str, out: str | Path) -> tuple[Path, int]:
+    """Write the controller profile template of ``machine`` (:mod:`vecpin.export.profiletemplate`)
+    to ``out``; an existing file is refused (it may be the user's filled-in profile).
+    Returns (path, number of fields left null)."""
+    import json
+
+    from vecpin.export.profiletemplate import template
+    from vecpin.fileio import write_text
+    path = Path(out)
+    if path.exists():
+        raise InputError(f"--out {out}: the file exists (a filled-in profile?); give another name or remove it")
+    d = template(machine, controller)
+    blanks = sum(v is None for facts in d["axes"].values() for v in facts.values())
+    blanks += sum(v is None for v in d.get("options", {}).values())
+    write_text(path, json.dumps(d, indent=1) + "\n")
+    return path, blanks
