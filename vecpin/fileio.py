@@ -128,15 +128,17 @@ class OutputSet:
         self.removed: list[Path] = []
 
     def path(self, name: str) -> Path:
-        """A staging path for ``name`` (relative, may contain a subfolder)."""
-        p = self._stage / name
+        """A staging path for ``name`` (relative, may contain a subfolder). A name that
+        would leave the output folder (absolute, ``..``, a drive) is an OutputError: no
+        file of a set is ever written outside ``out_dir``, whatever names it is given."""
+        p = self._stage / inside_name(name, self.dir)
         p.parent.mkdir(parents=True, exist_ok=True)
         if p not in self.written:
             self.written.append(p)
         return p
 
     def final(self, name: str) -> Path:
-        return self.dir / name
+        return self.dir / inside_name(name, self.dir)
 
     def write_text(self, name: str, text: str) -> Path:
         p = self.path(name)
@@ -195,6 +197,24 @@ class OutputSet:
             while parent != root and not any(parent.iterdir()):  # a subfolder the earlier run made, now empty
                 parent.rmdir()
                 parent = parent.parent
+
+
+def inside_name(name: str, folder: str | Path) -> str:
+    """``name`` if it is a relative path that stays inside ``folder`` (subfolders allowed;
+    no ``..``, no absolute path, no drive, no control character); else an OutputError
+    naming the name and the folder."""
+    text = str(name)
+    parts = text.replace("\\", "/").split("/")
+    bad = (not text or text.startswith(("/", "\\")) or any(p in ("", ".", "..") for p in parts)
+           or ":" in text or not text.isprintable())
+    if not bad:
+        root = Path(os.path.abspath(folder))
+        bad = root not in Path(os.path.abspath(root / text)).parents
+    if bad:
+        raise OutputError(f"output file name {text!r} would not stay in the output folder {folder}: vecpin writes only "
+                          "inside the folder it is given (a name from the URDF or the controller profile may not "
+                          "be a path)")
+    return text
 
 
 def _sha256(p: Path) -> str:
