@@ -23,7 +23,10 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (temporary file + rename)."""
     path = Path(path)
     _parent_ok(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise _cannot(path, exc) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -31,11 +34,18 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600: give the file the user's usual mode
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _cannot(path, exc) from None
         raise
     return path
+
+
+def _cannot(path, exc: OSError) -> OutputError:
+    """An operating-system refusal to write (read-only or special file system, disk full, ...)."""
+    return OutputError(f"{path}: cannot be written ({exc.strerror or exc}); give a path you can write to")
 
 
 def _read_umask() -> int:
@@ -81,9 +91,20 @@ def check_output_file(path: str | Path, option: str = "--out") -> Path:
     path = Path(path)
     try:
         _parent_ok(path)
+        _probe(path.parent)
     except OutputError as exc:
         raise OutputError(f"{option} {exc}") from None
     return path
+
+
+def _probe(folder: Path) -> None:
+    """Create and remove a temporary file in ``folder``: the only test that holds for
+    every user (root included) and every file system (read-only mounts, /proc)."""
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise _cannot(folder, exc) from None
 
 
 def check_output_dir(path: str | Path, option: str = "--out") -> Path:
@@ -97,6 +118,10 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
         raise OutputError(f"{option} {path}: {p} is a file, not a folder; give another output folder")
     if not os.access(p, os.W_OK):
         raise OutputError(f"{option} {path}: no permission to write in {p}; give a folder you can write in")
+    try:
+        _probe(p)
+    except OutputError as exc:
+        raise OutputError(f"{option} {path}: {exc}") from None
     return path
 
 
@@ -120,8 +145,12 @@ class OutputSet:
     def __init__(self, out_dir: str | Path, manifest: str | None = None):
         self.dir = Path(out_dir)
         check_output_dir(self.dir)
-        self.dir.mkdir(parents=True, exist_ok=True)
-        self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
+        except OSError as exc:
+            raise OutputError(f"--out {self.dir}: cannot be written ({exc.strerror or exc}); give a folder you can "
+                              "write in") from None
         self.written: list[Path] = []
         self.kind = manifest
         self.manifest = None if manifest is None else f".vecpin-{manifest}.manifest"
@@ -172,6 +201,8 @@ class OutputSet:
                     write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
                                "name; the next run removes those it no longer writes, if unchanged\n"
                                + "".join(f"{h}  {n}\n" for n, h in sorted(digests.items())))
+        except OSError as exc:
+            raise _cannot(self.dir, exc) from None
         finally:
             _remove_tree(self._stage)
         return False
