@@ -158,6 +158,7 @@ class Campaign:
 # ---------------------------------------------------------------------- reading
 MAX_ID = 9999            # station and pivot ids are small whole numbers
 MAX_TARGET_MM = MAX_TOOL_MM  # a tool target is on the tool: no farther from the tool link than the longest tool
+FORMULA = "=+-@"          # first characters of a cell a spreadsheet evaluates: never in an id vecpin copies
 CELL_SHOWN = 40          # characters of a bad cell quoted in a message
 
 
@@ -351,9 +352,10 @@ def _point_target_columns(name: str, texts: dict, rows: np.ndarray, instrument: 
                                     f"tool link name ({', '.join(links)})", row=int(rows[k]), column="tool_point")
         point[k] = int(v)
     for k, cell in enumerate(texts.get("target", ())):
-        if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'")):
-            raise CampaignFileError(name, f"target '{_shown(cell)}': an id without spaces, commas or quotes",
-                                    row=int(rows[k]), column="target")
+        if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'") or cell[0] in FORMULA):
+            raise CampaignFileError(name, f"target '{_shown(cell)}': an id without spaces, commas or quotes, not "
+                                    "starting with = + - @ (a spreadsheet would evaluate it)", row=int(rows[k]),
+                                    column="target")
         target[k] = cell
     nest = np.flatnonzero(instrument == "nest")
     if nest.size and not machine.has_workpiece:
@@ -383,6 +385,9 @@ def read_targets(path: str | Path) -> dict[str, np.ndarray]:
             raise CampaignFileError(name, "a row is: target id, x, y, z [mm]", row=lineno)
         if cells[0] in out:
             raise CampaignFileError(name, f"target '{cells[0]}' is given twice", row=lineno, column="target")
+        if cells[0][0] in FORMULA or not cells[0].isprintable():
+            raise CampaignFileError(name, f"target '{_shown(cells[0])}': an id not starting with = + - @ (a "
+                                    "spreadsheet would evaluate it)", row=lineno, column="target")
         mm = np.array([_parse_cell(name, c, lineno, h) for c, h in zip(cells[1:4], "xyz")])
         if np.linalg.norm(mm) > MAX_TARGET_MM:
             raise CampaignFileError(name, f"target '{_shown(cells[0])}' is {np.linalg.norm(mm):g} mm from the tool link "
