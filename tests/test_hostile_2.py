@@ -22,6 +22,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from hostile_helpers import ok, refused, simulated_base
 
 from vecpin.cli import main
 from vecpin.errors import OutputError
@@ -36,30 +37,6 @@ CONTROLLERS = ["siemens-840d", "siemens-828d", "fanuc-30i", "linuxcnc", "beckhof
 
 
 # ------------------------------------------------------------------ helpers
-def refused(argv, capsys, *fragments):
-    """Run the CLI in-process; assert a refusal (status 2, one error line, no traceback,
-    no staging file named) whose text contains every fragment; return the message."""
-    rc = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert rc == 2, f"exit {rc}, stderr: {err}"
-    assert "Traceback" not in err
-    lines = [ln for ln in err.splitlines() if ln.startswith("vecpin: error:")]
-    assert len(lines) == 1, err
-    msg = lines[0]
-    assert ".vecpin-staging" not in msg, msg
-    for f in fragments:
-        assert f in msg, f"'{f}' not in: {msg}"
-    return msg
-
-
-def ok(argv, capsys) -> SimpleNamespace:
-    rc = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    assert rc == 0, cap.err
-    assert "Traceback" not in cap.err
-    return cap
-
-
 def all_files(folder: Path) -> set[str]:
     """Every file and folder under ``folder``, by os.walk (independent of vecpin)."""
     out = set()
@@ -89,14 +66,8 @@ def renamed_urdf(name: str) -> str:
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
     """A simulated flow_xyzcb campaign (60 rows, 2 tools), its validation run and an AP
-    order-1 model of it; also a two-station campaign and its model (view)."""
-    d = tmp_path_factory.mktemp("hostile2")
-    assert main(["simulate", "flow_xyzcb", "--out", str(d / "sim"), "--seed", "5", "--points", "30",
-                 "--validation", "10"]) == 0
-    csv = d / "sim" / "campaign.csv"
-    model = d / "model.json"
-    assert main(["fit", "flow_xyzcb", str(csv), "--out", str(model)] + FIT) == 0
-    return SimpleNamespace(dir=d, csv=csv, val=d / "sim" / "validation.csv", model=model)
+    order-1 model of it."""
+    return simulated_base(tmp_path_factory.mktemp("hostile2"), FIT)
 
 
 @pytest.fixture

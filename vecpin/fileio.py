@@ -8,7 +8,11 @@ staged first and renamed into place only once all of them are complete, so an
 interruption leaves either the old set or the new one, never a half-written set. Files
 of an earlier run that the new set does not write stay where they are, unless the set
 keeps a *manifest* (see :class:`OutputSet`). :func:`check_output_dir` / :func:`check_output_file` test a path
-before the work starts, so a typo does not cost a long computation.
+before the work starts (by creating and removing a temporary file there: permissions
+alone do not tell root or a read-only file system), so a typo does not cost a long
+computation. A set's file names are data, never paths: a name that would leave the
+output folder (``..``, absolute, a drive) is refused (:func:`inside_name`) before anything
+is written, whatever a URDF or a profile calls its axes.
 """
 from __future__ import annotations
 

@@ -43,6 +43,13 @@ Axis fields (all optional; each format says which it needs):
                     after the axis) becomes a differential table between the drives
 ================== ===================================================================
 
+Every field is checked on load (:meth:`ControllerProfile.from_dict`), the message naming
+the file and the field: names are plain (:data:`~vecpin.kinematics.axes.PLAIN_NAME`: they
+become file names and NC words), numbers finite and in range, ``nc_name``,
+``general_name`` and ``number`` unique over the axes and their following drives, unknown
+fields and options refused with the known ones; :meth:`ControllerProfile.check_machine`
+adds what needs the machine (axes, modulo, reference positions inside the travel).
+
 A twin-drive axis::
 
       "X": {"nc_name": "X1", "number": 1, "reference_position": 0.0,

@@ -86,6 +86,6 @@ def _check_tracker(position) -> None:
         return
     p = np.asarray(position, float) * MM_PER_M
     if p.shape != (3,) or not np.all(np.isfinite(p)) or np.any(np.abs(p) > MAX_TRACKER_MM):
-        raise InputError(f"--tracker {','.join(f'{v:g}' for v in np.ravel(p))}: the tracker position in mm, machine "
-                         f"base frame, within {MAX_TRACKER_MM / 1000:g} m of the origin (a tracker reads points at "
+        raise InputError(f"--tracker {','.join(f'{v:g}' for v in np.ravel(p))}: three finite numbers, the tracker "
+                         f"position in mm, machine base frame, within {MAX_TRACKER_MM / 1000:g} m of the origin (a tracker reads points at "
                          "most 200 m away)")
