@@ -88,6 +88,15 @@ def test_urdf_axis_joint_that_is_no_plain_name(base, work, capsys, name):
     assert all_files(work) == {"m.urdf"}
 
 
+@pytest.mark.parametrize("link", ["=1+1", "@tool", "+tool", "-tool"])
+def test_tool_link_copied_into_csv_cells_is_no_formula(base, work, capsys, link):
+    urdf = work / "m.urdf"
+    urdf.write_text(FLOW_URDF.replace('"spindle"', f'"{link}"'))
+    refused(["plan", urdf, f"--tool-link={link}", "--points", "20", "--out", work / "p"], capsys, str(urdf),
+            f"tool link '{link}'", "spreadsheet")
+    assert all_files(work) == {"m.urdf"}
+
+
 def _model_with_joint(base, folder: Path, name: str) -> Path:
     """The base model file with the embedded URDF's X joint renamed and its checksum
     recomputed (an attacker's edit that the checksum does not catch)."""
