@@ -23,6 +23,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hostile_helpers import ok, refused, simulated_base
 
 from vecpin.cli import main
 
@@ -33,29 +34,6 @@ FIT_FAST = ["--model", "ap", "--order", "2", "--basis", "chebyshev", "--quiet"]
 
 
 # ------------------------------------------------------------------ helpers
-def refused(argv, capsys, *fragments):
-    """Run the CLI in-process; assert a refusal (status 2, one error line, no traceback)
-    whose text contains every fragment; return the message."""
-    rc = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert rc == 2, f"exit {rc}, stderr: {err}"
-    assert "Traceback" not in err
-    lines = [ln for ln in err.splitlines() if ln.startswith("vecpin: error:")]
-    assert len(lines) == 1, err
-    msg = lines[0]
-    for f in fragments:
-        assert f in msg, f"'{f}' not in: {msg}"
-    return msg
-
-
-def ok(argv, capsys) -> SimpleNamespace:
-    rc = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    assert rc == 0, cap.err
-    assert "Traceback" not in cap.err
-    return cap
-
-
 class Table:
     """A campaign CSV as header + rows of text cells, edited like a user would."""
 
@@ -108,14 +86,9 @@ def files_of(folder: Path) -> dict[str, bytes]:
 def base(tmp_path_factory):
     """A simulated campaign of flow_xyzcb (60 rows), its validation file, an AP order-2
     model and its tables; ``work`` is a scratch folder per module."""
-    d = tmp_path_factory.mktemp("hostile")
-    assert main(["simulate", "flow_xyzcb", "--out", str(d / "sim"), "--seed", "5", "--points", "30",
-                 "--validation", "10"]) == 0
-    csv = d / "sim" / "campaign.csv"
-    model = d / "model.json"
-    assert main(["fit", "flow_xyzcb", str(csv), "--out", str(model)] + FIT_FAST) == 0
-    return SimpleNamespace(dir=d, csv=csv, val=d / "sim" / "validation.csv", model=model,
-                           table=Table(csv.read_text()), truth=d / "sim" / "truth.json")
+    b = simulated_base(tmp_path_factory.mktemp("hostile"), FIT_FAST)
+    b.table, b.truth = Table(b.csv.read_text()), b.dir / "sim" / "truth.json"
+    return b
 
 
 @pytest.fixture
@@ -1029,7 +1002,7 @@ SETS = {  # command -> argv with OUT (a folder result of several files)
     "plan": lambda b, o: ["plan", "flow_xyzcb", "--out", o, "--points", "12", "--order", "1", "--candidates", "150",
                           "--no-sight", "--quiet"],
     "report": lambda b, o: ["report", b.model, b.csv, "--out", o, "--quiet"],
-    "verify": lambda b, o: ["verify", b.val, b.val, "--model", b.model, "--out", o, "--quiet"],
+    "verify": lambda b, o: ["verify", b.val, b.csv, "--model", b.model, "--out", o, "--quiet"],  # two runs
     "diagnose": lambda b, o: ["diagnose", "flow_xyzcb", b.csv, "--out", o, "--quiet", "--effects", "thermal",
                               "--model", "ap", "--order", "2", "--basis", "chebyshev"],
 }

@@ -8,7 +8,11 @@ staged first and renamed into place only once all of them are complete, so an
 interruption leaves either the old set or the new one, never a half-written set. Files
 of an earlier run that the new set does not write stay where they are, unless the set
 keeps a *manifest* (see :class:`OutputSet`). :func:`check_output_dir` / :func:`check_output_file` test a path
-before the work starts, so a typo does not cost a long computation.
+before the work starts (by creating and removing a temporary file there: permissions
+alone do not tell root or a read-only file system), so a typo does not cost a long
+computation. A set's file names are data, never paths: a name that would leave the
+output folder (``..``, absolute, a drive) is refused (:func:`inside_name`) before anything
+is written, whatever a URDF or a profile calls its axes.
 """
 from __future__ import annotations
 
@@ -23,7 +27,10 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (temporary file + rename)."""
     path = Path(path)
     _parent_ok(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise _cannot(path, exc) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -31,11 +38,18 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600: give the file the user's usual mode
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _cannot(path, exc) from None
         raise
     return path
+
+
+def _cannot(path, exc: OSError) -> OutputError:
+    """An operating-system refusal to write (read-only or special file system, disk full, ...)."""
+    return OutputError(f"{path}: cannot be written ({exc.strerror or exc}); give a path you can write to")
 
 
 def _read_umask() -> int:
@@ -81,9 +95,20 @@ def check_output_file(path: str | Path, option: str = "--out") -> Path:
     path = Path(path)
     try:
         _parent_ok(path)
+        _probe(path.parent)
     except OutputError as exc:
         raise OutputError(f"{option} {exc}") from None
     return path
+
+
+def _probe(folder: Path) -> None:
+    """Create and remove a temporary file in ``folder``: the only test that holds for
+    every user (root included) and every file system (read-only mounts, /proc)."""
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise _cannot(folder, exc) from None
 
 
 def check_output_dir(path: str | Path, option: str = "--out") -> Path:
@@ -97,6 +122,10 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
         raise OutputError(f"{option} {path}: {p} is a file, not a folder; give another output folder")
     if not os.access(p, os.W_OK):
         raise OutputError(f"{option} {path}: no permission to write in {p}; give a folder you can write in")
+    try:
+        _probe(p)
+    except OutputError as exc:
+        raise OutputError(f"{option} {path}: {exc}") from None
     return path
 
 
@@ -120,23 +149,29 @@ class OutputSet:
     def __init__(self, out_dir: str | Path, manifest: str | None = None):
         self.dir = Path(out_dir)
         check_output_dir(self.dir)
-        self.dir.mkdir(parents=True, exist_ok=True)
-        self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
+        except OSError as exc:
+            raise OutputError(f"--out {self.dir}: cannot be written ({exc.strerror or exc}); give a folder you can "
+                              "write in") from None
         self.written: list[Path] = []
         self.kind = manifest
         self.manifest = None if manifest is None else f".vecpin-{manifest}.manifest"
         self.removed: list[Path] = []
 
     def path(self, name: str) -> Path:
-        """A staging path for ``name`` (relative, may contain a subfolder)."""
-        p = self._stage / name
+        """A staging path for ``name`` (relative, may contain a subfolder). A name that
+        would leave the output folder (absolute, ``..``, a drive) is an OutputError: no
+        file of a set is ever written outside ``out_dir``, whatever names it is given."""
+        p = self._stage / inside_name(name, self.dir)
         p.parent.mkdir(parents=True, exist_ok=True)
         if p not in self.written:
             self.written.append(p)
         return p
 
     def final(self, name: str) -> Path:
-        return self.dir / name
+        return self.dir / inside_name(name, self.dir)
 
     def write_text(self, name: str, text: str) -> Path:
         p = self.path(name)
@@ -170,6 +205,8 @@ class OutputSet:
                     write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
                                "name; the next run removes those it no longer writes, if unchanged\n"
                                + "".join(f"{h}  {n}\n" for n, h in sorted(digests.items())))
+        except OSError as exc:
+            raise _cannot(self.dir, exc) from None
         finally:
             _remove_tree(self._stage)
         return False
@@ -195,6 +232,24 @@ class OutputSet:
             while parent != root and not any(parent.iterdir()):  # a subfolder the earlier run made, now empty
                 parent.rmdir()
                 parent = parent.parent
+
+
+def inside_name(name: str, folder: str | Path) -> str:
+    """``name`` if it is a relative path that stays inside ``folder`` (subfolders allowed;
+    no ``..``, no absolute path, no drive, no control character); else an OutputError
+    naming the name and the folder."""
+    text = str(name)
+    parts = text.replace("\\", "/").split("/")
+    bad = (not text or text.startswith(("/", "\\")) or any(p in ("", ".", "..") for p in parts)
+           or ":" in text or not text.isprintable())
+    if not bad:
+        root = Path(os.path.abspath(folder))
+        bad = root not in Path(os.path.abspath(root / text)).parents
+    if bad:
+        raise OutputError(f"output file name {text!r} would not stay in the output folder {folder}: vecpin writes only "
+                          "inside the folder it is given (a name from the URDF or the controller profile may not "
+                          "be a path)")
+    return text
 
 
 def _sha256(p: Path) -> str:

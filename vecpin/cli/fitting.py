@@ -12,10 +12,10 @@ from vecpin.units import MM_PER_M
 
 def read_fit_campaign(args, m):
     """The campaign CSV with the known target offsets of ``--targets`` (if given)."""
-    from vecpin.measurement.campaign import read_campaign, read_targets
+    from vecpin.measurement.campaign import attach_targets, read_campaign, read_targets
     c = read_campaign(args.csv, m)
     if getattr(args, "targets", None):
-        c.targets = read_targets(args.targets)
+        attach_targets(c, read_targets(args.targets), args.targets)
     return c
 
 

@@ -43,6 +43,13 @@ Axis fields (all optional; each format says which it needs):
                     after the axis) becomes a differential table between the drives
 ================== ===================================================================
 
+Every field is checked on load (:meth:`ControllerProfile.from_dict`), the message naming
+the file and the field: names are plain (:data:`~vecpin.kinematics.axes.PLAIN_NAME`: they
+become file names and NC words), numbers finite and in range, ``nc_name``,
+``general_name`` and ``number`` unique over the axes and their following drives, unknown
+fields and options refused with the known ones; :meth:`ControllerProfile.check_machine`
+adds what needs the machine (axes, modulo, reference positions inside the travel).
+
 A twin-drive axis::
 
       "X": {"nc_name": "X1", "number": 1, "reference_position": 0.0,
@@ -53,10 +60,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from vecpin.errors import InputError
+from vecpin.kinematics.axes import PLAIN_NAME
 
 FORMAT = "vecpin-controller-profile"
 VERSION = 1
@@ -67,6 +76,10 @@ AXIS_FIELDS = {
 }
 DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by :func:`_drive_facts`)
 TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
+OPTIONS = {"comp_file_type": int, "rotary_any_range": bool}  # LinuxCNC file type; Heidenhain rotary range
+NAME_FIELDS = ("nc_name", "general_name", "program_name")     # become file names and NC words: plain names
+UNIQUE_FIELDS = ("nc_name", "general_name", "number")          # one machine drive each
+MAX_NUMBER = 999
 
 
 
@@ -80,6 +93,10 @@ def load_option_json(path: str | Path, option: str):
         return json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{option} {path}: not a JSON file ({exc})") from None
+    except RecursionError:
+        raise InputError(f"{option} {path}: nested too deeply to be a vecpin file") from None
+    except OSError as exc:
+        raise InputError(f"{option} {path}: cannot read the file ({exc.strerror})") from None
 
 @dataclass(frozen=True)
 class AxisProfile:
@@ -140,8 +157,21 @@ class ControllerProfile:
         for key in ("limits", "options"):
             if not isinstance(d.get(key, {}), dict):
                 raise InputError(f"{where}, field '{key}': an object of name -> value")
-        return cls(axes, dict(d.get("limits", {})), dict(d.get("options", {})), d.get("machine"),
-                   d.get("controller"), where)
+        for key in ("machine", "controller"):
+            if d.get(key) is not None and (not isinstance(d[key], str) or not d[key].strip()):
+                raise InputError(f"{where}, field '{key}': a non-empty text, not {d[key]!r}")
+        options = dict(d.get("options", {}))
+        for key, value in options.items():
+            if key not in OPTIONS:
+                raise InputError(f"{where}, field 'options.{key}': unknown option (known: {', '.join(sorted(OPTIONS))})")
+            _typed(value, OPTIONS[key], f"{where}, field 'options.{key}'")
+        limits = dict(d.get("limits", {}))
+        for key, value in limits.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                raise InputError(f"{where}, field 'limits.{key}': a finite number, not {value!r}")
+        prof = cls(axes, limits, options, d.get("machine"), d.get("controller"), where)
+        prof.check_unique()
+        return prof
 
     def to_dict(self) -> dict:
         axes = {a: _axis_dict(p) for a, p in self.axes.items()}
@@ -195,8 +225,10 @@ class ControllerProfile:
         for a, p in self.axes.items():
             if p.modulo and machine.axis(a).kind != "rotary":
                 raise InputError(f"{self.where}, field 'axes.{a}.modulo': only rotary axes are modulo, {a} is linear")
-            if p.detection_unit is not None and p.detection_unit <= 0:
-                raise InputError(f"{self.where}, field 'axes.{a}.detection_unit': must be > 0")
+            for drive, facts in ((f"axes.{a}", p), (f"axes.{a}.following", p.following)):
+                if facts is not None and facts.reference_position is not None:
+                    _check_reference(machine.axis(a), facts.reference_position, bool(p.modulo),
+                                     f"{self.where}, field '{drive}.reference_position'")
         for a, p in self.axes.items():
             if (p.following or p.drive_separation_mm) and machine.axis(a).kind != "linear":
                 raise InputError(f"{self.where}, field 'axes.{a}.following': twin drives belong to a linear (gantry) "
@@ -204,15 +236,21 @@ class ControllerProfile:
             if p.drive_separation_mm and not p.following:
                 raise InputError(f"{self.where}, field 'axes.{a}.drive_separation_mm': give the following drive "
                                  f"('following') of {a} too")
-        names = [(p.nc_name, a) for a, p in self.axes.items() if p.nc_name]
-        names += [(p.following.nc_name, f"{a} (following drive)") for a, p in self.axes.items()
-                  if p.following and p.following.nc_name]
-        seen: dict[str, str] = {}
-        for n, a in names:
-            if n in seen:
-                raise InputError(f"{self.where}: axes {seen[n]} and {a} both have nc_name '{n}'; each machine axis "
-                                 "needs its own")
-            seen[n] = a
+        self.check_unique()
+
+    def check_unique(self) -> None:
+        """No two drives (axes and following drives) share an nc_name, general_name or number."""
+        for key in UNIQUE_FIELDS:
+            seen: dict = {}
+            for a, p in self.axes.items():
+                for drive, facts in ((a, p), (f"{a} (following drive)", p.following)):
+                    n = None if facts is None else getattr(facts, key)
+                    if n is None:
+                        continue
+                    if n in seen:
+                        raise InputError(f"{self.where}, field 'axes.{a}.{key}': axes {seen[n]} and {drive} both have "
+                                         f"{key} {n!r}; each machine axis (and drive) needs its own")
+                    seen[n] = drive
 
     def with_axis_map(self, axis_map: dict[str, str]) -> "ControllerProfile":
         """A copy with NC axis names from ``--axis-map`` (they win over the file)."""
@@ -220,6 +258,8 @@ class ControllerProfile:
             return self
         axes = dict(self.axes)
         for a, n in axis_map.items():
+            if not PLAIN_NAME.fullmatch(n):
+                raise InputError(f"--axis-map {a}={n}: {_PLAIN}")
             axes[a] = dataclasses.replace(self.axis(a), nc_name=n)
         where = self.where if self.axes or self.limits else "--axis-map"
         return dataclasses.replace(self, axes=axes, where=where)
@@ -260,9 +300,9 @@ def _drive_facts(facts: dict, where: str) -> dict:
     if "drive_separation_mm" in facts:
         v = facts["drive_separation_mm"]
         if (not isinstance(v, list) or len(v) != 3 or any(isinstance(x, bool) or not isinstance(x, (int, float))
-                                                          for x in v)):
+                                                          or not math.isfinite(x) or abs(x) > 1e6 for x in v)):
             raise InputError(f"{where}.drive_separation_mm': [dx, dy, dz] in mm from the leading to the following "
-                             "drive, machine base frame")
+                             f"drive, machine base frame: three finite numbers of at most 1e6 mm, not {v!r}")
         out["drive_separation_mm"] = tuple(float(x) for x in v)
     return out
 
@@ -276,14 +316,27 @@ def _axis_dict(p: AxisProfile) -> dict:
     return out
 
 
+_PLAIN = ("not a plain name: NC axis names become file names and NC words, so they take letters, digits, '_' and "
+          "'-' only (at most 64, starting with a letter, digit or '_')")
+
+
 def _typed(value, kind, where: str):
+    """``value`` as ``kind``; numbers finite (a reference position within +-1e6 mm, a
+    detection unit > 0, a number 0..MAX_NUMBER), names plain (:data:`PLAIN_NAME`)."""
+    key = where.rstrip("'").rsplit(".", 1)[-1]
     if kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise InputError(f"{where}: a number, not {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(f"{where}: a finite number, not {value!r}")
+        if key == "detection_unit" and not 0 < value <= 1:
+            raise InputError(f"{where}: the detection unit in mm or deg, > 0 and at most 1, not {value!r}")
+        if abs(value) > 1e6:
+            raise InputError(f"{where}: {value!r} is beyond any machine's travel (mm or deg)")
         return float(value)
     if kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise InputError(f"{where}: a whole number, not {value!r}")
+        if key == "number" and not 0 <= value <= MAX_NUMBER:
+            raise InputError(f"{where}: an axis number 0..{MAX_NUMBER}, not {value!r}")
         return value
     if kind is bool:
         if not isinstance(value, bool):
@@ -291,4 +344,16 @@ def _typed(value, kind, where: str):
         return value
     if not isinstance(value, str) or not value.strip():
         raise InputError(f"{where}: a non-empty text, not {value!r}")
-    return value.strip()
+    if not PLAIN_NAME.fullmatch(value):
+        raise InputError(f"{where}: {value!r} is {_PLAIN}")
+    return value
+
+
+def _check_reference(axis, value: float, modulo: bool, where: str) -> None:
+    """A reference position inside the axis' travel (a modulo axis: or 0..360 deg)."""
+    tol = 1e-6 * max(1.0, axis.upper_user - axis.lower_user)
+    if axis.lower_user - tol <= value <= axis.upper_user + tol or (modulo and 0 <= value <= 360):
+        return
+    raise InputError(f"{where}: {value:g} {axis.unit} is outside the travel of {axis.name} "
+                     f"({axis.lower_user:g} .. {axis.upper_user:g} {axis.unit}); give the NC machine coordinate of the "
+                     "reference point")

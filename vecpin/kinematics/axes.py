@@ -161,6 +161,25 @@ def _check_axis_name(name: str, source: str) -> None:
     if re.search(r"[\s,\"']", name) or not name.isprintable():
         raise MachineError(f"{source}: axis joint '{name}' has a space, comma or quote in its name, which "
                            "breaks campaign CSV columns; rename the joint in the URDF")
+    if not PLAIN_NAME.fullmatch(name):
+        raise MachineError(f"{source}: axis joint {name!r} is not a plain name: an axis name becomes part of file "
+                           "names and CSV cells, so it takes letters, digits, '_' and '-' only, starting with a "
+                           "letter, digit or '_' (no path, no leading = + - @); rename the joint in the URDF")
+
+
+def check_cell_names(names, what: str, source: str) -> tuple[str, ...]:
+    """``names`` (tool links, ...) that vecpin copies into CSV cells: no comma, quote or
+    control character, no leading = + - @ (a spreadsheet would evaluate the cell)."""
+    for n in names:
+        if not n or n[0] in "=+-@" or re.search(r"[,\"']", n) or not n.isprintable():
+            raise MachineError(f"{source}: {what} {n!r} would be copied into CSV cells: a name without commas or "
+                               "quotes, not starting with = + - @ (a spreadsheet would evaluate it); rename it")
+    return tuple(names)
+
+
+# A name that becomes part of a file name or a CSV cell (axes, NC axis names): no path
+# separator, no dot, no leading character a spreadsheet evaluates (= + - @).
+PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_-]{0,63}")
 
 
 def configuration_map(model: pin.Model, axes: Sequence[Axis], mimic_joints: Sequence[MimicJoint],

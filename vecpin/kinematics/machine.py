@@ -45,7 +45,7 @@ import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.axes import (  # noqa: F401 (re-exported: callers import them from here)
-    BUNDLED_OPTIONS, RESERVED_NAMES, ROS_FLANGE_LINKS, SPINDLE_LINK, TOOL_DIRECTION, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
+    BUNDLED_OPTIONS, RESERVED_NAMES, ROS_FLANGE_LINKS, SPINDLE_LINK, TOOL_DIRECTION, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
@@ -70,7 +70,7 @@ class Machine:
         self.tree: UrdfTree = tree
         self.notes: list[str] = list(tree.notes)
         self.name: str = tree.name
-        self.tool_links: tuple[str, ...] = self._resolve_tool_links(tool_link)
+        self.tool_links: tuple[str, ...] = check_cell_names(self._resolve_tool_links(tool_link), "tool link", source)
         self._resolve_tool_axis(tool_axis)
         self.workpiece_link: str | None = WORKPIECE_LINK if WORKPIECE_LINK in tree.links else None
         if self.workpiece_link in self.tool_links:

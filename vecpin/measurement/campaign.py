@@ -157,6 +157,8 @@ class Campaign:
 
 # ---------------------------------------------------------------------- reading
 MAX_ID = 9999            # station and pivot ids are small whole numbers
+MAX_TARGET_MM = MAX_TOOL_MM  # a tool target is on the tool: no farther from the tool link than the longest tool
+FORMULA = "=+-@"          # first characters of a cell a spreadsheet evaluates: never in an id vecpin copies
 CELL_SHOWN = 40          # characters of a bad cell quoted in a message
 
 
@@ -350,10 +352,16 @@ def _point_target_columns(name: str, texts: dict, rows: np.ndarray, instrument: 
                                     f"tool link name ({', '.join(links)})", row=int(rows[k]), column="tool_point")
         point[k] = int(v)
     for k, cell in enumerate(texts.get("target", ())):
-        if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'")):
-            raise CampaignFileError(name, f"target '{_shown(cell)}': an id without spaces, commas or quotes",
-                                    row=int(rows[k]), column="target")
+        if cell and (not cell.isprintable() or any(c in cell for c in " ,;\"'") or cell[0] in FORMULA):
+            raise CampaignFileError(name, f"target '{_shown(cell)}': an id without spaces, commas or quotes, not "
+                                    "starting with = + - @ (a spreadsheet would evaluate it)", row=int(rows[k]),
+                                    column="target")
         target[k] = cell
+    nest = np.flatnonzero(instrument == "nest")
+    if nest.size and not machine.has_workpiece:
+        raise CampaignFileError(name, f"a nest row measures a reflector on the machine table, but {machine.name} has no "
+                                "table (no 'workpiece' link in its URDF): measure the tool instead, or use the URDF "
+                                "with the table branch", row=int(rows[nest[0]]), column="instrument")
     missing = np.flatnonzero((instrument == "nest") & (target == ""))
     if missing.size:
         raise CampaignFileError(name, "a nest row names its nest in the 'target' column (the id of the nest on "
@@ -377,8 +385,33 @@ def read_targets(path: str | Path) -> dict[str, np.ndarray]:
             raise CampaignFileError(name, "a row is: target id, x, y, z [mm]", row=lineno)
         if cells[0] in out:
             raise CampaignFileError(name, f"target '{cells[0]}' is given twice", row=lineno, column="target")
-        out[cells[0]] = np.array([_parse_cell(name, c, lineno, h) for c, h in zip(cells[1:4], "xyz")]) * M_PER_MM
+        if cells[0][0] in FORMULA or not cells[0].isprintable():
+            raise CampaignFileError(name, f"target '{_shown(cells[0])}': an id not starting with = + - @ (a "
+                                    "spreadsheet would evaluate it)", row=lineno, column="target")
+        mm = np.array([_parse_cell(name, c, lineno, h) for c, h in zip(cells[1:4], "xyz")])
+        if np.linalg.norm(mm) > MAX_TARGET_MM:
+            raise CampaignFileError(name, f"target '{_shown(cells[0])}' is {np.linalg.norm(mm):g} mm from the tool link "
+                                    f"origin; a target on the tool is at most {MAX_TARGET_MM:g} mm from it (offsets are "
+                                    "mm)", row=lineno)
+        out[cells[0]] = mm * M_PER_MM
+    norms = [np.linalg.norm(v) / M_PER_MM for v in out.values()]
+    if norms and 0 < max(norms) < 1.0:
+        raise CampaignFileError(name, f"every target is less than 1 mm from the tool link origin (largest "
+                                f"{max(norms):g}); the offsets are mm (e.g. 0,0,100), not metres", column="x")
     return out
+
+
+def attach_targets(campaign: "Campaign", targets: dict[str, np.ndarray], path) -> "Campaign":
+    """Give ``campaign`` the known offsets of a targets file; every id of the file must be
+    a target the campaign measures (ids are case-sensitive), else the file is refused
+    naming its unmatched ids. Campaign targets the file lacks are found by the fit."""
+    named = sorted({str(t) for t, i in zip(campaign.target, campaign.instrument) if t and i != "nest"})
+    unmatched = sorted(set(targets) - set(named))
+    if unmatched:
+        raise CampaignFileError(path, f"target ids {', '.join(unmatched)} are not measured in {campaign.source} "
+                                f"(its targets: {', '.join(named) or 'none'}; ids are case-sensitive)", column="target")
+    campaign.targets = dict(targets)
+    return campaign
 
 
 def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:

@@ -433,6 +433,7 @@ def write_imported(result: ImportResult, machine: Machine, path: str | Path) -> 
         try:
             read_campaign(staged, machine)
         except CampaignFileError as exc:
-            raise CampaignFileError(path, f"the imported campaign would not be readable ({exc.reason}); nothing was "
+            reason = exc.reason.replace(str(staged), str(path))  # the file as it would be written, not its staging copy
+            raise CampaignFileError(path, f"the imported campaign would not be readable ({reason}); nothing was "
                                     "written", exc.row, exc.column) from None
     return path

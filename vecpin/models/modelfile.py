@@ -210,7 +210,29 @@ def _rotation(path, field: str, values) -> np.ndarray:
     return R
 
 
+def _object(path, d: dict, key: str) -> dict:
+    """``d[key]``, which must be a JSON object (a section of the file)."""
+    v = d.get(key)
+    if not isinstance(v, dict):
+        raise ModelFileError(path, f"the section is {'missing' if key not in d else json.dumps(v)[:40]}, not an object of "
+                             "fields (the file is damaged or edited: write it again with vecpin fit)", key)
+    return v
+
+
+def _parameter(path, p: dict, key: str) -> float:
+    """A parameter's value or std: a finite number, the parameter named when not."""
+    v = p.get(key) if isinstance(p, dict) else None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise ModelFileError(path, f"parameter {p.get('name') if isinstance(p, dict) else p!r}: {key} {v!r} is not a "
+                             "finite number", "parameters")
+    return float(v)
+
+
 def _from_dict(d: dict, path: Path, factory: Callable):
+    for key in ("machine", "model", "tracker", "noise", "fit"):
+        _object(path, d, key)
+    if not isinstance(d.get("parameters"), list) or not all(isinstance(p, dict) for p in d["parameters"]):
+        raise ModelFileError(path, "a list of parameters (name, value, std, unit)", "parameters")
     md = d["machine"]
     xml = md["urdf"]
     if hashlib.sha256(xml.encode()).hexdigest() != md["urdf_sha256"]:
@@ -239,7 +261,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     for k, n in enumerate(names):
         p = by_name[n]
         f = SI_PER_UNIT[p["unit"]]
-        theta[k], std[k] = p["value"] * f, p["std"] * f
+        theta[k], std[k] = _parameter(path, p, "value") * f, _parameter(path, p, "std") * f
     _finite(path, "parameters", np.r_[theta, std])
     model.e0_, model.b_ = theta[:6], theta[6:]
     model.cov_ = np.diag(std**2)

@@ -118,10 +118,16 @@ class PlanSettings:
         tools = np.asarray(self.tools_mm, float)
         if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
             raise InputError("--tools: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
+        if len(np.unique(np.round(tools, 6))) < tools.size:
+            raise InputError(f"--tools {','.join(f'{t:g}' for t in tools)}: two holders of the same length measure the "
+                             "same point twice; give different lengths (they separate the tool-axis errors)")
         if self.method not in ("doptimal", "random"):
             raise InputError(f"--method '{self.method}': doptimal or random")
         if (self.repeat_points or self.repeat_times) and (self.repeat_points < 1 or self.repeat_times < 2):
             raise InputError("--repeat POINTS TIMES: POINTS >= 1 commands, each measured TIMES >= 2 times")
+        if self.repeat_points > self.n_points:
+            raise InputError(f"--repeat {self.repeat_points} {self.repeat_times}: the repeated points are taken from the "
+                             f"planned commands, at most --points ({self.n_points})")
         if self.order < 0:
             raise InputError(f"--order {self.order}: orders are >= 0")
         if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):

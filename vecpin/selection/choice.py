@@ -44,6 +44,7 @@ from vecpin.threads import one_blas_thread
 
 KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
+MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
 
 
 @dataclass
@@ -311,7 +312,10 @@ def one_standard_error(cands: list[Candidate], best: Candidate,
 
 
 def _subsample(campaign: Campaign, seed: int) -> Campaign:
-    """At most :data:`MAX_SELECTION_ROWS` rows, whole commands kept together."""
+    """At most :data:`MAX_SELECTION_ROWS` rows, the rows of a command kept together. A
+    command measured more often than its share (``cap`` rows: a campaign of a few
+    commands repeated many times) keeps a random ``cap`` of its rows, so the subsample
+    always holds whole groups of many commands, never none."""
     if len(campaign) <= MAX_SELECTION_ROWS:
         return campaign
     _, group = np.unique(np.round(campaign.q, 9), axis=0, return_inverse=True)
@@ -319,8 +323,17 @@ def _subsample(campaign: Campaign, seed: int) -> Campaign:
     rng = np.random.default_rng(seed)
     order = rng.permutation(group.max() + 1)
     per = np.bincount(group)
+    cap = max(-(-MAX_SELECTION_ROWS // len(per)), MIN_GROUP_ROWS)
+    keep_row = np.ones(len(group), bool)
+    if per.max() > cap:  # rank of each row within its command, in a random order
+        perm = rng.permutation(len(group))
+        by_group = perm[np.argsort(group[perm], kind="stable")]
+        rank = np.empty(len(group), int)
+        rank[by_group] = np.arange(len(group)) - np.repeat(np.cumsum(per) - per, per)
+        keep_row = rank < cap
+        per = np.minimum(per, cap)
     keep_groups = order[np.cumsum(per[order]) <= MAX_SELECTION_ROWS]
-    return campaign.subset(np.flatnonzero(np.isin(group, keep_groups)))
+    return campaign.subset(np.flatnonzero(np.isin(group, keep_groups) & keep_row))
 
 
 def parse_order(text) -> int | str:

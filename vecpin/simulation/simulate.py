@@ -77,11 +77,17 @@ class Design:
         if np.all(tools < 1.0):
             raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: every length is below 1 mm; tool lengths "
                              "are mm (e.g. 214.88 312.86), not metres")
+        if len(np.unique(np.round(tools, 6))) < tools.size:
+            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: two tools of the same length measure the "
+                             "same point twice; give different lengths")
         if self.repeat_points or self.repeat_times:
             if int(self.repeat_points) != self.repeat_points or int(self.repeat_times) != self.repeat_times or \
                     self.repeat_points < 1 or self.repeat_times < 2:
                 raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: POINTS >= 1 commands, each "
                                  "measured TIMES >= 2 times")
+            if planned_rows is None and self.repeat_points > self.n_commands:
+                raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: the repeated points are taken "
+                                 f"from the campaign's commands, at most --points ({self.n_commands})")
         for zone in self.exclusion_zones:
             check_zone_axes(machine, zone, "--exclude")
         if self.method not in ("random", "sobol", "halton"):
@@ -287,8 +293,9 @@ def _read_back(path: Path, machine: Machine) -> None:
     dropped): say why, so the options can be changed."""
     try:
         read_campaign(path, machine)
-    except VecpinError as exc:
-        raise InputError(f"the simulated {path.name} would not be readable ({exc}); change the simulation "
+    except VecpinError as exc:  # the message names the file as written, not its staging copy
+        reason = str(exc).replace(str(path), path.name)
+        raise InputError(f"the simulated {path.name} would not be readable ({reason}); change the simulation "
                          "options") from None
 
 

@@ -154,10 +154,10 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
     m: Machine = model.machine
     from vecpin.measurement.registration import check_same_pose, station0
+    row = _scene_row(campaign, row)
     campaign = station0(campaign)  # the rows the fitted tracker pose describes
     check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
                     campaign.xyz, campaign.source, "the model", campaign.lines)
-    row = min(row, len(campaign) - 1)
     vis.delete()
     notes = _machine_geometry(vis, m, campaign.q[row], mesh_dirs(model))
     nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
@@ -350,6 +350,23 @@ def _tracker(node, model, span: float) -> None:
     node["stand"].set_object(g.Cylinder(0.6, 0.01 * span / 6), g.MeshLambertMaterial(color=0x404040))
     node["stand"].set_transform(tf.translation_matrix([0, 0, -0.3]) @ tf.rotation_matrix(np.pi / 2, [1, 0, 0]))
     node["axes"].set_object(g.triad(0.3))
+
+
+def _scene_row(campaign: Campaign, row: int) -> int:
+    """The campaign's row ``row`` (0-based, as ``--row`` counts) among its station-0
+    tracker rows, which the scene draws; any other row is refused, never replaced."""
+    from vecpin.errors import InputError
+    from vecpin.measurement.registration import station0
+    if not 0 <= row < len(campaign):
+        raise InputError(f"--row {row}: the campaign {campaign.source} has rows 0 .. {len(campaign) - 1}")
+    line = campaign.lines[row]
+    sub = station0(campaign)
+    hit = np.flatnonzero(sub.lines == line)
+    if hit.size == 0:
+        raise InputError(f"--row {row}: row {row} of {campaign.source} (line {line}) is not a tracker row of station 0, "
+                         f"the rows the scene draws; pick one of those (e.g. --row "
+                         f"{int(np.flatnonzero(campaign.lines == sub.lines[0])[0])})")
+    return int(hit[0])
 
 
 def write_html(path: str | Path, model, campaign: Campaign, row: int = 0, exaggerate=None,

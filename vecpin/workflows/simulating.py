@@ -6,12 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
+from vecpin.errors import InputError
 from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors
 from vecpin.simulation.simulate import Design, Simulation, simulate
 from vecpin.workflows.summary import error_summary
 from vecpin.units import MM_PER_M
+
+MAX_TRACKER_MM = 100_000.0  # a tracker position farther than 100 m from the machine base is not a setup
 
 
 @dataclass
@@ -70,7 +73,19 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
     design = design or Design()
     plan = truth_options.get("plan")
     design.check(machine, None if plan is None else len(plan[1] if isinstance(plan, tuple) else plan.tool), files=True)  # files vecpin can read back
+    _check_tracker(truth_options.get("tracker_position"))
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
     return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,
                          0.0 if tables is None else tables.gauge_offset_change)
+
+
+def _check_tracker(position) -> None:
+    """``--tracker`` (SI here): finite and within a tracker's reach of the machine base."""
+    if position is None:
+        return
+    p = np.asarray(position, float) * MM_PER_M
+    if p.shape != (3,) or not np.all(np.isfinite(p)) or np.any(np.abs(p) > MAX_TRACKER_MM):
+        raise InputError(f"--tracker {','.join(f'{v:g}' for v in np.ravel(p))}: three finite numbers, the tracker "
+                         f"position in mm, machine base frame, within {MAX_TRACKER_MM / 1000:g} m of the origin (a tracker reads points at "
+                         "most 200 m away)")

@@ -19,7 +19,7 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
 from vecpin.compensation.tables import CompensationTable, TableSet
-from vecpin.errors import InputError
+from vecpin.errors import ControllerFileError, InputError
 from vecpin.export import drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob, with_constants
 from vecpin.export.profile import ControllerProfile
@@ -176,7 +176,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             names += drives_readme(out, xtables, xm, prof, differential)
         if fmt.read is not None:
             stage = out.path(names[0]).parent
-            as_written = drives.fold(fmt.read(stage, xm, xprof), m, prof)
+            as_written = drives.fold(_read_back(fmt, stage, xm, xprof, controller, out_dir), m, prof)
             as_written.gauge_offset_change = plan.tables.gauge_offset_change
         if zone:
             notes.append("zone " + zone_text(zone) + ": tables fitted to the model in this region only (load them "
@@ -196,6 +196,19 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
+
+
+def _read_back(fmt: ControllerFormat, stage: Path, xm, xprof: ControllerProfile, controller: str, out_dir) -> TableSet:
+    """The files as written, read with the format's reader; a file that does not read
+    back is named as it would have been written (nothing is: the set is dropped)."""
+    try:
+        return fmt.read(stage, xm, xprof)
+    except ControllerFileError as exc:
+        name = Path(exc.path).name
+        where = f", line {exc.line}" if exc.line is not None else ""
+        raise InputError(f"--controller {controller}: {Path(out_dir) / name} as vecpin would write it does not read "
+                         f"back ({name}{where}: {exc.reason}); nothing was written. Check the names and facts of the "
+                         f"{xprof.where}") from None
 
 
 def model_zone(model) -> dict | None:

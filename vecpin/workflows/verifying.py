@@ -22,6 +22,7 @@ import numpy as np
 
 from vecpin.compensation.functions import compensated_errors, model_as_actual
 from vecpin.compensation.tables import TableSet
+from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.registration import check_registration, registered_errors
@@ -125,6 +126,12 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     """The two runs side by side (see the module text); ``progress(msg)`` hears of the
     slow step (tables computed from the model)."""
     b, a = before.primary(), after.primary()
+    if len(a) == len(b) and np.array_equal(a.q, b.q) and np.array_equal(a.tool, b.tool) and np.array_equal(a.xyz, b.xyz):
+        same_file = Path(before.source).resolve() == Path(after.source).resolve()
+        raise InputError(f"verify {before.source} {after.source}: "
+                         + ("the same file is given " if same_file else "the two files hold the same measurements ")
+                         + "as the run before and the run after compensation; AFTER is a second run, measured with "
+                           "the tables active")
     for run in (b, a):  # a run of another machine, or in other units, is not a validation run of this one
         check_registration(machine.tool_tip(run.q, run.tool, frame="base"), run.xyz, run.source, run.lines)
     notes = []
