@@ -93,7 +93,7 @@ def test_joint_numbers_count_from_zero(tmp_path):
     assert linuxcnc.joint_numbers(m, ControllerProfile()) == {"X": 0, "Y": 1, "Z": 2, "C": 3}
     with pytest.raises(InputError, match="no axis is joint 0 .X is joint 1.: LinuxCNC counts joints from 0"):
         linuxcnc.check(m, profile(), linuxcnc.LIMITS)                # the Fanuc-style 1..4
-    with pytest.raises(InputError, match="X and Y are both joint 0"):
+    with pytest.raises(InputError, match="axes X and Y both have number 0"):                 # refused on load
         linuxcnc.joint_numbers(m, lprofile(Y={"number": 0}))
     with pytest.raises(InputError, match="C has no joint number while other axes have one"):
         linuxcnc.joint_numbers(m, profile(X={"number": 0}, Y={"number": 1}, Z={"number": 2}, C={"number": None}))

@@ -207,11 +207,14 @@ def test_output_set_keeps_files_inside_out_by_construction(unchecked, work, caps
     prof["axes"]["../../../X"] = prof["axes"].pop("X")
     prof["axes"]["../../../X"]["nc_name"] = "../../../X"
     prof["options"] = {"rotary_any_range": True}
+    if controller == "linuxcnc":                                       # LinuxCNC joints count from 0
+        for k, facts in enumerate(prof["axes"].values()):
+            facts["number"] = k
     p = work / "profile.json"
     p.write_text(json.dumps(prof))
     out = work / "a" / "b" / "c" / "out"
     out.parent.mkdir(parents=True)
-    fewer = [] if controller == "linuxcnc" else ["--max-tables", "0"]  # pitch tables only (linuxcnc has no others)
+    fewer = ["--max-tables", "0"]                                      # pitch tables only
     rc = main(["tables", str(unchecked.model), "--controller", controller, "--profile", str(p), "--out", str(out),
                "--quiet"] + fewer)
     err = capsys.readouterr().err
@@ -301,7 +304,7 @@ PROFILE_REFUSALS = {  # name: (edit, controller, words)
                            ["axes.X.ncname", "unknown (known: nc_name, general_name"]),
     "unknown top field": (_set("axis", {}), "generic", ["unknown field 'axis'", "known: axes, comment"]),
     "unknown option": (_set("options.rotary_anyrange", True), "heidenhain",
-                       ["options.rotary_anyrange", "unknown option (known: comp_file_type, rotary_any_range)"]),
+                       ["options.rotary_anyrange", "unknown option (known: comp_file_type, ini, rotary_any_range)"]),
     "option of the wrong type": (_set("options.rotary_any_range", "yes"), "heidenhain",
                                  ["options.rotary_any_range", "true or false"]),
     "unknown limit": (_set("limits.max_tables", 3), "siemens-840d", ["limits: 'max_tables'", "not a limit of"]),

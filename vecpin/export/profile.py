@@ -76,7 +76,8 @@ AXIS_FIELDS = {
 }
 DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by :func:`_drive_facts`)
 TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
-OPTIONS = {"comp_file_type": int, "rotary_any_range": bool}  # LinuxCNC file type; Heidenhain rotary range
+OPTIONS = {"comp_file_type": int, "rotary_any_range": bool,  # LinuxCNC file type; Heidenhain rotary range
+           "ini": Path}                                        # LinuxCNC: the machine's INI file (joints checked)
 NAME_FIELDS = ("nc_name", "general_name", "program_name")     # become file names and NC words: plain names
 UNIQUE_FIELDS = ("nc_name", "general_name", "number")          # one machine drive each
 MAX_NUMBER = 999
@@ -164,7 +165,14 @@ class ControllerProfile:
         for key, value in options.items():
             if key not in OPTIONS:
                 raise InputError(f"{where}, field 'options.{key}': unknown option (known: {', '.join(sorted(OPTIONS))})")
-            _typed(value, OPTIONS[key], f"{where}, field 'options.{key}'")
+            if value is None:                                              # null: not given (a template's)
+                continue
+            if OPTIONS[key] is Path:
+                if not isinstance(value, str) or not value.strip() or any(ord(c) < 32 for c in value):
+                    raise InputError(f"{where}, field 'options.{key}': a file path, not {value!r}")
+            else:
+                _typed(value, OPTIONS[key], f"{where}, field 'options.{key}'")
+        options = {k: v for k, v in options.items() if v is not None}
         limits = dict(d.get("limits", {}))
         for key, value in limits.items():
             if isinstance(value, float) and not math.isfinite(value):
