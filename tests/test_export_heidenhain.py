@@ -75,3 +75,30 @@ def test_bad_table_names_file_and_line(tmp_path):
     (tmp_path / "X.COM").write_text((FIX / "X.COM").read_text().replace("[END]", ""))
     with pytest.raises(ControllerFileError, match=r"no \[END\]"):
         heidenhain.read(tmp_path, tiny_machine(), named_profile())
+
+
+def fixed_width_table(path) -> list[dict]:
+    """A TNC table read as fixed-width fields, independently of vecpin: a column runs from
+    the first character of its name to the end of the blanks after it (line end
+    included), as drunsinn/pyLSV2's table_reader takes it; rows are sliced there."""
+    import re
+    lines = path.read_text().split("\n")
+    head = lines[1] + "\n"
+    cols = [(mt.group(1), mt.start(), mt.end()) for mt in re.finditer(r"(\S+)\s+", head)]
+    rows = []
+    for ln in lines[2:]:
+        if ln.startswith("[END]"):
+            break
+        rows.append({name: ln[a:b].strip() for name, a, b in cols})
+    return rows
+
+
+def test_a_fixed_width_reader_gets_every_digit_of_the_last_column(tmp_path):
+    """The column line is padded to the last field's width: a reader that takes the last
+    column to the end of the header's blanks reads '-0.0040', not '-0.'."""
+    m = tiny_machine()
+    write(fixture_tables(m), m, named_profile(), tmp_path)
+    rows = fixed_width_table(tmp_path / "X.COM")
+    np.testing.assert_allclose([float(r["Y"]) for r in rows], np.round(E_YX_MM, 4), atol=1e-12)
+    np.testing.assert_allclose([float(r["AXISPOS"]) for r in rows], X_MM)
+    assert [r["ACTIVE"] for r in fixed_width_table(tmp_path / "CONFIG.CMA")] == ["*"]

@@ -233,15 +233,15 @@ class TableSet:
         return cls.from_dict(json.loads(Path(path).read_text()), machine)
 
     def save_csv(self, path: str | Path, machine: Machine) -> None:
-        """One row per table point: table, input, output, index, input position, value (mm/deg)."""
+        """One row per table point: table, input, output, index, input position, value (mm/deg);
+        a plain CSV (no comment row: a CSV reader takes every row as data)."""
         lines = ["table,input_axis,output_axis,modulo,index,input_position,value"]
         for t in self.tables:
             ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
             pos, val = ai.to_user(t.positions), ao.to_user(t.values)
             lines += [f"{t.name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}"
                       for k in range(len(val))]
-        lines.append(f"# gauge_offset_change_mm,{self.gauge_offset_change * MM_PER_M:.6f}")
-        write_text(path, "\n".join(lines) + "\n")
+        write_text(path, "\n".join(lines) + "\n")   # every row is data: the gauge-line change is in tables.json
 
 
 def table_grid(axis, n_points: int, modulo: bool) -> tuple[float, float]:

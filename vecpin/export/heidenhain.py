@@ -59,6 +59,13 @@ def _rotary_range_message(axis: str, lo: float, hi: float) -> str:
             "{\"rotary_any_range\": true} in the profile if your control takes other positions")
 
 
+def _header(cols: list[str], widths: list[int]) -> str:
+    """The column line: every name padded to its field, the last one too. A fixed-width
+    reader takes a column to the end of its name's trailing blanks (pyLSV2's
+    table_reader), so a stripped last name would cut its values to the name's width."""
+    return "".join(f"{c:<{w}s}" for c, w in zip(cols, widths))
+
+
 def _row(cells: list[str], widths: list[int]) -> str:
     return "".join(f"{c:<{w}s}" for c, w in zip(cells, widths)).rstrip()
 
@@ -85,7 +92,7 @@ def write(job: ExportJob) -> list[str]:
         cols = ["NR", "AXISPOS"] + [prof.need(t.output_axis, "nc_name", "heidenhain", "axis name") for t in ts]
         widths = [6] + [max(WIDTH, len(c) + 2) for c in cols[1:]]
         name = com_name(nc_in)
-        lines = [f"BEGIN {name} MM", "".join(f"{c:<{w}s}" for c, w in zip(cols, widths)).rstrip()]
+        lines = [f"BEGIN {name} MM", _header(cols, widths)]
         vals = [-m.axis(t.output_axis).to_user(t.values) for t in ts]
         for k in range(len(pos)):
             lines.append(_row([str(k), signed(pos[k], 4)] + [signed(v[k], 4) for v in vals], widths))
@@ -95,7 +102,7 @@ def write(job: ExportJob) -> list[str]:
         cma.append((nc_in, name))
     cols = ["NR"] + [c for c, _ in cma] + ["ACTIVE"]
     widths = [6] + [max(WIDTH, len(n) + 2) for _, n in cma] + [8]
-    lines = ["BEGIN CONFIG.CMA", "".join(f"{c:<{w}s}" for c, w in zip(cols, widths)).rstrip(),
+    lines = ["BEGIN CONFIG.CMA", _header(cols, widths),
              _row(["0"] + [n for _, n in cma] + ["*"], widths), "[END]"]
     job.out.write_text(CMA_FILE, "\n".join(lines) + "\n")
     job.out.write_text(README, _readme(job, cma))
