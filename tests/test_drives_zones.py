@@ -89,6 +89,27 @@ def test_thirty_tables_for_the_master_mill(skewed_model, tmp_path):
     assert run.as_written is not None and len(run.as_written.tables) == 25  # folded back to the machine's axes
 
 
+def test_a_controller_with_six_cross_tables_gets_the_best_six_counting_both_drives(machines, tmp_path):
+    """Fanuc 30i holds 6 cross tables: the tables on X are loaded for both drives, so the
+    choice counts them twice and is made again until the files fit (it used to stop with
+    '8 cross tables > 6' and write nothing)."""
+    m = machines["master_mill"]
+    sim = simulate(m, seed=3, design=Design(n_commands=80, n_validation=5))
+    model = make_model("ap", m, 2).fit(sim.campaign, NoiseModel.default(m, "spherical"))
+    names = {"X": 1, "Y": 2, "Z": 3, "C": 4, "A": 5}
+    axes = {a: {"number": n, "reference_position": 0.0 if a != "Z" else 800.0, "detection_unit": 0.001}
+            for a, n in names.items()}
+    axes["X"] |= {"following": {"number": 8, "reference_position": 0.0, "detection_unit": 0.001},
+                  "drive_separation_mm": [0.0, SEPARATION_MM, 0.0]}
+    prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes})
+    run = make_tables(model, tmp_path, "fanuc-30i", profile=prof, uncertainty=False)
+    cross = [t for t in run.plan.tables.tables if not t.is_pitch]
+    on_drives = len(cross) + sum(t.output_axis == "X" for t in cross)
+    assert on_drives <= 6 and len(cross) >= 3
+    straight = (tmp_path / "STRAIGHTNESS.CSV").read_text()
+    assert len({ln.split(",")[0] for ln in straight.splitlines()[2:]}) == on_drives
+
+
 def test_skew_differential_is_half_the_separation_times_the_angle(skewed_model):
     """The differential tables: leading drive +k theta, following -k theta with
     k = (w x s) . x / 2 = -S/2 for a yaw (w = z) of an X gantry whose drives are S apart

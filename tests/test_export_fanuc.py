@@ -111,7 +111,13 @@ def test_straightness_is_written_for_entry_by_hand(tmp_path):
     assert "by hand" in readme and "moving axis X (A1), compensation axis Y (A2)" in readme
     assert any("by hand" in n for n in notes)
     back = fanuc.read(tmp_path, m, five_points())
-    np.testing.assert_allclose(to_mm(back.table("yx")(from_mm(X_MM))), -E_YX_MM, atol=1e-12)
+    # the rows name X's own pitch points only (3621..3622 of A1): X_MM[0] is the start of X's first section,
+    # point first - 1, which belongs to no X point (on a second axis it would be the first axis' last point)
+    para = (tmp_path / "CNC-PARA.TXT").read_text()
+    first, last = (int(re.search(rf"N0{p}Q1A1P(\d+)", para).group(1)) for p in (3621, 3622))
+    points = [int(r.split(",")[3]) for r in rows[2:] if r.startswith("yx,")]
+    assert points == list(range(first, last + 1))
+    np.testing.assert_allclose(to_mm(back.table("yx")(from_mm(X_MM[1:]))), -E_YX_MM[1:], atol=1e-12)
 
 
 def test_missing_facts_and_point_budget():

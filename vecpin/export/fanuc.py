@@ -272,7 +272,7 @@ def _straightness_csv(cross, gs: list[PitchGrid], m: Machine, prof: ControllerPr
     for t in cross:
         ai, ao = m.axis(t.input_axis), m.axis(t.output_axis)
         g = by_axis[ai.name]
-        points = np.arange(g.first - (0 if g.rotary_type else 1), g.last + 1)
+        points = np.arange(g.first, g.last + 1)    # the moving axis' own pitch points (first - 1 is another axis')
         pos = g.position(points)
         val = ao.to_user(t(ai.to_si(pos)))
         du = prof.axis(ao.name).detection_unit

@@ -158,11 +158,23 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         differential, taken, dnotes = drives.skew_differential(model, prof, limits.points(points))
         notes += dnotes
     planned = _without(model, taken)
-    plan = plan_tables(planned, limits, max_tables=max_tables, no_circular=no_circular or None,
-                       forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
-                       modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
-                       zone=zone, progress=progress)
-    plan.tables.drives = drives.twin_drives(m, prof, differential)  # tables.json carries the differential
+    while True:   # twin drives: a cross table on a twin axis is loaded for both drives, and counts twice
+        plan = plan_tables(planned, limits, max_tables=max_tables, no_circular=no_circular or None,
+                           forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
+                           modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
+                           zone=zone, progress=progress)
+        plan.tables.drives = drives.twin_drives(m, prof, differential)  # tables.json carries the differential
+        k = _cross_tables_over(plan.tables, m, prof, differential, limits)
+        if k == 0:
+            break
+        max_tables = sum(not t.is_pitch for t in plan.tables.tables) - k
+        if max_tables < 0:
+            raise ControllerLimitError(f"{controller} holds {limits.cross_limit(m.axis_names)} cross tables, but the "
+                                       "twin drives' own tables (the differential that turns the beam against the "
+                                       "gantry skew, loaded on both drives) already need more: leave out the "
+                                       "drive_separation_mm of the profile (no differential) or raise the limit")
+        notes.append(f"twin drives: {k} cross table(s) more than {controller} holds once loaded for both drives; "
+                     f"chose again with --max-tables {max_tables}")
     if progress:
         progress(f"writing the {controller} files")
     as_written = None
@@ -209,6 +221,18 @@ def _read_back(fmt: ControllerFormat, stage: Path, xm, xprof: ControllerProfile,
         raise InputError(f"--controller {controller}: {Path(out_dir) / name} as vecpin would write it does not read "
                          f"back ({name}{where}: {exc.reason}); nothing was written. Check the names and facts of the "
                          f"{xprof.where}") from None
+
+
+def _cross_tables_over(tables: TableSet, m, prof: ControllerProfile, differential: dict,
+                       limits: ControllerLimits) -> int:
+    """How many cross tables the controller would hold too many once the twin drives'
+    copies are counted (0: they fit, or no limit)."""
+    if not drives.twin_axes(prof):
+        return 0
+    xtables, xm, _ = drives.expand(tables, m, prof, differential)
+    limit = limits.cross_limit(xm.axis_names)
+    n = sum(not t.is_pitch for t in xtables.tables)
+    return 0 if limit is None else max(0, n - limit)
 
 
 def model_zone(model) -> dict | None:
