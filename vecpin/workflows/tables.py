@@ -19,7 +19,7 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
 from vecpin.compensation.tables import TableSet
-from vecpin.errors import ControllerFileError, InputError
+from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob, with_constants
 from vecpin.export.profile import ControllerProfile
