@@ -34,7 +34,7 @@ def fanuc_pitch(folder: Path, number: int, x_mm: np.ndarray, ref_mm=0.0, unit=0.
     compensation over the section ending at n, x 3623 detection units; zero at the reference."""
     para = (folder / "CNC-PARA.TXT").read_text()
     p = {int(n): re.search(rf"A{number}P(-?[\d.]+)", body).group(1)
-         for n, body in re.findall(r"N0(\d{4})Q1(\S+)", para)}
+         for n, body in re.findall(r"N0(\d{4})Q1(\S+)", para) if 3620 <= int(n) <= 3625}
     ref, first, last, mag, interval = int(p[3620]), int(p[3621]), int(p[3622]), int(p[3623]), float(p[3624])
     data = {int(n): int(v) for n, v in re.findall(r"N1(\d{4})Q0P(-?\d+)", (folder / "PITCH.TXT").read_text())}
     points = np.arange(first - 1, last + 1)

@@ -138,7 +138,7 @@ def test_missing_facts_and_point_budget():
 @pytest.mark.parametrize("bad, message, line", [
     ("N10003Q0P3", "N10003Q0Px", 6),                      # line 1 is the leader
     ("N03624Q1A1P50.0A2P0.0A3P0.0", "N03624Q1A1P50.0A2", 7),
-    ("N03621Q1A1P1A2P0A3P0", "N03621Q1A1P6A2P0A3P0", 4),
+    ("N03621Q1A1P1A2P0A3P0", "N03621Q1A1P7A2P0A3P0", 4),       # 3620 = 5 below 3621 - 1
 ])
 def test_bad_tapes_name_file_and_line(tmp_path, bad, message, line):
     for f in ("CNC-PARA.TXT", "PITCH.TXT"):
@@ -153,3 +153,28 @@ def test_a_cut_tape_is_refused(tmp_path):
     (tmp_path / "CNC-PARA.TXT").write_text("%\nN03620Q1A1P5\n")
     with pytest.raises(ControllerFileError, match="no closing %"):
         fanuc.read(tmp_path, tiny_machine(), profile())
+
+
+def test_reads_a_0i_mf_style_backup():
+    """A parameter tape laid out as a real 0i-MF backup is (tests/data/controllers/fanuc/0imf_style:
+    20 axes per line, L-fields, trailing blanks, CR LF, a B axis whose reference point is one below
+    its first pitch point): vecpin's reader gives the pitch corrections an applier written from the
+    parameter manual (tests/controller_appliers.py) gives."""
+    from controller_appliers import fanuc_pitch
+    import vecpin
+    from vecpin.export.profile import ControllerProfile
+    m = vecpin.Machine.load("snk_120v")
+    numbers = {"X": 1, "Y": 2, "Z": 3, "B": 4}
+    prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": {
+        a: {"number": n, "reference_position": 0.0, "detection_unit": 0.001} for a, n in numbers.items()}})
+    folder = DATA / "fanuc" / "0imf_style"
+    back = fanuc.read(folder, m, prof)
+    assert sorted(back.names()) == ["bb", "xx", "yy", "zz"]
+    for a, n in numbers.items():
+        t = back.table(a + a)
+        x = m.axis(a).to_user(np.linspace(t.start, t.end, 97))
+        want = fanuc_pitch(folder, n, x)
+        np.testing.assert_allclose(m.axis(a).to_user(t(m.axis(a).to_si(x))), want, atol=1e-9)
+        assert np.abs(want).max() > 0.0005
+    b = back.table("bb")
+    assert m.axis("B").to_user(b.start) == pytest.approx(0.0) and m.axis("B").to_user(b.end) == pytest.approx(360.0)

@@ -295,10 +295,11 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     dT = float(x[0])
     kind = "" if covariance_kind(model) == "full" else " (standard deviations only: the file kept no correlations)"
     if abs(dT) >= 2 * sd:
-        return f"gauge-line (T_offset) change {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} mm{kind}: applied"
+        return (f"gauge-line (T_offset) change of the full table set {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} "
+                f"mm{kind}: significant, applied (the value to enter is the one of the tables written, above)")
     problem.free_gauge = False
-    return (f"gauge-line (T_offset) change {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} mm{kind}: not significant "
-            "(below 2 standard deviations), not applied")
+    return (f"gauge-line (T_offset) change of the full table set {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} "
+            f"mm{kind}: not significant (below 2 standard deviations), not applied")
 
 
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:

@@ -416,8 +416,8 @@ def read_grids(folder: Path, machine: Machine, profile: ControllerProfile) -> li
         rotary_type = to_float(turn[0], para_path, turn[1], "parameter 3625") != 0.0
         if first == last == ref == 0:
             continue  # no table on this axis
-        if not first <= ref < last:
-            raise ControllerFileError(para_path, f"axis A{number}: needs 3621 <= 3620 < 3622, not {first}, {ref}, "
+        if not first - 1 <= ref <= last:   # ref = first - 1: the reference at the negative end (a 0i-MF B axis)
+            raise ControllerFileError(para_path, f"axis A{number}: needs 3621 - 1 <= 3620 <= 3622, not {first}, {ref}, "
                                       f"{last}", vals[3621][1])
         if mag < 1 or interval <= 0:
             raise ControllerFileError(para_path, f"axis A{number}: magnification {mag} and interval {interval:g} must "

@@ -96,7 +96,8 @@ class TableRun:
         grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
-        out.append(f"  gauge line (T_offset) change: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm")
+        out.append(f"  gauge line (T_offset) change of these tables: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm "
+                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the README says)")
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
