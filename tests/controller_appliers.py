@@ -1,6 +1,7 @@
 """Controllers simulated from their documentation: each reads vecpin's files with its own
 small parser and applies the values by the vendor's documented rule (sources in each
 function). Nothing here uses vecpin's readers."""
+import csv
 import re
 from pathlib import Path
 
@@ -89,3 +90,43 @@ def reference_shift(old_reference: float, new_reference: float | None) -> float:
     control calls the reference point ``new``; commanding q moves the axis q - new from it,
     so it goes ``old - new`` further than before."""
     return 0.0 if new_reference is None else old_reference - new_reference
+
+
+def siemens_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarray,
+                        with_refp: bool = True) -> np.ndarray:
+    """Per axis [mm or deg] at commands ``q_user`` (columns: ``axes``, NC names ``<axis>1``
+    and ``AX<k>``): its EEC, the CEC tables whose output it is, and the shift of its
+    reference point value MD34100 from ``ref`` (the old values), as a SINUMERIK applies them."""
+    out = np.zeros_like(q_user)
+    text = (folder / "NC_CEC.INI").read_text()
+    for k, a in enumerate(axes):
+        out[:, k] += siemens_eec(folder, f"{a}1", q_user[:, k])
+        if with_refp:
+            out[:, k] += reference_shift(ref[a], siemens_refp(folder, f"{a}1"))
+        for j, b in enumerate(axes):
+            if j != k and f"=(AX{j + 1})" in text:
+                try:
+                    out[:, k] += siemens_cec(folder, f"AX{j + 1}", f"AX{k + 1}", q_user[:, j])
+                except StopIteration:       # no table with this input and output
+                    pass
+    return out
+
+
+def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarray) -> np.ndarray:
+    """Per axis [mm or deg] (controlled-axis numbers 1, 2, ... in the order of ``axes``):
+    pitch data anchored at the new reference position 1240, the shift of 1240 from ``ref``,
+    and the straightness values entered as STRAIGHTNESS.CSV lists them (absolute, linear
+    between points)."""
+    out = np.zeros_like(q_user)
+    for k, a in enumerate(axes):
+        new = fanuc_param(folder, 1240, k + 1)
+        if fanuc_param(folder, 3620, k + 1) is not None:
+            out[:, k] += fanuc_pitch(folder, k + 1, q_user[:, k], ref_mm=new if new is not None else ref[a])
+        out[:, k] += reference_shift(ref[a], new)
+    with open(folder / "STRAIGHTNESS.CSV", newline="") as fh:
+        rows = [r for r in csv.DictReader(ln for ln in fh if not ln.startswith("#"))]
+    for name in sorted({r["table"] for r in rows}):
+        rs = [r for r in rows if r["table"] == name]
+        i, o = axes.index(rs[0]["moving_axis"]), axes.index(rs[0]["compensation_axis"])
+        out[:, o] += np.interp(q_user[:, i], [float(r["position"]) for r in rs], [float(r["correction"]) for r in rs])
+    return out

@@ -6,11 +6,9 @@ tool-to-rotary-centre offsets, and production_xyzbaw whose W follows the rotarie
 the true error equals that of the table set vecpin planned (within 2 %) and is far
 below the uncompensated one; without the reference point data it is worse. LinuxCNC
 is judged by the real controller (tests/test_linuxcnc_real.py)."""
-import csv
-
 import numpy as np
 import pytest
-from controller_appliers import fanuc_param, fanuc_pitch, reference_shift, siemens_cec, siemens_eec, siemens_refp
+from controller_appliers import fanuc_corrections, siemens_corrections
 from linuxcnc_sim import ControllerCommands
 
 import vecpin
@@ -54,44 +52,6 @@ def fanuc_profile(m):
         for k, a in enumerate(m.axis_names)}}, "e2e profile")
 
 
-def siemens_corrections(folder, m, q_user: np.ndarray, with_refp: bool = True) -> np.ndarray:
-    """Per axis [mm or deg]: EEC of the axis, the CEC tables whose output it is, and the
-    reference point shift of MD34100, as a SINUMERIK applies them."""
-    ref = reference_positions(m)
-    out = np.zeros_like(q_user)
-    text = (folder / "NC_CEC.INI").read_text()
-    for k, a in enumerate(m.axis_names):
-        out[:, k] += siemens_eec(folder, f"{a}1", q_user[:, k])
-        if with_refp:
-            out[:, k] += reference_shift(ref[a], siemens_refp(folder, f"{a}1"))
-        for j, b in enumerate(m.axis_names):
-            if j != k and f"=(AX{j + 1})" in text:
-                try:
-                    out[:, k] += siemens_cec(folder, f"AX{j + 1}", f"AX{k + 1}", q_user[:, j])
-                except StopIteration:       # no table with this input and output
-                    pass
-    return out
-
-
-def fanuc_corrections(folder, m, q_user: np.ndarray) -> np.ndarray:
-    """Pitch data (anchored at the new reference position 1240), the 1240 shift, and the
-    straightness values entered as written in STRAIGHTNESS.CSV (absolute, linear between points)."""
-    ref = reference_positions(m)
-    out = np.zeros_like(q_user)
-    for k, a in enumerate(m.axis_names):
-        new = fanuc_param(folder, 1240, k + 1)
-        if fanuc_param(folder, 3620, k + 1) is not None:
-            out[:, k] += fanuc_pitch(folder, k + 1, q_user[:, k], ref_mm=new if new is not None else ref[a])
-        out[:, k] += reference_shift(ref[a], new)
-    with open(folder / "STRAIGHTNESS.CSV", newline="") as fh:
-        rows = [r for r in csv.DictReader(ln for ln in fh if not ln.startswith("#"))]
-    for name in sorted({r["table"] for r in rows}):
-        rs = [r for r in rows if r["table"] == name]
-        i, o = m.axis_names.index(rs[0]["moving_axis"]), m.axis_names.index(rs[0]["compensation_axis"])
-        out[:, o] += np.interp(q_user[:, i], [float(r["position"]) for r in rs], [float(r["correction"]) for r in rs])
-    return out
-
-
 def true_error(truth, m, tables, q, tool) -> float:
     return float(norm_mm(compensated_errors(truth_as_actual(truth), m, tables, q, tool)).mean())
 
@@ -108,13 +68,14 @@ def test_the_files_as_written_give_the_machine_what_vecpin_predicts(case, contro
     applied = lambda c: ControllerCommands(q, q + np.column_stack(   # noqa: E731
         [m.axes[k].to_si(c[:, k]) for k in range(len(m.axes))]), run.plan.tables.gauge_offset_change)
     planned, uncompensated = true_error(truth, m, run.plan.tables, q, tool), true_error(truth, m, None, q, tool)
-    written = true_error(truth, m, applied(apply(tmp_path, m, q_user)), q, tool)
+    written = true_error(truth, m, applied(apply(tmp_path, m.axis_names, reference_positions(m), q_user)), q, tool)
     assert written == pytest.approx(planned, rel=0.02)
     assert written < 0.5 * uncompensated
     rows = {r.label: r for r in run.plan.report.rows}
     assert rows["files as written (model-predicted)"].mean == pytest.approx(
         [r for r in run.plan.report.rows if r.tables == len(run.plan.tables.tables)][0].mean, rel=0.02)
     if controller == "siemens-840d":             # without MD_REFP.INI the constants are lost: worse, and said
-        without = true_error(truth, m, applied(siemens_corrections(tmp_path, m, q_user, with_refp=False)), q, tool)
+        without = true_error(truth, m, applied(siemens_corrections(tmp_path, m.axis_names, reference_positions(m),
+                                                                   q_user, with_refp=False)), q, tool)
         assert without > 1.1 * written
         assert "files without the reference point data (model-predicted)" in rows
