@@ -22,6 +22,7 @@ from vecpin.units import norm_mm
 from vecpin.workflows.tables import make_tables
 
 MACHINES = ("trunnion_xyzac", "production_xyzbaw")
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module", params=MACHINES)

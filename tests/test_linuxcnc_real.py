@@ -17,7 +17,7 @@ from vecpin.export.profile import AxisProfile, ControllerProfile
 from vecpin.fileio import OutputSet
 
 WHY = lcnc.unavailable()
-pytestmark = pytest.mark.skipif(WHY is not None, reason=WHY or "")
+pytestmark = [pytest.mark.skipif(WHY is not None, reason=WHY or ""), pytest.mark.slow]
 TOL_MM = 1e-3 * 1.0   # 1 µm
 
 
