@@ -25,14 +25,6 @@ def from_mm(value_mm):
     return np.multiply(value_mm, M_PER_MM)
 
 
-def to_deg(value_rad):
-    """Radians -> degrees."""
-    return np.degrees(value_rad)
-
-
-def from_deg(value_deg):
-    """Degrees -> radians."""
-    return np.radians(value_deg)
 
 
 def norm_mm(err_m: np.ndarray) -> np.ndarray:

@@ -217,9 +217,6 @@ class TableSet:
             out["drives"] = [d.to_dict(machine) for d in self.drives]
         return out
 
-    def save_json(self, path: str | Path, machine: Machine) -> None:
-        write_text(path, json.dumps(self.to_dict(machine), indent=1))
-
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "TableSet":
         if d.get("format") != "vecpin-tables":

@@ -269,15 +269,6 @@ class Likelihood:
                 y[rows] = pc["y"]
         return y
 
-    def r_factor(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
-        """R of the QR decomposition of the whitened Jacobian J (rows stacked), accumulated
-        piece by piece (R^T R = J^T J with the numerics of QR, for the redundancy test)."""
-        R = np.zeros((0, self.n_unknowns))
-        for rows, pc in self._pieces(theta, True, False, chunk):
-            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)])
-            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
-        return R
-
     def priority(self) -> np.ndarray:
         """Column order of the redundancy test (earlier columns are kept): E_0, then the
         target offsets and nest positions, then the model parameters and the other

@@ -13,7 +13,7 @@ import numpy as np
 
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical, spherical_jacobian, wrap_angle
+from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M, M_PER_MM
 
 DEFAULT_LINEAR_SIGMA = 0.006e-3   # m, axis repeatability (Paper I measured 18 µm mean incl. the tracker)
@@ -44,24 +44,6 @@ class NoiseModel:
     def default(cls, machine: Machine, instrument: str = "cartesian", **kw) -> "NoiseModel":
         sig = np.array([DEFAULT_LINEAR_SIGMA if a.kind == "linear" else DEFAULT_ROTARY_SIGMA for a in machine.axes])
         return cls(sig, instrument, **kw)
-
-    def residuals(self, x_meas: np.ndarray, y: np.ndarray):
-        """Instrument residual r = h(x_meas) - h(y), H = d h / d y (N,3,3) and Σ_ξ (N,3,3).
-
-        x_meas, y: (N,3) measured and predicted tracker-frame positions [m].
-        """
-        N = len(y)
-        if self.instrument == "cartesian":
-            H = np.broadcast_to(np.eye(3), (N, 3, 3))
-            S = np.broadcast_to(np.eye(3) * self.cartesian_sigma**2, (N, 3, 3))
-            return x_meas - y, H, S
-        sm, sy = cartesian_to_spherical(x_meas), cartesian_to_spherical(y)
-        r = sm - sy
-        r[:, 2] = wrap_angle(r[:, 2])
-        sig = self.tracker.sigma_spherical(sm[:, 0])
-        S = np.zeros((N, 3, 3))
-        S[:, [0, 1, 2], [0, 1, 2]] = sig**2
-        return r, spherical_jacobian(y), S
 
     def to_dict(self, machine: Machine) -> dict:
         return {"axis_sigma": {a.name: float(a.to_user(s)) for a, s in zip(machine.axes, self.axis_sigma)},

@@ -99,9 +99,6 @@ class Tracker:
     def to_tracker(self, p_machine: np.ndarray) -> np.ndarray:
         return np.asarray(p_machine, float) @ self.rotation.T + self.translation
 
-    def to_machine(self, p_tracker: np.ndarray) -> np.ndarray:
-        return (np.asarray(p_tracker, float) - self.translation) @ self.rotation
-
     @property
     def position_in_machine(self) -> np.ndarray:
         """Where the tracker head stands, machine base frame [m]."""

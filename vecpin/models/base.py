@@ -112,7 +112,6 @@ class ErrorModel:
             raise InputError(f"the series order must be a whole number >= 0, not {order}")
         if not (math.isfinite(prior_scale) and prior_scale > 0):
             raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number")
-        basis = "auto" if basis == "fourier" else basis
         if basis not in ("chebyshev", "auto"):
             raise InputError("basis is 'auto' (Fourier on rotary axes travelling more than a turn) or 'chebyshev'")
         self.machine = machine

@@ -164,10 +164,6 @@ class URDFChain:
                 T = T @ errors[j.name]
         return T
 
-    def spindle_pose(self, q: np.ndarray, errors: list[np.ndarray | None] | None = None) -> np.ndarray:
-        """(N,4,4) pose of the first tool link; ``errors[k]``: transform after axis k."""
-        return self.pose(self.tool_links[0], q, self._by_axis(errors))
-
     def _by_axis(self, errors):
         if errors is None or isinstance(errors, dict):
             return errors
