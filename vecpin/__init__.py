@@ -1,9 +1,51 @@
-from vecpin.kinematics.machine import Machine, Axis, bundled_machines
-from vecpin.measurement.campaign import Campaign, read_campaign, write_campaign
-from vecpin.errors import CampaignFileError, MachineError, VecpinError
-from vecpin.models import APModel, ErrorModel, SixDofModel, make_model
-from vecpin.measurement.noise import NoiseModel
+"""vecpin: volumetric error compensation of multi-axis machine tools (Pinocchio-based).
 
-__all__ = ["Machine", "Axis", "bundled_machines", "Campaign", "read_campaign", "write_campaign",
-           "VecpinError", "MachineError", "CampaignFileError", "ErrorModel", "SixDofModel", "APModel",
-           "make_model", "NoiseModel"]
+The main path, as the command line runs it::
+
+    import vecpin
+    m = vecpin.Machine.load("flow_xyzcb")
+    campaign = vecpin.read_campaign("campaign.csv", m)
+    run = vecpin.fit(m, campaign, vecpin.NoiseModel.default(m, "spherical"))   # the data choose the model
+    tables = vecpin.plan_tables(run.model).tables                             # a TableSet
+    vecpin.make_tables(run.model, "tables", "siemens-840d", profile="profile.json")
+
+Names are imported when first used (PEP 562), so ``import vecpin`` and ``vecpin --help``
+do not load Pinocchio and SciPy until a command needs them.
+"""
+from __future__ import annotations
+
+import importlib
+
+_NAMES = {
+    "Machine": "vecpin.kinematics.machine", "Axis": "vecpin.kinematics.machine",
+    "bundled_machines": "vecpin.kinematics.machine",
+    "Campaign": "vecpin.measurement.campaign", "read_campaign": "vecpin.measurement.campaign",
+    "write_campaign": "vecpin.measurement.campaign",
+    "VecpinError": "vecpin.errors", "MachineError": "vecpin.errors", "CampaignFileError": "vecpin.errors",
+    "ErrorModel": "vecpin.models", "SixDofModel": "vecpin.models", "APModel": "vecpin.models",
+    "make_model": "vecpin.models", "NoiseModel": "vecpin.measurement.noise",
+    "fit": ("vecpin.workflows.fitting", "fit_campaign"), "simulate": "vecpin.simulation.simulate",
+    "plan_tables": "vecpin.compensation.plan", "TableSet": "vecpin.compensation.tables",
+    "make_tables": "vecpin.workflows.tables", "diagnose": "vecpin.diagnosis.diagnose",
+}
+__all__ = sorted(_NAMES) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            return version("vecpin")
+        except PackageNotFoundError:
+            return "unknown (not installed)"
+    target = _NAMES.get(name)
+    if target is None:
+        raise AttributeError(f"module 'vecpin' has no attribute '{name}'")
+    module, attr = target if isinstance(target, tuple) else (target, name)
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return __all__

@@ -7,8 +7,8 @@ import sys
 import time
 
 from vecpin.errors import InputError
-from vecpin.measurement.noise import (DEFAULT_BALLBAR_SIGMA, DEFAULT_CARTESIAN_SIGMA, DEFAULT_LINEAR_SIGMA,
-                                      DEFAULT_ROTARY_SIGMA)
+from vecpin.measurement.defaults import (DEFAULT_BALLBAR_SIGMA, DEFAULT_CARTESIAN_SIGMA, DEFAULT_LINEAR_SIGMA,
+                                         DEFAULT_ROTARY_SIGMA)
 from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M
 

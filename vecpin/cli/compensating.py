@@ -37,10 +37,10 @@ def run_sign_check(args) -> int:
 
 
 def register(sub) -> None:
-    from vecpin.export.registry import controller_names
+    from vecpin.export.names import CONTROLLERS
     s = sub.add_parser("tables", help="compensation tables of a fitted model for a controller (Paper I §3.3, Paper II)")
     s.add_argument("model", help="fitted model file (JSON)")
-    s.add_argument("--controller", default="generic", choices=controller_names(),
+    s.add_argument("--controller", default="generic", choices=CONTROLLERS,
                    help="controller whose files to write (default generic: tables.json/csv only)")
     s.add_argument("--profile", metavar="JSON",
                    help="the machine's controller profile: NC axis names, reference positions [mm/deg], modulo axes, "
@@ -89,11 +89,11 @@ def run_profile(args) -> int:
 
 def register_profile(sub) -> None:
     from vecpin.cli.common import add_machine_args
-    from vecpin.export.registry import controller_names
+    from vecpin.export.names import CONTROLLERS
     s = sub.add_parser("profile", help="write a controller profile to fill in: every field the controller's files "
                                        "need, what it is and where it is on the control")
     s.add_argument("machine", help="bundled machine name or URDF path")
-    s.add_argument("--controller", required=True, choices=controller_names(), help="the controller of the machine")
+    s.add_argument("--controller", required=True, choices=CONTROLLERS, help="the controller of the machine")
     s.add_argument("--out", required=True, help="the profile file to write (JSON); an existing file is not replaced")
     add_machine_args(s)
     s.set_defaults(func=run_profile)

@@ -36,15 +36,14 @@ def run_diagnose(args) -> int:
 
 def register(sub) -> None:
     s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
-    from vecpin.models.effects import REGISTRY
     s.add_argument("machine", help=MACHINE_HELP)
     add_machine_args(s)
     s.add_argument("csv", help=CAMPAIGN_HELP)
     s.add_argument("--out", required=True, help="output folder: diagnosis.json (mm), model_base.json, model_best.json, "
                    "report.md with figures")
     add_model_args(s)
-    s.add_argument("--effects", default="all", help=f"effects to try: all, or a comma list of {', '.join(REGISTRY)} "
-                   "(default %(default)s)")
+    s.add_argument("--effects", default="all", help="effects to try: all, or a comma list of effect names (vecpin "
+                   "simulate --help-effects lists them) (default %(default)s)")
     s.add_argument("--folds", type=int, default=5,
                    help="cross-validation folds grouped by command, for the base model and every effect (default %(default)s)")
     s.add_argument("--alpha", type=float, default=0.01,

@@ -5,7 +5,7 @@ import math
 
 from vecpin.cli.common import parse_orders, progress
 from vecpin.errors import InputError
-from vecpin.export.registry import controller_names
+from vecpin.export.names import CONTROLLERS
 
 
 def parse_exaggeration(text: str | None):
@@ -105,7 +105,7 @@ def register(sub) -> None:
                    "(default: none; the sweep then cross-validates)")
     s.add_argument("--orders", help="also run the order sweep, e.g. 0-7 or 2,4,6 (default: no sweep; slow: "
                    "one fit per order and model, five per order without --validation)")
-    s.add_argument("--controller", default="generic", choices=controller_names(),
+    s.add_argument("--controller", default="generic", choices=CONTROLLERS,
                    help="controller the tables are for (default generic: every table)")
     s.add_argument("--max-tables", type=int, help="cross tables to choose (default: the controller's limit)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")

@@ -317,7 +317,9 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
               "control's straightness (or interpolation-type straightness) parameters, as its parameter manual",
               f"describes them: the moving axis, the compensation axis, and from `{STRAIGHT_FILE}` the point",
               "numbers with the correction in detection units of the compensation axis (a 4-point control takes",
-              "four of these points: choose ones where the curve bends). Check the sign with the sign test.", ""]
+              "four of these points: choose ones where the curve bends). Check the sign with the sign test.",
+              "The rows stand at the moving axis' own pitch points: below its first point (the lowest section of",
+              "its grid) the control holds the first point's value.", ""]
         for t in cross:
             s.append(f"- {t.name}: moving axis {t.input_axis} (A{prof.axis(t.input_axis).number}), compensation axis "
                      f"{t.output_axis} (A{prof.axis(t.output_axis).number})")

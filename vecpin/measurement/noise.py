@@ -16,10 +16,8 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M, M_PER_MM
 
-DEFAULT_LINEAR_SIGMA = 0.006e-3   # m, axis repeatability (Paper I measured 18 µm mean incl. the tracker)
-DEFAULT_ROTARY_SIGMA = np.radians(0.0015)  # rad
-DEFAULT_CARTESIAN_SIGMA = 0.02e-3  # m, static tracker variance (Table 3.2 uses 25 µm)
-DEFAULT_BALLBAR_SIGMA = 2.5e-6     # m, telescoping ball bar (Table 3.2: 1e-8 in^2)
+from vecpin.measurement.defaults import (DEFAULT_BALLBAR_SIGMA, DEFAULT_CARTESIAN_SIGMA,  # noqa: F401 (re-exported)
+                                         DEFAULT_LINEAR_SIGMA, DEFAULT_ROTARY_SIGMA)
 
 
 @dataclass
