@@ -91,6 +91,8 @@ def run_evaluate(args) -> int:
     camp = read_campaign(args.csv, model.machine)
     camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
+    for w in ev.warnings:
+        print(w)
     print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
     print("\n".join(ev.lines()))

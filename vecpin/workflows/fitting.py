@@ -12,14 +12,16 @@ one table set) per zone, each recording its zone.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
-from vecpin.errors import InputError
+from vecpin.errors import InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.tableframe import table_campaign_notes
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
@@ -65,6 +67,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
+    for note in table_campaign_notes(machine, campaign):  # nest rows without a table are refused
+        warnings.warn(VecpinWarning(note), stacklevel=2)
     check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
     if not (math.isfinite(prior_scale) and prior_scale > 0):
         raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number (default 1)")
