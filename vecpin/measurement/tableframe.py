@@ -157,6 +157,23 @@ def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
                      np.sort(np.concatenate(unjudged + [missing])).astype(int), commands, dict(nests), refitted)
 
 
+def tip_noise(campaign, tips: TableTips, tracker_noise, draws: int = 10, seed: int = 0) -> np.ndarray:
+    """(N,) mean displacement [m] of each judged row's measured tip relative to the table
+    when the run's readings (tool and nests) get the tracker's noise again
+    (:class:`~vecpin.measurement.tracker.TrackerNoise`, in the tracker's spherical
+    coordinates): the noise the nest registration gives the measured tip. A model whose
+    error is below it cannot be told apart on this run."""
+    from vecpin.measurement.tracker import Tracker
+    tracker, rng = Tracker(noise=tracker_noise), np.random.default_rng(seed)
+    out = np.zeros(len(tips.rows))
+    for _ in range(draws):
+        c = campaign.subset(np.arange(len(campaign)))
+        c.xyz = tracker.add_noise(campaign.xyz, rng)
+        again = table_tips(c, tips.nests)
+        out += np.linalg.norm(again.tip - tips.tip, axis=1) if np.array_equal(again.rows, tips.rows) else np.nan
+    return out / draws
+
+
 def check_nest_rows(machine, campaign) -> None:
     """Nest rows on a machine without a table branch are refused (nothing carries them)."""
     nest = campaign.nest_rows
@@ -246,5 +263,5 @@ def _moved_nests(campaign) -> list[str]:
             "nest id"]
 
 
-__all__ = ["TableTips", "table_tips", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
+__all__ = ["TableTips", "table_tips", "tip_noise", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
            "command_keys"]

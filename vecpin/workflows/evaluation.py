@@ -7,7 +7,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips
+from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
 from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
                                              station0)
 from vecpin.models import ErrorModel
@@ -36,6 +36,7 @@ class Evaluation:
     frame: str = TRACKER_FRAME
     warnings: list[str] = field(default_factory=list)  # printed first
     notes: list[str] = field(default_factory=list)
+    noise_mm: float | None = None  # mean tracker noise of the measured tip relative to the table
 
     @property
     def reduction_pct(self) -> float:
@@ -53,7 +54,7 @@ class Evaluation:
 
     def to_dict(self) -> dict:
         return {"rows": self.rows, "reregistered": self.reregistered, "units": "mm", "frame": self.frame,
-                "warnings": self.warnings, "notes": self.notes,
+                "warnings": self.warnings, "notes": self.notes, "table_tip_noise_mean_mm": self.noise_mm,
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
 
@@ -132,6 +133,9 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
              + ("re-fitted from this run (the model's nests are not all in it, or moved)" if refitted
                 else "where the fit put them") + "; the tracker registered on them at every command, the measured, "
              "nominal and modelled tips registered rigidly (where the part sits is not observable)"]
+    noise = norm_mm(np.c_[tip_noise(campaign, tt, model.noise_.tracker), np.zeros((len(tt.rows), 2))])
+    notes.append(f"tracker noise through the nest registration: {noise.mean():.4f} mm mean at the tip relative to "
+                 "the table (the model's own noise settings; a model error below it is not resolved by this run)")
     if len(tt.unjudged):
         notes.append(f"{len(tt.unjudged)} tool row(s) not judged: fewer than three nests read at their command (first: "
                      f"row {campaign.lines[tt.unjudged[0]]})")
@@ -139,4 +143,4 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
         notes.append("--reregister: not needed relative to the table (every command registers the tracker on the nests)")
     return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
                       norm_mm(registered_errors(modelled, tt.tip)), reregister, len(campaign) - len(c), TABLE_FRAME,
-                      notes=notes)
+                      notes=notes, noise_mm=float(noise.mean()))
