@@ -8,6 +8,7 @@ relative to its table (its error functions through its error frames), the nomina
 from the hand-derived closed forms (tests/closed_forms.py), and the truth commanded
 through the tables."""
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -186,6 +187,24 @@ def test_table_campaigns_that_cannot_identify_the_table_axes_are_warned(machines
                                         nest=sim.nests["2"] + np.array([0.4e-3, 0.0, 0.0]))
     notes = table_campaign_notes(m, moved)
     assert len(notes) == 1 and notes[0].startswith(f"{c.source}: nest 2 moved at row {moved.lines[late[0]]}")
+
+
+def test_a_nest_that_moved_without_changing_its_distances_is_found_after_the_fit(machines):
+    """On the head-table machine (nests far apart) nest 1 rising 0.4 mm half-way hardly
+    changes its distances to the others; its residuals after the fit step."""
+    m = machines["head_table_bc"]
+    sim = simulate(m, seed=2, design=Design(n_commands=150, n_validation=5))
+    c = sim.campaign.subset(np.arange(len(sim.campaign)))
+    rows = c.nest_rows[c.target[c.nest_rows] == "1"]
+    late = rows[len(rows) // 2:]
+    c.xyz[late] = sim.truth.measure(c.q[late], c.tool[late], np.random.default_rng(0), None, 0,
+                                    nest=sim.nests["1"] + np.array([0.0, 0.0, 0.4e-3]))
+    assert table_campaign_notes(m, c) == []
+    assert [w for w in _fit_warnings(m, c) if f"nest 1 moved at row {c.lines[late[0]]}: from there its residuals" in w]
+    with warnings.catch_warnings(record=True) as rec:  # the same campaign before the move: no word
+        warnings.simplefilter("always")
+        fit_campaign(m, sim.campaign, NoiseModel.default(m, "spherical"), kind="6dof", basis="chebyshev", order=2)
+    assert not [r for r in rec if "moved" in str(r.message)]
 
 
 def test_nest_rows_on_a_machine_without_a_table_are_refused(flow, tmp_path, capsys):

@@ -175,7 +175,8 @@ def register(sub) -> None:
     add_noise_args(s)
     s.set_defaults(func=run_fit)
 
-    s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV")
+    s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV (on a table machine with nest "
+                       "rows: the tool tip relative to the table)")
     s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
     s.add_argument("csv", help=CAMPAIGN_HELP + "; measured from the model's tracker pose unless --reregister")
     s.add_argument("--json", help="also write the figures (mm) to this JSON file (default: print only)")

@@ -15,7 +15,8 @@ sits is not observable and does not matter, as for the simulated truth).
 The checks a table campaign needs before a fit (:func:`table_campaign_notes`): nest rows
 at all, at least three nests, not on a line, and nests that stayed put (the distances
 between nests read at the same command do not depend on the machine's errors: a table
-is rigid, so a step in them is a nest that moved).
+is rigid, so a step in them is a nest that moved); after the fit, a step in one nest's
+residuals (:func:`moved_nest_after_fit`) finds the moves that hardly change a distance.
 """
 from __future__ import annotations
 
@@ -211,6 +212,42 @@ def table_campaign_notes(machine, campaign) -> list[str]:
     return out
 
 
+def _step(series: np.ndarray) -> tuple[int, np.ndarray, float]:
+    """The best single step in a series (m, k) of vectors: (first row after it, mean after
+    minus mean before, robust noise of one value about the two means)."""
+    m = len(series)
+    cut = np.arange(max(2, m // 10), m - max(2, m // 10))
+    c = np.cumsum(series, axis=0)
+    step = (c[-1] - c[cut - 1]) / (m - cut)[:, None] - c[cut - 1] / cut[:, None]  # mean after minus before
+    k = int(cut[np.argmax(np.linalg.norm(step, axis=1) * np.sqrt(cut * (m - cut)))])
+    rest = np.r_[series[:k] - series[:k].mean(axis=0), series[k:] - series[k:].mean(axis=0)]
+    return k, series[k:].mean(axis=0) - series[:k].mean(axis=0), 1.4826 * float(np.median(np.abs(rest)))
+
+
+def moved_nest_after_fit(campaign, residual: np.ndarray) -> list[str]:
+    """A note on the nest whose residuals after the fit (``residual`` (N,3) [m], measured
+    minus modelled, every row) step during the campaign by more than :data:`MOVED_NEST_MM`
+    and ten standard errors, twice as much as any other nest's (a drift moves them all):
+    the moves the distances between nests do not show (:func:`table_campaign_notes`)."""
+    found = []
+    for j in sorted(set(campaign.target[campaign.nest_rows].tolist())):
+        rows = np.sort(campaign.nest_rows[campaign.target[campaign.nest_rows] == j])
+        if len(rows) < 20:
+            continue
+        k, change, noise = _step(residual[rows])
+        size = float(np.linalg.norm(change))
+        found.append((size / max(noise * np.sqrt(1 / k + 1 / (len(rows) - k)), 1e-12), size, j, rows[k]))
+    found.sort(reverse=True)
+    if not found or found[0][1] * MM_PER_M <= MOVED_NEST_MM or found[0][0] < 10:
+        return []
+    if len(found) > 1 and found[0][1] < 2 * found[1][1]:
+        return []
+    _, size, j, row = found[0]
+    return [f"{campaign.source}: nest {j} moved at row {campaign.lines[row]}: from there its residuals after the fit "
+            f"step by {size * MM_PER_M:.3f} mm; a nest must stay put for the whole campaign: re-seat it and measure "
+            "again, or give the rows after the move another nest id"]
+
+
 def _on_a_line(points: np.ndarray) -> bool:
     """Points whose spread across their line is under :data:`LINE_SHARE` of their spread along it."""
     sv = np.linalg.svd(points - points.mean(0), compute_uv=False)
@@ -235,22 +272,14 @@ def _moved_nests(campaign) -> list[str]:
             d = [np.linalg.norm(campaign.xyz[tgt[j]] - campaign.xyz[tgt[i]]) if i in tgt else np.nan for i in others]
             series.append(d)
             rows.append(tgt[j])
-        if len(series) < 8:
+        if len(series) < 20:
             continue
         order = np.argsort(rows)
         D, rows = np.array(series)[order], np.array(rows)[order]
         D = np.nan_to_num(D - np.nanmedian(D, axis=0))  # change of this nest's distance to each other nest
         m = len(D)
-        cut = np.arange(max(2, m // 10), m - max(2, m // 10))
-        if not cut.size:
-            continue
-        c = np.cumsum(D, axis=0)
-        step = (c[-1] - c[cut - 1]) / (m - cut)[:, None] - c[cut - 1] / cut[:, None]  # mean after minus before
-        k = int(cut[np.argmax(np.linalg.norm(step, axis=1) * np.sqrt(cut * (m - cut)))])
-        change = D[k:].mean(axis=0) - D[:k].mean(axis=0)
+        k, change, noise = _step(D)
         jump = float(np.linalg.norm(change))
-        rest = np.r_[D[:k] - D[:k].mean(axis=0), D[k:] - D[k:].mean(axis=0)]
-        noise = 1.4826 * float(np.median(np.abs(rest)))
         if jump * MM_PER_M > MOVED_NEST_MM and jump > 8 * noise * np.sqrt(1 / k + 1 / (m - k)):
             out.append((jump, j, int(campaign.lines[rows[k]]), noise))
     if not out:
@@ -263,5 +292,5 @@ def _moved_nests(campaign) -> list[str]:
             "nest id"]
 
 
-__all__ = ["TableTips", "table_tips", "tip_noise", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
+__all__ = ["TableTips", "table_tips", "tip_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
            "command_keys"]
