@@ -33,7 +33,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.errors import InputError
 from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
-from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips
+from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 from vecpin.units import M_PER_MM, norm_mm
@@ -172,6 +172,11 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
                                                           "where the model's fit put them") + "; registered rigidly)")
         measured = [norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip))
                     for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
+        from vecpin.measurement.tracker import TrackerNoise
+        tn = model.noise_.tracker if model is not None else TrackerNoise()
+        notes.append(f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], tn)):.4f} "
+                     "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
+                     " tracker noise): the measured figures carry it")
     else:
         measured = [run_distances(machine, b), run_distances(machine, a, dT)]
         if machine.has_workpiece:
