@@ -108,14 +108,14 @@ def test_the_all_table_machine_end_to_end(tmp_path, capsys):
     assert main(["fit", "xyzac_trt", str(s / "campaign.csv"), "--spherical", "--model", "6dof", "--order", "4",
                  "--out", str(s / "model.json"), "--quiet"]) == 0
     capsys.readouterr()
-    m = read_campaign(s / "validation_truth.csv", ErrorModel.load(s / "model.json").machine)
     model = ErrorModel.load(s / "model.json")
+    run = read_campaign(s / "validation_truth.csv", model.machine)
     truth = TrueMachine.load(s / "truth.json", model.machine)
     assert main(["evaluate", str(s / "model.json"), str(s / "validation_truth.csv"), "--json", str(s / "e.json")]) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[1] == f"  frame: {TABLE_FRAME}"
     js = json.loads((s / "e.json").read_text())
-    unc, mod = _truth_errors(truth, model, m)
+    unc, mod = _truth_errors(truth, model, run)
     assert js["uncompensated"]["all"]["mean"] == pytest.approx(unc, rel=0.1)
     assert js["model_residual"]["all"]["mean"] == pytest.approx(mod, rel=0.1)
     assert mod < 0.1 * unc

@@ -42,7 +42,9 @@ class SimulationRun:
                 if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "
                 f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
-               f"{len(sim.validation)} validation rows",
+               f"{len(sim.validation)} validation rows" + (f" ({len(sim.validation.tracker_rows)} commands, each at "
+                                                           f"the tool and at {len(sim.nests)} nests)"
+                                                           if len(sim.validation.nest_rows) else ""),
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
