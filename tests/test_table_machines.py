@@ -216,3 +216,22 @@ def test_nest_rows_on_a_machine_without_a_table_are_refused(flow, tmp_path, caps
     assert main(["fit", "flow_xyzcb", str(tmp_path / "n.csv"), "--out", str(tmp_path / "m.json")]) == 2
     err = capsys.readouterr().err
     assert "row 6" in err and "instrument" in err and "no table branch" in err
+
+
+def test_batched_kabsch_is_the_rigid_registration(rng):
+    """Many registrations at once (the nests of every command) give what one
+    scipy-based registration gives each, and recover a known rotation and shift."""
+    from scipy.spatial.transform import Rotation
+
+    from vecpin.measurement.registration import register
+    from vecpin.measurement.tableframe import kabsch
+    P = rng.normal(size=(4, 3)) * 0.1
+    R_true = Rotation.random(6, random_state=1).as_matrix()
+    t_true = rng.normal(size=(6, 3))
+    Q = np.einsum("gij,kj->gki", R_true, P) + t_true[:, None] + rng.normal(size=(6, 4, 3)) * 1e-6
+    R, t = kabsch(P, Q)
+    for g in range(6):
+        R1, t1 = register(P, Q[g])
+        np.testing.assert_allclose(R[g], R1, atol=1e-12)
+        np.testing.assert_allclose(t[g], t1, atol=1e-12)
+        np.testing.assert_allclose(R[g], R_true[g], atol=1e-4)

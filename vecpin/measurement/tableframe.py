@@ -71,8 +71,32 @@ def _groups(campaign, nest_ids=None):
         t, n = g[tool[g]], g[nest[g]]
         if len(n):
             _, first = np.unique(campaign.target[n], return_index=True)
-            out.append((t, n[np.sort(first)]))  # one reading per nest
+            out.append((t, n[first]))  # one reading per nest, in the order of the nest ids
     return out
+
+
+def _by_nests(campaign, groups) -> dict:
+    """{nest ids read: ([tool rows of each command], nest rows (G,k))}: the commands that
+    read the same nests, stacked."""
+    out = {}
+    for t, n in groups:
+        tools, nests = out.setdefault(tuple(str(x) for x in campaign.target[n]), ([], []))
+        tools.append(t)
+        nests.append(n)
+    return {ids: (tools, np.array(nests)) for ids, (tools, nests) in out.items()}
+
+
+def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(R (G,3,3), t (G,3)) minimising |R P_g + t - Q_g| for each g: P (k,3) or (G,k,3),
+    Q (G,k,3) [m] (:func:`~vecpin.measurement.registration.register`, many at once)."""
+    P = np.broadcast_to(P, Q.shape)
+    cp, cq = P.mean(axis=1), Q.mean(axis=1)
+    H = np.einsum("gki,gkj->gij", P - cp[:, None], Q - cq[:, None])
+    U, _, Vt = np.linalg.svd(H)
+    D = np.ones((len(Q), 3))
+    D[:, 2] = np.sign(np.linalg.det(np.swapaxes(Vt, 1, 2) @ np.swapaxes(U, 1, 2)))
+    R = np.swapaxes(Vt, 1, 2) @ (D[:, :, None] * np.swapaxes(U, 1, 2))
+    return R, cq - np.einsum("gij,gj->gi", R, cp)
 
 
 def nest_shape(campaign, start: dict | None = None, iterations: int = 20) -> dict:
@@ -80,26 +104,28 @@ def nest_shape(campaign, start: dict | None = None, iterations: int = 20) -> dic
     (generalised Procrustes: every command's nest readings registered on the mean shape,
     which is then their mean), starting from ``start`` (e.g. the fitted nests) or from the
     command with the most nests read."""
-    groups = [(t, n) for t, n in _groups(campaign) if len(n) >= MIN_NESTS and spans_plane(campaign.xyz[n])]
-    if not groups:
+    batches = {ids: b for ids, b in _by_nests(campaign, _groups(campaign)).items()
+               if len(ids) >= MIN_NESTS and spans_plane(campaign.xyz[b[1][0]])}
+    if not batches:
         return {}
-    ids = sorted(set(campaign.target[campaign.nest_rows].tolist()))
-    if start and all(i in start for i in ids):
-        shape = {i: np.asarray(start[i], float) for i in ids}
+    ids_all = sorted({i for ids in batches for i in ids})
+    if start and all(i in start for i in ids_all):
+        shape = {i: np.asarray(start[i], float) for i in ids_all}
     else:
-        n0 = max(groups, key=lambda g: len(g[1]))[1]
-        shape = {str(campaign.target[r]): campaign.xyz[r] for r in n0}
+        ids0 = max(batches, key=len)
+        shape = dict(zip(ids0, campaign.xyz[batches[ids0][1][0]]))
     for _ in range(iterations):
-        acc = {i: [] for i in ids}
-        for _, n in groups:
-            known = [r for r in n if str(campaign.target[r]) in shape]
-            if len(known) < MIN_NESTS:
+        total, count = {}, {}
+        for ids, (_, rows) in batches.items():
+            if any(i not in shape for i in ids):
                 continue
-            P = np.array([shape[str(campaign.target[r])] for r in known])
-            R, t = register(P, campaign.xyz[known])
-            for r in n:
-                acc[str(campaign.target[r])].append(R.T @ (campaign.xyz[r] - t))
-        new = {i: np.mean(v, axis=0) for i, v in acc.items() if v}
+            Q = campaign.xyz[rows]
+            R, t = kabsch(np.array([shape[i] for i in ids]), Q)
+            local = np.einsum("gji,gkj->gki", R, Q - t[:, None])  # R^T (Q - t): each reading on the table
+            for a, i in enumerate(ids):
+                total[i] = total.get(i, 0.0) + local[:, a].sum(axis=0)
+                count[i] = count.get(i, 0) + len(rows)
+        new = {i: total[i] / count[i] for i in total}
         change = max((np.abs(new[i] - shape[i]).max() for i in new if i in shape), default=np.inf)
         shape = new
         if change < 1e-10:
@@ -140,16 +166,18 @@ def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
     """The tool rows of ``campaign`` in the workpiece frame of ``nests`` (see the module
     text): each command's table pose registered on the nests read at it."""
     rows, tips, unjudged, commands = [], [], [], 0
-    for t, n in _groups(campaign, nests):
-        if not len(t):
+    groups = [(t, n) for t, n in _groups(campaign, nests) if len(t)]
+    for ids, (tools, nest_rows) in _by_nests(campaign, groups).items():
+        P = np.array([nests[i] for i in ids])
+        if len(ids) < MIN_NESTS or not spans_plane(P):
+            unjudged += tools
             continue
-        if len(n) < MIN_NESTS or not spans_plane(np.array([nests[str(campaign.target[r])] for r in n])):
-            unjudged.append(t)
-            continue
-        R, tr = register(np.array([nests[str(campaign.target[r])] for r in n]), campaign.xyz[n])
-        rows.append(t)
-        tips.append((campaign.xyz[t] - tr) @ R)
-        commands += 1
+        R, tr = kabsch(P, campaign.xyz[nest_rows])
+        g = np.repeat(np.arange(len(tools)), [len(t) for t in tools])  # each tool row's command
+        t_rows = np.concatenate(tools)
+        rows.append(t_rows)
+        tips.append(np.einsum("gji,gj->gi", R[g], campaign.xyz[t_rows] - tr[g]))
+        commands += len(tools)
     tool = np.flatnonzero(campaign.instrument == "tracker")
     missing = np.setdiff1d(tool, np.concatenate(rows + unjudged) if rows or unjudged else np.zeros(0, int))
     rows_a = np.concatenate(rows) if rows else np.zeros(0, int)
