@@ -11,7 +11,7 @@ from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_ti
 from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
                                              station0)
 from vecpin.models import ErrorModel
-from vecpin.units import norm_mm
+from vecpin.units import MM_PER_M, norm_mm
 from vecpin.measurement.stats import distance_stats
 from vecpin.workflows.summary import per_tool_table
 
@@ -133,7 +133,7 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
              + ("re-fitted from this run (the model's nests are not all in it, or moved)" if refitted
                 else "where the fit put them") + "; the tracker registered on them at every command, the measured, "
              "nominal and modelled tips registered rigidly (where the part sits is not observable)"]
-    noise = norm_mm(np.c_[tip_noise(campaign, tt, model.noise_.tracker), np.zeros((len(tt.rows), 2))])
+    noise = tip_noise(campaign, tt, model.noise_.tracker) * MM_PER_M
     notes.append(f"tracker noise through the nest registration: {noise.mean():.4f} mm mean at the tip relative to "
                  "the table (the model's own noise settings; a model error below it is not resolved by this run)")
     if len(tt.unjudged):
