@@ -110,6 +110,23 @@ def trunnion_xyzac_workpiece(q):
     return homogeneous(RA @ rot("z", C), hA - RA @ hA)
 
 
+# ---------------------------------------------------------------- all-table XYZAC (ASSUMED, LinuxCNC xyzac-trt-like)
+# spindle fixed: tip_base = (0, 0, H - t), H = 0.700; table: T_bw = T(-X, -Y, -Z) Tz(hA) Rx(A) Tz(-hA) Rz(C),
+# hA = 0.100 (joint axes -x, -y, -z); tip_wp = R_bw^T (tip_base - o_bw)
+def xyzac_trt_workpiece(q):
+    X, Y, Z, A, C = _cols(q, 5)
+    hA = np.array([0, 0, 0.100])
+    RA = rot("x", A)
+    return homogeneous(RA @ rot("z", C), -np.stack([X, Y, Z], 1) + hA - RA @ hA)
+
+
+def xyzac_trt(q, t):
+    T = xyzac_trt_workpiece(q)
+    tip = np.zeros((len(T), 3))
+    tip[:, 2] = 0.700 - np.asarray(t, float)
+    return np.einsum("pji,pj->pi", T[:, :3, :3], tip - T[:, :3, 3])
+
+
 # ---------------------------------------------------------------- trunnion XYZBC (ASSUMED)
 # T_bw = Tz(hB) Ry(B) T(cx, 0, -hB) Rz(C), hB = 0.080, cx = 0.002; H = 0.720
 # r = tip_base - (0,0,hB); u = Ry(-B) r - (cx, 0, -hB); tip_wp = Rz(-C) u
@@ -188,5 +205,6 @@ MACHINES = {
     "trunnion_xyzac": ({0: trunnion_xyzac}, trunnion_xyzac_workpiece),
     "trunnion_xyzbc": ({0: trunnion_xyzbc}, trunnion_xyzbc_workpiece),
     "head_table_bc": ({0: head_table_bc}, head_table_bc_workpiece),
+    "xyzac_trt": ({0: xyzac_trt}, xyzac_trt_workpiece),
     "ur5": ({0: ur5_dh}, None),
 }

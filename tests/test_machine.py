@@ -15,7 +15,7 @@ from closed_forms import homogeneous, rot, ur5_dh, ur5_planar
 from vecpin.kinematics.machine import bundled_machines
 from vecpin.simulation.truth import uniform_commands
 
-TWO_BRANCH = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc"]
+TWO_BRANCH = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc", "xyzac_trt"]
 #: tool direction in the tool link frame, from each URDF's header (not from vecpin)
 TOOL_AXIS = {name: np.array([0.0, 0.0, 1.0 if name == "ur5" else -1.0]) for name in CLOSED_FORMS}
 

@@ -91,6 +91,8 @@ def run_evaluate(args) -> int:
     camp = read_campaign(args.csv, model.machine)
     camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
+    for w in ev.warnings:
+        print(w)
     print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
     print("\n".join(ev.lines()))
@@ -173,7 +175,8 @@ def register(sub) -> None:
     add_noise_args(s)
     s.set_defaults(func=run_fit)
 
-    s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV")
+    s = sub.add_parser("evaluate", help="residuals of a fitted model on a campaign CSV (on a table machine with nest "
+                       "rows: the tool tip relative to the table)")
     s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
     s.add_argument("csv", help=CAMPAIGN_HELP + "; measured from the model's tracker pose unless --reregister")
     s.add_argument("--json", help="also write the figures (mm) to this JSON file (default: print only)")

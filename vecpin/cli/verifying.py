@@ -84,7 +84,8 @@ def register(sub) -> None:
     s.set_defaults(func=run_assess)
 
     s = sub.add_parser("verify", help="uncompensated and compensated validation runs side by side (Paper I Table 3, "
-                       "Fig. 11), with the model's prediction")
+                       "Fig. 11), with the model's prediction (on a table machine whose runs read the table nests: the "
+                       "tip relative to the table)")
     s.add_argument("before", help="validation run of the machine WITHOUT the tables (campaign CSV)")
     s.add_argument("after", help="validation run WITH the tables active (campaign CSV; commands as programmed)")
     s.add_argument("--machine", help="bundled machine name or URDF path (default: the model's machine)")

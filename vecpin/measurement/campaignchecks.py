@@ -125,7 +125,8 @@ def check_xyz_range(name: str, xyz_mm: np.ndarray, rows: np.ndarray) -> None:
 
 
 def check_xyz_units(name: str, xyz_mm: np.ndarray, q_user: np.ndarray, machine: Machine) -> None:
-    lin = [j for j, a in enumerate(machine.axes) if a.kind == "linear"]
+    # the slides that move the tool in the base frame (a table's slides move the part, not the tool)
+    lin = [j for j, a in enumerate(machine.axes) if a.kind == "linear" and a.side == "head"]
     if not lin or len(xyz_mm) < 10:
         return
     cmd_span = float(np.linalg.norm(np.ptp(q_user[:, lin], axis=0)))

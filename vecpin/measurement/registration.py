@@ -56,6 +56,15 @@ _UNIT_SCALES = {25.4: "x, y, z in inches while the commands are mm (or the comma
 RESIDUAL_LIMIT = 0.02  # m: no machine worth measuring is this far from its nominal kinematics after registration
 
 
+def spans_plane(points: np.ndarray) -> bool:
+    """True when the points (N,3) span more than a line (a rigid registration is defined)."""
+    P = np.asarray(points, float)
+    if len(P) < 3:
+        return False
+    sv = np.linalg.svd(P - P.mean(0), compute_uv=False)
+    return bool(sv[0] >= 1e-6 and sv[1] > 1e-9 * sv[0])
+
+
 def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str = "campaign",
                        rows: np.ndarray | None = None) -> None:
     """Refuse a campaign whose measured points cannot be the nominal tool tips seen by a
@@ -69,8 +78,7 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         return
     cp, cq = P.mean(0), Q.mean(0)
     A, B = P - cp, Q - cq
-    sv = np.linalg.svd(A, compute_uv=False)
-    if sv[1] <= 1e-9 * max(sv[0], 1e-300) or sv[0] < 1e-6:
+    if not spans_plane(P):
         raise CampaignFileError(source, "the commanded tool tips lie on a line (or at one point), so the tracker "
                                 "frame cannot be registered; measure commands spread over the travel")
     sa = np.sqrt((A**2).sum() / len(A))
@@ -127,6 +135,8 @@ def check_campaign_frames(machine, campaign) -> None:
     nominal = machine.tool_tip(campaign.q[trk], campaign.tool[trk], frame="base", point=campaign.point[trk])
     for s in np.unique(campaign.station[trk]):
         sel = campaign.station[trk] == s
+        if len(campaign.nest_rows) and not spans_plane(nominal[sel]):
+            continue  # the tool stands still (every axis moves the table): the nest rows place the tracker
         check_registration(nominal[sel], campaign.xyz[trk][sel], campaign.source, campaign.lines[trk][sel])
 
 

@@ -9,7 +9,7 @@ Fig. 6) remove commands. A seeded RNG makes the same files for the same seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -165,6 +165,9 @@ class Rows:
         return cls(q, np.asarray(tool, float), np.broadcast_to(point, (n,)).astype(int), np.full(n, "", dtype=object),
                    np.full(n, "tracker", dtype=object), np.zeros((n, 3)), np.zeros((n, 3)))
 
+    def take(self, idx) -> "Rows":
+        return Rows(*(a[idx] for a in self.__dict__.values()))
+
     def __add__(self, other: "Rows") -> "Rows":
         return Rows(*(np.concatenate([a, b]) for a, b in zip(self.__dict__.values(), other.__dict__.values())))
 
@@ -199,11 +202,24 @@ def design_rows(machine: Machine, design: Design, q: np.ndarray, tools: np.ndarr
                 r = Rows.tips(q, np.full(len(q), t), p)
                 rows = r if rows is None else rows + r
     nests = nest_positions(machine, design.n_nests(machine), seed)
+    return _and_nests(rows, q, tools[0], nests), nests, targets
+
+
+def _and_nests(rows: Rows, q: np.ndarray, tool: float, nests: dict) -> Rows:
+    """``rows``, then every command q at every table nest {id: (3,) [m], workpiece frame}."""
     for nid, pos in nests.items():
-        r = Rows.tips(q, np.full(len(q), tools[0]))
+        r = Rows.tips(q, np.full(len(q), tool))
         r.instrument[:], r.target[:], r.nest[:] = "nest", nid, pos
         rows = rows + r
-    return rows, nests, targets
+    return rows
+
+
+def validation_rows(q: np.ndarray, tool: float, nests: dict) -> Rows:
+    """The validation run: at every command the tool (tool length ``tool`` [m]), then every
+    table nest {id: (3,) [m], workpiece frame}, the table standing still between them: the
+    rows that judge the tip relative to the table (:mod:`vecpin.measurement.tableframe`)."""
+    rows = _and_nests(Rows.tips(q, np.full(len(q), tool)), q, tool, nests)
+    return rows.take(np.arange(len(rows.q)).reshape(1 + len(nests), len(q)).T.ravel())  # command by command
 
 
 def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
@@ -439,26 +455,27 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     if design.stations > 1 or design.ballbar_points:
         campaign = _more_instruments(campaign, rows, truth, design, rng, seed)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
-    tv = np.full(len(qv), tools[0])
-    times_v = measurement_times(qv, machine, design, start=t[-1] + 600.0)
+    vrows = validation_rows(qv, tools[0], nests)
+    qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
+    times_v = measurement_times(qa, machine, design, start=t[-1] + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
-    feats_v = Features.from_campaign(Campaign(machine.axis_names, qv, tv, np.zeros((len(qv), 3)), extra_v))
+    feats_v = Features.from_campaign(Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v))
     clean = [e for e in truth.effects if not e.flags_rows]
     all_effects, truth.effects = truth.effects, clean
-    validation = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, rng, feats_v), extra_v,
-                          f"simulated seed {seed}, validation")
-    exact = Campaign(machine.axis_names, qv, tv, truth.measure(qv, tv, None, feats_v), dict(extra_v),
-                     f"simulated seed {seed}, noise-free")
+
+    def run(rows, extra, feats, noise, what):
+        return Campaign(machine.axis_names, qa, tv, rows.measure(truth, noise, feats), dict(extra),
+                        f"simulated seed {seed}, {what}", rows.instrument.copy(), target=rows.target.copy())
+    validation = run(vrows, extra_v, feats_v, rng, "validation")
+    exact = run(vrows, extra_v, feats_v, None, "noise-free")
     comp = comp_exact = None
     if tables is not None:  # after everything else: the other outputs do not change
-        qc = tables.apply(qv)
+        crows = replace(vrows, q=tables.apply(qa))  # the table moves through the tables too (nest rows)
         truth.effects = clean + [_DriveTurn(tables, machine)] if tables.drives else clean
-        times_c = measurement_times(qv, machine, design, start=times_v[-1] + 600.0)
+        times_c = measurement_times(qa, machine, design, start=times_v[-1] + 600.0)
         extra_c = {"time": times_c, "temperature": workshop_temperature(times_c, rng)}
-        feats_c = Features.from_campaign(Campaign(machine.axis_names, qc, tv, np.zeros((len(qv), 3)), extra_c))
-        comp = Campaign(machine.axis_names, qv, tv, truth.measure(qc, tv, rng, feats_c), extra_c,
-                        f"simulated seed {seed}, validation with the tables")
-        comp_exact = Campaign(machine.axis_names, qv, tv, truth.measure(qc, tv, None, feats_c), dict(extra_c),
-                              f"simulated seed {seed}, validation with the tables, noise-free")
+        feats_c = Features.from_campaign(Campaign(machine.axis_names, crows.q, tv, np.zeros((len(qa), 3)), extra_c))
+        comp = run(crows, extra_c, feats_c, rng, "validation with the tables")
+        comp_exact = run(crows, extra_c, feats_c, None, "validation with the tables, noise-free")
     truth.effects = all_effects
     return Simulation(truth, campaign, validation, exact, comp, comp_exact, nests, targets)

@@ -1,22 +1,31 @@
 """A fitted model judged on a campaign: uncompensated and model residual distances."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import check_registration, check_same_pose, registered_errors, station0
+from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
+from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
+                                             station0)
 from vecpin.models import ErrorModel
-from vecpin.units import norm_mm
+from vecpin.units import MM_PER_M, norm_mm
 from vecpin.measurement.stats import distance_stats
 from vecpin.workflows.summary import per_tool_table
 
 
+TRACKER_FRAME = "the tool tip in the tracker frame"
+TABLE_FRAME = "the tool tip relative to the table (workpiece frame, seen from the nests)"
+
+
 @dataclass
 class Evaluation:
-    """Distances [mm] per row of the judged campaign (station 0's tracker rows):
-    measured minus nominal (``uncompensated``) and measured minus model (``residual``)."""
+    """Distances [mm] per row of the judged campaign: measured minus nominal
+    (``uncompensated``) and measured minus model (``residual``), in ``frame``: station 0's
+    tracker rows in the tracker frame, or on a table machine with nest rows the tool rows
+    relative to the table (each command's table pose from its nests, registered)."""
 
     rows: int
     tool: np.ndarray
@@ -24,22 +33,28 @@ class Evaluation:
     residual: np.ndarray
     reregistered: bool
     other_rows: int  # rows of other stations or instruments, not judged
+    frame: str = TRACKER_FRAME
+    warnings: list[str] = field(default_factory=list)  # printed first
+    notes: list[str] = field(default_factory=list)
+    noise_mm: float | None = None  # mean tracker noise of the measured tip relative to the table
 
     @property
     def reduction_pct(self) -> float:
         return 100.0 * (1 - self.residual.mean() / self.uncompensated.mean())
 
     def lines(self) -> list[str]:
-        out = per_tool_table([("uncompensated (nominal kinematics)", self.uncompensated), ("model", self.residual)],
-                             self.tool)
+        out = [f"  frame: {self.frame}"]
+        out += per_tool_table([("uncompensated (nominal kinematics)", self.uncompensated), ("model", self.residual)],
+                              self.tool)
         out.append(f"  reduction of the mean: {self.reduction_pct:.1f}%")
-        if self.other_rows:
-            out.append(f"  (station 0 tracker rows; the file has {self.other_rows} more rows of other stations "
-                       "or the ball bar)")
-        return out
+        if self.other_rows and self.frame == TRACKER_FRAME:
+            out.append(f"  (station 0 tracker rows; the file has {self.other_rows} more rows of other stations, "
+                       "nests or the ball bar)")
+        return out + [f"  note: {n}" for n in self.notes]
 
     def to_dict(self) -> dict:
-        return {"rows": self.rows, "reregistered": self.reregistered, "units": "mm",
+        return {"rows": self.rows, "reregistered": self.reregistered, "units": "mm", "frame": self.frame,
+                "warnings": self.warnings, "notes": self.notes, "table_tip_noise_mean_mm": self.noise_mm,
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
 
@@ -54,6 +69,26 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     if zone:
         from vecpin.workflows.fitting import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
+    check_nest_rows(model.machine, campaign)
+    if model.machine.has_workpiece and len(campaign.nest_rows):
+        return _relative_to_table(model, campaign, reregister)
+    if model.machine.has_workpiece:
+        c = station0(campaign)
+        if not spans_plane(model.machine.tool_tip(c.q, c.tool, frame="base", point=c.point)):
+            raise CampaignFileError(campaign.source, f"no nest rows, and the tool of '{model.machine.name}' stands still "
+                                    "in the base frame (every axis moves the table): nothing is seen at the tool; read "
+                                    "reflectors in three or more table nests at each command", column="instrument")
+    ev = _at_the_tool(model, campaign, reregister, model_source)
+    if model.machine.has_workpiece:
+        ev.warnings.append(f"warning: {campaign.source} has no nest rows: judged at the tool tip, which the table axes "
+                           f"({', '.join(model.machine.table_axes)}) do not move, so their errors are not seen; read "
+                           "reflectors in three or more table nests at each command to judge the tip relative to the "
+                           "table")
+    return ev
+
+
+def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_source: str) -> Evaluation:
+    """Station 0's tracker rows in the tracker frame (module :func:`evaluate`)."""
     c = station0(campaign)
     if c.plain:
         nominal = model.machine.tool_tip(c.q, c.tool, frame="base")
@@ -69,3 +104,43 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
         d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))
+
+
+def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) -> Evaluation:
+    """The tool rows relative to the table: each command's table pose registered on its
+    nests (the fitted nests, or re-fitted from the run), the measured tip against the
+    nominal and the modelled tip relative to the workpiece, each after the best rigid
+    registration (:mod:`vecpin.measurement.tableframe`)."""
+    m = model.machine
+    nests, refitted = table_nests([campaign], dict(model.setup_.nests))
+    tt = table_tips(campaign, nests, refitted)
+    if not len(tt.rows):
+        raise CampaignFileError(campaign.source, "no command has tool rows and three or more nests (not on a line) read "
+                                "at the same command and station, so the tip relative to the table cannot be measured; "
+                                "read the nests at the commands of the tool rows", column="instrument")
+    c = campaign.subset(tt.rows)
+    offset = None
+    if np.any(c.target != ""):
+        offset = np.array([model.setup_.targets.get(str(t), np.zeros(3)) for t in c.target])
+    feats = None
+    if model.effects:
+        from vecpin.measurement.features import Features
+        feats = Features.from_campaign(campaign).subset(tt.rows)
+    where = {"frame": "workpiece", "point": c.point, "offset": offset}
+    nominal = m.tool_tip(c.q, c.tool, **where)
+    modelled = model.tool_tip(c.q, c.tool, model.b_, jacobian=False, features=feats, **where).tip
+    notes = [f"{tt.commands} commands judged; nests {', '.join(sorted(nests))} "
+             + ("re-fitted from this run (the model's nests are not all in it, or moved)" if refitted
+                else "where the fit put them") + "; the tracker registered on them at every command, the measured, "
+             "nominal and modelled tips registered rigidly (where the part sits is not observable)"]
+    noise = tip_noise(campaign, tt, model.noise_.tracker) * MM_PER_M
+    notes.append(f"tracker noise through the nest registration: {noise.mean():.4f} mm mean at the tip relative to "
+                 "the table (the model's own noise settings; a model error below it is not resolved by this run)")
+    if len(tt.unjudged):
+        notes.append(f"{len(tt.unjudged)} tool row(s) not judged: fewer than three nests read at their command (first: "
+                     f"row {campaign.lines[tt.unjudged[0]]})")
+    if reregister:
+        notes.append("--reregister: not needed relative to the table (every command registers the tracker on the nests)")
+    return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
+                      norm_mm(registered_errors(modelled, tt.tip)), reregister, len(campaign) - len(c), TABLE_FRAME,
+                      notes=notes, noise_mm=float(noise.mean()))

@@ -12,14 +12,16 @@ one table set) per zone, each recording its zone.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
-from vecpin.errors import InputError
+from vecpin.errors import InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
@@ -65,6 +67,9 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
+    notes = table_campaign_notes(machine, campaign)  # nest rows without a table are refused
+    for note in notes:
+        warnings.warn(VecpinWarning(note), stacklevel=2)
     check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
     if not (math.isfinite(prior_scale) and prior_scale > 0):
         raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number (default 1)")
@@ -77,6 +82,9 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     if progress:
         progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
     model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)
+    if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
+        for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
+            warnings.warn(VecpinWarning(note), stacklevel=2)
     if choice is not None:
         model.selection_ = choice.to_dict()
     if zone:

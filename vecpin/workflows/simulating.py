@@ -9,7 +9,8 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import registered_errors, spans_plane
+from vecpin.measurement.tableframe import nest_shape, table_tips
 from vecpin.simulation.simulate import Design, Simulation, simulate
 from vecpin.workflows.summary import error_summary
 from vecpin.units import MM_PER_M
@@ -44,9 +45,12 @@ class SimulationRun:
                 if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "
                 f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
-               f"{len(sim.validation)} validation rows",
+               f"{len(sim.validation)} validation rows" + (f" ({len(sim.validation.tracker_rows)} commands, each at "
+                                                           f"the tool and at {len(sim.nests)} nests)"
+                                                           if len(sim.validation.nest_rows) else ""),
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
-               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M),
+               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
+               if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
@@ -56,13 +60,25 @@ class SimulationRun:
             out.append("  tool targets (true offsets, tool link frame, mm): " + "; ".join(
                 f"{k} " + ", ".join(f"{v * MM_PER_M:.3f}" for v in o) for k, o in sim.targets.items()))
         if sim.compensated is not None:
-            v, cv = sim.validation, sim.compensated
-            out.append(error_summary("validation run, uncompensated", registered_errors(
-                m.tool_tip(v.q, v.tool, frame="base"), v.xyz) * MM_PER_M))
-            out.append(error_summary("validation run through the tables", registered_errors(
-                m.tool_tip(cv.q, cv.tool + self.gauge_change, frame="base"), cv.xyz) * MM_PER_M))
+            for label, run, g in (("validation run, uncompensated", sim.validation, 0.0),
+                                  ("validation run through the tables", sim.compensated, self.gauge_change)):
+                out.append(run_summary(m, label, run, g))
         out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
         return out
+
+
+def run_summary(machine: Machine, label: str, run, gauge_change: float = 0.0) -> str:
+    """One line of a validation run's measured error: relative to the table when it read
+    table nests (:mod:`vecpin.measurement.tableframe`, the nests' shape from the run), else
+    at the tool tip; registered rigidly."""
+    if machine.has_workpiece and len(run.nest_rows):
+        tt = table_tips(run, nest_shape(run))
+        c = run.subset(tt.rows)
+        nominal = machine.tool_tip(c.q, c.tool + gauge_change, frame="workpiece")
+        return error_summary(label + " (tip relative to the table)", registered_errors(nominal, tt.tip) * MM_PER_M)
+    c = run.primary()
+    return error_summary(label, registered_errors(machine.tool_tip(c.q, c.tool + gauge_change, frame="base"), c.xyz)
+                         * MM_PER_M)
 
 
 def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design: Design | None = None,

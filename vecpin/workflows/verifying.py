@@ -11,6 +11,13 @@ of the model plus (when both runs measure the same commands) the model's residua
 the uncompensated run - what the model does not describe stays after compensation
 (Paper I: "The compensated accuracy in Table 3 is comparable with the model accuracy").
 The tables are those given, or computed from the model for a generic controller.
+
+On a machine with a table both runs are judged by the tip relative to the table when they
+read the table nests (:mod:`vecpin.measurement.tableframe`: each command's table pose from
+its nests, the nests where the model's fit put them or re-fitted from the two runs), the
+predicted figures in the same frame; two runs without nest rows are judged at the tool tip
+with a warning and without the predicted figures (those are relative to the table); one
+run with nests and one without are refused (they would not measure the same thing).
 """
 from __future__ import annotations
 
@@ -25,7 +32,9 @@ from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import check_registration, registered_errors
+from vecpin.errors import InputError
+from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
+from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 from vecpin.units import M_PER_MM, norm_mm
@@ -55,6 +64,8 @@ class Verification:
     same_commands: bool
     notes: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
+    frame: str = "the tool tip in the tracker frame (each run registered rigidly)"
+    warnings: list[str] = field(default_factory=list)  # printed first
 
     def reduction(self, stat: str, tool_key: str = "all") -> float:
         b = distance_stats(self.before.measured, self.before.tool)[tool_key][stat]
@@ -67,8 +78,8 @@ class Verification:
         head = f"  {'run':<{w}s} {'tools':<18s} {'n':>4s} {'mean mm':>9s} {'reduct.':>8s} {'max mm':>9s} {'reduct.':>8s}"
         if pred:
             head += f" | {'model mean':>10s} {'max':>8s}"
-        out = ["verification: validation runs of the real machine before and after compensation "
-               "(Paper I Table 3 layout)", head]
+        out = self.warnings + ["verification: validation runs of the real machine before and after compensation "
+                               "(Paper I Table 3 layout)", f"  frame of every figure: {self.frame}", head]
         sb = distance_stats(self.before.measured, self.before.tool)
         sa = distance_stats(self.after.measured, self.after.tool)
         keys = list(sb) if len(sb) > 2 else ["all"]
@@ -110,7 +121,8 @@ class Verification:
                 "compensated": run(self.after), "gauge_change_mm": self.gauge_change_mm,
                 "tables": self.tables_from, "model": self.model_label,
                 "reduction_of_mean_pct": self.reduction("mean"), "reduction_of_max_pct": self.reduction("max"),
-                "same_commands": self.same_commands, "notes": self.notes,
+                "same_commands": self.same_commands, "notes": self.notes, "frame": self.frame,
+                "warnings": self.warnings,
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
@@ -125,6 +137,14 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
            tables: TableSet | None = None, tables_source: str | None = None, progress=None) -> Verification:
     """The two runs side by side (see the module text); ``progress(msg)`` hears of the
     slow step (tables computed from the model)."""
+    for run in (before, after):
+        check_nest_rows(machine, run)
+    table = machine.has_workpiece and bool(len(before.nest_rows) or len(after.nest_rows))
+    if table and not (len(before.nest_rows) and len(after.nest_rows)):
+        w, wo = (before, after) if len(before.nest_rows) else (after, before)
+        raise InputError(f"{w.source} has nest rows and {wo.source} has none: the first would be judged relative to "
+                         "the table, the second at the tool tip, which are not the same error; measure both runs "
+                         "with the table nests (or judge both at the tool without their nest rows)")
     b, a = before.primary(), after.primary()
     if len(a) == len(b) and np.array_equal(a.q, b.q) and np.array_equal(a.tool, b.tool) and np.array_equal(a.xyz, b.xyz):
         same_file = Path(before.source).resolve() == Path(after.source).resolve()
@@ -133,7 +153,9 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
                          + "as the run before and the run after compensation; AFTER is a second run, measured with "
                            "the tables active")
     for run in (b, a):  # a run of another machine, or in other units, is not a validation run of this one
-        check_registration(machine.tool_tip(run.q, run.tool, frame="base"), run.xyz, run.source, run.lines)
+        tips = machine.tool_tip(run.q, run.tool, frame="base")
+        if not table or spans_plane(tips):
+            check_registration(tips, run.xyz, run.source, run.lines)
     notes = []
     tables_from = f"tables {tables_source}" if tables is not None else "no tables given: 0 assumed (give --tables)"
     if tables is None and model is not None:
@@ -143,24 +165,55 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         tables = plan_tables(model, n_commands=600, uncertainty=False).tables
         tables_from = "tables computed from the model (generic controller, full set); give --tables for the real ones"
     dT = tables.gauge_offset_change if tables is not None else 0.0
-    before_run = Run(f"uncompensated ({Path(before.source).name})", before.source, b.tool, run_distances(machine, b))
-    after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, run_distances(machine, a, dT))
+    frame, warnings, seen = Verification.frame, [], None
+    if table:
+        nests, refitted = table_nests([before, after], dict(model.setup_.nests) if model is not None else None)
+        seen = [table_tips(run, nests, refitted) for run in (before, after)]
+        b, a = before.subset(seen[0].rows), after.subset(seen[1].rows)
+        for run, tt in zip((before, after), seen):
+            if not len(tt.rows):
+                raise InputError(f"{run.source}: no command has tool rows and three or more nests read at it, so the "
+                                 "tip relative to the table cannot be measured")
+        frame = ("the tool tip relative to the table (workpiece frame: every command's table pose from its nests, "
+                 f"nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
+                                                          "where the model's fit put them") + "; registered rigidly)")
+        measured = [norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip))
+                    for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
+        from vecpin.measurement.tracker import TrackerNoise
+        tn = model.noise_.tracker if model is not None else TrackerNoise()
+        notes.append(f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], tn)):.4f} "
+                     "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
+                     " tracker noise): the measured figures carry it")
+    else:
+        measured = [run_distances(machine, b), run_distances(machine, a, dT)]
+        if machine.has_workpiece:
+            warnings.append(f"warning: {before.source} and {after.source} have no nest rows: both judged at the tool "
+                            f"tip, which the table axes ({', '.join(machine.table_axes)}) do not move, so their "
+                            "errors and their compensation are not seen; read table nests in both runs to judge the "
+                            "tip relative to the table")
+    before_run = Run(f"uncompensated ({Path(before.source).name})", before.source, b.tool, measured[0])
+    after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, measured[1])
     label = None
     same = len(a) == len(b) and np.allclose(a.q, b.q, atol=1e-9) and np.allclose(a.tool, b.tool, atol=1e-9)
-    if model is not None:
+    if model is not None and machine.has_workpiece and not table:
+        notes.append("no predicted figures: the model's are relative to the table, the runs' at the tool")
+    elif model is not None:
         actual = model_as_actual(model)
         before_run.predicted = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
         comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
-        ref = machine.tool_tip(a.q, a.tool + dT, frame="base")
+        ref = machine.tool_tip(a.q, a.tool + dT, frame="workpiece" if table else "base")
         if same:
-            # plus what the model does not describe: its residual on the uncompensated run (machine frame)
-            from vecpin.measurement.registration import register
-            R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
-            feats = None
-            if model.effects:
-                from vecpin.measurement.features import Features
-                feats = Features.from_campaign(b)
-            resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
+            # plus what the model does not describe: its residual on the uncompensated run
+            if table:
+                resid = registered_errors(actual(b.q, b.tool, False)[0], seen[0].tip)
+            else:  # machine frame
+                from vecpin.measurement.registration import register
+                R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
+                feats = None
+                if model.effects:
+                    from vecpin.measurement.features import Features
+                    feats = Features.from_campaign(b)
+                resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
             after_run.predicted = norm_mm(registered_errors(ref, ref + comp + resid))
             label = (f"{model.kind} order {model.order}; compensated: the model's residual on the uncompensated run "
                      "plus the error its tables leave of the model")
@@ -173,7 +226,8 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     if after_run.measured.mean() >= before_run.measured.mean():
         notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
                      "AFTER really the run with them?")
-    return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes)
+    return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=frame,
+                        warnings=warnings)
 
 
 def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: str | Path | None, **kw) -> Verification:

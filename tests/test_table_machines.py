@@ -1,0 +1,237 @@
+"""Table machines end to end (issue 24): ``evaluate`` and ``verify`` judge the tool tip
+relative to the table from the validation run's tool and nest rows; ``simulate`` writes
+those rows on every table machine, the all-table ``xyzac_trt`` included; a campaign that
+cannot identify the table axes is warned about, nest rows without a table refused.
+
+The yardsticks are not vecpin's evaluation: the simulated true machine's own tip
+relative to its table (its error functions through its error frames), the nominal tip
+from the hand-derived closed forms (tests/closed_forms.py), and the truth commanded
+through the tables."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from closed_forms import MACHINES as CLOSED_FORMS
+from vecpin.cli.main import main
+from vecpin.errors import CampaignFileError, InputError, VecpinWarning
+from vecpin.measurement.campaign import read_campaign, write_campaign
+from vecpin.measurement.features import Features
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.tableframe import table_campaign_notes
+from vecpin.models import ErrorModel, make_model
+from vecpin.models.effects.backlash import Backlash
+from vecpin.simulation.effects import TrueEffect
+from vecpin.simulation.floor import true_compensated_error
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.simulation.truth import TrueMachine
+from vecpin.workflows.evaluation import TABLE_FRAME, TRACKER_FRAME, evaluate
+from vecpin.workflows.fitting import fit_campaign
+from vecpin.workflows.verifying import verify
+
+TABLE_MACHINES = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc", "xyzac_trt"]
+
+
+def _mean(d):
+    return float(np.linalg.norm(d, axis=1).mean())
+
+
+def _truth_errors(truth, model, run):
+    """(uncompensated, model) mean [mm] from the truth alone: the nominal tip from the
+    closed form, the true tip relative to the true table (with the run's approach
+    directions), the model's relative to its table; each registered rigidly."""
+    c = run.primary()
+    feats = Features.from_campaign(run).subset(run.tracker_rows)
+    true = truth.tool_tip(c.q, c.tool, feats, frame="workpiece")
+    nominal = CLOSED_FORMS[truth.machine.name][0][0](c.q, c.tool)
+    mod = model.tool_tip(c.q, c.tool, model.b_, jacobian=False, features=feats if model.effects else None,
+                         frame="workpiece").tip
+    return _mean(registered_errors(nominal, true)) * 1e3, _mean(registered_errors(mod, true)) * 1e3
+
+
+@pytest.mark.parametrize("name", TABLE_MACHINES)
+def test_simulated_validation_reads_the_nests_and_evaluate_judges_the_tip_relative_to_the_table(machines, name):
+    """Every table machine's validation run reads the tool and the table nests at each
+    command; evaluate's figures on the noise-free run are the truth's own tip-relative-
+    to-table errors (uncompensated and the model's) within 1 %, and on the same run
+    without its nest rows it judges at the tool with a first warning."""
+    m = machines[name]
+    sim = simulate(m, seed=3, design=Design(n_commands=120, n_validation=30))
+    v = sim.validation_truth
+    assert len(v.nest_rows) == 3 * 30 and len(v.tracker_rows) == 30 and set(v.target[v.nest_rows]) == set(sim.nests)
+    model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(
+        sim.campaign, NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise))
+    ev = evaluate(model, v)
+    unc, mod = _truth_errors(sim.truth, model, v)
+    assert ev.frame == TABLE_FRAME and ev.rows == 30 and not ev.warnings
+    assert ev.uncompensated.mean() == pytest.approx(unc, rel=0.01)
+    assert ev.residual.mean() == pytest.approx(mod, rel=0.01)
+    if name == "xyzac_trt":  # the tool stands still: nothing to judge without the nests
+        with pytest.raises(CampaignFileError, match="stands still"):
+            evaluate(model, v.subset(v.tracker_rows))
+        return
+    tool_only = evaluate(model, v.subset(v.tracker_rows))
+    assert tool_only.frame == TRACKER_FRAME and tool_only.warnings[0].startswith("warning: ")
+    assert "no nest rows" in tool_only.warnings[0] and ", ".join(m.table_axes) in tool_only.warnings[0]
+
+
+def test_backlash_of_the_table_axis_shows_in_evaluate(machines):
+    """Backlash on the trunnion's A moves the part, not the tool: at the tool the model
+    without backlash and the one with it read alike, relative to the table evaluate sees
+    the difference, and its figures are the truth's (approach directions of the run)."""
+    m = machines["trunnion_xyzac"]
+    sim = simulate(m, seed=10, design=Design(n_commands=200, n_validation=60),
+                   effects=[TrueEffect("backlash", ("A",), 0.03, seed=2)])
+    noise = NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise)
+    plain = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
+    with_b = make_model("6dof", m, 4, bases=sim.truth.family_bases(), effects=[Backlash(m, ("A",))]).fit(
+        sim.campaign, noise)
+    v = sim.validation_truth
+    table = {k: evaluate(mod, v) for k, mod in (("plain", plain), ("backlash", with_b))}
+    tool = {k: evaluate(mod, v.subset(v.tracker_rows)) for k, mod in (("plain", plain), ("backlash", with_b))}
+    for k, mod in (("plain", plain), ("backlash", with_b)):
+        assert table[k].residual.mean() == pytest.approx(_truth_errors(sim.truth, mod, v)[1], rel=0.02)
+    assert table["plain"].residual.mean() > 1.5 * table["backlash"].residual.mean()
+    assert tool["plain"].residual.mean() < 1.1 * tool["backlash"].residual.mean()
+
+
+def test_the_all_table_machine_end_to_end(tmp_path, capsys):
+    """xyzac_trt (spindle on the frame, every axis under the workpiece): simulate -> fit ->
+    evaluate -> tables -> simulate through the tables -> verify on the command line.
+    evaluate's figures are the truth's within 10 %, verify's compensated run is the truth
+    commanded through the tables, both runs judged relative to the table."""
+    s = tmp_path / "s"
+    assert main(["simulate", "xyzac_trt", "--out", str(s), "--points", "150", "--seed", "2"]) == 0
+    assert "the tool tips stand still" in capsys.readouterr().out
+    assert main(["fit", "xyzac_trt", str(s / "campaign.csv"), "--spherical", "--model", "6dof", "--order", "4",
+                 "--out", str(s / "model.json"), "--quiet"]) == 0
+    capsys.readouterr()
+    model = ErrorModel.load(s / "model.json")
+    run = read_campaign(s / "validation_truth.csv", model.machine)
+    truth = TrueMachine.load(s / "truth.json", model.machine)
+    assert main(["evaluate", str(s / "model.json"), str(s / "validation_truth.csv"), "--json", str(s / "e.json")]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1] == f"  frame: {TABLE_FRAME}"
+    js = json.loads((s / "e.json").read_text())
+    unc, mod = _truth_errors(truth, model, run)
+    assert js["uncompensated"]["all"]["mean"] == pytest.approx(unc, rel=0.1)
+    assert js["model_residual"]["all"]["mean"] == pytest.approx(mod, rel=0.1)
+    assert mod < 0.1 * unc
+    assert main(["tables", str(s / "model.json"), "--out", str(tmp_path / "t")]) == 0
+    assert main(["simulate", "xyzac_trt", "--out", str(tmp_path / "c"), "--points", "150", "--seed", "2",
+                 "--truth", str(s / "truth.json"), "--tables", str(tmp_path / "t")]) == 0
+    capsys.readouterr()
+    c = tmp_path / "c"
+    assert main(["verify", str(c / "validation_truth.csv"), str(c / "validation_compensated_truth.csv"),
+                 "--model", str(s / "model.json"), "--tables", str(tmp_path / "t"), "--out", str(tmp_path / "v"),
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "frame of every figure: the tool tip relative to the table" in out
+    vj = json.loads((tmp_path / "v" / "verify.json").read_text())
+    from vecpin.workflows.verifying import load_tables
+    tables = load_tables(tmp_path / "t", model.machine)[0]
+    before = read_campaign(c / "validation_truth.csv", model.machine).primary()
+    true_after = true_compensated_error(truth, tables, before.q, before.tool)[0]
+    true_before = true_compensated_error(truth, None, before.q, before.tool)[0]
+    assert vj["compensated"]["measured"]["all"]["mean"] == pytest.approx(true_after, rel=0.02)
+    assert vj["uncompensated"]["measured"]["all"]["mean"] == pytest.approx(true_before, rel=0.02)
+    assert vj["compensated"]["predicted"]["all"]["mean"] == pytest.approx(true_after, rel=0.1)
+
+
+def test_verify_compares_like_with_like(machines):
+    """Both runs with nests: relative to the table; neither: at the tool with a warning
+    and no predicted figures (those are relative to the table); one of each: refused."""
+    m = machines["trunnion_xyzac"]
+    sim = simulate(m, seed=4, design=Design(n_commands=100, n_validation=30))
+    model = make_model("6dof", m, 3, bases=sim.truth.family_bases()).fit(
+        sim.campaign, NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise))
+    v, t = sim.validation, sim.validation_truth
+    both = verify(m, v, t, model=model)
+    assert "relative to the table" in both.frame and both.before.predicted is not None and not both.warnings
+    tool = verify(m, v.primary(), t.primary(), model=model)
+    assert tool.warnings and "no nest rows" in tool.warnings[0] and tool.before.predicted is None
+    assert tool.lines()[0] == tool.warnings[0]
+    with pytest.raises(InputError, match="has nest rows and .* has none"):
+        verify(m, v, t.primary(), model=model)
+
+
+def _fit_warnings(m, campaign):
+    with pytest.warns(VecpinWarning) as rec:
+        fit_campaign(m, campaign, NoiseModel.default(m, "spherical"), kind="6dof", basis="chebyshev", order=2)
+    return [str(r.message) for r in rec if issubclass(r.category, VecpinWarning)]
+
+
+def test_table_campaigns_that_cannot_identify_the_table_axes_are_warned(machines):
+    """No nest rows, one nest, nests on a line, a nest that moved 0.4 mm half-way: each
+    named with the file and rows; a clean campaign gets no note."""
+    m = machines["trunnion_xyzac"]
+    sim = simulate(m, seed=2, design=Design(n_commands=100, n_validation=5))
+    c = sim.campaign
+    assert table_campaign_notes(m, c) == []
+    assert any("no nest rows" in w and "(A, C)" in w for w in _fit_warnings(m, c.subset(c.tracker_rows)))
+    one = c.subset((c.instrument == "tracker") | (c.target == "1"))
+    assert any("only 1 nest(s)" in w and f"rows {one.lines[one.nest_rows[0]]}" in w for w in _fit_warnings(m, one))
+    rng = np.random.default_rng(0)
+    line = c.subset(np.arange(len(c)))
+    for k, nid in enumerate(sorted(sim.nests)):  # three nests on one line across the table
+        rows = line.nest_rows[line.target[line.nest_rows] == nid]
+        line.xyz[rows] = sim.truth.measure(line.q[rows], line.tool[rows], rng, None, 0,
+                                           nest=np.array([-0.1 + 0.1 * k, 0.05, 0.04]))
+    assert any("lie on a line" in w for w in _fit_warnings(m, line))
+    moved = c.subset(np.arange(len(c)))
+    rows = moved.nest_rows[moved.target[moved.nest_rows] == "2"]
+    late = rows[len(rows) // 2:]
+    moved.xyz[late] = sim.truth.measure(moved.q[late], moved.tool[late], rng, None, 0,
+                                        nest=sim.nests["2"] + np.array([0.4e-3, 0.0, 0.0]))
+    notes = table_campaign_notes(m, moved)
+    assert len(notes) == 1 and notes[0].startswith(f"{c.source}: nest 2 moved at row {moved.lines[late[0]]}")
+
+
+def test_a_nest_that_moved_without_changing_its_distances_is_found_after_the_fit(machines):
+    """On the head-table machine (nests far apart) nest 1 rising 0.4 mm half-way hardly
+    changes its distances to the others; its residuals after the fit step."""
+    m = machines["head_table_bc"]
+    sim = simulate(m, seed=2, design=Design(n_commands=150, n_validation=5))
+    c = sim.campaign.subset(np.arange(len(sim.campaign)))
+    rows = c.nest_rows[c.target[c.nest_rows] == "1"]
+    late = rows[len(rows) // 2:]
+    c.xyz[late] = sim.truth.measure(c.q[late], c.tool[late], np.random.default_rng(0), None, 0,
+                                    nest=sim.nests["1"] + np.array([0.0, 0.0, 0.4e-3]))
+    assert table_campaign_notes(m, c) == []
+    assert [w for w in _fit_warnings(m, c) if f"nest 1 moved at row {c.lines[late[0]]}: from there its residuals" in w]
+    with warnings.catch_warnings(record=True) as rec:  # the same campaign before the move: no word
+        warnings.simplefilter("always")
+        fit_campaign(m, sim.campaign, NoiseModel.default(m, "spherical"), kind="6dof", basis="chebyshev", order=2)
+    assert not [r for r in rec if "moved" in str(r.message)]
+
+
+def test_nest_rows_on_a_machine_without_a_table_are_refused(flow, tmp_path, capsys):
+    c = simulate(flow, seed=1, design=Design(n_commands=60, n_validation=5)).campaign
+    c.instrument[4], c.target[4] = "nest", "1"  # file row 6
+    write_campaign(tmp_path / "n.csv", c, flow)
+    with pytest.raises(CampaignFileError, match="no table branch"):
+        table_campaign_notes(flow, read_campaign(tmp_path / "n.csv", flow))
+    assert main(["fit", "flow_xyzcb", str(tmp_path / "n.csv"), "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert "row 6" in err and "instrument" in err and "no table branch" in err
+
+
+def test_batched_kabsch_is_the_rigid_registration(rng):
+    """Many registrations at once (the nests of every command) give what one
+    scipy-based registration gives each, and recover a known rotation and shift."""
+    from scipy.spatial.transform import Rotation
+
+    from vecpin.measurement.registration import register
+    from vecpin.measurement.tableframe import kabsch
+    P = rng.normal(size=(4, 3)) * 0.1
+    R_true = Rotation.random(6, random_state=1).as_matrix()
+    t_true = rng.normal(size=(6, 3))
+    Q = np.einsum("gij,kj->gki", R_true, P) + t_true[:, None] + rng.normal(size=(6, 4, 3)) * 1e-6
+    R, t = kabsch(P, Q)
+    for g in range(6):
+        R1, t1 = register(P, Q[g])
+        np.testing.assert_allclose(R[g], R1, atol=1e-12)
+        np.testing.assert_allclose(t[g], t1, atol=1e-12)
+        np.testing.assert_allclose(R[g], R_true[g], atol=1e-4)
