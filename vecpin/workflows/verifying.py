@@ -32,7 +32,6 @@ from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.errors import InputError
 from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
 from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
 from vecpin.measurement.stats import distance_stats
