@@ -19,6 +19,7 @@ from scipy.linalg import blas
 
 from vecpin.errors import InputError
 from vecpin.identification.likelihood import Likelihood
+from vecpin.identification.redundancy import active_columns
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
@@ -203,6 +204,15 @@ class Design:
         self.index = index
         self.n_offsets = n_off
         self.uncompensated = norm_mm(ev.metric[self.judged])
+        # what a fit counts (identification.fit): its equations, and the columns that move anything
+        self.n_equations = int(ev.valid.sum())
+        norms = np.sqrt(np.einsum("nkp,nkp->p", self.J, self.J))
+        self.active = active_columns(norms)
+
+    def unknowns(self, choice: tuple[AxisChoice, ...]) -> int:
+        """The unknowns a fit of this candidate counts against the equations: its columns
+        that move anything (E_0 and the instruments' unknowns included)."""
+        return int(self.active[self.columns(choice)[0]].sum())
 
     @property
     def n_fixed(self) -> int:
