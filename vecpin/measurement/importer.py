@@ -415,15 +415,16 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_imported(result: ImportResult, machine: Machine, path: str | Path) -> Path:
-    """Write the campaign CSV and read it back with :func:`read_campaign` (the check
-    every campaign file passes)."""
+def write_imported(result: ImportResult | Campaign, machine: Machine, path: str | Path) -> Path:
+    """Write the campaign CSV of an import (or a campaign) and read it back with
+    :func:`read_campaign` (the check every campaign file passes)."""
     from vecpin.fileio import OutputSet
     from vecpin.measurement.campaign import read_campaign
     path = Path(path)
     with OutputSet(path.parent) as out:  # committed only when it reads back
         staged = out.path(path.name)
-        staged.write_text(campaign_text(result.campaign, machine), encoding="utf-8")
+        campaign = result if isinstance(result, Campaign) else result.campaign
+        staged.write_text(campaign_text(campaign, machine), encoding="utf-8")
         try:
             read_campaign(staged, machine)
         except CampaignFileError as exc:

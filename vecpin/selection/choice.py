@@ -305,7 +305,7 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
     return IdentifiabilityError(
         f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
         f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
-        f"poses (or fit with --underdetermined to let the priors decide the rest)")
+        f"{'pose' if more == 1 else 'poses'} (or fit with --underdetermined to let the priors decide the rest)")
 
 
 def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
