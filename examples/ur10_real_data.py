@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin import Machine
+from vecpin import Machine, VecpinError
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import register
 from vecpin.measurement.robotaccuracy import read_dataset
@@ -82,9 +82,15 @@ def run(path: str | Path = DATA, poses: int | None = None, splits=("interleaved"
     read = read_dataset(path, m)
     say("\n".join(read.lines()))
     c = read.campaign if poses is None else read.campaign.subset(np.arange(min(poses, len(read.campaign))))
+    if len(c) < len(read.campaign):
+        say(f"  the first {len(c)} poses used")
     out = []
     for split in splits:
-        r = judge(m, c, split)
+        try:
+            r = judge(m, c, split)
+        except VecpinError as exc:  # e.g. a fit that cannot converge: said, and the next split
+            say(f"\n{split}: the default fit failed: {exc}")
+            continue
         ch = r["choice"]
         say(f"\n{split}: {r['train']} training poses, {r['held_out']} held out")
         say(f"  chosen: {ch.chosen.label()} ({ch.chosen.n_terms} model terms; {len(ch.candidates)} candidates scored"

@@ -108,6 +108,9 @@ def test_reader_refuses_other_files_and_machines(ur10, tmp_path, capsys):
     assert main(["import", str(RANDOM), "--machine", "ur10", "--format", "ipa-robot-accuracy", "--plan", "p.csv",
                  "--out", str(tmp_path / "c.csv")]) == 2
     assert "--plan does not apply" in capsys.readouterr().err
+    assert main(["import", str(RANDOM), "--machine", "ur10", "--tool-mm", "109", "--out", str(tmp_path / "c.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "row 1: a measurement file of the public UR10 dataset" in err and "--format ipa-robot-accuracy" in err
 
 
 def test_default_fit_of_36_poses_is_not_refused(ur10, tmp_path, capsys):

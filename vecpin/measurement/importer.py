@@ -38,6 +38,7 @@ from vecpin.measurement.exportread import (_COMMA, DELIMITER_NAMES, LENGTH_UNITS
                                            read_export_table, resolve_columns)
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.robotaccuracy import dataset_header
 from vecpin.units import M_PER_MM, norm_mm
 
 SPREAD_TOLERANCE = 1.3      # factor the spread ratio may differ from its unit's
@@ -188,6 +189,10 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
                                 f"has: {', '.join(first.header)}", row=first.header_line) from None
     name = table.path
     header = table.header
+    if dataset_header(header):
+        raise CampaignFileError(name, "a measurement file of the public UR10 dataset (ipa-robot-accuracy: joints in rad, "
+                                "a T-Mac on the flange): read it with --format ipa-robot-accuracy",
+                                row=table.header_line)
     idx, amb = resolve_columns(header, user, machine.axis_names, want_axes)
     for f, j in idx.items():
         if j < 0:

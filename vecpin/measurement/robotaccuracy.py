@@ -70,6 +70,11 @@ class DatasetRead:
         return out + [f"  note: {n}" for n in self.notes]
 
 
+def dataset_header(header: list[str]) -> bool:
+    """True for the header of a series' measurement file (the joints and the T-Mac's x, y, z)."""
+    return all(n in header for n in JOINTS + XYZ)
+
+
 def _error(table: ExportTable, msg: str, k: int | None = None, column: str | None = None) -> CampaignFileError:
     return CampaignFileError(table.path, msg, row=table.lines[k] if k is not None else table.header_line, column=column)
 
@@ -118,12 +123,8 @@ def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TO
         raise CampaignFileError(str(path), f"the dataset's joints are {', '.join(JOINTS)}; machine '{machine.name}' "
                                 f"has axes {', '.join(machine.axis_names)} (use the bundled ur10)")
     need = JOINTS + XYZ
-
-    def is_header(cells):
-        return all(n in cells for n in need)
-
     try:
-        table = read_export_table(path, "semicolon", is_header)
+        table = read_export_table(path, "semicolon", dataset_header)
     except CampaignFileError as exc:
         if not exc.reason.startswith("no header line"):
             raise
