@@ -144,6 +144,9 @@ def test_too_small_for_constant_errors_is_refused_with_the_poses_needed(ur10):
         choose_model(ur10, c, NoiseModel.default(ur10, "cartesian"), kinds=("6dof",))
     small = choose_model(ur10, c, NoiseModel.default(ur10, "cartesian"))  # the AP model's constants fit
     assert small.chosen.kind == "ap" and small.left_out > 0
+    assert small.equations == 24 and "larger candidates left out" in small.table()
+    every = choose_model(ur10, c, NoiseModel.default(ur10, "cartesian"), kinds=("6dof",), underdetermined=True)
+    assert every.left_out == 0 and min(cand.n_terms for cand in every.candidates) > 24  # the priors decide
 
 
 def test_the_example_beats_the_nominal_model_on_held_out_poses():
