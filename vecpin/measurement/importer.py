@@ -190,8 +190,8 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
     name = table.path
     header = table.header
     if dataset_header(header):
-        raise CampaignFileError(name, "a measurement file of the public UR10 dataset (ipa-robot-accuracy: joints in rad, "
-                                "a T-Mac on the flange): read it with --format ipa-robot-accuracy",
+        raise CampaignFileError(name, "a measurement file of the public UR10 dataset (ipa-robot-accuracy: joints "
+                                "in rad, a T-Mac on the flange): read it with --format ipa-robot-accuracy",
                                 row=table.header_line)
     idx, amb = resolve_columns(header, user, machine.axis_names, want_axes)
     for f, j in idx.items():

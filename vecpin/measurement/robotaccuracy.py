@@ -57,7 +57,6 @@ class DatasetRead:
 
     campaign: Campaign
     path: str
-    rows: int
     tool_mm: float
     notes: list[str]
 
@@ -65,8 +64,8 @@ class DatasetRead:
         c = self.campaign
         extra = ", ".join(c.extra) or "none"
         out = [f"read {len(c)} measured poses from {self.path} (ipa-robot-accuracy dataset, UR10)",
-               f"  joints in rad written in deg; T-Mac centre x, y, z in mm; tool {self.tool_mm:g} mm along the "
-               f"flange's z; extra columns: {extra}"]
+               f"  joints in rad (deg in a campaign CSV); T-Mac centre x, y, z in mm; tool {self.tool_mm:g} mm "
+               f"along the flange's z; extra columns: {extra}"]
         return out + [f"  note: {n}" for n in self.notes]
 
 
@@ -100,8 +99,9 @@ def _times(table: ExportTable, j: int) -> tuple[np.ndarray | None, str]:
     k = next((k for k, v in enumerate(kinds) if v is None), None)
     if k is None:  # both kinds: the first row unlike the first
         k = next(k for k, v in enumerate(kinds) if v != kinds[0])
-        raise _error(table, f"time stamp '{cells[k]}' is unlike line {table.lines[0]}'s '{cells[0]}': the stamps of one "
-                     "series are all yyyymmddHHMMSS (as in series A) or all rounded numbers (as in series B-D)", k, TIME)
+        raise _error(table, f"time stamp '{cells[k]}' is unlike line {table.lines[0]}'s '{cells[0]}': the stamps of "
+                     "one series are all yyyymmddHHMMSS (as in series A) or all rounded numbers (as in series B-D)",
+                     k, TIME)
     raise _error(table, f"time stamp '{cells[k][:40]}' is neither yyyymmddHHMMSS (as in series A) nor a rounded "
                  "number (as in series B-D)", k, TIME)
 
@@ -140,8 +140,8 @@ def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TO
         comma = [(k, n) for k, n in cells if _COMMA.match(table.rows[k][col[n]])]
         dot = [(k, n) for k, n in cells if _DOT.match(table.rows[k][col[n]])]
         (k, n), mark, other = (dot[0], "point", "commas") if len(comma) >= len(dot) else (comma[0], "comma", "points")
-        raise _error(table, f"'{table.rows[k][col[n]]}' has a decimal {mark} while the other cells have decimal {other}",
-                     k, n)
+        raise _error(table, f"'{table.rows[k][col[n]]}' has a decimal {mark} while the other cells have decimal "
+                     f"{other}", k, n)
 
     def column(name: str) -> np.ndarray:
         out = np.empty(len(table.rows))
@@ -159,7 +159,8 @@ def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TO
     far = np.abs(q) > 2 * np.pi + 1e-6
     if far.any():
         k, j = np.argwhere(far)[0]
-        raise _error(table, f"{q[k, j]:g} is beyond one turn: joint angles in this dataset are radians", int(k), JOINTS[j])
+        raise _error(table, f"{q[k, j]:g} is beyond one turn: joint angles in this dataset are radians", int(k),
+                     JOINTS[j])
     xyz = np.column_stack([column(n) for n in XYZ]) * M_PER_MM
     extra: dict[str, np.ndarray] = {}
     notes: list[str] = []
@@ -194,4 +195,4 @@ def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TO
     n = len(order)
     campaign = Campaign(list(JOINTS), q[order], np.full(n, tool_mm * M_PER_MM), xyz[order], extra, table.path,
                         lines=np.asarray(table.lines)[order])
-    return DatasetRead(campaign, table.path, n, tool_mm, notes)
+    return DatasetRead(campaign, table.path, tool_mm, notes)
