@@ -96,6 +96,8 @@ def run(path: str | Path = DATA, poses: int | None = None, splits=("interleaved"
         say(f"  chosen: {ch.chosen.label()} ({ch.chosen.n_terms} model terms; {len(ch.candidates)} candidates scored"
             + (f", {ch.left_out} larger ones left out: more unknowns than the {ch.equations} equations" if ch.left_out
                else "") + ")")
+        if ch.part_turn:
+            say(f"  no series per turn on {', '.join(ch.part_turn)} (measured over less than a turn)")
         say(f"  held-out distance, mm      mean      max")
         say(f"    nominal model        {r['nominal_mean']:8.3f} {r['nominal_max']:8.3f}")
         say(f"    default fit          {r['fit_mean']:8.3f} {r['fit_max']:8.3f}   "

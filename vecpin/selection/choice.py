@@ -12,8 +12,9 @@ candidate and fold (folds grouped by command, both tools of a pose in one fold).
 Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
 the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
 with ``--basis pspline`` penalised splines on 31 knots, their smoothing λ from the
-held-out data); on a rotary axis that travels more than a turn also Fourier series per
-turn, alone or with a Chebyshev trend over the travel (errors that repeat every turn,
+held-out data); on a rotary axis that travels more than a turn, and that the campaign
+measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev
+trend over the travel (errors that repeat every turn,
 and those that do not: cable wind-up, torsion, a gear behind the encoder, drift over a
 long travel). The search scores every model kind with one family on all axes at a
 common order, then refines each kind axis by axis (every basis and smoothing of one axis
@@ -48,7 +49,8 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options
+from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options,
+                                     per_turn_measured)
 from vecpin.threads import one_blas_thread
 
 KINDS = ("6dof", "ap")
@@ -114,6 +116,7 @@ class ModelChoice:
     fixed_unknowns: int = 6  # tracker-pose and instrument unknowns in every candidate
     equations: int = 0       # the campaign's equations: every candidate has fewer unknowns
     left_out: int = 0        # candidates with as many unknowns or more, not scored
+    part_turn: tuple = ()    # axes travelling over a turn but measured over less: no series per turn tried
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
@@ -133,6 +136,9 @@ class ModelChoice:
                      f"{'' if eff is None else f', {eff:.1f} effective after smoothing'}): {self.reason}")
         lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
                      f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")
+        if self.part_turn:
+            lines.append(f"  (no series per turn on {', '.join(self.part_turn)}: measured over less than a turn, where "
+                         "they cannot be told from series over the travel and extrapolate over the rest of the turn)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -149,6 +155,7 @@ class ModelChoice:
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
+                "no_series_per_turn": list(self.part_turn),
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
@@ -221,6 +228,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
+    # series per turn on an axis measured over less than a turn are not tried, unless asked for
+    spans = np.ptp(campaign.q, axis=0) if plans is None else [None] * machine.n_axes
+    short = tuple(a.name for a, sp in zip(machine.axes, spans) if a.multiturn and sp is not None
+                  and not per_turn_measured(sp) and {"fourier", "fourier_trend"} & set(families))
     # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
     plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
                   if p in families)
@@ -230,7 +241,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine, "cartesian")
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [axis_options(a, orders, families, fixed_order) for a in machine.axes]
+    options = [axis_options(a, orders, families, fixed_order, sp) for a, sp in zip(machine.axes, spans)]
     cands: list[Candidate] = []
     scored: dict = {}
     left_out: set = set()
@@ -289,7 +300,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
                        (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed,
-                       int(round(limit)) if math.isfinite(limit) else problems[kinds[0]].n_equations, len(left_out))
+                       int(round(limit)) if math.isfinite(limit) else problems[kinds[0]].n_equations, len(left_out),
+                       short)
 
 
 def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:
