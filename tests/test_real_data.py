@@ -114,11 +114,12 @@ def test_reader_refuses_other_files_and_machines(ur10, tmp_path, capsys):
 
 
 def test_default_fit_of_36_poses_is_not_refused(ur10, tmp_path, capsys):
-    """The first 48 poses, every 4th held out: ``vecpin fit`` without options on the 36
-    others (108 equations; before, the choice took a 6-DoF model of 106 terms and the fit
-    refused it) fits the best model the campaign supports and says what it left out.
-    Measured: held-out mean 4.21 mm nominal, 0.56 mm fitted (max 8.57 and 1.27 mm)."""
-    c = read_dataset(RANDOM, ur10).campaign.subset(np.arange(48))
+    """Poses 200-247 of the 400 (lines 202-249), every 4th held out: ``vecpin fit``
+    without options on the 36 others (108 equations) was refused before ("36 rows give
+    108 equations for 112 unknowns": the choice took a model the campaign cannot
+    determine); now it fits the best model the campaign supports and says what it left
+    out. Measured: held-out mean 6.42 mm nominal, 0.52 mm fitted (max 9.80 and 0.85 mm)."""
+    c = read_dataset(RANDOM, ur10).campaign.subset(np.arange(200, 248))
     test = np.arange(48) % 4 == 3
     train, held = c.subset(~test), c.subset(test)
     vecpin.write_campaign(tmp_path / "train.csv", train, ur10)
@@ -131,7 +132,7 @@ def test_default_fit_of_36_poses_is_not_refused(ur10, tmp_path, capsys):
     R, t = register(ur10.tool_tip(train.q, train.tool), train.xyz)
     nominal = norm_mm(held.xyz - (ur10.tool_tip(held.q, held.tool) @ R.T + t))
     fitted = norm_mm(model.residuals(held))
-    assert fitted.mean() < 0.2 * nominal.mean() and fitted.max() < 0.25 * nominal.max()
+    assert fitted.mean() < 0.15 * nominal.mean() and fitted.max() < 0.15 * nominal.max()
 
 
 def test_too_small_for_constant_errors_is_refused_with_the_poses_needed(ur10):
