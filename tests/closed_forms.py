@@ -160,25 +160,34 @@ def head_table_bc_workpiece(q):
     return homogeneous(rot("z", C), np.array([0.625, 0.500, 0.0]))
 
 
-# ---------------------------------------------------------------- UR5 (CB3) from published DH parameters
-# Universal Robots, "Parameters for calculations of kinematics and dynamics" (UR5 serie 3, standard DH):
-#   a = (0, -0.425, -0.39225, 0, 0, 0) m, d = (0.089159, 0, 0, 0.10915, 0.09465, 0.0823) m,
+# ---------------------------------------------------------------- UR5 and UR10 (CB3) from published DH parameters
+# Universal Robots, "Parameters for calculations of kinematics and dynamics" (serie 3, standard DH):
+#   UR5:  a = (0, -0.425, -0.39225, 0, 0, 0) m, d = (0.089159, 0, 0, 0.10915, 0.09465, 0.0823) m,
+#   UR10: a = (0, -0.612, -0.5723, 0, 0, 0) m,  d = (0.1273, 0, 0, 0.163941, 0.1157, 0.0922) m,
 #   alpha = (pi/2, 0, 0, pi/2, -pi/2, 0). T = prod_i Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); the tool
 #   points along +z of the flange frame.
 UR5_A = (0.0, -0.425, -0.39225, 0.0, 0.0, 0.0)
 UR5_D = (0.089159, 0.0, 0.0, 0.10915, 0.09465, 0.0823)
-UR5_ALPHA = (np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0)
+UR10_A = (0.0, -0.612, -0.5723, 0.0, 0.0, 0.0)
+UR10_D = (0.1273, 0.0, 0.0, 0.163941, 0.1157, 0.0922)
+UR_ALPHA = (np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0)
 
 
-def ur5_dh(q, t):
-    """Product of the six DH matrices (the vendor's definition)."""
-    q = _cols(q, 6).T
-    T = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
-    for i in range(6):
-        Rz = homogeneous(rot("z", q[:, i]), np.zeros(3))
-        const = homogeneous(rot("x", np.array(UR5_ALPHA[i])), np.array([UR5_A[i], 0.0, UR5_D[i]]))
-        T = T @ Rz @ const
-    return T[:, :3, 3] + T[:, :3, 2] * np.asarray(t, float).reshape(-1, 1)
+def _ur_dh(a, d):
+    def tip(q, t):
+        """Product of the six DH matrices (the vendor's definition)."""
+        q = _cols(q, 6).T
+        T = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        for i in range(6):
+            Rz = homogeneous(rot("z", q[:, i]), np.zeros(3))
+            const = homogeneous(rot("x", np.array(UR_ALPHA[i])), np.array([a[i], 0.0, d[i]]))
+            T = T @ Rz @ const
+        return T[:, :3, 3] + T[:, :3, 2] * np.asarray(t, float).reshape(-1, 1)
+    return tip
+
+
+ur5_dh = _ur_dh(UR5_A, UR5_D)
+ur10_dh = _ur_dh(UR10_A, UR10_D)
 
 
 def ur5_planar(q, t):
@@ -207,4 +216,5 @@ MACHINES = {
     "head_table_bc": ({0: head_table_bc}, head_table_bc_workpiece),
     "xyzac_trt": ({0: xyzac_trt}, xyzac_trt_workpiece),
     "ur5": ({0: ur5_dh}, None),
+    "ur10": ({0: ur10_dh}, None),
 }

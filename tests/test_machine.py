@@ -17,7 +17,7 @@ from vecpin.simulation.truth import uniform_commands
 
 TWO_BRANCH = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc", "xyzac_trt"]
 #: tool direction in the tool link frame, from each URDF's header (not from vecpin)
-TOOL_AXIS = {name: np.array([0.0, 0.0, 1.0 if name == "ur5" else -1.0]) for name in CLOSED_FORMS}
+TOOL_AXIS = {name: np.array([0.0, 0.0, 1.0 if name in ("ur5", "ur10") else -1.0]) for name in CLOSED_FORMS}
 
 
 def test_every_bundled_machine_has_a_closed_form():
@@ -290,6 +290,20 @@ def test_ur5_as_published_loads_with_tool_link(machines, rng):
     # the zero pose of the UR5 flange in the controller base frame
     np.testing.assert_allclose(m.tool_tip(np.zeros((1, 6)))[0], [-0.81725, -0.19145, -0.005491], atol=1e-9)
     assert m.layout.startswith("6-axis arm") and m.derived_layout() == "6-axis arm"
+
+
+def test_ur10_as_published_matches_the_dataset_variant(machines):
+    """The bundled UR10 is the CB3 arm: the zero pose from its DH table, and the commanded
+    flange of the public tracker dataset (joints (-90, -90, 0, -90, 0, 0) deg, T-Mac centre
+    109 mm out of the flange) 1.4273 m high and 0.365141 m off joint 1 (the dataset writes
+    x = +0.365141 in ROS's base_link, yawed by pi against the controller base)."""
+    m = machines["ur10"]
+    assert m.tool_links == ("tool0",) and m.tool_axis_name == "+z"
+    assert m.axis_names == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+                            "wrist_2_joint", "wrist_3_joint"]
+    np.testing.assert_allclose(m.tool_tip(np.zeros((1, 6)))[0], [-1.1843, -0.256141, 0.0116], atol=1e-12)
+    home = np.radians([[-90.0, -90.0, 0.0, -90.0, 0.0, 0.0]])
+    np.testing.assert_allclose(m.tool_tip(home, 0.109)[0], [-0.365141, 0.0, 1.4273], atol=1e-12)
 
 
 def test_tool_axis_option(flow, rng):

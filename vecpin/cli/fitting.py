@@ -164,7 +164,9 @@ def register(sub) -> None:
                    help="factor on every parameter's prior standard deviation (Σ_b), dimensionless, > 0 "
                         "(default %(default)s)")
     s.add_argument("--underdetermined", action="store_true",
-                   help="accept fewer equations than parameters, the priors deciding the rest (default: refused)")
+                   help="accept fewer equations than unknowns, the priors deciding the rest: the model choice then "
+                        "also tries candidates larger than the campaign supports (default: the choice leaves them "
+                        "out, and a fixed model that large is refused)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit only the rows commanded in this region of axis space, mm/deg (a machine calibrated in "
                         "zones, seed Table 2.12); the model file records it and vecpin tables uses it (default: all rows)")

@@ -5,8 +5,19 @@ from vecpin.cli.common import add_machine_args, machine
 
 
 def run_import(args) -> int:
-    from vecpin.workflows.importing import import_to_file
+    from vecpin.errors import InputError
+    from vecpin.workflows.importing import import_dataset_to_file, import_to_file
     m = machine(args.machine, args)
+    if args.format == "ipa-robot-accuracy":
+        given = [o for o, v in (("--plan", args.plan), ("--columns", args.columns), ("--time-format", args.time_format))
+                 if v]
+        if given:
+            raise InputError(f"--format ipa-robot-accuracy reads the dataset's own columns; {', '.join(given)} "
+                             "does not apply")
+        res = import_dataset_to_file(args.export, m, args.out, tool_mm=args.tool_mm)
+        print("\n".join(res.lines()))
+        print(f"  wrote {args.out}")
+        return 0
     res = import_to_file(args.export, m, args.out, args.plan, columns=args.columns, units=args.units,
                          delimiter=args.delimiter, decimal=args.decimal, time_format=args.time_format,
                          temperature_unit=args.temperature_unit, tool_mm=args.tool_mm,
@@ -22,6 +33,10 @@ def register(sub) -> None:
     s.add_argument("export", help="the tracker software's export (CSV/TXT)")
     s.add_argument("--machine", required=True, help="bundled machine name (vecpin info lists them) or URDF path")
     add_machine_args(s)
+    s.add_argument("--format", choices=["tracker", "ipa-robot-accuracy"], default="tracker",
+                   help="tracker: a tracker program's export (default); ipa-robot-accuracy: a measurements_*.csv of "
+                        "the public UR10 dataset github.com/christianlandgraf/ipa-robot-accuracy (machine ur10; joints "
+                        "in rad, T-Mac centre in mm, tool 109 mm unless --tool-mm)")
     s.add_argument("--plan", help="the plan's campaign template (plan.csv from vecpin plan): commands and holder lengths "
                    "(default: none; then the export must have the axis columns)")
     s.add_argument("--out", required=True, help="campaign CSV to write (mm, deg, comma-separated)")

@@ -24,7 +24,7 @@ ROS_FLANGE_LINKS = ("tool0", "flange")
 RESERVED_NAMES = ("x", "y", "z", "tool", "time", "temperature", "instrument", "station", "r", "pivot",
                   "target", "point")
 #: load options of bundled machines whose URDF (kept as published) has no 'spindle'
-BUNDLED_OPTIONS = {"ur5": {"tool_link": "tool0"}}
+BUNDLED_OPTIONS = {"ur5": {"tool_link": "tool0"}, "ur10": {"tool_link": "tool0"}}
 
 Frame = Literal["base", "workpiece"]
 

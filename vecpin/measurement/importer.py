@@ -38,6 +38,7 @@ from vecpin.measurement.exportread import (_COMMA, DELIMITER_NAMES, LENGTH_UNITS
                                            read_export_table, resolve_columns)
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.robotaccuracy import dataset_header
 from vecpin.units import M_PER_MM, norm_mm
 
 SPREAD_TOLERANCE = 1.3      # factor the spread ratio may differ from its unit's
@@ -198,6 +199,10 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
                                 f"has: {', '.join(first.header)}", row=first.header_line) from None
     name = table.path
     header = table.header
+    if dataset_header(header):
+        raise CampaignFileError(name, "a measurement file of the public UR10 dataset (ipa-robot-accuracy: joints "
+                                "in rad, a T-Mac on the flange): read it with --format ipa-robot-accuracy",
+                                row=table.header_line)
     idx, amb = resolve_columns(header, user, machine.axis_names, want_axes)
     for f, j in idx.items():
         if j < 0:
@@ -421,15 +426,16 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_imported(result: ImportResult, machine: Machine, path: str | Path) -> Path:
-    """Write the campaign CSV and read it back with :func:`read_campaign` (the check
-    every campaign file passes)."""
+def write_imported(result: ImportResult | Campaign, machine: Machine, path: str | Path) -> Path:
+    """Write the campaign CSV of an import (or a campaign) and read it back with
+    :func:`read_campaign` (the check every campaign file passes)."""
     from vecpin.fileio import OutputSet
     from vecpin.measurement.campaign import read_campaign
     path = Path(path)
     with OutputSet(path.parent) as out:  # committed only when it reads back
         staged = out.path(path.name)
-        staged.write_text(campaign_text(result.campaign, machine), encoding="utf-8")
+        campaign = result if isinstance(result, Campaign) else result.campaign
+        staged.write_text(campaign_text(campaign, machine), encoding="utf-8")
         try:
             read_campaign(staged, machine)
         except CampaignFileError as exc:

@@ -19,7 +19,8 @@ by the estimator (:mod:`vecpin.identification`). Effects
 
 The estimator API follows scikit-learn: configuration in ``__init__``, learning in
 :meth:`ErrorModel.fit`, learned state with a trailing underscore (``b_``, ``e0_``,
-``setup_``, ``cov_``, ``noise_``, ``report_``).
+``setup_``, ``cov_``, ``noise_``, ``report_``; ``range_`` once the errors are held
+beyond the measured commands).
 
 Parameters are ordered by priority (offsets, then every order-0 term, then order 1,
 ...): redundancy removal keeps the earlier of two terms that move the tool tip alike.
@@ -173,10 +174,21 @@ class ErrorModel:
         return eff
 
     def _basis_values(self, q: np.ndarray, derivative: bool = False) -> np.ndarray:
-        """(N, n, K) basis values (or derivatives) of every axis, zero-padded to K columns."""
+        """(N, n, K) basis values (or derivatives) of every axis, zero-padded to K columns.
+        Held (:meth:`hold_beyond_measured`): every error at its value at the edge of
+        ``range_`` (per axis [m, rad]; derivative zero beyond)."""
+        held = getattr(self, "range_", None)
+        inside = None
+        if held is not None:
+            inside = (q >= held[0]) & (q <= held[1])
+            q = np.clip(q, held[0], held[1])
         out = np.zeros((len(q), self.machine.n_axes, self._K))
         for k, B in enumerate(self.bases):
-            out[:, k, :B.size] = B.derivative(q[:, k]) if derivative else B.values(q[:, k])
+            if not derivative:
+                out[:, k, :B.size] = B.values(q[:, k])
+            else:
+                d = B.derivative(q[:, k])
+                out[:, k, :B.size] = d if inside is None else d * inside[:, k, None]
         return out
 
     # --------------------------------------------------------------- kinematics
@@ -216,7 +228,7 @@ class ErrorModel:
         new.b_, new.e0_, new.setup_ = self.b_[idx], self.e0_, self.setup_
         new.cov_ = self.cov_[np.ix_(full, full)]
         new.noise_, new.report_ = self.noise_, self.report_
-        for attr in ("selection_", "zone_"):
+        for attr in ("selection_", "zone_", "range_"):
             if hasattr(self, attr):
                 setattr(new, attr, getattr(self, attr))
         return new, dropped
@@ -370,11 +382,28 @@ class ErrorModel:
         ``e0_`` (tracker-frame correction E_0), ``setup_`` (tracker pose), ``cov_``,
         ``noise_`` and ``report_``; returns self."""
         noise = noise or NoiseModel.default(self.machine)
+        self.range_ = None  # a former fit's hold (hold_beyond_measured) has no say in this one
         theta, setup, cov, report = ml_fit(self, campaign, noise, remove_redundant=remove_redundant,
                                            max_iter=max_iter, underdetermined=underdetermined, progress=progress)
         n = 6 + self.n_parameters  # beyond: station poses and pivots, kept in the setup
         self.b_, self.e0_, self.setup_, self.cov_ = theta[6:n], theta[:6], setup, cov[:n, :n]
         self.noise_, self.report_ = noise, report
+        return self
+
+    def hold_beyond_measured(self) -> "ErrorModel":
+        """Hold every error of this fitted model at its value at the edge of the commands
+        its campaign measured (``report_.measured_range``), as the tables do: its
+        predictions beyond them no longer extrapolate the series (``range_``; an AP model
+        with Fourier series of order 12 on a UR10 whose joint 1 was measured over 128°:
+        12.3 mm held-out mean just beyond, 0.84 mm held). Not kept in the model file; a
+        new fit drops it. Returns self."""
+        self._check_fitted()
+        span = self.report_.measured_range
+        missing = [a.name for a in self.machine.axes if a.name not in span]
+        if missing:
+            raise VecpinError(f"the fit report has no measured range of {', '.join(missing)} (a model file written "
+                              "before vecpin recorded it): the range to hold the errors in is unknown")
+        self.range_ = tuple(np.array([float(a.to_si(span[a.name][j])) for a in self.machine.axes]) for j in (0, 1))
         return self
 
     def _check_fitted(self):

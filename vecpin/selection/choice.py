@@ -12,14 +12,24 @@ candidate and fold (folds grouped by command, both tools of a pose in one fold).
 Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
 the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
 with ``--basis pspline`` penalised splines on 31 knots, their smoothing λ from the
-held-out data); on a rotary axis that travels more than a turn also Fourier series per
-turn, alone or with a Chebyshev trend over the travel (errors that repeat every turn,
+held-out data); on a rotary axis that travels more than a turn, and that the campaign
+measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev
+trend over the travel (errors that repeat every turn,
 and those that do not: cable wind-up, torsion, a gear behind the encoder, drift over a
 long travel). The search scores every model kind with one family on all axes at a
 common order, then refines each kind axis by axis (every basis and smoothing of one axis
 with the other axes eliminated once); the choice follows the one-standard-error rule:
 among the candidates whose held-out mean distance is within one paired standard error
 of the lowest, the one with the fewest terms (a penalised spline's effective terms).
+
+Only candidates the campaign can determine take part: fewer unknowns (the model's terms
+that move anything, the tracker pose and the instruments' unknowns) than the campaign
+has equations, the count the fit holds every model to. Larger ones are left out (the
+table says how many), so a small campaign gets the best model it can support, judged
+on held-out data like any other, and its fit is never refused for its size; with
+``underdetermined`` every candidate takes part, the priors deciding what the data
+cannot. A campaign too small for any candidate, even constant errors, is refused with
+how many more poses it needs.
 """
 from __future__ import annotations
 
@@ -30,7 +40,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.errors import InputError
+from vecpin.errors import IdentifiabilityError, InputError
 from vecpin.identification.crossval import command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -39,7 +49,8 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options
+from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options,
+                                     per_turn_measured)
 from vecpin.threads import one_blas_thread
 
 KINDS = ("6dof", "ap")
@@ -104,6 +115,9 @@ class ModelChoice:
     uncompensated_mm: tuple[float, float]
     seconds: float
     fixed_unknowns: int = 6  # tracker-pose and instrument unknowns in every candidate
+    equations: int = 0       # the campaign's equations: every candidate has fewer unknowns
+    left_out: int = 0        # candidates with as many unknowns or more, not scored
+    part_turn: tuple = ()    # axes travelling over a turn but measured over less: no series per turn tried
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
@@ -123,6 +137,13 @@ class ModelChoice:
                      f"{'' if eff is None else f', {eff:.1f} effective after smoothing'}): {self.reason}")
         lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
                      f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")
+        if self.part_turn:
+            lines.append(f"  (no series per turn on {', '.join(self.part_turn)}: measured over less than a turn, where "
+                         "they cannot be told from series over the travel and extrapolate over the rest of the turn)")
+        if self.left_out:
+            lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
+                         f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
+                         "is among the models this campaign supports)")
         return "\n".join(lines)
 
     def sweep(self, kind: str) -> list[Candidate]:
@@ -134,6 +155,8 @@ class ModelChoice:
         return {"method": f"{self.folds}-fold cross-validation grouped by command, linearised at the nominal machine",
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
+                "equations": self.equations, "left_out_unsupported": self.left_out,
+                "no_series_per_turn": list(self.part_turn),
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
@@ -181,7 +204,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
 @one_blas_thread
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
-                 seed: int = 0, fixed_order: bool = False, opts: dict | None = None,
+                 seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
                  progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
@@ -191,7 +214,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     ``orders`` is one order the user fixed (splines then have that many knots, trends
     are at most that order); ``seed``: the folds (and the subsample of a large
     campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
-    priors and offsets every candidate carries."""
+    priors and offsets every candidate carries; ``underdetermined``: also candidates
+    with as many unknowns as equations or more (module text)."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
@@ -205,6 +229,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
+    # series per turn on an axis measured over less than a turn are not tried, unless asked for
+    spans = np.ptp(campaign.q, axis=0) if plans is None else [None] * machine.n_axes
+    short = tuple(a.name for a, sp in zip(machine.axes, spans) if a.multiturn and sp is not None
+                  and not per_turn_measured(sp) and {"fourier", "fourier_trend"} & set(families))
     # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
     plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
                   if p in families)
@@ -214,41 +242,55 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine, "cartesian")
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [axis_options(a, orders, families, fixed_order) for a in machine.axes]
+    options = [axis_options(a, orders, families, fixed_order, sp) for a, sp in zip(machine.axes, spans)]
     cands: list[Candidate] = []
     scored: dict = {}
+    left_out: set = set()
+    limit = math.inf
+
+    def supported(prob, choice) -> bool:
+        if prob.unknowns(choice) < limit:
+            return True
+        left_out.add((prob.kind, choice))
+        return False
 
     def score(prob, choice):
         key = (prob.kind, choice)
-        if key not in scored:
+        if key not in scored and supported(prob, choice):
             scored[key] = prob.candidate(choice)
             cands.append(scored[key])
-        return scored[key]
+        return scored.get(key)
 
     problems = {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
         prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds, opts)
+        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
+            limit = prob.n_equations * len(campaign) / len(camp)
         for plan in plans:
             for o in (orders if plan not in ("spline", "pspline") else [None]):
                 for plan_axes in _plans(machine, plan, o, options):
                     score(prob, plan_axes)
         say(f"{kind}: {sum(c.kind == kind for c in cands)} common-basis candidates scored")
-    best = min(cands, key=lambda c: c.mean)
+    if not cands:
+        raise _too_small(machine, campaign, problems, limit)
     for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
-        cur = min((c for c in cands if c.kind == prob.kind), key=lambda c: c.mean)
+        own = [c for c in cands if c.kind == prob.kind]
+        if not own:
+            continue
+        cur = min(own, key=lambda c: c.mean)
         for _ in range(3):
             improved = False
             for i in range(machine.n_axes):
                 trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
-                          if (prob.kind, t) not in scored]
+                          if (prob.kind, t) not in scored and (prob.kind, t) not in left_out and supported(prob, t)]
                 for c in (prob.candidates(trials) if len(trials) > 1 else []):  # the other axes eliminated once
                     scored[(prob.kind, c.axes)] = c
                     cands.append(c)
                 for opt in options[i]:
                     trial = cur.axes[:i] + (opt,) + cur.axes[i + 1:]
                     c = score(prob, trial)
-                    if c.mean < cur.mean:
+                    if c is not None and c.mean < cur.mean:
                         cur, improved = c, True
             if not improved:
                 break
@@ -258,7 +300,25 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     unc = problems[kinds[0]].uncompensated
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
-                       (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed)
+                       (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed,
+                       int(round(limit)) if math.isfinite(limit) else problems[kinds[0]].n_equations, len(left_out),
+                       short)
+
+
+def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:
+    """The refusal of a campaign that supports no candidate: the smallest candidate of the
+    kinds tried (constant errors) and how many more poses it needs."""
+    need = {}
+    for kind, prob in problems.items():
+        const = tuple(AxisChoice("chebyshev", 0) for _ in machine.axes)
+        need[kind] = prob.unknowns(const)
+    kind = min(need, key=need.get)
+    per_row = limit / len(campaign)
+    more = max(1, math.ceil((need[kind] + 1 - limit) / per_row))
+    return IdentifiabilityError(
+        f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
+        f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
+        f"{'pose' if more == 1 else 'poses'} (or fit with --underdetermined to let the priors decide the rest)")
 
 
 def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
@@ -375,7 +435,7 @@ BASES = ("auto",) + FAMILIES
 
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
-                  order: int | str = "auto", *, folds: int = 5, seed: int = 0,
+                  order: int | str = "auto", *, folds: int = 5, seed: int = 0, underdetermined: bool = False,
                   progress: Callable[[str], None] | None = None, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of
     ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
@@ -384,7 +444,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     whose size it defines (Chebyshev and Fourier series of that order, trends up to it);
     splines only with ``basis="spline"`` or ``"pspline"``, ``order`` then being the number
     of interior knots; a penalised spline's smoothing is always chosen by held-out data.
-    ``seed``: the cross-validation folds."""
+    ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
+    candidates with more unknowns than equations (:func:`choose_model`)."""
     if kind not in ("auto",) + KINDS:
         raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
@@ -403,5 +464,5 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
                           plans=None if basis == "auto" else (basis,),
                           orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          progress=progress)
+                          underdetermined=underdetermined, progress=progress)
     return choice.chosen.model(machine, **opts), choice

@@ -77,7 +77,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
         check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
-    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds, progress=progress, **opts)
+    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds,
+                                  underdetermined=underdetermined, progress=progress, **opts)
     check_size(model)
     if progress:
         progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")

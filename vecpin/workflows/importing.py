@@ -6,6 +6,9 @@ from pathlib import Path
 from vecpin.fileio import check_output_file
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.importer import ImportResult, import_export, write_imported
+from vecpin.measurement.robotaccuracy import TMAC_TOOL_MM, DatasetRead, read_dataset
+
+FORMATS = ("tracker", "ipa-robot-accuracy")
 
 
 def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: str | Path | None = None,
@@ -16,4 +19,14 @@ def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: 
     check_output_file(out)
     res = import_export(export, machine, plan, **options)
     write_imported(res, machine, out)
+    return res
+
+
+def import_dataset_to_file(path: str | Path, machine: Machine, out: str | Path,
+                           tool_mm: float | None = None) -> DatasetRead:
+    """One series of the public UR10 tracker dataset (:mod:`vecpin.measurement.robotaccuracy`)
+    into the campaign CSV ``out``, checked to read back as a campaign."""
+    check_output_file(out)
+    res = read_dataset(path, machine, tool_mm=TMAC_TOOL_MM if tool_mm is None else tool_mm)
+    write_imported(res.campaign, machine, out)
     return res
