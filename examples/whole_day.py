@@ -15,7 +15,7 @@ The same steps on the command line:
     (measure; export from the tracker software)
     vecpin import export.csv --machine flow_xyzcb --plan day/plan/plan.csv --out day/campaign.csv
     vecpin assess day/campaign.csv --machine flow_xyzcb
-    vecpin fit flow_xyzcb day/campaign.csv --model ap --order 4 --spherical --out day/model_ap.json
+    vecpin fit flow_xyzcb day/campaign.csv --model ap --order 4 --out day/model_ap.json
     vecpin tables day/model_ap.json --out day/tables
     vecpin simulate flow_xyzcb --truth day/sim/truth.json --plan day/plan/plan.csv --tables day/tables --out day/after
     vecpin verify day/after/validation.csv day/after/validation_compensated.csv --model day/model_ap.json \\

@@ -53,7 +53,7 @@ def simulated(tmp_path_factory):
     return d
 
 
-@pytest.mark.parametrize("model, extra", [("ap", []), ("6dof", ["--spherical", "--tool-corrections"])])
+@pytest.mark.parametrize("model, extra", [("ap", []), ("6dof", ["--cartesian", "--tool-corrections"])])
 def test_fit_then_evaluate(simulated, tmp_path, capsys, model, extra):
     import json
     out = tmp_path / "m.json"

@@ -265,7 +265,7 @@ def test_command_line_nests_targets_zones_and_drives(tmp_path, capsys):
     t = tmp_path / "t"
     assert main(["simulate", "trunnion_xyzac", "--out", str(t), "--points", "60", "--nests", "2", "--seed", "3"]) == 0
     assert "120 table nest rows (2 nests)" in capsys.readouterr().out
-    assert main(["fit", "trunnion_xyzac", str(t / "campaign.csv"), "--spherical", "--model", "6dof", "--basis",
+    assert main(["fit", "trunnion_xyzac", str(t / "campaign.csv"), "--model", "6dof", "--basis",
                  "chebyshev", "--order", "3", "--zone", "C=-720:0", "--out", str(t / "m.json"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "zone C=-720:0:" in out and "nest 1 (workpiece frame):" in out and "nest 2" in out

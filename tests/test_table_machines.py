@@ -105,7 +105,7 @@ def test_the_all_table_machine_end_to_end(tmp_path, capsys):
     s = tmp_path / "s"
     assert main(["simulate", "xyzac_trt", "--out", str(s), "--points", "150", "--seed", "2"]) == 0
     assert "the tool tips stand still" in capsys.readouterr().out
-    assert main(["fit", "xyzac_trt", str(s / "campaign.csv"), "--spherical", "--model", "6dof", "--order", "4",
+    assert main(["fit", "xyzac_trt", str(s / "campaign.csv"), "--model", "6dof", "--order", "4",
                  "--out", str(s / "model.json"), "--quiet"]) == 0
     capsys.readouterr()
     model = ErrorModel.load(s / "model.json")

@@ -81,7 +81,7 @@ def test_whole_day_on_the_command_line(tmp_path, capsys, flow):
     assert main(["import", str(d / "export.txt"), "--machine", "flow_xyzcb", "--plan", str(d / "plan" / "plan.csv"),
                  "--out", str(d / "campaign.csv")]) == 0
     assert main(["assess", str(d / "campaign.csv"), "--machine", "flow_xyzcb", "--session-gap-min", "5"]) == 0
-    assert main(["fit", "flow_xyzcb", str(d / "campaign.csv"), "--model", "ap", "--order", "2", "--spherical",
+    assert main(["fit", "flow_xyzcb", str(d / "campaign.csv"), "--model", "ap", "--order", "2",
                  "--out", str(d / "model.json"), "--quiet"]) == 0
     assert main(["tables", str(d / "model.json"), "--out", str(d / "tables"), "--quiet"]) == 0
     assert main(["simulate", "flow_xyzcb", "--truth", str(d / "sim" / "truth.json"), "--plan",
@@ -116,7 +116,7 @@ def test_whole_day_on_a_trunnion_with_table_nests(tmp_path, capsys, machines):
                  "--out", str(d / "campaign.csv")]) == 0
     imported = read_campaign(d / "campaign.csv", m)
     assert np.array_equal(imported.target, c.target) and np.allclose(imported.xyz, c.xyz, atol=1e-7)
-    assert main(["fit", "trunnion_xyzac", str(d / "campaign.csv"), "--model", "6dof", "--order", "3", "--spherical",
+    assert main(["fit", "trunnion_xyzac", str(d / "campaign.csv"), "--model", "6dof", "--order", "3",
                  "--out", str(d / "model.json"), "--quiet"]) == 0
     assert main(["tables", str(d / "model.json"), "--out", str(d / "tables"), "--quiet"]) == 0
     assert main(["simulate", "trunnion_xyzac", "--truth", str(d / "sim" / "truth.json"), "--plan",

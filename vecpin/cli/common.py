@@ -57,9 +57,9 @@ def add_machine_args(s: argparse.ArgumentParser) -> None:
 
 def add_noise_args(s: argparse.ArgumentParser) -> None:
     d = noise_defaults()
-    s.add_argument("--spherical", action="store_true",
-                   help="tracker noise in its native spherical coordinates, growing with the range (--tracker-noise); "
-                        "default: Cartesian, the same in every direction (--tracker-sigma-mm)")
+    s.add_argument("--cartesian", action="store_true",
+                   help="tracker noise the same in every direction (--tracker-sigma-mm); default: the tracker's "
+                        "native spherical model, growing with the range (--tracker-noise; seed Section 3)")
     s.add_argument("--multilateration", action="store_true",
                    help="use the tracker ranges only, one equation per row; needs several stations (default: all "
                         "three coordinates)")
@@ -72,7 +72,7 @@ def add_noise_args(s: argparse.ArgumentParser) -> None:
     s.add_argument("--tracker-sigma-mm", type=float,
                    help=f"1-sigma Cartesian tracker noise per coordinate, mm (default {d['tracker_sigma_mm']})")
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise (with --spherical): 1-sigma range noise = R_MM mm + R_PPM ppm of the "
+                   help="spherical tracker noise (the default): 1-sigma range noise = R_MM mm + R_PPM ppm of the "
                         f"range, transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
 
@@ -97,7 +97,7 @@ def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> No
 
 def noise(args, m):
     from vecpin.measurement.noise import noise_from_options
-    kind = "range" if getattr(args, "multilateration", False) else ("spherical" if args.spherical else "cartesian")
+    kind = "range" if getattr(args, "multilateration", False) else ("cartesian" if args.cartesian else "spherical")
     return noise_from_options(m, kind, repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
                               tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise,
                               ballbar_sigma_mm=getattr(args, "ballbar_sigma_mm", None))

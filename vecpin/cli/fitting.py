@@ -145,7 +145,7 @@ def run_demo(args) -> int:
     print("\n".join(res.table()))
     print(f"files in {args.out}: " + ", ".join(p.name for p in res.files))
     out = Path(args.out)
-    print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --spherical --out {out / 'model.json'}; "
+    print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --out {out / 'model.json'}; "
           f"vecpin evaluate {out / 'model.json'} {out / 'validation.csv'}")
     return 0
 

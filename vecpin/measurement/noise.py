@@ -27,7 +27,7 @@ class NoiseModel:
     spherical noise model (used when instrument == "spherical")."""
 
     axis_sigma: np.ndarray
-    instrument: str = "cartesian"
+    instrument: str = "spherical"
     cartesian_sigma: float = DEFAULT_CARTESIAN_SIGMA
     tracker: TrackerNoise = field(default_factory=TrackerNoise)
     ballbar_sigma: float = DEFAULT_BALLBAR_SIGMA
@@ -39,7 +39,7 @@ class NoiseModel:
         self.axis_sigma = np.asarray(self.axis_sigma, float)
 
     @classmethod
-    def default(cls, machine: Machine, instrument: str = "cartesian", **kw) -> "NoiseModel":
+    def default(cls, machine: Machine, instrument: str = "spherical", **kw) -> "NoiseModel":
         sig = np.array([DEFAULT_LINEAR_SIGMA if a.kind == "linear" else DEFAULT_ROTARY_SIGMA for a in machine.axes])
         return cls(sig, instrument, **kw)
 
@@ -65,7 +65,7 @@ def _sigma(value, option: str, unit: str) -> float:
     return v
 
 
-def noise_from_options(machine: Machine, instrument: str = "cartesian", *, repeatability_mm: float | None = None,
+def noise_from_options(machine: Machine, instrument: str = "spherical", *, repeatability_mm: float | None = None,
                        repeatability_deg: float | None = None, tracker_sigma_mm: float | None = None,
                        tracker_noise: tuple[float, float, float, float] | None = None,
                        ballbar_sigma_mm: float | None = None) -> NoiseModel:

@@ -239,7 +239,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if plans and all(p in ("fourier", "fourier_trend") for p in plans):
         check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
                     or "chebyshev")
-    noise = noise or NoiseModel.default(machine, "cartesian")
+    noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
     options = [axis_options(a, orders, families, fixed_order, sp) for a, sp in zip(machine.axes, spans)]

@@ -125,7 +125,7 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
                 validation: Campaign | None = None, folds: int = 5, noise: NoiseModel | None = None,
                 basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
     """Fit ``kind`` ("6dof"/"ap") at every order; judge on ``validation`` or by k-fold CV."""
-    noise = noise or NoiseModel.default(machine, "cartesian")
+    noise = noise or NoiseModel.default(machine)
     check_orders(machine, campaign, [kind], orders, folds=None if validation is not None else folds, noise=noise,
                  basis="chebyshev" if basis == "chebyshev" else "auto")
     for c in (campaign, validation) if validation is not None else (campaign,):

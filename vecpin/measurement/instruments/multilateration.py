@@ -21,7 +21,7 @@ def check_stations(campaign, option: str = "--multilateration") -> None:
     if n < MIN_STATIONS:
         raise InputError(f"{option}: {campaign.source} was measured from {n} tracker station{'s' if n != 1 else ''}, "
                          f"but a fit to ranges alone needs at least {MIN_STATIONS} (the 'station' column); fit this "
-                         "campaign without --multilateration (Cartesian or --spherical noise)")
+                         "campaign without --multilateration (spherical noise, or --cartesian)")
 
 
 @register
