@@ -102,3 +102,23 @@ def test_bad_list_names_file_and_line(tmp_path):
     with pytest.raises(ControllerFileError, match="crosscomp2") as exc:
         beckhoff.read_axis_list(p, tiny_machine(), named_profile())
     assert exc.value.line == 2
+
+
+@pytest.mark.parametrize("machine, why", [("production_xyzbaw", "W is none of them"), ("trunnion_xyzac", "table axes")])
+def test_axis_lists_without_tf5280_where_it_cannot_describe_the_machine(machines, tmp_path, machine, why):
+    """A 6-DoF model of a machine with a W axis or with table axes: the axis compensation
+    lists are written and the missing TF5280 files are said (before: no file at all)."""
+    from vecpin.export.profile import ControllerProfile
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    from vecpin.simulation.simulate import Design, simulate
+    from vecpin.workflows.tables import make_tables
+    m = machines[machine]
+    sim = simulate(m, seed=2, design=Design(n_commands=100, n_validation=5))
+    model = make_model("6dof", m, 2).fit(sim.campaign, NoiseModel.default(m))
+    prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1,
+                                        "axes": {a: {"number": k + 1} for k, a in enumerate(m.axis_names)}})
+    run = make_tables(model, tmp_path, "beckhoff", profile=prof, uncertainty=False, points=64)
+    assert all((tmp_path / f"achskw_{a}.lis").is_file() for a in m.axis_names)
+    assert not (tmp_path / "vol_comp_0.lis").exists()
+    assert any("no volumetric files (TF5280)" in n and why in n for n in run.notes)

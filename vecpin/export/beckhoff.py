@@ -117,7 +117,11 @@ def write(job: ExportJob) -> list[str]:
         job.out.write_text(name, "\n".join(lines) + "\n")
         names.append(name)
     comps = []
-    if job.model is not None and job.model.kind == "6dof":
+    why_not = _no_volumetric(m)
+    if job.model is not None and job.model.kind == "6dof" and why_not:
+        job.notes.append(f"beckhoff: no volumetric files (TF5280): {why_not}; the axis compensation lists carry the "
+                         "tables")
+    elif job.model is not None and job.model.kind == "6dof":
         comps = iso230.component_errors(job.model, min(job.points, 1001))
         title = f"machine {m.name}, 6-DoF model order {job.model.order}"
         for c in comps:
@@ -138,6 +142,17 @@ def write(job: ExportJob) -> list[str]:
     job.out.write_text(STARTUP, "\n".join(st) + "\n")
     job.out.write_text(README, _readme(job, comps))
     return names + [STARTUP, README]
+
+
+def _no_volumetric(m: Machine) -> str | None:
+    """Why vecpin writes no TF5280 configuration for this machine (None: it does)."""
+    bad = [a.name for a in m.axes if a.name.lower() not in ("x", "y", "z", "a", "b", "c")]
+    if bad:
+        return f"TF5280 names axes x y z a b c, and {', '.join(bad)} is none of them"
+    if m.has_workpiece:
+        return ("the machine has table axes (a workpiece branch), and vecpin writes TF5280's kinematic chain for "
+                "head axes only")
+    return None
 
 
 def _vol_list(job: ExportJob, comps) -> str:
