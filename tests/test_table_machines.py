@@ -211,11 +211,11 @@ def test_nest_rows_on_a_machine_without_a_table_are_refused(flow, tmp_path, caps
     c = simulate(flow, seed=1, design=Design(n_commands=60, n_validation=5)).campaign
     c.instrument[4], c.target[4] = "nest", "1"  # file row 6
     write_campaign(tmp_path / "n.csv", c, flow)
-    with pytest.raises(CampaignFileError, match="no table branch"):
+    with pytest.raises(CampaignFileError, match="has no table"):
         table_campaign_notes(flow, read_campaign(tmp_path / "n.csv", flow))
     assert main(["fit", "flow_xyzcb", str(tmp_path / "n.csv"), "--out", str(tmp_path / "m.json")]) == 2
     err = capsys.readouterr().err
-    assert "row 6" in err and "instrument" in err and "no table branch" in err
+    assert "row 6" in err and "instrument" in err and "has no table" in err
 
 
 def test_batched_kabsch_is_the_rigid_registration(rng):

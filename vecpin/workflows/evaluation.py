@@ -37,6 +37,7 @@ class Evaluation:
     warnings: list[str] = field(default_factory=list)  # printed first
     notes: list[str] = field(default_factory=list)
     noise_mm: float | None = None  # mean tracker noise of the measured tip relative to the table
+    outside: np.ndarray | None = None  # rows commanded beyond what the fit measured (judged apart)
 
     @property
     def reduction_pct(self) -> float:
@@ -47,6 +48,13 @@ class Evaluation:
         out += per_tool_table([("uncompensated (nominal kinematics)", self.uncompensated), ("model", self.residual)],
                               self.tool)
         out.append(f"  reduction of the mean: {self.reduction_pct:.1f}%")
+        if self.outside is not None and self.outside.any():
+            k = self.outside
+            out += ["  inside and outside the measured range:"]
+            for side, rows in (("inside", ~k), ("outside", k)):
+                if rows.any():
+                    out += per_tool_table([(f"uncompensated, {side}", self.uncompensated[rows]),
+                                           (f"model, {side}", self.residual[rows])], np.zeros(rows.sum()))[1:]
         if self.other_rows and self.frame == TRACKER_FRAME:
             out.append(f"  (station 0 tracker rows; the file has {self.other_rows} more rows of other stations, "
                        "nests or the ball bar)")
@@ -56,7 +64,11 @@ class Evaluation:
         return {"rows": self.rows, "reregistered": self.reregistered, "units": "mm", "frame": self.frame,
                 "warnings": self.warnings, "notes": self.notes, "table_tip_noise_mean_mm": self.noise_mm,
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
-                "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct}
+                "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct,
+                "outside_measured_range": None if self.outside is None or not self.outside.any() else {
+                    "rows": int(self.outside.sum()),
+                    "uncompensated": distance_stats(self.uncompensated[self.outside], self.tool[self.outside]),
+                    "model_residual": distance_stats(self.residual[self.outside], self.tool[self.outside])}}
 
 
 def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zone=None,
@@ -71,7 +83,9 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
         campaign = zone_rows(model.machine, campaign, zone)
     check_nest_rows(model.machine, campaign)
     if model.machine.has_workpiece and len(campaign.nest_rows):
-        return _relative_to_table(model, campaign, reregister)
+        ev, judged = _relative_to_table(model, campaign, reregister)
+        _judge_range(model, judged, ev)
+        return ev
     if model.machine.has_workpiece:
         c = station0(campaign)
         if not spans_plane(model.machine.tool_tip(c.q, c.tool, frame="base", point=c.point)):
@@ -79,6 +93,7 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
                                     "in the base frame (every axis moves the table): nothing is seen at the tool; read "
                                     "reflectors in three or more table nests at each command", column="instrument")
     ev = _at_the_tool(model, campaign, reregister, model_source)
+    _judge_range(model, station0(campaign), ev)
     if model.machine.has_workpiece:
         ev.warnings.append(f"warning: {campaign.source} has no nest rows: judged at the tool tip, which the table axes "
                            f"({', '.join(model.machine.table_axes)}) do not move, so their errors are not seen; read "
@@ -106,11 +121,12 @@ def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))
 
 
-def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) -> Evaluation:
+def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) -> tuple[Evaluation, Campaign]:
     """The tool rows relative to the table: each command's table pose registered on its
     nests (the fitted nests, or re-fitted from the run), the measured tip against the
     nominal and the modelled tip relative to the workpiece, each after the best rigid
-    registration (:mod:`vecpin.measurement.tableframe`)."""
+    registration (:mod:`vecpin.measurement.tableframe`). Returns the evaluation and the
+    judged rows."""
     m = model.machine
     nests, refitted = table_nests([campaign], dict(model.setup_.nests))
     tt = table_tips(campaign, nests, refitted)
@@ -143,4 +159,29 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
         notes.append("--reregister: not needed relative to the table (every command registers the tracker on the nests)")
     return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
                       norm_mm(registered_errors(modelled, tt.tip)), reregister, len(campaign) - len(c), TABLE_FRAME,
-                      notes=notes, noise_mm=float(noise.mean()))
+                      notes=notes, noise_mm=float(noise.mean())), c
+
+
+OUTSIDE_MARGIN = 0.02   # of an axis' travel: commands this far beyond the measured range are extrapolation
+
+
+def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
+    """Mark the judged rows commanded beyond the range the fit measured (its zone, or the
+    lowest and highest command of each axis, by more than ``OUTSIDE_MARGIN`` of the travel):
+    the model extrapolates there, so they are reported apart, with a first-line warning."""
+    from vecpin.compensation.plan import measured_box
+    m = model.machine
+    lo, hi = measured_box(model)
+    margin = OUTSIDE_MARGIN * np.array([a.travel for a in m.axes])
+    beyond = (judged.q < lo - margin) | (judged.q > hi + margin)
+    outside = beyond.any(axis=1)
+    if not outside.any():
+        return
+    ev.outside = outside
+    axes = [a for a in m.axes if beyond[:, a.index].any()]
+    where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}" for a in axes)
+    inside_mean, outside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan"), \
+        ev.residual[outside].mean()
+    ev.warnings.append(f"warning: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "
+                       f"what the fit measured ({where}): the model extrapolates there (model mean {outside_mean:.4f} "
+                       f"mm outside, {inside_mean:.4f} mm inside); judged apart below")

@@ -144,13 +144,14 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         raise InputError(f"{w.source} has nest rows and {wo.source} has none: the first would be judged relative to "
                          "the table, the second at the tool tip, which are not the same error; measure both runs "
                          "with the table nests (or judge both at the tool without their nest rows)")
-    b, a = before.primary(), after.primary()
-    if len(a) == len(b) and np.array_equal(a.q, b.q) and np.array_equal(a.tool, b.tool) and np.array_equal(a.xyz, b.xyz):
+    if (len(after) == len(before) and np.array_equal(after.q, before.q) and np.array_equal(after.tool, before.tool)
+            and np.array_equal(after.xyz, before.xyz)):   # every row: a machine whose tool stands still differs at its nests
         same_file = Path(before.source).resolve() == Path(after.source).resolve()
         raise InputError(f"verify {before.source} {after.source}: "
                          + ("the same file is given " if same_file else "the two files hold the same measurements ")
                          + "as the run before and the run after compensation; AFTER is a second run, measured with "
                            "the tables active")
+    b, a = before.primary(), after.primary()
     for run in (b, a):  # a run of another machine, or in other units, is not a validation run of this one
         tips = machine.tool_tip(run.q, run.tool, frame="base")
         if not table or spans_plane(tips):
