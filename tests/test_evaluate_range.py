@@ -2,7 +2,6 @@
 those rows are judged apart and said in the first line (issue 28 item 10, issue 25)."""
 import numpy as np
 
-from vecpin.measurement.campaign import read_campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.simulation.simulate import Design, simulate
