@@ -95,6 +95,12 @@ def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> No
                         "data, per axis (default)")
 
 
+def noise_stated(args) -> bool:
+    """True when the user gave any noise level (repeatability, tracker, ball bar)."""
+    return any(getattr(args, k, None) is not None for k in ("repeatability_mm", "repeatability_deg",
+                                                            "tracker_sigma_mm", "tracker_noise", "ballbar_sigma_mm"))
+
+
 def noise(args, m):
     from vecpin.measurement.noise import noise_from_options
     kind = "range" if getattr(args, "multilateration", False) else ("cartesian" if args.cartesian else "spherical")

@@ -6,7 +6,7 @@ import json
 import numpy as np
 
 from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args, machine,
-                               noise, parse_orders, progress, zone_option)
+                               noise, noise_stated, parse_orders, progress, zone_option)
 from vecpin.units import MM_PER_M
 
 
@@ -33,7 +33,7 @@ def run_fit(args) -> int:
     run = fit_campaign(m, c, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
                        tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, folds=args.folds, zone=zone,
-                       progress=progress(not args.quiet))
+                       noise_from_data=not noise_stated(args), progress=progress(not args.quiet))
     model = run.model
     model.save(args.out)
     if zone:
@@ -43,6 +43,8 @@ def run_fit(args) -> int:
         print(run.choice.table())
     rep = model.report_
     print(rep.summary())
+    if run.noise_line():
+        print(run.noise_line())
     if rep.removed:
         print(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
     c0 = c.primary()

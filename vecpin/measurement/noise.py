@@ -93,3 +93,12 @@ def noise_from_options(machine: Machine, instrument: str = "spherical", *, repea
         a, b, c, d = vals
         noise.tracker = TrackerNoise(a * M_PER_MM, b * 1e-6, c * M_PER_MM, d * 1e-6)
     return noise
+
+
+def scaled_noise(noise: NoiseModel, s: float) -> NoiseModel:
+    """``noise`` with every standard deviation (positioning, tracker, ball bar) times ``s``:
+    the ratio of machine to instrument noise kept, their level from the data."""
+    return NoiseModel(noise.axis_sigma * s, noise.instrument, noise.cartesian_sigma * s,
+                      TrackerNoise(noise.tracker.range_const * s, noise.tracker.range_ppm * s,
+                                   noise.tracker.transverse_const * s, noise.tracker.transverse_ppm * s),
+                      noise.ballbar_sigma * s)

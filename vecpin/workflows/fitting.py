@@ -20,7 +20,7 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
-from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.noise import NoiseModel, scaled_noise
 from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
@@ -46,6 +46,26 @@ class FitRun:
     choice: ModelChoice | None
     rows_in_zone: int | None = None  # rows the zone kept (None: no zone)
     rows: int = 0                    # rows of the campaign
+    noise_scale: float | None = None      # the noise level the data gave, times the stated one (None: not asked)
+    noise_scale_sd: float | None = None   # its standard deviation
+    noise_rescaled: bool = False          # the fit (and choice) were made again with the scaled noise
+    noise_used: float = 1.0               # the scale of the stated noise the final fit used
+
+    def noise_line(self) -> str | None:
+        """What the data said of the noise level, for the printout (None: not estimated)."""
+        if self.noise_scale is None:
+            return None
+        s, sd = self.noise_scale, self.noise_scale_sd
+        if not self.noise_rescaled:
+            return (f"noise from the data: residuals {s:.2f} ± {sd:.2f} x the stated noise, within the chi2 band: "
+                    "the stated noise kept")
+        return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
+                f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted again; "
+                f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
+                "the stated one (state the noise with --repeatability-mm, --tracker-noise, ... to fix it)")
+
+
+NOISE_ROUNDS = 3   # choose-and-fit rounds when the noise level comes from the data
 
 
 def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "--zone") -> Campaign:
@@ -62,8 +82,14 @@ def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "-
 def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 progress: Callable[[str], None] | None = None) -> FitRun:
-    """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``)."""
+                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> FitRun:
+    """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``).
+
+    ``noise_from_data``: the noise level is not known (the user stated none): when the
+    fit's chi2 leaves its band, every noise sigma is scaled by sqrt(chi2 / expected) and
+    the model chosen and fitted again (at most ``NOISE_ROUNDS`` times, until the scale
+    settles within 5 %). The ratio of machine to instrument noise is kept: one level, not
+    two variance components, is what the residuals tell apart from the model."""
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
@@ -77,12 +103,26 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
         check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
-    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds,
-                                  underdetermined=underdetermined, progress=progress, **opts)
-    check_size(model)
-    if progress:
-        progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
-    model.fit(campaign, noise, progress=progress, underdetermined=underdetermined)
+    scale, estimate, sd = 1.0, None, None      # the scale the fit used; the level the data give
+    for k in range(NOISE_ROUNDS if noise_from_data else 1):
+        used = scaled_noise(noise, scale) if scale != 1.0 else noise
+        model, choice = choose_or_fix(machine, campaign, used, kind, basis, order, folds=folds,
+                                      underdetermined=underdetermined, progress=progress, **opts)
+        check_size(model)
+        if progress:
+            progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
+        model.fit(campaign, used, progress=progress, underdetermined=underdetermined)
+        rep = model.report_
+        if not noise_from_data or rep.chi2_expected <= 0:
+            break
+        step = math.sqrt(rep.chi2 / rep.chi2_expected)
+        estimate, sd = scale * step, scale * step / math.sqrt(2 * rep.chi2_expected)
+        if (k == 0 and rep.chi2_in_band) or abs(step - 1) < 0.05 or k == NOISE_ROUNDS - 1:
+            break
+        scale = estimate
+        if progress:
+            progress(f"noise from the data: {scale:.2f} x the stated noise; choosing and fitting again")
+    rescaled = scale != 1.0
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
         for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
             warnings.warn(VecpinWarning(note), stacklevel=2)
@@ -90,4 +130,4 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
         model.selection_ = choice.to_dict()
     if zone:
         model.zone_ = dict(zone)
-    return FitRun(model, choice, len(campaign) if zone else None, rows)
+    return FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale)
