@@ -171,6 +171,7 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     (folder / "commands.json").write_text(json.dumps({"joints": n, "letters": letters, "pins": pins,
                                                       "commands": commands, "creep": 0.01}))
     ensure_user()
+    subprocess.run(["pkill", "-KILL", "-u", USER], capture_output=True)   # what an earlier, killed run left
     subprocess.run(["chown", "-R", USER, str(folder)], check=True)
     folder.chmod(0o755)
     r = subprocess.run(["runuser", "-u", USER, "--", "bash", "-c", f"cd {folder} && linuxcnc sim.ini"],
