@@ -178,3 +178,14 @@ def test_reads_a_0i_mf_style_backup():
         assert np.abs(want).max() > 0.0005
     b = back.table("bb")
     assert m.axis("B").to_user(b.start) == pytest.approx(0.0) and m.axis("B").to_user(b.end) == pytest.approx(360.0)
+
+
+def test_a_rotary_axis_over_a_turn_without_a_modulo_word_is_warned(tmp_path):
+    """C of the tiny machine travels more than a turn: with tables over the whole travel and
+    no "modulo" in the profile, the files say what a modulo NC axis needs."""
+    m = tiny_machine()
+    c = m.axis("C")
+    assert c.upper_user - c.lower_user >= 360.0 - 1e-6
+    t = CompensationTable("C", "C", c.lower, c.travel / 4, np.radians([0.0, 0.001, 0.0, -0.001, 0.0]))
+    notes = write(TableSet(m.axis_names, [t]), m, profile(), tmp_path)
+    assert any("C travels" in n and "modulo" in n for n in notes)

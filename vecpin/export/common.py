@@ -52,6 +52,19 @@ def constant_note(axis, value_user: float, file: str, datum: str, datum_file: st
             f"{axis.name} keeps this error everywhere")
 
 
+def modulo_warnings(job: "ExportJob") -> None:
+    """A note for every rotary axis that travels a turn or more with tables over its whole
+    travel and no word on whether the NC treats it as modulo (then its tables must be)."""
+    for a in job.machine.axes:
+        if a.kind != "rotary" or a.upper_user - a.lower_user < 360.0 - 1e-6:
+            continue
+        if job.profile.axis(a.name).modulo is None and not any(t.modulo for t in job.tables.tables
+                                                               if t.input_axis == a.name):
+            job.notes.append(f"warning: {a.name} travels {a.upper_user - a.lower_user:g} deg and its tables cover the "
+                             f"whole travel; if the NC treats {a.name} as a modulo axis, its tables must be modulo "
+                             f"(0..360): set \"modulo\": true for {a.name} in the profile (or --modulo {a.name})")
+
+
 def new_reference_position(reference_user: float, correction_user: float) -> float:
     """The reference point's machine coordinate [mm or deg] that adds ``correction`` to
     every command of the axis.

@@ -45,9 +45,8 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
-from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, new_reference_position,
-                                  read_lines, to_float, with_constants,
-                                  to_int)
+from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, modulo_warnings,
+                                  new_reference_position, read_lines, to_float, to_int, with_constants)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M
@@ -224,6 +223,7 @@ def write(job: ExportJob) -> list[str]:
     """``CNC-PARA.TXT`` (3620-3625), ``PITCH.TXT`` (pitch data), ``STRAIGHTNESS.CSV`` (by hand) and README."""
     m, prof = job.machine, job.profile
     job.limits.check_tables(job.tables)
+    modulo_warnings(job)
     gs = grids(job.tables, m, prof)
     para = ["%"]
     para.append(_param_line(3620, [(g.number, str(g.reference)) for g in gs]))

@@ -39,8 +39,8 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
-from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, new_reference_position, read_lines,
-                                  to_float, to_int, with_constants)
+from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, modulo_warnings,
+                                  new_reference_position, read_lines, to_float, to_int, with_constants)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M
@@ -71,14 +71,11 @@ def check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits
 
 
 def _modulo_notes(job: ExportJob) -> None:
+    modulo_warnings(job)
     for a in job.machine.axes:
         if a.kind != "rotary" or a.upper_user - a.lower_user < 360.0 - 1e-9:
             continue
         p = job.profile.axis(a.name)
-        if p.modulo is None and not any(t.modulo for t in job.tables.tables if t.input_axis == a.name):
-            job.notes.append(f"warning: {a.name} travels {a.upper_user - a.lower_user:g} deg and its tables cover the "
-                             f"whole travel; if the NC treats {a.name} as a modulo axis, its tables must be modulo "
-                             f"(0..360): set \"modulo\": true for {a.name} in the profile (or --modulo {a.name})")
         if p.modulo and not all(t.modulo for t in job.tables.tables if t.input_axis == a.name):
             raise InputError(f"{job.profile.where}: {a.name} is a modulo axis but its tables are not modulo: make "
                              f"the tables with --modulo {a.name}")
