@@ -112,22 +112,112 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
                          "vecpin.export.registry.get_format(name).limits")
     lim = limits or NO_LIMITS
-    m = model.machine
     model._check_fitted()
-    left_out = []
-    if model.row_dependent:  # tables carry geometry: row-dependent effects get advice instead
-        std = model.std_
-        for e, sl in model.effect_slices():
-            if not e.geometric:
-                left_out.append(f"{e.label} is not in the tables (it depends on the rows, not the position): "
-                                + "; ".join(e.advice(model.b_[sl], std[sl])))
-        model = model.geometric_part()[0]
-    # ---- everything a user can get wrong, before any heavy work
+    model, left_out = _geometric(model)
+    req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
+                   commands, n_commands)
+    problem, where, hold, lo, hi, q, tools = _table_problem(model, req, modulo_axes, commands, n_commands, seed, zone)
+    m = model.machine
+    unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
+                  or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
+    gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
+    report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
+                                      f"{', '.join(f'{t:g}' for t in req.tools_mm)} mm (every row on these points):")
+    with_spread = uncertainty and covariance_kind(model) == "full"
+    actual = model_as_actual(model)
+
+    def add(label, ts, n):
+        spread = parameter_spread(model, ts, problem.q, problem.L, point=problem._pt) if with_spread else None
+        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread)
+
+    add("uncompensated (model)", None, 0)
+    if progress:
+        progress("solving the full table set")
+    # eq. 17 (the AP model's perturbations are the tables) only when the perturbations are the whole
+    # model: a geometric effect (a gantry skew, non-zero) is not in them, the projection takes it
+    effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
+    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on:
+        full = from_ap_model(model, modulo_axes, hold).discretise(req.n_points)  # eq. 17: the AP model is tables
+    else:
+        full = problem.solve(all_table_names(m)).discretise(req.n_points)
+    add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
+        full, len(full.tables))
+    pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
+    add("pitch only (model-predicted)", pitch, len(pitch.tables))
+    selection = None
+    tables = pitch if req.pitch_only or req.only_pitch_note else full
+    if req.cons is not None:
+        if progress:
+            progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
+        search = TableProblem(actual, m, q, tools, modulo_axes=tuple(modulo_axes), hold=hold,
+                              bases=table_bases(m, table_order or 8, "auto", tuple(modulo_axes), lo, hi))
+        search.free_gauge = problem.free_gauge
+        selection = SEARCHES[method](search, req.cons, seed, req.n_points)
+        tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)
+        add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
+    lim.check_tables(tables)
+    report.notes += _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+    return TablePlan(tables, lim, selection, report, problem, req.n_points)
+
+
+SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
+            "ga": lambda p, c, seed, n: genetic_search(p, c, seed=seed, n_points=n),
+            "heuristic": lambda p, c, seed, n: impact_heuristic(p, c, n_points=n)}
+
+
+def _geometric(model: ErrorModel) -> tuple[ErrorModel, list[str]]:
+    """The model's geometric part (tables carry geometry) and advice for the row-dependent
+    effects it leaves out."""
+    if not model.row_dependent:
+        return model, []
+    std = model.std_
+    left_out = [f"{e.label} is not in the tables (it depends on the rows, not the position): "
+                + "; ".join(e.advice(model.b_[sl], std[sl])) for e, sl in model.effect_slices() if not e.geometric]
+    return model.geometric_part()[0], left_out
+
+
+@dataclass
+class _Request:
+    """A table request checked against the controller and the model, before any solve."""
+
+    n_points: int
+    pitch_only: bool
+    cons: object | None
+    only_pitch_note: str | None
+    tools_mm: list[float]
+    tools_note: str | None
+
+
+def _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
+             commands, n_commands) -> _Request:
+    """Everything a user can get wrong, checked before any heavy work."""
+    m = model.machine
     n_points = lim.points(points)
     if method not in METHODS:
         raise InputError(f"--method {method}: choose one of {', '.join(METHODS)}")
     for a in forbid_output:
         m.axis(a)
+    _check_modulo(model, modulo_axes)
+    pitch_only = not lim.cross_tables
+    need_subset = not pitch_only and (max_tables is not None or bool(no_circular) or bool(forbid_output)
+                                      or lim.needs_selection(m.axis_names))
+    cons, only_pitch_note = None, None
+    if pitch_only and max_tables:
+        lim.constraints(max_tables, axis_names=m.axis_names)  # raises: this controller takes no cross tables
+    if need_subset:
+        cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
+        if cons.max_tables == 0 or not cons.candidates(m.axis_names):
+            only_pitch_note = ("--max-tables 0" if cons.max_tables == 0 else "every cross table is forbidden "
+                               "(--forbid-output and the controller's rules)") + ": pitch tables only"
+            cons = None
+    tools_mm, tools_note = _table_tools(model, tools_mm)
+    if commands is None and n_commands < 1:
+        raise InputError(f"n_commands {n_commands}: give at least one command")
+    return _Request(n_points, pitch_only, cons, only_pitch_note, tools_mm, tools_note)
+
+
+def _check_modulo(model: ErrorModel, modulo_axes) -> None:
+    m = model.machine
     for a in modulo_axes:
         ax = m.axis(a)
         if ax.kind != "rotary":
@@ -136,44 +226,39 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
             raise InputError(f"--modulo {a}: {a} travels {ax.upper_user - ax.lower_user:g} deg "
                              f"({ax.lower_user:g} .. {ax.upper_user:g}), less than a turn, so a table over one turn "
                              f"that repeats does not apply; leave out --modulo {a} (its table spans the travel)")
-    if isinstance(model, APModel):
-        for a in modulo_axes:
-            if model.bases[m.axis(a).index].kind != "fourier":
-                raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
-                                  "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
-    cross = [n for n in all_table_names(m) if n[0] != n[1]]
-    pitch_only = not lim.cross_tables
-    need_subset = not pitch_only and (max_tables is not None or bool(no_circular) or bool(forbid_output)
-                                      or lim.needs_selection(m.axis_names))
-    cons = None
-    if pitch_only and max_tables:
-        lim.constraints(max_tables, axis_names=m.axis_names)  # raises: this controller takes no cross tables
-    only_pitch_note = None
-    if need_subset:
-        cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
-        if cons.max_tables == 0 or not cons.candidates(m.axis_names):
-            only_pitch_note = ("--max-tables 0" if cons.max_tables == 0 else "every cross table is forbidden "
-                               "(--forbid-output and the controller's rules)") + ": pitch tables only"
-            cons = None
+        if isinstance(model, APModel) and model.bases[ax.index].kind != "fourier":
+            raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
+                              "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
+
+
+def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
+    """The tool lengths [mm] the tables are fitted with (given, or the fit's), and a note
+    when a tool column measured row by row gave too many."""
     if tools_mm is not None:
         t = np.asarray(tools_mm, float)
         if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0 or t.max() > 10_000:
             raise InputError(f"--tools {' '.join(f'{v:g}' for v in t)}: tool lengths are mm from the gauge line, "
                              "0 .. 10000 (e.g. 214.88 312.86)")
-    tools_mm = tools_mm or getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM
-    tools_note = None
+    tools_mm = list(tools_mm or getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
+    note = None
     if len(tools_mm) > MAX_TABLE_TOOLS:  # a tool column measured row by row: as many lengths as rows
         lo, hi = float(min(tools_mm)), float(max(tools_mm))
-        tools_note = (f"{len(tools_mm)} different tool lengths in the fit: the tables are fitted on "
-                      f"{MAX_TABLE_TOOLS} spanning {lo:g} .. {hi:g} mm (give --tools to choose)")
+        note = (f"{len(tools_mm)} different tool lengths in the fit: the tables are fitted on {MAX_TABLE_TOOLS} "
+                f"spanning {lo:g} .. {hi:g} mm (give --tools to choose)")
         tools_mm = [float(v) for v in np.linspace(lo, hi, MAX_TABLE_TOOLS)]
     if len(tools_mm) < 2:
-        tools_mm = list(tools_mm) + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
-    tools = from_mm(np.array(tools_mm, float))
-    if commands is None and n_commands < 1:
-        raise InputError(f"n_commands {n_commands}: give at least one command")
+        tools_mm = tools_mm + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
+    return tools_mm, note
 
-    actual = model_as_actual(model)
+
+def _table_problem(model: ErrorModel, req: _Request, modulo_axes, commands, n_commands: int, seed: int, zone):
+    """(problem, where, hold ranges, lower, upper, commands, tools): the table problem on the
+    measured box (or zone). Table functions that can follow any model (splines finer than
+    its functions) over that box: every spline has pseudo-commands under it, and beyond
+    the box the functions are held constant, exactly - a table must not extrapolate what
+    was never measured. The subset search works on a cheaper Chebyshev problem over the
+    same box; the chosen set is re-solved on this one."""
+    m = model.machine
     lo, hi = measured_box(model)
     if zone:
         zl, zh = clip_to_zone(m, zone)
@@ -189,83 +274,39 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     else:
         q = np.unique(np.asarray(commands, float), axis=0)
         where = f"{len(q)} campaign commands"
-    # table functions that can follow any model (splines finer than its functions) over the
-    # measured box (or zone): every spline has pseudo-commands under it, and beyond the box
-    # the functions are held constant, exactly - a table must not extrapolate what was
-    # never measured. The subset search works on a cheaper Chebyshev problem over the same
-    # box; the chosen set is re-solved here.
+    tools = from_mm(np.array(req.tools_mm, float))
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
-    problem = TableProblem(actual, m, q, tools, bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
-                           modulo_axes=tuple(modulo_axes), hold=hold)
-    # a random design never reaches the very limits: only a real part of the travel left
-    # unmeasured (HOLD_MARGIN) is worth a note, and keeps the AP model's own functions out
-    unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
-                  or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
-    gauge_note = _gauge_significance(model, problem, pitch_names(m) if pitch_only else all_table_names(m))
-    report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
-                                      f"{', '.join(f'{t:g}' for t in tools_mm)} mm (every row on these points):")
+    problem = TableProblem(model_as_actual(model), m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes),
+                           bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
+    return problem, where, hold, lo, hi, q, tools
 
-    with_spread = uncertainty and covariance_kind(model) == "full"
 
-    def add(label, ts, n):
-        spread = parameter_spread(model, ts, problem.q, problem.L, point=problem._pt) if with_spread else None
-        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread)
-
-    add("uncompensated (model)", None, 0)
-    if progress:
-        progress("solving the full table set")
-    # eq. 17 (the AP model's perturbations are the tables) only when the perturbations are the whole
-    # model: a geometric effect (a gantry skew, non-zero) is not in them, the projection takes it
-    effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
-    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on:
-        full = from_ap_model(model, modulo_axes, hold).discretise(n_points)  # eq. 17: the AP model is tables
-    else:
-        full = problem.solve(all_table_names(m)).discretise(n_points)
-    label = "full tables (model-predicted)" if not pitch_only else f"full tables (not loadable on {lim.name})"
-    add(label, full, len(full.tables))
-    pitch = problem.solve(pitch_names(m)).discretise(n_points)
-    add("pitch only (model-predicted)", pitch, len(pitch.tables))
-    selection = None
-    tables = pitch if pitch_only or only_pitch_note else full
-    if cons is not None:
-        if progress:
-            progress(f"choosing {cons.max_tables} of the {len(cross)} cross tables ({method})")
-        search = TableProblem(actual, m, q, tools, modulo_axes=tuple(modulo_axes), hold=hold,
-                              bases=table_bases(m, table_order or 8, "auto", tuple(modulo_axes), lo, hi))
-        search.free_gauge = problem.free_gauge
-        if method == "exact":
-            selection = exact_search(search, cons, n_points=n_points)
-        elif method == "ga":
-            selection = genetic_search(search, cons, seed=seed, n_points=n_points)
-        else:
-            selection = impact_heuristic(search, cons, n_points=n_points)
-        tables = problem.solve(pitch_names(m) + selection.tables).discretise(n_points)
-        add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
-    lim.check_tables(tables)
-    fit_res = model.report_.residuals_mm["all"]
+def _notes(model, with_spread: bool, uncertainty: bool, gauge_note: str, left_out: list[str], req: _Request,
+           unmeasured: dict) -> list[str]:
+    """The report's notes: the spread column, the gauge line, what the tables leave out."""
+    m = model.machine
+    notes = []
     if with_spread:
-        report.notes.append("last column: mean over 200 seeded draws of the parameters from the model's covariance, "
-                            "compensated error linearised around the model, rigid motion of the whole workspace "
-                            "removed (not observable from tracker data, no effect on parts); [16th, 84th percentile]")
+        notes.append("last column: mean over 200 seeded draws of the parameters from the model's covariance, "
+                     "compensated error linearised around the model, rigid motion of the whole workspace "
+                     "removed (not observable from tracker data, no effect on parts); [16th, 84th percentile]")
     elif uncertainty:
-        report.notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
-                            "of an earlier vecpin kept no correlations), and without them the spread would be "
-                            "meaningless; refit to get it")
-    report.notes.append(gauge_note)
-    report.notes += left_out
-    if only_pitch_note:
-        report.notes.append(only_pitch_note)
-    if tools_note:
-        report.notes.append(tools_note)
+        notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
+                     "of an earlier vecpin kept no correlations), and without them the spread would be "
+                     "meaningless; refit to get it")
+    notes.append(gauge_note)
+    notes += left_out
+    notes += [n for n in (req.only_pitch_note, req.tools_note) if n]
     if unmeasured:
-        report.notes.append("measured range: tables held constant beyond the commands the campaign measured on "
-                            + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "
-                                        f"{m.axis(a).unit})" for a, v in unmeasured.items())
-                            + ": a table must not extrapolate what was never measured")
-    report.notes.append(f"the model's own fit residual (measured, on the campaign's points, not these): mean "
-                        f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
-                        "expected to do better than the model fits it")
-    return TablePlan(tables, lim, selection, report, problem, n_points)
+        notes.append("measured range: tables held constant beyond the commands the campaign measured on "
+                     + ", ".join(f"{a} ({m.axis(a).to_user(v[0]):g} .. {m.axis(a).to_user(v[1]):g} "
+                                 f"{m.axis(a).unit})" for a, v in unmeasured.items())
+                     + ": a table must not extrapolate what was never measured")
+    fit_res = model.report_.residuals_mm["all"]
+    notes.append(f"the model's own fit residual (measured, on the campaign's points, not these): mean "
+                 f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
+                 "expected to do better than the model fits it")
+    return notes
 
 
 def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
