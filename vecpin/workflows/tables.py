@@ -128,25 +128,9 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     axis with a following drive gets its tables for both drives, and a gantry skew of
     the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
-    fmt, prof, limits = resolve(controller, m, profile, axis_map)
-    limits.points(points)                                 # before any heavy work
-    for a in forbid_output:
-        named_axis(m, a, "--forbid-output")
-    for a in modulo_axes:
-        named_axis(m, a, "--modulo")
-    modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
-    if max_tables is not None:
-        limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
-    _, xm, xprof = drives.expand(TableSet(m.axis_names, []), m, prof)  # the writers' view: drives as axes
-    fmt.check(xm, xprof, limits, modulo)
+    fmt, prof, limits, modulo = _check_request(model, controller, profile, axis_map, points, forbid_output,
+                                               modulo_axes, max_tables, no_circular, sign_test)
     zone = model_zone(model) if zone is None else zone
-    if sign_test is not None:
-        if fmt.read is None:
-            raise InputError(f"--sign-test: {controller} writes no tables a controller applies")
-        key = sign_test.strip().lower()
-        if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
-                                                                          for i in m.axis_names}:
-            raise InputError(f"--sign-test {sign_test}: neither an axis nor a table of {m.name}")
     check_output_dir(out_dir)
     q = None
     if commands is not None:
@@ -154,28 +138,10 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         if tools_mm is None:
             tools_mm = [float(t * MM_PER_M) for t in commands.tool_lengths()]
     notes: list[str] = []
-    differential, taken = {}, []
-    if drives.twin_axes(prof):
-        differential, taken, dnotes = drives.skew_differential(model, prof, limits.points(points))
-        notes += dnotes
-    planned = _without(model, taken)
-    while True:   # twin drives: a cross table on a twin axis is loaded for both drives, and counts twice
-        plan = plan_tables(planned, limits, max_tables=max_tables, no_circular=no_circular or None,
-                           forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm,
-                           modulo_axes=modulo, commands=None if q is None else np.asarray(q), uncertainty=uncertainty,
-                           zone=zone, progress=progress)
-        plan.tables.drives = drives.twin_drives(m, prof, differential)  # tables.json carries the differential
-        k = _cross_tables_over(plan.tables, m, prof, differential, limits)
-        if k == 0:
-            break
-        max_tables = sum(not t.is_pitch for t in plan.tables.tables) - k
-        if max_tables < 0:
-            raise ControllerLimitError(f"{controller} holds {limits.cross_limit(m.axis_names)} cross tables, but the "
-                                       "twin drives' own tables (the differential that turns the beam against the "
-                                       "gantry skew, loaded on both drives) already need more: leave out the "
-                                       "drive_separation_mm of the profile (no differential) or raise the limit")
-        notes.append(f"twin drives: {k} cross table(s) more than {controller} holds once loaded for both drives; "
-                     f"chose again with --max-tables {max_tables}")
+    plan, differential = _plan_for_drives(
+        model, prof, limits, controller, notes, max_tables=max_tables, no_circular=no_circular or None,
+        forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm, modulo_axes=modulo,
+        commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress)
     if progress:
         progress(f"writing the {controller} files")
     as_written = None
@@ -209,6 +175,60 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
+
+
+def _check_request(model: ErrorModel, controller: str, profile, axis_map, points, forbid_output, modulo_axes,
+                   max_tables, no_circular, sign_test) -> tuple[ControllerFormat, ControllerProfile, ControllerLimits,
+                                                                 list[str]]:
+    """(format, profile, limits, modulo axes): every limit and missing fact checked before
+    the first solve."""
+    m = model.machine
+    fmt, prof, limits = resolve(controller, m, profile, axis_map)
+    limits.points(points)
+    for a in forbid_output:
+        named_axis(m, a, "--forbid-output")
+    for a in modulo_axes:
+        named_axis(m, a, "--modulo")
+    modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
+    if max_tables is not None:
+        limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
+    _, xm, xprof = drives.expand(TableSet(m.axis_names, []), m, prof)  # the writers' view: drives as axes
+    fmt.check(xm, xprof, limits, modulo)
+    if sign_test is not None:
+        if fmt.read is None:
+            raise InputError(f"--sign-test: {controller} writes no tables a controller applies")
+        key = sign_test.strip().lower()
+        if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
+                                                                          for i in m.axis_names}:
+            raise InputError(f"--sign-test {sign_test}: neither an axis nor a table of {m.name}")
+    return fmt, prof, limits, modulo
+
+
+def _plan_for_drives(model: ErrorModel, prof: ControllerProfile, limits: ControllerLimits, controller: str,
+                     notes: list[str], *, max_tables, points, **kw) -> tuple[TablePlan, dict]:
+    """(plan, differential tables): the tables planned under ``limits``; with twin drives a
+    cross table on a twin axis is loaded for both drives and counts twice, so the choice
+    is made again until the set fits, and a gantry skew goes into the differential."""
+    m = model.machine
+    differential, taken = {}, []
+    if drives.twin_axes(prof):
+        differential, taken, dnotes = drives.skew_differential(model, prof, limits.points(points))
+        notes += dnotes
+    planned = _without(model, taken)
+    while True:
+        plan = plan_tables(planned, limits, max_tables=max_tables, points=points, **kw)
+        plan.tables.drives = drives.twin_drives(m, prof, differential)  # tables.json carries the differential
+        k = _cross_tables_over(plan.tables, m, prof, differential, limits)
+        if k == 0:
+            return plan, differential
+        max_tables = sum(not t.is_pitch for t in plan.tables.tables) - k
+        if max_tables < 0:
+            raise ControllerLimitError(f"{controller} holds {limits.cross_limit(m.axis_names)} cross tables, but the "
+                                       "twin drives' own tables (the differential that turns the beam against the "
+                                       "gantry skew, loaded on both drives) already need more: leave out the "
+                                       "drive_separation_mm of the profile (no differential) or raise the limit")
+        notes.append(f"twin drives: {k} cross table(s) more than {controller} holds once loaded for both drives; "
+                     f"chose again with --max-tables {max_tables}")
 
 
 def _read_back(fmt: ControllerFormat, stage: Path, xm, xprof: ControllerProfile, controller: str, out_dir) -> TableSet:
