@@ -63,11 +63,11 @@ def run_plan(args) -> int:
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed, nests=args.nests, nest_mm=parse_nest_options(args.nest))
+        candidates=args.candidates, seed=args.seed, expected_error_mm=args.expected_error, nests=args.nests, nest_mm=parse_nest_options(args.nest))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
                       dwell_s=args.dwell, nest_dwell_s=args.nest_dwell, feed_mm_min=args.feed, safe_z_mm=args.safe_z,
                       retract=args.retract_axis, axis_map=parse_axis_map(args.axis_map, m),
-                      compare_with=args.compare, progress=progress(not args.quiet))
+                      compare_with=args.compare, progress=progress(not args.quiet), holder_change_s=args.holder_change)
     print("\n".join(run.lines()))
     return 0
 
@@ -136,6 +136,11 @@ def register(sub) -> None:
                    "there and it plunges to the next point (default: the end of its travel away from the work)")
     s.add_argument("--retract-axis", metavar="AXIS", help="linear axis that lifts the tool off the work between "
                    "points (default: the one along the tool at zero rotary angles, usually Z)")
+    s.add_argument("--expected-error", type=float, default=0.2, metavar="MM",
+                   help="the machine's mean volumetric error uncompensated, as a tracker measures it (rigid motion "
+                        "removed), mm: the plan warns when its predicted error exceeds half of it (default 0.2)")
+    s.add_argument("--holder-change", type=float, default=120.0, metavar="S",
+                   help="time to change the target holder at the program's stop, s, for the campaign's time (default 120)")
     s.add_argument("--feed", type=float, default=1000.0, help="feed of the final approach move, mm/min (default 1000)")
     s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
                    help="NC program to write; repeatable (default: all three)")

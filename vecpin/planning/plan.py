@@ -37,6 +37,7 @@ from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.planchecks import EXPECTED_ERROR_MM, plan_warnings
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
                                        default_tracker_placement, side_name)
 from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone, inside
@@ -66,7 +67,10 @@ class PlanSettings:
     ``candidates``: candidate commands (default max(2000, 10 n)); ``validation_points``:
     quasi-random commands the predicted error is judged on; ``nests``: table nests read
     at every command (None: 3 on a machine with a workpiece frame, else 0) at default
-    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them."""
+    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them;
+    ``expected_error_mm``: the machine's mean uncompensated error [mm] as a tracker sees
+    it (best-fit rigid motion removed), which the plan's predicted error must stay well
+    below (:mod:`~vecpin.planning.planchecks`)."""
 
     n_points: int = 100
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
@@ -94,6 +98,7 @@ class PlanSettings:
     seed: int = 0
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
+    expected_error_mm: float = EXPECTED_ERROR_MM
 
     def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
         """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
@@ -135,6 +140,8 @@ class PlanSettings:
         if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
             raise InputError(f"--candidates {self.candidates}: between --points ({self.n_points}) and "
                              f"{MAX_CANDIDATES} candidate commands")
+        if not (np.isfinite(self.expected_error_mm) and self.expected_error_mm > 0):
+            raise InputError(f"--expected-error {self.expected_error_mm}: the machine's mean uncompensated error, mm > 0")
         if self.seed < 0:
             raise InputError(f"--seed {self.seed}: a whole number >= 0")
         for option, v in (("--tool-radius-mm", self.tool_radius_mm), ("--target-clearance-mm", self.target_clearance_mm)):
@@ -189,12 +196,14 @@ class Plan:
     """A planned campaign (SI inside): ``template`` (rows in measurement order),
     ``commands`` (the chosen commands, first-holder order), ``candidates`` and why
     each was removed (``removed``: '' kept, 'zone' outside the measurement zone never
-    happens, 'exclusion', 'sight'), ``sight_by`` (the solid that blocked it),
+    happens, 'exclusion', 'collision' (the holder runs into the machine's geometry),
+    'sight'), ``sight_by`` (the solid that blocked it or that the holder runs into),
     ``tracker`` (3,) [m] (``tracker_side``: the side of the workspace a default tracker
     stands on, "" when given), ``score`` of the plan, ``information`` the linearised
     problem; ``nests`` {id: (3,) [m], workpiece frame} read at the commands,
     ``without_nests`` the score of the same commands without them and ``bare`` the
-    problem without them (None on a plan without nests)."""
+    problem without them (None on a plan without nests); ``warnings``: what makes the plan doubtful, each with its fix
+    (:mod:`~vecpin.planning.planchecks`)."""
 
     machine: Machine
     settings: PlanSettings
@@ -217,6 +226,7 @@ class Plan:
     without_nests: PlanScore | None = None
     bare: Information | None = None
     tracker_side: str = ""
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def tools(self) -> np.ndarray:
@@ -224,7 +234,8 @@ class Plan:
 
     def counts(self) -> dict[str, int]:
         return {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
-                "sight": int((self.removed == "sight").sum()), "kept": int((self.removed == "").sum())}
+                "collision": int((self.removed == "collision").sum()), "sight": int((self.removed == "sight").sum()),
+                "kept": int((self.removed == "").sum())}
 
 
 def quantise(machine: Machine, q: np.ndarray, resolution: float = 1e-3) -> np.ndarray:
@@ -294,12 +305,18 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             raise InputError(f"--tracker: the tracker position lies inside the machine's geometry "
                              f"({', '.join(inside_solids)}); place it where it can stand")
         test = np.flatnonzero(removed == "")
-        say(f"line of sight for {len(test)} commands x {len(tools)} holder lengths ({geometry} geometry)")
+        say(f"collisions and line of sight for {len(test)} commands x {len(tools)} holder lengths ({geometry} geometry)")
+        for L in tools:  # the holder in the machine's geometry: a collision, not a sight loss
+            hit = sl.collisions(cand[test], L)
+            new = (hit != "") & (sight_by[test] == "")
+            sight_by[test[new]] = hit[new]
+        removed[sight_by != ""] = "collision"
+        test = np.flatnonzero(removed == "")
         for L in tools:
             res = sl.check(cand[test], L)
             hit = res.blocked & (sight_by[test] == "")
             sight_by[test[hit]] = res.by[hit]
-        removed[sight_by != ""] = "sight"
+        removed[(sight_by != "") & (removed == "")] = "sight"
     nest_seen = np.ones((len(cand), len(nests)), bool)
     if s.sight and nests:
         test = np.flatnonzero(removed == "")
@@ -308,8 +325,9 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             nest_seen[test, k] = ~sl.check_nests(cand[test], p_wp, tools[0]).blocked
     ok = np.flatnonzero(removed == "")
     if len(ok) < s.n_points:
-        raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones and the line "
-                         f"of sight; ask for fewer --points, more --candidates, or move the tracker")
+        raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones, the "
+                         f"collisions ({int((removed == 'collision').sum())}) and the line of sight; ask for fewer "
+                         "--points, more --candidates, or move the tracker")
 
     model = make_model(s.model, machine, s.order, basis=s.basis)
     s.check_model(machine, model.n_parameters)
@@ -365,8 +383,10 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         bare, without = info, None
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
     t_random = route.travel_time(np.vstack([shuffled] * len(tools)), speed)
-    return Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
+    plan = Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
                 score, info, cov, t_random, geometry, (lo, hi), vq, nests, without, bare, side)
+    plan.warnings = plan_warnings(plan)
+    return plan
 
 
 def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,
