@@ -63,7 +63,7 @@ def run_plan(args) -> int:
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed, expected_error_mm=args.expected_error, nests=args.nests, nest_mm=parse_nest_options(args.nest))
+        candidates=args.candidates, seed=args.seed, validation_run=args.validation, expected_error_mm=args.expected_error, nests=args.nests, nest_mm=parse_nest_options(args.nest))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
                       dwell_s=args.dwell, nest_dwell_s=args.nest_dwell, feed_mm_min=args.feed, safe_z_mm=args.safe_z,
                       retract=args.retract_axis, axis_map=parse_axis_map(args.axis_map, m),
@@ -77,7 +77,8 @@ def register(sub) -> None:
                        "sight, short travel; writes the campaign template, NC programs and Paper I Fig. 6")
     s.add_argument("machine", help="bundled machine name or URDF path")
     add_machine_args(s)
-    s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, plan.png, "
+    s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, the validation run "
+                   "validation.csv, VALID_840D.MPF, O1001.nc, validation.ngc, plan.png, "
                    "plan.json)")
     s.add_argument("--points", type=int, default=100, help="commands to measure, each with every holder length "
                    "(default 100; Paper I measured 295)")
@@ -136,6 +137,9 @@ def register(sub) -> None:
                    "there and it plunges to the next point (default: the end of its travel away from the work)")
     s.add_argument("--retract-axis", metavar="AXIS", help="linear axis that lifts the tool off the work between "
                    "points (default: the one along the tool at zero rotary angles, usually Z)")
+    s.add_argument("--validation", type=int, default=35, metavar="N",
+                   help="commands of the validation run (validation.csv and its NC programs: inside the zone, free and "
+                        "in sight with the first holder; measure them without and with the tables) (default 35)")
     s.add_argument("--expected-error", type=float, default=0.2, metavar="MM",
                    help="the machine's mean volumetric error uncompensated, as a tracker measures it (rigid motion "
                         "removed), mm: the plan warns when its predicted error exceeds half of it (default 0.2)")

@@ -65,7 +65,9 @@ class PlanSettings:
     ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
     ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
     ``candidates``: candidate commands (default max(2000, 10 n)); ``validation_points``:
-    quasi-random commands the predicted error is judged on; ``nests``: table nests read
+    quasi-random commands the predicted error is judged on; ``validation_run``: the
+    commands of the validation run (inside the zone, free and in sight with the first
+    holder; measured with and without the tables); ``nests``: table nests read
     at every command (None: 3 on a machine with a workpiece frame, else 0) at default
     places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them;
     ``expected_error_mm``: the machine's mean uncompensated error [mm] as a tracker sees
@@ -95,6 +97,7 @@ class PlanSettings:
     rapid_deg_min: float | None = None
     candidates: int | None = None
     validation_points: int = 500
+    validation_run: int = 35
     seed: int = 0
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
@@ -142,6 +145,8 @@ class PlanSettings:
                              f"{MAX_CANDIDATES} candidate commands")
         if not (np.isfinite(self.expected_error_mm) and self.expected_error_mm > 0):
             raise InputError(f"--expected-error {self.expected_error_mm}: the machine's mean uncompensated error, mm > 0")
+        if not 1 <= self.validation_run <= MAX_POINTS:
+            raise InputError(f"--validation {self.validation_run}: 1 .. {MAX_POINTS} validation commands")
         if self.seed < 0:
             raise InputError(f"--seed {self.seed}: a whole number >= 0")
         for option, v in (("--tool-radius-mm", self.tool_radius_mm), ("--target-clearance-mm", self.target_clearance_mm)):
@@ -203,7 +208,8 @@ class Plan:
     problem; ``nests`` {id: (3,) [m], workpiece frame} read at the commands,
     ``without_nests`` the score of the same commands without them and ``bare`` the
     problem without them (None on a plan without nests); ``warnings``: what makes the plan doubtful, each with its fix
-    (:mod:`~vecpin.planning.planchecks`)."""
+    (:mod:`~vecpin.planning.planchecks`); ``validation_template``: the rows of the
+    validation run (first holder, in a short order, table nests where seen)."""
 
     machine: Machine
     settings: PlanSettings
@@ -227,6 +233,7 @@ class Plan:
     bare: Information | None = None
     tracker_side: str = ""
     warnings: list[str] = field(default_factory=list)
+    validation_template: PlanTemplate | None = None
 
     @property
     def tools(self) -> np.ndarray:
@@ -383,10 +390,39 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         bare, without = info, None
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
     t_random = route.travel_time(np.vstack([shuffled] * len(tools)), speed)
+    say("validation run")
+    run = validation_run(machine, s, lo, hi, tools[0], sl if s.sight else None, nests, speed)
     plan = Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
                 score, info, cov, t_random, geometry, (lo, hi), vq, nests, without, bare, side)
+    plan.validation_template = run
     plan.warnings = plan_warnings(plan)
     return plan
+
+
+def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.ndarray, tool: float,
+                   sl: SightLine | None, nests: dict[str, np.ndarray], speed: np.ndarray) -> PlanTemplate:
+    """The validation run's template: ``s.validation_run`` quasi-random commands inside
+    [lo, hi] (the measurement zone, room for the approach), outside the exclusion zones,
+    free of collisions and in sight with the holder ``tool`` [m] (as the plan's
+    commands), on the NC grid, in a short order; each read with that holder and at the
+    table nests the tracker sees there."""
+    cand = quantise(machine, validation_commands(machine, 8 * s.validation_run, lo, hi, seed=s.seed + 11))
+    cand = np.clip(cand, lo, hi)
+    cand = cand[~inside(machine, cand, s.exclude)]
+    if sl is not None:
+        cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
+    if len(cand) < s.validation_run:
+        raise InputError(f"--validation {s.validation_run}: only {len(cand)} validation commands are free and in sight "
+                         "inside the measurement zone; ask for fewer or move the tracker")
+    q = cand[:s.validation_run]
+    q = q[route.order_points(q, speed)]
+    seen = np.ones((len(q), len(nests)), bool)
+    if sl is not None:
+        for k, p_wp in enumerate(nests.values()):
+            seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
+    idx, sign = route.approach_rows(q, s.approach)
+    approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
+    return with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
 
 
 def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,

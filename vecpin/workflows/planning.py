@@ -3,7 +3,8 @@
 Files, written together (:class:`vecpin.fileio.OutputSet`): ``plan.csv`` (the campaign
 template: commands and holder lengths in measurement order, empty x/y/z), the NC
 programs ``PLAN_840D.MPF`` (Siemens 840D), ``O1000.nc`` (Fanuc), ``plan.ngc`` (plain
-G-code), ``plan.png`` (Paper I Fig. 6: kept and removed points, tracker) and
+G-code), the validation run ``validation.csv`` with its programs ``VALID_840D.MPF``,
+``O1001.nc``, ``validation.ngc``, ``plan.png`` (Paper I Fig. 6: kept and removed points, tracker) and
 ``plan.json`` (settings, counts and predicted figures; no time stamps, so a rerun
 writes the same bytes).
 """
@@ -38,6 +39,7 @@ class PlanRun:
     program: str = ""   # what the NC programs do between and at the points (one line)
     time: CampaignTime | None = None  # the campaign's time as its NC program runs
     timing: ProgramTiming | None = None
+    validation_time: CampaignTime | None = None
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -97,8 +99,23 @@ class PlanRun:
             out.append(f"  NC programs: {self.program}")
         if self.time is not None:
             out.append(f"  {self.time.line()}")
+        out += self.validation_lines()
         out += [f"  wrote {f}" for f in self.files]
         return out
+
+    def validation_lines(self) -> list[str]:
+        """The validation run: which commands, where they are written, how long it takes."""
+        p = self.plan
+        v = p.validation_template
+        if v is None:
+            return []
+        n = len(v.tool_rows)
+        took = f", {self.validation_time.total_s / 60:.0f} min a run" if self.validation_time is not None else ""
+        return [f"  validation run: {n} quasi-random commands inside the measured zone, free and in sight with the "
+                f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
+                                                           else "")
+                + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
+                "them; vecpin simulate --plan uses the same commands"]
 
     def nest_lines(self) -> list[str]:
         """What the table nests add (none on a machine without table axes)."""
@@ -153,6 +170,9 @@ class PlanRun:
                 "moves_random_order_min": round(p.travel_random_s / 60, 4),
                 "expected_error_mm": s.expected_error_mm,
                 "warnings": list(p.warnings),
+                "validation": None if p.validation_template is None else
+                {"commands": len(p.validation_template.tool_rows), "rows": len(p.validation_template),
+                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
                 "campaign_time": None if self.time is None else self.time.to_dict(),
                 "program": None if self.timing is None else timing_dict(self.timing)}
 
@@ -198,6 +218,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
                                  title=f"for {machine.name}")
             files.append(out.write_text(program_name(d), text))
+        v = plan.validation_template
+        files.append(out.write_text("validation.csv", v.to_csv(machine)))
+        for d in dialects:
+            text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
+                                 feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
+                                 program_number=1001, title=f"- validation run for {machine.name}")
+            files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
         t = plan.template
@@ -211,7 +238,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s)
-        run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing)
+        run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
+                      row_times(machine, v, timing)[1])
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
