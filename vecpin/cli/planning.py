@@ -107,7 +107,8 @@ def register(sub) -> None:
                    help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
     s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",
                    help="doptimal: greedy D-optimal choice (default); random: at random, as Paper I did")
-    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default max(2000, 10 x points))")
+    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default 10 x points, at least 2000; "
+                   "beyond 10000 candidates 3 x points, so that 10000 points take about a minute)")
     s.add_argument("--approach", choices=["below", "above", "both", "none"], default="below",
                    help="approach every point from below on every axis (default), from above, both (each point "
                         "twice, to measure backlash), or none")
