@@ -218,11 +218,11 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
                     feats = Features.from_campaign(b)
                 resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
             after_run.predicted = norm_mm(registered_errors(ref, ref + comp + resid))
-            label = (f"{model.kind} order {model.order}; compensated: the model's residual on the uncompensated run "
+            label = (f"{model.label()}; compensated: the model's residual on the uncompensated run "
                      "plus the error its tables leave of the model")
         else:
             after_run.predicted = norm_mm(registered_errors(ref, ref + comp))
-            label = (f"{model.kind} order {model.order}; compensated: the error the tables leave of the model only "
+            label = (f"{model.label()}; compensated: the error the tables leave of the model only "
                      "(different commands, so the model's residual cannot be added)")
     if not same:
         notes.append("the two runs measure different commands: compare the statistics, not the points")
