@@ -2,6 +2,7 @@
 batch of recomputed gains), the windowed 2-opt keeps a tour whole and its ends where
 they are, and the default candidate count keeps 10,000 commands affordable."""
 import numpy as np
+import pytest
 
 from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
@@ -52,3 +53,23 @@ def test_two_opt_with_a_fixed_end_keeps_both_ends():
 def test_default_candidates():
     assert default_candidates(100) == 2000 and default_candidates(1000) == 10_000
     assert default_candidates(2000) == 10_000 and default_candidates(10_000) == 30_000
+
+
+def test_compact_rows_carry_the_same_normal_matrix(machines):
+    """A plan is scored from (P, P) rows with the readings' W^T W, summed in chunks."""
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    from vecpin.planning.information import Information
+    m = machines["trunnion_xyzac"]
+    info = Information(make_model("6dof", m, 2), NoiseModel.default(m, "spherical"), np.array([0.0, 2.5, 0.7]),
+                       [0.2, 0.3], nests={"1": np.array([0.1, 0.05, 0.03])})
+    q = candidate_commands(m, 50, m.lower, m.upper, 1)
+    tool = np.r_[np.full(50, 0.2), np.full(50, 0.3), np.full(50, 0.2)]
+    inst = np.array(["tracker"] * 100 + ["nest"] * 50, dtype=object)
+    target = np.array([""] * 100 + ["1"] * 50, dtype=object)
+    qq = np.vstack([q, q, q])
+    W = info.measurement_rows(qq, tool, inst, target).reshape(-1, info.P)
+    C = info.compact_rows(qq, tool, inst, target, chunk=40)
+    assert C.shape == (info.P, info.P)
+    np.testing.assert_allclose(C.T @ C, W.T @ W, rtol=1e-9, atol=1e-9 * np.abs(W.T @ W).max())
+    assert info.log_det(C) == pytest.approx(info.log_det(W), rel=1e-9)

@@ -349,7 +349,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     info = Information(model, noise, tracker, tools, nests=nests)
     if s.method == "doptimal":
         say(f"whitened Jacobian of {len(ok)} candidates" + (f" with {len(nests)} table nests" if nests else ""))
-        pick, _ = greedy_d_optimal(candidate_rows(info, cand[ok], nest_seen[ok]), s.n_points, progress=say)
+        pick, _ = greedy_d_optimal(info.kept_rows(cand[ok], nest_seen[ok]), s.n_points, progress=say)
     else:
         pick = np.random.default_rng(s.seed).choice(len(ok), s.n_points, replace=False)
     chosen = cand[ok[pick]]
@@ -403,19 +403,6 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     plan.validation_template = run
     plan.warnings = plan_warnings(plan)
     return plan
-
-
-def candidate_rows(info: Information, q: np.ndarray, nest_seen: np.ndarray, chunk: int = 2000) -> np.ndarray:
-    """(C, r, kept) the candidates' whitened rows over the counted terms, float32 (the
-    choice's memory: 100,000 candidates of a 160-term model in 0.4 GB), in chunks."""
-    k = np.flatnonzero(info.keep)
-    out = None
-    for a in range(0, len(q), chunk):
-        W = info.rows(q[a:a + chunk], nest_visible=nest_seen[a:a + chunk])[:, :, k]
-        if out is None:
-            out = np.empty((len(q), W.shape[1], len(k)), np.float32)
-        out[a:a + chunk] = W
-    return out
 
 
 def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.ndarray, tool: float,
@@ -492,7 +479,7 @@ def score_rows(info: Information, template: PlanTemplate, validation: np.ndarray
     n = len(q)
     instrument = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
     target = template.target if template.target is not None else np.full(n, "", dtype=object)
-    W = info.measurement_rows(q, tool, instrument, target)
+    W = info.compact_rows(q, tool, instrument, target)
     cov = info.covariance(W)
     sd = np.sqrt(np.diag(cov))
     kept = info.keep.copy()
