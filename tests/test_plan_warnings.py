@@ -1,5 +1,5 @@
 """Plans that are useless say so, with the fix: the holder in the machine's geometry (a
-collision, counted apart from the line of sight), a predicted error above half the
+collision, counted apart from the line of sight; the test itself: tests/test_sightline.py), a predicted error above half the
 machine's expected one, a tracker in the work envelope or out of a tracker's range, a
 gauge line the plan cannot identify; the campaign's time as the NC program runs it."""
 import numpy as np
@@ -8,39 +8,10 @@ import pytest
 from vecpin.cli import main
 from vecpin.planning.plan import PlanSettings, candidate_commands, make_plan
 from vecpin.planning.planchecks import TRACKER_RANGE, work_envelope
-from vecpin.planning.sightline import SightLine
 from vecpin.planning.timing import ProgramTiming, row_times
 from vecpin.planning.route import axis_speeds
 
-# a gantry X - Y - Z, tool along -z; a wall 0.95 < x < 1.05, -0.5 < y < 0.5, 0 < z < 1 on the base
-WALL = """<robot name="wall">
-  <link name="base"><visual><origin xyz="1.0 0 0.5"/><geometry><box size="0.1 1.0 1.0"/></geometry></visual></link>
-  <joint name="X" type="prismatic"><parent link="base"/><child link="xc"/><axis xyz="1 0 0"/>
-    <limit lower="-1" upper="4" effort="1" velocity="1"/></joint>
-  <link name="xc"/>
-  <joint name="Y" type="prismatic"><parent link="xc"/><child link="yc"/><axis xyz="0 1 0"/>
-    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <link name="yc"/>
-  <joint name="Z" type="prismatic"><parent link="yc"/><child link="spindle"/><axis xyz="0 0 1"/>
-    <limit lower="0" upper="3" effort="1" velocity="1"/></joint>
-  <link name="spindle"><visual><origin xyz="0 0 0.1"/><geometry><cylinder radius="0.05" length="0.2"/></geometry></visual></link>
-</robot>"""
-
 SMALL = dict(n_points=24, order=2, candidates=300, validation_points=100)
-
-
-def test_holder_in_the_geometry_is_a_collision_not_a_sight_loss():
-    from vecpin import Machine
-    m = Machine.from_urdf_string(WALL, "wall")
-    sl = SightLine(m, np.array([-1.0, 3.0, 0.5]), tool_radius=0.0, target_clearance=0.0)
-    # spindle at (x, y, z), a 0.5 m holder down to (x, y, z - 0.5)
-    q = np.array([[1.0, 0.0, 1.2],    # the holder's lower 0.3 m in the wall: collision
-                  [1.0, 0.0, 1.6],    # the tip 0.1 m above the wall: free
-                  [0.5, 0.0, 1.2],    # beside the wall: free
-                  [1.0, 0.45, 0.7]])  # the whole holder inside the wall
-    assert list(sl.collisions(q, 0.5)) == ["base_0", "", "", "base_0"]
-    # the spindle's own cylinder (on the tool link's joint) never counts: the holder sits in it
-    assert list(sl.collisions(np.array([[3.0, 0.0, 1.0]]), 0.5)) == [""]
 
 
 def test_snk_default_plan_warns_first_about_collision_and_predicted_error(tmp_path, capsys):
