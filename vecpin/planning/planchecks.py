@@ -64,8 +64,10 @@ def plan_warnings(plan) -> list[str]:
                    f"{to_mm(pr.model_max):.3f} mm) is {to_mm(pr.model_mean) / expected:.0%} of the error the machine is "
                    f"expected to have uncompensated (mean {expected:g} mm, --expected-error): "
                    f"compensation from this campaign would gain little or make the machine worse; plan with {hint}"
-                   f"more --points or a lower --order" + (f" ({lost} candidates were lost to collisions and sight)"
-                                                          if lost and not hint else ""))
+                   "more --points or a lower --order" + (
+                       f"; the prediction covers the whole measurement zone, also where {lost} of {c['candidates']} "
+                       "candidates were lost to collisions and sight and the model extrapolates: a --zone where the "
+                       "holders can go plans and judges that part alone" if lost > 0.1 * c["candidates"] else ""))
     info = plan.information
     if info.keep[6] and not t_offset_identified(info, plan.covariance, s.expected_error_mm):
         out.append(f"gauge line T_offset: this plan cannot identify it (1-sigma {np.sqrt(plan.covariance[6, 6]) * MM_PER_M:.2f} "
