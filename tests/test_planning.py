@@ -224,7 +224,8 @@ def test_plan_files_are_byte_identical_on_rerun(flow, tmp_path):
     a = plan_to_dir(flow, tmp_path / "a", s)
     plan_to_dir(flow, tmp_path / "b", PlanSettings(**SMALL))
     names = sorted(p.name for p in a.files)
-    assert names == sorted(["plan.csv", "PLAN_840D.MPF", "O1000.nc", "plan.ngc", "plan.png", "plan.json"])
+    assert names == sorted(["plan.csv", "PLAN_840D.MPF", "O1000.nc", "plan.ngc", "plan.png", "plan.json",
+                            "validation.csv", "VALID_840D.MPF", "O1001.nc", "validation.ngc"])
     for n in names:
         assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n
 

@@ -198,3 +198,19 @@ def test_bundled_gantry_front_leg_hides_the_middle(machines):
     x_cross = tr[0] + s * (tip[:, 0] - tr[0])
     slope = np.abs((tip[:, 0] - tr[0]) / (tip[:, 1] - tr[1]))
     assert np.all(np.abs(x_cross - q[leg, 0]) <= 0.225 + 0.175 * slope + 1e-9)
+
+
+def test_holder_in_the_geometry_is_a_collision_not_a_sight_loss():
+    """The holder's axis from the gauge line to the target meets the wall: a collision,
+    whatever the tracker sees; the spindle's own solid (the holder sits in it) never counts."""
+    spindle = '<link name="spindle"><visual><origin xyz="0 0 0.1"/><geometry><cylinder radius="0.05" length="0.2"/>' \
+              '</geometry></visual></link>'
+    m = Machine.from_urdf_string(URDF.replace('<link name="spindle"/>', spindle), "los_test")
+    sl = SightLine(m, np.array([-1.0, 3.0, 0.5]), tool_radius=0.0, target_clearance=0.0)
+    # spindle at (x, y, z), a 0.5 m holder down to (x, y, z - 0.5)
+    q = np.array([[1.0, 0.0, 1.2],    # the holder's lower 0.3 m in the wall: collision
+                  [1.0, 0.0, 1.6],    # the tip 0.1 m above the wall: free
+                  [0.5, 0.0, 1.2],    # beside the wall: free
+                  [1.0, 0.45, 0.7],   # the whole holder inside the wall
+                  [3.0, 0.0, 1.0]])   # in the open, only the spindle's own cylinder about the holder
+    assert list(sl.collisions(q, 0.5)) == ["base_0", "", "", "base_0", ""]

@@ -95,7 +95,7 @@ def run_evaluate(args) -> int:
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
     for w in ev.warnings:
         print(w)
-    print(f"{model.kind} model, order {model.order} ({args.model}) on {args.csv}: {ev.rows} rows"
+    print(f"{model.label()} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
     print("\n".join(ev.lines()))
     if args.json:

@@ -63,11 +63,11 @@ def run_plan(args) -> int:
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed, nests=args.nests, nest_mm=parse_nest_options(args.nest))
+        candidates=args.candidates, seed=args.seed, validation_run=args.validation, expected_error_mm=args.expected_error, nests=args.nests, nest_mm=parse_nest_options(args.nest))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
                       dwell_s=args.dwell, nest_dwell_s=args.nest_dwell, feed_mm_min=args.feed, safe_z_mm=args.safe_z,
                       retract=args.retract_axis, axis_map=parse_axis_map(args.axis_map, m),
-                      compare_with=args.compare, progress=progress(not args.quiet))
+                      compare_with=args.compare, progress=progress(not args.quiet), holder_change_s=args.holder_change)
     print("\n".join(run.lines()))
     return 0
 
@@ -77,10 +77,12 @@ def register(sub) -> None:
                        "sight, short travel; writes the campaign template, NC programs and Paper I Fig. 6")
     s.add_argument("machine", help="bundled machine name or URDF path")
     add_machine_args(s)
-    s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, plan.png, "
+    s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, the validation run "
+                   "validation.csv, VALID_840D.MPF, O1001.nc, validation.ngc, plan.png, "
                    "plan.json)")
     s.add_argument("--points", type=int, default=100, help="commands to measure, each with every holder length "
-                   "(default 100; Paper I measured 295)")
+                   "(default 100; Paper I measured 295; at most 10000: about 1 min to plan, 2 min with table nests, "
+                   "under 1 GB)")
     s.add_argument("--tools", default="214.88,312.86", metavar="L1,L2",
                    help="target holder lengths from the gauge line, mm (default 214.88,312.86 as Paper I)")
     s.add_argument("--tracker", metavar="X,Y,Z", help="tracker head position in the machine base frame, mm "
@@ -106,7 +108,8 @@ def register(sub) -> None:
                    help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
     s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",
                    help="doptimal: greedy D-optimal choice (default); random: at random, as Paper I did")
-    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default max(2000, 10 x points))")
+    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default 10 x points, at least 2000; "
+                   "beyond 10000 candidates 3 x points, so that 10000 points take about a minute)")
     s.add_argument("--approach", choices=["below", "above", "both", "none"], default="below",
                    help="approach every point from below on every axis (default), from above, both (each point "
                         "twice, to measure backlash), or none")
@@ -136,6 +139,14 @@ def register(sub) -> None:
                    "there and it plunges to the next point (default: the end of its travel away from the work)")
     s.add_argument("--retract-axis", metavar="AXIS", help="linear axis that lifts the tool off the work between "
                    "points (default: the one along the tool at zero rotary angles, usually Z)")
+    s.add_argument("--validation", type=int, default=35, metavar="N",
+                   help="commands of the validation run (validation.csv and its NC programs: inside the zone, free and "
+                        "in sight with the first holder; measure them without and with the tables) (default 35)")
+    s.add_argument("--expected-error", type=float, default=0.2, metavar="MM",
+                   help="the machine's mean volumetric error uncompensated, as a tracker measures it (rigid motion "
+                        "removed), mm: the plan warns when its predicted error exceeds half of it (default 0.2)")
+    s.add_argument("--holder-change", type=float, default=120.0, metavar="S",
+                   help="time to change the target holder at the program's stop, s, for the campaign's time (default 120)")
     s.add_argument("--feed", type=float, default=1000.0, help="feed of the final approach move, mm/min (default 1000)")
     s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
                    help="NC program to write; repeatable (default: all three)")

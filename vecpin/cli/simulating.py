@@ -27,9 +27,12 @@ def run_simulate(args) -> int:
                     known_targets=args.known_targets)
     effects = [parse_effect(e, m) for e in args.effect]
     plan = tables = truth = None
+    companions = {}
     if args.plan:
         from vecpin.measurement.plantemplate import read_template
         plan = read_template(args.plan, m)  # with its table nests, if any
+        from vecpin.workflows.simulating import plan_companions
+        companions = plan_companions(m, args.plan, plan)  # its NC program's times, its validation run
     if args.tables:
         from vecpin.workflows.verifying import load_tables
         tables = load_tables(args.tables, m)[0]
@@ -45,7 +48,7 @@ def run_simulate(args) -> int:
         from vecpin.cli.planning import parse_floats
         tracker = np.array(parse_floats(args.tracker, "--tracker", 3)) * M_PER_MM
     run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, plan=plan, tables=tables,
-                          truth=truth, tracker_position=tracker, mean_error_mm=args.mean_error)
+                          truth=truth, tracker_position=tracker, mean_error_mm=args.mean_error, **companions)
     print("\n".join(run.lines()))
     return 0
 
@@ -75,12 +78,13 @@ def register(sub) -> None:
     s.add_argument("--points", type=int, default=295, help="commands, each measured with every tool (default 295 as "
                    "Paper I; ignored with --plan)")
     s.add_argument("--validation", type=int, default=35, help="quasi-random validation commands, short tool "
-                   "(default 35 as Paper I)")
+                   "(default 35 as Paper I; with --plan: the plan's validation run, its validation.csv, when there)")
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default 214.88 312.86 as Paper I)")
     s.add_argument("--method", default="random", choices=["random", "sobol", "halton"],
                    help="how the identification commands are drawn (default random, as Paper I)")
     s.add_argument("--plan", help="measure a plan's template (plan.csv from vecpin plan) in its order instead of "
-                   "drawing commands (default: none)")
+                   "drawing commands, timed as its NC program runs (plan.json beside it), validated on its validation "
+                   "run (validation.csv beside it) (default: none)")
     s.add_argument("--tables", help="tables.json (or its folder, from vecpin tables): also run the validation commands "
                    "on the true machine through these tables (default: none)")
     s.add_argument("--truth", help="truth.json of an earlier simulation: simulate that true machine instead of a new "

@@ -175,5 +175,6 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
                        [names[k] for k in np.flatnonzero(~keep)], weak, p_eff, float(sol.objective),
                        dof, float(np.sqrt(2 * dof)), cond, sol.iterations, sol.converged, time.perf_counter() - t0,
                        stats_, warnings, [float(L * MM_PER_M) for L in campaign.tool_lengths()],
-                       measured_range(model.machine, campaign), unknown_counts(names, lik.n_model))
+                       measured_range(model.machine, campaign), unknown_counts(names, lik.n_model),
+                       model.label() if hasattr(model, "label") else "")
     return theta, setup, cov, report

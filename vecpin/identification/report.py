@@ -61,6 +61,7 @@ class FitReport:
     tool_lengths_mm: list[float] = field(default_factory=list)
     measured_range: dict = field(default_factory=dict)  # axis -> [lowest, highest] command measured [mm or deg]
     counts: dict = field(default_factory=dict)  # unknowns by kind (:func:`unknown_counts`), n_parameters in all
+    label: str = ""  # the model's kind and bases in words (ErrorModel.label); "" in files of older versions
 
     @property
     def chi2_band(self) -> tuple[float, float]:
@@ -86,7 +87,8 @@ class FitReport:
             verdict += (f" (the residuals are {scale:.2f}x the assumed noise; if the model is right, the instrument and "
                         "repeatability sigmas are that much " + ("smaller" if scale < 1 else "larger") +
                         ": --tracker-sigma-mm / --tracker-noise, --repeatability-mm)")
-        lines = [f"{self.model} model, order {self.order}, {self.instrument} instrument noise: {self.n_rows} rows, "
+        name = self.label or f"{self.model} model, order {self.order}"
+        lines = [f"{name}, {self.instrument} instrument noise: {self.n_rows} rows, "
                  f"{self.n_parameters} unknowns ({describe_counts(self.counts) + '; ' if self.counts else ''}"
                  f"{len(self.removed)} redundant removed, "
                  f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",

@@ -41,7 +41,7 @@ from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import registered_errors
 from vecpin.models import modelfile
-from vecpin.models.basis import AxisBasis
+from vecpin.models.basis import AxisBasis, bases_text
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 from vecpin.units import MM_PER_M
@@ -362,10 +362,9 @@ class ErrorModel:
         return shift, D, grad
 
     def label(self) -> str:
-        """A short name: kind and bases, e.g. '6-DoF cheb6' or 'AP cheb4/cheb4/cheb4/fourier6+trend2/cheb4'."""
-        name = self.display_name
-        labels = [B.short_label() for B in self.bases]
-        return f"{name} {labels[0] if len(set(labels)) == 1 else '/'.join(labels)}"
+        """The kind and bases in words, e.g. '6-DoF with Chebyshev order 6 on every axis' or
+        'AP with Chebyshev order 4 on X, Y, Z and B; Fourier order 6 with a trend of order 2 on C'."""
+        return bases_text(self.display_name, self.machine.axis_names, [B.readable() for B in self.bases])
 
     def describe(self) -> dict:
         return {"kind": self.kind, "order": self.order, "basis": self.basis_kind,

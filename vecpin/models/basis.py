@@ -202,6 +202,11 @@ class AxisBasis:
             cols.append(-z / s * g if derivative else g)
         return np.concatenate(cols, axis=-1)
 
+    def readable(self) -> str:
+        """The basis as a metrologist reads it: 'Chebyshev order 7', 'spline, 15 knots' (:func:`basis_text`)."""
+        return basis_text(self.kind, self.order, self.trend, len(self.knots), self.smoothing,
+                          len(self.harmonics) + len(self.bumps))
+
     def short_label(self) -> str:
         """The kind and order in a few characters: cheb6, fourier8, fourier6+trend2, spline7..."""
         if self.kind in SPLINE_KINDS:
@@ -246,3 +251,30 @@ class AxisBasis:
         return cls(lower, upper, int(d["order"]), d["kind"], tuple(d.get("harmonics", ())), bool(rotary),
                    int(d.get("trend", 0)), tuple(k * unit for k in d.get("knots", ())),
                    tuple((c * unit, s * unit) for c, s in d.get("bumps", ())), float(d.get("smoothing", 0.0)))
+
+
+def basis_text(kind: str, order: int, trend: int = 0, knots: int = 0, smoothing: float = 0.0, extra: int = 0) -> str:
+    """A basis in words: 'Chebyshev order 7', 'Fourier order 4', 'Fourier order 6 with a
+    trend of order 2', 'spline, 15 knots' (cubic; else its degree), 'penalised spline, 15
+    knots, smoothing 40'; ``extra`` harmonics or bumps added."""
+    if kind in ("bspline", "spline"):
+        text = f"spline, {knots} knots" + ("" if order == 3 else f", degree {order}")
+    elif kind == "pspline":
+        text = f"penalised spline, {knots} knots, smoothing {smoothing:.3g}" + ("" if order == 3 else f", degree {order}")
+    elif kind == "fourier_trend":
+        text = f"Fourier order {order} with a trend of order {trend}"
+    else:
+        text = f"{ {'chebyshev': 'Chebyshev', 'fourier': 'Fourier'}.get(kind, kind)} order {order}"
+    return text + (f" + {extra} more terms" if extra else "")
+
+
+def bases_text(kind_name: str, axis_names: list[str], texts: list[str]) -> str:
+    """A model's bases in words: 'AP with Chebyshev order 6 on every axis', or 'AP with
+    Chebyshev order 7 on X; spline, 15 knots on Y; Chebyshev order 4 on Z and B'."""
+    if len(set(texts)) == 1:
+        return f"{kind_name} with {texts[0]} on every axis"
+    groups: dict[str, list[str]] = {}
+    for n, t in zip(axis_names, texts):
+        groups.setdefault(t, []).append(n)
+    parts = [f"{t} on {', '.join(ns[:-1]) + ' and ' + ns[-1] if len(ns) > 1 else ns[0]}" for t, ns in groups.items()]
+    return f"{kind_name} with " + "; ".join(parts)

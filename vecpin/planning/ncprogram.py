@@ -246,6 +246,9 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     return "\n".join(out) + "\n"
 
 
-def program_name(dialect: str) -> str:
-    """The file name of a dialect's program."""
+def program_name(dialect: str, run: str = "plan") -> str:
+    """The file name of a dialect's program: of the plan (``run`` "plan") or of its
+    validation run ("validation"; Fanuc program number 1001)."""
+    if run == "validation":
+        return {"siemens-840d": "VALID_840D.MPF", "fanuc": "O1001.nc", "gcode": "validation.ngc"}[dialect]
     return {"siemens-840d": "PLAN_840D.MPF", "fanuc": "O1000.nc", "gcode": "plan.ngc"}[dialect]

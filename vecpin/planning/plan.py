@@ -37,6 +37,7 @@ from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.planchecks import EXPECTED_ERROR_MM, plan_warnings
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
                                        default_tracker_placement, side_name)
 from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone, inside
@@ -63,10 +64,15 @@ class PlanSettings:
     ``repeat_points`` x ``repeat_times``: repeated points at the start and at the end;
     ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
     ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
-    ``candidates``: candidate commands (default max(2000, 10 n)); ``validation_points``:
-    quasi-random commands the predicted error is judged on; ``nests``: table nests read
+    ``candidates``: candidate commands (default :func:`default_candidates`); ``validation_points``:
+    quasi-random commands the predicted error is judged on; ``validation_run``: the
+    commands of the validation run (inside the zone, free and in sight with the first
+    holder; measured with and without the tables); ``nests``: table nests read
     at every command (None: 3 on a machine with a workpiece frame, else 0) at default
-    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them."""
+    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them;
+    ``expected_error_mm``: the machine's mean uncompensated error [mm] as a tracker sees
+    it (best-fit rigid motion removed), which the plan's predicted error must stay well
+    below (:mod:`~vecpin.planning.planchecks`)."""
 
     n_points: int = 100
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
@@ -91,9 +97,11 @@ class PlanSettings:
     rapid_deg_min: float | None = None
     candidates: int | None = None
     validation_points: int = 500
+    validation_run: int = 35
     seed: int = 0
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
+    expected_error_mm: float = EXPECTED_ERROR_MM
 
     def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
         """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
@@ -135,6 +143,10 @@ class PlanSettings:
         if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
             raise InputError(f"--candidates {self.candidates}: between --points ({self.n_points}) and "
                              f"{MAX_CANDIDATES} candidate commands")
+        if not (np.isfinite(self.expected_error_mm) and self.expected_error_mm > 0):
+            raise InputError(f"--expected-error {self.expected_error_mm}: the machine's mean uncompensated error, mm > 0")
+        if not 1 <= self.validation_run <= MAX_POINTS:
+            raise InputError(f"--validation {self.validation_run}: 1 .. {MAX_POINTS} validation commands")
         if self.seed < 0:
             raise InputError(f"--seed {self.seed}: a whole number >= 0")
         for option, v in (("--tool-radius-mm", self.tool_radius_mm), ("--target-clearance-mm", self.target_clearance_mm)):
@@ -189,12 +201,15 @@ class Plan:
     """A planned campaign (SI inside): ``template`` (rows in measurement order),
     ``commands`` (the chosen commands, first-holder order), ``candidates`` and why
     each was removed (``removed``: '' kept, 'zone' outside the measurement zone never
-    happens, 'exclusion', 'sight'), ``sight_by`` (the solid that blocked it),
+    happens, 'exclusion', 'collision' (the holder runs into the machine's geometry),
+    'sight'), ``sight_by`` (the solid that blocked it or that the holder runs into),
     ``tracker`` (3,) [m] (``tracker_side``: the side of the workspace a default tracker
     stands on, "" when given), ``score`` of the plan, ``information`` the linearised
     problem; ``nests`` {id: (3,) [m], workpiece frame} read at the commands,
     ``without_nests`` the score of the same commands without them and ``bare`` the
-    problem without them (None on a plan without nests)."""
+    problem without them (None on a plan without nests); ``warnings``: what makes the plan doubtful, each with its fix
+    (:mod:`~vecpin.planning.planchecks`); ``validation_template``: the rows of the
+    validation run (first holder, in a short order, table nests where seen)."""
 
     machine: Machine
     settings: PlanSettings
@@ -217,6 +232,8 @@ class Plan:
     without_nests: PlanScore | None = None
     bare: Information | None = None
     tracker_side: str = ""
+    warnings: list[str] = field(default_factory=list)
+    validation_template: PlanTemplate | None = None
 
     @property
     def tools(self) -> np.ndarray:
@@ -224,7 +241,15 @@ class Plan:
 
     def counts(self) -> dict[str, int]:
         return {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
-                "sight": int((self.removed == "sight").sum()), "kept": int((self.removed == "").sum())}
+                "collision": int((self.removed == "collision").sum()), "sight": int((self.removed == "sight").sum()),
+                "kept": int((self.removed == "").sum())}
+
+
+def default_candidates(n_points: int) -> int:
+    """Candidates a plan of ``n_points`` commands chooses from: 10 per command (at least
+    2,000), but beyond 10,000 candidates 3 per command: 10,000 commands of an order-6
+    model from 30,000 candidates take under a minute and 0.8 GB (100,000 take 2.2 min)."""
+    return max(2000, min(10 * n_points, max(10_000, 3 * n_points)))
 
 
 def quantise(machine: Machine, q: np.ndarray, resolution: float = 1e-3) -> np.ndarray:
@@ -278,7 +303,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
                          "--approach-mm/--approach-deg")
     speed = route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min)
 
-    n_cand = s.candidates or max(2000, 10 * s.n_points)
+    n_cand = s.candidates or default_candidates(s.n_points)
     say(f"{n_cand} candidate commands (scrambled Halton, seed {s.seed})")
     cand = candidate_commands(machine, n_cand, lo, hi, s.seed)
     removed = np.full(len(cand), "", dtype=object)
@@ -294,12 +319,18 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             raise InputError(f"--tracker: the tracker position lies inside the machine's geometry "
                              f"({', '.join(inside_solids)}); place it where it can stand")
         test = np.flatnonzero(removed == "")
-        say(f"line of sight for {len(test)} commands x {len(tools)} holder lengths ({geometry} geometry)")
+        say(f"collisions and line of sight for {len(test)} commands x {len(tools)} holder lengths ({geometry} geometry)")
+        for L in tools:  # the holder in the machine's geometry: a collision, not a sight loss
+            hit = sl.collisions(cand[test], L)
+            new = (hit != "") & (sight_by[test] == "")
+            sight_by[test[new]] = hit[new]
+        removed[sight_by != ""] = "collision"
+        test = np.flatnonzero(removed == "")
         for L in tools:
             res = sl.check(cand[test], L)
             hit = res.blocked & (sight_by[test] == "")
             sight_by[test[hit]] = res.by[hit]
-        removed[sight_by != ""] = "sight"
+        removed[(sight_by != "") & (removed == "")] = "sight"
     nest_seen = np.ones((len(cand), len(nests)), bool)
     if s.sight and nests:
         test = np.flatnonzero(removed == "")
@@ -308,8 +339,9 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             nest_seen[test, k] = ~sl.check_nests(cand[test], p_wp, tools[0]).blocked
     ok = np.flatnonzero(removed == "")
     if len(ok) < s.n_points:
-        raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones and the line "
-                         f"of sight; ask for fewer --points, more --candidates, or move the tracker")
+        raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones, the "
+                         f"collisions ({int((removed == 'collision').sum())}) and the line of sight; ask for fewer "
+                         "--points, more --candidates, or move the tracker")
 
     model = make_model(s.model, machine, s.order, basis=s.basis)
     s.check_model(machine, model.n_parameters)
@@ -317,8 +349,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     info = Information(model, noise, tracker, tools, nests=nests)
     if s.method == "doptimal":
         say(f"whitened Jacobian of {len(ok)} candidates" + (f" with {len(nests)} table nests" if nests else ""))
-        W = info.rows(cand[ok], nest_visible=nest_seen[ok])
-        pick, _ = greedy_d_optimal(W, s.n_points, info.keep, progress=say)
+        pick, _ = greedy_d_optimal(info.kept_rows(cand[ok], nest_seen[ok]), s.n_points, progress=say)
     else:
         pick = np.random.default_rng(s.seed).choice(len(ok), s.n_points, replace=False)
     chosen = cand[ok[pick]]
@@ -365,8 +396,39 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         bare, without = info, None
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
     t_random = route.travel_time(np.vstack([shuffled] * len(tools)), speed)
-    return Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
+    say("validation run")
+    run = validation_run(machine, s, lo, hi, tools[0], sl if s.sight else None, nests, speed)
+    plan = Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
                 score, info, cov, t_random, geometry, (lo, hi), vq, nests, without, bare, side)
+    plan.validation_template = run
+    plan.warnings = plan_warnings(plan)
+    return plan
+
+
+def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.ndarray, tool: float,
+                   sl: SightLine | None, nests: dict[str, np.ndarray], speed: np.ndarray) -> PlanTemplate:
+    """The validation run's template: ``s.validation_run`` quasi-random commands inside
+    [lo, hi] (the measurement zone, room for the approach), outside the exclusion zones,
+    free of collisions and in sight with the holder ``tool`` [m] (as the plan's
+    commands), on the NC grid, in a short order; each read with that holder and at the
+    table nests the tracker sees there."""
+    cand = quantise(machine, validation_commands(machine, 8 * s.validation_run, lo, hi, seed=s.seed + 11))
+    cand = np.clip(cand, lo, hi)
+    cand = cand[~inside(machine, cand, s.exclude)]
+    if sl is not None:
+        cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
+    if len(cand) < s.validation_run:
+        raise InputError(f"--validation {s.validation_run}: only {len(cand)} validation commands are free and in sight "
+                         "inside the measurement zone; ask for fewer or move the tracker")
+    q = cand[:s.validation_run]
+    q = q[route.order_points(q, speed)]
+    seen = np.ones((len(q), len(nests)), bool)
+    if sl is not None:
+        for k, p_wp in enumerate(nests.values()):
+            seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
+    idx, sign = route.approach_rows(q, s.approach)
+    approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
+    return with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
 
 
 def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,
@@ -417,7 +479,7 @@ def score_rows(info: Information, template: PlanTemplate, validation: np.ndarray
     n = len(q)
     instrument = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
     target = template.target if template.target is not None else np.full(n, "", dtype=object)
-    W = info.measurement_rows(q, tool, instrument, target)
+    W = info.compact_rows(q, tool, instrument, target)
     cov = info.covariance(W)
     sd = np.sqrt(np.diag(cov))
     kept = info.keep.copy()

@@ -47,31 +47,45 @@ def travel_time(q: np.ndarray, speed: np.ndarray) -> float:
     return float(move_times(q[:-1], q[1:], speed).sum()) if len(q) > 1 else 0.0
 
 
+WINDOW = 400  # points: a longer tour is improved by 2-opt on windows of this many consecutive points
+
+
 def order_points(q: np.ndarray, speed: np.ndarray, start: np.ndarray | None = None,
-                 max_passes: int | None = None) -> np.ndarray:
+                 max_passes: int | None = None, window: int = WINDOW) -> np.ndarray:
     """A short open tour through the commands q (N,n): nearest neighbour from the point
-    closest to ``start`` (default: the middle of their span), then 2-opt."""
+    closest to ``start`` (default: the middle of their span), then 2-opt; a tour longer
+    than ``window`` points is improved window by window (each with its ends fixed, in two
+    half-overlapping sweeps), so ordering 10,000 commands takes seconds and no N x N
+    matrix."""
     q = np.asarray(q, float)
     n = len(q)
     if n <= 2:
         return np.arange(n)
-    D = move_times(q[:, None, :], q[None, :, :], speed)
     s0 = q.min(axis=0) * 0.5 + q.max(axis=0) * 0.5 if start is None else np.asarray(start, float)
     cur = int(np.argmin(move_times(q, s0, speed)))
     seen = np.zeros(n, bool)
     tour = [cur]
     seen[cur] = True
     for _ in range(n - 1):
-        d = np.where(seen, np.inf, D[cur])
+        d = np.where(seen, np.inf, move_times(q, q[cur], speed))
         cur = int(np.argmin(d))
         tour.append(cur)
         seen[cur] = True
-    return two_opt(np.array(tour), D, max_passes)
+    tour = np.array(tour)
+    if n <= window:
+        return two_opt(tour, move_times(q[:, None, :], q[None, :, :], speed), max_passes)
+    for offset in (0, window // 2):
+        for a in range(offset, n - 3, window):
+            w = tour[a:a + window + 1]  # the first point stays (2-opt keeps it), the last too unless it ends the tour
+            D = move_times(q[w][:, None, :], q[w][None, :, :], speed)
+            tour[a:a + len(w)] = w[two_opt(np.arange(len(w)), D, max_passes, fixed_end=a + len(w) < n)]
+    return tour
 
 
-def two_opt(tour: np.ndarray, D: np.ndarray, max_passes: int | None = None) -> np.ndarray:
+def two_opt(tour: np.ndarray, D: np.ndarray, max_passes: int | None = None, fixed_end: bool = False) -> np.ndarray:
     """Improve an open tour by reversing stretches tour[i..j] (1 <= i < j) while that
-    shortens it; each pass takes the best reversal (vectorised over all i, j)."""
+    shortens it; each pass takes the best reversal (vectorised over all i, j).
+    ``fixed_end``: the last point stays last (a window of a longer tour)."""
     p = np.array(tour)
     n = len(p)
     if n < 4:
@@ -79,7 +93,7 @@ def two_opt(tour: np.ndarray, D: np.ndarray, max_passes: int | None = None) -> n
     max_passes = max_passes or 20 * n
     I = np.arange(1, n)[:, None]
     J = np.arange(n)[None, :]
-    upper = J > I
+    upper = (J > I) & (J < n - 1) if fixed_end else J > I
     for _ in range(max_passes):
         P = D[np.ix_(p, p)]
         Pz = np.concatenate([P, np.zeros((n, 1))], axis=1)

@@ -164,6 +164,36 @@ class SightLine:
         kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
         return self._sight(q, target, kin, tool)
 
+    def collisions(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
+        """(N,) the name of the solid the target holder runs into at commands q (N,n)
+        [m, rad] with holder lengths ``tool`` [m] ('' where it is free): a solid met by
+        the holder's axis from the gauge line to the target centre. The solids on the
+        tool link's own joint (the spindle the holder sits in) do not count, nor a solid
+        of the head's moving chain that holds the gauge line itself (coarse geometry: a
+        saddle's box the ram slides through). A command that collides is not a line-of-sight loss: the machine
+        cannot go there at all."""
+        q = np.atleast_2d(np.asarray(q, float))
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
+        kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
+        m = self.machine
+        own = m.model.frames[m.spindle_frame_id].parentJoint
+        chain, j = set(), own
+        while j > 0:
+            chain.add(j)
+            j = m.model.parents[j]
+        by = np.full(len(q), "", dtype=object)
+        poses = self.solid_poses(q)
+        for k, s in enumerate(self.solids):
+            if s.joint == own:
+                continue
+            H = poses[:, k]
+            nose = _to_local(H, kin.spindle)
+            hit = _segment_hits(s, nose, _to_local(H, kin.tip)) & (by == "")
+            if s.joint in chain:
+                hit &= ~_contains(s, nose)
+            by[hit] = s.name
+        return by
+
     def _sight(self, q: np.ndarray, target: np.ndarray, kin, tool: np.ndarray) -> SightResult:
         """The sight lines from the tracker to ``target`` (N,3) [m], base frame, past the
         solids posed at q and the holder of length ``tool`` (tool kinematics ``kin``)."""

@@ -47,7 +47,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
-from vecpin.models.basis import AxisBasis
+from vecpin.models.basis import AxisBasis, bases_text
 from vecpin.selection.orders import check_folds
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options,
                                      per_turn_measured)
@@ -82,7 +82,10 @@ class Candidate:
     def max(self) -> float:
         return float(self.heldout.max())
 
-    def label(self) -> str:
+    def label(self, axis_names: list[str] | None = None) -> str:
+        """Compact ('AP cheb7/cheb6/...', for the table), or in words with ``axis_names``."""
+        if axis_names is not None:
+            return bases_text(MODELS[self.kind].display_name, axis_names, [a.readable() for a in self.axes])
         labels = [a.label() for a in self.axes]
         body = labels[0] if len(set(labels)) == 1 else "/".join(labels)
         return f"{MODELS[self.kind].display_name} {body}"
@@ -133,7 +136,7 @@ class ModelChoice:
         if len(self.candidates) > len(shown):
             lines.append(f"  ({len(self.candidates) - len(shown)} more candidates scored, not shown)")
         eff = self.chosen.effective_terms
-        lines.append(f"chosen: {self.chosen.label()} ({self.chosen.n_terms} model terms"
+        lines.append(f"chosen: {self.chosen.label(self.machine.axis_names)} ({self.chosen.n_terms} model terms"
                      f"{'' if eff is None else f', {eff:.1f} effective after smoothing'}): {self.reason}")
         lines.append(f"  (model terms: the model's offsets, constants and series coefficients; every candidate also "
                      f"carries the {self.fixed_unknowns} tracker-pose and instrument unknowns of this campaign)")

@@ -24,7 +24,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
-from vecpin.models.basis import AxisBasis, smoothing_transform
+from vecpin.models.basis import AxisBasis, basis_text, smoothing_transform
 from vecpin.units import norm_mm
 
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline", "pspline")
@@ -88,6 +88,11 @@ class AxisChoice:
     @property
     def size(self) -> int:
         return 1 + len(self.functions())
+
+    def readable(self) -> str:
+        """In words: 'Chebyshev order 7', 'spline, 15 knots' (:func:`vecpin.models.basis.basis_text`)."""
+        return basis_text(self.family, 3 if self.family in ("spline", "pspline") else self.order, self.trend,
+                          self.order, self.smoothing)
 
     def label(self) -> str:
         return {"chebyshev": f"cheb{self.order}", "fourier": f"fourier{self.order}",

@@ -106,14 +106,16 @@ class Judgement:
         ref = o.mean_mm if o is not None and np.isfinite(o.mean_mm) else float("nan")
         lines = [f"{self.machine} / {self.family}: uncompensated {self.uncompensated_mean_mm:.4f} mm mean "
                  "(noise-free validation, nominal kinematics registered)",
-                 f"  {'fit':<34s} {'params':>6s} {'mean mm':>9s} {'max mm':>9s} {'/oracle':>8s} {'s':>5s}"]
+                 ""]
         best = self.best_fixed
+        w = max([34] + [len(r.label) + 12 for r in self.rows])  # a model's name in words can be long
 
         def line(tag, r):
             ratio = r.mean_mm / ref if np.isfinite(ref) else float("nan")
             note = f"  {r.note}" if r.note else ""
-            return (f"  {tag + r.label:<34s} {r.n_parameters:6d} {r.mean_mm:9.4f} {r.max_mm:9.4f} "
+            return (f"  {tag + r.label:<{w}s} {r.n_parameters:6d} {r.mean_mm:9.4f} {r.max_mm:9.4f} "
                     f"{ratio:8.2f} {r.seconds:5.1f}{note}")
+        lines[1] = f"  {'fit':<{w}s} {'params':>6s} {'mean mm':>9s} {'max mm':>9s} {'/oracle':>8s} {'s':>5s}"
         lines.append(line("default: ", self.default))
         if grid:
             lines += [line("", r) for r in self.grid if r is not self.default]

@@ -386,7 +386,8 @@ class _DriveTurn:
 
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
              effects: list | None = None, plan: "PlanTemplate | tuple[np.ndarray, np.ndarray] | None" = None, tables=None,
-             tracker_position: np.ndarray | None = None, **truth_options) -> Simulation:
+             tracker_position: np.ndarray | None = None, plan_times: np.ndarray | None = None,
+             validation_commands: np.ndarray | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
     (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
@@ -404,7 +405,11 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     ``compensated_truth`` (noise-free). The rows keep the programmed commands; the
     controller's gauge-line change belongs to the tables, not to the files. The other
     outputs are the same with or without ``tables``. ``tracker_position`` (3,) [m],
-    machine frame: where the tracker stands (as planned), keeping its random heading."""
+    machine frame: where the tracker stands (as planned), keeping its random heading.
+    ``plan_times`` (N,) [s]: the time stamps of the plan's rows as its NC program runs
+    them (:func:`vecpin.planning.timing.row_times`) instead of the design's seconds per
+    point; ``validation_commands`` (K,n) [m, rad]: the plan's validation run (inside
+    its zone) instead of quasi-random commands over the whole travel."""
     design = design or Design()
     template = plan if isinstance(plan, PlanTemplate) else None
     if template is not None:
@@ -445,6 +450,10 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         rows = rows + Rows.tips(np.vstack(seqs), np.full(len(pick) * design.repeat_times, tools[0]))
     qs, tool = rows.q, rows.tool
     t = measurement_times(qs, machine, design)
+    if plan is not None and plan_times is not None:
+        if len(plan_times) != len(qs):
+            raise VecpinError("the plan's time stamps do not match its rows")
+        t = np.asarray(plan_times, float)
     extra = {"time": t, "temperature": workshop_temperature(t, rng)}
     feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
     if truth.effects:
@@ -454,7 +463,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
                         targets=dict(targets) if design.known_targets else {})
     if design.stations > 1 or design.ballbar_points:
         campaign = _more_instruments(campaign, rows, truth, design, rng, seed)
-    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones)
+    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones) \
+        if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
     vrows = validation_rows(qv, tools[0], nests)
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
     times_v = measurement_times(qa, machine, design, start=t[-1] + 600.0)

@@ -246,8 +246,8 @@ def _pairs(machine: Machine) -> list[tuple[int, int]]:
 
 def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     """Paper I Fig. 6: where the planned commands lie in axis space, and where candidates
-    were removed for collision avoidance (exclusion zones, "CA") and line of sight
-    ("LoS"); last panel: the tool tips seen from above with the tracker position and,
+    were removed for collision avoidance (exclusion zones, "CA"), because the holder
+    runs into the machine's geometry, and for line of sight ("LoS"); last panel: the tool tips seen from above with the tracker position and,
     on a plan with table nests, every nest reading where the table carries it."""
     m = plan.machine
     pairs = _pairs(m)
@@ -257,6 +257,8 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
     rng = np.random.default_rng(0)
     ca = np.flatnonzero(plan.removed == "exclusion")
     los = np.flatnonzero(plan.removed == "sight")
+    hit = np.flatnonzero(plan.removed == "collision")
+    hit = hit if len(hit) <= max_removed else np.sort(rng.choice(hit, max_removed, replace=False))
     ca = ca if len(ca) <= max_removed else np.sort(rng.choice(ca, max_removed, replace=False))
     los = los if len(los) <= max_removed else np.sort(rng.choice(los, max_removed, replace=False))
     qu = m.to_user(plan.candidates)
@@ -265,6 +267,8 @@ def plan_figure(plan, path, max_removed: int = 1500) -> Path:
         ai, aj = m.axes[i], m.axes[j]
         ax.scatter(qu[ca, i], qu[ca, j], s=9, marker="x", color="tab:orange", lw=0.7, alpha=0.7,
                    label=f"removed: collision avoidance ({(plan.removed == 'exclusion').sum()})")
+        ax.scatter(qu[hit, i], qu[hit, j], s=9, marker="1", color="tab:purple", lw=0.7, alpha=0.7,
+                   label=f"removed: holder in the machine ({(plan.removed == 'collision').sum()})")
         ax.scatter(qu[los, i], qu[los, j], s=9, marker="+", color="tab:red", lw=0.7, alpha=0.7,
                    label=f"removed: line of sight ({(plan.removed == 'sight').sum()})")
         ax.scatter(cu[:, i], cu[:, j], s=14, color="tab:blue", edgecolor="k", lw=0.3,

@@ -3,19 +3,22 @@
 Files, written together (:class:`vecpin.fileio.OutputSet`): ``plan.csv`` (the campaign
 template: commands and holder lengths in measurement order, empty x/y/z), the NC
 programs ``PLAN_840D.MPF`` (Siemens 840D), ``O1000.nc`` (Fanuc), ``plan.ngc`` (plain
-G-code), ``plan.png`` (Paper I Fig. 6: kept and removed points, tracker) and
+G-code), the validation run ``validation.csv`` with its programs ``VALID_840D.MPF``,
+``O1001.nc``, ``validation.ngc``, ``plan.png`` (Paper I Fig. 6: kept and removed points, tracker) and
 ``plan.json`` (settings, counts and predicted figures; no time stamps, so a rerun
 writes the same bytes).
 """
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
@@ -23,6 +26,8 @@ from vecpin.planning.ncprogram import (DIALECTS, check_program_options, program_
                                       retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
+from vecpin.planning.planchecks import t_offset_identified
+from vecpin.planning.timing import HOLDER_CHANGE_S, CampaignTime, ProgramTiming, row_times
 from vecpin.units import M_PER_MM, to_mm
 
 
@@ -32,6 +37,9 @@ class PlanRun:
     files: list[Path]
     comparison: list[PlanScore] = field(default_factory=list)
     program: str = ""   # what the NC programs do between and at the points (one line)
+    time: CampaignTime | None = None  # the campaign's time as its NC program runs
+    timing: ProgramTiming | None = None
+    validation_time: CampaignTime | None = None
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -52,8 +60,9 @@ class PlanRun:
                + (f" and {len(p.nests)} nest positions" if p.nests else "")
                + f", {int((~info.keep).sum())} that no design identifies left out",
                f"  tracker at ({tr[0]}, {tr[1]}, {tr[2]}) mm, machine frame ({where})",
-               f"  candidates {c['candidates']}: {c['exclusion']} in exclusion zones (CA), {c['sight']} out of sight (LoS, "
-               f"{p.geometry} geometry), {c['kept']} left; chosen {s.method}"]
+               f"  candidates {c['candidates']}: {c['exclusion']} in exclusion zones (CA), {c['collision']} with a holder "
+               f"in the machine's geometry (collisions), {c['sight']} out of sight (LoS, {p.geometry} geometry), "
+               f"{c['kept']} left; chosen {s.method}"]
         out += self.nest_lines()
         if c["sight"]:
             names, counts = np.unique(p.sight_by[p.removed == "sight"].astype(str), return_counts=True)
@@ -74,18 +83,39 @@ class PlanRun:
                 f"{to_mm(pr.model_max):.4f} mm (1-sigma RMS {to_mm(pr.rms_1sigma):.4f} mm)",
                 f"    validation residual incl. measurement noise: mean {to_mm(pr.measured_mean):.4f} mm, max "
                 f"{to_mm(pr.measured_max):.4f} mm",
-                (f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; " if info.keep[6] else
+                (f"    gauge line T_offset: 1-sigma {to_mm(sc.t_offset_sigma):.4f} mm; "
+                 if t_offset_identified(info, p.covariance, s.expected_error_mm) else
+                 f"    gauge line T_offset: not identifiable with this plan (1-sigma {to_mm(sc.t_offset_sigma):.2f} mm; "
+                 "set it on a tool presetter); " if info.keep[6] else
                  "    gauge line T_offset: no design identifies it (another term moves every reading alike); ")
                 + f"{sc.well_determined} of "
                 f"{sc.counted} counted terms below 10% of their prior",
                 "    (what the model cannot describe adds to these: judge it with a validation run)"]
+
         if self.comparison:
             out.append("  comparison (same model, noise, tracker and validation commands):")
             out += PlanScore.header() + [x.line() for x in self.comparison]
         if self.program:
             out.append(f"  NC programs: {self.program}")
+        if self.time is not None:
+            out.append(f"  {self.time.line()}")
+        out += self.validation_lines()
         out += [f"  wrote {f}" for f in self.files]
         return out
+
+    def validation_lines(self) -> list[str]:
+        """The validation run: which commands, where they are written, how long it takes."""
+        p = self.plan
+        v = p.validation_template
+        if v is None:
+            return []
+        n = len(v.tool_rows)
+        took = f", {self.validation_time.total_s / 60:.0f} min a run" if self.validation_time is not None else ""
+        return [f"  validation run: {n} quasi-random commands inside the measured zone, free and in sight with the "
+                f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
+                                                           else "")
+                + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
+                "them; vecpin simulate --plan uses the same commands"]
 
     def nest_lines(self) -> list[str]:
         """What the table nests add (none on a machine without table axes)."""
@@ -137,26 +167,40 @@ class PlanRun:
                 "nests_mm": {k: [round(float(v), 6) for v in to_mm(x)] for k, x in p.nests.items()},
                 "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
                 "without_nests": None if p.without_nests is None else score(p.without_nests),
-                "moves_random_order_min": round(p.travel_random_s / 60, 4)}
+                "moves_random_order_min": round(p.travel_random_s / 60, 4),
+                "expected_error_mm": s.expected_error_mm,
+                "warnings": list(p.warnings),
+                "validation": None if p.validation_template is None else
+                {"commands": len(p.validation_template.tool_rows), "rows": len(p.validation_template),
+                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
+                "campaign_time": None if self.time is None else self.time.to_dict(),
+                "program": None if self.timing is None else timing_dict(self.timing)}
 
 
 def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=tuple(DIALECTS),
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
-                compare_with: list[str] = (), progress: Callable[[str], None] | None = None) -> PlanRun:
+                compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
+                holder_change_s: float = HOLDER_CHANGE_S) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
     The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
     ``retract``, ``axis_map``): :func:`vecpin.planning.ncprogram.write_program`.
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
-    "random" (the same number of commands at random from the same candidates)."""
+    "random" (the same number of commands at random from the same candidates).
+    ``holder_change_s``: the time of a holder change, for the campaign's time
+    (:mod:`vecpin.planning.timing`). The plan's warnings (:mod:`vecpin.planning.planchecks`)
+    are issued as :class:`~vecpin.errors.VecpinWarning` before the files are written."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
+    ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s).check()
     from vecpin.viz.figures import plan_figure
     templates = {c: read_template(c, machine) for c in compare_with if c != "random"}  # a bad file fails now
     plan = make_plan(machine, settings, progress)
+    for w in plan.warnings:
+        warnings.warn(VecpinWarning(w), stacklevel=2)
     others: list[tuple[str, PlanTemplate]] = []
     for c in compare_with:
         if c == "random":
@@ -174,6 +218,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
                                  title=f"for {machine.name}")
             files.append(out.write_text(program_name(d), text))
+        v = plan.validation_template
+        files.append(out.write_text("validation.csv", v.to_csv(machine)))
+        for d in dialects:
+            text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
+                                 feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
+                                 program_number=1001, title=f"- validation run for {machine.name}")
+            files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
         t = plan.template
@@ -185,7 +236,42 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                    f"--safe-z) before every move between points: {lifts / 1000:.1f} m up and down, "
                    f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
-        run = PlanRun(plan, files, comparison, program if dialects else "")
+        timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
+                                safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s)
+        run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
+                      row_times(machine, v, timing)[1])
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
+
+
+def program_timing(machine: Machine, plan: Plan, *, dwell_s: float, nest_dwell_s: float, feed_mm_min: float,
+                   safe_z_mm: float | None, retract: str | None, holder_change_s: float) -> ProgramTiming:
+    """The NC program's timing settings of ``plan`` (its rapid speeds and approach steps)."""
+    s = plan.settings
+    return ProgramTiming(axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), plan.steps, dwell_s, nest_dwell_s,
+                         holder_change_s, feed_mm_min, safe_z_mm, retract)
+
+
+def timing_dict(t: ProgramTiming) -> dict:
+    """plan.json's "program": what the simulator needs to time the plan's rows as the program runs them."""
+    return {"dwell_s": t.dwell_s, "nest_dwell_s": t.nest_dwell_s, "holder_change_s": t.holder_change_s,
+            "feed_mm_min": t.feed_mm_min, "safe_z_mm": t.safe_z_mm, "retract_axis": t.retract,
+            "speed_si": [round(float(v), 9) for v in t.speed], "steps_si": [round(float(v), 12) for v in t.steps]}
+
+
+def plan_timing(path: str | Path) -> ProgramTiming | None:
+    """The program timing written with a plan template: plan.json beside ``path`` (None
+    when there is none or it is from an older vecpin)."""
+    js = Path(path).with_name("plan.json")
+    if not js.is_file():
+        return None
+    try:
+        d = json.loads(js.read_text(encoding="utf-8")).get("program")
+        if not d:
+            return None
+        return ProgramTiming(np.array(d["speed_si"], float), np.array(d["steps_si"], float), float(d["dwell_s"]),
+                             float(d["nest_dwell_s"]), float(d["holder_change_s"]), float(d["feed_mm_min"]),
+                             d["safe_z_mm"], d["retract_axis"])
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"{js}: not a plan.json vecpin wrote ({exc}); plan again or remove it") from None

@@ -1,7 +1,7 @@
 """Simulate a campaign on a true machine and summarise it (the ``simulate`` command)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +26,7 @@ class SimulationRun:
     seed: int = 0
     planned: bool = False
     gauge_change: float = 0.0  # m, the tables' T_offset change (compensated run)
+    validation_from: str = ""  # where the validation commands come from, when not quasi-random over the travel
 
     def lines(self) -> list[str]:
         sim, design = self.simulation, self.design
@@ -47,7 +48,8 @@ class SimulationRun:
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
                f"{len(sim.validation)} validation rows" + (f" ({len(sim.validation.tracker_rows)} commands, each at "
                                                            f"the tool and at {len(sim.nests)} nests)"
-                                                           if len(sim.validation.nest_rows) else ""),
+                                                           if len(sim.validation.nest_rows) else "")
+               + (f" from {self.validation_from}" if self.validation_from else ""),
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
@@ -88,12 +90,35 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
     check_output_dir(out_dir)
     design = design or Design()
     plan = truth_options.get("plan")
+    if truth_options.get("validation_commands") is not None:
+        design = replace(design, n_validation=len(truth_options["validation_commands"]))
     design.check(machine, None if plan is None else len(plan[1] if isinstance(plan, tuple) else plan.tool), files=True)  # files vecpin can read back
     _check_tracker(truth_options.get("tracker_position"))
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
     return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,
-                         0.0 if tables is None else tables.gauge_offset_change)
+                         0.0 if tables is None else tables.gauge_offset_change,
+                         "the plan's validation run (its validation.csv)"
+                         if truth_options.get("validation_commands") is not None else "")
+
+
+def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
+    """What a plan's folder holds beside its template ``plan_path`` for the simulator:
+    ``plan_times`` (the rows' time stamps as the plan's NC program runs them, from
+    plan.json) and ``validation_commands`` (its validation run, validation.csv, inside
+    the plan's zone). A key is absent when its file is (a plan from an older vecpin)."""
+    from vecpin.measurement.plantemplate import read_template
+    from vecpin.planning.timing import row_times
+    from vecpin.workflows.planning import plan_timing
+    out = {}
+    timing = plan_timing(plan_path)
+    if timing is not None:
+        out["plan_times"] = row_times(machine, template, timing)[0]
+    v = Path(plan_path).with_name("validation.csv")
+    if v.is_file() and Path(plan_path).name != "validation.csv":
+        vt = read_template(v, machine)
+        out["validation_commands"] = vt.q[vt.tool_rows]
+    return out
 
 
 def _check_tracker(position) -> None:

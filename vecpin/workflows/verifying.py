@@ -65,6 +65,7 @@ class Verification:
     files: list[Path] = field(default_factory=list)
     frame: str = "the tool tip in the tracker frame (each run registered rigidly)"
     warnings: list[str] = field(default_factory=list)  # printed first
+    commands: str = ""  # which commands the two runs measure (one line)
 
     def reduction(self, stat: str, tool_key: str = "all") -> float:
         b = distance_stats(self.before.measured, self.before.tool)[tool_key][stat]
@@ -78,7 +79,10 @@ class Verification:
         if pred:
             head += f" | {'model mean':>10s} {'max':>8s}"
         out = self.warnings + ["verification: validation runs of the real machine before and after compensation "
-                               "(Paper I Table 3 layout)", f"  frame of every figure: {self.frame}", head]
+                               "(Paper I Table 3 layout)", f"  frame of every figure: {self.frame}"]
+        if self.commands:
+            out.append(f"  commands compared: {self.commands}")
+        out.append(head)
         sb = distance_stats(self.before.measured, self.before.tool)
         sa = distance_stats(self.after.measured, self.after.tool)
         keys = list(sb) if len(sb) > 2 else ["all"]
@@ -121,7 +125,7 @@ class Verification:
                 "tables": self.tables_from, "model": self.model_label,
                 "reduction_of_mean_pct": self.reduction("mean"), "reduction_of_max_pct": self.reduction("max"),
                 "same_commands": self.same_commands, "notes": self.notes, "frame": self.frame,
-                "warnings": self.warnings,
+                "warnings": self.warnings, "commands": self.commands,
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
@@ -215,11 +219,11 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
                     feats = Features.from_campaign(b)
                 resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
             after_run.predicted = norm_mm(registered_errors(ref, ref + comp + resid))
-            label = (f"{model.kind} order {model.order}; compensated: the model's residual on the uncompensated run "
+            label = (f"{model.label()}; compensated: the model's residual on the uncompensated run "
                      "plus the error its tables leave of the model")
         else:
             after_run.predicted = norm_mm(registered_errors(ref, ref + comp))
-            label = (f"{model.kind} order {model.order}; compensated: the error the tables leave of the model only "
+            label = (f"{model.label()}; compensated: the error the tables leave of the model only "
                      "(different commands, so the model's residual cannot be added)")
     if not same:
         notes.append("the two runs measure different commands: compare the statistics, not the points")
@@ -227,7 +231,19 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
                      "AFTER really the run with them?")
     return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=frame,
-                        warnings=warnings)
+                        warnings=warnings, commands=compared_commands(machine, b, a, same))
+
+
+def compared_commands(machine: Machine, b: Campaign, a: Campaign, same: bool) -> str:
+    """Which commands the runs measure: how many, the same or not, the axis ranges they
+    span (mm, deg) and the holders: a run inside a zone judges that zone only."""
+    q = machine.to_user(np.vstack([b.q, a.q]))
+    span = ", ".join(f"{ax.name} {lo:.0f} .. {hi:.0f}" for ax, lo, hi in zip(machine.axes, q.min(axis=0), q.max(axis=0)))
+    tools = ", ".join(f"{t / M_PER_MM:g}" for t in np.unique(np.round(np.r_[b.tool, a.tool], 6)))
+    which = (f"the same {len(b)} commands in both runs" if same else
+             f"{len(b)} commands before, {len(a)} after, not the same")
+    return f"{which}; axes {span} (mm, deg; of the travel " + ", ".join(
+        f"{ax.lower_user:.0f} .. {ax.upper_user:.0f}" for ax in machine.axes) + f"); holder {tools} mm"
 
 
 def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: str | Path | None, **kw) -> Verification:

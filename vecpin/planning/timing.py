@@ -1,0 +1,119 @@
+"""How long a planned campaign takes, row by row, as its NC program runs it.
+
+The program (:mod:`vecpin.planning.ncprogram`) visits the tool rows in order: the
+retract axis lifts to its safe position, the other linear axes move to the next
+approach position, then the rotary axes, the retract axis plunges, the final approach
+runs at the approach feed, then the dwell for the tool target and one more dwell per
+table nest read there. Each rapid move takes the time of its slowest axis at its rapid
+speed (no acceleration: a lower bound of the moves). A change of the target holder
+(the program stops with ``M0``) costs ``holder_change_s`` (the operator swaps the
+holder and the tracker locks on again).
+
+The plan prints the total and the simulator stamps a planned campaign's rows with
+these times, so both book the same campaign.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vecpin.errors import InputError
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.plantemplate import PlanTemplate
+from vecpin.planning.ncprogram import retract_axis, safe_position, visits
+
+HOLDER_CHANGE_S = 120.0  # s: swap the target holder at the M0 stop and let the tracker lock on again
+
+
+@dataclass
+class ProgramTiming:
+    """The NC program's settings that make its time: dwells [s], holder change [s],
+    approach feed [mm/min], the retract axis and its safe position [mm], rapid speeds
+    ``speed`` (n,) [m/s, rad/s] and approach ``steps`` (n,) [m, rad]."""
+
+    speed: np.ndarray
+    steps: np.ndarray
+    dwell_s: float = 4.0
+    nest_dwell_s: float = 15.0
+    holder_change_s: float = HOLDER_CHANGE_S
+    feed_mm_min: float = 1000.0
+    safe_z_mm: float | None = None
+    retract: str | None = None
+
+    def check(self) -> None:
+        if not (np.isfinite(self.holder_change_s) and self.holder_change_s >= 0):
+            raise InputError(f"--holder-change {self.holder_change_s}: the time of a holder change in seconds >= 0")
+
+
+@dataclass
+class CampaignTime:
+    """Where a planned campaign's time goes [s]: rapid moves (lifts and plunges
+    included), final approaches at the feed, dwells at the points and nests, and
+    ``changes`` holder changes."""
+
+    moves_s: float
+    approach_s: float
+    dwell_s: float
+    changes: int
+    change_s: float
+
+    @property
+    def total_s(self) -> float:
+        return self.moves_s + self.approach_s + self.dwell_s + self.changes * self.change_s
+
+    def line(self) -> str:
+        return (f"campaign time {self.total_s / 3600:.2f} h: moves {self.moves_s / 60:.1f} min (rapid, lifts "
+                f"included) + approaches {self.approach_s / 60:.1f} min + dwells {self.dwell_s / 60:.1f} min + "
+                f"{self.changes} holder change{'s' if self.changes != 1 else ''} x {self.change_s / 60:.0f} min")
+
+    def to_dict(self) -> dict:
+        return {"total_h": round(self.total_s / 3600, 4), "moves_min": round(self.moves_s / 60, 4),
+                "approaches_min": round(self.approach_s / 60, 4), "dwells_min": round(self.dwell_s / 60, 4),
+                "holder_changes": self.changes, "holder_change_s": self.change_s}
+
+
+def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -> tuple[np.ndarray, CampaignTime]:
+    """(time stamp [s] of every row of ``template``, at the end of its reading; the
+    campaign's time) when the NC program runs it with ``timing``."""
+    timing.check()
+    r, up = retract_axis(machine, timing.retract)
+    safe = safe_position(machine, r, up, timing.safe_z_mm)
+    vs, end = visits(machine, template, timing.steps, r, up, safe)
+    v_user = machine.to_user(np.asarray(timing.speed, float)[None])[0]  # mm/s, deg/s
+    lin = np.array([a.kind == "linear" for a in machine.axes])
+    others = lin.copy()
+    others[r] = False
+    feed = timing.feed_mm_min / 60.0
+    t = np.zeros(len(template))
+    now = moves = approach = dwell = 0.0
+    changes = 0
+    prev, cur_tool = None, None
+    for v in vs:
+        tool = float(template.tool[v.row])
+        if cur_tool is not None and abs(tool - cur_tool) > 1e-9:
+            changes += 1
+            now += timing.holder_change_s
+        cur_tool = tool
+        if prev is not None:
+            lift = v.lift if v.lift is not None else prev[r]
+            step = abs(lift - prev[r]) / v_user[r]
+            d = np.abs(v.a - prev) / v_user
+            step += (d[others].max() if others.any() else 0.0) + (d[~lin].max() if (~lin).any() else 0.0)
+            step += abs(lift - v.a[r]) / v_user[r]
+            moves += step
+            now += step
+        a = np.abs(v.q - v.a)
+        step = max(a.max() if a.size else 0.0, 0.0) / feed
+        approach += step
+        now += step + timing.dwell_s
+        dwell += timing.dwell_s
+        t[v.row] = now
+        for k in v.nests:
+            now += timing.nest_dwell_s
+            dwell += timing.nest_dwell_s
+            t[k] = now
+        prev = v.q
+    if end is not None and prev is not None:
+        moves += abs(end - prev[r]) / v_user[r]
+    return t, CampaignTime(moves, approach, dwell, changes, timing.holder_change_s)
