@@ -98,7 +98,7 @@ def run(path: str | Path = DATA, poses: int | None = None, splits=("interleaved"
                else "") + ")")
         if ch.part_turn:
             say(f"  no series per turn on {', '.join(ch.part_turn)} (measured over less than a turn)")
-        say(f"  held-out distance, mm      mean      max")
+        say("  held-out distance, mm      mean      max")
         say(f"    nominal model        {r['nominal_mean']:8.3f} {r['nominal_max']:8.3f}")
         say(f"    default fit          {r['fit_mean']:8.3f} {r['fit_max']:8.3f}   "
             f"({r['fit_mean'] / r['nominal_mean']:.2f}x the nominal mean; {r['seconds']:.1f} s)")
