@@ -84,6 +84,10 @@ class Diagnosis:
     unexplained: list[str] = field(default_factory=list)
     base_finding: str = ""
     outlier_lines: list[int] = field(default_factory=list)  # the outliers' line numbers in the campaign file
+    # rows beyond the noise of the final model that are not gross errors (repeat readings
+    # agree, or they crowd one stretch of an axis): {"axis", "from", "to", "unit", "rows",
+    # "lines", "rows_there", "text"}
+    misfit_regions: list[dict] = field(default_factory=list)
 
     @property
     def accepted(self) -> list[EffectScore]:
@@ -112,6 +116,9 @@ class Diagnosis:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
         if self.outlier_rows:
             s2 += f" {len(self.outlier_rows)} rows are gross errors and were left out."
+        if self.misfit_regions:
+            s2 += (" The model does not fit " + "; ".join(g["text"] for g in self.misfit_regions)
+                   + ": model misfit, not gross errors (a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           "(vecpin tables model_base.json).")
@@ -123,7 +130,7 @@ class Diagnosis:
     def to_dict(self) -> dict:
         return {"headline": self.headline(), "base": self.base, "base_finding": self.base_finding,
                 "effects": [e.to_dict() for e in self.effects], "outlier_rows": self.outlier_rows,
-                "outlier_lines": self.outlier_lines,
+                "outlier_lines": self.outlier_lines, "misfit_regions": self.misfit_regions,
                 "localization": self.localization, "localization_final": self.localization_final,
                 "unexplained": self.unexplained,
                 "best": {"effects": [e.label for e in self.accepted], "heldout_mean_mm": self.best[0],

@@ -131,36 +131,3 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
               p_heldout=float(stats.t.sf(t, max(delta.size - 1, 1))), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     return ev
-
-
-def row_equations(valid: np.ndarray) -> np.ndarray:
-    """(N,) the real equations of each row (3 for a tracker point, 1 for a range or a
-    ball bar radius)."""
-    return np.asarray(valid).sum(axis=1)
-
-
-def robust_scale(w: np.ndarray, valid: np.ndarray) -> float:
-    """The noise scale of whitened residuals w (N,3) whose rows carry ``valid`` equations:
-    the median over rows of |w_i|^2 / median of chi2(k_i) (1 when the whitening is right;
-    gross errors do not move a median)."""
-    s = np.sum(w**2, axis=1)
-    k = row_equations(valid)
-    return float(np.median(s / stats.chi2.median(np.maximum(k, 1))))
-
-
-def beyond_noise(w: np.ndarray, valid: np.ndarray, scale: float, p: float, n_tests: int) -> np.ndarray:
-    """(N,) True for rows whose whitened residual w is too large to be noise at the
-    given scale: chi2 with the row's own number of equations, beyond the p / n_tests
-    (Bonferroni) limit. A row whose residual is not a number is beyond."""
-    s = np.sum(w**2, axis=1) / scale
-    k = np.maximum(row_equations(valid), 1)
-    return ~(s <= stats.chi2.isf(p / n_tests, k))
-
-
-def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float = 1e-3) -> np.ndarray:
-    """Rows whose held-out whitened residual is too large to be noise, judged against
-    the robust (median) dispersion of all rows, each row with its own number of
-    equations (a tracker point three, a range or a radius one), Bonferroni over the rows."""
-    w = base_eval["heldout_w"]
-    scale = robust_scale(w, lin.valid)
-    return np.flatnonzero(beyond_noise(w, lin.valid, scale, p, len(w)))

@@ -1,0 +1,84 @@
+"""Issue 26, diagnosis without false leads: gross errors at a stated family-wise
+false-alarm rate, repeated readings that agree and rows crowded into one region told
+apart from gross errors (model misfit, kept and reported as a region)."""
+import numpy as np
+import pytest
+
+from vecpin.diagnosis import grosserrors
+from vecpin.diagnosis.diagnose import diagnose
+from vecpin.simulation.simulate import Design, simulate
+
+
+def test_sidak_limit_holds_the_family_wise_rate(rng):
+    """Clean chi2(3) statistics of 1,200 rows pass together about 99 % of the time,
+    whatever the number of rows (the per-row limit grows with it)."""
+    valid = np.ones((1200, 3), bool)
+    trials = 2000
+    s = rng.chisquare(3, size=(trials, 1200))
+    lim = grosserrors.row_limit(valid, 1200)
+    rate = np.mean((s > lim).any(axis=1))
+    assert 0.003 < rate < 0.02, rate
+    assert grosserrors.row_limit(valid[:1], 10_000)[0] > lim[0] > grosserrors.row_limit(valid[:1], 100)[0]
+
+
+def test_a_prediction_far_from_the_data_has_a_wider_spread():
+    """The statistic scales each row's held-out residual by its own predicted spread:
+    the same residual at a row where the fold model extrapolates (large J M J^T) counts
+    less than in the middle of the data."""
+    w = np.array([[3.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    J = np.zeros((2, 3, 1))
+    J[1, 0, 0] = 2.0
+    s = grosserrors.prediction_statistic(w, J, np.eye(1), np.ones((2, 3), bool))
+    np.testing.assert_allclose(s, [9.0, 9.0 / 5.0])
+    # a range row (one equation): the padding does not count
+    valid = np.array([[True, False, False]])
+    s1 = grosserrors.prediction_statistic(np.array([[2.0, 7.0, 7.0]]), np.zeros((1, 3, 1)), np.eye(1), valid)
+    np.testing.assert_allclose(s1, [4.0])
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_clean_campaign_of_1200_rows_flags_no_row(flow, seed):
+    sim = simulate(flow, seed=seed, design=Design(n_commands=600, n_validation=10))
+    assert len(sim.campaign) == 1200
+    d = diagnose(flow, sim.campaign)
+    assert d.outlier_rows == [] and d.misfit_regions == [], (d.outlier_rows, d.misfit_regions)
+    assert not d.accepted
+
+
+def test_repeated_readings_that_agree_are_misfit_not_gross_errors(flow):
+    """A pose read three times, every reading 0.4 mm off the same way (a place the model
+    cannot follow: re-measuring reads the same), and one single reading 0.4 mm off (a
+    gross error): only the single reading is left out; the repeated pose is reported as
+    misfit, with its file lines."""
+    sim = simulate(flow, seed=3, design=Design(n_validation=10, repeat_points=6, repeat_times=2))
+    c = sim.campaign
+    key = np.unique(np.c_[np.round(c.q, 9), c.tool], axis=0, return_inverse=True)[1].ravel()
+    count = np.bincount(key)
+    pose = np.flatnonzero(key == key[np.flatnonzero(count[key] >= 3)[0]])
+    single = int(np.flatnonzero(count[key] == 1)[7])
+    off = np.array([3e-4, -2e-4, 2e-4])
+    c.xyz[pose] += off
+    c.xyz[single] += off
+    d = diagnose(flow, c)
+    assert d.outlier_rows == [single]
+    assert [sorted(g["rows"]) for g in d.misfit_regions] == [sorted(int(r) for r in pose)]
+    assert d.misfit_regions[0]["lines"] == [int(v) for v in c.lines[sorted(pose)]]
+    assert "misfit, not gross errors" in d.headline()[1]
+
+
+def test_flagged_rows_crowded_at_one_end_of_an_axis_are_a_region(flow):
+    """A systematic error growing over the last few percent of Y's travel: the rows it
+    pushes beyond the noise all lie there; they are reported as a region the model does
+    not fit (on Y, at the top of its travel), not as gross errors to re-measure."""
+    sim = simulate(flow, seed=4, design=Design(n_validation=10))
+    c = sim.campaign
+    y = c.q[:, flow.axis_names.index("Y")]
+    top = y > y.min() + 0.93 * np.ptp(y)
+    c.xyz[top] += np.array([0.0, 0.0, 3e-3]) * ((y[top] - y[top].min()) / np.ptp(y[top]))[:, None]
+    d = diagnose(flow, c)
+    assert d.outlier_rows == []
+    assert d.misfit_regions and d.misfit_regions[0]["axis"] == "Y"
+    g = d.misfit_regions[0]
+    assert len(g["rows"]) >= 3 and top[g["rows"]].mean() > 0.5  # the model's smear reaches a little below
+    assert np.all((y[g["rows"]] * 1e3 >= g["from"] - 1e-6) & (y[g["rows"]] * 1e3 <= g["to"] + 1e-6))
+    assert g["from"] > y.min() * 1e3 + 0.8 * np.ptp(y) * 1e3
