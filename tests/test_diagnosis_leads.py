@@ -6,6 +6,7 @@ import pytest
 
 from vecpin.diagnosis import grosserrors
 from vecpin.diagnosis.diagnose import diagnose
+from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
 
 
@@ -82,3 +83,26 @@ def test_flagged_rows_crowded_at_one_end_of_an_axis_are_a_region(flow):
     assert len(g["rows"]) >= 3 and top[g["rows"]].mean() > 0.5  # the model's smear reaches a little below
     assert np.all((y[g["rows"]] * 1e3 >= g["from"] - 1e-6) & (y[g["rows"]] * 1e3 <= g["to"] + 1e-6))
     assert g["from"] > y.min() * 1e3 + 0.8 * np.ptp(y) * 1e3
+
+
+def test_a_skew_is_named_once(flow):
+    """A gantry skew (Y rotating about x with X) is one finding: never named again as a
+    second skew or a coupled pair; where the campaign cannot tell it from another
+    candidate, the two are one group, named once with the best member's shrink."""
+    spec = TrueEffect("gantry_skew", ("Y",), 0.05, {"about": "x", "depends": "X"}, seed=1)
+    sim = simulate(flow, seed=11, design=Design(n_validation=10), effects=[spec])
+    d = diagnose(flow, sim.campaign)
+    acc = [e for e in d.accepted if e.name != "outliers"]
+    assert len(acc) == 1 and acc[0].label == "gantry_skew[Y/x]", [e.finding for e in acc]
+    named = [acc[0].label] + acc[0].alternatives
+    assert len(set(named)) == len(named)
+    assert d.headline()[1].count("explains it") == 1 and acc[0].finding in d.headline()[1]
+    for alt in acc[0].alternatives:  # a group member is not scored as a finding of its own
+        assert alt not in [e.label for e in d.accepted]
+
+
+def test_a_thermal_drift_is_named_as_thermal_alone(flow):
+    spec = TrueEffect("thermal", (), 0.04, seed=3)
+    sim = simulate(flow, seed=11, design=Design(n_validation=10), effects=[spec])
+    d = diagnose(flow, sim.campaign)
+    assert [e.label for e in d.accepted] == ["thermal[X,Y,Z]"]

@@ -45,7 +45,8 @@ from scipy import linalg
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import Kinematics, candidate_effects, distances_mm, effect_columns, score
+from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, pattern_cosine,
+                                      score)
 from vecpin.errors import InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -93,6 +94,7 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     return text, gone
 
 
+AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding
 OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
 FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
 
@@ -130,6 +132,30 @@ def _still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndar
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def _weakest(accepted: list, refit: Callable, with_all: np.ndarray, lin: Linearised, fold_r: np.ndarray):
+    """The accepted effect whose removal, given all the others, worsens the held-out error
+    least, when that worsening is not more than its own spread over the folds (the mean
+    of the per-fold mean gains within one standard deviation of them): (effect, (lin,
+    eval) without it, why) or None when every effect survives. ``refit(effects)``: the
+    linearised model and its held-out evaluation with those effects."""
+    folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
+    worst = None
+    for e in accepted:
+        try:
+            lin_e, ev_e = refit([a for a in accepted if a is not e])
+        except VecpinError:
+            continue
+        gain = distances_mm(lin_e, ev_e["heldout"]) - with_all
+        per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
+        spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
+        margin = float(per.mean()) - spread
+        if margin <= 0 and (worst is None or margin < worst[0]):
+            text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
+                    f"folds ({spread:.4f} mm)")
+            worst = (margin, e, (lin_e, ev_e), text)
+    return None if worst is None else worst[1:]
 
 
 def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
@@ -266,8 +292,9 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     accepted: list[Effect] = []
     cur_model, cur_lin, cur_eval, cur_loc = base_model, lin, base_eval, loc
     candidates = candidate_effects(machine, feats, names)
+    named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, max_effects + 1):
-        remaining = [c for c in candidates if c.label not in {a.label for a in accepted}
+        remaining = [c for c in candidates if c.label not in named
                      and not (c.scanned and any(type(a) is type(c) for a in accepted))]
         if not remaining:
             break
@@ -276,7 +303,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         kin = Kinematics(cur_model, cur_lin, feats)
         base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
         base_grams = cur_lin.grams(cur_lin.J, fold_r)
-        round_scores, scan_best = [], {}
+        round_scores, scan_best, judged = [], {}, []
         for c in remaining:
             c.prepare(camp, feats)
             cols = effect_columns(kin, cur_lin, c, feats)
@@ -304,6 +331,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             # apart) the first candidate, the one nearer the base of the chain
             if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
                 best = (sc, ev)
+            judged.append((sc, ev))
             if rnd == 1:
                 scores.append(sc)
         if best is None:
@@ -313,17 +341,38 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         if rnd > 1:
             scores.append(sc)
         accepted.append(sc.effect)
+        # one cause per gap: significant candidates whose predicted change to the fit is
+        # nearly the best one's are the same finding, named once with the best's shrink
+        sc.alternatives = [o.label for o, e in judged if o is not sc and o.significant
+                           and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
+        named.update([sc.label] + sc.alternatives)
         say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
         cur_model = base_fit(camp, list(accepted))
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                            Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
         sc.evidence, sc.explains = _evidence(sc, cur_loc, new_loc)
-        twins = [c.label for c, e, _ in round_scores if c is not sc.effect and abs(e["d_chi2"] - ev["d_chi2"])
-                 <= 1e-3 * abs(ev["d_chi2"]) and e["p"] < thr]
-        if twins:
-            sc.evidence += f"; these data cannot tell it from {', '.join(twins)} (the same columns)"
+        if sc.alternatives:
+            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
+                            f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "
+                            "one finding")
         cur_loc = new_loc
+
+    # ---- backward elimination: every accepted effect again, given all the others
+    while len(accepted) >= 2:
+        drop = _weakest(accepted, lambda effs: linearise(base_fit(camp, effs), camp, feats, fold_r),
+                        distances_mm(cur_lin, cur_eval["heldout"]), cur_lin, fold_r)
+        if drop is None:
+            break
+        e, (cur_lin, cur_eval), text = drop
+        accepted.remove(e)
+        cur_model = cur_lin.model
+        gone = next(x for x in scores if x.effect is e and x.accepted)
+        gone.accepted = False
+        gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
+        say(f"dropped {e.label}: {text}")
+        cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
+                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
 
     # ---- outliers judged again under the final model: rows it explains are not outliers
     put_back = []

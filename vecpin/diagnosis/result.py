@@ -43,6 +43,16 @@ class EffectScore:
     explains: list[str] = field(default_factory=list)
     advice: list[str] = field(default_factory=list)
     effect: Effect | None = field(default=None, repr=False)
+    # the ambiguity group: candidates this campaign cannot tell from this one (one finding)
+    alternatives: list[str] = field(default_factory=list)
+
+    @property
+    def finding(self) -> str:
+        """'gantry_skew[Y/x]', or 'gantry_skew[Y/x] or coupled_axes[X,Y] (this campaign cannot tell them
+        apart)' for an ambiguity group."""
+        if not self.alternatives:
+            return self.label
+        return f"{' or '.join([self.label] + self.alternatives)} (this campaign cannot tell them apart)"
 
     @property
     def headword(self) -> str:
@@ -63,7 +73,7 @@ class EffectScore:
                 "evidence": self.evidence, "explains": self.explains, "advice": self.advice,
                 "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
-                "round": self.round, "bic_gain": self.bic_gain,
+                "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "options": self.effect.options if self.effect is not None else {}}
 
 
@@ -110,7 +120,7 @@ class Diagnosis:
         acc = [e for e in self.accepted if e.name != "outliers"]
         m, _ = self.best
         if acc:
-            s2 = (f"Which: {', '.join(e.label for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
+            s2 = (f"Which: {'; '.join(e.finding for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
                   f"{b['heldout_mean_mm']:.4f} -> {m:.4f} mm ({100 * (1 - m / b['heldout_mean_mm']):.0f}% smaller).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."

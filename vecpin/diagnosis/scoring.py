@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
+from scipy import linalg, stats
 
 from vecpin.errors import InputError
 from vecpin.identification.crossval import Linearised
@@ -120,6 +120,9 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     psi = np.r_[psi0, np.zeros(A1.shape[-1])]
     grams = lin.extend_grams(base_grams, J0, J1, folds)
     ev = lin.evaluate(A, J, psi, folds, grams)
+    G, g = grams["all"]
+    step = linalg.solve(G + np.eye(len(psi)), g - psi, assume_a="pos")
+    ev["pattern"] = J.reshape(-1, J.shape[-1]) @ step  # what the candidate changes in the fit (whitened)
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
@@ -131,3 +134,10 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
               p_heldout=float(stats.t.sf(t, max(delta.size - 1, 1))), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     return ev
+
+
+def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:
+    """|cos| of the angle between two candidates' predicted changes to the fit: near 1,
+    the campaign cannot tell one from the other."""
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    return abs(float(a @ b)) / (na * nb) if na > 0 and nb > 0 else 0.0
