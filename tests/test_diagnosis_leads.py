@@ -85,7 +85,7 @@ def test_flagged_rows_crowded_at_one_end_of_an_axis_are_a_region(flow):
     assert g["from"] > y.min() * 1e3 + 0.8 * np.ptp(y) * 1e3
 
 
-def test_a_skew_is_named_once(flow):
+def test_a_skew_is_named_once(flow, tmp_path):
     """A gantry skew (Y rotating about x with X) is one finding: never named again as a
     second skew or a coupled pair; where the campaign cannot tell it from another
     candidate, the two are one group, named once with the best member's shrink."""
@@ -99,6 +99,10 @@ def test_a_skew_is_named_once(flow):
     assert d.headline()[1].count("explains it") == 1 and acc[0].finding in d.headline()[1]
     for alt in acc[0].alternatives:  # a group member is not scored as a finding of its own
         assert alt not in [e.label for e in d.accepted]
+    # the report opens with the diagnosis in three sentences, the group named in the second
+    text = d.write(tmp_path)["report"].read_text().splitlines()
+    assert text[2].startswith("Where:") and text[3].startswith("Which:") and text[4].startswith("What to do:")
+    assert acc[0].finding in text[3] and text[5] == ""
 
 
 def test_a_thermal_drift_is_named_as_thermal_alone(flow):
@@ -106,3 +110,39 @@ def test_a_thermal_drift_is_named_as_thermal_alone(flow):
     sim = simulate(flow, seed=11, design=Design(n_validation=10), effects=[spec])
     d = diagnose(flow, sim.campaign)
     assert [e.label for e in d.accepted] == ["thermal[X,Y,Z]"]
+
+
+def test_no_series_has_more_terms_than_its_axis_has_positions(flow):
+    """An axis visited at 5 positions: the model choice offers it no basis of more than 5
+    functions (constant included); harmonics are offered only on a rotary axis whose travel and positions can
+    tell them from a polynomial; at 3 positions the effects' series on it are of order 2."""
+    from vecpin.diagnosis.scoring import candidate_effects
+    from vecpin.measurement.features import Features
+    from vecpin.models.effects import Visited
+    from vecpin.selection.choice import choose_model
+    first = simulate(flow, seed=5, design=Design(n_validation=10))
+    q, tool = first.campaign.q.copy(), first.campaign.tool.copy()
+    iy = flow.axis_names.index("Y")
+    lo, hi = q[:, iy].min(), q[:, iy].max()
+    q[:, iy] = lo + np.round((q[:, iy] - lo) / (hi - lo) * 4) * (hi - lo) / 4
+    c = simulate(flow, seed=5, design=Design(n_validation=10), plan=(q, tool)).campaign
+    assert len(np.unique(np.round(c.q[:, iy], 9))) == 5
+    choice = choose_model(flow, c)
+    assert all(cand.axes[iy].size <= 5 for cand in choice.candidates)
+    assert any(cand.axes[iy].size == 5 for cand in choice.candidates)  # the cap is offered, not more
+    feats = Features.from_campaign(c)
+    q3 = c.q.copy()  # Y at 3 positions: series on Y of order 2 at most
+    q3[:, iy] = lo + np.round((q3[:, iy] - lo) / (hi - lo) * 2) * (hi - lo) / 2
+    cands = candidate_effects(flow, feats, ["coupled_axes", "gantry_skew"], q3)
+    assert {e.order for e in cands if e.name == "coupled_axes" and "Y" in e.axes} == {2}
+    assert {e.order for e in cands if e.name == "coupled_axes" and "Y" not in e.axes} == {3}
+    assert {e.orders["Y"] for e in cands if e.name == "gantry_skew" and e.axes[0] != "Y"} == {2}
+    assert all(e.n_parameters == 12 for e in cands if e.name == "gantry_skew" and e.axes[0] == "Y")
+    # harmonics 4..8 per turn: a C axis over two turns at 8 positions cannot resolve them
+    ic = flow.axis_names.index("C")
+    q8 = c.q.copy()
+    q8[:, ic] = np.round(np.linspace(0, 7, len(q8))) * (4 * np.pi / 7) - 2 * np.pi
+    assert Visited.of(flow, q8).positions["C"] == 8
+    labels = [e.label for e in candidate_effects(flow, feats, ["rotary_periodic"], q8)]
+    assert "rotary_periodic[C]" not in labels
+    assert "rotary_periodic[C]" in [e.label for e in candidate_effects(flow, feats, ["rotary_periodic"], c.q)]

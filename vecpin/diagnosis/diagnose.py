@@ -291,7 +291,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     # ---- forward selection over candidate effects
     accepted: list[Effect] = []
     cur_model, cur_lin, cur_eval, cur_loc = base_model, lin, base_eval, loc
-    candidates = candidate_effects(machine, feats, names)
+    candidates = candidate_effects(machine, feats, names, camp.q)
     named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, max_effects + 1):
         remaining = [c for c in candidates if c.label not in named
@@ -408,7 +408,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         regions = (crowd or put_back) + [g for g in regions if not g["axis"]]
     for g in regions:
         g["lines"] = [int(campaign.lines[r]) for r in g["rows"]]
-        g["text"] = gross_.describe_region(g, campaign)
+        g["where"], g["text"] = gross_.describe_region(g, campaign)
     best_mm = distances_mm(cur_lin, cur_eval["heldout"])
     unexplained = list(cur_loc["most_structured"])
     # advice from the best model's fitted numbers

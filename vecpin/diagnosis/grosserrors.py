@@ -175,12 +175,14 @@ def judge(machine: Machine, campaign: Campaign, s: np.ndarray, w: np.ndarray, va
     return gross, np.setdiff1d(flagged, gross), regions
 
 
-def describe_region(g: dict, campaign: Campaign) -> str:
-    """'Z 800 to 1000 mm (12 of 40 rows there, file lines ...)' for one misfit region."""
+def describe_region(g: dict, campaign: Campaign) -> tuple[str, str]:
+    """('Z 800 to 1000 mm', 'Z 800 to 1000 mm (12 of the 40 rows there are beyond the
+    noise; file lines ...)') for one misfit region: where, and the full account."""
     lines = campaign.lines[np.asarray(g["rows"], int)]
     shown = ", ".join(map(str, lines[:12])) + (" ..." if lines.size > 12 else "")
     if not g["axis"]:
-        return f"{len(g['rows'])} rows whose repeated readings agree with each other (file lines {shown})"
+        return (f"{len(g['rows'])} repeatedly read rows",
+                f"{len(g['rows'])} rows whose repeated readings agree with each other (file lines {shown})")
     span = (f"{g['axis']} = {g['from']:.6g} {g['unit']}" if g["from"] == g["to"]
             else f"{g['axis']} {g['from']:.6g} to {g['to']:.6g} {g['unit']}")
-    return f"{span} ({len(g['rows'])} of the {g['rows_there']} rows there are beyond the noise; file lines {shown})"
+    return span, f"{span} ({len(g['rows'])} of the {g['rows_there']} rows there are beyond the noise; file lines {shown})"

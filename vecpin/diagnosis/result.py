@@ -96,7 +96,7 @@ class Diagnosis:
     outlier_lines: list[int] = field(default_factory=list)  # the outliers' line numbers in the campaign file
     # rows beyond the noise of the final model that are not gross errors (repeat readings
     # agree, or they crowd one stretch of an axis): {"axis", "from", "to", "unit", "rows",
-    # "lines", "rows_there", "text"}
+    # "lines", "rows_there", "where" (short), "text" (with the file lines)}
     misfit_regions: list[dict] = field(default_factory=list)
 
     @property
@@ -115,8 +115,6 @@ class Diagnosis:
         s1 = (f"Where: after the base model ({b['label']}) the held-out residual is {b['heldout_mean_mm']:.4f} mm on "
               "average" + (f" and structured along {', '.join(where)}." if where else
                            ", with no structure beyond the scatter along any axis, time, temperature or direction."))
-        if self.base_finding:
-            s1 += " " + self.base_finding
         acc = [e for e in self.accepted if e.name != "outliers"]
         m, _ = self.best
         if acc:
@@ -127,8 +125,8 @@ class Diagnosis:
         if self.outlier_rows:
             s2 += f" {len(self.outlier_rows)} rows are gross errors and were left out."
         if self.misfit_regions:
-            s2 += (" The model does not fit " + "; ".join(g["text"] for g in self.misfit_regions)
-                   + ": model misfit, not gross errors (a re-measurement would read the same).")
+            s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
+                   + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           "(vecpin tables model_base.json).")
@@ -150,7 +148,7 @@ class Diagnosis:
 
     def summary(self) -> str:
         b = self.base
-        lines = self.headline() + ["",
+        lines = self.headline() + ([self.base_finding] if self.base_finding else []) + ["",
                                    f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max "
                                    f"{b['heldout_max_mm']:.4f} mm ({b['folds']}-fold CV over {b['rows']} rows)"]
         if self.outlier_lines:

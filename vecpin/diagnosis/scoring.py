@@ -24,19 +24,25 @@ from vecpin.identification.crossval import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.features import Features
 from vecpin.models import ErrorModel
-from vecpin.models.effects import REGISTRY, Effect, TipContext
+from vecpin.models.effects import REGISTRY, Effect, TipContext, Visited
 from vecpin.units import MM_PER_M
 
 
-def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
-    """Every candidate instance of the named effects (row-flagging effects excluded)."""
+def candidate_effects(machine: Machine, feats: Features, names, q: np.ndarray | None = None) -> list[Effect]:
+    """Every candidate instance of the named effects (row-flagging effects excluded),
+    each cut to what the commands ``q`` visited can support (:meth:`Effect.supported`:
+    no more terms along an axis than its distinct positions less one, harmonics only
+    where the travel tells them from a polynomial); those with nothing left are dropped."""
     out = []
     for name in names:
         if name not in REGISTRY:
             raise InputError(f"unknown effect '{name}' (known: {', '.join(REGISTRY)})")
         if not REGISTRY[name].flags_rows:
             out += REGISTRY[name].candidates(machine, feats)
-    return out
+    if q is None:
+        return out
+    visited = Visited.of(machine, q)
+    return [s for s in (c.supported(visited) for c in out) if s is not None]
 
 
 class Kinematics:

@@ -214,7 +214,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine, "cartesian")
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [axis_options(a, orders, families, fixed_order) for a in machine.axes]
+    options = [_supported(axis_options(a, orders, families, fixed_order), camp.q[:, a.index]) for a in machine.axes]
     cands: list[Candidate] = []
     scored: dict = {}
 
@@ -261,6 +261,13 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                        (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed)
 
 
+def _supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
+    """The options with no more terms than the axis has distinct positions ``q`` (the
+    smallest when none has): more could not be told apart on this campaign."""
+    n = len(np.unique(np.round(q, 9)))
+    return [o for o in options if o.size <= n] or [min(options, key=lambda o: o.size)]
+
+
 def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
     """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
     order: a per-turn series of the lowest order offered that is at least ``order``."""
@@ -276,8 +283,9 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
             out.append(tuple(c if c in opts else opts[0] for opts in options))
         return out
     cheb = AxisChoice("chebyshev", order)
-    if plan == "chebyshev":
-        return [tuple(cheb for _ in machine.axes)]
+    if plan == "chebyshev":  # capped where an axis has too few positions for this order
+        return [tuple(cheb if cheb in opts else max((o for o in opts if o.family == "chebyshev" and o.order < order),
+                                                    key=lambda o: o.order, default=opts[0]) for opts in options)]
     per_turn = [o for opts in options for o in opts if o.family == plan]
     if not per_turn:
         return out
