@@ -146,3 +146,25 @@ def test_no_series_has_more_terms_than_its_axis_has_positions(flow):
     labels = [e.label for e in candidate_effects(flow, feats, ["rotary_periodic"], q8)]
     assert "rotary_periodic[C]" not in labels
     assert "rotary_periodic[C]" in [e.label for e in candidate_effects(flow, feats, ["rotary_periodic"], c.q)]
+
+
+def test_an_effect_whose_fit_fails_is_not_a_finding_and_no_abort(flow, monkeypatch):
+    """The nonlinear fit with an accepted effect that cannot converge (the solver's
+    honest refusal) leaves that effect out with the reason; the diagnosis still returns
+    (and writes) what it found, rather than dying."""
+    from vecpin.errors import ConvergenceError
+    from vecpin.models import ErrorModel
+    real = ErrorModel.fit
+
+    def fit(self, *a, **kw):
+        if self.effects:
+            raise ConvergenceError("the fit cannot lower chi2 = 7.8e5 any further (a step promised 13.2)")
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(ErrorModel, "fit", fit)
+    spec = TrueEffect("backlash", ("X",), 0.03, seed=2)
+    sim = simulate(flow, seed=12, design=Design(n_commands=200, n_validation=10), effects=[spec])
+    d = diagnose(flow, sim.campaign, effects=["backlash"])
+    assert not d.accepted
+    top = d.effects[0]
+    assert top.label == "backlash[X]" and top.significant and "cannot be fitted" in top.evidence

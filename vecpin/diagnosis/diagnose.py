@@ -47,7 +47,7 @@ from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
 from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, pattern_cosine,
                                       score)
-from vecpin.errors import InputError, VecpinError
+from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -347,7 +347,15 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
                            and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
         named.update([sc.label] + sc.alternatives)
         say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
-        cur_model = base_fit(camp, list(accepted))
+        try:
+            fitted = base_fit(camp, list(accepted))
+        except ConvergenceError as err:  # the linearised gain the fit cannot realise: not a finding, not an abort
+            accepted.pop()
+            sc.accepted = False
+            sc.evidence = f"significant when linearised, but the model with it cannot be fitted: {err}"
+            say(f"{sc.label}: the fit with it does not converge; not accepted")
+            break
+        cur_model = fitted
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                            Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
