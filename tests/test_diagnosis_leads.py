@@ -168,3 +168,23 @@ def test_an_effect_whose_fit_fails_is_not_a_finding_and_no_abort(flow, monkeypat
     assert not d.accepted
     top = d.effects[0]
     assert top.label == "backlash[X]" and top.significant and "cannot be fitted" in top.evidence
+
+
+def test_readings_of_one_pose_agree_when_most_of_their_residual_is_shared(flow):
+    """Two readings of a pose 2 mm off the same way that differ by 0.28 mm (far beyond the
+    noise of two readings, far below their shared residual) agree: the machine there, not
+    the reading. A reading whose repeat is near the model, and two readings off in
+    different directions, do not."""
+    sim = simulate(flow, seed=3, design=Design(n_validation=10, repeat_points=6, repeat_times=2))
+    c = sim.campaign
+    key = np.unique(np.c_[np.round(c.q, 9), c.tool], axis=0, return_inverse=True)[1].ravel()
+    pairs = [np.flatnonzero(key == k)[:2] for k in np.unique(key) if np.sum(key == k) >= 2][:3]  # the rest read 0
+    w = np.zeros((len(c), 3))
+    sigma = 0.01  # mm per whitened unit
+    (a1, a2), (b1, b2), (c1, c2) = pairs
+    w[a1], w[a2] = np.array([2.0, 0, 0]) / sigma, np.array([2.0, 0.28, 0]) / sigma    # shared, 0.28 mm apart
+    w[b1], w[b2] = np.array([0, 1.0, 0]) / sigma, np.array([0.01, 0, 0]) / sigma      # one reading off
+    w[c1], w[c2] = np.array([1.0, 0, 0]) / sigma, np.array([0, 0, -1.0]) / sigma     # both off, differently
+    flagged = np.array(sorted([a1, a2, b1, c1, c2]))
+    agree = grosserrors.agreeing_repeats(c, flagged, w, np.ones((len(c), 3), bool), 1.0)
+    assert sorted(agree) == sorted([a1, a2])

@@ -92,7 +92,9 @@ def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, val
                      level: float) -> np.ndarray:
     """The flagged rows (indices) that another reading of the same pose agrees with: the
     difference of their whitened residuals (the model's prediction cancels) is within the
-    noise of two readings."""
+    noise of two readings, or smaller than half of either residual (most of the residual
+    is shared by the readings: the machine at that pose, not the reading; independent
+    gross errors differ by about as much as they are large)."""
     key = _pose_keys(campaign)
     out = []
     for i in flagged:
@@ -101,7 +103,9 @@ def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, val
                 continue
             both = valid[i] & valid[j]
             d = np.where(both, w[i] - w[j], 0.0)
-            if float(d @ d) / (2 * level) <= stats.chi2.isf(AGREE_P, max(int(both.sum()), 1)):
+            shared = 0.5 * min(np.linalg.norm(np.where(both, w[i], 0.0)), np.linalg.norm(np.where(both, w[j], 0.0)))
+            if (float(d @ d) / (2 * level) <= stats.chi2.isf(AGREE_P, max(int(both.sum()), 1))
+                    or np.linalg.norm(d) < shared):
                 out.append(int(i))
                 break
     return np.array(out, int)
