@@ -188,3 +188,32 @@ def test_readings_of_one_pose_agree_when_most_of_their_residual_is_shared(flow):
     flagged = np.array(sorted([a1, a2, b1, c1, c2]))
     agree = grosserrors.agreeing_repeats(c, flagged, w, np.ones((len(c), 3), bool), 1.0)
     assert sorted(agree) == sorted([a1, a2])
+
+
+def test_backward_elimination_drops_what_the_others_explain(flow):
+    """Given a real backlash on X, a backlash on Y (not there) buys nothing on held-out
+    rows beyond its spread over the folds: it is the one dropped; the linearised removal
+    agrees with a real refit without it; the real one survives alone."""
+    from vecpin.diagnosis import diagnose as D
+    from vecpin.identification.crossval import Linearised, command_folds
+    from vecpin.measurement.features import Features
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models.effects import parse_effect
+    from vecpin.selection.choice import fixed_model
+    sim = simulate(flow, seed=11, design=Design(n_validation=10), effects=[TrueEffect("backlash", ("X",), 0.03, seed=2)])
+    c, noise = sim.campaign, NoiseModel.default(flow, "spherical")
+    feats = Features.from_campaign(c)
+    fold = command_folds(c, 5, np.random.default_rng(0))
+    proto = fixed_model(flow, "6dof", "chebyshev", 6)
+    bx, by = parse_effect("backlash:axes=X", flow), parse_effect("backlash:axes=Y", flow)
+    lin = Linearised(proto.with_effects([bx, by]).fit(c, noise), c, noise, feats)
+    ev = lin.evaluate(lin.A, lin.J, lin.psi0, fold)
+    dropped, why = D._weakest([bx, by], lin, ev, fold)
+    assert dropped is by and "spread over the folds" in why
+    lo = D._without(lin, by)
+    real = Linearised(proto.with_effects([bx]).fit(c, noise), c, noise, feats)
+    np.testing.assert_allclose(D.distances_mm(lo, lo.evaluate(lo.A, lo.J, lo.psi0, fold)["heldout"]),
+                               D.distances_mm(real, real.evaluate(real.A, real.J, real.psi0, fold)["heldout"]),
+                               atol=1e-4)
+    lin_x = real
+    assert D._weakest([bx], lin_x, lin_x.evaluate(lin_x.A, lin_x.J, lin_x.psi0, fold), fold) is None

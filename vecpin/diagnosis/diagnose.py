@@ -35,6 +35,7 @@ candidate. Accepted effects are then fitted for real (nonlinear ML).
 """
 from __future__ import annotations
 
+import copy
 import math
 import time
 from typing import Callable
@@ -134,27 +135,38 @@ def _still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndar
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
 
 
-def _weakest(accepted: list, refit: Callable, with_all: np.ndarray, lin: Linearised, fold_r: np.ndarray):
+def _without(lin: Linearised, effect: Effect) -> Linearised:
+    """The linearised model at the same solution with ``effect``'s parameters set to zero
+    and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
+    names = np.asarray(lin.likelihood.names)[lin.keep]
+    mine = np.char.startswith(names.astype(str), effect.label + ".")
+    out = copy.copy(lin)
+    pe = lin.psi0[mine]
+    out.w = lin.w + lin.J[..., mine] @ pe
+    out.r = lin.r + lin.A[..., mine] @ pe
+    out.J, out.A, out.psi0 = lin.J[..., ~mine], lin.A[..., ~mine], lin.psi0[~mine]
+    return out
+
+
+def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
     """The accepted effect whose removal, given all the others, worsens the held-out error
     least, when that worsening is not more than its own spread over the folds (the mean
-    of the per-fold mean gains within one standard deviation of them): (effect, (lin,
-    eval) without it, why) or None when every effect survives. ``refit(effects)``: the
-    linearised model and its held-out evaluation with those effects."""
+    of the per-fold mean gains within one standard deviation of them), judged on the
+    model linearised at the fit with all of them (``lin``, its held-out evaluation
+    ``ev``): (effect, why) or None when every effect survives."""
     folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
+    with_all = distances_mm(lin, ev["heldout"])
     worst = None
     for e in accepted:
-        try:
-            lin_e, ev_e = refit([a for a in accepted if a is not e])
-        except VecpinError:
-            continue
-        gain = distances_mm(lin_e, ev_e["heldout"]) - with_all
+        lo = _without(lin, e)
+        gain = distances_mm(lo, lo.evaluate(lo.A, lo.J, lo.psi0, fold_r)["heldout"]) - with_all
         per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
         spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
         margin = float(per.mean()) - spread
         if margin <= 0 and (worst is None or margin < worst[0]):
             text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
                     f"folds ({spread:.4f} mm)")
-            worst = (margin, e, (lin_e, ev_e), text)
+            worst = (margin, e, text)
     return None if worst is None else worst[1:]
 
 
@@ -368,13 +380,13 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
 
     # ---- backward elimination: every accepted effect again, given all the others
     while len(accepted) >= 2:
-        drop = _weakest(accepted, lambda effs: linearise(base_fit(camp, effs), camp, feats, fold_r),
-                        distances_mm(cur_lin, cur_eval["heldout"]), cur_lin, fold_r)
+        drop = _weakest(accepted, cur_lin, cur_eval, fold_r)
         if drop is None:
             break
-        e, (cur_lin, cur_eval), text = drop
+        e, text = drop
         accepted.remove(e)
-        cur_model = cur_lin.model
+        cur_model = base_fit(camp, list(accepted))
+        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         gone = next(x for x in scores if x.effect is e and x.accepted)
         gone.accepted = False
         gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
