@@ -217,3 +217,13 @@ def test_backward_elimination_drops_what_the_others_explain(flow):
                                atol=1e-4)
     lin_x = real
     assert D._weakest([bx], lin_x, lin_x.evaluate(lin_x.A, lin_x.J, lin_x.psi0, fold), fold) is None
+
+
+def test_an_instrument_shift_is_named_alone(flow):
+    """The tracker knocked part-way through: one time effect, the shift, not a shift and a
+    thermal drift."""
+    spec = TrueEffect("instrument_shift", (), 0.05, {"at": 0.6}, seed=5)
+    sim = simulate(flow, seed=11, design=Design(n_validation=10), effects=[spec])
+    d = diagnose(flow, sim.campaign)
+    labels = [e.label for e in d.accepted]
+    assert len(labels) == 1 and labels[0].startswith("instrument_shift"), labels
