@@ -378,22 +378,6 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
                             "one finding")
         cur_loc = new_loc
 
-    # ---- backward elimination: every accepted effect again, given all the others
-    while len(accepted) >= 2:
-        drop = _weakest(accepted, cur_lin, cur_eval, fold_r)
-        if drop is None:
-            break
-        e, text = drop
-        accepted.remove(e)
-        cur_model = base_fit(camp, list(accepted))
-        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
-        gone = next(x for x in scores if x.effect is e and x.accepted)
-        gone.accepted = False
-        gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
-        say(f"dropped {e.label}: {text}")
-        cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
-
     # ---- outliers judged again under the final model: rows it explains are not outliers
     put_back = []
     if outliers.size:
@@ -416,6 +400,23 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
             cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                                Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
+    # ---- backward elimination: every accepted effect again, given all the others, on the rows the
+    # final model is fitted to (flagged rows it explains are back)
+    while len(accepted) >= 2:
+        drop = _weakest(accepted, cur_lin, cur_eval, fold_r)
+        if drop is None:
+            break
+        e, text = drop
+        accepted.remove(e)
+        cur_model = base_fit(camp, list(accepted))
+        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
+        gone = next(x for x in scores if x.effect is e and x.accepted)
+        gone.accepted = False
+        gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
+        say(f"dropped {e.label}: {text}")
+        cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
+                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
+
     if outliers.size:
         scores.append(_outlier_score(proto, campaign, noise, all_feats, fold, outliers, blin, bev, alpha))
     # rows beyond the noise of the final model that are not gross errors: regions it does not fit
