@@ -2,10 +2,14 @@
 causes it, how far it shrinks once the effect is added, and what to do.
 
 0. **Gross errors first.** A robust first pass (a quick AP order-4 fit, held-out
-   whitened residuals against their median level, each row with its own number of
-   equations) flags rows no noise explains, so they do not steer the choice of the base
-   model; the chosen base model flags again, and every flagged row is judged once more
-   under the final model (rows it explains are kept).
+   whitened residuals scaled by each prediction's own spread, against their median
+   level, each row with its own number of equations, at a 1 % family-wise false-alarm
+   rate for the whole campaign: :mod:`.grosserrors`) flags rows no noise explains, so
+   they do not steer the choice of the base model; the chosen base model flags again,
+   and every flagged row is judged once more under the final model (rows it explains are
+   kept). Rows whose repeated readings agree, and rows crowded into one stretch of an
+   axis, are misfit, not gross errors: kept, and reported as regions the model does not
+   fit.
 1. **The base model.** The model the data choose (kind, per-axis bases, orders:
    :mod:`vecpin.selection.choice`), on the rows left; a base model richer than the seed's
    6-DoF order 6 is itself a finding, with its shrink. Effects are scored against it.
@@ -31,6 +35,7 @@ candidate. Accepted effects are then fitted for real (nonlinear ML).
 """
 from __future__ import annotations
 
+import copy
 import math
 import time
 from typing import Callable
@@ -38,11 +43,12 @@ from typing import Callable
 import numpy as np
 from scipy import linalg
 
+from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import (Kinematics, beyond_noise, candidate_effects, distances_mm, effect_columns,
-                                      flag_outliers, robust_scale, score)
-from vecpin.errors import InputError, VecpinError
+from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, pattern_cosine,
+                                      score)
+from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -89,15 +95,86 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     return text, gone
 
 
-OUTLIER_P = 1e-3  # family-wise false-alarm rate of the outlier test (Bonferroni over the rows)
+AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding
+OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
 FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
+
+
+def _flag(machine: Machine, lin: Linearised, folds: np.ndarray, ev: dict, n_rows: int):
+    """(gross errors, misfit rows, regions) of the held-out residuals ``ev`` of ``lin``
+    (:mod:`.grosserrors`), the false-alarm rate spread over ``n_rows`` rows."""
+    s = gross_.heldout_statistic(lin, folds, ev["heldout_w"])
+    return gross_.judge(machine, lin.campaign, s, ev["heldout_w"], lin.valid, n_rows, OUTLIER_P)
+
+
+def _still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarray, campaign: Campaign,
+                 outliers: np.ndarray, noise: NoiseModel, feats: Features, rows: np.ndarray) -> tuple[np.ndarray, list[dict]]:
+    """(gross, regions they crowd): the flagged rows the final model does not explain either: their residuals through
+    the one likelihood (each row in its own frame, with its own equations), as
+    predictions of a model that did not see them (noise plus the model's uncertainty
+    there), against the noise level of the rows it was fitted to (``rows``), and that do
+    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
+    level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
+    try:
+        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
+        Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
+        if lo.J.shape[-1] != Jall.shape[-1]:
+            raise InputError("the flagged rows' columns differ from the fit's")
+        M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
+        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
+    except VecpinError:
+        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
+        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
+    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
+    # flagged rows crowded into one stretch of an axis (over all the passes, with the
+    # fitted rows beyond the noise now) are misfit
+    gross_now, misfit_now, _ = _flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
+    beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
+    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
+    crowded = {r for g in regions for r in g["rows"]}
+    return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def _without(lin: Linearised, effect: Effect) -> Linearised:
+    """The linearised model at the same solution with ``effect``'s parameters set to zero
+    and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
+    names = np.asarray(lin.likelihood.names)[lin.keep]
+    mine = np.char.startswith(names.astype(str), effect.label + ".")
+    out = copy.copy(lin)
+    pe = lin.psi0[mine]
+    out.w = lin.w + lin.J[..., mine] @ pe
+    out.r = lin.r + lin.A[..., mine] @ pe
+    out.J, out.A, out.psi0 = lin.J[..., ~mine], lin.A[..., ~mine], lin.psi0[~mine]
+    return out
+
+
+def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
+    """The accepted effect whose removal, given all the others, worsens the held-out error
+    least, when that worsening is not more than its own spread over the folds (the mean
+    of the per-fold mean gains within one standard deviation of them), judged on the
+    model linearised at the fit with all of them (``lin``, its held-out evaluation
+    ``ev``): (effect, why) or None when every effect survives."""
+    folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
+    with_all = distances_mm(lin, ev["heldout"])
+    worst = None
+    for e in accepted:
+        lo = _without(lin, e)
+        gain = distances_mm(lo, lo.evaluate(lo.A, lo.J, lo.psi0, fold_r)["heldout"]) - with_all
+        per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
+        spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
+        margin = float(per.mean()) - spread
+        if margin <= 0 and (worst is None or margin < worst[0]):
+            text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
+                    f"folds ({spread:.4f} mm)")
+            worst = (margin, e, text)
+    return None if worst is None else worst[1:]
 
 
 def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
                 say: Callable[[str], None]) -> np.ndarray:
     """Rows with gross errors, flagged before the base model is chosen: a quick AP
     order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
-    held-out whitened residuals judged against their median level (:func:`flag_outliers`),
+    held-out whitened residuals judged against their median level (:func:`_flag`),
     refitted without the flagged rows up to three times. Flags nothing when that model
     cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
     it misfits, and the chosen base model judges)."""
@@ -109,7 +186,7 @@ def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: n
             camp = campaign.subset(rows) if out.size else campaign
             fitted = quick.with_effects([]).fit(camp, noise)
             lin = Linearised(fitted, camp, noise, feats.subset(rows))
-            new = flag_outliers(lin, fold[rows], lin.evaluate(lin.A, lin.J, lin.psi0, fold[rows]), OUTLIER_P)
+            new = _flag(machine, lin, fold[rows], lin.evaluate(lin.A, lin.J, lin.psi0, fold[rows]), len(campaign))[0]
             if new.size == 0:
                 break
             out = np.sort(np.r_[out, rows[new]])
@@ -146,9 +223,11 @@ def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features
     sc = EffectScore("outliers", "outliers", [], int(3 * outliers.size), 0.0,
                      float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
                      float(after.max()), True, 0, accepted=True)
-    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the p = {OUTLIER_P:g} "
-                   "(Bonferroni) limit of chi2 with each row's own number of equations, at the robust (median) noise "
-                   "level, and stay beyond it under the final model; the base model fitted with them predicts the "
+    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
+                   f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
+                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
+                   "robust (median) noise level), no repeated reading agrees with them, they crowd no region, and "
+                   "they stay beyond it under the final model; the base model fitted with them predicts the "
                    f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
                    f"{sc.heldout_mean_mm_after:.4f} mm")
     sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
@@ -200,7 +279,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     lin, base_eval = linearise(base_model, camp, all_feats.subset(rows), fold[rows])
     if flaggers:
         for _ in range(3):
-            new = flag_outliers(lin, fold[rows], base_eval)
+            new = _flag(machine, lin, fold[rows], base_eval, len(campaign))[0]
             if new.size == 0:
                 break
             outliers = np.sort(np.r_[outliers, rows[new]])
@@ -224,9 +303,10 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     # ---- forward selection over candidate effects
     accepted: list[Effect] = []
     cur_model, cur_lin, cur_eval, cur_loc = base_model, lin, base_eval, loc
-    candidates = candidate_effects(machine, feats, names)
+    candidates = candidate_effects(machine, feats, names, camp.q)
+    named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, max_effects + 1):
-        remaining = [c for c in candidates if c.label not in {a.label for a in accepted}
+        remaining = [c for c in candidates if c.label not in named
                      and not (c.scanned and any(type(a) is type(c) for a in accepted))]
         if not remaining:
             break
@@ -235,7 +315,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         kin = Kinematics(cur_model, cur_lin, feats)
         base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
         base_grams = cur_lin.grams(cur_lin.J, fold_r)
-        round_scores, scan_best = [], {}
+        round_scores, scan_best, judged = [], {}, []
         for c in remaining:
             c.prepare(camp, feats)
             cols = effect_columns(kin, cur_lin, c, feats)
@@ -263,6 +343,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             # apart) the first candidate, the one nearer the base of the chain
             if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
                 best = (sc, ev)
+            judged.append((sc, ev))
             if rnd == 1:
                 scores.append(sc)
         if best is None:
@@ -272,28 +353,38 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         if rnd > 1:
             scores.append(sc)
         accepted.append(sc.effect)
+        # one cause per gap: significant candidates whose predicted change to the fit is
+        # nearly the best one's are the same finding, named once with the best's shrink
+        sc.alternatives = [o.label for o, e in judged if o is not sc and o.significant
+                           and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
+        named.update([sc.label] + sc.alternatives)
         say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
-        cur_model = base_fit(camp, list(accepted))
+        try:
+            fitted = base_fit(camp, list(accepted))
+        except ConvergenceError as err:  # the linearised gain the fit cannot realise: not a finding, not an abort
+            accepted.pop()
+            sc.accepted = False
+            sc.evidence = f"significant when linearised, but the model with it cannot be fitted: {err}"
+            say(f"{sc.label}: the fit with it does not converge; not accepted")
+            break
+        cur_model = fitted
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                            Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
         sc.evidence, sc.explains = _evidence(sc, cur_loc, new_loc)
-        twins = [c.label for c, e, _ in round_scores if c is not sc.effect and abs(e["d_chi2"] - ev["d_chi2"])
-                 <= 1e-3 * abs(ev["d_chi2"]) and e["p"] < thr]
-        if twins:
-            sc.evidence += f"; these data cannot tell it from {', '.join(twins)} (the same columns)"
+        if sc.alternatives:
+            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
+                            f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "
+                            "one finding")
         cur_loc = new_loc
 
     # ---- outliers judged again under the final model: rows it explains are not outliers
+    put_back = []
     if outliers.size:
-        # their whitened residuals through the one likelihood (each row in its own frame, with
-        # its own equations: a tracker point of any station, a nest, a range, a ball bar radius),
-        # against the noise level of the rows the model was fitted to
-        ev = cur_model.row_residuals(campaign.subset(outliers), all_feats.subset(outliers))
-        scale = robust_scale(cur_eval["heldout_w"], cur_lin.valid)
-        still = outliers[beyond_noise(ev.w, ev.valid, scale, OUTLIER_P, len(campaign))]
+        still, put_back = _still_gross(cur_model, cur_lin, cur_eval, fold_r, campaign, outliers, noise, all_feats, rows)
         if still.size < outliers.size:
-            say(f"{outliers.size - still.size} flagged rows are explained by the accepted effects: kept")
+            say(f"{outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
+                "region (misfit): kept")
             outliers = still
             rows = np.setdiff1d(np.arange(len(campaign)), outliers)
             camp, feats, fold_r = campaign.subset(rows), all_feats.subset(rows), fold[rows]
@@ -309,8 +400,36 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
             cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                                Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
+    # ---- backward elimination: every accepted effect again, given all the others, on the rows the
+    # final model is fitted to (flagged rows it explains are back)
+    while len(accepted) >= 2:
+        drop = _weakest(accepted, cur_lin, cur_eval, fold_r)
+        if drop is None:
+            break
+        e, text = drop
+        accepted.remove(e)
+        cur_model = base_fit(camp, list(accepted))
+        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
+        gone = next(x for x in scores if x.effect is e and x.accepted)
+        gone.accepted = False
+        gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
+        say(f"dropped {e.label}: {text}")
+        cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
+                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
+
     if outliers.size:
         scores.append(_outlier_score(proto, campaign, noise, all_feats, fold, outliers, blin, bev, alpha))
+    # rows beyond the noise of the final model that are not gross errors: regions it does not fit
+    gf, mf, regions = _flag(machine, cur_lin, fold_r, cur_eval, len(campaign))
+    for g in regions:
+        g["rows"] = [int(rows[r]) for r in g["rows"]]
+    if put_back:  # flagged rows put back as crowding one region: the region over all rows beyond the noise
+        crowd = gross_.crowded_regions(machine, campaign, np.union1d(rows[np.union1d(gf, mf)],
+                                                                     [r for g in put_back for r in g["rows"]]))
+        regions = (crowd or put_back) + [g for g in regions if not g["axis"]]
+    for g in regions:
+        g["lines"] = [int(campaign.lines[r]) for r in g["rows"]]
+        g["where"], g["text"] = gross_.describe_region(g, campaign)
     best_mm = distances_mm(cur_lin, cur_eval["heldout"])
     unexplained = list(cur_loc["most_structured"])
     # advice from the best model's fitted numbers
@@ -325,4 +444,5 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
     return Diagnosis(machine, base_info, ranked, [int(r) for r in outliers], loc, base_model, cur_model,
                      held_base_all, camp, time.perf_counter() - t0, (float(best_mm.mean()), float(best_mm.max())),
-                     cur_loc, unexplained, _base_finding(choice), [int(v) for v in campaign.lines[outliers]])
+                     cur_loc, unexplained, _base_finding(choice), [int(v) for v in campaign.lines[outliers]],
+                     misfit_regions=regions)

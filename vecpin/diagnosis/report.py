@@ -99,6 +99,8 @@ def write_report(diag, out) -> Path:
         lines += ["", "Still structured after the accepted effects (unexplained): "
                   + ", ".join(diag.unexplained) + "."]
     lines += ["", "![breakdowns](figures/breakdowns.png)", "", "![rows](figures/rows.png)", ""]
+    for g in diag.misfit_regions:
+        lines += [f"Not fitted (model misfit, kept in the fit, not gross errors): {g['text']}.", ""]
     if diag.outlier_lines:
         lines += [f"Outliers left out: file lines {', '.join(map(str, diag.outlier_lines))} of {diag.campaign.source}",
                   ""]

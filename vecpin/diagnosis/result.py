@@ -43,6 +43,16 @@ class EffectScore:
     explains: list[str] = field(default_factory=list)
     advice: list[str] = field(default_factory=list)
     effect: Effect | None = field(default=None, repr=False)
+    # the ambiguity group: candidates this campaign cannot tell from this one (one finding)
+    alternatives: list[str] = field(default_factory=list)
+
+    @property
+    def finding(self) -> str:
+        """'gantry_skew[Y/x]', or 'gantry_skew[Y/x] or coupled_axes[X,Y] (this campaign cannot tell them
+        apart)' for an ambiguity group."""
+        if not self.alternatives:
+            return self.label
+        return f"{' or '.join([self.label] + self.alternatives)} (this campaign cannot tell them apart)"
 
     @property
     def headword(self) -> str:
@@ -63,7 +73,7 @@ class EffectScore:
                 "evidence": self.evidence, "explains": self.explains, "advice": self.advice,
                 "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
-                "round": self.round, "bic_gain": self.bic_gain,
+                "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "options": self.effect.options if self.effect is not None else {}}
 
 
@@ -84,6 +94,10 @@ class Diagnosis:
     unexplained: list[str] = field(default_factory=list)
     base_finding: str = ""
     outlier_lines: list[int] = field(default_factory=list)  # the outliers' line numbers in the campaign file
+    # rows beyond the noise of the final model that are not gross errors (repeat readings
+    # agree, or they crowd one stretch of an axis): {"axis", "from", "to", "unit", "rows",
+    # "lines", "rows_there", "where" (short), "text" (with the file lines)}
+    misfit_regions: list[dict] = field(default_factory=list)
 
     @property
     def accepted(self) -> list[EffectScore]:
@@ -101,17 +115,18 @@ class Diagnosis:
         s1 = (f"Where: after the base model ({b['label']}) the held-out residual is {b['heldout_mean_mm']:.4f} mm on "
               "average" + (f" and structured along {', '.join(where)}." if where else
                            ", with no structure beyond the scatter along any axis, time, temperature or direction."))
-        if self.base_finding:
-            s1 += " " + self.base_finding
         acc = [e for e in self.accepted if e.name != "outliers"]
         m, _ = self.best
         if acc:
-            s2 = (f"Which: {', '.join(e.label for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
+            s2 = (f"Which: {'; '.join(e.finding for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
                   f"{b['heldout_mean_mm']:.4f} -> {m:.4f} mm ({100 * (1 - m / b['heldout_mean_mm']):.0f}% smaller).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
         if self.outlier_rows:
             s2 += f" {len(self.outlier_rows)} rows are gross errors and were left out."
+        if self.misfit_regions:
+            s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
+                   + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           "(vecpin tables model_base.json).")
@@ -123,7 +138,7 @@ class Diagnosis:
     def to_dict(self) -> dict:
         return {"headline": self.headline(), "base": self.base, "base_finding": self.base_finding,
                 "effects": [e.to_dict() for e in self.effects], "outlier_rows": self.outlier_rows,
-                "outlier_lines": self.outlier_lines,
+                "outlier_lines": self.outlier_lines, "misfit_regions": self.misfit_regions,
                 "localization": self.localization, "localization_final": self.localization_final,
                 "unexplained": self.unexplained,
                 "best": {"effects": [e.label for e in self.accepted], "heldout_mean_mm": self.best[0],
@@ -133,7 +148,7 @@ class Diagnosis:
 
     def summary(self) -> str:
         b = self.base
-        lines = self.headline() + ["",
+        lines = self.headline() + ([self.base_finding] if self.base_finding else []) + ["",
                                    f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max "
                                    f"{b['heldout_max_mm']:.4f} mm ({b['folds']}-fold CV over {b['rows']} rows)"]
         if self.outlier_lines:

@@ -17,26 +17,32 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
+from scipy import linalg, stats
 
 from vecpin.errors import InputError
 from vecpin.identification.crossval import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.features import Features
 from vecpin.models import ErrorModel
-from vecpin.models.effects import REGISTRY, Effect, TipContext
+from vecpin.models.effects import REGISTRY, Effect, TipContext, Visited
 from vecpin.units import MM_PER_M
 
 
-def candidate_effects(machine: Machine, feats: Features, names) -> list[Effect]:
-    """Every candidate instance of the named effects (row-flagging effects excluded)."""
+def candidate_effects(machine: Machine, feats: Features, names, q: np.ndarray | None = None) -> list[Effect]:
+    """Every candidate instance of the named effects (row-flagging effects excluded),
+    each cut to what the commands ``q`` visited can support (:meth:`Effect.supported`:
+    no more terms along an axis than its distinct positions less one, harmonics only
+    where the travel tells them from a polynomial); those with nothing left are dropped."""
     out = []
     for name in names:
         if name not in REGISTRY:
             raise InputError(f"unknown effect '{name}' (known: {', '.join(REGISTRY)})")
         if not REGISTRY[name].flags_rows:
             out += REGISTRY[name].candidates(machine, feats)
-    return out
+    if q is None:
+        return out
+    visited = Visited.of(machine, q)
+    return [s for s in (c.supported(visited) for c in out) if s is not None]
 
 
 class Kinematics:
@@ -120,6 +126,9 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     psi = np.r_[psi0, np.zeros(A1.shape[-1])]
     grams = lin.extend_grams(base_grams, J0, J1, folds)
     ev = lin.evaluate(A, J, psi, folds, grams)
+    G, g = grams["all"]
+    step = linalg.solve(G + np.eye(len(psi)), g - psi, assume_a="pos")
+    ev["pattern"] = J.reshape(-1, J.shape[-1]) @ step  # what the candidate changes in the fit (whitened)
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
@@ -133,34 +142,8 @@ def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, bas
     return ev
 
 
-def row_equations(valid: np.ndarray) -> np.ndarray:
-    """(N,) the real equations of each row (3 for a tracker point, 1 for a range or a
-    ball bar radius)."""
-    return np.asarray(valid).sum(axis=1)
-
-
-def robust_scale(w: np.ndarray, valid: np.ndarray) -> float:
-    """The noise scale of whitened residuals w (N,3) whose rows carry ``valid`` equations:
-    the median over rows of |w_i|^2 / median of chi2(k_i) (1 when the whitening is right;
-    gross errors do not move a median)."""
-    s = np.sum(w**2, axis=1)
-    k = row_equations(valid)
-    return float(np.median(s / stats.chi2.median(np.maximum(k, 1))))
-
-
-def beyond_noise(w: np.ndarray, valid: np.ndarray, scale: float, p: float, n_tests: int) -> np.ndarray:
-    """(N,) True for rows whose whitened residual w is too large to be noise at the
-    given scale: chi2 with the row's own number of equations, beyond the p / n_tests
-    (Bonferroni) limit. A row whose residual is not a number is beyond."""
-    s = np.sum(w**2, axis=1) / scale
-    k = np.maximum(row_equations(valid), 1)
-    return ~(s <= stats.chi2.isf(p / n_tests, k))
-
-
-def flag_outliers(lin: Linearised, folds: np.ndarray, base_eval: dict, p: float = 1e-3) -> np.ndarray:
-    """Rows whose held-out whitened residual is too large to be noise, judged against
-    the robust (median) dispersion of all rows, each row with its own number of
-    equations (a tracker point three, a range or a radius one), Bonferroni over the rows."""
-    w = base_eval["heldout_w"]
-    scale = robust_scale(w, lin.valid)
-    return np.flatnonzero(beyond_noise(w, lin.valid, scale, p, len(w)))
+def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:
+    """|cos| of the angle between two candidates' predicted changes to the fit: near 1,
+    the campaign cannot tell one from the other."""
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    return abs(float(a @ b)) / (na * nb) if na > 0 and nb > 0 else 0.0

@@ -3,7 +3,8 @@
 Bounded and honest: each iteration tries at most :data:`MAX_DAMPING` increases of the
 Levenberg-Marquardt damping; a step is accepted only when it lowers the objective;
 when no damping finds a lower objective the current point is a minimum to numerical
-precision if the decrease a full step promises is negligible, and otherwise the solver
+precision if the decrease a full step promises is negligible (below
+:data:`PROMISE_RTOL` of the objective or one unit of chi2), and otherwise the solver
 raises :class:`~vecpin.errors.ConvergenceError` with what it saw. It raises as well when
 no damping makes the damped normal equations solvable (they are not positive definite).
 Non-finite residuals or normal equations at the start or at an accepted point (a model
@@ -24,6 +25,12 @@ from vecpin.errors import ConvergenceError
 MAX_DAMPING = 12          # damping increases (x10 each) per iteration before giving up on a descent step
 LAMBDA_START = 1e-6
 LAMBDA_MIN = 1e-9
+# A minimum to the data's resolution: when no damping lowers the objective, a full step
+# that promises less than this share of it (or less than one unit of chi2: a step
+# shorter than its own standard error) is numerical noise of the model's evaluation,
+# not a descent the solver missed.
+PROMISE_RTOL = 1e-5
+PROMISE_ATOL = 1.0
 
 
 @dataclass
@@ -86,7 +93,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
             # no damping lowers the objective: a minimum to numerical precision when the
             # decrease a full Gauss-Newton step promises is negligible; otherwise stuck
             promised = float(grad @ linalg.lstsq(Nm, grad)[0])
-            if 0 <= promised <= 1e-6 * max(obj, 1.0):
+            if 0 <= promised <= max(PROMISE_RTOL * obj, PROMISE_ATOL):
                 converged = True
                 break
             raise ConvergenceError(f"the fit cannot lower chi2 = {obj:.6g} any further (a step promised {promised:.3g} "

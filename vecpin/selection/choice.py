@@ -245,7 +245,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [axis_options(a, orders, families, fixed_order, sp) for a, sp in zip(machine.axes, spans)]
+    options = [_supported(axis_options(a, orders, families, fixed_order, sp), camp.q[:, a.index])
+               for a, sp in zip(machine.axes, spans)]
     cands: list[Candidate] = []
     scored: dict = {}
     left_out: set = set()
@@ -324,6 +325,13 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{'pose' if more == 1 else 'poses'} (or fit with --underdetermined to let the priors decide the rest)")
 
 
+def _supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
+    """The options with no more terms than the axis has distinct positions ``q`` (the
+    smallest when none has): more could not be told apart on this campaign."""
+    n = len(np.unique(np.round(q, 9)))
+    return [o for o in options if o.size <= n] or [min(options, key=lambda o: o.size)]
+
+
 def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
     """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
     order: a per-turn series of the lowest order offered that is at least ``order``."""
@@ -339,8 +347,9 @@ def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tupl
             out.append(tuple(c if c in opts else opts[0] for opts in options))
         return out
     cheb = AxisChoice("chebyshev", order)
-    if plan == "chebyshev":
-        return [tuple(cheb for _ in machine.axes)]
+    if plan == "chebyshev":  # capped where an axis has too few positions for this order
+        return [tuple(cheb if cheb in opts else max((o for o in opts if o.family == "chebyshev" and o.order < order),
+                                                    key=lambda o: o.order, default=opts[0]) for opts in options)]
     per_turn = [o for opts in options for o in opts if o.family == plan]
     if not per_turn:
         return out

@@ -17,8 +17,8 @@ outliers       gross errors on a few rows (flagged, not a term)
 from vecpin.models.effects import (backlash, coupled_axes, gantry_skew, instrument_shift, outliers,  # noqa: F401
                                    rotary_periodic, thermal)
 from vecpin.models.effects.backlash import Backlash
-from vecpin.models.effects.base import (REGISTRY, Effect, Key, TipContext, effect_from_dict, effect_names,
-                                        effects_help, parse_effect, register)
+from vecpin.models.effects.base import (REGISTRY, Effect, Key, TipContext, Visited, effect_from_dict,
+                                        effect_names, effects_help, parse_effect, register)
 from vecpin.models.effects.coupled_axes import CoupledAxes
 from vecpin.models.effects.gantry_skew import GantrySkew
 from vecpin.models.effects.instrument_shift import InstrumentShift
@@ -26,6 +26,6 @@ from vecpin.models.effects.outliers import Outliers
 from vecpin.models.effects.rotary_periodic import RotaryPeriodic
 from vecpin.models.effects.thermal import Thermal
 
-__all__ = ["REGISTRY", "Effect", "Key", "TipContext", "effect_from_dict", "effect_names", "effects_help",
+__all__ = ["REGISTRY", "Effect", "Key", "TipContext", "Visited", "effect_from_dict", "effect_names", "effects_help",
            "parse_effect", "register", "Backlash", "CoupledAxes", "GantrySkew", "InstrumentShift", "Outliers",
            "RotaryPeriodic", "Thermal"]

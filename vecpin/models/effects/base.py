@@ -167,6 +167,13 @@ class Effect:
         """Every instance the diagnosis should try on this machine and campaign."""
         return []
 
+    def supported(self, design: "Visited") -> "Effect | None":
+        """This candidate cut to what a campaign's design can support (no series with more
+        terms along an axis than the axis has distinct positions less one; nothing the data
+        cannot tell from the base model's own series), or None when nothing is left. Effects
+        without a series along an axis are supported as they are."""
+        return self
+
     def _p(self, suffix: str, quantity: str, prior: float) -> Parameter:
         return Parameter(f"{self.label}.{suffix}", quantity, prior, 99, self.label)
 
@@ -271,6 +278,28 @@ def effects_help() -> str:
             default = "" if k.default is None else k.default
             lines.append(f"      {k.name}={default}{unit}: {k.help}{choices}")
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Visited:
+    """What a campaign visited along each axis: ``positions`` {axis: distinct positions},
+    ``travel`` {axis: the visited span [m, rad]}."""
+
+    positions: dict
+    travel: dict
+
+    @classmethod
+    def of(cls, machine: Machine, q: np.ndarray) -> "Visited":
+        pos, trav = {}, {}
+        for a in machine.axes:
+            x = np.round(q[:, a.index], 9)
+            pos[a.name] = int(len(np.unique(x)))
+            trav[a.name] = float(np.ptp(x)) if len(x) else 0.0
+        return cls(pos, trav)
+
+    def max_order(self, axis: str) -> int:
+        """The most series terms (beyond a constant) the positions of ``axis`` can tell apart."""
+        return max(self.positions.get(axis, 0) - 1, 0)
 
 
 def in_every_output(cols: np.ndarray, n: int) -> np.ndarray:

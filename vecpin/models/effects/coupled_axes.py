@@ -36,6 +36,13 @@ class CoupledAxes(Effect):
         Bj = axis_chebyshev(self.machine, self.axes[1], q, self.order)
         return in_every_output((Bi[:, :, None] * Bj[:, None, :]).reshape(len(q), -1), self.machine.n_axes)
 
+    def supported(self, design):
+        """At most one product term per distinct position less one along either axis."""
+        o = min(self.order, design.max_order(self.axes[0]), design.max_order(self.axes[1]))
+        if o < 1:
+            return None
+        return self if o == self.order else type(self)(self.machine, self.axes, **(self.options | {"order": o}))
+
     @classmethod
     def candidates(cls, machine, feats):
         names = machine.axis_names

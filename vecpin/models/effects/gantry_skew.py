@@ -26,22 +26,27 @@ class GantrySkew(Effect):
     keys = (Key("about", "x", "", "frame axis of the rotation", str, ("x", "y", "z")),
             Key("depends", None, "", "axis the simulated angle varies along (default: the first axis)", str))
 
-    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, **kw):
+    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, orders: dict | None = None, **kw):
+        if orders is not None:
+            kw["orders"] = {str(k): int(v) for k, v in orders.items()}
         super().__init__(machine, axes, about=about, order=order, **kw)
         self.about, self.order = about, int(order)
         if self.options.get("depends"):
             machine.axis(self.options["depends"])
-        self.others = [a.name for a in machine.axes if a.name != self.axes[0]]
+        # the series order along each other axis (``orders`` caps it where a campaign visits few positions)
+        self.orders = {a.name: int((orders or {}).get(a.name, self.order)) for a in machine.axes
+                       if a.name != self.axes[0]}
+        self.others = [k for k, o in self.orders.items() if o >= 1]
 
     @property
     def label(self) -> str:
         return f"{self.name}[{self.axes[0]}/{self.about}]"
 
     def parameters(self):
-        return [self._p(f"{k}.{j}", "angle", 1e-3) for k in self.others for j in range(1, self.order + 1)]
+        return [self._p(f"{k}.{j}", "angle", 1e-3) for k in self.others for j in range(1, self.orders[k] + 1)]
 
     def _basis(self, q):
-        return np.concatenate([axis_chebyshev(self.machine, k, q, self.order) for k in self.others], axis=1)
+        return np.concatenate([axis_chebyshev(self.machine, k, q, self.orders[k]) for k in self.others], axis=1)
 
     def tip(self, ctx, feats):
         F = ctx.frames(self.axes[0])
@@ -53,6 +58,16 @@ class GantrySkew(Effect):
         F = ctx.frames(self.axes[0])
         axis_w = F[:, :3, "xyz".index(self.about)]
         return skew(axis_w * (self._basis(ctx.q) @ theta)[:, None])
+
+    def supported(self, design):
+        """The series along each other axis cut to that axis' distinct positions less one
+        (an axis visited at one position drops out)."""
+        orders = {k: min(o, design.max_order(k)) for k, o in self.orders.items()}
+        if not any(o >= 1 for o in orders.values()):
+            return None
+        if orders == self.orders:
+            return self
+        return type(self)(self.machine, self.axes, **(self.options | {"orders": orders}))
 
     @classmethod
     def candidates(cls, machine, feats):
@@ -77,14 +92,14 @@ class GantrySkew(Effect):
         lines = []
         k = 0
         for other in self.others:
-            c = values[k:k + self.order]
+            c = values[k:k + self.orders[other]]
             ang = np.polynomial.chebyshev.chebval(u, np.r_[0.0, c])
             travel = m.axis(other).travel
             if m.axis(other).kind == "linear" and travel > 0 and np.ptp(ang) > 1e-6:
                 slope = (ang[-1] - ang[0]) / travel * 1e6  # µrad per m
                 lines.append(f"{self.label}: rotation about {a}'s {self.about} axis varies by "
                              f"{np.ptp(ang) * 1e6:.1f} µrad over {other} ({slope:+.1f} µrad/m)")
-            k += self.order
+            k += self.orders[other]
         lines.append(f"{self.label}: geometric; the tables carry it (vecpin tables with model_best.json); on a gantry "
                      f"with two drives it is a differential table between the drives of {a}")
         return lines

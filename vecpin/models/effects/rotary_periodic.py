@@ -1,6 +1,8 @@
 """Higher harmonics of a rotary axis' angle (gear, worm or encoder errors)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vecpin.models.effects.base import Effect, in_every_output, register, tip_unit
@@ -34,6 +36,22 @@ class RotaryPeriodic(Effect):
         ang = q[:, self.machine.axis(self.axes[0]).index]
         cols = np.stack([f(h * ang) for h in self.h for f in (np.cos, np.sin)], axis=1)
         return in_every_output(cols, self.machine.n_axes)
+
+    def supported(self, design):
+        """Harmonics the axis' visited travel tells from a polynomial (at least two whole
+        periods of the lowest over the travel) and its positions resolve (two positions a
+        period, and a position for each cos/sin term)."""
+        a = self.axes[0]
+        travel, n = design.travel.get(a, 0.0), design.positions.get(a, 0)
+        if travel <= 0:
+            return None
+        lo = max(self.h[0], math.ceil(4 * math.pi / travel - 1e-9))
+        hi = min(self.h[-1], math.floor(math.pi * (n - 1) / travel - 1e-9), lo + (n - 1) // 2 - 1)
+        if hi < lo:
+            return None
+        if (lo, hi) == (self.h[0], self.h[-1]):
+            return self
+        return type(self)(self.machine, self.axes, **(self.options | {"h_min": lo, "h_max": hi}))
 
     @classmethod
     def candidates(cls, machine, feats):
