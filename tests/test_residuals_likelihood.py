@@ -7,7 +7,8 @@ import copy
 import numpy as np
 import pytest
 
-from vecpin.diagnosis.scoring import Kinematics, beyond_noise, effect_columns, robust_scale
+from vecpin.diagnosis.grosserrors import beyond, robust_level
+from vecpin.diagnosis.scoring import Kinematics, effect_columns
 from vecpin.identification.crossval import Linearised
 from vecpin.identification.likelihood import predict_tracker
 from vecpin.measurement.features import Features
@@ -85,8 +86,8 @@ def test_instrument_shift_columns_equal_finite_differences_per_station(machines)
 def test_rows_without_a_number_are_never_explained():
     w = np.array([[0.5, 0.1, -0.2], [np.nan, 0.0, 0.0], [4.0, 0.0, 0.0], [0.3, 0.0, 0.0]])
     valid = np.array([[1, 1, 1], [1, 0, 0], [1, 0, 0], [1, 0, 0]], bool)
-    s = robust_scale(w[[0, 2, 3]], valid[[0, 2, 3]])
-    out = beyond_noise(w, valid, 1.0, 1e-3, 4)
-    # limits chi2.isf(1e-3 / 4): 19.19 with 3 equations, 13.41 with 1; 4^2 = 16 is beyond, NaN always
+    s = robust_level(np.sum(w[[0, 2, 3]] ** 2, axis=1), valid[[0, 2, 3]])
+    out = beyond(np.sum(w**2, axis=1), valid, 1.0, 4, alpha=1e-3)
+    # limits chi2.isf(1 - 0.999^(1/4) ~ 2.5e-4): 19.19 with 3 equations, 13.41 with 1; 4^2 = 16 is beyond, NaN always
     assert out.tolist() == [False, True, True, False]
     assert np.isfinite(s) and s > 0
