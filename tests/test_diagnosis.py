@@ -8,6 +8,8 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.simulation.effects import TrueEffect
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 DESIGN = Design(n_validation=300)
 
 EFFECTS = {

@@ -2,12 +2,15 @@
 two stations, ball bar radii with tracker points, every row judged with its own
 likelihood."""
 import numpy as np
+import pytest
 from scipy import stats
 
 from vecpin.diagnosis.diagnose import diagnose
 from vecpin.diagnosis.localise import _breakdown
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
+
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
 
 SKEW = TrueEffect("gantry_skew", ("Y",), 0.05, {"about": "x", "depends": "X"}, seed=1)
 

@@ -9,6 +9,8 @@ from vecpin.diagnosis.diagnose import diagnose
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 
 def test_sidak_limit_holds_the_family_wise_rate(rng):
     """Clean chi2(3) statistics of 1,200 rows pass together about 99 % of the time,

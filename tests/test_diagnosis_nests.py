@@ -15,6 +15,8 @@ from vecpin.models import make_model
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 
 @pytest.fixture(scope="module")
 def trunnion_fit(machines):

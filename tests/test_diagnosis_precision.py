@@ -14,6 +14,8 @@ from vecpin.simulation.independent import IndependentMachine, layout
 from vecpin.simulation.judge import validation_commands
 from vecpin.simulation.simulate import Design, simulate
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 DESIGN = Design(n_validation=10)
 
 

@@ -22,6 +22,8 @@ from vecpin.simulation.simulate import Design, simulate
 from vecpin.workflows.fitting import fit_campaign
 from vecpin.workflows.tables import make_tables
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 SEPARATION_MM = 5200.0  # ASSUMED: the Master Mill's X drives on either side of a 4 m Y travel
 
 

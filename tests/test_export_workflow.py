@@ -17,6 +17,8 @@ from vecpin.models import make_model
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.workflows.tables import make_tables
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 PROFILE = {"format": "vecpin-controller-profile", "version": 1}
 
 

@@ -27,6 +27,8 @@ from hostile_helpers import ok, refused, simulated_base
 
 from vecpin.cli import main
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 DATA = Path(__file__).parent / "data"
 HOSTILE = DATA / "hostile"
 PROFILE = str(DATA / "controllers" / "flow_xyzcb_profile.json")

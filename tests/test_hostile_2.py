@@ -29,6 +29,8 @@ from vecpin.errors import OutputError
 from vecpin.export.registry import controller_names
 from vecpin.fileio import OutputSet
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 DATA = Path(__file__).parent / "data"
 PROFILE = json.loads((DATA / "controllers" / "flow_xyzcb_profile.json").read_text())
 FLOW_URDF = (Path(__file__).parent.parent / "robots" / "flow_xyzcb.urdf").read_text()

@@ -18,6 +18,8 @@ from vecpin.kinematics.so3 import exp3
 from vecpin.measurement.tracker import TrackerNoise, cartesian_to_spherical
 from vecpin.simulation.truth import uniform_commands
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 TOOLS = np.array([0.21488, 0.31286])
 
 

@@ -24,6 +24,8 @@ from vecpin.simulation.simulate import Design, simulate
 from vecpin.simulation.truth import TrueMachine
 from vecpin.workflows.fitting import fit_campaign
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 NEW_MACHINES = ["master_mill", "spar_mill_23", "production_xyzbaw", "trunnion_xyzac", "trunnion_xyzbc", "head_table_bc"]
 TARGETS_MM = ((0.0, 0.0, 120.0), (180.0, 40.0, 60.0), (-90.0, 170.0, 30.0))
 

@@ -17,6 +17,8 @@ from vecpin.simulation.judge import validation_commands, validation_error
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.units import norm_mm
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 
 @pytest.fixture(scope="module")
 def portal():

@@ -22,6 +22,8 @@ from vecpin.viz import figures
 from vecpin.viz.report import write_report
 from vecpin.viz.scene import GROUPS, RecordingWindow, build_scene, write_html
 
+pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI
+
 CHROMIUM = shutil.which("chromium")
 
 
