@@ -134,7 +134,10 @@ def ini_joints(profile: ControllerProfile) -> int | None:
     path = _ini_path(profile)
     if path is None:
         return None
-    cp = _read_ini(path, profile.where)
+    return _joints_of(_read_ini(path, profile.where), path)
+
+
+def _joints_of(cp: configparser.ConfigParser, path: Path) -> int:
     try:
         return int(cp.get("KINS", "JOINTS"))
     except (configparser.Error, ValueError):
@@ -149,7 +152,7 @@ def check_ini(machine: Machine, profile: ControllerProfile, joints: dict[str, in
         return ["joint numbers not checked against the machine's INI (give \"options\": {\"ini\": FILE} in the "
                 "profile)"]
     cp, notes = _read_ini(path, profile.where), []
-    n = ini_joints(profile)
+    n = _joints_of(cp, path)
     for a, j in joints.items():
         if j >= n:
             raise InputError(f"{path}: [KINS] JOINTS = {n}, but the profile puts {a} on joint {j}")

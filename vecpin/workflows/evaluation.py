@@ -180,8 +180,8 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     ev.outside = outside
     axes = [a for a in m.axes if beyond[:, a.index].any()]
     where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}" for a in axes)
-    inside_mean, outside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan"), \
-        ev.residual[outside].mean()
+    inside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan")
+    outside_mean = ev.residual[outside].mean()
     ev.warnings.append(f"warning: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "
                        f"what the fit measured ({where}): the model extrapolates there (model mean {outside_mean:.4f} "
                        f"mm outside, {inside_mean:.4f} mm inside); judged apart below")
