@@ -53,10 +53,6 @@ def probe_commands(m, tables, rng, n_random=6):
     return np.vstack([at_point, between, below, above, rand])
 
 
-def run_controller(m, folder, q, joints: dict[str, int], kind: int, component: bool):
-    return lcnc.machine_run(m, folder, q, joints, kind, component)
-
-
 def vecpin_corrections(m, tables: TableSet, pos_user: np.ndarray, which: str) -> np.ndarray:
     """vecpin's table increments [mm or deg] at the commanded positions the controller reports."""
     q = np.column_stack([m.axes[k].to_si(pos_user[:, k]) for k in range(len(m.axes))])
@@ -76,7 +72,7 @@ def test_comp_files_and_component_applied_as_vecpin_predicts(tmp_path, machine, 
     lcnc.install_component(tmp_path / "vecpin_vec.comp")
     q = probe_commands(m, tables, rng)
     joints = linuxcnc.joint_numbers(m, prof)
-    pos, pitch, cross = run_controller(m, tmp_path, q, joints, kind, component=True)
+    pos, pitch, cross = lcnc.machine_run(m, tmp_path, q, joints, kind, component=True)
     want_q = np.column_stack([m.axes[k].to_user(q[:, k]) for k in range(len(m.axes))])
     np.testing.assert_allclose(pos, want_q, atol=1e-6)              # the controller went where it was told
     np.testing.assert_allclose(pitch, vecpin_corrections(m, tables, pos, "pitch"), atol=TOL_MM)
@@ -103,7 +99,7 @@ def test_joint_numbering_follows_the_configuration(tmp_path):
     write(tables, m, prof, out)
     lcnc.install_component(out / "vecpin_vec.comp")
     q = probe_commands(m, tables, rng, n_random=3)
-    pos, pitch, cross = run_controller(m, out, q, linuxcnc.joint_numbers(m, prof), 0, component=True)
+    pos, pitch, cross = lcnc.machine_run(m, out, q, linuxcnc.joint_numbers(m, prof), 0, component=True)
     np.testing.assert_allclose(pitch, vecpin_corrections(m, tables, pos, "pitch"), atol=TOL_MM)
     np.testing.assert_allclose(cross, vecpin_corrections(m, tables, pos, "cross"), atol=TOL_MM)
     # the same files on a configuration in the machine's axis order would apply B's tables to C
@@ -129,7 +125,7 @@ def test_a_fitted_model_through_the_controller_gets_the_full_tables_figure(tmp_p
     assert any(not t.is_pitch for t in run.plan.tables.tables)
     lcnc.install_component(tmp_path / "vecpin_vec.comp")
     q, tool = validation_commands(m, 10)
-    pos, pitch, cross = run_controller(m, tmp_path, q[:10], linuxcnc.joint_numbers(m, ControllerProfile()), 0, True)
+    pos, pitch, cross = lcnc.machine_run(m, tmp_path, q[:10], linuxcnc.joint_numbers(m, ControllerProfile()), 0, True)
     sent = lcnc.ControllerCommands(q[:10], lcnc.to_si(m, pos + pitch + cross), run.plan.tables.gauge_offset_change)
     truth = truth_as_actual(sim.truth)
     err = lambda t: norm_mm(compensated_errors(truth, m, t, q, tool)).mean()   # noqa: E731
