@@ -133,3 +133,11 @@ def zone_option(text):
     """``--zone AXIS=LO:HI[,...]`` (mm/deg) as a zone, or None."""
     from vecpin.planning.zones import parse_zone
     return parse_zone(text, "--zone") if text else None
+
+
+def say(args, *lines: str, file=None) -> None:
+    """Print library text (results, warnings, advice) with its backquoted parameters as the
+    command's flags (:func:`vecpin.cli.options.as_flags`)."""
+    from vecpin.cli.options import as_flags
+    for line in lines:
+        print(as_flags(line, getattr(args, "flags", {})), file=file or sys.stdout)

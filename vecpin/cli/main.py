@@ -8,6 +8,7 @@ import warnings
 
 from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
                         viewing)
+from vecpin.cli.options import as_flags, flag_table
 from vecpin.errors import VecpinError, VecpinWarning
 from vecpin.threads import blas_limited
 
@@ -20,6 +21,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     for module in COMMAND_MODULES:
         module.register(sub)
+    for name, command in sub.choices.items():
+        command.set_defaults(flags=flag_table(command))
     return p
 
 
@@ -31,12 +34,15 @@ def _version() -> str:
         return "unknown (not installed)"
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """vecpin's warnings as one line on stderr; other libraries' warnings as Python prints them."""
-    if issubclass(category, VecpinWarning):
-        print(f"vecpin: warning: {message}", file=sys.stderr, flush=True)
-    else:
-        _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
+def _warning_printer(flags: dict[str, str]):
+    """vecpin's warnings as one line on stderr, parameters named by their flags; other
+    libraries' warnings as Python prints them."""
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, VecpinWarning):
+            print(f"vecpin: warning: {as_flags(message, flags)}", file=sys.stderr, flush=True)
+        else:
+            _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
+    return show
 
 
 _PYTHON_SHOWWARNING = warnings.showwarning
@@ -46,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("always", VecpinWarning)
-        warnings.showwarning = _show_warning
+        warnings.showwarning = _warning_printer(args.flags)
         return _run(args)
 
 
@@ -55,7 +61,7 @@ def _run(args) -> int:
         with blas_limited():
             return args.func(args)
     except VecpinError as exc:
-        print(f"vecpin: error: {exc}", file=sys.stderr)
+        print(f"vecpin: error: {as_flags(exc, args.flags)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("vecpin: interrupted", file=sys.stderr)
