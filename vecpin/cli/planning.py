@@ -2,7 +2,7 @@
 and the point-distribution figure."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress
+from vecpin.cli.common import add_machine_args, add_noise_args, machine, noise, progress
 from vecpin.errors import InputError
 
 
@@ -32,13 +32,6 @@ def parse_nest_options(texts: list[str]) -> dict[str, tuple[float, float, float]
     return out or None
 
 
-def plan_noise(args, m):
-    from vecpin.measurement.noise import noise_from_options
-    return noise_from_options(m, "cartesian" if args.cartesian else "spherical",
-                              repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
-                              tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
-
-
 def plan_model(option: str, m) -> str:
     """The model kind a plan is made for: ``option``, or for ``auto`` 6dof on a machine
     with table axes (a 'workpiece' link) and ap elsewhere."""
@@ -55,7 +48,7 @@ def run_plan(args) -> int:
     m = machine(args.machine, args)
     settings = PlanSettings(
         n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=plan_model(args.model, m), order=args.order,
-        basis=args.basis, noise=plan_noise(args, m),
+        basis=args.basis, noise=noise(args, m),
         tracker_mm=parse_floats(args.tracker, "--tracker", 3) if args.tracker else None,
         exclude=[parse_zone(z, "--exclude") for z in args.exclude],
         zone=parse_zone(args.zone, "--zone") if args.zone else None, method=args.method, approach=args.approach,
@@ -155,18 +148,7 @@ def register(sub) -> None:
     s.add_argument("--compare", action="append", default=[], metavar="PLAN.csv|random",
                    help="also judge another plan's template (or 'random': the same number of commands at random) "
                         "with the same model and noise; repeatable (default: none)")
-    d = noise_defaults()
-    s.add_argument("--cartesian", action="store_true", help="static Cartesian tracker noise instead of the range-dependent "
-                   "spherical model (default: spherical)")
-    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default "
-                   f"{d['tracker_sigma_mm']}; with --cartesian)")
-    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise: 1-sigma range noise = R_MM mm + R_PPM ppm of the range, "
-                        f"transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
-    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm "
-                   f"(default {d['repeatability_mm']})")
-    s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg "
-                   f"(default {d['repeatability_deg']})")
+    add_noise_args(s, multilateration=False, ballbar=False)
     s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_plan)

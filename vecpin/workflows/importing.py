@@ -7,6 +7,7 @@ from vecpin.fileio import check_output_file
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.importer import ImportResult, import_export, write_imported
 from vecpin.measurement.robotaccuracy import TMAC_TOOL_MM, DatasetRead, read_dataset
+from vecpin.workflows.summary import uncompensated
 
 FORMATS = ("tracker", "ipa-robot-accuracy")
 
@@ -18,6 +19,7 @@ def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: 
     back as a campaign. The result's ``lines()`` say how the file was read."""
     check_output_file(out)
     res = import_export(export, machine, plan, **options)
+    res.uncompensated_mm = uncompensated(machine, res.campaign).mean_max_mm  # the figure assess and fit print
     write_imported(res, machine, out)
     return res
 
