@@ -69,12 +69,12 @@ def run_view(args) -> int:
 def run_report(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.viz.report import write_report
+    from vecpin.workflows.reporting import report
     models = [ErrorModel.load(p) for p in args.model]
     c = read_campaign(args.csv, models[0].machine)
     v = read_campaign(args.validation, models[0].machine) if args.validation else None
-    page = write_report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
-                        controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
+    page = report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
+                  controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
     print(f"wrote {page} (with figures/ and scene.html) for {len(models)} model{'s' if len(models) > 1 else ''}")
     return 0
 
