@@ -45,11 +45,10 @@ def run_evaluate(args) -> int:
     camp = read_campaign(args.csv, model.machine)
     camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
-    for w in ev.warnings:
-        print(w)
+    say(args, *ev.warnings)
     print(f"{model.label()} ({args.model}) on {args.csv}: {ev.rows} rows"
           + (" (tracker re-registered)" if args.reregister else ""))
-    print("\n".join(ev.lines()))
+    say(args, *ev.lines())
     if args.json:
         write_text(args.json, json.dumps({"model": str(args.model), "campaign": str(args.csv)} | ev.to_dict(), indent=1))
         print(f"wrote {args.json}")
@@ -73,7 +72,7 @@ def run_demo(args) -> int:
 
     from vecpin.workflows.demo import run_demo as demo
     res = demo(args.out, seed=args.seed, order=args.order, progress=progress(not args.quiet))
-    print("\n".join(res.table()))
+    say(args, *res.table())
     print(f"files in {args.out}: " + ", ".join(p.name for p in res.files))
     out = Path(args.out)
     print(f"the same by hand: vecpin fit flow_xyzcb {out / 'campaign.csv'} --out {out / 'model.json'}; "

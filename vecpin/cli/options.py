@@ -14,7 +14,11 @@ import argparse
 import re
 
 #: library parameter name -> the parser's ``dest`` where they differ
-ALIASES: dict[str, str] = {}
+ALIASES: dict[str, str] = {
+    "mean_error_mm": "mean_error", "max_error_mm": "max_error", "long_term_mm": "long_term",   # assess
+    "short_term_mm": "short_term",
+    "tools_mm": "tools", "modulo_axes": "modulo", "test_path": "sign_test", "out_dir": "out",  # tables, evaluate
+}
 
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from vecpin.cli.common import add_machine_args, add_tracker_noise_arg, machine, progress
+from vecpin.cli.common import add_machine_args, add_tracker_noise_arg, machine, progress, say
 from vecpin.errors import InputError
 
 
@@ -29,7 +29,7 @@ def run_assess(args) -> int:
             raise InputError("give a campaign CSV with repeated points, or the numbers: --mean-error and --long-term "
                              "(and --short-term, --max-error) in mm")
         res = assess_numbers(args.mean_error, args.long_term, args.short_term, args.max_error)
-    print("\n".join(res.lines()))
+    say(args, *res.lines())
     if args.json:
         import json
 
@@ -59,7 +59,7 @@ def run_verify(args) -> int:
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
                       progress=progress(not args.quiet))
-    print("\n".join(v.lines()))
+    say(args, *v.lines())
     return 0
 
 

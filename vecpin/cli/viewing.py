@@ -37,32 +37,20 @@ def parse_exaggeration(text: str | None):
 def run_view(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.viz.scene import legend_lines, serve, write_html
-    if args.html:
-        from vecpin.fileio import check_output_file
-        check_output_file(args.html, "--html")
+    from vecpin.viz.scene import legend_lines
+    from vecpin.workflows.viewing import view
     ex = parse_exaggeration(args.exaggerate)
     model = ErrorModel.load(args.model)
-    c = read_campaign(args.csv, model.machine)
-    if not 0 <= args.row < len(c):
-        raise InputError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
-    if args.show == "compensated" and args.no_tables:
-        raise InputError("--show compensated needs the tables: drop --no-tables")
-    tables = None
-    if not args.no_tables:
-        from vecpin.compensation.plan import plan_tables
-        tables = plan_tables(model, n_commands=400).tables
-    if args.html:
-        facts = write_html(args.html, model, c, args.row, ex, tables, args.show)
-        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
-        print("\n".join(legend_lines(facts)))
-        return 0
 
     def ready(url, facts):
         print(f"meshcat scene at {url}; one group is shown at a time (switch them in Open Controls > Scene > "
               "vecpin); Ctrl-C to stop", flush=True)
         print("\n".join(legend_lines(facts)), flush=True)
-    serve(model, c, args.row, ex, tables, ready, args.show)
+    facts = view(model, read_campaign(args.csv, model.machine), row=args.row, exaggerate=ex, show=args.show,
+                 no_tables=args.no_tables, html=args.html, ready=ready)
+    if args.html:
+        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
+        print("\n".join(legend_lines(facts)))
     return 0
 
 

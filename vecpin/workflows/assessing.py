@@ -142,18 +142,18 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
     """The verdict from numbers measured elsewhere (mm)."""
     from vecpin.errors import InputError
     if not mean_error_mm > 0:
-        raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
+        raise InputError(f"`mean_error_mm` {mean_error_mm}: the uncompensated mean error is a positive number of mm")
     if not math.isfinite(mean_error_mm):
-        raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
-    for option, v in (("--long-term", long_term_mm), ("--short-term", short_term_mm), ("--max-error", max_error_mm)):
+        raise InputError(f"`mean_error_mm` {mean_error_mm}: the uncompensated mean error is a positive number of mm")
+    for option, v in (("long_term_mm", long_term_mm), ("short_term_mm", short_term_mm), ("max_error_mm", max_error_mm)):
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"{option} {v}: a positive number of mm")
+            raise InputError(f"`{option}` {v}: a positive number of mm")
     if max_error_mm is not None and max_error_mm < mean_error_mm:
-        raise InputError(f"--max-error {max_error_mm:g} is below --mean-error {mean_error_mm:g}: the largest error "
+        raise InputError(f"`max_error_mm` {max_error_mm:g} is below `mean_error_mm` {mean_error_mm:g}: the largest error "
                          "cannot be smaller than the mean; check the two numbers")
     rep = long_term_mm if long_term_mm is not None else short_term_mm
     if rep is None:
-        raise InputError("give the long-term (--long-term) or short-term (--short-term) repeatability in mm (> 0)")
+        raise InputError("give the long-term (`long_term_mm`) or short-term (`short_term_mm`) repeatability in mm (> 0)")
     kind = "long-term" if long_term_mm is not None else "short-term (long-term unknown: optimistic)"
     return Assessment(mean_error_mm, max_error_mm, rep, kind, short_term_mm, long_term_mm, instrument_mm)
 
@@ -165,14 +165,14 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
     ``import`` and ``fit`` print (:func:`vecpin.workflows.summary.uncompensated`)."""
     from vecpin.errors import InputError
     if not (math.isfinite(session_gap) and session_gap > 0):
-        raise InputError(f"--session-gap-min {session_gap / 60:g}: minutes > 0 (default 30)")
+        raise InputError(f"`session_gap` {session_gap:g} s: a time > 0 (default 1800 s)")
     c = campaign.primary()
     check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
     stats = repeatability(c, session_gap)
     if stats["short"] is None and stats["long"] is None:
         raise InputError(f"{campaign.source}: no command is measured twice with the same tool, so the repeatability is "
-                         "unknown: plan repeated points (vecpin plan --repeat 9 4) or give the numbers "
-                         "(--mean-error, --long-term)")
+                         "unknown: plan repeated points (the plan's `repeat_points` and `repeat_times`, e.g. 9 points 4 "
+                         "times) or give the numbers (`mean_error_mm`, `long_term_mm`)")
     group, _ = repeat_groups(c)
     err = uncompensated(machine, campaign)
     short, long = stats["short"], stats["long"]

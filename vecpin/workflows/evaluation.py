@@ -156,7 +156,7 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
         notes.append(f"{len(tt.unjudged)} tool row(s) not judged: fewer than three nests read at their command (first: "
                      f"row {campaign.lines[tt.unjudged[0]]})")
     if reregister:
-        notes.append("--reregister: not needed relative to the table (every command registers the tracker on the nests)")
+        notes.append("`reregister`: not needed relative to the table (every command registers the tracker on the nests)")
     return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
                       norm_mm(registered_errors(modelled, tt.tip)), reregister, len(campaign) - len(c), TABLE_FRAME,
                       notes=notes, noise_mm=float(noise.mean())), c

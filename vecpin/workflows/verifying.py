@@ -291,7 +291,7 @@ def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: 
     """:func:`verify`, and with ``out_dir`` also ``verify.json`` and ``verify.png`` (Fig. 11)."""
     if out_dir is not None:
         from vecpin.fileio import check_output_dir
-        check_output_dir(out_dir)
+        check_output_dir(out_dir, "`out_dir`")
     v = verify(machine, before, after, **kw)
     if out_dir is None:
         return v
@@ -308,22 +308,22 @@ def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: 
     return v
 
 
-def load_tables(path: str | Path, machine: Machine) -> tuple[TableSet, str]:
-    """A table set from a ``tables.json`` file or a folder holding one (``vecpin tables --out``)."""
+def load_tables(tables: str | Path, machine: Machine) -> tuple[TableSet, str]:
+    """A table set from ``tables``: a ``tables.json`` file or the folder the tables were written into."""
     from vecpin.errors import InputError
-    p = Path(path)
+    p = Path(tables)
     if p.is_dir():
         cand = p / "tables.json"
         if not cand.is_file():
             found = sorted(x.name for x in p.glob("*.json"))
-            raise InputError(f"--tables {p}: no tables.json in that folder (found: {', '.join(found) or 'nothing'})")
+            raise InputError(f"`tables` {p}: no tables.json in that folder (found: {', '.join(found) or 'nothing'})")
         p = cand
     if not p.is_file():
-        raise InputError(f"--tables {p}: no such file or folder")
+        raise InputError(f"`tables` {p}: no such file or folder")
     try:
         ts = TableSet.load_json(p, machine)
     except (ValueError, KeyError, TypeError, OSError) as exc:
-        raise InputError(f"--tables {p}: not a vecpin table file ({exc})") from None
+        raise InputError(f"`tables` {p}: not a vecpin table file ({exc})") from None
     if ts.source and ts.source != machine.name:
-        raise InputError(f"--tables {p}: the tables are for machine '{ts.source}', not '{machine.name}'")
+        raise InputError(f"`tables` {p}: the tables are for machine '{ts.source}', not '{machine.name}'")
     return ts, str(p)
