@@ -684,7 +684,7 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
                                                       "-1", "0", "0", "0"], ["--tracker-noise", ">= 0"]),
     "assess CSV without --machine": (lambda b, w: ["assess", b.csv], ["needs --machine"]),
     "assess CSV without repeats": (lambda b, w: ["assess", b.csv, "--machine", "flow_xyzcb"],
-                                   ["no command is measured twice", "vecpin plan --repeat"]),
+                                   ["no command is measured twice", "plan repeated points", "repeat_points"]),
     # verify
     "verify without a machine": (lambda b, w: ["verify", b.val, b.val], ["needs --machine, or --model"]),
     "verify --machine and --model disagree": (lambda b, w: ["verify", b.val, b.val, "--machine", "trunnion_xyzbc",

@@ -9,9 +9,8 @@ def run_diagnose(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.workflows.diagnosing import diagnose_to_dir
     m = machine(args.machine, args)
-    effects = "all" if args.effects == "all" else [e.strip() for e in args.effects.split(",") if e.strip()]
     run = diagnose_to_dir(m, read_campaign(args.csv, m), args.out, noise(args, m), model=args.model, order=args.order,
-                          effects=effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
+                          effects=args.effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
                           progress=progress(not args.quiet))
     say(args, *run.lines())
     return 0

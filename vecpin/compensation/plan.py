@@ -225,7 +225,7 @@ def _check_modulo(model: ErrorModel, modulo_axes) -> None:
         if ax.upper_user - ax.lower_user < 360.0 - 1e-9:
             raise InputError(f"`modulo_axes` {a}: {a} travels {ax.upper_user - ax.lower_user:g} deg "
                              f"({ax.lower_user:g} .. {ax.upper_user:g}), less than a turn, so a table over one turn "
-                             f"that repeats does not apply; leave {a} out of `modulo_axes` (its table spans the travel)")
+                             f"that repeats does not apply; leave out `modulo_axes` {a} (its table spans the travel)")
         if isinstance(model, APModel) and model.bases[ax.index].kind != "fourier":
             raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
                               "periodic: fit with `basis` auto (Fourier on rotary axes travelling more than a turn)")

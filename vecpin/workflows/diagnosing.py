@@ -34,14 +34,13 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
                     effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
                     progress: Callable[[str], None] | None = None) -> DiagnoseRun:
     """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
-    "all" or effect names; ``noise`` default: the tracker's spherical model
+    "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
     (:meth:`NoiseModel.default`); ``folds``, ``alpha``, ``model``, ``basis``, ``order`` as
     :func:`vecpin.diagnosis.diagnose.diagnose`. The folder and the folds are checked before
-    any fit; the effects and ``alpha`` by the diagnosis itself."""
+    any fit, with the effects; ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
     check_output_dir(out, "`out`")
-    if effects != "all" and not list(effects):
-        raise InputError("`effects`: 'all' or a list of effect names")
+    effects = _effect_names(effects)
     noise = noise or NoiseModel.default(machine)
     check_folds(campaign, folds, "`folds`")
     if noise.instrument == "range":
@@ -49,3 +48,17 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
                  basis=basis, progress=progress)
     return DiagnoseRun(d, [Path(p) for p in d.write(out).values()])
+
+
+def _effect_names(effects: str | Sequence[str]) -> str | list[str]:
+    """"all", or the named effects (a list or a comma list), each one registered."""
+    from vecpin.models.effects import REGISTRY
+    if effects == "all":
+        return "all"
+    text = effects if isinstance(effects, str) else ",".join(effects)
+    names = [e.strip() for e in text.split(",") if e.strip()]
+    unknown = [e for e in names if e not in REGISTRY]
+    if not names or unknown:
+        raise InputError(f"`effects` '{text}': 'all' or a comma list of effect names"
+                         + (f"; unknown effect '{unknown[0]}'" if unknown else "") + f" (known: {', '.join(REGISTRY)})")
+    return names

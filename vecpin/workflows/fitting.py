@@ -95,10 +95,15 @@ def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
     """Uncompensated (:func:`vecpin.workflows.summary.uncompensated`, the figure ``import``
     and ``assess`` print) and fitted distances per tool [mm]; table nest rows and ball bar
     rows beside them."""
-    u = uncompensated(model.machine, campaign)
+    u = uncompensated(model.machine, campaign, strict=False)
     c0 = campaign.primary()
-    out = [u.line()] + per_tool_table([("uncompensated (nominal kinematics)", u.distances_mm),
-                                       (model.label(), norm_mm(model.residuals(c0)))], c0.tool)
+    fitted = [(model.label(), norm_mm(model.residuals(c0)))] if len(c0) else []
+    if u is None:
+        out = ["  uncompensated error: not computed (fewer than 3 tracker rows of station 0 read the tool tip or a "
+               "known target)"] + (per_tool_table(fitted, c0.tool) if fitted else [])
+    else:
+        out = [u.line()] + per_tool_table([("uncompensated (nominal kinematics)", u.distances_mm, u.tool)] + fitted,
+                                         c0.tool)
     if campaign.nest_rows.size:
         cn = campaign.subset(campaign.nest_rows[campaign.station[campaign.nest_rows] == 0])
         if len(cn):

@@ -19,7 +19,8 @@ def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: 
     back as a campaign. The result's ``lines()`` say how the file was read."""
     check_output_file(out)
     res = import_export(export, machine, plan, **options)
-    res.uncompensated_mm = uncompensated(machine, res.campaign).mean_max_mm  # the figure assess and fit print
+    u = uncompensated(machine, res.campaign, strict=False)  # the figure assess and fit print
+    res.uncompensated_mm = res.uncompensated_mm if u is None else u.mean_max_mm
     write_imported(res, machine, out)
     return res
 

@@ -81,9 +81,10 @@ def _residuals(models, labels, campaign, validation):
     rows, hist, vhist = [], {}, {}
     sets = [("identification", campaign, hist)] + ([("validation", validation, vhist)] if validation is not None else [])
     for name, c, target in sets:
-        u = uncompensated(models[0].machine, c)
-        rows += stats_rows(f"{name}: uncompensated", u.distances_mm, u.tool)
-        target["nominal"] = u.distances_mm
+        u = uncompensated(models[0].machine, c, strict=False)
+        if u is not None:
+            rows += stats_rows(f"{name}: uncompensated", u.distances_mm, u.tool)
+            target["nominal"] = u.distances_mm
         c0 = c.primary()
         for lab, mod in zip(labels, models):
             after = norm_mm(mod.residuals(c0))
@@ -112,7 +113,8 @@ def _solutions(machine, labels, plans: list[TablePlan]) -> dict:
 
 def _compensated(models, labels, plans, judged: Campaign) -> dict[str, np.ndarray]:
     """Distances [mm] at the judged campaign's points: uncompensated, and what each model's tables would leave."""
-    out = {"uncompensated": uncompensated(models[0].machine, judged).distances_mm}
+    u = uncompensated(models[0].machine, judged, strict=False)
+    out = {} if u is None else {"uncompensated": u.distances_mm}
     for lab, mod, plan in zip(labels, models, plans):
         out[f"{lab} tables"] = predicted_compensated(mod, plan.tables, judged)
     return out

@@ -17,12 +17,13 @@ from vecpin.units import MM_PER_M, norm_mm
 MAX_TOOLS_LISTED = 6  # tool lengths given a line each
 
 
-def per_tool_table(rows: list[tuple[str, np.ndarray]], tool: np.ndarray) -> list[str]:
+def per_tool_table(rows: list[tuple], tool: np.ndarray) -> list[str]:
     """Lines of n/mean/max/RMS [mm] for each labelled set of distances [mm], per tool
-    when there are several tools."""
+    when there are several tools. A row is (label, distances) with ``tool`` [m] the
+    rows' tool lengths, or (label, distances, its own tool lengths)."""
     lines = [f"  {'':<40s} {'n':>5s} {'mean mm':>9s} {'max mm':>9s} {'RMS mm':>9s}"]
-    for label, d in rows:
-        st = distance_stats(d, tool)
+    for label, d, *own in rows:
+        st = distance_stats(d, own[0] if own else tool)
         keys = list(st) if 2 < len(st) <= MAX_TOOLS_LISTED + 1 else ["all"]
         for k in keys:
             s = st[k]
@@ -75,15 +76,18 @@ def uncompensated_line(mean_mm: float, max_mm: float | None, rows: int | None) -
     return f"  uncompensated error ({how}): mean {mean_mm:.4f} mm{mx}"
 
 
-def uncompensated(machine: Machine, campaign: Campaign) -> Uncompensated:
+def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> Uncompensated | None:
     """The one uncompensated figure of a campaign, the same for ``import``, ``assess`` and
     ``fit``: every tracker row of station 0 that reads the tool tip or a target of known
     offset (nest rows, ball bar rows and targets the fit must find are left out), the
     nominal tool points (base frame, m) registered onto the readings (tracker frame, m)
-    by one best rigid motion (:func:`vecpin.measurement.registration.registered_errors`)."""
-    known = np.array([t == "" or t in campaign.targets for t in campaign.target])
+    by one best rigid motion (:func:`vecpin.measurement.registration.registered_errors`).
+    Fewer than 3 such rows: an InputError, or None when not ``strict``."""
+    known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
     rows = np.flatnonzero((campaign.instrument == "tracker") & (campaign.station == 0) & known)
     if len(rows) < 3:
+        if not strict:
+            return None
         raise InputError(f"{campaign.source}: {len(rows)} tracker rows of station 0 read the tool tip or a known "
                          "target; the uncompensated error needs at least 3")
     offset = np.array([campaign.targets.get(t, np.zeros(3)) if t else np.zeros(3) for t in campaign.target[rows]])

@@ -32,10 +32,11 @@ from vecpin.models import ErrorModel
 from vecpin.units import MM_PER_M
 
 
-def named_axis(machine, name: str, option: str):
-    """``machine.axis(name)``, the error naming the parameter ``option`` that gave the name."""
+def named_axis(machine, name: str, option: str, value: str | None = None):
+    """``machine.axis(name)``, the error naming the parameter ``option`` that gave the name
+    (and its ``value`` when the name is part of it)."""
     if name not in machine.axis_names:
-        raise InputError(f"`{option}` {name}: machine '{machine.name}' has no axis '{name}' (axes: "
+        raise InputError(f"`{option}` {value or name}: machine '{machine.name}' has no axis '{name}' (axes: "
                          f"{', '.join(machine.axis_names)}; names are case-sensitive)")
     return machine.axis(name)
 
@@ -48,7 +49,7 @@ def parse_axis_map(items: list[str], machine) -> dict[str, str]:
         if "=" not in it:
             raise InputError(f"`axis_map` takes JOINT=NCNAME, not '{it}'")
         a, b = (x.strip() for x in it.split("=", 1))
-        named_axis(machine, a, "axis_map")
+        named_axis(machine, a, "axis_map", it)
         if not b:
             raise InputError(f"`axis_map` {it}: the NC axis name is empty")
         out[a] = b

@@ -27,7 +27,7 @@ def view(model: ErrorModel, campaign: Campaign, *, row: int = 0, exaggerate=None
     if html is not None:
         check_output_file(html, "`html`")
     if show == "compensated" and no_tables:
-        raise InputError("`show` compensated needs the tables: leave out `no_tables`")
+        raise InputError("`show` compensated needs the tables: drop `no_tables`")
     tables = None if no_tables else plan_tables(model, n_commands=SCENE_COMMANDS).tables
     if html is not None:
         return write_html(html, model, campaign, row, exaggerate, tables, show)
