@@ -98,9 +98,11 @@ def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
     u = uncompensated(model.machine, campaign, strict=False)
     c0 = campaign.primary()
     fitted = [(model.label(), norm_mm(model.residuals(c0)))] if len(c0) else []
-    if u is None:
-        out = ["  uncompensated error: not computed (fewer than 3 tracker rows of station 0 read the tool tip or a "
-               "known target)"] + (per_tool_table(fitted, c0.tool) if fitted else [])
+    if u is None and len(c0):  # too few rows, or a tool that stands still: registered by the fit instead
+        out = per_tool_table([("uncompensated (registered by the fit)", norm_mm(model.nominal_residuals(c0)))]
+                             + fitted, c0.tool)
+    elif u is None:
+        out = []
     else:
         out = [u.line()] + per_tool_table([("uncompensated (nominal kinematics)", u.distances_mm, u.tool)] + fitted,
                                          c0.tool)

@@ -9,7 +9,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors
+from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.measurement.stats import distance_stats
 from vecpin.units import MM_PER_M, norm_mm
 
@@ -82,7 +82,8 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
     offset (nest rows, ball bar rows and targets the fit must find are left out), the
     nominal tool points (base frame, m) registered onto the readings (tracker frame, m)
     by one best rigid motion (:func:`vecpin.measurement.registration.registered_errors`).
-    Fewer than 3 such rows: an InputError, or None when not ``strict``."""
+    Fewer than 3 such rows, or nominal points on a line (the tool of a machine whose every
+    axis moves the table stands still): an InputError, or None when not ``strict``."""
     known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
     rows = np.flatnonzero((campaign.instrument == "tracker") & (campaign.station == 0) & known)
     if len(rows) < 3:
@@ -93,5 +94,10 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
     offset = np.array([campaign.targets.get(t, np.zeros(3)) if t else np.zeros(3) for t in campaign.target[rows]])
     nominal = machine.tool_tip(campaign.q[rows], campaign.tool[rows], frame="base", point=campaign.point[rows],
                                offset=offset)
+    if not spans_plane(nominal):
+        if not strict:
+            return None
+        raise InputError(f"{campaign.source}: the nominal tool points of its rows lie on a line, so the readings "
+                         "cannot be registered onto them: no uncompensated error at the tool")
     err = norm_mm(registered_errors(nominal, campaign.xyz[rows]))
     return Uncompensated(err, rows, campaign.tool[rows])
