@@ -43,7 +43,6 @@ def run_evaluate(args) -> int:
         check_output_file(args.json, "--json")
     model = ErrorModel.load(args.model)
     camp = read_campaign(args.csv, model.machine)
-    camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)
     say(args, *ev.warnings)
     print(f"{model.label()} ({args.model}) on {args.csv}: {ev.rows} rows"

@@ -1,6 +1,7 @@
 """A fitted model judged on a campaign: uncompensated and model residual distances."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -77,7 +78,10 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     ``zone`` {axis: (low, high)} mm/deg when given). ``reregister``: the tracker was
     moved, so its pose is fitted to this campaign first. A campaign the model's tracker
     pose (or, re-registered, the machine's nominal kinematics) cannot describe is refused
-    (:func:`~vecpin.measurement.registration.check_same_pose`)."""
+    (:func:`~vecpin.measurement.registration.check_same_pose`). Targets whose offsets the
+    campaign does not give take the fitted ones of the model."""
+    if getattr(model, "setup_", None) is not None and model.setup_.targets:
+        campaign = dataclasses.replace(campaign, targets=dict(model.setup_.targets) | dict(campaign.targets))
     if zone:
         from vecpin.workflows.fitting import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
