@@ -208,6 +208,23 @@ def test_every_vecpin_command_shown_names_real_options():
     assert not bad, "\n".join(bad)
 
 
+OTHER_FLAGS = {"--strict": "mkdocs build", "--install": "halcompile", "--poses": "examples/ur10_real_data.py",
+               "--quick": "benchmarks/bench_diagnosis.py"}
+
+
+def test_every_flag_named_anywhere_is_an_option():
+    """A `--flag` in the prose (not only in a `vecpin ...` span) is an option of some command,
+    or one of the few other tools' flags the docs name (OTHER_FLAGS)."""
+    known = {o for s in _subparsers().values() for a in s._actions for o in a.option_strings} | {"--version"}
+    bad = []
+    for page in PAGES:
+        text = page.read_text(encoding="utf-8")
+        for m in re.finditer(r"(?<![\w-])(--[a-z][a-z0-9-]*)", text):
+            if m.group(1) not in known and m.group(1) not in OTHER_FLAGS:
+                bad.append(f"{rel(page)}:{text[:m.start()].count(chr(10)) + 1}: {m.group(1)}")
+    assert not bad, "no vecpin command has these options:\n" + "\n".join(bad)
+
+
 def test_quick_start_is_the_demo_and_the_ci_test_command():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     section = text.split("## Quick start", 1)[1].split("\n## ", 1)[0]
@@ -256,6 +273,17 @@ def test_every_example_and_benchmark_is_named_and_exists():
     files = list((ROOT / "examples").glob("*.py")) + list((ROOT / "benchmarks").glob("bench_*.py"))
     missing = [f"{p.parent.name}/{p.name}" for p in files if f"{p.parent.name}/{p.name}" not in named]
     assert not missing, f"the docs do not mention {missing}"
+
+
+def test_the_api_page_names_the_facade():
+    """The Python API page's table lists exactly the names `import vecpin` offers."""
+    import vecpin
+    text = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    named = set()
+    for ln in text.splitlines():
+        if ln.startswith("| `") and not ln.startswith("| `vecpin.`"):
+            named |= set(re.findall(r"`(\w+)`", ln.split("|")[1]))
+    assert named == set(vecpin.__all__) - {"__version__"}, set(vecpin.__all__) ^ named
 
 
 # ---- the site
