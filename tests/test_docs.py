@@ -310,6 +310,14 @@ def test_controller_results_are_the_benchmarks_rows(tmp_path):
         assert _hooks().controller_rows(name).count("\n| ") >= 2, name
 
 
+def test_every_controller_has_its_section():
+    """The compensation page prints every registered controller format's record."""
+    from vecpin.export.registry import FORMATS
+    page = (ROOT / "docs" / "compensation.md").read_text(encoding="utf-8")
+    assert set(re.findall(r"<!-- vecpin:controller-facts ([\w-]+) -->", page)) == set(FORMATS)
+    assert "sign: " in _hooks().controller_facts("fanuc-30i")
+
+
 @pytest.mark.slow  # about 5 s alone, 15 s on shared cores
 def test_the_site_builds_with_warnings_as_errors(tmp_path):
     mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent)) or shutil.which("mkdocs")
