@@ -45,7 +45,7 @@ import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.axes import (  # noqa: F401 (re-exported: callers import them from here)
-    BUNDLED_OPTIONS, RESERVED_NAMES, ROS_FLANGE_LINKS, SPINDLE_LINK, TOOL_DIRECTION, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
+    BUNDLED_OPTIONS, ROS_FLANGE_LINKS, SPINDLE_LINK, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
