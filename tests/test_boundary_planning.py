@@ -10,8 +10,10 @@ import pytest
 
 from vecpin.cli.main import build_parser
 from vecpin.cli.options import as_flags
-from vecpin.cli.planning import parse_tools
+from vecpin.cli.planning import parse_tools, plan_order
 from vecpin.errors import InputError
+from vecpin.planning.plan import make_plan
+from vecpin.planning.problem import BASES, PlanSettings, planned_model
 
 ROOT = Path(__file__).resolve().parents[1] / "vecpin"
 LIBRARY = sorted({*ROOT.glob("planning/*.py"), *ROOT.glob("simulation/*.py"), *ROOT.glob("kinematics/*.py"),
@@ -63,3 +65,30 @@ def test_tools_take_spaces_or_commas_in_plan_and_simulate():
     assert parse_tools(["214.88", "312.86"]) == parse_tools(["214.88,312.86"]) == (214.88, 312.86)
     with pytest.raises(InputError, match="--tools 'a'"):
         parse_tools(["a"])
+
+
+def _choices(command: str, dest: str):
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    return next(a for a in sub.choices[command]._actions if a.dest == dest).choices
+
+
+def test_basis_and_order_mean_in_plan_what_they_mean_in_fit():
+    """One meaning per option name: plan takes the fit's bases and orders (auto: vecpin
+    chooses; before any data a plan fixes them)."""
+    assert list(_choices("plan", "basis")) == list(_choices("fit", "basis")) == list(BASES)
+    assert plan_order("auto") == 6 and plan_order("3") == 3
+    with pytest.raises(InputError, match="--order 'x'"):
+        plan_order("x")
+
+
+def test_a_plan_for_each_basis_is_the_model_the_fit_fixes(flow):
+    """auto and fourier plan the same columns (per turn on the C axis, which travels more
+    than a turn); pspline plans its spline's columns; each basis plans."""
+    n = {b: planned_model(flow, PlanSettings(model="ap", order=3, basis=b)).n_parameters for b in BASES}
+    assert n["auto"] == n["fourier"] == n["chebyshev"] and n["pspline"] == n["spline"] > n["chebyshev"]
+    assert n["fourier_trend"] > n["fourier"]
+    p = make_plan(flow, PlanSettings(n_points=40, order=2, basis="fourier_trend", candidates=300, sight=False,
+                                     validation_run=5, validation_points=50))
+    assert p.information.model.n_parameters == planned_model(flow, p.settings).n_parameters
+    with pytest.raises(InputError, match="`basis` 'legendre'"):
+        PlanSettings(basis="legendre").check()

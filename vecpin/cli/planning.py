@@ -5,6 +5,9 @@ from __future__ import annotations
 from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress, say
 from vecpin.errors import InputError
 
+#: --basis as the fit takes it (vecpin.planning.problem.BASES: how a plan builds each)
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")
+
 
 def parse_floats(text: str, option: str, count: int | None = None) -> tuple[float, ...]:
     """'1,2,3' -> (1.0, 2.0, 3.0); ``count`` numbers exactly when given."""
@@ -53,6 +56,20 @@ def parse_tools(texts: list[str], option: str = "--tools") -> tuple[float, ...]:
     return tuple(v for t in texts for v in parse_floats(t, option))
 
 
+def plan_order(text: str) -> int:
+    """``--order`` of a plan: a whole number >= 0, or auto: 6 (Paper I's; a plan is made
+    before the data can choose)."""
+    if str(text).strip().lower() == "auto":
+        return 6
+    try:
+        order = int(text)
+    except ValueError:
+        order = -1
+    if order < 0:
+        raise InputError(f"--order '{text}': a whole number >= 0, or auto")
+    return order
+
+
 def run_plan(args) -> int:
     from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
     from vecpin.planning.plan import PlanSettings
@@ -62,7 +79,7 @@ def run_plan(args) -> int:
     m = machine(args.machine, args)
     settings = PlanSettings(
         n_points=args.n_points, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
-        model=plan_model(args.model, m), order=args.order, basis=args.basis, noise=plan_noise(args, m),
+        model=plan_model(args.model, m), order=plan_order(args.order), basis=args.basis, noise=plan_noise(args, m),
         tracker_mm=parse_floats(args.tracker_mm, "--tracker", 3) if args.tracker_mm else None,
         exclude=[parse_zone(z, "exclude") for z in args.exclude],
         zone=parse_zone(args.zone, "zone") if args.zone else None, method=args.method, approach=args.approach,
@@ -129,10 +146,15 @@ def _add_choice_args(s) -> None:
                    help="error model the campaign is planned for: 6dof or ap, or auto: vecpin chooses (before any "
                         "data: 6dof on a machine with table axes, whose tilt and wobble only nest readings see, ap "
                         "elsewhere, as Paper I) (default auto)")
-    s.add_argument("--order", type=int, default=6, help="series order of that model (default 6, as Paper I)")
-    s.add_argument("--basis", default="auto", choices=["auto", "chebyshev"],
-                   help="basis of the error functions: chebyshev over the travel, or auto: before any data, Fourier "
-                        "on rotary axes travelling more than a turn and Chebyshev elsewhere (default auto)")
+    s.add_argument("--order", default="auto", help="series order of that model, as the fit takes it (a whole number; "
+                   "with --basis spline or pspline the number of interior knots per axis), or auto: vecpin chooses "
+                   "(before any data: 6, as Paper I) (default auto)")
+    s.add_argument("--basis", default="auto", choices=BASES,
+                   help="basis of the error functions, as the fit takes it: chebyshev over the travel, fourier (per "
+                        "turn on rotary axes travelling more than a turn), fourier_trend (per turn plus a trend), "
+                        "spline (cubic B-splines; pspline: planned as spline, its smoothing only adds information), "
+                        "or auto: vecpin chooses (before any data: fourier where it applies, chebyshev elsewhere) "
+                        "(default auto)")
     s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",
                    help="how the commands are chosen: doptimal, greedy D-optimal (default); random, at random, as "
                         "Paper I did")

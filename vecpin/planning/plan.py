@@ -32,13 +32,12 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
-from vecpin.models import make_model
 from vecpin.planning import route
 from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.planchecks import plan_warnings
-from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem
+from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem, planned_model
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import clip_to_zone, inside
 from vecpin.units import MM_PER_M, M_PER_MM
@@ -147,7 +146,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     say = progress or (lambda msg: None)
     problem = plan_problem(machine, settings or PlanSettings())
     cands = screen_candidates(problem, say)
-    model = make_model(problem.settings.model, machine, problem.settings.order, basis=problem.settings.basis)
+    model = planned_model(machine, problem.settings)
     problem.settings.check_model(machine, model.n_parameters)
     say(f"{problem.settings.model} model of order {problem.settings.order}: {model.n_parameters + 6} parameters; "
         "judging redundancy")

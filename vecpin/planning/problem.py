@@ -15,6 +15,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.noise import NoiseModel
+from vecpin.models import ErrorModel, make_model
 from vecpin.planning import route
 from vecpin.planning.nests import check_nests, nest_positions
 from vecpin.planning.planchecks import EXPECTED_ERROR_MM
@@ -25,6 +26,7 @@ from vecpin.units import MM_PER_M, M_PER_MM
 
 MAX_POINTS = 10_000         # commands of one plan
 MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
 
 
 @dataclass
@@ -115,6 +117,8 @@ class PlanSettings:
                              f"planned commands, at most `n_points` ({self.n_points})")
         if self.order < 0:
             raise InputError(f"`order` {self.order}: orders are >= 0")
+        if self.basis not in BASES:
+            raise InputError(f"`basis` '{self.basis}': one of {', '.join(BASES)}")
         if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):
             raise InputError("`tracker_mm`: three finite numbers, mm")
         if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
@@ -191,3 +195,17 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
     return PlanProblem(machine, s, tracker, side, nests, np.array(s.tools_mm, float) * M_PER_MM,
                        s.noise or NoiseModel.default(machine, "spherical"), steps, lo, hi,
                        route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min))
+
+
+def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
+    """The model a plan is made for: ``s.model`` of order ``s.order`` with the basis
+    ``s.basis`` as the fit takes it, fixed before any data: ``auto`` and ``fourier``, a
+    Fourier series per turn on rotary axes travelling more than a turn and Chebyshev
+    elsewhere; ``chebyshev``, ``fourier_trend`` and ``spline`` as
+    :func:`vecpin.selection.choice.fixed_model` builds them; ``pspline`` as the spline of
+    the same knots (its smoothing, chosen from the data, only adds information)."""
+    if s.basis in ("auto", "fourier", "chebyshev"):
+        return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "auto")
+    from vecpin.selection.choice import fixed_model
+    return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
+
