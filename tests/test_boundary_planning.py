@@ -92,3 +92,30 @@ def test_a_plan_for_each_basis_is_the_model_the_fit_fixes(flow):
     assert p.information.model.n_parameters == planned_model(flow, p.settings).n_parameters
     with pytest.raises(InputError, match="`basis` 'legendre'"):
         PlanSettings(basis="legendre").check()
+
+
+def test_the_python_names_page_matches_the_parsers_and_the_functions():
+    """docs/plan-simulate-import-in-python.md: each row's flag is the command's flag for
+    each Python name, and the name is a field or parameter of the object the row names."""
+    import dataclasses
+    import inspect
+
+    from vecpin.simulation.simulate import Design, simulate
+    from vecpin.simulation.truth import TrueMachine
+    from vecpin.workflows.importing import import_to_file
+    from vecpin.workflows.planning import plan_to_dir
+    from vecpin.workflows.simulating import simulate_to_dir
+    where = {"PlanSettings": {f.name for f in dataclasses.fields(PlanSettings)},
+             "Design": {f.name for f in dataclasses.fields(Design)},
+             "plan_to_dir": set(inspect.signature(plan_to_dir).parameters),
+             "simulate_to_dir": set(inspect.signature(simulate_to_dir).parameters)  # and what it passes on
+             | set(inspect.signature(simulate).parameters) | set(inspect.signature(TrueMachine.random).parameters),
+             "import_to_file": set(inspect.signature(import_to_file).parameters)}
+    page = (ROOT.parent / "docs" / "plan-simulate-import-in-python.md").read_text()
+    rows = re.findall(r"^\| (plan|simulate|import) \| `(--[a-z-]+)[^|]*\| ([^|]+)\| `(\w+)`", page, re.M)
+    assert len(rows) >= 20
+    flags = _flags()
+    for command, flag, names, obj in rows:
+        for name in re.findall(r"`(\w+)`", names):
+            assert flags[command].get(name) == flag, (command, flag, name)
+            assert name in where[obj], (name, obj)
