@@ -42,14 +42,6 @@ def plan_noise(args, m):
                               tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
 
 
-def plan_model(option: str, m) -> str:
-    """The model kind a plan is made for: ``option``, or for ``auto`` 6dof on a machine
-    with table axes (a 'workpiece' link) and ap elsewhere."""
-    if option != "auto":
-        return option
-    return "6dof" if m.has_workpiece else "ap"
-
-
 def parse_tools(texts: list[str], option: str = "--tools") -> tuple[float, ...]:
     """``--tools`` as plan and simulate take it: lengths in mm separated by spaces or commas
     (``214.88 312.86`` or ``214.88,312.86``)."""
@@ -79,7 +71,7 @@ def run_plan(args) -> int:
     m = machine(args.machine, args)
     settings = PlanSettings(
         n_points=args.n_points, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
-        model=plan_model(args.model, m), order=plan_order(args.order), basis=args.basis, noise=plan_noise(args, m),
+        model=args.model, order=plan_order(args.order), basis=args.basis, noise=plan_noise(args, m),
         tracker_mm=parse_floats(args.tracker_mm, "--tracker", 3) if args.tracker_mm else None,
         exclude=[parse_zone(z, "exclude") for z in args.exclude],
         zone=parse_zone(args.zone, "zone") if args.zone else None, method=args.method, approach=args.approach,

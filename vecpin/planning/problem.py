@@ -7,7 +7,7 @@ in axis space the commands may take and the axes' rapid speeds.
 tracker stations for a machine with table axes belongs there."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -34,7 +34,9 @@ class PlanSettings:
     """What to plan (user units where a user types them).
 
     ``n_points``: commands, each measured with every holder length ``tools_mm`` [mm];
-    ``model``/``order``/``basis``: the model the campaign is for; ``noise``: the fit's
+    ``model``/``order``/``basis``: the model the campaign is for (``model="auto"``: 6dof on
+    a machine with table axes, whose tilt and wobble only nest readings see, ap elsewhere;
+    the plan's settings carry the kind chosen); ``noise``: the fit's
     noise model (default: spherical tracker noise); ``tracker_mm`` (3,) [mm] machine base
     frame (default: 2 m beyond the workspace on the side the tips are seen from); ``exclude``: exclusion zones;
     ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
@@ -175,6 +177,8 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
     table nests: the stage where a proposal of nest places or tracker stations fits), the
     approach steps, the box the commands may take and the axes' rapid speeds."""
     s.check()
+    if s.model == "auto":  # before any data: the kind a table machine needs, else Paper I's
+        s = replace(s, model="6dof" if machine.has_workpiece else "ap")
     for z in s.exclude:
         check_zone_axes(machine, z, "exclude")
     if s.zone:
