@@ -205,8 +205,8 @@ class OutputSet:
                     write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
                                "name; the next run removes those it no longer writes, if unchanged\n"
                                + "".join(f"{h}  {n}\n" for n, h in sorted(digests.items())))
-        except OSError as exc:
-            raise _cannot(self.dir, exc) from None
+        except OSError as err:  # not exc: that names the exception the block raised
+            raise _cannot(self.dir, err) from None
         finally:
             _remove_tree(self._stage)
         return False
