@@ -40,7 +40,7 @@ def run_evaluate(args) -> int:
     from vecpin.models import ErrorModel
     from vecpin.workflows.evaluation import evaluate
     if args.json:
-        check_output_file(args.json, "--json")
+        check_output_file(args.json, "json")
     model = ErrorModel.load(args.model)
     camp = read_campaign(args.csv, model.machine)
     ev = evaluate(model, camp, reregister=args.reregister, zone=zone_option(args.zone), model_source=args.model)

@@ -85,7 +85,7 @@ def run_demo(out_dir: str | Path, seed: int = 0, order: int = 6,
         if unknowns > eq:
             raise InputError(f"`order` {order}: the {kind} model has {unknowns} unknowns, more than the {eq} equations "
                              "of Paper I's campaign; the seed used order 6")
-    check_output_dir(out_dir, "`out_dir`")
+    check_output_dir(out_dir)
     say("simulating Paper I's campaign on flow_xyzcb (295 commands x 2 tools, 35 validation points)")
     sim = simulate(m, seed=seed, design=design, mean_error_mm=0.65)
     c, v, exact = sim.campaign, sim.validation, sim.validation_truth

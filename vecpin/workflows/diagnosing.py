@@ -39,7 +39,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     :func:`vecpin.diagnosis.diagnose.diagnose`. The folder and the folds are checked before
     any fit, with the effects; ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
-    check_output_dir(out, "`out`")
+    check_output_dir(out, "out")
     effects = _effect_names(effects)
     noise = noise or NoiseModel.default(machine)
     check_folds(campaign, folds, "`folds`")

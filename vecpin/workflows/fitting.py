@@ -152,7 +152,7 @@ def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "z
     return campaign.subset(keep)
 
 
-def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kind: str = "auto",
+def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
                  noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> FitRun:
@@ -162,7 +162,9 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     fit's chi2 leaves its band, every noise sigma is scaled by sqrt(chi2 / expected) and
     the model chosen and fitted again (at most ``NOISE_ROUNDS`` times, until the scale
     settles within 5 %). The ratio of machine to instrument noise is kept: one level, not
-    two variance components, is what the residuals tell apart from the model."""
+    two variance components, is what the residuals tell apart from the model. ``noise``
+    default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
+    noise = noise or NoiseModel.default(machine)
     rows = len(campaign)
     if zone:
         for a in zone:

@@ -38,7 +38,7 @@ def report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_dir, v
     5-fold CV); ``controller``, ``max_tables``: the tables' limits."""
     models = [models] if isinstance(models, ErrorModel) else list(models)
     say = progress or (lambda s: None)
-    check_output_dir(out_dir, "`out_dir`")
+    check_output_dir(out_dir)
     _check(models, campaign, validation, orders)
     labels = model_labels(models)
     say("residual tables")

@@ -134,7 +134,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     fmt, prof, limits, modulo = _check_request(model, controller, profile, axis_map, points, forbid_output,
                                                modulo_axes, max_tables, no_circular, sign_test)
     zone = model_zone(model) if zone is None else zone
-    check_output_dir(out_dir, "`out_dir`")
+    check_output_dir(out_dir)
     q = None
     if commands is not None:
         q = commands.q

@@ -291,7 +291,7 @@ def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: 
     """:func:`verify`, and with ``out_dir`` also ``verify.json`` and ``verify.png`` (Fig. 11)."""
     if out_dir is not None:
         from vecpin.fileio import check_output_dir
-        check_output_dir(out_dir, "`out_dir`")
+        check_output_dir(out_dir)
     v = verify(machine, before, after, **kw)
     if out_dir is None:
         return v

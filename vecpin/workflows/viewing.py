@@ -25,7 +25,7 @@ def view(model: ErrorModel, campaign: Campaign, *, row: int = 0, exaggerate=None
     generic tables of the model are not computed); ``exaggerate``, ``show``: as
     :func:`vecpin.viz.scene.build_scene`."""
     if html is not None:
-        check_output_file(html, "`html`")
+        check_output_file(html, "html")
     if show == "compensated" and no_tables:
         raise InputError("`show` compensated needs the tables: drop `no_tables`")
     tables = None if no_tables else plan_tables(model, n_commands=SCENE_COMMANDS).tables
