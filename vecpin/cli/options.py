@@ -23,6 +23,12 @@ ALIASES: dict[str, str] = {
     "repeat_times": "repeat",
 }
 
+#: library phrases naming two parameters that one option sets together: (phrase, the option's
+#: dest, the phrase as the command line writes it with {flag} for the option's flag)
+PHRASES: list[tuple[re.Pattern, str, str]] = [
+    (re.compile(r"`repeat_points` (\S+?), `repeat_times` (\S+?):"), "repeat", r"{flag} \1 \2:"),
+]
+
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")
 
 
@@ -42,4 +48,8 @@ def flag_table(parser: argparse.ArgumentParser) -> dict[str, str]:
 def as_flags(text: str, table: dict[str, str]) -> str:
     """``text`` with every backquoted parameter the command has replaced by its flag;
     a backquoted name the command does not have loses only its backquotes."""
-    return _NAME.sub(lambda m: table.get(m.group(1), m.group(1)), str(text))
+    text = str(text)
+    for pattern, dest, written in PHRASES:
+        if dest in table:
+            text = pattern.sub(written.format(flag=table[dest]), text)
+    return _NAME.sub(lambda m: table.get(m.group(1), m.group(1)), text)

@@ -115,7 +115,8 @@ class PlanSettings:
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: at least 1 command, each "
                              "measured at least 2 times")
         if self.repeat_points > self.n_points:
-            raise InputError(f"`repeat_points` {self.repeat_points}: the repeated points are taken from the "
+            raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
+                             "points are taken from the "
                              f"planned commands, at most `n_points` ({self.n_points})")
         if self.order < 0:
             raise InputError(f"`order` {self.order}: orders are >= 0")
