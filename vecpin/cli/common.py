@@ -13,7 +13,7 @@ from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M
 
 MACHINE_HELP = "bundled machine name (vecpin info lists them) or URDF file"
-CAMPAIGN_HELP = "campaign CSV: commands in mm/deg, tool in mm, measured x, y, z in mm (see the README)"
+CAMPAIGN_HELP = "campaign CSV: commands in mm/deg, tool in mm, measured x, y, z in mm (see docs/measurement.md)"
 
 
 def noise_defaults() -> dict[str, str]:

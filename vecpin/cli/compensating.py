@@ -44,7 +44,7 @@ def register(sub) -> None:
                    help="controller whose files to write (default generic: tables.json/csv only)")
     s.add_argument("--profile", metavar="JSON",
                    help="the machine's controller profile: NC axis names, reference positions [mm/deg], modulo axes, "
-                        "detection units, limits (see the README); default: none (enough for generic and iso230)")
+                        "detection units, limits (see docs/compensation.md; vecpin profile writes a template); default: none (enough for generic and iso230)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC axis name of a joint, wins over the profile's nc_name; repeatable (default: the "
                         "profile's names)")

@@ -105,7 +105,7 @@ class ControllerFormat:
 
     ``limits``: defaults (a profile may override them); ``check``: raises before any
     heavy work when the profile lacks a fact the writer needs (given the modulo axes); ``files``, ``sign``,
-    ``source``, ``to_check``: the README's controller table; ``dialect``: the NC
+    ``source``, ``to_check``: the controller table of docs/compensation.md; ``dialect``: the NC
     language of the sign-test program; ``main_files``: file names ``read`` needs."""
 
     name: str

@@ -209,7 +209,7 @@ class ControllerProfile:
             where = "a controller profile (`profile`)" if self.where == AXIS_MAP else f"the {self.where}"
             raise InputError(f"{controller} needs the {purpose} of axis {axis}: give {hint}\"{key}\" under "
                              f"axes.{axis} in {where}, e.g. {{\"axes\": {{\"{axis}\": {{\"{key}\": ...}}}}}} "
-                             "(the README's controller section lists every field)")
+                             "(vecpin's profile command writes a template with every field)")
         return value
 
     def limit(self, name: str, default):

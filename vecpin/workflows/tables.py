@@ -98,7 +98,8 @@ class TableRun:
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
         out.append(f"  gauge line (T_offset) change of these tables: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm "
-                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the README says)")
+                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the controller's "
+                   "README in the output folder says)")
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
