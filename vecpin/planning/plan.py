@@ -37,6 +37,7 @@ from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.nestplacement import Placement, place_nests
 from vecpin.planning.planchecks import EXPECTED_ERROR_MM, plan_warnings
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, SightLine,
                                        default_tracker_placement, side_name)
@@ -102,6 +103,7 @@ class PlanSettings:
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
     expected_error_mm: float = EXPECTED_ERROR_MM
+    place_nests: bool = True  # default nests placed for the line of sight, a second station proposed (nestplacement)
 
     def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
         """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
@@ -234,6 +236,7 @@ class Plan:
     tracker_side: str = ""
     warnings: list[str] = field(default_factory=list)
     validation_template: PlanTemplate | None = None
+    placement: Placement | None = None
 
     @property
     def tools(self) -> np.ndarray:
@@ -331,6 +334,12 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
             hit = res.blocked & (sight_by[test] == "")
             sight_by[test[hit]] = res.by[hit]
         removed[(sight_by != "") & (removed == "")] = "sight"
+    placement = None
+    if s.place_nests and s.sight and len(nests) >= 3 and not s.nest_mm:
+        say("table nests and tracker stations that see the table across its travel")
+        placement = place_nests(machine, tracker, len(nests), tools[0], seed=s.seed, geometry=s.geometry,
+                                tool_radius=s.tool_radius_mm * M_PER_MM, target_clearance=s.target_clearance_mm * M_PER_MM)
+        nests = placement.nests
     nest_seen = np.ones((len(cand), len(nests)), bool)
     if s.sight and nests:
         test = np.flatnonzero(removed == "")
@@ -400,7 +409,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     run = validation_run(machine, s, lo, hi, tools[0], sl if s.sight else None, nests, speed)
     plan = Plan(machine, s, template, chosen, cand, removed, sight_by, tracker, s.tracker_mm is not None, steps,
                 score, info, cov, t_random, geometry, (lo, hi), vq, nests, without, bare, side)
-    plan.validation_template = run
+    plan.validation_template, plan.placement = run, placement
     plan.warnings = plan_warnings(plan)
     return plan
 
