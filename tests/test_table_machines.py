@@ -234,6 +234,23 @@ def test_table_campaigns_that_cannot_identify_the_table_axes_are_warned(machines
     assert len(notes) == 1 and notes[0].startswith(f"{c.source}: nest 2 moved at row {moved.lines[late[0]]}")
 
 
+def test_a_tilt_range_where_the_nests_were_never_read_is_warned(machines):
+    """The nests hidden below 30 % of the commanded A travel (their rows dropped): the
+    campaign is warned once, naming A and the three tenths of its commanded travel, whose
+    edges are recounted here from the commands."""
+    m = machines["trunnion_xyzac"]
+    c = simulate(m, seed=2, design=Design(n_commands=100, n_validation=5)).campaign
+    a = m.axis("A")
+    A = c.q[:, a.index]
+    lo, hi = A.min(), A.max()
+    hidden = (c.instrument == "nest") & (A < lo + 0.3 * (hi - lo))
+    notes = table_campaign_notes(m, c.subset(np.flatnonzero(~hidden)))
+    assert len(notes) == 1 and "30 % of the commanded travel of A" in notes[0]
+    e = [np.degrees(lo + k * (hi - lo) / 10) for k in range(4)]
+    assert f"({e[0]:.1f}..{e[1]:.1f}, {e[1]:.1f}..{e[2]:.1f}, {e[2]:.1f}..{e[3]:.1f} deg)" in notes[0]
+    assert notes[0].startswith(c.source) and "extrapolated" in notes[0]
+
+
 def test_a_nest_that_moved_without_changing_its_distances_is_found_after_the_fit(machines):
     """On the head-table machine (nests far apart) nest 1 rising 0.4 mm half-way hardly
     changes its distances to the others; its residuals after the fit step."""

@@ -312,7 +312,8 @@ def check_nest_rows(machine, campaign) -> None:
 def table_campaign_notes(machine, campaign) -> list[str]:
     """Why a table machine's campaign cannot identify its table axes, one note each (empty:
     nothing found): no nest rows, fewer than three nests, nests on a line, a nest that
-    moved (see the module text). Names the file and the rows."""
+    moved (see the module text), parts of a table axis' travel where the table's pose was
+    never measured (:func:`unseen_travel_notes`). Names the file and the rows."""
     check_nest_rows(machine, campaign)
     if not machine.has_workpiece:
         return []
@@ -333,6 +334,37 @@ def table_campaign_notes(machine, campaign) -> list[str]:
         out.append(f"{src}: the nests {', '.join(ids)} ({first}) lie on a line: a turn of the table about that line "
                    f"is not seen, so the table axes ({table}) are only partly seen; put a nest off the line")
     out += _moved_nests(campaign)
+    return out + unseen_travel_notes(machine, campaign)
+
+
+TRAVEL_BINS = 10  # a table axis' travel judged in tenths
+
+
+def unseen_travel_notes(machine, campaign) -> list[str]:
+    """A note per table axis with tenths of its travel (inside the commands' range) where
+    no command read three nests from one station: the table's pose is not measured there,
+    so the model's terms of that axis and its tables are extrapolated from the rest."""
+    groups = [n for _, n in _groups(campaign) if len(n) >= MIN_NESTS]
+    if not groups:
+        return []
+    q_seen = campaign.q[[n[0] for n in groups]]
+    out = []
+    for name in machine.table_axes:
+        a = machine.axis(name)
+        lo, hi = campaign.q[:, a.index].min(), campaign.q[:, a.index].max()
+        edges = lo + (hi - lo) * np.arange(TRAVEL_BINS + 1) / TRAVEL_BINS
+        if hi - lo < 1e-9 * a.travel:
+            continue
+        b = np.clip(((q_seen[:, a.index] - lo) / (hi - lo) * TRAVEL_BINS).astype(int), 0, TRAVEL_BINS - 1)
+        blind = np.setdiff1d(np.arange(TRAVEL_BINS), b)
+        if not len(blind):
+            continue
+        where = ", ".join(f"{a.to_user(edges[k]):.1f}..{a.to_user(edges[k + 1]):.1f}" for k in blind)
+        out.append(f"{campaign.source}: the table's pose (three nests read at one command) is not measured over "
+                   f"{100 * len(blind) / TRAVEL_BINS:.0f} % of the commanded travel of {name} ({where} {a.unit}): the "
+                   f"model's {name} terms and its tables are carried there from the rest of the travel (interpolated or "
+                   "extrapolated); read the nests there "
+                   "(vecpin plan places nests, and a second tracker station, for the line of sight)")
     return out
 
 
@@ -417,4 +449,4 @@ def _moved_nests(campaign) -> list[str]:
 
 
 __all__ = ["TableTips", "table_tips", "tip_noise", "NetOfNoise", "net_of_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
-           "command_keys"]
+           "command_keys", "unseen_travel_notes"]

@@ -109,7 +109,7 @@ def candidate_nests(machine: Machine) -> np.ndarray:
             a = 2 * np.pi * (k + 0.5 * (r < 1)) / ANGLES
             for h in NEST_HEIGHTS:
                 out.append([r * reach * np.cos(a), r * reach * np.sin(a), h])
-    return np.array(out)
+    return np.round(out, 6) + 0.0  # whole micrometres (no -0 printed)
 
 
 def candidate_stations(machine: Machine, first: np.ndarray, tool: float) -> np.ndarray:
