@@ -246,13 +246,15 @@ class NetOfNoise:
     """The model's error relative to the table with the measurement noise taken out [mm]:
     ``rms`` its estimated root mean square and ``sd`` the standard uncertainty of that
     estimate; ``measured_rms`` the RMS of the judged residuals (model error and noise),
-    ``noise_rms`` the noise's expected RMS contribution after the registration; ``rows``."""
+    ``noise_rms`` the noise's expected RMS contribution after the registration; ``rows``;
+    ``ms_sd`` [mm^2] the standard uncertainty of the mean squared error it comes from."""
 
     rms: float
     sd: float
     measured_rms: float
     noise_rms: float
     rows: int
+    ms_sd: float = 0.0
 
     @property
     def resolved(self) -> bool:
@@ -296,7 +298,7 @@ def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine
     rms, sd_ms = np.sqrt(max(ms, 0.0)), np.sqrt(var)
     sd = min(sd_ms / (2 * rms), np.sqrt(sd_ms)) if rms > 0 else np.sqrt(sd_ms)  # the delta method, capped near zero
     return NetOfNoise(rms * MM_PER_M, float(sd) * MM_PER_M, float(np.sqrt(r2.mean())) * MM_PER_M,
-                      float(np.sqrt(noise_sq.mean())) * MM_PER_M, n)
+                      float(np.sqrt(noise_sq.mean())) * MM_PER_M, n, float(sd_ms) * MM_PER_M**2)
 
 
 def check_nest_rows(machine, campaign) -> None:
