@@ -124,7 +124,9 @@ def machine_rows(name: str, seed: int, n_validation: int = 35) -> tuple[list[str
     true_a = true_compensated_error(sim.truth, tables, c.q, c.tool)[0]
     tag = name if n_validation == 35 else f"{name}, {n_validation} validation commands"
     figures = {"exact": exact.residual.mean() / mod_t, "same": noisy.residual.mean() / same,
-               "net": (net.rms - rms_t) / net.sd, "net_sd": net.sd * 1e3, "verify": ver.after.measured.mean() / true_a}
+               "net": (net.rms - rms_t) / net.sd, "net_sd": net.sd * 1e3, "verify": ver.after.measured.mean() / true_a,
+               "rms": rms_t * 1e3, "noise": net.noise_rms * 1e3,
+               "for_10pct": n_validation * (net.ms_sd / (0.2 * rms_t**2)) ** 2}  # commands for an sd of 10 % of the RMS
     return [
         f"| {tag} | {model.label()} | {unc_t:.4f} | {exact.uncompensated.mean():.4f} | {mod_t * 1e3:.1f} | "
         f"{exact.residual.mean() * 1e3:.1f} | {exact.residual.mean() / mod_t:.3f} | {t_fit:.0f} |",
@@ -244,18 +246,22 @@ def summary(figs: list[dict], ratios: dict) -> list[str]:
     """What the figures meet, counted from them."""
     def n(cond):
         return f"{sum(map(cond, figs))} of {len(figs)}"
-    tab = [r for v in ratios.values() for r in v]
+
+    def lo_hi(key, fmt=".1f"):
+        v = [f[key] for f in figs]
+        return f"{min(v):{fmt}}-{max(v):{fmt}}"
     out = [f"- noise-free: evaluate's model figure within 10 % of the truth's in {n(lambda f: abs(f['exact'] - 1) < 0.1)} "
            "runs; verify's after within 10 % of the truth commanded through the tables in "
            f"{n(lambda f: abs(f['verify'] - 1) < 0.1)};",
            f"- noisy: evaluate's figure within 10 % of the truth evaluated the same way in "
            f"{n(lambda f: abs(f['same'] - 1) < 0.1)}; its model error net of the noise within two standard "
            f"uncertainties of the truth's noise-free RMS in {n(lambda f: abs(f['net']) < 2)} (uncertainty "
-           f"{min(f['net_sd'] for f in figs):.1f}-{max(f['net_sd'] for f in figs):.1f} um: 35 validation commands do "
-           "not resolve a 5-9 um model error under 25-37 um of noise; within 10 % would take some 10^4 commands);",
-           f"- tables on the plan's campaign: at most 1.15x the floor in {sum(r <= 1.15 for r in tab)} of {len(tab)} "
-           f"(default nests: max {max(ratios['default']):.2f}x; placed nests and stations: max "
-           f"{max(ratios['placed']):.2f}x)."]
+           f"{lo_hi('net_sd')} um: 35 validation commands do not resolve a {lo_hi('rms')} um model error (RMS) under "
+           f"{lo_hi('noise')} um of noise; an uncertainty of 10 % would take {lo_hi('for_10pct', '.0f')} commands);",
+           "- tables on the plan's campaign, at most 1.15x the floor: " + "; ".join(
+               f"{label} {sum(r <= 1.15 for r in v)} of {len(v)} (median {np.median(v):.2f}x, max {max(v):.2f}x)"
+               for label, v in (("default nests, one station:", ratios["default"]),
+                                ("placed nests and stations:", ratios["placed"]))) + "."]
     return out
 
 
