@@ -9,7 +9,7 @@ The main path, as the command line runs it::
     tables = vecpin.plan_tables(run.model).tables                             # a TableSet
     vecpin.make_tables(run.model, "tables", "siemens-840d", profile="profile.json")
 
-Names are imported when first used (PEP 562), so ``import vecpin`` and ``vecpin --help``
+Names are imported when first used (PEP 562), so ``import vecpin`` and the command line's help
 do not load Pinocchio and SciPy until a command needs them.
 """
 from __future__ import annotations

@@ -66,7 +66,7 @@ class Equations:
 class Instrument:
     """One kind of measurement row.
 
-    ``name``: the instrument's name (``--instrument`` choices); ``row_kind``: the
+    ``name``: the instrument's name (the instrument choices of the noise model); ``row_kind``: the
     campaign's ``instrument`` column value of its rows ("tracker", "ballbar");
     ``n_equations``: equations per row (1..3). Subclasses implement
     :meth:`unknowns` and :meth:`equations`."""

@@ -1,5 +1,5 @@
 """Laser tracker read in Cartesian coordinates with a static isotropic noise
-(``--tracker-sigma-mm``; the seed's Paper I treatment)."""
+(``tracker_sigma_mm``; the seed's Paper I treatment)."""
 from __future__ import annotations
 
 import numpy as np

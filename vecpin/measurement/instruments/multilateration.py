@@ -11,7 +11,7 @@ from vecpin.measurement.instruments.tracker import TrackerInstrument
 MIN_STATIONS = 4  # ranges alone fix a point and the tracker positions only from four or more positions
 
 
-def check_stations(campaign, option: str = "--multilateration") -> None:
+def check_stations(campaign, option: str = "`multilateration`") -> None:
     """Refuse a range-only fit of a campaign measured from fewer than :data:`MIN_STATIONS`
     tracker positions: with ranges alone the tracker positions are unknowns too, and
     self-calibrating multilateration needs at least four non-coplanar stations; from one
@@ -21,7 +21,7 @@ def check_stations(campaign, option: str = "--multilateration") -> None:
     if n < MIN_STATIONS:
         raise InputError(f"{option}: {campaign.source} was measured from {n} tracker station{'s' if n != 1 else ''}, "
                          f"but a fit to ranges alone needs at least {MIN_STATIONS} (the 'station' column); fit this "
-                         "campaign without --multilateration (spherical noise, or --cartesian)")
+                         "campaign without `multilateration` (spherical noise, or `cartesian`)")
 
 
 @register
