@@ -176,13 +176,13 @@ class Design:
         self.kind, self.machine = kind, machine
         c = campaign
         opts = {k: v for k, v in (opts or {}).items() if k in ("tool_lengths", "prior_scale")}
-        lik = Likelihood(make_model("ap", machine, 0), c, noise, setup=setup)
+        self.proto = make_model(kind, machine, 0, **opts)
+        lik = Likelihood(self.proto, c, noise, setup=setup)                  # at the nominal machine
         self.setup = lik.setup
         ev = lik.evaluate(np.zeros(lik.n_unknowns), operators=True)
         point = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
         judged = point if point.any() else ev.valid[:, 0]
         # every row's own point (tool tip, target, nest) through the one likelihood's requests
-        self.proto = make_model(kind, machine, 0, **opts)
         tool_dir, S = lik.sensitivity(self.proto)
         functions = [axis_functions(a, options[i], c.q[:, i]) for i, a in enumerate(machine.axes)]
         D, terms = self.proto.candidate_columns(S, c.tool, tool_dir, functions)   # d point / d psi (N,3,P)
