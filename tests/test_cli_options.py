@@ -12,7 +12,7 @@ def _commands():
 
 def test_a_backquoted_parameter_becomes_the_commands_flag():
     plan = flag_table(_commands()["plan"])
-    assert as_flags("`safe_z` 12: outside the travel", plan) == "--safe-z 12: outside the travel"
+    assert as_flags("`safe_z_mm` 12: outside the travel", plan) == "--safe-z 12: outside the travel"
     assert as_flags("`not_an_option` stays a word", plan) == "not_an_option stays a word"
     assert as_flags("no names here -- none", plan) == "no names here -- none"
 

@@ -132,7 +132,7 @@ def parse_orders(text: str) -> list[int]:
 def zone_option(text):
     """``--zone AXIS=LO:HI[,...]`` (mm/deg) as a zone, or None."""
     from vecpin.planning.zones import parse_zone
-    return parse_zone(text, "--zone") if text else None
+    return parse_zone(text, "zone") if text else None
 
 
 def say(args, *lines: str, file=None) -> None:

@@ -88,7 +88,7 @@ def run_evaluate(args) -> int:
     from vecpin.models import ErrorModel
     from vecpin.workflows.evaluation import evaluate
     if args.json:
-        check_output_file(args.json, "--json")
+        check_output_file(args.json, "json")
     model = ErrorModel.load(args.model)
     camp = read_campaign(args.csv, model.machine)
     camp.targets = dict(model.setup_.targets)  # the fitted offsets of the targets it saw

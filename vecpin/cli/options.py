@@ -14,7 +14,11 @@ import argparse
 import re
 
 #: library parameter name -> the parser's ``dest`` where they differ
-ALIASES: dict[str, str] = {}
+ALIASES: dict[str, str] = {
+    "out_dir": "out",            # a workflow's output folder (plan_to_dir, simulate_to_dir, ...): --out
+    "repeat_points": "repeat",   # --repeat POINTS TIMES sets both
+    "repeat_times": "repeat",
+}
 
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")
 

@@ -11,7 +11,7 @@ def run_assess(args) -> int:
     from vecpin.workflows.assessing import assess_campaign, assess_numbers
     if args.json:
         from vecpin.fileio import check_output_file
-        check_output_file(args.json, "--json")
+        check_output_file(args.json, "json")
     if args.csv:
         if not args.machine:
             raise InputError("assess CSV needs --machine (bundled name or URDF path)")

@@ -40,7 +40,7 @@ def run_view(args) -> int:
     from vecpin.viz.scene import legend_lines, serve, write_html
     if args.html:
         from vecpin.fileio import check_output_file
-        check_output_file(args.html, "--html")
+        check_output_file(args.html, "html")
     ex = parse_exaggeration(args.exaggerate)
     model = ErrorModel.load(args.model)
     c = read_campaign(args.csv, model.machine)
