@@ -28,3 +28,10 @@ def test_errors_and_warnings_print_flags(capsys, tmp_path):
     rc = main(["plan", "snk_120v", "--safe-z", "1e9", "--out", str(tmp_path / "p")])
     err = capsys.readouterr().err
     assert rc == 2 and err.startswith("vecpin: error: --safe-z 1e+09: ")
+
+
+def test_two_parameters_one_option_sets_are_written_as_that_option():
+    plan = flag_table(_commands()["plan"])
+    text = "`repeat_points` 5000, `repeat_times` 50: too many"
+    assert as_flags(text, plan) == "--repeat 5000 50: too many"
+    assert as_flags(text, {}) == "repeat_points 5000, repeat_times 50: too many"

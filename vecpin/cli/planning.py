@@ -2,7 +2,7 @@
 and the point-distribution figure."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress, say
+from vecpin.cli.common import add_machine_args, add_noise_args, machine, noise, progress, say
 from vecpin.errors import InputError
 
 #: --basis as the fit takes it (vecpin.planning.problem.BASES: how a plan builds each)
@@ -35,13 +35,6 @@ def parse_nest_options(texts: list[str]) -> dict[str, tuple[float, float, float]
     return out or None
 
 
-def plan_noise(args, m):
-    from vecpin.measurement.noise import noise_from_options
-    return noise_from_options(m, "cartesian" if args.cartesian else "spherical",
-                              repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
-                              tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
-
-
 def parse_tools(texts: list[str], option: str = "--tools") -> tuple[float, ...]:
     """``--tools`` as plan and simulate take it: lengths in mm separated by spaces or commas
     (``214.88 312.86`` or ``214.88,312.86``)."""
@@ -71,7 +64,7 @@ def run_plan(args) -> int:
     m = machine(args.machine, args)
     settings = PlanSettings(
         n_points=args.n_points, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
-        model=args.model, order=plan_order(args.order), basis=args.basis, noise=plan_noise(args, m),
+        model=args.model, order=plan_order(args.order), basis=args.basis, noise=noise(args, m),
         tracker_mm=parse_floats(args.tracker_mm, "--tracker", 3) if args.tracker_mm else None,
         exclude=[parse_zone(z, "exclude") for z in args.exclude],
         zone=parse_zone(args.zone, "zone") if args.zone else None, method=args.method, approach=args.approach,
@@ -102,7 +95,7 @@ def register(sub) -> None:
     _add_choice_args(s)
     _add_route_args(s)
     _add_program_args(s)
-    _add_plan_noise_args(s)
+    add_noise_args(s, multilateration=False, ballbar=False)  # a plan has no range-only or ball bar rows
     s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_plan)
@@ -208,20 +201,3 @@ def _add_program_args(s) -> None:
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
 
-
-def _add_plan_noise_args(s) -> None:
-    """The noise model the plan's prediction uses (the fit's options, without the ball bar
-    and multilateration, which a plan's rows do not have)."""
-    d = noise_defaults()
-    s.add_argument("--cartesian", action="store_true", help="tracker noise the same in every direction "
-                   "(--tracker-sigma-mm); default: the tracker's native spherical model, growing with the range "
-                   "(--tracker-noise)")
-    s.add_argument("--tracker-sigma-mm", type=float, help="1-sigma Cartesian tracker noise per coordinate, mm "
-                   f"(default {d['tracker_sigma_mm']}; with --cartesian)")
-    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise (the default): 1-sigma range noise = R_MM mm + R_PPM ppm of the "
-                        f"range, transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
-    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes (Σ_v), mm "
-                   f"(default {d['repeatability_mm']})")
-    s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes (Σ_v), deg "
-                   f"(default {d['repeatability_deg']})")

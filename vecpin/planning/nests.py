@@ -70,6 +70,16 @@ def table_radius(machine: Machine) -> float | None:
     return best
 
 
+def nest_reach(machine: Machine) -> float:
+    """The radius [m] of the default nests' circle about the workpiece origin (see the
+    module text)."""
+    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
+    rel = machine.tool_tip(q, 0.2, frame="workpiece")
+    reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
+    table = table_radius(machine)
+    return reach if table is None else min(reach, TABLE_SHARE * table)
+
+
 def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndarray]:
     """n default nests {id: (3,) [m], workpiece frame}, ids "1", "2", ... (see the
     module text); the angles and heights come from a seeded rng of their own."""
@@ -78,12 +88,7 @@ def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndar
     if n == 0:
         return {}
     rng = np.random.default_rng([seed, 14])
-    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
-    rel = machine.tool_tip(q, 0.2, frame="workpiece")
-    reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
-    table = table_radius(machine)
-    if table is not None:
-        reach = min(reach, TABLE_SHARE * table)
+    reach = nest_reach(machine)
     out = {}
     for k in range(n):
         a = 2 * np.pi * (k + rng.uniform(0.0, 0.5)) / n
@@ -117,4 +122,4 @@ def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "n
         raise InputError(f"`{option}`: {len(nests)} nests; at most {MAX_NESTS}")
 
 
-__all__ = ["nest_positions", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
+__all__ = ["nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]

@@ -37,6 +37,7 @@ from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.planchecks import plan_warnings
+from vecpin.planning.nestplacement import Placement
 from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem, planned_model
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import clip_to_zone, inside
@@ -115,6 +116,7 @@ class Plan:
     tracker_side: str = ""
     warnings: list[str] = field(default_factory=list)
     validation_template: PlanTemplate | None = None
+    placement: Placement | None = None
 
     @property
     def tools(self) -> np.ndarray:
@@ -220,7 +222,7 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
     plan = Plan(machine, s, template, chosen, c.q, c.removed, c.sight_by, problem.tracker, s.tracker_mm is not None,
                 problem.steps, score, info, cov, t_random, c.geometry, (problem.lo, problem.hi), vq, problem.nests,
                 without, bare, problem.tracker_side)
-    plan.validation_template = run
+    plan.validation_template, plan.placement = run, problem.placement
     plan.warnings = plan_warnings(plan)
     return plan
 

@@ -17,6 +17,7 @@ from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.planning import route
+from vecpin.planning.nestplacement import Placement, place_nests
 from vecpin.planning.nests import check_nests, nest_positions
 from vecpin.planning.planchecks import EXPECTED_ERROR_MM
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, default_tracker_placement,
@@ -82,6 +83,7 @@ class PlanSettings:
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
     expected_error_mm: float = EXPECTED_ERROR_MM
+    place_nests: bool = True  # default nests placed for the line of sight, a second station proposed (nestplacement)
 
     def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
         """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
@@ -115,7 +117,8 @@ class PlanSettings:
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: at least 1 command, each "
                              "measured at least 2 times")
         if self.repeat_points > self.n_points:
-            raise InputError(f"`repeat_points` {self.repeat_points}: the repeated points are taken from the "
+            raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
+                             "points are taken from the "
                              f"planned commands, at most `n_points` ({self.n_points})")
         if self.order < 0:
             raise InputError(f"`order` {self.order}: orders are >= 0")
@@ -170,6 +173,7 @@ class PlanProblem:
     lo: np.ndarray
     hi: np.ndarray
     speed: np.ndarray
+    placement: Placement | None = None
 
 
 def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
@@ -189,6 +193,12 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
         side = side_name(azimuth)
     else:
         tracker, side = np.asarray(s.tracker_mm, float) * M_PER_MM, ""
+    placement = None
+    if s.place_nests and s.sight and len(nests) >= 3 and not s.nest_mm:  # nests and stations that see the table
+        placement = place_nests(machine, tracker, len(nests), s.tools_mm[0] * M_PER_MM, seed=s.seed,
+                                geometry=s.geometry, tool_radius=s.tool_radius_mm * M_PER_MM,
+                                target_clearance=s.target_clearance_mm * M_PER_MM)
+        nests = placement.nests
     steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
     lo, hi = clip_to_zone(machine, s.zone)
     alo, ahi = route.approach_margin(machine, s.approach, steps)
@@ -198,7 +208,7 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
                          "`approach_mm`/`approach_deg`")
     return PlanProblem(machine, s, tracker, side, nests, np.array(s.tools_mm, float) * M_PER_MM,
                        s.noise or NoiseModel.default(machine, "spherical"), steps, lo, hi,
-                       route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min))
+                       route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), placement)
 
 
 def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:

@@ -73,7 +73,8 @@ class Design:
                 raise InputError(f"`repeat_points` {self.repeat_points:g}, `repeat_times` {self.repeat_times:g}: at least 1 "
                                  "command, each measured at least 2 times")
             if planned_rows is None and self.repeat_points > self.n_commands:
-                raise InputError(f"`repeat_points` {self.repeat_points:g}: the repeated points are taken "
+                raise InputError(f"`repeat_points` {self.repeat_points:g}, `repeat_times` {self.repeat_times:g}: the "
+                                 "repeated points are taken "
                                  f"from the campaign's commands, at most `n_commands` ({self.n_commands})")
         for zone in self.exclusion_zones:
             check_zone_axes(machine, zone, "exclusion_zones")

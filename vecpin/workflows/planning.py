@@ -140,7 +140,8 @@ class PlanRun:
                 "leave out",
                 f"    predicted error of the tool tip relative to the workpiece: mean {to_mm(a.model_mean):.4f} mm, "
                 f"max {to_mm(a.model_max):.4f} mm with the nests; mean {to_mm(b.model_mean):.4f} mm, max "
-                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"]
+                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"] + \
+            ([f"    {x}" for x in p.placement.lines(p.machine)] if p.placement else [])
 
     def to_dict(self) -> dict:
         p, s = self.plan, self.plan.settings
