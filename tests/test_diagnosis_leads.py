@@ -209,16 +209,16 @@ def test_backward_elimination_drops_what_the_others_explain(flow):
     proto = fixed_model(flow, "6dof", "chebyshev", 6)
     bx, by = parse_effect("backlash:axes=X", flow), parse_effect("backlash:axes=Y", flow)
     lin = Linearised(proto.with_effects([bx, by]).fit(c, noise), c, noise, feats)
-    ev = lin.evaluate(lin.A, lin.J, lin.psi0, fold)
+    ev = lin.folded(fold).evaluate()
     dropped, why = D._weakest([bx, by], lin, ev, fold)
     assert dropped is by and "spread over the folds" in why
     lo = D._without(lin, by)
     real = Linearised(proto.with_effects([bx]).fit(c, noise), c, noise, feats)
-    np.testing.assert_allclose(D.distances_mm(lo, lo.evaluate(lo.A, lo.J, lo.psi0, fold)["heldout"]),
-                               D.distances_mm(real, real.evaluate(real.A, real.J, real.psi0, fold)["heldout"]),
+    np.testing.assert_allclose(D.distances_mm(lo, lo.folded(fold).evaluate()["heldout"]),
+                               D.distances_mm(real, real.folded(fold).evaluate()["heldout"]),
                                atol=1e-4)
     lin_x = real
-    assert D._weakest([bx], lin_x, lin_x.evaluate(lin_x.A, lin_x.J, lin_x.psi0, fold), fold) is None
+    assert D._weakest([bx], lin_x, lin_x.folded(fold).evaluate(), fold) is None
 
 
 def test_an_instrument_shift_is_named_alone(flow):

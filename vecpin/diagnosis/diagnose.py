@@ -159,7 +159,7 @@ def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
     worst = None
     for e in accepted:
         lo = _without(lin, e)
-        gain = distances_mm(lo, lo.evaluate(lo.A, lo.J, lo.psi0, fold_r)["heldout"]) - with_all
+        gain = distances_mm(lo, lo.folded(fold_r).evaluate()["heldout"]) - with_all
         per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
         spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
         margin = float(per.mean()) - spread
@@ -186,7 +186,7 @@ def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: n
             camp = campaign.subset(rows) if out.size else campaign
             fitted = quick.with_effects([]).fit(camp, noise)
             lin = Linearised(fitted, camp, noise, feats.subset(rows))
-            new = _flag(machine, lin, fold[rows], lin.evaluate(lin.A, lin.J, lin.psi0, fold[rows]), len(campaign))[0]
+            new = _flag(machine, lin, fold[rows], lin.folded(fold[rows]).evaluate(), len(campaign))[0]
             if new.size == 0:
                 break
             out = np.sort(np.r_[out, rows[new]])
@@ -211,7 +211,7 @@ def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features
     try:
         with_them = proto.with_effects([]).fit(campaign, noise)
         lin_all = Linearised(with_them, campaign, noise, feats)
-        held_all = lin_all.evaluate(lin_all.A, lin_all.J, lin_all.psi0, fold)["heldout"]
+        held_all = lin_all.folded(fold).evaluate()["heldout"]
         keep = np.zeros(len(campaign), bool)
         keep[rows] = True
         judged = lin_all.point_rows if lin_all.point_rows.any() else np.ones(len(campaign), bool)
@@ -271,7 +271,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
 
     def linearise(model_, camp, feats_, fold_):
         lin_ = Linearised(model_, camp, noise, feats_)
-        return lin_, lin_.evaluate(lin_.A, lin_.J, lin_.psi0, fold_)
+        return lin_, lin_.folded(fold_).evaluate()
 
     # ---- base model; gross errors it still sees
     say(f"fitting the base model, {proto.label()}")
@@ -313,22 +313,19 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         say(f"round {rnd}: scoring {len(remaining)} candidates against "
             + ("the base model" if not accepted else "base + " + ", ".join(a.label for a in accepted)))
         kin = Kinematics(cur_model, cur_lin, feats)
-        base_cols = (cur_lin.A, cur_lin.J, cur_lin.psi0)
-        base_grams = cur_lin.grams(cur_lin.J, fold_r)
+        base_problem = cur_lin.folded(fold_r)
         round_scores, scan_best, judged = [], {}, []
         for c in remaining:
             c.prepare(camp, feats)
             cols = effect_columns(kin, cur_lin, c, feats)
             if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
-                G, g = cur_lin.extend_grams(base_grams, cur_lin.J, cols[1], fold_r)["all"]
-                g = g - np.r_[cur_lin.psi0, np.zeros(cols[1].shape[-1])]
-                chi2 = -float(g @ linalg.solve(G + np.eye(len(g)), g, assume_a="pos"))
+                chi2 = base_problem.extend(cols[1], cols[0]).chi2()
                 if type(c) not in scan_best or chi2 < scan_best[type(c)][0]:
                     scan_best[type(c)] = (chi2, c, cols)
                 continue
-            round_scores.append((c, score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), 1))
+            round_scores.append((c, score(cur_lin, base_problem, cols, cur_eval), 1))
         for kind, (_, c, cols) in scan_best.items():
-            round_scores.append((c, score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams),
+            round_scores.append((c, score(cur_lin, base_problem, cols, cur_eval),
                                  sum(type(x) is kind for x in remaining)))
         thr = alpha / max(sum(k for _, _, k in round_scores), 1)
         best = None

@@ -47,13 +47,12 @@ def prediction_statistic(w: np.ndarray, J: np.ndarray, M: np.ndarray, valid: np.
 
 def heldout_statistic(lin: Linearised, folds: np.ndarray, held_w: np.ndarray) -> np.ndarray:
     """:func:`prediction_statistic` of the held-out residuals of every fold."""
-    grams = lin.grams(lin.J, folds)
-    G = grams["all"][0]
-    eye = np.eye(G.shape[0])
+    prob = lin.folded(folds)
+    eye = np.eye(prob.n_columns)
     s = np.empty(len(held_w))
     for f in np.unique(folds):
         te = folds == f
-        M = linalg.inv(G - grams[f][0] + eye)
+        M = linalg.inv(prob.G_out[f] + eye)
         s[te] = prediction_statistic(held_w[te], lin.J[te], M, lin.valid[te])
     return s
 

@@ -17,10 +17,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import stats
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.crossval import FoldedProblem, Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.features import Features
 from vecpin.models import ErrorModel
@@ -116,19 +116,13 @@ def distances_mm(lin: Linearised, held: np.ndarray) -> np.ndarray:
     return np.linalg.norm(held[rows], axis=1) * MM_PER_M
 
 
-def score(lin: Linearised, base: tuple, cand_cols: tuple, folds: np.ndarray, base_eval: dict,
-          base_grams: dict) -> dict:
-    """The candidate's linearised CV and both tests (see the module docstring)."""
-    A0, J0, psi0 = base
+def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dict) -> dict:
+    """The candidate's linearised CV (``base`` extended by its columns) and both tests
+    (see the module docstring)."""
     A1, J1 = cand_cols
-    A = np.concatenate([A0, A1], axis=-1)
-    J = np.concatenate([J0, J1], axis=-1)
-    psi = np.r_[psi0, np.zeros(A1.shape[-1])]
-    grams = lin.extend_grams(base_grams, J0, J1, folds)
-    ev = lin.evaluate(A, J, psi, folds, grams)
-    G, g = grams["all"]
-    step = linalg.solve(G + np.eye(len(psi)), g - psi, assume_a="pos")
-    ev["pattern"] = J.reshape(-1, J.shape[-1]) @ step  # what the candidate changes in the fit (whitened)
+    ext = base.extend(J1, A1)
+    ev = ext.evaluate()
+    ev["pattern"] = ext.J.reshape(-1, ext.n_columns) @ ext.estimate()  # what the candidate changes in the fit (whitened)
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)

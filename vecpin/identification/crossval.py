@@ -1,22 +1,35 @@
-"""Cross-validation of the likelihood, linearised at a fitted model.
+"""Cross-validation of the likelihood, linearised: the one engine of the model choice,
+the order sweep and the diagnosis.
 
-Models are linear in their parameters to about 1e-4 around a fit, so k-fold
-cross-validation becomes a few small solves: fold f's estimate comes from the normal
-equations less that fold's rows. Candidate terms (an effect, a richer basis) only add
-columns, so their cross blocks extend the folds' normal equations (:meth:`extend_grams`)
-without refitting. Used by the model selection and by the diagnosis.
+Models are linear in their parameters to about 1e-4 around a fit (and around the
+nominal machine), so k-fold cross-validation becomes a few small solves: fold f's
+estimate comes from the normal equations less that fold's rows (:class:`FoldedProblem`).
+A candidate is a set of columns of that problem: a model's terms (the model choice
+scores subsets of the union of every candidate basis' columns, :meth:`FoldedProblem.heldout_blocks`
+eliminating the columns they share once per fold), an effect's terms (the diagnosis adds
+them with :meth:`FoldedProblem.extend`, which computes only the new cross blocks), or
+every term of a fitted model (:class:`Linearised`: the order sweep and the diagnosis).
 
 Folds are grouped by command: both tool lengths of one axis command always fall in the
 same fold (they share the axis position, so splitting them would leak).
+
+Conventions (every array SI, rows in campaign order): ``J`` (N,3,P) and ``A`` (N,3,P)
+are the derivatives of the whitened and of the metric *prediction* with respect to the
+unknowns ψ (prior-scaled: unit prior standard deviation about ``-x0``), so a
+solution ψ leaves the whitened residuals ``w - J ψ`` and the metric residuals
+``r - A ψ`` [m]; each column may carry a factor (a penalised spline's smoothing): the
+unknowns are then ψ_j = s_j x_j with the unit prior on x.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy import linalg
+from scipy.linalg import blas
 
 from vecpin.identification.likelihood import Likelihood
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.units import norm_mm
 
 
 def command_folds(campaign: Campaign, k: int, rng: np.random.Generator) -> np.ndarray:
@@ -26,6 +39,212 @@ def command_folds(campaign: Campaign, k: int, rng: np.random.Generator) -> np.nd
     group = np.asarray(group).ravel()
     perm = rng.permutation(group.max() + 1)
     return perm[group] % k
+
+
+def _gram(Jf: np.ndarray) -> np.ndarray:
+    """Jf^T Jf of a (rows, P) matrix, symmetric (one triangle computed)."""
+    U = blas.dsyrk(1.0, Jf.T, trans=0)
+    U += np.triu(U, 1).T
+    return U
+
+
+class FoldedProblem:
+    """The folded linearised problem: columns ``J``, ``A`` (N,3,P), residuals ``w``, ``r``
+    (N,3), ``fold`` (N,) the fold of each row (0..k-1), ``judged`` (N,) the rows whose
+    held-out distances are judged (default all), ``x0`` (P,) the prior offset (zero at
+    the nominal machine; the solution when linearised at a fit). Holds the normal
+    equations of all rows (``G``, ``g`` = J^T w) and of every fold left out (``G_out``
+    (k,P,P), ``g_out`` (k,P)); held-out figures of any subset of its columns are then
+    small solves (module docstring for the conventions)."""
+
+    def __init__(self, J: np.ndarray, A: np.ndarray, w: np.ndarray, r: np.ndarray, fold: np.ndarray,
+                 judged: np.ndarray | None = None, x0: np.ndarray | None = None, *, grams=None):
+        self.J, self.A, self.w, self.r = J, A, w, r
+        self.fold = np.asarray(fold, int)
+        self.k = int(self.fold.max()) + 1
+        P = J.shape[-1]
+        self.x0 = np.zeros(P) if x0 is None else np.asarray(x0, float)
+        self.judged = np.ones(len(w), bool) if judged is None else np.asarray(judged, bool)
+        if grams is None:
+            G_out, g_out = np.empty((self.k, P, P)), np.empty((self.k, P))   # first each fold's own
+            for f in range(self.k):
+                sel = self.fold == f
+                Jf = J[sel].reshape(-1, P)
+                G_out[f] = _gram(Jf)
+                g_out[f] = Jf.T @ w[sel].ravel()
+            G, g = G_out.sum(axis=0), g_out.sum(axis=0)
+            grams = (G, g, np.subtract(G, G_out, out=G_out), np.subtract(g, g_out, out=g_out))
+        self.G, self.g, self.G_out, self.g_out = grams                 # G_out (k, P, P): every fold left out
+        self._judged_layout()
+
+    def _judged_layout(self) -> None:
+        """The judged rows sorted by fold (a row is judged by its own fold's estimate only,
+        so each fold's equations are one contiguous slice); d metric / d ψ one contiguous
+        row per column: ``A_rows`` (P, 3 n_judged)."""
+        judged = np.flatnonzero(self.judged)
+        self.judged_order = np.argsort(self.fold[judged], kind="stable")
+        rows = judged[self.judged_order]
+        self.r_sorted = self.r[rows]
+        self.A_rows = np.ascontiguousarray(np.moveaxis(self.A[rows], -1, 0).reshape(self.A.shape[-1], -1))
+        ends = 3 * np.cumsum(np.bincount(self.fold[judged], minlength=self.k))
+        self.fold_slices = [slice(int(a), int(b)) for a, b in zip(np.r_[0, ends[:-1]], ends)]
+
+    @property
+    def n_columns(self) -> int:
+        return self.J.shape[-1]
+
+    def _all(self, cols, scale) -> tuple[np.ndarray, np.ndarray]:
+        cols = np.arange(self.n_columns) if cols is None else np.asarray(cols, int)
+        return cols, (np.ones(len(cols)) if scale is None else np.asarray(scale, float))
+
+    # ------------------------------------------------------------------ extension
+    def extend(self, J1: np.ndarray, A1: np.ndarray) -> "FoldedProblem":
+        """The problem with extra columns (an effect's terms, zero prior offset): only
+        their cross blocks with the present columns are computed, fold by fold."""
+        P, Q = self.n_columns, J1.shape[-1]
+        C_f, B_f, b_f = np.empty((self.k, P, Q)), np.empty((self.k, Q, Q)), np.empty((self.k, Q))
+        for f in range(self.k):
+            sel = self.fold == f
+            a, b = self.J[sel].reshape(-1, P), J1[sel].reshape(-1, Q)
+            C_f[f], B_f[f], b_f[f] = a.T @ b, b.T @ b, b.T @ self.w[sel].ravel()
+        C, B, b = C_f.sum(axis=0), B_f.sum(axis=0), b_f.sum(axis=0)
+        G_out = np.empty((self.k, P + Q, P + Q))
+        for f in range(self.k):
+            Cf = C - C_f[f]
+            G_out[f] = np.block([[self.G_out[f], Cf], [Cf.T, B - B_f[f]]])
+        grams = (np.block([[self.G, C], [C.T, B]]), np.r_[self.g, b], G_out,
+                 np.concatenate([self.g_out, b - b_f], axis=1))
+        return FoldedProblem(np.concatenate([self.J, J1], axis=-1), np.concatenate([self.A, A1], axis=-1),
+                             self.w, self.r, self.fold, self.judged, np.r_[self.x0, np.zeros(Q)], grams=grams)
+
+    # ------------------------------------------------------------------ full-data fit
+    def normal_matrix(self, cols=None, scale=None) -> np.ndarray:
+        """The whitened normal matrix J^T J of these columns (each times its factor), every row."""
+        cols, scale = self._all(cols, scale)
+        return self.G[np.ix_(cols, cols)] * np.outer(scale, scale)
+
+    def estimate(self, cols=None, scale=None) -> np.ndarray:
+        """The solution ψ (factors applied) of these columns from every row."""
+        cols, scale = self._all(cols, scale)
+        G = self.normal_matrix(cols, scale)
+        return scale * linalg.solve(G + np.eye(len(cols)), scale * self.g[cols] - self.x0[cols], assume_a="pos")
+
+    def chi2(self, cols=None, scale=None) -> float:
+        """The full-data objective at :meth:`estimate`: |w - J ψ|^2 + |x0 + x|^2 (whitened)."""
+        cols, scale = self._all(cols, scale)
+        psi = self.estimate(cols, scale)
+        res = self.w.ravel() - self.J[..., cols].reshape(-1, len(cols)) @ psi
+        x = self.x0[cols] + psi / scale
+        return float(res @ res + x @ x)
+
+    def effective_terms(self, cols=None, scale=None, skip: int = 0) -> float:
+        """trace((G + I)^-1 G) over these columns beyond the first ``skip``: what the
+        data determine beyond the prior."""
+        cols, scale = self._all(cols, scale)
+        G = self.normal_matrix(cols, scale)
+        L = linalg.cholesky(G + np.eye(len(cols)), lower=True, check_finite=False)
+        Linv = linalg.solve_triangular(L, np.eye(len(cols)), lower=True, check_finite=False)
+        diag = 1.0 - np.einsum("ij,ij->j", Linv, Linv)   # diag((G + I)^-1 G) = 1 - diag((G + I)^-1)
+        return float(diag[skip:].sum())
+
+    # ------------------------------------------------------------------ held out
+    def fold_estimates(self, cols=None, scale=None) -> np.ndarray:
+        """(k, len(cols)) ψ of every fold from the rows outside it (factors applied)."""
+        cols, scale = self._all(cols, scale)
+        return self._solve_blocks(cols, scale, [(np.zeros(0, int), np.zeros(0))])[0][0]
+
+    def residuals(self, cols=None, scale=None) -> tuple[np.ndarray, np.ndarray]:
+        """Held-out residuals of every row, each from its fold's estimate: (metric (N,3)
+        [m], whitened (N,3))."""
+        cols, scale = self._all(cols, scale)
+        psi = self.fold_estimates(cols, scale)
+        held, held_w = np.empty_like(self.r), np.empty_like(self.w)
+        for f in range(self.k):
+            te = self.fold == f
+            held[te] = self.r[te] - self.A[te][..., cols] @ psi[f]
+            held_w[te] = self.w[te] - self.J[te][..., cols] @ psi[f]
+        return held, held_w
+
+    def evaluate(self) -> dict:
+        """Every column: full-data ``chi2`` and effective terms ``p_eff``, held-out metric
+        and whitened residuals ``heldout``, ``heldout_w`` (N,3) of every row."""
+        held, held_w = self.residuals()
+        return {"chi2": self.chi2(), "p_eff": self.effective_terms(), "heldout": held, "heldout_w": held_w}
+
+    def heldout(self, cols=None, scale=None) -> np.ndarray:
+        """Held-out distances [mm] of the judged rows (campaign order) for these columns."""
+        cols, scale = self._all(cols, scale)
+        return self.heldout_blocks(cols, scale, [(np.zeros(0, int), np.zeros(0))])[0]
+
+    def heldout_sweep(self, cols: np.ndarray, scales: list[np.ndarray]) -> list[np.ndarray]:
+        """:meth:`heldout` of one set of columns under several sets of factors (a penalised
+        spline at several smoothings): the columns whose factor never changes shared."""
+        pen = np.any([s != scales[0] for s in scales], axis=0)
+        return self.heldout_blocks(cols[~pen], scales[0][~pen], [(cols[pen], s[pen]) for s in scales])
+
+    def heldout_blocks(self, F: np.ndarray, sF: np.ndarray,
+                       blocks: list[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+        """:meth:`heldout` of several candidates that share the columns ``F`` (factors
+        ``sF``) and differ in a block of columns each (``(columns, factors)``, e.g. one
+        axis' basis or smoothing), one array per block (:meth:`_solve_blocks`)."""
+        psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks)
+        nF = len(F)
+        # every block's change of the judged rows, fold by fold: the shared columns F for all
+        # blocks at once, then each group's own columns
+        change = np.empty((len(blocks), self.A_rows.shape[1]))
+        for f, sl in enumerate(self.fold_slices):
+            AU = self.A_rows[U, sl]
+            ch = np.stack([p[f, :nF] for p in psi]) @ self.A_rows[F, sl]
+            for key, ks in groups.items():
+                if key:
+                    ch[ks] += np.stack([psi[k][f, nF:] for k in ks]) @ AU[where[key]]
+            change[:, sl] = ch
+        out = []
+        for c in change:
+            d = np.empty(len(self.judged_order))
+            d[self.judged_order] = norm_mm(self.r_sorted - c.reshape(-1, 3))
+            out.append(d)
+        return out
+
+    def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]]):
+        """Every fold's estimate of several candidates [F, P_b]: F is eliminated once per
+        fold and each block solves only its Schur complement S_P (G_PP - G_PF N_FF^-1
+        G_FP) S_P + I, whose bracket blocks with the same columns share. Returns (ψ per
+        block (k, |F| + |P_b|), the union U of the blocks' columns, each group's place in
+        U, the groups {columns: block indices})."""
+        groups: dict = {}
+        for k, (P, _) in enumerate(blocks):
+            groups.setdefault(tuple(int(c) for c in P), []).append(k)
+        U = np.unique(np.concatenate([np.asarray(P, int) for P, _ in blocks] + [np.zeros(0, int)]))
+        at = {int(c): i for i, c in enumerate(U)}
+        where = {key: np.array([at[c] for c in key], int) for key in groups}
+        nF = len(F)
+        psi = [np.zeros((self.k, nF + len(P))) for P, _ in blocks]
+        x0F, x0U = self.x0[F], self.x0[U]
+        for f, (Gf, gf) in enumerate(zip(self.G_out, self.g_out)):
+            A = Gf[F[:, None], F] * np.outer(sF, sF)
+            A[np.arange(nF), np.arange(nF)] += 1.0                              # the unit prior
+            cho = linalg.cho_factor(A, check_finite=False)
+            y = linalg.cho_solve(cho, gf[F] * sF - x0F, check_finite=False)
+            GFU = Gf[F[:, None], U] * sF[:, None]
+            XU = linalg.cho_solve(cho, GFU, check_finite=False)
+            MU = Gf[U[:, None], U] - GFU.T @ XU                                 # the Schur bracket of U
+            rU = gf[U] - GFU.T @ y
+            for key, ks in groups.items():
+                if not key:
+                    for k in ks:
+                        psi[k][f, :nF] = sF * y
+                    continue
+                w = where[key]
+                X, M, r, x0P = XU[:, w], MU[w[:, None], w], rU[w], x0U[w]        # the block's share of U
+                for k in ks:
+                    sP = blocks[k][1]
+                    Sc = M * np.outer(sP, sP)
+                    Sc[np.arange(len(w)), np.arange(len(w))] += 1.0
+                    xP = linalg.cho_solve(linalg.cho_factor(Sc, check_finite=False), sP * r - x0P, check_finite=False)
+                    psi[k][f, :nF] = sF * (y - X @ (sP * xP))
+                    psi[k][f, nF:] = sP * xP
+        return psi, U, where, groups
 
 
 class Linearised:
@@ -54,6 +273,13 @@ class Linearised:
         self._ops = (ev.Gw, ev.Gm, ev.Gy, ev.Gmy)
         self.point_rows = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
 
+    def folded(self, fold: np.ndarray, judged: np.ndarray | None = None) -> FoldedProblem:
+        """The folded problem of every kept unknown at the solution: held-out figures of
+        the model as fitted (``judged``: default the point rows, else every row)."""
+        if judged is None:
+            judged = self.point_rows if self.point_rows.any() else None
+        return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.psi0)
+
     def point_columns(self, D: np.ndarray, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Extra ψ-scaled columns from machine-frame point displacements D (N,3,k) per
         unit of new parameters with prior sigmas ``prior``: (A (N,3,k), J (N,3,k))."""
@@ -66,46 +292,3 @@ class Linearised:
         _, _, Gy, Gmy = self._ops
         Dp = D * prior
         return -(Gmy @ Dp), -(Gy @ Dp)
-
-    def grams(self, J: np.ndarray, folds: np.ndarray) -> dict:
-        """Normal equations per fold: {fold: (J_f^T J_f, J_f^T w_f)} and the totals."""
-        out = {}
-        for f in np.unique(folds):
-            sel = folds == f
-            Jf = J[sel].reshape(-1, J.shape[-1])
-            out[f] = (Jf.T @ Jf, Jf.T @ self.w[sel].ravel())
-        out["all"] = (sum(v[0] for v in out.values()), sum(v[1] for v in out.values()))
-        return out
-
-    def extend_grams(self, base: dict, J0: np.ndarray, J1: np.ndarray, folds: np.ndarray) -> dict:
-        """Grams of [J0, J1] from those of J0 plus the cross blocks of the new columns."""
-        out = {}
-        for f in np.unique(folds):
-            sel = folds == f
-            a = J0[sel].reshape(-1, J0.shape[-1])
-            b = J1[sel].reshape(-1, J1.shape[-1])
-            G0, g0 = base[f]
-            C = a.T @ b
-            out[f] = (np.block([[G0, C], [C.T, b.T @ b]]), np.r_[g0, b.T @ self.w[sel].ravel()])
-        out["all"] = (sum(v[0] for v in out.values()), sum(v[1] for v in out.values()))
-        return out
-
-    def evaluate(self, A: np.ndarray, J: np.ndarray, psi0: np.ndarray, folds: np.ndarray,
-                 grams: dict | None = None) -> dict:
-        """Full-data chi2 and held-out residuals of the linear model with these columns."""
-        grams = grams or self.grams(J, folds)
-        G, g = grams["all"]
-        eye = np.eye(len(psi0))
-        step = linalg.solve(G + eye, g - psi0, assume_a="pos")
-        res_w = self.w.ravel() - J.reshape(-1, J.shape[-1]) @ step
-        chi2 = float(res_w @ res_w + (psi0 + step) @ (psi0 + step))
-        p_eff = float(np.trace(linalg.solve(G + eye, G, assume_a="pos")))
-        held = np.empty_like(self.r)
-        held_w = np.empty_like(self.w)
-        for f in np.unique(folds):
-            te = folds == f
-            Gf, gf = grams[f]
-            s = linalg.solve(G - Gf + eye, g - gf - psi0, assume_a="pos")
-            held[te] = self.r[te] - np.einsum("pik,k->pi", A[te], s)
-            held_w[te] = self.w[te] - np.einsum("pik,k->pi", J[te], s)
-        return {"chi2": chi2, "p_eff": p_eff, "heldout": held, "heldout_w": held_w}

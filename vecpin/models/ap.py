@@ -18,16 +18,17 @@ class APModel(ErrorModel):
     kind = "ap"
     display_name = "AP"
 
-    def _model_parameters(self) -> list[Parameter]:
+    def _series_parameters(self, mask: np.ndarray, labels: list[list[str]]) -> list[Parameter]:
+        """A constant per output axis, then per basis column m >= 1 every input axis i
+        having it into every output axis j (``i->j.label``), in the output's unit."""
         axes = self.machine.axes
         out = [Parameter(f"{a.name}.offset", "length" if a.kind == "linear" else "angle",
                          DEFAULT_PRIORS["length" if a.kind == "linear" else "angle"] * self.prior_scale, 0,
                          f"{a.name}.offset", "", "")
                for a in axes]
-        labels = [B.labels() for B in self.bases]
-        for m in range(1, self._K):
+        for m in range(1, len(mask)):
             for i, ai in enumerate(axes):
-                if not self._mask[m, i]:
+                if not mask[m, i]:
                     continue
                 for aj in axes:
                     q = "length" if aj.kind == "linear" else "angle"
@@ -61,10 +62,13 @@ class APModel(ErrorModel):
         wp = self.machine.workpiece_points(q, p_wp, True)
         return np.zeros((len(q), 3)), wp.J_q
 
-    def assemble(self, J: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray) -> np.ndarray:
-        """d tip / d b (N,3,P_base) from d tip / d q (N,3,n) and the basis values B (N,n,K)."""
+    def assemble(self, J: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray,
+                 mask: np.ndarray | None = None) -> np.ndarray:
+        """d tip / d b (N,3,P_base) from d tip / d q (N,3,n) and the basis values B (N,n,K)
+        (``mask``: :meth:`ErrorModel.assemble`)."""
         N = len(B)
-        J_a = np.einsum("pxj,pim->pxmij", J, B[:, :, 1:])[:, :, self._mask[1:], :].reshape(N, 3, -1)
+        mask = self._mask if mask is None else mask
+        J_a = np.einsum("pxj,pim->pxmij", J, B[:, :, 1:])[:, :, mask[1:], :].reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J, J_a], axis=-1)
 
     def _perturbed(self, q, b):

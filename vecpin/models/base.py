@@ -41,7 +41,7 @@ from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import registered_errors
 from vecpin.models import modelfile
-from vecpin.models.basis import AxisBasis, bases_text
+from vecpin.models.basis import AxisBasis, bases_text, union_basis
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 from vecpin.units import MM_PER_M
@@ -132,19 +132,32 @@ class ErrorModel:
         self.bases = list(bases)
         self._K = max(B.size for B in self.bases)
         self._mask = np.array([[j < B.size for B in self.bases] for j in range(self._K)])  # (K, n)
-        self.base_parameters: list[Parameter] = self._offset_parameters() + self._model_parameters()
+        labels = [B.labels() for B in self.bases]
+        self.base_parameters: list[Parameter] = self._offset_parameters() + self._series_parameters(self._mask, labels)
         self.effects = list(effects or [])
         self.parameters: list[Parameter] = self.base_parameters + [p for e in self.effects for p in e.parameters()]
 
-    # --------------------------------------------------------------- parameters
     def _offset_parameters(self) -> list[Parameter]:
-        p = [Parameter("T_offset", "length", DEFAULT_PRIORS["offset"] * self.prior_scale, -1, "offsets")]
-        for L in self.tool_lengths or []:
-            p.append(Parameter(f"tool[{L * MM_PER_M:.3f}mm]", "length", DEFAULT_PRIORS["offset"] * self.prior_scale, -1, "offsets"))
-        return p
+        prior = DEFAULT_PRIORS["offset"] * self.prior_scale
+        return [Parameter("T_offset", "length", prior, -1, "offsets")] + [
+            Parameter(f"tool[{L * MM_PER_M:.3f}mm]", "length", prior, -1, "offsets") for L in self.tool_lengths or []]
 
-    def _model_parameters(self) -> list[Parameter]:
+    def _series_parameters(self, mask: np.ndarray, labels: list[list[str]]) -> list[Parameter]:
+        """The terms after the offsets by priority (``assemble``'s order), axis i's column j if ``mask[j, i]``."""
         raise NotImplementedError
+
+    def candidate_columns(self, S: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray,
+                          functions: list[tuple[list[str], np.ndarray]]) -> tuple[np.ndarray, list[Parameter]]:
+        """For the model choice, every term a candidate basis of this kind can have: (d point / d psi
+        (N,3,P) [m per prior sigma], their :class:`Parameter`): ``assemble`` over the union of the axes'
+        candidate functions ``functions[i]`` = (names, values (N, F_i)), times this model's priors. A
+        candidate's own Jacobian at zero error, prior-scaled: the offsets, the terms of no function
+        (constants) and those whose ``axis`` and ``label`` name its functions."""
+        B, mask, labels = union_basis(functions, len(tool))
+        terms = self._offset_parameters() + self._series_parameters(mask, labels)
+        D = self.assemble(S, B, tool, tool_dir, mask)
+        D *= np.array([p.prior for p in terms])
+        return D, terms
 
     @property
     def n_parameters(self) -> int:
@@ -365,12 +378,6 @@ class ErrorModel:
         """The kind and bases in words, e.g. '6-DoF with Chebyshev order 6 on every axis' or
         'AP with Chebyshev order 4 on X, Y, Z and B; Fourier order 6 with a trend of order 2 on C'."""
         return bases_text(self.display_name, self.machine.axis_names, [B.readable() for B in self.bases])
-
-    def describe(self) -> dict:
-        return {"kind": self.kind, "order": self.order, "basis": self.basis_kind,
-                "axis_bases": [B.to_dict() for B in self.bases], "tool_lengths_mm":
-                None if self.tool_lengths is None else [t * MM_PER_M for t in self.tool_lengths],
-                "prior_scale": self.prior_scale}
 
     # --------------------------------------------------------------- estimator API
     @one_blas_thread

@@ -278,3 +278,21 @@ def bases_text(kind_name: str, axis_names: list[str], texts: list[str]) -> str:
         groups.setdefault(t, []).append(n)
     parts = [f"{t} on {', '.join(ns[:-1]) + ' and ' + ns[-1] if len(ns) > 1 else ns[0]}" for t, ns in groups.items()]
     return f"{kind_name} with " + "; ".join(parts)
+
+
+def union_basis(functions: list[tuple[list[str], np.ndarray]], n_rows: int) -> tuple[np.ndarray, np.ndarray, list]:
+    """Bases of several axes given as functions: (values B (N, n, K), mask (K, n) of the
+    columns each axis has, labels[i][j]) with column 0 the constant (label '0') and then
+    axis i's functions ``functions[i]`` = (names, values (N, F_i)) at the rows' positions."""
+    n = len(functions)
+    K = 1 + max((len(names) for names, _ in functions), default=0)
+    B = np.zeros((n_rows, n, K))
+    B[:, :, 0] = 1.0
+    mask = np.zeros((K, n), bool)
+    mask[0] = True
+    labels = []
+    for i, (names, F) in enumerate(functions):
+        B[:, i, 1:1 + len(names)] = F
+        mask[1:1 + len(names), i] = True
+        labels.append(["0", *names] + [""] * (K - 1 - len(names)))
+    return B, mask, labels

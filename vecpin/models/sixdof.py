@@ -42,14 +42,15 @@ class SixDofModel(ErrorModel):
         """(K, S) basis columns each slot has (its driving axis' basis)."""
         return self._mask[:, self.slot_axis]
 
-    def _model_parameters(self) -> list[Parameter]:
+    def _series_parameters(self, mask: np.ndarray, labels: list[list[str]]) -> list[Parameter]:
+        """Per basis column j, every slot whose driving axis has it, its six components
+        (``slot.component.label``)."""
         out = []
-        labels = [B.labels() for B in self.bases]
-        mask = self._slot_mask()
-        for j in range(self._K):
+        slot_mask = mask[:, self.slot_axis]
+        for j in range(len(mask)):
             for s, name in enumerate(self.frames.slot_names):
                 k = int(self.slot_axis[s])
-                if not mask[j, s]:
+                if not slot_mask[j, s]:
                     continue
                 a = self.machine.axes[k]
                 for c in COMPONENTS:
@@ -87,12 +88,15 @@ class SixDofModel(ErrorModel):
         out = self.frames.workpiece_points(q, z, z, p_wp, True)
         return np.zeros((len(q), 3)), np.concatenate([out.J_delta, out.J_eps], axis=-1)
 
-    def assemble(self, Jv: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray) -> np.ndarray:
+    def assemble(self, Jv: np.ndarray, B: np.ndarray, tool: np.ndarray, tool_dir: np.ndarray,
+                 mask: np.ndarray | None = None) -> np.ndarray:
         """d tip / d b (N,3,P_base) from the component sensitivities Jv (N,3,S,6) and the
-        basis values B (N,n,K) of the axes (each slot uses its driving axis' values)."""
+        basis values B (N,n,K) of the axes (each slot uses its driving axis' values;
+        ``mask``: :meth:`ErrorModel.assemble`)."""
         N = len(B)
         Bs = B[:, self.slot_axis, :]
-        J_coef = np.einsum("pisc,psk->piksc", Jv, Bs)[:, :, self._slot_mask(), :].reshape(N, 3, -1)
+        slot_mask = self._slot_mask() if mask is None else mask[:, self.slot_axis]
+        J_coef = np.einsum("pisc,psk->piksc", Jv, Bs)[:, :, slot_mask, :].reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J_coef], axis=-1)
 
     def _q_columns(self, J_q: np.ndarray, Jv: np.ndarray, q: np.ndarray, A: np.ndarray) -> np.ndarray:

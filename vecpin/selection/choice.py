@@ -49,7 +49,7 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.models.basis import AxisBasis, bases_text
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, FoldedDesign, axis_options,
+from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, Design, axis_options,
                                      per_turn_measured)
 from vecpin.threads import one_blas_thread
 
@@ -62,7 +62,7 @@ MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps th
 class Candidate:
     """One model: kind, a basis per axis, held-out distances [mm] per judged row;
     ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
-    penalised spline makes it smaller, :meth:`FoldedDesign.effective_terms`)."""
+    penalised spline makes it smaller, :meth:`Design.effective_terms`)."""
 
     kind: str
     axes: tuple[AxisChoice, ...]
@@ -165,22 +165,22 @@ class ModelChoice:
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
-class _Problem(FoldedDesign):
-    """:class:`~vecpin.selection.design.FoldedDesign` that scores candidates."""
+class _Problem(Design):
+    """:class:`~vecpin.selection.design.Design` that scores candidates on its folded problem."""
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols, scale = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.heldout(cols, scale))
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
 
     def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
         """Candidates that share most columns (one axis' basis or smoothing differs), at
-        about the cost of one (:meth:`FoldedDesign.heldout_blocks`)."""
+        about the cost of one (:meth:`FoldedProblem.heldout_blocks`)."""
         cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
         common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
         shared = set(common)
         blocks = [(np.array([j for j in d if j not in shared], int),
                    np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
-        held = self.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
+        held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
         return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
 
     def size(self, cand: Candidate) -> float:
@@ -204,6 +204,99 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
                          f"none: use {alternatives}")
 
 
+class _Search:
+    """The candidates scored so far (of every kind) and those left out: larger than the
+    campaign's equations (``limit``) can determine."""
+
+    def __init__(self):
+        self.cands: list[Candidate] = []
+        self.scored: dict = {}
+        self.left_out: set = set()
+        self.limit = math.inf
+
+    def supported(self, prob: _Problem, choice: tuple) -> bool:
+        if prob.unknowns(choice) < self.limit:
+            return True
+        self.left_out.add((prob.kind, choice))
+        return False
+
+    def add(self, c: Candidate) -> Candidate:
+        self.scored[(c.kind, c.axes)] = c
+        self.cands.append(c)
+        return c
+
+    def score(self, prob: _Problem, choice: tuple) -> Candidate | None:
+        key = (prob.kind, choice)
+        if key not in self.scored and self.supported(prob, choice):
+            self.add(prob.candidate(choice))
+        return self.scored.get(key)
+
+    def common(self, prob: _Problem, machine: Machine, plans, orders, options) -> None:
+        """Every plan (one family on every axis it applies to) at every order."""
+        for plan in plans:
+            for o in (orders if plan not in ("spline", "pspline") else [None]):
+                for plan_axes in _plans(machine, plan, o, options):
+                    self.score(prob, plan_axes)
+
+    def refine(self, prob: _Problem, options) -> Candidate | None:
+        """Around the kind's best, every basis and smoothing of one axis at a time (the
+        other axes eliminated once), axis after axis, while the held-out mean improves
+        (three passes at most): the best candidate reached."""
+        own = [c for c in self.cands if c.kind == prob.kind]
+        if not own:
+            return None
+        cur = min(own, key=lambda c: c.mean)
+        for _ in range(3):
+            improved = False
+            for i in range(len(options)):
+                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
+                          if (prob.kind, t) not in self.scored and (prob.kind, t) not in self.left_out
+                          and self.supported(prob, t)]
+                for c in (prob.candidates(trials) if len(trials) > 1 else []):
+                    self.add(c)
+                for opt in options[i]:
+                    c = self.score(prob, cur.axes[:i] + (opt,) + cur.axes[i + 1:])
+                    if c is not None and c.mean < cur.mean:
+                        cur, improved = c, True
+            if not improved:
+                break
+        return cur
+
+
+def _check_request(kinds, families, orders) -> list[int]:
+    """Refuse unknown kinds and families and orders below 0: the orders sorted."""
+    orders = sorted(set(int(o) for o in orders))
+    if not orders or orders[0] < 0:
+        raise InputError("orders are whole numbers >= 0")
+    for k in kinds:
+        if k not in KINDS:
+            raise InputError(f"unknown model '{k}' (choose {' or '.join(KINDS)})")
+    for f in families:
+        if f not in FAMILIES:
+            raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
+    return orders
+
+
+def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, families, plans, orders, per_axis: bool,
+                 fixed_order: bool):
+    """(plans, options per axis, axes measured over less than a turn): the families tried
+    on every axis at once and every basis of each axis (no more terms than the ``judged``
+    rows have positions there), series per turn only on axes the ``campaign`` measured
+    over a turn unless ``plans`` asks for them."""
+    spans = np.ptp(campaign.q, axis=0) if plans is None else [None] * machine.n_axes
+    short = tuple(a.name for a, sp in zip(machine.axes, spans) if a.multiturn and sp is not None
+                  and not per_turn_measured(sp) and {"fourier", "fourier_trend"} & set(families))
+    # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
+    plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
+                  if p in families)
+    if plans and all(p in ("fourier", "fourier_trend") for p in plans):
+        check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
+                    or "chebyshev")
+    options = [_supported(axis_options(a, orders, families, fixed_order, sp), judged.q[:, a.index])
+               for a, sp in zip(machine.axes, spans)]
+    return plans, options, short
+
+
 @one_blas_thread
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
@@ -223,90 +316,34 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
     check_campaign_frames(machine, campaign)
-    orders = sorted(set(int(o) for o in orders))
-    if not orders or orders[0] < 0:
-        raise InputError("orders are whole numbers >= 0")
-    for k in kinds:
-        if k not in KINDS:
-            raise InputError(f"unknown model '{k}' (choose {' or '.join(KINDS)})")
-    for f in families:
-        if f not in FAMILIES:
-            raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
-    # series per turn on an axis measured over less than a turn are not tried, unless asked for
-    spans = np.ptp(campaign.q, axis=0) if plans is None else [None] * machine.n_axes
-    short = tuple(a.name for a, sp in zip(machine.axes, spans) if a.multiturn and sp is not None
-                  and not per_turn_measured(sp) and {"fourier", "fourier_trend"} & set(families))
-    # penalised splines join axis by axis (all smoothings at the cost of one) rather than all at once
-    plans = tuple(p for p in (plans or [f for f in families if f != "pspline" or not per_axis] or families)
-                  if p in families)
-    if plans and all(p in ("fourier", "fourier_trend") for p in plans):
-        check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
-                    or "chebyshev")
+    orders = _check_request(kinds, families, orders)
     noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
+    plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
     fold = command_folds(camp, folds, np.random.default_rng(seed))
-    options = [_supported(axis_options(a, orders, families, fixed_order, sp), camp.q[:, a.index])
-               for a, sp in zip(machine.axes, spans)]
-    cands: list[Candidate] = []
-    scored: dict = {}
-    left_out: set = set()
-    limit = math.inf
-
-    def supported(prob, choice) -> bool:
-        if prob.unknowns(choice) < limit:
-            return True
-        left_out.add((prob.kind, choice))
-        return False
-
-    def score(prob, choice):
-        key = (prob.kind, choice)
-        if key not in scored and supported(prob, choice):
-            scored[key] = prob.candidate(choice)
-            cands.append(scored[key])
-        return scored.get(key)
-
-    problems = {}
+    search, problems = _Search(), {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, folds, opts)
+        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, opts)
         if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
-            limit = prob.n_equations * len(campaign) / len(camp)
-        for plan in plans:
-            for o in (orders if plan not in ("spline", "pspline") else [None]):
-                for plan_axes in _plans(machine, plan, o, options):
-                    score(prob, plan_axes)
-        say(f"{kind}: {sum(c.kind == kind for c in cands)} common-basis candidates scored")
-    if not cands:
-        raise _too_small(machine, campaign, problems, limit)
+            search.limit = prob.n_equations * len(campaign) / len(camp)
+        search.common(prob, machine, plans, orders, options)
+        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
+    if not search.cands:
+        raise _too_small(machine, campaign, problems, search.limit)
     for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
-        own = [c for c in cands if c.kind == prob.kind]
-        if not own:
-            continue
-        cur = min(own, key=lambda c: c.mean)
-        for _ in range(3):
-            improved = False
-            for i in range(machine.n_axes):
-                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
-                          if (prob.kind, t) not in scored and (prob.kind, t) not in left_out and supported(prob, t)]
-                for c in (prob.candidates(trials) if len(trials) > 1 else []):  # the other axes eliminated once
-                    scored[(prob.kind, c.axes)] = c
-                    cands.append(c)
-                for opt in options[i]:
-                    trial = cur.axes[:i] + (opt,) + cur.axes[i + 1:]
-                    c = score(prob, trial)
-                    if c is not None and c.mean < cur.mean:
-                        cur, improved = c, True
-            if not improved:
-                break
-        say(f"refined axis by axis: {cur.label()}")
+        cur = search.refine(prob, options)
+        if cur is not None:
+            say(f"refined axis by axis: {cur.label()}")
+    cands, first = search.cands, problems[kinds[0]]
     best = min(cands, key=lambda c: c.mean)
     chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
-    unc = problems[kinds[0]].uncompensated
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
-    return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(problems[kinds[0]].judged.sum()),
-                       (float(unc.mean()), float(unc.max())), time.perf_counter() - t0, problems[kinds[0]].n_fixed,
-                       int(round(limit)) if math.isfinite(limit) else problems[kinds[0]].n_equations, len(left_out),
-                       short)
+    limit = search.limit
+    return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
+                       (float(first.uncompensated.mean()), float(first.uncompensated.max())),
+                       time.perf_counter() - t0, first.n_fixed,
+                       int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short)
 
 
 def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:

@@ -1,0 +1,105 @@
+"""The one cross-validation engine (identification/crossval.FoldedProblem) against a
+second path: each fold's estimate as a plain regularised least-squares solve of the
+rows outside it (numpy lstsq on the stacked system with its prior rows), and the order
+sweep's linearised held-out distances against real refits with each fold left out."""
+import numpy as np
+import pytest
+
+from vecpin.identification.crossval import FoldedProblem, command_folds
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import make_model
+from vecpin.selection.orders import order_sweep
+from vecpin.simulation.simulate import Design, simulate
+from vecpin.units import norm_mm
+
+
+def _random_problem(seed=0, N=90, P=14, k=4):
+    rng = np.random.default_rng(seed)
+    J, A = rng.normal(size=(N, 3, P)), rng.normal(size=(N, 3, P)) * 1e-3
+    w, r = rng.normal(size=(N, 3)), rng.normal(size=(N, 3)) * 1e-3
+    fold = rng.integers(0, k, N)
+    x0 = rng.normal(size=P) * 0.3
+    return J, A, w, r, fold, x0
+
+
+def _lstsq_fold(J, w, fold, f, cols, scale, x0):
+    """ψ of fold f: min |w - J_S x|^2 + |x0 + x|^2 over the rows outside f (J_S the scaled
+    columns), solved as one stacked least-squares problem; ψ = scale x."""
+    out = fold != f
+    Js = (J[out][..., cols] * scale).reshape(-1, len(cols))
+    M = np.vstack([Js, np.eye(len(cols))])
+    rhs = np.r_[w[out].ravel(), -x0[cols]]
+    return scale * np.linalg.lstsq(M, rhs, rcond=None)[0]
+
+
+def test_held_out_residuals_equal_each_folds_own_least_squares():
+    J, A, w, r, fold, x0 = _random_problem()
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    cols = np.array([0, 2, 3, 5, 8, 9, 13])
+    scale = np.array([1.0, 0.5, 1.0, 0.2, 1.0, 0.9, 1.0])
+    held, held_w = prob.residuals(cols, scale)
+    for f in range(prob.k):
+        te = fold == f
+        psi = _lstsq_fold(J, w, fold, f, cols, scale, x0)
+        np.testing.assert_allclose(held[te], r[te] - A[te][..., cols] @ psi, rtol=1e-10, atol=1e-13)
+        np.testing.assert_allclose(held_w[te], w[te] - J[te][..., cols] @ psi, rtol=1e-10, atol=1e-12)
+    # the fast path of the judged distances [mm] is the same solve
+    np.testing.assert_allclose(prob.heldout(cols, scale), norm_mm(held), rtol=1e-10)
+
+
+def test_full_data_fit_equals_least_squares_and_its_hat_matrix():
+    J, A, w, r, fold, x0 = _random_problem(1)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    P = J.shape[-1]
+    Jf = J.reshape(-1, P)
+    M = np.vstack([Jf, np.eye(P)])
+    x = np.linalg.lstsq(M, np.r_[w.ravel(), -x0], rcond=None)[0]
+    np.testing.assert_allclose(prob.estimate(), x, rtol=1e-10, atol=1e-13)
+    res = np.r_[w.ravel() - Jf @ x, x0 + x]
+    assert prob.chi2() == pytest.approx(float(res @ res), rel=1e-12)
+    hat = Jf @ np.linalg.solve(Jf.T @ Jf + np.eye(P), Jf.T)   # trace of the hat matrix: effective terms
+    assert prob.effective_terms() == pytest.approx(float(np.trace(hat)), rel=1e-10)
+
+
+def test_candidates_sharing_columns_equal_their_own_solves_about_a_fit():
+    """Schur blocks with a prior offset (linearised at a fit): every block's held-out
+    distances equal the candidate's own solve."""
+    J, A, w, r, fold, x0 = _random_problem(2)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    F, sF = np.array([0, 1, 4, 6]), np.array([1.0, 0.7, 1.0, 1.0])
+    blocks = [(np.array([2, 3]), np.array([1.0, 1.0])), (np.array([2, 3]), np.array([0.3, 0.1])),
+              (np.array([7, 9, 11]), np.array([1.0, 0.5, 1.0])), (np.zeros(0, int), np.zeros(0))]
+    for (P, sP), d in zip(blocks, prob.heldout_blocks(F, sF, blocks)):
+        np.testing.assert_allclose(d, prob.heldout(np.r_[F, P], np.r_[sF, sP]), rtol=1e-9)
+
+
+def test_extending_equals_the_problem_built_whole():
+    """Candidate columns added with extend (cross blocks only) give the figures of the
+    problem built with every column at once (the new terms' prior offset zero)."""
+    J, A, w, r, fold, x0 = _random_problem(3, P=16)
+    base = FoldedProblem(J[..., :11], A[..., :11], w, r, fold, x0=x0[:11])
+    ext = base.extend(J[..., 11:], A[..., 11:])
+    whole = FoldedProblem(J, A, w, r, fold, x0=np.r_[x0[:11], np.zeros(5)])
+    np.testing.assert_allclose(ext.G_out, whole.G_out, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(ext.g_out, whole.g_out, rtol=1e-12, atol=1e-10)
+    a, b = ext.evaluate(), whole.evaluate()
+    assert a["chi2"] == pytest.approx(b["chi2"], rel=1e-12) and a["p_eff"] == pytest.approx(b["p_eff"], rel=1e-12)
+    np.testing.assert_allclose(a["heldout"], b["heldout"], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("kind", ["6dof", "ap"])
+def test_the_order_sweep_agrees_with_refitting_each_fold(flow, kind):
+    """The order sweep's held-out distances (the fit linearised at each order) against
+    real nonlinear fits with the fold left out, judged on the fold's rows."""
+    sim = simulate(flow, seed=4, design=Design(n_commands=80, n_validation=2))
+    c, noise = sim.campaign, NoiseModel.default(flow, "spherical")
+    sweep = order_sweep(flow, c, kind, (1, 3), folds=3, noise=noise)
+    fold = command_folds(c, 3, np.random.default_rng(0))
+    for row in sweep.rows:
+        held = np.empty(len(c))
+        for f in range(3):
+            te = np.flatnonzero(fold == f)
+            mf = make_model(kind, flow, row.order, basis="auto").fit(c.subset(np.flatnonzero(fold != f)), noise)
+            held[te] = norm_mm(mf.residuals(c.subset(te)))
+        assert row.heldout_mean == pytest.approx(held.mean(), rel=0.01)
+        assert row.heldout_max == pytest.approx(held.max(), rel=0.05)
