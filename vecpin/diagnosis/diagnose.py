@@ -46,8 +46,8 @@ from scipy import linalg
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, pattern_cosine,
-                                      score)
+from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, needed_given,
+                                      pattern_cosine, score)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -55,6 +55,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
+from vecpin.planning.discriminate import discriminating_plan
 from vecpin.selection.choice import choose_or_fix, fixed_model
 from vecpin.units import MM_PER_M
 from vecpin.threads import one_blas_thread
@@ -95,7 +96,8 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     return text, gone
 
 
-AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding
+AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
+DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
 OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
 FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
 
@@ -235,6 +237,35 @@ def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features
     return sc
 
 
+def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
+                       cur_eval: dict, base_fit, camp: Campaign, say: Callable[[str], None]) -> None:
+    """What to measure next (:mod:`vecpin.planning.discriminate`): for every accepted
+    effect of an ambiguity group, the commands that tell its members apart (each member
+    fitted with the other accepted effects); for every effect dropped by the backward
+    elimination, those that tell the final model from the model with it. Stored on the
+    score as ``next_plan``; a rival model that cannot be fitted is left out with a note.
+    A reading scatters about the right model as the final model's held-out rows do (their
+    whitened chi2 per equation, at least the noise's)."""
+    scatter = float(np.sum(cur_eval["heldout_w"][cur_lin.valid] ** 2) / max(cur_lin.valid.sum(), 1))
+    for sc in scores:
+        if sc.effect is None or not ((sc.accepted and sc.alternatives) or sc.dropped):
+            continue
+        others = [a for a in accepted if a is not sc.effect]
+        if sc.accepted:
+            rivals = {sc.label: cur_model} | {e.label: others + [e] for e in sc.alternative_effects}
+        else:
+            rivals = {f"without {sc.label}": cur_model, f"with {sc.label}": accepted + [sc.effect]}
+        models = {}
+        for label, m in rivals.items():
+            try:
+                models[label] = m if not isinstance(m, list) else base_fit(camp, m)
+            except VecpinError as err:
+                say(f"{label}: cannot be fitted for a discriminating plan ({err}); left out of it")
+        if len(models) >= 2:
+            sc.next_plan = discriminating_plan(models, camp, scatter=scatter)
+            say(f"what to measure next for {sc.label}: {len(sc.next_plan.tool)} points")
+
+
 @one_blas_thread
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
@@ -326,13 +357,13 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
                 if type(c) not in scan_best or chi2 < scan_best[type(c)][0]:
                     scan_best[type(c)] = (chi2, c, cols)
                 continue
-            round_scores.append((c, score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), 1))
+            round_scores.append((c, score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams), 1, cols))
         for kind, (_, c, cols) in scan_best.items():
             round_scores.append((c, score(cur_lin, base_cols, cols, fold_r, cur_eval, base_grams),
-                                 sum(type(x) is kind for x in remaining)))
-        thr = alpha / max(sum(k for _, _, k in round_scores), 1)
+                                 sum(type(x) is kind for x in remaining), cols))
+        thr = alpha / max(sum(k for _, _, k, _ in round_scores), 1)
         best = None
-        for c, ev, _ in round_scores:
+        for c, ev, _, cols in round_scores:
             b_, a_ = ev["before"], ev["after"]
             sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                              float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
@@ -342,21 +373,28 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
             # the most economical explanation wins; on a tie (columns the data cannot tell
             # apart) the first candidate, the one nearer the base of the chain
             if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
-                best = (sc, ev)
-            judged.append((sc, ev))
+                best = (sc, ev, cols)
+            judged.append((sc, ev, cols))
             if rnd == 1:
                 scores.append(sc)
         if best is None:
             break  # the first round without a significant gain ends the search
-        sc, ev = best
+        sc, ev, cols_best = best
         sc.accepted = True
         if rnd > 1:
             scores.append(sc)
         accepted.append(sc.effect)
-        # one cause per gap: significant candidates whose predicted change to the fit is
-        # nearly the best one's are the same finding, named once with the best's shrink
-        sc.alternatives = [o.label for o, e in judged if o is not sc and o.significant
-                           and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
+        # one cause per gap: a significant candidate whose predicted change to the fit is
+        # nearly the best one's, whose evidence (BIC) is not decisively below the best's,
+        # and given which the best one brings no significant gain (it can stand in for the
+        # best; both tests at ``alpha`` shared among the nearly collinear candidates), is the
+        # same finding, named once with the best's shrink
+        near = [(o, e, cols) for o, e, cols in judged if o is not sc and o.significant
+                and sc.bic_gain - o.bic_gain < DECISIVE_BIC
+                and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
+        group = [o for o, e, cols in near if not needed_given(cur_lin, base_cols, base_grams, fold_r, cols_best, cols,
+                                                                 e, alpha / len(near))]
+        sc.alternatives, sc.alternative_effects = [o.label for o in group], [o.effect for o in group]
         named.update([sc.label] + sc.alternatives)
         say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
         try:
@@ -411,12 +449,13 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
         cur_model = base_fit(camp, list(accepted))
         cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
         gone = next(x for x in scores if x.effect is e and x.accepted)
-        gone.accepted = False
+        gone.accepted, gone.dropped = False, True
         gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
         say(f"dropped {e.label}: {text}")
         cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
                            Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
 
+    _next_measurements(scores, accepted, cur_model, cur_lin, cur_eval, base_fit, camp, say)
     if outliers.size:
         scores.append(_outlier_score(proto, campaign, noise, all_feats, fold, outliers, blin, bev, alpha))
     # rows beyond the noise of the final model that are not gross errors: regions it does not fit

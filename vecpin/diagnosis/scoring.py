@@ -147,3 +147,17 @@ def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:
     the campaign cannot tell one from the other."""
     na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
     return abs(float(a @ b)) / (na * nb) if na > 0 and nb > 0 else 0.0
+
+
+def needed_given(lin: Linearised, base: tuple, base_grams: dict, folds: np.ndarray, cols_a: tuple, cols_b: tuple,
+                 eval_b: dict, threshold: float) -> bool:
+    """True when candidate a still brings a gain, given candidate b in the model, that
+    both tests of :func:`score` find at ``threshold``: the campaign shows that b cannot
+    stand in for a. ``base``/``base_grams``: the current model's columns and Grams;
+    ``cols_a``, ``cols_b``: the candidates' columns; ``eval_b``: b's own score (the model
+    with b, a's "before")."""
+    A0, J0, psi0 = base
+    Ab, Jb = cols_b
+    with_b = (np.concatenate([A0, Ab], axis=-1), np.concatenate([J0, Jb], axis=-1), np.r_[psi0, np.zeros(Ab.shape[-1])])
+    ev = score(lin, with_b, cols_a, folds, eval_b, lin.extend_grams(base_grams, J0, Jb, folds))
+    return bool(ev["p"] < threshold and ev["p_heldout"] < threshold)
