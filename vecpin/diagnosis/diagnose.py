@@ -278,14 +278,14 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     if not (0 < alpha < 1) or not math.isfinite(alpha):
-        raise InputError(f"--alpha {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
+        raise InputError(f"`alpha` {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
     if int(folds) != folds or folds < 2:
-        raise InputError(f"--folds {folds}: cross-validation needs at least 2 folds")
+        raise InputError(f"`folds` {folds}: cross-validation needs at least 2 folds")
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) if effects in ("all", None) else list(effects)
     for n in names:
         if n not in REGISTRY:
-            raise InputError(f"--effects: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
+            raise InputError(f"`effects`: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
     flaggers = [n for n in names if REGISTRY[n].flags_rows]
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
     all_feats = Features.from_campaign(campaign)  # times and approach directions come from the whole file
