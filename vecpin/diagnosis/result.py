@@ -140,9 +140,10 @@ class Diagnosis:
             s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
                    + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
-        todo += [f"To tell {' from '.join(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
+        todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
                  f"next_{k}/ right after the campaign and diagnose again with them appended."
                  for k, e in enumerate(self.to_settle(), 1)]
+        todo = [t if t.endswith(".") else t + "." for t in todo]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           "(vecpin tables model_base.json).")
         if self.unexplained:
@@ -196,6 +197,11 @@ class Diagnosis:
                 paths.update(_write_next(self.machine, e.next_plan, out, f"next_{k}"))
             paths["report"] = write_report(self, out)
         return paths
+
+
+def _apart(labels: list[str]) -> str:
+    """'A and B', 'A, B and C'."""
+    return labels[0] if len(labels) == 1 else f"{', '.join(labels[:-1])} and {labels[-1]}"
 
 
 def _write_next(machine: Machine, plan, out: OutputSet, folder: str) -> dict[str, Path]:

@@ -95,7 +95,7 @@ class Discrimination:
     def program(self, machine: Machine, dialect: str, **kw) -> str:
         """The NC program visiting the points (:func:`vecpin.planning.ncprogram.write_program`)."""
         return write_program(dialect, machine, self.template(), np.zeros(machine.n_axes),
-                             title=f"to tell {' from '.join(self.labels)} apart", **kw)
+                             title=f"to tell {', '.join(self.labels[:-1])} and {self.labels[-1]} apart", **kw)
 
     def outcome(self) -> str:
         """The expected outcome under each candidate, in words."""
