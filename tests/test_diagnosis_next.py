@@ -73,12 +73,12 @@ def test_a_scanned_candidate_gain_is_the_full_solve(rng):
     """The round's Schur-complement gain of a scanned candidate's columns equals the full
     normal-equation solve over [J0, J1] less that over J0 (closed form, numpy)."""
     from types import SimpleNamespace
-    from vecpin.diagnosis.diagnose import _ScanGain
+    from vecpin.diagnosis.scoring import ScanGain
     N, P0, k = 120, 9, 3
     J0, J1, w, psi0 = rng.normal(size=(N, 3, P0)), rng.normal(size=(N, 3, k)), rng.normal(size=(N, 3)), rng.normal(size=P0)
     a, b = J0.reshape(-1, P0), J1.reshape(-1, k)
     lin = SimpleNamespace(J=J0, w=w, psi0=psi0)
-    gain = _ScanGain(lin, {"all": (a.T @ a, a.T @ w.ravel())}).gain(J1)
+    gain = ScanGain(lin, {"all": (a.T @ a, a.T @ w.ravel())}).gain(J1)
     ab = np.c_[a, b]
     g_full = np.r_[a.T @ w.ravel() - psi0, b.T @ w.ravel()]
     g0 = a.T @ w.ravel() - psi0

@@ -42,13 +42,13 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy import linalg
 
+from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, needed_given,
-                                      pattern_cosine, score)
+from vecpin.diagnosis.scoring import (Kinematics, ScanGain, candidate_effects, distances_mm, effect_columns,
+                                      needed_given, pattern_cosine, score)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -57,8 +57,7 @@ from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
 from vecpin.planning.discriminate import discriminating_plan
-from vecpin.selection.choice import choose_or_fix, fixed_model
-from vecpin.units import MM_PER_M
+from vecpin.selection.choice import choose_or_fix
 from vecpin.threads import one_blas_thread
 
 SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
@@ -100,45 +99,6 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
 AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
 SETTLES_CHI2 = 9.0  # a discriminating plan is offered when it separates the candidates by 3 sigma at least
 DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
-OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
-FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
-
-
-def _flag(machine: Machine, lin: Linearised, folds: np.ndarray, ev: dict, n_rows: int):
-    """(gross errors, misfit rows, regions) of the held-out residuals ``ev`` of ``lin``
-    (:mod:`.grosserrors`), the false-alarm rate spread over ``n_rows`` rows."""
-    s = gross_.heldout_statistic(lin, folds, ev["heldout_w"])
-    return gross_.judge(machine, lin.campaign, s, ev["heldout_w"], lin.valid, n_rows, OUTLIER_P)
-
-
-def _still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarray, campaign: Campaign,
-                 outliers: np.ndarray, noise: NoiseModel, feats: Features, rows: np.ndarray) -> tuple[np.ndarray, list[dict]]:
-    """(gross, regions they crowd): the flagged rows the final model does not explain either: their residuals through
-    the one likelihood (each row in its own frame, with its own equations), as
-    predictions of a model that did not see them (noise plus the model's uncertainty
-    there), against the noise level of the rows it was fitted to (``rows``), and that do
-    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
-    level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
-    try:
-        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
-        Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
-        if lo.J.shape[-1] != Jall.shape[-1]:
-            raise InputError("the flagged rows' columns differ from the fit's")
-        M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
-        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
-    except VecpinError:
-        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
-        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
-    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
-    # flagged rows crowded into one stretch of an axis (over all the passes, with the
-    # fitted rows beyond the noise now) are misfit
-    gross_now, misfit_now, _ = _flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
-    beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
-    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
-    crowded = {r for g in regions for r in g["rows"]}
-    return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
-
-
 def _without(lin: Linearised, effect: Effect) -> Linearised:
     """The linearised model at the same solution with ``effect``'s parameters set to zero
     and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
@@ -172,71 +132,6 @@ def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
                     f"folds ({spread:.4f} mm)")
             worst = (margin, e, text)
     return None if worst is None else worst[1:]
-
-
-def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
-                say: Callable[[str], None]) -> np.ndarray:
-    """Rows with gross errors, flagged before the base model is chosen: a quick AP
-    order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
-    held-out whitened residuals judged against their median level (:func:`_flag`),
-    refitted without the flagged rows up to three times. Flags nothing when that model
-    cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
-    it misfits, and the chosen base model judges)."""
-    rows = np.arange(len(campaign))
-    out = np.array([], int)
-    quick = fixed_model(machine, "ap", "fourier" if any(a.multiturn for a in machine.axes) else "chebyshev", 4)
-    try:
-        for _ in range(3):
-            camp = campaign.subset(rows) if out.size else campaign
-            fitted = quick.with_effects([]).fit(camp, noise)
-            lin = Linearised(fitted, camp, noise, feats.subset(rows))
-            new = _flag(machine, lin, fold[rows], lin.evaluate(lin.A, lin.J, lin.psi0, fold[rows]), len(campaign))[0]
-            if new.size == 0:
-                break
-            out = np.sort(np.r_[out, rows[new]])
-            if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
-                say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
-                    "the chosen base model judges them")
-                return np.array([], int)
-            rows = np.setdiff1d(np.arange(len(campaign)), out)
-    except VecpinError:
-        return np.array([], int)  # too few rows for the quick model: the chosen base model judges
-    if out.size:
-        say(f"first pass: {out.size} rows flagged as gross errors before the base model is chosen")
-    return out
-
-
-def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
-                   outliers: np.ndarray, lin: Linearised, ev: dict, alpha: float) -> EffectScore:
-    """The outliers' entry: the held-out residuals of the other rows under the base model
-    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``)."""
-    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
-    after = distances_mm(lin, ev["heldout"])
-    try:
-        with_them = proto.with_effects([]).fit(campaign, noise)
-        lin_all = Linearised(with_them, campaign, noise, feats)
-        held_all = lin_all.evaluate(lin_all.A, lin_all.J, lin_all.psi0, fold)["heldout"]
-        keep = np.zeros(len(campaign), bool)
-        keep[rows] = True
-        judged = lin_all.point_rows if lin_all.point_rows.any() else np.ones(len(campaign), bool)
-        before = np.linalg.norm(held_all[keep & judged], axis=1) * MM_PER_M
-    except VecpinError:
-        before = after
-    lines = campaign.lines[outliers]
-    shown = ", ".join(map(str, lines[:20])) + (" ..." if lines.size > 20 else "")
-    sc = EffectScore("outliers", "outliers", [], int(3 * outliers.size), 0.0,
-                     float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
-                     float(after.max()), True, 0, accepted=True)
-    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
-                   f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
-                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
-                   "robust (median) noise level), no repeated reading agrees with them, they crowd no region, and "
-                   "they stay beyond it under the final model; the base model fitted with them predicts the "
-                   f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
-                   f"{sc.heldout_mean_mm_after:.4f} mm")
-    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
-                 "log for a broken beam; they are left out of the fit"]
-    return sc
 
 
 def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
@@ -371,7 +266,7 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
     pb = _Problem(machine, campaign, noise, fold, Features.from_campaign(campaign),  # times, directions: the whole file
                   names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
-    outliers = _first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
+    outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
     camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
     pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
     return pb, outliers
@@ -389,7 +284,7 @@ def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
     st.base_model = pb.fit(st.camp, [])
     st.blin, st.bev = st.linearise(pb, st.base_model)
     for _ in range(3 if pb.flaggers else 0):
-        new = _flag(pb.machine, st.blin, st.fold_r, st.bev, len(pb.campaign))[0]
+        new = fl.flag(pb.machine, st.blin, st.fold_r, st.bev, len(pb.campaign))[0]
         if new.size == 0:
             break
         st.keep_rows(pb, np.sort(np.r_[st.outliers, st.rows[new]]))
@@ -405,30 +300,6 @@ def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
     return st
 
 
-class _ScanGain:
-    """The full-data chi2 gain of adding columns J1 to the current linearised model, by
-    the Schur complement of its normal matrix (one factorisation per round, then a k x k
-    solve per candidate): g^T (G + I)^-1 g over [J0, J1] less its value over J0 alone is
-    u^T S^-1 u, u = g1 - C^T M g0, S = J1^T J1 + I - C^T M C, C = J0^T J1, M = (G0 + I)^-1
-    (g0 = J0^T w - psi0, g1 = J1^T w). Ranks the candidates of a scanned family as the
-    full solve does."""
-
-    def __init__(self, lin: Linearised, base_grams: dict):
-        G0, g0 = base_grams["all"]
-        self.J0 = lin.J.reshape(-1, lin.J.shape[-1])
-        self.w = lin.w.ravel()
-        self.M = linalg.inv(G0 + np.eye(len(g0)))
-        self.Mg0 = self.M @ (g0 - lin.psi0)
-
-    def gain(self, J1: np.ndarray) -> float:
-        b = J1.reshape(-1, J1.shape[-1])
-        C = self.J0.T @ b
-        MC = self.M @ C
-        S = b.T @ b + np.eye(b.shape[1]) - C.T @ MC
-        u = b.T @ self.w - C.T @ self.Mg0
-        return float(u @ linalg.solve(S, u, assume_a="pos"))
-
-
 def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) -> tuple[list, tuple | None, float]:
     """Every remaining candidate scored against the current model (:func:`score`; a
     scanned family by full-data chi2 first, its best cross-validated): ([(score, its
@@ -438,7 +309,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
     base_cols = (lin.A, lin.J, lin.psi0)
     base_grams = lin.grams(lin.J, fold_r)
     round_scores, scan_best = [], {}
-    scan = _ScanGain(lin, base_grams) if any(c.scanned for c in remaining) else None
+    scan = ScanGain(lin, base_grams) if any(c.scanned for c in remaining) else None
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
@@ -530,7 +401,7 @@ def _recheck_outliers(pb: _Problem, st: _State) -> None:
     crowd one region (misfit), are put back and every model refitted on the rows kept."""
     if not st.outliers.size:
         return
-    still, st.put_back = _still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
+    still, st.put_back = fl.still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
                                       pb.noise, pb.all_feats, st.rows)
     if still.size == st.outliers.size:
         return
@@ -562,7 +433,7 @@ def _backward(pb: _Problem, st: _State) -> None:
 def _regions(pb: _Problem, st: _State) -> list[dict]:
     """Rows beyond the noise of the final model that are not gross errors: the regions
     it does not fit, with their file lines and descriptions."""
-    gf, mf, regions = _flag(pb.machine, st.cur_lin, st.fold_r, st.cur_eval, len(pb.campaign))
+    gf, mf, regions = fl.flag(pb.machine, st.cur_lin, st.fold_r, st.cur_eval, len(pb.campaign))
     for g in regions:
         g["rows"] = [int(st.rows[r]) for r in g["rows"]]
     if st.put_back:  # flagged rows put back as crowding one region: the region over all rows beyond the noise
@@ -579,7 +450,7 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     """The diagnosis: advice from the final model's fitted numbers, the scores ranked
     (accepted in their order, then the rest by BIC gain), regions and outliers."""
     if st.outliers.size:
-        st.scores.append(_outlier_score(pb.proto, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
+        st.scores.append(fl.outlier_score(pb.proto, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
                                         st.bev, pb.alpha))
     regions = _regions(pb, st)
     best_mm = distances_mm(st.cur_lin, st.cur_eval["heldout"])
