@@ -17,6 +17,8 @@ process on a 600-row and a 1,200-row campaign (targets 15 s and 30 s).
 Run: python benchmarks/bench_diagnosis.py [--quick] [--timing] [--no-write]
 """
 import argparse
+import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -203,12 +205,15 @@ def timing(sizes=(295, 600)) -> list[str]:
         for n in sizes:
             sim = simulate(m, seed=7, design=Design(n_commands=n, n_validation=10))
             files = sim.write(Path(tmp) / f"sim{n}")
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
             r = subprocess.run([sys.executable, "-m", "vecpin", "diagnose", "flow_xyzcb", str(files["campaign"]),
                                 "--out", str(Path(tmp) / f"diag{n}"), "--quiet"], capture_output=True, text=True)
-            took = time.perf_counter() - t0
-            line = (f"`vecpin diagnose` on {len(sim.campaign)} rows: {took:.1f} s (whole process; exit {r.returncode}; "
-                    f"target {15 if len(sim.campaign) <= 700 else 30} s)")
+            took, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+            load = os.getloadavg()[0]
+            line = (f"`vecpin diagnose` on {len(sim.campaign)} rows: {took:.1f} s wall, {cpu:.1f} s CPU (whole "
+                    f"process; exit {r.returncode}; load average {load:.1f} on {os.cpu_count()} cores; target "
+                    f"{15 if len(sim.campaign) <= 700 else 30} s)")
             print(line, flush=True)
             out.append(line)
     return out
@@ -219,7 +224,11 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer machines, strengths and seeds")
     ap.add_argument("--timing", action="store_true", help="also time the whole vecpin diagnose process")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULTS.name}")
+    ap.add_argument("--timing-only", action="store_true", help="only the timing of the whole command (printed)")
     args = ap.parse_args()
+    if args.timing_only:
+        timing()
+        return
     command = "python benchmarks/bench_diagnosis.py" + (" --quick" if args.quick else "") + \
         (" --timing" if args.timing else "")
     lines = ["# Diagnosis matrix", ""] + summary(run_matrix(args.quick), command)
