@@ -7,11 +7,12 @@ of order 4 is fitted, and ``make_tables`` writes each controller's files with a 
 whose reference points sit where real machines have them (linear axes 5 mm inside the
 positive end, rotary axes at 0). The files are applied to the true machine:
 
-* Siemens 840D and Fanuc 30i by controllers simulated from the vendors' documents
-  (tests/controller_appliers.py: their own parsers, nothing of vecpin's readers),
-  with and without the reference point data (MD_REFP.INI, parameter 1240);
-* LinuxCNC and Heidenhain through vecpin's readers (LinuxCNC's files are judged by the
-  real controller in benchmarks/bench_linuxcnc.py).
+* every controller's files by a controller simulated from the vendor's documents or
+  source (tests/controller_appliers.py: its own parsers, nothing of vecpin's readers):
+  Siemens 840D and Fanuc 30i with and without the reference point data (MD_REFP.INI,
+  parameter 1240), Heidenhain (CONFIG.CMA and .COM tables), LinuxCNC (COMP_FILE and the
+  HAL component's tables; the real controller runs them in benchmarks/bench_linuxcnc.py);
+* the same files read back by vecpin's own readers (column 'vecpin's reader').
 
 Every figure is the mean true tool-tip error [mm] relative to the workpiece, rigidly
 registered, over 150 fresh commands x 2 tools.
@@ -29,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from controller_appliers import fanuc_corrections, siemens_corrections  # noqa: E402
+from controller_appliers import (fanuc_corrections, heidenhain_corrections, linuxcnc_corrections,  # noqa: E402
+                                 siemens_corrections)
 from linuxcnc_sim import ControllerCommands  # noqa: E402
 
 import vecpin  # noqa: E402
@@ -104,16 +106,21 @@ def one(name: str) -> list[dict]:
                 row["judged by"] = "applier from the K3 manual"
             elif controller == "fanuc-30i":
                 row["written"] = err(applied(fanuc_corrections(out, m.axis_names, ref, q_user)))
+                row["judged by"] = "applier from the parameter manual"
+            elif controller == "heidenhain":
+                row["written"] = err(applied(heidenhain_corrections(out, m.axis_names, q_user)))
+                row["judged by"] = "applier from the MANUALplus 620 technical manual"
+            else:
+                row["written"] = err(applied(linuxcnc_corrections(out, m.axis_names, q_user)))
+                row["judged by"] = "applier from the LinuxCNC source (real controller: bench_linuxcnc)"
+            if run.as_written is not None:
+                written = run.as_written
+                written.gauge_offset_change = gauge
+                row["reader"] = err(written)
+            if controller == "fanuc-30i":                  # the same files without parameter 1240
                 (out / "CNC-PARA.TXT").write_text("\n".join(
                     ln for ln in (out / "CNC-PARA.TXT").read_text().splitlines() if not ln.startswith("N01240")))
                 row["without data"] = err(applied(fanuc_corrections(out, m.axis_names, ref, q_user)))
-                row["judged by"] = "applier from the parameter manual"
-            else:
-                written = run.as_written
-                written.gauge_offset_change = gauge
-                row["written"] = err(written)
-                row["judged by"] = "vecpin's reader" + (" (real controller: bench_linuxcnc)"
-                                                        if controller == "linuxcnc" else "")
             row["seconds"] = time.time() - t0
             rows.append(row)
     return rows
@@ -123,18 +130,21 @@ def table(rows: list[dict]) -> str:
     lines = ["True compensated error [mm], mean over 150 fresh commands x 2 tools, tool tip relative to the "
              "workpiece, rigidly registered (written by benchmarks/bench_controller_files.py). 'planned': the table "
              "set vecpin chose under the controller's limits; 'files as written': the files with the named machine "
-             "data applied to the true machine; 'without data': without the reference point values.", "",
+             "data applied to the true machine; 'without data': without the reference point values; "
+             "'vecpin's reader': the same files read back by vecpin.", "",
              "| machine | controller | uncompensated | full tables | planned (tables) | files as written | "
-             "files / planned | without data | judged by |", "|---|---|---|---|---|---|---|---|---|"]
+             "files / planned | without data | vecpin's reader | judged by |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "refused" in r:
             lines.append(f"| {r['machine']} | {r['controller']} | {r['uncompensated']:.4f} | {r['full']:.4f} | "
-                         f"refused: {r['refused'][:120]} | | | | |")
+                         f"refused: {r['refused'][:120]} | | | | | |")
             continue
         wo = f"{r['without data']:.4f}" if "without data" in r else "-"
+        rd = f"{r['reader']:.4f}" if "reader" in r else "-"
         lines.append(f"| {r['machine']} | {r['controller']} | {r['uncompensated']:.4f} | {r['full']:.4f} | "
                      f"{r['planned']:.4f} ({r['tables']}) | {r['written']:.4f} | {r['written'] / r['planned']:.3f} | "
-                     f"{wo} | {r['judged by']} |")
+                     f"{wo} | {rd} | {r['judged by']} |")
     return "\n".join(lines) + "\n"
 
 

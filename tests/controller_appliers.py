@@ -130,3 +130,60 @@ def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarr
         i, o = axes.index(rs[0]["moving_axis"]), axes.index(rs[0]["compensation_axis"])
         out[:, o] += np.interp(q_user[:, i], [float(r["position"]) for r in rs], [float(r["correction"]) for r in rs])
     return out
+
+
+def _tnc_table(path: Path) -> list[dict]:
+    """Rows of a TNC table as a fixed-width reader takes them (pyLSV2 table_reader): line 1
+    ``BEGIN ...``, line 2 the column names, each column from its name's first character to
+    the next name's; rows until ``[END]``."""
+    lines = path.read_text(encoding="latin-1").splitlines()
+    assert lines[0].startswith("BEGIN "), path
+    starts = [m.start() for m in re.finditer(r"\S+", lines[1])]
+    names = lines[1].split()
+    rows = []
+    for ln in lines[2:]:
+        if ln.startswith("[END]"):
+            return rows
+        if ln.strip():
+            rows.append({n: ln[a:b].strip() for n, a, b in zip(names, starts, starts[1:] + [None])})
+    raise AssertionError(f"{path}: no [END]")
+
+
+def heidenhain_corrections(folder: Path, nc_names: list[str], q_user: np.ndarray) -> np.ndarray:
+    """Per axis [mm or deg] (columns: ``nc_names``): the active line of CONFIG.CMA names a
+    .COM per input axis column (MANUALplus 620 TM p.718); in each .COM, AXISPOS is the
+    input position and each axis column that axis' error there (p.716; vecpin writes
+    errors, actual - nominal: the correction is its negative), linear between entries."""
+    out = np.zeros_like(q_user)
+    active = [r for r in _tnc_table(folder / "CONFIG.CMA") if r.get("ACTIVE") == "*"]
+    for row in active:
+        for col, name in row.items():
+            if col in ("NR", "ACTIVE") or not name:
+                continue
+            rows = _tnc_table(folder / name)
+            x = np.array([float(r["AXISPOS"]) for r in rows])
+            for out_nc in set(rows[0]) - {"NR", "AXISPOS"}:
+                v = np.array([float(r[out_nc]) for r in rows])
+                out[:, nc_names.index(out_nc)] -= np.interp(q_user[:, nc_names.index(col)], x, v)
+    return out
+
+
+def linuxcnc_corrections(folder: Path, axes: list[str], q_user: np.ndarray) -> np.ndarray:
+    """Per joint [mm or deg] (joints numbered in the order of ``axes``): the COMP_FILE trims
+    (type 0, :func:`linuxcnc_type0`) plus the HAL component's cross tables, read from the C
+    arrays of vecpin_vec.comp (``{out, in, n, start, step, values}``; linear, end values held)."""
+    out = np.zeros_like(q_user)
+    for k, a in enumerate(axes):
+        if (folder / f"comp_{a}.txt").exists():
+            out[:, k] += linuxcnc_type0(folder, a, q_user[:, k])
+    comp = folder / "vecpin_vec.comp"
+    if not comp.exists():
+        return out
+    text = comp.read_text()
+    arrays = {name: np.array([float(v) for v in body.split(",")])
+              for name, body in re.findall(r"static const double (\w+)\[\d+\] = \{([^}]*)\};", text)}
+    for o, i, n, start, step, name in re.findall(
+            r"\{(\d+), (\d+), (\d+), (\S+), (\S+), (vecpin_v\d+)\}", text):
+        x = float(start) + float(step) * np.arange(int(n))
+        out[:, int(o)] += np.interp(q_user[:, int(i)], x, arrays[name][:int(n)])
+    return out

@@ -63,7 +63,7 @@ try:
             c.mdi(f"G53 G1 F{feed} " + " ".join(f"{k}{v - dq:.9f}" for k, v in zip(cfg["letters"], cmd)))
             if c.wait_complete(60) == -1:
                 raise RuntimeError("move timed out")
-        if not wait(lambda: s.inpos and s.state == linuxcnc.RCS_DONE):
+        if not wait(lambda: s.inpos and s.state == linuxcnc.RCS_DONE, 120.0):  # a loaded machine is slow
             raise RuntimeError("not in position")
         s.poll()
         if s.task_state != linuxcnc.STATE_ON:

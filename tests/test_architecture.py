@@ -104,3 +104,65 @@ def test_the_checker_sees_an_upward_import(tmp_path):
 def test_no_module_is_too_long():
     long = {module_name(p): n for p in ROOT.rglob("*.py") if (n := len(p.read_text().splitlines())) > 520}
     assert not long, f"split these modules (one job each): {long}"
+
+
+# ARCHITECTURE.md draws the layer graph as the imports make it: `python tests/test_architecture.py`
+# prints the block, and the test below fails when the drawing and the code differ.
+ARCHITECTURE = ROOT.parent / "ARCHITECTURE.md"
+FOUNDATION = "foundation"
+
+
+def layer_name(mod: str) -> str:
+    """The layer of a module as ARCHITECTURE.md names it (the single modules are the foundation)."""
+    name = layer(mod)
+    return FOUNDATION if LEVEL[name] == 0 else name
+
+
+def layer_edges() -> dict[str, set[str]]:
+    """For every layer, the other layers its modules import (function bodies included)."""
+    edges: dict[str, set[str]] = {}
+    for mod, targets in GRAPH.items():
+        if mod in FACADE:
+            continue
+        src = layer_name(mod)
+        edges.setdefault(src, set())
+        edges[src] |= {layer_name(t) for t in targets if t not in FACADE and layer_name(t) != src}
+    return edges
+
+
+def _order(name: str) -> int:
+    return 0 if name == FOUNDATION else LEVEL[name]
+
+
+def drawing() -> str:
+    """The layer graph as ARCHITECTURE.md draws it: one line per layer, top layer first."""
+    edges = layer_edges()
+    width = max(len(n) for n in edges) + 1
+    return "\n".join(f"{src:<{width}}-> " + (" ".join(sorted(edges[src], key=_order, reverse=True)) or "(nothing)")
+                     for src in sorted(edges, key=_order, reverse=True))
+
+
+def drawn_edges() -> dict[str, set[str]]:
+    """The edges ARCHITECTURE.md draws, read from its block after the line `<!-- layer-graph -->`."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    block = text.split("<!-- layer-graph -->", 1)[1].split("```text\n", 1)[1].split("```", 1)[0]
+    out = {}
+    for line in block.strip().splitlines():
+        src, _, dst = line.partition("->")
+        out[src.strip()] = set(dst.split()) - {"(nothing)"}
+    return out
+
+
+def test_architecture_md_draws_the_real_layer_graph():
+    drawn, real = drawn_edges(), layer_edges()
+    assert drawn == real, ("ARCHITECTURE.md's layer graph differs from the imports; paste the output of "
+                           f"`python tests/test_architecture.py`:\n{drawing()}")
+
+
+def test_every_drawn_edge_goes_down():
+    up = [(s, d) for s, ds in drawn_edges().items() for d in ds if _order(d) >= _order(s)]
+    assert not up, f"ARCHITECTURE.md draws edges that are not allowed (upward or sideways): {up}"
+
+
+if __name__ == "__main__":
+    print(drawing())

@@ -100,4 +100,4 @@ def test_assess_a_simulated_campaign_and_the_cli(flow, tmp_path, capsys):
     c = simulate(flow, 1).campaign.subset(np.arange(40))
     write_campaign(tmp_path / "n.csv", c, flow)
     assert main(["assess", str(tmp_path / "n.csv"), "--machine", "flow_xyzcb"]) == 2
-    assert "--repeat" in capsys.readouterr().err
+    assert "repeat_points" in capsys.readouterr().err

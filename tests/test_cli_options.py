@@ -12,7 +12,7 @@ def _commands():
 
 def test_a_backquoted_parameter_becomes_the_commands_flag():
     plan = flag_table(_commands()["plan"])
-    assert as_flags("`safe_z` 12: outside the travel", plan) == "--safe-z 12: outside the travel"
+    assert as_flags("`safe_z_mm` 12: outside the travel", plan) == "--safe-z 12: outside the travel"
     assert as_flags("`not_an_option` stays a word", plan) == "not_an_option stays a word"
     assert as_flags("no names here -- none", plan) == "no names here -- none"
 
@@ -28,3 +28,10 @@ def test_errors_and_warnings_print_flags(capsys, tmp_path):
     rc = main(["plan", "snk_120v", "--safe-z", "1e9", "--out", str(tmp_path / "p")])
     err = capsys.readouterr().err
     assert rc == 2 and err.startswith("vecpin: error: --safe-z 1e+09: ")
+
+
+def test_two_parameters_one_option_sets_are_written_as_that_option():
+    plan = flag_table(_commands()["plan"])
+    text = "`repeat_points` 5000, `repeat_times` 50: too many"
+    assert as_flags(text, plan) == "--repeat 5000 50: too many"
+    assert as_flags(text, {}) == "repeat_points 5000, repeat_times 50: too many"

@@ -1,14 +1,15 @@
-"""What the machine gets is what vecpin predicts: the files vecpin writes for Siemens and
-Fanuc, applied by controllers simulated from the vendors' documentation
-(tests/controller_appliers.py: own parsers, documented rules, nothing of vecpin's
-readers), on the true simulated machine (a trunnion whose X/Y/Z constants are
-tool-to-rotary-centre offsets, and production_xyzbaw whose W follows the rotaries):
-the true error equals that of the table set vecpin planned (within 2 %) and is far
-below the uncompensated one; without the reference point data it is worse. LinuxCNC
-is judged by the real controller (tests/test_linuxcnc_real.py)."""
+"""What the machine gets is what vecpin predicts: the files vecpin writes for Siemens,
+Fanuc, Heidenhain and LinuxCNC, read back by vecpin's readers *and* applied by
+controllers simulated from the vendors' documentation or source (tests/controller_appliers.py:
+own parsers, documented rules, nothing of vecpin's readers), on the true simulated machine
+(a trunnion whose X/Y/Z constants are tool-to-rotary-centre offsets, and production_xyzbaw
+whose W follows the rotaries): the true error equals that of the table set vecpin planned
+(within 2 %) and is far below the uncompensated one; without the reference point data it
+is worse. The real LinuxCNC runs the same files in tests/test_linuxcnc_real.py."""
 import numpy as np
 import pytest
-from controller_appliers import fanuc_corrections, siemens_corrections
+from controller_appliers import (fanuc_corrections, heidenhain_corrections, linuxcnc_corrections,
+                                 siemens_corrections)
 from linuxcnc_sim import ControllerCommands
 
 import vecpin
@@ -53,25 +54,54 @@ def fanuc_profile(m):
         for k, a in enumerate(m.axis_names)}}, "e2e profile")
 
 
+def heidenhain_profile(m):
+    """NC names as the axes; tilting and rotary axes beyond 0..360 allowed (a TNC that takes them)."""
+    return ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1,
+                                        "axes": {a: {"nc_name": a} for a in m.axis_names},
+                                        "options": {"rotary_any_range": True}}, "e2e profile")
+
+
+def linuxcnc_profile(m):
+    return ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1,
+                                        "axes": {a: {"number": k} for k, a in enumerate(m.axis_names)}}, "e2e profile")
+
+
+PROFILES = {"siemens-840d": siemens_profile, "fanuc-30i": fanuc_profile, "heidenhain": heidenhain_profile,
+            "linuxcnc": linuxcnc_profile}
+
+
+def applied_corrections(controller, folder, m, q_user):
+    """What the simulated controller adds to every axis command [mm or deg]."""
+    if controller == "siemens-840d":
+        return siemens_corrections(folder, m.axis_names, reference_positions(m), q_user)
+    if controller == "fanuc-30i":
+        return fanuc_corrections(folder, m.axis_names, reference_positions(m), q_user)
+    if controller == "heidenhain":
+        return heidenhain_corrections(folder, m.axis_names, q_user)
+    return linuxcnc_corrections(folder, m.axis_names, q_user)
+
+
 def true_error(truth, m, tables, q, tool) -> float:
     return float(norm_mm(compensated_errors(truth_as_actual(truth), m, tables, q, tool)).mean())
 
 
-@pytest.mark.parametrize("controller", ["siemens-840d", "fanuc-30i"])
+@pytest.mark.parametrize("controller", list(PROFILES))
 def test_the_files_as_written_give_the_machine_what_vecpin_predicts(case, controller, tmp_path):
     m, truth, model = case
-    prof = siemens_profile(m) if controller == "siemens-840d" else fanuc_profile(m)
     kw = {"max_tables": 6} if controller == "fanuc-30i" else {}
-    run = make_tables(model, tmp_path, controller, profile=prof, uncertainty=False, **kw)
+    run = make_tables(model, tmp_path, controller, profile=PROFILES[controller](m), uncertainty=False, **kw)
     q, tool = validation_commands(m, 150)
     q_user = np.column_stack([m.axes[k].to_user(q[:, k]) for k in range(len(m.axes))])
-    apply = siemens_corrections if controller == "siemens-840d" else fanuc_corrections
     applied = lambda c: ControllerCommands(q, q + np.column_stack(   # noqa: E731
         [m.axes[k].to_si(c[:, k]) for k in range(len(m.axes))]), run.plan.tables.gauge_offset_change)
     planned, uncompensated = true_error(truth, m, run.plan.tables, q, tool), true_error(truth, m, None, q, tool)
-    written = true_error(truth, m, applied(apply(tmp_path, m.axis_names, reference_positions(m), q_user)), q, tool)
+    written = true_error(truth, m, applied(applied_corrections(controller, tmp_path, m, q_user)), q, tool)
     assert written == pytest.approx(planned, rel=0.02)
     assert written < 0.5 * uncompensated
+    if run.as_written is not None:               # vecpin's own reader gives the same files the same figure
+        read_back = run.as_written
+        read_back.gauge_offset_change = run.plan.tables.gauge_offset_change
+        assert true_error(truth, m, read_back, q, tool) == pytest.approx(written, rel=0.02)
     rows = {r.label: r for r in run.plan.report.rows}
     assert rows["files as written (model-predicted)"].mean == pytest.approx(
         [r for r in run.plan.report.rows if r.tables == len(run.plan.tables.tables)][0].mean, rel=0.02)

@@ -138,7 +138,7 @@ def test_fanuc_refuses_a_table_that_is_not_modulo_on_a_modulo_axis(flow, tmp_pat
     q = np.linspace(flow.axis("C").lower, flow.axis("C").upper, 1024)
     t = CompensationTable("C", "C", q[0], q[1] - q[0], 1e-4 * (q - q[0]))
     prof = flow_profile(flow, modulo=["C"])
-    with pytest.raises(VecpinError, match="--modulo C"):
+    with pytest.raises(VecpinError, match="`modulo_axes` C"):
         write(fanuc.FORMAT, TableSet(flow.axis_names, [t]), flow, prof, tmp_path)
 
 

@@ -290,9 +290,9 @@ def test_zone_fit_records_and_restricts(machines, tmp_path):
     assert plan.problem.q[:, 0].max() <= 18.415 + 1e-9 and "X" in plan.problem.hold
     narrow = plan_tables(back, uncertainty=False, n_commands=200, zone=parse_zone("X=12000:13000", "--zone"))
     assert narrow.problem.q[:, 0].min() >= 12.0 - 1e-9 and narrow.problem.q[:, 0].max() <= 13.0 + 1e-9
-    with pytest.raises(InputError, match="--zone.*outside what the model's campaign measured"):
+    with pytest.raises(InputError, match="`zone`.*outside what the model's campaign measured"):
         plan_tables(back, uncertainty=False, zone=parse_zone("X=20000:21000", "--zone"))
-    with pytest.raises(InputError, match="--zone X=11430:11500: only"):
+    with pytest.raises(InputError, match="`zone` X=11430:11500: only"):
         fit_campaign(m, sim.campaign, NoiseModel.default(m), kind="ap", basis="chebyshev", order=2,
                      zone=parse_zone("X=11430:11500", "--zone"))
     with pytest.raises(InputError, match="AXIS=LO:HI"):

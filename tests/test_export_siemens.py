@@ -85,7 +85,7 @@ def test_modulo_rotary_axis(tmp_path):
     assert "$AN_CEC_MIN[0]=0.0" in text and "$AN_CEC_MAX[0]=360.0" in text and "$AN_CEC_IS_MODULO[0]=1" in text
     # a modulo axis whose table covers the travel instead is refused
     plain = CompensationTable("C", "X", -math.pi, math.radians(10.0), vals)
-    with pytest.raises(InputError, match="--modulo C"):
+    with pytest.raises(InputError, match="`modulo_axes` C"):
         write(TableSet(m.axis_names, [plain]), m, profile(C={"modulo": True}), tmp_path / "x")
 
 
@@ -126,7 +126,7 @@ def test_readme_lists_machine_data_and_monitoring(tmp_path):
 def test_missing_facts_are_named():
     m = tiny_machine()
     bare = profile(X={"nc_name": None})
-    with pytest.raises(InputError, match=r"machine axis name \(e.g. X1\) of axis X.*--axis-map X=NAME"):
+    with pytest.raises(InputError, match=r"machine axis name \(e.g. X1\) of axis X.*`axis_map` X=NAME"):
         siemens.check(m, bare, siemens.LIMITS_840D)
     with pytest.raises(InputError, match=r"reference point position in mm \(the EEC table must be zero there\) of axis Y"):
         siemens.check(m, profile(Y={"reference_position": None}), siemens.LIMITS_840D)

@@ -37,9 +37,9 @@ def no_solving(monkeypatch):
 
 
 def test_limits_and_missing_facts_are_refused_before_computing(model, tmp_path, no_solving):
-    with pytest.raises(ControllerLimitError, match="--points 10000000"):
+    with pytest.raises(ControllerLimitError, match="`points` 10000000"):
         make_tables(model, tmp_path, "generic", points=10_000_000)
-    with pytest.raises(ControllerLimitError, match="--points 10000000"):
+    with pytest.raises(ControllerLimitError, match="`points` 10000000"):
         plan_tables(model, points=10_000_000)
     with pytest.raises(ControllerLimitError, match="at most 200 points"):
         make_tables(model, tmp_path, "siemens-828d", points=1024)
@@ -51,7 +51,7 @@ def test_limits_and_missing_facts_are_refused_before_computing(model, tmp_path, 
     with pytest.raises(ControllerLimitError, match="at most 0 cross tables, not 3"):
         make_tables(model, tmp_path, "linuxcnc", max_tables=3,
                     profile=ControllerProfile(limits={"max_cross_tables": 0}))
-    with pytest.raises(InputError, match="--sign-test Q"):
+    with pytest.raises(InputError, match="`sign_test` Q"):
         make_tables(model, tmp_path, "linuxcnc", sign_test="Q")
 
 

@@ -559,7 +559,7 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     "simulate --ballbar -3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--ballbar", "-3"],
                               ["--ballbar -3", "0 or more"]),
     "simulate --repeat -1 3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--repeat", "-1", "3"],
-                               ["--repeat -1 3", "POINTS >= 1"]),
+                               ["--repeat -1 3", "at least 1 command"]),
     "simulate --tracker nan,0,0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--tracker", "nan,0,0"],
                                    ["--tracker", "finite"]),
     "simulate --exclude everything": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--exclude",
@@ -684,7 +684,7 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
                                                       "-1", "0", "0", "0"], ["--tracker-noise", ">= 0"]),
     "assess CSV without --machine": (lambda b, w: ["assess", b.csv], ["needs --machine"]),
     "assess CSV without repeats": (lambda b, w: ["assess", b.csv, "--machine", "flow_xyzcb"],
-                                   ["no command is measured twice", "vecpin plan --repeat"]),
+                                   ["no command is measured twice", "plan repeated points", "repeat_points"]),
     # verify
     "verify without a machine": (lambda b, w: ["verify", b.val, b.val], ["needs --machine, or --model"]),
     "verify --machine and --model disagree": (lambda b, w: ["verify", b.val, b.val, "--machine", "trunnion_xyzbc",
@@ -729,7 +729,7 @@ def test_limits_are_checked_before_memory_is_spent(base, work, capsys, monkeypat
     """--points 1e8 (simulate), 1e7 (plan, tables) and --orders 0-500 are refused before any
     array is allocated: the heavy functions are never reached."""
     import vecpin.compensation.plan as cp
-    import vecpin.planning.plan as pp
+    import vecpin.planning.candidates as pp
     import vecpin.selection.choice as ch
     import vecpin.simulation.simulate as ss
 

@@ -83,7 +83,7 @@ def test_foreign_export_reads_back_to_the_measured_values(flow, day):
 def test_all_inch_file_cannot_pass_as_mm(flow, day):
     d, t, c = day
     p = export(d / "e2.csv", c, t)
-    with pytest.raises(CampaignFileError, match="which means in: give --units in") as e:
+    with pytest.raises(CampaignFileError, match="which means in: give `units` in") as e:
         import_export(p, flow, d / "plan.csv", units="mm")
     assert e.value.column == "Meas X" and str(p) in str(e.value)
     # a millimetre file said to be in inches is caught the same way
@@ -197,7 +197,7 @@ def test_numbers_and_columns_problems_name_row_and_column(flow, day):
     with pytest.raises(CampaignFileError, match="cells where the header") as e:
         import_export(d / "e17.csv", flow, d / "plan.csv")
     assert e.value.row == 6
-    with pytest.raises(CampaignFileError, match="--columns names x='Mess X' but no header line has that column") as e:
+    with pytest.raises(CampaignFileError, match="`columns` names x='Mess X' but no header line has that column") as e:
         import_export(p, flow, d / "plan.csv", columns="x=Mess X,y=Meas Y,z=Meas Z")
     amb = export(d / "e18.csv", c, t, header=hdr("Name", "Air Temp (F)", "Timestamp", "Meas X", "Meas Y", "Meas Z")
                  + [("Actual X", "x")])
@@ -219,7 +219,7 @@ def test_time_and_temperature_forms(flow, day):
     np.testing.assert_allclose(import_export(secs, flow, d / "plan.csv").campaign.time, c.time - c.time[0], atol=1e-3)
     # 05.03 vs 03.05: read as day/month and month/day these times differ: ambiguous
     amb = export(d / "e21.csv", c, t, time_fmt="%m/%d/%Y %H:%M:%S", temp="C")
-    with pytest.raises(CampaignFileError, match="give --time-format"):
+    with pytest.raises(CampaignFileError, match="give `time_format`"):
         import_export(amb, flow, d / "plan.csv")
     res = import_export(amb, flow, d / "plan.csv", time_format="%m/%d/%Y %H:%M:%S")
     np.testing.assert_allclose(res.campaign.time, c.time - c.time[0], atol=1.0)
@@ -238,10 +238,10 @@ def test_without_a_plan_the_export_carries_the_axes(flow, day, tmp_path):
     (tmp_path / "e.csv").write_text(text)
     res = import_export(tmp_path / "e.csv", flow, units="mm")
     np.testing.assert_allclose(res.campaign.q, c.q, atol=1e-9)
-    assert res.units_reason.startswith("given with --units")
+    assert res.units_reason.startswith("given with `units`")
     assert import_export(tmp_path / "e.csv", flow).units == "mm"  # the axis columns give the planned spread
     (tmp_path / "n.csv").write_text("Name;Meas X;Meas Y;Meas Z\nP1;1;2;3\nP2;1;2;3\nP3;1;2;3\nP4;1;2;3\n")
-    with pytest.raises(CampaignFileError, match="give --plan") as e:
+    with pytest.raises(CampaignFileError, match="give `plan`") as e:
         import_export(tmp_path / "n.csv", flow, units="mm")
     assert e.value.column == "X"
 

@@ -147,9 +147,9 @@ def test_safe_height_option(plans, machines, tmp_path, capsys):
     lifts = [mv.pos["Z"] for mv in prog.moves if mv.axes == ("Z",) and mv.before["Z"] is not None
              and mv.pos["Z"] > mv.before["Z"]]
     assert min(lifts) == pytest.approx(700.0) and max(lifts) < m.axis("Z").upper_user
-    with pytest.raises(InputError, match="--safe-z 2000"):
+    with pytest.raises(InputError, match="`safe_z_mm` 2000"):
         write_program("gcode", m, p.template, p.steps, safe_z_mm=2000.0)
-    with pytest.raises(InputError, match="--retract-axis C"):
+    with pytest.raises(InputError, match="`retract` C"):
         write_program("gcode", m, p.template, p.steps, retract="C")
     args = ["plan", "flow_xyzcb", "--points", "16", "--order", "1", "--candidates", "200", "--quiet",
             "--out", str(tmp_path / "p")]

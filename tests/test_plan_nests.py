@@ -247,3 +247,53 @@ def test_line_of_sight_to_a_nest_on_a_turning_table_in_closed_form():
     blocked = sl.check_nests(q, np.array([0.5, 0.0, 0.05]), 0.1).blocked
     assert clear.sum() > 300 and hidden.sum() > 20 and seen.sum() > 200
     assert np.array_equal(blocked[clear], hidden[clear])
+
+
+def test_placed_nests_and_a_second_station_see_the_table_as_recounted_nest_by_nest(machines):
+    """The B-C trunnion seen from the default tracker: the default nests give few commands
+    three nests. The placement's figures are recounted here with the line of sight tested
+    again nest by nest and station by station (no shared poses): the covered share per
+    tenth of each table axis equals the placement's own; the placed nests stand on the
+    table, in directions at least 60 deg apart; the proposed second station stands apart
+    from the first and the pair sees the table over more of its travel than the default
+    nests from one station."""
+    from vecpin.planning.nestplacement import BINS, place_nests
+    from vecpin.planning.nests import NEST_HEIGHTS, nest_reach
+    from vecpin.planning.sightline import default_tracker_position
+    m, tool = machines["trunnion_xyzbc"], 0.21488
+    tracker = default_tracker_position(m)
+    p = place_nests(m, tracker, 3, tool)
+    q = p.commands
+    covered = np.zeros(len(q), bool)
+    for st in p.stations:
+        sl = SightLine(m, st)
+        seen = np.array([~sl.check_nests(q, x, tool).blocked for x in p.nests.values()]).T
+        covered |= ~sl.check(q, tool).blocked & (seen.sum(axis=1) >= 3)
+    for name, share in p.covered.items():
+        a = m.axis(name)
+        b = np.clip(((q[:, a.index] - a.lower) / a.travel * BINS).astype(int), 0, BINS - 1)
+        np.testing.assert_allclose(share, [covered[b == k].mean() for k in range(BINS)])
+    xyz = np.array(list(p.nests.values()))
+    assert np.all(np.hypot(xyz[:, 0], xyz[:, 1]) <= nest_reach(m) + 1e-9)
+    assert np.all((xyz[:, 2] >= NEST_HEIGHTS[0]) & (xyz[:, 2] <= NEST_HEIGHTS[1]))
+    ang = np.degrees(np.arctan2(xyz[:, 1], xyz[:, 0]))
+    gaps = np.abs((ang[:, None] - ang[None, :] + 180) % 360 - 180)[np.triu_indices(3, 1)]
+    assert gaps.min() >= 60 - 1e-6
+    assert len(p.stations) == 2 and np.linalg.norm(p.stations[1] - p.stations[0]) > 0.5
+    assert p.commands_seen(p.covered) > p.commands_seen(p.default_covered) + 0.1
+    assert p.travel_seen(p.covered) >= p.travel_seen(p.default_covered)
+
+
+def test_the_plan_reads_the_placed_nests_and_prints_the_second_station(trunnion_plan):
+    """The plan's template reads the nests the placement chose, and its nest lines say
+    where the second station stands."""
+    from vecpin.workflows.planning import PlanRun
+    p = trunnion_plan.placement
+    assert p is not None and set(trunnion_plan.nests) == set(p.nests)
+    t = trunnion_plan.template
+    for nid, x in p.nests.items():
+        np.testing.assert_allclose(t.nest[t.target == nid], np.tile(x, ((t.target == nid).sum(), 1)))
+    text = "\n".join(PlanRun(trunnion_plan, []).nest_lines())
+    assert "table nests placed for the line of sight" in text
+    if len(p.stations) > 1:
+        assert "tracker station 2 at" in text

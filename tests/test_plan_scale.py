@@ -6,7 +6,7 @@ import pytest
 
 from vecpin.planning import route
 from vecpin.planning.doptimal import greedy_d_optimal
-from vecpin.planning.plan import candidate_commands, default_candidates
+from vecpin.planning.candidates import candidate_commands, default_candidates
 
 
 def _plain_greedy(W, n):

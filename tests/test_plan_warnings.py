@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from vecpin.cli import main
-from vecpin.planning.plan import PlanSettings, candidate_commands, make_plan
+from vecpin.planning.candidates import candidate_commands
+from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.planchecks import TRACKER_RANGE, work_envelope
 from vecpin.planning.timing import ProgramTiming, row_times
 from vecpin.planning.route import axis_speeds
@@ -43,7 +44,7 @@ def test_tracker_inside_the_envelope_or_out_of_range_is_said(flow, where, needle
         tracker = np.array([1e9, 0.0, 0.0])  # 1,000 km
     p = make_plan(flow, PlanSettings(**SMALL, tracker_mm=tuple(tracker), sight=False))
     hits = [w for w in p.warnings if needle in w]
-    assert len(hits) == 1 and "--tracker" in hits[0]
+    assert len(hits) == 1 and "`tracker_mm`" in hits[0]
     if where == "far":
         assert f"{TRACKER_RANGE:.0f} m" in hits[0]
 

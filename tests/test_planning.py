@@ -120,7 +120,7 @@ def test_zone_parsing_and_errors(flow):
     assert list(inside(flow, q, [z])) == [True, False, False]
     with pytest.raises(InputError, match="exclusion zone"):
         parse_zone("X=0..500")
-    with pytest.raises(InputError, match="--zone"):
+    with pytest.raises(InputError, match="`zone`"):
         make_plan(flow, PlanSettings(n_points=5, zone={"X": (7000.0, 8000.0)}))
 
 
@@ -192,16 +192,16 @@ def test_nc_program_visits_the_template(flow, small_plan, dialect):
 
 def test_nc_axis_names_and_options_are_checked(flow, small_plan):
     p = small_plan
-    with pytest.raises(InputError, match="--axis-map"):
+    with pytest.raises(InputError, match="`axis_map`"):
         write_program("fanuc", flow, p.template, p.steps, axis_map={"B": "Q"})
     with pytest.raises(InputError, match="repeat"):
         write_program("gcode", flow, p.template, p.steps, axis_map={"B": "C"})
     text = write_program("siemens-840d", flow, p.template, p.steps, axis_map={"B": "B1"})
     prog = parse(text, "siemens-840d", _axes(flow, ["X", "Y", "Z", "C", "B1"]))
     assert sum(mv.code == 1 for mv in prog.moves) == len(p.template) and "B1=" in text
-    with pytest.raises(InputError, match="--dwell"):
+    with pytest.raises(InputError, match="`dwell_s`"):
         write_program("gcode", flow, p.template, p.steps, dwell_s=0)
-    with pytest.raises(InputError, match="--nest-dwell"):
+    with pytest.raises(InputError, match="`nest_dwell_s`"):
         write_program("gcode", flow, p.template, p.steps, nest_dwell_s=-1)
 
 

@@ -19,7 +19,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.viz import figures
-from vecpin.viz.report import write_report
+from vecpin.workflows.reporting import report as write_report
 from vecpin.viz.scene import GROUPS, RecordingWindow, build_scene, write_html
 
 pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') leaves it to CI

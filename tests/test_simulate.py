@@ -6,7 +6,8 @@ import pytest
 
 from vecpin.measurement.campaign import read_campaign
 from vecpin.measurement.registration import register, registered_errors
-from vecpin.simulation.simulate import Design, design_commands, parse_zone, simulate
+from vecpin.planning.zones import parse_zone
+from vecpin.simulation.simulate import Design, design_commands, simulate
 from vecpin.measurement.tracker import Tracker, TrackerNoise, cartesian_to_spherical, spherical_jacobian, spherical_to_cartesian
 from vecpin.simulation.truth import TrueMachine
 

@@ -139,7 +139,7 @@ def test_tool_link_and_axis_options(tmp_path, capsys, machines):
     assert "tool along +z" in out and "82.300 mm" in out and "ROS tool-flange" in out
     assert main(["info", str(ur5.urdf_path), "--tool-link", "tool0", "--tool-axis=-z"]) == 0
     assert "tool along -z" in capsys.readouterr().out
-    with pytest.raises(InputError, match="--tool-axis 'w'"):
+    with pytest.raises(InputError, match="`tool_axis` 'w'"):
         vecpin.Machine.load("flow_xyzcb", tool_axis="w")
     assert main(["info", "flow_xyzcb", "--tool-axis", "w"]) == 2
     assert "--tool-axis 'w'" in capsys.readouterr().err

@@ -1,7 +1,9 @@
 """The whole day end to end: the example (examples/whole_day.py) at a small size, and the
-same chain through the command line. Plan -> the plan measured on a simulated true
-machine -> a foreign export (semicolon, decimal comma, inches, renamed columns) ->
-import -> fit -> tables -> the compensated machine -> verify, beside Paper I Table 3."""
+same chain on a trunnion with table nests through the command line. Plan -> the plan
+measured on a simulated true machine -> a foreign export (semicolon, decimal comma,
+inches, renamed columns) -> import -> fit -> tables -> the compensated machine -> verify,
+beside Paper I Table 3. The day on flow_xyzcb through the command line, with the Siemens
+profile and tables, is docs/whole-day.md, run as written by tests/test_docs.py."""
 import importlib.util
 import json
 from pathlib import Path
@@ -65,35 +67,6 @@ def test_decision_and_verification_beside_the_seed(day, flow):
     assert v.after.measured.mean() == pytest.approx(truth_d.mean(), abs=0.015)
     js = json.loads((out / "verify" / "verify.json").read_text())
     assert js["seed_table3"][1]["mean_mm"] == 0.038 and js["compensated"]["label"].startswith("compensated")
-
-
-def test_whole_day_on_the_command_line(tmp_path, capsys, flow):
-    d = tmp_path
-    assert main(["plan", "flow_xyzcb", "--points", "40", "--order", "2", "--candidates", "400", "--repeat", "4", "4",
-                 "--tracker", "3000,-2300,-300", "--out", str(d / "plan"), "--quiet"]) == 0
-    assert main(["simulate", "flow_xyzcb", "--plan", str(d / "plan" / "plan.csv"), "--tracker", "3000,-2300,-300",
-                 "--seed", "8", "--validation", "25", "--out", str(d / "sim")]) == 0
-    # the tracker software's export: tab-separated, decimal comma, inches, its own column names, no point names
-    c = read_campaign(d / "sim" / "campaign.csv", flow)
-    rows = ["Meas X\tMeas Y\tMeas Z\tTime (s)"] + [
-        "\t".join(f"{v:.6f}".replace(".", ",") for v in (*(p * 1000 / 25.4), t)) for p, t in zip(c.xyz, c.time)]
-    (d / "export.txt").write_text("\n".join(rows) + "\n")
-    assert main(["import", str(d / "export.txt"), "--machine", "flow_xyzcb", "--plan", str(d / "plan" / "plan.csv"),
-                 "--out", str(d / "campaign.csv")]) == 0
-    assert main(["assess", str(d / "campaign.csv"), "--machine", "flow_xyzcb", "--session-gap-min", "5"]) == 0
-    assert main(["fit", "flow_xyzcb", str(d / "campaign.csv"), "--model", "ap", "--order", "2",
-                 "--out", str(d / "model.json"), "--quiet"]) == 0
-    assert main(["tables", str(d / "model.json"), "--out", str(d / "tables"), "--quiet"]) == 0
-    assert main(["simulate", "flow_xyzcb", "--truth", str(d / "sim" / "truth.json"), "--plan",
-                 str(d / "plan" / "plan.csv"), "--tracker", "3000,-2300,-300", "--validation", "25", "--tables",
-                 str(d / "tables"), "--out", str(d / "after")]) == 0
-    assert main(["verify", str(d / "after" / "validation.csv"), str(d / "after" / "validation_compensated.csv"),
-                 "--model", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(d / "verify")]) == 0
-    text = capsys.readouterr().out
-    assert "tab-separated, decimal ','" in text and "joined with the plan" in text and "by order" in text
-    assert "coordinates in inches" in text and "WORTHWHILE" in text
-    js = json.loads((d / "verify" / "verify.json").read_text())
-    assert js["reduction_of_mean_pct"] > 60.0
 
 
 def test_whole_day_on_a_trunnion_with_table_nests(tmp_path, capsys, machines):

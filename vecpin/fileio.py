@@ -90,14 +90,14 @@ def _parent_ok(path: Path) -> None:
         raise OutputError(f"{path}: no permission to write in {parent}; give a folder you can write in")
 
 
-def check_output_file(path: str | Path, option: str = "--out") -> Path:
-    """Fail now, with the option named, if a file cannot be written at ``path``."""
+def check_output_file(path: str | Path, option: str = "out") -> Path:
+    """Fail now, naming the parameter ``option``, if a file cannot be written at ``path``."""
     path = Path(path)
     try:
         _parent_ok(path)
         _probe(path.parent)
     except OutputError as exc:
-        raise OutputError(f"{option} {exc}") from None
+        raise OutputError(f"`{option}` {exc}") from None
     return path
 
 
@@ -111,21 +111,21 @@ def _probe(folder: Path) -> None:
         raise _cannot(folder, exc) from None
 
 
-def check_output_dir(path: str | Path, option: str = "--out") -> Path:
-    """Fail now if ``path`` cannot become an output folder (a file in the way, no
-    permission); the folder itself is created when the results are written."""
+def check_output_dir(path: str | Path, option: str = "out_dir") -> Path:
+    """Fail now, naming the parameter ``option``, if ``path`` cannot become an output folder
+    (a file in the way, no permission); the folder itself is created when the results are written."""
     path = Path(path)
     p = path
     while not p.exists():
         p = p.parent
     if not p.is_dir():
-        raise OutputError(f"{option} {path}: {p} is a file, not a folder; give another output folder")
+        raise OutputError(f"`{option}` {path}: {p} is a file, not a folder; give another output folder")
     if not os.access(p, os.W_OK):
-        raise OutputError(f"{option} {path}: no permission to write in {p}; give a folder you can write in")
+        raise OutputError(f"`{option}` {path}: no permission to write in {p}; give a folder you can write in")
     try:
         _probe(p)
     except OutputError as exc:
-        raise OutputError(f"{option} {path}: {exc}") from None
+        raise OutputError(f"`{option}` {path}: {exc}") from None
     return path
 
 
@@ -153,7 +153,7 @@ class OutputSet:
             self.dir.mkdir(parents=True, exist_ok=True)
             self._stage = Path(tempfile.mkdtemp(prefix=".vecpin-staging-", dir=self.dir))
         except OSError as exc:
-            raise OutputError(f"--out {self.dir}: cannot be written ({exc.strerror or exc}); give a folder you can "
+            raise OutputError(f"`out_dir` {self.dir}: cannot be written ({exc.strerror or exc}); give a folder you can "
                               "write in") from None
         self.written: list[Path] = []
         self.kind = manifest
@@ -205,8 +205,8 @@ class OutputSet:
                     write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
                                "name; the next run removes those it no longer writes, if unchanged\n"
                                + "".join(f"{h}  {n}\n" for n, h in sorted(digests.items())))
-        except OSError as exc:
-            raise _cannot(self.dir, exc) from None
+        except OSError as err:  # not exc: that names the exception the block raised
+            raise _cannot(self.dir, err) from None
         finally:
             _remove_tree(self._stage)
         return False

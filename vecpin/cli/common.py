@@ -13,7 +13,7 @@ from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M
 
 MACHINE_HELP = "bundled machine name (vecpin info lists them) or URDF file"
-CAMPAIGN_HELP = "campaign CSV: commands in mm/deg, tool in mm, measured x, y, z in mm (see the README)"
+CAMPAIGN_HELP = "campaign CSV: commands in mm/deg, tool in mm, measured x, y, z in mm (see docs/measurement.md)"
 
 
 def noise_defaults() -> dict[str, str]:
@@ -55,25 +55,42 @@ def add_machine_args(s: argparse.ArgumentParser) -> None:
                         "ROS tool flanges 'tool0' and 'flange'); write a negative axis as --tool-axis=-z")
 
 
-def add_noise_args(s: argparse.ArgumentParser) -> None:
+def add_noise_args(s: argparse.ArgumentParser, *, multilateration: bool = True, ballbar: bool = True) -> None:
+    """The one noise option group (plan, fit, orders, diagnose): the tracker's native
+    spherical model by default (seed Section 3), Cartesian with --cartesian; machine
+    repeatability (Σ_v). ``multilateration``, ``ballbar``: False for a command whose
+    computation has no range-only or ball bar rows (plan). Read back by :func:`noise`."""
     d = noise_defaults()
-    s.add_argument("--cartesian", action="store_true",
+    g = s.add_argument_group("noise", "the noise of the readings and of the machine's positioning (default: the "
+                             "tracker's native spherical model, growing with the range)")
+    g.add_argument("--cartesian", action="store_true",
                    help="tracker noise the same in every direction (--tracker-sigma-mm); default: the tracker's "
                         "native spherical model, growing with the range (--tracker-noise; seed Section 3)")
-    s.add_argument("--multilateration", action="store_true",
-                   help="use the tracker ranges only, one equation per row; needs several stations (default: all "
-                        "three coordinates)")
-    s.add_argument("--ballbar-sigma-mm", type=float,
-                   help=f"1-sigma noise of a ball bar's radius reading, mm (default {d['ballbar_sigma_mm']})")
-    s.add_argument("--repeatability-mm", type=float,
+    if multilateration:
+        g.add_argument("--multilateration", action="store_true",
+                       help="use the tracker ranges only, one equation per row; needs several stations (default: "
+                            "all three coordinates)")
+    if ballbar:
+        g.add_argument("--ballbar-sigma-mm", type=float,
+                       help=f"1-sigma noise of a ball bar's radius reading, mm (default {d['ballbar_sigma_mm']})")
+    g.add_argument("--repeatability-mm", type=float,
                    help=f"1-sigma positioning noise of linear axes (Σ_v), mm (default {d['repeatability_mm']})")
-    s.add_argument("--repeatability-deg", type=float,
+    g.add_argument("--repeatability-deg", type=float,
                    help=f"1-sigma positioning noise of rotary axes (Σ_v), deg (default {d['repeatability_deg']})")
-    s.add_argument("--tracker-sigma-mm", type=float,
-                   help=f"1-sigma Cartesian tracker noise per coordinate, mm (default {d['tracker_sigma_mm']})")
+    g.add_argument("--tracker-sigma-mm", type=float,
+                   help=f"1-sigma Cartesian tracker noise per coordinate, mm (default {d['tracker_sigma_mm']}; with "
+                        "--cartesian)")
+    add_tracker_noise_arg(g)
+
+
+def add_tracker_noise_arg(s, what: str = "spherical tracker noise (the default)") -> None:
+    """--tracker-noise R_MM R_PPM T_MM T_PPM: the spherical model's four numbers."""
     s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise (the default): 1-sigma range noise = R_MM mm + R_PPM ppm of the "
-                        f"range, transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
+                   help=f"{what}: 1-sigma range noise = R_MM mm + R_PPM ppm of the range, transverse = T_MM mm + "
+                        f"T_PPM ppm of the range (default {noise_defaults()['tracker_noise']})")
+
+
+def add_quiet_arg(s: argparse.ArgumentParser) -> None:
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
 
 
@@ -102,6 +119,7 @@ def noise_stated(args) -> bool:
 
 
 def noise(args, m):
+    """The noise model of :func:`add_noise_args`' options (None kept as the default)."""
     from vecpin.measurement.noise import noise_from_options
     kind = "range" if getattr(args, "multilateration", False) else ("cartesian" if args.cartesian else "spherical")
     return noise_from_options(m, kind, repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
@@ -132,7 +150,7 @@ def parse_orders(text: str) -> list[int]:
 def zone_option(text):
     """``--zone AXIS=LO:HI[,...]`` (mm/deg) as a zone, or None."""
     from vecpin.planning.zones import parse_zone
-    return parse_zone(text, "--zone") if text else None
+    return parse_zone(text, "zone") if text else None
 
 
 def say(args, *lines: str, file=None) -> None:

@@ -1,28 +1,28 @@
 """``vecpin tables``: compensation tables of a fitted model for a controller; the sign check."""
 from __future__ import annotations
 
-from vecpin.cli.common import progress, zone_option
+from vecpin.cli.common import progress, say, zone_option
 
 
 def run_tables(args) -> int:
+    from vecpin.export.common import UserCommands
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.fileio import check_output_dir
-    from vecpin.workflows.tables import make_tables, named_axis, parse_axis_map
-    check_output_dir(args.out)
+    from vecpin.workflows.tables import make_tables, parse_axis_map
     model = ErrorModel.load(args.model)
     m = model.machine
-    for a in args.forbid_output:
-        named_axis(m, a, "--forbid-output")
     commands = read_campaign(args.commands, m) if args.commands else None
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)
+    how = UserCommands(sign_test=f"`vecpin tables {args.model} --controller {args.controller} --sign-test AXIS`",
+                       sign_check=f"`vecpin evaluate {args.model} SIGNTEST_{{tag}}.csv --sign-test SIGNTEST_{{tag}}.json`")
     run = make_tables(model, args.out, args.controller, profile=args.profile, axis_map=parse_axis_map(args.axis_map, m),
                       max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
                       method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,
-                      commands=commands, sign_test=args.sign_test, zone=zone, progress=progress(not args.quiet))
-    print("\n".join(run.lines(args.model)))
+                      commands=commands, sign_test=args.sign_test, zone=zone, user_commands=how,
+                      progress=progress(not args.quiet))
+    say(args, *run.lines(args.model))
     return 0
 
 
@@ -32,7 +32,7 @@ def run_sign_check(args) -> int:
     from vecpin.workflows.tables import check_sign
     model = ErrorModel.load(args.model)
     verdict = check_sign(args.sign_test, args.csv, model.machine)
-    print("\n".join(verdict.lines()))
+    say(args, *verdict.lines())
     return 0
 
 
@@ -44,7 +44,7 @@ def register(sub) -> None:
                    help="controller whose files to write (default generic: tables.json/csv only)")
     s.add_argument("--profile", metavar="JSON",
                    help="the machine's controller profile: NC axis names, reference positions [mm/deg], modulo axes, "
-                        "detection units, limits (see the README); default: none (enough for generic and iso230)")
+                        "detection units, limits (see docs/compensation.md; vecpin profile writes a template); default: none (enough for generic and iso230)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC axis name of a joint, wins over the profile's nc_name; repeatable (default: the "
                         "profile's names)")

@@ -1,29 +1,17 @@
 """``vecpin import``: a tracker-software export into a campaign CSV."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine
+from vecpin.cli.common import add_machine_args, machine, say
 
 
 def run_import(args) -> int:
-    from vecpin.errors import InputError
-    from vecpin.workflows.importing import import_dataset_to_file, import_to_file
+    from vecpin.workflows.importing import import_to_file
     m = machine(args.machine, args)
-    if args.format == "ipa-robot-accuracy":
-        given = [o for o, v in (("--plan", args.plan), ("--columns", args.columns), ("--time-format", args.time_format))
-                 if v]
-        if given:
-            raise InputError(f"--format ipa-robot-accuracy reads the dataset's own columns; {', '.join(given)} "
-                             "does not apply")
-        res = import_dataset_to_file(args.export, m, args.out, tool_mm=args.tool_mm)
-        print("\n".join(res.lines()))
-        print(f"  wrote {args.out}")
-        return 0
-    res = import_to_file(args.export, m, args.out, args.plan, columns=args.columns, units=args.units,
-                         delimiter=args.delimiter, decimal=args.decimal, time_format=args.time_format,
-                         temperature_unit=args.temperature_unit, tool_mm=args.tool_mm,
+    res = import_to_file(args.export, m, args.out, args.plan, export_format=args.export_format, columns=args.columns,
+                         units=args.units, delimiter=args.delimiter, decimal=args.decimal,
+                         time_format=args.time_format, temperature_unit=args.temperature_unit, tool_mm=args.tool_mm,
                          ignore_unmatched=args.ignore_unmatched)
-    print("\n".join(res.lines()))
-    print(f"  wrote {args.out}")
+    say(args, *res.lines(), f"  wrote {args.out}")
     return 0
 
 
@@ -33,7 +21,7 @@ def register(sub) -> None:
     s.add_argument("export", help="the tracker software's export (CSV/TXT)")
     s.add_argument("--machine", required=True, help="bundled machine name (vecpin info lists them) or URDF path")
     add_machine_args(s)
-    s.add_argument("--format", choices=["tracker", "ipa-robot-accuracy"], default="tracker",
+    s.add_argument("--format", dest="export_format", choices=["tracker", "ipa-robot-accuracy"], default="tracker",
                    help="tracker: a tracker program's export (default); ipa-robot-accuracy: a measurements_*.csv of "
                         "the public UR10 dataset github.com/christianlandgraf/ipa-robot-accuracy (machine ur10; joints "
                         "in rad, T-Mac centre in mm, tool 109 mm unless --tool-mm)")

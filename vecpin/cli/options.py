@@ -14,7 +14,20 @@ import argparse
 import re
 
 #: library parameter name -> the parser's ``dest`` where they differ
-ALIASES: dict[str, str] = {}
+ALIASES: dict[str, str] = {
+    "mean_error_mm": "mean_error", "max_error_mm": "max_error", "long_term_mm": "long_term",   # assess
+    "short_term_mm": "short_term",
+    "tools_mm": "tools", "modulo_axes": "modulo", "test_path": "sign_test",  # tables, evaluate
+    "out_dir": "out",            # a workflow's output folder (plan_to_dir, simulate_to_dir, ...): --out
+    "repeat_points": "repeat",   # --repeat POINTS TIMES sets both
+    "repeat_times": "repeat",
+}
+
+#: library phrases naming two parameters that one option sets together: (phrase, the option's
+#: dest, the phrase as the command line writes it with {flag} for the option's flag)
+PHRASES: list[tuple[re.Pattern, str, str]] = [
+    (re.compile(r"`repeat_points` (\S+?), `repeat_times` (\S+?):"), "repeat", r"{flag} \1 \2:"),
+]
 
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")
 
@@ -35,4 +48,8 @@ def flag_table(parser: argparse.ArgumentParser) -> dict[str, str]:
 def as_flags(text: str, table: dict[str, str]) -> str:
     """``text`` with every backquoted parameter the command has replaced by its flag;
     a backquoted name the command does not have loses only its backquotes."""
-    return _NAME.sub(lambda m: table.get(m.group(1), m.group(1)), str(text))
+    text = str(text)
+    for pattern, dest, written in PHRASES:
+        if dest in table:
+            text = pattern.sub(written.format(flag=table[dest]), text)
+    return _NAME.sub(lambda m: table.get(m.group(1), m.group(1)), text)

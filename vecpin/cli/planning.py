@@ -2,8 +2,11 @@
 and the point-distribution figure."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress
+from vecpin.cli.common import add_machine_args, add_noise_args, machine, noise, progress, say
 from vecpin.errors import InputError
+
+#: --basis as the fit takes it (vecpin.planning.problem.BASES: how a plan builds each)
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")
 
 
 def parse_floats(text: str, option: str, count: int | None = None) -> tuple[float, ...]:
@@ -32,43 +35,51 @@ def parse_nest_options(texts: list[str]) -> dict[str, tuple[float, float, float]
     return out or None
 
 
-def plan_noise(args, m):
-    from vecpin.measurement.noise import noise_from_options
-    return noise_from_options(m, "cartesian" if args.cartesian else "spherical",
-                              repeatability_mm=args.repeatability_mm, repeatability_deg=args.repeatability_deg,
-                              tracker_sigma_mm=args.tracker_sigma_mm, tracker_noise=args.tracker_noise)
+def parse_tools(texts: list[str], option: str = "--tools") -> tuple[float, ...]:
+    """``--tools`` as plan and simulate take it: lengths in mm separated by spaces or commas
+    (``214.88 312.86`` or ``214.88,312.86``)."""
+    return tuple(v for t in texts for v in parse_floats(t, option))
 
 
-def plan_model(option: str, m) -> str:
-    """The model kind a plan is made for: ``option``, or for ``auto`` 6dof on a machine
-    with table axes (a 'workpiece' link) and ap elsewhere."""
-    if option != "auto":
-        return option
-    return "6dof" if m.has_workpiece else "ap"
+def plan_order(text: str) -> int:
+    """``--order`` of a plan: a whole number >= 0, or auto: 6 (Paper I's; a plan is made
+    before the data can choose)."""
+    if str(text).strip().lower() == "auto":
+        return 6
+    try:
+        order = int(text)
+    except ValueError:
+        order = -1
+    if order < 0:
+        raise InputError(f"--order '{text}': a whole number >= 0, or auto")
+    return order
 
 
 def run_plan(args) -> int:
+    from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
     from vecpin.planning.plan import PlanSettings
     from vecpin.planning.zones import parse_zone
     from vecpin.workflows.planning import plan_to_dir
     from vecpin.workflows.tables import parse_axis_map
     m = machine(args.machine, args)
     settings = PlanSettings(
-        n_points=args.points, tools_mm=parse_floats(args.tools, "--tools"), model=plan_model(args.model, m), order=args.order,
-        basis=args.basis, noise=plan_noise(args, m),
-        tracker_mm=parse_floats(args.tracker, "--tracker", 3) if args.tracker else None,
-        exclude=[parse_zone(z, "--exclude") for z in args.exclude],
-        zone=parse_zone(args.zone, "--zone") if args.zone else None, method=args.method, approach=args.approach,
+        n_points=args.n_points, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
+        model=args.model, order=plan_order(args.order), basis=args.basis, noise=noise(args, m),
+        tracker_mm=parse_floats(args.tracker_mm, "--tracker", 3) if args.tracker_mm else None,
+        exclude=[parse_zone(z, "exclude") for z in args.exclude],
+        zone=parse_zone(args.zone, "zone") if args.zone else None, method=args.method, approach=args.approach,
         approach_mm=args.approach_mm, approach_deg=args.approach_deg,
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed, validation_run=args.validation, expected_error_mm=args.expected_error, nests=args.nests, nest_mm=parse_nest_options(args.nest))
+        candidates=args.candidates, seed=args.seed, validation_run=args.validation_run,
+        expected_error_mm=args.expected_error_mm, nests=args.nests, nest_mm=parse_nest_options(args.nest_mm))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
-                      dwell_s=args.dwell, nest_dwell_s=args.nest_dwell, feed_mm_min=args.feed, safe_z_mm=args.safe_z,
-                      retract=args.retract_axis, axis_map=parse_axis_map(args.axis_map, m),
-                      compare_with=args.compare, progress=progress(not args.quiet), holder_change_s=args.holder_change)
-    print("\n".join(run.lines()))
+                      dwell_s=args.dwell_s, nest_dwell_s=args.nest_dwell_s, feed_mm_min=args.feed_mm_min,
+                      safe_z_mm=args.safe_z_mm, retract=args.retract, axis_map=parse_axis_map(args.axis_map, m),
+                      compare_with=args.compare_with, progress=progress(not args.quiet),
+                      holder_change_s=args.holder_change_s)
+    say(args, *run.lines())
     return 0
 
 
@@ -80,18 +91,31 @@ def register(sub) -> None:
     s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, the validation run "
                    "validation.csv, VALID_840D.MPF, O1001.nc, validation.ngc, plan.png, "
                    "plan.json)")
-    s.add_argument("--points", type=int, default=100, help="commands to measure, each with every holder length "
-                   "(default 100; Paper I measured 295; at most 10000: about 1 min to plan, 2 min with table nests, "
-                   "under 1 GB)")
-    s.add_argument("--tools", default="214.88,312.86", metavar="L1,L2",
-                   help="target holder lengths from the gauge line, mm (default 214.88,312.86 as Paper I)")
-    s.add_argument("--tracker", metavar="X,Y,Z", help="tracker head position in the machine base frame, mm "
-                   "(default: 2 m beyond the tool-tip workspace on the side from which the tips are in sight: in "
-                   "front, at its lowest height, unless the machine's geometry hides them there)")
+    _add_setup_args(s)
+    _add_choice_args(s)
+    _add_route_args(s)
+    _add_program_args(s)
+    add_noise_args(s, multilateration=False, ballbar=False)  # a plan has no range-only or ball bar rows
+    s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
+    s.set_defaults(func=run_plan)
+
+
+def _add_setup_args(s) -> None:
+    """What is measured and with what: commands, holders, tracker, table nests, zones."""
+    s.add_argument("--points", dest="n_points", type=int, default=100, help="commands to measure, each with every "
+                   "holder length (default 100; Paper I measured 295; at most 10000: about 1 min to plan, 2 min with "
+                   "table nests, under 1 GB)")
+    s.add_argument("--tools", dest="tools_mm", nargs="+", metavar="L",
+                   help="target holder lengths from the gauge line, mm, separated by spaces or commas (default "
+                        "214.88 312.86 as Paper I)")
+    s.add_argument("--tracker", dest="tracker_mm", metavar="X,Y,Z", help="tracker head position in the machine base "
+                   "frame, mm (default: 2 m beyond the tool-tip workspace on the side from which the tips are in "
+                   "sight: in front, at its lowest height, unless the machine's geometry hides them there)")
     s.add_argument("--nests", type=int, help="reflectors in table nests read at every command's dwell, on a machine "
                    "with table axes (a 'workpiece' link): the only readings that see the table axes (default 3 there, "
                    "0 elsewhere; at most 20)")
-    s.add_argument("--nest", action="append", default=[], metavar="ID=X,Y,Z",
+    s.add_argument("--nest", dest="nest_mm", action="append", default=[], metavar="ID=X,Y,Z",
                    help="a table nest where you place it: its id and position, mm in the workpiece (table) frame; "
                         "repeatable, replaces the default places (default: on a circle on the table at 20-80 mm)")
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
@@ -99,25 +123,49 @@ def register(sub) -> None:
                         "avoidance); repeatable (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="measurement zone in axis space, mm/deg: plan only "
                    "inside it (calibration in zones); default: the whole travel")
+
+
+def _add_choice_args(s) -> None:
+    """The model the campaign is planned for and how the commands are chosen and judged."""
     s.add_argument("--model", choices=["auto", "ap", "6dof"], default="auto",
-                   help="model the campaign is planned for: auto = 6dof on a machine with table axes (an axis "
-                        "perturbation cannot follow a table's tilt and wobble, which only nest readings see) and "
-                        "ap elsewhere, as Paper I (default auto)")
-    s.add_argument("--order", type=int, default=6, help="series order of that model (default 6, as Paper I)")
-    s.add_argument("--basis", default="auto", choices=["auto", "chebyshev"],
-                   help="auto: Fourier on rotary axes travelling more than a turn, Chebyshev elsewhere (default)")
+                   help="error model the campaign is planned for: 6dof or ap, or auto: vecpin chooses (before any "
+                        "data: 6dof on a machine with table axes, whose tilt and wobble only nest readings see, ap "
+                        "elsewhere, as Paper I) (default auto)")
+    s.add_argument("--order", default="auto", help="series order of that model, as the fit takes it (a whole number; "
+                   "with --basis spline or pspline the number of interior knots per axis), or auto: vecpin chooses "
+                   "(before any data: 6, as Paper I) (default auto)")
+    s.add_argument("--basis", default="auto", choices=BASES,
+                   help="basis of the error functions, as the fit takes it: chebyshev over the travel, fourier (per "
+                        "turn on rotary axes travelling more than a turn), fourier_trend (per turn plus a trend), "
+                        "spline (cubic B-splines; pspline: planned as spline, its smoothing only adds information), "
+                        "or auto: vecpin chooses (before any data: fourier where it applies, chebyshev elsewhere) "
+                        "(default auto)")
     s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",
-                   help="doptimal: greedy D-optimal choice (default); random: at random, as Paper I did")
-    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default 10 x points, at least 2000; "
-                   "beyond 10000 candidates 3 x points, so that 10000 points take about a minute)")
+                   help="how the commands are chosen: doptimal, greedy D-optimal (default); random, at random, as "
+                        "Paper I did")
+    s.add_argument("--candidates", type=int, help="candidate commands to choose from (default 10 x points, at least "
+                   "2000; beyond 10000 candidates 3 x points, so that 10000 points take about a minute)")
+    s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
+                   help="repeated points (eq. 22): POINTS commands measured TIMES times, half of the sequences at the "
+                        "start and half at the end (default: none)")
+    s.add_argument("--validation", dest="validation_run", type=int, default=35, metavar="N",
+                   help="commands of the validation run (validation.csv and its NC programs: inside the zone, free and "
+                        "in sight with the first holder; measure them without and with the tables) (default 35)")
+    s.add_argument("--expected-error", dest="expected_error_mm", type=float, default=0.2, metavar="MM",
+                   help="the machine's mean volumetric error uncompensated, as a tracker measures it (rigid motion "
+                        "removed), mm: the plan warns when its predicted error exceeds half of it (default 0.2)")
+    s.add_argument("--compare", dest="compare_with", action="append", default=[], metavar="PLAN.csv|random",
+                   help="also judge another plan's template (or 'random': the same number of commands at random) "
+                        "with the same model and noise; repeatable (default: none)")
+
+
+def _add_route_args(s) -> None:
+    """Line of sight, approach and the speeds of the moves between the points."""
     s.add_argument("--approach", choices=["below", "above", "both", "none"], default="below",
                    help="approach every point from below on every axis (default), from above, both (each point "
                         "twice, to measure backlash), or none")
     s.add_argument("--approach-mm", type=float, default=5.0, help="approach distance on linear axes, mm (default 5)")
     s.add_argument("--approach-deg", type=float, default=1.0, help="approach distance on rotary axes, deg (default 1)")
-    s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
-                   help="repeated points (eq. 22): POINTS commands measured TIMES times, half of the sequences at the "
-                        "start and half at the end (default: none)")
     s.add_argument("--no-sight", action="store_true", help="do not test the line of sight (default: test it)")
     s.add_argument("--geometry", choices=["auto", "collision", "visual"], default="auto",
                    help="URDF geometry that blocks the sight line (default auto: collision if any, else visual)")
@@ -130,43 +178,26 @@ def register(sub) -> None:
                    "(default: URDF velocity limits)")
     s.add_argument("--rapid-deg-min", type=float, help="rapid speed of the rotary axes, deg/min "
                    "(default: URDF velocity limits)")
-    s.add_argument("--dwell", type=float, default=4.0, help="dwell at every point for the tracker to read the tool "
-                   "target, s (default 4)")
-    s.add_argument("--nest-dwell", type=float, default=15.0, help="further dwell per table nest read at a point, s "
-                   "(default 15: the operator moves the tracker to each nest)")
-    s.add_argument("--safe-z", type=float, metavar="MM", help="machine coordinate the retract axis (see --retract-axis) "
-                   "moves to before every move between points, mm; the other linear axes, then the rotary axes move "
-                   "there and it plunges to the next point (default: the end of its travel away from the work)")
-    s.add_argument("--retract-axis", metavar="AXIS", help="linear axis that lifts the tool off the work between "
-                   "points (default: the one along the tool at zero rotary angles, usually Z)")
-    s.add_argument("--validation", type=int, default=35, metavar="N",
-                   help="commands of the validation run (validation.csv and its NC programs: inside the zone, free and "
-                        "in sight with the first holder; measure them without and with the tables) (default 35)")
-    s.add_argument("--expected-error", type=float, default=0.2, metavar="MM",
-                   help="the machine's mean volumetric error uncompensated, as a tracker measures it (rigid motion "
-                        "removed), mm: the plan warns when its predicted error exceeds half of it (default 0.2)")
-    s.add_argument("--holder-change", type=float, default=120.0, metavar="S",
+
+
+def _add_program_args(s) -> None:
+    """The NC programs: dwells, retract, feed, addresses, dialects, holder changes."""
+    s.add_argument("--dwell", dest="dwell_s", type=float, default=4.0, help="dwell at every point for the tracker to "
+                   "read the tool target, s (default 4)")
+    s.add_argument("--nest-dwell", dest="nest_dwell_s", type=float, default=15.0, help="further dwell per table nest "
+                   "read at a point, s (default 15: the operator moves the tracker to each nest)")
+    s.add_argument("--safe-z", dest="safe_z_mm", type=float, metavar="MM", help="machine coordinate the retract axis "
+                   "(see --retract-axis) moves to before every move between points, mm; the other linear axes, then "
+                   "the rotary axes move there and it plunges to the next point (default: the end of its travel away "
+                   "from the work)")
+    s.add_argument("--retract-axis", dest="retract", metavar="AXIS", help="linear axis that lifts the tool off the "
+                   "work between points (default: the one along the tool at zero rotary angles, usually Z)")
+    s.add_argument("--holder-change", dest="holder_change_s", type=float, default=120.0, metavar="S",
                    help="time to change the target holder at the program's stop, s, for the campaign's time (default 120)")
-    s.add_argument("--feed", type=float, default=1000.0, help="feed of the final approach move, mm/min (default 1000)")
+    s.add_argument("--feed", dest="feed_mm_min", type=float, default=1000.0, help="feed of the final approach move, "
+                   "mm/min (default 1000)")
     s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
                    help="NC program to write; repeatable (default: all three)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
-    s.add_argument("--compare", action="append", default=[], metavar="PLAN.csv|random",
-                   help="also judge another plan's template (or 'random': the same number of commands at random) "
-                        "with the same model and noise; repeatable (default: none)")
-    d = noise_defaults()
-    s.add_argument("--cartesian", action="store_true", help="static Cartesian tracker noise instead of the range-dependent "
-                   "spherical model (default: spherical)")
-    s.add_argument("--tracker-sigma-mm", type=float, help="Cartesian tracker noise, mm (default "
-                   f"{d['tracker_sigma_mm']}; with --cartesian)")
-    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="spherical tracker noise: 1-sigma range noise = R_MM mm + R_PPM ppm of the range, "
-                        f"transverse = T_MM mm + T_PPM ppm of the range (default {d['tracker_noise']})")
-    s.add_argument("--repeatability-mm", type=float, help="1-sigma positioning noise of linear axes, mm "
-                   f"(default {d['repeatability_mm']})")
-    s.add_argument("--repeatability-deg", type=float, help="1-sigma positioning noise of rotary axes, deg "
-                   f"(default {d['repeatability_deg']})")
-    s.add_argument("--seed", type=int, default=0, help="seed of the candidate set and random choices (default 0)")
-    s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
-    s.set_defaults(func=run_plan)
+

@@ -5,51 +5,31 @@ import argparse
 
 import numpy as np
 
-from vecpin.cli.common import add_machine_args, machine
+from vecpin.cli.common import add_machine_args, machine, say
 from vecpin.units import M_PER_MM
 
 
 def run_simulate(args) -> int:
-    from vecpin.simulation.simulate import Design, parse_zone
+    from vecpin.cli.planning import parse_floats, parse_tools
     from vecpin.models.effects import parse_effect
-    from vecpin.workflows.simulating import simulate_to_dir
-    from vecpin.cli.planning import parse_floats
-    from vecpin.errors import InputError
+    from vecpin.planning.zones import parse_zone
+    from vecpin.simulation.simulate import Design
+    from vecpin.workflows.simulating import simulate_to_dir, simulation_inputs
     m = machine(args.machine, args)
-    targets = tuple(tuple(parse_floats(t, "--target", 3)) for t in args.target)
-    if args.nests is not None and args.nests < 0:
-        raise InputError(f"--nests {args.nests}: a number of table nests >= 0")
-    design = Design(n_commands=args.points, n_validation=args.validation, method=args.method,
-                    exclusion_zones=[parse_zone(z) for z in args.exclude],
-                    tools_mm=tuple(args.tools) if args.tools else Design().tools_mm,
+    targets = tuple(tuple(parse_floats(t, "--target", 3)) for t in args.targets_mm)
+    design = Design(n_commands=args.n_commands, n_validation=args.n_validation, method=args.method,
+                    exclusion_zones=[parse_zone(z, "exclusion_zones") for z in args.exclusion_zones],
+                    tools_mm=parse_tools(args.tools_mm) if args.tools_mm else Design().tools_mm,
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
-                    stations=args.stations, ballbar_points=args.ballbar, nests=args.nests, targets_mm=targets,
+                    stations=args.stations, ballbar_points=args.ballbar_points, nests=args.nests, targets_mm=targets,
                     known_targets=args.known_targets)
-    effects = [parse_effect(e, m) for e in args.effect]
-    plan = tables = truth = None
-    companions = {}
-    if args.plan:
-        from vecpin.measurement.plantemplate import read_template
-        plan = read_template(args.plan, m)  # with its table nests, if any
-        from vecpin.workflows.simulating import plan_companions
-        companions = plan_companions(m, args.plan, plan)  # its NC program's times, its validation run
-    if args.tables:
-        from vecpin.workflows.verifying import load_tables
-        tables = load_tables(args.tables, m)[0]
-    if args.truth:
-        from vecpin.errors import InputError
-        from vecpin.simulation.truth import TrueMachine
-        try:
-            truth = TrueMachine.load(args.truth, m)
-        except (OSError, KeyError, ValueError) as exc:
-            raise InputError(f"--truth {args.truth}: not a truth file of {m.name} ({exc})") from None
+    inputs = simulation_inputs(m, plan=args.plan, tables=args.tables, truth=args.truth)
     tracker = None
-    if args.tracker:
-        from vecpin.cli.planning import parse_floats
-        tracker = np.array(parse_floats(args.tracker, "--tracker", 3)) * M_PER_MM
-    run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=effects, plan=plan, tables=tables,
-                          truth=truth, tracker_position=tracker, mean_error_mm=args.mean_error, **companions)
-    print("\n".join(run.lines()))
+    if args.tracker_position:
+        tracker = np.array(parse_floats(args.tracker_position, "--tracker", 3)) * M_PER_MM
+    run = simulate_to_dir(m, args.out, seed=args.seed, design=design, effects=[parse_effect(e, m) for e in args.effect],
+                          tracker_position=tracker, mean_error_mm=args.mean_error_mm, **inputs)
+    say(args, *run.lines())
     return 0
 
 
@@ -75,13 +55,15 @@ def register(sub) -> None:
                    "truth.json; with --tables also validation_compensated.csv and its noise-free twin)")
     s.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same true machine and "
                    "files (default 0)")
-    s.add_argument("--points", type=int, default=295, help="commands, each measured with every tool (default 295 as "
+    s.add_argument("--points", dest="n_commands", type=int, default=295, help="commands, each measured with every tool (default 295 as "
                    "Paper I; ignored with --plan)")
-    s.add_argument("--validation", type=int, default=35, help="quasi-random validation commands, short tool "
+    s.add_argument("--validation", dest="n_validation", type=int, default=35, help="quasi-random validation commands, short tool "
                    "(default 35 as Paper I; with --plan: the plan's validation run, its validation.csv, when there)")
-    s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default 214.88 312.86 as Paper I)")
+    s.add_argument("--tools", dest="tools_mm", nargs="+", metavar="L", help="tool lengths in mm, separated by spaces "
+                   "or commas (default 214.88 312.86 as Paper I)")
     s.add_argument("--method", default="random", choices=["random", "sobol", "halton"],
-                   help="how the identification commands are drawn (default random, as Paper I)")
+                   help="how the commands are chosen: drawn at random, or from a scrambled Sobol or Halton "
+                        "sequence (default random, as Paper I)")
     s.add_argument("--plan", help="measure a plan's template (plan.csv from vecpin plan) in its order instead of "
                    "drawing commands, timed as its NC program runs (plan.json beside it), validated on its validation "
                    "run (validation.csv beside it) (default: none)")
@@ -89,24 +71,24 @@ def register(sub) -> None:
                    "on the true machine through these tables (default: none)")
     s.add_argument("--truth", help="truth.json of an earlier simulation: simulate that true machine instead of a new "
                    "random one (default: random from --seed and --mean-error)")
-    s.add_argument("--tracker", metavar="X,Y,Z", help="where the simulated tracker stands, machine base frame, mm "
+    s.add_argument("--tracker", dest="tracker_position", metavar="X,Y,Z", help="where the simulated tracker stands, machine base frame, mm "
                    "(e.g. the plan's position; default: 2 m in front of the workspace, random offset)")
-    s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
+    s.add_argument("--exclude", dest="exclusion_zones", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in mm/deg (repeatable; default none)")
-    s.add_argument("--mean-error", type=float, default=0.65, help="mean volumetric error of the true machine, mm "
+    s.add_argument("--mean-error", dest="mean_error_mm", type=float, default=0.65, help="mean volumetric error of the true machine, mm "
                    "(default 0.65)")
     s.add_argument("--stations", type=int, default=1, help="tracker positions measuring every command (default 1)")
     s.add_argument("--nests", type=int, metavar="N",
                    help="reflectors in N nests fixed on the table, read at every command (nest rows; their positions "
                         "are found by the fit). Default: 3 on a machine with a table branch (a 'workpiece' link), "
                         "else 0")
-    s.add_argument("--target", action="append", default=[], metavar="X,Y,Z",
+    s.add_argument("--target", dest="targets_mm", action="append", default=[], metavar="X,Y,Z",
                    help="a reflector on the tool at this offset from the tool link origin, mm in the tool link frame "
                         "(repeatable: several targets per pose, ids T1, T2, ...; read instead of the --tools; the true "
                         "offsets go to targets.csv; default: the tool tips)")
     s.add_argument("--known-targets", action="store_true",
                    help="the campaign's targets are known (else the fit finds their offsets; default unknown)")
-    s.add_argument("--ballbar", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere "
+    s.add_argument("--ballbar", dest="ballbar_points", type=int, default=0, metavar="N", help="add N ball bar rows on a 254 mm sphere "
                    "(eq. 63-64; default 0)")
     s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
                    help="append a repeatability sequence: POINTS commands measured TIMES times each (eq. 22; "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from vecpin.cli.common import add_machine_args, machine, noise_defaults, progress
+from vecpin.cli.common import add_machine_args, add_tracker_noise_arg, machine, progress, say
 from vecpin.errors import InputError
 
 
@@ -11,7 +11,7 @@ def run_assess(args) -> int:
     from vecpin.workflows.assessing import assess_campaign, assess_numbers
     if args.json:
         from vecpin.fileio import check_output_file
-        check_output_file(args.json, "--json")
+        check_output_file(args.json, "json")
     if args.csv:
         if not args.machine:
             raise InputError("assess CSV needs --machine (bundled name or URDF path)")
@@ -29,7 +29,7 @@ def run_assess(args) -> int:
             raise InputError("give a campaign CSV with repeated points, or the numbers: --mean-error and --long-term "
                              "(and --short-term, --max-error) in mm")
         res = assess_numbers(args.mean_error, args.long_term, args.short_term, args.max_error)
-    print("\n".join(res.lines()))
+    say(args, *res.lines())
     if args.json:
         import json
 
@@ -59,7 +59,7 @@ def run_verify(args) -> int:
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
                       progress=progress(not args.quiet))
-    print("\n".join(v.lines()))
+    say(args, *v.lines())
     return 0
 
 
@@ -72,10 +72,7 @@ def register(sub) -> None:
     add_machine_args(s)
     s.add_argument("--session-gap-min", type=float, default=30.0,
                    help="repeats further apart than this are different sessions (short vs long term), min (default 30)")
-    s.add_argument("--tracker-noise", type=float, nargs=4, metavar=("R_MM", "R_PPM", "T_MM", "T_PPM"),
-                   help="tracker noise for the instrument floor: 1-sigma range noise = R_MM mm + R_PPM ppm of the "
-                        "range, transverse = T_MM mm + T_PPM ppm of the range (default "
-                        f"{noise_defaults()['tracker_noise']})")
+    add_tracker_noise_arg(s, "tracker noise for the instrument floor")
     s.add_argument("--mean-error", type=float, help="without a CSV: uncompensated mean volumetric error, mm (default: none)")
     s.add_argument("--max-error", type=float, help="without a CSV: uncompensated max volumetric error, mm (optional; default: none)")
     s.add_argument("--long-term", type=float, help="without a CSV: long-term repeatability (mean of eq. 22), mm (default: none)")

@@ -37,44 +37,32 @@ def parse_exaggeration(text: str | None):
 def run_view(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.viz.scene import legend_lines, serve, write_html
-    if args.html:
-        from vecpin.fileio import check_output_file
-        check_output_file(args.html, "--html")
+    from vecpin.viz.scene import legend_lines
+    from vecpin.workflows.viewing import view
     ex = parse_exaggeration(args.exaggerate)
     model = ErrorModel.load(args.model)
-    c = read_campaign(args.csv, model.machine)
-    if not 0 <= args.row < len(c):
-        raise InputError(f"--row {args.row}: the campaign has rows 0 .. {len(c) - 1}")
-    if args.show == "compensated" and args.no_tables:
-        raise InputError("--show compensated needs the tables: drop --no-tables")
-    tables = None
-    if not args.no_tables:
-        from vecpin.compensation.plan import plan_tables
-        tables = plan_tables(model, n_commands=400).tables
-    if args.html:
-        facts = write_html(args.html, model, c, args.row, ex, tables, args.show)
-        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
-        print("\n".join(legend_lines(facts)))
-        return 0
 
     def ready(url, facts):
         print(f"meshcat scene at {url}; one group is shown at a time (switch them in Open Controls > Scene > "
               "vecpin); Ctrl-C to stop", flush=True)
         print("\n".join(legend_lines(facts)), flush=True)
-    serve(model, c, args.row, ex, tables, ready, args.show)
+    facts = view(model, read_campaign(args.csv, model.machine), row=args.row, exaggerate=ex, show=args.show,
+                 no_tables=args.no_tables, html=args.html, ready=ready)
+    if args.html:
+        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
+        print("\n".join(legend_lines(facts)))
     return 0
 
 
 def run_report(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.models import ErrorModel
-    from vecpin.viz.report import write_report
+    from vecpin.workflows.reporting import report
     models = [ErrorModel.load(p) for p in args.model]
     c = read_campaign(args.csv, models[0].machine)
     v = read_campaign(args.validation, models[0].machine) if args.validation else None
-    page = write_report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
-                        controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
+    page = report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
+                  controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
     print(f"wrote {page} (with figures/ and scene.html) for {len(models)} model{'s' if len(models) > 1 else ''}")
     return 0
 

@@ -231,7 +231,7 @@ def from_ap_model(model: APModel, modulo_axes=(), hold: dict[str, tuple[float, f
     for a in modulo_axes:
         if model.bases[m.axis(a).index].kind != "fourier":
             raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
-                              "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
+                              "periodic: fit with `basis` auto (Fourier on rotary axes travelling more than a turn)")
     c, a = model.split(model.b_)
     coef = {}
     for o, ao in enumerate(m.axes):

@@ -7,7 +7,7 @@ from a machine's controller profile) and the workflow passes it down to
 :func:`vecpin.compensation.plan.plan_tables`.
 
 Every check here runs before any heavy computation, so an impossible request
-(``--points 10000000``, more tables than the controller has) fails at once with the
+(``points=10000000``, more tables than the controller has) fails at once with the
 limit, its source and what to change.
 """
 from __future__ import annotations
@@ -91,19 +91,20 @@ class ControllerLimits:
     def default_points(self) -> int:
         return min(DEFAULT_POINTS, self.max_points)
 
-    def points(self, points: int | None, option: str = "--points") -> int:
-        """The points per table to use: ``points`` checked against the limits, or the default."""
+    def points(self, points: int | None, option: str = "points") -> int:
+        """The points per table to use: ``points`` checked against the limits, or the default
+        (``option``: the parameter the messages name)."""
         if points is None:
             return self.default_points
         if isinstance(points, bool) or not isinstance(points, int):
-            raise InputError(f"{option} is a whole number of points per table, not {points!r}")
+            raise InputError(f"`{option}` is a whole number of points per table, not {points!r}")
         if points < 2:
-            raise InputError(f"{option} {points}: a table needs at least 2 points")
+            raise InputError(f"`{option}` {points}: a table needs at least 2 points")
         if points > self.max_points:
             why = (f"vecpin's ceiling of {VECPIN_MAX_POINTS} points per table (larger files are of no use to a "
                    "controller)" if self.max_points == VECPIN_MAX_POINTS else
                    f"{self.name} holds at most {self.max_points} points per table ({self.source})")
-            raise ControllerLimitError(f"{option} {points}: {why}; use {option} {self.max_points} or fewer")
+            raise ControllerLimitError(f"`{option}` {points}: {why}; use `{option}` {self.max_points} or fewer")
         return points
 
     # ------------------------------------------------------------------ tables
@@ -130,15 +131,15 @@ class ControllerLimits:
         limit = self.cross_limit(list(axis_names or [])) if axis_names is not None else self.max_cross_tables
         if not self.cross_tables:
             raise ControllerLimitError(f"{self.name} takes pitch tables only ({self.source}): no cross tables to "
-                                       "choose (leave out --max-tables)")
+                                       "choose (leave out `max_tables`)")
         k = max_tables if max_tables is not None else limit
         if k is None:
-            raise InputError(f"{self.name}: give the number of cross tables to choose (--max-tables)")
+            raise InputError(f"{self.name}: give the number of cross tables to choose (`max_tables`)")
         if k < 0:
-            raise InputError(f"--max-tables {k}: give a number >= 0")
+            raise InputError(f"`max_tables` {k}: give a number >= 0")
         if limit is not None and k > limit:
             raise ControllerLimitError(f"{self.name} allows at most {limit} cross tables, not {k} ({self.source}): "
-                                       f"use --max-tables {limit} or fewer")
+                                       f"use `max_tables` {limit} or fewer")
         pairs: tuple[tuple[str, str], ...] = ()
         if self.one_cross_table_per_output and axis_names is not None:
             names = [(o + i).lower() for o in axis_names for i in axis_names if o != i]
@@ -156,7 +157,7 @@ class ControllerLimits:
                                        f"tables {names}")
         if self.max_cross_tables is not None and len(cross) > self.max_cross_tables:
             raise ControllerLimitError(f"{self.name} allows {self.max_cross_tables} cross tables ({self.source}); this "
-                                       f"set has {len(cross)} ({names}): choose a subset (--max-tables)")
+                                       f"set has {len(cross)} ({names}): choose a subset (`max_tables`)")
         if self.one_cross_table_per_output:
             outs = [t.output_axis for t in cross]
             dup = sorted({o for o in outs if outs.count(o) > 1})
@@ -170,7 +171,7 @@ class ControllerLimits:
             if cap is not None and len(t.values) > cap:
                 kind = "pitch" if t.is_pitch else "cross"
                 raise ControllerLimitError(f"{self.name}: {kind} table {t.name} has {len(t.values)} points, at most "
-                                           f"{cap} ({self.source}): use --points {cap}")
+                                           f"{cap} ({self.source}): use `points` {cap}")
 
 
 NO_LIMITS = ControllerLimits("generic", source="vecpin's generic files: no controller limit")

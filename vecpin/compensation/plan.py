@@ -194,7 +194,7 @@ def _request(model, lim, max_tables, no_circular, forbid_output, points, method,
     m = model.machine
     n_points = lim.points(points)
     if method not in METHODS:
-        raise InputError(f"--method {method}: choose one of {', '.join(METHODS)}")
+        raise InputError(f"`method` {method}: choose one of {', '.join(METHODS)}")
     for a in forbid_output:
         m.axis(a)
     _check_modulo(model, modulo_axes)
@@ -207,8 +207,8 @@ def _request(model, lim, max_tables, no_circular, forbid_output, points, method,
     if need_subset:
         cons = lim.constraints(max_tables, no_circular, tuple(forbid_output), axis_names=m.axis_names)
         if cons.max_tables == 0 or not cons.candidates(m.axis_names):
-            only_pitch_note = ("--max-tables 0" if cons.max_tables == 0 else "every cross table is forbidden "
-                               "(--forbid-output and the controller's rules)") + ": pitch tables only"
+            only_pitch_note = ("`max_tables` 0" if cons.max_tables == 0 else "every cross table is forbidden "
+                               "(`forbid_output` and the controller's rules)") + ": pitch tables only"
             cons = None
     tools_mm, tools_note = _table_tools(model, tools_mm)
     if commands is None and n_commands < 1:
@@ -221,14 +221,14 @@ def _check_modulo(model: ErrorModel, modulo_axes) -> None:
     for a in modulo_axes:
         ax = m.axis(a)
         if ax.kind != "rotary":
-            raise InputError(f"--modulo {a}: only rotary axes have modulo tables, not the linear axis {a}")
+            raise InputError(f"`modulo_axes` {a}: only rotary axes have modulo tables, not the linear axis {a}")
         if ax.upper_user - ax.lower_user < 360.0 - 1e-9:
-            raise InputError(f"--modulo {a}: {a} travels {ax.upper_user - ax.lower_user:g} deg "
+            raise InputError(f"`modulo_axes` {a}: {a} travels {ax.upper_user - ax.lower_user:g} deg "
                              f"({ax.lower_user:g} .. {ax.upper_user:g}), less than a turn, so a table over one turn "
-                             f"that repeats does not apply; leave out --modulo {a} (its table spans the travel)")
+                             f"that repeats does not apply; leave out `modulo_axes` {a} (its table spans the travel)")
         if isinstance(model, APModel) and model.bases[ax.index].kind != "fourier":
             raise VecpinError(f"a modulo table on {a} must repeat every turn, but the model's basis on {a} is not "
-                              "periodic: fit with --basis auto (Fourier on rotary axes travelling more than a turn)")
+                              "periodic: fit with `basis` auto (Fourier on rotary axes travelling more than a turn)")
 
 
 def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
@@ -237,14 +237,14 @@ def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
     if tools_mm is not None:
         t = np.asarray(tools_mm, float)
         if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0 or t.max() > 10_000:
-            raise InputError(f"--tools {' '.join(f'{v:g}' for v in t)}: tool lengths are mm from the gauge line, "
+            raise InputError(f"`tools_mm` {' '.join(f'{v:g}' for v in t)}: tool lengths are mm from the gauge line, "
                              "0 .. 10000 (e.g. 214.88 312.86)")
     tools_mm = list(tools_mm or getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
     note = None
     if len(tools_mm) > MAX_TABLE_TOOLS:  # a tool column measured row by row: as many lengths as rows
         lo, hi = float(min(tools_mm)), float(max(tools_mm))
         note = (f"{len(tools_mm)} different tool lengths in the fit: the tables are fitted on {MAX_TABLE_TOOLS} "
-                f"spanning {lo:g} .. {hi:g} mm (give --tools to choose)")
+                f"spanning {lo:g} .. {hi:g} mm (give `tools_mm` to choose)")
         tools_mm = [float(v) for v in np.linspace(lo, hi, MAX_TABLE_TOOLS)]
     if len(tools_mm) < 2:
         tools_mm = tools_mm + [t + 100.0 for t in tools_mm]  # two lengths fix position and orientation
@@ -265,7 +265,7 @@ def _table_problem(model: ErrorModel, req: _Request, modulo_axes, commands, n_co
         lo, hi = np.maximum(lo, zl), np.minimum(hi, zh)
         if np.any(hi < lo):
             a = m.axes[int(np.argmax(hi < lo))]
-            raise InputError(f"--zone: the zone's interval of {a.name} lies outside what the model's campaign measured "
+            raise InputError(f"`zone`: the zone's interval of {a.name} lies outside what the model's campaign measured "
                              f"({a.to_user(measured_box(model)[0][a.index]):g} .. "
                              f"{a.to_user(measured_box(model)[1][a.index]):g} {a.unit})")
     if commands is None:

@@ -104,7 +104,7 @@ def write(job: ExportJob) -> list[str]:
             ai = m.axis(t.input_axis)
             if t.modulo:
                 raise InputError(f"beckhoff: cross table {t.name} is modulo; vecpin knows no modulo key of "
-                                 "kw.crosscomp: make the tables without --modulo")
+                                 "kw.crosscomp: make the tables without `modulo_axes`")
             master = prof.need(ai.name, "number", "beckhoff", "logical axis number")
             sp, val = _units(ai.to_user(t.positions)), _units(-a.to_user(t.values))
             lines += [_key("kw.crosscomp.last_index", len(sp) - 1, "last valid index"),

@@ -43,6 +43,18 @@ class ExportJob:
     points: int = 1024
     notes: list[str] = field(default_factory=list)
     constants: dict[str, float] = field(default_factory=dict)
+    commands: "UserCommands" = field(default_factory=lambda: UserCommands())
+
+
+@dataclass(frozen=True)
+class UserCommands:
+    """How the files' READMEs tell the user to ask vecpin for a sign test (``sign_test``)
+    and to judge its readings (``sign_check``, with ``{tag}`` for the table's tag): the
+    caller's own words, so a README names the command-line commands when the command
+    line wrote it and the Python calls (the default) when a script did."""
+
+    sign_test: str = "`make_tables(model, out_dir, controller, sign_test=\"AXIS\")`"
+    sign_check: str = "`check_sign(\"SIGNTEST_{tag}.json\", \"SIGNTEST_{tag}.csv\", machine)`"
 
 
 def constant_note(axis, value_user: float, file: str, datum: str, datum_file: str) -> str:
@@ -62,7 +74,7 @@ def modulo_warnings(job: "ExportJob") -> None:
                                                                if t.input_axis == a.name):
             job.notes.append(f"warning: {a.name} travels {a.upper_user - a.lower_user:g} deg and its tables cover the "
                              f"whole travel; if the NC treats {a.name} as a modulo axis, its tables must be modulo "
-                             f"(0..360): set \"modulo\": true for {a.name} in the profile (or --modulo {a.name})")
+                             f"(0..360): set \"modulo\": true for {a.name} in the profile (or `modulo_axes` {a.name})")
 
 
 def new_reference_position(reference_user: float, correction_user: float) -> float:
@@ -93,7 +105,7 @@ class ControllerFormat:
 
     ``limits``: defaults (a profile may override them); ``check``: raises before any
     heavy work when the profile lacks a fact the writer needs (given the modulo axes); ``files``, ``sign``,
-    ``source``, ``to_check``: the README's controller table; ``dialect``: the NC
+    ``source``, ``to_check``: the controller table of docs/compensation.md; ``dialect``: the NC
     language of the sign-test program; ``main_files``: file names ``read`` needs."""
 
     name: str

@@ -164,7 +164,7 @@ def pitch_grid(table: CompensationTable, machine: Machine, profile: ControllerPr
         raise InputError(f"{profile.where}: {a.name} is linear and cannot have a rotary-axis-type table")
     if rotary_type and not table.modulo:
         raise InputError(f"{profile.where}: {a.name} is modulo, but its table is not: make the tables with "
-                         f"--modulo {a.name}")
+                         f"`modulo_axes` {a.name}")
     t_ref = float(a.to_user(table(a.to_si(ref))))
     if rotary_type:
         n = _rotary_points(du, max_points)
@@ -329,7 +329,7 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
           f"Change the tool-length / pivot offset of the 5-axis transformation by "
           f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
           "## Before relying on the tables", "",
-          "- The sign of the pitch data (correction, not error) is inferred: run the sign test (`--sign-test AXIS`).",
+          f"- The sign of the pitch data (correction, not error) is inferred: run the sign test ({job.commands.sign_test}).",
           "- The value range (+-" + str(max_value) + " per point) and magnification range are inferred; the total "
           "point count (" + str(int(FORMAT.extra_limit(prof, 'pitch_points_total'))) + ") is the profile's limit.",
           "- 3624 is the interval in mm/deg (a real, 30i family); older series take detection units.", ""]

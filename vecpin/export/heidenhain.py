@@ -55,7 +55,7 @@ def check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits
 
 def _rotary_range_message(axis: str, lo: float, hi: float) -> str:
     return (f"heidenhain: the tables of {axis} would run {lo:g} .. {hi:g} deg; rotary positions in a .COM run "
-            f"0..360 (TNC 407 TM p.156): make modulo tables (--modulo {axis}) or set \"options\": "
+            f"0..360 (TNC 407 TM p.156): make modulo tables (`modulo_axes` {axis}) or set \"options\": "
             "{\"rotary_any_range\": true} in the profile if your control takes other positions")
 
 

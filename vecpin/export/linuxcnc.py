@@ -206,7 +206,7 @@ def check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits
     kind = _file_type(profile)
     if modulo_axes:
         raise InputError(f"linuxcnc: {', '.join(modulo_axes)} would get modulo tables, but a COMP_FILE has no modulo "
-                         "(the trim is looked up at the raw joint position): leave out --modulo and \"modulo\": true")
+                         "(the trim is looked up at the raw joint position): leave out `modulo_axes` and \"modulo\": true")
     check_ini(machine, profile, joint_numbers(machine, profile), kind)
 
 
@@ -222,7 +222,7 @@ def write(job: ExportJob) -> list[str]:
         a = m.axis(t.input_axis)
         if t.modulo:
             raise ControllerLimitError(f"linuxcnc: the table of {a.name} is modulo, but a COMP_FILE has no modulo "
-                                       "(looked up at the raw joint position): make the tables without --modulo")
+                                       "(looked up at the raw joint position): make the tables without `modulo_axes`")
         if not t.is_pitch:
             continue
         nominal, trim = a.to_user(t.positions), a.to_user(t.values)

@@ -1,4 +1,4 @@
-"""The built-in ``--controller`` names, in a module that imports nothing: the command line
+"""The built-in controller names (``controller``), in a module that imports nothing: the command line
 offers them without loading the formats (tests/test_controllers.py keeps them equal to
 :data:`vecpin.export.registry.FORMATS`' built-ins)."""
 

@@ -4,7 +4,7 @@ A compensation file that a controller accepts with the wrong axis, reference poi
 or unit silently makes the machine worse, so vecpin never guesses these facts: a
 writer that needs one and does not find it stops with a message naming the axis,
 the field and what the controller uses it for. The facts live in a small JSON file
-(``--profile``), one per machine and controller::
+(``profile``), one per machine and controller::
 
     {
      "format": "vecpin-controller-profile", "version": 1,
@@ -67,6 +67,8 @@ from pathlib import Path
 from vecpin.errors import InputError
 from vecpin.kinematics.axes import PLAIN_NAME
 
+AXIS_MAP = "`axis_map`"  # where NC names came from when no profile file gave any
+
 FORMAT = "vecpin-controller-profile"
 VERSION = 1
 
@@ -85,17 +87,17 @@ MAX_NUMBER = 999
 
 
 def load_option_json(path: str | Path, option: str):
-    """The JSON content of a file given with ``option`` (a profile, a sign test); a
-    missing or unreadable file is an InputError naming the option and the file."""
+    """The JSON content of a file given with the parameter ``option`` (a profile, a sign
+    test); a missing or unreadable file is an InputError naming the parameter and the file."""
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"{option} {path}: no such file")
+        raise InputError(f"`{option}` {path}: no such file")
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{option} {path}: not a JSON file ({exc})") from None
+        raise InputError(f"`{option}` {path}: not a JSON file ({exc})") from None
     except RecursionError:
-        raise InputError(f"{option} {path}: nested too deeply to be a vecpin file") from None
+        raise InputError(f"`{option}` {path}: nested too deeply to be a vecpin file") from None
     except OSError as exc:
         raise InputError(f"{option} {path}: cannot read the file ({exc.strerror})") from None
 
@@ -123,12 +125,12 @@ class ControllerProfile:
     options: dict = field(default_factory=dict)
     machine: str | None = None
     controller: str | None = None
-    where: str = "controller profile (--profile)"
+    where: str = "controller profile (`profile`)"
 
     # ------------------------------------------------------------------ files
     @classmethod
     def load(cls, path: str | Path) -> "ControllerProfile":
-        return cls.from_dict(load_option_json(path, "--profile"), str(path))
+        return cls.from_dict(load_option_json(path, "profile"), str(path))
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "controller profile") -> "ControllerProfile":
@@ -203,11 +205,11 @@ class ControllerProfile:
         """The fact ``key`` of ``axis``, or an error saying where to give it."""
         value = getattr(self.axis(axis), key)
         if value is None:
-            hint = (f"--axis-map {axis}=NAME or " if key == "nc_name" else "")
-            where = "a controller profile (--profile FILE)" if self.where == "--axis-map" else f"the {self.where}"
+            hint = (f"`axis_map` {axis}=NAME or " if key == "nc_name" else "")
+            where = "a controller profile (`profile`)" if self.where == AXIS_MAP else f"the {self.where}"
             raise InputError(f"{controller} needs the {purpose} of axis {axis}: give {hint}\"{key}\" under "
                              f"axes.{axis} in {where}, e.g. {{\"axes\": {{\"{axis}\": {{\"{key}\": ...}}}}}} "
-                             "(the README's controller section lists every field)")
+                             "(vecpin's profile command writes a template with every field)")
         return value
 
     def limit(self, name: str, default):
@@ -225,7 +227,7 @@ class ControllerProfile:
             raise InputError(f"{self.where}: the profile is for machine '{self.machine}', the model for '{machine.name}'")
         if self.controller and self.controller != controller:
             raise InputError(f"{self.where}: the profile is for controller '{self.controller}', not '{controller}' "
-                             "(--controller)")
+                             "(`controller`)")
         for a in self.axes:
             if a not in machine.axis_names:
                 raise InputError(f"{self.where}, field 'axes.{a}': machine {machine.name} has no axis '{a}' "
@@ -261,15 +263,15 @@ class ControllerProfile:
                     seen[n] = drive
 
     def with_axis_map(self, axis_map: dict[str, str]) -> "ControllerProfile":
-        """A copy with NC axis names from ``--axis-map`` (they win over the file)."""
+        """A copy with NC axis names from ``axis_map`` (they win over the file)."""
         if not axis_map:
             return self
         axes = dict(self.axes)
         for a, n in axis_map.items():
             if not PLAIN_NAME.fullmatch(n):
-                raise InputError(f"--axis-map {a}={n}: {_PLAIN}")
+                raise InputError(f"`axis_map` {a}={n}: {_PLAIN}")
             axes[a] = dataclasses.replace(self.axis(a), nc_name=n)
-        where = self.where if self.axes or self.limits else "--axis-map"
+        where = self.where if self.axes or self.limits else AXIS_MAP
         return dataclasses.replace(self, axes=axes, where=where)
 
     def axis_by_nc_name(self, name: str) -> str | None:

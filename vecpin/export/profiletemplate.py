@@ -1,6 +1,6 @@
 """A controller profile to fill in: every field a controller's files need, nothing guessed.
 
-``vecpin profile MACHINE --controller C --out profile.json`` writes the machine's axes
+:func:`template` (the ``profile`` command) writes the machine's axes
 with each field the controller's writer needs set to ``null`` and a ``comment`` that
 says what each field is and where it is found on the control. A ``null`` is "not given":
 ``vecpin tables`` refuses it, naming the axis and the field, until it is filled in.
@@ -59,7 +59,7 @@ def field_help(field: str, controller: str) -> str:
 def template(machine: Machine, controller: str) -> dict:
     """The profile template (a dict ready for JSON) of ``machine`` for ``controller``."""
     if controller not in FORMATS:
-        raise InputError(f"--controller {controller}: unknown (choose {', '.join(FORMATS)})")
+        raise InputError(f"`controller` {controller}: unknown (choose {', '.join(FORMATS)})")
     required, optional = FIELDS[controller]
     axes = {}
     for a in machine.axes:

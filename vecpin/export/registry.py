@@ -1,6 +1,6 @@
-"""``--controller`` names -> controller formats. The built-in formats are listed here;
+"""Controller names (``controller``) -> controller formats. The built-in formats are listed here;
 a plug-in (a module of your own) calls :func:`register_format` with its
-:class:`~vecpin.export.common.ControllerFormat` and is then a ``--controller`` choice."""
+:class:`~vecpin.export.common.ControllerFormat` and is then a ``controller`` choice."""
 from __future__ import annotations
 
 from vecpin.errors import InputError
@@ -23,8 +23,8 @@ def controller_names() -> list[str]:
 
 
 def get_format(name: str) -> ControllerFormat:
-    """The format of a ``--controller`` name."""
+    """The format of a controller name."""
     try:
         return FORMATS[name]
     except KeyError:
-        raise InputError(f"--controller {name}: unknown controller (choose {', '.join(FORMATS)})") from None
+        raise InputError(f"`controller` {name}: unknown controller (choose {', '.join(FORMATS)})") from None

@@ -78,7 +78,7 @@ def _modulo_notes(job: ExportJob) -> None:
         p = job.profile.axis(a.name)
         if p.modulo and not all(t.modulo for t in job.tables.tables if t.input_axis == a.name):
             raise InputError(f"{job.profile.where}: {a.name} is a modulo axis but its tables are not modulo: make "
-                             f"the tables with --modulo {a.name}")
+                             f"the tables with `modulo_axes` {a.name}")
 
 
 # ---------------------------------------------------------------------- writer
@@ -201,7 +201,7 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
           f"Change the gauge-line (spindle face to last rotary axis) offset of the 5-axis transformation by "
           f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
           "## Before relying on the tables", "",
-          "- Run the sign test (`vecpin tables ... --sign-test AXIS`) for one table of each file.",
+          f"- Run the sign test ({job.commands.sign_test}) for one table of each file.",
           "- Beyond MIN/MAX the end values hold; modulo tables repeat every turn.",
           "- Check the axis names: general axis names AXn are required in multi-channel systems (K3 p.248).", ""]
     return "\n".join(s)

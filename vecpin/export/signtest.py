@@ -16,7 +16,7 @@ files as written (read back), so rounding and resampling are in it.
 
 Files: an NC program in the controller's language (two stops, each position approached
 from below), ``SIGNTEST_<T>.md`` (what to do), ``SIGNTEST_<T>.json`` (the prediction,
-read by ``vecpin evaluate --sign-test``) and ``SIGNTEST_<T>.csv`` (the form to fill in:
+read by :func:`vecpin.workflows.tables.check_sign`) and ``SIGNTEST_<T>.csv`` (the form to fill in:
 ``compensation,command,reading``).
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import CampaignFileError, InputError
-from vecpin.export.common import decimal
+from vecpin.export.common import UserCommands, decimal
 from vecpin.export.profile import ControllerProfile, load_option_json
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
@@ -47,7 +47,7 @@ WEAK = {"mm": 0.002, "deg": 0.0005}    # a smaller predicted shift is hard to se
 
 
 def find_table(tables: TableSet, machine: Machine, which: str) -> CompensationTable:
-    """The table a ``--sign-test`` argument names: an axis (its pitch table) or a table
+    """The table a ``sign_test`` value names: an axis (its pitch table) or a table
     name (output then input axis, e.g. 'yx')."""
     names = {a.lower(): a for a in machine.axis_names}
     key = which.strip().lower()
@@ -56,7 +56,7 @@ def find_table(tables: TableSet, machine: Machine, which: str) -> CompensationTa
     for t in tables.tables:
         if t.name == key:
             return t
-    raise InputError(f"--sign-test {which}: no such table in this set (an axis, e.g. X, for its pitch table, or a "
+    raise InputError(f"`sign_test` {which}: no such table in this set (an axis, e.g. X, for its pitch table, or a "
                      f"table: {', '.join(tables.names())})")
 
 
@@ -92,15 +92,15 @@ class SignTest:
 
     @classmethod
     def load(cls, path: str | Path) -> "SignTest":
-        d = load_option_json(path, "--sign-test")
+        d = load_option_json(path, "test_path")
         if not isinstance(d, dict) or d.get("format") != FORMAT or d.get("version") != VERSION:
-            raise InputError(f"--sign-test {path}: not a vecpin sign-test file (written by vecpin tables --sign-test)")
+            raise InputError(f"`test_path` {path}: not a vecpin sign-test file (a SIGNTEST_<T>.json written with the tables)")
         try:
             return cls(d["controller"], d["machine"], d["table"], d["input_axis"], d["output_axis"], d["input_unit"],
                        d["output_unit"], tuple(float(x) for x in d["positions"]),
                        tuple(float(x) for x in d["corrections"]), list(d["files"]), d["sign_rule"])
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"--sign-test {path}: damaged sign-test file ({type(exc).__name__}: {exc})") from None
+            raise InputError(f"`test_path` {path}: damaged sign-test file ({type(exc).__name__}: {exc})") from None
 
 
 def plan_sign_test(table: CompensationTable, machine: Machine, controller: str, files: list[str],
@@ -112,7 +112,7 @@ def plan_sign_test(table: CompensationTable, machine: Machine, controller: str, 
     margin = 0.02 * (hi - lo)
     lo_ok, hi_ok = lo + APPROACH[ai.unit] + margin, hi - margin
     if hi_ok <= lo_ok:
-        raise InputError(f"--sign-test: {ai.name} travels too little ({hi - lo:g} {ai.unit}) for the test")
+        raise InputError(f"`sign_test`: {ai.name} travels too little ({hi - lo:g} {ai.unit}) for the test")
     x = np.linspace(lo_ok, hi_ok, 2001)
     t = ao.to_user(table(ai.to_si(x)))
     i, j = int(np.argmin(t)), int(np.argmax(t))
@@ -180,8 +180,10 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     return name, "\n".join(lines) + "\n"
 
 
-def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: ControllerProfile, notes: list[str]) -> list[str]:
-    """The program, instructions, prediction and CSV form of one sign test."""
+def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: ControllerProfile, notes: list[str],
+                    commands: UserCommands = UserCommands()) -> list[str]:
+    """The program, instructions, prediction and CSV form of one sign test; ``commands``: how the
+    instructions name the check (the caller's words)."""
     p = profile.axis(st.input_axis)
     address = p.program_name or st.input_axis
     prog_name, prog = program(st, dialect, address)
@@ -207,8 +209,7 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          "3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "
          "readings. Run the program again and write rows `on,<command>,<reading>`.",
-         f"4. `vecpin evaluate MODEL.json SIGNTEST_{tag}.csv --sign-test SIGNTEST_{tag}.json` says whether the "
-         "sign is right.",
+         f"4. {commands.sign_check.format(tag=tag)} says whether the sign is right.",
          "",
          f"Prediction: switching the table on changes (reading at {decimal(st.positions[1], 3)}) - (reading at "
          f"{decimal(st.positions[0], 3)}) by **{st.predicted:+.4f} {st.output_unit}** (corrections {st.corrections[0]:+.4f} and "

@@ -141,7 +141,7 @@ def parse_tool_axis(text: str) -> np.ndarray:
     """'+z', '-z', 'x', '-y', ... -> unit vector in the tool link frame."""
     m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", str(text))
     if not m:
-        raise InputError(f"--tool-axis '{text}': write one of +x, -x, +y, -y, +z, -z "
+        raise InputError(f"`tool_axis` '{text}': write one of +x, -x, +y, -y, +z, -z "
                          "(the tool link's axis the tool points along)")
     v = np.zeros(3)
     v["xyz".index(m.group(2).lower())] = -1.0 if m.group(1) == "-" else 1.0

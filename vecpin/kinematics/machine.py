@@ -45,7 +45,7 @@ import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.axes import (  # noqa: F401 (re-exported: callers import them from here)
-    BUNDLED_OPTIONS, RESERVED_NAMES, ROS_FLANGE_LINKS, SPINDLE_LINK, TOOL_DIRECTION, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
+    BUNDLED_OPTIONS, ROS_FLANGE_LINKS, SPINDLE_LINK, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
 from vecpin.units import to_mm
@@ -141,16 +141,16 @@ class Machine:
         else:
             names = [str(s).strip() for s in tool_link]
         if not names or any(not n for n in names):
-            raise InputError(f"--tool-link '{tool_link}': give a link name (or several, comma-separated)")
+            raise InputError(f"`tool_link` '{tool_link}': give a link name (or several, comma-separated)")
         if len(set(names)) != len(names):
-            raise InputError(f"--tool-link '{tool_link}': a link is named twice")
+            raise InputError(f"`tool_link` '{tool_link}': a link is named twice")
         for n in names:
             if n not in tree.links:
                 leaves = [lk for lk in tree.leaves() if lk != WORKPIECE_LINK]
                 default = " (the default tool link, on the gauge line)" if tool_link is None else ""
                 raise MachineError(
                     f"{source}: no link named '{n}'{default}; candidate end links: {', '.join(leaves)}; "
-                    "name the tool link with --tool-link NAME (Machine.load(..., tool_link=NAME))")
+                    "name the tool link with `tool_link` NAME")
         return tuple(names)
 
     def _resolve_tool_axis(self, tool_axis) -> None:
@@ -158,11 +158,11 @@ class Machine:
         if tool_axis is None:
             if link in ROS_FLANGE_LINKS:
                 tool_axis = "+z"
-                self.notes.append(f"tool along +z of '{link}' (ROS tool-flange convention; --tool-axis to change)")
+                self.notes.append(f"tool along +z of '{link}' (ROS tool-flange convention; `tool_axis` to change)")
             else:
                 tool_axis = "-z"
                 if not link.startswith(SPINDLE_LINK):
-                    self.notes.append(f"tool along -z of '{link}' (the default; --tool-axis if it points elsewhere)")
+                    self.notes.append(f"tool along -z of '{link}' (the default; `tool_axis` if it points elsewhere)")
         self.tool_axis: np.ndarray = parse_tool_axis(tool_axis)
         self.tool_axis_name: str = _axis_name(self.tool_axis)
 

@@ -25,8 +25,8 @@ def check_header(name: str, header: list[str], machine: Machine, body: str = "")
         sep = "semicolons" if ";" in header[0] else "tabs"
         raise CampaignFileError(name, f"the header is one cell with {sep} in it: this file is {sep[:-1]}-separated "
                                 "(a tracker export or a spreadsheet in a decimal-comma locale?), but campaign files are "
-                                "comma-separated with a decimal point; convert it with 'vecpin import "
-                                f"{name} --machine {machine.name} [--plan PLAN.csv] --out campaign.csv'", row=1)
+                                "comma-separated with a decimal point; convert it with vecpin import "
+                                f"(Python: vecpin.measurement.importer.import_export) for machine {machine.name}", row=1)
     seen: dict[str, int] = {}
     for j, h in enumerate(header):
         if h == "":
@@ -151,7 +151,7 @@ def check_extra(name: str, extra: dict[str, np.ndarray], rows: np.ndarray) -> No
             v = T[bad[0]]
             hint = (" (kelvin? temperature is in °C)" if v > 200 else
                     f" ({(v - 32) / 1.8:.1f} °C if it is °F: temperature is in °C; convert the column, or import the "
-                    "export with vecpin import --temperature-unit F)" if 32 <= v <= 130 else "")
+                    "export with `temperature_unit` F)" if 32 <= v <= 130 else "")
             raise CampaignFileError(name, f"temperature {v:g} °C is not a workshop temperature ({TEMPERATURE_RANGE_C[0]:g} "
                                     f".. {TEMPERATURE_RANGE_C[1]:g} °C){hint}", row=int(rows[bad[0]]), column="temperature")
 

@@ -38,13 +38,13 @@ def parse_column_map(text: str | None, machine: Machine | None = None) -> dict[s
     out: dict[str, str] = {}
     for part in str(text).split(","):
         if "=" not in part:
-            raise InputError(f"--columns '{text}': write FIELD=EXPORT COLUMN pairs separated by commas, e.g. "
+            raise InputError(f"`columns` '{text}': write FIELD=EXPORT COLUMN pairs separated by commas, e.g. "
                              "'x=Meas X,y=Meas Y,z=Meas Z,point=Name'")
         k, v = (s.strip() for s in part.split("=", 1))
         if k not in allowed:
-            raise InputError(f"--columns: '{k}' is not a field; fields are {', '.join(sorted(allowed))}")
+            raise InputError(f"`columns`: '{k}' is not a field; fields are {', '.join(sorted(allowed))}")
         if not v:
-            raise InputError(f"--columns: the export column for '{k}' is empty")
+            raise InputError(f"`columns`: the export column for '{k}' is empty")
         out[k] = v
     return out
 
@@ -91,7 +91,7 @@ DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab"}
 def _option_delimiter(value: str) -> str | None:
     v = {"auto": None, "comma": ",", ",": ",", "semicolon": ";", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t"}
     if value not in v:
-        raise InputError(f"--delimiter '{value}': one of auto, comma, semicolon, tab")
+        raise InputError(f"`delimiter` '{value}': one of auto, comma, semicolon, tab")
     return v[value]
 
 
@@ -122,10 +122,10 @@ def read_export_table(path: str | Path, delimiter: str = "auto", is_header=None)
         lineno, ln = content[0]
         if (forced or _delimiter_of(ln)) is None:
             raise CampaignFileError(name, f"no comma, semicolon or tab in the header '{ln.strip()[:60]}': give "
-                                    "--delimiter", row=lineno)
+                                    "`delimiter`", row=lineno)
         raise CampaignFileError(name, "no header line names the measured coordinates x, y, z (looked at the first "
                                 f"30 lines; line {lineno} reads '{ln.strip()[:70]}'): name the columns with "
-                                "--columns 'x=...,y=...,z=...'", row=lineno)
+                                "`columns` 'x=...,y=...,z=...'", row=lineno)
     k, header_line, d, header = chosen
     while header and header[-1] == "":
         header = header[:-1]
@@ -236,4 +236,24 @@ def parse_number(s: str, decimal: str) -> float:
     return v
 
 
-# ---------------------------------------------------------------------- result
+# ---------------------------------------------------------------------- units
+def unit_hint(header_units: list[str], preamble: list[str]) -> tuple[str | None, str]:
+    """The length unit the column headers' unit tokens or a preamble line (``Units: Inches``)
+    state, and where it was read ("conflict" when the headers disagree; None: not stated)."""
+    table = {"mm": "mm", "millimeter": "mm", "millimeters": "mm", "millimetre": "mm", "millimetres": "mm",
+             "in": "in", "inch": "in", "inches": "in", '"': "in", "m": "m", "meter": "m", "meters": "m", "metre": "m",
+             "metres": "m"}
+    found = {table[u] for u in header_units if u in table}
+    if len(found) == 1:
+        return found.pop(), "from the column headers"
+    if len(found) > 1:
+        return "conflict", "the column headers give different units"
+    pat = re.compile(r"\b(?:units?|length\s*units?|linear\s*units?|distance\s*units?)\b\s*[:=]?\s*"
+                     r"(mm|millimet\w*|inch(?:es)?|in|m|met(?:er|re)s?)\b", re.I)
+    for ln in preamble:
+        m_ = pat.search(ln)
+        if m_:
+            w = m_.group(1).lower()
+            return ("mm" if w.startswith("mm") or w.startswith("millim") else "in" if w.startswith("in") else "m"), \
+                f"from the line '{ln[:50]}'"
+    return None, ""

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
@@ -35,7 +35,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.exportread import (_COMMA, DELIMITER_NAMES, LENGTH_UNITS, TIME_FORMATS, UNIT_NAMES,
                                            ExportTable, _tokens, detect_decimal, parse_column_map, parse_number,
-                                           read_export_table, resolve_columns)
+                                           read_export_table, resolve_columns, unit_hint)
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.robotaccuracy import dataset_header
@@ -104,26 +104,6 @@ def _gyration(p: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
 
 
-def _unit_hint(header_units: list[str], preamble: list[str]) -> tuple[str | None, str]:
-    table = {"mm": "mm", "millimeter": "mm", "millimeters": "mm", "millimetre": "mm", "millimetres": "mm",
-             "in": "in", "inch": "in", "inches": "in", '"': "in", "m": "m", "meter": "m", "meters": "m", "metre": "m",
-             "metres": "m"}
-    found = {table[u] for u in header_units if u in table}
-    if len(found) == 1:
-        return found.pop(), "from the column headers"
-    if len(found) > 1:
-        return "conflict", "the column headers give different units"
-    pat = re.compile(r"\b(?:units?|length\s*units?|linear\s*units?|distance\s*units?)\b\s*[:=]?\s*"
-                     r"(mm|millimet\w*|inch(?:es)?|in|m|met(?:er|re)s?)\b", re.I)
-    for ln in preamble:
-        m_ = pat.search(ln)
-        if m_:
-            w = m_.group(1).lower()
-            return ("mm" if w.startswith("mm") or w.startswith("millim") else "in" if w.startswith("in") else "m"), \
-                f"from the line '{ln[:50]}'"
-    return None, ""
-
-
 def _parse_times(table: ExportTable, col: int, name: str, fmt: str | None, decimal: str, unit: str) -> np.ndarray:
     cells = [r[col] for r in table.rows]
     try:
@@ -143,11 +123,11 @@ def _parse_times(table: ExportTable, col: int, name: str, fmt: str | None, decim
     if not results:
         bad = next((k for k, c in enumerate(cells) if not any(_parses(c, f) for f in formats)), 0)
         raise _error(table, f"time stamp '{cells[bad]}' is neither seconds nor a date and time vecpin knows: give "
-                     "--time-format (strptime codes, e.g. '%d.%m.%Y %H:%M:%S')", bad, name)
+                     "`time_format` (strptime codes, e.g. '%d.%m.%Y %H:%M:%S')", bad, name)
     distinct = {tuple(np.round(v - v[0], 6)) for v in results.values()}
     if len(distinct) > 1:
         raise _error(table, f"time stamps like '{cells[0]}' read as day/month and as month/day give different times: "
-                     "give --time-format", 0, name)
+                     "give `time_format`", 0, name)
     v = next(iter(results.values()))
     return v - v[0]
 
@@ -160,6 +140,58 @@ def _parses(c: str, f: str) -> bool:
         return False
 
 
+@dataclass
+class _Export:
+    """An export read: its ``table``, the column index ``idx`` of each field, the decimal
+    mark ``dec`` of its numbers and the notes on how it was read."""
+
+    table: ExportTable
+    idx: dict[str, int]
+    dec: str
+    notes: list[str]
+
+    def header_of(self, f: str) -> str:
+        return self.table.header[self.idx[f]]
+
+    def column(self, f: str) -> np.ndarray:
+        """The numbers of field ``f``, every row (an error names the line and column)."""
+        out = np.empty(len(self.table.rows))
+        for k, r in enumerate(self.table.rows):
+            s = r[self.idx[f]]
+            if s == "":
+                raise _error(self.table, "empty cell (no value is guessed: fill it or delete the row)", k,
+                             self.header_of(f))
+            try:
+                out[k] = parse_number(s, self.dec)
+            except ValueError as exc:
+                hint = ""
+                if str(exc) == "thousands separator":
+                    hint = ": '.' and ',' together (thousands separators are not read; export without them)"
+                elif "decimal comma" in str(exc):
+                    hint = ": a decimal comma; give `decimal` ,"
+                raise _error(self.table, f"'{s}' is not a number{hint}", k, self.header_of(f)) from None
+        return out
+
+
+@dataclass
+class _Joined:
+    """The export's rows ``keep`` (indices into its rows) with their commands ``q`` (N, n)
+    [m, rad], holder lengths ``tool`` (N,) [m] and, from a plan, point numbers, approach
+    directions and nest readings (instrument, target, nest position [m], workpiece frame)."""
+
+    keep: np.ndarray
+    q: np.ndarray
+    tool: np.ndarray
+    joined_by: str
+    point_no: np.ndarray | None = None
+    approach: np.ndarray | None = None
+    instrument: np.ndarray | None = None
+    target: np.ndarray | None = None
+    nest_at: np.ndarray | None = None
+    unmeasured: list[int] = field(default_factory=list)
+    unmatched: list[str] = field(default_factory=list)
+
+
 def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTemplate | None = None, *,
                   columns: dict[str, str] | str | None = None, units: str = "auto", delimiter: str = "auto",
                   decimal: str = "auto", time_format: str | None = None, temperature_unit: str = "auto",
@@ -169,18 +201,45 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
     ``decimal``: auto, '.' or ','; ``temperature_unit``: auto, C, F or K; ``tool_mm``:
     the holder length when there is neither a plan nor a tool column;
     ``ignore_unmatched``: skip export rows whose point is not in the plan."""
-    if units not in ("auto", "mm", "in", "m"):
-        raise InputError(f"--units '{units}': auto, mm, in or m")
-    if decimal not in ("auto", ".", ","):
-        raise InputError(f"--decimal '{decimal}': auto, '.' or ','")
-    if temperature_unit not in ("auto", "C", "F", "K"):
-        raise InputError(f"--temperature-unit '{temperature_unit}': auto, C, F or K")
-    if tool_mm is not None and not (math.isfinite(tool_mm) and 0 <= tool_mm <= 10_000):
-        raise InputError(f"--tool-mm {tool_mm}: the holder length from the gauge line, mm (0 .. 10000)")
+    _check_import_options(units, decimal, temperature_unit, tool_mm)
     user = parse_column_map(columns, machine) if isinstance(columns, str) or columns is None else dict(columns)
     template = read_template(plan, machine) if isinstance(plan, (str, Path)) else plan
-    want_axes = template is None
+    ex = _read_export(path, machine, user, template is None, delimiter, decimal)
+    raw = np.column_stack([ex.column(f) for f in "xyz"])
+    if template is not None:
+        j = _join_plan(ex, template, ignore_unmatched)
+    else:
+        j = _join_own_axes(ex, machine, tool_mm)
+    if len(j.keep) < 4:
+        raise CampaignFileError(ex.table.path, f"only {len(j.keep)} points could be joined with the plan; at least 4 "
+                                "are needed")
+    raw = raw[j.keep]
+    nominal_mm = machine.tool_tip(j.q, j.tool, frame="base") / M_PER_MM
+    if j.instrument is not None:  # a nest reading: the planned nest on the table, posed at the command
+        on = j.instrument == "nest"
+        nominal_mm[on] = machine.workpiece_points(j.q[on], j.nest_at[on], jacobian=False).xyz / M_PER_MM
+    chosen, reason = _length_unit(ex, raw, nominal_mm, units)
+    extra, order, t_unit = _time_and_temperature(ex, j, machine, time_format, temperature_unit)
+    return _imported(ex, machine, template, j, raw * LENGTH_UNITS[chosen], nominal_mm, extra, order,
+                     (chosen, reason, t_unit))
 
+
+def _check_import_options(units: str, decimal: str, temperature_unit: str, tool_mm: float | None) -> None:
+    """The import's options inside their meaning, before the export is read (names the parameter)."""
+    if units not in ("auto", "mm", "in", "m"):
+        raise InputError(f"`units` '{units}': auto, mm, in or m")
+    if decimal not in ("auto", ".", ","):
+        raise InputError(f"`decimal` '{decimal}': auto, '.' or ','")
+    if temperature_unit not in ("auto", "C", "F", "K"):
+        raise InputError(f"`temperature_unit` '{temperature_unit}': auto, C, F or K")
+    if tool_mm is not None and not (math.isfinite(tool_mm) and 0 <= tool_mm <= 10_000):
+        raise InputError(f"`tool_mm` {tool_mm}: the holder length from the gauge line, mm (0 .. 10000)")
+
+
+def _read_export(path: str | Path, machine: Machine, user: dict[str, str], want_axes: bool, delimiter: str,
+                 decimal: str) -> _Export:
+    """The export's cells, the column of every field (given in ``user`` or recognised from
+    the header; an ambiguous one is an error) and its decimal mark."""
     def is_header(cells):
         idx, amb = resolve_columns(cells, user, machine.axis_names, want_axes)
         return all(idx.get(f, -1) >= 0 for f in "xyz") or any(f in amb for f in "xyz")
@@ -194,143 +253,122 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
         first = read_export_table(path, delimiter)
         missing = [f"{f}='{c}'" for f, c in given.items() if c not in first.header and
                    c.lower() not in [h.lower() for h in first.header]]
-        raise CampaignFileError(exc.path, f"--columns names {', '.join(missing) or given} but no header line has "
+        raise CampaignFileError(exc.path, f"`columns` names {', '.join(missing) or given} but no header line has "
                                 f"{'that column' if len(missing) == 1 else 'those columns'}; line {first.header_line} "
                                 f"has: {', '.join(first.header)}", row=first.header_line) from None
-    name = table.path
-    header = table.header
+    name, header = table.path, table.header
     if dataset_header(header):
         raise CampaignFileError(name, "a measurement file of the public UR10 dataset (ipa-robot-accuracy: joints "
-                                "in rad, a T-Mac on the flange): read it with --format ipa-robot-accuracy",
+                                "in rad, a T-Mac on the flange): read it with `export_format` ipa-robot-accuracy",
                                 row=table.header_line)
     idx, amb = resolve_columns(header, user, machine.axis_names, want_axes)
     for f, j in idx.items():
         if j < 0:
-            raise CampaignFileError(name, f"--columns names '{user[f]}' for {f}, but the header (line "
+            raise CampaignFileError(name, f"`columns` names '{user[f]}' for {f}, but the header (line "
                                     f"{table.header_line}) has: {', '.join(header)}", row=table.header_line, column=user[f])
-    for f in ("x", "y", "z"):
+    for f in ("x", "y", "z", "point", "time", "temperature"):
         if f in amb:
-            raise CampaignFileError(name, f"several columns could be the measured {f}: {', '.join(amb[f])}; "
-                                    f"say which with --columns {f}=...", row=table.header_line, column=amb[f][0])
-    for f in ("point", "time", "temperature"):
-        if f in amb:
-            raise CampaignFileError(name, f"several columns could be the {f}: {', '.join(amb[f])}; say which with "
-                                    f"--columns {f}=...", row=table.header_line, column=amb[f][0])
+            what = f"the measured {f}" if f in "xyz" else f"the {f}"
+            raise CampaignFileError(name, f"several columns could be {what}: {', '.join(amb[f])}; say which with "
+                                    f"`columns` {f}=...", row=table.header_line, column=amb[f][0])
     notes = []
     if table.delimiter == "," and any(";" in h or "\t" in h for h in header):
         notes.append("the header has semicolons or tabs inside comma-separated cells")
+    return _Export(table, idx, _decimal_mark(table, idx, machine, decimal), notes)
 
-    # ---- numbers
+
+def _decimal_mark(table: ExportTable, idx: dict[str, int], machine: Machine, decimal: str) -> str:
+    """``decimal`` as given, or the decimal mark of the export's numeric cells."""
+    if decimal != "auto":
+        return decimal
     numeric = [f for f in ["x", "y", "z", "temperature", "tool"] + machine.axis_names if f in idx]
-    cells = [r[idx[f]] for r in table.rows for f in numeric]
-    if decimal == "auto":
-        dec = detect_decimal(cells)
-        if dec == "mixed":
-            k, f = next((k, f) for k, r in enumerate(table.rows) for f in numeric if _COMMA.match(r[idx[f]]))
-            raise _error(table, f"'{table.rows[k][idx[f]]}' has a decimal comma while other cells have a decimal point: "
-                         "give --decimal", k, header[idx[f]])
-        if dec == "," and table.delimiter == ",":
-            dec = "."  # cannot happen unquoted; quoted cells with commas are read as an error below
-    else:
-        dec = decimal
+    dec = detect_decimal([r[idx[f]] for r in table.rows for f in numeric])
+    if dec == "mixed":
+        k, f = next((k, f) for k, r in enumerate(table.rows) for f in numeric if _COMMA.match(r[idx[f]]))
+        raise _error(table, f"'{table.rows[k][idx[f]]}' has a decimal comma while other cells have a decimal point: "
+                     "give `decimal`", k, table.header[idx[f]])
+    if dec == "," and table.delimiter == ",":
+        dec = "."  # cannot happen unquoted; quoted cells with commas are read as an error below
+    return dec
 
-    def column(f: str) -> np.ndarray:
-        out = np.empty(len(table.rows))
-        for k, r in enumerate(table.rows):
-            s = r[idx[f]]
-            if s == "":
-                raise _error(table, "empty cell (no value is guessed: fill it or delete the row)", k, header[idx[f]])
-            try:
-                out[k] = parse_number(s, dec)
-            except ValueError as exc:
-                hint = ""
-                if str(exc) == "thousands separator":
-                    hint = ": '.' and ',' together (thousands separators are not read; export without them)"
-                elif "decimal comma" in str(exc):
-                    hint = ": a decimal comma; give --decimal ,"
-                raise _error(table, f"'{s}' is not a number{hint}", k, header[idx[f]]) from None
-        return out
 
-    raw = np.column_stack([column(f) for f in "xyz"])
-    columns_used = {f: header[j] for f, j in idx.items()}
-
-    # ---- commands
-    joined_by = ""
-    instrument = target = nest_at = None
+def _join_plan(ex: _Export, template: PlanTemplate, ignore_unmatched: bool) -> _Joined:
+    """The export's rows joined with the plan's: by point number when the export names
+    its points (whole names), else by order (the counts must agree)."""
+    table, idx = ex.table, ex.idx
     unmeasured: list[int] = []
     unmatched: list[str] = []
     keep = np.arange(len(table.rows))
-    point_no = None
-    if template is not None:
-        if "point" in idx:
-            nums = np.array([plan_point_number(r[idx["point"]]) for r in table.rows], int)
-            where = {int(p): i for i, p in enumerate(template.point)}
-            known = np.array([n in where for n in nums])
-            if not known.all():
-                bad = np.flatnonzero(~known)
-                if not ignore_unmatched:
-                    k, nm = int(bad[0]), table.rows[bad[0]][idx["point"]]
-                    what = (f"(number {nums[k]}) is not in the plan {template.source}" if nums[k] >= 0 else
-                            f"is no plan point name (a whole name: P0007, Pt7 or 7 for point 7, so a reference point "
-                            f"such as TR_REF1 never joins point 1) of {template.source}")
-                    raise _error(table, f"point '{nm}' {what} ({len(bad)} such rows; --ignore-unmatched skips them, "
-                                 "or join by order without the point column)", k, header[idx["point"]])
-                unmatched = [table.rows[k][idx["point"]] for k in bad]
-            keep = np.flatnonzero(known)
-            seen: dict[int, int] = {}
-            for k in keep:
-                if nums[k] in seen:
-                    raise _error(table, f"point {nums[k]} is measured twice (lines {table.lines[seen[nums[k]]]} and "
-                                 f"{table.lines[k]}): delete the measurement that should not count", int(k),
-                                 header[idx["point"]])
-                seen[nums[k]] = k
-            rows_plan = np.array([where[n] for n in nums[keep]], int)
-            unmeasured = sorted(set(int(p) for p in template.point) - set(int(n) for n in nums[keep]))
-            joined_by = "by point number (names P0007, Pt7 or 7, whole)"
-        else:
-            if len(table.rows) != len(template):
-                raise CampaignFileError(name, f"the export has {len(table.rows)} points and the plan {len(template)}: "
-                                        "without a point-name column rows are joined by order, so the counts must "
-                                        "agree (name the point column with --columns point=...)")
-            rows_plan = np.arange(len(template))
-            joined_by = "by order (the export has no point names)"
-        q = template.q[rows_plan]
-        tool = template.tool[rows_plan]
-        point_no = template.point[rows_plan].astype(float)
-        approach = template.approach[rows_plan] if template.approach is not None else None
-        if template.has_nests:  # nest readings keep their nest: the fit finds its position
-            instrument, target = template.instrument[rows_plan].copy(), template.target[rows_plan].copy()
-            nest_at = template.nest[rows_plan]
-        raw = raw[keep]
+    if "point" in idx:
+        nums = np.array([plan_point_number(r[idx["point"]]) for r in table.rows], int)
+        where = {int(p): i for i, p in enumerate(template.point)}
+        known = np.array([n in where for n in nums])
+        if not known.all():
+            bad = np.flatnonzero(~known)
+            if not ignore_unmatched:
+                k, nm = int(bad[0]), table.rows[bad[0]][idx["point"]]
+                what = (f"(number {nums[k]}) is not in the plan {template.source}" if nums[k] >= 0 else
+                        f"is no plan point name (a whole name: P0007, Pt7 or 7 for point 7, so a reference point "
+                        f"such as TR_REF1 never joins point 1) of {template.source}")
+                raise _error(table, f"point '{nm}' {what} ({len(bad)} such rows; `ignore_unmatched` skips them, "
+                             "or join by order without the point column)", k, ex.header_of("point"))
+            unmatched = [table.rows[k][idx["point"]] for k in bad]
+        keep = np.flatnonzero(known)
+        seen: dict[int, int] = {}
+        for k in keep:
+            if nums[k] in seen:
+                raise _error(table, f"point {nums[k]} is measured twice (lines {table.lines[seen[nums[k]]]} and "
+                             f"{table.lines[k]}): delete the measurement that should not count", int(k),
+                             ex.header_of("point"))
+            seen[nums[k]] = k
+        rows_plan = np.array([where[n] for n in nums[keep]], int)
+        unmeasured = sorted(set(int(p) for p in template.point) - set(int(n) for n in nums[keep]))
+        joined_by = "by point number (names P0007, Pt7 or 7, whole)"
     else:
-        missing = [a for a in machine.axis_names if a not in idx]
-        if missing:
-            raise CampaignFileError(name, f"no plan was given and the export has no axis columns "
-                                    f"{', '.join(missing)}: give --plan (the plan's template) or map the axis columns "
-                                    f"with --columns {missing[0]}=...", row=table.header_line, column=missing[0])
-        q = machine.to_si(np.column_stack([column(a) for a in machine.axis_names]))
-        if "tool" in idx:
-            tool = column("tool") * M_PER_MM
-        elif tool_mm is not None:
-            tool = np.full(len(q), tool_mm * M_PER_MM)
-        else:
-            raise CampaignFileError(name, "no plan, no tool column and no --tool-mm: the holder length of each point is "
-                                    "unknown", row=table.header_line, column="tool")
-        approach = None
-        joined_by = "from the export's own axis columns"
-    if len(keep) < 4:
-        raise CampaignFileError(name, f"only {len(keep)} points could be joined with the plan; at least 4 are needed")
+        if len(table.rows) != len(template):
+            raise CampaignFileError(table.path, f"the export has {len(table.rows)} points and the plan {len(template)}: "
+                                    "without a point-name column rows are joined by order, so the counts must "
+                                    "agree (name the point column with `columns` point=...)")
+        rows_plan = np.arange(len(template))
+        joined_by = "by order (the export has no point names)"
+    j = _Joined(keep, template.q[rows_plan], template.tool[rows_plan], joined_by,
+                template.point[rows_plan].astype(float),
+                template.approach[rows_plan] if template.approach is not None else None,
+                unmeasured=unmeasured, unmatched=unmatched)
+    if template.has_nests:  # nest readings keep their nest: the fit finds its position
+        j.instrument, j.target = template.instrument[rows_plan].copy(), template.target[rows_plan].copy()
+        j.nest_at = template.nest[rows_plan]
+    return j
 
-    # ---- units
-    header_units = [u for f in "xyz" for u in _tokens(header[idx[f]])[1]]
-    hint, hint_reason = _unit_hint(header_units, table.preamble)
+
+def _join_own_axes(ex: _Export, machine: Machine, tool_mm: float | None) -> _Joined:
+    """Without a plan: the commands from the export's axis columns, the holder lengths
+    from its tool column or ``tool_mm``."""
+    missing = [a for a in machine.axis_names if a not in ex.idx]
+    if missing:
+        raise CampaignFileError(ex.table.path, f"no plan was given and the export has no axis columns "
+                                f"{', '.join(missing)}: give `plan` (the plan's template) or map the axis columns "
+                                f"with `columns` {missing[0]}=...", row=ex.table.header_line, column=missing[0])
+    q = machine.to_si(np.column_stack([ex.column(a) for a in machine.axis_names]))
+    if "tool" in ex.idx:
+        tool = ex.column("tool") * M_PER_MM
+    elif tool_mm is not None:
+        tool = np.full(len(q), tool_mm * M_PER_MM)
+    else:
+        raise CampaignFileError(ex.table.path, "no plan, no tool column and no `tool_mm`: the holder length of each "
+                                "point is unknown", row=ex.table.header_line, column="tool")
+    return _Joined(np.arange(len(ex.table.rows)), q, tool, "from the export's own axis columns")
+
+
+def _length_unit(ex: _Export, raw: np.ndarray, nominal_mm: np.ndarray, units: str) -> tuple[str, str]:
+    """The unit of the measured x, y, z and why: given, from the header or preamble, or
+    from the spread of the points (``raw``, file units) against the planned tool tips
+    (``nominal_mm``); a stated unit the spread contradicts is an error."""
+    name, header, idx = ex.table.path, ex.table.header, ex.idx
+    hint, hint_reason = unit_hint([u for f in "xyz" for u in _tokens(header[idx[f]])[1]], ex.table.preamble)
     if hint == "conflict":
-        raise CampaignFileError(name, f"{hint_reason} ({', '.join(header[idx[f]] for f in 'xyz')}): give --units",
-                                row=table.header_line)
-    nominal_mm = machine.tool_tip(q, tool, frame="base") / M_PER_MM
-    if instrument is not None:  # a nest reading: the planned nest on the table, posed at the command
-        on = instrument == "nest"
-        nominal_mm[on] = machine.workpiece_points(q[on], nest_at[on], jacobian=False).xyz / M_PER_MM
+        raise CampaignFileError(name, f"{hint_reason} ({', '.join(header[idx[f]] for f in 'xyz')}): give `units`",
+                                row=ex.table.header_line)
     g_nom, g_meas = _gyration(nominal_mm), _gyration(raw)
     spread_unit = None
     if g_nom > 1.0 and len(raw) >= 4:
@@ -342,8 +380,8 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
                        f"tool tips spread {g_nom:.4g} mm")
         if spread_unit is None:
             raise CampaignFileError(name, f"{spread_text}: that fits neither mm, inches nor metres; is this the "
-                                    "export of this plan and machine?", column=header[idx["x"]])
-    chosen, reason = units, "given with --units"
+                                    "export of this plan and machine?", column=ex.header_of("x"))
+    chosen, reason = units, "given with `units`"
     if units == "auto":
         if hint is not None:
             chosen, reason = hint, hint_reason
@@ -351,49 +389,65 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
             chosen, reason = spread_unit, "from the spread of the points against the planned tool tips"
         else:
             raise CampaignFileError(name, "the units of x, y, z cannot be told (no unit in the header or preamble and "
-                                    "no plan to compare with): give --units mm or --units in", column=header[idx["x"]])
+                                    "no plan to compare with): give `units` mm or `units` in", column=ex.header_of("x"))
     if spread_unit is not None and chosen != spread_unit:
         raise CampaignFileError(name, f"x, y, z are said to be in {chosen} ({reason}), but {spread_text}, which "
-                                f"means {spread_unit}: give --units {spread_unit} if that is right", column=header[idx["x"]])
+                                f"means {spread_unit}: give `units` {spread_unit} if that is right",
+                                column=ex.header_of("x"))
     if spread_unit is not None and reason != "from the spread of the points against the planned tool tips":
         reason += "; the spread of the points agrees"
-    xyz_mm = raw * LENGTH_UNITS[chosen]
+    return chosen, reason
 
-    # ---- time and temperature
+
+def _time_and_temperature(ex: _Export, j: _Joined, machine: Machine, time_format: str | None,
+                          temperature_unit: str) -> tuple[dict[str, np.ndarray], np.ndarray, str | None]:
+    """The campaign's extra columns of the joined rows (time [s] from the first reading,
+    temperature [°C], plan point numbers, approach directions), the row order (by time
+    stamp when the export is out of order) and the temperature unit read."""
     extra: dict[str, np.ndarray] = {}
-    order = np.arange(len(keep))
-    if "time" in idx:
-        tunits = _tokens(header[idx["time"]])[1]
-        t = _parse_times(table, idx["time"], header[idx["time"]], time_format, dec, tunits[0] if tunits else "s")[keep]
+    order = np.arange(len(j.keep))
+    if "time" in ex.idx:
+        tunits = _tokens(ex.header_of("time"))[1]
+        t = _parse_times(ex.table, ex.idx["time"], ex.header_of("time"), time_format, ex.dec,
+                         tunits[0] if tunits else "s")[j.keep]
         if np.any(np.diff(t) < 0):
             order = np.argsort(t, kind="stable")
-            notes.append("rows were not in time order; sorted by their time stamps")
+            ex.notes.append("rows were not in time order; sorted by their time stamps")
         extra["time"] = t - t.min()
     t_unit = None
-    if "temperature" in idx:
-        T = column("temperature")[keep]
+    if "temperature" in ex.idx:
+        T = ex.column("temperature")[j.keep]
         u = {"c": "C", "degc": "C", "celsius": "C", "f": "F", "degf": "F", "fahrenheit": "F", "k": "K", "kelvin": "K"}
-        tu = [u[x] for x in _tokens(header[idx["temperature"]])[1] if x in u]
+        tu = [u[x] for x in _tokens(ex.header_of("temperature"))[1] if x in u]
         t_unit = temperature_unit if temperature_unit != "auto" else (tu[0] if tu else None)
         if t_unit is None:
             if np.all((T > 45) & (T < 100)):
-                raise _error(table, f"temperatures {T.min():g} .. {T.max():g} look like °F, but the header does not say: "
-                             "give --temperature-unit F (or C)", None, header[idx["temperature"]])
+                raise _error(ex.table, f"temperatures {T.min():g} .. {T.max():g} look like °F, but the header does not "
+                             "say: give `temperature_unit` F (or C)", None, ex.header_of("temperature"))
             t_unit = "C"
-        T = {"C": T, "F": (T - 32.0) * 5.0 / 9.0, "K": T - 273.15}[t_unit]
-        extra["temperature"] = T
-    if point_no is not None:
-        extra["point"] = point_no
-    if approach is not None:
-        for j, a in enumerate(machine.axis_names):
-            extra[f"approach_{a}"] = approach[:, j].astype(float)
-    q, tool, xyz_mm = q[order], tool[order], xyz_mm[order]
-    if instrument is not None:
-        instrument, target = instrument[order], target[order]
-    extra = {k: v[order] for k, v in extra.items()}
-    rows_file = np.array(table.lines)[keep][order]
+        extra["temperature"] = {"C": T, "F": (T - 32.0) * 5.0 / 9.0, "K": T - 273.15}[t_unit]
+    if j.point_no is not None:
+        extra["point"] = j.point_no
+    if j.approach is not None:
+        for k, a in enumerate(machine.axis_names):
+            extra[f"approach_{a}"] = j.approach[:, k].astype(float)
+    return extra, order, t_unit
 
-    # ---- agreement with the plan
+
+def _imported(ex: _Export, machine: Machine, template: PlanTemplate | None, j: _Joined, xyz_mm: np.ndarray,
+              nominal_mm: np.ndarray, extra: dict[str, np.ndarray], order: np.ndarray,
+              read_as: tuple[str, str, str | None]) -> ImportResult:
+    """The campaign of the joined rows in ``order`` (points ``xyz_mm`` [mm], tracker
+    frame), refused when after a best rigid fit its points lie far from the planned tool
+    tips ``nominal_mm`` [mm]; with how the export was read (``read_as``: length unit, why,
+    temperature unit)."""
+    name = ex.table.path
+    q, tool, xyz_mm = j.q[order], j.tool[order], xyz_mm[order]
+    instrument = target = None
+    if j.instrument is not None:
+        instrument, target = j.instrument[order], j.target[order]
+    extra = {k: v[order] for k, v in extra.items()}
+    rows_file = np.array(ex.table.lines)[j.keep][order]
     err = norm_mm(registered_errors(nominal_mm[order] * M_PER_MM, xyz_mm * M_PER_MM))
     if err.mean() > AGREE_MM:
         worst = int(np.argmax(err))
@@ -401,9 +455,11 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
                                 f"the planned tool tips, far more than a machine's error: rows out of order, the wrong "
                                 f"plan, or another holder length? (worst: line {rows_file[worst]}, {err[worst]:.1f} mm)")
     campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, target=target)
-    return ImportResult(campaign, name, None if template is None else template.source, table.delimiter, dec,
-                        table.encoding, chosen, reason, columns_used, joined_by, unmeasured, unmatched, notes,
-                        (float(err.mean()), float(err.max())), t_unit)
+    chosen, reason, t_unit = read_as
+    columns_used = {f: ex.table.header[k] for f, k in ex.idx.items()}
+    return ImportResult(campaign, name, None if template is None else template.source, ex.table.delimiter, ex.dec,
+                        ex.table.encoding, chosen, reason, columns_used, j.joined_by, j.unmeasured, j.unmatched,
+                        ex.notes, (float(err.mean()), float(err.max())), t_unit)
 
 
 def campaign_text(campaign: Campaign, machine: Machine) -> str:

@@ -61,7 +61,7 @@ def _sigma(value, option: str, unit: str) -> float:
     from vecpin.errors import InputError
     v = float(value)
     if not math.isfinite(v) or v <= 0:
-        raise InputError(f"{option} {value!r}: a standard deviation must be a positive number of {unit}")
+        raise InputError(f"`{option}` {value!r}: a standard deviation must be a positive number of {unit}")
     return v
 
 
@@ -76,19 +76,19 @@ def noise_from_options(machine: Machine, instrument: str = "spherical", *, repea
     sig = noise.axis_sigma.copy()
     for k, a in enumerate(machine.axes):
         if a.kind == "linear" and repeatability_mm is not None:
-            sig[k] = _sigma(repeatability_mm, "--repeatability-mm", "mm") * M_PER_MM
+            sig[k] = _sigma(repeatability_mm, "repeatability_mm", "mm") * M_PER_MM
         if a.kind == "rotary" and repeatability_deg is not None:
-            sig[k] = np.radians(_sigma(repeatability_deg, "--repeatability-deg", "degrees"))
+            sig[k] = np.radians(_sigma(repeatability_deg, "repeatability_deg", "degrees"))
     noise.axis_sigma = sig
     if tracker_sigma_mm is not None:
-        noise.cartesian_sigma = _sigma(tracker_sigma_mm, "--tracker-sigma-mm", "mm") * M_PER_MM
+        noise.cartesian_sigma = _sigma(tracker_sigma_mm, "tracker_sigma_mm", "mm") * M_PER_MM
     if ballbar_sigma_mm is not None:
-        noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "--ballbar-sigma-mm", "mm") * M_PER_MM
+        noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "ballbar_sigma_mm", "mm") * M_PER_MM
     if tracker_noise is not None:
         from vecpin.errors import InputError
         vals = [float(v) for v in tracker_noise]
         if not all(np.isfinite(vals)) or min(vals) < 0 or vals[0] + vals[1] <= 0 or vals[2] + vals[3] <= 0:
-            raise InputError(f"--tracker-noise {' '.join(map(str, tracker_noise))}: four numbers >= 0 (range mm, "
+            raise InputError(f"`tracker_noise` {' '.join(map(str, tracker_noise))}: four numbers >= 0 (range mm, "
                              "range ppm, transverse mm, transverse ppm), with a nonzero range and transverse noise")
         a, b, c, d = vals
         noise.tracker = TrackerNoise(a * M_PER_MM, b * 1e-6, c * M_PER_MM, d * 1e-6)

@@ -153,5 +153,5 @@ def check_same_pose(nominal: np.ndarray, predicted: np.ndarray, measured: np.nda
     d = d[np.isfinite(d)]
     if d.size and float(np.median(d)) > RESIDUAL_LIMIT:
         raise CampaignFileError(source, f"its points lie {np.median(d) * MM_PER_M:.1f} mm (median) from where the tracker "
-                                f"pose of {model_source} puts them: the tracker was moved (give --reregister to "
+                                f"pose of {model_source} puts them: the tracker was moved (give `reregister` to "
                                 "register it to this campaign), or this is another machine's campaign")

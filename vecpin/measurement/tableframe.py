@@ -186,21 +186,119 @@ def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
                      np.sort(np.concatenate(unjudged + [missing])).astype(int), commands, dict(nests), refitted)
 
 
+def _axis_jitter(machine, campaign, tips: TableTips, axis_sigma: np.ndarray, rng) -> np.ndarray:
+    """(N,3) [m] each row's reading moved by the machine's positioning noise (1-sigma
+    ``axis_sigma`` (n,) [m, rad] on every row's command, drawn per row as the simulator and
+    the likelihood take it), in the tracker frame of each station (its rotation from the
+    nominal points registered on the readings); zero on rows of nests not in ``tips``."""
+    q = campaign.q
+    dq = rng.standard_normal(q.shape) * axis_sigma
+    d = np.zeros((len(q), 3))
+    nominal = np.full((len(q), 3), np.nan)
+    tool = np.flatnonzero(campaign.instrument == "tracker")
+    nest = np.flatnonzero((campaign.instrument == "nest") & np.isin(campaign.target, list(tips.nests)))
+    if len(tool):
+        pt = campaign.point[tool]
+        at = [machine.tool_tip(x[tool], campaign.tool[tool], frame="base", point=pt) for x in (q, q + dq)]
+        nominal[tool], d[tool] = at[0], at[1] - at[0]
+    if len(nest):
+        P = np.array([tips.nests[str(t)] for t in campaign.target[nest]])
+        at = [machine.workpiece_points(x[nest], P, jacobian=False).xyz for x in (q, q + dq)]
+        nominal[nest], d[nest] = at[0], at[1] - at[0]
+    for st in np.unique(campaign.station):
+        rows = np.flatnonzero((campaign.station == st) & np.isfinite(nominal[:, 0]))
+        if len(rows) >= 3 and spans_plane(nominal[rows]):
+            d[rows] = d[rows] @ register(nominal[rows], campaign.xyz[rows])[0].T
+    return d
+
+
+def _noise_draws(campaign, tips: TableTips, tracker_noise, draws: int, seed: int, axis=None) -> np.ndarray:
+    """(draws, N) squared displacement [m^2] of each judged row's measured tip relative to
+    the table when the run's readings (tool and nests) get the tracker's noise again
+    (:class:`~vecpin.measurement.tracker.TrackerNoise`, in the tracker's spherical
+    coordinates) and, with ``axis`` = (machine, axis_sigma), the machine's positioning
+    noise (:func:`_axis_jitter`); NaN where a draw judges other rows."""
+    from vecpin.measurement.tracker import Tracker
+    tracker, rng = Tracker(noise=tracker_noise), np.random.default_rng(seed)
+    out = np.full((draws, len(tips.rows)), np.nan)
+    for k in range(draws):
+        c = campaign.subset(np.arange(len(campaign)))
+        c.xyz = tracker.add_noise(campaign.xyz, rng)
+        if axis is not None:
+            c.xyz = c.xyz + _axis_jitter(axis[0], campaign, tips, axis[1], rng)
+        again = table_tips(c, tips.nests)
+        if np.array_equal(again.rows, tips.rows):
+            out[k] = np.sum((again.tip - tips.tip) ** 2, axis=1)
+    return out
+
+
 def tip_noise(campaign, tips: TableTips, tracker_noise, draws: int = 10, seed: int = 0) -> np.ndarray:
     """(N,) mean displacement [m] of each judged row's measured tip relative to the table
     when the run's readings (tool and nests) get the tracker's noise again
     (:class:`~vecpin.measurement.tracker.TrackerNoise`, in the tracker's spherical
     coordinates): the noise the nest registration gives the measured tip. A model whose
     error is below it cannot be told apart on this run."""
-    from vecpin.measurement.tracker import Tracker
-    tracker, rng = Tracker(noise=tracker_noise), np.random.default_rng(seed)
-    out = np.zeros(len(tips.rows))
-    for _ in range(draws):
-        c = campaign.subset(np.arange(len(campaign)))
-        c.xyz = tracker.add_noise(campaign.xyz, rng)
-        again = table_tips(c, tips.nests)
-        out += np.linalg.norm(again.tip - tips.tip, axis=1) if np.array_equal(again.rows, tips.rows) else np.nan
-    return out / draws
+    return np.sqrt(_noise_draws(campaign, tips, tracker_noise, draws, seed)).mean(axis=0)
+
+
+@dataclass
+class NetOfNoise:
+    """The model's error relative to the table with the measurement noise taken out [mm]:
+    ``rms`` its estimated root mean square and ``sd`` the standard uncertainty of that
+    estimate; ``measured_rms`` the RMS of the judged residuals (model error and noise),
+    ``noise_rms`` the noise's expected RMS contribution after the registration; ``rows``;
+    ``ms_sd`` [mm^2] the standard uncertainty of the mean squared error it comes from."""
+
+    rms: float
+    sd: float
+    measured_rms: float
+    noise_rms: float
+    rows: int
+    ms_sd: float = 0.0
+
+    @property
+    def resolved(self) -> bool:
+        """True when the estimate is at least twice its uncertainty."""
+        return self.rms >= 2 * self.sd
+
+    def line(self) -> str:
+        how = (f"(measured RMS {self.measured_rms:.4f} mm over {self.rows} rows, from which the noise's expected "
+               f"{self.noise_rms:.4f} mm RMS, the tracker's and the axes' noise through the nest registration, is "
+               "subtracted in quadrature; ± one standard uncertainty from the spread over the rows and the noise draws)")
+        if self.resolved:
+            return f"model error net of the measurement noise: {self.rms:.4f} ± {self.sd:.4f} mm RMS {how}"
+        return (f"model error net of the measurement noise: not resolved by this run, {self.rms:.4f} ± {self.sd:.4f} mm "
+                f"RMS, below {self.rms + 2 * self.sd:.4f} mm at two standard uncertainties {how}; more validation "
+                "commands, or each read several times, resolve it")
+
+
+def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine, draws: int = 40,
+                 seed: int = 1) -> NetOfNoise:
+    """The model error net of the measurement noise from ``residual`` (N,3) [m], the
+    judged rows' measured minus modelled tip relative to the table after the rigid
+    registration (workpiece frame; the rows of ``tips`` of ``campaign``). A measured
+    residual is the model error plus the noise of the measured tip: per row its covariance
+    Σ_i from ``draws`` copies of the run given the noise of ``noise`` (a
+    :class:`~vecpin.measurement.noise.NoiseModel`: the tracker's, and the positioning noise
+    of ``machine``'s axes on every reading) again. With the noise independent of the
+    error, E|r_i|^2 = |e_i|^2 + f tr Σ_i, where f = 1 - 6 / (3N) is the share of the
+    noise a rigid registration of N points leaves. The mean of |r_i|^2 - f tr Σ_i is then
+    an unbiased estimate of the mean squared model error (the figure the truth of a
+    simulated machine gives without noise), its uncertainty the spread of that difference
+    over the rows and of tr Σ over the draws; the RMS and its uncertainty by the delta method."""
+    r2 = np.sum(np.asarray(residual, float) ** 2, axis=1)
+    n2 = _noise_draws(campaign, tips, noise.tracker, draws, seed, (machine, noise.axis_sigma))
+    n2 = n2[np.all(np.isfinite(n2), axis=1)]
+    n = len(r2)
+    f = max(1.0 - 6.0 / (3 * n), 0.0)
+    noise_sq = f * n2.mean(axis=0)                        # (N,) f tr Σ_i
+    d = r2 - noise_sq
+    ms = float(d.mean())
+    var = float(d.var(ddof=1)) / n + f**2 * float(n2.mean(axis=1).var(ddof=1)) / len(n2)
+    rms, sd_ms = np.sqrt(max(ms, 0.0)), np.sqrt(var)
+    sd = min(sd_ms / (2 * rms), np.sqrt(sd_ms)) if rms > 0 else np.sqrt(sd_ms)  # the delta method, capped near zero
+    return NetOfNoise(rms * MM_PER_M, float(sd) * MM_PER_M, float(np.sqrt(r2.mean())) * MM_PER_M,
+                      float(np.sqrt(noise_sq.mean())) * MM_PER_M, n, float(sd_ms) * MM_PER_M**2)
 
 
 def check_nest_rows(machine, campaign) -> None:
@@ -216,7 +314,8 @@ def check_nest_rows(machine, campaign) -> None:
 def table_campaign_notes(machine, campaign) -> list[str]:
     """Why a table machine's campaign cannot identify its table axes, one note each (empty:
     nothing found): no nest rows, fewer than three nests, nests on a line, a nest that
-    moved (see the module text). Names the file and the rows."""
+    moved (see the module text), parts of a table axis' travel where the table's pose was
+    never measured (:func:`unseen_travel_notes`). Names the file and the rows."""
     check_nest_rows(machine, campaign)
     if not machine.has_workpiece:
         return []
@@ -237,6 +336,37 @@ def table_campaign_notes(machine, campaign) -> list[str]:
         out.append(f"{src}: the nests {', '.join(ids)} ({first}) lie on a line: a turn of the table about that line "
                    f"is not seen, so the table axes ({table}) are only partly seen; put a nest off the line")
     out += _moved_nests(campaign)
+    return out + unseen_travel_notes(machine, campaign)
+
+
+TRAVEL_BINS = 10  # a table axis' travel judged in tenths
+
+
+def unseen_travel_notes(machine, campaign) -> list[str]:
+    """A note per table axis with tenths of its travel (inside the commands' range) where
+    no command read three nests from one station: the table's pose is not measured there,
+    so the model's terms of that axis and its tables are extrapolated from the rest."""
+    groups = [n for _, n in _groups(campaign) if len(n) >= MIN_NESTS]
+    if not groups:
+        return []
+    q_seen = campaign.q[[n[0] for n in groups]]
+    out = []
+    for name in machine.table_axes:
+        a = machine.axis(name)
+        lo, hi = campaign.q[:, a.index].min(), campaign.q[:, a.index].max()
+        edges = lo + (hi - lo) * np.arange(TRAVEL_BINS + 1) / TRAVEL_BINS
+        if hi - lo < 1e-9 * a.travel:
+            continue
+        b = np.clip(((q_seen[:, a.index] - lo) / (hi - lo) * TRAVEL_BINS).astype(int), 0, TRAVEL_BINS - 1)
+        blind = np.setdiff1d(np.arange(TRAVEL_BINS), b)
+        if not len(blind):
+            continue
+        where = ", ".join(f"{a.to_user(edges[k]):.1f}..{a.to_user(edges[k + 1]):.1f}" for k in blind)
+        out.append(f"{campaign.source}: the table's pose (three nests read at one command) is not measured over "
+                   f"{100 * len(blind) / TRAVEL_BINS:.0f} % of the commanded travel of {name} ({where} {a.unit}): the "
+                   f"model's {name} terms and its tables are carried there from the rest of the travel (interpolated or "
+                   "extrapolated); read the nests there "
+                   "(vecpin plan places nests, and a second tracker station, for the line of sight)")
     return out
 
 
@@ -320,5 +450,5 @@ def _moved_nests(campaign) -> list[str]:
             "nest id"]
 
 
-__all__ = ["TableTips", "table_tips", "tip_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
-           "command_keys"]
+__all__ = ["TableTips", "table_tips", "tip_noise", "NetOfNoise", "net_of_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
+           "command_keys", "unseen_travel_notes"]

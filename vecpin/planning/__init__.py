@@ -11,6 +11,8 @@ files that drive the machine through them (Paper I Section 4 and Fig. 6).
 :mod:`~vecpin.planning.route`      measurement order (short axis travel) and approach
 :mod:`~vecpin.planning.ncprogram`  NC programs (Siemens 840D, Fanuc, plain G-code)
 :mod:`~vecpin.planning.ncdialect`  their blocks per dialect (also the sign test's)
+:mod:`~vecpin.planning.problem`    the settings and the problem they pose (tracker, nests, box)
+:mod:`~vecpin.planning.candidates` candidate commands and what removes them
 :mod:`~vecpin.planning.plan`       the whole plan in one call
 =============================  ==========================================================
 """

@@ -6,7 +6,7 @@ explanation is a model fitted to the same rows. They agree where the campaign me
 and differ elsewhere; this module picks the commands where their predicted tracker
 readings differ most *relative to what a reading there can tell*:
 
-* a pool of quasi-random commands (:func:`vecpin.planning.plan.candidate_commands`)
+* a pool of quasi-random commands (:func:`vecpin.planning.candidates.candidate_commands`)
   over the machine's travel (where the campaign did not go, two explanations that agree
   on it may part), each with every target holder the campaign used (the tool length is a
   lever arm one explanation may have and another not);
@@ -44,7 +44,7 @@ from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.models import ErrorModel
 from vecpin.planning import route
 from vecpin.planning.ncprogram import write_program
-from vecpin.planning.plan import candidate_commands
+from vecpin.planning.candidates import candidate_commands
 from vecpin.units import MM_PER_M
 
 

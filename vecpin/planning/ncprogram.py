@@ -56,9 +56,9 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
             allowed = "a capital letter (not F, G, M, N, O, P, S, T) with up to 7 more capitals or digits" \
                 if dialect == "siemens-840d" else "one of X Y Z A B C U V W"
             raise InputError(f"axis '{a.name}' has no valid {dialect} address ('{nm}' is not {allowed}): "
-                             f"give --axis-map {a.name}=NCNAME")
+                             f"give `axis_map` {a.name}=NCNAME")
     if len(set(names)) != len(names):
-        raise InputError(f"NC axis names {', '.join(names)} repeat: every axis needs its own address (--axis-map)")
+        raise InputError(f"NC axis names {', '.join(names)} repeat: every axis needs its own address (`axis_map`)")
     return names
 
 
@@ -71,7 +71,7 @@ def retract_axis(machine: Machine, name: str | None = None) -> tuple[int, int]:
     when its + direction moves the tool back from the work, else -1."""
     lin = [a for a in machine.axes if a.kind == "linear"]
     if name is not None and name not in [a.name for a in lin]:
-        raise InputError(f"--retract-axis {name}: not a linear axis of {machine.name} "
+        raise InputError(f"`retract` {name}: not a linear axis of {machine.name} "
                          f"({', '.join(a.name for a in lin) or 'it has none'})")
     if not lin:
         raise InputError(f"machine {machine.name} has no linear axis to retract the tool with")
@@ -86,9 +86,9 @@ def retract_axis(machine: Machine, name: str | None = None) -> tuple[int, int]:
         i = max(along, key=lambda j: (round(abs(along[j]), 6), machine.axes[j].upper - machine.axes[j].lower))
         if abs(along[i]) < 0.7:
             raise InputError(f"machine {machine.name}: no linear axis runs along the tool at zero rotary angles; "
-                             "give --retract-axis")
+                             "give `retract`")
     if abs(along[i]) < 1e-6:
-        raise InputError(f"--retract-axis {name}: it does not move the tool along its axis")
+        raise InputError(f"`retract` {name}: it does not move the tool along its axis")
     return i, 1 if along[i] > 0 else -1
 
 
@@ -100,7 +100,7 @@ def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | Non
     if safe_z_mm is None:
         return round(hi if sign > 0 else lo, 3)
     if not (math.isfinite(safe_z_mm) and lo - 1e-9 <= safe_z_mm <= hi + 1e-9):
-        raise InputError(f"--safe-z {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
+        raise InputError(f"`safe_z_mm` {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
                          "machine coordinates)")
     return round(float(safe_z_mm), 3)
 
@@ -108,11 +108,11 @@ def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | Non
 def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0) -> None:
     """The dwells [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
     if not (math.isfinite(dwell_s) and dwell_s > 0):
-        raise InputError(f"--dwell {dwell_s}: the dwell is a time in seconds > 0")
+        raise InputError(f"`dwell_s` {dwell_s}: the dwell is a time in seconds > 0")
     if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
-        raise InputError(f"--nest-dwell {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
+        raise InputError(f"`nest_dwell_s` {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
     if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
-        raise InputError(f"--feed {feed_mm_min}: the approach feed is mm/min > 0")
+        raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
 
 
 @dataclass
@@ -163,6 +163,36 @@ def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarra
     return total + (abs(end - cur) if end is not None else 0.0)
 
 
+def program_header(dialect: str, machine: Machine, template: PlanTemplate, names: list[str], moves: tuple,
+                   times: tuple[float, float, float], title: str = "") -> list[str]:
+    """The program's header lines (comments): what it measures, in which coordinates, how
+    it moves between the points (``moves``: retract axis index, its safe position [mm],
+    the other linear and the rotary axis indices) and what it does at each (``times``:
+    dwell [s], dwell per nest [s], approach feed [mm/min])."""
+    r, safe, others, rotary = moves
+    dwell_s, nest_dwell_s, feed_mm_min = times
+    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    tools = np.unique(np.round(template.tool, 9))
+    n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
+    mc = "SUPA" if dialect == nc.SIEMENS else "G53"
+    sweep = " ".join(names[j] for j in others) or "-"
+    rot = " ".join(names[j] for j in rotary)
+    return [f"vecpin measurement plan {title}".strip(),
+            f"{len(template)} points, one per row of the plan: {n_tool} tool target points"
+            + (f" and {n_nest} table nest points read at their dwells" if n_nest else ""),
+            f"machine {machine.name}, target holder lengths " + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
+            f"axis positions in machine coordinates ({mc} in every positioning block): the URDF axis coordinates, "
+            "mm and degrees, whatever work offset is active",
+            "no tool length compensation (" + ("D0" if dialect == nc.SIEMENS else "G49") + "), no TRAORI / G43.4: "
+            "the plan commands axes, not the tool tip",
+            f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, the plan's safe height) or higher, then "
+            f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
+            f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
+            f"for the tool target and {nest_dwell_s:g} s per table nest read there",
+            nc.restore_note(dialect),
+            "run it first at a reduced rapid override and watch the moves"]
+
+
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
@@ -182,8 +212,6 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     safe = safe_position(machine, r, up, safe_z_mm)
     others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
-    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
-    tools = np.unique(np.round(template.tool, 9))
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
 
     def comment(text: str) -> str:
@@ -192,27 +220,11 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     def move(idx: list[int], values) -> str:
         return nc.rapid(dialect, [names[j] for j in idx], [float(values[j]) for j in idx])
 
-    n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
-    mc = "SUPA" if dialect == nc.SIEMENS else "G53"
-    sweep = " ".join(names[j] for j in others) or "-"
-    rot = " ".join(names[j] for j in rotary)
     out: list[str] = []
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
-    head = [f"vecpin measurement plan {title}".strip(),
-            f"{len(template)} points, one per row of the plan: {n_tool} tool target points"
-            + (f" and {n_nest} table nest points read at their dwells" if n_nest else ""),
-            f"machine {machine.name}, target holder lengths " + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
-            f"axis positions in machine coordinates ({mc} in every positioning block): the URDF axis coordinates, "
-            "mm and degrees, whatever work offset is active",
-            "no tool length compensation (" + ("D0" if dialect == nc.SIEMENS else "G49") + "), no TRAORI / G43.4: "
-            "the plan commands axes, not the tool tip",
-            f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, --safe-z) or higher, then "
-            f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
-            f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
-            f"for the tool target and {nest_dwell_s:g} s per table nest read there",
-            nc.restore_note(dialect),
-            "run it first at a reduced rapid override and watch the moves"]
+    head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
+                          (dwell_s, nest_dwell_s, feed_mm_min), title)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe)
     current_tool = None

@@ -70,20 +70,25 @@ def table_radius(machine: Machine) -> float | None:
     return best
 
 
-def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndarray]:
-    """n default nests {id: (3,) [m], workpiece frame}, ids "1", "2", ... (see the
-    module text); the angles and heights come from a seeded rng of their own."""
-    if n < 0 or n > MAX_NESTS or int(n) != n:
-        raise InputError(f"--nests {n}: a whole number of table nests, 0 .. {MAX_NESTS}")
-    if n == 0:
-        return {}
-    rng = np.random.default_rng([seed, 14])
+def nest_reach(machine: Machine) -> float:
+    """The radius [m] of the default nests' circle about the workpiece origin (see the
+    module text)."""
     q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
     rel = machine.tool_tip(q, 0.2, frame="workpiece")
     reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
     table = table_radius(machine)
-    if table is not None:
-        reach = min(reach, TABLE_SHARE * table)
+    return reach if table is None else min(reach, TABLE_SHARE * table)
+
+
+def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndarray]:
+    """n default nests {id: (3,) [m], workpiece frame}, ids "1", "2", ... (see the
+    module text); the angles and heights come from a seeded rng of their own."""
+    if n < 0 or n > MAX_NESTS or int(n) != n:
+        raise InputError(f"`nests` {n}: a whole number of table nests, 0 .. {MAX_NESTS}")
+    if n == 0:
+        return {}
+    rng = np.random.default_rng([seed, 14])
+    reach = nest_reach(machine)
     out = {}
     for k in range(n):
         a = 2 * np.pi * (k + rng.uniform(0.0, 0.5)) / n
@@ -91,8 +96,8 @@ def nest_positions(machine: Machine, n: int, seed: int = 0) -> dict[str, np.ndar
     return out
 
 
-def parse_nest(text: str, option: str = "--nest") -> tuple[str, np.ndarray]:
-    """'ID=X,Y,Z' (mm, workpiece frame) -> (id, (3,) [m])."""
+def parse_nest(text: str, option: str = "nest_mm") -> tuple[str, np.ndarray]:
+    """'ID=X,Y,Z' (mm, workpiece frame) -> (id, (3,) [m]); errors name the parameter ``option``."""
     head, sep, tail = str(text).partition("=")
     nid = head.strip()
     try:
@@ -100,21 +105,21 @@ def parse_nest(text: str, option: str = "--nest") -> tuple[str, np.ndarray]:
     except ValueError:
         xyz = np.zeros(0)
     if not sep or not _ID.fullmatch(nid) or xyz.size != 3 or not np.all(np.isfinite(xyz)):
-        raise InputError(f"{option} '{text}': write ID=X,Y,Z, the nest's id (letters, digits, _ . -) and its "
+        raise InputError(f"`{option}` '{text}': write ID=X,Y,Z, the nest's id (letters, digits, _ . -) and its "
                          "position in mm in the workpiece (table) frame, e.g. 1=120,0,40")
     if np.any(np.abs(xyz) > 10_000):
-        raise InputError(f"{option} '{text}': a nest more than 10 m from the table origin; positions are mm")
+        raise InputError(f"`{option}` '{text}': a nest more than 10 m from the table origin; positions are mm")
     return nid, xyz * M_PER_MM
 
 
-def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "--nest") -> None:
+def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "nest_mm") -> None:
     """Nests make sense only on a machine with a table branch; ids are unique (the
     caller's dict) and few."""
     if nests and not machine.has_workpiece:
-        raise InputError(f"{option}: machine '{machine.name}' has no table branch (no 'workpiece' link): a floor "
+        raise InputError(f"`{option}`: machine '{machine.name}' has no table branch (no 'workpiece' link): a floor "
                          "tracker sees its tool tips directly; plan without nests")
     if len(nests) > MAX_NESTS:
-        raise InputError(f"{option}: {len(nests)} nests; at most {MAX_NESTS}")
+        raise InputError(f"`{option}`: {len(nests)} nests; at most {MAX_NESTS}")
 
 
-__all__ = ["nest_positions", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
+__all__ = ["nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]

@@ -42,38 +42,38 @@ def plan_warnings(plan) -> list[str]:
         out.append(f"{c['collision']} of {c['candidates']} candidate commands put a target holder ({tools} mm) into the "
                    f"machine's own geometry: {where}. These are collisions, not line-of-sight losses; the plan leaves "
                    "them out, but the machine must never be commanded there with these holders: keep such runs out "
-                   "with --zone or --exclude, or plan shorter --tools")
+                   "with `zone` or `exclude`, or plan shorter `tools_mm`")
     lo, hi = work_envelope(plan.machine, plan.candidates, plan.tools)
     tr = plan.tracker
     if np.all((tr >= lo) & (tr <= hi)):
         box = ", ".join(f"{a} {to_mm(l):.0f} .. {to_mm(h):.0f}" for a, l, h in zip("xyz", lo, hi))
-        out.append(f"--tracker ({', '.join(f'{v:.0f}' for v in to_mm(tr))}) mm stands inside the tool tips' work "
+        out.append(f"`tracker_mm` ({', '.join(f'{v:.0f}' for v in to_mm(tr))}) mm stands inside the tool tips' work "
                    f"envelope ({box} mm, machine frame): the machine would run into it; place it outside, e.g. "
-                   "2 m in front of the workspace (leave --tracker out for that)")
+                   "2 m in front of the workspace (leave `tracker_mm` out for that)")
     far = float(max(np.linalg.norm(lo - tr), np.linalg.norm(hi - tr)))
     if far > TRACKER_RANGE:
-        out.append(f"--tracker: the tool tips are up to {far:,.0f} m from the tracker; a laser tracker reads a "
+        out.append(f"`tracker_mm`: the tool tips are up to {far:,.0f} m from the tracker; a laser tracker reads a "
                    f"target at most about {TRACKER_RANGE:.0f} m away (and its noise grows with the range): place it "
                    "within a few metres of the machine")
     pr, expected = plan.score.predicted, s.expected_error_mm
     if to_mm(pr.model_mean) > PREDICTED_SHARE * expected:
         lost = c["collision"] + c["sight"]
-        hint = (f"a --tracker position that sees more of the workspace ({c['sight']} of {c['candidates']} candidates "
+        hint = (f"a `tracker_mm` position that sees more of the workspace ({c['sight']} of {c['candidates']} candidates "
                 "are out of sight), " if c["sight"] > 0.25 * c["candidates"] else "")
         out.append(f"the plan's predicted model error (mean {to_mm(pr.model_mean):.3f} mm, max "
                    f"{to_mm(pr.model_max):.3f} mm) is {to_mm(pr.model_mean) / expected:.0%} of the error the machine is "
-                   f"expected to have uncompensated (mean {expected:g} mm, --expected-error): "
+                   f"expected to have uncompensated (mean {expected:g} mm, `expected_error_mm`): "
                    f"compensation from this campaign would gain little or make the machine worse; plan with {hint}"
-                   "more --points or a lower --order" + (
+                   "more `n_points` or a lower `order`" + (
                        f"; the prediction covers the whole measurement zone, also where {lost} of {c['candidates']} "
-                       "candidates were lost to collisions and sight and the model extrapolates: a --zone where the "
+                       "candidates were lost to collisions and sight and the model extrapolates: a `zone` where the "
                        "holders can go plans and judges that part alone" if lost > 0.1 * c["candidates"] else ""))
     info = plan.information
     if info.keep[6] and not t_offset_identified(info, plan.covariance, s.expected_error_mm):
         out.append(f"gauge line T_offset: this plan cannot identify it (1-sigma {np.sqrt(plan.covariance[6, 6]) * MM_PER_M:.2f} "
                    f"mm, above half the expected error {s.expected_error_mm:g} mm): its rows do not separate it from the "
                    f"other terms of the order-{s.order} model; set the gauge line on a tool presetter (the tables then "
-                   "leave it as the controller has it), or plan a lower --order")
+                   "leave it as the controller has it), or plan a lower `order`")
     return out
 
 

@@ -31,8 +31,8 @@ def axis_speeds(machine: Machine, rapid_mm_min: float | None = None, rapid_deg_m
             v[k] = np.radians(rapid_deg_min) / 60.0
     bad = [a.name for a, s in zip(machine.axes, v) if not np.isfinite(s) or s <= 0]
     if bad:
-        raise InputError(f"axes {', '.join(bad)} have no positive velocity limit in the URDF: give --rapid-mm-min "
-                         "and --rapid-deg-min")
+        raise InputError(f"axes {', '.join(bad)} have no positive velocity limit in the URDF: give `rapid_mm_min` "
+                         "and `rapid_deg_min`")
     return v
 
 
@@ -112,7 +112,7 @@ def two_opt(tour: np.ndarray, D: np.ndarray, max_passes: int | None = None, fixe
 def approach_steps(machine: Machine, approach_mm: float, approach_deg: float) -> np.ndarray:
     """(n,) approach distance per axis [m, rad]."""
     if not (approach_mm >= 0 and approach_deg >= 0):
-        raise InputError("--approach-mm and --approach-deg are distances >= 0")
+        raise InputError(f"`approach_mm` {approach_mm:g}, `approach_deg` {approach_deg:g}: distances >= 0")
     return np.array([approach_mm * M_PER_MM if a.kind == "linear" else np.radians(approach_deg) for a in machine.axes])
 
 
@@ -121,7 +121,7 @@ def approach_rows(q: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray]:
     approach sign per row (+1 from below, -1 from above, 0 none)). ``both`` measures
     each command from below, then from above."""
     if mode not in APPROACHES:
-        raise InputError(f"--approach '{mode}': one of {', '.join(APPROACHES)}")
+        raise InputError(f"`approach` '{mode}': one of {', '.join(APPROACHES)}")
     N = len(q)
     if mode == "both":
         return np.repeat(np.arange(N), 2), np.tile([1, -1], N)

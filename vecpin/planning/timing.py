@@ -43,7 +43,7 @@ class ProgramTiming:
 
     def check(self) -> None:
         if not (np.isfinite(self.holder_change_s) and self.holder_change_s >= 0):
-            raise InputError(f"--holder-change {self.holder_change_s}: the time of a holder change in seconds >= 0")
+            raise InputError(f"`holder_change_s` {self.holder_change_s}: the time of a holder change in seconds >= 0")
 
 
 @dataclass

@@ -15,8 +15,9 @@ from vecpin.kinematics.machine import Machine
 Zone = dict[str, tuple[float, float]]  # axis name -> (low, high) in mm or deg
 
 
-def parse_zone(text: str, option: str = "--exclude") -> Zone:
-    """'X=0:500,B=-111:-80' -> {'X': (0.0, 500.0), 'B': (-111.0, -80.0)} (mm/deg)."""
+def parse_zone(text: str, option: str = "exclude") -> Zone:
+    """'X=0:500,B=-111:-80' -> {'X': (0.0, 500.0), 'B': (-111.0, -80.0)} (mm/deg); errors name the
+    parameter ``option``."""
     zone: Zone = {}
     for part in str(text).split(","):
         try:
@@ -29,22 +30,22 @@ def parse_zone(text: str, option: str = "--exclude") -> Zone:
             if not (np.isfinite(lo) and np.isfinite(hi)):
                 raise ValueError
         except ValueError:
-            raise InputError(f"{option} '{text}': an exclusion zone or measurement zone is written "
+            raise InputError(f"`{option}` '{text}': an exclusion zone or measurement zone is written "
                              "AXIS=LO:HI[,AXIS=LO:HI...] in mm/deg, e.g. X=0:500,B=-111:-80") from None
         if not lo < hi:
-            raise InputError(f"{option} '{text}': {name}={a.strip()}:{b.strip()} is empty; write the lower end first "
+            raise InputError(f"`{option}` '{text}': {name}={a.strip()}:{b.strip()} is empty; write the lower end first "
                              f"({name}={b.strip()}:{a.strip()})")
         if name in zone:
-            raise InputError(f"{option} '{text}': axis {name} appears twice in one zone")
+            raise InputError(f"`{option}` '{text}': axis {name} appears twice in one zone")
         zone[name] = (lo, hi)
     return zone
 
 
-def check_zone_axes(machine: Machine, zone: Zone, option: str = "--exclude") -> None:
-    """Every axis a zone names is an axis of ``machine`` (the option named when not)."""
+def check_zone_axes(machine: Machine, zone: Zone, option: str = "exclude") -> None:
+    """Every axis a zone names is an axis of ``machine`` (the parameter ``option`` named when not)."""
     for name in zone:
         if name not in machine.axis_names:
-            raise InputError(f"{option}: machine '{machine.name}' has no axis '{name}' (axes: "
+            raise InputError(f"`{option}`: machine '{machine.name}' has no axis '{name}' (axes: "
                              f"{', '.join(machine.axis_names)})")
 
 
@@ -78,6 +79,6 @@ def clip_to_zone(machine: Machine, zone: Zone | None) -> tuple[np.ndarray, np.nd
         bad = np.flatnonzero(hi <= lo)
         if bad.size:
             a = machine.axes[bad[0]]
-            raise InputError(f"--zone: the interval of {a.name} lies outside its limits "
+            raise InputError(f"`zone`: the interval of {a.name} lies outside its limits "
                              f"[{a.lower_user:g}, {a.upper_user:g}] {a.unit}")
     return lo, hi

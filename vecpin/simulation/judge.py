@@ -30,7 +30,8 @@ from vecpin.models import make_model
 from vecpin.compensation.plan import plan_tables
 from vecpin.selection.choice import choose_or_fix
 from vecpin.simulation.floor import table_floor, true_compensated_error
-from vecpin.simulation.simulate import PAPER_I_TOOLS_MM, Design, simulate
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.simulation.simulate import Design, simulate
 from vecpin.simulation.truth import uniform_commands
 from vecpin.units import M_PER_MM, norm_mm
 

@@ -13,136 +13,20 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import qmc
 
-from vecpin.measurement.campaign import MAX_ID, Campaign, min_rows, read_campaign, write_campaign
+from vecpin.measurement.campaign import Campaign, read_campaign, write_campaign
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
+from vecpin.simulation.design import Design, design_commands
 from vecpin.simulation.effects import EffectSpec
 from vecpin.planning.nests import nest_positions  # noqa: F401  (the one placement, shared with planning)
-from vecpin.planning.zones import check_zone_axes, parse_zone, zone_bounds  # noqa: F401  (parse_zone re-exported)
 from vecpin.simulation.truth import TrueMachine
-from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.features import Features
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.units import M_PER_MM
 
 DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
-SIMULATION_BYTES_PER_ROW = 3000  # peak memory of a simulation per row (measured: 2.9 GB for 1,000,000 rows)
-MAX_ROWS = 1_300_000  # rows one simulation holds: about 4 GB at the peak
-
-
-@dataclass
-class Design:
-    """What to measure. ``exclusion_zones``: list of {axis: (lo, hi)} in mm/deg; a
-    command inside every interval of a zone is not measured. ``method``: "random",
-    "sobol" or "halton" for the identification commands (validation is always Halton).
-    ``seconds_per_point`` (settle + measure) and ``feed_m_per_s`` (moves) make ``time``."""
-
-    n_commands: int = 295
-    tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
-    n_validation: int = 35
-    method: str = "random"
-    exclusion_zones: list[dict[str, tuple[float, float]]] = field(default_factory=list)
-    seconds_per_point: float = 15.0
-    feed_m_per_s: float = 0.1
-    repeat_points: int = 0   # after the campaign: this many commands, each measured ...
-    repeat_times: int = 0    # ... this many times, in a new random order each sequence (eq. 22)
-    stations: int = 1        # tracker positions; every command is measured from each
-    ballbar_points: int = 0  # ball bar rows on a sphere about one pivot (eq. 63-64)
-    ballbar_radius_mm: float = 254.0
-    ballbar_sigma_mm: float = 0.0025
-    nests: int | None = None   # reflectors in table nests read at every command (None: 3 on a machine with a workpiece)
-    targets_mm: tuple = ()     # reflector offsets (x, y, z) [mm] in the tool link frame, read at every command
-    known_targets: bool = False  # the campaign carries the target offsets (else the fit finds them)
-    all_points: bool = True    # measure every tool point of a machine with several (Spar Mill's two spindles)
-
-    def n_nests(self, machine: Machine) -> int:
-        return (3 if machine.has_workpiece else 0) if self.nests is None else int(self.nests)
-
-    def check(self, machine: Machine, planned_rows: int | None = None, files: bool = False) -> None:
-        """Refuse, before any work, a design that is too large to hold or, with ``files``,
-        whose files vecpin could not read back (names the ``vecpin simulate`` option).
-        ``planned_rows``: the rows of a plan measured instead of drawn commands."""
-        need = min_rows(machine.n_axes) if files else 1
-        _whole("--validation", self.n_validation, need, f"a campaign of a {machine.n_axes}-axis machine needs at "
-               f"least {need} rows" if files else "validation commands")
-        _whole("--stations", self.stations, 1, "tracker positions", MAX_ID + 1)
-        _whole("--ballbar", self.ballbar_points, 0, "ball bar rows")
-        tools = np.asarray(self.tools_mm, float)
-        if tools.size == 0 or not np.all(np.isfinite(tools)) or np.any(tools < 0) or np.any(tools > 10_000):
-            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: tool lengths are mm from the gauge line, "
-                             "0 .. 10000 (e.g. 214.88 312.86)")
-        if np.all(tools < 1.0):
-            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: every length is below 1 mm; tool lengths "
-                             "are mm (e.g. 214.88 312.86), not metres")
-        if len(np.unique(np.round(tools, 6))) < tools.size:
-            raise InputError(f"--tools {' '.join(f'{t:g}' for t in tools)}: two tools of the same length measure the "
-                             "same point twice; give different lengths")
-        if self.repeat_points or self.repeat_times:
-            if int(self.repeat_points) != self.repeat_points or int(self.repeat_times) != self.repeat_times or \
-                    self.repeat_points < 1 or self.repeat_times < 2:
-                raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: POINTS >= 1 commands, each "
-                                 "measured TIMES >= 2 times")
-            if planned_rows is None and self.repeat_points > self.n_commands:
-                raise InputError(f"--repeat {self.repeat_points:g} {self.repeat_times:g}: the repeated points are taken "
-                                 f"from the campaign's commands, at most --points ({self.n_commands})")
-        for zone in self.exclusion_zones:
-            check_zone_axes(machine, zone, "--exclude")
-        if self.method not in ("random", "sobol", "halton"):
-            raise InputError(f"--method {self.method}: random, sobol or halton")
-        if planned_rows is None:
-            _whole("--points", self.n_commands, 1, "commands")
-            per_station = self.n_commands * len(tools)
-            if files and per_station < need:
-                raise InputError(f"--points {self.n_commands}: {per_station} rows ({self.n_commands} commands x "
-                                 f"{len(tools)} tools), but a campaign of a {machine.n_axes}-axis machine needs at "
-                                 f"least {need}; give --points {math.ceil(need / len(tools))} or more")
-            repeats = min(self.repeat_points, self.n_commands) * self.repeat_times
-        else:
-            per_station, repeats = planned_rows, 0
-        rows = per_station * self.stations + self.ballbar_points + repeats + self.n_validation
-        if rows > MAX_ROWS:
-            raise InputError(f"the design has {rows:,} rows (--points x --tools x --stations, --repeat, --ballbar, "
-                             f"--validation); vecpin simulates at most {MAX_ROWS:,} rows at once (these would need "
-                             f"about {rows * SIMULATION_BYTES_PER_ROW / 1e9:.0f} GB of memory); simulate fewer")
-
-
-def _whole(option: str, value, lowest: int, what: str, highest: int | None = None) -> None:
-    if int(value) != value or value < lowest or (highest is not None and value > highest):
-        top = f" .. {highest}" if highest is not None else " or more"
-        raise InputError(f"{option} {value}: a whole number {lowest}{top} ({what})")
-
-
-def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
-                    exclusion_zones=(), scramble_seed: int | None = None) -> np.ndarray:
-    """n commands [m, rad] over the axis limits, outside every exclusion zone."""
-    zones = [_zone_si(machine, z) for z in exclusion_zones]
-    out = np.empty((0, machine.n_axes))
-    for _attempt in range(50):
-        m = max(2 * (n - len(out)), 16)
-        if method == "random":
-            u = rng.random((m, machine.n_axes))
-        elif method in ("sobol", "halton"):
-            seed = scramble_seed if scramble_seed is not None else int(rng.integers(2**31))
-            eng = qmc.Sobol(machine.n_axes, seed=seed) if method == "sobol" else qmc.Halton(machine.n_axes, seed=seed)
-            u = eng.random(2 ** math.ceil(math.log2(m))) if method == "sobol" else eng.random(m)
-        else:
-            raise VecpinError(f"unknown design method '{method}' (random, sobol, halton)")
-        q = machine.lower + u * (machine.upper - machine.lower)
-        keep = np.ones(len(q), bool)
-        for lo, hi in zones:
-            keep &= ~np.all((q >= lo) & (q <= hi), axis=1)
-        out = np.vstack([out, q[keep]])
-        if len(out) >= n:
-            return out[:n]
-    raise InputError("--exclude: the exclusion zones leave (almost) no room for commands; make them smaller")
-
-
-def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):
-    """(low, high) [m, rad] of an exclusion zone (see :func:`vecpin.planning.zones.zone_bounds`)."""
-    return zone_bounds(machine, zone)
 
 
 @dataclass
@@ -409,20 +293,45 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     ``plan_times`` (N,) [s]: the time stamps of the plan's rows as its NC program runs
     them (:func:`vecpin.planning.timing.row_times`) instead of the design's seconds per
     point; ``validation_commands`` (K,n) [m, rad]: the plan's validation run (inside
-    its zone) instead of quasi-random commands over the whole travel."""
+    its zone) instead of quasi-random commands over the whole travel.
+
+    The stages, in the order they draw from the seeded generator: the true machine, the
+    rows measured (the plan's or the design's), the identification campaign, the
+    validation runs."""
     design = design or Design()
     template = plan if isinstance(plan, PlanTemplate) else None
     if template is not None:
         plan = (template.q, template.tool)
-    if int(seed) != seed or seed < 0:
-        raise InputError(f"--seed {seed}: a whole number >= 0")
-    design.check(machine, None if plan is None else len(plan[1]))
-    mean = truth_options.get("mean_error_mm")
-    if mean is not None and not (np.isfinite(mean) and 0 < mean <= 100):
-        raise InputError(f"--mean-error {mean}: the mean volumetric error of the true machine, mm > 0 (e.g. 0.65)")
-    if tracker_position is not None and not np.all(np.isfinite(tracker_position)):
-        raise InputError("--tracker: three finite numbers, mm")
+    _check_simulation(machine, seed, design, plan, truth_options.get("mean_error_mm"), tracker_position)
     rng = np.random.default_rng(int(seed))
+    truth = _true_machine(machine, rng, truth, effects, tracker_position, truth_options)
+    rows, nests, targets, tool0 = _measured_rows(machine, design, plan, template, rng, seed)
+    campaign, t_end = _identification_campaign(machine, design, truth, rows, rng, seed,
+                                               plan_times if plan is not None else None, targets)
+    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones) \
+        if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
+    runs = _validation_runs(machine, design, truth, validation_rows(qv, tool0, nests), rng, seed,
+                            t_end, tables)
+    return Simulation(truth, campaign, *runs, nests, targets)
+
+
+def _check_simulation(machine: Machine, seed, design: Design, plan, mean_error_mm: float | None,
+                      tracker_position: np.ndarray | None) -> None:
+    """Every setting of a simulation inside its meaning, before any work (names the parameter)."""
+    if int(seed) != seed or seed < 0:
+        raise InputError(f"`seed` {seed}: a whole number >= 0")
+    design.check(machine, None if plan is None else len(plan[1]))
+    if mean_error_mm is not None and not (np.isfinite(mean_error_mm) and 0 < mean_error_mm <= 100):
+        raise InputError(f"`mean_error_mm` {mean_error_mm}: the mean volumetric error of the true machine, mm > 0 "
+                         "(e.g. 0.65)")
+    if tracker_position is not None and not np.all(np.isfinite(tracker_position)):
+        raise InputError("`tracker_position`: three finite numbers")
+
+
+def _true_machine(machine: Machine, rng: np.random.Generator, truth: TrueMachine | None, effects: list | None,
+                  tracker_position: np.ndarray | None, truth_options: dict) -> TrueMachine:
+    """The true machine: ``truth`` or a random one; the tracker moved to
+    ``tracker_position`` (3,) [m], machine frame, keeping its heading; ``effects`` acting on it."""
     truth = truth or TrueMachine.random(machine, rng, **truth_options)
     if tracker_position is not None:
         from vecpin.measurement.tracker import Tracker
@@ -430,27 +339,45 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         truth.tracker = Tracker(R, -R @ np.asarray(tracker_position, float), truth.tracker.noise)
     if effects:
         truth.effects = [e.build(machine) if isinstance(e, EffectSpec) else e for e in effects]
+    return truth
+
+
+def _measured_rows(machine: Machine, design: Design, plan, template: PlanTemplate | None, rng: np.random.Generator,
+                   seed: int) -> tuple[Rows, dict, dict, float]:
+    """The rows of the identification campaign in measurement order: the plan's (its table
+    nests where it put them), or the design's commands with every tool, target and nest
+    and its repeated points (eq. 22); with the nests {id: (3,) [m]}, the targets {id: (3,)
+    [m]} and the holder length [m] of the validation run (the first)."""
     tools = np.asarray(design.tools_mm, float) * M_PER_MM
     if plan is not None:
         qs, tool = np.atleast_2d(np.asarray(plan[0], float)), np.asarray(plan[1], float)
         if len(qs) != len(tool) or qs.shape[1:] != (machine.n_axes,):
             raise VecpinError("a plan gives one command per row (N, n axes) and one tool length per row")
-        tools = tool[:1]  # the validation run uses the plan's first holder
-        rows, nests, targets = Rows.tips(qs, tool), {}, {}
+        rows, nests = Rows.tips(qs, tool), {}
         if template is not None and template.has_nests:  # the nests stand where the plan put them
             on = template.instrument == "nest"
             rows.instrument[on], rows.target[on], rows.nest[on] = "nest", template.target[on], template.nest[on]
             nests = template.nests()
-    else:
-        q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
-        rows, nests, targets = design_rows(machine, design, q, tools, seed)
-    if plan is None and design.repeat_points and design.repeat_times:
+        return rows, nests, {}, float(tool[0])  # the validation run uses the plan's first holder
+    q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
+    rows, nests, targets = design_rows(machine, design, q, tools, seed)
+    if design.repeat_points and design.repeat_times:
         pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]
         seqs = [pick[rng.permutation(len(pick))] for _ in range(design.repeat_times)]
         rows = rows + Rows.tips(np.vstack(seqs), np.full(len(pick) * design.repeat_times, tools[0]))
+    return rows, nests, targets, float(tools[0])
+
+
+def _identification_campaign(machine: Machine, design: Design, truth: TrueMachine, rows: Rows,
+                             rng: np.random.Generator, seed: int, plan_times: np.ndarray | None,
+                             targets: dict) -> tuple[Campaign, float]:
+    """The rows measured on the true machine: time stamps [s] (the design's seconds per
+    point and feed, or ``plan_times``), workshop temperature, the effects calibrated to
+    their strength on these rows; then further tracker stations and ball bar rows. With
+    the time [s] of the last row of the first station."""
     qs, tool = rows.q, rows.tool
     t = measurement_times(qs, machine, design)
-    if plan is not None and plan_times is not None:
+    if plan_times is not None:
         if len(plan_times) != len(qs):
             raise VecpinError("the plan's time stamps do not match its rows")
         t = np.asarray(plan_times, float)
@@ -463,11 +390,16 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
                         targets=dict(targets) if design.known_targets else {})
     if design.stations > 1 or design.ballbar_points:
         campaign = _more_instruments(campaign, rows, truth, design, rng, seed)
-    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones) \
-        if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
-    vrows = validation_rows(qv, tools[0], nests)
+    return campaign, float(t[-1])
+
+
+def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows: Rows, rng: np.random.Generator,
+                     seed: int, t_end: float, tables) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
+    """The validation run ``vrows`` 10 min after the campaign's last row (``t_end`` [s]):
+    measured (noisy) and noise-free, without the effects that flag rows (gross errors);
+    with ``tables`` the same commands again through the tables, noisy and noise-free."""
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
-    times_v = measurement_times(qa, machine, design, start=t[-1] + 600.0)
+    times_v = measurement_times(qa, machine, design, start=t_end + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
     feats_v = Features.from_campaign(Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v))
     clean = [e for e in truth.effects if not e.flags_rows]
@@ -488,4 +420,4 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         comp = run(crows, extra_c, feats_c, rng, "validation with the tables")
         comp_exact = run(crows, extra_c, feats_c, None, "validation with the tables, noise-free")
     truth.effects = all_effects
-    return Simulation(truth, campaign, validation, exact, comp, comp_exact, nests, targets)
+    return validation, exact, comp, comp_exact

@@ -171,7 +171,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
         vectors["compensated"] = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
     if show not in vectors:
         from vecpin.errors import InputError
-        raise InputError(f"--show {show}: one of {', '.join(vectors)}")
+        raise InputError(f"`show` {show}: one of {', '.join(vectors)}")
     span = float(np.linalg.norm(np.ptp(nominal, axis=0)))
     root = vis["vecpin"]
     pt = 0.012 * span / 6
@@ -353,18 +353,18 @@ def _tracker(node, model, span: float) -> None:
 
 
 def _scene_row(campaign: Campaign, row: int) -> int:
-    """The campaign's row ``row`` (0-based, as ``--row`` counts) among its station-0
+    """The campaign's row ``row`` (0-based) among its station-0
     tracker rows, which the scene draws; any other row is refused, never replaced."""
     from vecpin.errors import InputError
     from vecpin.measurement.registration import station0
     if not 0 <= row < len(campaign):
-        raise InputError(f"--row {row}: the campaign {campaign.source} has rows 0 .. {len(campaign) - 1}")
+        raise InputError(f"`row` {row}: the campaign {campaign.source} has rows 0 .. {len(campaign) - 1}")
     line = campaign.lines[row]
     sub = station0(campaign)
     hit = np.flatnonzero(sub.lines == line)
     if hit.size == 0:
-        raise InputError(f"--row {row}: row {row} of {campaign.source} (line {line}) is not a tracker row of station 0, "
-                         f"the rows the scene draws; pick one of those (e.g. --row "
+        raise InputError(f"`row` {row}: row {row} of {campaign.source} (line {line}) is not a tracker row of station 0, "
+                         f"the rows the scene draws; pick one of those (e.g. `row` "
                          f"{int(np.flatnonzero(campaign.lines == sub.lines[0])[0])})")
     return int(hit[0])
 

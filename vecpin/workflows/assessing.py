@@ -33,11 +33,12 @@ import numpy as np
 
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import check_registration, registered_errors
+from vecpin.measurement.registration import check_registration
 from vecpin.measurement.repeatability import (SESSION_GAP_S, RepeatabilityStats, drift, instrument_repeatability,
                                               repeat_groups, repeatability)
 from vecpin.measurement.tracker import TrackerNoise
-from vecpin.units import MM_PER_M, norm_mm
+from vecpin.units import MM_PER_M
+from vecpin.workflows.summary import uncompensated, uncompensated_line
 
 FACTOR_BEST, FACTOR_TYPICAL = 2.0, 3.0   # compensated mean / repeatability reached in the seed
 WORTHWHILE, MARGINAL = 30.0, 10.0        # % predicted reduction of the mean error
@@ -61,6 +62,7 @@ class Assessment:
     temperature_range_k: float | None = None
     table: list[RepeatabilityStats] = field(default_factory=list)
     source: str = "numbers given"
+    rows: int | None = None   # rows behind the uncompensated error (None: numbers given)
 
     @property
     def floor_mm(self) -> float:
@@ -110,8 +112,7 @@ class Assessment:
             out += ["  repeatability (eq. 22, Table 2.8), mm:",
                     f"  {'':<12s} {'mean':>9s} {'max':>9s} {'std':>9s} {'time h':>8s} {'points':>7s} {'readings':>8s}"]
             out += [s.row() for s in self.table]
-        mx = f", max {self.max_error_mm:.4f} mm" if self.max_error_mm is not None else ""
-        out += [f"  uncompensated volumetric error: mean {self.mean_error_mm:.4f} mm{mx}",
+        out += [uncompensated_line(self.mean_error_mm, self.max_error_mm, self.rows),
                 f"  {self.repeatability_kind} repeatability (mean): {self.repeatability_mm:.4f} mm; error / repeatability "
                 f"= {self.mean_error_mm / self.repeatability_mm:.2f}"]
         if self.instrument_mm is not None:
@@ -141,18 +142,18 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
     """The verdict from numbers measured elsewhere (mm)."""
     from vecpin.errors import InputError
     if not mean_error_mm > 0:
-        raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
+        raise InputError(f"`mean_error_mm` {mean_error_mm}: the uncompensated mean error is a positive number of mm")
     if not math.isfinite(mean_error_mm):
-        raise InputError("--mean-error: the uncompensated mean error is a positive number of mm")
-    for option, v in (("--long-term", long_term_mm), ("--short-term", short_term_mm), ("--max-error", max_error_mm)):
+        raise InputError(f"`mean_error_mm` {mean_error_mm}: the uncompensated mean error is a positive number of mm")
+    for option, v in (("long_term_mm", long_term_mm), ("short_term_mm", short_term_mm), ("max_error_mm", max_error_mm)):
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"{option} {v}: a positive number of mm")
+            raise InputError(f"`{option}` {v}: a positive number of mm")
     if max_error_mm is not None and max_error_mm < mean_error_mm:
-        raise InputError(f"--max-error {max_error_mm:g} is below --mean-error {mean_error_mm:g}: the largest error "
+        raise InputError(f"`max_error_mm` {max_error_mm:g} is below `mean_error_mm` {mean_error_mm:g}: the largest error "
                          "cannot be smaller than the mean; check the two numbers")
     rep = long_term_mm if long_term_mm is not None else short_term_mm
     if rep is None:
-        raise InputError("give the long-term (--long-term) or short-term (--short-term) repeatability in mm (> 0)")
+        raise InputError("give the long-term (`long_term_mm`) or short-term (`short_term_mm`) repeatability in mm (> 0)")
     kind = "long-term" if long_term_mm is not None else "short-term (long-term unknown: optimistic)"
     return Assessment(mean_error_mm, max_error_mm, rep, kind, short_term_mm, long_term_mm, instrument_mm)
 
@@ -160,31 +161,30 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
 def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: TrackerNoise | None = None,
                     session_gap: float = SESSION_GAP_S) -> Assessment:
     """The verdict from a campaign with repeated points: the uncompensated error is the
-    registered distance of the measured points from the nominal tool tips (every row
-    once: repeats after the first are left out)."""
+    registered distance of the measured points from the nominal tool tips, the figure
+    ``import`` and ``fit`` print (:func:`vecpin.workflows.summary.uncompensated`)."""
     from vecpin.errors import InputError
     if not (math.isfinite(session_gap) and session_gap > 0):
-        raise InputError(f"--session-gap-min {session_gap / 60:g}: minutes > 0 (default 30)")
+        raise InputError(f"`session_gap` {session_gap:g} s: a time > 0 (default 1800 s)")
     c = campaign.primary()
     check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
     stats = repeatability(c, session_gap)
     if stats["short"] is None and stats["long"] is None:
         raise InputError(f"{campaign.source}: no command is measured twice with the same tool, so the repeatability is "
-                         "unknown: plan repeated points (vecpin plan --repeat 9 4) or give the numbers "
-                         "(--mean-error, --long-term)")
+                         "unknown: plan repeated points (the plan's `repeat_points` and `repeat_times`, e.g. 9 points 4 "
+                         "times) or give the numbers (`mean_error_mm`, `long_term_mm`)")
     group, _ = repeat_groups(c)
-    _, first = np.unique(group, return_index=True)
-    err = norm_mm(registered_errors(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz))[np.sort(first)]
+    err = uncompensated(machine, campaign)
     short, long = stats["short"], stats["long"]
     rep, kind = (long.mean, "long-term") if long is not None else (short.mean, "short-term (no long-term repeats: "
                                                                                  "optimistic)")
     d = drift(c)
     nt = int(np.median(np.bincount(group)[np.bincount(group) > 1]))
-    a = Assessment(float(err.mean()), float(err.max()), rep * MM_PER_M, kind,
+    a = Assessment(err.mean_mm, err.max_mm, rep * MM_PER_M, kind,
                    None if short is None else short.mean * MM_PER_M, None if long is None else long.mean * MM_PER_M,
                    instrument_repeatability(c, tracker_noise, max(nt, 2)) * MM_PER_M,
                    None if d is None or not np.isfinite(d.per_hour) else d.per_hour * MM_PER_M,
                    None if d is None or d.per_kelvin is None else d.per_kelvin * MM_PER_M,
                    None if d is None else d.hours, None if d is None else d.temperature_range,
-                   [s for s in (short, long) if s is not None], campaign.source)
+                   [s for s in (short, long) if s is not None], campaign.source, len(err.rows))
     return a

@@ -78,12 +78,12 @@ def run_demo(out_dir: str | Path, seed: int = 0, order: int = 6,
     m = Machine.load("flow_xyzcb")
     design = Design()
     if int(order) != order or order < 0:
-        raise InputError(f"--order {order}: the seed's series order, a whole number >= 0 (default 6)")
+        raise InputError(f"`order` {order}: the seed's series order, a whole number >= 0 (default 6)")
     eq = 3 * design.n_commands * len(design.tools_mm)
     for kind in ("6dof", "ap"):
         unknowns = make_model(kind, m, order).n_parameters + 6
         if unknowns > eq:
-            raise InputError(f"--order {order}: the {kind} model has {unknowns} unknowns, more than the {eq} equations "
+            raise InputError(f"`order` {order}: the {kind} model has {unknowns} unknowns, more than the {eq} equations "
                              "of Paper I's campaign; the seed used order 6")
     check_output_dir(out_dir)
     say("simulating Paper I's campaign on flow_xyzcb (295 commands x 2 tools, 35 validation points)")

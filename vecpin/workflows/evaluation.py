@@ -1,13 +1,14 @@
 """A fitted model judged on a campaign: uncompensated and model residual distances."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
+from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
 from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
                                              station0)
 from vecpin.models import ErrorModel
@@ -38,6 +39,7 @@ class Evaluation:
     notes: list[str] = field(default_factory=list)
     noise_mm: float | None = None  # mean tracker noise of the measured tip relative to the table
     outside: np.ndarray | None = None  # rows commanded beyond what the fit measured (judged apart)
+    net: NetOfNoise | None = None  # relative to the table: the model error with the measurement noise taken out
 
     @property
     def reduction_pct(self) -> float:
@@ -63,6 +65,7 @@ class Evaluation:
     def to_dict(self) -> dict:
         return {"rows": self.rows, "reregistered": self.reregistered, "units": "mm", "frame": self.frame,
                 "warnings": self.warnings, "notes": self.notes, "table_tip_noise_mean_mm": self.noise_mm,
+                "model_rms_net_of_noise_mm": None if self.net is None else [self.net.rms, self.net.sd],
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct,
                 "outside_measured_range": None if self.outside is None or not self.outside.any() else {
@@ -77,7 +80,10 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     ``zone`` {axis: (low, high)} mm/deg when given). ``reregister``: the tracker was
     moved, so its pose is fitted to this campaign first. A campaign the model's tracker
     pose (or, re-registered, the machine's nominal kinematics) cannot describe is refused
-    (:func:`~vecpin.measurement.registration.check_same_pose`)."""
+    (:func:`~vecpin.measurement.registration.check_same_pose`). Targets whose offsets the
+    campaign does not give take the fitted ones of the model."""
+    if getattr(model, "setup_", None) is not None and model.setup_.targets:
+        campaign = dataclasses.replace(campaign, targets=dict(model.setup_.targets) | dict(campaign.targets))
     if zone:
         from vecpin.workflows.fitting import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
@@ -152,14 +158,17 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
     noise = tip_noise(campaign, tt, model.noise_.tracker) * MM_PER_M
     notes.append(f"tracker noise through the nest registration: {noise.mean():.4f} mm mean at the tip relative to "
                  "the table (the model's own noise settings; a model error below it is not resolved by this run)")
+    residual = registered_errors(modelled, tt.tip)
+    net = net_of_noise(residual, campaign, tt, model.noise_, m)
+    notes.append(net.line())
     if len(tt.unjudged):
         notes.append(f"{len(tt.unjudged)} tool row(s) not judged: fewer than three nests read at their command (first: "
                      f"row {campaign.lines[tt.unjudged[0]]})")
     if reregister:
-        notes.append("--reregister: not needed relative to the table (every command registers the tracker on the nests)")
+        notes.append("`reregister`: not needed relative to the table (every command registers the tracker on the nests)")
     return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
-                      norm_mm(registered_errors(modelled, tt.tip)), reregister, len(campaign) - len(c), TABLE_FRAME,
-                      notes=notes, noise_mm=float(noise.mean())), c
+                      norm_mm(residual), reregister, len(campaign) - len(c), TABLE_FRAME,
+                      notes=notes, noise_mm=float(noise.mean()), net=net), c
 
 
 OUTSIDE_MARGIN = 0.02   # of an axis' travel: commands this far beyond the measured range are extrapolation

@@ -16,6 +16,8 @@ import warnings
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from vecpin.errors import InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
@@ -26,6 +28,8 @@ from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
 from vecpin.selection.orders import check_folds
+from vecpin.units import MM_PER_M, norm_mm
+from vecpin.workflows.summary import per_tool_table, uncompensated
 
 
 MAX_UNKNOWNS = 5000  # a fit holds a few dense unknowns x unknowns matrices: 5000 -> 200 MB each
@@ -35,13 +39,16 @@ def check_size(model: ErrorModel) -> None:
     """Refuse, before the fit, a model whose normal equations alone would take gigabytes."""
     n = model.n_parameters + 6
     if n > MAX_UNKNOWNS:
-        raise InputError(f"--order {model.order}: the {model.kind} model has {n} unknowns; its normal equations "
+        raise InputError(f"`order` {model.order}: the {model.kind} model has {n} unknowns; its normal equations "
                          f"would need about {4 * n * n * 8 / 1e9:.1f} GB (vecpin fits at most {MAX_UNKNOWNS} unknowns); "
-                         "use a lower --order")
+                         "use a lower `order`")
 
 
 @dataclass
 class FitRun:
+    """A fit of a campaign: the model (fitted), the choice that made it (None: fixed), and
+    what the data said of the noise level; :meth:`lines` is what ``vecpin fit`` prints."""
+
     model: ErrorModel
     choice: ModelChoice | None
     rows_in_zone: int | None = None  # rows the zone kept (None: no zone)
@@ -50,6 +57,25 @@ class FitRun:
     noise_scale_sd: float | None = None   # its standard deviation
     noise_rescaled: bool = False          # the fit (and choice) were made again with the scaled noise
     noise_used: float = 1.0               # the scale of the stated noise the final fit used
+    campaign: Campaign | None = None      # the rows fitted (those in the zone)
+
+    def lines(self) -> list[str]:
+        """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
+        fitted residuals (mm), fitted nests and targets, ball bar residuals."""
+        model, c = self.model, self.campaign
+        out = []
+        if getattr(model, "zone_", None):
+            out.append(f"zone {zone_text(model.zone_)}: {self.rows_in_zone} of the {self.rows} rows were "
+                       "commanded in it")
+        if self.choice is not None:
+            out.append(self.choice.table())
+        rep = model.report_
+        out.append(rep.summary())
+        if self.noise_line():
+            out.append(self.noise_line())
+        if rep.removed:
+            out.append(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
+        return out + residual_lines(model, c) + fitted_points_lines(model)
 
     def noise_line(self) -> str | None:
         """What the data said of the noise level, for the printout (None: not estimated)."""
@@ -62,24 +88,71 @@ class FitRun:
         return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
                 f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted again; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
-                "the stated one (state the noise with --repeatability-mm, --tracker-noise, ... to fix it)")
+                "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)")
+
+
+def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
+    """Uncompensated (:func:`vecpin.workflows.summary.uncompensated`, the figure ``import``
+    and ``assess`` print) and fitted distances per tool [mm]; table nest rows and ball bar
+    rows beside them."""
+    u = uncompensated(model.machine, campaign, strict=False)
+    c0 = campaign.primary()
+    fitted = [(model.label(), norm_mm(model.residuals(c0)))] if len(c0) else []
+    if u is None and len(c0):  # too few rows, or a tool that stands still: registered by the fit instead
+        out = per_tool_table([("uncompensated (registered by the fit)", norm_mm(model.nominal_residuals(c0)))]
+                             + fitted, c0.tool)
+    elif u is None:
+        out = []
+    else:
+        out = [u.line()] + per_tool_table([("uncompensated (nominal kinematics)", u.distances_mm, u.tool)] + fitted,
+                                         c0.tool)
+    if campaign.nest_rows.size:
+        cn = campaign.subset(campaign.nest_rows[campaign.station[campaign.nest_rows] == 0])
+        if len(cn):
+            out.append(f"  table nest rows (station 0): {len(cn)}, residual mean "
+                       f"{norm_mm(model.residuals(cn)).mean():.4f} mm (uncompensated, registered by the fit "
+                       f"{norm_mm(model.nominal_residuals(cn)).mean():.4f} mm)")
+    if campaign.ballbar_rows.size:
+        d = np.abs(model.ballbar_residuals(campaign)) * MM_PER_M
+        out.append(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
+    return out
+
+
+def fitted_points_lines(model: ErrorModel) -> list[str]:
+    """The fitted table nests (workpiece frame) and tool targets (tool link frame), mm ± 1 sigma."""
+    out = []
+    su = model.setup_
+    for kind, store, frame in (("nest", su.nests, "workpiece frame"), ("target", su.targets, "tool link frame")):
+        for k, v in store.items():
+            sd = [su.std.get(f"{kind}{k}.{c}", 0.0) * MM_PER_M for c in "xyz"]
+            cells = ", ".join(f"{x * MM_PER_M:.4f} ± {e:.4f}" if e > 0 else f"{x * MM_PER_M:.4f} (fixed)"
+                              for x, e in zip(v, sd))
+            out.append(f"  {kind} {k} ({frame}): {cells} mm")
+    if any(s == 0 for s in su.std.values()) or (su.targets and not su.std):
+        out.append("  (fixed: a coordinate the design cannot tell from the model's terms stays at its start value)")
+    return out
+
+
+def zone_text(zone: Zone) -> str:
+    """``X=0:400,Y=-100:100`` (mm/deg) of a zone."""
+    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
 
 
 NOISE_ROUNDS = 3   # choose-and-fit rounds when the noise level comes from the data
 
 
-def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "--zone") -> Campaign:
-    """The rows of ``campaign`` commanded inside ``zone`` (refused when too few remain)."""
+def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "zone") -> Campaign:
+    """The rows of ``campaign`` commanded inside ``zone`` (refused when too few remain;
+    ``option``: the parameter named in the message)."""
     keep = inside(machine, campaign.q, [zone])
     need = min_rows(machine.n_axes)
     if keep.sum() < need:
-        text = ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
-        raise InputError(f"{option} {text}: only {int(keep.sum())} of the {len(campaign)} rows of {campaign.source} "
+        raise InputError(f"`{option}` {zone_text(zone)}: only {int(keep.sum())} of the {len(campaign)} rows of {campaign.source} "
                          f"lie in the zone; a fit needs at least {need}")
     return campaign.subset(keep)
 
 
-def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kind: str = "auto",
+def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
                  noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> FitRun:
@@ -89,16 +162,20 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
     fit's chi2 leaves its band, every noise sigma is scaled by sqrt(chi2 / expected) and
     the model chosen and fitted again (at most ``NOISE_ROUNDS`` times, until the scale
     settles within 5 %). The ratio of machine to instrument noise is kept: one level, not
-    two variance components, is what the residuals tell apart from the model."""
+    two variance components, is what the residuals tell apart from the model. ``noise``
+    default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
+    noise = noise or NoiseModel.default(machine)
     rows = len(campaign)
     if zone:
+        for a in zone:
+            machine.axis(a)
         campaign = zone_rows(machine, campaign, zone)
     notes = table_campaign_notes(machine, campaign)  # nest rows without a table are refused
     for note in notes:
         warnings.warn(VecpinWarning(note), stacklevel=2)
     check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
     if not (math.isfinite(prior_scale) and prior_scale > 0):
-        raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number (default 1)")
+        raise InputError(f"`prior_scale` {prior_scale}: the prior scale must be a positive number (default 1)")
     if noise.instrument == "range":
         check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
@@ -130,4 +207,4 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel, *, kin
         model.selection_ = choice.to_dict()
     if zone:
         model.zone_ = dict(zone)
-    return FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale)
+    return FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)

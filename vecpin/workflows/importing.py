@@ -3,21 +3,37 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from vecpin.errors import InputError
 from vecpin.fileio import check_output_file
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.importer import ImportResult, import_export, write_imported
 from vecpin.measurement.robotaccuracy import TMAC_TOOL_MM, DatasetRead, read_dataset
+from vecpin.workflows.summary import uncompensated
 
 FORMATS = ("tracker", "ipa-robot-accuracy")
 
 
 def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: str | Path | None = None,
-                   **options) -> ImportResult:
-    """Read ``export`` (see :func:`vecpin.measurement.importer.import_export` for the
-    options), join it with ``plan``, write the campaign CSV ``out`` and check it reads
-    back as a campaign. The result's ``lines()`` say how the file was read."""
+                   export_format: str = "tracker", **options) -> ImportResult | DatasetRead:
+    """Read ``export``, join it with ``plan``, write the campaign CSV ``out`` and check it
+    reads back as a campaign. ``export_format``: "tracker", a tracker program's export
+    (see :func:`vecpin.measurement.importer.import_export` for the ``options``), or
+    "ipa-robot-accuracy", a measurement file of the public UR10 dataset
+    (:mod:`vecpin.measurement.robotaccuracy`: its own columns; of the options only
+    ``tool_mm``). The result's ``lines()`` say how the file was read."""
+    if export_format not in FORMATS:
+        raise InputError(f"`export_format` '{export_format}': one of {', '.join(FORMATS)}")
+    if export_format == "ipa-robot-accuracy":
+        given = [f"`{k}`" for k, v in (("plan", plan), ("columns", options.get("columns")),
+                                       ("time_format", options.get("time_format"))) if v]
+        if given:
+            raise InputError(f"`export_format` ipa-robot-accuracy reads the dataset's own columns; {', '.join(given)} "
+                             "does not apply")
+        return import_dataset_to_file(export, machine, out, tool_mm=options.get("tool_mm"))
     check_output_file(out)
     res = import_export(export, machine, plan, **options)
+    u = uncompensated(machine, res.campaign, strict=False)  # the figure assess and fit print
+    res.uncompensated_mm = res.uncompensated_mm if u is None else u.mean_max_mm
     write_imported(res, machine, out)
     return res
 

@@ -49,10 +49,10 @@ class PlanRun:
         if p.tracker_given:
             where = "given"
         elif p.tracker_side in ("", "-y"):
-            where = "assumed 2 m in front of the workspace (-y side), at its lowest tip; give --tracker X,Y,Z"
+            where = "assumed 2 m in front of the workspace (-y side), at its lowest tip; give `tracker_mm` X,Y,Z"
         else:
             where = (f"assumed 2 m beyond the workspace on its {p.tracker_side} side, from which the tips are in "
-                     "sight; give --tracker X,Y,Z")
+                     "sight; give `tracker_mm` X,Y,Z")
         info = p.information
         out = [f"measurement plan for {m.name}: {len(p.commands)} commands x {len(s.tools_mm)} holder lengths "
                f"({', '.join(f'{t:g}' for t in s.tools_mm)} mm) = {len(p.template)} rows",
@@ -115,7 +115,7 @@ class PlanRun:
                 f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
                                                            else "")
                 + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
-                "them; vecpin simulate --plan uses the same commands"]
+                "them; a simulation of the plan uses the same commands"]
 
     def nest_lines(self) -> list[str]:
         """What the table nests add (none on a machine without table axes)."""
@@ -124,8 +124,8 @@ class PlanRun:
             return []
         if not p.nests:
             left = int((~p.information.keep[p.information.model_columns]).sum())
-            return [f"  no table nests (--nests 0): the tool tip alone never sees the table axes; {left} model terms "
-                    "stay unknown and uncorrected (plan with --nests 3 to read reflectors on the table)"]
+            return [f"  no table nests (`nests` 0): the tool tip alone never sees the table axes; {left} model terms "
+                    "stay unknown and uncorrected (plan with `nests` 3 to read reflectors on the table)"]
         t = p.template
         seen = len(t.nest_rows)
         table = int(p.information.table_terms().sum())
@@ -140,7 +140,8 @@ class PlanRun:
                 "leave out",
                 f"    predicted error of the tool tip relative to the workpiece: mean {to_mm(a.model_mean):.4f} mm, "
                 f"max {to_mm(a.model_max):.4f} mm with the nests; mean {to_mm(b.model_mean):.4f} mm, max "
-                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"]
+                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"] + \
+            ([f"    {x}" for x in p.placement.lines(p.machine)] if p.placement else [])
 
     def to_dict(self) -> dict:
         p, s = self.plan, self.plan.settings
@@ -233,7 +234,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract)
         speed = axis_speeds(machine, settings.rapid_mm_min, settings.rapid_deg_min)[r]
         program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
-                   f"--safe-z) before every move between points: {lifts / 1000:.1f} m up and down, "
+                   f"`safe_z_mm`) before every move between points: {lifts / 1000:.1f} m up and down, "
                    f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,

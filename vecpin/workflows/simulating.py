@@ -102,6 +102,29 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
                          if truth_options.get("validation_commands") is not None else "")
 
 
+def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: str | Path | None = None,
+                      truth: str | Path | None = None) -> dict:
+    """The files a simulation reads, as :func:`simulate_to_dir` takes them: ``plan`` (a
+    plan's template, with its table nests and, from its folder, :func:`plan_companions`),
+    ``tables`` (tables.json or its folder) and ``truth`` (truth.json of an earlier
+    simulation of ``machine``); a key only for a file given."""
+    out: dict = {}
+    if plan is not None:
+        from vecpin.measurement.plantemplate import read_template
+        out["plan"] = read_template(plan, machine)
+        out |= plan_companions(machine, plan, out["plan"])  # its NC program's times, its validation run
+    if tables is not None:
+        from vecpin.workflows.verifying import load_tables
+        out["tables"] = load_tables(tables, machine)[0]
+    if truth is not None:
+        from vecpin.simulation.truth import TrueMachine
+        try:
+            out["truth"] = TrueMachine.load(truth, machine)
+        except (OSError, KeyError, ValueError) as exc:
+            raise InputError(f"`truth` {truth}: not a truth file of {machine.name} ({exc})") from None
+    return out
+
+
 def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
     """What a plan's folder holds beside its template ``plan_path`` for the simulator:
     ``plan_times`` (the rows' time stamps as the plan's NC program runs them, from
@@ -122,11 +145,11 @@ def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
 
 
 def _check_tracker(position) -> None:
-    """``--tracker`` (SI here): finite and within a tracker's reach of the machine base."""
+    """``tracker_position`` (SI here): finite and within a tracker's reach of the machine base."""
     if position is None:
         return
     p = np.asarray(position, float) * MM_PER_M
     if p.shape != (3,) or not np.all(np.isfinite(p)) or np.any(np.abs(p) > MAX_TRACKER_MM):
-        raise InputError(f"--tracker {','.join(f'{v:g}' for v in np.ravel(p))}: three finite numbers, the tracker "
+        raise InputError(f"`tracker_position` {','.join(f'{v:g}' for v in np.ravel(p))}: three finite numbers, the tracker "
                          f"position in mm, machine base frame, within {MAX_TRACKER_MM / 1000:g} m of the origin (a tracker reads points at "
                          "most 200 m away)")

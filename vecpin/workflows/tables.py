@@ -1,7 +1,7 @@
 """From a fitted model to controller files (the ``tables`` command), and the sign check.
 
 The controller name resolves to its format (:mod:`vecpin.export.registry`); the
-machine's controller profile and ``--axis-map`` supply the facts the writer needs;
+machine's controller profile and ``axis_map`` supply the facts the writer needs;
 the format's limits, overridden by the profile, go down to the table layer. Every
 limit and every missing fact is checked before the first solve. After writing, the
 files are read back with the format's reader: the report gets a row for the tables
@@ -21,7 +21,7 @@ from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import drives, generic
-from vecpin.export.common import ControllerFormat, ExportJob, with_constants
+from vecpin.export.common import ControllerFormat, ExportJob, UserCommands, with_constants
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import get_format
 from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, find_table, plan_sign_test, read_check,
@@ -32,10 +32,11 @@ from vecpin.models import ErrorModel
 from vecpin.units import MM_PER_M
 
 
-def named_axis(machine, name: str, option: str):
-    """``machine.axis(name)``, the error naming the option that gave the name."""
+def named_axis(machine, name: str, option: str, value: str | None = None):
+    """``machine.axis(name)``, the error naming the parameter ``option`` that gave the name
+    (and its ``value`` when the name is part of it)."""
     if name not in machine.axis_names:
-        raise InputError(f"{option} {name}: machine '{machine.name}' has no axis '{name}' (axes: "
+        raise InputError(f"`{option}` {value or name}: machine '{machine.name}' has no axis '{name}' (axes: "
                          f"{', '.join(machine.axis_names)}; names are case-sensitive)")
     return machine.axis(name)
 
@@ -46,18 +47,18 @@ def parse_axis_map(items: list[str], machine) -> dict[str, str]:
     out: dict[str, str] = {}
     for it in items:
         if "=" not in it:
-            raise InputError(f"--axis-map takes JOINT=NCNAME, not '{it}'")
+            raise InputError(f"`axis_map` takes JOINT=NCNAME, not '{it}'")
         a, b = (x.strip() for x in it.split("=", 1))
-        named_axis(machine, a, f"--axis-map {it}:")
+        named_axis(machine, a, "axis_map", it)
         if not b:
-            raise InputError(f"--axis-map {it}: the NC axis name is empty")
+            raise InputError(f"`axis_map` {it}: the NC axis name is empty")
         out[a] = b
     names = list(out.values())
     dup = {n for n in names if names.count(n) > 1}
     if dup:
         n = sorted(dup)[0]
         joints = [a for a, b in out.items() if b == n]
-        raise InputError(f"--axis-map: joints {', '.join(joints)} are all mapped to NC axis {n}; each joint needs "
+        raise InputError(f"`axis_map`: joints {', '.join(joints)} are all mapped to NC axis {n}; each joint needs "
                          "its own NC axis")
     return out
 
@@ -97,7 +98,8 @@ class TableRun:
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
         out.append(f"  gauge line (T_offset) change of these tables: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm "
-                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the README says)")
+                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the controller's "
+                   "README in the output folder says)")
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
@@ -118,13 +120,15 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                 max_tables: int | None = None, no_circular: bool = False, forbid_output=(), method: str = "exact",
                 points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
                 sign_test: str | None = None, uncertainty: bool = True, zone=None,
-                progress: Callable[[str], None] | None = None) -> TableRun:
+                user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None) -> TableRun:
     """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
 
     ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
     names that win over the profile's; ``sign_test``: an axis (its pitch table) or a
     table name for which to write a sign-test program; ``zone``: {axis: (low, high)}
-    mm/deg, the region the tables are fitted in (default: the model's zone). A profile
+    mm/deg, the region the tables are fitted in (default: the model's zone);
+    ``user_commands``: how the READMEs name the sign test's commands (default: the Python
+    calls; the command line gives its commands). A profile
     axis with a following drive gets its tables for both drives, and a gantry skew of
     the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
@@ -148,9 +152,10 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     st = None
     xtables, xm, xprof = drives.expand(plan.tables, m, prof)
     with OutputSet(out_dir, manifest="tables") as out:  # an earlier run's files it no longer writes go
-        job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes)
+        how = user_commands or UserCommands()
+        job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes, commands=how)
         names = fmt.write(job) if fmt.name != "generic" else []
-        names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes))
+        names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes, commands=how))
         if xm is not m:
             names += drives_readme(out, xtables, xm, prof, differential)
         if fmt.read is not None:
@@ -163,7 +168,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         if sign_test is not None:
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
-            names += write_sign_test(out, st, fmt.dialect, prof, notes)
+            names += write_sign_test(out, st, fmt.dialect, prof, notes, how)
     if out.removed:
         notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
                      "(unchanged since): " + ", ".join(p.name for p in out.removed))
@@ -186,9 +191,9 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
     fmt, prof, limits = resolve(controller, m, profile, axis_map)
     limits.points(points)
     for a in forbid_output:
-        named_axis(m, a, "--forbid-output")
+        named_axis(m, a, "forbid_output")
     for a in modulo_axes:
-        named_axis(m, a, "--modulo")
+        named_axis(m, a, "modulo_axes")
     modulo = sorted(set(modulo_axes) | set(prof.modulo_axes()), key=lambda a: m.axis(a).index)
     if max_tables is not None:
         limits.constraints(max_tables, no_circular or None, tuple(forbid_output), axis_names=m.axis_names)
@@ -196,11 +201,11 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
     fmt.check(xm, xprof, limits, modulo)
     if sign_test is not None:
         if fmt.read is None:
-            raise InputError(f"--sign-test: {controller} writes no tables a controller applies")
+            raise InputError(f"`sign_test`: {controller} writes no tables a controller applies")
         key = sign_test.strip().lower()
         if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
                                                                           for i in m.axis_names}:
-            raise InputError(f"--sign-test {sign_test}: neither an axis nor a table of {m.name}")
+            raise InputError(f"`sign_test` {sign_test}: neither an axis nor a table of {m.name}")
     return fmt, prof, limits, modulo
 
 
@@ -228,7 +233,7 @@ def _plan_for_drives(model: ErrorModel, prof: ControllerProfile, limits: Control
                                        "gantry skew, loaded on both drives) already need more: leave out the "
                                        "drive_separation_mm of the profile (no differential) or raise the limit")
         notes.append(f"twin drives: {k} cross table(s) more than {controller} holds once loaded for both drives; "
-                     f"chose again with --max-tables {max_tables}")
+                     f"chose again with `max_tables` {max_tables}")
 
 
 def _read_back(fmt: ControllerFormat, stage: Path, xm, xprof: ControllerProfile, controller: str, out_dir) -> TableSet:
@@ -239,7 +244,7 @@ def _read_back(fmt: ControllerFormat, stage: Path, xm, xprof: ControllerProfile,
     except ControllerFileError as exc:
         name = Path(exc.path).name
         where = f", line {exc.line}" if exc.line is not None else ""
-        raise InputError(f"--controller {controller}: {Path(out_dir) / name} as vecpin would write it does not read "
+        raise InputError(f"`controller` {controller}: {Path(out_dir) / name} as vecpin would write it does not read "
                          f"back ({name}{where}: {exc.reason}); nothing was written. Check the names and facts of the "
                          f"{xprof.where}") from None
 
@@ -285,8 +290,8 @@ def drives_readme(out: OutputSet, tables: TableSet, xm, prof: ControllerProfile,
              "Every table that corrects a twin-drive axis is loaded for both drives (seed Section 2.5: 30 tables "
              "on the Master Mill). `tables_drives.csv` lists them per drive (mm/deg); `tables.json` keeps the "
              "machine's axes (the mean of the drives) and, under `drives`, each twin axis' separation and its "
-             "differential tables (the leading drive's share; `vecpin simulate --tables` and `vecpin verify` turn "
-             "the beam with them).", ""]
+             "differential tables (the leading drive's share; vecpin's simulation and verification with these "
+             "tables turn the beam with them).", ""]
     for f, a in xm.leading.items():
         lead, fol = prof.axis(a), prof.axis(a).following
         names = [t.name for t in tables.tables if t.output_axis in (a, f)]
@@ -302,10 +307,11 @@ def drives_readme(out: OutputSet, tables: TableSet, xm, prof: ControllerProfile,
 
 
 def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> SignVerdict:
-    """Judge a sign test from its CSV of readings (``vecpin evaluate --sign-test``)."""
+    """Judge a sign test from its CSV of readings: ``test_path`` the SIGNTEST_<T>.json the
+    tables were written with, ``check_csv`` the filled-in SIGNTEST_<T>.csv."""
     st = SignTest.load(test_path)
     if machine is not None and st.machine != machine.name:
-        raise InputError(f"--sign-test {test_path}: the test is for machine '{st.machine}', the model for "
+        raise InputError(f"`test_path` {test_path}: the test is for machine '{st.machine}', the model for "
                          f"'{machine.name}'")
     return evaluate_sign_test(st, read_check(check_csv, st))
 
@@ -320,7 +326,7 @@ def write_profile_template(machine, controller: str, out: str | Path) -> tuple[P
     from vecpin.fileio import write_text
     path = Path(out)
     if path.exists():
-        raise InputError(f"--out {out}: the file exists (a filled-in profile?); give another name or remove it")
+        raise InputError(f"`out` {out}: the file exists (a filled-in profile?); give another name or remove it")
     d = template(machine, controller)
     blanks = sum(v is None for facts in d["axes"].values() for v in facts.values())
     blanks += sum(v is None for v in d.get("options", {}).values())

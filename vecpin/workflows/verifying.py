@@ -140,6 +140,31 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
            tables: TableSet | None = None, tables_source: str | None = None, progress=None) -> Verification:
     """The two runs side by side (see the module text); ``progress(msg)`` hears of the
     slow step (tables computed from the model)."""
+    table = _check_runs(machine, before, after)
+    tables, tables_from = _tables_for(model, tables, tables_source, progress)
+    dT = tables.gauge_offset_change if tables is not None else 0.0
+    m = _measure(machine, before, after, model, dT, table)
+    b, a = m.b, m.a
+    before_run = Run(f"uncompensated ({Path(before.source).name})", before.source, b.tool, m.measured[0])
+    after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, m.measured[1])
+    label, notes = None, m.notes
+    same = len(a) == len(b) and np.allclose(a.q, b.q, atol=1e-9) and np.allclose(a.tool, b.tool, atol=1e-9)
+    if model is not None and machine.has_workpiece and not table:
+        notes.append("no predicted figures: the model's are relative to the table, the runs' at the tool")
+    elif model is not None:
+        before_run.predicted, after_run.predicted, label = _predict(machine, model, tables, m, dT, table, same)
+    if not same:
+        notes.append("the two runs measure different commands: compare the statistics, not the points")
+    if after_run.measured.mean() >= before_run.measured.mean():
+        notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
+                     "AFTER really the run with them?")
+    return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=m.frame,
+                        warnings=m.warnings, commands=compared_commands(machine, b, a, same))
+
+
+def _check_runs(machine: Machine, before: Campaign, after: Campaign) -> bool:
+    """Refuse runs that cannot be compared (nests in one only, the same measurements twice,
+    another machine or unit); True when both are judged relative to the table."""
     for run in (before, after):
         check_nest_rows(machine, run)
     table = machine.has_workpiece and bool(len(before.nest_rows) or len(after.nest_rows))
@@ -155,83 +180,99 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
                          + ("the same file is given " if same_file else "the two files hold the same measurements ")
                          + "as the run before and the run after compensation; AFTER is a second run, measured with "
                            "the tables active")
-    b, a = before.primary(), after.primary()
-    for run in (b, a):  # a run of another machine, or in other units, is not a validation run of this one
+    for run in (before.primary(), after.primary()):  # another machine's run, or other units, is not a validation run
         tips = machine.tool_tip(run.q, run.tool, frame="base")
         if not table or spans_plane(tips):
             check_registration(tips, run.xyz, run.source, run.lines)
-    notes = []
-    tables_from = f"tables {tables_source}" if tables is not None else "no tables given: 0 assumed (give --tables)"
-    if tables is None and model is not None:
-        from vecpin.compensation.plan import plan_tables
-        if progress:
-            progress("no --tables: computing the tables from the model (generic controller)")
-        tables = plan_tables(model, n_commands=600, uncertainty=False).tables
-        tables_from = "tables computed from the model (generic controller, full set); give --tables for the real ones"
-    dT = tables.gauge_offset_change if tables is not None else 0.0
-    frame, warnings, seen = Verification.frame, [], None
-    if table:
-        nests, refitted = table_nests([before, after], dict(model.setup_.nests) if model is not None else None)
-        seen = [table_tips(run, nests, refitted) for run in (before, after)]
-        b, a = before.subset(seen[0].rows), after.subset(seen[1].rows)
-        for run, tt in zip((before, after), seen):
-            if not len(tt.rows):
-                raise InputError(f"{run.source}: no command has tool rows and three or more nests read at it, so the "
-                                 "tip relative to the table cannot be measured")
-        frame = ("the tool tip relative to the table (workpiece frame: every command's table pose from its nests, "
-                 f"nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
-                                                          "where the model's fit put them") + "; registered rigidly)")
-        measured = [norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip))
-                    for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
-        from vecpin.measurement.tracker import TrackerNoise
-        tn = model.noise_.tracker if model is not None else TrackerNoise()
-        notes.append(f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], tn)):.4f} "
-                     "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
-                     " tracker noise): the measured figures carry it")
-    else:
-        measured = [run_distances(machine, b), run_distances(machine, a, dT)]
+    return table
+
+
+def _tables_for(model: ErrorModel | None, tables: TableSet | None, source: str | None, progress):
+    """The tables the compensated run ran with, and where they come from (one phrase)."""
+    if tables is not None:
+        return tables, f"tables {source}"
+    if model is None:
+        return None, "no tables given: 0 assumed (give `tables`)"
+    from vecpin.compensation.plan import plan_tables
+    if progress:
+        progress("computing the tables from the model (generic controller): none were given")
+    return (plan_tables(model, n_commands=600, uncertainty=False).tables,
+            "tables computed from the model (generic controller, full set); give `tables` for the real ones")
+
+
+@dataclass
+class _Measured:
+    """The runs' judged rows (``b``, ``a``), measured distances [mm] and what was seen of the table."""
+
+    b: Campaign
+    a: Campaign
+    measured: list[np.ndarray]
+    seen: list | None
+    frame: str
+    notes: list[str]
+    warnings: list[str]
+
+
+def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None, dT: float,
+             table: bool) -> _Measured:
+    """Measured distances [mm] of both runs: at the tool tip (each run registered rigidly), or
+    relative to the table from the nests read at each command (workpiece frame)."""
+    if not table:
+        b, a = before.primary(), after.primary()
+        warnings = []
         if machine.has_workpiece:
             warnings.append(f"warning: {before.source} and {after.source} have no nest rows: both judged at the tool "
                             f"tip, which the table axes ({', '.join(machine.table_axes)}) do not move, so their "
                             "errors and their compensation are not seen; read table nests in both runs to judge the "
                             "tip relative to the table")
-    before_run = Run(f"uncompensated ({Path(before.source).name})", before.source, b.tool, measured[0])
-    after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, measured[1])
-    label = None
-    same = len(a) == len(b) and np.allclose(a.q, b.q, atol=1e-9) and np.allclose(a.tool, b.tool, atol=1e-9)
-    if model is not None and machine.has_workpiece and not table:
-        notes.append("no predicted figures: the model's are relative to the table, the runs' at the tool")
-    elif model is not None:
-        actual = model_as_actual(model)
-        before_run.predicted = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
-        comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
-        ref = machine.tool_tip(a.q, a.tool + dT, frame="workpiece" if table else "base")
-        if same:
-            # plus what the model does not describe: its residual on the uncompensated run
-            if table:
-                resid = registered_errors(actual(b.q, b.tool, False)[0], seen[0].tip)
-            else:  # machine frame
-                from vecpin.measurement.registration import register
-                R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
-                feats = None
-                if model.effects:
-                    from vecpin.measurement.features import Features
-                    feats = Features.from_campaign(b)
-                resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
-            after_run.predicted = norm_mm(registered_errors(ref, ref + comp + resid))
-            label = (f"{model.label()}; compensated: the model's residual on the uncompensated run "
-                     "plus the error its tables leave of the model")
-        else:
-            after_run.predicted = norm_mm(registered_errors(ref, ref + comp))
-            label = (f"{model.label()}; compensated: the error the tables leave of the model only "
-                     "(different commands, so the model's residual cannot be added)")
+        return _Measured(b, a, [run_distances(machine, b), run_distances(machine, a, dT)], None, Verification.frame,
+                         [], warnings)
+    nests, refitted = table_nests([before, after], dict(model.setup_.nests) if model is not None else None)
+    seen = [table_tips(run, nests, refitted) for run in (before, after)]
+    for run, tt in zip((before, after), seen):
+        if not len(tt.rows):
+            raise InputError(f"{run.source}: no command has tool rows and three or more nests read at it, so the "
+                             "tip relative to the table cannot be measured")
+    b, a = before.subset(seen[0].rows), after.subset(seen[1].rows)
+    frame = ("the tool tip relative to the table (workpiece frame: every command's table pose from its nests, "
+             f"nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
+                                                      "where the model's fit put them") + "; registered rigidly)")
+    measured = [norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip))
+                for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
+    from vecpin.measurement.tracker import TrackerNoise
+    tn = model.noise_.tracker if model is not None else TrackerNoise()
+    note = (f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], tn)):.4f} "
+            "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
+            " tracker noise): the measured figures carry it")
+    return _Measured(b, a, measured, seen, frame, [note], [])
+
+
+def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _Measured, dT: float, table: bool,
+             same: bool) -> tuple[np.ndarray, np.ndarray, str]:
+    """The model's predicted distances [mm] for both runs and the line that says how."""
+    b, a = m.b, m.a
+    actual = model_as_actual(model)
+    before = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
+    comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
+    ref = machine.tool_tip(a.q, a.tool + dT, frame="workpiece" if table else "base")
     if not same:
-        notes.append("the two runs measure different commands: compare the statistics, not the points")
-    if after_run.measured.mean() >= before_run.measured.mean():
-        notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
-                     "AFTER really the run with them?")
-    return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=frame,
-                        warnings=warnings, commands=compared_commands(machine, b, a, same))
+        return before, norm_mm(registered_errors(ref, ref + comp)), (
+            f"{model.label()}; compensated: the error the tables leave of the model only "
+            "(different commands, so the model's residual cannot be added)")
+    # plus what the model does not describe: its residual on the uncompensated run
+    if table:
+        resid = registered_errors(actual(b.q, b.tool, False)[0], m.seen[0].tip)
+    else:  # machine frame
+        from vecpin.measurement.registration import register
+        R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
+        feats = None
+        if model.effects:
+            from vecpin.measurement.features import Features
+            feats = Features.from_campaign(b)
+        resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
+    return before, norm_mm(registered_errors(ref, ref + comp + resid)), (
+        f"{model.label()}; compensated: the model's residual on the uncompensated run plus the error its tables "
+        "leave of the model")
 
 
 def compared_commands(machine: Machine, b: Campaign, a: Campaign, same: bool) -> str:
@@ -267,22 +308,22 @@ def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: 
     return v
 
 
-def load_tables(path: str | Path, machine: Machine) -> tuple[TableSet, str]:
-    """A table set from a ``tables.json`` file or a folder holding one (``vecpin tables --out``)."""
+def load_tables(tables: str | Path, machine: Machine) -> tuple[TableSet, str]:
+    """A table set from ``tables``: a ``tables.json`` file or the folder the tables were written into."""
     from vecpin.errors import InputError
-    p = Path(path)
+    p = Path(tables)
     if p.is_dir():
         cand = p / "tables.json"
         if not cand.is_file():
             found = sorted(x.name for x in p.glob("*.json"))
-            raise InputError(f"--tables {p}: no tables.json in that folder (found: {', '.join(found) or 'nothing'})")
+            raise InputError(f"`tables` {p}: no tables.json in that folder (found: {', '.join(found) or 'nothing'})")
         p = cand
     if not p.is_file():
-        raise InputError(f"--tables {p}: no such file or folder")
+        raise InputError(f"`tables` {p}: no such file or folder")
     try:
         ts = TableSet.load_json(p, machine)
     except (ValueError, KeyError, TypeError, OSError) as exc:
-        raise InputError(f"--tables {p}: not a vecpin table file ({exc})") from None
+        raise InputError(f"`tables` {p}: not a vecpin table file ({exc})") from None
     if ts.source and ts.source != machine.name:
-        raise InputError(f"--tables {p}: the tables are for machine '{ts.source}', not '{machine.name}'")
+        raise InputError(f"`tables` {p}: the tables are for machine '{ts.source}', not '{machine.name}'")
     return ts, str(p)

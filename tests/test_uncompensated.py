@@ -1,0 +1,66 @@
+"""One uncompensated figure per campaign (issue 27): ``import``, ``assess`` and ``fit``
+print the same mean and max, computed once; the figure itself is checked against a
+registration written here (Kabsch by SVD) of the hand-derived closed-form tool tips of
+tests/closed_forms.py (Paper I eq. 20-21), neither vecpin's kinematics nor its registration."""
+import re
+
+import numpy as np
+import pytest
+
+from vecpin.cli import main
+from vecpin.measurement.campaign import write_campaign
+from vecpin.planning.plan import PlanSettings, make_plan
+from vecpin.simulation.simulate import simulate
+from vecpin.workflows.summary import uncompensated
+
+from closed_forms import MACHINES
+from test_importer import export
+
+FIGURE = re.compile(r"uncompensated error \(nominal kinematics, best rigid fit, (\d+) rows\): mean ([\d.]+) mm, "
+                    r"max ([\d.]+) mm")
+
+
+@pytest.fixture(scope="module")
+def day(flow, tmp_path_factory):
+    d = tmp_path_factory.mktemp("unc")
+    plan = make_plan(flow, PlanSettings(n_points=30, order=1, candidates=200, sight=False, repeat_points=5,
+                                        repeat_times=3, validation_points=20))
+    (d / "plan.csv").write_text(plan.template.to_csv(flow))
+    sim = simulate(flow, 3, plan=(plan.template.q, plan.template.tool))
+    write_campaign(d / "c.csv", sim.campaign, flow)
+    return d, plan.template, sim.campaign
+
+
+def kabsch_distances_mm(P, Q):
+    """|Q - (R P + t)| [mm] for the least-squares rigid motion (R, t), P, Q (N,3) in m."""
+    p0, q0 = P.mean(0), Q.mean(0)
+    U, _, Vt = np.linalg.svd((P - p0).T @ (Q - q0))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    R = Vt.T @ D @ U.T
+    return np.linalg.norm(Q - (P - p0) @ R.T - q0, axis=1) * 1000.0
+
+
+def test_the_figure_is_a_rigid_registration_of_the_nominal_tips(flow, day):
+    _, _, c = day
+    u = uncompensated(flow, c)
+    ref = kabsch_distances_mm(MACHINES["flow_xyzcb"][0][0](c.q, c.tool), c.xyz)
+    np.testing.assert_allclose(u.distances_mm, ref, atol=1e-6)
+    assert len(u.rows) == len(c) and u.mean_mm > 0.1  # the simulated machine is far from its nominal kinematics
+
+
+def test_import_assess_and_fit_print_the_same_figure(flow, day, tmp_path, capsys):
+    d, template, c = day
+    figures = {}
+    assert main(["import", str(export(tmp_path / "e.csv", c, template)), "--machine", "flow_xyzcb",
+                 "--plan", str(d / "plan.csv"), "--out", str(tmp_path / "imp.csv")]) == 0
+    text = capsys.readouterr().out
+    mean, mx = re.search(r"the uncompensated error\): mean ([\d.]+) mm, max ([\d.]+) mm", text).groups()
+    figures["import"] = (mean, mx)
+    assert main(["assess", str(tmp_path / "imp.csv"), "--machine", "flow_xyzcb", "--session-gap-min", "5"]) == 0
+    figures["assess"] = FIGURE.search(capsys.readouterr().out).groups()[1:]
+    assert main(["fit", "flow_xyzcb", str(tmp_path / "imp.csv"), "--out", str(tmp_path / "m.json"),
+                 "--model", "6dof", "--basis", "chebyshev", "--order", "2", "--quiet"]) == 0
+    figures["fit"] = FIGURE.search(capsys.readouterr().out).groups()[1:]
+    assert len(set(figures.values())) == 1, figures
+    u = uncompensated(flow, c)
+    assert figures["fit"] == (f"{u.mean_mm:.4f}", f"{u.max_mm:.4f}")

@@ -1,0 +1,225 @@
+"""What a plan is asked for: the settings (user units, each checked with the parameter
+named) and the problem they pose on a machine: the measurement set-up (the tracker and
+the table nests), the holder lengths, the noise of the fit, the approach steps, the box
+in axis space the commands may take and the axes' rapid speeds.
+
+:func:`plan_problem` is where the set-up is decided: a proposal of nest places or
+tracker stations for a machine with table axes belongs there."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from vecpin.errors import InputError
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import ErrorModel, make_model
+from vecpin.planning import route
+from vecpin.planning.nestplacement import Placement, place_nests
+from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.planchecks import EXPECTED_ERROR_MM
+from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, default_tracker_placement,
+                                       side_name)
+from vecpin.planning.zones import Zone, check_zone_axes, clip_to_zone
+from vecpin.units import MM_PER_M, M_PER_MM
+
+MAX_POINTS = 10_000         # commands of one plan
+MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
+
+
+@dataclass
+class PlanSettings:
+    """What to plan (user units where a user types them).
+
+    ``n_points``: commands, each measured with every holder length ``tools_mm`` [mm];
+    ``model``/``order``/``basis``: the model the campaign is for (``model="auto"``: 6dof on
+    a machine with table axes, whose tilt and wobble only nest readings see, ap elsewhere;
+    the plan's settings carry the kind chosen); ``noise``: the fit's
+    noise model (default: spherical tracker noise); ``tracker_mm`` (3,) [mm] machine base
+    frame (default: 2 m beyond the workspace on the side the tips are seen from); ``exclude``: exclusion zones;
+    ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
+    below/above/both/none with distances ``approach_mm`` [mm], ``approach_deg`` [deg];
+    ``repeat_points`` x ``repeat_times``: repeated points at the start and at the end;
+    ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
+    ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
+    ``candidates``: candidate commands (default :func:`default_candidates`); ``validation_points``:
+    quasi-random commands the predicted error is judged on; ``validation_run``: the
+    commands of the validation run (inside the zone, free and in sight with the first
+    holder; measured with and without the tables); ``nests``: table nests read
+    at every command (None: 3 on a machine with a workpiece frame, else 0) at default
+    places, or ``nest_mm`` {id: (x, y, z) [mm], workpiece frame} as the user placed them;
+    ``expected_error_mm``: the machine's mean uncompensated error [mm] as a tracker sees
+    it (best-fit rigid motion removed), which the plan's predicted error must stay well
+    below (:mod:`~vecpin.planning.planchecks`)."""
+
+    n_points: int = 100
+    tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
+    model: str = "ap"
+    order: int = 4
+    basis: str = "auto"
+    noise: NoiseModel | None = None
+    tracker_mm: tuple[float, float, float] | None = None
+    exclude: list[Zone] = field(default_factory=list)
+    zone: Zone | None = None
+    method: str = "doptimal"
+    approach: str = "below"
+    approach_mm: float = 5.0
+    approach_deg: float = 1.0
+    repeat_points: int = 0
+    repeat_times: int = 0
+    sight: bool = True
+    geometry: str = "auto"
+    tool_radius_mm: float = DEFAULT_TOOL_RADIUS * MM_PER_M
+    target_clearance_mm: float = DEFAULT_TARGET_CLEARANCE * MM_PER_M
+    rapid_mm_min: float | None = None
+    rapid_deg_min: float | None = None
+    candidates: int | None = None
+    validation_points: int = 500
+    validation_run: int = 35
+    seed: int = 0
+    nests: int | None = None
+    nest_mm: dict[str, tuple[float, float, float]] | None = None
+    expected_error_mm: float = EXPECTED_ERROR_MM
+    place_nests: bool = True  # default nests placed for the line of sight, a second station proposed (nestplacement)
+
+    def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
+        """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
+        if self.nest_mm:
+            if self.nests is not None and self.nests != len(self.nest_mm):
+                raise InputError(f"`nests` {self.nests} but {len(self.nest_mm)} `nest_mm` positions given: give one or "
+                                 "the other (or the same count)")
+            out = {k: np.asarray(v, float) * M_PER_MM for k, v in self.nest_mm.items()}
+            check_nests(machine, out, "nest_mm")
+            return out
+        n = (3 if machine.has_workpiece else 0) if self.nests is None else self.nests
+        check_nests(machine, {str(k): 0 for k in range(n)}, "nests")
+        return nest_positions(machine, n)
+
+    def check(self) -> None:
+        """Every option inside its meaning, before any work (names the option)."""
+        if self.n_points < 1:
+            raise InputError(f"`n_points` {self.n_points}: plan at least one command")
+        if self.n_points > MAX_POINTS:
+            raise InputError(f"`n_points` {self.n_points}: at most {MAX_POINTS} commands (at 15 s a point, "
+                             f"{self.n_points * len(self.tools_mm) * 15 / 3600:.0f} h of tracker time); plan fewer")
+        tools = np.asarray(self.tools_mm, float)
+        if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
+            raise InputError("`tools_mm`: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
+        if len(np.unique(np.round(tools, 6))) < tools.size:
+            raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: two holders of the same length measure the "
+                             "same point twice; give different lengths (they separate the tool-axis errors)")
+        if self.method not in ("doptimal", "random"):
+            raise InputError(f"`method` '{self.method}': doptimal or random")
+        if (self.repeat_points or self.repeat_times) and (self.repeat_points < 1 or self.repeat_times < 2):
+            raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: at least 1 command, each "
+                             "measured at least 2 times")
+        if self.repeat_points > self.n_points:
+            raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
+                             "points are taken from the "
+                             f"planned commands, at most `n_points` ({self.n_points})")
+        if self.order < 0:
+            raise InputError(f"`order` {self.order}: orders are >= 0")
+        if self.basis not in BASES:
+            raise InputError(f"`basis` '{self.basis}': one of {', '.join(BASES)}")
+        if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):
+            raise InputError("`tracker_mm`: three finite numbers, mm")
+        if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
+            raise InputError(f"`candidates` {self.candidates}: between `n_points` ({self.n_points}) and "
+                             f"{MAX_CANDIDATES} candidate commands")
+        if not (np.isfinite(self.expected_error_mm) and self.expected_error_mm > 0):
+            raise InputError(f"`expected_error_mm` {self.expected_error_mm}: the machine's mean uncompensated error, mm > 0")
+        if not 1 <= self.validation_run <= MAX_POINTS:
+            raise InputError(f"`validation_run` {self.validation_run}: 1 .. {MAX_POINTS} validation commands")
+        if self.seed < 0:
+            raise InputError(f"`seed` {self.seed}: a whole number >= 0")
+        for option, v in (("tool_radius_mm", self.tool_radius_mm), ("target_clearance_mm", self.target_clearance_mm)):
+            if not (np.isfinite(v) and v >= 0):
+                raise InputError(f"`{option}` {v}: a length in mm >= 0")
+        for option, v in (("rapid_mm_min", self.rapid_mm_min), ("rapid_deg_min", self.rapid_deg_min)):
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"`{option}` {v}: a rapid speed > 0")
+
+    def check_model(self, machine: Machine, n_parameters: int) -> None:
+        """The planned rows can determine the model: at least as many equations as unknowns."""
+        rows = self.n_points * len(self.tools_mm) + self.repeat_points * self.repeat_times
+        eq = 3 * rows if self.noise is None or self.noise.instrument != "range" else rows
+        if n_parameters + 6 > eq:
+            raise InputError(f"`order` {self.order}: the {self.model} model of {machine.name} has {n_parameters + 6} "
+                             f"unknowns, but {self.n_points} commands x {len(self.tools_mm)} holders give {eq} "
+                             "equations; plan more `n_points` or a lower `order`")
+
+
+@dataclass
+class PlanProblem:
+    """What a plan is planned for, checked before any work: the machine and its
+    ``settings``; the measurement set-up: ``tracker`` (3,) [m] machine base frame
+    (``tracker_side``: the side a default tracker stands on, "" when given), ``nests``
+    {id: (3,) [m], workpiece frame}; the holder lengths ``tools`` (H,) [m]; the fit's
+    ``noise``; the approach ``steps`` (n,) [m, rad]; the box ``lo``, ``hi`` (n,)
+    [m, rad] the commands may take (the measurement zone, room for the approach); the
+    rapid ``speed`` (n,) [m/s, rad/s] of every axis."""
+
+    machine: Machine
+    settings: PlanSettings
+    tracker: np.ndarray
+    tracker_side: str
+    nests: dict[str, np.ndarray]
+    tools: np.ndarray
+    noise: NoiseModel
+    steps: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    speed: np.ndarray
+    placement: Placement | None = None
+
+
+def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
+    """Check the settings against ``machine`` and fix the measurement set-up (tracker and
+    table nests: the stage where a proposal of nest places or tracker stations fits), the
+    approach steps, the box the commands may take and the axes' rapid speeds."""
+    s.check()
+    if s.model == "auto":  # before any data: the kind a table machine needs, else Paper I's
+        s = replace(s, model="6dof" if machine.has_workpiece else "ap")
+    for z in s.exclude:
+        check_zone_axes(machine, z, "exclude")
+    if s.zone:
+        check_zone_axes(machine, s.zone, "zone")
+    nests = s.nest_places(machine)  # checked before any work
+    if s.tracker_mm is None:
+        tracker, azimuth = default_tracker_placement(machine)
+        side = side_name(azimuth)
+    else:
+        tracker, side = np.asarray(s.tracker_mm, float) * M_PER_MM, ""
+    placement = None
+    if s.place_nests and s.sight and len(nests) >= 3 and not s.nest_mm:  # nests and stations that see the table
+        placement = place_nests(machine, tracker, len(nests), s.tools_mm[0] * M_PER_MM, seed=s.seed,
+                                geometry=s.geometry, tool_radius=s.tool_radius_mm * M_PER_MM,
+                                target_clearance=s.target_clearance_mm * M_PER_MM)
+        nests = placement.nests
+    steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
+    lo, hi = clip_to_zone(machine, s.zone)
+    alo, ahi = route.approach_margin(machine, s.approach, steps)
+    lo, hi = np.maximum(lo, alo), np.minimum(hi, ahi)
+    if np.any(hi <= lo):
+        raise InputError("the measurement zone leaves no room for the approach moves: widen `zone` or shorten "
+                         "`approach_mm`/`approach_deg`")
+    return PlanProblem(machine, s, tracker, side, nests, np.array(s.tools_mm, float) * M_PER_MM,
+                       s.noise or NoiseModel.default(machine, "spherical"), steps, lo, hi,
+                       route.axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), placement)
+
+
+def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
+    """The model a plan is made for: ``s.model`` of order ``s.order`` with the basis
+    ``s.basis`` as the fit takes it, fixed before any data: ``auto`` and ``fourier``, a
+    Fourier series per turn on rotary axes travelling more than a turn and Chebyshev
+    elsewhere; ``chebyshev``, ``fourier_trend`` and ``spline`` as
+    :func:`vecpin.selection.choice.fixed_model` builds them; ``pspline`` as the spline of
+    the same knots (its smoothing, chosen from the data, only adds information)."""
+    if s.basis in ("auto", "fourier", "chebyshev"):
+        return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "auto")
+    from vecpin.selection.choice import fixed_model
+    return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
+

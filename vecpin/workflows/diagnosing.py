@@ -1,0 +1,64 @@
+"""Where the residual lies, which effect causes it, how far it shrinks (the ``diagnose``
+command): :func:`vecpin.diagnosis.diagnose.diagnose` on a campaign, its files written
+into one folder."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+from vecpin.diagnosis.result import Diagnosis
+from vecpin.errors import InputError
+from vecpin.fileio import check_output_dir
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.instruments.multilateration import check_stations
+from vecpin.measurement.noise import NoiseModel
+from vecpin.selection.orders import check_folds
+
+
+@dataclass
+class DiagnoseRun:
+    """The diagnosis and the files written (diagnosis.json, the two model files, report.md)."""
+
+    diagnosis: Diagnosis
+    files: list[Path]
+
+    def lines(self) -> list[str]:
+        return ([self.diagnosis.summary()] + [f"wrote {p}" for p in self.files]
+                + [f"diagnosis took {self.diagnosis.seconds:.1f} s"])
+
+
+def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise: NoiseModel | None = None, *,
+                    model: str = "auto", basis: str = "auto", order: int | str = "auto",
+                    effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
+                    progress: Callable[[str], None] | None = None) -> DiagnoseRun:
+    """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
+    "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
+    (:meth:`NoiseModel.default`); ``folds``, ``alpha``, ``model``, ``basis``, ``order`` as
+    :func:`vecpin.diagnosis.diagnose.diagnose`. The folder and the folds are checked before
+    any fit, with the effects; ``alpha`` by the diagnosis itself."""
+    from vecpin.diagnosis.diagnose import diagnose
+    check_output_dir(out, "out")
+    effects = _effect_names(effects)
+    noise = noise or NoiseModel.default(machine)
+    check_folds(campaign, folds, "`folds`")
+    if noise.instrument == "range":
+        check_stations(campaign)
+    d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
+                 basis=basis, progress=progress)
+    return DiagnoseRun(d, [Path(p) for p in d.write(out).values()])
+
+
+def _effect_names(effects: str | Sequence[str]) -> str | list[str]:
+    """"all", or the named effects (a list or a comma list), each one registered."""
+    from vecpin.models.effects import REGISTRY
+    if effects == "all":
+        return "all"
+    text = effects if isinstance(effects, str) else ",".join(effects)
+    names = [e.strip() for e in text.split(",") if e.strip()]
+    unknown = [e for e in names if e not in REGISTRY]
+    if not names or unknown:
+        raise InputError(f"`effects` '{text}': 'all' or a comma list of effect names"
+                         + (f"; unknown effect '{unknown[0]}'" if unknown else "") + f" (known: {', '.join(REGISTRY)})")
+    return names
