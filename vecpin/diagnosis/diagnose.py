@@ -38,25 +38,26 @@ from __future__ import annotations
 import copy
 import math
 import time
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy import linalg
 
+from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns, pattern_cosine,
-                                      score)
+from vecpin.diagnosis.scoring import (Kinematics, ScanGain, candidate_effects, distances_mm, effect_columns,
+                                      needed_given, pattern_cosine, score)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
-from vecpin.identification.crossval import Linearised, command_folds
+from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
-from vecpin.selection.choice import choose_or_fix, fixed_model
-from vecpin.units import MM_PER_M
+from vecpin.planning.discriminate import discriminating_plan
+from vecpin.selection.choice import choose_or_fix
 from vecpin.threads import one_blas_thread
 
 SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
@@ -95,46 +96,9 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     return text, gone
 
 
-AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding
-OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
-FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
-
-
-def _flag(machine: Machine, lin: Linearised, folds: np.ndarray, ev: dict, n_rows: int):
-    """(gross errors, misfit rows, regions) of the held-out residuals ``ev`` of ``lin``
-    (:mod:`.grosserrors`), the false-alarm rate spread over ``n_rows`` rows."""
-    s = gross_.heldout_statistic(lin, folds, ev["heldout_w"])
-    return gross_.judge(machine, lin.campaign, s, ev["heldout_w"], lin.valid, n_rows, OUTLIER_P)
-
-
-def _still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarray, campaign: Campaign,
-                 outliers: np.ndarray, noise: NoiseModel, feats: Features, rows: np.ndarray) -> tuple[np.ndarray, list[dict]]:
-    """(gross, regions they crowd): the flagged rows the final model does not explain either: their residuals through
-    the one likelihood (each row in its own frame, with its own equations), as
-    predictions of a model that did not see them (noise plus the model's uncertainty
-    there), against the noise level of the rows it was fitted to (``rows``), and that do
-    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
-    level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
-    try:
-        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
-        Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
-        if lo.J.shape[-1] != Jall.shape[-1]:
-            raise InputError("the flagged rows' columns differ from the fit's")
-        M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
-        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
-    except VecpinError:
-        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
-        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
-    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
-    # flagged rows crowded into one stretch of an axis (over all the passes, with the
-    # fitted rows beyond the noise now) are misfit
-    gross_now, misfit_now, _ = _flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
-    beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
-    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
-    crowded = {r for g in regions for r in g["rows"]}
-    return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
-
-
+AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
+SETTLES_CHI2 = 9.0  # a discriminating plan is offered when it separates the candidates by 3 sigma at least
+DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
 def _without(lin: Linearised, effect: Effect) -> Linearised:
     """The linearised model at the same solution with ``effect``'s parameters set to zero
     and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
@@ -170,69 +134,337 @@ def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
     return None if worst is None else worst[1:]
 
 
-def _first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
-                say: Callable[[str], None]) -> np.ndarray:
-    """Rows with gross errors, flagged before the base model is chosen: a quick AP
-    order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
-    held-out whitened residuals judged against their median level (:func:`_flag`),
-    refitted without the flagged rows up to three times. Flags nothing when that model
-    cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
-    it misfits, and the chosen base model judges)."""
-    rows = np.arange(len(campaign))
-    out = np.array([], int)
-    quick = fixed_model(machine, "ap", "fourier" if any(a.multiturn for a in machine.axes) else "chebyshev", 4)
-    try:
-        for _ in range(3):
-            camp = campaign.subset(rows) if out.size else campaign
-            fitted = quick.with_effects([]).fit(camp, noise)
-            lin = Linearised(fitted, camp, noise, feats.subset(rows))
-            new = _flag(machine, lin, fold[rows], lin.folded(fold[rows]).evaluate(), len(campaign))[0]
-            if new.size == 0:
-                break
-            out = np.sort(np.r_[out, rows[new]])
-            if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
-                say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
-                    "the chosen base model judges them")
-                return np.array([], int)
-            rows = np.setdiff1d(np.arange(len(campaign)), out)
-    except VecpinError:
-        return np.array([], int)  # too few rows for the quick model: the chosen base model judges
-    if out.size:
-        say(f"first pass: {out.size} rows flagged as gross errors before the base model is chosen")
-    return out
+def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
+                       cur_eval: dict, base_fit, camp: Campaign, say: Callable[[str], None]) -> None:
+    """What to measure next (:mod:`vecpin.planning.discriminate`): for every accepted
+    effect of an ambiguity group, the commands that tell its members apart (each member
+    fitted with the other accepted effects); for every effect dropped by the backward
+    elimination, those that tell the final model from the model with it. Stored on the
+    score as ``next_plan``; a rival model that cannot be fitted is left out with a note.
+    A reading scatters about the right model as the final model's held-out rows do (their
+    whitened chi2 per equation, at least the noise's)."""
+    scatter = float(np.sum(cur_eval["heldout_w"][cur_lin.valid] ** 2) / max(cur_lin.valid.sum(), 1))
+    for sc in scores:
+        if sc.effect is None or not ((sc.accepted and sc.alternatives) or sc.dropped):
+            continue
+        others = [a for a in accepted if a is not sc.effect]
+        if sc.accepted:
+            rivals = {sc.label: cur_model} | {e.label: others + [e] for e in sc.alternative_effects}
+        else:
+            rivals = {f"without {sc.label}": cur_model, f"with {sc.label}": accepted + [sc.effect]}
+        models = {}
+        for label, m in rivals.items():
+            try:
+                models[label] = m if not isinstance(m, list) else base_fit(camp, m)
+            except VecpinError as err:
+                say(f"{label}: cannot be fitted for a discriminating plan ({err}); left out of it")
+        if len(models) < 2:
+            continue
+        plan = discriminating_plan(models, camp, scatter=scatter)
+        if plan.chi2_gap < SETTLES_CHI2:
+            sc.evidence += (f"; no {len(plan.tool)} commands over the travel separate {' and '.join(plan.labels)} "
+                            f"beyond the noise (expected chi2 {plan.chi2_gap:.1f}): not settled by where the machine "
+                            "is measured (for time effects: a reference point read again over time)")
+            continue
+        sc.next_plan = plan
+        say(f"what to measure next for {sc.label}: {len(plan.tool)} points")
 
 
-def _outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
-                   outliers: np.ndarray, lin: Linearised, ev: dict, alpha: float) -> EffectScore:
-    """The outliers' entry: the held-out residuals of the other rows under the base model
-    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``)."""
-    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
-    after = distances_mm(lin, ev["heldout"])
-    try:
-        with_them = proto.with_effects([]).fit(campaign, noise)
-        lin_all = Linearised(with_them, campaign, noise, feats)
-        held_all = lin_all.folded(fold).evaluate()["heldout"]
-        keep = np.zeros(len(campaign), bool)
-        keep[rows] = True
-        judged = lin_all.point_rows if lin_all.point_rows.any() else np.ones(len(campaign), bool)
-        before = np.linalg.norm(held_all[keep & judged], axis=1) * MM_PER_M
-    except VecpinError:
-        before = after
-    lines = campaign.lines[outliers]
-    shown = ", ".join(map(str, lines[:20])) + (" ..." if lines.size > 20 else "")
-    sc = EffectScore("outliers", "outliers", [], int(3 * outliers.size), 0.0,
-                     float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
-                     float(after.max()), True, 0, accepted=True)
-    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
-                   f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
-                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
-                   "robust (median) noise level), no repeated reading agrees with them, they crowd no region, and "
-                   "they stay beyond it under the final model; the base model fitted with them predicts the "
-                   f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
-                   f"{sc.heldout_mean_mm_after:.4f} mm")
-    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
-                 "log for a broken beam; they are left out of the fit"]
-    return sc
+@dataclass
+class _Problem:
+    """What every stage shares: the campaign, the noise, the folds (over all rows), the
+    features of the whole file, the base model's prototype and the settings."""
+    machine: Machine
+    campaign: Campaign
+    noise: NoiseModel
+    fold: np.ndarray
+    all_feats: Features
+    names: list[str]
+    flaggers: list[str]
+    folds: int
+    alpha: float
+    max_effects: int
+    min_shrink_pct: float
+    say: Callable[[str], None]
+    proto: object = None
+    choice: object = None
+
+    def fit(self, camp: Campaign, effects: list):
+        """The base model with ``effects`` fitted to ``camp`` (nonlinear ML)."""
+        return self.proto.with_effects(list(effects)).fit(camp, self.noise)
+
+
+@dataclass
+class _State:
+    """The diagnosis as it goes: the rows fitted (``rows``, ``camp``, ``feats``,
+    ``fold_r``), the outliers, the base model and its linearisation (``blin``, ``bev``),
+    the current model with the accepted effects, its linearisation and breakdowns."""
+    rows: np.ndarray
+    outliers: np.ndarray
+    camp: Campaign
+    feats: Features
+    fold_r: np.ndarray
+    base_model: object
+    blin: Linearised
+    bev: dict
+    base_info: dict
+    loc: dict
+    cur_model: object = None
+    cur_lin: Linearised | None = None
+    cur_eval: dict | None = None
+    cur_loc: dict | None = None
+    accepted: list = field(default_factory=list)
+    scores: list = field(default_factory=list)
+    put_back: list = field(default_factory=list)
+
+    def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
+        """The model linearised on the fitted rows and its held-out evaluation."""
+        lin = Linearised(model, self.camp, pb.noise, self.feats)
+        return lin, lin.folded(self.fold_r).evaluate()
+
+    def locate(self, pb: _Problem, model, lin: Linearised, ev: dict) -> dict:
+        """The held-out residuals ``ev`` of ``model`` broken down (:func:`localise`)."""
+        return localise(pb.machine, self.camp, ev["heldout"], ev["heldout_w"], Kinematics(model, lin, self.feats).point,
+                        feats=self.feats, valid=lin.valid)
+
+    def set_current(self, pb: _Problem, model) -> None:
+        self.cur_model = model
+        self.cur_lin, self.cur_eval = self.linearise(pb, model)
+        self.cur_loc = self.locate(pb, model, self.cur_lin, self.cur_eval)
+
+    def keep_rows(self, pb: _Problem, outliers: np.ndarray) -> None:
+        """Fit every row but ``outliers`` from now on."""
+        self.outliers = outliers
+        self.rows = np.setdiff1d(np.arange(len(pb.campaign)), outliers)
+        self.camp = pb.campaign.subset(self.rows) if outliers.size else pb.campaign
+        self.feats, self.fold_r = pb.all_feats.subset(self.rows), pb.fold[self.rows]
+
+    def refit_base(self, pb: _Problem) -> None:
+        """The base model on the rows fitted, its linearisation, breakdowns and summary."""
+        self.base_model = pb.fit(self.camp, [])
+        self.blin, self.bev = self.linearise(pb, self.base_model)
+        held = distances_mm(self.blin, self.bev["heldout"])
+        rep = self.base_model.report_
+        self.base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()),
+                              rows=int(len(self.rows)), chi2_per_expected=rep.chi2 / rep.chi2_expected)
+        self.loc = self.locate(pb, self.base_model, self.blin, self.bev)
+
+
+def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise, folds: int, alpha: float,
+             max_effects: int, basis, seed: int, min_shrink_pct: float, say) -> tuple[_Problem, np.ndarray]:
+    """The settings checked, the folds, the first pass' gross errors and the base model
+    chosen (or fixed) on the rows left: (problem, first-pass outliers)."""
+    if not (0 < alpha < 1) or not math.isfinite(alpha):
+        raise InputError(f"`alpha` {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
+    if int(folds) != folds or folds < 2:
+        raise InputError(f"`folds` {folds}: cross-validation needs at least 2 folds")
+    noise = noise or NoiseModel.default(machine, "spherical")
+    names = list(REGISTRY) if effects in ("all", None) else list(effects)
+    for n in names:
+        if n not in REGISTRY:
+            raise InputError(f"`effects`: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
+    fold = command_folds(campaign, folds, np.random.default_rng(seed))
+    pb = _Problem(machine, campaign, noise, fold, Features.from_campaign(campaign),  # times, directions: the whole file
+                  names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
+    outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
+    camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
+    pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
+    return pb, outliers
+
+
+def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
+    """The base model on the rows left, refitted without the gross errors it still sees
+    (up to three times); its held-out summary and breakdowns."""
+    pb.say(f"fitting the base model, {pb.proto.label()}")
+    proto, choice = pb.proto, pb.choice
+    info = {"model": proto.kind, "order": proto.order, "basis": proto.label(), "label": proto.label(),
+            "choice": None if choice is None else choice.to_dict(), "folds": pb.folds}
+    st = _State(np.array([], int), outliers, pb.campaign, pb.all_feats, pb.fold, None, None, {}, info, {})
+    st.keep_rows(pb, outliers)
+    st.base_model = pb.fit(st.camp, [])
+    st.blin, st.bev = st.linearise(pb, st.base_model)
+    for _ in range(3 if pb.flaggers else 0):
+        new = fl.flag(pb.machine, st.blin, st.fold_r, st.bev, len(pb.campaign))[0]
+        if new.size == 0:
+            break
+        st.keep_rows(pb, np.sort(np.r_[st.outliers, st.rows[new]]))
+        pb.say(f"{st.outliers.size} rows flagged as outliers; refitting without them")
+        st.base_model = pb.fit(st.camp, [])
+        st.blin, st.bev = st.linearise(pb, st.base_model)
+    held = distances_mm(st.blin, st.bev["heldout"])
+    rep = st.base_model.report_
+    st.base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(st.rows)),
+                        chi2_per_expected=rep.chi2 / rep.chi2_expected)
+    st.loc = st.locate(pb, st.base_model, st.blin, st.bev)
+    st.cur_model, st.cur_lin, st.cur_eval, st.cur_loc = st.base_model, st.blin, st.bev, st.loc
+    return st
+
+
+def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) -> tuple[list, tuple | None, float]:
+    """Every remaining candidate scored against the current model (:func:`score`; a
+    scanned family by full-data chi2 first, its best cross-validated): ([(score, its
+    evaluation, its columns)], the most economical significant one or None, threshold)."""
+    lin, fold_r = st.cur_lin, st.fold_r
+    kin = Kinematics(st.cur_model, lin, st.feats)
+    base = lin.folded(fold_r)
+    round_scores, scan_best = [], {}
+    scan = ScanGain(base) if any(c.scanned for c in remaining) else None
+    for c in remaining:
+        c.prepare(st.camp, st.feats)
+        cols = effect_columns(kin, lin, c, st.feats)
+        if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
+            gain = scan.gain(cols[1])
+            if type(c) not in scan_best or gain > scan_best[type(c)][0]:
+                scan_best[type(c)] = (gain, c, cols)
+            continue
+        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols))
+    for kind, (_, c, cols) in scan_best.items():
+        round_scores.append((c, score(lin, base, cols, st.cur_eval),
+                             sum(type(x) is kind for x in remaining), cols))
+    thr = pb.alpha / max(sum(k for _, _, k, _ in round_scores), 1)
+    best, judged = None, []
+    for c, ev, _, cols in round_scores:
+        b_, a_ = ev["before"], ev["after"]
+        sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
+                         float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
+                         bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c)
+        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr
+                          and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
+        # the most economical explanation wins; on a tie (columns the data cannot tell
+        # apart) the first candidate, the one nearer the base of the chain
+        if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
+            best = (sc, ev, cols)
+        judged.append((sc, ev, cols))
+    return judged, best, base
+
+
+def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:
+    """The ambiguity group of the round's best: a significant candidate whose predicted
+    change to the fit is nearly the best one's, whose evidence (BIC) is not decisively
+    below the best's, and given which the best one brings no significant gain (it can
+    stand in for the best; both tests at ``alpha`` shared among the nearly collinear
+    candidates): the same finding, named once with the best's shrink."""
+    sc, ev, cols_best = best
+    lin = st.cur_lin
+    near = [(o, e, cols) for o, e, cols in judged if o is not sc and o.significant
+            and sc.bic_gain - o.bic_gain < DECISIVE_BIC and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
+    return [o for o, e, cols in near if not needed_given(lin, base, cols_best, cols, e, pb.alpha / len(near))]
+
+
+def _forward(pb: _Problem, st: _State) -> None:
+    """Forward selection (module docstring, step 3): each round's most economical
+    significant candidate is accepted with its ambiguity group, the model refitted with
+    it; the first round without a significant gain ends the search."""
+    candidates = candidate_effects(pb.machine, st.feats, pb.names, st.camp.q)
+    named: set[str] = set()  # accepted effects and the members of their ambiguity groups
+    for rnd in range(1, pb.max_effects + 1):
+        remaining = [c for c in candidates if c.label not in named
+                     and not (c.scanned and any(type(a) is type(c) for a in st.accepted))]
+        if not remaining:
+            break
+        pb.say(f"round {rnd}: scoring {len(remaining)} candidates against "
+               + ("the base model" if not st.accepted else "base + " + ", ".join(a.label for a in st.accepted)))
+        judged, best, base = _score_round(pb, st, remaining, rnd)
+        st.scores += [sc for sc, _, _ in judged] if rnd == 1 else []
+        if best is None:
+            break  # the first round without a significant gain ends the search
+        sc = best[0]
+        sc.accepted = True
+        if rnd > 1:
+            st.scores.append(sc)
+        st.accepted.append(sc.effect)
+        group = _group(pb, st, judged, best, base)
+        sc.alternatives, sc.alternative_effects = [o.label for o in group], [o.effect for o in group]
+        named.update([sc.label] + sc.alternatives)
+        pb.say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
+        try:
+            fitted = pb.fit(st.camp, st.accepted)
+        except ConvergenceError as err:  # the linearised gain the fit cannot realise: not a finding, not an abort
+            st.accepted.pop()
+            sc.accepted = False
+            sc.evidence = f"significant when linearised, but the model with it cannot be fitted: {err}"
+            pb.say(f"{sc.label}: the fit with it does not converge; not accepted")
+            break
+        before = st.cur_loc
+        st.set_current(pb, fitted)
+        sc.evidence, sc.explains = _evidence(sc, before, st.cur_loc)
+        if sc.alternatives:
+            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
+                            f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "
+                            "one finding")
+
+
+def _recheck_outliers(pb: _Problem, st: _State) -> None:
+    """The flagged rows judged again under the final model: rows it explains, or that
+    crowd one region (misfit), are put back and every model refitted on the rows kept."""
+    if not st.outliers.size:
+        return
+    still, st.put_back = fl.still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
+                                      pb.noise, pb.all_feats, st.rows)
+    if still.size == st.outliers.size:
+        return
+    pb.say(f"{st.outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
+           "region (misfit): kept")
+    st.keep_rows(pb, still)
+    model = pb.fit(st.camp, st.accepted)
+    st.refit_base(pb)
+    st.set_current(pb, model)
+
+
+def _backward(pb: _Problem, st: _State) -> None:
+    """Backward elimination: every accepted effect again, given all the others, on the
+    rows the final model is fitted to (:func:`_weakest`); the weakest is dropped and the
+    model refitted until every effect survives."""
+    while len(st.accepted) >= 2:
+        drop = _weakest(st.accepted, st.cur_lin, st.cur_eval, st.fold_r)
+        if drop is None:
+            break
+        e, text = drop
+        st.accepted.remove(e)
+        st.set_current(pb, pb.fit(st.camp, st.accepted))
+        gone = next(x for x in st.scores if x.effect is e and x.accepted)
+        gone.accepted, gone.dropped = False, True
+        gone.evidence += f"; dropped given {', '.join(a.label for a in st.accepted)}: {text}"
+        pb.say(f"dropped {e.label}: {text}")
+
+
+def _regions(pb: _Problem, st: _State) -> list[dict]:
+    """Rows beyond the noise of the final model that are not gross errors: the regions
+    it does not fit, with their file lines and descriptions."""
+    gf, mf, regions = fl.flag(pb.machine, st.cur_lin, st.fold_r, st.cur_eval, len(pb.campaign))
+    for g in regions:
+        g["rows"] = [int(st.rows[r]) for r in g["rows"]]
+    if st.put_back:  # flagged rows put back as crowding one region: the region over all rows beyond the noise
+        crowd = gross_.crowded_regions(pb.machine, pb.campaign, np.union1d(
+            st.rows[np.union1d(gf, mf)], [r for g in st.put_back for r in g["rows"]]))
+        regions = (crowd or st.put_back) + [g for g in regions if not g["axis"]]
+    for g in regions:
+        g["lines"] = [int(pb.campaign.lines[r]) for r in g["rows"]]
+        g["where"], g["text"] = gross_.describe_region(g, pb.campaign)
+    return regions
+
+
+def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
+    """The diagnosis: advice from the final model's fitted numbers, the scores ranked
+    (accepted in their order, then the rest by BIC gain), regions and outliers."""
+    if st.outliers.size:
+        st.scores.append(fl.outlier_score(pb.proto, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
+                                        st.bev, pb.alpha))
+    regions = _regions(pb, st)
+    best_mm = distances_mm(st.cur_lin, st.cur_eval["heldout"])
+    std = st.cur_model.std_
+    for s in st.scores:
+        if s.accepted and s.effect is not None:
+            sl = next(sl for e, sl in st.cur_model.effect_slices() if e.label == s.label)
+            s.advice = s.effect.advice(st.cur_model.b_[sl], std[sl]) if not s.advice else s.advice
+    acc = sorted([s for s in st.scores if s.accepted and s.name != "outliers"], key=lambda s: s.round)
+    acc += [s for s in st.scores if s.accepted and s.name == "outliers"]
+    rest = sorted([s for s in st.scores if not s.accepted], key=lambda s: -s.bic_gain)
+    ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
+    return Diagnosis(pb.machine, st.base_info, ranked, [int(r) for r in st.outliers], st.loc, st.base_model,
+                     st.cur_model, st.bev["heldout"], st.camp, seconds, (float(best_mm.mean()), float(best_mm.max())),
+                     st.cur_loc, list(st.cur_loc["most_structured"]), _base_finding(pb.choice),
+                     [int(v) for v in pb.campaign.lines[st.outliers]], misfit_regions=regions)
 
 
 @one_blas_thread
@@ -243,203 +475,16 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
     of the base model (default: chosen by held-out data); ``effects``: "all" or names;
     ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
-    held-out shrink an effect must bring to be worth its terms."""
+    held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
+    folds, first pass, base model choice), the base model, forward selection, outliers
+    judged again, backward elimination, what to measure next, the result."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
-    if not (0 < alpha < 1) or not math.isfinite(alpha):
-        raise InputError(f"--alpha {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
-    if int(folds) != folds or folds < 2:
-        raise InputError(f"--folds {folds}: cross-validation needs at least 2 folds")
-    noise = noise or NoiseModel.default(machine, "spherical")
-    names = list(REGISTRY) if effects in ("all", None) else list(effects)
-    for n in names:
-        if n not in REGISTRY:
-            raise InputError(f"--effects: unknown effect '{n}' (known: {', '.join(REGISTRY)})")
-    flaggers = [n for n in names if REGISTRY[n].flags_rows]
-    fold = command_folds(campaign, folds, np.random.default_rng(seed))
-    all_feats = Features.from_campaign(campaign)  # times and approach directions come from the whole file
-    scores: list[EffectScore] = []
-    outliers = np.array([], int)
-    if flaggers:
-        outliers = _first_pass(machine, campaign, noise, fold, all_feats, say)
-    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
-    camp = campaign.subset(rows) if outliers.size else campaign
-    proto, choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
-
-    def base_fit(camp, effs):
-        return proto.with_effects(effs).fit(camp, noise)
-
-    def linearise(model_, camp, feats_, fold_):
-        lin_ = Linearised(model_, camp, noise, feats_)
-        return lin_, lin_.folded(fold_).evaluate()
-
-    # ---- base model; gross errors it still sees
-    say(f"fitting the base model, {proto.label()}")
-    base_model = base_fit(camp, [])
-    lin, base_eval = linearise(base_model, camp, all_feats.subset(rows), fold[rows])
-    if flaggers:
-        for _ in range(3):
-            new = _flag(machine, lin, fold[rows], base_eval, len(campaign))[0]
-            if new.size == 0:
-                break
-            outliers = np.sort(np.r_[outliers, rows[new]])
-            rows = np.setdiff1d(np.arange(len(campaign)), outliers)
-            camp = campaign.subset(rows)
-            say(f"{outliers.size} rows flagged as outliers; refitting without them")
-            base_model = base_fit(camp, [])
-            lin, base_eval = linearise(base_model, camp, all_feats.subset(rows), fold[rows])
-    feats = all_feats.subset(rows)
-    fold_r = fold[rows]
-    held = distances_mm(lin, base_eval["heldout"])
-    base_info = {"model": proto.kind, "order": proto.order, "basis": proto.label(), "label": proto.label(),
-                 "choice": None if choice is None else choice.to_dict(), "heldout_mean_mm": float(held.mean()),
-                 "heldout_max_mm": float(held.max()), "folds": folds, "rows": int(len(rows)),
-                 "chi2_per_expected": base_model.report_.chi2 / base_model.report_.chi2_expected}
-    loc = localise(machine, camp, base_eval["heldout"], base_eval["heldout_w"], Kinematics(base_model, lin, feats).point,
-                   feats=feats, valid=lin.valid)
-    held_base_all = base_eval["heldout"]
-    blin, bev = lin, base_eval  # the base model's linearisation (kept up to date for the outliers' score)
-
-    # ---- forward selection over candidate effects
-    accepted: list[Effect] = []
-    cur_model, cur_lin, cur_eval, cur_loc = base_model, lin, base_eval, loc
-    candidates = candidate_effects(machine, feats, names, camp.q)
-    named: set[str] = set()  # accepted effects and the members of their ambiguity groups
-    for rnd in range(1, max_effects + 1):
-        remaining = [c for c in candidates if c.label not in named
-                     and not (c.scanned and any(type(a) is type(c) for a in accepted))]
-        if not remaining:
-            break
-        say(f"round {rnd}: scoring {len(remaining)} candidates against "
-            + ("the base model" if not accepted else "base + " + ", ".join(a.label for a in accepted)))
-        kin = Kinematics(cur_model, cur_lin, feats)
-        base_problem = cur_lin.folded(fold_r)
-        round_scores, scan_best, judged = [], {}, []
-        for c in remaining:
-            c.prepare(camp, feats)
-            cols = effect_columns(kin, cur_lin, c, feats)
-            if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
-                chi2 = base_problem.extend(cols[1], cols[0]).chi2()
-                if type(c) not in scan_best or chi2 < scan_best[type(c)][0]:
-                    scan_best[type(c)] = (chi2, c, cols)
-                continue
-            round_scores.append((c, score(cur_lin, base_problem, cols, cur_eval), 1))
-        for kind, (_, c, cols) in scan_best.items():
-            round_scores.append((c, score(cur_lin, base_problem, cols, cur_eval),
-                                 sum(type(x) is kind for x in remaining)))
-        thr = alpha / max(sum(k for _, _, k in round_scores), 1)
-        best = None
-        for c, ev, _ in round_scores:
-            b_, a_ = ev["before"], ev["after"]
-            sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
-                             float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
-                             bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c)
-            sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr
-                              and a_.mean() < b_.mean() * (1 - min_shrink_pct / 100))
-            # the most economical explanation wins; on a tie (columns the data cannot tell
-            # apart) the first candidate, the one nearer the base of the chain
-            if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
-                best = (sc, ev)
-            judged.append((sc, ev))
-            if rnd == 1:
-                scores.append(sc)
-        if best is None:
-            break  # the first round without a significant gain ends the search
-        sc, ev = best
-        sc.accepted = True
-        if rnd > 1:
-            scores.append(sc)
-        accepted.append(sc.effect)
-        # one cause per gap: significant candidates whose predicted change to the fit is
-        # nearly the best one's are the same finding, named once with the best's shrink
-        sc.alternatives = [o.label for o, e in judged if o is not sc and o.significant
-                           and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
-        named.update([sc.label] + sc.alternatives)
-        say(f"accepted {sc.label}: held-out mean {sc.heldout_mean_mm_before:.4f} -> {sc.heldout_mean_mm_after:.4f} mm")
-        try:
-            fitted = base_fit(camp, list(accepted))
-        except ConvergenceError as err:  # the linearised gain the fit cannot realise: not a finding, not an abort
-            accepted.pop()
-            sc.accepted = False
-            sc.evidence = f"significant when linearised, but the model with it cannot be fitted: {err}"
-            say(f"{sc.label}: the fit with it does not converge; not accepted")
-            break
-        cur_model = fitted
-        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
-        new_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
-        sc.evidence, sc.explains = _evidence(sc, cur_loc, new_loc)
-        if sc.alternatives:
-            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
-                            f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "
-                            "one finding")
-        cur_loc = new_loc
-
-    # ---- outliers judged again under the final model: rows it explains are not outliers
-    put_back = []
-    if outliers.size:
-        still, put_back = _still_gross(cur_model, cur_lin, cur_eval, fold_r, campaign, outliers, noise, all_feats, rows)
-        if still.size < outliers.size:
-            say(f"{outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
-                "region (misfit): kept")
-            outliers = still
-            rows = np.setdiff1d(np.arange(len(campaign)), outliers)
-            camp, feats, fold_r = campaign.subset(rows), all_feats.subset(rows), fold[rows]
-            cur_model = base_fit(camp, list(accepted))
-            base_model = base_fit(camp, [])
-            blin, bev = linearise(base_model, camp, feats, fold_r)
-            held = distances_mm(blin, bev["heldout"])
-            base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(camp)),
-                             chi2_per_expected=base_model.report_.chi2 / base_model.report_.chi2_expected)
-            loc = localise(machine, camp, bev["heldout"], bev["heldout_w"], Kinematics(base_model, blin, feats).point,
-                           feats=feats, valid=blin.valid)
-            held_base_all = bev["heldout"]
-            cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
-            cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                               Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
-    # ---- backward elimination: every accepted effect again, given all the others, on the rows the
-    # final model is fitted to (flagged rows it explains are back)
-    while len(accepted) >= 2:
-        drop = _weakest(accepted, cur_lin, cur_eval, fold_r)
-        if drop is None:
-            break
-        e, text = drop
-        accepted.remove(e)
-        cur_model = base_fit(camp, list(accepted))
-        cur_lin, cur_eval = linearise(cur_model, camp, feats, fold_r)
-        gone = next(x for x in scores if x.effect is e and x.accepted)
-        gone.accepted = False
-        gone.evidence += f"; dropped given {', '.join(a.label for a in accepted)}: {text}"
-        say(f"dropped {e.label}: {text}")
-        cur_loc = localise(machine, camp, cur_eval["heldout"], cur_eval["heldout_w"],
-                           Kinematics(cur_model, cur_lin, feats).point, feats=feats, valid=cur_lin.valid)
-
-    if outliers.size:
-        scores.append(_outlier_score(proto, campaign, noise, all_feats, fold, outliers, blin, bev, alpha))
-    # rows beyond the noise of the final model that are not gross errors: regions it does not fit
-    gf, mf, regions = _flag(machine, cur_lin, fold_r, cur_eval, len(campaign))
-    for g in regions:
-        g["rows"] = [int(rows[r]) for r in g["rows"]]
-    if put_back:  # flagged rows put back as crowding one region: the region over all rows beyond the noise
-        crowd = gross_.crowded_regions(machine, campaign, np.union1d(rows[np.union1d(gf, mf)],
-                                                                     [r for g in put_back for r in g["rows"]]))
-        regions = (crowd or put_back) + [g for g in regions if not g["axis"]]
-    for g in regions:
-        g["lines"] = [int(campaign.lines[r]) for r in g["rows"]]
-        g["where"], g["text"] = gross_.describe_region(g, campaign)
-    best_mm = distances_mm(cur_lin, cur_eval["heldout"])
-    unexplained = list(cur_loc["most_structured"])
-    # advice from the best model's fitted numbers
-    std = cur_model.std_
-    for s in scores:
-        if s.accepted and s.effect is not None:
-            sl = next(sl for e, sl in cur_model.effect_slices() if e.label == s.label)
-            s.advice = s.effect.advice(cur_model.b_[sl], std[sl]) if not s.advice else s.advice
-    acc = sorted([s for s in scores if s.accepted and s.name != "outliers"], key=lambda s: s.round)
-    acc += [s for s in scores if s.accepted and s.name == "outliers"]
-    rest = sorted([s for s in scores if not s.accepted], key=lambda s: -s.bic_gain)
-    ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
-    return Diagnosis(machine, base_info, ranked, [int(r) for r in outliers], loc, base_model, cur_model,
-                     held_base_all, camp, time.perf_counter() - t0, (float(best_mm.mean()), float(best_mm.max())),
-                     cur_loc, unexplained, _base_finding(choice), [int(v) for v in campaign.lines[outliers]],
-                     misfit_regions=regions)
+    pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
+                            min_shrink_pct, say)
+    st = _base_stage(pb, outliers)
+    _forward(pb, st)
+    _recheck_outliers(pb, st)
+    _backward(pb, st)
+    _next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)
+    return _result(pb, st, time.perf_counter() - t0)

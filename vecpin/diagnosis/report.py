@@ -29,6 +29,28 @@ def _breakdown_figure(ax, b: dict) -> None:
     ax.tick_params(labelsize=7)
 
 
+def _next_section(diag) -> list[str]:
+    """'What to measure next': per ambiguity group or dropped effect, the discriminating
+    points, their files and the expected outcome under each candidate."""
+    todo = diag.to_settle()
+    if not todo:
+        return []
+    lines = ["", "## What to measure next", "",
+             "Commands chosen where the candidates' predicted readings differ most relative to the noise of a "
+             "reading there. Measure them with the same tracker set-up, right after the campaign, append the rows to "
+             "the campaign file and diagnose again: the readings follow one candidate's expected values."]
+    for k, e in enumerate(todo, 1):
+        p = e.next_plan
+        progs = ", ".join(f"`{v}`" for d, v in p.files.items() if d not in ("plan", "expected")
+                          and not v.startswith("not written"))
+        lines += ["", f"**{' or '.join(p.labels)}**: {p.outcome()}.", "",
+                  f"- plan template: `{p.files.get('plan', '')}`; expected readings under each candidate (mm, "
+                  f"tracker frame): `{p.files.get('expected', '')}`",
+                  f"- NC programs: {progs or 'none (see the notes below)'}"]
+        lines += [f"- {d}: {v}" for d, v in p.files.items() if v.startswith("not written")]
+    return lines
+
+
 def write_report(diag, out) -> Path:
     """report.md and its figures into ``out`` (a :class:`vecpin.fileio.OutputSet`);
     returns where report.md lands."""
@@ -87,6 +109,7 @@ def write_report(diag, out) -> Path:
                      f"{e.p_value:.1e} | {e.p_heldout:.1e} |")
     for e in diag.accepted:
         lines += ["", f"**{e.headword}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
+    lines += _next_section(diag)
     m, x = diag.best_heldout()
     lines += ["", f"Best model (base + accepted effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",
               "![effects](figures/effects.png)", "", "## Where the residual lies", "",

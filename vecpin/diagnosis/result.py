@@ -45,6 +45,10 @@ class EffectScore:
     effect: Effect | None = field(default=None, repr=False)
     # the ambiguity group: candidates this campaign cannot tell from this one (one finding)
     alternatives: list[str] = field(default_factory=list)
+    alternative_effects: list = field(default_factory=list, repr=False)  # their Effect instances
+    dropped: bool = False  # accepted, then dropped by the backward elimination
+    # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
+    next_plan: object | None = field(default=None, repr=False)
 
     @property
     def finding(self) -> str:
@@ -74,7 +78,11 @@ class EffectScore:
                 "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
-                "options": self.effect.options if self.effect is not None else {}}
+                "options": self.effect.options if self.effect is not None else {},
+                "next_measurement": None if self.next_plan is None else {
+                    "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
+                    "chi2_gap": self.next_plan.chi2_gap, "outcome": self.next_plan.outcome(),
+                    "files": dict(self.next_plan.files)}}
 
 
 @dataclass
@@ -98,6 +106,10 @@ class Diagnosis:
     # agree, or they crowd one stretch of an axis): {"axis", "from", "to", "unit", "rows",
     # "lines", "rows_there", "where" (short), "text" (with the file lines)}
     misfit_regions: list[dict] = field(default_factory=list)
+
+    def to_settle(self) -> list[EffectScore]:
+        """Findings with a discriminating measurement (ambiguity groups, dropped effects)."""
+        return [e for e in self.effects if e.next_plan is not None]
 
     @property
     def accepted(self) -> list[EffectScore]:
@@ -128,6 +140,10 @@ class Diagnosis:
             s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
                    + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
+        todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
+                 f"next_{k}/ right after the campaign and diagnose again with them appended."
+                 for k, e in enumerate(self.to_settle(), 1)]
+        todo = [t if t.endswith(".") else t + "." for t in todo]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           "(vecpin tables model_base.json).")
         if self.unexplained:
@@ -177,5 +193,33 @@ class Diagnosis:
             self.base_model.save(out.path("model_base.json"))
             self.best_model.save(out.path("model_best.json"))
             paths["model_base"], paths["model_best"] = out.final("model_base.json"), out.final("model_best.json")
+            for k, e in enumerate(self.to_settle(), 1):
+                paths.update(_write_next(self.machine, e.next_plan, out, f"next_{k}"))
             paths["report"] = write_report(self, out)
         return paths
+
+
+def _apart(labels: list[str]) -> str:
+    """'A and B', 'A, B and C'."""
+    return labels[0] if len(labels) == 1 else f"{', '.join(labels[:-1])} and {labels[-1]}"
+
+
+def _write_next(machine: Machine, plan, out: OutputSet, folder: str) -> dict[str, Path]:
+    """A discriminating plan into ``folder``: the plan template (plan.csv), the expected
+    readings under each candidate (expected.csv) and its NC program in every dialect whose
+    axis addresses the machine's names allow (:mod:`vecpin.planning.ncprogram`)."""
+    from vecpin.errors import InputError
+    from vecpin.planning.ncprogram import DIALECTS, program_name
+    paths = {f"{folder}/plan": out.write_text(f"{folder}/plan.csv", plan.template().to_csv(machine)),
+             f"{folder}/expected": out.write_text(f"{folder}/expected.csv", plan.expected_csv(machine))}
+    plan.files = {"plan": f"{folder}/plan.csv", "expected": f"{folder}/expected.csv"}
+    for dialect in DIALECTS:
+        try:
+            text = plan.program(machine, dialect)
+        except InputError as err:  # e.g. axis names that are not addresses of this dialect
+            plan.files[dialect] = f"not written: {err}"
+            continue
+        name = f"{folder}/{program_name(dialect)}"
+        paths[f"{folder}/{dialect}"] = out.write_text(name, text)
+        plan.files[dialect] = name
+    return paths

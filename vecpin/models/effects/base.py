@@ -18,7 +18,7 @@ turns fitted parameters into advice (:meth:`Effect.advice`).
 
 To add an effect: write one module with a subclass of :class:`Effect` decorated with
 :func:`register` (see ARCHITECTURE.md); it is then a candidate of the diagnosis, a
-``--effect`` of ``vecpin simulate`` and listed by ``vecpin simulate --help-effects``.
+simulated effect of ``vecpin simulate`` and listed by :func:`effects_help`.
 """
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def register(cls: type["Effect"]) -> type["Effect"]:
 
 @dataclass(frozen=True)
 class Key:
-    """One key of an effect's ``--effect NAME:key=value`` specification."""
+    """One key of an effect's ``NAME:key=value`` specification."""
 
     name: str
     default: Any
@@ -226,7 +226,7 @@ def effect_names() -> list[str]:
 def parse_effect(text: str, machine: Machine) -> Effect:
     """``NAME:key=value,...`` (``axes=Y+X``, ``strength`` [mm], ``seed`` and the effect's own
     keys) -> an effect instance for simulation; unknown names and keys are refused."""
-    where = f"--effect '{text}'"
+    where = f"`effect` '{text}'"
     name, _, rest = text.partition(":")
     name = name.strip()
     if name not in REGISTRY:
@@ -246,7 +246,7 @@ def parse_effect(text: str, machine: Machine) -> Effect:
             values[k] = keys[k].parse(v, where)
         else:
             raise InputError(f"{where}: unknown key '{k}' for {name} (keys: axes, {', '.join(keys)}; "
-                             "see vecpin simulate --help-effects)")
+                             "the list of effects: `help_effects`)")
     if axes is not None and not cls.axis_count and not cls.default_axes(machine):
         raise InputError(f"{where}: {name} takes no axes= (it concerns the whole machine)")
     axes = cls.default_axes(machine) if axes is None else axes
@@ -266,8 +266,8 @@ def parse_effect(text: str, machine: Machine) -> Effect:
 
 
 def effects_help() -> str:
-    """Every registered effect with its keys, units and defaults (``--help-effects``)."""
-    lines = ["effects for vecpin simulate --effect NAME:key=value,...  (axes=A+B names axes; every effect also takes "
+    """Every registered effect with its keys, units and defaults."""
+    lines = ["effects, each written NAME:key=value,...  (axes=A+B names axes; every effect also takes "
              "strength=MM (RMS tool-tip displacement, default 0.05) and seed=N (default 0))"]
     for name, cls in REGISTRY.items():
         ax = {0: "no axes", 1: "axes=A (one axis)", 2: "axes=A+B (two axes)"}[cls.axis_count]

@@ -1,10 +1,30 @@
 """Thermal drift: linear axes grow and the spindle grows with the temperature change
-(or with time when the campaign has no temperature)."""
+(or with time when the campaign has no temperature). The machine's own temperature may
+follow the air's with a first-order lag (a heavy structure warms slowly): the diagnosis
+scans the lag (:data:`LAGS_H`) and takes the one the data fit best, so a lagged drift is
+named as one thermal effect, not as a thermal effect plus a step of the tracker."""
 from __future__ import annotations
 
 import numpy as np
 
 from vecpin.models.effects.base import Effect, Key, register
+
+LAGS_H = (0.0, 0.5, 1.0, 2.0, 4.0)  # first-order lags [h] the diagnosis tries (0: the air temperature itself)
+
+
+def lagged(time_s: np.ndarray, x: np.ndarray, lag_h: float) -> np.ndarray:
+    """``x`` (N,) seen through a first-order lag of ``lag_h`` hours over the rows' times
+    ``time_s`` (N,) [s]: y_k = y_{k-1} + (1 - exp(-dt_k / tau)) (x_k - y_{k-1}), y_0 = x_0
+    (exact for x constant between rows; the structure starts at the first reading)."""
+    x = np.asarray(x, float)
+    if lag_h <= 0 or len(x) == 0:
+        return x
+    a = 1.0 - np.exp(-np.maximum(np.diff(np.asarray(time_s, float)), 0.0) / (lag_h * 3600.0))
+    y = np.empty_like(x)
+    y[0] = x[0]
+    for k in range(1, len(x)):
+        y[k] = y[k - 1] + a[k - 1] * (x[k] - y[k - 1])
+    return y
 
 
 @register
@@ -21,23 +41,28 @@ class Thermal(Effect):
     kinds = ("command", "tip")
     keys = (Key("t_ref", 20.0, "degC", "reference temperature of the simulated expansion", lo=-50.0, hi=100.0),)
     axis_kinds = ("linear",)
+    scanned = True
 
-    def __init__(self, machine, axes=(), driver: str = "temperature", t_ref: float = 20.0, **kw):
+    def __init__(self, machine, axes=(), driver: str = "temperature", t_ref: float = 20.0, lag_h: float = 0.0, **kw):
         axes = axes or self.default_axes(machine)
-        super().__init__(machine, axes, driver=driver, t_ref=t_ref, **kw)
-        self.driver, self.t_ref = driver, float(t_ref)
+        super().__init__(machine, axes, driver=driver, t_ref=t_ref, lag_h=float(lag_h), **kw)
+        self.driver, self.t_ref, self.lag_h = driver, float(t_ref), float(lag_h)
 
     @classmethod
     def default_axes(cls, machine):
         return tuple(a.name for a in machine.axes if a.kind == "linear")
 
+    def _driver(self, feats) -> np.ndarray:
+        """The machine's temperature [°C] (the air's through the lag) or the hours elapsed."""
+        if self.driver != "temperature":
+            return np.asarray(feats.time, float) / 3600.0
+        return lagged(feats.time, feats.require_temperature("the thermal effect"), self.lag_h)
+
     def _delta(self, feats):
-        x = feats.require_temperature("the thermal effect") if self.driver == "temperature" else feats.time / 3600.0
-        return np.asarray(x, float) - self.t_ref
+        return self._driver(feats) - self.t_ref
 
     def prepare(self, campaign, feats):
-        x = feats.temperature if self.driver == "temperature" else feats.time / 3600.0
-        self.t_ref = float(np.mean(x))
+        self.t_ref = float(np.mean(self._driver(feats)))
         self.options["t_ref"] = self.t_ref
 
     @property
@@ -62,10 +87,11 @@ class Thermal(Effect):
 
     @classmethod
     def candidates(cls, machine, feats):
-        """Against temperature when the campaign has it, else against elapsed time; none
-        without either (row numbers are not hours)."""
+        """Against temperature when the campaign has it (through every lag of
+        :data:`LAGS_H` when it has times too), else against elapsed time; none without
+        either (row numbers are not hours)."""
         if feats.temperature is not None:
-            return [cls(machine, driver="temperature")]
+            return [cls(machine, driver="temperature", lag_h=h) for h in (LAGS_H if feats.has_time else (0.0,))]
         return [cls(machine, driver="time")] if feats.has_time else []
 
     def _sim_delta(self, feats) -> np.ndarray:
@@ -90,6 +116,10 @@ class Thermal(Effect):
         for k, a in enumerate(self.axes):
             lines.append(f"{self.label}: {a} scale {values[k] * 1e6:+.1f} ± {std[k] * 1e6:.1f} ppm/{u}")
         lines.append(f"{self.label}: spindle growth {values[-1] * 1e6:+.1f} ± {std[-1] * 1e6:.1f} µm/{u}")
+        if self.driver == "temperature" and self.lag_h > 0:
+            lines.append(f"{self.label}: the machine follows the air temperature with a lag of about {self.lag_h:g} h "
+                         "(the lag the data fit best of " + ", ".join(f"{h:g}" for h in LAGS_H) + " h): a sensor on "
+                         "the structure, not in the air, carries this drift")
         if self.driver == "temperature":
             lines.append(f"{self.label}: row-dependent, not in the tables: measure warm (after a warm-up cycle), "
                          "keep the hall temperature steady, or enable the controller's temperature compensation "

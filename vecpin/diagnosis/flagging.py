@@ -1,0 +1,125 @@
+"""Gross errors through the diagnosis: the first pass before the base model is chosen,
+the flags of a fitted model's held-out residuals (:mod:`.grosserrors`: a family-wise rate
+over the rows, repeated readings that agree and crowded regions are misfit), the flagged
+rows judged again under the final model, and the outliers' entry in the report."""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from scipy import linalg
+
+from vecpin.diagnosis import grosserrors as gross_
+from vecpin.diagnosis.result import EffectScore
+from vecpin.diagnosis.scoring import distances_mm
+from vecpin.errors import InputError, VecpinError
+from vecpin.identification.crossval import Linearised
+from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.features import Features
+from vecpin.measurement.noise import NoiseModel
+from vecpin.selection.choice import fixed_model
+from vecpin.units import MM_PER_M
+
+OUTLIER_P = gross_.FAMILY_ALPHA  # chance that a clean campaign flags any row (Šidák over the rows)
+FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing misfit, not gross errors
+
+
+def flag(machine: Machine, lin: Linearised, folds: np.ndarray, ev: dict, n_rows: int):
+    """(gross errors, misfit rows, regions) of the held-out residuals ``ev`` of ``lin``
+    (:mod:`.grosserrors`), the false-alarm rate spread over ``n_rows`` rows."""
+    s = gross_.heldout_statistic(lin, folds, ev["heldout_w"])
+    return gross_.judge(machine, lin.campaign, s, ev["heldout_w"], lin.valid, n_rows, OUTLIER_P)
+
+
+def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarray, campaign: Campaign,
+                 outliers: np.ndarray, noise: NoiseModel, feats: Features, rows: np.ndarray) -> tuple[np.ndarray, list[dict]]:
+    """(gross, regions they crowd): the flagged rows the final model does not explain either: their residuals through
+    the one likelihood (each row in its own frame, with its own equations), as
+    predictions of a model that did not see them (noise plus the model's uncertainty
+    there), against the noise level of the rows it was fitted to (``rows``), and that do
+    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
+    level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
+    try:
+        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
+        Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
+        if lo.J.shape[-1] != Jall.shape[-1]:
+            raise InputError("the flagged rows' columns differ from the fit's")
+        M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
+        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
+    except VecpinError:
+        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
+        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
+    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
+    # flagged rows crowded into one stretch of an axis (over all the passes, with the
+    # fitted rows beyond the noise now) are misfit
+    gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
+    beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
+    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
+    crowded = {r for g in regions for r in g["rows"]}
+    return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
+                say: Callable[[str], None]) -> np.ndarray:
+    """Rows with gross errors, flagged before the base model is chosen: a quick AP
+    order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
+    held-out whitened residuals judged against their median level (:func:`flag`),
+    refitted without the flagged rows up to three times. Flags nothing when that model
+    cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
+    it misfits, and the chosen base model judges)."""
+    rows = np.arange(len(campaign))
+    out = np.array([], int)
+    quick = fixed_model(machine, "ap", "fourier" if any(a.multiturn for a in machine.axes) else "chebyshev", 4)
+    try:
+        for _ in range(3):
+            camp = campaign.subset(rows) if out.size else campaign
+            fitted = quick.with_effects([]).fit(camp, noise)
+            lin = Linearised(fitted, camp, noise, feats.subset(rows))
+            new = flag(machine, lin, fold[rows], lin.folded(fold[rows]).evaluate(), len(campaign))[0]
+            if new.size == 0:
+                break
+            out = np.sort(np.r_[out, rows[new]])
+            if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
+                say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
+                    "the chosen base model judges them")
+                return np.array([], int)
+            rows = np.setdiff1d(np.arange(len(campaign)), out)
+    except VecpinError:
+        return np.array([], int)  # too few rows for the quick model: the chosen base model judges
+    if out.size:
+        say(f"first pass: {out.size} rows flagged as gross errors before the base model is chosen")
+    return out
+
+
+def outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
+                   outliers: np.ndarray, lin: Linearised, ev: dict, alpha: float) -> EffectScore:
+    """The outliers' entry: the held-out residuals of the other rows under the base model
+    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``)."""
+    rows = np.setdiff1d(np.arange(len(campaign)), outliers)
+    after = distances_mm(lin, ev["heldout"])
+    try:
+        with_them = proto.with_effects([]).fit(campaign, noise)
+        lin_all = Linearised(with_them, campaign, noise, feats)
+        held_all = lin_all.folded(fold).evaluate()["heldout"]
+        keep = np.zeros(len(campaign), bool)
+        keep[rows] = True
+        judged = lin_all.point_rows if lin_all.point_rows.any() else np.ones(len(campaign), bool)
+        before = np.linalg.norm(held_all[keep & judged], axis=1) * MM_PER_M
+    except VecpinError:
+        before = after
+    lines = campaign.lines[outliers]
+    shown = ", ".join(map(str, lines[:20])) + (" ..." if lines.size > 20 else "")
+    sc = EffectScore("outliers", "outliers", [], int(3 * outliers.size), 0.0,
+                     float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
+                     float(after.max()), True, 0, accepted=True)
+    sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
+                   f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
+                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
+                   "robust (median) noise level), no repeated reading agrees with them, they crowd no region, and "
+                   "they stay beyond it under the final model; the base model fitted with them predicts the "
+                   f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
+                   f"{sc.heldout_mean_mm_after:.4f} mm")
+    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
+                 "log for a broken beam; they are left out of the fit"]
+    return sc
