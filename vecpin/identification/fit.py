@@ -145,7 +145,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         raise IdentifiabilityError(
             f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns "
             f"({describe_counts(counts)}, of the {getattr(model, 'kind', '')} model): use fewer model terms "
-            "(a lower --order or a fixed --basis chebyshev), measure more points, or fit with --underdetermined to let "
+            "(a lower `order` or a fixed `basis` chebyshev), measure more points, or fit with `underdetermined` to let "
             "the priors decide the rest")
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
                        start=(chi2_0, G0, g0))

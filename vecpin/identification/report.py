@@ -86,7 +86,7 @@ class FitReport:
             scale = (self.chi2 / self.chi2_expected) ** 0.5  # residuals / assumed noise, RMS over the equations
             verdict += (f" (the residuals are {scale:.2f}x the assumed noise; if the model is right, the instrument and "
                         "repeatability sigmas are that much " + ("smaller" if scale < 1 else "larger") +
-                        ": --tracker-sigma-mm / --tracker-noise, --repeatability-mm)")
+                        ": `tracker_sigma_mm` / `tracker_noise`, `repeatability_mm`)")
         name = self.label or f"{self.model} model, order {self.order}"
         lines = [f"{name}, {self.instrument} instrument noise: {self.n_rows} rows, "
                  f"{self.n_parameters} unknowns ({describe_counts(self.counts) + '; ' if self.counts else ''}"

@@ -112,7 +112,7 @@ class ErrorModel:
         if int(order) != order or order < 0:
             raise InputError(f"the series order must be a whole number >= 0, not {order}")
         if not (math.isfinite(prior_scale) and prior_scale > 0):
-            raise InputError(f"--prior-scale {prior_scale}: the prior scale must be a positive number")
+            raise InputError(f"`prior_scale` {prior_scale}: the prior scale must be a positive number")
         if basis not in ("chebyshev", "auto"):
             raise InputError("basis is 'auto' (Fourier on rotary axes travelling more than a turn) or 'chebyshev'")
         self.machine = machine

@@ -11,7 +11,7 @@ candidate and fold (folds grouped by command, both tools of a pose in one fold).
 
 Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
 the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
-with ``--basis pspline`` penalised splines on 31 knots, their smoothing λ from the
+with ``basis="pspline"`` penalised splines on 31 knots, their smoothing λ from the
 held-out data); on a rotary axis that travels more than a turn, and that the campaign
 measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev
 trend over the travel (errors that repeat every turn,
@@ -200,7 +200,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
     """Refuse a per-turn basis (``fourier``, ``fourier_trend``) on a machine without a
     rotary axis that travels more than a turn: it would apply to no axis."""
     if basis in ("fourier", "fourier_trend") and not any(a.multiturn for a in machine.axes):
-        raise InputError(f"no rotary axis of {machine.name} travels more than a turn; --basis {basis} applies to "
+        raise InputError(f"no rotary axis of {machine.name} travels more than a turn; `basis` {basis} applies to "
                          f"none: use {alternatives}")
 
 
@@ -359,7 +359,7 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
     return IdentifiabilityError(
         f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
         f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
-        f"{'pose' if more == 1 else 'poses'} (or fit with --underdetermined to let the priors decide the rest)")
+        f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
 
 
 def _supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
@@ -452,9 +452,9 @@ def parse_order(text) -> int | str:
     try:
         v = int(str(text))
     except ValueError:
-        raise InputError(f"--order {text!r}: 'auto' or a whole number >= 0") from None
+        raise InputError(f"`order` {text!r}: 'auto' or a whole number >= 0") from None
     if v < 0:
-        raise InputError(f"--order {text}: the order must be >= 0")
+        raise InputError(f"`order` {text}: the order must be >= 0")
     return v
 
 
@@ -466,7 +466,7 @@ def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> 
     smoothing is chosen by :func:`choose_model`.)"""
     check_basis(machine, basis)
     if basis == "pspline":
-        raise InputError("--basis pspline: the smoothing is chosen by held-out data; use choose_or_fix")
+        raise InputError("`basis` pspline: the smoothing is chosen by held-out data; use choose_or_fix")
     if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
         return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
     axes = []
@@ -496,9 +496,9 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
     candidates with more unknowns than equations (:func:`choose_model`)."""
     if kind not in ("auto",) + KINDS:
-        raise InputError(f"--model {kind}: one of auto, {', '.join(KINDS)}")
+        raise InputError(f"`model` {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
-        raise InputError(f"--basis {basis}: one of {', '.join(BASES)}")
+        raise InputError(f"`basis` {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
     check_basis(machine, basis)
     if kind != "auto" and basis not in ("auto", "pspline") and order != "auto":

@@ -84,7 +84,7 @@ def campaign_equations(campaign: Campaign, noise: NoiseModel | None = None) -> i
 
 
 def check_orders(machine: Machine, campaign: Campaign, kinds, orders, *, folds: int | None = None,
-                 noise: NoiseModel | None = None, basis: str = "chebyshev", option: str = "--orders") -> None:
+                 noise: NoiseModel | None = None, basis: str = "chebyshev", option: str = "`orders`") -> None:
     """Refuse, before any fit, orders whose models have more unknowns than the campaign
     (each fold's training part with ``folds``) has equations, and folds that the
     campaign's distinct commands cannot fill."""
@@ -110,7 +110,7 @@ def check_orders(machine: Machine, campaign: Campaign, kinds, orders, *, folds: 
                          f"gives {eq} equations{' in each fold' if folds else ''}; this campaign determines {hint}")
 
 
-def check_folds(campaign: Campaign | None, folds: int, option: str = "--folds") -> None:
+def check_folds(campaign: Campaign | None, folds: int, option: str = "`folds`") -> None:
     """k-fold cross-validation needs 2 <= k <= the campaign's distinct commands (rows of
     one command share a fold); ``campaign`` None: only the first."""
     if int(folds) != folds or folds < 2:
