@@ -2,7 +2,7 @@
 limits, tool points, frames and load notes."""
 from __future__ import annotations
 
-from vecpin.cli.common import add_machine_args, machine
+from vecpin.cli.common import add_machine_args, machine, say
 
 
 def run_info(args) -> int:
@@ -16,7 +16,7 @@ def run_info(args) -> int:
             print(f"  {name:<{width}s}  {m.n_axes} axes  {m.layout}")
         return 0
     m = machine(args.machine, args)
-    print(m.describe())
+    say(args, m.describe())
     if args.machine not in bundled_machines():
         print(f"  (bundled machines: {', '.join(bundled_machines())})")
     return 0

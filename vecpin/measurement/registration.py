@@ -148,10 +148,11 @@ def check_same_pose(nominal: np.ndarray, predicted: np.ndarray, measured: np.nda
     puts the nominal tool tips (``predicted``): the tracker was moved. Judging it anyway
     gives a meaningless 'reduction' (the residual is the pose difference, metres)."""
     from vecpin.errors import CampaignFileError
-    check_registration(nominal, measured, source, rows)
+    if spans_plane(nominal):  # on a line (one joint's sweep) nothing is registered: the distances alone are judged
+        check_registration(nominal, measured, source, rows)
     d = np.linalg.norm(np.asarray(measured, float) - np.asarray(predicted, float), axis=1)
     d = d[np.isfinite(d)]
     if d.size and float(np.median(d)) > RESIDUAL_LIMIT:
         raise CampaignFileError(source, f"its points lie {np.median(d) * MM_PER_M:.1f} mm (median) from where the tracker "
-                                f"pose of {model_source} puts them: the tracker was moved (give --reregister to "
+                                f"pose of {model_source} puts them: the tracker was moved (give `reregister` to "
                                 "register it to this campaign), or this is another machine's campaign")
