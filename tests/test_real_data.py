@@ -103,7 +103,7 @@ def test_reader_refuses_other_files_and_machines(ur10, tmp_path, capsys):
         read_dataset(p, ur10)
     with pytest.raises(CampaignFileError, match="machine 'flow_xyzcb' has axes X, Y, Z, C, B .use the bundled ur10"):
         read_dataset(RANDOM, vecpin.Machine.load("flow_xyzcb"))
-    with pytest.raises(InputError, match="--tool-mm -1"):
+    with pytest.raises(InputError, match="`tool_mm` -1"):
         read_dataset(RANDOM, ur10, tool_mm=-1.0)
     assert main(["import", str(RANDOM), "--machine", "ur10", "--format", "ipa-robot-accuracy", "--plan", "p.csv",
                  "--out", str(tmp_path / "c.csv")]) == 2
