@@ -208,7 +208,14 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "real_data.md"))
     ap.add_argument("--quick", action="store_true", help="FIGAROH's default only (no search for its best)")
     ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
+    ap.add_argument("--json", help="also save the figures to this file (a run per split can go in parallel)")
+    ap.add_argument("--from-json", nargs="+", metavar="FILE", help="write the table from saved runs; fit nothing")
     args = ap.parse_args()
+    if args.from_json:
+        saved = [json.loads(Path(f).read_text()) for f in args.from_json]
+        rows = {k: v for s in saved for k, v in s["rows"].items()}
+        write(args.out, {k: rows[k] for k in SPLITS if k in rows}, [e for s in saved for e in s["every"]])
+        return
     settings = [FIGAROH_DEFAULT] if args.quick else [(m, lv) for lv in LEVELS for m in METHODS]
     rows, every = {}, []
     for split in args.splits:
@@ -226,16 +233,23 @@ def main() -> None:
             print(f"  FIGAROH {'/'.join(s):24s} {_cell(r)} ({r['seconds']:.1f} s){' ' + r['error'] if 'error' in r else ''}",
                   flush=True)
             every.append(f"| {split} | {'/'.join(s)} | {_cell(r)} | {r['seconds']:.1f} |")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"rows": rows, "every": every}))
+    write(args.out, rows, every)
+
+
+def write(out: str, rows: dict, every: list[str]) -> None:
+    """The results page: the table per split and every FIGAROH setting's figures."""
     text = "\n".join(["# Real data: vecpin's default against FIGAROH (UR10, ipa-robot-accuracy)", "",
                       "Written by `python benchmarks/bench_figaroh.py` (module docstring: the data, the splits, the "
                       "settings). Held-out distance between the measured T-Mac centre and the prediction, mm; "
                       "times are whole processes (start to exit) on a shared 2-core machine.", "",
                       *table(rows), "", "## Every FIGAROH setting", "", "| split | setting | mean / max mm | time, s |",
                       "|---|---|---|---|", *every, ""])
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    Path(out).write_text(text)
     print("\n".join(table(rows)))
-    print(f"written {args.out}")
+    print(f"written {out}")
 
 
 if __name__ == "__main__":
