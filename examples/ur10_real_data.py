@@ -4,7 +4,8 @@ The data: 400 random poses of a UR10 (CB3) measured by a laser tracker (series C
 github.com/christianlandgraf/ipa-robot-accuracy, MIT licence; tests/data/ipa_ur10/,
 PROVENANCE.md there). vecpin reads the dataset's file as it is (semicolons, decimal
 commas, joints in rad), fits the model the data choose (the default of ``vecpin fit``:
-kind, basis and order by held-out cross-validation) on the training poses, and judges it
+kind, basis and order by held-out cross-validation, the noise level from the data, printed
+as its variance components) on the training poses, and judges it
 on poses it never saw, beside the nominal model (the bundled ur10's published DH
 kinematics with the tracker pose fitted to the same training poses):
 
@@ -63,7 +64,7 @@ def judge(machine: Machine, campaign, split: str) -> dict:
     t0 = time.perf_counter()
     test = held_out(machine, campaign, split)
     train, held = campaign.subset(~test), campaign.subset(test)
-    run = fit_campaign(machine, train, NoiseModel.default(machine, "cartesian"))
+    run = fit_campaign(machine, train, NoiseModel.default(machine, "cartesian"), noise_from_data=True)
     R, t = register(machine.tool_tip(train.q, train.tool), train.xyz)
     nominal = norm_mm(held.xyz - (machine.tool_tip(held.q, held.tool) @ R.T + t))
     fitted = norm_mm(run.model.residuals(held))
@@ -71,7 +72,8 @@ def judge(machine: Machine, campaign, split: str) -> dict:
     return {"split": split, "train": len(train), "held_out": len(held), "choice": run.choice,
             "nominal_mean": float(nominal.mean()), "nominal_max": float(nominal.max()),
             "fit_mean": float(fitted.mean()), "fit_max": float(fitted.max()),
-            "held_mean": float(kept.mean()), "held_max": float(kept.max()), "seconds": time.perf_counter() - t0}
+            "held_mean": float(kept.mean()), "held_max": float(kept.max()), "seconds": time.perf_counter() - t0,
+            "noise": run.noise_line()}
 
 
 def run(path: str | Path = DATA, poses: int | None = None, splits=("interleaved", "reach", "joint1"),
@@ -103,6 +105,7 @@ def run(path: str | Path = DATA, poses: int | None = None, splits=("interleaved"
         say(f"    default fit          {r['fit_mean']:8.3f} {r['fit_max']:8.3f}   "
             f"({r['fit_mean'] / r['nominal_mean']:.2f}x the nominal mean; {r['seconds']:.1f} s)")
         say(f"    fit, errors held     {r['held_mean']:8.3f} {r['held_max']:8.3f}   (beyond the measured range)")
+        say("  " + r["noise"].replace("\n", "\n  ") if r["noise"] else "  the stated noise kept")
         out.append(r)
     say(f"\nwhole run: {time.perf_counter() - t0:.1f} s")
     return out

@@ -1,6 +1,7 @@
 """The noise level from the data (issue 25): when the user states no noise, a fit whose
 chi2 leaves its band is chosen and fitted again with every noise sigma scaled by what the
 residuals say; a campaign whose noise is as stated keeps it."""
+import numpy as np
 import pytest
 
 from vecpin.measurement.noise import NoiseModel
@@ -37,3 +38,71 @@ def test_noise_four_times_the_stated_is_found_and_used(machines):
     assert run.noise_scale_sd < 0.1 * run.noise_scale
     assert run.model.noise_.axis_sigma[0] == pytest.approx(run.noise_used * NoiseModel.default(m).axis_sigma[0])
     assert "scaled by" in run.noise_line()
+
+
+def _kabsch(P, Q):
+    """R, t minimising |R P + t - Q| (rows are points): the test's own registration."""
+    cp, cq = P.mean(0), Q.mean(0)
+    U, _, Vt = np.linalg.svd((P - cp).T @ (Q - cq))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    R = Vt.T @ D @ U.T
+    return R, cq - R @ cp
+
+
+def test_reading_noise_lands_on_the_repeat_scatter():
+    """Real data (tests/data/ipa_ur10/joint_configurations_200.csv: the first 200 poses
+    of series B, 37 of them read twice a few minutes apart): the variance components of a
+    fit put one reading's per-axis σ within its stated uncertainty of the scatter of the
+    repeated readings, computed here without vecpin: pairs of rows whose joint readings
+    agree within 0.02°, the difference of their measured points less the difference of
+    their nominal tips (DH kinematics by hand, rotated by this test's own registration).
+    Most of the residual is what the model leaves at a pose (0.18 mm), not noise (0.017)."""
+    import vecpin
+    from vecpin.measurement.robotaccuracy import read_dataset
+    from pathlib import Path
+    m = vecpin.Machine.load("ur10")
+    c = read_dataset(Path(__file__).parent / "data" / "ipa_ur10" / "joint_configurations_200.csv", m).campaign
+    run = fit_campaign(m, c, NoiseModel.default(m, "cartesian"), kind="6dof", order=0)
+    vc = run.components
+    close = np.abs(c.q[:, None, :] - c.q[None, :, :]).max(axis=2) < np.radians(0.02)
+    i, j = np.nonzero(np.triu(close, 1))
+    assert len(i) == vc.repeated_poses == 37
+    tips = _dh_tips(c.q, 0.109)
+    R, _ = _kabsch(tips, c.xyz)
+    d = (c.xyz[i] - c.xyz[j]) - (tips[i] - tips[j]) @ R.T
+    scatter = np.sqrt((d**2).sum() / (2 * 3 * len(i))) * 1000.0   # per-axis σ of one reading, mm
+    assert abs(vc.reading - scatter) <= vc.reading_sd, (vc.reading, vc.reading_sd, scatter)
+    assert vc.total > 5 * vc.reading and vc.pose > 5 * vc.reading
+    assert "the stated noise is contradicted" in run.noise_line() and "one reading" in run.noise_line()
+
+
+def _dh_tips(q, tool):
+    """UR10 (CB3) tool points from the published DH table (robots/ur10.urdf's comment)."""
+    d = [0.1273, 0, 0, 0.163941, 0.1157, 0.0922]
+    a = [0, -0.612, -0.5723, 0, 0, 0]
+    alpha = [np.pi / 2, 0, 0, np.pi / 2, -np.pi / 2, 0]
+    out = np.empty((len(q), 3))
+    for k, qk in enumerate(q):
+        T = np.eye(4)
+        for th, dd, aa, al in zip(qk, d, a, alpha):
+            ct, st, ca, sa = np.cos(th), np.sin(th), np.cos(al), np.sin(al)
+            T = T @ np.array([[ct, -st * ca, st * sa, aa * ct], [st, ct * ca, -ct * sa, aa * st],
+                              [0, sa, ca, dd], [0, 0, 0, 1]])
+        out[k] = T[:3, 3] + tool * T[:3, 2]
+    return out
+
+
+def test_reml_of_contrasts_with_a_known_part_is_the_closed_form():
+    """Every block's known covariance c I: the REML variance beyond it is mean(z²) - c,
+    its Fisher information n / (2 (c + σ²)²) (closed forms)."""
+    from vecpin.identification.variance import _helmert, reml_repeatability
+    rng = np.random.default_rng(3)
+    c, s2 = 0.4, 1.1
+    z = rng.normal(0.0, np.sqrt(c + s2), 600)
+    blocks = [(z[k:k + 2], c * np.eye(2)) for k in range(0, 600, 2)]
+    est, sd = reml_repeatability(blocks)
+    assert est == pytest.approx(np.mean(z**2) - c, rel=1e-4)
+    assert sd == pytest.approx(np.sqrt(2 * (c + est) ** 2 / 600), rel=1e-3)
+    H = _helmert(4)
+    np.testing.assert_allclose(H @ H.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(H @ np.ones(4), 0.0, atol=1e-12)

@@ -103,7 +103,7 @@ def test_reader_refuses_other_files_and_machines(ur10, tmp_path, capsys):
         read_dataset(p, ur10)
     with pytest.raises(CampaignFileError, match="machine 'flow_xyzcb' has axes X, Y, Z, C, B .use the bundled ur10"):
         read_dataset(RANDOM, vecpin.Machine.load("flow_xyzcb"))
-    with pytest.raises(InputError, match="--tool-mm -1"):
+    with pytest.raises(InputError, match="`tool_mm` -1"):
         read_dataset(RANDOM, ur10, tool_mm=-1.0)
     assert main(["import", str(RANDOM), "--machine", "ur10", "--format", "ipa-robot-accuracy", "--plan", "p.csv",
                  "--out", str(tmp_path / "c.csv")]) == 2
@@ -199,3 +199,76 @@ def test_beyond_the_measured_joint_range(ur10, tmp_path):
     np.testing.assert_allclose(back.predict(held.q, held.tool), model.predict(held.q, held.tool), atol=1e-9)
     model.fit(c, noise)
     assert model.range_ is None
+
+
+def test_evaluate_judges_one_joints_sweep_without_registering(ur10):
+    """Series A's wrist_3 sweep at one position (grid lines 1357-1366: wrist_3 from -40°
+    to +40°, the T-Mac on its axis), joints 1-5 at their median reading: the commanded tool
+    tips are one point. A model fitted to the excerpt's 15 other poses judges them from its
+    own tracker pose, registering nothing, so they are not refused for lying on a line (or
+    at one point); the figures are the distances to the measured points."""
+    from vecpin.workflows.evaluation import evaluate
+    from vecpin.workflows.fitting import fit_campaign
+    c = read_dataset(GRID, ur10).campaign
+    sweep = np.zeros(len(c), bool)
+    sweep[2:12] = True
+    held = c.subset(sweep)
+    held.q[:, :5] = np.median(held.q[:, :5], axis=0)
+    tips = ur10.tool_tip(held.q, held.tool)
+    assert np.ptp(tips, axis=0).max() < 1e-6  # one point: no frame could be registered on them
+    model = fit_campaign(ur10, c.subset(~sweep), NoiseModel.default(ur10, "cartesian"), kind="ap", order=1).model
+    ev = evaluate(model, held)
+    assert ev.rows == 10 and not ev.reregistered
+    R, t = model.setup_.R, model.setup_.t
+    np.testing.assert_allclose(ev.uncompensated, norm_mm(held.xyz - (tips @ R.T + t)), atol=1e-9)
+    assert ev.residual.mean() < ev.uncompensated.mean()
+
+
+ROS_FLANGE_URDF = """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base_link"/>
+  <joint name="j1" type="revolute"><parent link="base_link"/><child link="wrist_3_link"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="wrist_3_link"/>
+  <!-- as ur_description's ur.urdf.xacro: flange +x and tool0 +z point out of the flange (wrist_3's +z) -->
+  <joint name="wrist_3-flange" type="fixed"><parent link="wrist_3_link"/><child link="flange"/>
+    <origin xyz="0 0.2 0" rpy="0 -1.5707963267948966 -1.5707963267948966"/></joint>
+  <link name="flange"/>
+  <joint name="flange-tool0" type="fixed"><parent link="flange"/><child link="tool0"/>
+    <origin xyz="0 0 0" rpy="1.5707963267948966 0 1.5707963267948966"/></joint>
+  <link name="tool0"/>
+</robot>
+"""
+
+
+def test_ros_industrial_flange_points_along_x(tmp_path):
+    """ROS-Industrial: ``tool0``'s +z and ``flange``'s +x point out of the flange. A tool of
+    100 mm on either link lies 100 mm beyond the flange along the wrist's +z (by hand: the
+    flange at (0, 0.2, 0.1) m, turned by j1 about z)."""
+    p = tmp_path / "arm.urdf"
+    p.write_text(ROS_FLANGE_URDF)
+    q = np.array([[0.0], [0.5]])
+    by_hand = np.array([[0.0, 0.2, 0.2], [-0.2 * np.sin(0.5), 0.2 * np.cos(0.5), 0.2]])
+    for link, axis in (("flange", "+x"), ("tool0", "+z")):
+        m = vecpin.Machine.load(p, tool_link=link)
+        assert m.tool_axis_name == axis and any(f"tool along {axis} of '{link}'" in n for n in m.notes)
+        np.testing.assert_allclose(m.tool_tip(q, np.full(2, 0.1)), by_hand, atol=1e-12)
+
+
+def test_underdetermined_changes_nothing_for_a_determined_fit(ur10):
+    """100 real poses with wrist 3 at one angle (the T-Mac lies on its axis: a campaign
+    in which wrist 3 never turns), a 6-DoF model of order 1 (73 model terms, 300
+    equations): determined. The data cannot tell wrist 3's order-1 terms from its
+    constants, and the fit removes them; allowing an underdetermined fit used to judge
+    redundancy on a reference design instead (24 terms removed instead of 29, the
+    parameters 3e-3 apart). Now it changes nothing."""
+    from vecpin.workflows.fitting import fit_campaign
+    c = read_dataset(RANDOM, ur10).campaign.subset(np.arange(100))
+    c.q[:, 5] = 0.3
+    noise = NoiseModel.default(ur10, "cartesian")
+    plain = fit_campaign(ur10, c, noise, kind="6dof", order=1).model
+    allowed = fit_campaign(ur10, c, noise, kind="6dof", order=1, underdetermined=True).model
+    assert plain.n_parameters + 6 < 3 * len(c)
+    assert len(plain.report_.removed) == 29 and allowed.report_.removed == plain.report_.removed
+    np.testing.assert_allclose(allowed.b_, plain.b_, atol=1e-12)
+    np.testing.assert_allclose(allowed.residuals(c), plain.residuals(c), atol=1e-12)

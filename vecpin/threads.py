@@ -21,6 +21,7 @@ nothing.
 from __future__ import annotations
 
 import functools
+import importlib
 import os
 import threading
 from contextlib import contextmanager
@@ -42,10 +43,14 @@ def blas_threads_wanted() -> int:
 
 
 def _get_controller():
-    """One threadpoolctl controller for the process, made at the first use (by then
-    numpy's and scipy's BLAS libraries are loaded, vecpin imports both)."""
+    """One threadpoolctl controller for the process, made at the first use, after
+    ``scipy.linalg`` is imported: scipy's wheels bundle their own OpenBLAS, which a
+    controller made before it loads does not limit (the command line enters
+    :func:`blas_limited` before any command imports scipy: its model choice ran with two
+    BLAS threads, 10x the CPU time on a loaded 2-core machine)."""
     global _controller
     if _controller is None:
+        importlib.import_module("scipy.linalg")  # its own BLAS loaded before the controller looks
         from threadpoolctl import ThreadpoolController
         _controller = ThreadpoolController()
     return _controller

@@ -51,8 +51,8 @@ def add_machine_args(s: argparse.ArgumentParser) -> None:
                         "'spindle_2', ... when present; a ROS arm: tool0). Several links, comma-separated, are "
                         "several tool points driven by the same axis commands")
     s.add_argument("--tool-axis", metavar="AXIS",
-                   help="axis of the tool link the tool points along: +x, -x, +y, -y, +z or -z (default -z; +z for "
-                        "ROS tool flanges 'tool0' and 'flange'); write a negative axis as --tool-axis=-z")
+                   help="axis of the tool link the tool points along: +x, -x, +y, -y, +z or -z (default -z; the "
+                        "ROS-Industrial flanges: +z of 'tool0', +x of 'flange'); write a negative axis as --tool-axis=-z")
 
 
 def add_noise_args(s: argparse.ArgumentParser, *, multilateration: bool = True, ballbar: bool = True) -> None:

@@ -106,8 +106,9 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     theta = [E_0 (6), b (P), the instruments' unknowns] SI; cov is the covariance of
     theta (zeros for removed terms). ``underdetermined``: accept fewer equations than
     parameters, the priors Σ_b deciding what the data cannot (Section 3.5.2 fits 50
-    tracker points this way); redundancy is then judged on a reference design, so only
-    structurally redundant terms are removed."""
+    tracker points this way); when the campaign is short of equations, redundancy is then
+    judged on a reference design, so only structurally redundant terms are removed. A
+    campaign with enough equations is fitted the same with or without it."""
     t0 = time.perf_counter()
     if list(campaign.axis_names) != model.machine.axis_names:
         raise VecpinError(f"{campaign.source}: axes {campaign.axis_names} do not match machine "
@@ -130,16 +131,16 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     norms = np.sqrt(np.diag(G0))
     keep = np.ones(P, bool)
     ratio = np.ones(P)
+    active = active_columns(norms)
+    n_active = int(active.sum())
     if remove_redundant:
-        if underdetermined:
+        if underdetermined and n_active >= n_eq:  # only a fit short of equations is changed by `underdetermined`
             red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise)
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
         else:
             red, ratio = lik.redundancy(np.zeros(P), norms)
         keep = ~red
-    active = active_columns(norms)
-    n_active = int(active.sum())
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
         counts = unknown_counts(lik.names, lik.n_model, active)
         raise IdentifiabilityError(

@@ -18,7 +18,7 @@ from vecpin.errors import InputError, MachineError
 SPINDLE_LINK = "spindle"
 WORKPIECE_LINK = "workpiece"
 TOOL_DIRECTION = np.array([0.0, 0.0, -1.0])  # default tool axis in the tool link frame
-#: tool links named like ROS tool flanges: the tool points along their +z by default
+#: tool links named like ROS-Industrial tool flanges: the tool points along +z of tool0, +x of flange
 ROS_FLANGE_LINKS = ("tool0", "flange")
 #: campaign CSV columns an axis must not be named like (case-sensitive: "X" is fine)
 RESERVED_NAMES = ("x", "y", "z", "tool", "time", "temperature", "instrument", "station", "r", "pivot",

@@ -6,8 +6,8 @@ A vecpin machine is a URDF tree rooted at its base link (the machine frame):
   whose origin lies on the gauge line, the tool pointing along its -z (the seed's tool
   vector ``p_Tl`` with ``u = (0, 0, -1)``, Paper I eq. 9). A machine may have several
   tool points driven by one command set (Spar Mill 23: ``spindle`` and ``spindle_2``);
-  any link can be named the tool link, with its tool axis (robots: ``tool0`` / ``flange``,
-  tool along +z);
+  any link can be named the tool link, with its tool axis (robots, the ROS-Industrial
+  convention: ``tool0`` +z, ``flange`` +x out of the flange);
 * optionally a **table branch** from the base to a link named ``workpiece`` (the table
   frame of a trunnion or rotary table). The tool tip that matters for machining is the
   tip *relative to the workpiece*, ``p_rel = T_bw(q)^-1 p_tip(q)``; a tracker standing
@@ -57,8 +57,8 @@ class Machine:
     :meth:`from_urdf_string`. ``tool_link``: the tool link name, a comma-separated list
     or a sequence of names (several tool points driven by the same commands); default
     ``spindle`` plus ``spindle_2``, ``spindle_3``, ... when present. ``tool_axis``:
-    "+x", "-x", "+y", "-y", "+z" or "-z" of the tool link; default -z, or +z for a ROS
-    tool flange (``tool0``, ``flange``).
+    "+x", "-x", "+y", "-y", "+z" or "-z" of the tool link; default -z, or the ROS-Industrial
+    convention's direction out of the flange: +z of ``tool0``, +x of ``flange``.
     """
 
     def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None, *,
@@ -156,9 +156,10 @@ class Machine:
     def _resolve_tool_axis(self, tool_axis) -> None:
         link = self.tool_links[0]
         if tool_axis is None:
-            if link in ROS_FLANGE_LINKS:
-                tool_axis = "+z"
-                self.notes.append(f"tool along +z of '{link}' (ROS tool-flange convention; `tool_axis` to change)")
+            if link in ROS_FLANGE_LINKS:  # ROS-Industrial: tool0's +z and flange's +x point out of the flange
+                tool_axis = "+x" if link == "flange" else "+z"
+                self.notes.append(f"tool along {tool_axis} of '{link}' (ROS tool-flange convention of ROS-Industrial: "
+                                  f"{tool_axis} out of the flange; `tool_axis` to change)")
             else:
                 tool_axis = "-z"
                 if not link.startswith(SPINDLE_LINK):

@@ -116,83 +116,92 @@ def _valid_stamp(c: str) -> bool:
 
 def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TOOL_MM) -> DatasetRead:
     """Read one series' measurement file (module text) as a campaign of ``machine``,
-    whose axes must be the six UR joints (``Machine.load("ur10")``)."""
+    whose axes must be the six UR joints (``Machine.load("ur10")``); ``tool_mm``: the
+    T-Mac centre's distance from the flange along its z, mm."""
     if not (math.isfinite(tool_mm) and 0 <= tool_mm <= 10_000):
-        raise InputError(f"--tool-mm {tool_mm}: the T-Mac centre's distance from the flange, mm (0 .. 10000)")
+        raise InputError(f"`tool_mm` {tool_mm}: the T-Mac centre's distance from the flange, mm (0 .. 10000)")
     if tuple(machine.axis_names) != JOINTS:
         raise CampaignFileError(str(path), f"the dataset's joints are {', '.join(JOINTS)}; machine '{machine.name}' "
                                 f"has axes {', '.join(machine.axis_names)} (use the bundled ur10)")
-    need = JOINTS + XYZ
+    table = _table(path)
+    column = _columns(table)
+    q = column(JOINTS)                                                       # rad, as the campaign holds them
+    far = np.abs(q) > 2 * np.pi + 1e-6
+    if far.any():
+        k, j = np.argwhere(far)[0]
+        raise _error(table, f"{q[k, j]:g} is beyond one turn: joint angles in this dataset are radians", int(k),
+                     JOINTS[j])
+    xyz = column(XYZ) * M_PER_MM
+    order, extra, notes = _time_order(table)
+    if TEMPERATURE in table.header:
+        extra["temperature"] = T = column((TEMPERATURE,))[:, 0]
+        notes.append(f"air temperature {T.min():.2f} .. {T.max():.2f} °C")
+    extra |= {f"std_{c}": column((n,))[:, 0] for c, n in zip("xyz", STD) if n in table.header}   # mm
+    extra = {k: v[order] for k, v in extra.items()}
+    campaign = Campaign(list(JOINTS), q[order], np.full(len(order), tool_mm * M_PER_MM), xyz[order], extra,
+                        table.path, lines=np.asarray(table.lines)[order])
+    return DatasetRead(campaign, table.path, tool_mm, notes)
+
+
+def _table(path: str | Path) -> ExportTable:
+    """The series' table: the header line with the joints and the T-Mac's x, y, z."""
     try:
-        table = read_export_table(path, "semicolon", dataset_header)
+        return read_export_table(path, "semicolon", dataset_header)
     except CampaignFileError as exc:
         if not exc.reason.startswith("no header line"):
             raise
         first = read_export_table(path, "semicolon")
-        missing = [n for n in need if n not in first.header]
+        missing = [n for n in JOINTS + XYZ if n not in first.header]
         raise CampaignFileError(exc.path, "not a measurement file of the ipa-robot-accuracy dataset: the header has no "
                                 f"column {', '.join(missing)}", row=first.header_line) from None
+
+
+def _columns(table: ExportTable):
+    """A reader of numeric columns, ``column(names) -> (N, len(names))``, with the table's
+    one decimal mark (refused when the numeric cells mix commas and points)."""
     col = {h: j for j, h in enumerate(table.header)}
-    numeric = [n for n in need + STD + (TEMPERATURE,) if n in col]
+    numeric = [n for n in JOINTS + XYZ + STD + (TEMPERATURE,) if n in col]
     decimal = detect_decimal([r[col[n]] for r in table.rows for n in numeric])
     if decimal == "mixed":  # the first cell of the rarer mark
-        cells = [(k, n) for k, r in enumerate(table.rows) for n in numeric]
+        cells = [(k, n) for k in range(len(table.rows)) for n in numeric]
         comma = [(k, n) for k, n in cells if _COMMA.match(table.rows[k][col[n]])]
         dot = [(k, n) for k, n in cells if _DOT.match(table.rows[k][col[n]])]
         (k, n), mark, other = (dot[0], "point", "commas") if len(comma) >= len(dot) else (comma[0], "comma", "points")
         raise _error(table, f"'{table.rows[k][col[n]]}' has a decimal {mark} while the other cells have decimal "
                      f"{other}", k, n)
 
-    def column(name: str) -> np.ndarray:
-        out = np.empty(len(table.rows))
-        for k, r in enumerate(table.rows):
-            s = r[col[name]]
-            if s == "":
-                raise _error(table, "empty cell (no value is guessed: fill it or delete the row)", k, name)
-            try:
-                out[k] = parse_number(s, decimal)
-            except ValueError:
-                raise _error(table, f"'{s[:40]}' is not a number", k, name) from None
-        return out
+    def cell(k: int, name: str) -> float:
+        s = table.rows[k][col[name]]
+        if s == "":
+            raise _error(table, "empty cell (no value is guessed: fill it or delete the row)", k, name)
+        try:
+            return parse_number(s, decimal)
+        except ValueError:
+            raise _error(table, f"'{s[:40]}' is not a number", k, name) from None
 
-    q = np.column_stack([column(n) for n in JOINTS])                       # rad, as the campaign holds them
-    far = np.abs(q) > 2 * np.pi + 1e-6
-    if far.any():
-        k, j = np.argwhere(far)[0]
-        raise _error(table, f"{q[k, j]:g} is beyond one turn: joint angles in this dataset are radians", int(k),
-                     JOINTS[j])
-    xyz = np.column_stack([column(n) for n in XYZ]) * M_PER_MM
-    extra: dict[str, np.ndarray] = {}
-    notes: list[str] = []
-    order = np.arange(len(table.rows))
-    if TIME in col:
-        t, why = _times(table, col[TIME])
-        if t is None:
-            notes.append(why)
-        else:
-            back = np.flatnonzero(np.diff(t) < 0) + 1
-            if back.size:
-                order = np.argsort(t, kind="stable")
-                lines = [table.lines[k] for k in back]
-                notes.append(f"{back.size} rows are stamped earlier than the row before them (lines "
-                             f"{', '.join(map(str, lines[:6]))}{' ...' if len(lines) > 6 else ''}): rows put in time "
-                             "order, the order of measurement")
-            t = t - t.min()
-            gaps = np.diff(np.sort(t))
-            notes.append(f"time stamps span {t.max() / 3600:.1f} h, the longest pause {gaps.max() / 3600:.1f} h"
-                         if gaps.size else "one time stamp")
-            extra["time"] = t
-    else:
-        notes.append(f"no '{TIME}' column: the file's row order is taken as the order of measurement")
-    if TEMPERATURE in col:
-        extra["temperature"] = column(TEMPERATURE)
-        T = extra["temperature"]
-        notes.append(f"air temperature {T.min():.2f} .. {T.max():.2f} °C")
-    for c, n in zip("xyz", STD):
-        if n in col:
-            extra[f"std_{c}"] = column(n)
-    extra = {k: v[order] for k, v in extra.items()}
-    n = len(order)
-    campaign = Campaign(list(JOINTS), q[order], np.full(n, tool_mm * M_PER_MM), xyz[order], extra, table.path,
-                        lines=np.asarray(table.lines)[order])
-    return DatasetRead(campaign, table.path, tool_mm, notes)
+    def column(names: tuple[str, ...]) -> np.ndarray:
+        return np.array([[cell(k, n) for n in names] for k in range(len(table.rows))]).reshape(-1, len(names))
+    return column
+
+
+def _time_order(table: ExportTable) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
+    """(row order of measurement, {"time": s since the first stamp} when the stamps carry
+    time, notes): rows stamped earlier than the row before them are put in time order."""
+    order, notes = np.arange(len(table.rows)), []
+    if TIME not in table.header:
+        return order, {}, [f"no '{TIME}' column: the file's row order is taken as the order of measurement"]
+    t, why = _times(table, table.header.index(TIME))
+    if t is None:
+        return order, {}, [why]
+    back = np.flatnonzero(np.diff(t) < 0) + 1
+    if back.size:
+        order = np.argsort(t, kind="stable")
+        lines = [table.lines[k] for k in back]
+        notes.append(f"{back.size} rows are stamped earlier than the row before them (lines "
+                     f"{', '.join(map(str, lines[:6]))}{' ...' if len(lines) > 6 else ''}): rows put in time "
+                     "order, the order of measurement")
+    t = t - t.min()
+    gaps = np.diff(np.sort(t))
+    notes.append(f"time stamps span {t.max() / 3600:.1f} h, the longest pause {gaps.max() / 3600:.1f} h"
+                 if gaps.size else "one time stamp")
+    return order, {"time": t}, notes

@@ -19,6 +19,7 @@ from typing import Callable
 import numpy as np
 
 from vecpin.errors import InputError, VecpinWarning
+from vecpin.identification.variance import VarianceComponents, variance_components
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
@@ -58,6 +59,7 @@ class FitRun:
     noise_rescaled: bool = False          # the fit (and choice) were made again with the scaled noise
     noise_used: float = 1.0               # the scale of the stated noise the final fit used
     campaign: Campaign | None = None      # the rows fitted (those in the zone)
+    components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
 
     def lines(self) -> list[str]:
         """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
@@ -78,17 +80,21 @@ class FitRun:
         return out + residual_lines(model, c) + fitted_points_lines(model)
 
     def noise_line(self) -> str | None:
-        """What the data said of the noise level, for the printout (None: not estimated)."""
+        """What the data said of the noise level, for the printout (None: not estimated,
+        and the stated noise not contradicted)."""
+        parts = "\n".join(self.components.lines()) if self.components else ""
         if self.noise_scale is None:
-            return None
+            contradicted = self.components and not self.model.report_.chi2_in_band
+            return f"the stated noise is contradicted by the chi2; what the data say:\n{parts}" if contradicted else None
         s, sd = self.noise_scale, self.noise_scale_sd
         if not self.noise_rescaled:
             return (f"noise from the data: residuals {s:.2f} ± {sd:.2f} x the stated noise, within the chi2 band: "
-                    "the stated noise kept")
+                    "the stated noise kept" + (f"\n{parts}" if parts else ""))
         return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
                 f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted again; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
-                "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)")
+                "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)"
+                + (f"\n{parts}" if parts else ""))
 
 
 def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
@@ -207,4 +213,17 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         model.selection_ = choice.to_dict()
     if zone:
         model.zone_ = dict(zone)
-    return FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
+    run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
+    run.components = _components(model, campaign, scale)
+    return run
+
+
+def _components(model: ErrorModel, campaign: Campaign, scale: float) -> VarianceComponents | None:
+    """The variance components of the fit's residuals (tracker rows of one station only)."""
+    r = model.residuals(campaign)
+    rep = model.report_
+    if not (campaign.plain and not campaign.mixed and np.isfinite(r).all() and rep.chi2 > 0):
+        return None
+    total = math.sqrt(float((r**2).sum()) / max(rep.chi2_expected, 1.0)) * MM_PER_M
+    stated = total / math.sqrt(rep.chi2 / max(rep.chi2_expected, 1.0)) / scale  # the stated noise's level, mm
+    return variance_components(r, campaign, rep.chi2_expected, stated)
