@@ -128,26 +128,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
         return lik.normal_equations(psi * lik.sigma, jacobian)
 
     chi2_0, G0, g0, n_eq = lik.normal_equations(np.zeros(P))  # the solver starts from these (psi = 0)
-    norms = np.sqrt(np.diag(G0))
-    keep = np.ones(P, bool)
-    ratio = np.ones(P)
-    active = active_columns(norms)
-    n_active = int(active.sum())
-    if remove_redundant:
-        if underdetermined and n_active >= n_eq:  # only a fit short of equations is changed by `underdetermined`
-            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise)
-            extra = P - red.size
-            red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
-        else:
-            red, ratio = lik.redundancy(np.zeros(P), norms)
-        keep = ~red
-    if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
-        counts = unknown_counts(lik.names, lik.n_model, active)
-        raise IdentifiabilityError(
-            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns "
-            f"({describe_counts(counts)}, of the {getattr(model, 'kind', '')} model): use fewer model terms "
-            "(a lower `order` or a fixed `basis` chebyshev), measure more points, or fit with `underdetermined` to let "
-            "the priors decide the rest")
+    keep, ratio = _columns_to_fit(model, campaign, noise, lik, G0, n_eq, remove_redundant, underdetermined)
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
                        start=(chi2_0, G0, g0))
     theta = sol.psi * lik.sigma
@@ -179,3 +160,32 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
                        measured_range(model.machine, campaign), unknown_counts(names, lik.n_model),
                        model.label() if hasattr(model, "label") else "")
     return theta, setup, cov, report
+
+
+def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihood, G0: np.ndarray, n_eq: int,
+                    remove_redundant: bool, underdetermined: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(columns kept, each one's identifiability ratio): redundant terms removed (on the
+    campaign, or on a reference design when ``underdetermined`` and short of equations);
+    refused when the kept columns outnumber the equations and not ``underdetermined``."""
+    P = lik.n_unknowns
+    norms = np.sqrt(np.diag(G0))
+    keep = np.ones(P, bool)
+    ratio = np.ones(P)
+    active = active_columns(norms)
+    n_active = int(active.sum())
+    if remove_redundant:
+        if underdetermined and n_active >= n_eq:  # only a fit short of equations is changed by `underdetermined`
+            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise)
+            extra = P - red.size
+            red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
+        else:
+            red, ratio = lik.redundancy(np.zeros(P), norms)
+        keep = ~red
+    if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
+        counts = unknown_counts(lik.names, lik.n_model, active)
+        raise IdentifiabilityError(
+            f"{campaign.source}: {len(campaign)} rows give {n_eq} equations for {n_active} unknowns "
+            f"({describe_counts(counts)}, of the {getattr(model, 'kind', '')} model): use fewer model terms "
+            "(a lower `order` or a fixed `basis` chebyshev), measure more points, or fit with `underdetermined` to let "
+            "the priors decide the rest")
+    return keep, ratio
