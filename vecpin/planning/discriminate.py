@@ -206,9 +206,9 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
     ``scatter``: a reading's whitened variance about the right model (1: the noise alone;
     the held-out chi2 per equation of the fitted model when it misfits beyond the noise)."""
     if len(models) < 2:
-        raise InputError("`models`: a discriminating plan needs at least two candidate models")
+        raise InputError("models: a discriminating plan needs at least two candidate models")
     if not (1 <= n_min <= n_max):
-        raise InputError(f"`n_min` {n_min}, `n_max` {n_max}: need 1 <= n_min <= n_max")
+        raise InputError(f"n_min {n_min}, n_max {n_max}: need 1 <= n_min <= n_max")
     labels, fitted = list(models), list(models.values())
     machine = fitted[0].machine
     on = campaign.instrument == "tracker"
