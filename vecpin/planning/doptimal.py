@@ -34,7 +34,7 @@ def _gains(Wk: np.ndarray, Ninv: np.ndarray, rows: np.ndarray, chunk: int = 4096
 
 def greedy_d_optimal(W: np.ndarray, n: int, keep: np.ndarray | None = None, start: np.ndarray | None = None,
                      progress: Callable[[str], None] | None = None, refresh: int = 50,
-                     batch: int = 64) -> tuple[np.ndarray, np.ndarray]:
+                     batch: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Choose ``n`` of the C candidates with rows ``W`` (C, r, P) (float64 or float32).
 
     ``keep`` (P,): the terms counted (others are left out of N); ``start`` (k, P): rows
