@@ -11,7 +11,7 @@ from vecpin.cli import main
 from vecpin.measurement.campaign import write_campaign
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.simulation.simulate import simulate
-from vecpin.workflows.summary import uncompensated
+from vecpin.measurement.uncompensated import uncompensated
 
 from closed_forms import MACHINES
 from test_importer import export

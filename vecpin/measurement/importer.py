@@ -39,6 +39,7 @@ from vecpin.measurement.exportread import (_COMMA, DELIMITER_NAMES, LENGTH_UNITS
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.robotaccuracy import dataset_header
+from vecpin.measurement.uncompensated import uncompensated
 from vecpin.units import M_PER_MM, norm_mm
 
 SPREAD_TOLERANCE = 1.3      # factor the spread ratio may differ from its unit's
@@ -457,9 +458,11 @@ def _imported(ex: _Export, machine: Machine, template: PlanTemplate | None, j: _
     campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, target=target)
     chosen, reason, t_unit = read_as
     columns_used = {f: ex.table.header[k] for f, k in ex.idx.items()}
+    u = uncompensated(machine, campaign, strict=False)  # the figure assess and fit print
+    figure = (float(err.mean()), float(err.max())) if u is None else u.mean_max_mm
     return ImportResult(campaign, name, None if template is None else template.source, ex.table.delimiter, ex.dec,
                         ex.table.encoding, chosen, reason, columns_used, j.joined_by, j.unmeasured, j.unmatched,
-                        ex.notes, (float(err.mean()), float(err.max())), t_unit)
+                        ex.notes, figure, t_unit)
 
 
 def campaign_text(campaign: Campaign, machine: Machine) -> str:

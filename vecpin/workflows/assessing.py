@@ -38,7 +38,7 @@ from vecpin.measurement.repeatability import (SESSION_GAP_S, RepeatabilityStats,
                                               repeat_groups, repeatability)
 from vecpin.measurement.tracker import TrackerNoise
 from vecpin.units import MM_PER_M
-from vecpin.workflows.summary import uncompensated, uncompensated_line
+from vecpin.measurement.uncompensated import uncompensated, uncompensated_line
 
 FACTOR_BEST, FACTOR_TYPICAL = 2.0, 3.0   # compensated mean / repeatability reached in the seed
 WORTHWHILE, MARGINAL = 30.0, 10.0        # % predicted reduction of the mean error
@@ -162,7 +162,7 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
                     session_gap: float = SESSION_GAP_S) -> Assessment:
     """The verdict from a campaign with repeated points: the uncompensated error is the
     registered distance of the measured points from the nominal tool tips, the figure
-    ``import`` and ``fit`` print (:func:`vecpin.workflows.summary.uncompensated`)."""
+    ``import`` and ``fit`` print (:func:`vecpin.measurement.uncompensated.uncompensated`)."""
     from vecpin.errors import InputError
     if not (math.isfinite(session_gap) and session_gap > 0):
         raise InputError(f"`session_gap` {session_gap:g} s: a time > 0 (default 1800 s)")

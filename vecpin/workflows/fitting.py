@@ -25,12 +25,13 @@ from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel, scaled_noise
 from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
+from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
 from vecpin.selection.orders import check_folds
 from vecpin.units import MM_PER_M, norm_mm
-from vecpin.workflows.summary import per_tool_table, uncompensated
+from vecpin.workflows.summary import per_tool_table
 
 
 MAX_UNKNOWNS = 5000  # a fit holds a few dense unknowns x unknowns matrices: 5000 -> 200 MB each
@@ -98,7 +99,7 @@ class FitRun:
 
 
 def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
-    """Uncompensated (:func:`vecpin.workflows.summary.uncompensated`, the figure ``import``
+    """Uncompensated (:func:`vecpin.measurement.uncompensated.uncompensated`, the figure ``import``
     and ``assess`` print) and fitted distances per tool [mm]; table nest rows and ball bar
     rows beside them."""
     u = uncompensated(model.machine, campaign, strict=False)

@@ -8,7 +8,6 @@ from vecpin.fileio import check_output_file
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.importer import ImportResult, import_export, write_imported
 from vecpin.measurement.robotaccuracy import TMAC_TOOL_MM, DatasetRead, read_dataset
-from vecpin.workflows.summary import uncompensated
 
 FORMATS = ("tracker", "ipa-robot-accuracy")
 
@@ -32,8 +31,6 @@ def import_to_file(export: str | Path, machine: Machine, out: str | Path, plan: 
         return import_dataset_to_file(export, machine, out, tool_mm=options.get("tool_mm"))
     check_output_file(out)
     res = import_export(export, machine, plan, **options)
-    u = uncompensated(machine, res.campaign, strict=False)  # the figure assess and fit print
-    res.uncompensated_mm = res.uncompensated_mm if u is None else u.mean_max_mm
     write_imported(res, machine, out)
     return res
 

@@ -24,7 +24,7 @@ from vecpin.models.modelfile import check_same_machine
 from vecpin.selection.orders import check_orders, order_sweep
 from vecpin.units import norm_mm
 from vecpin.viz.report import ReportData, labels as model_labels, stats_rows, write_report
-from vecpin.workflows.summary import uncompensated
+from vecpin.measurement.uncompensated import uncompensated
 
 GA_RATES, GA_SEEDS = (0.0, 0.2, 0.85), 5   # the convergence figure: mutation rates x seeds (Paper II Fig. 4)
 
@@ -76,7 +76,7 @@ def _check(models: list[ErrorModel], campaign: Campaign, validation: Campaign | 
 
 def _residuals(models, labels, campaign, validation):
     """The before/after table rows and the histograms' distances [mm]: the uncompensated
-    figure every command prints (:func:`vecpin.workflows.summary.uncompensated`) and each
+    figure every command prints (:func:`vecpin.measurement.uncompensated.uncompensated`) and each
     model's residuals."""
     rows, hist, vhist = [], {}, {}
     sets = [("identification", campaign, hist)] + ([("validation", validation, vhist)] if validation is not None else [])

@@ -1,17 +1,11 @@
-"""Per-tool distance tables: the before/after lines every command prints, and the one
-uncompensated figure of a campaign (:func:`uncompensated`)."""
+"""Per-tool distance tables: the before/after lines every command prints (the one
+uncompensated figure of a campaign is :mod:`vecpin.measurement.uncompensated`)."""
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.errors import InputError
-from vecpin.kinematics.machine import Machine
-from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.measurement.stats import distance_stats
-from vecpin.units import MM_PER_M, norm_mm
+from vecpin.units import MM_PER_M
 
 
 MAX_TOOLS_LISTED = 6  # tool lengths given a line each
@@ -40,64 +34,3 @@ def error_summary(label: str, err_mm: np.ndarray) -> str:
     """One line: mean/max/RMS of the lengths of (N,3) error vectors [mm]."""
     d = np.linalg.norm(err_mm, axis=1)
     return f"  {label:<42s} mean {d.mean():8.4f} mm   max {d.max():8.4f} mm   RMS {np.sqrt((d**2).mean()):8.4f} mm"
-
-
-@dataclass
-class Uncompensated:
-    """The uncompensated volumetric error of a campaign: the distance [mm] of each measured
-    point from its nominal point after one best rigid fit of the nominal points onto the
-    readings (the seed's 'uncompensated' figure), on ``campaign``'s rows ``rows``."""
-
-    distances_mm: np.ndarray   # (n,) mm, one per row in ``rows``
-    rows: np.ndarray           # (n,) row indices into the campaign handed in
-    tool: np.ndarray           # (n,) tool lengths of those rows [m]
-
-    @property
-    def mean_mm(self) -> float:
-        return float(self.distances_mm.mean())
-
-    @property
-    def max_mm(self) -> float:
-        return float(self.distances_mm.max())
-
-    @property
-    def mean_max_mm(self) -> tuple[float, float]:
-        return self.mean_mm, self.max_mm
-
-    def line(self) -> str:
-        """The line every command prints alike (:func:`uncompensated_line`)."""
-        return uncompensated_line(self.mean_mm, self.max_mm, len(self.rows))
-
-
-def uncompensated_line(mean_mm: float, max_mm: float | None, rows: int | None) -> str:
-    """The uncompensated error as ``import``, ``assess`` and ``fit`` print it (mm)."""
-    how = f"nominal kinematics, best rigid fit, {rows} rows" if rows else "as given"
-    mx = f", max {max_mm:.4f} mm" if max_mm is not None else ""
-    return f"  uncompensated error ({how}): mean {mean_mm:.4f} mm{mx}"
-
-
-def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> Uncompensated | None:
-    """The one uncompensated figure of a campaign, the same for ``import``, ``assess`` and
-    ``fit``: every tracker row of station 0 that reads the tool tip or a target of known
-    offset (nest rows, ball bar rows and targets the fit must find are left out), the
-    nominal tool points (base frame, m) registered onto the readings (tracker frame, m)
-    by one best rigid motion (:func:`vecpin.measurement.registration.registered_errors`).
-    Fewer than 3 such rows, or nominal points on a line (the tool of a machine whose every
-    axis moves the table stands still): an InputError, or None when not ``strict``."""
-    known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
-    rows = np.flatnonzero((campaign.instrument == "tracker") & (campaign.station == 0) & known)
-    if len(rows) < 3:
-        if not strict:
-            return None
-        raise InputError(f"{campaign.source}: {len(rows)} tracker rows of station 0 read the tool tip or a known "
-                         "target; the uncompensated error needs at least 3")
-    offset = np.array([campaign.targets.get(t, np.zeros(3)) if t else np.zeros(3) for t in campaign.target[rows]])
-    nominal = machine.tool_tip(campaign.q[rows], campaign.tool[rows], frame="base", point=campaign.point[rows],
-                               offset=offset)
-    if not spans_plane(nominal):
-        if not strict:
-            return None
-        raise InputError(f"{campaign.source}: the nominal tool points of its rows lie on a line, so the readings "
-                         "cannot be registered onto them: no uncompensated error at the tool")
-    err = norm_mm(registered_errors(nominal, campaign.xyz[rows]))
-    return Uncompensated(err, rows, campaign.tool[rows])
