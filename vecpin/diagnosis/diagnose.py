@@ -58,6 +58,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models.effects import REGISTRY, Effect
 from vecpin.planning.discriminate import discriminating_plan
 from vecpin.selection.choice import choose_or_fix
+from vecpin.selection.orders import check_folds
 from vecpin.threads import one_blas_thread
 
 SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
@@ -256,8 +257,7 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
     chosen (or fixed) on the rows left: (problem, first-pass outliers)."""
     if not (0 < alpha < 1) or not math.isfinite(alpha):
         raise InputError(f"`alpha` {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
-    if int(folds) != folds or folds < 2:
-        raise InputError(f"`folds` {folds}: cross-validation needs at least 2 folds")
+    check_folds(campaign, folds)
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) if effects in ("all", None) else list(effects)
     for n in names:

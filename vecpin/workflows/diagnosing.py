@@ -14,7 +14,6 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
-from vecpin.selection.orders import check_folds
 
 
 @dataclass
@@ -37,12 +36,11 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
     (:meth:`NoiseModel.default`); ``folds``, ``alpha``, ``model``, ``basis``, ``order`` as
     :func:`vecpin.diagnosis.diagnose.diagnose`. The folder and the folds are checked before
-    any fit, with the effects; ``alpha`` by the diagnosis itself."""
+    any fit, with the effects; ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
     check_output_dir(out, "out")
     effects = _effect_names(effects)
     noise = noise or NoiseModel.default(machine)
-    check_folds(campaign, folds, "`folds`")
     if noise.instrument == "range":
         check_stations(campaign)
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
