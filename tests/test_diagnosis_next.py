@@ -70,15 +70,15 @@ def test_a_discriminating_plan_settles_an_ambiguity_group(flow, tmp_path):
 
 
 def test_a_scanned_candidate_gain_is_the_full_solve(rng):
-    """The round's Schur-complement gain of a scanned candidate's columns equals the full
-    normal-equation solve over [J0, J1] less that over J0 (closed form, numpy)."""
-    from types import SimpleNamespace
-    from vecpin.diagnosis.scoring import ScanGain
+    """The round's Schur-complement gain of a scanned candidate's columns
+    (FoldedProblem.chi2_gain) equals the full normal-equation solve over [J0, J1] less that
+    over J0 (closed form, numpy)."""
+    from vecpin.identification.crossval import FoldedProblem
     N, P0, k = 120, 9, 3
     J0, J1, w, psi0 = rng.normal(size=(N, 3, P0)), rng.normal(size=(N, 3, k)), rng.normal(size=(N, 3)), rng.normal(size=P0)
     a, b = J0.reshape(-1, P0), J1.reshape(-1, k)
-    base = SimpleNamespace(J=J0, w=w, x0=psi0, G=a.T @ a, g=a.T @ w.ravel(), n_columns=P0)
-    gain = ScanGain(base).gain(J1)
+    base = FoldedProblem(J0, np.zeros_like(J0), w, np.zeros_like(w), np.arange(N) % 5, x0=psi0)
+    gain = base.chi2_gain(J1)
     ab = np.c_[a, b]
     g_full = np.r_[a.T @ w.ravel() - psi0, b.T @ w.ravel()]
     g0 = a.T @ w.ravel() - psi0

@@ -47,7 +47,7 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.scoring import (Kinematics, ScanGain, candidate_effects, distances_mm, effect_columns,
+from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns,
                                       needed_given, pattern_cosine, score)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
@@ -308,12 +308,11 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
     kin = Kinematics(st.cur_model, lin, st.feats)
     base = lin.folded(fold_r)
     round_scores, scan_best = [], {}
-    scan = ScanGain(base) if any(c.scanned for c in remaining) else None
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
-            gain = scan.gain(cols[1])
+            gain = base.chi2_gain(cols[1])
             if type(c) not in scan_best or gain > scan_best[type(c)][0]:
                 scan_best[type(c)] = (gain, c, cols)
             continue

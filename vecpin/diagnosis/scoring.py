@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import stats
 
 from vecpin.errors import InputError
 from vecpin.identification.crossval import FoldedProblem, Linearised
@@ -152,26 +152,3 @@ def needed_given(lin: Linearised, base: FoldedProblem, cols_a: tuple, cols_b: tu
     Ab, Jb = cols_b
     ev = score(lin, base.extend(Jb, Ab), cols_a, eval_b)
     return bool(ev["p"] < threshold and ev["p_heldout"] < threshold)
-
-
-class ScanGain:
-    """The full-data chi2 gain of adding columns J1 to the current linearised model, by
-    the Schur complement of its normal matrix (one factorisation per round, then a k x k
-    solve per candidate): g^T (G + I)^-1 g over [J0, J1] less its value over J0 alone is
-    u^T S^-1 u, u = g1 - C^T M g0, S = J1^T J1 + I - C^T M C, C = J0^T J1, M = (G0 + I)^-1
-    (g0 = J0^T w - psi0, g1 = J1^T w). Ranks the candidates of a scanned family as the
-    full solve does."""
-
-    def __init__(self, base: FoldedProblem):
-        self.J0 = base.J.reshape(-1, base.n_columns)
-        self.w = base.w.ravel()
-        self.M = linalg.inv(base.G + np.eye(base.n_columns))
-        self.Mg0 = self.M @ (base.g - base.x0)
-
-    def gain(self, J1: np.ndarray) -> float:
-        b = J1.reshape(-1, J1.shape[-1])
-        C = self.J0.T @ b
-        MC = self.M @ C
-        S = b.T @ b + np.eye(b.shape[1]) - C.T @ MC
-        u = b.T @ self.w - C.T @ self.Mg0
-        return float(u @ linalg.solve(S, u, assume_a="pos"))
