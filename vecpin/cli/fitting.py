@@ -18,15 +18,15 @@ def read_fit_campaign(args, m):
 
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
-    from vecpin.workflows.fitting import fit_campaign
+    from vecpin.workflows.estimator import ErrorModelCV
     m = machine(args.machine, args)
     check_output_file(args.out)
-    run = fit_campaign(m, read_fit_campaign(args, m), noise(args, m), kind=args.model, basis=args.basis,
-                       order=args.order, tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
+    est = ErrorModelCV(m, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
+                       tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, folds=args.folds, zone=zone_option(args.zone),
                        noise_from_data=not noise_stated(args), progress=progress(not args.quiet))
-    run.model.save(args.out)
-    say(args, *run.lines())
+    est.fit(read_fit_campaign(args, m)).save(args.out)
+    say(args, *est.run_.lines())
     print(f"wrote {args.out}")
     return 0
 
