@@ -4,10 +4,10 @@
 machine, order)`` builds one by name; ``ErrorModel.from_spec(machine, spec)`` from its
 :class:`ModelSpec`; ``ErrorModel.load(path)`` reads a model file.
 """
-from vecpin.models.ap import APModel
 from vecpin.models.base import MODELS, ErrorModel, make_model, register_model
+from vecpin.models.sixdof import COMPONENTS, SixDofModel  # registered first: the model choice's first kind
+from vecpin.models.ap import APModel
 from vecpin.models.parameters import Parameter
-from vecpin.models.sixdof import COMPONENTS, SixDofModel
 from vecpin.models.spec import ModelSpec
 from vecpin.models.tips import ModelTip
 
