@@ -56,7 +56,7 @@ def register(sub) -> None:
                    help="axis whose command no table may change; repeatable (default: none)")
     s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"],
                    help="subset selection method (default exact)")
-    s.add_argument("--points", type=int,
+    s.add_argument("--table-points", dest="points", type=int,
                    help="points per table (default: 1024 or the controller's maximum if smaller)")
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
     s.add_argument("--modulo", action="append", default=[], metavar="AXIS",

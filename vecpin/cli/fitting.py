@@ -60,7 +60,7 @@ def run_orders(args) -> int:
     m = machine(args.machine, args)
     c = read_campaign(args.csv, m)
     v = read_campaign(args.validation, m) if args.validation else None
-    run = choose_orders(m, c, noise(args, m), kinds=args.model, orders=parse_orders(args.orders), basis=args.basis,
+    run = choose_orders(m, c, noise(args, m), kinds=args.kinds, orders=parse_orders(args.orders), basis=args.basis,
                         validation=v, folds=args.folds, progress=progress(not args.quiet))
     say(args, *run.lines())
     return 0
@@ -124,7 +124,7 @@ def register(sub) -> None:
     s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")
     s.add_argument("machine", help=MACHINE_HELP)
     s.add_argument("csv", help=CAMPAIGN_HELP)
-    s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"],
+    s.add_argument("--models", dest="kinds", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"],
                    help="model kinds to sweep, one or both (default: 6dof ap)")
     s.add_argument("--orders", default="0-7",
                    help="series orders to try: a range like 0-7 or a list like 2,4,6 (default %(default)s)")
