@@ -372,8 +372,8 @@ class ErrorModel:
         span = self.report_.measured_range
         missing = [a.name for a in self.machine.axes if a.name not in span]
         if missing:
-            raise VecpinError(f"the fit report has no measured range of {', '.join(missing)} (a model file written "
-                              "before vecpin recorded it): the range to hold the errors in is unknown")
+            raise VecpinError(f"the fit report has no measured range of {', '.join(missing)} (a damaged or edited model "
+                              "file): the range to hold the errors in is unknown; fit the model again")
         self.range_ = tuple(np.array([float(a.to_si(span[a.name][j])) for a in self.machine.axes]) for j in (0, 1))
         return self
 
