@@ -32,7 +32,7 @@ def run_fit(args) -> int:
 
 
 def run_evaluate(args) -> int:
-    if args.sign_test:
+    if args.test_path:
         from vecpin.cli.compensating import run_sign_check
         return run_sign_check(args)
     from vecpin.fileio import check_output_file, write_text
@@ -114,7 +114,7 @@ def register(sub) -> None:
     s.add_argument("--json", help="also write the figures (mm) to this JSON file (default: print only)")
     s.add_argument("--reregister", action="store_true",
                    help="the tracker was moved: register its pose to this file first (default: the model's pose)")
-    s.add_argument("--sign-test", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
+    s.add_argument("--sign-test-file", dest="test_path", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
                                                        "whether the controller applies the table with the right sign; "
                                                        "JSON is the SIGNTEST_*.json of vecpin tables (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="judge only the rows commanded in this region, mm/deg "
