@@ -216,7 +216,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     xml = md["urdf"]
     if hashlib.sha256(xml.encode()).hexdigest() != md["urdf_sha256"]:
         raise ModelFileError(path, "the embedded URDF does not match its checksum", "machine.urdf")
-    machine = Machine.from_urdf_string(xml, source=md.get("source", md["name"]), **md.get("load_options", {}))
+    machine = Machine.from_urdf_string(xml, source=md["source"], **md["load_options"])
     try:
         model = factory(machine, ModelSpec.from_dict(d["model"], machine))
     except InputError as exc:
@@ -261,7 +261,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     for kind, store in (("nests", model.setup_.nests), ("targets", model.setup_.targets)):
         for k, c in tr.get(f"{kind}_mm", {}).items():
             store[k] = _finite(path, f"tracker.{kind}_mm.{k}", c) * M_PER_MM
-            for comp, sd in zip("xyz", tr.get(f"{kind}_std_mm", {}).get(k, [0.0] * 3)):
+            for comp, sd in zip("xyz", tr[f"{kind}_std_mm"][k]):
                 model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
     zone = d.get("zone")
     if zone:

@@ -120,7 +120,7 @@ class ModelSpec:
                 except InputError as exc:
                     raise InputError(f"model.axis_bases: the basis of axis {a.name} is invalid ({exc})") from None
         tools = None if d["tool_lengths_mm"] is None else [t * M_PER_MM for t in d["tool_lengths_mm"]]
-        effects = [effect_from_dict(e, machine) for e in d.get("effects", [])]
+        effects = [effect_from_dict(e, machine) for e in d["effects"]]
         return cls.of(d["kind"], machine, d["order"], "auto" if bases else d["basis"], tools, d["prior_scale"],
                       bases, effects)
 
