@@ -71,6 +71,18 @@ def test_std_matches_a_monte_carlo_draw_of_the_parameters(fixed, flow, sim):
     np.testing.assert_allclose(mc.mean(axis=0), err, atol=0.1 * std.min())
 
 
+def test_a_model_file_keeps_the_std(fixed, sim, tmp_path):
+    """The file's standard deviations and correlations (6 decimals) give back the same
+    predicted standard deviation to 0.1 %."""
+    fixed.save(tmp_path / "m.json")
+    back = vecpin.ErrorModel.load(tmp_path / "m.json")
+    q = sim.validation.q
+    e0, s0 = fixed.predict(q, 0.2, return_std=True)
+    e1, s1 = back.predict_error(q, 0.2, return_std=True)
+    np.testing.assert_allclose(e1, e0, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(s1, s0, rtol=1e-3)
+
+
 @pytest.mark.slow
 def test_std_matches_the_scatter_of_refits_on_redrawn_noise(flow, sim):
     """40 campaigns of the same true machine and commands, the noise drawn again: the
