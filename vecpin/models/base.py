@@ -412,7 +412,8 @@ class ErrorModel:
         offset [m] (tool link frame); ``features``: per-row time/temperature/directions, for
         models with row-dependent effects. ``return_std``: also its standard deviation (N,3)
         [m] per coordinate, the fit's covariance of the model parameters (``cov_``, E_0 left
-        out) through d tip / d b at ``b_`` (linearised; 0 for terms the fit removed)."""
+        out) through d tip / d b at ``b_`` (linearised; 0 for terms the fit removed): what the
+        measurement noise leaves uncertain, not what the model's bases cannot describe."""
         self._check_fitted()
         if frame not in ("machine", "workpiece"):
             raise InputError(f"`frame` '{frame}': the error is 'workpiece' (relative to the table) or 'machine' (base frame)")

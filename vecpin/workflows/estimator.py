@@ -61,8 +61,8 @@ class ErrorModelCV:
         """The predicted tool-tip error (N,3) [m] at commands q (N,n) [m, rad] and tool
         lengths [m], relative to the workpiece (``frame="workpiece"``, what compensation
         corrects) or in the machine base frame (``"machine"``); with ``return_std``, also
-        its standard deviation (N,3) [m] from the fit's covariance
-        (:meth:`~vecpin.models.ErrorModel.predict_error`)."""
+        its standard deviation (N,3) [m] from the fit's covariance: the noise's share, not a
+        misfit of the chosen model (:meth:`~vecpin.models.ErrorModel.predict_error`)."""
         if not hasattr(self, "model_"):
             raise VecpinError("the estimator is not fitted: call fit(campaign) first")
         return self.model_.predict_error(q, tool, frame, features, point=point, offset=offset, return_std=return_std)
