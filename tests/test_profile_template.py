@@ -43,7 +43,7 @@ def test_tables_refuse_the_empty_template_then_take_it_filled_in(tmp_path, model
     main(["profile", "trunnion_xyzac", "--controller", "siemens-840d", "--out", str(prof)])
     capsys.readouterr()
     args = ["tables", str(model_file), "--controller", "siemens-840d", "--profile", str(prof), "--out",
-            str(tmp_path / "t"), "--quiet", "--points", "64"]
+            str(tmp_path / "t"), "--quiet", "--table-points", "64"]
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "nc_name" in err and "axes.X" in err
