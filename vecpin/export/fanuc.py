@@ -391,15 +391,25 @@ def read_tape(path: Path) -> tuple[dict[int, dict], dict[int, int]]:
     return params, data
 
 
-def read_grids(folder: Path, machine: Machine, profile: ControllerProfile) -> list[PitchGrid]:
-    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT``."""
+def read_tapes(folder: Path) -> tuple[dict[int, dict], dict[int, dict], dict[int, int]]:
+    """(the parameters of ``CNC-PARA.TXT``, those with ``PITCH.TXT``'s added, the pitch data
+    of both), each file read once."""
     folder = Path(folder)
-    para_path, pitch_path = folder / PARA_FILE, folder / PITCH_FILE
-    params, data = read_tape(para_path)
-    if pitch_path.exists():
-        p2, d2 = read_tape(pitch_path)
+    para, data = read_tape(folder / PARA_FILE)
+    params = dict(para)
+    if (folder / PITCH_FILE).exists():
+        p2, d2 = read_tape(folder / PITCH_FILE)
         params.update(p2)
         data.update(d2)
+    return para, params, data
+
+
+def read_grids(folder: Path, machine: Machine, profile: ControllerProfile, tapes=None) -> list[PitchGrid]:
+    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT``
+    (``tapes``: what :func:`read_tapes` read of them, else they are read here)."""
+    folder = Path(folder)
+    para_path, pitch_path = folder / PARA_FILE, folder / PITCH_FILE
+    _, params, data = read_tapes(folder) if tapes is None else tapes
     out = []
     for number in sorted(params.get(3621, {})):
         axis = profile.axis_by_number(number)
@@ -491,11 +501,12 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
     the constant that a parameter 1240 in the tape adds: the profile's reference position
     minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``."""
     folder = Path(folder)
-    grids_ = read_grids(folder, machine, profile)
+    tapes = read_tapes(folder)
+    grids_ = read_grids(folder, machine, profile, tapes)
     tables = [grid_table(g, machine) for g in grids_]
     if (folder / STRAIGHT_FILE).exists():
         tables += read_straightness(folder / STRAIGHT_FILE, machine)
-    params, _ = read_tape(folder / PARA_FILE)
+    params = tapes[0]
     shifts = {}
     for g in grids_:
         if g.number in params.get(1240, {}):
