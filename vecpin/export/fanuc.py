@@ -392,21 +392,14 @@ def read_tape(path: Path) -> tuple[dict[int, dict], dict[int, int]]:
 
 
 def read_tapes(folder: Path) -> tuple[dict[int, dict], dict[int, dict], dict[int, int]]:
-    """(the parameters of ``CNC-PARA.TXT``, those with ``PITCH.TXT``'s added, the pitch data
-    of both), each file read once."""
-    folder = Path(folder)
-    para, data = read_tape(folder / PARA_FILE)
-    params = dict(para)
-    if (folder / PITCH_FILE).exists():
-        p2, d2 = read_tape(folder / PITCH_FILE)
-        params.update(p2)
-        data.update(d2)
-    return para, params, data
+    """(``CNC-PARA.TXT``'s parameters, those and ``PITCH.TXT``'s, the pitch data), each file read once."""
+    para, data = read_tape(Path(folder) / PARA_FILE)
+    p2, d2 = read_tape(Path(folder) / PITCH_FILE) if (Path(folder) / PITCH_FILE).exists() else ({}, {})
+    return para, para | p2, data | d2
 
 
 def read_grids(folder: Path, machine: Machine, profile: ControllerProfile, tapes=None) -> list[PitchGrid]:
-    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT``
-    (``tapes``: what :func:`read_tapes` read of them, else they are read here)."""
+    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT`` (or ``tapes``: :func:`read_tapes`)."""
     folder = Path(folder)
     para_path, pitch_path = folder / PARA_FILE, folder / PITCH_FILE
     _, params, data = read_tapes(folder) if tapes is None else tapes
@@ -501,12 +494,11 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
     the constant that a parameter 1240 in the tape adds: the profile's reference position
     minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``."""
     folder = Path(folder)
-    tapes = read_tapes(folder)
-    grids_ = read_grids(folder, machine, profile, tapes)
+    grids_ = read_grids(folder, machine, profile, tapes := read_tapes(folder))
     tables = [grid_table(g, machine) for g in grids_]
     if (folder / STRAIGHT_FILE).exists():
         tables += read_straightness(folder / STRAIGHT_FILE, machine)
-    params = tapes[0]
+    params = tapes[0]                                     # 1240 of CNC-PARA.TXT itself
     shifts = {}
     for g in grids_:
         if g.number in params.get(1240, {}):
