@@ -112,14 +112,15 @@ def siemens_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.nda
     return out
 
 
-def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarray) -> np.ndarray:
+def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarray,
+                      with_1240: bool = True) -> np.ndarray:
     """Per axis [mm or deg] (controlled-axis numbers 1, 2, ... in the order of ``axes``):
     pitch data anchored at the new reference position 1240, the shift of 1240 from ``ref``,
     and the straightness values entered as STRAIGHTNESS.CSV lists them (absolute, linear
-    between points)."""
+    between points). ``with_1240`` False: parameter 1240 not loaded (the reference stays ``ref``)."""
     out = np.zeros_like(q_user)
     for k, a in enumerate(axes):
-        new = fanuc_param(folder, 1240, k + 1)
+        new = fanuc_param(folder, 1240, k + 1) if with_1240 else None
         if fanuc_param(folder, 3620, k + 1) is not None:
             out[:, k] += fanuc_pitch(folder, k + 1, q_user[:, k], ref_mm=new if new is not None else ref[a])
         out[:, k] += reference_shift(ref[a], new)
@@ -149,11 +150,14 @@ def _tnc_table(path: Path) -> list[dict]:
     raise AssertionError(f"{path}: no [END]")
 
 
-def heidenhain_corrections(folder: Path, nc_names: list[str], q_user: np.ndarray) -> np.ndarray:
+def heidenhain_corrections(folder: Path, nc_names: list[str], q_user: np.ndarray, rotary=()) -> np.ndarray:
     """Per axis [mm or deg] (columns: ``nc_names``): the active line of CONFIG.CMA names a
     .COM per input axis column (MANUALplus 620 TM p.718); in each .COM, AXISPOS is the
     input position and each axis column that axis' error there (p.716; vecpin writes
-    errors, actual - nominal: the correction is its negative), linear between entries."""
+    errors, actual - nominal: the correction is its negative), linear between entries. A
+    ``rotary`` input whose entries lie in 0..360 is looked up at its position modulo 360
+    ("with an axis of rotation, the system only recognizes corrections of entries from 0
+    to 360", TNC 407 TM p.156)."""
     out = np.zeros_like(q_user)
     active = [r for r in _tnc_table(folder / "CONFIG.CMA") if r.get("ACTIVE") == "*"]
     for row in active:
@@ -162,9 +166,12 @@ def heidenhain_corrections(folder: Path, nc_names: list[str], q_user: np.ndarray
                 continue
             rows = _tnc_table(folder / name)
             x = np.array([float(r["AXISPOS"]) for r in rows])
+            at = q_user[:, nc_names.index(col)]
+            if col in rotary and x.min() >= 0.0 and x.max() <= 360.0:
+                at = np.mod(at, 360.0)
             for out_nc in set(rows[0]) - {"NR", "AXISPOS"}:
                 v = np.array([float(r[out_nc]) for r in rows])
-                out[:, nc_names.index(out_nc)] -= np.interp(q_user[:, nc_names.index(col)], x, v)
+                out[:, nc_names.index(out_nc)] -= np.interp(at, x, v)
     return out
 
 

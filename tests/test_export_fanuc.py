@@ -57,6 +57,24 @@ def test_writer_reproduces_the_backup_form(tmp_path):
     np.testing.assert_allclose(to_mm(back.table("xx")(from_mm(X_MM))), -E_XX_MM, atol=1e-12)
 
 
+def test_reader_reads_each_tape_once(tmp_path, monkeypatch):
+    """fanuc.read parses CNC-PARA.TXT and PITCH.TXT once each (it used to parse CNC-PARA.TXT
+    again for parameter 1240), and the 1240 shift it reads is the profile's reference
+    position minus the tape's."""
+    m = tiny_machine()
+    write(fixture_tables(m), m, five_points(), tmp_path)
+    para = tmp_path / "CNC-PARA.TXT"
+    assert "N01240Q1A1P0.0" in para.read_text()
+    para.write_text(para.read_text().replace("N01240Q1A1P0.0", "N01240Q1A1P-0.5"))
+    seen = []
+    real = fanuc.read_tape
+    monkeypatch.setattr(fanuc, "read_tape", lambda path: seen.append(path.name) or real(path))
+    back = fanuc.read(tmp_path, m, five_points())
+    assert sorted(seen) == ["CNC-PARA.TXT", "PITCH.TXT"]
+    # 1240 = -0.5 against the profile's reference 0: the axis goes 0.5 mm further at every command
+    np.testing.assert_allclose(to_mm(back.table("xx")(from_mm(X_MM))), -E_XX_MM + 0.5, atol=1e-9)
+
+
 def test_table_is_anchored_at_the_reference_position_from_the_profile(tmp_path):
     """Parameter 1240 (machine coordinate of the reference position) from the profile:
     the points sit at reference + k x interval and the correction is zero there."""

@@ -1,15 +1,18 @@
 """Heidenhain .COM / .CMA: the technical-manual form, round trip, limits.
 Fixtures: tests/data/controllers/heidenhain (MANUALplus 620 TM p.716/718; pyLSV2 table syntax)."""
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 from export_helpers import DATA, E_XX_MM, E_YX_MM, X_MM, fixture_tables, profile, tiny_machine
 
+import vecpin
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError
 from vecpin.export import heidenhain
 from vecpin.export.common import ExportJob
+from vecpin.export.profile import ControllerProfile
 from vecpin.fileio import OutputSet
 from vecpin.units import to_mm
 
@@ -58,12 +61,49 @@ def test_round_trip_with_a_modulo_rotary_input(tmp_path):
 
 
 def test_limits(tmp_path):
+    """A rotary travel of at most a turn is taken by default (written over 0..360); more
+    than a turn needs modulo tables or the profile's rotary_any_range."""
     m = tiny_machine()
     assert heidenhain.LIMITS.max_points == 256
-    with pytest.raises(ControllerLimitError, match="0..360"):
-        heidenhain.check(m, named_profile(), heidenhain.LIMITS, [])        # C travels -180 .. 180
-    heidenhain.check(m, named_profile(), heidenhain.LIMITS, ["C"])
-    heidenhain.check(m, named_profile(options={"rotary_any_range": True}), heidenhain.LIMITS, [])
+    heidenhain.check(m, named_profile(), heidenhain.LIMITS, [])            # C travels -180 .. 180: one turn
+    t = vecpin.Machine.load("trunnion_xyzac")                              # C travels -720 .. 720
+    names = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1,
+                                         "axes": {a: {"nc_name": a} for a in t.axis_names}})
+    with pytest.raises(ControllerLimitError, match="C would run -720 .. 720 deg, more than a turn.*p.156"):
+        heidenhain.check(t, names, heidenhain.LIMITS, [])
+    heidenhain.check(t, names, heidenhain.LIMITS, ["C"])
+    heidenhain.check(t, dataclasses.replace(names, options={"rotary_any_range": True}), heidenhain.LIMITS, [])
+    wide = CompensationTable("C", "C", np.radians(-200.0), np.radians(5.0), np.zeros(81))
+    with pytest.raises(ControllerLimitError, match="more than a turn"):
+        write(TableSet(m.axis_names, [wide]), m, named_profile(), tmp_path)
+
+
+def test_a_rotary_travel_outside_0_360_is_written_over_one_turn(tmp_path):
+    """TNC 407 TM p.156: rotary entries run 0..360 only. Tables of C over -150 .. 150 deg are
+    written with AXISPOS 0..360 (-150 deg at entry 210); a fixed-width reader and a control
+    that looks a rotary position up modulo 360 (tests/controller_appliers.py) give the
+    tables' corrections over the travel, and so does vecpin's reader (a modulo table)."""
+    from controller_appliers import _tnc_table, heidenhain_corrections
+    m = tiny_machine()
+    c = np.radians(np.linspace(-150.0, 150.0, 121))
+    ts = [CompensationTable("C", "C", c[0], c[1] - c[0], np.radians(0.01 * c / np.pi)),
+          CompensationTable("C", "X", c[0], c[1] - c[0], 2e-5 * (c + 0.3) ** 2)]
+    with OutputSet(tmp_path) as out:
+        job = ExportJob(TableSet(m.axis_names, ts), m, named_profile(), heidenhain.LIMITS, out)
+        heidenhain.write(job)
+    assert any("0..360" in n and "p.156" in n for n in job.notes)
+    pos = [float(r["AXISPOS"]) for r in _tnc_table(tmp_path / "C.COM")]
+    assert pos[0] == 0.0 and pos[-1] == 360.0 and len(pos) == 145          # 2.5 deg, as the tables
+    q_deg = np.linspace(-150.0, 150.0, 301)
+    q_user = np.zeros((len(q_deg), 4))
+    q_user[:, 3] = q_deg
+    applied = heidenhain_corrections(tmp_path, ["X", "Y", "Z", "C"], q_user, {"C"})
+    q = np.radians(q_deg)
+    np.testing.assert_allclose(applied[:, 3], np.degrees(ts[0](q)), atol=1e-4)
+    np.testing.assert_allclose(applied[:, 0], to_mm(ts[1](q)), atol=1e-4)
+    back = heidenhain.read(tmp_path, m, named_profile())
+    assert back.table("cc").modulo
+    np.testing.assert_allclose(to_mm(back.table("xc")(q)), to_mm(ts[1](q)), atol=1e-4)
 
 
 def test_bad_table_names_file_and_line(tmp_path):

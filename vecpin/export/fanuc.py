@@ -391,15 +391,18 @@ def read_tape(path: Path) -> tuple[dict[int, dict], dict[int, int]]:
     return params, data
 
 
-def read_grids(folder: Path, machine: Machine, profile: ControllerProfile) -> list[PitchGrid]:
-    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT``."""
+def read_tapes(folder: Path) -> tuple[dict[int, dict], dict[int, dict], dict[int, int]]:
+    """(``CNC-PARA.TXT``'s parameters, those and ``PITCH.TXT``'s, the pitch data), each file read once."""
+    para, data = read_tape(Path(folder) / PARA_FILE)
+    p2, d2 = read_tape(Path(folder) / PITCH_FILE) if (Path(folder) / PITCH_FILE).exists() else ({}, {})
+    return para, para | p2, data | d2
+
+
+def read_grids(folder: Path, machine: Machine, profile: ControllerProfile, tapes=None) -> list[PitchGrid]:
+    """The pitch grids of the profile's axes from ``CNC-PARA.TXT`` and ``PITCH.TXT`` (or ``tapes``: :func:`read_tapes`)."""
     folder = Path(folder)
     para_path, pitch_path = folder / PARA_FILE, folder / PITCH_FILE
-    params, data = read_tape(para_path)
-    if pitch_path.exists():
-        p2, d2 = read_tape(pitch_path)
-        params.update(p2)
-        data.update(d2)
+    _, params, data = read_tapes(folder) if tapes is None else tapes
     out = []
     for number in sorted(params.get(3621, {})):
         axis = profile.axis_by_number(number)
@@ -491,11 +494,11 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
     the constant that a parameter 1240 in the tape adds: the profile's reference position
     minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``."""
     folder = Path(folder)
-    grids_ = read_grids(folder, machine, profile)
+    grids_ = read_grids(folder, machine, profile, tapes := read_tapes(folder))
     tables = [grid_table(g, machine) for g in grids_]
     if (folder / STRAIGHT_FILE).exists():
         tables += read_straightness(folder / STRAIGHT_FILE, machine)
-    params, _ = read_tape(folder / PARA_FILE)
+    params = tapes[0]                                     # 1240 of CNC-PARA.TXT itself
     shifts = {}
     for g in grids_:
         if g.number in params.get(1240, {}):

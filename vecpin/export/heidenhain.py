@@ -12,8 +12,14 @@ fixed-width field; data rows aligned to those fields; last line ``[END]``.
   ([axis column in .COM] = F([axis column of .CMA holding it])); ``*`` in ``ACTIVE``
   activates the line.
 
-Limits: more than 256 entries in a ``.COM`` is an error and rotary positions run 0..360
-only (TNC 407 technical manual p.622, p.156). Sign: not found in any public page
+Limits: more than 256 entries in a ``.COM`` is an error (TNC 407 technical manual p.622)
+and "with an axis of rotation, the system only recognizes corrections of entries from 0 to
+360" (p.156). So by default a rotary input whose travel lies outside 0..360 but spans at
+most a turn (a B head at -100..100 deg) gets its tables over 0..360, each entry the
+table's value at the position of the travel congruent to it (INFERRED from p.156: the
+control looks a rotary position up modulo 360; -100 deg is entry 260); a travel of more
+than a turn needs modulo tables (``modulo_axes``) or the profile's ``rotary_any_range``
+(a control that takes other positions). Sign: not found in any public page
 (UNKNOWN); vecpin writes the **error** (actual - nominal, minus the correction), as
 the TNC 407 figure plots "Error in Z" - run the sign test. Units: mm and degrees.
 """
@@ -49,14 +55,33 @@ def check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits
     for a in machine.axes:
         profile.need(a.name, "nc_name", limits.name, "axis name in the machine configuration (CfgAxes)")
         if (a.kind == "rotary" and a.name not in modulo_axes and not profile.option("rotary_any_range", False)
-                and (a.lower_user < -1e-9 or a.upper_user > 360.0 + 1e-9)):
+                and a.upper_user - a.lower_user > 360.0 + 1e-9):
             raise ControllerLimitError(_rotary_range_message(a.name, a.lower_user, a.upper_user))
 
 
 def _rotary_range_message(axis: str, lo: float, hi: float) -> str:
-    return (f"heidenhain: the tables of {axis} would run {lo:g} .. {hi:g} deg; rotary positions in a .COM run "
-            f"0..360 (TNC 407 TM p.156): make modulo tables (`modulo_axes` {axis}) or set \"options\": "
-            "{\"rotary_any_range\": true} in the profile if your control takes other positions")
+    return (f"heidenhain: the tables of {axis} would run {lo:g} .. {hi:g} deg, more than a turn; a TNC recognises "
+            f"rotary entries 0..360 only (TNC 407 TM p.156): make modulo tables (`modulo_axes` {axis}) or set "
+            "\"options\": {\"rotary_any_range\": true} in the profile if your control takes other positions")
+
+
+def one_turn(t: CompensationTable, n_max: int = MAX_ENTRIES) -> CompensationTable:
+    """Table ``t`` (rotary input, travel at most a turn, SI) as a modulo table over 0..360 deg
+    with at most ``n_max`` equidistant entries (as fine as ``t`` where that fits): each
+    entry is ``t`` at the position of its travel congruent to it; across the part of the
+    turn the axis never reaches, linear from the value at the travel's upper end to that at
+    its lower end (one turn further), so the table stays continuous."""
+    turn = 2.0 * np.pi
+    lo, hi = t.start, t.start + t.step * (len(t.values) - 1)
+    n = min(n_max, int(np.ceil(turn / t.step - 1e-9)) + 1)
+    p = np.linspace(0.0, turn, n)
+    x = lo + np.mod(p - lo, turn)
+    x[-1] = x[0]                                   # 360 is 0 (mod can put it a turn apart by rounding)
+    v = t(np.minimum(x, hi))
+    gap = x > hi
+    w = (x[gap] - hi) / (lo + turn - hi)
+    v[gap] = (1.0 - w) * t(np.array([hi]))[0] + w * t(np.array([lo]))[0]
+    return CompensationTable(t.input_axis, t.output_axis, 0.0, turn / (n - 1), v, True)
 
 
 def _header(cols: list[str], widths: list[int]) -> str:
@@ -87,7 +112,14 @@ def write(job: ExportJob) -> list[str]:
                 raise ControllerLimitError(f"heidenhain: the tables of input {ai.name} are on different grids; a .COM "
                                            "file has one AXISPOS column")
         if ai.kind == "rotary" and not any_range and (pos.min() < -1e-9 or pos.max() > 360.0 + 1e-9):
-            raise ControllerLimitError(_rotary_range_message(ai.name, pos.min(), pos.max()))
+            if pos.max() - pos.min() > 360.0 + 1e-9:
+                raise ControllerLimitError(_rotary_range_message(ai.name, pos.min(), pos.max()))
+            ts = [one_turn(t) for t in ts]
+            job.notes.append(f"{ai.name}: its tables cover {pos.min():g} .. {pos.max():g} deg; a TNC recognises rotary "
+                             f"entries 0..360 only (TNC 407 TM p.156): its .COM runs 0..360 in {len(ts[0].values)} "
+                             f"entries, {ai.name} {pos.min():g} deg at "
+                             f"{pos.min() % 360:g} (a position looked up modulo 360: INFERRED)")
+            pos = ai.to_user(ts[0].positions)
         nc_in = prof.need(ai.name, "nc_name", "heidenhain", "axis name")
         cols = ["NR", "AXISPOS"] + [prof.need(t.output_axis, "nc_name", "heidenhain", "axis name") for t in ts]
         widths = [6] + [max(WIDTH, len(c) + 2) for c in cols[1:]]
@@ -123,7 +155,9 @@ def _readme(job: ExportJob, cma) -> str:
           "  compensation values was not found in a public manual. Run the sign test before relying on the tables.",
           "- AXISPOS is the position relative to the machine datum; vecpin's positions are the NC's machine",
           "  coordinates: check the datum.",
-          "- At most 256 entries per `.COM` (TNC 407); rotary positions 0..360.",
+          "- At most 256 entries per `.COM` (TNC 407); rotary entries 0..360 (TNC 407 TM p.156): a rotary axis whose",
+          "  travel lies outside gets its tables over 0..360 (-100 deg is entry 260; INFERRED: check on the control",
+          "  that a position outside 0..360 is looked up modulo 360, e.g. with the sign test at a negative angle).",
           "- The header's exact form on your control (version field, `#STRUCTBEGIN`) may differ: compare with a",
           "  table saved by the control.",
           f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]

@@ -31,6 +31,9 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
 from vecpin.units import MM_PER_M
 
+FULL_TOLERANCE = 1.02  # files leaving more than this times the full tables' error say so first
+ROUNDING_MM = 0.001    # ... and more than this above it [mm] (the files' number format rounds to 0.1-1 um)
+
 
 def named_axis(machine, name: str, option: str, value: str | None = None):
     """``machine.axis(name)``, the error naming the parameter ``option`` that gave the name
@@ -89,11 +92,13 @@ class TableRun:
     notes: list[str] = field(default_factory=list)
     as_written: TableSet | None = None
     sign_test: SignTest | None = None
+    headline: str | None = None   # the files leave more than the full tables: how much and why (printed first)
 
     def lines(self, model_name: str) -> list[str]:
         plan = self.plan
         m_name = plan.problem.machine.name
-        out = [f"compensation tables for {m_name} ({self.controller}), model {model_name}"]
+        out = [self.headline] if self.headline else []
+        out.append(f"compensation tables for {m_name} ({self.controller}), model {model_name}")
         grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
@@ -169,17 +174,41 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
             names += write_sign_test(out, st, fmt.dialect, prof, notes, how)
+        headline = _judge_written(plan, model, as_written, job, names) if fmt.name != "generic" else None
     if out.removed:
         notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
                      "(unchanged since): " + ", ".join(p.name for p in out.removed))
-    if as_written is not None and fmt.name != "generic":
-        # the whole model: the drives' differential (read back from the files) turns the beam against its skew
-        add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
-        if any(abs(c) > 0 for c in job.constants.values()):   # the loss if the reference point data are not loaded
-            without = with_constants(as_written, {a: -c for a, c in job.constants.items()})
-            add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     files = [Path(out_dir) / n for n in names]
-    return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st)
+    return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st,
+                    headline)
+
+
+def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
+                   names: list[str]) -> str | None:
+    """Add the report rows of the files as written (and without the reference point data,
+    where the files put constants there); when the files leave more than 2 % above the
+    full tables (and 1 um), say so, and why, in the first line of the controller's README (returned:
+    the printout's first line too)."""
+    if as_written is None:
+        return None
+    # the whole model: the drives' differential (read back from the files) turns the beam against its skew
+    add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
+    if any(abs(c) > 0 for c in job.constants.values()):   # the loss if the reference point data are not loaded
+        without = with_constants(as_written, {a: -c for a, c in job.constants.items()})
+        add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
+    rows = {r.label: r for r in plan.report.rows}
+    full, files = rows.get("full tables (model-predicted)"), rows["files as written (model-predicted)"]
+    if full is None or files.mean <= FULL_TOLERANCE * full.mean + ROUNDING_MM:
+        return None
+    n = len(plan.tables.tables)
+    why = (f"{job.limits.name} takes {n} of the {full.tables} tables ({job.limits.source})" if n < full.tables
+           else "the controller's grid and value resolution")
+    headline = (f"NOTE: these files leave a model-predicted mean error of {files.mean:.4f} mm where the full tables "
+                f"leave {full.mean:.4f} mm ({100 * (files.mean / full.mean - 1):+.0f} %): {why}.")
+    readme = next((k for k in names if k.startswith("README_")), None)
+    if readme is not None:
+        job.out.write_text(readme, headline + "\n\n" + job.out.path(readme).read_text())
+    return headline
 
 
 def _check_request(model: ErrorModel, controller: str, profile, axis_map, points, forbid_output, modulo_axes,
