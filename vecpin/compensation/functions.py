@@ -244,22 +244,6 @@ def from_ap_model(model: APModel, modulo_axes=(), hold: dict[str, tuple[float, f
     return CompensationFunctions(m, list(model.bases), coef, float(model.b_[0]), tuple(modulo_axes), hold or None)
 
 
-EQUATIONS_PER_COEFFICIENT = 40  # pseudo-measurement equations per table coefficient (see table_commands)
-MIN_TABLE_COMMANDS = 1000
-
-
-def table_commands(machine: Machine, n_tools: int, modulo_axes=()) -> int:
-    """How many pseudo-commands the full table set of ``machine`` is fitted on, each read
-    with ``n_tools`` tool lengths. Tables are separable and a machine's errors are not:
-    the part no table follows acts on the least-squares fit of the p table coefficients
-    as noise does, and the fitted tables miss the best ones by about that part times
-    sqrt(p / m) at m = 3 x commands x tools equations. With m >= 40 p that loss stays
-    below 16 % of the part (about 1 % of the compensated error; on a five-axis machine
-    1000 commands cost about 4 %); at least 1000 commands."""
-    p = len(machine.axes) * sum(b.size for b in rich_table_bases(machine, tuple(modulo_axes)))
-    return max(MIN_TABLE_COMMANDS, int(np.ceil(EQUATIONS_PER_COEFFICIENT * p / (3 * max(n_tools, 1)))))
-
-
 def pseudo_commands(machine: Machine, n: int = 1000, seed: int = 0, lower: np.ndarray | None = None,
                     upper: np.ndarray | None = None) -> np.ndarray:
     """Quasi-random (scrambled Halton) commands [m, rad] over the axis space, or over
