@@ -54,7 +54,7 @@ class SimulationRun:
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
-               f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
+               f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
             out.append(error_summary("true vs nominal tip relative to the workpiece", registered_errors(
