@@ -71,9 +71,10 @@ def test_plan_with_nests_identifies_the_table_axis_terms(trunnion_plan):
 def test_nest_rows_follow_their_command_and_the_line_of_sight(trunnion_plan):
     """Each nest row repeats the command and holder of the tool row before it; nests are
     read once per chosen command (first holder), and exactly the nests a fresh line-of-
-    sight test sees there."""
+    sight test sees there (station 0's rows: a second station's block has its own test,
+    test_plan_stations.py)."""
     p = trunnion_plan
-    t = p.template
+    t = p.template.take(np.flatnonzero(p.template.stations == 0))
     nest = t.instrument == "nest"
     assert nest.sum() > 0 and t.instrument[0] == "tracker"
     prev = np.maximum.accumulate(np.where(~nest, np.arange(len(t)), 0))
@@ -127,7 +128,7 @@ def test_simulated_plan_imports_by_name_and_fits_the_table_axes(trunnion_plan, t
     order of the unshuffled export) -> the fit relative to the workpiece is far below the
     uncompensated error, where the same commands without the nest rows leave most of it."""
     p, m = trunnion_plan, trunnion_plan.machine
-    sim = simulate(m, seed=4, plan=p.template, tracker_position=p.tracker)
+    sim = simulate(m, seed=4, plan=p.template, tracker_position=p.tracker, station_positions=p.placement.stations)
     c = sim.campaign
     assert np.array_equal(c.instrument, p.template.instrument) and np.array_equal(c.target, p.template.target)
     plan_csv = tmp_path / "plan.csv"
@@ -198,7 +199,8 @@ def test_predicted_error_matches_a_monte_carlo_of_simulate_and_fit(trunnion_plan
     tool = np.full(len(p.validation), p.tools[0])
     runs = []
     for seed in range(8):
-        sim = simulate(m, seed=seed, plan=p.template, truth=truth, tracker_position=p.tracker)
+        sim = simulate(m, seed=seed, plan=p.template, truth=truth, tracker_position=p.tracker,
+                       station_positions=p.placement.stations)
         fitted = make_model(MODEL, m, ORDER, bases=truth.family_bases()).fit(sim.campaign, noise)
         runs.append(validation_error(fitted, sim.truth, p.validation, tool)[0])
     assert 1 / 1.5 < np.mean(runs) / predicted < 1.5

@@ -189,6 +189,7 @@ class _Joined:
     instrument: np.ndarray | None = None
     target: np.ndarray | None = None
     nest_at: np.ndarray | None = None
+    station: np.ndarray | None = None  # (N,) tracker station of each row (a plan read from several)
     unmeasured: list[int] = field(default_factory=list)
     unmatched: list[str] = field(default_factory=list)
 
@@ -219,7 +220,8 @@ def import_export(path: str | Path, machine: Machine, plan: str | Path | PlanTem
     if j.instrument is not None:  # a nest reading: the planned nest on the table, posed at the command
         on = j.instrument == "nest"
         nominal_mm[on] = machine.workpiece_points(j.q[on], j.nest_at[on], jacobian=False).xyz / M_PER_MM
-    chosen, reason = _length_unit(ex, raw, nominal_mm, units)
+    first = slice(None) if j.station is None else j.station == 0  # the spread within one tracker frame
+    chosen, reason = _length_unit(ex, raw[first], nominal_mm[first], units)
     extra, order, t_unit = _time_and_temperature(ex, j, machine, time_format, temperature_unit)
     return _imported(ex, machine, template, j, raw * LENGTH_UNITS[chosen], nominal_mm, extra, order,
                      (chosen, reason, t_unit))
@@ -339,6 +341,8 @@ def _join_plan(ex: _Export, template: PlanTemplate, ignore_unmatched: bool) -> _
     if template.has_nests:  # nest readings keep their nest: the fit finds its position
         j.instrument, j.target = template.instrument[rows_plan].copy(), template.target[rows_plan].copy()
         j.nest_at = template.nest[rows_plan]
+    if np.any(template.stations != 0):  # each station's readings are in its own tracker frame
+        j.station = template.stations[rows_plan].copy()
     return j
 
 
@@ -449,13 +453,17 @@ def _imported(ex: _Export, machine: Machine, template: PlanTemplate | None, j: _
         instrument, target = j.instrument[order], j.target[order]
     extra = {k: v[order] for k, v in extra.items()}
     rows_file = np.array(ex.table.lines)[j.keep][order]
-    err = norm_mm(registered_errors(nominal_mm[order] * M_PER_MM, xyz_mm * M_PER_MM))
+    station = None if j.station is None else j.station[order]
+    err = np.zeros(len(q))
+    for s in np.unique(station if station is not None else [0]):  # one rigid fit per tracker station
+        on = np.ones(len(q), bool) if station is None else station == s
+        err[on] = norm_mm(registered_errors(nominal_mm[order][on] * M_PER_MM, xyz_mm[on] * M_PER_MM))
     if err.mean() > AGREE_MM:
         worst = int(np.argmax(err))
         raise CampaignFileError(name, f"after the best rigid fit the measured points lie {err.mean():.1f} mm (mean) from "
                                 f"the planned tool tips, far more than a machine's error: rows out of order, the wrong "
                                 f"plan, or another holder length? (worst: line {rows_file[worst]}, {err[worst]:.1f} mm)")
-    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, target=target)
+    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, station, target=target)
     chosen, reason, t_unit = read_as
     columns_used = {f: ex.table.header[k] for f, k in ex.idx.items()}
     u = uncompensated(machine, campaign, strict=False)  # the figure assess and fit print
@@ -470,7 +478,9 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     writes (mm, deg; 6 decimals in mm, 8 in deg), extra columns after x, y, z."""
     q_user = machine.to_user(campaign.q)
     nests = len(campaign.nest_rows) > 0  # then also which rows read a table nest, and which
-    header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra) + (["instrument", "target"] if nests else [])
+    several = bool(np.any(campaign.station != 0))  # and from which tracker station
+    header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra) + (["instrument", "target"] if nests else []) \
+        + (["station"] if several else [])
     fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4
     cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool / M_PER_MM] + \
         [campaign.xyz[:, k] / M_PER_MM for k in range(3)]
@@ -481,6 +491,8 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
                 [f % v[i] for f, v in zip(extra_fmt, campaign.extra.values())]
         if nests:
             cells += [str(campaign.instrument[i]), str(campaign.target[i])]
+        if several:
+            cells.append(str(int(campaign.station[i])))
         lines.append(",".join(cells))
     return "\n".join(lines) + "\n"
 

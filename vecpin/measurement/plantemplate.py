@@ -14,7 +14,14 @@ file (:mod:`vecpin.measurement.campaign`):
   at the dwell of the tool-tip row before it, the same command), ``target`` (the nest's
   id on nest rows, empty on tool rows) and ``nest_x``, ``nest_y``, ``nest_z``: where the
   nest was planned, mm in the workpiece (table) frame, on nest rows only (the fit finds
-  the real position; the planned one is the start, and where a simulation puts it).
+  the real position; the planned one is the start, and where a simulation puts it);
+* on a plan read from several tracker stations (a second station proposed for the
+  table's tilt range, :mod:`vecpin.planning.nestplacement`): ``station``, the tracker
+  position each row is read from (0: the plan's tracker; 1: the second station, whose
+  rows come after all of station 0's, as a block of their own). The stations' positions
+  (mm, machine base frame) are in plan.json (``stations_mm``) and in the NC programs'
+  comments; a campaign keeps the column (:mod:`vecpin.measurement.campaign`), so the
+  fit finds every station's pose.
 
 Every row has its own point number, nest rows too, so a tracker export whose points
 are named after the template (P0001, P0002, ...) joins by name, and one without names
@@ -36,7 +43,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.campaign import read_text_file
+from vecpin.measurement.campaign import MAX_ID, read_text_file
 from vecpin.units import M_PER_MM, to_mm
 
 
@@ -49,7 +56,8 @@ class PlanTemplate:
     order, ``tool`` (N,) [m], ``approach`` (N,n) signs or None; on a plan with table
     nests ``instrument`` (N,) "tracker"/"nest", ``target`` (N,) nest id ("" on tool
     rows) and ``nest`` (N,3) [m] planned nest position in the workpiece frame (NaN on
-    tool rows); None on a plan without nests."""
+    tool rows); None on a plan without nests. ``station`` (N,) int: the tracker station
+    each row is read from, None on a plan read from one station."""
 
     point: np.ndarray
     q: np.ndarray
@@ -59,6 +67,7 @@ class PlanTemplate:
     instrument: np.ndarray | None = None
     target: np.ndarray | None = None
     nest: np.ndarray | None = None
+    station: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.point)
@@ -76,6 +85,11 @@ class PlanTemplate:
     def nest_rows(self) -> np.ndarray:
         return np.zeros(0, int) if self.instrument is None else np.flatnonzero(self.instrument == "nest")
 
+    @property
+    def stations(self) -> np.ndarray:
+        """(N,) the tracker station of every row (0 on a plan read from one station)."""
+        return np.zeros(len(self), int) if self.station is None else self.station
+
     def nests(self) -> dict[str, np.ndarray]:
         """{nest id: planned position (3,) [m], workpiece frame} in the order first read."""
         out: dict[str, np.ndarray] = {}
@@ -88,7 +102,7 @@ class PlanTemplate:
         rows = np.asarray(rows)
         pick = (lambda a: None if a is None else a[rows])
         return PlanTemplate(self.point[rows], self.q[rows], self.tool[rows], pick(self.approach), self.source,
-                            pick(self.instrument), pick(self.target), pick(self.nest))
+                            pick(self.instrument), pick(self.target), pick(self.nest), pick(self.station))
 
     def to_csv(self, machine: Machine) -> str:
         """The template CSV text (mm, deg; 6 decimals in mm, 8 in deg, as campaign files)."""
@@ -100,6 +114,9 @@ class PlanTemplate:
         if nests:
             header += list(NEST_COLUMNS)
             nest_mm = to_mm(self.nest)
+        several = bool(np.any(self.stations != 0))
+        if several:
+            header.append("station")
         lines = [",".join(header)]
         fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes]
         tool_mm = to_mm(self.tool)
@@ -111,6 +128,8 @@ class PlanTemplate:
                 on_nest = self.instrument[i] == "nest"
                 cells += [str(self.instrument[i]), str(self.target[i]) if on_nest else ""]
                 cells += [f"{v:.6f}" for v in nest_mm[i]] if on_nest else ["", "", ""]
+            if several:
+                cells.append(str(int(self.station[i])))
             lines.append(",".join(cells))
         return "\n".join(lines) + "\n"
 
@@ -191,7 +210,32 @@ def read_template(path: str | Path, machine: Machine) -> PlanTemplate:
                                     row=int(lines[k]), column=machine.axis_names[int(np.argmax(
                                         np.abs(q_user[k] - q_user[at[k]])))])
     return PlanTemplate(point.astype(int), machine.to_si(q_user), tool * M_PER_MM, approach, name, instrument, target,
-                        nest)
+                        nest, _station_column(name, idx, body, lines))
+
+
+def _station_column(name: str, idx: dict[str, int], body: list, lines: np.ndarray) -> np.ndarray | None:
+    """(N,) the tracker station of every row (whole numbers >= 0, each station's rows in one
+    block, station 0 first), or None without a ``station`` column."""
+    if "station" not in idx:
+        return None
+    out = np.zeros(len(body), int)
+    for k, (line, cells) in enumerate(body):
+        s = cells[idx["station"]].strip() or "0"
+        try:
+            v = float(s)
+        except ValueError:
+            v = -1.0
+        if not (v == round(v) and 0 <= v <= MAX_ID):
+            raise CampaignFileError(name, f"station '{s}': a whole number 0 .. {MAX_ID} (the tracker position the row "
+                                    "is read from; 0 the plan's tracker)", row=line, column="station")
+        out[k] = int(v)
+    change = np.flatnonzero(np.diff(out) != 0) + 1
+    if out[0] != 0 or np.any(np.diff(out[np.r_[0, change]]) <= 0):
+        k = int(change[np.argmax(np.diff(out[np.r_[0, change]]) <= 0)]) if out[0] == 0 else 0
+        raise CampaignFileError(name, f"station {out[k]} here: a plan reads station 0 first, then each further station "
+                                "in one block of rows (the tracker moves once between blocks)", row=int(lines[k]),
+                                column="station")
+    return out
 
 
 def _nest_columns(name: str, idx: dict[str, int], body: list, lines: np.ndarray):

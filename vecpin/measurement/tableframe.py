@@ -259,7 +259,7 @@ class NetOfNoise:
     @property
     def resolved(self) -> bool:
         """True when the estimate is at least twice its uncertainty."""
-        return self.rms >= 2 * self.sd
+        return bool(self.rms >= 2 * self.sd)
 
     def line(self) -> str:
         how = (f"(measured RMS {self.measured_rms:.4f} mm over {self.rows} rows, from which the noise's expected "

@@ -19,7 +19,10 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
 * each point is reached as the plan's approach says (from the approach position, the
   point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
   then a dwell for the tool target and every table nest read there (``dwell_s`` plus
-  ``nest_dwell_s`` per nest; the comment names the read order).
+  ``nest_dwell_s`` per nest; the comment names the read order);
+* on a plan read from several tracker stations (template column ``station``), the
+  header says where the tracker stands for which points, and the program stops (``M0``)
+  before each further station's block for the tracker to move there (``stations``).
 
 The header counts the points as the rows of the plan (tool targets and nests). Values
 are written with 3 decimals (the plan's commands are on a 0.001 mm / 0.001 deg grid, so
@@ -163,12 +166,37 @@ def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarra
     return total + (abs(end - cur) if end is not None else 0.0)
 
 
+def station_where(k: int, stations: list | None) -> str:
+    """'tracker station K+1' of station id ``k``, with its position when ``stations``
+    (positions (3,) [m], machine base frame, by station id) gives it."""
+    at = (" at " + ", ".join(f"{round(v * MM_PER_M) + 0:.0f}" for v in stations[k]) + " mm (machine base frame)"
+          if stations is not None and k < len(stations) else "")
+    return f"tracker station {k + 1}{at}"
+
+
+def station_notes(template: PlanTemplate, stations: list | None) -> list[str]:
+    """Header lines saying where the tracker stands for which points: one per station of
+    a plan read from several (``stations``: see :func:`station_where`), none on a plan
+    read from one."""
+    st = template.stations
+    if not np.any(st != 0):
+        return []
+    out = []
+    for k in np.unique(st):
+        rows = np.flatnonzero(st == k)
+        out.append(f"{station_where(int(k), stations)}: points {point_name(template.point[rows[0]])} to "
+                   f"{point_name(template.point[rows[-1]])}"
+                   + (" (the program stops before them for the tracker to move)" if k else ""))
+    return out
+
+
 def program_header(dialect: str, machine: Machine, template: PlanTemplate, names: list[str], moves: tuple,
-                   times: tuple[float, float, float], title: str = "") -> list[str]:
+                   times: tuple[float, float, float], title: str = "", stations: list | None = None) -> list[str]:
     """The program's header lines (comments): what it measures, in which coordinates, how
     it moves between the points (``moves``: retract axis index, its safe position [mm],
-    the other linear and the rotary axis indices) and what it does at each (``times``:
-    dwell [s], dwell per nest [s], approach feed [mm/min])."""
+    the other linear and the rotary axis indices), what it does at each (``times``:
+    dwell [s], dwell per nest [s], approach feed [mm/min]) and where the tracker stands
+    (:func:`station_notes`)."""
     r, safe, others, rotary = moves
     dwell_s, nest_dwell_s, feed_mm_min = times
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
@@ -189,6 +217,7 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
             f"for the tool target and {nest_dwell_s:g} s per table nest read there",
+            *station_notes(template, stations),
             nc.restore_note(dialect),
             "run it first at a reduced rapid override and watch the moves"]
 
@@ -196,14 +225,16 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
-                  title: str = "") -> str:
+                  title: str = "", stations: list | None = None) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
     the tool target, ``nest_dwell_s`` [s] more per table nest read there; ``feed_mm_min``
     [mm/min] for the final approach; ``safe_z_mm`` [mm] the retract axis' safe machine
     position (default: the end of its travel away from the work); ``retract``: the
-    retract axis' name (default: found from the kinematics)."""
+    retract axis' name (default: found from the kinematics); ``stations``: the tracker
+    stations' positions (3,) [m], machine base frame, by station id (a plan read from
+    several, :func:`station_notes`)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
@@ -224,14 +255,19 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
-                          (dwell_s, nest_dwell_s, feed_mm_min), title)
+                          (dwell_s, nest_dwell_s, feed_mm_min), title, stations)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe)
-    current_tool = None
+    current_tool, current_station = None, 0
     for v in route:
         i = v.row
         if v.lift is not None:
             out.append(move([r], {r: v.lift}))
+        if template.stations[i] != current_station:
+            current_station = int(template.stations[i])
+            where = station_where(current_station, stations)
+            out.append(comment(where))
+            out.append(nc.stop(dialect, f"move the tracker: {where}, lock on the target, then cycle start"))
         L = float(template.tool[i])
         if current_tool is None or abs(L - current_tool) > 1e-9:
             msg = f"mount the target holder of {L * MM_PER_M:.3f} mm (gauge line to target centre), then cycle start"

@@ -19,6 +19,12 @@ second stations around the workspace, 8 directions x 3 heights at the first stat
 distance. A second station is proposed when it covers at least :data:`SECOND_STATION_GAIN`
 more of the table's travel. Frames: nests in the workpiece frame, stations in the machine
 base frame, metres.
+
+:func:`station_blocks` makes the proposal a plan's rows: after station 0's rows, a block
+per further station (template column ``station``) reading, at each of the plan's
+first-holder commands where that station sees the tool and at least one nest, the tool
+and every nest it sees; the NC programs stop for the tracker to move between the blocks,
+the simulator reads each block from its station, and the fit finds every station's pose.
 """
 from __future__ import annotations
 
@@ -28,6 +34,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning.nests import NEST_HEIGHTS, nest_positions, nest_reach
 from vecpin.planning.sightline import SightLine, solids_from_urdf
 from vecpin.units import MM_PER_M
@@ -88,7 +95,8 @@ class Placement:
                            if blind else ""))
         for k, st in enumerate(self.stations[1:], start=2):
             out.append(f"  tracker station {k} at {', '.join(f'{v * MM_PER_M:.0f}' for v in st)} mm (machine base frame): "
-                       "read the plan's commands from there too (the tool and the nests it sees)")
+                       f"the plan's last block of rows (station {k - 1} in plan.csv; the NC programs stop for the "
+                       "tracker to move there) reads the tool and the nests it sees at the first holder's commands")
         return out + [f"  {n}" for n in self.notes]
 
 
@@ -275,4 +283,44 @@ def place_nests(machine: Machine, tracker: np.ndarray, n: int, tool: float, seco
                      _per_axis(machine, q, _covered([seen1], keep)), q, notes)
 
 
-__all__ = ["Placement", "place_nests", "nests_seen", "candidate_nests", "candidate_stations", "SECOND_STATION_GAIN"]
+def station_blocks(machine: Machine, template: PlanTemplate, placement: Placement, **sight) -> PlanTemplate:
+    """``template`` (station 0's rows) followed by one block of rows per further station
+    of ``placement``: at each distinct command of the first holder (template order) where
+    that station sees the tool and at least one nest, the tool row, then a row for each
+    nest it sees there (``sight``: :class:`SightLine` options). Points numbered on;
+    ``station`` 0, 1, ... (see the module text)."""
+    if len(placement.stations) < 2:
+        return template
+    t0 = template.take(template.tool_rows)
+    first = np.isclose(t0.tool, template.tool[0])
+    _, pick = np.unique(np.round(t0.q[first], 9), axis=0, return_index=True)
+    t0 = t0.take(np.flatnonzero(first)[np.sort(pick)])  # each command once, in the plan's order
+    nests = placement.nests
+    ids, pos = np.array(list(nests), dtype=object), np.array(list(nests.values()))
+    blocks, point = [template], int(template.point.max())
+    for k, station in enumerate(placement.stations[1:], start=1):
+        seen = nests_seen(machine, station, t0.q, nests, float(t0.tool[0]), **dict(sight))
+        keep = np.flatnonzero(seen.any(axis=1))
+        count = 1 + seen[keep].sum(axis=1)
+        src = np.repeat(keep, count)
+        is_nest = np.ones(len(src), bool)
+        is_nest[np.r_[0, np.cumsum(count)[:-1]]] = False
+        which = np.nonzero(seen[keep])[1]
+        b = t0.take(src)
+        b.point = point + np.arange(1, len(src) + 1)
+        b.instrument = np.where(is_nest, "nest", "tracker").astype(object)
+        b.target = np.full(len(src), "", dtype=object)
+        b.target[is_nest] = ids[which]
+        b.nest = np.full((len(src), 3), np.nan)
+        b.nest[is_nest] = pos[which]
+        b.station = np.full(len(src), k)
+        blocks.append(b)
+        point += len(src)
+    def cat(f):
+        return np.concatenate([getattr(b, f) for b in blocks])
+    return PlanTemplate(cat("point"), cat("q"), cat("tool"), None if template.approach is None else cat("approach"),
+                        template.source, cat("instrument"), cat("target"), cat("nest"),
+                        np.concatenate([b.stations for b in blocks]))
+
+
+__all__ = ["Placement", "place_nests", "station_blocks", "nests_seen", "candidate_nests", "candidate_stations", "SECOND_STATION_GAIN"]

@@ -37,7 +37,7 @@ from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.planchecks import plan_warnings
-from vecpin.planning.nestplacement import Placement
+from vecpin.planning.nestplacement import Placement, station_blocks
 from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem, planned_model
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import clip_to_zone, inside
@@ -156,6 +156,10 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     chosen, chosen_seen = choose_commands(problem, info, cands, say)
     say("ordering the points")
     chosen, template = measurement_order(problem, chosen, chosen_seen)
+    if problem.placement is not None:  # a second tracker station's block of rows, when one is proposed
+        s = problem.settings
+        template = station_blocks(machine, template, problem.placement, geometry=s.geometry,
+                                  tool_radius=s.tool_radius_mm * M_PER_MM, target_clearance=s.target_clearance_mm * M_PER_MM)
     return plan_result(problem, info, cands, chosen, template, say)
 
 

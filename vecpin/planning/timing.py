@@ -7,7 +7,8 @@ runs at the approach feed, then the dwell for the tool target and one more dwell
 table nest read there. Each rapid move takes the time of its slowest axis at its rapid
 speed (no acceleration: a lower bound of the moves). A change of the target holder
 (the program stops with ``M0``) costs ``holder_change_s`` (the operator swaps the
-holder and the tracker locks on again).
+holder and the tracker locks on again); so does the stop where the tracker moves to
+another station (a plan read from several stations).
 
 The plan prints the total and the simulator stamps a planned campaign's rows with
 these times, so both book the same campaign.
@@ -88,13 +89,13 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -
     t = np.zeros(len(template))
     now = moves = approach = dwell = 0.0
     changes = 0
-    prev, cur_tool = None, None
+    prev, cur_tool, cur_station = None, None, 0
     for v in vs:
-        tool = float(template.tool[v.row])
-        if cur_tool is not None and abs(tool - cur_tool) > 1e-9:
+        tool, station = float(template.tool[v.row]), int(template.stations[v.row])
+        if cur_tool is not None and (abs(tool - cur_tool) > 1e-9 or station != cur_station):  # a stop: holder or tracker moved
             changes += 1
             now += timing.holder_change_s
-        cur_tool = tool
+        cur_tool, cur_station = tool, station
         if prev is not None:
             lift = v.lift if v.lift is not None else prev[r]
             step = abs(lift - prev[r]) / v_user[r]

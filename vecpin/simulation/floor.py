@@ -14,6 +14,7 @@ import numpy as np
 
 from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, pitch_names,
                                            pseudo_commands, registered_actual, rich_table_bases, truth_as_actual)
+from vecpin.compensation.plan import table_commands
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
 from vecpin.compensation.tables import TableSet
@@ -45,12 +46,13 @@ def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: 
     return float(d.mean()), float(d.max())
 
 
-def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS, n_commands: int = 1500,
-                tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0) -> Floor:
+def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS,
+                n_commands: int | None = None, tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0) -> Floor:
     """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
-    with tool lengths ``tool`` [m]."""
+    with tool lengths ``tool`` [m]; fitted on ``n_commands`` pseudo-commands (default as
+    many as vecpin's tables take: :func:`~vecpin.compensation.plan.table_commands`)."""
     m = truth.machine
-    pseudo = pseudo_commands(m, n_commands, seed)
+    pseudo = pseudo_commands(m, n_commands or table_commands(m, len(tools)), seed)
     actual = registered_actual(truth_as_actual(truth), m, pseudo, tools)[0]
     problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
     names = all_table_names(m)

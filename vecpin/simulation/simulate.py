@@ -33,7 +33,8 @@ DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drif
 class Rows:
     """What each simulated row measures: commands q [m, rad], tool [m], tool ``point``,
     ``target`` id, ``instrument`` ("tracker" or "nest"), target ``offset`` (N,3) [m]
-    (tool link frame) and ``nest`` position (N,3) [m] (workpiece frame, nest rows)."""
+    (tool link frame), ``nest`` position (N,3) [m] (workpiece frame, nest rows) and the
+    tracker ``station`` (N,) it is read from (a plan read from several stations)."""
 
     q: np.ndarray
     tool: np.ndarray
@@ -42,12 +43,13 @@ class Rows:
     instrument: np.ndarray
     offset: np.ndarray
     nest: np.ndarray
+    station: np.ndarray
 
     @classmethod
     def tips(cls, q, tool, point=0) -> "Rows":
         n = len(q)
         return cls(q, np.asarray(tool, float), np.broadcast_to(point, (n,)).astype(int), np.full(n, "", dtype=object),
-                   np.full(n, "tracker", dtype=object), np.zeros((n, 3)), np.zeros((n, 3)))
+                   np.full(n, "tracker", dtype=object), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, int))
 
     def take(self, idx) -> "Rows":
         return Rows(*(a[idx] for a in self.__dict__.values()))
@@ -55,17 +57,20 @@ class Rows:
     def __add__(self, other: "Rows") -> "Rows":
         return Rows(*(np.concatenate([a, b]) for a, b in zip(self.__dict__.values(), other.__dict__.values())))
 
-    def measure(self, truth, rng, features=None, station: int = 0) -> np.ndarray:
-        """Tracker readings (N,3) [m] of every row (tool tips, targets, nests)."""
+    def measure(self, truth, rng, features=None, station: int | None = None) -> np.ndarray:
+        """Tracker readings (N,3) [m] of every row (tool tips, targets, nests), each from
+        its own ``station`` or, given, from that one."""
         xyz = np.empty((len(self.q), 3))
-        nest = self.instrument == "nest"
-        tool = ~nest
+        on = np.full(len(self.q), station) if station is not None else self.station
         f = (lambda sel: features.subset(np.flatnonzero(sel))) if features is not None else (lambda sel: None)
-        if tool.any():
-            xyz[tool] = truth.measure(self.q[tool], self.tool[tool], rng, f(tool), station, point=self.point[tool],
-                                      offset=self.offset[tool] if np.any(self.offset) else None)
-        if nest.any():
-            xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), station, nest=self.nest[nest])
+        for s in np.unique(on):
+            nest = (self.instrument == "nest") & (on == s)
+            tool = (self.instrument != "nest") & (on == s)
+            if tool.any():
+                xyz[tool] = truth.measure(self.q[tool], self.tool[tool], rng, f(tool), int(s), point=self.point[tool],
+                                          offset=self.offset[tool] if np.any(self.offset) else None)
+            if nest.any():
+                xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), int(s), nest=self.nest[nest])
         return xyz
 
 
@@ -271,7 +276,8 @@ class _DriveTurn:
 def simulate(machine: Machine, seed: int = 0, design: Design | None = None, truth: TrueMachine | None = None,
              effects: list | None = None, plan: "PlanTemplate | tuple[np.ndarray, np.ndarray] | None" = None, tables=None,
              tracker_position: np.ndarray | None = None, plan_times: np.ndarray | None = None,
-             validation_commands: np.ndarray | None = None, **truth_options) -> Simulation:
+             validation_commands: np.ndarray | None = None, station_positions: list | None = None,
+             **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
     (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
@@ -294,6 +300,10 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     them (:func:`vecpin.planning.timing.row_times`) instead of the design's seconds per
     point; ``validation_commands`` (K,n) [m, rad]: the plan's validation run (inside
     its zone) instead of quasi-random commands over the whole travel.
+    ``station_positions``: the tracker stations (3,) [m], machine frame, by station id,
+    of a plan read from several (its template's ``station`` column; plan.json): each
+    station's block of rows is read from there (station 0 there too unless
+    ``tracker_position`` is given), each tracker with a random heading.
 
     The stages, in the order they draw from the seeded generator: the true machine, the
     rows measured (the plan's or the design's), the identification campaign, the
@@ -304,8 +314,14 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
         plan = (template.q, template.tool)
     _check_simulation(machine, seed, design, plan, truth_options.get("mean_error_mm"), tracker_position)
     rng = np.random.default_rng(int(seed))
+    if template is not None and np.any(template.stations != 0) and design.stations > 1:
+        raise InputError(f"`stations` {design.stations}: the plan says which tracker station reads each row (its "
+                         "station column); simulate it with `stations` 1")
+    if station_positions is not None and tracker_position is None:
+        tracker_position = station_positions[0]
     truth = _true_machine(machine, rng, truth, effects, tracker_position, truth_options)
     rows, nests, targets, tool0 = _measured_rows(machine, design, plan, template, rng, seed)
+    _place_stations(truth, rows.station, station_positions, rng)
     campaign, t_end = _identification_campaign(machine, design, truth, rows, rng, seed,
                                                plan_times if plan is not None else None, targets)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclude) \
@@ -342,6 +358,31 @@ def _true_machine(machine: Machine, rng: np.random.Generator, truth: TrueMachine
     return truth
 
 
+def _place_stations(truth: TrueMachine, station: np.ndarray, positions: list | None, rng: np.random.Generator) -> None:
+    """The true trackers of the stations other than 0 that rows are read from (``station``
+    (N,) ids): at ``positions`` [id] (3,) [m], machine frame; a station the truth already
+    has keeps its heading, a new one gets a random heading (yaw, tilt below 2 deg)."""
+    from vecpin.measurement.tracker import Tracker
+    from vecpin.kinematics.so3 import exp3
+    for k in range(1, int(station.max(initial=0)) + 1):
+        if positions is None or k >= len(positions):
+            if k > len(truth.stations):
+                raise InputError(f"the plan reads rows from tracker station {k + 1} (station {k} in its template), whose "
+                                 "position is not given (`station_positions`; plan.json's stations_mm beside the plan)")
+            continue
+        if k <= len(truth.stations):
+            R = truth.stations[k - 1].rotation
+        else:
+            tilt = rng.normal(size=3) * [1.0, 1.0, 0.0]
+            R = exp3(np.radians(rng.uniform(0, 2.0)) * tilt / np.linalg.norm(tilt)) @ exp3(
+                np.array([0.0, 0.0, rng.uniform(-math.pi, math.pi)]))
+        tracker = Tracker(R, -R @ np.asarray(positions[k], float), truth.tracker.noise)
+        if k <= len(truth.stations):
+            truth.stations[k - 1] = tracker
+        else:
+            truth.stations.append(tracker)
+
+
 def _measured_rows(machine: Machine, design: Design, plan, template: PlanTemplate | None, rng: np.random.Generator,
                    seed: int) -> tuple[Rows, dict, dict, float]:
     """The rows of the identification campaign in measurement order: the plan's (its table
@@ -358,6 +399,8 @@ def _measured_rows(machine: Machine, design: Design, plan, template: PlanTemplat
             on = template.instrument == "nest"
             rows.instrument[on], rows.target[on], rows.nest[on] = "nest", template.target[on], template.nest[on]
             nests = template.nests()
+        if template is not None:
+            rows.station[:] = template.stations  # each block from its tracker station
         return rows, nests, {}, float(tool[0])  # the validation run uses the plan's first holder
     q = design_commands(machine, design.n_commands, rng, design.method, design.exclude)
     rows, nests, targets = design_rows(machine, design, q, tools, seed)
@@ -386,7 +429,7 @@ def _identification_campaign(machine: Machine, design: Design, truth: TrueMachin
     if truth.effects:
         truth.calibrate_effects(qs, tool, feats)
     campaign = Campaign(machine.axis_names, qs, tool, rows.measure(truth, rng, feats), extra, f"simulated seed {seed}",
-                        rows.instrument.copy(), point=rows.point.copy(), target=rows.target.copy(),
+                        rows.instrument.copy(), rows.station.copy(), point=rows.point.copy(), target=rows.target.copy(),
                         targets=dict(targets) if design.known_targets else {})
     if design.stations > 1 or design.ballbar_points:
         campaign = _more_instruments(campaign, rows, truth, design, rng, seed)

@@ -127,7 +127,7 @@ class PlanRun:
             return [f"  no table nests (`nests` 0): the tool tip alone never sees the table axes; {left} model terms "
                     "stay unknown and uncorrected (plan with `nests` 3 to read reflectors on the table)"]
         t = p.template
-        seen = len(t.nest_rows)
+        seen = int(np.sum(t.stations[t.nest_rows] == 0))
         table = int(p.information.table_terms().sum())
         before = int((~p.bare.keep[p.bare.model_columns]).sum())
         places = "; ".join(f"{k} ({', '.join(f'{v:.0f}' for v in to_mm(x) + 0.0)})" for k, x in p.nests.items())
@@ -164,6 +164,7 @@ class PlanRun:
                              "zone": None if s.zone is None else {k: list(v) for k, v in s.zone.items()},
                              "seed": s.seed, "noise": p.information.noise.to_dict(p.machine)},
                 "tracker_mm": [round(float(v), 6) for v in to_mm(p.tracker)], "tracker_given": p.tracker_given,
+                "stations_mm": [[round(float(v), 6) for v in to_mm(x)] for x in plan_stations(p)],
                 "counts": p.counts(), "geometry": p.geometry,
                 "nests_mm": {k: [round(float(v), 6) for v in to_mm(x)] for k, x in p.nests.items()},
                 "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
@@ -217,7 +218,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         for d in dialects:
             text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 title=f"for {machine.name}")
+                                 title=f"for {machine.name}", stations=plan_stations(plan))
             files.append(out.write_text(program_name(d), text))
         v = plan.validation_template
         files.append(out.write_text("validation.csv", v.to_csv(machine)))
@@ -244,6 +245,27 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
+
+
+def plan_stations(plan: Plan) -> list[np.ndarray]:
+    """The tracker stations (3,) [m], machine base frame, by station id: the plan's
+    tracker, then a second station when the nest placement proposed one (the template's
+    ``station`` column reads its block from there)."""
+    return [np.asarray(x, float) for x in plan.placement.stations] if plan.placement else [plan.tracker]
+
+
+def plan_station_positions(path: str | Path) -> list[np.ndarray] | None:
+    """The tracker stations (3,) [m] of a plan, machine base frame, by station id, from
+    plan.json beside the template ``path`` (None when there is none or it is from an older
+    vecpin)."""
+    js = Path(path).with_name("plan.json")
+    if not js.is_file():
+        return None
+    try:
+        d = json.loads(js.read_text(encoding="utf-8")).get("stations_mm")
+        return None if d is None else [np.asarray(x, float).reshape(3) * M_PER_MM for x in d]
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise InputError(f"{js}: not a plan.json vecpin wrote ({exc}); plan again or remove it") from None
 
 
 def program_timing(machine: Machine, plan: Plan, *, dwell_s: float, nest_dwell_s: float, feed_mm_min: float,

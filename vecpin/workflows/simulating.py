@@ -38,7 +38,8 @@ class SimulationRun:
         true_tip = sim.truth.tool_tip(c.q, c.tool, point=c.point, offset=offset)
         more = ""
         if full.mixed:
-            more = (f" + {len(full) - len(c)} rows: {design.stations - 1} more stations, "
+            k = len(np.unique(full.station[full.instrument != "ballbar"])) - 1
+            more = (f" + {len(full) - len(c)} rows: {k} more station{'s' if k != 1 else ''}, "
                     f"{full.nest_rows.size} table nest rows ({len(sim.nests)} nests), "
                     f"{full.ballbar_rows.size} ball bar rows")
         dist = np.linalg.norm(c.xyz, axis=1)
@@ -53,7 +54,7 @@ class SimulationRun:
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
                error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
-               f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m; campaign takes {c.time[-1] / 3600:.2f} h"]
+               f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
             out.append(error_summary("true vs nominal tip relative to the workpiece", registered_errors(
@@ -128,15 +129,21 @@ def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: 
 def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
     """What a plan's folder holds beside its template ``plan_path`` for the simulator:
     ``plan_times`` (the rows' time stamps as the plan's NC program runs them, from
-    plan.json) and ``validation_commands`` (its validation run, validation.csv, inside
-    the plan's zone). A key is absent when its file is (a plan from an older vecpin)."""
+    plan.json), ``validation_commands`` (its validation run, validation.csv, inside
+    the plan's zone) and, on a plan read from several tracker stations, ``station_positions``
+    (plan.json's stations_mm, SI). A key is absent when its file is (a plan from an older vecpin)."""
     from vecpin.measurement.plantemplate import read_template
     from vecpin.planning.timing import row_times
-    from vecpin.workflows.planning import plan_timing
+    from vecpin.workflows.planning import plan_station_positions, plan_timing
     out = {}
     timing = plan_timing(plan_path)
     if timing is not None:
         out["plan_times"] = row_times(machine, template, timing)[0]
+    stations = plan_station_positions(plan_path) if np.any(template.stations != 0) else None
+    if stations is not None:
+        for p in stations:
+            _check_tracker(p)
+        out["station_positions"] = stations
     v = Path(plan_path).with_name("validation.csv")
     if v.is_file() and Path(plan_path).name != "validation.csv":
         vt = read_template(v, machine)

@@ -18,6 +18,12 @@ its nests, the nests where the model's fit put them or re-fitted from the two ru
 predicted figures in the same frame; two runs without nest rows are judged at the tool tip
 with a warning and without the predicted figures (those are relative to the table); one
 run with nests and one without are refused (they would not measure the same thing).
+Relative to the table each run's figure also stands net of the measurement noise, as
+``evaluate`` gives it (:func:`vecpin.measurement.tableframe.net_of_noise`: the noise's
+expected share, from copies of the run given the tracker's and the axes' noise again,
+subtracted in quadrature; the model's noise settings, or the default ones without a
+model), with its standard uncertainty, or "not resolved" with a bound; and the reduction
+of that RMS with its uncertainty (or the least reduction the bound allows).
 """
 from __future__ import annotations
 
@@ -33,7 +39,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
-from vecpin.measurement.tableframe import check_nest_rows, table_nests, table_tips, tip_noise
+from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 from vecpin.units import M_PER_MM, norm_mm
@@ -66,6 +72,38 @@ class Verification:
     frame: str = "the tool tip in the tracker frame (each run registered rigidly)"
     warnings: list[str] = field(default_factory=list)  # printed first
     commands: str = ""  # which commands the two runs measure (one line)
+    net: list[NetOfNoise] | None = None  # relative to the table: before and after, net of the measurement noise
+
+    def net_reduction(self) -> tuple[float, float] | None:
+        """(reduction [%] of the RMS net of the measurement noise, its standard uncertainty
+        [%]); (least reduction the after run's bound allows, NaN) when the after run does
+        not resolve its error; None when the before run does not (or no table frame)."""
+        if self.net is None or not self.net[0].resolved:
+            return None
+        b, a = self.net
+        if not a.resolved:
+            return 100.0 * (1 - (a.rms + 2 * a.sd) / b.rms), float("nan")
+        r = a.rms / b.rms
+        return 100.0 * (1 - r), 100.0 * r * float(np.hypot(a.sd / a.rms, b.sd / b.rms))
+
+    def net_lines(self) -> list[str]:
+        """The runs' figures net of the measurement noise (relative to the table), one line each."""
+        if self.net is None:
+            return []
+        out = ["  net of the measurement noise (RMS relative to the table; the noise's expected share, from copies of "
+               "each run given the tracker's and the axes' noise again, subtracted in quadrature; ± one standard "
+               "uncertainty):"]
+        for label, n in zip(("uncompensated", "compensated"), self.net):
+            out.append(f"    {label:<14s} " + (f"{n.rms:.4f} ± {n.sd:.4f} mm" if n.resolved else
+                                              f"not resolved by this run: {n.rms:.4f} ± {n.sd:.4f} mm, below "
+                                              f"{n.rms + 2 * n.sd:.4f} mm at two standard uncertainties")
+                       + f" (measured RMS {n.measured_rms:.4f} mm, noise {n.noise_rms:.4f} mm)")
+        red = self.net_reduction()
+        out.append("    reduction of the RMS net of the noise: " + (
+            "not resolved (the uncompensated run's error is not resolved)" if red is None else
+            f"at least {red[0]:.1f} % (the compensated run's bound); more validation commands, or each read several "
+            "times, resolve it" if np.isnan(red[1]) else f"{red[0]:.1f} ± {red[1]:.1f} %"))
+        return out
 
     def reduction(self, stat: str, tool_key: str = "all") -> float:
         b = distance_stats(self.before.measured, self.before.tool)[tool_key][stat]
@@ -102,6 +140,7 @@ class Verification:
                 if pst is not None:
                     line += f" | {pst[k]['mean']:10.4f} {pst[k]['max']:8.4f}"
                 out.append(line)
+        out += self.net_lines()
         out.append(f"  compensated run judged against the commanded positions with the gauge line changed by "
                    f"{self.gauge_change_mm:+.4f} mm ({self.tables_from})")
         if pred:
@@ -126,6 +165,11 @@ class Verification:
                 "reduction_of_mean_pct": self.reduction("mean"), "reduction_of_max_pct": self.reduction("max"),
                 "same_commands": self.same_commands, "notes": self.notes, "frame": self.frame,
                 "warnings": self.warnings, "commands": self.commands,
+                "rms_net_of_noise_mm": None if self.net is None else
+                {"uncompensated": [self.net[0].rms, self.net[0].sd], "compensated": [self.net[1].rms, self.net[1].sd],
+                 "resolved": [self.net[0].resolved, self.net[1].resolved],
+                 "reduction_pct": None if self.net_reduction() is None else
+                 [self.net_reduction()[0], None if np.isnan(self.net_reduction()[1]) else self.net_reduction()[1]]},
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
@@ -159,7 +203,7 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
                      "AFTER really the run with them?")
     return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=m.frame,
-                        warnings=m.warnings, commands=compared_commands(machine, b, a, same))
+                        warnings=m.warnings, commands=compared_commands(machine, b, a, same), net=m.net)
 
 
 def _check_runs(machine: Machine, before: Campaign, after: Campaign) -> bool:
@@ -211,6 +255,7 @@ class _Measured:
     frame: str
     notes: list[str]
     warnings: list[str]
+    net: list[NetOfNoise] | None = None
 
 
 def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None, dT: float,
@@ -237,14 +282,15 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
     frame = ("the tool tip relative to the table (workpiece frame: every command's table pose from its nests, "
              f"nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
                                                       "where the model's fit put them") + "; registered rigidly)")
-    measured = [norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip))
+    residual = [registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip)
                 for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
-    from vecpin.measurement.tracker import TrackerNoise
-    tn = model.noise_.tracker if model is not None else TrackerNoise()
-    note = (f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], tn)):.4f} "
+    from vecpin.measurement.noise import NoiseModel
+    noise = model.noise_ if model is not None else NoiseModel.default(machine, "spherical")
+    note = (f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], noise.tracker)):.4f} "
             "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
             " tracker noise): the measured figures carry it")
-    return _Measured(b, a, measured, seen, frame, [note], [])
+    net = [net_of_noise(r, run, tt, noise, machine) for r, run, tt in zip(residual, (before, after), seen)]
+    return _Measured(b, a, [norm_mm(r) for r in residual], seen, frame, [note], [], net)
 
 
 def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _Measured, dT: float, table: bool,
