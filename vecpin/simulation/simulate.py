@@ -368,7 +368,8 @@ def _place_stations(truth: TrueMachine, station: np.ndarray, positions: list | N
         if positions is None or k >= len(positions):
             if k > len(truth.stations):
                 raise InputError(f"the plan reads rows from tracker station {k + 1} (station {k} in its template), whose "
-                                 "position is not given (`station_positions`; plan.json's stations_mm beside the plan)")
+                                 "position is not given: the plan's stations_mm, in the plan.json beside its plan.csv "
+                                 "(in Python, the station_positions argument)")
             continue
         if k <= len(truth.stations):
             R = truth.stations[k - 1].rotation
