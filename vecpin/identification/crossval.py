@@ -32,13 +32,38 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.units import norm_mm
 
 
-def command_folds(campaign: Campaign, k: int, rng: np.random.Generator) -> np.ndarray:
-    """Fold index per row; rows with the same axis command share a fold."""
+END_SHARE = 0.1   # the share of the commands at each end of an axis that :func:`command_folds` holds out together
+
+
+def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=()) -> np.ndarray:
+    """Fold index per row; rows with the same axis command share a fold.
+
+    ``ends``: axis indices whose ends are held out whole: on each such axis the
+    :data:`END_SHARE` of the commands with the lowest position, and that share with the
+    highest, form a block each, the blocks dealt to the folds in random order (a command
+    in two blocks goes with the first), so that each block's fold is estimated without
+    any command beyond the rest of the axis' measured span: its held-out rows judge how a
+    model *extrapolates* along that axis. The other commands are dealt at random
+    (interleaved folds). Without ``ends``: interleaved folds only."""
     keys = np.round(campaign.q, 9)
-    _, group = np.unique(keys, axis=0, return_inverse=True)
+    uq, group = np.unique(keys, axis=0, return_inverse=True)
     group = np.asarray(group).ravel()
-    perm = rng.permutation(group.max() + 1)
-    return perm[group] % k
+    if not len(ends):
+        perm = rng.permutation(group.max() + 1)
+        return perm[group] % k
+    n = len(uq)
+    m = max(1, int(round(END_SHARE * n)))
+    blocks = []
+    for a in ends:
+        by_position = np.argsort(uq[:, a], kind="stable")
+        blocks += [by_position[:m], by_position[-m:]]
+    fold = np.full(n, -1)
+    for f, b in enumerate(rng.permutation(len(blocks))):
+        free = blocks[b][fold[blocks[b]] < 0]
+        fold[free] = f % k
+    rest = np.flatnonzero(fold < 0)
+    fold[rest] = rng.permutation(len(rest)) % k
+    return fold[group]
 
 
 def _gram(Jf: np.ndarray) -> np.ndarray:
@@ -97,6 +122,17 @@ class FoldedProblem:
     def _all(self, cols, scale) -> tuple[np.ndarray, np.ndarray]:
         cols = np.arange(self.n_columns) if cols is None else np.asarray(cols, int)
         return cols, (np.ones(len(cols)) if scale is None else np.asarray(scale, float))
+
+    def rescale(self, factor: float) -> None:
+        """Every noise sigma times ``factor`` (their ratios kept): the whitened columns and
+        residuals divided by it (new arrays: ``J`` and ``w`` may be shared), the normal
+        equations by its square in place; the metric ones and the prior unchanged (what
+        a likelihood with the scaled noise would give, without linearising again)."""
+        f = float(factor)
+        self.J, self.w = self.J / f, self.w / f
+        for a in (self.G, self.g, self.G_out, self.g_out):
+            a /= f * f
+        self._inverse = None
 
     # ------------------------------------------------------------------ extension
     def extend(self, J1: np.ndarray, A1: np.ndarray) -> "FoldedProblem":
@@ -310,3 +346,4 @@ class Linearised:
         _, _, Gy, Gmy = self._ops
         Dp = D * prior
         return -(Gmy @ Dp), -(Gy @ Dp)
+

@@ -56,6 +56,7 @@ from vecpin.threads import one_blas_thread
 KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
+PART_OF_TRAVEL = 0.9       # an axis whose commands span less of its travel is judged on extrapolation too
 
 
 @dataclass
@@ -121,6 +122,8 @@ class ModelChoice:
     equations: int = 0       # the campaign's equations: every candidate has fewer unknowns
     left_out: int = 0        # candidates with as many unknowns or more, not scored
     part_turn: tuple = ()    # axes travelling over a turn but measured over less: no series per turn tried
+    ends: tuple = ()         # axes measured over part of their travel: the ends of their span held out whole
+    noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
@@ -143,6 +146,10 @@ class ModelChoice:
         if self.part_turn:
             lines.append(f"  (no series per turn on {', '.join(self.part_turn)}: measured over less than a turn, where "
                          "they cannot be told from series over the travel and extrapolate over the rest of the turn)")
+        if self.ends:
+            lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel: {', '.join(self.ends)}; "
+                         "the commands at each end of their measured span were held out together, so the held-out "
+                         "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -159,7 +166,8 @@ class ModelChoice:
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
-                "no_series_per_turn": list(self.part_turn),
+                "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
+                "noise_scale": self.noise_scale,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
@@ -301,7 +309,7 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
-                 progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds``, ``families``, ``orders``: what to try (a fixed choice restricts them);
@@ -311,7 +319,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     are at most that order); ``seed``: the folds (and the subsample of a large
     campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
     priors and offsets every candidate carries; ``underdetermined``: also candidates
-    with as many unknowns as equations or more (module text)."""
+    with as many unknowns as equations or more (module text); ``noise_from_data``: the
+    noise level is not known: when the best common candidate's chi2 leaves its band,
+    every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
+    made with that noise (``ModelChoice.noise_scale``)."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
@@ -320,17 +331,20 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
-    fold = command_folds(camp, folds, np.random.default_rng(seed))
-    search, problems = _Search(), {}
+    ends = partly_measured(machine, campaign)
+    fold = command_folds(camp, folds, np.random.default_rng(seed), ends)
+    problems = {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, opts)
-        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
-            search.limit = prob.n_equations * len(campaign) / len(camp)
-        search.common(prob, machine, plans, orders, options)
-        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
-    if not search.cands:
-        raise _too_small(machine, campaign, problems, search.limit)
+        problems[kind] = _Problem(kind, machine, camp, noise, options, fold, opts)
+    search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
+    lowest = min(search.cands, key=lambda c: c.mean)
+    scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
+    if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
+        say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
+        for prob in problems.values():
+            prob.problem.rescale(scale)
+        search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
     for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
         cur = search.refine(prob, options)
         if cur is not None:
@@ -343,7 +357,54 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
-                       int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short)
+                       int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
+                       tuple(machine.axes[a].name for a in ends), scale)
+
+
+def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, orders, options,
+                  underdetermined: bool, say) -> _Search:
+    """A new search with every kind's common-basis candidates scored (refused when the
+    campaign supports none)."""
+    search = _Search()
+    for kind, prob in problems.items():
+        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
+            search.limit = prob.n_equations * len(campaign) / len(prob.judged)
+        search.common(prob, machine, plans, orders, options)
+        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
+    if not search.cands:
+        raise _too_small(machine, campaign, problems, search.limit)
+    return search
+
+
+def _noise_level(prob: _Problem, cand: Candidate, rounds: int = 6) -> float:
+    """The scale of the stated noise the data give, from the linearised full-data fit of
+    ``cand`` (the fit's own chi2 and expected value: the equations less the effective
+    parameters): 1 when its chi2 lies in the 3-sigma band, else every sigma scaled by
+    sqrt(chi2 / expected) until that settles within 1 % (the priors weigh more as the
+    noise grows, so the expected value moves with it). Rescales ``prob`` in place."""
+    cols, fac = prob.columns(cand.axes)
+    scale = 1.0
+    for k in range(rounds):
+        chi2 = prob.problem.chi2(cols, fac)
+        dof = max(prob.n_equations - prob.problem.effective_terms(cols, fac), 1.0)
+        step = math.sqrt(chi2 / dof)
+        if (k == 0 and abs(chi2 - dof) <= 3 * math.sqrt(2 * dof)) or abs(step - 1) < 0.01:
+            break
+        prob.problem.rescale(step)
+        scale *= step
+    if scale != 1.0:
+        prob.problem.rescale(1.0 / scale)   # the caller rescales every kind's problem at once
+    return scale
+
+
+def partly_measured(machine: Machine, campaign: Campaign) -> tuple[int, ...]:
+    """Indices of the axes whose commands span less than :data:`PART_OF_TRAVEL` of the
+    travel: the model will be used beyond what the campaign measured there (tables cover
+    the travel; a robot works beyond its calibration poses), so the choice holds out the
+    commands at both ends of their measured span (:func:`command_folds`' ``ends``) and
+    judges how each candidate extrapolates along them."""
+    span = np.ptp(campaign.q, axis=0)
+    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (a.upper - a.lower))
 
 
 def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:
@@ -485,7 +546,7 @@ BASES = ("auto",) + FAMILIES
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
                   order: int | str = "auto", *, folds: int = 5, seed: int = 0, underdetermined: bool = False,
-                  progress: Callable[[str], None] | None = None, **opts):
+                  progress: Callable[[str], None] | None = None, noise_from_data: bool = False, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of
     ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
     fixed choice builds the model directly. ``opts``: model options (tool_lengths,
@@ -494,7 +555,9 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     splines only with ``basis="spline"`` or ``"pspline"``, ``order`` then being the number
     of interior knots; a penalised spline's smoothing is always chosen by held-out data.
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
-    candidates with more unknowns than equations (:func:`choose_model`)."""
+    candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
+    the choice scales the noise to what the data say (:func:`choose_model`; a fixed
+    choice leaves that to the fit)."""
     if kind not in ("auto",) + KINDS:
         raise InputError(f"`model` {kind}: one of auto, {', '.join(KINDS)}")
     if basis not in BASES:
@@ -513,5 +576,5 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
                           plans=None if basis == "auto" else (basis,),
                           orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          underdetermined=underdetermined, progress=progress)
+                          underdetermined=underdetermined, noise_from_data=noise_from_data, progress=progress)
     return choice.chosen.model(machine, **opts), choice
