@@ -66,6 +66,13 @@ def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=())
     return fold[group]
 
 
+def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Solve the stacked symmetric positive definite systems A (k,n,n) X = B (k,n,m)."""
+    if A.shape[-1] == 0:
+        return np.zeros(B.shape)
+    return np.linalg.solve(A, B)
+
+
 def _gram(Jf: np.ndarray) -> np.ndarray:
     """Jf^T Jf of a (rows, P) matrix, symmetric (one triangle computed)."""
     U = blas.dsyrk(1.0, Jf.T, trans=0)
@@ -272,32 +279,32 @@ class FoldedProblem:
         U = np.unique(np.concatenate([np.asarray(P, int) for P, _ in blocks] + [np.zeros(0, int)]))
         at = {int(c): i for i, c in enumerate(U)}
         where = {key: np.array([at[c] for c in key], int) for key in groups}
-        nF = len(F)
-        psi = [np.zeros((self.k, nF + len(P))) for P, _ in blocks]
+        nF, k = len(F), self.k
+        psi = [np.zeros((k, nF + len(P))) for P, _ in blocks]
         x0F, x0U = self.x0[F], self.x0[U]
-        for f, (Gf, gf) in enumerate(zip(self.G_out, self.g_out)):
-            A = Gf[F[:, None], F] * np.outer(sF, sF)
-            A[np.arange(nF), np.arange(nF)] += 1.0                              # the unit prior
-            cho = linalg.cho_factor(A, check_finite=False)
-            y = linalg.cho_solve(cho, gf[F] * sF - x0F, check_finite=False)
-            GFU = Gf[F[:, None], U] * sF[:, None]
-            XU = linalg.cho_solve(cho, GFU, check_finite=False)
-            MU = Gf[U[:, None], U] - GFU.T @ XU                                 # the Schur bracket of U
-            rU = gf[U] - GFU.T @ y
-            for key, ks in groups.items():
-                if not key:
-                    for k in ks:
-                        psi[k][f, :nF] = sF * y
-                    continue
-                w = where[key]
-                X, M, r, x0P = XU[:, w], MU[w[:, None], w], rU[w], x0U[w]        # the block's share of U
-                for k in ks:
-                    sP = blocks[k][1]
-                    Sc = M * np.outer(sP, sP)
-                    Sc[np.arange(len(w)), np.arange(len(w))] += 1.0
-                    xP = linalg.cho_solve(linalg.cho_factor(Sc, check_finite=False), sP * r - x0P, check_finite=False)
-                    psi[k][f, :nF] = sF * (y - X @ (sP * xP))
-                    psi[k][f, nF:] = sP * xP
+        # every fold at once (stacked solves: a few calls instead of a few per fold)
+        A = self.G_out[:, F[:, None], F] * np.outer(sF, sF)
+        A[:, np.arange(nF), np.arange(nF)] += 1.0                               # the unit prior
+        GFU = self.G_out[:, F[:, None], U] * sF[:, None]                        # (k, nF, nU)
+        rhs = np.concatenate([(self.g_out[:, F] * sF - x0F)[..., None], GFU], axis=2)
+        sol = _solve_pos(A, rhs)
+        y, XU = sol[..., 0], sol[..., 1:]                                        # (k, nF), (k, nF, nU)
+        MU = self.G_out[:, U[:, None], U] - np.swapaxes(GFU, 1, 2) @ XU         # the Schur brackets of U
+        rU = self.g_out[:, U] - np.einsum("kfu,kf->ku", GFU, y)
+        for key, ks in groups.items():
+            if not key:
+                for j in ks:
+                    psi[j][:, :nF] = sF * y
+                continue
+            w = where[key]
+            X, M, r, x0P = XU[:, :, w], MU[:, w[:, None], w], rU[:, w], x0U[w]  # the block's share of U
+            for j in ks:
+                sP = blocks[j][1]
+                Sc = M * np.outer(sP, sP)
+                Sc[:, np.arange(len(w)), np.arange(len(w))] += 1.0
+                xP = _solve_pos(Sc, (sP * r - x0P)[..., None])[..., 0]          # (k, |P|)
+                psi[j][:, :nF] = sF * (y - np.einsum("kfp,kp->kf", X, sP * xP))
+                psi[j][:, nF:] = sP * xP
         return psi, U, where, groups
 
 
