@@ -22,6 +22,20 @@ with the other axes eliminated once); the choice follows the one-standard-error 
 among the candidates whose held-out mean distance is within one paired standard error
 of the lowest, the one with the fewest terms (a penalised spline's effective terms).
 
+The folds group the rows by command and deal the commands at random (interleaved folds:
+new poses among the measured ones), except on an axis the campaign measured over less
+than 90 % of its travel: there the commands at each end of its measured span (a tenth at
+each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
+that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
+as it will be used beyond the measured span (a robot measured over part of its joint
+ranges; a machine measured over part of a travel its tables cover). A campaign over the
+whole travel keeps interleaved folds only.
+
+When the noise level is not stated (``noise_from_data``), the best candidate of the
+first stage tells it: every noise sigma is scaled by sqrt(chi2 / expected) of its
+linearised fit, the folded problems are rescaled (no new linearisation) and the search
+runs with that noise, once.
+
 Only candidates the campaign can determine take part: fewer unknowns (the model's terms
 that move anything, the tracker pose and the instruments' unknowns) than the campaign
 has equations, the count the fit holds every model to. Larger ones are left out (the
@@ -35,7 +49,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -47,61 +61,16 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
-from vecpin.models.basis import AxisBasis, bases_text
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, Design, axis_options,
-                                     per_turn_measured)
+from vecpin.selection.search import Candidate, Problem, Search, supported
+from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
+                                     partly_measured, per_turn_measured)
 from vecpin.threads import one_blas_thread
 
+_Problem = Problem  # the name the tests and older scripts use
 KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
-PART_OF_TRAVEL = 0.9       # an axis whose commands span less of its travel is judged on extrapolation too
-
-
-@dataclass
-class Candidate:
-    """One model: kind, a basis per axis, held-out distances [mm] per judged row;
-    ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
-    penalised spline makes it smaller, :meth:`Design.effective_terms`)."""
-
-    kind: str
-    axes: tuple[AxisChoice, ...]
-    n_terms: int
-    heldout: np.ndarray = field(repr=False)
-    effective_terms: float | None = None
-
-    @property
-    def size(self) -> float:
-        return self.n_terms if self.effective_terms is None else self.effective_terms
-
-    @property
-    def mean(self) -> float:
-        return float(self.heldout.mean())
-
-    @property
-    def max(self) -> float:
-        return float(self.heldout.max())
-
-    def label(self, axis_names: list[str] | None = None) -> str:
-        """Compact ('AP cheb7/cheb6/...', for the table), or in words with ``axis_names``."""
-        if axis_names is not None:
-            return bases_text(MODELS[self.kind].display_name, axis_names, [a.readable() for a in self.axes])
-        labels = [a.label() for a in self.axes]
-        body = labels[0] if len(set(labels)) == 1 else "/".join(labels)
-        return f"{MODELS[self.kind].display_name} {body}"
-
-    def bases(self, machine: Machine) -> list[AxisBasis]:
-        return [c.basis(a) for a, c in zip(machine.axes, self.axes)]
-
-    def model(self, machine: Machine, **kw):
-        """The unfitted model of this candidate (custom bases)."""
-        return make_model(self.kind, machine, max(c.order for c in self.axes), bases=self.bases(machine), **kw)
-
-    def to_dict(self, machine: Machine) -> dict:
-        return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
-                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max} | \
-            ({} if self.effective_terms is None else {"effective_model_terms": self.effective_terms})
 
 
 @dataclass
@@ -173,102 +142,12 @@ class ModelChoice:
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
-class _Problem(Design):
-    """:class:`~vecpin.selection.design.Design` that scores candidates on its folded problem."""
-
-    def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
-        cols, scale = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
-
-    def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
-        """Candidates that share most columns (one axis' basis or smoothing differs), at
-        about the cost of one (:meth:`FoldedProblem.heldout_blocks`)."""
-        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
-        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
-        shared = set(common)
-        blocks = [(np.array([j for j in d if j not in shared], int),
-                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
-        held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
-        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
-
-    def size(self, cand: Candidate) -> float:
-        """The candidate's number of model terms for the one-SE rule, less what its
-        penalised splines' smoothing takes away: n_terms - (t_0 - t_λ), t the trace of
-        the hat matrix over its model columns with the penalties λ and without (λ = 0),
-        so that a penalised spline's heavily smoothed wiggles count little and every
-        other candidate is counted as before."""
-        if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
-            cols, scale = self.columns(cand.axes)
-            cand.effective_terms = cand.n_terms - (self.effective_terms(cols, np.ones_like(scale))
-                                                   - self.effective_terms(cols, scale))
-        return cand.size
-
-
 def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, spline or auto") -> None:
     """Refuse a per-turn basis (``fourier``, ``fourier_trend``) on a machine without a
     rotary axis that travels more than a turn: it would apply to no axis."""
     if basis in ("fourier", "fourier_trend") and not any(a.multiturn for a in machine.axes):
         raise InputError(f"no rotary axis of {machine.name} travels more than a turn; `basis` {basis} applies to "
                          f"none: use {alternatives}")
-
-
-class _Search:
-    """The candidates scored so far (of every kind) and those left out: larger than the
-    campaign's equations (``limit``) can determine."""
-
-    def __init__(self):
-        self.cands: list[Candidate] = []
-        self.scored: dict = {}
-        self.left_out: set = set()
-        self.limit = math.inf
-
-    def supported(self, prob: _Problem, choice: tuple) -> bool:
-        if prob.unknowns(choice) < self.limit:
-            return True
-        self.left_out.add((prob.kind, choice))
-        return False
-
-    def add(self, c: Candidate) -> Candidate:
-        self.scored[(c.kind, c.axes)] = c
-        self.cands.append(c)
-        return c
-
-    def score(self, prob: _Problem, choice: tuple) -> Candidate | None:
-        key = (prob.kind, choice)
-        if key not in self.scored and self.supported(prob, choice):
-            self.add(prob.candidate(choice))
-        return self.scored.get(key)
-
-    def common(self, prob: _Problem, machine: Machine, plans, orders, options) -> None:
-        """Every plan (one family on every axis it applies to) at every order."""
-        for plan in plans:
-            for o in (orders if plan not in ("spline", "pspline") else [None]):
-                for plan_axes in _plans(machine, plan, o, options):
-                    self.score(prob, plan_axes)
-
-    def refine(self, prob: _Problem, options) -> Candidate | None:
-        """Around the kind's best, every basis and smoothing of one axis at a time (the
-        other axes eliminated once), axis after axis, while the held-out mean improves
-        (three passes at most): the best candidate reached."""
-        own = [c for c in self.cands if c.kind == prob.kind]
-        if not own:
-            return None
-        cur = min(own, key=lambda c: c.mean)
-        for _ in range(3):
-            improved = False
-            for i in range(len(options)):
-                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
-                          if (prob.kind, t) not in self.scored and (prob.kind, t) not in self.left_out
-                          and self.supported(prob, t)]
-                for c in (prob.candidates(trials) if len(trials) > 1 else []):
-                    self.add(c)
-                for opt in options[i]:
-                    c = self.score(prob, cur.axes[:i] + (opt,) + cur.axes[i + 1:])
-                    if c is not None and c.mean < cur.mean:
-                        cur, improved = c, True
-            if not improved:
-                break
-        return cur
 
 
 def _check_request(kinds, families, orders) -> list[int]:
@@ -300,7 +179,7 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
     if plans and all(p in ("fourier", "fourier_trend") for p in plans):
         check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
                     or "chebyshev")
-    options = [_supported(axis_options(a, orders, families, fixed_order, sp), judged.q[:, a.index])
+    options = [supported(axis_options(a, orders, families, fixed_order, sp), judged.q[:, a.index])
                for a, sp in zip(machine.axes, spans)]
     return plans, options, short
 
@@ -336,7 +215,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     problems = {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        problems[kind] = _Problem(kind, machine, camp, noise, options, fold, opts)
+        problems[kind] = Problem(kind, machine, camp, noise, options, fold, opts)
     search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
     lowest = min(search.cands, key=lambda c: c.mean)
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
@@ -362,10 +241,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
 
 
 def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, orders, options,
-                  underdetermined: bool, say) -> _Search:
+                  underdetermined: bool, say) -> Search:
     """A new search with every kind's common-basis candidates scored (refused when the
     campaign supports none)."""
-    search = _Search()
+    search = Search()
     for kind, prob in problems.items():
         if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
             search.limit = prob.n_equations * len(campaign) / len(prob.judged)
@@ -376,7 +255,7 @@ def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, o
     return search
 
 
-def _noise_level(prob: _Problem, cand: Candidate, rounds: int = 6) -> float:
+def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:
     """The scale of the stated noise the data give, from the linearised full-data fit of
     ``cand`` (the fit's own chi2 and expected value: the equations less the effective
     parameters): 1 when its chi2 lies in the 3-sigma band, else every sigma scaled by
@@ -397,16 +276,6 @@ def _noise_level(prob: _Problem, cand: Candidate, rounds: int = 6) -> float:
     return scale
 
 
-def partly_measured(machine: Machine, campaign: Campaign) -> tuple[int, ...]:
-    """Indices of the axes whose commands span less than :data:`PART_OF_TRAVEL` of the
-    travel: the model will be used beyond what the campaign measured there (tables cover
-    the travel; a robot works beyond its calibration poses), so the choice holds out the
-    commands at both ends of their measured span (:func:`command_folds`' ``ends``) and
-    judges how each candidate extrapolates along them."""
-    span = np.ptp(campaign.q, axis=0)
-    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (a.upper - a.lower))
-
-
 def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:
     """The refusal of a campaign that supports no candidate: the smallest candidate of the
     kinds tried (constant errors) and how many more poses it needs."""
@@ -421,43 +290,6 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
         f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
-
-
-def _supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
-    """The options with no more terms than the axis has distinct positions ``q`` (the
-    smallest when none has): more could not be told apart on this campaign."""
-    n = len(np.unique(np.round(q, 9)))
-    return [o for o in options if o.size <= n] or [min(options, key=lambda o: o.size)]
-
-
-def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
-    """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
-    order: a per-turn series of the lowest order offered that is at least ``order``."""
-    out = []
-    if plan == "spline":
-        knots = sorted({o.order for opts in options for o in opts if o.family == "spline"})
-        for k in knots:
-            out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
-                             for opts in options))
-        return out
-    if plan == "pspline":  # one knot count and smoothing on every axis
-        for c in dict.fromkeys(o for opts in options for o in opts if o.family == "pspline"):
-            out.append(tuple(c if c in opts else opts[0] for opts in options))
-        return out
-    cheb = AxisChoice("chebyshev", order)
-    if plan == "chebyshev":  # capped where an axis has too few positions for this order
-        return [tuple(cheb if cheb in opts else max((o for o in opts if o.family == "chebyshev" and o.order < order),
-                                                    key=lambda o: o.order, default=opts[0]) for opts in options)]
-    per_turn = [o for opts in options for o in opts if o.family == plan]
-    if not per_turn:
-        return out
-    fo = min((o.order for o in per_turn if o.order >= order), default=max(o.order for o in per_turn))
-    for t in sorted({o.trend for o in per_turn}):
-        c = AxisChoice(plan, fo, t)
-        row = tuple(c if c in opts else (cheb if cheb in opts else opts[0]) for opts in options)
-        if any(x.family == plan for x in row):
-            out.append(row)
-    return out
 
 
 def one_standard_error(cands: list[Candidate], best: Candidate,
