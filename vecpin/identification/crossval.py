@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import linalg
-from scipy.linalg import blas
+from scipy.linalg import blas, lapack
 
 from vecpin.identification.likelihood import Likelihood
 from vecpin.measurement.campaign import Campaign
@@ -67,10 +67,17 @@ def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=())
 
 
 def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """Solve the stacked symmetric positive definite systems A (k,n,n) X = B (k,n,m)."""
+    """Solve the stacked symmetric positive definite systems A (k,n,n) X = B (k,n,m):
+    LAPACK's Cholesky solver per system, half the work of a general solve (``A`` is
+    overwritten)."""
     if A.shape[-1] == 0:
         return np.zeros(B.shape)
-    return np.linalg.solve(A, B)
+    X = np.empty(B.shape)
+    for i in range(len(A)):
+        _, X[i], info = lapack.dposv(A[i], B[i], lower=1, overwrite_a=1)
+        if info:   # not positive definite to working precision: a general solve
+            X[i] = np.linalg.solve(A[i], B[i])
+    return X
 
 
 def _gram(Jf: np.ndarray) -> np.ndarray:
