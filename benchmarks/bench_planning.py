@@ -53,7 +53,7 @@ def main():
     print(f"    moves {route.travel_time(q[pick][order], speed) / 60:.1f} min vs {route.travel_time(q[pick], speed) / 60:.1f} "
           "min in the picked order")
     plan, _ = timed("make_plan: 295 commands, AP order 6, sight, repeats 9 x 4", make_plan, m,
-                    PlanSettings(n_points=295, order=6, repeat_points=9, repeat_times=4))
+                    PlanSettings(n_commands=295, order=6, repeat_points=9, repeat_times=4))
     timed("Siemens program for 626 rows", write_program, "siemens-840d", m, plan.template, plan.steps)
     sim = simulate(m, 1, plan=(plan.template.q, plan.template.tool))
     with tempfile.TemporaryDirectory() as d:
@@ -78,7 +78,7 @@ def table_machines():
           "workpiece)")
     for name in ("trunnion_xyzac", "trunnion_xyzbc", "head_table_bc"):
         m = vecpin.Machine.load(name)
-        plan, dt = timed(f"{name}: plan with nests", make_plan, m, PlanSettings(n_points=100, order=6))
+        plan, dt = timed(f"{name}: plan with nests", make_plan, m, PlanSettings(n_commands=100, order=6))
         info, bare = plan.information, plan.bare
         before = int((~bare.keep[bare.model_columns]).sum())
         print(f"    table-axis terms identified {int(info.table_terms().sum())} (before: {before} left out); "

@@ -18,7 +18,7 @@ The same steps on the command line:
     vecpin fit flow_xyzcb day/campaign.csv --model ap --order 4 --out day/model_ap.json
     vecpin tables day/model_ap.json --out day/tables
     vecpin simulate flow_xyzcb --truth day/sim/truth.json --plan day/plan/plan.csv --tables day/tables --out day/after
-    vecpin verify day/after/validation.csv day/after/validation_compensated.csv --model day/model_ap.json \\
+    vecpin verify day/after/validation.csv day/after/validation_compensated.csv --model-file day/model_ap.json \\
         --tables day/tables --out day/verify
 """
 from __future__ import annotations
@@ -74,7 +74,7 @@ def run(out_dir: str | Path = "whole_day", points: int = 150, order: int = 4, se
     tracker_mm = (3000.0, -2300.0, -300.0)
 
     say("1. plan")
-    settings = PlanSettings(n_points=points, model="ap", order=order, tracker_mm=tracker_mm, repeat_points=6,
+    settings = PlanSettings(n_commands=points, model="ap", order=order, tracker_mm=tracker_mm, repeat_points=6,
                             repeat_times=4, exclude=[{"X": (0.0, 600.0), "B": (-111.0, -60.0)}], seed=seed)
     planned = plan_to_dir(m, out / "plan", settings)
     say("\n".join(planned.lines()))
@@ -82,7 +82,7 @@ def run(out_dir: str | Path = "whole_day", points: int = 150, order: int = 4, se
 
     say("2. measure: the plan on a simulated true machine (tracker where the plan put it)")
     truth = TrueMachine.random(m, np.random.default_rng(seed), mean_error_mm=0.65)
-    design = Design(n_validation=35, exclusion_zones=settings.exclude)
+    design = Design(n_validation=35, exclude=settings.exclude)
     tracker = np.array(tracker_mm) * 1e-3
     sim = simulate(m, seed, design, truth=truth, plan=(template.q, template.tool), tracker_position=tracker)
     measured = sim.campaign

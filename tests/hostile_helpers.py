@@ -38,7 +38,7 @@ def simulated_base(folder, fit_args) -> SimpleNamespace:
     commands x 2 tools, seed 5), its validation run (10 commands) and a model fitted
     with ``fit_args``; returns (dir, csv, val, model)."""
     assert main(["simulate", "flow_xyzcb", "--out", str(folder / "sim"), "--seed", "5", "--points", "30",
-                 "--validation", "10"]) == 0
+                 "--validation-count", "10"]) == 0
     csv = folder / "sim" / "campaign.csv"
     model = folder / "model.json"
     assert main(["fit", "flow_xyzcb", str(csv), "--out", str(model)] + list(fit_args)) == 0

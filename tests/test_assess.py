@@ -81,7 +81,7 @@ def test_the_seeds_decisions():
 
 
 def test_assess_a_simulated_campaign_and_the_cli(flow, tmp_path, capsys):
-    plan = make_plan(flow, PlanSettings(n_points=20, order=1, candidates=200, sight=False, repeat_points=5,
+    plan = make_plan(flow, PlanSettings(n_commands=20, order=1, candidates=200, sight=False, repeat_points=5,
                                         repeat_times=4, validation_points=20))
     sim = simulate(flow, 2, plan=(plan.template.q, plan.template.tool))
     a = assess_campaign(sim.campaign, flow, session_gap=300.0)  # repeats at the start and the end, 15 min apart

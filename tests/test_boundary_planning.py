@@ -39,14 +39,14 @@ def test_every_parameter_the_library_names_is_an_option_of_a_command():
 
 
 @pytest.mark.parametrize("command, text, shown", [
-    ("plan", "`n_points` 0: plan at least one command", "--points 0: plan at least one command"),
+    ("plan", "`n_commands` 0: plan at least one command", "--points 0: plan at least one command"),
     ("plan", "`tracker_mm`: outside", "--tracker: outside"),
     ("plan", "`repeat_points` 3, `repeat_times` 1", "--repeat 3, --repeat 1"),
     ("plan", "`safe_z_mm` 9: not inside", "--safe-z 9: not inside"),
     ("plan", "`retract` C", "--retract-axis C"),
     ("plan", "`out_dir` /x: no permission", "--out /x: no permission"),
     ("simulate", "`n_commands` 3", "--points 3"),
-    ("simulate", "`exclusion_zones`: no room", "--exclude: no room"),
+    ("simulate", "`exclude`: no room", "--exclude: no room"),
     ("simulate", "`tracker_position` 1,2", "--tracker 1,2"),
     ("import", "`export_format` ipa-robot-accuracy", "--format ipa-robot-accuracy"),
     ("import", "give `units` in", "give --units in"),
@@ -81,8 +81,8 @@ def test_a_plan_for_each_basis_is_the_model_the_fit_fixes(flow):
     n = {b: planned_model(flow, PlanSettings(model="ap", order=3, basis=b)).n_parameters for b in BASES}
     assert n["auto"] == n["fourier"] == n["chebyshev"] and n["pspline"] == n["spline"] > n["chebyshev"]
     assert n["fourier_trend"] > n["fourier"]
-    p = make_plan(flow, PlanSettings(n_points=40, order=2, basis="fourier_trend", candidates=300, sight=False,
-                                     validation_run=5, validation_points=50))
+    p = make_plan(flow, PlanSettings(n_commands=40, order=2, basis="fourier_trend", candidates=300, sight=False,
+                                     n_validation=5, validation_points=50))
     assert p.information.model.n_parameters == planned_model(flow, p.settings).n_parameters
     with pytest.raises(InputError, match="`basis` 'legendre'"):
         PlanSettings(basis="legendre").check()

@@ -71,7 +71,7 @@ def test_fit_then_evaluate(simulated, tmp_path, capsys, model, extra):
 
 
 def test_orders_prints_the_table(simulated, capsys):
-    assert main(["orders", "flow_xyzcb", str(simulated / "campaign.csv"), "--model", "ap", "--orders", "1,3",
+    assert main(["orders", "flow_xyzcb", str(simulated / "campaign.csv"), "--models", "ap", "--orders", "1,3",
                  "--validation", str(simulated / "validation.csv"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "Uncompensated" in out and "best ap order" in out
@@ -126,8 +126,8 @@ def test_tables_command_errors(simulated, tmp_path, capsys):
     assert "at most 64" in capsys.readouterr().err
     assert main(["tables", str(model), "--forbid-output", "Q", "--out", str(tmp_path / "t")]) == 2
     assert "no axis 'Q'" in capsys.readouterr().err
-    assert main(["tables", str(model), "--points", "10000000", "--out", str(tmp_path / "t")]) == 2
-    assert "--points 10000000" in capsys.readouterr().err
+    assert main(["tables", str(model), "--table-points", "10000000", "--out", str(tmp_path / "t")]) == 2
+    assert "--table-points 10000000" in capsys.readouterr().err
     assert main(["tables", str(model), "--controller", "fanuc-30i", "--out", str(tmp_path / "t")]) == 2
     err = capsys.readouterr().err
     assert "controlled-axis number" in err and "--profile" in err and "Traceback" not in err

@@ -10,7 +10,7 @@ from vecpin.workflows.evaluation import evaluate
 
 def test_rows_beyond_the_measured_range_are_judged_apart(machines):
     m = machines["flow_xyzcb"]
-    sim = simulate(m, seed=5, design=Design(n_commands=150, n_validation=60, exclusion_zones=[{"X": (3000.0, 7000.0)}]))
+    sim = simulate(m, seed=5, design=Design(n_commands=150, n_validation=60, exclude=[{"X": (3000.0, 7000.0)}]))
     assert sim.campaign.q[:, 0].max() < m.axis("X").to_si(3000.0)             # the fit sees X below 3 m only
     model = make_model("ap", m, 4).fit(sim.campaign, NoiseModel.default(m))
     whole = simulate(m, seed=6, design=Design(n_commands=20, n_validation=60), truth=sim.truth).validation

@@ -4,7 +4,7 @@ applies them with the opposite sign.
 The simulated controllers (tests/controller_appliers.py) read the written files with their
 own small parsers and apply the values by the vendor's documented rule, on a machine
 with its own axis error; the check's readings then go through ``vecpin evaluate
---sign-test``. Nothing here uses vecpin's readers."""
+--sign-test-file``. Nothing here uses vecpin's readers."""
 import csv
 import json
 from pathlib import Path
@@ -110,13 +110,13 @@ def test_program_instructions_and_the_evaluate_command(model, machines, tmp_path
                 if e[0] == "stop"]
     assert [mv.pos["X"] for mv in at_stops] == pytest.approx(test["positions"], abs=5e-4)
     assert all(mv.code == 1 and mv.before["X"] < mv.pos["X"] for mv in at_stops)
-    assert "--sign-test SIGNTEST_XX.json" in (out / "SIGNTEST_XX.md").read_text()
+    assert "--sign-test-file SIGNTEST_XX.json" in (out / "SIGNTEST_XX.md").read_text()
     check = tmp_path / "check.csv"
     check_csv(check, test, lambda x: siemens_eec(out, "X1", x), -1.0, np.random.default_rng(3))
-    assert main(["evaluate", str(model_path), str(check), "--sign-test", str(out / "SIGNTEST_XX.json")]) == 0
+    assert main(["evaluate", str(model_path), str(check), "--sign-test-file", str(out / "SIGNTEST_XX.json")]) == 0
     assert "sign REVERSED" in capsys.readouterr().out
     bad = tmp_path / "bad.csv"
     bad.write_text("compensation,command,reading\noff,1.0,0.1\n")
-    assert main(["evaluate", str(model_path), str(bad), "--sign-test", str(out / "SIGNTEST_XX.json")]) == 2
+    assert main(["evaluate", str(model_path), str(bad), "--sign-test-file", str(out / "SIGNTEST_XX.json")]) == 2
     err = capsys.readouterr().err
     assert "bad.csv" in err and "neither test position" in err

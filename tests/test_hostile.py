@@ -554,8 +554,8 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
                                        ["--effect", "strength='abc'"]),
     "simulate --effect unknown": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--effect", "wobble"],
                                   ["--effect 'wobble'", "known:"]),
-    "simulate --validation 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--validation", "0"],
-                                ["--validation 0", "at least 5 rows"]),
+    "simulate --validation-count 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--validation-count", "0"],
+                                ["--validation-count 0", "at least 5 rows"]),
     "simulate --ballbar -3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--ballbar", "-3"],
                               ["--ballbar -3", "0 or more"]),
     "simulate --repeat -1 3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--repeat", "-1", "3"],
@@ -569,10 +569,10 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     "simulate --exclude reversed": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--exclude",
                                                   "X=500:0"], ["--exclude 'X=500:0'", "X=0:500"]),
     # tables
-    "tables --points -5": (lambda b, w: ["tables", b.model, "--out", w / "t", "--points", "-5"],
-                           ["--points -5", "at least 2 points"]),
-    "tables --points 1e7": (lambda b, w: ["tables", b.model, "--out", w / "t", "--points", "10000000"],
-                            ["--points 10000000", "100000 or fewer"]),
+    "tables --table-points -5": (lambda b, w: ["tables", b.model, "--out", w / "t", "--table-points", "-5"],
+                           ["--table-points -5", "at least 2 points"]),
+    "tables --table-points 1e7": (lambda b, w: ["tables", b.model, "--out", w / "t", "--table-points", "10000000"],
+                            ["--table-points 10000000", "100000 or fewer"]),
     "tables --max-tables -1": (lambda b, w: ["tables", b.model, "--out", w / "t", "--max-tables", "-1"],
                                ["--max-tables -1", ">= 0"]),
     "tables --max-tables 70 (840D)": (lambda b, w: ["tables", b.model, "--out", w / "t", "--max-tables", "70",
@@ -686,14 +686,14 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     "assess CSV without repeats": (lambda b, w: ["assess", b.csv, "--machine", "flow_xyzcb"],
                                    ["no command is measured twice", "plan repeated points", "repeat_points"]),
     # verify
-    "verify without a machine": (lambda b, w: ["verify", b.val, b.val], ["needs --machine, or --model"]),
-    "verify --machine and --model disagree": (lambda b, w: ["verify", b.val, b.val, "--machine", "trunnion_xyzbc",
-                                                            "--model", b.model],
-                                              ["--machine trunnion_xyzbc", "--model", "use files of one machine"]),
+    "verify without a machine": (lambda b, w: ["verify", b.val, b.val], ["needs --machine, or --model-file"]),
+    "verify --machine and --model-file disagree": (lambda b, w: ["verify", b.val, b.val, "--machine", "trunnion_xyzbc",
+                                                            "--model-file", b.model],
+                                              ["--machine trunnion_xyzbc", "--model-file", "use files of one machine"]),
     "verify --tables missing": (lambda b, w: ["verify", b.val, b.val, "--machine", "flow_xyzcb", "--tables",
                                               w / "none"], ["--tables", "no such file or folder"]),
-    "evaluate --sign-test missing": (lambda b, w: ["evaluate", b.model, b.csv, "--sign-test", w / "none.json"],
-                                     ["--sign-test", "no such file"]),
+    "evaluate --sign-test-file missing": (lambda b, w: ["evaluate", b.model, b.csv, "--sign-test-file", w / "none.json"],
+                                     ["--sign-test-file", "no such file"]),
     "plan --compare missing (before planning)": (lambda b, w: ["plan", "flow_xyzcb", "--out", w / "p", "--compare",
                                                                w / "none.csv"], ["none.csv", "no such plan file"]),
     "plan --feed inf": (lambda b, w: ["plan", "flow_xyzcb", "--out", w / "p", "--feed", "inf"],
@@ -726,7 +726,7 @@ def test_max_tables_0_and_every_output_forbidden_give_pitch_tables(base, work, c
 
 
 def test_limits_are_checked_before_memory_is_spent(base, work, capsys, monkeypatch):
-    """--points 1e8 (simulate), 1e7 (plan, tables) and --orders 0-500 are refused before any
+    """--points 1e8 (simulate), 1e7 (plan; --table-points, tables) and --orders 0-500 are refused before any
     array is allocated: the heavy functions are never reached."""
     import vecpin.compensation.plan as cp
     import vecpin.planning.candidates as pp
@@ -740,7 +740,7 @@ def test_limits_are_checked_before_memory_is_spent(base, work, capsys, monkeypat
         monkeypatch.setattr(mod, name, never)
     refused(["simulate", "flow_xyzcb", "--out", work / "s", "--points", "100000000"], capsys, "--points")
     refused(["plan", "flow_xyzcb", "--out", work / "p", "--points", "10000000"], capsys, "--points 10000000")
-    refused(["tables", base.model, "--out", work / "t", "--points", "10000000"], capsys, "--points 10000000")
+    refused(["tables", base.model, "--out", work / "t", "--table-points", "10000000"], capsys, "--table-points 10000000")
     refused(["orders", "flow_xyzcb", base.csv, "--orders", "0-500"], capsys, "--orders")
 
 
@@ -797,7 +797,7 @@ def test_mimic_joint_is_not_an_independent_axis(work, capsys):
     q = np.array([[0.1, 0.2, 0.4], [0.0, 0.0, 0.0]])
     tip = m.tool_tip(q, 0.0)
     np.testing.assert_allclose(tip[0] - tip[1], [0.1, 0.2, 0.2], atol=1e-12)
-    ok(["simulate", path, "--out", work / "s", "--points", "10", "--validation", "5"], capsys)
+    ok(["simulate", path, "--out", work / "s", "--points", "10", "--validation-count", "5"], capsys)
     assert (work / "s" / "campaign.csv").read_text().splitlines()[0].split(",")[:4] == ["X", "Y", "Z", "tool"]
 
 
@@ -833,7 +833,7 @@ def test_model_file_refused_naming_file_and_field(base, work, capsys, case):
     argv = {"evaluate": ["evaluate", p, base.csv], "tables": ["tables", p, "--out", work / "t"],
             "view": ["view", p, base.csv, "--html", work / "v.html"], "report": ["report", p, base.csv, "--out",
                                                                                  work / "r"],
-            "verify": ["verify", base.val, base.val, "--model", p]}[command]
+            "verify": ["verify", base.val, base.val, "--model-file", p]}[command]
     refused(argv, capsys, str(p), field)
 
 
@@ -881,7 +881,7 @@ def sister(base):
     b = text.index('<origin xyz="0 0 0"', a)
     urdf.write_text(text[:b] + '<origin xyz="0.15 0 0"' + text[b + len('<origin xyz="0 0 0"'):])
     assert main(["simulate", str(urdf), "--out", str(d / "sim"), "--seed", "8", "--points", "30",
-                 "--validation", "10"]) == 0
+                 "--validation-count", "10"]) == 0
     return SimpleNamespace(urdf=urdf, csv=d / "sim" / "campaign.csv")
 
 
@@ -910,7 +910,7 @@ def test_models_of_two_machines_in_one_report(base, sister, work, capsys):
     ok(["fit", sister.urdf, sister.csv, "--out", m2] + FIT_FAST, capsys)
     refused(["report", base.model, m2, base.csv, "--out", work / "r"], capsys, "model 1", "model 2",
             "use files of one machine")
-    refused(["verify", base.val, base.val, "--machine", sister.urdf, "--model", base.model], capsys,
+    refused(["verify", base.val, base.val, "--machine", sister.urdf, "--model-file", base.model], capsys,
             "use files of one machine")
 
 
@@ -1004,7 +1004,7 @@ SETS = {  # command -> argv with OUT (a folder result of several files)
     "plan": lambda b, o: ["plan", "flow_xyzcb", "--out", o, "--points", "12", "--order", "1", "--candidates", "150",
                           "--no-sight", "--quiet"],
     "report": lambda b, o: ["report", b.model, b.csv, "--out", o, "--quiet"],
-    "verify": lambda b, o: ["verify", b.val, b.csv, "--model", b.model, "--out", o, "--quiet"],  # two runs
+    "verify": lambda b, o: ["verify", b.val, b.csv, "--model-file", b.model, "--out", o, "--quiet"],  # two runs
     "diagnose": lambda b, o: ["diagnose", "flow_xyzcb", b.csv, "--out", o, "--quiet", "--effects", "thermal",
                               "--model", "ap", "--order", "2", "--basis", "chebyshev"],
 }
@@ -1070,7 +1070,7 @@ def _meshed_machine(folder: Path) -> Path:
 
 def test_relative_mesh_found_when_the_model_file_is_used_elsewhere(work, capsys, monkeypatch):
     urdf = _meshed_machine(work / "machine")
-    ok(["simulate", urdf, "--out", work / "sim", "--points", "20", "--validation", "5"], capsys)
+    ok(["simulate", urdf, "--out", work / "sim", "--points", "20", "--validation-count", "5"], capsys)
     model = work / "elsewhere" / "model.json"
     model.parent.mkdir()
     ok(["fit", urdf, work / "sim" / "campaign.csv", "--out", model] + FIT_FAST, capsys)
@@ -1083,7 +1083,7 @@ def test_relative_mesh_found_when_the_model_file_is_used_elsewhere(work, capsys,
 
 def test_missing_mesh_draws_without_it_with_a_note(work, capsys):
     urdf = _meshed_machine(work / "machine")
-    ok(["simulate", urdf, "--out", work / "sim", "--points", "20", "--validation", "5"], capsys)
+    ok(["simulate", urdf, "--out", work / "sim", "--points", "20", "--validation-count", "5"], capsys)
     model = work / "model.json"
     ok(["fit", urdf, work / "sim" / "campaign.csv", "--out", model] + FIT_FAST, capsys)
     shutil.rmtree(work / "machine" / "meshes")

@@ -386,7 +386,7 @@ def test_verify_with_the_same_file_twice(base, work, capsys):
 def test_verify_with_a_copy_of_the_before_run(base, work, capsys):
     copy_ = work / "after.csv"
     copy_.write_bytes(base.val.read_bytes())
-    refused(["verify", base.val, copy_, "--machine", "flow_xyzcb", "--model", base.model], capsys,
+    refused(["verify", base.val, copy_, "--machine", "flow_xyzcb", "--model-file", base.model], capsys,
             "hold the same measurements", str(copy_))
 
 

@@ -20,7 +20,7 @@ T0 = datetime(2024, 3, 5, 23, 55, 0)  # the campaign runs past midnight
 @pytest.fixture(scope="module")
 def day(flow, tmp_path_factory):
     d = tmp_path_factory.mktemp("imp")
-    plan = make_plan(flow, PlanSettings(n_points=20, order=1, candidates=200, sight=False, validation_points=20))
+    plan = make_plan(flow, PlanSettings(n_commands=20, order=1, candidates=200, sight=False, validation_points=20))
     (d / "plan.csv").write_text(plan.template.to_csv(flow))
     sim = simulate(flow, 4, plan=(plan.template.q, plan.template.tool))
     return d, plan.template, sim.campaign

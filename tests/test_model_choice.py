@@ -149,7 +149,7 @@ def test_per_turn_bases_are_refused_on_a_machine_without_a_multiturn_axis(tmp_pa
     """The small AB head turns +-25 deg: a per-turn basis applies to no axis, and every
     command that takes --basis says so (no traceback, no silent Chebyshev)."""
     from vecpin.cli import main
-    assert main(["simulate", "cincinnati_20v", "--out", str(tmp_path / "s"), "--points", "30", "--validation", "10"]) == 0
+    assert main(["simulate", "cincinnati_20v", "--out", str(tmp_path / "s"), "--points", "30", "--validation-count", "10"]) == 0
     capsys.readouterr()
     argv = [a.format(csv=tmp_path / "s" / "campaign.csv", tmp=tmp_path) for a in argv]
     assert main(argv[:1] + ["cincinnati_20v"] + argv[1:]) == 2

@@ -1,5 +1,5 @@
-"""Model files: every number a user reads in mm or degrees, the round trip, and files
-written before the station corrections were in mm/deg (``correction``, m and rad).
+"""Model files: every number a user reads in mm or degrees, the round trip, and one
+station format (``correction_mm_deg``: mm, deg).
 
 Independent truth: the fitted setup in SI converted by hand (1 m = 1000 mm,
 1 rad = 180/pi deg), not by vecpin's unit helpers."""
@@ -75,24 +75,21 @@ def test_round_trip_keeps_every_station(fitted, tmp_path):
         np.testing.assert_allclose(twice[sid]["correction_mm_deg"], st["correction_mm_deg"], rtol=1e-14)
 
 
-def test_a_file_with_the_old_si_correction_reads_the_same(fitted, tmp_path):
-    """Files written before ``correction_mm_deg`` hold ``correction`` in m and rad (still
-    version 1): they read into the same station poses."""
+def test_a_station_correction_in_si_is_refused_naming_its_field(fitted, tmp_path):
+    """One station format per file version: ``correction_mm_deg`` (mm, deg). A file holding
+    the pose correction under another key, or a damaged one, is refused with the field."""
     sim, model = fitted
     model.save(tmp_path / "m.json")
     d = json.loads((tmp_path / "m.json").read_text())
-    for sid, st in d["tracker"]["stations"].items():
-        v = st.pop("correction_mm_deg")
-        st["correction"] = [x / 1000.0 for x in v[:3]] + [x * math.pi / 180.0 for x in v[3:]]
-    (tmp_path / "old.json").write_text(json.dumps(d, indent=1))
-    old = ErrorModel.load(tmp_path / "old.json")
-    for sid, (_, _, e) in model.setup_.stations.items():
-        np.testing.assert_allclose(old.setup_.stations[sid][2], e, rtol=1e-12, atol=1e-18)
-    c = sim.campaign
-    np.testing.assert_allclose(old.residuals(c), model.residuals(c), atol=1e-12)
-    # a damaged correction names its field
     sid = next(iter(d["tracker"]["stations"]))
-    d["tracker"]["stations"][sid]["correction"] = [0.0] * 5
+    st = d["tracker"]["stations"][sid]
+    v = st.pop("correction_mm_deg")
+    st["correction"] = [x / 1000.0 for x in v[:3]] + [x * math.pi / 180.0 for x in v[3:]]
+    (tmp_path / "old.json").write_text(json.dumps(d, indent=1))
+    with pytest.raises(ModelFileError, match="correction_mm_deg"):
+        ErrorModel.load(tmp_path / "old.json")
+    st.pop("correction")
+    st["correction_mm_deg"] = [0.0] * 5
     (tmp_path / "bad.json").write_text(json.dumps(d))
-    with pytest.raises(ModelFileError, match=f"tracker.stations.{sid}.correction"):
+    with pytest.raises(ModelFileError, match=f"tracker.stations.{sid}.correction_mm_deg"):
         ErrorModel.load(tmp_path / "bad.json")

@@ -27,9 +27,9 @@ def plans(machines):
     """A head machine (X Y Z C B, the tool on a 215/313 mm holder) with repeated points and
     a trunnion (X Y Z A C on the table) with three table nests."""
     flow, trunnion = machines["flow_xyzcb"], machines["trunnion_xyzac"]
-    return {"flow_xyzcb": make_plan(flow, PlanSettings(n_points=16, order=1, candidates=200, validation_points=30,
+    return {"flow_xyzcb": make_plan(flow, PlanSettings(n_commands=16, order=1, candidates=200, validation_points=30,
                                                        repeat_points=2, repeat_times=2)),
-            "trunnion_xyzac": make_plan(trunnion, PlanSettings(n_points=24, model="6dof", order=1, candidates=300,
+            "trunnion_xyzac": make_plan(trunnion, PlanSettings(n_commands=24, model="6dof", order=1, candidates=300,
                                                                validation_points=30))}
 
 
@@ -241,7 +241,7 @@ def test_other_approaches_on_a_head_table_machine(machines, approach):
     in machine coordinates with the moves that swing or travel made at the top of Z; from
     above the last move runs down onto the point."""
     m = machines["head_table_bc"]
-    p = make_plan(m, PlanSettings(n_points=20, order=1, candidates=200, validation_points=20, approach=approach))
+    p = make_plan(m, PlanSettings(n_commands=20, order=1, candidates=200, validation_points=20, approach=approach))
     t = p.template
     for dialect in DIALECTS:
         prog = run(write_program(dialect, m, t, p.steps), dialect, _axes(m))

@@ -27,7 +27,7 @@ MODEL, ORDER = "6dof", 4   # the simulated truth has 6-DoF errors on every axis 
 @pytest.fixture(scope="module")
 def trunnion_plan(machines):
     m = machines["trunnion_xyzac"]
-    return make_plan(m, PlanSettings(n_points=80, model=MODEL, order=ORDER, candidates=800, validation_points=150))
+    return make_plan(m, PlanSettings(n_commands=80, model=MODEL, order=ORDER, candidates=800, validation_points=150))
 
 
 def _rank(W: np.ndarray) -> int:

@@ -20,7 +20,7 @@ ZONE = {"X": (500.0, 3000.0), "B": (-60.0, 60.0)}
 @pytest.fixture(scope="module")
 def planned(flow, tmp_path_factory):
     d = tmp_path_factory.mktemp("pv")
-    s = PlanSettings(n_points=24, order=2, candidates=300, validation_points=100, validation_run=20,
+    s = PlanSettings(n_commands=24, order=2, candidates=300, validation_points=100, n_validation=20,
                      tracker_mm=(3000, -2300, -300), zone=ZONE, exclude=[{"X": (1000.0, 1500.0)}])
     return d, plan_to_dir(flow, d, s, dialects=("gcode", "fanuc"))
 

@@ -12,7 +12,7 @@ from vecpin.planning.planchecks import TRACKER_RANGE, work_envelope
 from vecpin.planning.timing import ProgramTiming, row_times
 from vecpin.planning.route import axis_speeds
 
-SMALL = dict(n_points=24, order=2, candidates=300, validation_points=100)
+SMALL = dict(n_commands=24, order=2, candidates=300, validation_points=100)
 
 
 def test_snk_default_plan_warns_first_about_collision_and_predicted_error(tmp_path, capsys):

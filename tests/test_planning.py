@@ -21,7 +21,7 @@ from vecpin.planning.zones import inside, parse_zone
 from vecpin.simulation.simulate import simulate
 from vecpin.workflows.planning import plan_to_dir
 
-SMALL = dict(n_points=24, order=2, candidates=300, validation_points=100)
+SMALL = dict(n_commands=24, order=2, candidates=300, validation_points=100)
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,7 @@ def test_greedy_matches_a_brute_force_greedy():
 def test_plan_covariance_is_the_fits(flow):
     """The plan's linearised covariance (nominal machine) against the covariance the
     estimator reports after fitting the plan measured on a true machine (Cartesian noise)."""
-    s = PlanSettings(n_points=40, order=2, candidates=400, noise=NoiseModel.default(flow, "cartesian"),
+    s = PlanSettings(n_commands=40, order=2, candidates=400, noise=NoiseModel.default(flow, "cartesian"),
                      sight=False, validation_points=50)
     plan = make_plan(flow, s)
     sim = simulate(flow, 5, plan=(plan.template.q, plan.template.tool), mean_error_mm=0.3)
@@ -65,7 +65,7 @@ def test_plan_covariance_is_the_fits(flow):
 
 
 def test_doptimal_beats_random_on_its_own_criterion(flow):
-    base = dict(n_points=30, order=2, candidates=500, sight=False, validation_points=200)
+    base = dict(n_commands=30, order=2, candidates=500, sight=False, validation_points=200)
     d = make_plan(flow, PlanSettings(**base))
     r = make_plan(flow, PlanSettings(**base, method="random"))
     assert d.score.log_det > r.score.log_det
@@ -121,7 +121,7 @@ def test_zone_parsing_and_errors(flow):
     with pytest.raises(InputError, match="exclusion zone"):
         parse_zone("X=0..500")
     with pytest.raises(InputError, match="`zone`"):
-        make_plan(flow, PlanSettings(n_points=5, zone={"X": (7000.0, 8000.0)}))
+        make_plan(flow, PlanSettings(n_commands=5, zone={"X": (7000.0, 8000.0)}))
 
 
 def test_template_round_trip_and_filled_template_reads_as_a_campaign(flow, small_plan, tmp_path):

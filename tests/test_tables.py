@@ -146,7 +146,7 @@ def short_and_full(machines):
     noise = NoiseModel.default(flow, "spherical")
     out = {}
     for name, zones in (("full", []), ("short", [{"Y": (SHORT_Y_MM, 3000.0)}])):
-        sim = simulate(flow, seed=8, design=Design(n_commands=150, n_validation=5, exclusion_zones=zones),
+        sim = simulate(flow, seed=8, design=Design(n_commands=150, n_validation=5, exclude=zones),
                        mean_error_mm=0.65)
         out[name] = (sim, make_model("ap", flow, 4).fit(sim.campaign, noise))
     return out

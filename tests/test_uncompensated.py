@@ -23,7 +23,7 @@ FIGURE = re.compile(r"uncompensated error \(nominal kinematics, best rigid fit, 
 @pytest.fixture(scope="module")
 def day(flow, tmp_path_factory):
     d = tmp_path_factory.mktemp("unc")
-    plan = make_plan(flow, PlanSettings(n_points=30, order=1, candidates=200, sight=False, repeat_points=5,
+    plan = make_plan(flow, PlanSettings(n_commands=30, order=1, candidates=200, sight=False, repeat_points=5,
                                         repeat_times=3, validation_points=20))
     (d / "plan.csv").write_text(plan.template.to_csv(flow))
     sim = simulate(flow, 3, plan=(plan.template.q, plan.template.tool))

@@ -70,7 +70,7 @@ def test_verify_labels_reduction_and_prediction(flow, fitted):
 
 def test_simulate_tables_and_verify_cli(flow, fitted, tmp_path, capsys):
     d, design, sim, model, tables = fitted
-    base = ["simulate", "flow_xyzcb", "--seed", "6", "--points", "120", "--validation", "30"]
+    base = ["simulate", "flow_xyzcb", "--seed", "6", "--points", "120", "--validation-count", "30"]
     assert main(base + ["--out", str(tmp_path / "a")]) == 0
     assert main(base + ["--tables", str(d / "tables"), "--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
@@ -81,7 +81,7 @@ def test_simulate_tables_and_verify_cli(flow, fitted, tmp_path, capsys):
     after = read_campaign(tmp_path / "b" / "validation_compensated.csv", flow)
     assert len(after) == 30
     assert main(["verify", str(tmp_path / "b" / "validation.csv"), str(tmp_path / "b" / "validation_compensated.csv"),
-                 "--model", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(tmp_path / "v")]) == 0
+                 "--model-file", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(tmp_path / "v")]) == 0
     text = capsys.readouterr().out
     assert "uncompensated (validation.csv)" in text and "compensated (validation_compensated.csv)" in text
     js = json.loads((tmp_path / "v" / "verify.json").read_text())

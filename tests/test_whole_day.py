@@ -77,7 +77,7 @@ def test_whole_day_on_a_trunnion_with_table_nests(tmp_path, capsys, machines):
     d, m = tmp_path, machines["trunnion_xyzac"]
     assert main(["plan", "trunnion_xyzac", "--points", "60", "--model", "6dof", "--order", "3", "--candidates", "600",
                  "--out", str(d / "plan"), "--quiet"]) == 0
-    assert main(["simulate", "trunnion_xyzac", "--plan", str(d / "plan" / "plan.csv"), "--seed", "8", "--validation",
+    assert main(["simulate", "trunnion_xyzac", "--plan", str(d / "plan" / "plan.csv"), "--seed", "8", "--validation-count",
                  "25", "--out", str(d / "sim")]) == 0
     c, t = read_campaign(d / "sim" / "campaign.csv", m), read_template(d / "plan" / "plan.csv", m)
     assert len(t.nest_rows) > 60 and np.array_equal(c.nest_rows, t.nest_rows)
@@ -93,10 +93,10 @@ def test_whole_day_on_a_trunnion_with_table_nests(tmp_path, capsys, machines):
                  "--out", str(d / "model.json"), "--quiet"]) == 0
     assert main(["tables", str(d / "model.json"), "--out", str(d / "tables"), "--quiet"]) == 0
     assert main(["simulate", "trunnion_xyzac", "--truth", str(d / "sim" / "truth.json"), "--plan",
-                 str(d / "plan" / "plan.csv"), "--validation", "25", "--tables", str(d / "tables"),
+                 str(d / "plan" / "plan.csv"), "--validation-count", "25", "--tables", str(d / "tables"),
                  "--out", str(d / "after")]) == 0
     assert main(["verify", str(d / "after" / "validation.csv"), str(d / "after" / "validation_compensated.csv"),
-                 "--model", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(d / "verify")]) == 0
+                 "--model-file", str(d / "model.json"), "--tables", str(d / "tables"), "--out", str(d / "verify")]) == 0
     text = capsys.readouterr().out
     assert "by point number" in text and "nest 3 (workpiece frame)" in text
     assert json.loads((d / "verify" / "verify.json").read_text())["reduction_of_mean_pct"] > 40.0

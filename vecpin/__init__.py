@@ -9,6 +9,12 @@ The main path, as the command line runs it::
     tables = vecpin.plan_tables(run.model).tables                             # a TableSet
     vecpin.make_tables(run.model, "tables", "siemens-840d", profile="profile.json")
 
+The same fit as an estimator (scikit-learn's ``RidgeCV`` pattern: the model choice inside
+``fit``), with the predicted tool-tip error and its standard deviation::
+
+    est = vecpin.ErrorModelCV(m).fit(campaign)          # est.model_, est.choice_
+    error, std = est.predict(q, tool, return_std=True)  # (N,3) m, relative to the workpiece
+
 Names are imported when first used (PEP 562), so ``import vecpin`` and the command line's help
 do not load Pinocchio and SciPy until a command needs them.
 """
@@ -23,7 +29,8 @@ _NAMES = {
     "write_campaign": "vecpin.measurement.campaign",
     "VecpinError": "vecpin.errors", "MachineError": "vecpin.errors", "CampaignFileError": "vecpin.errors",
     "ErrorModel": "vecpin.models", "SixDofModel": "vecpin.models", "APModel": "vecpin.models",
-    "make_model": "vecpin.models", "NoiseModel": "vecpin.measurement.noise",
+    "make_model": "vecpin.models", "ModelSpec": "vecpin.models.spec", "NoiseModel": "vecpin.measurement.noise",
+    "ErrorModelCV": "vecpin.workflows.estimator",
     "fit": ("vecpin.workflows.fitting", "fit_campaign"), "simulate": "vecpin.simulation.simulate",
     "plan_tables": "vecpin.compensation.plan", "TableSet": "vecpin.compensation.tables",
     "make_tables": "vecpin.workflows.tables", "diagnose": "vecpin.diagnosis.diagnose",

@@ -16,7 +16,7 @@ def run_tables(args) -> int:
     for a in zone or {}:
         m.axis(a)
     how = UserCommands(sign_test=f"`vecpin tables {args.model} --controller {args.controller} --sign-test AXIS`",
-                       sign_check=f"`vecpin evaluate {args.model} SIGNTEST_{{tag}}.csv --sign-test SIGNTEST_{{tag}}.json`")
+                       sign_check=f"`vecpin evaluate {args.model} SIGNTEST_{{tag}}.csv --sign-test-file SIGNTEST_{{tag}}.json`")
     run = make_tables(model, args.out, args.controller, profile=args.profile, axis_map=parse_axis_map(args.axis_map, m),
                       max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
                       method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,
@@ -27,11 +27,11 @@ def run_tables(args) -> int:
 
 
 def run_sign_check(args) -> int:
-    """``vecpin evaluate MODEL CHECK.csv --sign-test SIGNTEST_X.json``."""
+    """``vecpin evaluate MODEL CHECK.csv --sign-test-file SIGNTEST_X.json``."""
     from vecpin.models import ErrorModel
     from vecpin.workflows.tables import check_sign
     model = ErrorModel.load(args.model)
-    verdict = check_sign(args.sign_test, args.csv, model.machine)
+    verdict = check_sign(args.test_path, args.csv, model.machine)
     say(args, *verdict.lines())
     return 0
 
@@ -56,7 +56,7 @@ def register(sub) -> None:
                    help="axis whose command no table may change; repeatable (default: none)")
     s.add_argument("--method", default="exact", choices=["exact", "ga", "heuristic"],
                    help="subset selection method (default exact)")
-    s.add_argument("--points", type=int,
+    s.add_argument("--table-points", dest="points", type=int,
                    help="points per table (default: 1024 or the controller's maximum if smaller)")
     s.add_argument("--tools", type=float, nargs="+", help="tool lengths in mm (default: those of the fit)")
     s.add_argument("--modulo", action="append", default=[], metavar="AXIS",
@@ -66,7 +66,7 @@ def register(sub) -> None:
                    "(default: 1000 quasi-random commands in the measured region, with the fit's tools)")
     s.add_argument("--sign-test", metavar="AXIS|TABLE",
                    help="also write a sign-test NC program and instructions for this axis' pitch table or this "
-                        "table (e.g. X or yx); judge it with vecpin evaluate --sign-test (default: none)")
+                        "table (e.g. X or yx); judge it with vecpin evaluate --sign-test-file (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit the tables in this region of axis space only, mm/deg (default: the zone the model was "
                         "fitted in, else the whole measured region)")

@@ -18,21 +18,21 @@ def read_fit_campaign(args, m):
 
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
-    from vecpin.workflows.fitting import fit_campaign
+    from vecpin.workflows.estimator import ErrorModelCV
     m = machine(args.machine, args)
     check_output_file(args.out)
-    run = fit_campaign(m, read_fit_campaign(args, m), noise(args, m), kind=args.model, basis=args.basis,
-                       order=args.order, tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
+    est = ErrorModelCV(m, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
+                       tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, folds=args.folds, zone=zone_option(args.zone),
                        noise_from_data=not noise_stated(args), progress=progress(not args.quiet))
-    run.model.save(args.out)
-    say(args, *run.lines())
+    est.fit(read_fit_campaign(args, m)).save(args.out)
+    say(args, *est.run_.lines())
     print(f"wrote {args.out}")
     return 0
 
 
 def run_evaluate(args) -> int:
-    if args.sign_test:
+    if args.test_path:
         from vecpin.cli.compensating import run_sign_check
         return run_sign_check(args)
     from vecpin.fileio import check_output_file, write_text
@@ -60,7 +60,7 @@ def run_orders(args) -> int:
     m = machine(args.machine, args)
     c = read_campaign(args.csv, m)
     v = read_campaign(args.validation, m) if args.validation else None
-    run = choose_orders(m, c, noise(args, m), kinds=args.model, orders=parse_orders(args.orders), basis=args.basis,
+    run = choose_orders(m, c, noise(args, m), kinds=args.kinds, orders=parse_orders(args.orders), basis=args.basis,
                         validation=v, folds=args.folds, progress=progress(not args.quiet))
     say(args, *run.lines())
     return 0
@@ -114,7 +114,7 @@ def register(sub) -> None:
     s.add_argument("--json", help="also write the figures (mm) to this JSON file (default: print only)")
     s.add_argument("--reregister", action="store_true",
                    help="the tracker was moved: register its pose to this file first (default: the model's pose)")
-    s.add_argument("--sign-test", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
+    s.add_argument("--sign-test-file", dest="test_path", metavar="JSON", help="CSV is a sign-test check (compensation,command,reading): say "
                                                        "whether the controller applies the table with the right sign; "
                                                        "JSON is the SIGNTEST_*.json of vecpin tables (default: none)")
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]", help="judge only the rows commanded in this region, mm/deg "
@@ -124,7 +124,7 @@ def register(sub) -> None:
     s = sub.add_parser("orders", help="choose the series order on held-out data (Paper I Table 2)")
     s.add_argument("machine", help=MACHINE_HELP)
     s.add_argument("csv", help=CAMPAIGN_HELP)
-    s.add_argument("--model", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"],
+    s.add_argument("--models", dest="kinds", choices=["6dof", "ap"], nargs="+", default=["6dof", "ap"],
                    help="model kinds to sweep, one or both (default: 6dof ap)")
     s.add_argument("--orders", default="0-7",
                    help="series orders to try: a range like 0-7 or a list like 2,4,6 (default %(default)s)")

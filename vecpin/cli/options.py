@@ -17,7 +17,7 @@ import re
 ALIASES: dict[str, str] = {
     "mean_error_mm": "mean_error", "max_error_mm": "max_error", "long_term_mm": "long_term",   # assess
     "short_term_mm": "short_term",
-    "tools_mm": "tools", "modulo_axes": "modulo", "test_path": "sign_test",  # tables, evaluate
+    "tools_mm": "tools", "modulo_axes": "modulo",  # tables
     "out_dir": "out",            # a workflow's output folder (plan_to_dir, simulate_to_dir, ...): --out
     "repeat_points": "repeat",   # --repeat POINTS TIMES sets both
     "repeat_times": "repeat",

@@ -63,7 +63,7 @@ def run_plan(args) -> int:
     from vecpin.workflows.tables import parse_axis_map
     m = machine(args.machine, args)
     settings = PlanSettings(
-        n_points=args.n_points, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
+        n_commands=args.n_commands, tools_mm=parse_tools(args.tools_mm) if args.tools_mm else PAPER_I_TOOLS_MM,
         model=args.model, order=plan_order(args.order), basis=args.basis, noise=noise(args, m),
         tracker_mm=parse_floats(args.tracker_mm, "--tracker", 3) if args.tracker_mm else None,
         exclude=[parse_zone(z, "exclude") for z in args.exclude],
@@ -72,7 +72,7 @@ def run_plan(args) -> int:
         repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
         sight=not args.no_sight, geometry=args.geometry, tool_radius_mm=args.tool_radius_mm,
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
-        candidates=args.candidates, seed=args.seed, validation_run=args.validation_run,
+        candidates=args.candidates, seed=args.seed, n_validation=args.n_validation,
         expected_error_mm=args.expected_error_mm, nests=args.nests, nest_mm=parse_nest_options(args.nest_mm))
     run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
                       dwell_s=args.dwell_s, nest_dwell_s=args.nest_dwell_s, feed_mm_min=args.feed_mm_min,
@@ -103,7 +103,7 @@ def register(sub) -> None:
 
 def _add_setup_args(s) -> None:
     """What is measured and with what: commands, holders, tracker, table nests, zones."""
-    s.add_argument("--points", dest="n_points", type=int, default=100, help="commands to measure, each with every "
+    s.add_argument("--points", dest="n_commands", type=int, default=100, help="commands to measure, each with every "
                    "holder length (default 100; Paper I measured 295; at most 10000: about 1 min to plan, 2 min with "
                    "table nests, under 1 GB)")
     s.add_argument("--tools", dest="tools_mm", nargs="+", metavar="L",
@@ -148,7 +148,7 @@ def _add_choice_args(s) -> None:
     s.add_argument("--repeat", type=int, nargs=2, metavar=("POINTS", "TIMES"),
                    help="repeated points (eq. 22): POINTS commands measured TIMES times, half of the sequences at the "
                         "start and half at the end (default: none)")
-    s.add_argument("--validation", dest="validation_run", type=int, default=35, metavar="N",
+    s.add_argument("--validation-count", dest="n_validation", type=int, default=35, metavar="N",
                    help="commands of the validation run (validation.csv and its NC programs: inside the zone, free and "
                         "in sight with the first holder; measure them without and with the tables) (default 35)")
     s.add_argument("--expected-error", dest="expected_error_mm", type=float, default=0.2, metavar="MM",

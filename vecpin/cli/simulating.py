@@ -18,7 +18,7 @@ def run_simulate(args) -> int:
     m = machine(args.machine, args)
     targets = tuple(tuple(parse_floats(t, "--target", 3)) for t in args.targets_mm)
     design = Design(n_commands=args.n_commands, n_validation=args.n_validation, method=args.method,
-                    exclusion_zones=[parse_zone(z, "exclusion_zones") for z in args.exclusion_zones],
+                    exclude=[parse_zone(z, "exclude") for z in args.exclude],
                     tools_mm=parse_tools(args.tools_mm) if args.tools_mm else Design().tools_mm,
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
                     stations=args.stations, ballbar_points=args.ballbar_points, nests=args.nests, targets_mm=targets,
@@ -57,7 +57,7 @@ def register(sub) -> None:
                    "files (default 0)")
     s.add_argument("--points", dest="n_commands", type=int, default=295, help="commands, each measured with every tool (default 295 as "
                    "Paper I; ignored with --plan)")
-    s.add_argument("--validation", dest="n_validation", type=int, default=35, help="quasi-random validation commands, short tool "
+    s.add_argument("--validation-count", dest="n_validation", type=int, default=35, help="quasi-random validation commands, short tool "
                    "(default 35 as Paper I; with --plan: the plan's validation run, its validation.csv, when there)")
     s.add_argument("--tools", dest="tools_mm", nargs="+", metavar="L", help="tool lengths in mm, separated by spaces "
                    "or commas (default 214.88 312.86 as Paper I)")
@@ -73,7 +73,7 @@ def register(sub) -> None:
                    "random one (default: random from --seed and --mean-error)")
     s.add_argument("--tracker", dest="tracker_position", metavar="X,Y,Z", help="where the simulated tracker stands, machine base frame, mm "
                    "(e.g. the plan's position; default: 2 m in front of the workspace, random offset)")
-    s.add_argument("--exclude", dest="exclusion_zones", action="append", default=[], metavar="AXIS=LO:HI[,...]",
+    s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in mm/deg (repeatable; default none)")
     s.add_argument("--mean-error", dest="mean_error_mm", type=float, default=0.65, help="mean volumetric error of the true machine, mm "
                    "(default 0.65)")

@@ -46,15 +46,15 @@ def run_verify(args) -> int:
         from vecpin.fileio import check_output_dir
         check_output_dir(args.out)
     model = None
-    if args.model:
+    if args.model_file:
         from vecpin.models import ErrorModel
-        model = ErrorModel.load(args.model)
+        model = ErrorModel.load(args.model_file)
     if model is None and not args.machine:
-        raise InputError("verify needs --machine, or --model (whose machine is used)")
+        raise InputError("verify needs --machine, or --model-file (whose machine is used)")
     m = model.machine if model is not None else machine(args.machine, args)
     if model is not None and args.machine:
         from vecpin.models.modelfile import check_same_machine
-        check_same_machine(machine(args.machine, args), model.machine, f"--machine {args.machine}", f"--model {args.model}")
+        check_same_machine(machine(args.machine, args), model.machine, f"--machine {args.machine}", f"--model-file {args.model_file}")
     tables, src = load_tables(args.tables, m) if args.tables else (None, None)
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
@@ -87,7 +87,7 @@ def register(sub) -> None:
     s.add_argument("after", help="validation run WITH the tables active (campaign CSV; commands as programmed)")
     s.add_argument("--machine", help="bundled machine name or URDF path (default: the model's machine)")
     add_machine_args(s)
-    s.add_argument("--model", help="fitted model file: its predicted errors beside the measured ones (default: none)")
+    s.add_argument("--model-file", help="fitted model file: its predicted errors beside the measured ones (default: none)")
     s.add_argument("--tables", help="the table set that was active (tables.json or its folder): its gauge-line change "
                    "enters the commanded positions (default: none, 0 mm assumed)")
     s.add_argument("--out", help="folder for verify.json and verify.png (Fig. 11) (default: print only)")

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.models.base import ErrorModel, ModelPoints, ModelTip, register_model
+from vecpin.models.base import ErrorModel, register_model
+from vecpin.models.tips import ModelPoints, ModelTip
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 
 

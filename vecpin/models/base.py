@@ -28,9 +28,6 @@ Parameters are ordered by priority (offsets, then every order-0 term, then order
 from __future__ import annotations
 
 import copy
-import math
-from typing import NamedTuple
-
 import numpy as np
 
 from vecpin.errors import InputError, VecpinError
@@ -44,6 +41,8 @@ from vecpin.models import modelfile
 from vecpin.models.basis import AxisBasis, bases_text, union_basis
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
+from vecpin.models.spec import ModelSpec
+from vecpin.models.tips import ModelPoints, ModelTip, check_frame
 from vecpin.units import MM_PER_M
 from vecpin.threads import one_blas_thread
 
@@ -59,38 +58,6 @@ def register_model(cls: type["ErrorModel"]) -> type["ErrorModel"]:
     return cls
 
 
-FRAMES = ("base", "workpiece")
-
-
-class ModelTip(NamedTuple):
-    """tip (N,3) [m] in the frame asked for; J_b (N,3,P); J_q (N,3,n) total d tip / d q;
-    tool_dir (N,3) unit tool direction; rotation (N,3,3): tool link orientation, which
-    is d tip / d target offset (offsets are in the tool link frame)."""
-
-    tip: np.ndarray
-    J_b: np.ndarray | None
-    J_q: np.ndarray | None
-    tool_dir: np.ndarray
-    rotation: np.ndarray | None = None
-
-
-class ModelPoints(NamedTuple):
-    """Points fixed in the model's workpiece frame (table nests), in the base frame:
-    xyz (N,3) [m]; J_b (N,3,P); J_q (N,3,n); J_p (N,3,3) d xyz / d p_wp."""
-
-    xyz: np.ndarray
-    J_b: np.ndarray | None
-    J_q: np.ndarray | None
-    J_p: np.ndarray | None
-
-
-def check_frame(frame: str) -> str:
-    if frame not in FRAMES:
-        raise InputError(f"frame '{frame}': 'base' (the machine frame a floor tracker sees) or 'workpiece' "
-                         "(the table frame compensation corrects)")
-    return frame
-
-
 class ErrorModel:
     """Base of the error models: bases, offsets, parameter bookkeeping, estimator API.
 
@@ -101,6 +68,8 @@ class ErrorModel:
     ``bases`` overrides everything with one :class:`~vecpin.models.basis.AxisBasis`
     per axis (column 0 must be the constant). ``tool_lengths`` [m] adds a length
     correction per tool; ``prior_scale`` multiplies every prior standard deviation (Σ_b).
+    The arguments make the model's :class:`~vecpin.models.spec.ModelSpec` (``spec``), from
+    which it is built; :meth:`from_spec` builds a model from a spec.
     """
 
     kind = "base"
@@ -109,33 +78,31 @@ class ErrorModel:
     def __init__(self, machine: Machine, order: int = 6, basis: str = "auto",
                  tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
                  bases: list[AxisBasis] | None = None, effects: list | None = None):
-        if int(order) != order or order < 0:
-            raise InputError(f"the series order must be a whole number >= 0, not {order}")
-        if not (math.isfinite(prior_scale) and prior_scale > 0):
-            raise InputError(f"`prior_scale` {prior_scale}: the prior scale must be a positive number")
-        if basis not in ("chebyshev", "auto"):
-            raise InputError("basis is 'auto' (Fourier on rotary axes travelling more than a turn) or 'chebyshev'")
         self.machine = machine
-        self.order = int(order)
-        self.basis = basis
-        self.prior_scale = float(prior_scale)
-        self.tool_lengths = None if tool_lengths is None else [float(t) for t in tool_lengths]
-        if bases is None:
-            bases = [AxisBasis(a.lower, a.upper, self.order,
-                               "fourier" if basis == "auto" and a.multiturn else "chebyshev",
-                               rotary=a.kind == "rotary") for a in machine.axes]
-            self.basis_kind = basis
-        else:
-            if len(bases) != machine.n_axes:
-                raise InputError(f"one basis per axis: {machine.n_axes} axes, {len(bases)} bases")
-            self.basis_kind = "custom"
-        self.bases = list(bases)
+        self.spec = ModelSpec.of(self.kind, machine, order, basis, tool_lengths, prior_scale, bases, effects)
+        self.order, self.prior_scale = self.spec.order, self.spec.prior_scale
+        self.tool_lengths = None if self.spec.tool_lengths is None else list(self.spec.tool_lengths)
+        self.bases = list(self.spec.bases)
         self._K = max(B.size for B in self.bases)
         self._mask = np.array([[j < B.size for B in self.bases] for j in range(self._K)])  # (K, n)
         labels = [B.labels() for B in self.bases]
         self.base_parameters: list[Parameter] = self._offset_parameters() + self._series_parameters(self._mask, labels)
-        self.effects = list(effects or [])
+        self.effects = list(self.spec.effects)
         self.parameters: list[Parameter] = self.base_parameters + [p for e in self.effects for p in e.parameters()]
+
+    @staticmethod
+    def from_spec(machine: Machine, spec: ModelSpec) -> "ErrorModel":
+        """The unfitted model of ``spec`` on ``machine`` (its kind's constructor)."""
+        try:
+            cls = MODELS[spec.kind]
+        except KeyError:
+            raise InputError(f"`kind` '{spec.kind}': unknown model (choose {' or '.join(MODELS)})") from None
+        return cls(machine, **spec.options())
+
+    @property
+    def basis_kind(self) -> str:
+        """How the bases were made: "auto", "chebyshev" or "custom" (:data:`~vecpin.models.spec.BASIS_RULES`)."""
+        return self.spec.basis
 
     def _offset_parameters(self) -> list[Parameter]:
         prior = DEFAULT_PRIORS["offset"] * self.prior_scale
@@ -221,10 +188,8 @@ class ErrorModel:
         return out
 
     def with_effects(self, effects: list) -> "ErrorModel":
-        """A new, unfitted model of the same kind and bases with these effects."""
-        return type(self)(self.machine, self.order, basis=self.basis,
-                          tool_lengths=self.tool_lengths, prior_scale=self.prior_scale,
-                          bases=self.bases if self.basis_kind == "custom" else None, effects=effects)
+        """A new, unfitted model of the same spec with these effects instead of its own."""
+        return ErrorModel.from_spec(self.machine, self.spec.with_effects(effects))
 
     def geometric_part(self) -> tuple["ErrorModel", list]:
         """(this fitted model with only its geometric effects, the row-dependent effects
@@ -407,8 +372,8 @@ class ErrorModel:
         span = self.report_.measured_range
         missing = [a.name for a in self.machine.axes if a.name not in span]
         if missing:
-            raise VecpinError(f"the fit report has no measured range of {', '.join(missing)} (a model file written "
-                              "before vecpin recorded it): the range to hold the errors in is unknown")
+            raise VecpinError(f"the fit report has no measured range of {', '.join(missing)} (a damaged or edited model "
+                              "file): the range to hold the errors in is unknown; fit the model again")
         self.range_ = tuple(np.array([float(a.to_si(span[a.name][j])) for a in self.machine.axes]) for j in (0, 1))
         return self
 
@@ -437,6 +402,29 @@ class ErrorModel:
                                    point=point, offset=offset)[0]
         return self.tool_tip(q, tool, self.b_, jacobian=False, features=features, point=point, offset=offset,
                              frame="base" if frame == "machine" else "workpiece").tip
+
+    def predict_error(self, q: np.ndarray, tool: np.ndarray | float = 0.0, frame: str = "workpiece", features=None, *,
+                      point: int | np.ndarray = 0, offset: np.ndarray | None = None, return_std: bool = False):
+        """The modelled tool-tip error (N,3) [m] at commands q (N,n) [m, rad] and tool lengths
+        [m]: the modelled tip minus the nominal tip, relative to the workpiece ("workpiece",
+        what compensation corrects; the base frame on a machine without a workpiece) or in
+        the machine base frame ("machine"). ``point``, ``offset``: tool point and target
+        offset [m] (tool link frame); ``features``: per-row time/temperature/directions, for
+        models with row-dependent effects. ``return_std``: also its standard deviation (N,3)
+        [m] per coordinate, the fit's covariance of the model parameters (``cov_``, E_0 left
+        out) through d tip / d b at ``b_`` (linearised; 0 for terms the fit removed): what the
+        measurement noise leaves uncertain, not what the model's bases cannot describe."""
+        self._check_fitted()
+        if frame not in ("machine", "workpiece"):
+            raise InputError(f"`frame` '{frame}': the error is 'workpiece' (relative to the table) or 'machine' (base frame)")
+        where = {"frame": "base" if frame == "machine" else "workpiece", "point": point, "offset": offset}
+        q = np.atleast_2d(np.asarray(q, float))
+        out = self.tool_tip(q, tool, self.b_, jacobian=return_std, features=features, **where)
+        error = out.tip - self.machine.tool_tip(q, tool, **where)
+        if not return_std:
+            return error
+        var = np.einsum("nip,pk,nik->ni", out.J_b, self.cov_[6:, 6:], out.J_b)
+        return error, np.sqrt(np.clip(var, 0.0, None))
 
     def predict_nominal(self, q: np.ndarray, tool: np.ndarray | float, *, point: int | np.ndarray = 0,
                         offset: np.ndarray | None = None) -> np.ndarray:
@@ -508,13 +496,10 @@ class ErrorModel:
     @staticmethod
     def load(path) -> "ErrorModel":
         """Read a model file (any version this vecpin reads)."""
-        return modelfile.load_model(path, make_model)
+        return modelfile.load_model(path, ErrorModel.from_spec)
 
 
 def make_model(kind: str, machine: Machine, order: int = 6, **kw) -> ErrorModel:
-    """Build a model by name: "6dof" or "ap" (or any registered kind)."""
-    try:
-        cls = MODELS[kind]
-    except KeyError:
-        raise InputError(f"unknown model '{kind}' (choose {' or '.join(MODELS)})") from None
-    return cls(machine, order, **kw)
+    """Build a model by name: "6dof" or "ap" (or any registered kind); ``kw``: the
+    constructor's options (:meth:`ModelSpec.of`)."""
+    return ErrorModel.from_spec(machine, ModelSpec.of(kind, machine, order, **kw))

@@ -1,7 +1,8 @@
 """Versioned JSON files of fitted models.
 
 A model file is self-contained: it embeds the machine's URDF (with its SHA-256),
-the model definition (kind, bases, offsets, priors, effects), every parameter with
+the model's specification (:class:`~vecpin.models.spec.ModelSpec`: kind, a basis per
+axis, tool-length corrections, prior scale, effects), every parameter with
 its standard deviation in mm or degrees, the tracker pose (with the fitted table nests
 and tool targets), the measurement zone, the noise settings and the fit report.
 ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp or timing, so
@@ -10,12 +11,11 @@ the same fit writes the same bytes.
 Every number a user reads is in mm or degrees (a key ending ``_mm`` is mm; ``_mm_deg``
 holds mm for translations and degrees for rotations; axis values are in the axis' unit):
 parameters, tracker and station translations, station pose corrections
-(``correction_mm_deg``; files written before it hold ``correction`` in m and rad, still
-read), ball-bar pivots, table nests and tool targets with their standard deviations,
+(``correction_mm_deg``), ball-bar pivots, table nests and tool targets with their standard deviations,
 axis travels and basis knots, the zone, the measured range and the residuals.
 
 This module knows the file, not the model classes: :func:`load_model` takes the
-factory that builds a model by kind (:func:`vecpin.models.make_model`).
+factory that builds a model from its spec (:meth:`vecpin.models.ErrorModel.from_spec`).
 """
 from __future__ import annotations
 
@@ -33,8 +33,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
-from vecpin.models.basis import AxisBasis
-from vecpin.models.effects.base import effect_from_dict
+from vecpin.models.spec import ModelSpec
 from vecpin.units import MM_PER_M, M_PER_MM, QUANTITY_UNITS, SI_PER_UNIT
 
 FORMAT = "vecpin-model"
@@ -53,17 +52,6 @@ def check_same_machine(a: Machine, b: Machine, what_a: str, what_b: str) -> None
     if urdf_sha256(a) != urdf_sha256(b) or a.load_options != b.load_options:
         raise InputError(f"{what_a} is for machine '{a.name}' ({a.source}) and {what_b} for machine '{b.name}' "
                          f"({b.source}), whose URDFs or tool options differ: use files of one machine")
-
-
-def basis_to_dict(axis, B: AxisBasis) -> dict:
-    """One axis basis in user units (mm or deg)."""
-    return B.to_dict(axis.scale) | {"lower": float(axis.to_user(B.lower)), "upper": float(axis.to_user(B.upper)),
-                                    "rotary": B.rotary}
-
-
-def basis_from_dict(axis, b: dict) -> AxisBasis:
-    return AxisBasis.from_dict(b, float(axis.to_si(b["lower"])), float(axis.to_si(b["upper"])), bool(b["rotary"]),
-                               axis.scale)
 
 
 def model_to_dict(model) -> dict:
@@ -90,10 +78,7 @@ def model_to_dict(model) -> dict:
                              for a in m.axes],
                     "urdf": m.urdf_xml, "load_options": m.load_options,
                     "urdf_dir": str(m.urdf_path.parent.resolve()) if m.urdf_path is not None else None},
-        "model": {"kind": model.kind, "order": model.order, "basis": model.basis_kind,
-                  "axis_bases": [basis_to_dict(a, B) for a, B in zip(m.axes, model.bases)],
-                  "tool_lengths_mm": None if model.tool_lengths is None else [t * MM_PER_M for t in model.tool_lengths],
-                  "prior_scale": model.prior_scale, "effects": [e.to_dict() for e in model.effects]},
+        "model": model.spec.to_dict(m),
         "tracker": {"rotation": setup.R.tolist(), "translation_mm": (setup.t * MM_PER_M).tolist(),
                     "meaning": "p_tracker = R (E_0 p_machine) + t",
                     "stations": {str(s): {"rotation": R.tolist(), "translation_mm": (t * MM_PER_M).tolist(),
@@ -118,17 +103,11 @@ def pose_correction_to_user(e) -> list[float]:
 
 
 def pose_correction_from_file(path, field: str, st: dict) -> np.ndarray:
-    """A station's pose correction (SI) from the file: ``correction_mm_deg`` (mm, deg), or
-    the ``correction`` of files written before it (m, rad, the same version 1)."""
-    if "correction_mm_deg" in st:
-        v = _finite(path, f"{field}.correction_mm_deg", st["correction_mm_deg"])
-        if v.shape != (6,):
-            raise ModelFileError(path, "needs 6 numbers: dx, dy, dz [mm], ex, ey, ez [deg]", f"{field}.correction_mm_deg")
-        return np.r_[v[:3] * M_PER_MM, np.radians(v[3:])]
-    v = _finite(path, f"{field}.correction", st["correction"])
+    """A station's pose correction (SI) from the file's ``correction_mm_deg`` (mm, deg)."""
+    v = _finite(path, f"{field}.correction_mm_deg", st["correction_mm_deg"])
     if v.shape != (6,):
-        raise ModelFileError(path, "needs 6 numbers: dx, dy, dz [m], ex, ey, ez [rad]", f"{field}.correction")
-    return v
+        raise ModelFileError(path, "needs 6 numbers: dx, dy, dz [mm], ex, ey, ez [deg]", f"{field}.correction_mm_deg")
+    return np.r_[v[:3] * M_PER_MM, np.radians(v[3:])]
 
 
 def _correlations(model, std: np.ndarray) -> dict:
@@ -166,7 +145,7 @@ def save_model(model, path: str | Path) -> None:
 
 
 def load_model(path: str | Path, factory: Callable):
-    """Read a model file; ``factory(kind, machine, order, **options)`` builds the model."""
+    """Read a model file; ``factory(machine, spec)`` builds the model from its spec."""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(path, "no such model file")
@@ -237,20 +216,11 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     xml = md["urdf"]
     if hashlib.sha256(xml.encode()).hexdigest() != md["urdf_sha256"]:
         raise ModelFileError(path, "the embedded URDF does not match its checksum", "machine.urdf")
-    machine = Machine.from_urdf_string(xml, source=md.get("source", md["name"]), **md.get("load_options", {}))
-    spec = d["model"]
-    bases = None
-    if spec["basis"] == "custom":
-        bases = []
-        for a, b in zip(machine.axes, spec["axis_bases"]):
-            try:
-                bases.append(basis_from_dict(a, b))
-            except InputError as exc:
-                raise ModelFileError(path, f"the basis of axis {a.name} is invalid ({exc})", "model.axis_bases") from None
-    tools = None if spec["tool_lengths_mm"] is None else [t * M_PER_MM for t in spec["tool_lengths_mm"]]
-    effects = [effect_from_dict(e, machine) for e in spec.get("effects", [])]
-    model = factory(spec["kind"], machine, spec["order"], basis="chebyshev" if spec["basis"] == "chebyshev" else "auto",
-                    tool_lengths=tools, prior_scale=spec["prior_scale"], bases=bases, effects=effects)
+    machine = Machine.from_urdf_string(xml, source=md["source"], **md["load_options"])
+    try:
+        model = factory(machine, ModelSpec.from_dict(d["model"], machine))
+    except InputError as exc:
+        raise ModelFileError(path, str(exc), "model") from None
     by_name = {p["name"]: p for p in d["parameters"]}
     names = list(E0_NAMES) + model.parameter_names
     missing = [n for n in names if n not in by_name]
@@ -265,8 +235,8 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     _finite(path, "parameters", np.r_[theta, std])
     model.e0_, model.b_ = theta[:6], theta[6:]
     model.cov_ = np.diag(std**2)
-    corr = d.get("correlations")
-    if corr:  # files of earlier versions keep standard deviations only
+    corr = d["correlations"]
+    if corr["index"]:
         idx = np.asarray(corr["index"], int)
         if idx.size and (idx.max() >= len(names) or len(corr["lower"]) != idx.size):
             raise ModelFileError(path, "the correlations do not match the parameters", "correlations")
@@ -291,7 +261,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     for kind, store in (("nests", model.setup_.nests), ("targets", model.setup_.targets)):
         for k, c in tr.get(f"{kind}_mm", {}).items():
             store[k] = _finite(path, f"tracker.{kind}_mm.{k}", c) * M_PER_MM
-            for comp, sd in zip("xyz", tr.get(f"{kind}_std_mm", {}).get(k, [0.0] * 3)):
+            for comp, sd in zip("xyz", tr[f"{kind}_std_mm"][k]):
                 model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
     zone = d.get("zone")
     if zone:

@@ -12,7 +12,8 @@ import numpy as np
 
 from vecpin.kinematics.errorframes import ErrorFrames
 from vecpin.kinematics.machine import Machine
-from vecpin.models.base import ErrorModel, ModelPoints, ModelTip, register_model
+from vecpin.models.base import ErrorModel, register_model
+from vecpin.models.tips import ModelPoints, ModelTip
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
 
 COMPONENTS = ("dx", "dy", "dz", "ex", "ey", "ez")

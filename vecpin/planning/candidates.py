@@ -19,11 +19,11 @@ from vecpin.planning.zones import inside
 from vecpin.units import M_PER_MM
 
 
-def default_candidates(n_points: int) -> int:
-    """Candidates a plan of ``n_points`` commands chooses from: 10 per command (at least
+def default_candidates(n_commands: int) -> int:
+    """Candidates a plan of ``n_commands`` commands chooses from: 10 per command (at least
     2,000), but beyond 10,000 candidates 3 per command: 10,000 commands of an order-6
     model from 30,000 candidates take under a minute and 0.8 GB (100,000 take 2.2 min)."""
-    return max(2000, min(10 * n_points, max(10_000, 3 * n_points)))
+    return max(2000, min(10 * n_commands, max(10_000, 3 * n_commands)))
 
 
 def quantise(machine: Machine, q: np.ndarray, resolution: float = 1e-3) -> np.ndarray:
@@ -62,7 +62,7 @@ def screen_candidates(problem: PlanProblem, say: Callable[[str], None]) -> Candi
     those where a holder runs into the machine's geometry and those the tracker cannot
     see with every holder; refuses when fewer than the planned commands are left."""
     s, machine = problem.settings, problem.machine
-    n_cand = s.candidates or default_candidates(s.n_points)
+    n_cand = s.candidates or default_candidates(s.n_commands)
     say(f"{n_cand} candidate commands (scrambled Halton, seed {s.seed})")
     cand = candidate_commands(machine, n_cand, problem.lo, problem.hi, s.seed)
     removed = np.full(len(cand), "", dtype=object)
@@ -72,10 +72,10 @@ def screen_candidates(problem: PlanProblem, say: Callable[[str], None]) -> Candi
     if s.sight:
         _sight_and_collisions(problem, out, say)
     ok = out.kept
-    if len(ok) < s.n_points:
+    if len(ok) < s.n_commands:
         raise InputError(f"only {len(ok)} of {len(cand)} candidate commands survive the exclusion zones, the "
                          f"collisions ({int((removed == 'collision').sum())}) and the line of sight; ask for fewer "
-                         "`n_points`, more `candidates`, or move the tracker")
+                         "`n_commands`, more `candidates`, or move the tracker")
     return out
 
 

@@ -169,9 +169,9 @@ def choose_commands(problem: PlanProblem, info: Information, c: Candidates,
     if s.method == "doptimal":
         say(f"whitened Jacobian of {len(ok)} candidates"
             + (f" with {len(problem.nests)} table nests" if problem.nests else ""))
-        pick, _ = greedy_d_optimal(info.kept_rows(c.q[ok], c.seen[ok]), s.n_points, progress=say)
+        pick, _ = greedy_d_optimal(info.kept_rows(c.q[ok], c.seen[ok]), s.n_commands, progress=say)
     else:
-        pick = np.random.default_rng(s.seed).choice(len(ok), s.n_points, replace=False)
+        pick = np.random.default_rng(s.seed).choice(len(ok), s.n_commands, replace=False)
     return c.q[ok[pick]], c.seen[ok[pick]]
 
 
@@ -229,20 +229,20 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
 
 def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.ndarray, tool: float,
                    sl: SightLine | None, nests: dict[str, np.ndarray], speed: np.ndarray) -> PlanTemplate:
-    """The validation run's template: ``s.validation_run`` quasi-random commands inside
+    """The validation run's template: ``s.n_validation`` quasi-random commands inside
     [lo, hi] (the measurement zone, room for the approach), outside the exclusion zones,
     free of collisions and in sight with the holder ``tool`` [m] (as the plan's
     commands), on the NC grid, in a short order; each read with that holder and at the
     table nests the tracker sees there."""
-    cand = quantise(machine, validation_commands(machine, 8 * s.validation_run, lo, hi, seed=s.seed + 11))
+    cand = quantise(machine, validation_commands(machine, 8 * s.n_validation, lo, hi, seed=s.seed + 11))
     cand = np.clip(cand, lo, hi)
     cand = cand[~inside(machine, cand, s.exclude)]
     if sl is not None:
         cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
-    if len(cand) < s.validation_run:
-        raise InputError(f"`validation_run` {s.validation_run}: only {len(cand)} validation commands are free and in sight "
+    if len(cand) < s.n_validation:
+        raise InputError(f"`n_validation` {s.n_validation}: only {len(cand)} validation commands are free and in sight "
                          "inside the measurement zone; ask for fewer or move the tracker")
-    q = cand[:s.validation_run]
+    q = cand[:s.n_validation]
     q = q[route.order_points(q, speed)]
     seen = np.ones((len(q), len(nests)), bool)
     if sl is not None:

@@ -64,7 +64,7 @@ def plan_warnings(plan) -> list[str]:
                    f"{to_mm(pr.model_max):.3f} mm) is {to_mm(pr.model_mean) / expected:.0%} of the error the machine is "
                    f"expected to have uncompensated (mean {expected:g} mm, `expected_error_mm`): "
                    f"compensation from this campaign would gain little or make the machine worse; plan with {hint}"
-                   "more `n_points` or a lower `order`" + (
+                   "more `n_commands` or a lower `order`" + (
                        f"; the prediction covers the whole measurement zone, also where {lost} of {c['candidates']} "
                        "candidates were lost to collisions and sight and the model extrapolates: a `zone` where the "
                        "holders can go plans and judges that part alone" if lost > 0.1 * c["candidates"] else ""))

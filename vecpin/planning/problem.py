@@ -34,7 +34,7 @@ BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  
 class PlanSettings:
     """What to plan (user units where a user types them).
 
-    ``n_points``: commands, each measured with every holder length ``tools_mm`` [mm];
+    ``n_commands``: commands, each measured with every holder length ``tools_mm`` [mm];
     ``model``/``order``/``basis``: the model the campaign is for (``model="auto"``: 6dof on
     a machine with table axes, whose tilt and wobble only nest readings see, ap elsewhere;
     the plan's settings carry the kind chosen); ``noise``: the fit's
@@ -46,7 +46,7 @@ class PlanSettings:
     ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
     ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
     ``candidates``: candidate commands (default :func:`default_candidates`); ``validation_points``:
-    quasi-random commands the predicted error is judged on; ``validation_run``: the
+    quasi-random commands the predicted error is judged on; ``n_validation``: the
     commands of the validation run (inside the zone, free and in sight with the first
     holder; measured with and without the tables); ``nests``: table nests read
     at every command (None: 3 on a machine with a workpiece frame, else 0) at default
@@ -55,7 +55,7 @@ class PlanSettings:
     it (best-fit rigid motion removed), which the plan's predicted error must stay well
     below (:mod:`~vecpin.planning.planchecks`)."""
 
-    n_points: int = 100
+    n_commands: int = 100
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
     model: str = "ap"
     order: int = 4
@@ -78,7 +78,7 @@ class PlanSettings:
     rapid_deg_min: float | None = None
     candidates: int | None = None
     validation_points: int = 500
-    validation_run: int = 35
+    n_validation: int = 35
     seed: int = 0
     nests: int | None = None
     nest_mm: dict[str, tuple[float, float, float]] | None = None
@@ -100,11 +100,11 @@ class PlanSettings:
 
     def check(self) -> None:
         """Every option inside its meaning, before any work (names the option)."""
-        if self.n_points < 1:
-            raise InputError(f"`n_points` {self.n_points}: plan at least one command")
-        if self.n_points > MAX_POINTS:
-            raise InputError(f"`n_points` {self.n_points}: at most {MAX_POINTS} commands (at 15 s a point, "
-                             f"{self.n_points * len(self.tools_mm) * 15 / 3600:.0f} h of tracker time); plan fewer")
+        if self.n_commands < 1:
+            raise InputError(f"`n_commands` {self.n_commands}: plan at least one command")
+        if self.n_commands > MAX_POINTS:
+            raise InputError(f"`n_commands` {self.n_commands}: at most {MAX_POINTS} commands (at 15 s a point, "
+                             f"{self.n_commands * len(self.tools_mm) * 15 / 3600:.0f} h of tracker time); plan fewer")
         tools = np.asarray(self.tools_mm, float)
         if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
             raise InputError("`tools_mm`: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
@@ -116,23 +116,23 @@ class PlanSettings:
         if (self.repeat_points or self.repeat_times) and (self.repeat_points < 1 or self.repeat_times < 2):
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: at least 1 command, each "
                              "measured at least 2 times")
-        if self.repeat_points > self.n_points:
+        if self.repeat_points > self.n_commands:
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
                              "points are taken from the "
-                             f"planned commands, at most `n_points` ({self.n_points})")
+                             f"planned commands, at most `n_commands` ({self.n_commands})")
         if self.order < 0:
             raise InputError(f"`order` {self.order}: orders are >= 0")
         if self.basis not in BASES:
             raise InputError(f"`basis` '{self.basis}': one of {', '.join(BASES)}")
         if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):
             raise InputError("`tracker_mm`: three finite numbers, mm")
-        if self.candidates is not None and not self.n_points <= self.candidates <= MAX_CANDIDATES:
-            raise InputError(f"`candidates` {self.candidates}: between `n_points` ({self.n_points}) and "
+        if self.candidates is not None and not self.n_commands <= self.candidates <= MAX_CANDIDATES:
+            raise InputError(f"`candidates` {self.candidates}: between `n_commands` ({self.n_commands}) and "
                              f"{MAX_CANDIDATES} candidate commands")
         if not (np.isfinite(self.expected_error_mm) and self.expected_error_mm > 0):
             raise InputError(f"`expected_error_mm` {self.expected_error_mm}: the machine's mean uncompensated error, mm > 0")
-        if not 1 <= self.validation_run <= MAX_POINTS:
-            raise InputError(f"`validation_run` {self.validation_run}: 1 .. {MAX_POINTS} validation commands")
+        if not 1 <= self.n_validation <= MAX_POINTS:
+            raise InputError(f"`n_validation` {self.n_validation}: 1 .. {MAX_POINTS} validation commands")
         if self.seed < 0:
             raise InputError(f"`seed` {self.seed}: a whole number >= 0")
         for option, v in (("tool_radius_mm", self.tool_radius_mm), ("target_clearance_mm", self.target_clearance_mm)):
@@ -144,12 +144,12 @@ class PlanSettings:
 
     def check_model(self, machine: Machine, n_parameters: int) -> None:
         """The planned rows can determine the model: at least as many equations as unknowns."""
-        rows = self.n_points * len(self.tools_mm) + self.repeat_points * self.repeat_times
+        rows = self.n_commands * len(self.tools_mm) + self.repeat_points * self.repeat_times
         eq = 3 * rows if self.noise is None or self.noise.instrument != "range" else rows
         if n_parameters + 6 > eq:
             raise InputError(f"`order` {self.order}: the {self.model} model of {machine.name} has {n_parameters + 6} "
-                             f"unknowns, but {self.n_points} commands x {len(self.tools_mm)} holders give {eq} "
-                             "equations; plan more `n_points` or a lower `order`")
+                             f"unknowns, but {self.n_commands} commands x {len(self.tools_mm)} holders give {eq} "
+                             "equations; plan more `n_commands` or a lower `order`")
 
 
 @dataclass

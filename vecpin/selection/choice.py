@@ -68,7 +68,6 @@ from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PA
 from vecpin.threads import one_blas_thread
 
 _Problem = Problem  # the name the tests and older scripts use
-KINDS = ("6dof", "ap")
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
 
@@ -156,8 +155,8 @@ def _check_request(kinds, families, orders) -> list[int]:
     if not orders or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")
     for k in kinds:
-        if k not in KINDS:
-            raise InputError(f"unknown model '{k}' (choose {' or '.join(KINDS)})")
+        if k not in MODELS:
+            raise InputError(f"unknown model '{k}' (choose {' or '.join(MODELS)})")
     for f in families:
         if f not in FAMILIES:
             raise InputError(f"unknown basis family '{f}' (one of {', '.join(FAMILIES)})")
@@ -185,13 +184,14 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
 
 
 @one_blas_thread
-def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=KINDS,
+def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=None,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
                  noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
-    ``kinds``, ``families``, ``orders``: what to try (a fixed choice restricts them);
+    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
+    ``orders``: what to try (a fixed choice restricts them);
     ``plans``: the families tried on every axis at once (default ``families``);
     ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``:
     ``orders`` is one order the user fixed (splines then have that many knots, trends
@@ -203,6 +203,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
     made with that noise (``ModelChoice.noise_scale``)."""
     t0 = time.perf_counter()
+    kinds = tuple(kinds or MODELS)
     say = progress or (lambda s: None)
     check_folds(campaign, folds)
     check_campaign_frames(machine, campaign)
@@ -390,8 +391,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
     the choice scales the noise to what the data say (:func:`choose_model`; a fixed
     choice leaves that to the fit)."""
-    if kind not in ("auto",) + KINDS:
-        raise InputError(f"`model` {kind}: one of auto, {', '.join(KINDS)}")
+    if kind not in ("auto", *MODELS):
+        raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
     if basis not in BASES:
         raise InputError(f"`basis` {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
@@ -404,7 +405,7 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
         families = (basis,)
     else:
         families = tuple(dict.fromkeys((basis, "chebyshev")))
-    choice = choose_model(machine, campaign, noise, kinds=KINDS if kind == "auto" else (kind,), families=families,
+    choice = choose_model(machine, campaign, noise, kinds=None if kind == "auto" else (kind,), families=families,
                           plans=None if basis == "auto" else (basis,),
                           orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,

@@ -20,7 +20,7 @@ MAX_ROWS = 1_300_000  # rows one simulation holds: about 4 GB at the peak
 
 @dataclass
 class Design:
-    """What to measure. ``exclusion_zones``: list of {axis: (lo, hi)} in mm/deg; a
+    """What to measure. ``exclude``: list of {axis: (lo, hi)} in mm/deg; a
     command inside every interval of a zone is not measured. ``method``: "random",
     "sobol" or "halton" for the identification commands (validation is always Halton).
     ``seconds_per_point`` (settle + measure) and ``feed_m_per_s`` (moves) make ``time``."""
@@ -29,7 +29,7 @@ class Design:
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
     n_validation: int = 35
     method: str = "random"
-    exclusion_zones: list[dict[str, tuple[float, float]]] = field(default_factory=list)
+    exclude: list[dict[str, tuple[float, float]]] = field(default_factory=list)
     seconds_per_point: float = 15.0
     feed_m_per_s: float = 0.1
     repeat_points: int = 0   # after the campaign: this many commands, each measured ...
@@ -76,8 +76,8 @@ class Design:
                 raise InputError(f"`repeat_points` {self.repeat_points:g}, `repeat_times` {self.repeat_times:g}: the "
                                  "repeated points are taken "
                                  f"from the campaign's commands, at most `n_commands` ({self.n_commands})")
-        for zone in self.exclusion_zones:
-            check_zone_axes(machine, zone, "exclusion_zones")
+        for zone in self.exclude:
+            check_zone_axes(machine, zone, "exclude")
         if self.method not in ("random", "sobol", "halton"):
             raise InputError(f"`method` {self.method}: random, sobol or halton")
         if planned_rows is None:
@@ -104,9 +104,9 @@ def _whole(option: str, value, lowest: int, what: str, highest: int | None = Non
 
 
 def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: str = "random",
-                    exclusion_zones=(), scramble_seed: int | None = None) -> np.ndarray:
+                    exclude=(), scramble_seed: int | None = None) -> np.ndarray:
     """n commands [m, rad] over the axis limits, outside every exclusion zone."""
-    zones = [_zone_si(machine, z) for z in exclusion_zones]
+    zones = [_zone_si(machine, z) for z in exclude]
     out = np.empty((0, machine.n_axes))
     for _attempt in range(50):
         m = max(2 * (n - len(out)), 16)
@@ -125,7 +125,7 @@ def design_commands(machine: Machine, n: int, rng: np.random.Generator, method: 
         out = np.vstack([out, q[keep]])
         if len(out) >= n:
             return out[:n]
-    raise InputError("`exclusion_zones`: the exclusion zones leave (almost) no room for commands; make them smaller")
+    raise InputError("`exclude`: the exclusion zones leave (almost) no room for commands; make them smaller")
 
 
 def _zone_si(machine: Machine, zone: dict[str, tuple[float, float]]):

@@ -308,7 +308,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     rows, nests, targets, tool0 = _measured_rows(machine, design, plan, template, rng, seed)
     campaign, t_end = _identification_campaign(machine, design, truth, rows, rng, seed,
                                                plan_times if plan is not None else None, targets)
-    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclusion_zones) \
+    qv = design_commands(machine, design.n_validation, rng, "halton", design.exclude) \
         if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
     runs = _validation_runs(machine, design, truth, validation_rows(qv, tool0, nests), rng, seed,
                             t_end, tables)
@@ -359,7 +359,7 @@ def _measured_rows(machine: Machine, design: Design, plan, template: PlanTemplat
             rows.instrument[on], rows.target[on], rows.nest[on] = "nest", template.target[on], template.nest[on]
             nests = template.nests()
         return rows, nests, {}, float(tool[0])  # the validation run uses the plan's first holder
-    q = design_commands(machine, design.n_commands, rng, design.method, design.exclusion_zones)
+    q = design_commands(machine, design.n_commands, rng, design.method, design.exclude)
     rows, nests, targets = design_rows(machine, design, q, tools, seed)
     if design.repeat_points and design.repeat_times:
         pick = q[rng.choice(len(q), min(design.repeat_points, len(q)), replace=False)]

@@ -157,7 +157,7 @@ class PlanRun:
                     "validation_max_mm": round(float(to_mm(pr.measured_max)), 6),
                     "moves_min": round(x.travel_s / 60, 4)}
         return {"format": "vecpin-plan", "version": 1, "machine": p.machine.name,
-                "settings": {"points": s.n_points, "nests": len(p.nests), "tools_mm": list(s.tools_mm), "model": s.model, "order": s.order,
+                "settings": {"points": s.n_commands, "nests": len(p.nests), "tools_mm": list(s.tools_mm), "model": s.model, "order": s.order,
                              "method": s.method, "approach": s.approach, "approach_mm": s.approach_mm,
                              "approach_deg": s.approach_deg, "repeat": [s.repeat_points, s.repeat_times],
                              "exclude": [{k: list(v) for k, v in z.items()} for z in s.exclude],
