@@ -57,7 +57,7 @@ class FitRun:
     rows: int = 0                    # rows of the campaign
     noise_scale: float | None = None      # the noise level the data gave, times the stated one (None: not asked)
     noise_scale_sd: float | None = None   # its standard deviation
-    noise_rescaled: bool = False          # the fit (and choice) were made again with the scaled noise
+    noise_rescaled: bool = False          # the choice and the fit used the noise scaled to the data
     noise_used: float = 1.0               # the scale of the stated noise the final fit used
     campaign: Campaign | None = None      # the rows fitted (those in the zone)
     components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
