@@ -65,6 +65,10 @@ class Candidate:
 class Problem(Design):
     """:class:`~vecpin.selection.design.Design` that scores candidates on its folded problem."""
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._unpenalised: dict = {}   # the hat matrix' trace of a set of columns without penalties
+
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols, scale = self.columns(choice)
         return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
@@ -88,8 +92,10 @@ class Problem(Design):
         other candidate is counted as before."""
         if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
             cols, scale = self.columns(cand.axes)
-            cand.effective_terms = cand.n_terms - (self.effective_terms(cols, np.ones_like(scale))
-                                                   - self.effective_terms(cols, scale))
+            key = cols.tobytes()   # t_0 depends on the columns only: shared by every smoothing of them
+            if key not in self._unpenalised:
+                self._unpenalised[key] = self.effective_terms(cols, np.ones_like(scale))
+            cand.effective_terms = cand.n_terms - (self._unpenalised[key] - self.effective_terms(cols, scale))
         return cand.size
 
 
