@@ -220,7 +220,8 @@ def main() -> None:
     if args.from_json:
         saved = [json.loads(Path(f).read_text()) for f in args.from_json]
         rows = {k: v for s in saved for k, v in s["rows"].items()}
-        write(args.out, {k: rows[k] for k in SPLITS if k in rows}, [e for s in saved for e in s["every"]])
+        write(args.out, {k: rows[k] for k in SPLITS if k in rows}, [e for s in saved for e in s["every"]],
+              saved[0].get("searched", ""))
         return
     settings = ([FIGAROH_DEFAULT] if args.quick else [(m, lv) for lv in LEVELS for m in METHODS] if args.all_settings
                 else list(SEARCHED))
@@ -241,17 +242,20 @@ def main() -> None:
         rows[split] = {"train": len(train), "held": len(held), "vecpin": v, "figaroh_default": figs[FIGAROH_DEFAULT],
                        "figaroh_best": dict(figs[best], setting="/".join(best)), "vecpin_constant": const}
         every += [f"| {split} | {'/'.join(s)} | {_cell(r)} | {r['seconds']:.1f} |" for s, r in figs.items()]
+    searched = ", ".join("/".join(st) for st in settings)
     if args.json:
-        Path(args.json).write_text(json.dumps({"rows": rows, "every": every}))
-    write(args.out, rows, every)
+        Path(args.json).write_text(json.dumps({"rows": rows, "every": every, "searched": searched}))
+    write(args.out, rows, every, searched)
 
 
-def write(out: str, rows: dict, every: list[str]) -> None:
-    """The results page: the table per split and every FIGAROH setting's figures."""
+def write(out: str, rows: dict, every: list[str], searched: str = "") -> None:
+    """The results page: the table per split and every FIGAROH setting's figures
+    (``searched``: the settings FIGAROH's best was chosen from)."""
     text = "\n".join(["# Real data: vecpin's default against FIGAROH (UR10, ipa-robot-accuracy)", "",
                       "Written by `python benchmarks/bench_figaroh.py` (module docstring: the data, the splits, the "
                       "settings). Held-out distance between the measured T-Mac centre and the prediction, mm; "
-                      "times are whole processes (start to exit) on a shared 2-core machine.", "",
+                      "times are whole processes (start to exit) on a shared 2-core machine."
+                      + (f" FIGAROH's best among: {searched}." if searched else ""), "",
                       *table(rows), "", "## Every FIGAROH setting", "", "| split | setting | mean / max mm | time, s |",
                       "|---|---|---|---|", *every, ""])
     Path(out).parent.mkdir(parents=True, exist_ok=True)

@@ -103,3 +103,46 @@ def test_the_order_sweep_agrees_with_refitting_each_fold(flow, kind):
             held[te] = norm_mm(mf.residuals(c.subset(te)))
         assert row.heldout_mean == pytest.approx(held.mean(), rel=0.01)
         assert row.heldout_max == pytest.approx(held.max(), rel=0.05)
+
+
+def test_a_rescaled_problem_is_the_problem_of_the_scaled_noise():
+    """rescale(s): every noise sigma times s, i.e. the whitened columns and residuals over s:
+    each fold's estimate and the full-data objective as plain least squares of J/s, w/s."""
+    J, A, w, r, fold, x0 = _random_problem(3)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    prob.rescale(2.5)
+    cols, scale = np.array([1, 2, 4, 7, 11]), np.array([1.0, 0.3, 1.0, 1.0, 0.7])
+    held, _ = prob.residuals(cols, scale)
+    for f in range(prob.k):
+        te = fold == f
+        psi = _lstsq_fold(J / 2.5, w / 2.5, fold, f, cols, scale, x0)
+        np.testing.assert_allclose(held[te], r[te] - A[te][..., cols] @ psi, rtol=1e-10, atol=1e-13)
+    Jf = (J / 2.5).reshape(-1, J.shape[-1])
+    x = np.linalg.lstsq(np.vstack([Jf, np.eye(Jf.shape[1])]), np.r_[w.ravel() / 2.5, -x0], rcond=None)[0]
+    res = np.r_[w.ravel() / 2.5 - Jf @ x, x0 + x]
+    assert prob.chi2() == pytest.approx(float(res @ res), rel=1e-12)
+
+
+def test_the_ends_of_an_axis_are_held_out_whole():
+    """With ``ends``, the END_SHARE of the commands lowest on that axis fall in one fold, and
+    so do the highest: that fold's estimate comes from commands all beyond them (the
+    held-out rows judge an extrapolation); rows of one command share a fold; without
+    ``ends`` no fold is a block."""
+    from types import SimpleNamespace
+    from vecpin.identification.crossval import END_SHARE
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-1, 1, size=(120, 3))
+    camp = SimpleNamespace(q=np.repeat(q, 2, axis=0))          # two tools per command
+    fold = command_folds(camp, 5, np.random.default_rng(0), ends=(1,))
+    assert (fold[::2] == fold[1::2]).all()
+    m = int(round(END_SHARE * 120))
+    order = np.argsort(q[:, 1])
+    f_lo, f_hi = fold[::2][order[:m]], fold[::2][order[-m:]]
+    assert len(set(f_lo)) == 1 and len(set(f_hi)) == 1 and f_lo[0] != f_hi[0]
+    train_lo = q[fold[::2] != f_lo[0], 1]
+    assert train_lo.min() > q[order[:m], 1].max()          # nothing fitted below the low block
+    train_hi = q[fold[::2] != f_hi[0], 1]
+    assert train_hi.max() < q[order[-m:], 1].min()         # nothing fitted above the high block
+    assert len(set(fold)) == 5
+    plain = command_folds(camp, 5, np.random.default_rng(0))
+    assert len(set(plain[::2][order[:m]])) > 1

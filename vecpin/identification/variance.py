@@ -113,19 +113,24 @@ def reml_repeatability(blocks: list[tuple[np.ndarray, np.ndarray]]) -> tuple[flo
     known variances: ``blocks`` of (z, C D Cᵀ) with z the contrasts of one pose and axis
     [mm] and C D Cᵀ the known part of their covariance; each block's covariance is
     C D Cᵀ + σ² I (C orthonormal)."""
+    stacks: dict = {}   # blocks of one size stacked: (B, m) contrasts, (B, m, m) known parts
+    for z, K in blocks:
+        stacks.setdefault(len(z), []).append((z, K))
+    stacks = [(np.array([z for z, _ in bs]), np.array([K for _, K in bs]), np.eye(m)) for m, bs in stacks.items()]
+
     def nll(log_s2: float) -> float:
         s2 = math.exp(log_s2)
         total = 0.0
-        for z, K in blocks:
-            M = K + s2 * np.eye(len(z))
-            sign, logdet = np.linalg.slogdet(M)
-            total += logdet + float(z @ np.linalg.solve(M, z))
+        for Z, K, eye in stacks:
+            M = K + s2 * eye
+            _, logdet = np.linalg.slogdet(M)
+            total += float(logdet.sum()) + float(np.einsum("bi,bi->", Z, np.linalg.solve(M, Z[..., None])[..., 0]))
         return 0.5 * total
     scale = np.mean([float(z @ z) / len(z) for z, _ in blocks])
     res = minimize_scalar(nll, bounds=(math.log(scale * 1e-8 + 1e-16), math.log(scale * 10 + 1e-16)), method="bounded")
     s2 = math.exp(res.x)
-    info = 0.5 * sum(float(np.trace(np.linalg.matrix_power(np.linalg.inv(K + s2 * np.eye(len(K))), 2)))
-                     for _, K in blocks)   # Fisher information of σ²
+    inverses = [np.linalg.inv(K + s2 * eye) for _, K, eye in stacks]
+    info = 0.5 * sum(float(np.einsum("bij,bji->", Mi, Mi)) for Mi in inverses)   # Fisher information of σ²
     return s2, 1.0 / math.sqrt(info)
 
 

@@ -22,6 +22,20 @@ with the other axes eliminated once); the choice follows the one-standard-error 
 among the candidates whose held-out mean distance is within one paired standard error
 of the lowest, the one with the fewest terms (a penalised spline's effective terms).
 
+The folds group the rows by command and deal the commands at random (interleaved folds:
+new poses among the measured ones), except on an axis the campaign measured over less
+than 90 % of its travel: there the commands at each end of its measured span (a tenth at
+each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
+that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
+as it will be used beyond the measured span (a robot measured over part of its joint
+ranges; a machine measured over part of a travel its tables cover). A campaign over the
+whole travel keeps interleaved folds only.
+
+When the noise level is not stated (``noise_from_data``), the best candidate of the
+first stage tells it: every noise sigma is scaled by sqrt(chi2 / expected) of its
+linearised fit, the folded problems are rescaled (no new linearisation) and the search
+runs with that noise, once.
+
 Only candidates the campaign can determine take part: fewer unknowns (the model's terms
 that move anything, the tracker pose and the instruments' unknowns) than the campaign
 has equations, the count the fit holds every model to. Larger ones are left out (the
@@ -35,7 +49,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -47,59 +61,15 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
-from vecpin.models.basis import AxisBasis, bases_text
 from vecpin.selection.orders import check_folds
-from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, AxisChoice, Design, axis_options,
-                                     per_turn_measured)
+from vecpin.selection.search import Candidate, Problem, Search, supported
+from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
+                                     partly_measured, per_turn_measured)
 from vecpin.threads import one_blas_thread
 
+_Problem = Problem  # the name the tests and older scripts use
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
-
-
-@dataclass
-class Candidate:
-    """One model: kind, a basis per axis, held-out distances [mm] per judged row;
-    ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
-    penalised spline makes it smaller, :meth:`Design.effective_terms`)."""
-
-    kind: str
-    axes: tuple[AxisChoice, ...]
-    n_terms: int
-    heldout: np.ndarray = field(repr=False)
-    effective_terms: float | None = None
-
-    @property
-    def size(self) -> float:
-        return self.n_terms if self.effective_terms is None else self.effective_terms
-
-    @property
-    def mean(self) -> float:
-        return float(self.heldout.mean())
-
-    @property
-    def max(self) -> float:
-        return float(self.heldout.max())
-
-    def label(self, axis_names: list[str] | None = None) -> str:
-        """Compact ('AP cheb7/cheb6/...', for the table), or in words with ``axis_names``."""
-        if axis_names is not None:
-            return bases_text(MODELS[self.kind].display_name, axis_names, [a.readable() for a in self.axes])
-        labels = [a.label() for a in self.axes]
-        body = labels[0] if len(set(labels)) == 1 else "/".join(labels)
-        return f"{MODELS[self.kind].display_name} {body}"
-
-    def bases(self, machine: Machine) -> list[AxisBasis]:
-        return [c.basis(a) for a, c in zip(machine.axes, self.axes)]
-
-    def model(self, machine: Machine, **kw):
-        """The unfitted model of this candidate (custom bases)."""
-        return make_model(self.kind, machine, max(c.order for c in self.axes), bases=self.bases(machine), **kw)
-
-    def to_dict(self, machine: Machine) -> dict:
-        return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
-                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max} | \
-            ({} if self.effective_terms is None else {"effective_model_terms": self.effective_terms})
 
 
 @dataclass
@@ -120,6 +90,8 @@ class ModelChoice:
     equations: int = 0       # the campaign's equations: every candidate has fewer unknowns
     left_out: int = 0        # candidates with as many unknowns or more, not scored
     part_turn: tuple = ()    # axes travelling over a turn but measured over less: no series per turn tried
+    ends: tuple = ()         # axes measured over part of their travel: the ends of their span held out whole
+    noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
@@ -142,6 +114,10 @@ class ModelChoice:
         if self.part_turn:
             lines.append(f"  (no series per turn on {', '.join(self.part_turn)}: measured over less than a turn, where "
                          "they cannot be told from series over the travel and extrapolate over the rest of the turn)")
+        if self.ends:
+            lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel: {', '.join(self.ends)}; "
+                         "the commands at each end of their measured span were held out together, so the held-out "
+                         "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -158,41 +134,11 @@ class ModelChoice:
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
-                "no_series_per_turn": list(self.part_turn),
+                "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
+                "noise_scale": self.noise_scale,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
-
-
-class _Problem(Design):
-    """:class:`~vecpin.selection.design.Design` that scores candidates on its folded problem."""
-
-    def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
-        cols, scale = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
-
-    def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
-        """Candidates that share most columns (one axis' basis or smoothing differs), at
-        about the cost of one (:meth:`FoldedProblem.heldout_blocks`)."""
-        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
-        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
-        shared = set(common)
-        blocks = [(np.array([j for j in d if j not in shared], int),
-                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
-        held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
-        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
-
-    def size(self, cand: Candidate) -> float:
-        """The candidate's number of model terms for the one-SE rule, less what its
-        penalised splines' smoothing takes away: n_terms - (t_0 - t_λ), t the trace of
-        the hat matrix over its model columns with the penalties λ and without (λ = 0),
-        so that a penalised spline's heavily smoothed wiggles count little and every
-        other candidate is counted as before."""
-        if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
-            cols, scale = self.columns(cand.axes)
-            cand.effective_terms = cand.n_terms - (self.effective_terms(cols, np.ones_like(scale))
-                                                   - self.effective_terms(cols, scale))
-        return cand.size
 
 
 def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, spline or auto") -> None:
@@ -201,65 +147,6 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
     if basis in ("fourier", "fourier_trend") and not any(a.multiturn for a in machine.axes):
         raise InputError(f"no rotary axis of {machine.name} travels more than a turn; `basis` {basis} applies to "
                          f"none: use {alternatives}")
-
-
-class _Search:
-    """The candidates scored so far (of every kind) and those left out: larger than the
-    campaign's equations (``limit``) can determine."""
-
-    def __init__(self):
-        self.cands: list[Candidate] = []
-        self.scored: dict = {}
-        self.left_out: set = set()
-        self.limit = math.inf
-
-    def supported(self, prob: _Problem, choice: tuple) -> bool:
-        if prob.unknowns(choice) < self.limit:
-            return True
-        self.left_out.add((prob.kind, choice))
-        return False
-
-    def add(self, c: Candidate) -> Candidate:
-        self.scored[(c.kind, c.axes)] = c
-        self.cands.append(c)
-        return c
-
-    def score(self, prob: _Problem, choice: tuple) -> Candidate | None:
-        key = (prob.kind, choice)
-        if key not in self.scored and self.supported(prob, choice):
-            self.add(prob.candidate(choice))
-        return self.scored.get(key)
-
-    def common(self, prob: _Problem, machine: Machine, plans, orders, options) -> None:
-        """Every plan (one family on every axis it applies to) at every order."""
-        for plan in plans:
-            for o in (orders if plan not in ("spline", "pspline") else [None]):
-                for plan_axes in _plans(machine, plan, o, options):
-                    self.score(prob, plan_axes)
-
-    def refine(self, prob: _Problem, options) -> Candidate | None:
-        """Around the kind's best, every basis and smoothing of one axis at a time (the
-        other axes eliminated once), axis after axis, while the held-out mean improves
-        (three passes at most): the best candidate reached."""
-        own = [c for c in self.cands if c.kind == prob.kind]
-        if not own:
-            return None
-        cur = min(own, key=lambda c: c.mean)
-        for _ in range(3):
-            improved = False
-            for i in range(len(options)):
-                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
-                          if (prob.kind, t) not in self.scored and (prob.kind, t) not in self.left_out
-                          and self.supported(prob, t)]
-                for c in (prob.candidates(trials) if len(trials) > 1 else []):
-                    self.add(c)
-                for opt in options[i]:
-                    c = self.score(prob, cur.axes[:i] + (opt,) + cur.axes[i + 1:])
-                    if c is not None and c.mean < cur.mean:
-                        cur, improved = c, True
-            if not improved:
-                break
-        return cur
 
 
 def _check_request(kinds, families, orders) -> list[int]:
@@ -291,7 +178,7 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
     if plans and all(p in ("fourier", "fourier_trend") for p in plans):
         check_basis(machine, plans[0], ", ".join(f for f in families if f not in ("fourier", "fourier_trend"))
                     or "chebyshev")
-    options = [_supported(axis_options(a, orders, families, fixed_order, sp), judged.q[:, a.index])
+    options = [supported(axis_options(a, orders, families, fixed_order, sp), judged.q[:, a.index])
                for a, sp in zip(machine.axes, spans)]
     return plans, options, short
 
@@ -300,7 +187,7 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=None,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
-                 progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
@@ -311,7 +198,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     are at most that order); ``seed``: the folds (and the subsample of a large
     campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
     priors and offsets every candidate carries; ``underdetermined``: also candidates
-    with as many unknowns as equations or more (module text)."""
+    with as many unknowns as equations or more (module text); ``noise_from_data``: the
+    noise level is not known: when the best common candidate's chi2 leaves its band,
+    every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
+    made with that noise (``ModelChoice.noise_scale``)."""
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
     say = progress or (lambda s: None)
@@ -321,17 +211,20 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
-    fold = command_folds(camp, folds, np.random.default_rng(seed))
-    search, problems = _Search(), {}
+    ends = partly_measured(machine, campaign)
+    fold = command_folds(camp, folds, np.random.default_rng(seed), ends)
+    problems = {}
     for kind in kinds:
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        prob = problems[kind] = _Problem(kind, machine, camp, noise, options, fold, opts)
-        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
-            search.limit = prob.n_equations * len(campaign) / len(camp)
-        search.common(prob, machine, plans, orders, options)
-        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
-    if not search.cands:
-        raise _too_small(machine, campaign, problems, search.limit)
+        problems[kind] = Problem(kind, machine, camp, noise, options, fold, opts)
+    search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
+    lowest = min(search.cands, key=lambda c: c.mean)
+    scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
+    if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
+        say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
+        for prob in problems.values():
+            prob.problem.rescale(scale)
+        search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
     for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
         cur = search.refine(prob, options)
         if cur is not None:
@@ -344,7 +237,44 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
-                       int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short)
+                       int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
+                       tuple(machine.axes[a].name for a in ends), scale)
+
+
+def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, orders, options,
+                  underdetermined: bool, say) -> Search:
+    """A new search with every kind's common-basis candidates scored (refused when the
+    campaign supports none)."""
+    search = Search()
+    for kind, prob in problems.items():
+        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
+            search.limit = prob.n_equations * len(campaign) / len(prob.judged)
+        search.common(prob, machine, plans, orders, options)
+        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
+    if not search.cands:
+        raise _too_small(machine, campaign, problems, search.limit)
+    return search
+
+
+def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:
+    """The scale of the stated noise the data give, from the linearised full-data fit of
+    ``cand`` (the fit's own chi2 and expected value: the equations less the effective
+    parameters): 1 when its chi2 lies in the 3-sigma band, else every sigma scaled by
+    sqrt(chi2 / expected) until that settles within 1 % (the priors weigh more as the
+    noise grows, so the expected value moves with it). Rescales ``prob`` in place."""
+    cols, fac = prob.columns(cand.axes)
+    scale = 1.0
+    for k in range(rounds):
+        chi2 = prob.problem.chi2(cols, fac)
+        dof = max(prob.n_equations - prob.problem.effective_terms(cols, fac), 1.0)
+        step = math.sqrt(chi2 / dof)
+        if (k == 0 and abs(chi2 - dof) <= 3 * math.sqrt(2 * dof)) or abs(step - 1) < 0.01:
+            break
+        prob.problem.rescale(step)
+        scale *= step
+    if scale != 1.0:
+        prob.problem.rescale(1.0 / scale)   # the caller rescales every kind's problem at once
+    return scale
 
 
 def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: float) -> IdentifiabilityError:
@@ -361,43 +291,6 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
         f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
-
-
-def _supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
-    """The options with no more terms than the axis has distinct positions ``q`` (the
-    smallest when none has): more could not be told apart on this campaign."""
-    n = len(np.unique(np.round(q, 9)))
-    return [o for o in options if o.size <= n] or [min(options, key=lambda o: o.size)]
-
-
-def _plans(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
-    """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
-    order: a per-turn series of the lowest order offered that is at least ``order``."""
-    out = []
-    if plan == "spline":
-        knots = sorted({o.order for opts in options for o in opts if o.family == "spline"})
-        for k in knots:
-            out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
-                             for opts in options))
-        return out
-    if plan == "pspline":  # one knot count and smoothing on every axis
-        for c in dict.fromkeys(o for opts in options for o in opts if o.family == "pspline"):
-            out.append(tuple(c if c in opts else opts[0] for opts in options))
-        return out
-    cheb = AxisChoice("chebyshev", order)
-    if plan == "chebyshev":  # capped where an axis has too few positions for this order
-        return [tuple(cheb if cheb in opts else max((o for o in opts if o.family == "chebyshev" and o.order < order),
-                                                    key=lambda o: o.order, default=opts[0]) for opts in options)]
-    per_turn = [o for opts in options for o in opts if o.family == plan]
-    if not per_turn:
-        return out
-    fo = min((o.order for o in per_turn if o.order >= order), default=max(o.order for o in per_turn))
-    for t in sorted({o.trend for o in per_turn}):
-        c = AxisChoice(plan, fo, t)
-        row = tuple(c if c in opts else (cheb if cheb in opts else opts[0]) for opts in options)
-        if any(x.family == plan for x in row):
-            out.append(row)
-    return out
 
 
 def one_standard_error(cands: list[Candidate], best: Candidate,
@@ -486,7 +379,7 @@ BASES = ("auto",) + FAMILIES
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
                   order: int | str = "auto", *, folds: int = 5, seed: int = 0, underdetermined: bool = False,
-                  progress: Callable[[str], None] | None = None, **opts):
+                  progress: Callable[[str], None] | None = None, noise_from_data: bool = False, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of
     ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
     fixed choice builds the model directly. ``opts``: model options (tool_lengths,
@@ -495,7 +388,9 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     splines only with ``basis="spline"`` or ``"pspline"``, ``order`` then being the number
     of interior knots; a penalised spline's smoothing is always chosen by held-out data.
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
-    candidates with more unknowns than equations (:func:`choose_model`)."""
+    candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
+    the choice scales the noise to what the data say (:func:`choose_model`; a fixed
+    choice leaves that to the fit)."""
     if kind not in ("auto", *MODELS):
         raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
     if basis not in BASES:
@@ -514,5 +409,5 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
                           plans=None if basis == "auto" else (basis,),
                           orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          underdetermined=underdetermined, progress=progress)
+                          underdetermined=underdetermined, noise_from_data=noise_from_data, progress=progress)
     return choice.chosen.model(machine, **opts), choice

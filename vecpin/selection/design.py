@@ -41,6 +41,7 @@ TRENDS = (1, 2, 4, 6, 8)
 SPLINE_KNOTS = (3, 7, 15)
 PSPLINE_KNOTS = 15        # interior knots of the penalised splines: 16 intervals over the travel
 SMOOTHING = tuple(10.0 ** k for k in range(0, 9))  # their smoothing penalties λ, chosen by held-out data
+PART_OF_TRAVEL = 0.9      # an axis whose commands span less of its travel is judged on extrapolation too
 
 
 @dataclass(frozen=True)
@@ -132,6 +133,16 @@ def per_turn_measured(span: float) -> bool:
     measured over 128°: the choice took 12 terms per turn there, 12.0 mm held-out mean
     just beyond the measured part; without series per turn 0.73 mm)."""
     return span >= 2 * math.pi * (1 - 1e-9)
+
+
+def partly_measured(machine: Machine, campaign: Campaign) -> tuple[int, ...]:
+    """Indices of the axes whose commands span less than :data:`PART_OF_TRAVEL` of the
+    travel: the model will be used beyond what the campaign measured there (tables cover
+    the travel; a robot works beyond its calibration poses), so the choice holds out the
+    commands at both ends of their measured span (:func:`command_folds`' ``ends``) and
+    judges how each candidate extrapolates along them."""
+    span = np.ptp(campaign.q, axis=0)
+    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (a.upper - a.lower))
 
 
 def axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list[str], np.ndarray]:

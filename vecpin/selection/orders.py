@@ -20,6 +20,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
 from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.models import MODELS, make_model
+from vecpin.selection.design import partly_measured
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames, register
 from vecpin.units import MM_PER_M
@@ -146,14 +147,16 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
         uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool, frame="base") @ R.T + t))
         method = "validation file"
     else:
-        fold = command_folds(campaign, folds, np.random.default_rng(seed))
+        ends = partly_measured(machine, campaign)
+        fold = command_folds(campaign, folds, np.random.default_rng(seed), ends)
         uv = np.full(len(campaign), np.nan)
         for f in range(folds):
             tr, te = (fold != f) & judged, (fold == f) & judged
             Rf, tf = register(nominal[tr], campaign.xyz[tr])
             uv[te] = _dist_mm(campaign.xyz[te] - (nominal[te] @ Rf.T + tf))
         uv = uv[judged]
-        method = "k-fold CV"
+        method = "k-fold CV" + (f" (the ends of {', '.join(machine.axes[a].name for a in ends)} held out whole)"
+                                if ends else "")
     rows = []
     for order in orders:
         t0 = time.perf_counter()

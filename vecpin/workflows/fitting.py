@@ -57,7 +57,7 @@ class FitRun:
     rows: int = 0                    # rows of the campaign
     noise_scale: float | None = None      # the noise level the data gave, times the stated one (None: not asked)
     noise_scale_sd: float | None = None   # its standard deviation
-    noise_rescaled: bool = False          # the fit (and choice) were made again with the scaled noise
+    noise_rescaled: bool = False          # the choice and the fit used the noise scaled to the data
     noise_used: float = 1.0               # the scale of the stated noise the final fit used
     campaign: Campaign | None = None      # the rows fitted (those in the zone)
     components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
@@ -92,7 +92,7 @@ class FitRun:
             return (f"noise from the data: residuals {s:.2f} ± {sd:.2f} x the stated noise, within the chi2 band: "
                     "the stated noise kept" + (f"\n{parts}" if parts else ""))
         return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
-                f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted again; "
+                f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted with it; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
                 "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)"
                 + (f"\n{parts}" if parts else ""))
@@ -145,7 +145,7 @@ def zone_text(zone: Zone) -> str:
     return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
 
 
-NOISE_ROUNDS = 3   # choose-and-fit rounds when the noise level comes from the data
+NOISE_ROUNDS = 3   # fits of the chosen model at most when the noise level comes from the data
 
 
 def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "zone") -> Campaign:
@@ -165,10 +165,11 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                  noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> FitRun:
     """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``).
 
-    ``noise_from_data``: the noise level is not known (the user stated none): when the
-    fit's chi2 leaves its band, every noise sigma is scaled by sqrt(chi2 / expected) and
-    the model chosen and fitted again (at most ``NOISE_ROUNDS`` times, until the scale
-    settles within 5 %). The ratio of machine to instrument noise is kept: one level, not
+    ``noise_from_data``: the noise level is not known (the user stated none): the model
+    choice scales every noise sigma to what its linearised fit says when the chi2 leaves
+    its band (:func:`vecpin.selection.choice.choose_model`), once; when the fit's chi2
+    still leaves its band, the same model is fitted again with the scale
+    sqrt(chi2 / expected) gives (:func:`_fit_rounds`). The ratio of machine to instrument noise is kept: one level, not
     two variance components, is what the residuals tell apart from the model. ``noise``
     default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
     noise = noise or NoiseModel.default(machine)
@@ -187,25 +188,12 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         check_stations(campaign)
     opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
             "prior_scale": prior_scale}
-    scale, estimate, sd = 1.0, None, None      # the scale the fit used; the level the data give
-    for k in range(NOISE_ROUNDS if noise_from_data else 1):
-        used = scaled_noise(noise, scale) if scale != 1.0 else noise
-        model, choice = choose_or_fix(machine, campaign, used, kind, basis, order, folds=folds,
-                                      underdetermined=underdetermined, progress=progress, **opts)
-        check_size(model)
-        if progress:
-            progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
-        model.fit(campaign, used, progress=progress, underdetermined=underdetermined)
-        rep = model.report_
-        if not noise_from_data or rep.chi2_expected <= 0:
-            break
-        step = math.sqrt(rep.chi2 / rep.chi2_expected)
-        estimate, sd = scale * step, scale * step / math.sqrt(2 * rep.chi2_expected)
-        if (k == 0 and rep.chi2_in_band) or abs(step - 1) < 0.05 or k == NOISE_ROUNDS - 1:
-            break
-        scale = estimate
-        if progress:
-            progress(f"noise from the data: {scale:.2f} x the stated noise; choosing and fitting again")
+    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds,
+                                  underdetermined=underdetermined, progress=progress,
+                                  noise_from_data=noise_from_data, **opts)
+    check_size(model)
+    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.noise_scale if choice else 1.0,
+                                             noise_from_data, underdetermined, progress)
     rescaled = scale != 1.0
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
         for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
@@ -217,6 +205,33 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
     run.components = _components(model, campaign, scale)
     return run
+
+
+def _fit_rounds(model: ErrorModel, campaign: Campaign, noise: NoiseModel, scale: float, noise_from_data: bool,
+                underdetermined: bool, progress) -> tuple[ErrorModel, float, float | None, float | None]:
+    """Fit ``model`` with every noise sigma times ``scale`` (the choice's level); with
+    ``noise_from_data``, while the fit's chi2 leaves its band, fit again (the same
+    model, fitted from scratch: one choice per fit) with the scale sqrt(chi2 / expected)
+    gives, at most :data:`NOISE_ROUNDS` fits, until it settles within 5 %. Returns (the fitted model,
+    the scale it used, the level the data give and its standard deviation (None: not
+    asked))."""
+    estimate, sd = None, None
+    for k in range(NOISE_ROUNDS if noise_from_data else 1):
+        used = scaled_noise(noise, scale) if scale != 1.0 else noise
+        if progress:
+            progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
+        model.fit(campaign, used, progress=progress, underdetermined=underdetermined)
+        rep = model.report_
+        if not noise_from_data or rep.chi2_expected <= 0:
+            break
+        step = math.sqrt(rep.chi2 / rep.chi2_expected)
+        estimate, sd = scale * step, scale * step / math.sqrt(2 * rep.chi2_expected)
+        if rep.chi2_in_band or abs(step - 1) < 0.05 or k == NOISE_ROUNDS - 1:
+            break
+        scale = estimate
+        if progress:
+            progress(f"noise from the data: {scale:.2f} x the stated noise; fitting again")
+    return model, scale, estimate, sd
 
 
 def _components(model: ErrorModel, campaign: Campaign, scale: float) -> VarianceComponents | None:

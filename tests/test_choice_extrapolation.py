@@ -1,0 +1,70 @@
+"""Axes measured over part of their travel (issue 25): the model choice holds out the
+commands at both ends of their measured span, so its held-out rows judge how a candidate
+extrapolates; a campaign over the whole travel (every machine tool design vecpin
+simulates) keeps the interleaved folds, and so the same choice."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vecpin
+from vecpin.identification.crossval import command_folds
+from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.robotaccuracy import read_dataset
+from vecpin.selection.choice import PART_OF_TRAVEL, choose_model, partly_measured
+from vecpin.simulation.simulate import Design, simulate
+
+RANDOM = Path(__file__).resolve().parent / "data" / "ipa_ur10" / "random_poses_400.csv"
+
+
+def test_a_campaign_over_the_whole_travel_keeps_interleaved_folds(machines):
+    m = machines["flow_xyzcb"]
+    c = simulate(m, seed=1, design=Design(n_commands=60, n_validation=5)).campaign
+    span = np.ptp(c.q, axis=0) / np.array([a.upper - a.lower for a in m.axes])
+    assert (span >= PART_OF_TRAVEL).all() and partly_measured(m, c) == ()
+    np.testing.assert_array_equal(command_folds(c, 5, np.random.default_rng(0), partly_measured(m, c)),
+                                  command_folds(c, 5, np.random.default_rng(0)))
+    half = c.subset(c.q[:, 0] < m.axes[0].lower + 0.5 * (m.axes[0].upper - m.axes[0].lower))
+    assert 0 in partly_measured(m, half)
+
+
+def test_the_ur10s_joints_are_judged_on_their_ends():
+    """The public UR10 campaign measures each joint over 8-24 % of its ±360° travel: every
+    joint's ends are held out, and the choice table says so."""
+    m = vecpin.Machine.load("ur10")
+    c = read_dataset(RANDOM, m).campaign.subset(np.arange(0, 400, 2))
+    assert partly_measured(m, c) == tuple(range(6))
+    ch = choose_model(m, c, NoiseModel.default(m), kinds=("6dof",), orders=(0, 1, 2), per_axis=False)
+    assert ch.ends == tuple(m.axis_names)
+    assert "held out together" in ch.table() and ch.to_dict()["ends_held_out"] == list(m.axis_names)
+
+
+@pytest.mark.slow
+def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypatch):
+    """The head layout of the independent truth family with spline errors (outside vecpin's
+    families), measured only where X lies in the lower 60 % of its travel; judged against
+    the simulated truth over the rest of X's travel (never measured) and inside: the choice
+    with X's ends held out extrapolates 4.6x better than with interleaved folds alone
+    (0.23 against 1.06 mm; measured) and is no worse inside (0.019 against 0.021 mm)."""
+    import vecpin.selection.choice as choice
+    from vecpin.simulation.independent import IndependentMachine, layout
+    from vecpin.simulation.judge import validation_commands, validation_error
+    m = layout("head_xyzab")
+    truth = IndependentMachine.random(m, "spline", seed=1)
+    c = simulate(m, seed=2, truth=truth).campaign
+    x = m.axes[0]
+    cut = x.lower + 0.6 * (x.upper - x.lower)
+    c = c.subset(c.q[:, 0] < cut)
+    noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
+    q, tool = validation_commands(m, 300, seed=5)
+    inside = q[:, 0] < cut
+    errors = {}
+    for tag in ("ends", "interleaved"):
+        if tag == "interleaved":
+            monkeypatch.setattr(choice, "partly_measured", lambda machine, campaign: ())
+        proto, ch = choice.choose_or_fix(m, c, noise)
+        assert ch.ends == (("X",) if tag == "ends" else ())
+        model = proto.fit(c, noise)
+        errors[tag] = [validation_error(model, truth, q[s], tool[s])[0] for s in (inside, ~inside)]
+    assert errors["ends"][1] < 0.5 * errors["interleaved"][1]
+    assert errors["ends"][0] < 1.15 * errors["interleaved"][0]

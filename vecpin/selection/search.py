@@ -1,0 +1,195 @@
+"""The model choice's search (:mod:`vecpin.selection.choice`): a candidate model and its
+held-out distances (:class:`Candidate`), the folded problem of one model kind that scores
+candidates (:class:`Problem`), and the search over them (:class:`Search`: every family at
+a common order on every axis, then axis by axis around the best), the candidates the
+campaign can determine only.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vecpin.kinematics.machine import Machine
+from vecpin.models import MODELS, make_model
+from vecpin.models.basis import AxisBasis, bases_text
+from vecpin.selection.design import AxisChoice, Design
+
+
+@dataclass
+class Candidate:
+    """One model: kind, a basis per axis, held-out distances [mm] per judged row;
+    ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
+    penalised spline makes it smaller, :meth:`Design.effective_terms`)."""
+
+    kind: str
+    axes: tuple[AxisChoice, ...]
+    n_terms: int
+    heldout: np.ndarray = field(repr=False)
+    effective_terms: float | None = None
+
+    @property
+    def size(self) -> float:
+        return self.n_terms if self.effective_terms is None else self.effective_terms
+
+    @property
+    def mean(self) -> float:
+        return float(self.heldout.mean())
+
+    @property
+    def max(self) -> float:
+        return float(self.heldout.max())
+
+    def label(self, axis_names: list[str] | None = None) -> str:
+        """Compact ('AP cheb7/cheb6/...', for the table), or in words with ``axis_names``."""
+        if axis_names is not None:
+            return bases_text(MODELS[self.kind].display_name, axis_names, [a.readable() for a in self.axes])
+        labels = [a.label() for a in self.axes]
+        body = labels[0] if len(set(labels)) == 1 else "/".join(labels)
+        return f"{MODELS[self.kind].display_name} {body}"
+
+    def bases(self, machine: Machine) -> list[AxisBasis]:
+        return [c.basis(a) for a, c in zip(machine.axes, self.axes)]
+
+    def model(self, machine: Machine, **kw):
+        """The unfitted model of this candidate (custom bases)."""
+        return make_model(self.kind, machine, max(c.order for c in self.axes), bases=self.bases(machine), **kw)
+
+    def to_dict(self, machine: Machine) -> dict:
+        return {"kind": self.kind, "bases": {a.name: c.label() for a, c in zip(machine.axes, self.axes)},
+                "model_terms": self.n_terms, "heldout_mean_mm": self.mean, "heldout_max_mm": self.max} | \
+            ({} if self.effective_terms is None else {"effective_model_terms": self.effective_terms})
+
+
+class Problem(Design):
+    """:class:`~vecpin.selection.design.Design` that scores candidates on its folded problem."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._unpenalised: dict = {}   # the hat matrix' trace of a set of columns without penalties
+
+    def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
+        cols, scale = self.columns(choice)
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
+
+    def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
+        """Candidates that share most columns (one axis' basis or smoothing differs), at
+        about the cost of one (:meth:`FoldedProblem.heldout_blocks`)."""
+        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
+        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
+        shared = set(common)
+        blocks = [(np.array([j for j in d if j not in shared], int),
+                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
+        held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
+        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
+
+    def size(self, cand: Candidate) -> float:
+        """The candidate's number of model terms for the one-SE rule, less what its
+        penalised splines' smoothing takes away: n_terms - (t_0 - t_λ), t the trace of
+        the hat matrix over its model columns with the penalties λ and without (λ = 0),
+        so that a penalised spline's heavily smoothed wiggles count little and every
+        other candidate is counted as before."""
+        if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
+            cols, scale = self.columns(cand.axes)
+            key = cols.tobytes()   # t_0 depends on the columns only: shared by every smoothing of them
+            if key not in self._unpenalised:
+                self._unpenalised[key] = self.effective_terms(cols, np.ones_like(scale))
+            cand.effective_terms = cand.n_terms - (self._unpenalised[key] - self.effective_terms(cols, scale))
+        return cand.size
+
+
+class Search:
+    """The candidates scored so far (of every kind) and those left out: larger than the
+    campaign's equations (``limit``) can determine."""
+
+    def __init__(self):
+        self.cands: list[Candidate] = []
+        self.scored: dict = {}
+        self.left_out: set = set()
+        self.limit = math.inf
+
+    def supported(self, prob: Problem, choice: tuple) -> bool:
+        if prob.unknowns(choice) < self.limit:
+            return True
+        self.left_out.add((prob.kind, choice))
+        return False
+
+    def add(self, c: Candidate) -> Candidate:
+        self.scored[(c.kind, c.axes)] = c
+        self.cands.append(c)
+        return c
+
+    def score(self, prob: Problem, choice: tuple) -> Candidate | None:
+        key = (prob.kind, choice)
+        if key not in self.scored and self.supported(prob, choice):
+            self.add(prob.candidate(choice))
+        return self.scored.get(key)
+
+    def common(self, prob: Problem, machine: Machine, plans, orders, options) -> None:
+        """Every plan (one family on every axis it applies to) at every order."""
+        for plan in plans:
+            for o in (orders if plan not in ("spline", "pspline") else [None]):
+                for plan_axes in plans_at(machine, plan, o, options):
+                    self.score(prob, plan_axes)
+
+    def refine(self, prob: Problem, options) -> Candidate | None:
+        """Around the kind's best, every basis and smoothing of one axis at a time (the
+        other axes eliminated once), axis after axis, while the held-out mean improves
+        (three passes at most): the best candidate reached."""
+        own = [c for c in self.cands if c.kind == prob.kind]
+        if not own:
+            return None
+        cur = min(own, key=lambda c: c.mean)
+        for _ in range(3):
+            improved = False
+            for i in range(len(options)):
+                trials = [t for t in (cur.axes[:i] + (o,) + cur.axes[i + 1:] for o in options[i])
+                          if (prob.kind, t) not in self.scored and (prob.kind, t) not in self.left_out
+                          and self.supported(prob, t)]
+                for c in (prob.candidates(trials) if len(trials) > 1 else []):
+                    self.add(c)
+                for opt in options[i]:
+                    c = self.score(prob, cur.axes[:i] + (opt,) + cur.axes[i + 1:])
+                    if c is not None and c.mean < cur.mean:
+                        cur, improved = c, True
+            if not improved:
+                break
+        return cur
+
+
+def supported(options: list[AxisChoice], q: np.ndarray) -> list[AxisChoice]:
+    """The options with no more terms than the axis has distinct positions ``q`` (the
+    smallest when none has): more could not be told apart on this campaign."""
+    n = len(np.unique(np.round(q, 9)))
+    return [o for o in options if o.size <= n] or [min(options, key=lambda o: o.size)]
+
+
+def plans_at(machine: Machine, plan: str, order: int | None, options) -> list[tuple[AxisChoice, ...]]:
+    """Candidates with one family everywhere it applies (Chebyshev elsewhere) at one
+    order: a per-turn series of the lowest order offered that is at least ``order``."""
+    out = []
+    if plan == "spline":
+        knots = sorted({o.order for opts in options for o in opts if o.family == "spline"})
+        for k in knots:
+            out.append(tuple(AxisChoice("spline", k) if AxisChoice("spline", k) in opts else opts[0]
+                             for opts in options))
+        return out
+    if plan == "pspline":  # one knot count and smoothing on every axis
+        for c in dict.fromkeys(o for opts in options for o in opts if o.family == "pspline"):
+            out.append(tuple(c if c in opts else opts[0] for opts in options))
+        return out
+    cheb = AxisChoice("chebyshev", order)
+    if plan == "chebyshev":  # capped where an axis has too few positions for this order
+        return [tuple(cheb if cheb in opts else max((o for o in opts if o.family == "chebyshev" and o.order < order),
+                                                    key=lambda o: o.order, default=opts[0]) for opts in options)]
+    per_turn = [o for opts in options for o in opts if o.family == plan]
+    if not per_turn:
+        return out
+    fo = min((o.order for o in per_turn if o.order >= order), default=max(o.order for o in per_turn))
+    for t in sorted({o.trend for o in per_turn}):
+        c = AxisChoice(plan, fo, t)
+        row = tuple(c if c in opts else (cheb if cheb in opts else opts[0]) for opts in options)
+        if any(x.family == plan for x in row):
+            out.append(row)
+    return out
