@@ -120,9 +120,10 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     """The candidate's linearised CV (``base`` extended by its columns) and both tests
     (see the module docstring)."""
     A1, J1 = cand_cols
-    ext = base.extend(J1, A1)
-    ev = ext.evaluate()
-    ev["pattern"] = ext.J.reshape(-1, ext.n_columns) @ ext.estimate()  # what the candidate changes in the fit (whitened)
+    ev = base.evaluate_extended(J1, A1)  # the current model's folds eliminated once per round, not per candidate
+    P = base.n_columns
+    # what the candidate changes in the fit (whitened)
+    ev["pattern"] = base.J.reshape(-1, P) @ ev["estimate"][:P] + J1.reshape(-1, J1.shape[-1]) @ ev["estimate"][P:]
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
