@@ -447,7 +447,7 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     """The diagnosis: advice from the final model's fitted numbers, the scores ranked
     (accepted in their order, then the rest by BIC gain), regions and outliers."""
     if st.outliers.size:
-        st.scores.append(fl.outlier_score(pb.proto, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
+        st.scores.append(fl.outlier_score(st.base_model, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
                                         st.bev, pb.alpha))
     regions = _regions(pb, st)
     best_mm = distances_mm(st.cur_lin, st.cur_eval["heldout"])
