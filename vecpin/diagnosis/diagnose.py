@@ -55,7 +55,9 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
+from vecpin.models.base import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect
+from vecpin.models.modelfile import check_same_machine
 from vecpin.planning.discriminate import discriminating_plan
 from vecpin.selection.choice import choose_or_fix
 from vecpin.selection.orders import check_folds
@@ -251,12 +253,27 @@ class _State:
         self.loc = self.locate(pb, self.base_model, self.blin, self.bev)
 
 
+def _base_given(machine: Machine, base, model, basis, order):
+    """The base model of a fitted model (``base``: its kind, bases and orders, refitted
+    without its effects), checked against the machine and the other settings; None when
+    no ``base`` is given (the data choose)."""
+    if base is None:
+        return None
+    fixed = [f"`{k}` {v}" for k, v in (("model", model), ("basis", basis), ("order", order)) if str(v) != "auto"]
+    if fixed:
+        raise InputError(f"`base` with {', '.join(fixed)}: a base model fixes its kind, bases and orders; "
+                         "leave them at auto")
+    check_same_machine(machine, base.machine, "the diagnosis", "`base`")
+    return base.with_effects([])
+
+
 def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise, folds: int, alpha: float,
-             max_effects: int, basis, seed: int, min_shrink_pct: float, say) -> tuple[_Problem, np.ndarray]:
+             max_effects: int, basis, seed: int, min_shrink_pct: float, say, base=None) -> tuple[_Problem, np.ndarray]:
     """The settings checked, the folds, the first pass' gross errors and the base model
-    chosen (or fixed) on the rows left: (problem, first-pass outliers)."""
+    chosen (or fixed, or given as ``base``) on the rows left: (problem, first-pass outliers)."""
     if not (0 < alpha < 1) or not math.isfinite(alpha):
         raise InputError(f"`alpha` {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
+    given = _base_given(machine, base, model, basis, order)
     check_folds(campaign, folds)
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) if effects in ("all", None) else list(effects)
@@ -268,7 +285,12 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
                   names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
     outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
     camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
-    pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
+    if given is not None:
+        pb.proto, pb.choice = given, None
+        say(f"base model given: {given.label()} (refitted; no model choice)")
+    else:
+        pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed,
+                                            progress=say)
     return pb, outliers
 
 
@@ -447,8 +469,8 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     """The diagnosis: advice from the final model's fitted numbers, the scores ranked
     (accepted in their order, then the rest by BIC gain), regions and outliers."""
     if st.outliers.size:
-        st.scores.append(fl.outlier_score(st.base_model, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
-                                        st.bev, pb.alpha))
+        st.scores.append(fl.outlier_score(st.base_model, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers,
+                                          st.blin, st.bev, pb.alpha))
     regions = _regions(pb, st)
     best_mm = distances_mm(st.cur_lin, st.cur_eval["heldout"])
     std = st.cur_model.std_
@@ -470,9 +492,11 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, base: ErrorModel | None = None) -> Diagnosis:
     """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
-    of the base model (default: chosen by held-out data); ``effects``: "all" or names;
+    of the base model (default: chosen by held-out data); ``base``: a fitted model (e.g.
+    the model file of ``fit`` on this campaign) whose kind, bases and orders are the base
+    model, refitted here, so the model choice is not repeated; ``effects``: "all" or names;
     ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
     held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
     folds, first pass, base model choice), the base model, forward selection, outliers
@@ -480,7 +504,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
-                            min_shrink_pct, say)
+                            min_shrink_pct, say, base)
     st = _base_stage(pb, outliers)
     _forward(pb, st)
     _recheck_outliers(pb, st)
