@@ -176,22 +176,24 @@ class FoldedProblem:
             b = J1[sl].reshape(-1, Q)
             C_f[f], B_f[f], b_f[f] = J[sl].reshape(-1, P).T @ b, b.T @ b, b.T @ w[sl].ravel()
         C, B, b = C_f.sum(axis=0), B_f.sum(axis=0), b_f.sum(axis=0)
+        Co = C - C_f                                                           # (k,P,Q): every fold left out
+        MC = M_f @ Co
+        S = (B - B_f) + eyeQ - Co.transpose(0, 2, 1) @ MC
+        x1 = np.linalg.solve(S, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
+        v = (MC @ x1[..., None])[..., 0]
         held_s, held_ws = held_s.copy(), held_ws.copy()
         for f, sl in enumerate(rows):
-            Co = C - C_f[f]
-            MC = M_f[f] @ Co
-            x1 = linalg.solve(B - B_f[f] + eyeQ - Co.T @ MC, b - b_f[f] - Co.T @ a_f[f], assume_a="pos")
-            v = MC @ x1
-            held_s[sl] -= A1[sl] @ x1 - A[sl] @ v
-            held_ws[sl] -= J1[sl] @ x1 - J[sl] @ v
+            held_s[sl] -= A1[sl] @ x1[f] - A[sl] @ v[f]
+            held_ws[sl] -= J1[sl] @ x1[f] - J[sl] @ v[f]
         held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
         held[order], held_w[order] = held_s, held_ws
         M, Ma = self._full_inverse()
         MC = M @ C
         S = B + eyeQ - C.T @ MC
         u = b - C.T @ Ma
-        x1 = linalg.solve(S, u, assume_a="pos")
-        tr_inv = np.trace(M) + np.trace(linalg.solve(S, MC.T @ MC + eyeQ, assume_a="pos"))
+        x1, T = np.split(np.linalg.solve(S, np.c_[u, MC.T @ MC + eyeQ]), [1], axis=1)
+        x1 = x1[:, 0]
+        tr_inv = np.trace(M) + np.trace(T)
         base_chi2 = float(self.w.ravel() @ self.w.ravel() + self.x0 @ self.x0 - (self.g - self.x0) @ Ma)
         return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "heldout": held,
                 "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1]}
