@@ -47,6 +47,7 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
+from vecpin.diagnosis.structure import ProgramChanges, program_changes, repeats_across
 from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns,
                                       needed_given, pattern_cosine, score)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
@@ -219,6 +220,7 @@ class _State:
     accepted: list = field(default_factory=list)
     scores: list = field(default_factory=list)
     put_back: list = field(default_factory=list)
+    changes: ProgramChanges | None = None  # the program's changes on the rows fitted (:mod:`.structure`)
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -329,34 +331,57 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
     lin, fold_r = st.cur_lin, st.fold_r
     kin = Kinematics(st.cur_model, lin, st.feats)
     base = lin.folded(fold_r)
-    round_scores, scan_best = [], {}
+    round_scores, scan_best, held = [], {}, {}
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
             gain = base.chi2_gain(cols[1])
-            if type(c) not in scan_best or gain > scan_best[type(c)][0]:
-                scan_best[type(c)] = (gain, c, cols)
+            why = _confounded(pb, st, c)   # a step at a change of the program, nothing separating them
+            slot = held if why else scan_best
+            if type(c) not in slot or gain > slot[type(c)][0]:
+                slot[type(c)] = (gain, c, cols, why)
             continue
-        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols))
-    for kind, (_, c, cols) in scan_best.items():
-        round_scores.append((c, score(lin, base, cols, st.cur_eval),
-                             sum(type(x) is kind for x in remaining), cols))
-    thr = pb.alpha / max(sum(k for _, _, k, _ in round_scores), 1)
+        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols, None))
+    for kind, (gain, c, cols, why) in list(scan_best.items()) + list(held.items()):
+        if why and kind in scan_best and scan_best[kind][0] >= gain:
+            continue  # a step held back is shown when it would have been the family's best
+        round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
+                             why))
+    thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
     best, judged = None, []
-    for c, ev, _, cols in round_scores:
+    for c, ev, _, cols, why in round_scores:
         b_, a_ = ev["before"], ev["after"]
         sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                          float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
                          bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c)
-        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr
+        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr and not why
                           and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
+        sc.evidence = why or ""
         # the most economical explanation wins; on a tie (columns the data cannot tell
         # apart) the first candidate, the one nearer the base of the chain
         if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
             best = (sc, ev, cols)
         judged.append((sc, ev, cols))
     return judged, best, base
+
+
+def _confounded(pb: _Problem, st: _State, c: Effect) -> str | None:
+    """Why a step candidate (an effect with a step time ``t0`` on a ``station``) cannot be
+    called a tracker move: it starts at a change of the program (:mod:`.structure`) and
+    no pose read on both sides of it moved beyond the noise; None when nothing holds it."""
+    t0, station = getattr(c, "t0", None), getattr(c, "station", None)
+    what = None if t0 is None else st.changes.at_step(t0, station, st.feats)
+    if what is None:
+        return None
+    n, p = repeats_across(st.camp, st.feats, t0, station, st.cur_lin.w, st.cur_lin.valid, pb.alpha)
+    if n and p < pb.alpha:
+        return None  # the same poses read before and after it moved: separating evidence
+    seen = (f"the {n} poses read on both sides of it agree (p = {p:.2g})" if n
+            else "no pose was read on both sides of it")
+    return (f"held back: the step starts at a change of the program, {what}, and {seen}, so it is not called a "
+            "tracker move (the model may misfit one part of the program); read reference points again before and "
+            "after such a change to tell them apart")
 
 
 def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:
@@ -377,6 +402,7 @@ def _forward(pb: _Problem, st: _State) -> None:
     significant candidate is accepted with its ambiguity group, the model refitted with
     it; the first round without a significant gain ends the search."""
     candidates = candidate_effects(pb.machine, st.feats, pb.names, st.camp.q)
+    st.changes = program_changes(pb.machine, st.camp, st.feats)
     named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, pb.max_effects + 1):
         remaining = [c for c in candidates if c.label not in named
