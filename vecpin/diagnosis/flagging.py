@@ -39,18 +39,22 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     the one likelihood (each row in its own frame, with its own equations), as
     predictions of a model that did not see them (noise plus the model's uncertainty
     there), against the noise level of the rows it was fitted to (``rows``), and that do
-    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
+    not crowd one stretch of an axis together with the fitted rows beyond the noise.
+    The rows are evaluated within the whole campaign (``feats`` of every row): an effect
+    that follows the rows' history (a lagged warm-up) sees the same history as in the fit."""
     level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
     try:
-        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
+        lo = Linearised(cur_model, campaign, noise, feats)
         Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
         if lo.J.shape[-1] != Jall.shape[-1]:
             raise InputError("the flagged rows' columns differ from the fit's")
         M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
-        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
+        s = gross_.prediction_statistic(lo.w[outliers], lo.J[outliers], M, lo.valid[outliers])
+        valid = lo.valid[outliers]
     except VecpinError:
-        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
-        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
+        ev = cur_model.row_residuals(campaign, feats)
+        s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[outliers]
+        valid = ev.valid[outliers]
     still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
     # flagged rows crowded into one stretch of an axis (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
