@@ -35,7 +35,6 @@ candidate. Accepted effects are then fitted for real (nonlinear ML).
 """
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -47,9 +46,9 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.structure import ProgramChanges, program_changes, repeats_across
+from vecpin.diagnosis.structure import ProgramChanges, held_back, program_changes
 from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns,
-                                      needed_given, pattern_cosine, score)
+                                      needed_given, pattern_cosine, score, weakest)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -103,39 +102,6 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
 AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
 SETTLES_CHI2 = 9.0  # a discriminating plan is offered when it separates the candidates by 3 sigma at least
 DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
-def _without(lin: Linearised, effect: Effect) -> Linearised:
-    """The linearised model at the same solution with ``effect``'s parameters set to zero
-    and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
-    names = np.asarray(lin.likelihood.names)[lin.keep]
-    mine = np.char.startswith(names.astype(str), effect.label + ".")
-    out = copy.copy(lin)
-    pe = lin.psi0[mine]
-    out.w = lin.w + lin.J[..., mine] @ pe
-    out.r = lin.r + lin.A[..., mine] @ pe
-    out.J, out.A, out.psi0 = lin.J[..., ~mine], lin.A[..., ~mine], lin.psi0[~mine]
-    return out
-
-
-def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
-    """The accepted effect whose removal, given all the others, worsens the held-out error
-    least, when that worsening is not more than its own spread over the folds (the mean
-    of the per-fold mean gains within one standard deviation of them), judged on the
-    model linearised at the fit with all of them (``lin``, its held-out evaluation
-    ``ev``): (effect, why) or None when every effect survives."""
-    folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
-    with_all = distances_mm(lin, ev["heldout"])
-    worst = None
-    for e in accepted:
-        lo = _without(lin, e)
-        gain = distances_mm(lo, lo.folded(fold_r).evaluate()["heldout"]) - with_all
-        per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
-        spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
-        margin = float(per.mean()) - spread
-        if margin <= 0 and (worst is None or margin < worst[0]):
-            text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
-                    f"folds ({spread:.4f} mm)")
-            worst = (margin, e, text)
-    return None if worst is None else worst[1:]
 
 
 def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
@@ -337,7 +303,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         cols = effect_columns(kin, lin, c, st.feats)
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
             gain = base.chi2_gain(cols[1])
-            why = _confounded(pb, st, c)   # a step at a change of the program, nothing separating them
+            why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
             slot = held if why else scan_best
             if type(c) not in slot or gain > slot[type(c)][0]:
                 slot[type(c)] = (gain, c, cols, why)
@@ -364,24 +330,6 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             best = (sc, ev, cols)
         judged.append((sc, ev, cols))
     return judged, best, base
-
-
-def _confounded(pb: _Problem, st: _State, c: Effect) -> str | None:
-    """Why a step candidate (an effect with a step time ``t0`` on a ``station``) cannot be
-    called a tracker move: it starts at a change of the program (:mod:`.structure`) and
-    no pose read on both sides of it moved beyond the noise; None when nothing holds it."""
-    t0, station = getattr(c, "t0", None), getattr(c, "station", None)
-    what = None if t0 is None else st.changes.at_step(t0, station, st.feats)
-    if what is None:
-        return None
-    n, p = repeats_across(st.camp, st.feats, t0, station, st.cur_lin.w, st.cur_lin.valid, pb.alpha)
-    if n and p < pb.alpha:
-        return None  # the same poses read before and after it moved: separating evidence
-    seen = (f"the {n} poses read on both sides of it agree (p = {p:.2g})" if n
-            else "no pose was read on both sides of it")
-    return (f"held back: the step starts at a change of the program, {what}, and {seen}, so it is not called a "
-            "tracker move (the model may misfit one part of the program); read reference points again before and "
-            "after such a change to tell them apart")
 
 
 def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:
@@ -460,10 +408,10 @@ def _recheck_outliers(pb: _Problem, st: _State) -> None:
 
 def _backward(pb: _Problem, st: _State) -> None:
     """Backward elimination: every accepted effect again, given all the others, on the
-    rows the final model is fitted to (:func:`_weakest`); the weakest is dropped and the
+    rows the final model is fitted to (:func:`.scoring.weakest`); the weakest is dropped and the
     model refitted until every effect survives."""
     while len(st.accepted) >= 2:
-        drop = _weakest(st.accepted, st.cur_lin, st.cur_eval, st.fold_r)
+        drop = weakest(st.accepted, st.cur_lin, st.cur_eval, st.fold_r)
         if drop is None:
             break
         e, text = drop

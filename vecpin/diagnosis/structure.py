@@ -130,3 +130,23 @@ def _level(w: np.ndarray, valid: np.ndarray) -> float:
     k = np.maximum(valid.sum(axis=1), 1)
     s = np.sum(np.where(valid, w, 0.0) ** 2, axis=1)
     return float(max(np.median(s / stats.chi2.median(k)), 1e-300))
+
+
+def held_back(changes: ProgramChanges, campaign: Campaign, feats: Features, effect, lin, alpha: float) -> str | None:
+    """Why a step candidate (an effect with a step time ``t0`` on a ``station``) cannot be
+    called a tracker move: it starts at a change of the program (``changes``) and no pose
+    read on both sides of it moved beyond the noise (the whitened residuals of ``lin``,
+    the current model linearised on ``campaign``'s rows, at ``alpha``); None when nothing
+    holds it back."""
+    t0, station = getattr(effect, "t0", None), getattr(effect, "station", None)
+    what = None if t0 is None else changes.at_step(t0, station, feats)
+    if what is None:
+        return None
+    n, p = repeats_across(campaign, feats, t0, station, lin.w, lin.valid, alpha)
+    if n and p < alpha:
+        return None  # the same poses read before and after it moved: separating evidence
+    seen = (f"the {n} poses read on both sides of it agree (p = {p:.2g})" if n
+            else "no pose was read on both sides of it")
+    return (f"held back: the step starts at a change of the program, {what}, and {seen}, so it is not called a "
+            "tracker move (the model may misfit one part of the program); read reference points again before and "
+            "after such a change to tell them apart")
