@@ -12,7 +12,8 @@ effect the recall (the true effect accepted) and precision (accepted effects of 
 that were really there), the number of *spurious* effects (named but not there) per
 campaign, clean campaigns that named anything, the gap recovered on noise-free
 validation, and the diagnosis times. ``--timing`` times the whole ``vecpin diagnose``
-process on a 600-row and a 1,200-row campaign (targets 15 s and 30 s).
+process on a 600-row and a 1,200-row campaign with effects (targets 15 s and 30 s), the first
+also with `--base` (the model file of `vecpin fit`: no model choice).
 
 Run: python benchmarks/bench_diagnosis.py [--quick] [--timing] [--no-write]
 """
@@ -196,26 +197,43 @@ def summary(t: dict, command: str) -> list[str]:
     return out
 
 
-def timing(sizes=(295, 600)) -> list[str]:
+def _run(argv: list[str]) -> tuple[float, float, int]:
+    """(wall s, CPU s, exit status) of one whole ``vecpin`` process."""
+    t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
+    r = subprocess.run([sys.executable, "-m", "vecpin"] + argv, capture_output=True, text=True)
+    took, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
+    return took, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime), r.returncode
+
+
+def timing() -> list[str]:
     """The whole ``vecpin diagnose`` process (start-up, reading, diagnosis, writing) on
-    simulated flow_xyzcb campaigns of 2 x ``sizes`` rows (the two Paper I tools)."""
+    campaigns with effects, where acceptance, refits, backward elimination and gross
+    errors add work: flow_xyzcb, 600 rows (300 commands x 2 tools) with a skew, backlash,
+    a warm-up, a tracker step and outliers; trunnion_xyzac, 1,200 rows (240 commands x 2
+    tools and 3 nests) with a coupled error, a warm-up and outliers; and the flow campaign
+    again with ``--base`` the model file of ``vecpin fit`` (the model choice not repeated)."""
     out = []
-    m = vecpin.Machine.load("flow_xyzcb")
+    cases = [("flow_xyzcb", 300, ("gantry_skew", "backlash", "thermal", "instrument_shift", "outliers"), 15),
+             ("trunnion_xyzac", 240, ("coupled_axes", "thermal", "outliers"), 30)]
     with tempfile.TemporaryDirectory() as tmp:
-        for n in sizes:
-            sim = simulate(m, seed=7, design=Design(n_commands=n, n_validation=10))
-            files = sim.write(Path(tmp) / f"sim{n}")
-            t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-            r = subprocess.run([sys.executable, "-m", "vecpin", "diagnose", "flow_xyzcb", str(files["campaign"]),
-                                "--out", str(Path(tmp) / f"diag{n}"), "--quiet"], capture_output=True, text=True)
-            took, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
-            cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
-            load = os.getloadavg()[0]
-            line = (f"`vecpin diagnose` on {len(sim.campaign)} rows: {took:.1f} s wall, {cpu:.1f} s CPU (whole "
-                    f"process; exit {r.returncode}; load average {load:.1f} on {os.cpu_count()} cores; target "
-                    f"{15 if len(sim.campaign) <= 700 else 30} s)")
-            print(line, flush=True)
-            out.append(line)
+        for name, n, effects, target in cases:
+            m = vecpin.Machine.load(name)
+            sim = simulate(m, seed=7, design=Design(n_commands=n, n_validation=10),
+                           effects=[spec(e, m, 0.03, 0)[0] for e in effects])
+            csv = str(sim.write(Path(tmp) / f"sim_{name}")["campaign"])
+            runs = [("", [])]
+            if name == "flow_xyzcb":
+                fit = _run(["fit", name, csv, "--out", str(Path(tmp) / "model.json"), "--quiet"])
+                runs.append((f" with --base (the model file of vecpin fit, {fit[0]:.1f} s wall, {fit[1]:.1f} s CPU)",
+                             ["--base", str(Path(tmp) / "model.json")]))
+            for how, extra in runs:
+                took, cpu, rc = _run(["diagnose", name, csv, "--out", str(Path(tmp) / f"diag_{name}"), "--quiet"]
+                                     + extra)
+                line = (f"`vecpin diagnose {name}` on {len(sim.campaign)} rows ({', '.join(effects)}){how}: "
+                        f"{took:.1f} s wall, {cpu:.1f} s CPU (whole process; exit {rc}; load average "
+                        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; target {target} s)")
+                print(line, flush=True)
+                out.append(line)
     return out
 
 

@@ -198,6 +198,7 @@ def test_backward_elimination_drops_what_the_others_explain(flow):
     rows beyond its spread over the folds: it is the one dropped; the linearised removal
     agrees with a real refit without it; the real one survives alone."""
     from vecpin.diagnosis import diagnose as D
+    from vecpin.diagnosis import scoring as S
     from vecpin.identification.crossval import Linearised, command_folds
     from vecpin.measurement.features import Features
     from vecpin.measurement.noise import NoiseModel
@@ -211,15 +212,15 @@ def test_backward_elimination_drops_what_the_others_explain(flow):
     bx, by = parse_effect("backlash:axes=X", flow), parse_effect("backlash:axes=Y", flow)
     lin = Linearised(proto.with_effects([bx, by]).fit(c, noise), c, noise, feats)
     ev = lin.folded(fold).evaluate()
-    dropped, why = D._weakest([bx, by], lin, ev, fold)
+    dropped, why = S.weakest([bx, by], lin, ev, fold)
     assert dropped is by and "spread over the folds" in why
-    lo = D._without(lin, by)
+    lo = S.without(lin, by)
     real = Linearised(proto.with_effects([bx]).fit(c, noise), c, noise, feats)
     np.testing.assert_allclose(D.distances_mm(lo, lo.folded(fold).evaluate()["heldout"]),
                                D.distances_mm(real, real.folded(fold).evaluate()["heldout"]),
                                atol=1e-4)
     lin_x = real
-    assert D._weakest([bx], lin_x, lin_x.folded(fold).evaluate(), fold) is None
+    assert S.weakest([bx], lin_x, lin_x.folded(fold).evaluate(), fold) is None
 
 
 def test_an_instrument_shift_is_named_alone(flow):

@@ -11,7 +11,7 @@ def run_diagnose(args) -> int:
     m = machine(args.machine, args)
     run = diagnose_to_dir(m, read_campaign(args.csv, m), args.out, noise(args, m), model=args.model, order=args.order,
                           effects=args.effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
-                          progress=progress(not args.quiet))
+                          progress=progress(not args.quiet), base=args.base)
     say(args, *run.lines())
     return 0
 
@@ -24,6 +24,9 @@ def register(sub) -> None:
     s.add_argument("--out", required=True, help="output folder: diagnosis.json (mm), model_base.json, model_best.json, "
                    "report.md with figures")
     add_model_args(s)
+    s.add_argument("--base", metavar="MODEL_JSON", default=None,
+                   help="model.json of vecpin fit: its kind, bases and orders are the base model (refitted on the rows "
+                        "the diagnosis keeps), so the model choice is not repeated (default: chosen by held-out data)")
     s.add_argument("--effects", default="all", help="effects to try: all, or a comma list of effect names (vecpin "
                    "simulate --help-effects lists them) (default %(default)s)")
     s.add_argument("--folds", type=int, default=5,

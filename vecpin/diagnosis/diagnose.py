@@ -35,7 +35,6 @@ candidate. Accepted effects are then fitted for real (nonlinear ML).
 """
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -47,15 +46,18 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
+from vecpin.diagnosis.structure import ProgramChanges, held_back, program_changes
 from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns,
-                                      needed_given, pattern_cosine, score)
+                                      needed_given, pattern_cosine, score, weakest)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
+from vecpin.models.base import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect
+from vecpin.models.modelfile import check_same_machine
 from vecpin.planning.discriminate import discriminating_plan
 from vecpin.selection.choice import choose_or_fix
 from vecpin.selection.orders import check_folds
@@ -100,39 +102,6 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
 AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
 SETTLES_CHI2 = 9.0  # a discriminating plan is offered when it separates the candidates by 3 sigma at least
 DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
-def _without(lin: Linearised, effect: Effect) -> Linearised:
-    """The linearised model at the same solution with ``effect``'s parameters set to zero
-    and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
-    names = np.asarray(lin.likelihood.names)[lin.keep]
-    mine = np.char.startswith(names.astype(str), effect.label + ".")
-    out = copy.copy(lin)
-    pe = lin.psi0[mine]
-    out.w = lin.w + lin.J[..., mine] @ pe
-    out.r = lin.r + lin.A[..., mine] @ pe
-    out.J, out.A, out.psi0 = lin.J[..., ~mine], lin.A[..., ~mine], lin.psi0[~mine]
-    return out
-
-
-def _weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
-    """The accepted effect whose removal, given all the others, worsens the held-out error
-    least, when that worsening is not more than its own spread over the folds (the mean
-    of the per-fold mean gains within one standard deviation of them), judged on the
-    model linearised at the fit with all of them (``lin``, its held-out evaluation
-    ``ev``): (effect, why) or None when every effect survives."""
-    folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
-    with_all = distances_mm(lin, ev["heldout"])
-    worst = None
-    for e in accepted:
-        lo = _without(lin, e)
-        gain = distances_mm(lo, lo.folded(fold_r).evaluate()["heldout"]) - with_all
-        per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
-        spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
-        margin = float(per.mean()) - spread
-        if margin <= 0 and (worst is None or margin < worst[0]):
-            text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
-                    f"folds ({spread:.4f} mm)")
-            worst = (margin, e, text)
-    return None if worst is None else worst[1:]
 
 
 def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
@@ -217,6 +186,7 @@ class _State:
     accepted: list = field(default_factory=list)
     scores: list = field(default_factory=list)
     put_back: list = field(default_factory=list)
+    changes: ProgramChanges | None = None  # the program's changes on the rows fitted (:mod:`.structure`)
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -251,12 +221,27 @@ class _State:
         self.loc = self.locate(pb, self.base_model, self.blin, self.bev)
 
 
+def _base_given(machine: Machine, base, model, basis, order):
+    """The base model of a fitted model (``base``: its kind, bases and orders, refitted
+    without its effects), checked against the machine and the other settings; None when
+    no ``base`` is given (the data choose)."""
+    if base is None:
+        return None
+    fixed = [f"`{k}` {v}" for k, v in (("model", model), ("basis", basis), ("order", order)) if str(v) != "auto"]
+    if fixed:
+        raise InputError(f"`base` with {', '.join(fixed)}: a base model fixes its kind, bases and orders; "
+                         "leave them at auto")
+    check_same_machine(machine, base.machine, "the diagnosis", "`base`")
+    return base.with_effects([])
+
+
 def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise, folds: int, alpha: float,
-             max_effects: int, basis, seed: int, min_shrink_pct: float, say) -> tuple[_Problem, np.ndarray]:
+             max_effects: int, basis, seed: int, min_shrink_pct: float, say, base=None) -> tuple[_Problem, np.ndarray]:
     """The settings checked, the folds, the first pass' gross errors and the base model
-    chosen (or fixed) on the rows left: (problem, first-pass outliers)."""
+    chosen (or fixed, or given as ``base``) on the rows left: (problem, first-pass outliers)."""
     if not (0 < alpha < 1) or not math.isfinite(alpha):
         raise InputError(f"`alpha` {alpha}: a false-alarm rate between 0 and 1 (e.g. 0.01)")
+    given = _base_given(machine, base, model, basis, order)
     check_folds(campaign, folds)
     noise = noise or NoiseModel.default(machine, "spherical")
     names = list(REGISTRY) if effects in ("all", None) else list(effects)
@@ -268,7 +253,12 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
                   names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
     outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
     camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
-    pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed, progress=say)
+    if given is not None:
+        pb.proto, pb.choice = given, None
+        say(f"base model given: {given.label()} (refitted; no model choice)")
+    else:
+        pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed,
+                                            progress=say)
     return pb, outliers
 
 
@@ -307,28 +297,33 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
     lin, fold_r = st.cur_lin, st.fold_r
     kin = Kinematics(st.cur_model, lin, st.feats)
     base = lin.folded(fold_r)
-    round_scores, scan_best = [], {}
+    round_scores, scan_best, held = [], {}, {}
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
             gain = base.chi2_gain(cols[1])
-            if type(c) not in scan_best or gain > scan_best[type(c)][0]:
-                scan_best[type(c)] = (gain, c, cols)
+            why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
+            slot = held if why else scan_best
+            if type(c) not in slot or gain > slot[type(c)][0]:
+                slot[type(c)] = (gain, c, cols, why)
             continue
-        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols))
-    for kind, (_, c, cols) in scan_best.items():
-        round_scores.append((c, score(lin, base, cols, st.cur_eval),
-                             sum(type(x) is kind for x in remaining), cols))
-    thr = pb.alpha / max(sum(k for _, _, k, _ in round_scores), 1)
+        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols, None))
+    for kind, (gain, c, cols, why) in list(scan_best.items()) + list(held.items()):
+        if why and kind in scan_best and scan_best[kind][0] >= gain:
+            continue  # a step held back is shown when it would have been the family's best
+        round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
+                             why))
+    thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
     best, judged = None, []
-    for c, ev, _, cols in round_scores:
+    for c, ev, _, cols, why in round_scores:
         b_, a_ = ev["before"], ev["after"]
         sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                          float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
                          bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c)
-        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr
+        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr and not why
                           and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
+        sc.evidence = why or ""
         # the most economical explanation wins; on a tie (columns the data cannot tell
         # apart) the first candidate, the one nearer the base of the chain
         if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
@@ -355,6 +350,7 @@ def _forward(pb: _Problem, st: _State) -> None:
     significant candidate is accepted with its ambiguity group, the model refitted with
     it; the first round without a significant gain ends the search."""
     candidates = candidate_effects(pb.machine, st.feats, pb.names, st.camp.q)
+    st.changes = program_changes(pb.machine, st.camp, st.feats)
     named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, pb.max_effects + 1):
         remaining = [c for c in candidates if c.label not in named
@@ -412,10 +408,10 @@ def _recheck_outliers(pb: _Problem, st: _State) -> None:
 
 def _backward(pb: _Problem, st: _State) -> None:
     """Backward elimination: every accepted effect again, given all the others, on the
-    rows the final model is fitted to (:func:`_weakest`); the weakest is dropped and the
+    rows the final model is fitted to (:func:`.scoring.weakest`); the weakest is dropped and the
     model refitted until every effect survives."""
     while len(st.accepted) >= 2:
-        drop = _weakest(st.accepted, st.cur_lin, st.cur_eval, st.fold_r)
+        drop = weakest(st.accepted, st.cur_lin, st.cur_eval, st.fold_r)
         if drop is None:
             break
         e, text = drop
@@ -447,8 +443,8 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     """The diagnosis: advice from the final model's fitted numbers, the scores ranked
     (accepted in their order, then the rest by BIC gain), regions and outliers."""
     if st.outliers.size:
-        st.scores.append(fl.outlier_score(pb.proto, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers, st.blin,
-                                        st.bev, pb.alpha))
+        st.scores.append(fl.outlier_score(st.base_model, pb.campaign, pb.noise, pb.all_feats, pb.fold, st.outliers,
+                                          st.blin, st.bev, pb.alpha))
     regions = _regions(pb, st)
     best_mm = distances_mm(st.cur_lin, st.cur_eval["heldout"])
     std = st.cur_model.std_
@@ -470,9 +466,11 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, base: ErrorModel | None = None) -> Diagnosis:
     """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
-    of the base model (default: chosen by held-out data); ``effects``: "all" or names;
+    of the base model (default: chosen by held-out data); ``base``: a fitted model (e.g.
+    the model file of ``fit`` on this campaign) whose kind, bases and orders are the base
+    model, refitted here, so the model choice is not repeated; ``effects``: "all" or names;
     ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
     held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
     folds, first pass, base model choice), the base model, forward selection, outliers
@@ -480,7 +478,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
-                            min_shrink_pct, say)
+                            min_shrink_pct, say, base)
     st = _base_stage(pb, outliers)
     _forward(pb, st)
     _recheck_outliers(pb, st)

@@ -4,6 +4,7 @@ over the rows, repeated readings that agree and crowded regions are misfit), the
 rows judged again under the final model, and the outliers' entry in the report."""
 from __future__ import annotations
 
+import copy
 from typing import Callable
 
 import numpy as np
@@ -38,18 +39,22 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     the one likelihood (each row in its own frame, with its own equations), as
     predictions of a model that did not see them (noise plus the model's uncertainty
     there), against the noise level of the rows it was fitted to (``rows``), and that do
-    not crowd one stretch of an axis together with the fitted rows beyond the noise."""
+    not crowd one stretch of an axis together with the fitted rows beyond the noise.
+    The rows are evaluated within the whole campaign (``feats`` of every row): an effect
+    that follows the rows' history (a lagged warm-up) sees the same history as in the fit."""
     level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
     try:
-        lo = Linearised(cur_model, campaign.subset(outliers), noise, feats.subset(outliers))
+        lo = Linearised(cur_model, campaign, noise, feats)
         Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
         if lo.J.shape[-1] != Jall.shape[-1]:
             raise InputError("the flagged rows' columns differ from the fit's")
         M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
-        s, valid = gross_.prediction_statistic(lo.w, lo.J, M, lo.valid), lo.valid
+        s = gross_.prediction_statistic(lo.w[outliers], lo.J[outliers], M, lo.valid[outliers])
+        valid = lo.valid[outliers]
     except VecpinError:
-        ev = cur_model.row_residuals(campaign.subset(outliers), feats.subset(outliers))
-        s, valid = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1), ev.valid
+        ev = cur_model.row_residuals(campaign, feats)
+        s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[outliers]
+        valid = ev.valid[outliers]
     still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
     # flagged rows crowded into one stretch of an axis (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
@@ -60,47 +65,58 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
 
 
+def _rows(lin: Linearised, rows: np.ndarray) -> Linearised:
+    """``lin`` on ``rows`` only (the same solution and columns): its folded problem
+    re-solves the linearised fit without the other rows."""
+    out = copy.copy(lin)
+    out.campaign = lin.campaign.subset(rows)
+    out.J, out.A, out.w, out.r, out.y = lin.J[rows], lin.A[rows], lin.w[rows], lin.r[rows], lin.y[rows]
+    out.valid, out.point_rows = lin.valid[rows], lin.point_rows[rows]
+    return out
+
+
 def first_pass(machine: Machine, campaign: Campaign, noise: NoiseModel, fold: np.ndarray, feats: Features,
                 say: Callable[[str], None]) -> np.ndarray:
     """Rows with gross errors, flagged before the base model is chosen: a quick AP
     order-4 fit (Fourier per turn on rotary axes travelling more than a turn), its
-    held-out whitened residuals judged against their median level (:func:`flag`),
-    refitted without the flagged rows up to three times. Flags nothing when that model
+    held-out whitened residuals judged against their median level (:func:`flag`), the
+    linearised fit re-solved without the flagged rows up to three times (the models are
+    linear in their parameters to about 1e-4: no refit). Flags nothing when that model
     cannot be fitted or when it flags more than :data:`FIRST_PASS_SHARE` of the rows (then
     it misfits, and the chosen base model judges)."""
     rows = np.arange(len(campaign))
     out = np.array([], int)
     quick = fixed_model(machine, "ap", "fourier" if any(a.multiturn for a in machine.axes) else "chebyshev", 4)
     try:
-        for _ in range(3):
-            camp = campaign.subset(rows) if out.size else campaign
-            fitted = quick.with_effects([]).fit(camp, noise)
-            lin = Linearised(fitted, camp, noise, feats.subset(rows))
-            new = flag(machine, lin, fold[rows], lin.folded(fold[rows]).evaluate(), len(campaign))[0]
-            if new.size == 0:
-                break
-            out = np.sort(np.r_[out, rows[new]])
-            if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
-                say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
-                    "the chosen base model judges them")
-                return np.array([], int)
-            rows = np.setdiff1d(np.arange(len(campaign)), out)
+        lin_all = Linearised(quick.with_effects([]).fit(campaign, noise), campaign, noise, feats)
     except VecpinError:
-        return np.array([], int)  # too few rows for the quick model: the chosen base model judges
+        return out  # too few rows for the quick model: the chosen base model judges
+    for _ in range(3):
+        lin = _rows(lin_all, rows) if out.size else lin_all
+        new = flag(machine, lin, fold[rows], lin.folded(fold[rows]).evaluate(), len(campaign))[0]
+        if new.size == 0:
+            break
+        out = np.sort(np.r_[out, rows[new]])
+        if out.size > max(3, FIRST_PASS_SHARE * len(campaign)):
+            say(f"first pass: {out.size} rows beyond the noise of a quick model: misfit, not gross errors; "
+                "the chosen base model judges them")
+            return np.array([], int)
+        rows = np.setdiff1d(np.arange(len(campaign)), out)
     if out.size:
         say(f"first pass: {out.size} rows flagged as gross errors before the base model is chosen")
     return out
 
 
-def outlier_score(proto, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
+def outlier_score(base_model, campaign: Campaign, noise: NoiseModel, feats: Features, fold: np.ndarray,
                    outliers: np.ndarray, lin: Linearised, ev: dict, alpha: float) -> EffectScore:
     """The outliers' entry: the held-out residuals of the other rows under the base model
-    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``)."""
+    fitted with the flagged rows (before) and without them (after, ``lin``/``ev``). The fit
+    with them is the base model's linearised problem over every row (the models are
+    linear in their parameters to about 1e-4, so its solution is that of the refit)."""
     rows = np.setdiff1d(np.arange(len(campaign)), outliers)
     after = distances_mm(lin, ev["heldout"])
     try:
-        with_them = proto.with_effects([]).fit(campaign, noise)
-        lin_all = Linearised(with_them, campaign, noise, feats)
+        lin_all = Linearised(base_model, campaign, noise, feats)
         held_all = lin_all.folded(fold).evaluate()["heldout"]
         keep = np.zeros(len(campaign), bool)
         keep[rows] = True

@@ -75,7 +75,7 @@ def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: f
     return ~(s / level <= row_limit(valid, n_rows, alpha))
 
 
-def _pose_keys(campaign: Campaign) -> np.ndarray:
+def pose_keys(campaign: Campaign) -> np.ndarray:
     """(N,) one integer per pose read: command, tool, tool point, target, station, instrument."""
     cols = [np.round(campaign.q, 9), np.round(campaign.tool, 9)[:, None], campaign.point[:, None].astype(float)]
     _, tgt = np.unique(campaign.target.astype(str), return_inverse=True)
@@ -93,7 +93,7 @@ def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, val
     noise of two readings, or smaller than half of either residual (most of the residual
     is shared by the readings: the machine at that pose, not the reading; independent
     gross errors differ by about as much as they are large)."""
-    key = _pose_keys(campaign)
+    key = pose_keys(campaign)
     out = []
     for i in flagged:
         for j in np.flatnonzero(key == key[i]):

@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from vecpin.units import MM_PER_M  # noqa: E402
 
@@ -27,6 +28,16 @@ def _breakdown_figure(ax, b: dict) -> None:
     ax.set_xlabel(f"{b['coordinate']} [{b['unit']}]" if b["unit"] else b["coordinate"], fontsize=8)
     ax.set_ylabel("held-out residual [µm]", fontsize=8)
     ax.tick_params(labelsize=7)
+    ax.xaxis.set_major_locator(MaxNLocator(5))  # a few ticks: each one is an object matplotlib builds and draws
+    ax.yaxis.set_major_locator(MaxNLocator(4))
+
+
+def _margins(fig, left: float, right: float, bottom: float, top: float, wspace: float = 0.2,
+             hspace: float = 0.2) -> None:
+    """Fixed margins in inches (a layout engine would draw the figure twice to find them)."""
+    w, h = fig.get_size_inches()
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h, wspace=wspace,
+                        hspace=hspace)
 
 
 def _next_section(diag) -> list[str]:
@@ -65,7 +76,7 @@ def write_report(diag, out) -> Path:
         ax.axis("off")
     axes[0, 0].legend(fontsize=6)
     fig.suptitle("Where the residual lies: held-out residuals of the base model (µm)", fontsize=11)
-    fig.tight_layout()
+    _margins(fig, 0.6, 0.2, 0.5, 0.8, wspace=0.3, hspace=0.45)
     fig.savefig(out.path("figures/breakdowns.png"), dpi=90)
     plt.close(fig)
     eff = diag.effects[:12]
@@ -76,7 +87,7 @@ def write_report(diag, out) -> Path:
     ax.set_yticks(y, [e.label for e in eff], fontsize=7)
     ax.set_xlabel("held-out mean residual shrink [%] (green: accepted; olive: significant, not taken)")
     ax.axvline(0, color="k", lw=0.8)
-    fig.tight_layout()
+    _margins(fig, 0.3 + 0.065 * max([len(e.label) for e in eff] + [10]), 0.2, 0.5, 0.15)  # 7 pt labels
     fig.savefig(out.path("figures/effects.png"), dpi=90)
     plt.close(fig)
     held = np.linalg.norm(diag.heldout_base, axis=1) * MM_PER_M
@@ -86,7 +97,7 @@ def write_report(diag, out) -> Path:
         ax.set_title(f"{len(diag.outlier_rows)} outlier rows left out (not shown)", fontsize=9)
     ax.set_xlabel("row (measurement order)")
     ax.set_ylabel("held-out |residual| [mm]")
-    fig.tight_layout()
+    _margins(fig, 0.8, 0.2, 0.55, 0.35)
     fig.savefig(out.path("figures/rows.png"), dpi=90)
     plt.close(fig)
 

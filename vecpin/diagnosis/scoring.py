@@ -10,10 +10,12 @@ cross-validation and two tests that must both pass.
 Both against ``alpha`` / (candidates in the round) (Bonferroni). Columns of a
 candidate come from the current model's kinematics (d tip / d q, the tip and tool
 direction, computed once per round): the candidate's terms are linear in its
-parameters, so no trial model is built.
+parameters, so no trial model is built. The backward elimination scores every accepted
+effect again given the others the same way (:func:`weakest`).
 """
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -120,9 +122,10 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     """The candidate's linearised CV (``base`` extended by its columns) and both tests
     (see the module docstring)."""
     A1, J1 = cand_cols
-    ext = base.extend(J1, A1)
-    ev = ext.evaluate()
-    ev["pattern"] = ext.J.reshape(-1, ext.n_columns) @ ext.estimate()  # what the candidate changes in the fit (whitened)
+    ev = base.evaluate_extended(J1, A1)  # the current model's folds eliminated once per round, not per candidate
+    P = base.n_columns
+    # what the candidate changes in the fit (whitened)
+    ev["pattern"] = base.J.reshape(-1, P) @ ev["estimate"][:P] + J1.reshape(-1, J1.shape[-1]) @ ev["estimate"][P:]
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
@@ -152,3 +155,38 @@ def needed_given(lin: Linearised, base: FoldedProblem, cols_a: tuple, cols_b: tu
     Ab, Jb = cols_b
     ev = score(lin, base.extend(Jb, Ab), cols_a, eval_b)
     return bool(ev["p"] < threshold and ev["p_heldout"] < threshold)
+
+
+def without(lin: Linearised, effect: Effect) -> Linearised:
+    """The linearised model at the same solution with ``effect``'s parameters set to zero
+    and its columns removed (residuals put back: w + J_e psi_e, r + A_e psi_e)."""
+    names = np.asarray(lin.likelihood.names)[lin.keep]
+    mine = np.char.startswith(names.astype(str), effect.label + ".")
+    out = copy.copy(lin)
+    pe = lin.psi0[mine]
+    out.w = lin.w + lin.J[..., mine] @ pe
+    out.r = lin.r + lin.A[..., mine] @ pe
+    out.J, out.A, out.psi0 = lin.J[..., ~mine], lin.A[..., ~mine], lin.psi0[~mine]
+    return out
+
+
+def weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
+    """The accepted effect whose removal, given all the others, worsens the held-out error
+    least, when that worsening is not more than its own spread over the folds (the mean
+    of the per-fold mean gains within one standard deviation of them), judged on the
+    model linearised at the fit with all of them (``lin``, its held-out evaluation
+    ``ev``): (effect, why) or None when every effect survives."""
+    folds = fold_r[lin.point_rows] if lin.point_rows.any() else fold_r
+    with_all = distances_mm(lin, ev["heldout"])
+    worst = None
+    for e in accepted:
+        lo = without(lin, e)
+        gain = distances_mm(lo, lo.folded(fold_r).evaluate()["heldout"]) - with_all
+        per = np.array([gain[folds == f].mean() for f in np.unique(folds)])
+        spread = float(np.std(per, ddof=1)) if per.size > 1 else 0.0
+        margin = float(per.mean()) - spread
+        if margin <= 0 and (worst is None or margin < worst[0]):
+            text = (f"removing it changes the held-out mean by {per.mean():+.4f} mm, within its spread over the "
+                    f"folds ({spread:.4f} mm)")
+            worst = (margin, e, text)
+    return None if worst is None else worst[1:]

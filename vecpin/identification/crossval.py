@@ -115,6 +115,7 @@ class FoldedProblem:
             grams = (G, g, np.subtract(G, G_out, out=G_out), np.subtract(g, g_out, out=g_out))
         self.G, self.g, self.G_out, self.g_out = grams                 # G_out (k, P, P): every fold left out
         self._inverse = None                                           # (G + I)^-1 and its product with g - x0
+        self._folds = None                                             # the same per fold, with their residuals
         self._judged_layout()
 
     def _judged_layout(self) -> None:
@@ -175,15 +176,77 @@ class FoldedProblem:
         [J, J1] less its value over J alone is u^T S^-1 u, u = g1 - C^T M g0,
         S = J1^T J1 + I - C^T M C, C = J^T J1, M = (G + I)^-1 (g0 = g - x0, g1 = J1^T w).
         Ranks many candidates as :meth:`extend` then :meth:`chi2` would, without their folds."""
-        if self._inverse is None:
-            M = linalg.inv(self.G + np.eye(self.n_columns))
-            self._inverse = (M, M @ (self.g - self.x0))
-        M, Mg0 = self._inverse
+        M, Mg0 = self._full_inverse()
         b = J1.reshape(-1, J1.shape[-1])
-        C = self.J.reshape(-1, self.n_columns).T @ b
+        C = (b.T @ self.J.reshape(-1, self.n_columns)).T               # J^T J1 (this order is the faster product)
         S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
         u = b.T @ self.w.ravel() - C.T @ Mg0
         return float(u @ linalg.solve(S, u, assume_a="pos"))
+
+    def _full_inverse(self) -> tuple[np.ndarray, np.ndarray]:
+        """(G + I)^-1 over every column and every row, and its product with g - x0 (the
+        full-data estimate); computed once per problem."""
+        if self._inverse is None:
+            M = linalg.inv(self.G + np.eye(self.n_columns))
+            self._inverse = (M, M @ (self.g - self.x0))
+        return self._inverse
+
+    def _fold_inverses(self) -> tuple:
+        """Per fold (G_out + I)^-1 (k,P,P) and its estimate (k,P) over every column, the rows
+        sorted by fold (``order``, each fold one slice of rows), ``J``, ``A``, ``w`` in that
+        order and the held-out residuals (metric, whitened (N,3), sorted); once per problem."""
+        if self._folds is None:
+            eye = np.eye(self.n_columns)
+            M = np.stack([linalg.cho_solve(linalg.cho_factor(G + eye, check_finite=False), eye, check_finite=False)
+                          for G in self.G_out])
+            a = np.einsum("fij,fj->fi", M, self.g_out - self.x0)
+            order = np.argsort(self.fold, kind="stable")
+            ends = np.cumsum(np.bincount(self.fold, minlength=self.k))
+            rows = [slice(int(s), int(e)) for s, e in zip(np.r_[0, ends[:-1]], ends)]
+            J, A, w, r = self.J[order], self.A[order], self.w[order], self.r[order]
+            held = np.concatenate([r[sl] - A[sl] @ a[f] for f, sl in enumerate(rows)])
+            held_w = np.concatenate([w[sl] - J[sl] @ a[f] for f, sl in enumerate(rows)])
+            self._folds = (M, a, order, rows, J, A, w, held, held_w)
+        return self._folds
+
+    def evaluate_extended(self, J1: np.ndarray, A1: np.ndarray) -> dict:
+        """:meth:`evaluate` of :meth:`extend` (J1, A1) and its full-data ``estimate``
+        (P + Q,), without forming the extended problem: each fold's normal matrix is
+        eliminated through its inverse (kept per problem, :meth:`_fold_inverses`), so a
+        candidate costs its cross blocks and Q x Q solves. With M = (G + I)^-1 of the
+        rows used, C = J^T J1, the new columns' estimate is S^-1 u, S = J1^T J1 + I -
+        C^T M C, u = J1^T w - C^T a (a the present columns' estimate), and the present
+        columns' estimate moves by -M C S^-1 u; p_eff from the trace of the block inverse."""
+        P, Q = self.n_columns, J1.shape[-1]
+        eyeQ = np.eye(Q)
+        M_f, a_f, order, rows, J, A, w, held_s, held_ws = self._fold_inverses()
+        J1, A1 = J1[order], A1[order]
+        C_f, B_f, b_f = np.empty((self.k, P, Q)), np.empty((self.k, Q, Q)), np.empty((self.k, Q))
+        for f, sl in enumerate(rows):
+            b = J1[sl].reshape(-1, Q)
+            C_f[f], B_f[f], b_f[f] = (b.T @ J[sl].reshape(-1, P)).T, b.T @ b, b.T @ w[sl].ravel()
+        C, B, b = C_f.sum(axis=0), B_f.sum(axis=0), b_f.sum(axis=0)
+        Co = C - C_f                                                           # (k,P,Q): every fold left out
+        MC = M_f @ Co
+        S = (B - B_f) + eyeQ - Co.transpose(0, 2, 1) @ MC
+        x1 = np.linalg.solve(S, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
+        v = (MC @ x1[..., None])[..., 0]
+        held_s, held_ws = held_s.copy(), held_ws.copy()
+        for f, sl in enumerate(rows):
+            held_s[sl] -= A1[sl] @ x1[f] - A[sl] @ v[f]
+            held_ws[sl] -= J1[sl] @ x1[f] - J[sl] @ v[f]
+        held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
+        held[order], held_w[order] = held_s, held_ws
+        M, Ma = self._full_inverse()
+        MC = M @ C
+        S = B + eyeQ - C.T @ MC
+        u = b - C.T @ Ma
+        x1, T = np.split(np.linalg.solve(S, np.c_[u, MC.T @ MC + eyeQ]), [1], axis=1)
+        x1 = x1[:, 0]
+        tr_inv = np.trace(M) + np.trace(T)
+        base_chi2 = float(self.w.ravel() @ self.w.ravel() + self.x0 @ self.x0 - (self.g - self.x0) @ Ma)
+        return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "heldout": held,
+                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1]}
 
     # ------------------------------------------------------------------ full-data fit
     def normal_matrix(self, cols=None, scale=None) -> np.ndarray:

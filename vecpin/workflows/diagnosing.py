@@ -31,20 +31,24 @@ class DiagnoseRun:
 def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise: NoiseModel | None = None, *,
                     model: str = "auto", basis: str = "auto", order: int | str = "auto",
                     effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
-                    progress: Callable[[str], None] | None = None) -> DiagnoseRun:
+                    progress: Callable[[str], None] | None = None, base: str | Path | None = None) -> DiagnoseRun:
     """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
     "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
-    (:meth:`NoiseModel.default`); ``folds``, ``alpha``, ``model``, ``basis``, ``order`` as
-    :func:`vecpin.diagnosis.diagnose.diagnose`. The folder and the folds are checked before
-    any fit, with the effects; ``folds`` and ``alpha`` by the diagnosis itself."""
+    (:meth:`NoiseModel.default`); ``base``: a model file (``fit``'s model.json) whose kind,
+    bases and orders are the base model, so the model choice is not repeated; ``folds``,
+    ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`.
+    The folder, the model file and the folds are checked before any fit, with the effects;
+    ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
+    from vecpin.models.base import ErrorModel
     check_output_dir(out, "out")
     effects = _effect_names(effects)
+    base_model = None if base is None else ErrorModel.load(base)
     noise = noise or NoiseModel.default(machine)
     if noise.instrument == "range":
         check_stations(campaign)
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
-                 basis=basis, progress=progress)
+                 basis=basis, progress=progress, base=base_model)
     return DiagnoseRun(d, [Path(p) for p in d.write(out).values()])
 
 

@@ -1,0 +1,34 @@
+"""Rows flagged as gross errors are judged again under the final model within the whole
+campaign: an effect that follows the rows' history (a warm-up seen through a lag) gives
+the flagged rows the history they had in the fit, not a history made of the flagged rows
+alone (which turned three ordinary late rows of a warm-up into 'outliers')."""
+import numpy as np
+
+import vecpin
+from vecpin.diagnosis.flagging import still_gross
+from vecpin.identification.crossval import Linearised, command_folds
+from vecpin.measurement.features import Features
+from vecpin.measurement.noise import NoiseModel
+from vecpin.models import make_model
+from vecpin.models.effects.thermal import Thermal
+from vecpin.simulation.simulate import Design, simulate
+
+
+def test_flagged_rows_of_a_lagged_warm_up_are_judged_with_the_whole_history():
+    m = vecpin.Machine.load("flow_xyzcb")
+    noise = NoiseModel.default(m, "spherical")
+    c = simulate(m, seed=3, design=Design(n_commands=120, n_validation=10),
+                 effects=[Thermal(m, lag_h=2.0, strength_mm=0.08, seed=1)]).campaign
+    late = np.argsort(c.time)[-3:]                       # three ordinary rows at the end of the warm-up
+    rows = np.setdiff1d(np.arange(len(c)), late)
+    feats = Features.from_campaign(c)
+    model = make_model("6dof", m, 3).with_effects([Thermal(m, lag_h=2.0)]).fit(c.subset(rows), noise)
+    fold = command_folds(c, 5, np.random.default_rng(0))
+    lin = Linearised(model, c.subset(rows), noise, feats.subset(rows))
+    ev = lin.folded(fold[rows]).evaluate()
+    still, _ = still_gross(model, lin, ev, fold[rows], c, late, noise, feats, rows)
+    assert still.size == 0, still
+    # the history matters: the late rows' residuals computed from themselves alone are several times larger
+    whole = np.linalg.norm(model.row_residuals(c, feats).metric[late], axis=1)
+    alone = np.linalg.norm(model.row_residuals(c.subset(late), feats.subset(late)).metric, axis=1)
+    assert np.all(alone > 3 * whole), (alone, whole)

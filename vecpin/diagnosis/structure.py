@@ -1,0 +1,152 @@
+"""Time effects against the campaign's own structure: a step that coincides with a
+change of the measurement program is not called a tracker move without evidence that
+separates the two.
+
+A program change at a row is a change of regime between the rows read just before it
+and just after it (:data:`WINDOW` rows of the same station on each side, in time order):
+the tool, tool point, target or instrument, or a label column of the file (a block,
+point set or holder number: whole numbers with few values) take values after it that
+none of the rows before took, or an axis jumps to a stretch of its travel the rows
+before did not visit (the two windows' ranges apart, and the jump larger than the
+moves within them). Rows that alternate tools or wander at random over the travel are
+no change: both windows hold the same regime.
+
+A step at such a change explains the residual of one part of the program as well as a
+moved tracker would: the model may misfit that part. Only poses read on both sides of
+the step (same command, tool, point, target, station: repeated reference points, a nest
+read again) separate them: the model's prediction cancels in their difference, so a
+tracker move shows as a difference beyond the noise and a misfit does not.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from vecpin.diagnosis.grosserrors import pose_keys
+from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.features import Features
+
+WINDOW = 12      # rows of one station on each side of a row that define the regime there
+NEAR_ROWS = 2    # a step within this many rows of a change coincides with it (beyond the scan's own spacing)
+LABEL_VALUES = 50  # a label column: whole numbers with at most this many values
+
+
+@dataclass
+class ProgramChanges:
+    """Per station the rows in time order (``order[s]``) and the changes of the program
+    at them (``changes[s]``: position in that order -> what changed)."""
+
+    order: dict
+    changes: dict
+    spacing: dict
+
+    def at_step(self, t0: float, station: int, feats: Features) -> str | None:
+        """What changes where a step at ``t0`` on ``station`` starts (within the scan's
+        spacing of it), or None."""
+        rows = self.order.get(station)
+        if rows is None or not self.changes.get(station):
+            return None
+        first = int(np.searchsorted(feats.time[rows], t0))
+        tol = max(NEAR_ROWS, int(np.ceil(self.spacing[station] / 2)))
+        near = [k for k in self.changes[station] if abs(k - first) <= tol]
+        return None if not near else self.changes[station][min(near, key=lambda k: abs(k - first))]
+
+
+def _labels(campaign: Campaign) -> dict[str, np.ndarray]:
+    """The program's discrete columns: tool, tool point, target, instrument and the label
+    columns of the file (whole numbers, few values; not time or temperature)."""
+    out = {"tool": np.round(campaign.tool * 1e6).astype(np.int64), "tool point": campaign.point,
+           "target": campaign.target.astype(str), "instrument": campaign.instrument.astype(str)}
+    for name, v in campaign.extra.items():
+        v = np.asarray(v, float)
+        if name in ("time", "temperature") or not np.all(np.isfinite(v)):
+            continue
+        if np.all(v == np.round(v)) and len(np.unique(v)) <= LABEL_VALUES:
+            out[f"column '{name}'"] = v
+    return out
+
+
+def _regime_change(x: np.ndarray, k: int, discrete: bool) -> bool:
+    """Whether the rows from ``k`` on (``WINDOW`` of them) hold another regime of ``x``
+    than the ``WINDOW`` rows before ``k``."""
+    before, after = x[max(0, k - WINDOW):k], x[k:k + WINDOW]
+    if discrete:
+        return not (set(before.tolist()) & set(after.tolist()))
+    if after.min() > before.max() or after.max() < before.min():
+        moves = np.abs(np.diff(np.r_[before, after]))
+        inside = np.r_[np.abs(np.diff(before)), np.abs(np.diff(after))]
+        return bool(abs(x[k] - x[k - 1]) > 3 * np.median(inside) and moves.max() > 0)
+    return False
+
+
+def program_changes(machine, campaign: Campaign, feats: Features) -> ProgramChanges:
+    """Every change of the program (module docstring), per tracker station, in time order."""
+    order, changes, spacing = {}, {}, {}
+    if not feats.has_time:
+        return ProgramChanges(order, changes, spacing)
+    labels = _labels(campaign)
+    for s in np.unique(feats.station[feats.station >= 0]):
+        rows = np.flatnonzero(feats.station == s)
+        rows = rows[np.argsort(feats.time[rows], kind="stable")]
+        order[int(s)], found = rows, {}
+        n = len(rows)
+        spacing[int(s)] = 0.9 * n / max(min(120, n // 4), 1)   # the step scan's spacing (instrument_shift)
+        for k in range(max(2, WINDOW // 2), n - max(2, WINDOW // 2) + 1):
+            what = [name for name, v in labels.items() if _regime_change(v[rows], k, True)]
+            what += [f"the region of {a.name}" for a in machine.axes
+                     if _regime_change(campaign.q[rows, a.index], k, False)]
+            if what:
+                found[k] = f"{' and '.join(what)} (file line {int(campaign.lines[rows[k]])})"
+        changes[int(s)] = found
+    return ProgramChanges(order, changes, spacing)
+
+
+def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int, w: np.ndarray,
+                   valid: np.ndarray, alpha: float) -> tuple[int, float]:
+    """(poses read on both sides of a step at ``t0`` on ``station``, p-value that their
+    readings did not move): the differences of the mean whitened residuals ``w`` of each
+    such pose after and before, whose prediction cancels, against the noise of the rows
+    (their robust level), chi2 over the poses' equations. p = 1 when there are none."""
+    key = pose_keys(campaign)
+    on = feats.station == station
+    after = on & (feats.time >= t0)
+    before = on & ~after
+    stat, dof, n = 0.0, 0, 0
+    level = _level(w, valid)
+    for p in np.intersect1d(key[before], key[after]):
+        a, b = after & (key == p), before & (key == p)
+        ok = valid[a].all(axis=0) & valid[b].all(axis=0)
+        d = np.where(ok, w[a].mean(axis=0) - w[b].mean(axis=0), 0.0)
+        stat += float(d @ d) / (level * (1 / a.sum() + 1 / b.sum()))
+        dof += int(ok.sum())
+        n += 1
+    return n, (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
+
+
+def _level(w: np.ndarray, valid: np.ndarray) -> float:
+    """The whitened residuals' robust variance per equation (1 when the noise model is right)."""
+    k = np.maximum(valid.sum(axis=1), 1)
+    s = np.sum(np.where(valid, w, 0.0) ** 2, axis=1)
+    return float(max(np.median(s / stats.chi2.median(k)), 1e-300))
+
+
+def held_back(changes: ProgramChanges, campaign: Campaign, feats: Features, effect, lin, alpha: float) -> str | None:
+    """Why a step candidate (an effect with a step time ``t0`` on a ``station``) cannot be
+    called a tracker move: it starts at a change of the program (``changes``) and no pose
+    read on both sides of it moved beyond the noise (the whitened residuals of ``lin``,
+    the current model linearised on ``campaign``'s rows, at ``alpha``); None when nothing
+    holds it back."""
+    t0, station = getattr(effect, "t0", None), getattr(effect, "station", None)
+    what = None if t0 is None else changes.at_step(t0, station, feats)
+    if what is None:
+        return None
+    n, p = repeats_across(campaign, feats, t0, station, lin.w, lin.valid, alpha)
+    if n and p < alpha:
+        return None  # the same poses read before and after it moved: separating evidence
+    seen = (f"the {n} poses read on both sides of it agree (p = {p:.2g})" if n
+            else "no pose was read on both sides of it")
+    return (f"held back: the step starts at a change of the program, {what}, and {seen}, so it is not called a "
+            "tracker move (the model may misfit one part of the program); read reference points again before and "
+            "after such a change to tell them apart")
