@@ -105,3 +105,17 @@ def test_the_choice_on_an_ill_conditioned_design_keeps_the_float64_picks():
     p32, ld32 = greedy_d_optimal(W.astype(np.float32), 60)
     assert list(p32) == list(p64)
     np.testing.assert_allclose(ld32, ld64, rtol=1e-6)
+
+
+def test_a_table_plan_beyond_a_minute_warns_with_the_measured_figure(machines, flow):
+    """Above the points a plan with table nests computes within a minute, the plan warns
+    at once, naming `n_commands` and what the largest plan took; a head machine does not."""
+    import warnings
+    from vecpin.errors import VecpinWarning
+    from vecpin.planning.problem import TABLE_LARGEST, TABLE_MINUTE_POINTS, PlanSettings, plan_problem
+    with pytest.warns(VecpinWarning, match=rf"`n_commands` {TABLE_MINUTE_POINTS + 1}: .*{TABLE_LARGEST}"):
+        plan_problem(machines["trunnion_xyzac"], PlanSettings(n_commands=TABLE_MINUTE_POINTS + 1, sight=False))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VecpinWarning)
+        plan_problem(machines["trunnion_xyzac"], PlanSettings(n_commands=TABLE_MINUTE_POINTS, sight=False))
+        plan_problem(flow, PlanSettings(n_commands=10_000, sight=False))

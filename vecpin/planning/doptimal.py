@@ -9,8 +9,9 @@ candidate that raises ``log det N`` most: by the matrix determinant lemma the ga
 The gains only fall as rows are added (``log det`` is submodular), so the choice is
 *lazy*: every candidate keeps the gain last computed for it, an upper bound of its gain
 now; a step recomputes the candidates in order of that bound until the best recomputed
-gain beats every bound left. The picks are those of the plain greedy, but a step
-computes a hundred gains instead of all C, so the choice scales to 10,000 commands.
+gain beats every bound left. The picks are those of the plain greedy (in float32, but
+where two gains agree to about five digits), but a step computes about a hundred gains
+instead of all C, so the choice scales to 10,000 commands.
 
 What a gain costs, and how it is kept small:
 
