@@ -30,8 +30,8 @@ MAX_POINTS = 10_000         # commands of one plan
 MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
 # commands a plan with table nests (3 readings more per command) computes within a minute, and
 # the slowest bundled table machine measured (benchmarks/bench_planning.py, whole `plan` process)
-TABLE_MINUTE_POINTS = 6_500
-TABLE_LARGEST = "head_table_bc with 3 nests: 89 s at 10000 commands, 58 s at 6500, on a 2-core machine"
+TABLE_MINUTE_POINTS = 5_500
+TABLE_LARGEST = "head_table_bc with 3 nests: 96 s at 10000 commands, 56 s at 5500, on a 2-core machine"
 BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
 
 
