@@ -192,7 +192,7 @@ def choice_before_after(name="trunnion_xyzac", points=10_000):
     from vecpin.threads import blas_limited
     m = vecpin.Machine.load(name)
     with blas_limited():
-        problem = plan_problem(m, PlanSettings(n_points=points, model="auto", order=6))
+        problem = plan_problem(m, PlanSettings(n_commands=points, model="auto", order=6))
         cands = screen_candidates(problem, lambda s: None)
         info = Information(planned_model(m, problem.settings), problem.noise, problem.tracker, problem.tools,
                            nests=problem.nests)
