@@ -73,3 +73,49 @@ def test_compact_rows_carry_the_same_normal_matrix(machines):
     assert C.shape == (info.P, info.P)
     np.testing.assert_allclose(C.T @ C, W.T @ W, rtol=1e-9, atol=1e-9 * np.abs(W.T @ W).max())
     assert info.log_det(C) == pytest.approx(info.log_det(W), rel=1e-9)
+
+
+def test_candidate_rows_in_chunks_keep_every_row_and_choose_as_the_dense_rows():
+    """Rows stored by groups over their nonzero columns, in chunks whose later ones reach
+    columns the first did not (the store widens), and with rows that are all zero (a nest
+    out of sight): the same rows back, the same X = W F^T, the same picks as the plain greedy."""
+    from vecpin.planning.doptimal import CandidateRows, _whitening
+    rng = np.random.default_rng(7)
+    C, P = 90, 100
+    W = np.zeros((C, 8, P))
+    W[:, :3, :55] = rng.normal(size=(C, 3, 55))           # "tool" rows: the first 55 terms
+    W[:, 3:, 45:] = rng.normal(size=(C, 5, 55))           # "nest" rows: the last 55 terms
+    W[rng.random(C) < 0.3, 3:, :] = 0.0                    # a nest out of sight: zero rows
+    W[60:, 0, 80] = rng.normal(size=30)                    # a column only later chunks reach
+    rows = CandidateRows(iter([W[:25], W[25:60], W[60:]]), C)
+    assert len(rows.groups) == 2 and rows.nbytes < 0.6 * W.nbytes
+    np.testing.assert_array_equal(rows.dense(np.arange(C)), W)
+    F, _ = _whitening(np.eye(P) + np.einsum("cri,crj->ij", W[:10], W[:10]))
+    idx = rng.permutation(C)[:40]
+    np.testing.assert_allclose(rows.whitened(idx, rows.factor_parts(F)), W[idx] @ F.T, atol=1e-12)
+    assert list(greedy_d_optimal(rows, 20)[0]) == _plain_greedy(W, 20)
+
+
+def test_the_choice_on_an_ill_conditioned_design_keeps_the_float64_picks():
+    """float32 rows with gains taken in float32 through the whitening pick what float64
+    picks on rows whose scales span six decades (the criterion differs by round-off)."""
+    rng = np.random.default_rng(11)
+    W = rng.normal(size=(300, 6, 20)) * np.logspace(-3, 3, 20)[None, None, :] * rng.uniform(0.3, 1.0, (300, 1, 1))
+    p64, ld64 = greedy_d_optimal(W, 60)
+    p32, ld32 = greedy_d_optimal(W.astype(np.float32), 60)
+    assert list(p32) == list(p64)
+    np.testing.assert_allclose(ld32, ld64, rtol=1e-6)
+
+
+def test_a_table_plan_beyond_a_minute_warns_with_the_measured_figure(machines, flow):
+    """Above the points a plan with table nests computes within a minute, the plan warns
+    at once, naming `n_commands` and what the largest plan took; a head machine does not."""
+    import warnings
+    from vecpin.errors import VecpinWarning
+    from vecpin.planning.problem import TABLE_LARGEST, TABLE_MINUTE_POINTS, PlanSettings, plan_problem
+    with pytest.warns(VecpinWarning, match=rf"`n_commands` {TABLE_MINUTE_POINTS + 1}: .*{TABLE_LARGEST}"):
+        plan_problem(machines["trunnion_xyzac"], PlanSettings(n_commands=TABLE_MINUTE_POINTS + 1, sight=False))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VecpinWarning)
+        plan_problem(machines["trunnion_xyzac"], PlanSettings(n_commands=TABLE_MINUTE_POINTS, sight=False))
+        plan_problem(flow, PlanSettings(n_commands=10_000, sight=False))

@@ -104,8 +104,8 @@ def register(sub) -> None:
 def _add_setup_args(s) -> None:
     """What is measured and with what: commands, holders, tracker, table nests, zones."""
     s.add_argument("--points", dest="n_commands", type=int, default=100, help="commands to measure, each with every "
-                   "holder length (default 100; Paper I measured 295; at most 10000: about 1 min to plan, 2 min with "
-                   "table nests, under 1 GB)")
+                   "holder length (default 100; Paper I measured 295; at most 10000: under a minute to plan on a head "
+                   "machine; with table nests above 5500 it takes longer and the plan warns; under 1 GB)")
     s.add_argument("--tools", dest="tools_mm", nargs="+", metavar="L",
                    help="target holder lengths from the gauge line, mm, separated by spaces or commas (default "
                         "214.88 312.86 as Paper I)")

@@ -21,8 +21,10 @@ from vecpin.units import M_PER_MM
 
 def default_candidates(n_commands: int) -> int:
     """Candidates a plan of ``n_commands`` commands chooses from: 10 per command (at least
-    2,000), but beyond 10,000 candidates 3 per command: 10,000 commands of an order-6
-    model from 30,000 candidates take under a minute and 0.8 GB (100,000 take 2.2 min)."""
+    2,000), but beyond 10,000 candidates 3 per command: the whole plan of 10,000 commands
+    of an order-6 model from 30,000 candidates takes under a minute on a head machine, and
+    on a table machine, its nests read at every command, under a minute up to
+    :data:`~vecpin.planning.problem.TABLE_MINUTE_POINTS` commands (``benchmarks/bench_planning.py``)."""
     return max(2000, min(10 * n_commands, max(10_000, 3 * n_commands)))
 
 

@@ -36,6 +36,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
 from vecpin.measurement.tracker import cartesian_to_spherical, spherical_jacobian
 from vecpin.models import ErrorModel
+from vecpin.planning.doptimal import CandidateRows
 
 
 def instrument_covariance(noise: NoiseModel, tips: np.ndarray, tracker: np.ndarray) -> np.ndarray:
@@ -146,17 +147,18 @@ class Information:
         out[:, :, cols] = J
         return out
 
-    def kept_rows(self, q: np.ndarray, nest_visible: np.ndarray | None = None, chunk: int = 2000) -> np.ndarray:
-        """(C, r, kept) :meth:`rows` over the counted terms only, float32, computed in
-        chunks: the D-optimal choice's candidates (100,000 of a 160-term model in 0.4 GB)."""
+    def kept_rows(self, q: np.ndarray, nest_visible: np.ndarray | None = None, chunk: int = 2000) -> CandidateRows:
+        """:meth:`rows` over the counted terms only, float32, computed in chunks and stored
+        by groups of rows over their nonzero columns (:class:`CandidateRows`): the
+        D-optimal choice's candidates (20,868 of a trunnion's order-6 6-DoF model with three
+        nests, 15 rows x 186 terms each, in 0.13 GB)."""
         k = np.flatnonzero(self.keep)
-        out = None
-        for a in range(0, len(q), chunk):
-            W = self.rows(q[a:a + chunk], nest_visible=None if nest_visible is None else nest_visible[a:a + chunk])
-            if out is None:
-                out = np.empty((len(q), W.shape[1], len(k)), np.float32)
-            out[a:a + chunk] = W[:, :, k]
-        return out
+
+        def chunks():
+            for a in range(0, len(q), chunk):
+                vis = None if nest_visible is None else nest_visible[a:a + chunk]
+                yield self.rows(q[a:a + chunk], nest_visible=vis)[:, :, k].astype(np.float32)
+        return CandidateRows(chunks(), len(q))
 
     def compact_rows(self, q: np.ndarray, tool: np.ndarray, instrument: np.ndarray, target: np.ndarray,
                      chunk: int = 3000) -> np.ndarray:

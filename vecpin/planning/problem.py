@@ -7,11 +7,12 @@ in axis space the commands may take and the axes' rapid speeds.
 tracker stations for a machine with table axes belongs there."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from vecpin.errors import InputError
+from vecpin.errors import InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.noise import NoiseModel
@@ -27,6 +28,10 @@ from vecpin.units import MM_PER_M, M_PER_MM
 
 MAX_POINTS = 10_000         # commands of one plan
 MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
+# commands a plan with table nests (3 readings more per command) computes within a minute, and
+# the slowest bundled table machine measured (benchmarks/bench_planning.py, whole `plan` process)
+TABLE_MINUTE_POINTS = 5_500
+TABLE_LARGEST = "head_table_bc with 3 nests: 96 s at 10000 commands, 56 s at 5500, on a 2-core machine"
 BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
 
 
@@ -188,6 +193,11 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
     if s.zone:
         check_zone_axes(machine, s.zone, "zone")
     nests = s.nest_places(machine)  # checked before any work
+    if nests and s.n_commands > TABLE_MINUTE_POINTS:
+        warnings.warn(VecpinWarning(
+            f"`n_commands` {s.n_commands}: a plan with table nests of more than {TABLE_MINUTE_POINTS} commands takes more "
+            f"than a minute to compute (measured: {TABLE_LARGEST}); plan at most {TABLE_MINUTE_POINTS} for an answer "
+            "within a minute"), stacklevel=2)
     if s.tracker_mm is None:
         tracker, azimuth = default_tracker_placement(machine)
         side = side_name(azimuth)
