@@ -43,7 +43,7 @@ def check_written(case, controller, r, base):
     if rows["files as written (model-predicted)"].mean > 1.02 * full.mean + 1e-3:
         assert run.headline and run.lines("m")[0] == run.headline == readme and "takes" in readme
     else:
-        assert run.headline is None and r["written"] == pytest.approx(base["full"], rel=0.02), c.label
+        assert run.headline is None and r["written"] <= 1.02 * base["full"], c.label
     if controller in ("siemens-840d", "fanuc-30i"):   # without the reference point data: worse, and said
         assert r["without data"] > 1.1 * r["written"]
         assert "files without the reference point data (model-predicted)" in rows
