@@ -45,7 +45,7 @@ def main():
     print(SEED_TABLE_2)
     print(f"\nvecpin on a simulated laboratory XYZCB machine (seed {args.seed}), mm; time in seconds:")
     for kind in ("6dof", "ap"):
-        for basis in ("chebyshev", "auto"):
+        for basis in ("chebyshev", "fourier"):
             sweep = order_sweep(m, sim.campaign, kind, range(8), validation=sim.validation, noise=noise, basis=basis)
             print(sweep.table())
             print()

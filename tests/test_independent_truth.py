@@ -145,7 +145,7 @@ def test_family_lies_outside_vecpins_default_fit(portal, family):
     truth = IndependentMachine.random(portal, family, seed=21)
     noise = NoiseModel.default(portal, "spherical", tracker=truth.tracker.noise)
     q, tool = validation_commands(portal, 300, seed=5)
-    default = make_model("ap", portal, 6, basis="auto").fit(simulate(portal, seed=8, truth=truth).campaign, noise)
+    default = make_model("ap", portal, 6, basis="fourier").fit(simulate(portal, seed=8, truth=truth).campaign, noise)
     got = validation_error(default, truth, q, tool)[0]
     floor_truth = truth if truth.oracle_bases() is not None else truth.separable_part()
     sim = simulate(portal, seed=8, truth=floor_truth)
@@ -159,11 +159,11 @@ def test_family_lies_outside_vecpins_default_fit(portal, family):
 def test_judge_table_on_a_small_grid(flow):
     truth = IndependentMachine.random(flow, "periodic_drift", seed=2)
     j = judge(flow, truth, seed=3, kinds=("6dof",), bases=("chebyshev",), orders=(4,), n_validation=200)
-    assert [r.label for r in j.rows] == ["ap auto 6", "6dof chebyshev 4", "oracle: 6dof, true family bases"]
-    assert j.default.label == "ap auto 6" and j.best_fixed.mean_mm == min(r.mean_mm for r in j.grid)
+    assert [r.label for r in j.rows] == ["ap fourier 6", "6dof chebyshev 4", "oracle: 6dof, true family bases"]
+    assert j.default.label == "ap fourier 6" and j.best_fixed.mean_mm == min(r.mean_mm for r in j.grid)
     assert j.oracle.mean_mm < min(r.mean_mm for r in j.grid)
     text = j.format()
-    assert "default: ap auto 6" in text and "oracle" in text and "mm" in text
+    assert "default: ap fourier 6" in text and "oracle" in text and "mm" in text
     assert 0.2 < j.uncompensated_mean_mm < 0.6
 
 

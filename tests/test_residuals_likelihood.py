@@ -10,7 +10,6 @@ import pytest
 from vecpin.diagnosis.grosserrors import beyond, robust_level
 from vecpin.diagnosis.scoring import Kinematics, effect_columns
 from vecpin.identification.crossval import Linearised
-from vecpin.identification.likelihood import predict_tracker
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
@@ -43,21 +42,6 @@ def test_a_tracker_step_moves_its_stations_rows_by_exactly_its_size(machines, ma
     on = (c.time >= t0) & (c.station == station) & (c.instrument != "ballbar")
     assert on.sum() > 10 and (~on).sum() > 10
     assert np.allclose(d[on], -delta, atol=1e-12) and np.allclose(d[~on], 0.0, atol=1e-12)
-
-
-def test_plain_campaign_residuals_equal_the_direct_prediction(machines):
-    """A second path: the direct tracker-frame prediction (predict_tracker, the tool tip
-    through the setup, no instrument plug-ins) gives the residuals the likelihood gives,
-    tracker-frame effect included."""
-    m = machines["flow_xyzcb"]
-    c = simulate(m, seed=6, design=Design(n_commands=40, n_validation=10)).campaign
-    assert c.plain and not c.mixed
-    base = make_model("6dof", m, 3).fit(c, NoiseModel.default(m, "spherical"))
-    em = _with_shift(base, InstrumentShift(m, t0=float(np.median(c.time))), np.r_[2e-5, 1e-5, -3e-5, 1e-5, 0, 2e-5])
-    f = Features.from_campaign(c)
-    direct = c.xyz - predict_tracker(em, c.q, c.tool, np.r_[em.e0_, em.b_], em.setup_, f, False)[0]
-    assert np.allclose(em.residuals(c), direct, atol=1e-12)
-    assert np.abs(em.residuals(c) - base.residuals(c)).max() > 1e-5
 
 
 def test_instrument_shift_columns_equal_finite_differences_per_station(machines):

@@ -130,15 +130,15 @@ def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS,
     return out
 
 
-def table_bases(machine: Machine, order: int, basis: str = "auto", modulo_axes=(), lower: np.ndarray | None = None,
+def table_bases(machine: Machine, order: int, basis: str = "fourier", modulo_axes=(), lower: np.ndarray | None = None,
                 upper: np.ndarray | None = None) -> list[AxisBasis]:
     """Basis of the compensation functions of each *input* axis: Chebyshev over the
     travel (or over ``lower`` .. ``upper`` [m, rad], the region the tables are fitted
-    in); Fourier on rotary axes travelling more than a turn (``basis="auto"``) and on
+    in); Fourier on rotary axes travelling more than a turn (``basis="fourier"``) and on
     modulo axes (a modulo table must repeat every turn)."""
     out = []
     for a in machine.axes:
-        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "auto" and a.multiturn))
+        periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "fourier" and a.multiturn))
         l, h = _span(a, lower, upper)
         if periodic:
             l, h = a.lower, a.upper
@@ -285,7 +285,7 @@ class TableProblem:
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
-                 basis: str = "auto", modulo_axes=(), ridge: float = 1e-4, bases: list[AxisBasis] | None = None,
+                 basis: str = "fourier", modulo_axes=(), ridge: float = 1e-4, bases: list[AxisBasis] | None = None,
                  hold: dict[str, tuple[float, float]] | None = None, register: bool = True):
         self.actual, self.machine = actual, machine
         self.register = register  # fit the tables jointly with the best rigid motion of the whole machine

@@ -174,7 +174,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
         search = TableProblem(actual, m, q, tools, modulo_axes=tuple(modulo_axes), hold=hold,
-                              bases=table_bases(m, table_order or 8, "auto", tuple(modulo_axes), lo, hi))
+                              bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
         selection = SEARCHES[method](search, req.cons, seed, req.n_points)
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)

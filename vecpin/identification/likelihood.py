@@ -38,7 +38,7 @@ from vecpin.measurement.instruments import instrument_for
 from vecpin.measurement.instruments.points import PointRequest, initial_setup, nominal_points
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.setup import POSE_NAMES, Setup, to_station
+from vecpin.measurement.setup import POSE_NAMES, Setup, station_reading
 
 E0_PRIORS = np.full(6, POSE_PRIOR)
 CHUNK_ROWS = 20000  # rows per piece when normal equations are accumulated
@@ -312,13 +312,13 @@ class Likelihood:
                 # d point / d q is needed for the positioning noise even when no Jacobian is asked
                 p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats)
                 stash = {}
-                terms = None
-                if self._tracker_effects and blk.instrument.row_kind in ("tracker", "nest"):
-                    def terms(y, _rows, feats=feats, stash=stash):
-                        shift, D, grad = m.tracker_terms(y, feats, b)
-                        stash["D"] = D
-                        return shift, grad
-                eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms)
+
+                def terms(y, _rows, feats=feats, stash=stash):
+                    shift, D, grad = m.tracker_terms(y, feats, b)
+                    stash["D"] = D
+                    return shift, grad
+                moved = self._tracker_effects and blk.instrument.row_kind in ("tracker", "nest")
+                eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms if moved else None)
                 Aq = eq.dr_dp @ J_q
                 L = np.linalg.cholesky(np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S)
                 pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
@@ -382,17 +382,17 @@ def predict_tracker(model: ParametricModel, q: np.ndarray, tool: np.ndarray, the
     d y / d theta (N,3,P+6) and d y / d q (N,3,n). theta = [E_0, b]."""
     e0, b = theta[:6], theta[6:]
     mt = model.tool_tip(q, tool, b, jacobian=jacobian, features=features, frame="base", point=point, offset=offset)
-    y, RR, de = to_station(mt.tip, setup.R, setup.t, e0, jacobian)
+    D = []
+
+    def terms(y):
+        shift, d_b, grad = model.tracker_terms(y, features, b)
+        D.append(d_b)
+        return shift, grad
+    moved = getattr(model, "effects", None) and any("tracker" in e.kinds for e in model.effects)
+    y, dy_dp, dy_de = station_reading(mt.tip, setup.R, setup.t, e0, terms if moved else None)
     if not jacobian:
-        if getattr(model, "effects", None) and any("tracker" in e.kinds for e in model.effects):
-            y = y + model.tracker_terms(y, features, b)[0]
         return y, None, None
-    dy = np.concatenate([de, np.einsum("ij,pjk->pik", RR, mt.J_b)], axis=-1)
-    dq = np.einsum("ij,pjk->pik", RR, mt.J_q)
-    if getattr(model, "effects", None) and any("tracker" in e.kinds for e in model.effects):
-        shift, D, grad = model.tracker_terms(y, features, b)
-        y = y + shift
-        M = np.eye(3) + grad
-        dy, dq = M @ dy, M @ dq
-        dy[:, :, 6:] += D
-    return y, dy, dq
+    dy = np.concatenate([dy_de, dy_dp @ mt.J_b], axis=-1)
+    if D:
+        dy[:, :, 6:] += D[0]
+    return y, dy, dy_dp @ mt.J_q

@@ -58,3 +58,18 @@ def to_station(p: np.ndarray, R: np.ndarray, t: np.ndarray, e: np.ndarray, jacob
     de[:, :, :3] = R
     de[:, :, 3:] = -np.einsum("ij,pjk,kl->pil", RR, skew(p), right_jacobian(e[3:]))
     return y, RR, de
+
+
+def station_reading(p: np.ndarray, R: np.ndarray, t: np.ndarray, e: np.ndarray, terms=None):
+    """What a station reads at machine-frame points p (N,3) [m]: :func:`to_station`, then the
+    tracker-frame effects ``terms(y) -> (shift (N,3) [m], d shift / d y (N,3,3))`` moving the
+    reading in the station's frame (an instrument shift). The one prediction of a tracker
+    reading, for the likelihood and for ``predict(frame="tracker")``.
+
+    Returns (y (N,3), dy/dp (3,3) or (N,3,3), dy/de (N,3,6))."""
+    y, RR, de = to_station(p, R, t, e, jacobian=True)
+    if terms is None:
+        return y, RR, de
+    shift, grad = terms(y)
+    M = np.eye(3) + grad
+    return y + shift, M @ RR, M @ de

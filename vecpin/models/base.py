@@ -61,7 +61,7 @@ def register_model(cls: type["ErrorModel"]) -> type["ErrorModel"]:
 class ErrorModel:
     """Base of the error models: bases, offsets, parameter bookkeeping, estimator API.
 
-    ``order``: series order on every axis (eq. 5). ``basis="auto"`` (default) uses
+    ``order``: series order on every axis (eq. 5). ``basis="fourier"`` (default) uses
     Chebyshev polynomials over the travel, except a Fourier series on rotary axes
     that travel more than a turn (errors that repeat every turn, which Chebyshev
     needs a high order for); ``basis="chebyshev"`` is the seed's choice everywhere;
@@ -75,7 +75,7 @@ class ErrorModel:
     kind = "base"
     display_name = "base"  # the kind as printed in tables, figures and reports (e.g. '6-DoF')
 
-    def __init__(self, machine: Machine, order: int = 6, basis: str = "auto",
+    def __init__(self, machine: Machine, order: int = 6, basis: str = "fourier",
                  tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
                  bases: list[AxisBasis] | None = None, effects: list | None = None):
         self.machine = machine
@@ -101,7 +101,7 @@ class ErrorModel:
 
     @property
     def basis_kind(self) -> str:
-        """How the bases were made: "auto", "chebyshev" or "custom" (:data:`~vecpin.models.spec.BASIS_RULES`)."""
+        """How the bases were made: "fourier", "chebyshev" or "custom" (:data:`~vecpin.models.spec.BASIS_RULES`)."""
         return self.spec.basis
 
     def _offset_parameters(self) -> list[Parameter]:

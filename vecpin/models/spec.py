@@ -25,9 +25,9 @@ from vecpin.models.basis import AxisBasis
 from vecpin.models.effects.base import Effect, effect_from_dict
 from vecpin.units import MM_PER_M, M_PER_MM
 
-#: how the bases were made: "auto" (Chebyshev over the travel, a Fourier series per turn on
+#: how the bases were made: "fourier" (Chebyshev over the travel, a Fourier series per turn on
 #: rotary axes travelling more than a turn), "chebyshev" (everywhere), "custom" (given per axis)
-BASIS_RULES = ("auto", "chebyshev", "custom")
+BASIS_RULES = ("fourier", "chebyshev", "custom")
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,13 +42,13 @@ class ModelSpec:
     kind: str
     order: int
     bases: tuple[AxisBasis, ...]
-    basis: str = "auto"
+    basis: str = "fourier"
     effects: tuple[Effect, ...] = ()
     tool_lengths: tuple[float, ...] | None = None
     prior_scale: float = 1.0
 
     @classmethod
-    def of(cls, kind: str, machine: Machine, order: int = 6, basis: str = "auto",
+    def of(cls, kind: str, machine: Machine, order: int = 6, basis: str = "fourier",
            tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
            bases: list[AxisBasis] | None = None, effects: list | None = None) -> "ModelSpec":
         """The spec of a model's constructor arguments (checked; each message names the
@@ -58,11 +58,12 @@ class ModelSpec:
             raise InputError(f"`order` {order}: the series order must be a whole number >= 0")
         if not (math.isfinite(prior_scale) and prior_scale > 0):
             raise InputError(f"`prior_scale` {prior_scale}: the prior scale must be a positive number")
-        if basis not in ("chebyshev", "auto"):
-            raise InputError(f"`basis` {basis}: 'auto' (Fourier on rotary axes travelling more than a turn) or "
+        if basis not in ("chebyshev", "fourier"):
+            raise InputError(f"`basis` {basis}: 'fourier' (a Fourier series per turn on rotary axes travelling more "
+                             "than a turn, Chebyshev elsewhere) or "
                              "'chebyshev'")
         if bases is None:
-            bases = [AxisBasis(a.lower, a.upper, int(order), "fourier" if basis == "auto" and a.multiturn else "chebyshev",
+            bases = [AxisBasis(a.lower, a.upper, int(order), "fourier" if basis == "fourier" and a.multiturn else "chebyshev",
                                rotary=a.kind == "rotary") for a in machine.axes]
         else:
             if len(bases) != machine.n_axes:
@@ -82,7 +83,7 @@ class ModelSpec:
 
     def options(self) -> dict:
         """The constructor's keyword arguments after ``machine`` that make this spec."""
-        return {"order": self.order, "basis": "auto" if self.basis == "custom" else self.basis,
+        return {"order": self.order, "basis": "fourier" if self.basis == "custom" else self.basis,
                 "tool_lengths": None if self.tool_lengths is None else list(self.tool_lengths),
                 "prior_scale": self.prior_scale, "bases": list(self.bases) if self.basis == "custom" else None,
                 "effects": list(self.effects)}
@@ -121,7 +122,7 @@ class ModelSpec:
                     raise InputError(f"model.axis_bases: the basis of axis {a.name} is invalid ({exc})") from None
         tools = None if d["tool_lengths_mm"] is None else [t * M_PER_MM for t in d["tool_lengths_mm"]]
         effects = [effect_from_dict(e, machine) for e in d["effects"]]
-        return cls.of(d["kind"], machine, d["order"], "auto" if bases else d["basis"], tools, d["prior_scale"],
+        return cls.of(d["kind"], machine, d["order"], "fourier" if bases else d["basis"], tools, d["prior_scale"],
                       bases, effects)
 
 

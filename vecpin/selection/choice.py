@@ -362,7 +362,7 @@ def fixed_model(machine: Machine, kind: str, basis: str, order: int, **opts) -> 
     if basis == "pspline":
         raise InputError("`basis` pspline: the smoothing is chosen by held-out data; use choose_or_fix")
     if basis in ("chebyshev", "fourier"):  # the seed's choice and vecpin's former default
-        return make_model(kind, machine, order, basis="chebyshev" if basis == "chebyshev" else "auto", **opts)
+        return make_model(kind, machine, order, basis=basis, **opts)
     axes = []
     for a in machine.axes:
         if basis == "spline":

@@ -126,11 +126,11 @@ def check_folds(campaign: Campaign | None, folds: int, option: str = "`folds`") 
 
 def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,
                 validation: Campaign | None = None, folds: int = 5, noise: NoiseModel | None = None,
-                basis: str = "auto", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
+                basis: str = "fourier", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
     """Fit ``kind`` ("6dof"/"ap") at every order; judge on ``validation`` or by k-fold CV."""
     noise = noise or NoiseModel.default(machine)
     check_orders(machine, campaign, [kind], orders, folds=None if validation is not None else folds, noise=noise,
-                 basis="chebyshev" if basis == "chebyshev" else "auto")
+                 basis=basis)
     for c in (campaign, validation) if validation is not None else (campaign,):
         check_campaign_frames(machine, c)
     # distances are judged on the rows one tracker pose describes (station 0's tracker rows)

@@ -59,7 +59,7 @@ def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits
     if not limits.cross_tables:
         names = pitch_names(m)
     elif limits.needs_selection(m.axis_names):
-        search = TableProblem(actual, m, pseudo, tools, order=8, basis="auto")
+        search = TableProblem(actual, m, pseudo, tools, order=8, basis="fourier")
         chosen = exact_search(search, limits.constraints(None, axis_names=m.axis_names), n_points=n_points)
         names = pitch_names(m) + chosen.tables
     tables = problem.solve(names).discretise(n_points)

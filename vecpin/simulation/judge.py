@@ -3,7 +3,7 @@
 For a machine, a true machine (any :class:`~vecpin.simulation.truth.SimulatedMachine`)
 and a campaign design, :func:`judge` simulates the campaign, fits
 
-1. vecpin's default model (``make_model("ap", machine, 6, basis="auto")``),
+1. vecpin's default model (``make_model("ap", machine, 6, basis="fourier")``),
 2. a grid of fixed choices (6-DoF / AP x Chebyshev / auto x orders 2..8),
 3. the oracle: a model whose per-axis bases contain the true error family
    (6-DoF with ``truth.oracle_bases()`` of an :class:`IndependentMachine`; a
@@ -35,7 +35,7 @@ from vecpin.simulation.simulate import Design, simulate
 from vecpin.simulation.truth import uniform_commands
 from vecpin.units import M_PER_MM, norm_mm
 
-DEFAULT_CHOICE = ("ap", "auto", 6)  # what `vecpin fit` uses without model flags (before issue 11)
+DEFAULT_CHOICE = ("ap", "fourier", 6)  # what `vecpin fit` uses without model flags (before issue 11)
 
 
 @dataclass
@@ -63,7 +63,7 @@ class Judgement:
     family: str
     uncompensated_mean_mm: float
     rows: list[Row] = field(default_factory=list)
-    default_key: tuple[str, str, int] = DEFAULT_CHOICE  # ("ap", "chebyshev", 6) where auto is Chebyshev
+    default_key: tuple[str, str, int] = DEFAULT_CHOICE  # ("ap", "chebyshev", 6) where fourier is Chebyshev
     choice: object = None                 # the model choice of the selected row
     tables_mm: tuple[float, float] | None = None   # true compensated error of vecpin's tables (mean, max)
     floor_mm: tuple[float, float] | None = None    # the table floor (mean, max)
@@ -86,7 +86,7 @@ class Judgement:
 
     @property
     def grid(self) -> list[Row]:
-        return [r for r in self.rows if r.basis in ("chebyshev", "auto")]
+        return [r for r in self.rows if r.basis in ("chebyshev", "fourier")]
 
     @property
     def best_fixed(self) -> Row:
@@ -176,14 +176,14 @@ def _oracle_bases(truth):
 
 
 def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 0,
-          kinds=("6dof", "ap"), bases=("chebyshev", "auto"), orders=range(2, 9), noise: NoiseModel | None = None,
+          kinds=("6dof", "ap"), bases=("chebyshev", "fourier"), orders=range(2, 9), noise: NoiseModel | None = None,
           n_validation: int = 500, oracle: bool = True, selected: bool = False, tables: bool = False,
           progress=None) -> Judgement:
     """Simulate a campaign (``design``, ``seed``) on ``truth`` and judge the default fit,
     the grid ``kinds x bases x orders`` and the oracle on ``n_validation`` fresh
     commands x the design's tools. ``noise``: the fit's noise model (default: spherical
     tracker noise with the truth's tracker figures and the default axis noise).
-    ``auto`` rows are skipped where they equal ``chebyshev`` (no rotary axis travelling
+    ``fourier`` rows are skipped where they equal ``chebyshev`` (no rotary axis travelling
     more than a turn). ``tables`` (with ``selected``): the true compensated error of the
     selected model's tables and of the oracle's, and the table floor."""
     design = design or Design()

@@ -60,12 +60,11 @@ def choose_orders(machine: Machine, campaign: Campaign, noise: NoiseModel | None
     check_basis(machine, basis, "chebyshev")
     if noise.instrument == "range":
         check_stations(campaign)
-    series = "chebyshev" if basis == "chebyshev" else "auto"
     if validation is not None:  # Paper I Table 2: every order fitted, judged on the validation file
         sweeps = [order_sweep(machine, campaign, kind, orders, validation=validation, folds=folds, noise=noise,
-                              basis=series, progress=progress) for kind in kinds]
+                              basis=basis, progress=progress) for kind in kinds]
         return OrdersRun(kinds, folds, sweeps=sweeps)
-    check_orders(machine, campaign, kinds, orders, folds=folds, noise=noise, basis=series)
+    check_orders(machine, campaign, kinds, orders, folds=folds, noise=noise, basis=basis)
     choice = choose_model(machine, campaign, noise, kinds=kinds, families=tuple(dict.fromkeys((basis, "chebyshev"))),
                           plans=(basis,), orders=orders, per_axis=False, folds=folds, progress=progress)
     return OrdersRun(kinds, folds, choice=choice)

@@ -1,7 +1,7 @@
 """What the three ways of reading a laser tracker share: stations and their poses.
 
 A tracker row measures the target in the frame of one tracker station
-(:func:`vecpin.measurement.setup.to_station`); station 0 anchors the machine frame and
+(:func:`vecpin.measurement.setup.station_reading`); station 0 anchors the machine frame and
 its pose correction is the seed's ``E_0``; every other station's pose is estimated
 with the model. The subclasses (:mod:`.cartesian`, :mod:`.spherical`,
 :mod:`.multilateration`) differ only in how the reading is compared (:meth:`observe`).
@@ -12,7 +12,7 @@ import numpy as np
 
 from vecpin.measurement.instruments.base import Equations, Instrument
 from vecpin.measurement.registration import register as rigid_registration
-from vecpin.measurement.setup import POSE_NAMES, to_station
+from vecpin.measurement.setup import POSE_NAMES, station_reading
 
 E0_NAMES = tuple(f"E0.{c}" for c in POSE_NAMES)
 POSE_PRIOR = 1e-2  # m, rad: weak prior on every station pose correction
@@ -49,30 +49,27 @@ class TrackerInstrument(Instrument):
     def equations(self, campaign, rows, p, setup, u, tracker_terms=None) -> Equations:
         s = int(campaign.station[rows[0]])
         R, t, _ = setup.pose(s)
-        y, RR, de = to_station(p, R, t, u, jacobian=True)
+        # tracker-frame effects move the point in this station's frame (the effect says which
+        # stations' rows it moves: models.effects.instrument_shift)
+        terms = None if tracker_terms is None else (lambda y: tracker_terms(y, rows))
+        y, dy_dp, dy_du = station_reading(p, R, t, u, terms)
         n = len(rows)
-        M = np.broadcast_to(np.eye(3), (n, 3, 3))
-        if tracker_terms is not None:  # tracker-frame effects move the point in this station's frame (the
-            # effect says which stations' rows it moves: models.effects.instrument_shift)
-            shift, grad = tracker_terms(y, rows)
-            y = y + shift
-            M = np.eye(3) + grad
+        dy_dp = np.broadcast_to(dy_dp, (n, 3, 3))
         x = campaign.xyz[rows]
         r, H, S = self.observe(x, y)
         k = r.shape[1]
         out = self.pad(n)
-        dy_dp = M @ RR
         out["r"][:, :k] = r
         out["dr_dp"][:, :k] = -H @ dy_dp
         out["S"][:, :k, :k] = S
         dr_dy = np.zeros((n, 3, 3))
         dr_dy[:, :k] = -H
         du = np.zeros((n, 3, 6))
-        du[:, :k] = -H @ (M @ de)
+        du[:, :k] = -H @ dy_du
         if k == 3:
             out["metric"] = x - y
             out["dmetric_dp"] = -dy_dp
-            dm_du = -(M @ de)
+            dm_du = -dy_du
         else:
             out["metric"][:, :k] = r
             out["dmetric_dp"][:, :k] = out["dr_dp"][:, :k]
