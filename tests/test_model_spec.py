@@ -92,7 +92,7 @@ def test_the_model_file_stores_the_spec_and_reads_it_back(fitted, flow, tmp_path
     assert json.loads((tmp_path / "again.json").read_text())["model"] == section
 
 
-@pytest.mark.parametrize("field,value,match", [("basis", "fourier", "model.basis 'fourier'"),
+@pytest.mark.parametrize("field,value,match", [("basis", "auto", "model.basis 'auto'"),
                                                ("order", -1, "`order` -1"),
                                                ("axis_bases", [], "model.axis_bases")])
 def test_a_damaged_model_section_is_refused_naming_it(fitted, tmp_path, field, value, match):

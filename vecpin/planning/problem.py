@@ -229,7 +229,7 @@ def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
     :func:`vecpin.selection.choice.fixed_model` builds them; ``pspline`` as the spline of
     the same knots (its smoothing, chosen from the data, only adds information)."""
     if s.basis in ("auto", "fourier", "chebyshev"):
-        return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "auto")
+        return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "fourier")
     from vecpin.selection.choice import fixed_model
     return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
 
