@@ -63,6 +63,7 @@ def covariance_kind(model: ErrorModel) -> str:
 
 EQUATIONS_PER_COEFFICIENT = 40  # pseudo-measurement equations per table coefficient (see table_commands)
 MIN_TABLE_COMMANDS = 1000
+SEARCH_COMMANDS = 1000  # the subset search under a controller's table limit ranks sets on at most this many
 
 
 def table_commands(machine: Machine, n_tools: int, modulo_axes=()) -> int:
@@ -173,7 +174,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if req.cons is not None:
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
-        search = TableProblem(actual, m, q, tools, modulo_axes=tuple(modulo_axes), hold=hold,
+        search = TableProblem(actual, m, _search_commands(q, commands is None), tools, modulo_axes=tuple(modulo_axes),
+                              hold=hold,
                               bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
         selection = SEARCHES[method](search, req.cons, seed, req.n_points)
@@ -182,6 +184,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     lim.check_tables(tables)
     report.notes += _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
     return TablePlan(tables, lim, selection, report, problem, req.n_points)
+
+
+def _search_commands(q: np.ndarray, quasi_random: bool) -> np.ndarray:
+    """The commands (N,n) [m, rad] the subset search ranks candidate table sets on: at most
+    SEARCH_COMMANDS of ``q`` (a quasi-random sequence's first ones, which cover the space as
+    the whole sequence does; else evenly spaced rows). Ranking sets needs fewer equations than
+    fitting the chosen one, which then uses every command."""
+    if len(q) <= SEARCH_COMMANDS:
+        return q
+    if quasi_random:
+        return q[:SEARCH_COMMANDS]
+    return q[np.linspace(0, len(q) - 1, SEARCH_COMMANDS).round().astype(int)]
 
 
 SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
