@@ -2,7 +2,7 @@
 error of the files as written, beside vecpin's full table set and the set it planned
 for that controller, on simulated machines of different layouts.
 
-The cases (tests/controller_cases.py, shared with tests/test_controller_files_e2e.py):
+The cases (tests/controller_cases.py, shared with tests/test_controller_files_e2e.py and test_controller_files_zones.py):
 a trunnion (trunnion_xyzac), a head machine whose W follows the rotaries
 (production_xyzbaw) over its whole travel and in its East and West zones (the model
 fitted to the zone's rows, the tables fitted in it, judged on commands in it), two more
