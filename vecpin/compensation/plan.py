@@ -38,7 +38,10 @@ from vecpin.threads import one_blas_thread
 MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
 METHODS = ("exact", "ga", "heuristic")
 HOLD_MARGIN = 0.02  # unmeasured share of an axis' travel at an end beyond which tables are held constant
-SPREAD_COMMANDS = 1000  # the parameter-uncertainty spread is judged on at most this many of the pseudo-commands
+#: the parameter-uncertainty spread and the subset search under a controller's table limit (statistics
+#: over the commands, ranking sets) use at most the first this many of the pseudo-commands (a quasi-random
+#: sequence's first ones cover the space as the whole does); the chosen tables are fitted on all of them
+SUBSET_COMMANDS = 1000
 
 
 @dataclass
@@ -63,7 +66,6 @@ def covariance_kind(model: ErrorModel) -> str:
 
 EQUATIONS_PER_COEFFICIENT = 40  # pseudo-measurement equations per table coefficient (see table_commands)
 MIN_TABLE_COMMANDS = 1000
-SEARCH_COMMANDS = 1000  # the subset search under a controller's table limit ranks sets on at most this many
 
 
 def table_commands(machine: Machine, n_tools: int, modulo_axes=()) -> int:
@@ -147,9 +149,9 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     with_spread = uncertainty and covariance_kind(model) == "full"
     actual = model_as_actual(model)
 
-    spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SPREAD_COMMANDS)
+    spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
 
-    def add(label, ts, n):  # the spread, a statistic over the commands, on at most SPREAD_COMMANDS of them
+    def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
         spread = parameter_spread(model, ts, problem.q[spread_rows], problem.L[spread_rows],
                                   point=pt) if with_spread else None
@@ -174,8 +176,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if req.cons is not None:
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
-        search = TableProblem(actual, m, _search_commands(q, commands is None), tools, modulo_axes=tuple(modulo_axes),
-                              hold=hold,
+        search = TableProblem(actual, m, q[:SUBSET_COMMANDS], tools, modulo_axes=tuple(modulo_axes), hold=hold,
                               bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
         selection = SEARCHES[method](search, req.cons, seed, req.n_points)
@@ -184,18 +185,6 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     lim.check_tables(tables)
     report.notes += _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
     return TablePlan(tables, lim, selection, report, problem, req.n_points)
-
-
-def _search_commands(q: np.ndarray, quasi_random: bool) -> np.ndarray:
-    """The commands (N,n) [m, rad] the subset search ranks candidate table sets on: at most
-    SEARCH_COMMANDS of ``q`` (a quasi-random sequence's first ones, which cover the space as
-    the whole sequence does; else evenly spaced rows). Ranking sets needs fewer equations than
-    fitting the chosen one, which then uses every command."""
-    if len(q) <= SEARCH_COMMANDS:
-        return q
-    if quasi_random:
-        return q[:SEARCH_COMMANDS]
-    return q[np.linspace(0, len(q) - 1, SEARCH_COMMANDS).round().astype(int)]
 
 
 SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
