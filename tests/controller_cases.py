@@ -274,3 +274,16 @@ def run_case(case, controller, tmp_path):
     else:
         r = judge(c, controller, tmp_path, q, tool, **kw)
     check_written(c, controller, r, base)
+
+
+def e2e_tests(cases: tuple[str, ...]):
+    """The module-scoped ``case`` fixture over ``cases`` and the end-to-end test over every
+    controller, for a test module to bind: ``case, test_… = e2e_tests(CASES)``."""
+    @pytest.fixture(scope="module", params=cases)
+    def case(request, tmp_path_factory):
+        return prepared_case(request.param, tmp_path_factory)
+
+    @pytest.mark.parametrize("controller", CONTROLLERS)
+    def test_the_files_as_written_give_the_machine_what_vecpin_predicts(case, controller, tmp_path):
+        run_case(case, controller, tmp_path)
+    return case, test_the_files_as_written_give_the_machine_what_vecpin_predicts

@@ -10,17 +10,10 @@ below the uncompensated one (below it at all where the controller's limits cost)
 printout's and the README's first line say so; without the reference point data it is
 worse. The real LinuxCNC runs the same files in tests/test_linuxcnc_real.py."""
 import pytest
-from controller_cases import CONTROLLERS, prepared_case, run_case
+from controller_cases import e2e_tests
 
 CASES = ("trunnion_xyzac", "production_xyzbaw")  # the zones and the twin drive: test_controller_files_zones.py
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture(scope="module", params=CASES)
-def case(request, tmp_path_factory):
-    return prepared_case(request.param, tmp_path_factory)
-
-
-@pytest.mark.parametrize("controller", CONTROLLERS)
-def test_the_files_as_written_give_the_machine_what_vecpin_predicts(case, controller, tmp_path):
-    run_case(case, controller, tmp_path)
+case, test_the_files_as_written_give_the_machine_what_vecpin_predicts = e2e_tests(CASES)
