@@ -237,11 +237,14 @@ def test_plan_cli_prints_prediction_and_comparison(tmp_path, capsys):
                  "--quiet"]) == 0
     text = capsys.readouterr().out
     for needle in ("model error from parameter uncertainty", "validation residual", "random commands",
-                   "this plan (doptimal)", "(given)", "out of sight"):
+                   "this plan (doptimal)", "(given)", "out of sight", "repeated points (eq. 22): 3 commands x 4"):
         assert needle in text
+    assert "no repeated points" not in text
     assert main(["plan", "flow_xyzcb", "--points", "20", "--order", "2", "--candidates", "300", "--compare",
                  str(out / "plan.csv"), "--out", str(tmp_path / "q"), "--quiet"]) == 0
-    assert "plan.csv" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    # without repeated points the decision cannot be made from the campaign: the plan says how to add them
+    assert "plan.csv" in text and "no repeated points" in text and "--repeat 9 4:" in text
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -117,14 +117,19 @@ class Scorer:
         if len(size) != 1:
             return np.array([self.score([candidates[j] for j in c]) for c in combos])
         cols = np.stack(blocks)  # (n_cand, s)
+        # one Cholesky factor of [[S_b, h_b], [h_b', base + lift]] per combination: its last
+        # diagonal element squared is base + lift - h_b' S_b^-1 h_b, the residual plus the lift
+        # (the lift keeps the bordered matrix positive definite when the residual is ~0)
+        lift = 1e-9 * max(self.base, np.finfo(float).tiny)
+        n = len(self.h)
+        bordered = np.zeros((n + 1, n + 1))
+        bordered[:n, :n], bordered[:n, n], bordered[n, :n], bordered[n, n] = self.S, self.h, self.h, self.base + lift
         out = np.empty(len(combos))
         for s0 in range(0, len(combos), chunk):
-            idx = cols[combos[s0:s0 + chunk]].reshape(len(combos[s0:s0 + chunk]), -1)  # (c, k*s)
-            Ssub = self.S[idx[:, :, None], idx[:, None, :]]
-            hsub = self.h[idx]
-            L = np.linalg.cholesky(Ssub)
-            y = np.linalg.solve(L, hsub[..., None])[..., 0]
-            out[s0:s0 + chunk] = np.sqrt(np.maximum(self.base - np.einsum("ij,ij->i", y, y), 0.0) / self.rows)
+            part = combos[s0:s0 + chunk]
+            idx = np.concatenate([cols[part].reshape(len(part), -1), np.full((len(part), 1), n)], axis=1)
+            L = np.linalg.cholesky(bordered[idx[:, :, None], idx[:, None, :]])
+            out[s0:s0 + chunk] = np.sqrt(np.maximum(L[:, -1, -1] ** 2 - lift, 0.0) / self.rows)
         self.evaluations += len(combos)
         return out
 
@@ -139,9 +144,18 @@ def finalise(problem: TableProblem, names: list[str], n_points: int = 1024):
 
 
 def admissible_combinations(candidates: list[str], constraints: Constraints, k: int) -> np.ndarray:
-    combos = [c for c in itertools.combinations(range(len(candidates)), k)
-              if constraints.admissible(candidates[j] for j in c)]
-    return np.array(combos, dtype=int).reshape(-1, k)
+    """Every admissible combination of ``k`` candidate indices, (C, k), in lexicographic order:
+    all combinations, less those holding a pair the constraints forbid (checked pair of
+    columns by pair of columns over the whole array)."""
+    n = len(candidates)
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.combinations(range(n), k)), dtype=np.intp)
+    combos = flat.reshape(-1, k)
+    clash = np.array([[i != j and not constraints.compatible(a, b) for j, b in enumerate(candidates)]
+                      for i, a in enumerate(candidates)], dtype=bool).reshape(n, n)
+    keep = np.ones(len(combos), dtype=bool)
+    for i, j in itertools.combinations(range(k), 2):
+        keep &= ~clash[combos[:, i], combos[:, j]]
+    return combos[keep]
 
 
 def exact_search(problem: TableProblem, constraints: Constraints, finalists: int = 10,

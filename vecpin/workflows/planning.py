@@ -71,6 +71,10 @@ class PlanRun:
         if s.repeat_points:
             out.append(f"  repeated points (eq. 22): {s.repeat_points} commands x {s.repeat_times} sequences, "
                        "half at the start and half at the end (short- and long-term repeatability)")
+        else:
+            out.append("  no repeated points: the decision (assess) needs the machine's repeatability, measured on "
+                       "commands repeated in the campaign; add them, e.g. `repeat_points` 9, `repeat_times` 4: nine "
+                       "commands measured four times")
         sc = p.score
         pr = sc.predicted
         out += [f"  approach: {s.approach} ({s.approach_mm:g} mm / {s.approach_deg:g} deg); moves "
