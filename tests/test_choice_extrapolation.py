@@ -101,8 +101,10 @@ def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypa
     """The head layout of the independent truth family with spline errors (outside vecpin's
     families), measured only where X lies in the lower 60 % of its travel; judged against
     the simulated truth over the rest of X's travel (never measured) and inside: the choice
-    with X's ends held out extrapolates 4.6x better than with interleaved folds alone
-    (0.23 against 1.06 mm; measured) and is no worse inside (0.019 against 0.021 mm)."""
+    with X's ends held out, and X's basis chosen on them, extrapolates 11x better than with
+    interleaved folds alone (0.096 against 1.06 mm; measured; 0.23 mm with the ends held
+    out but X's basis chosen on every row) and gives up a little inside (0.026 against
+    0.021 mm: a Chebyshev order 2 along X where a penalised spline followed the interior)."""
     import vecpin.selection.choice as choice
     from vecpin.simulation.independent import IndependentMachine, layout
     from vecpin.simulation.judge import validation_commands, validation_error
@@ -123,5 +125,5 @@ def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypa
         assert ch.ends == (("X",) if tag == "ends" else ())
         model = proto.fit(c, noise)
         errors[tag] = [validation_error(model, truth, q[s], tool[s])[0] for s in (inside, ~inside)]
-    assert errors["ends"][1] < 0.5 * errors["interleaved"][1]
-    assert errors["ends"][0] < 1.15 * errors["interleaved"][0]
+    assert errors["ends"][1] < 0.2 * errors["interleaved"][1]
+    assert errors["ends"][0] < 1.3 * errors["interleaved"][0]
