@@ -29,7 +29,7 @@ Each fit runs in a fresh Python process timed from start to exit (imports, readi
 predicting the held-out poses): the whole-process time. Held-out distances are between the
 measured T-Mac centre and each tool's prediction, in the tracker frame, mm.
 
-Run: python benchmarks/bench_figaroh.py [--out docs/results/real_data.md] [--quick]
+Run: python benchmarks/bench_figaroh.py [--out docs/results/real_data.md] [--quick] [--all-settings | --settings map_cv/full_params ...] [--splits joint1 ...]
 """
 from __future__ import annotations
 

@@ -106,17 +106,7 @@ def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypa
     out but X's basis chosen on every row) and gives up a little inside (0.026 against
     0.021 mm: a Chebyshev order 2 along X where a penalised spline followed the interior)."""
     import vecpin.selection.choice as choice
-    from vecpin.simulation.independent import IndependentMachine, layout
-    from vecpin.simulation.judge import validation_commands, validation_error
-    m = layout("head_xyzab")
-    truth = IndependentMachine.random(m, "spline", seed=1)
-    c = simulate(m, seed=2, truth=truth).campaign
-    x = m.axes[0]
-    cut = x.lower + 0.6 * (x.upper - x.lower)
-    c = c.subset(c.q[:, 0] < cut)
-    noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
-    q, tool = validation_commands(m, 300, seed=5)
-    inside = q[:, 0] < cut
+    m, truth, c, noise, q, tool, inside = _x_lower_60("head_xyzab", "spline")
     errors = {}
     for tag in ("ends", "interleaved"):
         if tag == "interleaved":
