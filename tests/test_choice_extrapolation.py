@@ -29,6 +29,8 @@ def test_a_campaign_over_the_whole_travel_keeps_interleaved_folds(machines):
                                   command_folds(c, 5, np.random.default_rng(0)))
     half = c.subset(c.q[:, 0] < m.axes[0].lower + 0.5 * (m.axes[0].upper - m.axes[0].lower))
     assert 0 in partly_measured(m, half)
+    ch = choose_model(m, c, NoiseModel.default(m, "spherical"), kinds=("6dof",), orders=(0, 1, 2))
+    assert ch.ends == () and ch.before_ends is None and "before the bases along them" not in ch.table()
 
 
 def test_the_ur10s_joints_are_judged_on_their_ends():
