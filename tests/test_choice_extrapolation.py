@@ -75,27 +75,42 @@ def _x_lower_60(name: str, family: str):
         q, tool, q[:, 0] < cut
 
 
-def test_the_basis_along_a_partly_measured_axis_is_chosen_on_its_ends():
-    """Head layout, spline errors of the independent family, X measured over its lower
-    60 %: the interleaved rule's choice (X a penalised spline) is judged again on X's
-    held-out ends, which keep a Chebyshev order 2 along X and every other axis as it was.
-    Against the simulated truth over the 40 % of X never measured: 0.096 mm against the
-    0.232 mm the choice before had (measured), at 0.026 against 0.019 mm inside (what
-    a function that extrapolates gracefully gives up where it interpolates)."""
+# (layout, error family, beyond after / before at most, inside after / before at most):
+# measured, mm beyond (inside): head spline 0.096 against 0.232 (0.026 against 0.019),
+# portal spline 0.055 against 0.231 (0.028 against 0.022), portal windup and gantry mixed
+# unchanged (0.063, 0.143: X's basis already extrapolated as well as any smaller one)
+ENDS_CASES = [("head_xyzab", "spline", 0.5, 1.5),
+              pytest.param("portal_xyzcb_c720", "spline", 0.5, 1.5, marks=pytest.mark.slow),
+              pytest.param("portal_xyzcb_c720", "windup", 1.03, 1.03, marks=pytest.mark.slow),
+              pytest.param("gantry_xyzca", "mixed", 1.03, 1.03, marks=pytest.mark.slow)]
+
+
+@pytest.mark.parametrize("name, family, beyond, inner", ENDS_CASES)
+def test_the_basis_along_a_partly_measured_axis_is_chosen_on_its_ends(name, family, beyond, inner):
+    """Independent-truth machines (errors outside vecpin's families), X measured over its
+    lower 60 %: each kind's choice by the interleaved rule is judged again on X's held-out
+    ends, which may only take terms away along X and leave every other axis as it was
+    (the head: a penalised spline along X becomes a Chebyshev order 2). Against the
+    simulated truth over the 40 % of X never measured and inside, the model chosen and the
+    one before (figures above ENDS_CASES): far better beyond, a little worse inside, where a
+    function that extrapolates gracefully follows the interior less closely; never worse
+    beyond where nothing changes."""
     from vecpin.selection.choice import choose_or_fix
-    m, truth, c, noise, q, tool, inside = _x_lower_60("head_xyzab", "spline")
+    m, truth, c, noise, q, tool, inside = _x_lower_60(name, family)
     proto, ch = choose_or_fix(m, c, noise)
     before = ch.before_ends
     assert before is not None and before.kind == ch.chosen.kind
-    assert ch.chosen.axes[1:] == before.axes[1:]
-    assert ch.chosen.axes[0] != before.axes[0] and ch.chosen.axes[0].size < before.axes[0].size
-    assert "before the bases along them" in ch.table() and ch.to_dict()["before_ends"]["model_terms"] == before.n_terms
+    assert ch.chosen.axes[1:] == before.axes[1:] and ch.chosen.axes[0].size <= before.axes[0].size
+    if beyond < 1:
+        assert ch.chosen.axes[0] != before.axes[0]
+        assert "before the bases along them" in ch.table()
+        assert ch.to_dict()["before_ends"]["model_terms"] == before.n_terms
     errors = {}
     for tag, model in (("ends", proto), ("before", before.model(m))):
         fitted = model.fit(c, noise)
         errors[tag] = [validation_error(fitted, truth, q[s], tool[s])[0] for s in (inside, ~inside)]
-    assert errors["ends"][1] < 0.5 * errors["before"][1]
-    assert errors["ends"][0] < 1.5 * errors["before"][0]
+    assert errors["ends"][1] <= beyond * errors["before"][1]
+    assert errors["ends"][0] <= inner * errors["before"][0]
 
 
 @pytest.mark.slow
