@@ -280,7 +280,7 @@ def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
     their held-out ends (:func:`_along_ends`), then among the kinds' results the one-SE
     rule on every held-out row: (chosen, its standard error [mm], the reason, the chosen
     kind's choice before its ends were judged)."""
-    size, starts = {}, {}
+    changes, starts = {}, {}
     results = []
     for kind, prob in problems.items():
         own = [c for c in search.cands if c.kind == kind]
@@ -289,10 +289,10 @@ def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
         start = one_standard_error(own, min(own, key=lambda c: c.mean), prob.size)[0]
         end, changed = _along_ends(search, prob, camp, start, options, ends)
         results.append(end)
-        size[end.kind], starts[end.kind] = changed, start
+        changes[end.kind], starts[end.kind] = changed, start
     low = min(results, key=lambda c: c.mean)
     chosen, se, _ = one_standard_error(results, low, lambda c: problems[c.kind].size(c))
-    changed = size[chosen.kind]
+    changed = changes[chosen.kind]
     reason = (f"each kind's fewest model terms within one standard error of its lowest held-out mean, its bases along "
               f"the axes measured over part of their travel then chosen on their held-out ends by the same rule"
               f"{' (' + ', '.join(changed) + ')' if changed else ''}; of the kinds, "
@@ -306,7 +306,7 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
     """The basis of every axis measured over part of its travel (``ends``, chain order)
     chosen again on the held-out rows of that axis' own ends (:func:`end_rows`), the
     other axes as reached so far: among that axis' options with no more terms than it
-    has, the fewest model terms within one paired standard error of the lowest held-out
+    has (effective terms, :meth:`Problem.size`), the fewest model terms within one paired standard error of the lowest held-out
     mean on those rows (:func:`one_standard_error`), so that along an axis the model is
     used beyond, it keeps only what extrapolates there. (The candidate reached, what
     changed, 'axis old -> new'.)"""
@@ -320,6 +320,7 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
         for c in (prob.candidates(new) if len(new) > 1 else [prob.candidate(t) for t in new]):
             search.add(c)
         pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
+        pool = [c for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
         low = min(pool, key=lambda c: c.heldout[rows].mean())
         pick = one_standard_error(pool, low, prob.size, rows)[0]
         if pick is not chosen:
