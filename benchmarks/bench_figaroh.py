@@ -29,7 +29,7 @@ Each fit runs in a fresh Python process timed from start to exit (imports, readi
 predicting the held-out poses): the whole-process time. Held-out distances are between the
 measured T-Mac centre and each tool's prediction, in the tracker frame, mm.
 
-Run: python benchmarks/bench_figaroh.py [--out docs/results/real_data.md] [--quick]
+Run: python benchmarks/bench_figaroh.py [--out docs/results/real_data.md] [--quick] [--all-settings | --settings map_cv/full_params ...] [--splits joint1 ...]
 """
 from __future__ import annotations
 
@@ -213,6 +213,8 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "real_data.md"))
     ap.add_argument("--quick", action="store_true", help="FIGAROH's default only (no search for its best)")
     ap.add_argument("--all-settings", action="store_true", help="search all ten FIGAROH settings for its best")
+    ap.add_argument("--settings", nargs="+", metavar="METHOD/LEVEL",
+                    help="search these FIGAROH settings (its default always runs), e.g. map_cv/full_params")
     ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
     ap.add_argument("--json", help="also save the figures to this file (a run per split can go in parallel)")
     ap.add_argument("--from-json", nargs="+", metavar="FILE", help="write the table from saved runs; fit nothing")
@@ -225,6 +227,13 @@ def main() -> None:
         return
     settings = ([FIGAROH_DEFAULT] if args.quick else [(m, lv) for lv in LEVELS for m in METHODS] if args.all_settings
                 else list(SEARCHED))
+    if args.settings:
+        asked = [tuple(t.split("/")) for t in args.settings]
+        bad = [t for t in asked if len(t) != 2 or t[0] not in METHODS or t[1] not in LEVELS]
+        if bad:
+            ap.error(f"--settings {'/'.join(bad[0])}: METHOD/LEVEL with METHOD one of {', '.join(METHODS)} "
+                     f"and LEVEL one of {', '.join(LEVELS)}")
+        settings = list(dict.fromkeys([FIGAROH_DEFAULT, *asked]))
     rows, every = {}, []
     for split in args.splits:
         m, train, held = _split(split)

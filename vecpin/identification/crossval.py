@@ -35,31 +35,48 @@ from vecpin.units import norm_mm
 END_SHARE = 0.1   # the share of the commands at each end of an axis that :func:`command_folds` holds out together
 
 
+def end_blocks(campaign: Campaign, ends=()) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
+    """The commands of ``campaign`` and the ends of the axes ``ends``: (group (N,) the
+    command of each row, n_commands, [(axis, commands)] two blocks per axis, the
+    :data:`END_SHARE` of the commands with the lowest position on it and that share
+    with the highest)."""
+    keys = np.round(campaign.q, 9)
+    uq, group = np.unique(keys, axis=0, return_inverse=True)
+    group = np.asarray(group).ravel()
+    m = max(1, int(round(END_SHARE * len(uq))))
+    blocks = []
+    for a in ends:
+        by_position = np.argsort(uq[:, a], kind="stable")
+        blocks += [(a, by_position[:m]), (a, by_position[-m:])]
+    return group, len(uq), blocks
+
+
+def end_rows(campaign: Campaign, axis: int) -> np.ndarray:
+    """(N,) the rows of ``campaign`` whose command lies in an end block of ``axis``
+    (:func:`end_blocks`): the rows on which the folds of :func:`command_folds` judge
+    how a model extrapolates along that axis."""
+    group, _, blocks = end_blocks(campaign, (axis,))
+    return np.isin(group, np.concatenate([b for _, b in blocks]))
+
+
 def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=()) -> np.ndarray:
     """Fold index per row; rows with the same axis command share a fold.
 
     ``ends``: axis indices whose ends are held out whole: on each such axis the
     :data:`END_SHARE` of the commands with the lowest position, and that share with the
-    highest, form a block each, the blocks dealt to the folds in random order (a command
-    in two blocks goes with the first), so that each block's fold is estimated without
-    any command beyond the rest of the axis' measured span: its held-out rows judge how a
-    model *extrapolates* along that axis. The other commands are dealt at random
-    (interleaved folds). Without ``ends``: interleaved folds only."""
-    keys = np.round(campaign.q, 9)
-    uq, group = np.unique(keys, axis=0, return_inverse=True)
-    group = np.asarray(group).ravel()
+    highest, form a block each (:func:`end_blocks`), the blocks dealt to the folds in
+    random order (a command in two blocks goes with the first), so that each block's
+    fold is estimated without any command beyond the rest of the axis' measured span:
+    its held-out rows judge how a model *extrapolates* along that axis. The other
+    commands are dealt at random (interleaved folds). Without ``ends``: interleaved
+    folds only."""
+    group, n, blocks = end_blocks(campaign, ends)
     if not len(ends):
-        perm = rng.permutation(group.max() + 1)
+        perm = rng.permutation(n)
         return perm[group] % k
-    n = len(uq)
-    m = max(1, int(round(END_SHARE * n)))
-    blocks = []
-    for a in ends:
-        by_position = np.argsort(uq[:, a], kind="stable")
-        blocks += [by_position[:m], by_position[-m:]]
     fold = np.full(n, -1)
     for f, b in enumerate(rng.permutation(len(blocks))):
-        free = blocks[b][fold[blocks[b]] < 0]
+        free = blocks[b][1][fold[blocks[b][1]] < 0]
         fold[free] = f % k
     rest = np.flatnonzero(fold < 0)
     fold[rest] = rng.permutation(len(rest)) % k

@@ -28,8 +28,15 @@ than 90 % of its travel: there the commands at each end of its measured span (a 
 each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
 that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
 as it will be used beyond the measured span (a robot measured over part of its joint
-ranges; a machine measured over part of a travel its tables cover). A campaign over the
-whole travel keeps interleaved folds only.
+ranges; a machine measured over part of a travel its tables cover). Along such an axis the
+basis is then chosen on the rows of its own held-out ends (:func:`_ends_choice`): each
+kind's choice by the one-SE rule keeps its other axes, and the basis of each partly
+measured axis becomes the one with the fewest terms (never more than it had) within one
+standard error of the lowest held-out mean on that axis' end rows, so the model keeps
+only what extrapolates along it (a constant or a line, where the rest extrapolates
+wildly), while the axes it interpolates keep their richer functions; of the kinds so
+chosen, the one-SE rule on every held-out row decides. A campaign over the whole
+travel keeps interleaved folds only, and the choice as before.
 
 When the noise level is not stated (``noise_from_data``), the best candidate of the
 first stage tells it: every noise sigma is scaled by sqrt(chi2 / expected) of its
@@ -55,7 +62,7 @@ from typing import Callable
 import numpy as np
 
 from vecpin.errors import IdentifiabilityError, InputError
-from vecpin.identification.crossval import command_folds
+from vecpin.identification.crossval import command_folds, end_rows
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
@@ -92,6 +99,7 @@ class ModelChoice:
     part_turn: tuple = ()    # axes travelling over a turn but measured over less: no series per turn tried
     ends: tuple = ()         # axes measured over part of their travel: the ends of their span held out whole
     noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
+    before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
 
     def table(self, limit: int = 30) -> str:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
@@ -118,6 +126,10 @@ class ModelChoice:
             lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel: {', '.join(self.ends)}; "
                          "the commands at each end of their measured span were held out together, so the held-out "
                          "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
+        if self.before_ends is not None and self.before_ends is not self.chosen:
+            lines.append(f"  (before the bases along them were chosen on their held-out ends: "
+                         f"{self.before_ends.label()}, {self.before_ends.n_terms} model terms, held-out mean "
+                         f"{self.before_ends.mean:.4f} mm)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -138,6 +150,7 @@ class ModelChoice:
                 "noise_scale": self.noise_scale,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
+                "before_ends": None if self.before_ends is None else self.before_ends.to_dict(self.machine),
                 "candidates": [c.to_dict(self.machine) for c in sorted(self.candidates, key=lambda c: c.mean)]}
 
 
@@ -231,14 +244,18 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
             say(f"refined axis by axis: {cur.label()}")
     cands, first = search.cands, problems[kinds[0]]
     best = min(cands, key=lambda c: c.mean)
-    chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
+    before = None
+    if ends and per_axis:   # along axes the model is used beyond, what extrapolates (_ends_choice)
+        chosen, se, reason, before = _ends_choice(search, problems, camp, options, ends)
+    else:
+        chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     limit = search.limit
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
-                       tuple(machine.axes[a].name for a in ends), scale)
+                       tuple(machine.axes[a].name for a in ends), scale, before)
 
 
 def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, orders, options,
@@ -254,6 +271,62 @@ def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, o
     if not search.cands:
         raise _too_small(machine, campaign, problems, search.limit)
     return search
+
+
+def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
+                 ends) -> tuple[Candidate, float, str, Candidate]:
+    """The choice when axes were measured over part of their travel (``ends``): every
+    kind's own choice by the one-SE rule, its bases along those axes chosen again on
+    their held-out ends (:func:`_along_ends`), then among the kinds' results the one-SE
+    rule on every held-out row: (chosen, its standard error [mm], the reason, the chosen
+    kind's choice before its ends were judged)."""
+    changes, starts = {}, {}
+    results = []
+    for kind, prob in problems.items():
+        own = [c for c in search.cands if c.kind == kind]
+        if not own:
+            continue
+        start = one_standard_error(own, min(own, key=lambda c: c.mean), prob.size)[0]
+        end, changed = _along_ends(search, prob, camp, start, options, ends)
+        results.append(end)
+        changes[end.kind], starts[end.kind] = changed, start
+    low = min(results, key=lambda c: c.mean)
+    chosen, se, _ = one_standard_error(results, low, lambda c: problems[c.kind].size(c))
+    changed = changes[chosen.kind]
+    reason = (f"each kind's fewest model terms within one standard error of its lowest held-out mean, its bases along "
+              f"the axes measured over part of their travel then chosen on their held-out ends by the same rule"
+              f"{' (' + ', '.join(changed) + ')' if changed else ''}; of the kinds, "
+              + ("the lowest held-out mean" if chosen is low else
+                 f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
+    return chosen, se, reason, starts[chosen.kind]
+
+
+def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate, options,
+                ends) -> tuple[Candidate, list[str]]:
+    """The basis of every axis measured over part of its travel (``ends``, chain order)
+    chosen again on the held-out rows of that axis' own ends (:func:`end_rows`), the
+    other axes as reached so far: among that axis' options with no more terms than it
+    has (effective terms, :meth:`Problem.size`), the fewest model terms within one paired standard error of the lowest held-out
+    mean on those rows (:func:`one_standard_error`), so that along an axis the model is
+    used beyond, it keeps only what extrapolates there. (The candidate reached, what
+    changed, 'axis old -> new'.)"""
+    chosen, changed = start, []
+    for i in ends:
+        rows = end_rows(camp, i)[prob.judged]
+        trials = [chosen.axes[:i] + (o,) + chosen.axes[i + 1:] for o in options[i]
+                  if o.size <= chosen.axes[i].size]
+        new = [t for t in trials if (prob.kind, t) not in search.scored and (prob.kind, t) not in search.left_out
+               and search.supported(prob, t)]
+        for c in (prob.candidates(new) if len(new) > 1 else [prob.candidate(t) for t in new]):
+            search.add(c)
+        pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
+        pool = [c for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
+        low = min(pool, key=lambda c: c.heldout[rows].mean())
+        pick = one_standard_error(pool, low, prob.size, rows)[0]
+        if pick is not chosen:
+            changed.append(f"{prob.machine.axes[i].name} {chosen.axes[i].label()} -> {pick.axes[i].label()}")
+            chosen = pick
+    return chosen, changed
 
 
 def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:
@@ -293,15 +366,17 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
 
 
-def one_standard_error(cands: list[Candidate], best: Candidate,
-                       size: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
+def one_standard_error(cands: list[Candidate], best: Candidate, size: Callable[[Candidate], float] | None = None,
+                       rows: np.ndarray | None = None) -> tuple[Candidate, float, str]:
     """The fewest terms among the candidates within one paired standard error of the best
-    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those within)."""
+    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those
+    within; ``rows``: judge on these held-out rows only, default all)."""
     size = size or (lambda c: c.n_terms)
-    n = best.heldout.size
+    rows = slice(None) if rows is None else rows
+    n = best.heldout[rows].size
     ok = []
     for c in cands:
-        delta = c.heldout - best.heldout
+        delta = c.heldout[rows] - best.heldout[rows]
         se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
         if delta.mean() <= se:
             ok.append((c, se))
