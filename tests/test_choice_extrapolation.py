@@ -12,6 +12,7 @@ import vecpin
 from vecpin.identification.crossval import END_SHARE, command_folds, end_rows
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.robotaccuracy import read_dataset
+from vecpin.planning.zones import clip_to_zone
 from vecpin.selection.choice import PART_OF_TRAVEL, choose_model, partly_measured
 from vecpin.simulation.independent import IndependentMachine, layout
 from vecpin.simulation.judge import validation_commands, validation_error
@@ -27,8 +28,12 @@ def test_a_campaign_over_the_whole_travel_keeps_interleaved_folds(machines):
     assert (span >= PART_OF_TRAVEL).all() and partly_measured(m, c) == ()
     np.testing.assert_array_equal(command_folds(c, 5, np.random.default_rng(0), partly_measured(m, c)),
                                   command_folds(c, 5, np.random.default_rng(0)))
-    half = c.subset(c.q[:, 0] < m.axes[0].lower + 0.5 * (m.axes[0].upper - m.axes[0].lower))
+    mid = m.axes[0].lower + 0.5 * (m.axes[0].upper - m.axes[0].lower)
+    half = c.subset(c.q[:, 0] < mid)
     assert 0 in partly_measured(m, half)
+    # a zone's model is used in its zone only: measured over the zone, X is not partly measured
+    zone = {"X": (m.axes[0].to_user(m.axes[0].lower), m.axes[0].to_user(mid))}
+    assert 0 not in partly_measured(m, half, clip_to_zone(m, zone))
     ch = choose_model(m, c, NoiseModel.default(m, "spherical"), kinds=("6dof",), orders=(0, 1, 2))
     assert ch.ends == () and ch.before_ends is None and "before the bases along them" not in ch.table()
 
@@ -134,3 +139,16 @@ def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypa
         errors[tag] = [validation_error(model, truth, q[s], tool[s])[0] for s in (inside, ~inside)]
     assert errors["ends"][1] < 0.2 * errors["interleaved"][1]
     assert errors["ends"][0] < 1.3 * errors["interleaved"][0]
+
+
+def test_a_zone_fit_judges_the_ends_against_the_zone(machines):
+    """`vecpin fit --zone`: the zone's rows cover the zone's X, so X's ends are not held out
+    (the zone's model is not used beyond it); without the zone the same rows measure half of X."""
+    from vecpin.workflows.fitting import fit_campaign
+    m = machines["flow_xyzcb"]
+    x = m.axes[0]
+    c = simulate(m, seed=3, design=Design(n_commands=120, n_validation=5)).campaign
+    zone = {"X": (x.to_user(x.lower), x.to_user(x.lower + 0.5 * (x.upper - x.lower)))}
+    run = fit_campaign(m, c, NoiseModel.default(m, "spherical"), kind="6dof", zone=zone)
+    assert "X" not in run.choice.ends and run.rows_in_zone == len(run.campaign) < len(c)
+    assert 0 in partly_measured(m, run.campaign)

@@ -123,7 +123,8 @@ class ModelChoice:
             lines.append(f"  (no series per turn on {', '.join(self.part_turn)}: measured over less than a turn, where "
                          "they cannot be told from series over the travel and extrapolate over the rest of the turn)")
         if self.ends:
-            lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel: {', '.join(self.ends)}; "
+            lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel (or zone): "
+                         f"{', '.join(self.ends)}; "
                          "the commands at each end of their measured span were held out together, so the held-out "
                          "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
         if self.before_ends is not None and self.before_ends is not self.chosen:
@@ -200,7 +201,8 @@ def _what_to_try(machine: Machine, campaign: Campaign, judged: Campaign, familie
 def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kinds=None,
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
-                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 noise_from_data: bool = False, travel: tuple[np.ndarray, np.ndarray] | None = None,
+                 progress: Callable[[str], None] | None = None) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
@@ -224,7 +226,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine)
     camp = _subsample(campaign, seed)
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
-    ends = partly_measured(machine, campaign)
+    ends = partly_measured(machine, campaign, travel)
     fold = command_folds(camp, folds, np.random.default_rng(seed), ends)
     problems = {}
     for kind in kinds:
@@ -454,7 +456,8 @@ BASES = ("auto",) + FAMILIES
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
                   order: int | str = "auto", *, folds: int = 5, seed: int = 0, underdetermined: bool = False,
-                  progress: Callable[[str], None] | None = None, noise_from_data: bool = False, **opts):
+                  progress: Callable[[str], None] | None = None, noise_from_data: bool = False,
+                  travel: tuple[np.ndarray, np.ndarray] | None = None, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of
     ``kind``, ``basis`` (a family on the axes it applies to) and ``order`` fixed; a fully
     fixed choice builds the model directly. ``opts``: model options (tool_lengths,
@@ -465,7 +468,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
     candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
     the choice scales the noise to what the data say (:func:`choose_model`; a fixed
-    choice leaves that to the fit)."""
+    choice leaves that to the fit); ``travel``: where the model will be used
+    (:func:`~vecpin.selection.design.partly_measured`)."""
     if kind not in ("auto", *MODELS):
         raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
     if basis not in BASES:
@@ -484,5 +488,6 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
                           plans=None if basis == "auto" else (basis,),
                           orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          underdetermined=underdetermined, noise_from_data=noise_from_data, progress=progress)
+                          underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
+                          progress=progress)
     return choice.chosen.model(machine, **opts), choice

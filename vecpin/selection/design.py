@@ -135,14 +135,18 @@ def per_turn_measured(span: float) -> bool:
     return span >= 2 * math.pi * (1 - 1e-9)
 
 
-def partly_measured(machine: Machine, campaign: Campaign) -> tuple[int, ...]:
+def partly_measured(machine: Machine, campaign: Campaign, travel: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> tuple[int, ...]:
     """Indices of the axes whose commands span less than :data:`PART_OF_TRAVEL` of the
-    travel: the model will be used beyond what the campaign measured there (tables cover
-    the travel; a robot works beyond its calibration poses), so the choice holds out the
-    commands at both ends of their measured span (:func:`command_folds`' ``ends``) and
-    judges how each candidate extrapolates along them."""
+    travel: the model will be used beyond what the campaign measured there (a robot works
+    beyond its calibration poses, a prediction is asked over the whole travel), so the
+    choice holds out the commands at both ends of their measured span
+    (:func:`command_folds`' ``ends``) and judges how each candidate extrapolates along
+    them. ``travel``: (low, high) [m, rad] per axis, where the model will be used
+    (default: the axes' limits; a zone's model is used in its zone only)."""
+    lo, hi = (machine.lower, machine.upper) if travel is None else travel
     span = np.ptp(campaign.q, axis=0)
-    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (a.upper - a.lower))
+    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (hi[a.index] - lo[a.index]))
 
 
 def axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list[str], np.ndarray]:

@@ -27,7 +27,7 @@ from vecpin.measurement.noise import NoiseModel, scaled_noise
 from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
-from vecpin.planning.zones import Zone, inside
+from vecpin.planning.zones import Zone, clip_to_zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
 from vecpin.selection.orders import check_folds
 from vecpin.units import MM_PER_M, norm_mm
@@ -190,6 +190,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
             "prior_scale": prior_scale}
     model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds,
                                   underdetermined=underdetermined, progress=progress,
+                                  travel=clip_to_zone(machine, zone) if zone else None,
                                   noise_from_data=noise_from_data, **opts)
     check_size(model)
     model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.noise_scale if choice else 1.0,
