@@ -81,9 +81,10 @@ def run_profile(args) -> int:
     from vecpin.cli.common import machine
     from vecpin.workflows.tables import write_profile_template
     m = machine(args.machine, args)
-    path, blanks = write_profile_template(m, args.controller, args.out)
-    print(f"wrote {path}: the {args.controller} profile of {m.name} with {blanks} field(s) to fill in (null); each "
-          "field's meaning and where it is found on the control are in its \"comment\"")
+    path, needed, optional = write_profile_template(m, args.controller, args.out)
+    print(f"wrote {path}: the {args.controller} profile of {m.name} with {needed} field(s) the controller's files "
+          f"need and {optional} optional one(s) to fill in (null); each field's meaning and where it is found on the "
+          "control are in its \"comment\"")
     return 0
 
 

@@ -348,16 +348,18 @@ def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> Si
 def write_profile_template(machine, controller: str, out: str | Path) -> tuple[Path, int]:
     """Write the controller profile template of ``machine`` (:mod:`vecpin.export.profiletemplate`)
     to ``out``; an existing file is refused (it may be the user's filled-in profile).
-    Returns (path, number of fields left null)."""
+    Returns (path, fields left null that the controller's files need, optional fields left null)."""
     import json
 
-    from vecpin.export.profiletemplate import template
+    from vecpin.export.profiletemplate import FIELDS, template
     from vecpin.fileio import write_text
     path = Path(out)
     if path.exists():
         raise InputError(f"`out` {out}: the file exists (a filled-in profile?); give another name or remove it")
     d = template(machine, controller)
+    required = FIELDS[controller][0]
+    needed = sum(v is None and f in required for facts in d["axes"].values() for f, v in facts.items())
     blanks = sum(v is None for facts in d["axes"].values() for v in facts.values())
     blanks += sum(v is None for v in d.get("options", {}).values())
     write_text(path, json.dumps(d, indent=1) + "\n")
-    return path, blanks
+    return path, needed, blanks - needed
