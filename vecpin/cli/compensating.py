@@ -63,7 +63,8 @@ def register(sub) -> None:
                    help="rotary input axis with modulo tables over one turn 0..360 deg (also: \"modulo\": true in "
                         "the profile); repeatable (default: none)")
     s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on "
-                   "(default: 1000 quasi-random commands in the measured region, with the fit's tools)")
+                   "(default: quasi-random commands in the measured region, with the fit's tools: at least 1000, more when the "
+                   "table set has many coefficients, 40 equations each; the printout gives the number)")
     s.add_argument("--sign-test", metavar="AXIS|TABLE",
                    help="also write a sign-test NC program and instructions for this axis' pitch table or this "
                         "table (e.g. X or yx); judge it with vecpin evaluate --sign-test-file (default: none)")
