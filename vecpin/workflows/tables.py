@@ -232,9 +232,12 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
         if fmt.read is None:
             raise InputError(f"`sign_test`: {controller} writes no tables a controller applies")
         key = sign_test.strip().lower()
-        if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
-                                                                          for i in m.axis_names}:
+        inputs = {a.lower(): a for a in m.axis_names} | {(o + i).lower(): i for o in m.axis_names
+                                                         for i in m.axis_names}
+        if key not in inputs:
             raise InputError(f"`sign_test` {sign_test}: neither an axis nor a table of {m.name}")
+        from vecpin.export.signtest import check_address  # its program's address, before the tables are computed
+        check_address(prof.axis(inputs[key]).program_name or inputs[key], fmt.dialect, inputs[key], prof.where)
     return fmt, prof, limits, modulo
 
 
