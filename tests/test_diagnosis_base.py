@@ -43,3 +43,19 @@ def test_a_base_with_a_fixed_order_or_of_another_machine_is_refused(fitted, tmp_
                  "--model", "ap", "--basis", "chebyshev", "--order", "1", "--quiet"]) == 0
     refused(["diagnose", "flow_xyzcb", csv, "--out", tmp_path / "d", "--base", tmp_path / "t.json"],
             capsys, "--base", "trunnion_xyzac", "flow_xyzcb")
+
+
+def test_what_to_do_names_the_model_file_where_it_was_written(tmp_path, capsys):
+    """With nothing unmodelled, the printout's advice names the base model's file with the
+    --out folder, a path that exists from where the command ran; diagnosis.json, in that
+    folder, names it relative to itself."""
+    d = tmp_path / "run"
+    assert main(["simulate", "flow_xyzcb", "--out", str(d / "sim"), "--seed", "5", "--points", "60",
+                 "--validation", "5"]) == 0
+    cap = ok(["diagnose", "flow_xyzcb", d / "sim" / "campaign.csv", "--out", d / "diag", "--effects", "backlash",
+              "--model", "6dof", "--order", "3", "--quiet"], capsys)
+    advice = next(line for line in cap.out.splitlines() if line.startswith("What to do:"))
+    named = advice.split("vecpin tables ")[1].split(")")[0]
+    assert named == f"{d / 'diag'}/model_base.json" and (d / "diag" / "model_base.json").is_file()
+    saved = json.loads((d / "diag" / "diagnosis.json").read_text())["headline"][2]
+    assert "(vecpin tables model_base.json)" in saved

@@ -69,3 +69,14 @@ def test_no_hard_coded_kind_names_left():
     found = [f"{p.relative_to(PACKAGE)}:{i}" for p in PACKAGE.rglob("*.py")
              for i, line in enumerate(p.read_text().splitlines(), 1) if pattern.search(line)]
     assert not found, found
+
+
+def test_the_report_names_each_axis_basis_when_they_differ(flow):
+    """A model whose axes carry different series (the data's choice) is not called
+    "order N" in the report: its label lists each axis' basis, as the fit's choice table."""
+    from vecpin.models.basis import AxisBasis
+    orders = [4, 2, 3, 2, 5]
+    bases = [AxisBasis(a.lower, a.upper, o, "chebyshev", rotary=a.kind == "rotary") for a, o in zip(flow.axes, orders)]
+    mixed = make_model("6dof", flow, max(orders), bases=bases)
+    assert model_label(mixed) == "6-DoF cheb4/cheb2/cheb3/cheb2/cheb5"
+    assert model_label(make_model("6dof", flow, 3)) == "6-DoF order 3"     # one series order on every axis

@@ -53,3 +53,17 @@ def test_tables_refuse_the_empty_template_then_take_it_filled_in(tmp_path, model
     prof.write_text(json.dumps(d))
     assert main(args) == 0
     assert (tmp_path / "t" / "MD_REFP.INI").is_file() and (tmp_path / "t" / "AX_EEC.INI").is_file()
+
+
+@pytest.mark.parametrize("controller, needed, optional", [("siemens-840d", 10, 11), ("linuxcnc", 0, 11)])
+def test_the_printout_counts_needed_and_optional_nulls_apart(tmp_path, controller, needed, optional, capsys):
+    """trunnion_xyzac, 5 axes: Siemens needs nc_name and reference_position of each (10),
+    general_name and program_name are optional on each, modulo on C alone (11); LinuxCNC
+    needs nothing (number and program_name per axis and the INI are optional: 11)."""
+    out = tmp_path / "p.json"
+    assert main(["profile", "trunnion_xyzac", "--controller", controller, "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert f"with {needed} field(s) the controller's files need and {optional} optional one(s)" in said
+    d = json.loads(out.read_text())
+    nulls = sum(v is None for facts in d["axes"].values() for v in facts.values())
+    assert nulls + sum(v is None for v in d.get("options", {}).values()) == needed + optional

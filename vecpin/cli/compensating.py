@@ -63,7 +63,8 @@ def register(sub) -> None:
                    help="rotary input axis with modulo tables over one turn 0..360 deg (also: \"modulo\": true in "
                         "the profile); repeatable (default: none)")
     s.add_argument("--commands", help="campaign CSV whose commands (and tools) the tables are fitted and judged on "
-                   "(default: 1000 quasi-random commands in the measured region, with the fit's tools)")
+                   "(default: quasi-random commands in the measured region, with the fit's tools: at least 1000, more when the "
+                   "table set has many coefficients, 40 equations each; the printout gives the number)")
     s.add_argument("--sign-test", metavar="AXIS|TABLE",
                    help="also write a sign-test NC program and instructions for this axis' pitch table or this "
                         "table (e.g. X or yx); judge it with vecpin evaluate --sign-test-file (default: none)")
@@ -81,9 +82,10 @@ def run_profile(args) -> int:
     from vecpin.cli.common import machine
     from vecpin.workflows.tables import write_profile_template
     m = machine(args.machine, args)
-    path, blanks = write_profile_template(m, args.controller, args.out)
-    print(f"wrote {path}: the {args.controller} profile of {m.name} with {blanks} field(s) to fill in (null); each "
-          "field's meaning and where it is found on the control are in its \"comment\"")
+    path, needed, optional = write_profile_template(m, args.controller, args.out)
+    print(f"wrote {path}: the {args.controller} profile of {m.name} with {needed} field(s) the controller's files "
+          f"need and {optional} optional one(s) to fill in (null); each field's meaning and where it is found on the "
+          "control are in its \"comment\"")
     return 0
 
 

@@ -106,6 +106,7 @@ class Diagnosis:
     # agree, or they crowd one stretch of an axis): {"axis", "from", "to", "unit", "rows",
     # "lines", "rows_there", "where" (short), "text" (with the file lines)}
     misfit_regions: list[dict] = field(default_factory=list)
+    folder: str = ""  # where :meth:`write` put the files ("": not written): the printed paths start with it
 
     def to_settle(self) -> list[EffectScore]:
         """Findings with a discriminating measurement (ambiguity groups, dropped effects)."""
@@ -118,10 +119,13 @@ class Diagnosis:
     def best_heldout(self) -> tuple[float, float]:
         return self.best
 
-    def headline(self) -> list[str]:
+    def headline(self, folder: str = "") -> list[str]:
         """Three plain sentences: where the gap lies, which effect(s) and how much they
-        shrink it, what to do."""
+        shrink it, what to do. ``folder``: prefix of the files named (the diagnosis'
+        folder as given, for the printout; "": relative to that folder, as diagnosis.json
+        holds them)."""
         b = self.base
+        at = f"{folder.rstrip('/')}/" if folder else ""
         loc = self.localization
         where = [loc["breakdowns"][k]["coordinate"] for k in loc["most_structured"][:3]]
         s1 = (f"Where: after the base model ({b['label']}) the held-out residual is {b['heldout_mean_mm']:.4f} mm on "
@@ -141,11 +145,11 @@ class Diagnosis:
                    + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
-                 f"next_{k}/ right after the campaign and diagnose again with them appended."
+                 f"{at}next_{k}/ right after the campaign and diagnose again with them appended."
                  for k, e in enumerate(self.to_settle(), 1)]
         todo = [t if t.endswith(".") else t + "." for t in todo]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
-                                                          "(vecpin tables model_base.json).")
+                                                          f"(vecpin tables {at}model_base.json).")
         if self.unexplained:
             s3 += (" Not explained by any candidate: structure along "
                    + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")
@@ -164,7 +168,7 @@ class Diagnosis:
 
     def summary(self) -> str:
         b = self.base
-        lines = self.headline() + ([self.base_finding] if self.base_finding else []) + ["",
+        lines = self.headline(self.folder) + ([self.base_finding] if self.base_finding else []) + ["",
                                    f"base model {b['label']}: held-out mean {b['heldout_mean_mm']:.4f} mm, max "
                                    f"{b['heldout_max_mm']:.4f} mm ({b['folds']}-fold CV over {b['rows']} rows)"]
         if self.outlier_lines:
@@ -196,6 +200,7 @@ class Diagnosis:
             for k, e in enumerate(self.to_settle(), 1):
                 paths.update(_write_next(self.machine, e.next_plan, out, f"next_{k}"))
             paths["report"] = write_report(self, out)
+        self.folder = str(out_dir)
         return paths
 
 

@@ -164,7 +164,8 @@ def check_ini(machine: Machine, profile: ControllerProfile, joints: dict[str, in
             raise InputError(f"{path}: [TRAJ] {key} = {value.strip()}; vecpin's files are in mm and degrees")
     coords = _coordinates(cp.get("KINS", "KINEMATICS", fallback=""))
     for a, j in joints.items():
-        ax, letter = machine.axis(a), _letter(profile.axis(a).nc_name, a)
+        facts = profile.axis(a)
+        ax, letter = machine.axis(a), _letter(a, facts.nc_name, facts.program_name)
         jtype = cp.get(f"JOINT_{j}", "TYPE", fallback=None)
         want = "LINEAR" if ax.kind == "linear" else "ANGULAR"
         if jtype is not None and jtype.strip().upper() != want:
@@ -180,10 +181,11 @@ def check_ini(machine: Machine, profile: ControllerProfile, joints: dict[str, in
     return notes
 
 
-def _letter(nc_name: str | None, axis: str) -> str | None:
-    """The axis letter (X, Y, Z, A, B, C, U, V, W) of an axis: its NC name or its own name
-    when that is a letter (None: neither is)."""
-    for name in (nc_name, axis):
+def _letter(axis: str, nc_name: str | None, program_name: str | None) -> str | None:
+    """The axis letter (X, Y, Z, A, B, C, U, V, W) of an axis: its NC name, its address in
+    part programs (a vendor's joint name such as 'X_axis' has its letter there) or its own
+    name, the first of them that is a letter (None: none is)."""
+    for name in (nc_name, program_name, axis):
         if name and len(name) == 1 and name.upper() in "XYZABCUVW":
             return name.upper()
     return None

@@ -25,6 +25,7 @@ import csv
 import io
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -180,12 +181,31 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     return name, "\n".join(lines) + "\n"
 
 
+#: what an axis address is in each dialect's programs: (pattern, in words)
+ADDRESSES = {"siemens": (r"[A-Z][A-Z0-9]{0,7}", "a capital letter (not F, G, M, N, O, P, S, T) with up to 7 more "
+                                               "capitals or digits"),
+             "din": (r"[A-Z][A-Z0-9]{0,7}", "capitals and digits, a capital first")}
+LETTERS = (r"[XYZABCUVW]", "one of X Y Z A B C U V W")
+
+
+def check_address(address: str, dialect: str, axis: str, where: str) -> None:
+    """Refuse a program address the control would not read as an axis (a vendor joint name
+    such as 'X_axis' taken as the address): ``where`` names the profile in the message."""
+    pattern, words = ADDRESSES.get(dialect, LETTERS)
+    if re.fullmatch(pattern, address) is None or (dialect == "siemens" and address[0] in "FGMNOPST"):
+        raise InputError(f"{where}, field 'axes.{axis}.program_name': the sign-test program would address {axis} as "
+                         f"'{address}', which is no {dialect} axis address ({words}); give the address your part "
+                         f"programs use, e.g. \"program_name\": \"{axis[0].upper()}\"")
+
+
 def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: ControllerProfile, notes: list[str],
                     commands: UserCommands = UserCommands()) -> list[str]:
     """The program, instructions, prediction and CSV form of one sign test; ``commands``: how the
-    instructions name the check (the caller's words)."""
+    instructions name the check (the caller's words). An address the dialect does not read
+    as an axis is refused (:func:`check_address`)."""
     p = profile.axis(st.input_axis)
     address = p.program_name or st.input_axis
+    check_address(address, dialect, st.input_axis, profile.where)
     prog_name, prog = program(st, dialect, address)
     tag = st.table.upper()
     out.write_text(prog_name, prog)

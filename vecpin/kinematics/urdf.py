@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.errors import MachineError
+from vecpin.errors import MachineError, VecpinWarning
 
 #: deepest chain (joints from the root to a link) vecpin accepts; Pinocchio's URDF
 #: parser recurses once per link and crashes the interpreter on chains of thousands.
@@ -220,6 +221,9 @@ def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
                      [-sp, cp * sr, cp * cr]])
 
 
+MAX_TRAVEL_M = 100.0   # a linear travel beyond this is read as limits written in mm (URDF: m), and warned of
+
+
 def _read_joint(el, source: str, notes: list[str]) -> UrdfJoint:
     name = el.get("name")
     if not name:
@@ -260,6 +264,11 @@ def _read_joint(el, source: str, notes: list[str]) -> UrdfJoint:
                                    f"({'m' if jtype == 'prismatic' else 'rad'})")
             lower = _number(limit, "lower", f"{where}: <limit>")
             upper = _number(limit, "upper", f"{where}: <limit>")
+            if jtype == "prismatic" and lower is not None and upper is not None and upper - lower > MAX_TRAVEL_M:
+                warnings.warn(VecpinWarning(
+                    f"{where}: <limit> lower {lower:g} upper {upper:g} is a travel of {upper - lower:g} m; URDF "
+                    f"limits are metres: a travel of {upper - lower:g} mm is written {(upper - lower) / 1000:g}"),
+                    stacklevel=2)
     mimic = None
     m = el.find("mimic")
     if m is not None and jtype in MOVABLE:

@@ -191,7 +191,11 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     check_header(name, header, machine, body_text)
     parsed = _parse_fast(path, header, body_text)
     if parsed is None:
-        parsed = _parse_rows(name, header, body_text)
+        try:
+            parsed = _parse_rows(name, header, body_text)
+        except CampaignFileError as exc:
+            _refuse_template(exc, header, body_text)
+            raise
     values, instrument, rows, texts = parsed
     del text, body_text
     col = {h: values[:, j] for j, h in enumerate(header)}
@@ -217,6 +221,19 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     warn_duplicates(name, np.column_stack([values, *codes]) if len(codes) > 1 else values, rows)
     return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
                     instrument, station, radius, pivot, rows, point, target)
+
+
+def _refuse_template(exc: CampaignFileError, header: list[str], body: str) -> None:
+    """An empty reading cell in a file whose x, y, z cells are all empty: a plan's
+    template (commands without readings) was given for a campaign; say so."""
+    if exc.column not in ("x", "y", "z") or not exc.reason.startswith("empty cell"):
+        return
+    cols = [header.index(c) for c in ("x", "y", "z")]
+    rows = [r for r in csv.reader(io.StringIO(body)) if any(c.strip() for c in r)]
+    if all(len(r) > max(cols) and not any(r[j].strip() for j in cols) for r in rows):
+        raise CampaignFileError(exc.path, "no readings: x, y and z are empty on every row, as in a plan's template "
+                                "(plan.csv of vecpin plan), which holds the commands to measure; give the campaign "
+                                "(the tracker's export joined to the plan by vecpin import)", column="x") from None
 
 
 def _split_header(name: str, line: str) -> list[str]:

@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
-from vecpin.errors import CampaignFileError, InputError
+from vecpin.errors import CampaignFileError, InputError, VecpinWarning
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.exportread import (_COMMA, DELIMITER_NAMES, LENGTH_UNITS, TIME_FORMATS, UNIT_NAMES,
@@ -295,6 +296,18 @@ def _decimal_mark(table: ExportTable, idx: dict[str, int], machine: Machine, dec
     return dec
 
 
+MISSING_SHARE = 0.2   # of a plan's points: more missing from an export is warned of (a few lost sights are usual)
+
+
+def _warn_unmeasured(path, missing: int, template: PlanTemplate) -> None:
+    """Warn when more than :data:`MISSING_SHARE` of the plan's points are not in the export."""
+    if missing > MISSING_SHARE * len(template):
+        warnings.warn(VecpinWarning(
+            f"{path}: {missing} of the {len(template)} points of the plan {template.source} are not in the export "
+            f"({100 * missing / len(template):.0f} %): an export cut short, or one of several files? The plan's "
+            "predicted accuracy counted every point; the campaign written holds the measured ones only"), stacklevel=3)
+
+
 def _join_plan(ex: _Export, template: PlanTemplate, ignore_unmatched: bool) -> _Joined:
     """The export's rows joined with the plan's: by point number when the export names
     its points (whole names), else by order (the counts must agree)."""
@@ -326,6 +339,7 @@ def _join_plan(ex: _Export, template: PlanTemplate, ignore_unmatched: bool) -> _
             seen[nums[k]] = k
         rows_plan = np.array([where[n] for n in nums[keep]], int)
         unmeasured = sorted(set(int(p) for p in template.point) - set(int(n) for n in nums[keep]))
+        _warn_unmeasured(table.path, len(unmeasured), template)
         joined_by = "by point number (names P0007, Pt7 or 7, whole)"
     else:
         if len(table.rows) != len(template):

@@ -45,7 +45,13 @@ def stats_rows(label: str, d: np.ndarray, tool: np.ndarray) -> list[list]:
 
 
 def model_label(model: ErrorModel) -> str:
-    return f"{model.display_name} order {model.order}"
+    """'6-DoF order 6' when every axis has the series of that order (Chebyshev, or Fourier
+    on a rotary axis), else the kind and each axis' basis in the model choice's short form,
+    '6-DoF cheb4/cheb4/cheb6/cheb3/fourier4' (axes in the machine's order)."""
+    short = [B.short_label() for B in model.bases]
+    if all(s in (f"cheb{model.order}", f"fourier{model.order}") for s in short):
+        return f"{model.display_name} order {model.order}"
+    return f"{model.display_name} {'/'.join(short)}"
 
 
 def labels(models: list[ErrorModel]) -> list[str]:
@@ -95,7 +101,7 @@ def _header(data: ReportData) -> list[str]:
     parts = [f"<h1>vecpin report: {html.escape(data.models[0].machine.name)}</h1>"]
     for lab, mod in zip(data.labels, data.models):
         rep = mod.report_
-        parts.append(f"<p><b>{html.escape(lab)}</b> ({html.escape(mod.basis_kind)} basis): {rep.n_rows} rows, "
+        parts.append(f"<p><b>{html.escape(lab)}</b> ({html.escape(mod.label())}): {rep.n_rows} rows, "
                      f"{rep.instrument} instrument noise; chi2 = {rep.chi2:.1f}, expected {rep.chi2_expected:.1f} ± "
                      f"{rep.chi2_sigma:.1f} ({'in' if rep.chi2_in_band else 'outside'} its 3σ band); "
                      f"{len(rep.removed)} redundant terms removed; condition number {rep.condition_number:.3g}.</p>")

@@ -78,7 +78,7 @@ class FitRun:
             out.append(self.noise_line())
         if rep.removed:
             out.append(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
-        return out + residual_lines(model, c) + fitted_points_lines(model)
+        return out + residual_lines(model, c) + offset_lines(model) + fitted_points_lines(model)
 
     def noise_line(self) -> str | None:
         """What the data said of the noise level, for the printout (None: not estimated,
@@ -122,6 +122,25 @@ def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
     if campaign.ballbar_rows.size:
         d = np.abs(model.ballbar_residuals(campaign)) * MM_PER_M
         out.append(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
+    return out
+
+
+def offset_lines(model: ErrorModel) -> list[str]:
+    """The fitted gauge line ``T_offset`` (and the per-tool length corrections), mm ± 1 sigma:
+    a positive value is a tool tip farther from the gauge line along the tool than the
+    tool's length (the model's tip uses length + ``T_offset``)."""
+    removed = set(model.report_.removed)
+    sd = np.sqrt(np.clip(np.diag(model.cov_), 0, None))[6:6 + len(model.b_)]
+    out = []
+    for k, name in enumerate(model.parameter_names):
+        if name != "T_offset" and not name.startswith("tool["):
+            continue
+        what = "gauge line T_offset" if name == "T_offset" else f"length correction of {name}"
+        if name in removed:
+            out.append(f"  {what}: not identified by this campaign (removed as redundant), left at 0")
+        else:
+            out.append(f"  {what}: {model.b_[k] * MM_PER_M:+.4f} ± {sd[k] * MM_PER_M:.4f} mm (along the tool: the "
+                       "tip lies that much farther from the gauge line than the tool length says)")
     return out
 
 

@@ -22,7 +22,7 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import (DIALECTS, check_program_options, program_name, retract_axis,
+from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_names, program_name, retract_axis,
                                       retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
@@ -201,6 +201,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
+    for d in dialects:  # so does an axis without an NC address in a dialect asked for
+        nc_axis_names(machine, d, axis_map)
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s).check()
     from vecpin.viz.figures import plan_figure
     templates = {c: read_template(c, machine) for c in compare_with if c != "random"}  # a bad file fails now

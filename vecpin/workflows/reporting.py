@@ -81,6 +81,9 @@ def _residuals(models, labels, campaign, validation):
     rows, hist, vhist = [], {}, {}
     sets = [("identification", campaign, hist)] + ([("validation", validation, vhist)] if validation is not None else [])
     for name, c, target in sets:
+        if name == "validation" and models[0].machine.has_workpiece and len(c.nest_rows):
+            rows += _relative_to_table(models, labels, c, target)
+            continue
         u = uncompensated(models[0].machine, c, strict=False)
         if u is not None:
             rows += stats_rows(f"{name}: uncompensated", u.distances_mm, u.tool)
@@ -91,6 +94,23 @@ def _residuals(models, labels, campaign, validation):
             rows += stats_rows(f"{name}: model {lab}", after, c0.tool)
             target[lab] = after
     return rows, hist, vhist
+
+
+def _relative_to_table(models, labels, validation: Campaign, target: dict) -> list[list]:
+    """A validation run of a table machine with nest rows, judged as ``evaluate`` and
+    ``verify`` judge it: the tool tip relative to the table, each command's table pose
+    from its nests (:func:`vecpin.workflows.evaluation.evaluate`); the table rows [mm],
+    the distances into ``target``."""
+    from vecpin.workflows.evaluation import evaluate
+    rows = []
+    for k, (lab, mod) in enumerate(zip(labels, models)):
+        ev = evaluate(mod, validation)
+        if k == 0:
+            rows += stats_rows("validation, tip relative to the table: uncompensated", ev.uncompensated, ev.tool)
+            target["nominal"] = ev.uncompensated
+        rows += stats_rows(f"validation, tip relative to the table: model {lab}", ev.residual, ev.tool)
+        target[lab] = ev.residual
+    return rows
 
 
 def _sweeps(model: ErrorModel, campaign, validation, orders, say):

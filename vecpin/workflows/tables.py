@@ -232,9 +232,12 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
         if fmt.read is None:
             raise InputError(f"`sign_test`: {controller} writes no tables a controller applies")
         key = sign_test.strip().lower()
-        if key not in {a.lower() for a in m.axis_names} and key not in {(o + i).lower() for o in m.axis_names
-                                                                          for i in m.axis_names}:
+        inputs = {a.lower(): a for a in m.axis_names} | {(o + i).lower(): i for o in m.axis_names
+                                                         for i in m.axis_names}
+        if key not in inputs:
             raise InputError(f"`sign_test` {sign_test}: neither an axis nor a table of {m.name}")
+        from vecpin.export.signtest import check_address  # its program's address, before the tables are computed
+        check_address(prof.axis(inputs[key]).program_name or inputs[key], fmt.dialect, inputs[key], prof.where)
     return fmt, prof, limits, modulo
 
 
@@ -348,16 +351,18 @@ def check_sign(test_path: str | Path, check_csv: str | Path, machine=None) -> Si
 def write_profile_template(machine, controller: str, out: str | Path) -> tuple[Path, int]:
     """Write the controller profile template of ``machine`` (:mod:`vecpin.export.profiletemplate`)
     to ``out``; an existing file is refused (it may be the user's filled-in profile).
-    Returns (path, number of fields left null)."""
+    Returns (path, fields left null that the controller's files need, optional fields left null)."""
     import json
 
-    from vecpin.export.profiletemplate import template
+    from vecpin.export.profiletemplate import FIELDS, template
     from vecpin.fileio import write_text
     path = Path(out)
     if path.exists():
         raise InputError(f"`out` {out}: the file exists (a filled-in profile?); give another name or remove it")
     d = template(machine, controller)
+    required = FIELDS[controller][0]
+    needed = sum(v is None and f in required for facts in d["axes"].values() for f, v in facts.items())
     blanks = sum(v is None for facts in d["axes"].values() for v in facts.values())
     blanks += sum(v is None for v in d.get("options", {}).values())
     write_text(path, json.dumps(d, indent=1) + "\n")
-    return path, blanks
+    return path, needed, blanks - needed
