@@ -75,6 +75,10 @@ def test_orders_prints_the_table(simulated, capsys):
                  "--validation", str(simulated / "validation.csv"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "Uncompensated" in out and "best ap order" in out
+    # flow_xyzcb's C travels more than a turn: judged with Chebyshev series, the printout names the per-turn basis
+    assert "C travels more than a turn" in out and "--basis fourier" in out
+    best = int(out.split("best ap order on held-out data (validation file): ")[1].split()[0])
+    assert ("is the highest tried (3)" in out and "--orders 1-7" in out) == (best == 3)
 
 
 def test_demo_prints_before_and_after(tmp_path, capsys):

@@ -28,6 +28,8 @@ class OrdersRun:
     folds: int
     choice: ModelChoice | None = None
     sweeps: list[OrderSweep] = field(default_factory=list)
+    orders: tuple[int, ...] = ()     # the orders tried
+    per_turn_axes: tuple[str, ...] = ()  # rotary axes travelling more than a turn judged with Chebyshev series
 
     def best(self, kind: str) -> int:
         """The order of ``kind`` with the smallest held-out error."""
@@ -37,12 +39,29 @@ class OrdersRun:
 
     def lines(self) -> list[str]:
         if self.choice is not None:
-            return [self.choice.table(limit=len(self.choice.candidates))] + [
+            out = [self.choice.table(limit=len(self.choice.candidates))] + [
                 f"best {kind} order on held-out data ({self.folds}-fold CV, linearised): {self.best(kind)}"
                 for kind in self.kinds]
+        else:
+            out = []
+            for s in self.sweeps:
+                out += [s.table(), f"best {s.kind} order on held-out data ({s.method}): {s.best.order}\n"]
+        return out + self.hints()
+
+    def hints(self) -> list[str]:
+        """What to try next: higher orders when the highest tried is the best; the per-turn
+        basis on rotary axes that travel more than a turn."""
         out = []
-        for s in self.sweeps:
-            out += [s.table(), f"best {s.kind} order on held-out data ({s.method}): {s.best.order}\n"]
+        top = max(self.orders, default=None)
+        at_top = [k for k in self.kinds if top is not None and len(self.orders) > 1 and self.best(k) == top]
+        if at_top:
+            out.append(f"note: the best {' and '.join(at_top)} order is the highest tried ({top}): the held-out error "
+                       f"may fall further; try higher ones, e.g. `orders` {min(self.orders)}-{top + 4}")
+        if self.per_turn_axes:
+            verb = "travels" if len(self.per_turn_axes) == 1 else "travel"
+            out.append(f"note: {', '.join(self.per_turn_axes)} {verb} more than a turn: these orders are of "
+                       "Chebyshev series over the travel there; errors that repeat every turn take Fourier series "
+                       "(`basis` fourier), which `fit` may choose")
         return out
 
 
@@ -58,13 +77,14 @@ def choose_orders(machine: Machine, campaign: Campaign, noise: NoiseModel | None
     noise = noise or NoiseModel.default(machine)
     kinds, orders = tuple(kinds), list(orders)
     check_basis(machine, basis, "chebyshev")
+    per_turn = tuple(a.name for a in machine.axes if a.multiturn) if basis == "chebyshev" else ()
     if noise.instrument == "range":
         check_stations(campaign)
     if validation is not None:  # Paper I Table 2: every order fitted, judged on the validation file
         sweeps = [order_sweep(machine, campaign, kind, orders, validation=validation, folds=folds, noise=noise,
                               basis=basis, progress=progress) for kind in kinds]
-        return OrdersRun(kinds, folds, sweeps=sweeps)
+        return OrdersRun(kinds, folds, sweeps=sweeps, orders=tuple(orders), per_turn_axes=per_turn)
     check_orders(machine, campaign, kinds, orders, folds=folds, noise=noise, basis=basis)
     choice = choose_model(machine, campaign, noise, kinds=kinds, families=tuple(dict.fromkeys((basis, "chebyshev"))),
                           plans=(basis,), orders=orders, per_axis=False, folds=folds, progress=progress)
-    return OrdersRun(kinds, folds, choice=choice)
+    return OrdersRun(kinds, folds, choice=choice, orders=tuple(orders), per_turn_axes=per_turn)
