@@ -36,7 +36,7 @@ from vecpin.identification.redundancy import redundant_from_r
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments import instrument_for
 from vecpin.measurement.instruments.points import PointRequest, initial_setup, nominal_points
-from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
+from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR, STATION_ADVICE
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import POSE_NAMES, Setup, station_reading
 
@@ -307,12 +307,10 @@ class Likelihood:
             rows = c.station == s
             tool, nest = int(np.sum(rows & (c.instrument == "tracker"))), int(np.sum(rows & (c.instrument == "nest")))
             commands = len(np.unique(np.round(c.q[rows], 9), axis=0))
-            out.append(f"{c.source}: tracker station {s} (column station) has a pose its rows do not determine "
-                       f"({', '.join(bad)} of dx, dy, dz, ex, ey, ez; {tool} tool and {nest} nest readings at {commands} "
-                       "commands): the fit holds it near the rigid registration of its rows, and what that station "
-                       "reads of the machine is partly lost. Read from it at least three points that station 0 also "
-                       "reads, not on a line and spread over the travel: the tool tip at a dozen of station 0's "
-                       "commands, or the table nests at several table positions")
+            out.append(f"{c.source}: tracker station {s} (station column): its rows do not determine its pose ("
+                       f"{', '.join(bad)} of dx, dy, dz, ex, ey, ez; {tool} tool and {nest} nest readings at {commands} "
+                       "commands): the fit holds those near the rigid registration of its rows, and what the station "
+                       f"reads of the machine is partly lost. {STATION_ADVICE}")
         return out
 
     def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
