@@ -143,10 +143,11 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else float("inf")
     names = lik.names
     weak = [names[k] for k in np.flatnonzero(keep & (ratio < WEAK_RATIO))]
-    warnings = []
-    if weak:
-        warnings.append(f"{len(weak)} terms are barely identifiable with this design (held by their priors): "
-                        + ", ".join(weak[:12]) + (" ..." if len(weak) > 12 else ""))
+    warnings = lik.station_warnings(keep, ratio, WEAK_RATIO)  # a station's pose: what to read from it
+    terms = [n for n in weak if not n.startswith("station")]
+    if terms:
+        warnings.append(f"{len(terms)} terms are barely identifiable with this design (held by their priors): "
+                        + ", ".join(terms[:12]) + (" ..." if len(terms) > 12 else ""))
     if not sol.converged:
         warnings.append(f"did not converge in {max_iter} iterations")
     trk = campaign.tracker_rows

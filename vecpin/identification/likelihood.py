@@ -36,7 +36,7 @@ from vecpin.identification.redundancy import redundant_from_r
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments import instrument_for
 from vecpin.measurement.instruments.points import PointRequest, initial_setup, nominal_points
-from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
+from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR, STATION_ADVICE
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import POSE_NAMES, Setup, station_reading
 
@@ -271,14 +271,47 @@ class Likelihood:
 
     def priority(self) -> np.ndarray:
         """Column order of the redundancy test (earlier columns are kept): E_0, then the
-        target offsets and nest positions, then the model parameters and the other
-        instrument unknowns. A target's offset cannot be told from the constant error
-        transform after the last axis before it (nor a nest's position from the table's),
-        and it is the offset a metrologist asks for: the offsets win, the constant terms
-        they explain are removed."""
+        target offsets and nest positions, then the other tracker stations' poses, then
+        the model parameters and the other instrument unknowns. A target's offset cannot be
+        told from the constant error transform after the last axis before it (nor a nest's
+        position from the table's), and it is the offset a metrologist asks for: the
+        offsets win, the constant terms they explain are removed.
+
+        The stations come before the model because of the gauge: a rigid motion of the
+        whole machine (every modelled point, tool and table alike) with the same motion of
+        every tracker station changes no reading. With one station E_0 carries that
+        motion and the model's terms that would repeat it are removed; with several, the
+        stations' poses together carry it and the model loses the same terms, so the
+        machine frame is fixed by the same rule with one station or several. Placed after
+        the model (as before), a station's pose lost the test against the model's constant
+        terms and was removed or called barely identifiable, although its rows determine
+        it (tests/test_station_gauge.py)."""
         points = [self.index[n] for n in self.extra_names if n.startswith(("target", "nest"))]
-        rest = [k for k in range(6, self.n_unknowns) if k not in set(points)]
-        return np.r_[np.arange(6), np.array(points, int), np.array(rest, int)].astype(int)
+        stations = [self.index[n] for n in self.extra_names if n.startswith("station")]
+        first = set(points) | set(stations)
+        rest = [k for k in range(6, self.n_unknowns) if k not in first]
+        return np.r_[np.arange(6), np.array(points, int), np.array(stations, int), np.array(rest, int)].astype(int)
+
+    def station_warnings(self, keep: np.ndarray, ratio: np.ndarray, weak_ratio: float) -> list[str]:
+        """What the fit says of a tracker station (other than 0) whose pose its rows do not
+        determine: some of its unknowns removed (``keep`` False) or below ``weak_ratio`` in
+        the redundancy test (``ratio``, :meth:`redundancy`, stations before the model), with
+        what the campaign must add. Empty when every station's pose is determined."""
+        out = []
+        c = self.campaign
+        for s in sorted({int(n[len("station"):].split(".")[0]) for n in self.extra_names if n.startswith("station")}):
+            cols = [self.index[f"station{s}.{comp}"] for comp in POSE_NAMES]
+            bad = [POSE_NAMES[j] for j, k in enumerate(cols) if not keep[k] or ratio[k] < weak_ratio]
+            if not bad:
+                continue
+            rows = c.station == s
+            tool, nest = int(np.sum(rows & (c.instrument == "tracker"))), int(np.sum(rows & (c.instrument == "nest")))
+            commands = len(np.unique(np.round(c.q[rows], 9), axis=0))
+            out.append(f"{c.source}: tracker station {s} (station column): its rows do not determine its pose ("
+                       f"{', '.join(bad)} of dx, dy, dz, ex, ey, ez; {tool} tool and {nest} nest readings at {commands} "
+                       "commands): the fit holds those near the rigid registration of its rows, and what the station "
+                       f"reads of the machine is partly lost. {STATION_ADVICE}")
+        return out
 
     def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
         """(redundant mask, ratio per unknown) of the QR test in :meth:`priority` order

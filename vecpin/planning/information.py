@@ -31,9 +31,9 @@ from vecpin.kinematics.machine import Machine
 from vecpin.kinematics.so3 import skew
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.points import POINT_PRIOR
-from vecpin.measurement.instruments.tracker import E0_NAMES
+from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.setup import Setup
+from vecpin.measurement.setup import POSE_NAMES, Setup
 from vecpin.measurement.tracker import cartesian_to_spherical, spherical_jacobian
 from vecpin.models import ErrorModel
 from vecpin.planning.doptimal import CandidateRows
@@ -59,22 +59,37 @@ class Information:
 
     The unknowns are the fit's: theta = [E_0 (6), b (the model's parameters), the nest
     positions (3 per nest, ``nest<id>.x|y|z``: unknown to the fit, found with the
-    model)]; ``sigma`` (P,) their prior standard deviations (SI), ``names`` (P,)."""
+    model), the pose corrections of the further tracker stations (6 per station,
+    ``station<k>.dx|..|ez``, prior :data:`POSE_PRIOR`: a second set-up the fit must find)];
+    ``sigma`` (P,) their prior standard deviations (SI), ``names`` (P,).
+    ``stations``: where the further stations stand ((3,) [m] each, machine base frame;
+    station k of a row is ``stations[k - 1]``), tracker frames parallel to the machine's."""
 
     def __init__(self, model: ErrorModel, noise: NoiseModel, tracker: np.ndarray, tools, keep: np.ndarray | None = None,
-                 nests: dict[str, np.ndarray] | None = None):
+                 nests: dict[str, np.ndarray] | None = None, stations: list | None = None):
         self.model, self.noise = model, noise
         self.machine: Machine = model.machine
         self.tracker = np.asarray(tracker, float).reshape(3)
         self.tools = np.atleast_1d(np.asarray(tools, float))
         self.nests = {str(k): np.asarray(v, float).reshape(3) for k, v in (nests or {}).items()}
         self.nest_ids = list(self.nests)
+        self.stations = [np.asarray(x, float).reshape(3) for x in (stations or [])]
         self.n_model = model.n_parameters
         nest_names = [f"nest{k}.{c}" for k in self.nest_ids for c in "xyz"]
-        self.sigma = np.r_[E0_PRIORS, model.priors, np.full(len(nest_names), POINT_PRIOR)]
-        self.names = list(E0_NAMES) + model.parameter_names + nest_names
+        station_names = [f"station{k}.{c}" for k in range(1, len(self.stations) + 1) for c in POSE_NAMES]
+        self.sigma = np.r_[E0_PRIORS, model.priors, np.full(len(nest_names), POINT_PRIOR),
+                           np.full(len(station_names), POSE_PRIOR)]
+        self.names = list(E0_NAMES) + model.parameter_names + nest_names + station_names
         self._column = {n: k for k, n in enumerate(self.names)}
         self.keep = self.structural_keep() if keep is None else np.asarray(keep, bool)
+
+    def with_stations(self, stations: list) -> "Information":
+        """The same problem with further tracker stations at ``stations`` ((3,) [m] each,
+        machine base frame): their rows and pose unknowns counted, the other terms kept
+        as here."""
+        return Information(self.model, self.noise, self.tracker, self.tools,
+                           np.r_[self.keep[:6 + self.n_model + 3 * len(self.nest_ids)], np.ones(6 * len(stations), bool)],
+                           self.nests, stations)
 
     @property
     def P(self) -> int:
@@ -115,11 +130,14 @@ class Information:
         return self.measurement_rows(q, np.full(len(q), float(self.tools[0])), np.full(len(q), "nest", dtype=object),
                                      np.asarray(nest, dtype=object))
 
-    def measurement_rows(self, q: np.ndarray, tool: np.ndarray, instrument: np.ndarray, target: np.ndarray) -> np.ndarray:
+    def measurement_rows(self, q: np.ndarray, tool: np.ndarray, instrument: np.ndarray, target: np.ndarray,
+                         station: np.ndarray | None = None) -> np.ndarray:
         """(N, 3, P) whitened, prior-scaled rows of the readings (q, tool, instrument
-        "tracker" or "nest", target: the nest id on nest rows): the fit's own likelihood
-        (:mod:`vecpin.identification.likelihood`) at the nominal machine, the tracker frame
-        parallel to the machine's at ``tracker``, nests at their planned positions."""
+        "tracker" or "nest", target: the nest id on nest rows, station: the tracker station
+        that reads the row, 0 when None): the fit's own likelihood
+        (:mod:`vecpin.identification.likelihood`) at the nominal machine, each station's
+        frame parallel to the machine's at its position (``tracker`` for station 0), nests
+        at their planned positions."""
         m = self.model
         q = np.atleast_2d(np.asarray(q, float))
         N = len(q)
@@ -127,6 +145,9 @@ class Information:
             return np.zeros((0, 3, self.P))
         instrument = np.asarray(instrument, dtype=object)
         target = np.asarray(target, dtype=object)
+        station = np.zeros(N, int) if station is None else np.asarray(station, int)
+        if station.max(initial=0) > len(self.stations):
+            raise InputError(f"station {station.max()}: the plan has {len(self.stations)} further tracker stations")
         nest = instrument == "nest"
         unknown = sorted(set(target[nest]) - set(self.nest_ids))
         if unknown:
@@ -137,9 +158,11 @@ class Information:
         if nest.any():
             p_wp = np.array([self.nests[k] for k in target[nest]])
             xyz[nest] = m.machine.workpiece_points(q[nest], p_wp, jacobian=False).xyz
-        camp = Campaign(m.machine.axis_names, q, np.asarray(tool, float), xyz - self.tracker, {}, "plan",
-                        instrument.copy(), target=target.copy())
-        setup = Setup(np.eye(3), -self.tracker, nests=dict(self.nests))
+        where = np.array([self.tracker] + self.stations)[station]
+        camp = Campaign(m.machine.axis_names, q, np.asarray(tool, float), xyz - where, {}, "plan",
+                        instrument.copy(), station.copy(), target=target.copy())
+        setup = Setup(np.eye(3), -self.tracker, nests=dict(self.nests),
+                      stations={k: (np.eye(3), -x, np.zeros(6)) for k, x in enumerate(self.stations, 1)})
         lik = Likelihood(m, camp, self.noise, setup)
         J = -lik.evaluate(np.zeros(lik.n_unknowns)).J  # d (whitened prediction) / d psi
         out = np.zeros((N, 3, self.P))
@@ -161,14 +184,15 @@ class Information:
         return CandidateRows(chunks(), len(q))
 
     def compact_rows(self, q: np.ndarray, tool: np.ndarray, instrument: np.ndarray, target: np.ndarray,
-                     chunk: int = 3000) -> np.ndarray:
+                     station: np.ndarray | None = None, chunk: int = 3000) -> np.ndarray:
         """(P, P) rows with the same ``W^T W`` as :meth:`measurement_rows` of the readings
         (everything the covariance, the posterior and log det N depend on), summed in
         chunks: a plan of 10,000 commands with table nests scores in little memory."""
         G = np.zeros((self.P, self.P))
+        station = np.zeros(len(q), int) if station is None else np.asarray(station, int)
         for a in range(0, len(q), chunk):
             W = self.measurement_rows(q[a:a + chunk], tool[a:a + chunk], instrument[a:a + chunk],
-                                      target[a:a + chunk]).reshape(-1, self.P)
+                                      target[a:a + chunk], station[a:a + chunk]).reshape(-1, self.P)
             G += W.T @ W
         w, V = np.linalg.eigh(G)
         return np.sqrt(np.clip(w, 0.0, None))[:, None] * V.T
@@ -178,7 +202,9 @@ class Information:
         of ``n_reference`` commands with every tool and every nest read (as the
         underdetermined fit judges), in the likelihood's priority order (E_0, the nest
         positions, then the model: a constant table error that a nest's position explains
-        is left out, not the nest's position)."""
+        is left out, not the nest's position). The reference design is read from the first
+        station; a further station's pose is counted (its planned rows read points station
+        0 reads: the fit determines it, :meth:`Likelihood.priority`)."""
         m = self.machine
         u = qmc.Halton(m.n_axes, seed=0).random(n_reference)
         q = m.lower + u * (m.upper - m.lower)
@@ -187,12 +213,14 @@ class Information:
         red_p, _ = find_redundant(W[:, order])
         red = np.empty_like(red_p)
         red[order] = red_p
+        red[6 + self.n_model + 3 * len(self.nest_ids):] = False
         return ~red
 
     def priority(self) -> np.ndarray:
-        """Column order of the redundancy test: E_0, the nest positions, the model."""
-        nests = np.arange(6 + self.n_model, self.P)
-        return np.r_[np.arange(6), nests, np.arange(6, 6 + self.n_model)].astype(int)
+        """Column order of the redundancy test: E_0, the nest positions, the further
+        stations' poses, the model (the fit's order, :meth:`Likelihood.priority`)."""
+        extra = np.arange(6 + self.n_model, self.P)
+        return np.r_[np.arange(6), extra, np.arange(6, 6 + self.n_model)].astype(int)
 
     def table_terms(self) -> np.ndarray:
         """(P,) the model terms only a reading of the table sees: those a dense design of

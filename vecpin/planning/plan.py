@@ -208,6 +208,9 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
     """The plan with its predicted uncertainty (with and without the table nests), the
     move time of the same commands in random order, its validation run and its warnings."""
     s, machine, tools = problem.settings, problem.machine, problem.tools
+    further = problem.placement.stations[1:] if problem.placement is not None else []
+    if len(further) and np.any(template.stations != 0):  # the second set-up's pose unknowns counted
+        info = info.with_stations(further)
     say("predicted uncertainty")
     vq = validation_commands(machine, s.validation_points, *clip_to_zone(machine, s.zone), seed=s.seed + 7)
     vq = vq[~inside(machine, vq, s.exclude)]
@@ -216,7 +219,7 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
     bare, without = info, None
     if problem.nests:  # the same commands without the nests: what a tool-tip-only campaign would give
         say("predicted uncertainty without the table nests")
-        bare = Information(info.model, problem.noise, problem.tracker, tools)
+        bare = Information(info.model, problem.noise, problem.tracker, tools, stations=info.stations)
         without, _ = score_rows(bare, template.take(template.tool_rows), vq, tools[0], "the same without nests",
                                 travel_s=score.travel_s, commands=len(chosen))
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
@@ -305,11 +308,12 @@ def score_rows(info: Information, template: PlanTemplate, validation: np.ndarray
     n = len(q)
     instrument = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
     target = template.target if template.target is not None else np.full(n, "", dtype=object)
-    W = info.compact_rows(q, tool, instrument, target)
+    W = info.compact_rows(q, tool, instrument, target, template.stations)
     cov = info.covariance(W)
     sd = np.sqrt(np.diag(cov))
     kept = info.keep.copy()
-    kept[:6] = False  # E_0 belongs to the set-up, not the machine
+    kept[:6] = False  # E_0 and the further stations' poses belong to the set-up, not the machine
+    kept[len(info.names) - 6 * len(info.stations):] = False
     well = int(np.sum(sd[kept] < 0.1 * info.sigma[kept]))
     pred = info.predicted_errors(info.posterior(W), validation, validation_tool)
     n_cmd = commands if commands is not None else len(np.unique(np.round(q, 9), axis=0))

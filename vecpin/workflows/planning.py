@@ -58,6 +58,8 @@ class PlanRun:
                f"({', '.join(f'{t:g}' for t in s.tools_mm)} mm) = {len(p.template)} rows",
                f"  model {s.model} order {s.order}: {info.P} parameters with E_0"
                + (f" and {len(p.nests)} nest positions" if p.nests else "")
+               + ("" if not info.stations else " and the second tracker station's pose" if len(info.stations) == 1
+                  else f" and {len(info.stations)} more tracker stations' poses")
                + f", {int((~info.keep).sum())} that no design identifies left out",
                f"  tracker at ({tr[0]}, {tr[1]}, {tr[2]}) mm, machine frame ({where})",
                f"  candidates {c['candidates']}: {c['exclusion']} in exclusion zones (CA), {c['collision']} with a holder "

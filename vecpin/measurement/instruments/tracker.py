@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.measurement.instruments.base import Equations, Instrument
 from vecpin.measurement.registration import register as rigid_registration
 from vecpin.measurement.setup import POSE_NAMES, station_reading
 
 E0_NAMES = tuple(f"E0.{c}" for c in POSE_NAMES)
 POSE_PRIOR = 1e-2  # m, rad: weak prior on every station pose correction
+STATION_ADVICE = ("Read from it at least three points that station 0 also reads, not on a line and spread over the "
+                  "travel: the tool tip at a dozen of station 0's commands, or the table nests at several table "
+                  "positions")  # what determines a further station's pose
 
 
 class TrackerInstrument(Instrument):
@@ -32,7 +36,13 @@ class TrackerInstrument(Instrument):
         if s == 0:
             return list(E0_NAMES)
         if s not in setup.stations:
-            R, t = rigid_registration(nominal, campaign.xyz[rows])
+            try:
+                R, t = rigid_registration(nominal, campaign.xyz[rows])
+            except VecpinError:
+                lines = ", ".join(str(k) for k in campaign.lines[rows][:6])
+                raise IdentifiabilityError(
+                    f"{campaign.source}: tracker station {s} reads {len(rows)} points on a line (rows {lines}): its pose "
+                    f"cannot be found. {STATION_ADVICE}") from None
             setup.stations[s] = (R, t, np.zeros(6))
         return [f"station{s}.{c}" for c in POSE_NAMES]
 
