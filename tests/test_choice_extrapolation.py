@@ -132,7 +132,7 @@ def test_ends_held_out_extrapolate_better_on_a_machine_vecpin_never_saw(monkeypa
     errors = {}
     for tag in ("ends", "interleaved"):
         if tag == "interleaved":
-            monkeypatch.setattr(choice, "partly_measured", lambda machine, campaign: ())
+            monkeypatch.setattr(choice, "partly_measured", lambda machine, campaign, travel=None: ())
         proto, ch = choice.choose_or_fix(m, c, noise)
         assert ch.ends == (("X",) if tag == "ends" else ())
         model = proto.fit(c, noise)

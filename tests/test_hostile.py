@@ -1150,7 +1150,7 @@ def test_import_of_fahrenheit_temperatures(base, work, capsys):
 
 def test_import_never_replaces_a_campaign_with_one_that_does_not_read_back(base, work, capsys, monkeypatch):
     """The imported campaign is staged and read back before it replaces the old file."""
-    import vecpin.measurement.importer as imp
+    import vecpin.measurement.importwrite as imp
     out = work / "campaign.csv"
     out.write_text("the previous campaign\n")
     real = imp.campaign_text

@@ -9,7 +9,8 @@ import pytest
 from vecpin.cli import main
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.measurement.campaign import read_campaign, write_campaign
-from vecpin.measurement.importer import import_export, parse_column_map, write_imported
+from vecpin.measurement.importer import import_export, parse_column_map
+from vecpin.measurement.importwrite import write_imported
 from vecpin.measurement.plantemplate import point_name
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.simulation.simulate import simulate

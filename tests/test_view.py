@@ -85,3 +85,36 @@ def test_page_renders_in_headless_chromium(fitted, tmp_path):
     blue_head = (b > 120) & (r < 90) & (g_ < 130)                   # the rotary head / small errors
     red_vec = (r > 180) & (g_ < 90) & (b < 90)                      # large error vectors
     assert orange.sum() > 500 and blue_head.sum() > 30 and red_vec.sum() > 10
+
+
+def test_a_terminated_view_takes_its_meshcat_server_with_it(fitted, tmp_path):
+    """`vecpin view` stopped by SIGTERM (a `kill`, a closed terminal's SIGHUP is handled
+    alike) kills the meshcat server it started, as Ctrl-C does: no server left running."""
+    import os
+    import signal
+    import sys
+    import time
+    from pathlib import Path
+    from vecpin.measurement.campaign import write_campaign
+    model, campaign = fitted
+    model.save(tmp_path / "m.json")
+    write_campaign(tmp_path / "c.csv", campaign, model.machine)
+    proc = subprocess.Popen([sys.executable, "-m", "vecpin", "view", str(tmp_path / "m.json"), str(tmp_path / "c.csv")],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        lines = [proc.stdout.readline() for _ in range(4)]          # meshcat's own lines, then vecpin's
+        assert any("meshcat scene at" in ln for ln in lines), lines  # the scene is up: the server runs
+        children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+        assert children, "the meshcat server is the view's child process"
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    deadline = time.time() + 10
+    while time.time() < deadline and any(Path(f"/proc/{c}").exists() for c in children):
+        time.sleep(0.1)
+    left = [c for c in children if Path(f"/proc/{c}").exists()
+            and "zombie" not in Path(f"/proc/{c}/status").read_text().lower()]
+    for c in left:
+        os.kill(int(c), signal.SIGKILL)
+    assert not left, f"meshcat server(s) {left} still running after the view was terminated"

@@ -393,9 +393,16 @@ def legend_lines(facts: dict) -> list[str]:
 
 def serve(model, campaign: Campaign, row: int = 0, exaggerate=None, tables=None,
           ready=None, show: str = "errors") -> None:
-    """Start a meshcat server with the scene and keep it until Ctrl-C; ``ready(url, facts)``
-    is called once the scene is up. The server process is killed on the way out."""
+    """Start a meshcat server with the scene and keep it until Ctrl-C (or a SIGTERM or
+    SIGHUP: a closed terminal, ``kill``); ``ready(url, facts)`` is called once the scene
+    is up. The server process is killed on the way out, whichever way that is."""
+    import signal
     import time
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt
+    caught = [s for s in (signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None]
+    before = {s: signal.signal(s, stop) for s in caught}
     vis = meshcat.Visualizer()
     try:
         facts = build_scene(vis, model, campaign, row, exaggerate, tables, show)
@@ -408,3 +415,6 @@ def serve(model, campaign: Campaign, row: int = 0, exaggerate=None, tables=None,
     finally:
         if vis.window.server_proc is not None:
             vis.window.server_proc.kill()
+            vis.window.server_proc.wait()
+        for s, handler in before.items():
+            signal.signal(s, handler)

@@ -6,7 +6,8 @@ from pathlib import Path
 from vecpin.errors import InputError
 from vecpin.fileio import check_output_file
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.importer import ImportResult, import_export, write_imported
+from vecpin.measurement.importer import ImportResult, import_export
+from vecpin.measurement.importwrite import write_imported
 from vecpin.measurement.robotaccuracy import TMAC_TOOL_MM, DatasetRead, read_dataset
 
 FORMATS = ("tracker", "ipa-robot-accuracy")
