@@ -155,3 +155,27 @@ def test_bad_station_columns_and_settings_are_refused(planned, tmp_path):
         simulate(m, seed=0, design=Design(stations=2), plan=plan.template, station_positions=plan.placement.stations)
     with pytest.raises(InputError, match="stations_mm.*station_positions"):
         simulate(m, seed=0, plan=plan.template)
+
+
+def test_the_campaign_time_books_the_tracker_move_apart_from_holder_changes(planned):
+    """Counted from the template, not from vecpin's timing: one move of the tracker (the
+    station column changes once) at its own time, the holder changes within a station at
+    theirs; plan.json keeps both times for the simulator."""
+    from vecpin.planning.timing import ProgramTiming, row_times
+    from vecpin.planning.route import axis_speeds
+    from vecpin.workflows.planning import plan_timing
+    m, plan, out = planned
+    t = plan.template
+    tracker = t.instrument == "tracker"
+    st, tools = t.stations[tracker], t.tool[tracker]
+    moves = int(np.sum(np.diff(st) != 0))
+    swaps = int(np.sum((np.diff(st) == 0) & (np.abs(np.diff(tools)) > 1e-9)))
+    assert moves == 1
+    timing = ProgramTiming(axis_speeds(m), plan.steps, holder_change_s=100.0, tracker_move_s=1000.0)
+    _, tm = row_times(m, t, timing)
+    assert (tm.tracker_moves, tm.changes) == (moves, swaps)
+    free = ProgramTiming(axis_speeds(m), plan.steps, holder_change_s=0.0, tracker_move_s=0.0)
+    assert tm.total_s - row_times(m, t, free)[1].total_s == pytest.approx(1000.0 * moves + 100.0 * swaps)
+    assert "1 tracker move to another station x 17 min" in tm.line()
+    written = plan_timing(out / "plan.csv")
+    assert written.tracker_move_s == 1200.0 and written.holder_change_s == 120.0

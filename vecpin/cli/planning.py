@@ -78,7 +78,7 @@ def run_plan(args) -> int:
                       dwell_s=args.dwell_s, nest_dwell_s=args.nest_dwell_s, feed_mm_min=args.feed_mm_min,
                       safe_z_mm=args.safe_z_mm, retract=args.retract, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare_with, progress=progress(not args.quiet),
-                      holder_change_s=args.holder_change_s)
+                      holder_change_s=args.holder_change_s, tracker_move_s=args.tracker_move_s)
     say(args, *run.lines())
     return 0
 
@@ -194,6 +194,9 @@ def _add_program_args(s) -> None:
                    "work between points (default: the one along the tool at zero rotary angles, usually Z)")
     s.add_argument("--holder-change", dest="holder_change_s", type=float, default=120.0, metavar="S",
                    help="time to change the target holder at the program's stop, s, for the campaign's time (default 120)")
+    s.add_argument("--tracker-move", dest="tracker_move_s", type=float, default=1200.0, metavar="S",
+                   help="time to move the tracker to the plan's next station (carry, level, settle, lock on), s, for "
+                        "the campaign's time (default 1200, an assumption: time yours)")
     s.add_argument("--feed", dest="feed_mm_min", type=float, default=1000.0, help="feed of the final approach move, "
                    "mm/min (default 1000)")
     s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],

@@ -7,8 +7,9 @@ runs at the approach feed, then the dwell for the tool target and one more dwell
 table nest read there. Each rapid move takes the time of its slowest axis at its rapid
 speed (no acceleration: a lower bound of the moves). A change of the target holder
 (the program stops with ``M0``) costs ``holder_change_s`` (the operator swaps the
-holder and the tracker locks on again); so does the stop where the tracker moves to
-another station (a plan read from several stations).
+holder and the tracker locks on again); the stop where the tracker moves to another
+station (a plan read from several stations) costs ``tracker_move_s`` (carry it to its
+next stand, level it, let it settle and lock on again; a holder swapped there meanwhile).
 
 The plan prints the total and the simulator stamps a planned campaign's rows with
 these times, so both book the same campaign.
@@ -25,6 +26,7 @@ from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning.ncprogram import retract_axis, safe_position, visits
 
 HOLDER_CHANGE_S = 120.0  # s: swap the target holder at the M0 stop and let the tracker lock on again
+TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, level it, let it settle, lock on
 
 
 @dataclass
@@ -41,37 +43,48 @@ class ProgramTiming:
     feed_mm_min: float = 1000.0
     safe_z_mm: float | None = None
     retract: str | None = None
+    tracker_move_s: float = TRACKER_MOVE_S
 
     def check(self) -> None:
         if not (np.isfinite(self.holder_change_s) and self.holder_change_s >= 0):
             raise InputError(f"`holder_change_s` {self.holder_change_s}: the time of a holder change in seconds >= 0")
+        if not (np.isfinite(self.tracker_move_s) and self.tracker_move_s >= 0):
+            raise InputError(f"`tracker_move_s` {self.tracker_move_s}: the time to move the tracker to another "
+                             "station in seconds >= 0")
 
 
 @dataclass
 class CampaignTime:
     """Where a planned campaign's time goes [s]: rapid moves (lifts and plunges
-    included), final approaches at the feed, dwells at the points and nests, and
-    ``changes`` holder changes."""
+    included), final approaches at the feed, dwells at the points and nests,
+    ``changes`` holder changes and ``tracker_moves`` moves of the tracker to another station."""
 
     moves_s: float
     approach_s: float
     dwell_s: float
     changes: int
     change_s: float
+    tracker_moves: int = 0
+    tracker_move_s: float = TRACKER_MOVE_S
 
     @property
     def total_s(self) -> float:
-        return self.moves_s + self.approach_s + self.dwell_s + self.changes * self.change_s
+        return (self.moves_s + self.approach_s + self.dwell_s + self.changes * self.change_s
+                + self.tracker_moves * self.tracker_move_s)
 
     def line(self) -> str:
+        moved = (f" + {self.tracker_moves} tracker move{'s' if self.tracker_moves != 1 else ''} to another station x "
+                 f"{self.tracker_move_s / 60:.0f} min" if self.tracker_moves else "")
         return (f"campaign time {self.total_s / 3600:.2f} h: moves {self.moves_s / 60:.1f} min (rapid, lifts "
                 f"included) + approaches {self.approach_s / 60:.1f} min + dwells {self.dwell_s / 60:.1f} min + "
-                f"{self.changes} holder change{'s' if self.changes != 1 else ''} x {self.change_s / 60:.0f} min")
+                f"{self.changes} holder change{'s' if self.changes != 1 else ''} x {self.change_s / 60:.0f} min"
+                + moved)
 
     def to_dict(self) -> dict:
         return {"total_h": round(self.total_s / 3600, 4), "moves_min": round(self.moves_s / 60, 4),
                 "approaches_min": round(self.approach_s / 60, 4), "dwells_min": round(self.dwell_s / 60, 4),
-                "holder_changes": self.changes, "holder_change_s": self.change_s}
+                "holder_changes": self.changes, "holder_change_s": self.change_s,
+                "tracker_moves": self.tracker_moves, "tracker_move_s": self.tracker_move_s}
 
 
 def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -> tuple[np.ndarray, CampaignTime]:
@@ -88,11 +101,14 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -
     feed = timing.feed_mm_min / 60.0
     t = np.zeros(len(template))
     now = moves = approach = dwell = 0.0
-    changes = 0
+    changes = tracker_moves = 0
     prev, cur_tool, cur_station = None, None, 0
     for v in vs:
         tool, station = float(template.tool[v.row]), int(template.stations[v.row])
-        if cur_tool is not None and (abs(tool - cur_tool) > 1e-9 or station != cur_station):  # a stop: holder or tracker moved
+        if cur_tool is not None and station != cur_station:    # a stop: the tracker moves (a holder swapped meanwhile)
+            tracker_moves += 1
+            now += timing.tracker_move_s
+        elif cur_tool is not None and abs(tool - cur_tool) > 1e-9:  # a stop: the holder changes
             changes += 1
             now += timing.holder_change_s
         cur_tool, cur_station = tool, station
@@ -117,4 +133,5 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -
         prev = v.q
     if end is not None and prev is not None:
         moves += abs(end - prev[r]) / v_user[r]
-    return t, CampaignTime(moves, approach, dwell, changes, timing.holder_change_s)
+    return t, CampaignTime(moves, approach, dwell, changes, timing.holder_change_s, tracker_moves,
+                           timing.tracker_move_s)

@@ -27,7 +27,7 @@ from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
-from vecpin.planning.timing import HOLDER_CHANGE_S, CampaignTime, ProgramTiming, row_times
+from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times
 from vecpin.units import M_PER_MM, to_mm
 
 
@@ -189,15 +189,15 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
-                holder_change_s: float = HOLDER_CHANGE_S) -> PlanRun:
+                holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
     The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
     ``retract``, ``axis_map``): :func:`vecpin.planning.ncprogram.write_program`.
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates).
-    ``holder_change_s``: the time of a holder change, for the campaign's time
-    (:mod:`vecpin.planning.timing`). The plan's warnings (:mod:`vecpin.planning.planchecks`)
+    ``holder_change_s``, ``tracker_move_s``: the time of a holder change and of moving the
+    tracker to another station, for the campaign's time (:mod:`vecpin.planning.timing`). The plan's warnings (:mod:`vecpin.planning.planchecks`)
     are issued as :class:`~vecpin.errors.VecpinWarning` before the files are written."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
@@ -205,7 +205,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
     for d in dialects:  # so does an axis without an NC address in a dialect asked for
         nc_axis_names(machine, d, axis_map)
-    ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s).check()
+    ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,
+                  tracker_move_s=tracker_move_s).check()
     from vecpin.viz.figures import plan_figure
     templates = {c: read_template(c, machine) for c in compare_with if c != "random"}  # a bad file fails now
     plan = make_plan(machine, settings, progress)
@@ -247,7 +248,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                    f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
-                                safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s)
+                                safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
+                                tracker_move_s=tracker_move_s)
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
                       row_times(machine, v, timing)[1])
         files.append(out.final("plan.json"))
@@ -277,16 +279,18 @@ def plan_station_positions(path: str | Path) -> list[np.ndarray] | None:
 
 
 def program_timing(machine: Machine, plan: Plan, *, dwell_s: float, nest_dwell_s: float, feed_mm_min: float,
-                   safe_z_mm: float | None, retract: str | None, holder_change_s: float) -> ProgramTiming:
+                   safe_z_mm: float | None, retract: str | None, holder_change_s: float,
+                   tracker_move_s: float = TRACKER_MOVE_S) -> ProgramTiming:
     """The NC program's timing settings of ``plan`` (its rapid speeds and approach steps)."""
     s = plan.settings
     return ProgramTiming(axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), plan.steps, dwell_s, nest_dwell_s,
-                         holder_change_s, feed_mm_min, safe_z_mm, retract)
+                         holder_change_s, feed_mm_min, safe_z_mm, retract, tracker_move_s)
 
 
 def timing_dict(t: ProgramTiming) -> dict:
     """plan.json's "program": what the simulator needs to time the plan's rows as the program runs them."""
     return {"dwell_s": t.dwell_s, "nest_dwell_s": t.nest_dwell_s, "holder_change_s": t.holder_change_s,
+            "tracker_move_s": t.tracker_move_s,
             "feed_mm_min": t.feed_mm_min, "safe_z_mm": t.safe_z_mm, "retract_axis": t.retract,
             "speed_si": [round(float(v), 9) for v in t.speed], "steps_si": [round(float(v), 12) for v in t.steps]}
 
@@ -303,6 +307,6 @@ def plan_timing(path: str | Path) -> ProgramTiming | None:
             return None
         return ProgramTiming(np.array(d["speed_si"], float), np.array(d["steps_si"], float), float(d["dwell_s"]),
                              float(d["nest_dwell_s"]), float(d["holder_change_s"]), float(d["feed_mm_min"]),
-                             d["safe_z_mm"], d["retract_axis"])
+                             d["safe_z_mm"], d["retract_axis"], float(d["tracker_move_s"]))
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"{js}: not a plan.json vecpin wrote ({exc}); plan again or remove it") from None
