@@ -9,10 +9,11 @@ sees them (line of sight).
 
 :func:`nest_positions` is the one default placement: planning uses it for the plan and
 the simulator for the nests of a simulated campaign. Nests stand on the table, evenly
-around a circle of 80 % of the table's radius (from the URDF geometry of the link that
-carries the workpiece frame, when it has a table face at the workpiece frame's z = 0),
-and at most 40 % of half the span of the tool tips relative to the workpiece and 0.3 m,
-at heights of 20-80 mm above the face (different heights: the nests also see tilts).
+around a circle :data:`NEST_EDGE` inside the table's edge (the table's radius from the
+URDF geometry of the link that carries the workpiece frame, when it has a table face at
+the workpiece frame's z = 0; without it at most 40 % of half the span of the tool tips
+relative to the workpiece and 0.3 m), at heights of 20-80 mm above the face (different
+heights: the nests also see tilts).
 Frames: workpiece frame, metres.
 
 A validation run judges the tip relative to the table (:mod:`vecpin.measurement.tableframe`):
@@ -41,7 +42,7 @@ from vecpin.units import M_PER_MM
 
 MAX_NESTS = 20             # nests one plan or simulation places
 MAX_REACH = 0.3            # m: farthest a default nest stands from the table centre
-TABLE_SHARE = 0.8          # default nests on a circle of this share of the table radius
+TABLE_SHARE = 0.8          # on a table narrower than 2 NEST_EDGE: nests on this share of its radius
 NEST_EDGE = 0.02           # m: a default nest's centre this far inside the table's edge (its base on the table)
 FACE_TOLERANCE = 0.005     # m: a solid whose top lies this close to the workpiece plane is the table
 NEST_HEIGHTS = (0.02, 0.08)  # m: reflector centres above the table face
