@@ -184,7 +184,7 @@ class PlanRun:
                 "validation": None if p.validation_template is None else
                 {"commands": len(p.validation_template.tool_rows) // (VALIDATION_READS if p.validation_template.has_nests
                                                                        else 1),
-                 "reads": VALIDATION_READS if p.validation_template.has_nests else 1, "rows": len(p.validation_template),
+                 "rows": len(p.validation_template),
                  "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
                 "campaign_time": None if self.time is None else self.time.to_dict(),
                 "program": None if self.timing is None else timing_dict(self.timing)}
