@@ -28,12 +28,11 @@ def _rms_mm(reference: np.ndarray, true: np.ndarray) -> float:
 @pytest.mark.parametrize("seed", [1, 2])
 def test_verify_before_and_after_net_of_the_noise_equal_the_truth(machines, seed, tmp_path):
     """A-C trunnion, 150 commands x 2 tools, the truth's bases fitted, tables from the
-    model; 35 noisy validation commands read at the tool and the nests (each 4 times),
-    before and through the tables. Measured: before 0.2628 ± 0.0184 mm (truth 0.2623),
-    after 0.0341 ± 0.0029 (truth 0.0320), reduction 87.0 ± 1.4 % (truth 87.8 %); seed 2:
-    0.4599 ± 0.0273 (0.4570), 0.0378 ± 0.0027 (0.0344), 91.8 ± 0.8 % (92.5 %); the noise
-    0.016 mm RMS of the after figure. Each within three standard uncertainties of the
-    truth; verify.json carries them."""
+    model; 35 noisy validation commands read at the tool and the nests, before and
+    through the tables. Measured: before 0.2673 ± 0.0189 mm (truth 0.2623), after
+    0.0337 ± 0.0037 (truth 0.0324), reduction 87.4 ± 1.7 % (truth 87.7 %); seed 2:
+    0.4573 ± 0.0267 (0.4570), 0.0310 ± 0.0058 (0.0340), 93.2 ± 1.3 % (92.6 %). Each
+    within three standard uncertainties of the truth; verify.json carries them."""
     m = machines["trunnion_xyzac"]
     design = Design(n_commands=150, n_validation=35)
     sim = simulate(m, seed=seed, design=design)
@@ -48,7 +47,7 @@ def test_verify_before_and_after_net_of_the_noise_equal_the_truth(machines, seed
     after = _rms_mm(m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="workpiece"),
                     sim.truth.tool_tip(tables.apply(c.q), c.tool, frame="workpiece"))
     b, a = v.net
-    assert b.resolved and a.resolved and a.noise_rms > 0.4 * a.rms  # the noise is a large part of the after figure
+    assert b.resolved and a.resolved and a.noise_rms > 0.5 * a.rms  # the noise is a large part of the after figure
     assert abs(b.rms - before) < 3 * b.sd and abs(a.rms - after) < 3 * a.sd
     red, sd = v.net_reduction()
     assert abs(red - 100 * (1 - after / before)) < 3 * sd

@@ -20,10 +20,7 @@ Fig. 6; eq. 22 for repeated points).
 On a machine with table axes (a ``workpiece`` frame), reflectors in table nests
 (:mod:`~vecpin.planning.nests`) are read at every command's dwell with the first holder
 (the nests the tracker sees there): their rows, and the nests' unknown positions, count
-in the D-optimal choice and the prediction through the fit's one likelihood. The
-validation run reads the tool and each nest :data:`~vecpin.planning.nests.VALIDATION_READS`
-times in a row at each command (their mean is judged: the nest registration's noise at
-the tip falls by the square root of that).
+in the D-optimal choice and the prediction through the fit's one likelihood.
 """
 from __future__ import annotations
 
@@ -41,7 +38,6 @@ from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.planchecks import plan_warnings
 from vecpin.planning.nestplacement import Placement, station_blocks
-from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem, planned_model
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import clip_to_zone, inside
@@ -261,22 +257,7 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
             seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
     idx, sign = route.approach_rows(q, s.approach)
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
-    return repeated(with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests),
-                    VALIDATION_READS if nests else 1)
-
-
-def repeated(template: PlanTemplate, reads: int) -> PlanTemplate:
-    """``template`` with every row read ``reads`` times in a row (the tool, then each
-    nest: :data:`~vecpin.planning.nests.VALIDATION_READS`, averaged when judged), the
-    machine standing still: the repeats have no approach; points numbered on."""
-    if reads == 1:
-        return template
-    out = template.take(np.repeat(np.arange(len(template)), reads))
-    out.point = np.arange(1, len(out) + 1)
-    if out.approach is not None:
-        out.approach = out.approach.copy()
-        out.approach[np.arange(len(out)) % reads != 0] = 0
-    return out
+    return with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
 
 
 def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,

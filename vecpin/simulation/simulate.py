@@ -20,7 +20,7 @@ from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.design import Design, design_commands
 from vecpin.simulation.effects import EffectSpec
-from vecpin.planning.nests import VALIDATION_READS, nest_positions  # noqa: F401  (the one placement, shared with planning)
+from vecpin.planning.nests import nest_positions  # noqa: F401  (the one placement, shared with planning)
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
 from vecpin.measurement.plantemplate import PlanTemplate
@@ -103,14 +103,12 @@ def _and_nests(rows: Rows, q: np.ndarray, tool: float, nests: dict) -> Rows:
     return rows
 
 
-def validation_rows(q: np.ndarray, tool: float, nests: dict, reads: int = VALIDATION_READS) -> Rows:
+def validation_rows(q: np.ndarray, tool: float, nests: dict) -> Rows:
     """The validation run: at every command the tool (tool length ``tool`` [m]), then every
-    table nest {id: (3,) [m], workpiece frame}, each read ``reads`` times in a row when
-    there are nests (as a plan's validation run), the table standing still between them:
-    the rows that judge the tip relative to the table (:mod:`vecpin.measurement.tableframe`)."""
+    table nest {id: (3,) [m], workpiece frame}, the table standing still between them: the
+    rows that judge the tip relative to the table (:mod:`vecpin.measurement.tableframe`)."""
     rows = _and_nests(Rows.tips(q, np.full(len(q), tool)), q, tool, nests)
-    order = np.arange(len(rows.q)).reshape(1 + len(nests), len(q)).T.ravel()  # command by command
-    return rows.take(np.repeat(order, reads if nests else 1))
+    return rows.take(np.arange(len(rows.q)).reshape(1 + len(nests), len(q)).T.ravel())  # command by command
 
 
 def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design: Design, rng, seed) -> Campaign:

@@ -26,7 +26,6 @@ from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_
                                       retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
-from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.planchecks import t_offset_identified
 from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times
 from vecpin.units import M_PER_MM, to_mm
@@ -116,13 +115,11 @@ class PlanRun:
         v = p.validation_template
         if v is None:
             return []
-        reads = VALIDATION_READS if v.has_nests else 1
-        n = len(v.tool_rows) // reads
+        n = len(v.tool_rows)
         took = f", {self.validation_time.total_s / 60:.0f} min a run" if self.validation_time is not None else ""
         return [f"  validation run: {n} quasi-random commands inside the measured zone, free and in sight with the "
-                f"{p.settings.tools_mm[0]:g} mm holder" + (
-                    f", {len(v.nest_rows)} table nest readings (the tool and each nest read {reads} times in a row at "
-                    "each command, their mean judged: less tracker noise at the tip)" if v.has_nests else "")
+                f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
+                                                           else "")
                 + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
                 "them; a simulation of the plan uses the same commands"]
 
@@ -182,9 +179,7 @@ class PlanRun:
                 "expected_error_mm": s.expected_error_mm,
                 "warnings": list(p.warnings),
                 "validation": None if p.validation_template is None else
-                {"commands": len(p.validation_template.tool_rows) // (VALIDATION_READS if p.validation_template.has_nests
-                                                                       else 1),
-                 "rows": len(p.validation_template),
+                {"commands": len(p.validation_template.tool_rows), "rows": len(p.validation_template),
                  "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
                 "campaign_time": None if self.time is None else self.time.to_dict(),
                 "program": None if self.timing is None else timing_dict(self.timing)}
