@@ -88,8 +88,13 @@ class Information:
         machine base frame): their rows and pose unknowns counted, the other terms kept
         as here."""
         return Information(self.model, self.noise, self.tracker, self.tools,
-                           np.r_[self.keep[:6 + self.n_model + 3 * len(self.nest_ids)], np.ones(6 * len(stations), bool)],
+                           np.r_[self.keep[:self.station_start], np.ones(6 * len(stations), bool)],
                            self.nests, stations)
+
+    @property
+    def station_start(self) -> int:
+        """Index of the first further station's pose unknown (after E_0, the model and the nests)."""
+        return 6 + self.n_model + 3 * len(self.nest_ids)
 
     @property
     def P(self) -> int:
@@ -213,7 +218,7 @@ class Information:
         red_p, _ = find_redundant(W[:, order])
         red = np.empty_like(red_p)
         red[order] = red_p
-        red[6 + self.n_model + 3 * len(self.nest_ids):] = False
+        red[self.station_start:] = False
         return ~red
 
     def priority(self) -> np.ndarray:

@@ -28,7 +28,7 @@ than 90 % of its travel: there the commands at each end of its measured span (a 
 each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
 that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
 as it will be used beyond the measured span (a robot measured over part of its joint
-ranges; a machine measured over part of a travel its tables cover). Along such an axis the
+ranges; a machine whose model is asked for over its whole travel). Along such an axis the
 basis is then chosen on the rows of its own held-out ends (:func:`_ends_choice`): each
 kind's choice by the one-SE rule keeps its other axes, and the basis of each partly
 measured axis becomes the one with the fewest terms (never more than it had) within one
@@ -308,9 +308,9 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
     """The basis of every axis measured over part of its travel (``ends``, chain order)
     chosen again on the held-out rows of that axis' own ends (:func:`end_rows`), the
     other axes as reached so far: among that axis' options with no more terms than it
-    has (effective terms, :meth:`Problem.size`), the fewest model terms within one paired standard error of the lowest held-out
-    mean on those rows (:func:`one_standard_error`), so that along an axis the model is
-    used beyond, it keeps only what extrapolates there. (The candidate reached, what
+    has (effective terms, :meth:`Problem.size`), the fewest model terms within one paired
+    standard error of the lowest held-out mean on those rows (:func:`one_standard_error`),
+    so that along an axis the model is used beyond, it keeps only what extrapolates there. (The candidate reached, what
     changed, 'axis old -> new'.)"""
     chosen, changed = start, []
     for i in ends:

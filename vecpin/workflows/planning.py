@@ -197,8 +197,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates).
     ``holder_change_s``, ``tracker_move_s``: the time of a holder change and of moving the
-    tracker to another station, for the campaign's time (:mod:`vecpin.planning.timing`). The plan's warnings (:mod:`vecpin.planning.planchecks`)
-    are issued as :class:`~vecpin.errors.VecpinWarning` before the files are written."""
+    tracker to another station, for the campaign's time (:mod:`vecpin.planning.timing`).
+    The plan's warnings (:mod:`vecpin.planning.planchecks`) are issued as
+    :class:`~vecpin.errors.VecpinWarning` before the files are written."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
     r, up = retract_axis(machine, retract)
