@@ -46,6 +46,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "ipa_ur10" / "random_poses_400.csv"
+DATA_ENV = "VECPIN_BENCH_UR10"   # the series file the child processes read (``--data``)
+README = ROOT / "README.md"
+README_MARKS = ("<!-- bench_figaroh:start -->", "<!-- bench_figaroh:end -->")
 SPLITS = ("interleaved", "region", "joint1", "time")
 METHODS = ("structural", "excitation", "map", "map_cv", "cv_subset")
 LEVELS = ("full_params", "joint_offset")
@@ -74,7 +77,7 @@ def _split(split: str):
     import vecpin
     from vecpin.measurement.robotaccuracy import read_dataset
     m = vecpin.Machine.load("ur10")
-    c = read_dataset(DATA, m).campaign
+    c = read_dataset(Path(os.environ.get(DATA_ENV, DATA)), m).campaign
     test = held_out(m, c, split)
     return m, c.subset(~test), c.subset(test)
 
@@ -93,7 +96,7 @@ def run_vecpin(split: str, work: Path, *options: str) -> dict:
     e = norm_mm(model.residuals(held))
     chosen = json.loads((work / "model.json").read_text()).get("selection", {}).get("chosen", {})
     setting = f"{chosen.get('kind', model.kind)}, {chosen.get('model_terms', model.n_parameters)} terms"
-    return {"mean": float(e.mean()), "max": float(e.max()), "setting": setting}
+    return {"mean": float(e.mean()), "max": float(e.max()), "setting": setting, "errors": e.round(5).tolist()}
 
 
 def _figaroh_config(work: Path, n: int, method: str, level: str) -> Path:
@@ -168,7 +171,7 @@ def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
     p = calc_updated_fkm(cal.model, cal.data, result.x, q, cfg).reshape(3, -1).T
     e = np.linalg.norm(p - held.xyz, axis=1) * 1000.0
     return {"mean": float(e.mean()), "max": float(e.max()), "setting": f"{method}/{level}",
-            "parameters": len(result.x)}
+            "parameters": len(result.x), "errors": e.round(5).tolist()}
 
 
 def child(argv: list[str]) -> None:
@@ -182,6 +185,7 @@ def child(argv: list[str]) -> None:
 def timed(args: list[str]) -> dict:
     """Run one fit in a fresh process; its figures and the process' wall time [s]."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.setdefault(DATA_ENV, str(DATA))
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, env=env)
     seconds = time.perf_counter() - t0
@@ -195,22 +199,39 @@ def _cell(r: dict) -> str:
     return f"{r['mean']:.3f} / {r['max']:.3f}" if "mean" in r else "failed"
 
 
+def paired(a: dict, b: dict) -> str:
+    """The held-out mean of ``a`` less that of ``b`` on the same poses, with the standard
+    error of the mean of the per-pose differences (mm), and whether it resolves a winner:
+    a difference under two standard errors is a tie at this number of held-out poses."""
+    if "errors" not in a or "errors" not in b:
+        return "-"
+    d = np.asarray(a["errors"]) - np.asarray(b["errors"])
+    se = float(d.std(ddof=1) / np.sqrt(len(d)))
+    verdict = "tie" if abs(d.mean()) < 2 * se else ("better" if d.mean() < 0 else "worse")
+    return f"{d.mean():+.3f} ± {se:.3f} ({verdict})"
+
+
 def table(rows: dict) -> list[str]:
-    """The real-data table: per split, vecpin's default, FIGAROH's default and best."""
+    """The real-data table: per split, vecpin's default, FIGAROH's default and best, and
+    the paired difference of vecpin's default from FIGAROH's default (:func:`paired`)."""
     out = ["| split | train / held out | vecpin default, mean / max mm | FIGAROH default | FIGAROH best (setting) "
-           "| vecpin 6-DoF constant | time vecpin / FIGAROH default / FIGAROH best / 6-DoF constant, s |",
-           "|---|---|---|---|---|---|---|"]
+           "| vecpin 6-DoF constant | vecpin default − FIGAROH default, mean ± SE mm "
+           "| time vecpin / FIGAROH default / FIGAROH best / 6-DoF constant, s |",
+           "|---|---|---|---|---|---|---|---|"]
     for split, r in rows.items():
         v, fd, fb, c = r["vecpin"], r["figaroh_default"], r["figaroh_best"], r["vecpin_constant"]
         out.append(f"| {split} | {r['train']} / {r['held']} | {_cell(v)} | {_cell(fd)} | {_cell(fb)} "
-                   f"({fb.get('setting', '-')}) | {_cell(c)} | {v['seconds']:.1f} / {fd['seconds']:.1f} / "
-                   f"{fb['seconds']:.1f} / {c['seconds']:.1f} |")
+                   f"({fb.get('setting', '-')}) | {_cell(c)} | {paired(v, fd)} | {v['seconds']:.1f} / "
+                   f"{fd['seconds']:.1f} / {fb['seconds']:.1f} / {c['seconds']:.1f} |")
     return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "real_data.md"))
+    ap.add_argument("--out", help="the results page (default docs/results/real_data.md; with --data "
+                    "docs/results/real_data_series_c.md)")
+    ap.add_argument("--data", help="series C's whole measurements_random_poses.csv (2,773 poses; fetched from the "
+                    "dataset's repository, not in vecpin's) instead of the 400 poses in tests/data")
     ap.add_argument("--quick", action="store_true", help="FIGAROH's default only (no search for its best)")
     ap.add_argument("--all-settings", action="store_true", help="search all ten FIGAROH settings for its best")
     ap.add_argument("--settings", nargs="+", metavar="METHOD/LEVEL",
@@ -219,11 +240,16 @@ def main() -> None:
     ap.add_argument("--json", help="also save the figures to this file (a run per split can go in parallel)")
     ap.add_argument("--from-json", nargs="+", metavar="FILE", help="write the table from saved runs; fit nothing")
     args = ap.parse_args()
+    if args.data:
+        os.environ[DATA_ENV] = str(Path(args.data).resolve())
+    source = (f"the whole of series C ({Path(args.data).name}, fetched)" if args.data else
+              "the 400 poses of series C in tests/data")
+    args.out = args.out or str(ROOT / "docs" / "results" / ("real_data_series_c.md" if args.data else "real_data.md"))
     if args.from_json:
         saved = [json.loads(Path(f).read_text()) for f in args.from_json]
         rows = {k: v for s in saved for k, v in s["rows"].items()}
         write(args.out, {k: rows[k] for k in SPLITS if k in rows}, [e for s in saved for e in s["every"]],
-              saved[0].get("searched", ""))
+              saved[0].get("searched", ""), saved[0].get("source", source))
         return
     settings = ([FIGAROH_DEFAULT] if args.quick else [(m, lv) for lv in LEVELS for m in METHODS] if args.all_settings
                 else list(SEARCHED))
@@ -253,17 +279,21 @@ def main() -> None:
         every += [f"| {split} | {'/'.join(s)} | {_cell(r)} | {r['seconds']:.1f} |" for s, r in figs.items()]
     searched = ", ".join("/".join(st) for st in settings)
     if args.json:
-        Path(args.json).write_text(json.dumps({"rows": rows, "every": every, "searched": searched}))
-    write(args.out, rows, every, searched)
+        Path(args.json).write_text(json.dumps({"rows": rows, "every": every, "searched": searched, "source": source}))
+    write(args.out, rows, every, searched, source)
+    if not args.data and set(rows) == set(SPLITS):
+        readme_table(rows, source)
 
 
-def write(out: str, rows: dict, every: list[str], searched: str = "") -> None:
+def write(out: str, rows: dict, every: list[str], searched: str = "", source: str = "") -> None:
     """The results page: the table per split and every FIGAROH setting's figures
-    (``searched``: the settings FIGAROH's best was chosen from)."""
+    (``searched``: the settings FIGAROH's best was chosen from; ``source``: the poses)."""
     text = "\n".join(["# Real data: vecpin's default against FIGAROH (UR10, ipa-robot-accuracy)", "",
-                      "Written by `python benchmarks/bench_figaroh.py` (module docstring: the data, the splits, the "
-                      "settings). Held-out distance between the measured T-Mac centre and the prediction, mm; "
-                      "times are whole processes (start to exit) on a shared 2-core machine."
+                      f"Written by `python benchmarks/bench_figaroh.py` on {source} (module docstring: the data, "
+                      "the splits, the settings). Held-out distance between the measured T-Mac centre and the prediction, mm; "
+                      "times are whole processes (start to exit) on a shared 2-core machine. The difference column "
+                      "pairs the two tools' errors pose by pose: a tie is a difference under two standard errors "
+                      "of its mean, which this many held-out poses cannot resolve."
                       + (f" FIGAROH's best among: {searched}." if searched else ""), "",
                       *table(rows), "", "## Every FIGAROH setting", "", "| split | setting | mean / max mm | time, s |",
                       "|---|---|---|---|", *every, ""])
@@ -271,6 +301,23 @@ def write(out: str, rows: dict, every: list[str], searched: str = "") -> None:
     Path(out).write_text(text)
     print("\n".join(table(rows)))
     print(f"written {out}")
+
+
+def readme_table(rows: dict, source: str) -> None:
+    """The README's real-data table (between :data:`README_MARKS`): per split, vecpin's
+    default, FIGAROH's default and best, the paired difference and the times."""
+    lines = [f"UR10, {source}; held-out mean / max distance, mm; whole-process times, s "
+             "(`python benchmarks/bench_figaroh.py`, [all figures](docs/results/real_data.md)):", "",
+             "| split | vecpin default | FIGAROH default | FIGAROH best | vecpin − FIGAROH default | time vecpin / FIGAROH |",
+             "|---|---|---|---|---|---|"]
+    for split, r in rows.items():
+        v, fd, fb = r["vecpin"], r["figaroh_default"], r["figaroh_best"]
+        lines.append(f"| {split} | {_cell(v)} | {_cell(fd)} | {_cell(fb)} | {paired(v, fd)} "
+                     f"| {v['seconds']:.1f} / {fd['seconds']:.1f} |")
+    text = README.read_text()
+    start, end = (text.index(mark) for mark in README_MARKS)
+    README.write_text(text[:start + len(README_MARKS[0])] + "\n" + "\n".join(lines) + "\n" + text[end:])
+    print(f"written the table in {README}")
 
 
 if __name__ == "__main__":

@@ -32,22 +32,32 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.units import norm_mm
 
 
-END_SHARE = 0.1   # the share of the commands at each end of an axis that :func:`command_folds` holds out together
+END_SHARE = 0.1  # the share of the commands at each end of an axis that :func:`command_folds` holds out together
+END_SPAN = 0.2   # the share of an axis' measured span at each end that :func:`end_blocks` ``by_span`` holds out
 
 
-def end_blocks(campaign: Campaign, ends=()) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
+def end_blocks(campaign: Campaign, ends=(), by_span: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
     """The commands of ``campaign`` and the ends of the axes ``ends``: (group (N,) the
     command of each row, n_commands, [(axis, commands)] two blocks per axis, the
     :data:`END_SHARE` of the commands with the lowest position on it and that share
-    with the highest)."""
+    with the highest; ``by_span``: the commands within :data:`END_SPAN` of the axis'
+    measured span from its lowest command, and those from its highest (at least one
+    each), so the extrapolation a block judges reaches as far wherever commands crowd)."""
     keys = np.round(campaign.q, 9)
     uq, group = np.unique(keys, axis=0, return_inverse=True)
     group = np.asarray(group).ravel()
     m = max(1, int(round(END_SHARE * len(uq))))
     blocks = []
     for a in ends:
-        by_position = np.argsort(uq[:, a], kind="stable")
-        blocks += [(a, by_position[:m]), (a, by_position[-m:])]
+        x = uq[:, a]
+        by_position = np.argsort(x, kind="stable")
+        low, high = by_position[:m], by_position[-m:]
+        if by_span:
+            reach = END_SPAN * (x.max() - x.min())
+            low = np.flatnonzero(x <= x.min() + reach)
+            high = np.flatnonzero(x >= x.max() - reach)
+        blocks += [(a, low), (a, high)]
     return group, len(uq), blocks
 
 
@@ -165,6 +175,24 @@ class FoldedProblem:
         for a in (self.G, self.g, self.G_out, self.g_out):
             a /= f * f
         self._inverse = None
+
+    def refolded(self, fold: np.ndarray, judged: np.ndarray) -> "FoldedProblem":
+        """The same rows and columns folded otherwise (``fold`` (N,) 0..k-1, ``judged``
+        (N,) bool): every new fold's normal equations from its own rows except the
+        largest fold's, which is the whole less the others (the cheap way when a few small
+        blocks are held out, e.g. an axis' two ends)."""
+        fold = np.asarray(fold, int)
+        k, P = int(fold.max()) + 1, self.n_columns
+        G_in, g_in = np.empty((k, P, P)), np.empty((k, P))
+        large = int(np.argmax(np.bincount(fold, minlength=k)))
+        for f in (f for f in range(k) if f != large):
+            Jf = self.J[fold == f].reshape(-1, P)
+            G_in[f], g_in[f] = _gram(Jf), Jf.T @ self.w[fold == f].ravel()
+        others = [f for f in range(k) if f != large]
+        G_in[large] = self.G - G_in[others].sum(axis=0)
+        g_in[large] = self.g - g_in[others].sum(axis=0)
+        grams = (self.G, self.g, np.subtract(self.G, G_in, out=G_in), np.subtract(self.g, g_in, out=g_in))
+        return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.x0, grams=grams)
 
     # ------------------------------------------------------------------ extension
     def extend(self, J1: np.ndarray, A1: np.ndarray) -> "FoldedProblem":

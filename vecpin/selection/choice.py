@@ -62,7 +62,7 @@ from typing import Callable
 import numpy as np
 
 from vecpin.errors import IdentifiabilityError, InputError
-from vecpin.identification.crossval import command_folds, end_rows
+from vecpin.identification.crossval import command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
@@ -306,15 +306,15 @@ def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
 def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate, options,
                 ends) -> tuple[Candidate, list[str]]:
     """The basis of every axis measured over part of its travel (``ends``, chain order)
-    chosen again on the held-out rows of that axis' own ends (:func:`end_rows`), the
-    other axes as reached so far: among that axis' options with no more terms than it
-    has (effective terms, :meth:`Problem.size`), the fewest model terms within one paired
-    standard error of the lowest held-out mean on those rows (:func:`one_standard_error`),
-    so that along an axis the model is used beyond, it keeps only what extrapolates there. (The candidate reached, what
-    changed, 'axis old -> new'.)"""
+    chosen again on the held-out rows of that axis' own ends, each end estimated without
+    any of its own commands (:meth:`Problem.on_ends`), the other axes as reached so far:
+    among that axis' options with no more terms than it has (effective terms,
+    :meth:`Problem.size`), the fewest model terms within one paired standard error of the
+    lowest held-out mean on those rows (:func:`one_standard_error`), so that along an axis
+    the model is used beyond, it keeps only what extrapolates there. (The candidate
+    reached, what changed, 'axis old -> new'.)"""
     chosen, changed = start, []
     for i in ends:
-        rows = end_rows(camp, i)[prob.judged]
         trials = [chosen.axes[:i] + (o,) + chosen.axes[i + 1:] for o in options[i]
                   if o.size <= chosen.axes[i].size]
         new = [t for t in trials if (prob.kind, t) not in search.scored and (prob.kind, t) not in search.left_out
@@ -322,9 +322,11 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
         for c in (prob.candidates(new) if len(new) > 1 else [prob.candidate(t) for t in new]):
             search.add(c)
         pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
-        pool = [c for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
-        low = min(pool, key=lambda c: c.heldout[rows].mean())
-        pick = one_standard_error(pool, low, prob.size, rows)[0]
+        pool = [c.axes for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
+        ends_prob = prob.on_ends(i, camp)
+        judged = ends_prob.candidates(pool) if len(pool) > 1 else [ends_prob.candidate(t) for t in pool]
+        low = min(judged, key=lambda c: c.mean)
+        pick = search.scored[(prob.kind, one_standard_error(judged, low, prob.size)[0].axes)]
         if pick is not chosen:
             changed.append(f"{prob.machine.axes[i].name} {chosen.axes[i].label()} -> {pick.axes[i].label()}")
             chosen = pick
