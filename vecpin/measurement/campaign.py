@@ -469,10 +469,9 @@ def campaign_text(campaign: Campaign, machine: Machine) -> str:
     cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool * MM_PER_M] + \
         [campaign.xyz[:, k] * MM_PER_M for k in range(3)] + list(extra.values())
     row_header, row_cells = _row_columns(campaign, machine)
+    cells = [["" if v != v else f % v for v in np.asarray(c, float).tolist()] for f, c in zip(fmts, cols)]  # v != v: NaN
     lines = [",".join(machine.axis_names + ["tool", "x", "y", "z"] + list(extra) + row_header)]
-    for i in range(len(campaign)):
-        cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
-        lines.append(",".join(cells + row_cells[i]))
+    lines += [",".join((*numbers, *more)) for numbers, more in zip(zip(*cells), row_cells)]
     return "\n".join(lines) + "\n"
 
 
