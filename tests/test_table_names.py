@@ -117,3 +117,22 @@ def test_selection_rules_read_vendor_names_by_their_axes():
 def test_axes_whose_tables_would_share_a_name_are_refused():
     with pytest.raises(MachineError, match="would both be named 'a_b_c'.*rename an axis joint"):
         table_names(["a_b", "c", "a", "b_c"])
+
+
+def test_iso230_q_columns_keep_vendor_axis_names_apart(tmp_path):
+    """An AP model's error of a rotary axis' angle as a function of another axis is the
+    ISO 230 file's column Q<J><I>: 'Qc_axis_x_axis' (in degrees), read back by its reader."""
+    from vecpin.export import iso230
+    from vecpin.models import make_model
+    m = vendor_machine()
+    model = make_model("ap", m, 2)
+    model.b_ = np.random.default_rng(0).normal(size=model.n_parameters) * 1e-5
+    fmt = get_format("iso230")
+    with OutputSet(tmp_path) as out:
+        fmt.write(ExportJob(vendor_tables(m), m, vendor_profile(1), fmt.limits, out, model))
+    header = [ln for ln in (tmp_path / "ISO230_x_axis.csv").read_text().splitlines() if not ln.startswith("#")][0]
+    assert "Qc_axis_x_axis_deg" in header.split(",") and "Qc_axisx_axis" not in header
+    back = iso230.read_neutral(tmp_path / "ISO230_x_axis.csv", m)
+    assert back.axis == "x_axis" and "Qc_axis_x_axis" in back.errors
+    from vecpin.compensation.tables import joined_axes
+    assert joined_axes("C", "X") == "CX"  # the bundled machines' columns: QCX as before

@@ -41,8 +41,14 @@ def table_name(output_axis: str, input_axis: str) -> str:
     ('x_axis_c_axis'), which every format's names take: Siemens program names (letters,
     digits, '_'), Heidenhain and Fanuc file names, the LinuxCNC component's comments, the
     generic JSON and CSV; the writers' names never hold a table name otherwise."""
-    o, i = output_axis.lower(), input_axis.lower()
-    return o + i if NC_AXIS.fullmatch(o) and NC_AXIS.fullmatch(i) else o + TABLE_NAME_SEPARATOR + i
+    return joined_axes(output_axis, input_axis).lower()
+
+
+def joined_axes(first: str, second: str) -> str:
+    """Two axis names in one name, case kept: run together when both are NC-style (a
+    letter and optional digits), else joined by '_' (see :func:`table_name`)."""
+    nc = NC_AXIS.fullmatch(first.lower()) and NC_AXIS.fullmatch(second.lower())
+    return first + second if nc else first + TABLE_NAME_SEPARATOR + second
 
 
 def table_names(axis_names) -> list[str]:
