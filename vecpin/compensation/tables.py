@@ -38,9 +38,9 @@ def table_name(output_axis: str, input_axis: str) -> str:
     lower case. NC-style names (a letter and optional digits: X, Y, X2, A1) run together
     as in the seed ('zx' = Z from X, 'yx2'): one letter starts each, so the two are told
     apart. Other names (a vendor's joints: 'x_axis', 'c_axis') are joined by '_'
-    ('x_axis_c_axis'), which every format's names take: Siemens program names (letters,
-    digits, '_'), Heidenhain and Fanuc file names, the LinuxCNC component's comments, the
-    generic JSON and CSV; the writers' names never hold a table name otherwise."""
+    ('x_axis_c_axis'), which every place a table name goes takes: the sign test's program
+    (Siemens program names: letters, digits, '_'; Heidenhain and Fanuc file names), the
+    LinuxCNC component's comments, the READMEs, the generic JSON and CSV."""
     return joined_axes(output_axis, input_axis).lower()
 
 

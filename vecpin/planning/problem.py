@@ -128,7 +128,7 @@ class PlanSettings:
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
                              "points are taken from the "
                              f"planned commands, at most `n_commands` ({self.n_commands})")
-        if self.order != "auto" and not (isinstance(self.order, int) and self.order >= 0):
+        if self.order != "auto" and not (isinstance(self.order, (int, np.integer)) and self.order >= 0):
             raise InputError(f"`order` {self.order!r}: a whole number >= 0, or auto")
         if self.basis not in BASES:
             raise InputError(f"`basis` '{self.basis}': one of {', '.join(BASES)}")
