@@ -70,9 +70,26 @@ def test_basis_and_order_mean_in_plan_what_they_mean_in_fit():
     """One meaning per option name: plan takes the fit's bases and orders (auto: vecpin
     chooses; before any data a plan fixes them)."""
     assert list(_choices("plan", "basis")) == list(_choices("fit", "basis")) == list(BASES)
-    assert plan_order("auto") == 6 and plan_order("3") == 3
+    assert plan_order("auto") == "auto" and plan_order("3") == 3
     with pytest.raises(InputError, match="--order 'x'"):
         plan_order("x")
+
+
+def test_too_few_points_names_the_order_given_or_the_default(flow, tmp_path, capsys):
+    """A plan with more unknowns than equations names the order the user gave, or says
+    the order is the default auto (and which order that is) when none was given; the
+    model kind and the number of commands likewise."""
+    from vecpin.cli import main
+    args = ["plan", "flow_xyzcb", "--points", "10", "--no-sight", "--out", str(tmp_path / "p")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "--order auto (the default: order 6 before any data" in err and "--order 6" not in err, err
+    assert "(--model auto, the default: ap for a machine without table axes)" in err and "--points 10 x 2" in err
+    assert main(args + ["--order", "3", "--model", "ap"]) == 2
+    err = capsys.readouterr().err
+    assert "--order 3: the ap model of order 3 of flow_xyzcb has" in err and "auto" not in err, err
+    with pytest.raises(InputError, match=r"^`order` 30: the ap model .* `n_commands` 100 \(the default\) x 1 holders"):
+        make_plan(flow, PlanSettings(order=30, tools_mm=(200.0,), sight=False))
 
 
 def test_a_plan_for_each_basis_is_the_model_the_fit_fixes(flow):

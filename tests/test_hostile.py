@@ -615,9 +615,11 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
                                                  "--multilateration"], ["--multilateration", "at least 4"]),
     # view
     "view --row 5000": (lambda b, w: ["view", b.model, b.csv, "--row", "5000", "--html", w / "v.html"],
-                        ["--row 5000", "rows 0 .. 59"]),
+                        ["--row 5000", "rows 2 .. 61", "the header is row 1"]),
     "view --row -1": (lambda b, w: ["view", b.model, b.csv, "--row", "-1", "--html", w / "v.html"],
-                      ["--row -1", "rows 0 .. 59"]),
+                      ["--row -1", "rows 2 .. 61"]),
+    "view --row 1": (lambda b, w: ["view", b.model, b.csv, "--row", "1", "--html", w / "v.html"],
+                     ["--row 1", "rows 2 .. 61"]),
     "view --exaggerate nan": (lambda b, w: ["view", b.model, b.csv, "--exaggerate", "nan", "--html", w / "v.html"],
                               ["--exaggerate 'nan'", "factor > 0"]),
     "view --exaggerate inf": (lambda b, w: ["view", b.model, b.csv, "--exaggerate", "inf", "--html", w / "v.html"],

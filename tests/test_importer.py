@@ -1,6 +1,7 @@
 """Tracker exports into campaigns: foreign formats read back to the simulated values, units
 told from the spread of the points (an all-inch file cannot pass as mm), joins by name
 and by order, and every problem named by file, row and column."""
+import csv
 from datetime import datetime, timedelta
 
 import numpy as np
@@ -13,7 +14,7 @@ from vecpin.measurement.importer import import_export, parse_column_map
 from vecpin.measurement.importwrite import write_imported
 from vecpin.measurement.plantemplate import point_name
 from vecpin.planning.plan import PlanSettings, make_plan
-from vecpin.simulation.simulate import simulate
+from vecpin.simulation.simulate import Design, simulate
 
 T0 = datetime(2024, 3, 5, 23, 55, 0)  # the campaign runs past midnight
 
@@ -245,6 +246,54 @@ def test_without_a_plan_the_export_carries_the_axes(flow, day, tmp_path):
     with pytest.raises(CampaignFileError, match="give `plan`") as e:
         import_export(tmp_path / "n.csv", flow, units="mm")
     assert e.value.column == "X"
+
+
+def _same_campaign(a, b):
+    """Every field of two campaigns equal, to the 6 decimals of a file (SI)."""
+    assert a.axis_names == b.axis_names and list(a.extra) == list(b.extra)
+    for name in ("q", "tool", "xyz", "radius"):
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), atol=1e-9, equal_nan=True, err_msg=name)
+    for name in ("instrument", "station", "pivot", "point", "target"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    for k in a.extra:
+        np.testing.assert_allclose(a.extra[k], b.extra[k], atol=1e-6, err_msg=k)
+
+
+def test_simulated_and_imported_campaign_files_have_one_writer(machines, tmp_path):
+    """The writer of vecpin simulate's files (write_campaign) and of vecpin import's
+    (write_imported) write the same bytes for one campaign with every kind of row: tool
+    targets, table nests, two tracker stations, ball bar rows, and a plan's point numbers
+    and approach signs. Read with the csv module: a per-row column only when a row uses
+    it, counts as whole numbers, ball bar radii in mm; the file reads back to the campaign."""
+    m = machines["trunnion_xyzac"]
+    c = simulate(m, 5, design=Design(n_commands=6, n_validation=2, stations=2, ballbar_points=4,
+                                     targets_mm=((0.0, 0.0, 50.0),))).campaign
+    n = len(c)
+    c.extra["point"] = np.arange(1.0, n + 1)
+    c.extra["approach_A"] = np.where(np.arange(n) % 2, 1.0, -1.0)
+    write_campaign(tmp_path / "simulated.csv", c, m)
+    write_imported(c, m, tmp_path / "imported.csv")
+    text = (tmp_path / "simulated.csv").read_bytes()
+    assert text == (tmp_path / "imported.csv").read_bytes()
+    rows = list(csv.DictReader(open(tmp_path / "simulated.csv")))
+    assert list(rows[0])[-7:] == ["point", "approach_A", "instrument", "target", "station", "r", "pivot"]
+    assert [r["point"] for r in rows] == [str(k) for k in range(1, n + 1)]
+    assert {r["approach_A"] for r in rows} == {"1", "-1"}
+    bb = [r for r in rows if r["instrument"] == "ballbar"]
+    assert len(bb) == 4 and all(r["station"] == "" and r["x"] == "" for r in bb)
+    np.testing.assert_allclose([float(r["r"]) for r in bb], c.radius[c.ballbar_rows] * 1000, atol=1e-6)  # mm
+    assert {r["station"] for r in rows if r["instrument"] != "ballbar"} == {"0", "1"}
+    assert {r["target"] for r in rows if r["instrument"] == "nest"} == {"1", "2", "3"}
+    _same_campaign(read_campaign(tmp_path / "simulated.csv", m), c)
+    # the columns nobody uses are not written: tool tips and nests from one station
+    tips = c.subset(np.flatnonzero((c.instrument == "nest") & (c.station == 0)))
+    write_campaign(tmp_path / "nests.csv", tips, m)
+    assert (tmp_path / "nests.csv").read_text().splitlines()[0].endswith("temperature,point,approach_A,instrument,target")
+    spar = machines["spar_mill_23"]
+    two = simulate(spar, 5, design=Design(n_commands=8, n_validation=2)).campaign
+    write_imported(two, spar, tmp_path / "spar.csv")
+    assert {r["tool_point"] for r in csv.DictReader(open(tmp_path / "spar.csv"))} == set(spar.tool_links)
+    _same_campaign(read_campaign(tmp_path / "spar.csv", spar), two)
 
 
 def test_read_campaign_hints_at_semicolons_and_tabs(flow, day, tmp_path):

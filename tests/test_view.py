@@ -41,16 +41,51 @@ def test_scene_content_without_a_server(fitted):
     assert 20 < facts["exaggeration"] < 1e5
 
 
-def test_machine_is_posed_at_the_selected_row(fitted):
+def _selected(window):
     import umsgpack
+    sel = umsgpack.unpackb(window.commands[("set_transform", "/meshcat/vecpin/selected", None)])
+    return np.array(sel["matrix"]).reshape(4, 4, order="F")[:3, 3]
+
+
+def test_machine_is_posed_at_the_selected_row(fitted):
     model, c = fitted
     tips = []
-    for row in (0, 9):
+    for row in (2, 11):
         window = RecordingWindow()
         build_scene(meshcat.Visualizer(window=window), model, c, row=row)
-        sel = umsgpack.unpackb(window.commands[("set_transform", "/meshcat/vecpin/selected", None)])
-        tips.append(np.array(sel["matrix"]).reshape(4, 4, order="F")[:3, 3])
+        tips.append(_selected(window))
     assert np.linalg.norm(tips[0] - tips[1]) > 0.05
+
+
+def test_view_row_is_the_row_the_messages_print(fitted, tmp_path, capsys):
+    """`vecpin view --row N` poses the machine at the CSV's line N (header = line 1, as a
+    campaign file's messages count rows): with exaggeration 1 the selected point is that
+    line's x, y, z (read with the csv module) in the machine frame. A number outside the
+    file is refused naming the file and the rows it has."""
+    import csv
+    from vecpin.cli import main
+    from vecpin.measurement.campaign import write_campaign
+    from vecpin.viz.scene import to_machine_frame
+    model, c = fitted
+    model.save(tmp_path / "m.json")
+    path = tmp_path / "c.csv"
+    write_campaign(path, c, model.machine)
+    lines = list(csv.reader(open(path)))
+    header = lines[0]
+    for row in (2, 9, len(lines)):
+        xyz = np.array([float(lines[row - 1][header.index(a)]) for a in "xyz"]) / 1000.0
+        window = RecordingWindow()
+        facts = build_scene(meshcat.Visualizer(window=window), model, c, row=row, exaggerate=1.0)
+        assert facts["row"] == row
+        np.testing.assert_allclose(_selected(window), to_machine_frame(model, xyz[None])[0], atol=1e-9)
+    assert main(["view", str(tmp_path / "m.json"), str(path), "--row", "9", "--no-tables",
+                 "--html", str(tmp_path / "v.html")]) == 0
+    assert f"posed at row 9 of {path}" in capsys.readouterr().out
+    for bad in (1, len(lines) + 1):
+        assert main(["view", str(tmp_path / "m.json"), str(path), "--row", str(bad), "--no-tables",
+                     "--html", str(tmp_path / "v.html")]) == 2
+        err = capsys.readouterr().err
+        assert f"--row {bad}" in err and str(path) in err and f"rows 2 .. {len(lines)}" in err, err
 
 
 def test_error_colours_run_blue_to_red():

@@ -41,11 +41,11 @@ def parse_tools(texts: list[str], option: str = "--tools") -> tuple[float, ...]:
     return tuple(v for t in texts for v in parse_floats(t, option))
 
 
-def plan_order(text: str) -> int:
-    """``--order`` of a plan: a whole number >= 0, or auto: 6 (Paper I's; a plan is made
-    before the data can choose)."""
+def plan_order(text: str) -> int | str:
+    """``--order`` of a plan: a whole number >= 0, or "auto" (the plan takes 6, Paper I's:
+    a plan is made before the data can choose; its messages say it was auto)."""
     if str(text).strip().lower() == "auto":
-        return 6
+        return "auto"
     try:
         order = int(text)
     except ValueError:

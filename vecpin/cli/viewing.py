@@ -43,13 +43,14 @@ def run_view(args) -> int:
     model = ErrorModel.load(args.model)
 
     def ready(url, facts):
-        print(f"meshcat scene at {url}; one group is shown at a time (switch them in Open Controls > Scene > "
-              "vecpin); Ctrl-C to stop", flush=True)
+        print(f"meshcat scene at {url}, posed at row {facts['row']} of {args.csv}; one group is shown at a time "
+              "(switch them in Open Controls > Scene > vecpin); Ctrl-C to stop", flush=True)
         print("\n".join(legend_lines(facts)), flush=True)
     facts = view(model, read_campaign(args.csv, model.machine), row=args.row, exaggerate=ex, show=args.show,
                  no_tables=args.no_tables, html=args.html, ready=ready)
     if args.html:
-        print(f"wrote {args.html}: {facts['commands']} scene commands; open it in a browser (no server needed); groups:")
+        print(f"wrote {args.html}: posed at row {facts['row']} of {args.csv}, {facts['commands']} scene commands; "
+              "open it in a browser (no server needed); groups:")
         print("\n".join(legend_lines(facts)))
     return 0
 
@@ -71,7 +72,9 @@ def register(sub) -> None:
     s = sub.add_parser("view", help="meshcat scene of measured vs modelled tool tips (interactive, or --html)")
     s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
     s.add_argument("csv", help="campaign CSV the model was fitted to (or one measured with the same tracker pose)")
-    s.add_argument("--row", type=int, default=0, help="measurement row to pose the machine at, 0-based (default 0)")
+    s.add_argument("--row", type=int, help="the campaign row to pose the machine at, counted as vecpin's messages "
+                   "count rows: the line of the CSV file, the header being row 1 and the first measurement row 2 "
+                   "(default: the first tracker row of station 0)")
     s.add_argument("--exaggerate", metavar="FACTOR|GROUP=FACTOR,...",
                    help="error vector scale, dimensionless: one factor for every group or per group (errors, "
                         "residuals, compensated); default: each group's largest vector = 8%% of the workspace")

@@ -41,7 +41,7 @@ from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import register as kabsch, registered_errors, rigid_motion_basis
 from vecpin.models import APModel, ErrorModel
-from vecpin.compensation.tables import CompensationTable, TableSet, table_grid
+from vecpin.compensation.tables import CompensationTable, TableSet, table_grid, table_name, table_names
 from vecpin.units import MM_PER_M
 
 # actual(q, tool, jacobian, point) -> (tip (N,3) relative to the workpiece [m], d tip / d q (N,3,n) or None)
@@ -185,7 +185,7 @@ class CompensationFunctions:
 
     @property
     def names(self) -> list[str]:
-        return [(o + i).lower() for o, i in self.coef]
+        return [table_name(o, i) for o, i in self.coef]
 
     def function(self, output_axis: str, input_axis: str, q_in: np.ndarray) -> np.ndarray:
         """t_oi at input positions [m, rad]; held at its value at the edge of the measured
@@ -301,7 +301,7 @@ class TableProblem:
         self.modulo_axes = tuple(modulo_axes)
         self.ridge = ridge
         self.pairs = [(ao.name, ai.name) for ao in machine.axes for ai in machine.axes]
-        self.names = [(o + i).lower() for o, i in self.pairs]
+        self.names = table_names(machine.axis_names)
         # column layout: [dT] + one block per pair
         self.blocks: dict[str, np.ndarray] = {}
         col = 1
@@ -435,11 +435,11 @@ class TableProblem:
 
 
 def all_table_names(machine: Machine) -> list[str]:
-    return [(ao.name + ai.name).lower() for ao in machine.axes for ai in machine.axes]
+    return table_names(machine.axis_names)
 
 
 def pitch_names(machine: Machine) -> list[str]:
-    return [(a.name + a.name).lower() for a in machine.axes]
+    return [table_name(a, a) for a in machine.axis_names]
 
 
 class ReportRow(NamedTuple):

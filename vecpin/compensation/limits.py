@@ -16,6 +16,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from vecpin.compensation.selection import Constraints
+from vecpin.compensation.tables import table_name
 from vecpin.errors import ControllerLimitError, InputError
 
 # vecpin's own ceiling on points per table: beyond it the generic files (one CSV row per
@@ -142,8 +143,8 @@ class ControllerLimits:
                                        f"use `max_tables` {limit} or fewer")
         pairs: tuple[tuple[str, str], ...] = ()
         if self.one_cross_table_per_output and axis_names is not None:
-            names = [(o + i).lower() for o in axis_names for i in axis_names if o != i]
-            pairs = tuple((a, b) for a in names for b in names if a < b and a[0] == b[0])
+            output = {table_name(o, i): o for o in axis_names for i in axis_names if o != i}
+            pairs = tuple((a, b) for a in output for b in output if a < b and output[a] == output[b])
         return Constraints(k, tuple(self.forbid_output) + tuple(forbid_output), (),
                            self.no_circular if no_circular is None else bool(no_circular or self.no_circular), pairs)
 

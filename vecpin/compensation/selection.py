@@ -32,13 +32,15 @@ import numpy as np
 from scipy import linalg
 
 from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names, ridged
+from vecpin.compensation.tables import reversed_names, table_name
 from vecpin.errors import VecpinError
 from vecpin.units import MM_PER_M
 
 
 @dataclass(frozen=True)
 class Constraints:
-    """What the controller allows. Table names are output then input axis ('zx')."""
+    """What the controller allows. Table names are output then input axis ('zx',
+    :func:`~vecpin.compensation.tables.table_name`)."""
 
     max_tables: int
     forbid_output: tuple[str, ...] = ()
@@ -49,11 +51,11 @@ class Constraints:
     def candidates(self, axis_names: list[str]) -> list[str]:
         out_forbidden = {a.lower() for a in self.forbid_output}
         in_forbidden = {a.lower() for a in self.forbid_input}
-        return [(o + i).lower() for o in axis_names for i in axis_names
+        return [table_name(o, i) for o in axis_names for i in axis_names
                 if o != i and o.lower() not in out_forbidden and i.lower() not in in_forbidden]
 
     def compatible(self, a: str, b: str) -> bool:
-        if self.no_circular and a[::-1] == b:
+        if self.no_circular and b in reversed_names(a):
             return False
         return (a, b) not in self.forbidden_pairs and (b, a) not in self.forbidden_pairs
 
@@ -263,7 +265,7 @@ def impact_heuristic(problem: TableProblem, constraints: Constraints, n_points: 
     the error without it, the more it matters; take the top k that fit."""
     t0 = time.perf_counter()
     m = problem.machine
-    every = [(o + i).lower() for o in m.axis_names for i in m.axis_names if o != i]
+    every = [table_name(o, i) for o in m.axis_names for i in m.axis_names if o != i]
     cand = set(constraints.candidates(m.axis_names))
     ranking = []
     for name in every:

@@ -16,16 +16,69 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from vecpin.errors import VecpinError
+from vecpin.errors import MachineError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.kinematics.machine import Machine
 from vecpin.kinematics.so3 import exp3
 from vecpin.units import MM_PER_M, M_PER_MM
+
+
+NC_AXIS = re.compile(r"[a-z][0-9]*")  # an NC-style axis name, lower case: a letter and digits (x, x2, a1)
+TABLE_NAME_SEPARATOR = "_"
+
+
+def table_name(output_axis: str, input_axis: str) -> str:
+    """The name of the table of ``output_axis`` (corrected) from ``input_axis`` (read),
+    lower case. NC-style names (a letter and optional digits: X, Y, X2, A1) run together
+    as in the seed ('zx' = Z from X, 'yx2'): one letter starts each, so the two are told
+    apart. Other names (a vendor's joints: 'x_axis', 'c_axis') are joined by '_'
+    ('x_axis_c_axis'), which every place a table name goes takes: the sign test's program
+    (Siemens program names: letters, digits, '_'; Heidenhain and Fanuc file names), the
+    LinuxCNC component's comments, the READMEs, the generic JSON and CSV."""
+    return joined_axes(output_axis, input_axis).lower()
+
+
+def joined_axes(first: str, second: str) -> str:
+    """Two axis names in one name, case kept: run together when both are NC-style (a
+    letter and optional digits), else joined by '_' (see :func:`table_name`)."""
+    nc = NC_AXIS.fullmatch(first.lower()) and NC_AXIS.fullmatch(second.lower())
+    return first + second if nc else first + TABLE_NAME_SEPARATOR + second
+
+
+def table_names(axis_names) -> list[str]:
+    """Every (output, input) pair's :func:`table_name`, output axis by output axis (the
+    pitch tables on the diagonal); refuses (MachineError) axes whose pairs share a name,
+    which a table set could not tell apart."""
+    names = [table_name(o, i) for o in axis_names for i in axis_names]
+    pairs = [(o, i) for o in axis_names for i in axis_names]
+    seen: dict[str, tuple[str, str]] = {}
+    for name, pair in zip(names, pairs):
+        if name in seen:
+            raise MachineError(f"the tables of {seen[name][0]} from {seen[name][1]} and of {pair[0]} from {pair[1]} "
+                               f"would both be named '{name}' (names are lower case, axes joined by "
+                               f"'{TABLE_NAME_SEPARATOR}'): rename an axis joint in the URDF")
+        seen[name] = pair
+    return names
+
+
+def reversed_names(name: str) -> set[str]:
+    """The names of the table that swaps output and input of table ``name`` (one name;
+    a '_' inside vendor axis names can leave a few readings of where the axes part)."""
+    out = set()
+    m = re.fullmatch(r"([a-z][0-9]*)([a-z][0-9]*)", name)
+    if m:
+        out.add(table_name(m.group(2), m.group(1)))
+    for k, c in enumerate(name):
+        o, i = name[:k], name[k + 1:]
+        if c == TABLE_NAME_SEPARATOR and o and i and table_name(o, i) == name:
+            out.add(table_name(i, o))
+    return out
 
 
 @dataclass
@@ -42,8 +95,8 @@ class CompensationTable:
 
     @property
     def name(self) -> str:
-        """The seed's two-letter name: output then input axis, e.g. 'zx' = Z corrected from X."""
-        return (self.output_axis + self.input_axis).lower()
+        """Output then input axis (:func:`table_name`), e.g. 'zx' = Z corrected from X."""
+        return table_name(self.output_axis, self.input_axis)
 
     @property
     def positions(self) -> np.ndarray:

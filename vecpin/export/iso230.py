@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
+from vecpin.compensation.tables import joined_axes
 from vecpin.errors import ControllerFileError, InputError
 from vecpin.export.common import ControllerFormat, ExportJob, no_check, read_lines, to_float
 from vecpin.kinematics.machine import Machine
@@ -55,10 +56,13 @@ class ComponentErrors:
 
 
 def _q_output(name: str, machine: Machine) -> str:
-    """Output axis J of a 'Q<J><I>' column (axis names may be longer than one letter)."""
+    """Output axis J of a 'Q<J><I>' column (axis names longer than a letter and digits
+    joined by '_': :func:`~vecpin.compensation.tables.joined_axes`; run together, as
+    files before it wrote them, read too)."""
     for a in sorted(machine.axis_names, key=len, reverse=True):
         rest = name[1:]
-        if rest.startswith(a) and rest[len(a):] in machine.axis_names:
+        tail = rest[len(a):]
+        if rest.startswith(a) and (tail in machine.axis_names or tail[:1] == "_" and tail[1:] in machine.axis_names):
             return a
     raise InputError(f"column {name}: not Q<output axis><input axis>")
 
@@ -116,7 +120,7 @@ def component_errors(model, points: int = 101) -> list[ComponentErrors]:
                 else:
                     hit = None
                 if hit is None:
-                    errs[f"Q{aj.name}{a.name}"] = f
+                    errs[f"Q{joined_axes(aj.name, a.name)}"] = f
                 else:
                     errs[f"E{hit[0]}{a.name}"] = hit[1] * f
             out.append(ComponentErrors(a.name, a.kind, q[:, a.index], errs, "ap"))

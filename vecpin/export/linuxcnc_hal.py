@@ -46,7 +46,7 @@ HAL_FILE = COMPONENT + ".hal"
 HAL_NAME = COMPONENT.replace("_", "-")        # halcompile turns '_' into '-' in HAL names
 DEFAULT_SLEW = 1.0                            # units/s while the correction switches on or off
 
-_TABLE = re.compile(r"^/\* table (?P<name>\w+): joint (?P<out>\d+) \((?P<oname>[^)]*)\) from joint (?P<inp>\d+) "
+_TABLE = re.compile(r"^/\* table (?P<name>[\w-]+): joint (?P<out>\d+) \((?P<oname>[^)]*)\) from joint (?P<inp>\d+) "
                     r"\((?P<iname>[^)]*)\), start (?P<start>\S+), step (?P<step>\S+), (?P<n>\d+) points \*/$")
 
 

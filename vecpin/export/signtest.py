@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.compensation.tables import CompensationTable, TableSet, table_name
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.export.common import UserCommands, decimal
 from vecpin.export.profile import ControllerProfile, load_option_json
@@ -45,6 +45,16 @@ VERSION = 1
 APPROACH = {"mm": 5.0, "deg": 2.0}     # approach distance before each stop
 FEED = 1000.0                           # mm/min or deg/min
 WEAK = {"mm": 0.002, "deg": 0.0005}    # a smaller predicted shift is hard to see
+PROGRAM_NAME = 24                       # characters of a Siemens program name (Programming Manual, Fundamentals 2.2.1);
+                                        # Heidenhain shows 24-25 of a file name, Fanuc takes 32
+
+
+def sign_tag(table: str) -> str:
+    """The ``<T>`` of ``SIGNTEST_<T>``, the sign test's program and files: the table name
+    (:func:`~vecpin.compensation.tables.table_name`) in capitals, '-' as '_' (a Siemens
+    program name takes letters, digits and '_'), cut so that ``SIGNTEST_<T>`` keeps
+    within :data:`PROGRAM_NAME` characters; the program's comment names the whole table."""
+    return table.upper().replace("-", "_")[:PROGRAM_NAME - len("SIGNTEST_")].rstrip("_")
 
 
 def find_table(tables: TableSet, machine: Machine, which: str) -> CompensationTable:
@@ -53,7 +63,7 @@ def find_table(tables: TableSet, machine: Machine, which: str) -> CompensationTa
     names = {a.lower(): a for a in machine.axis_names}
     key = which.strip().lower()
     if key in names:
-        key = key * 2
+        key = table_name(names[key], names[key])
     for t in tables.tables:
         if t.name == key:
             return t
@@ -141,7 +151,7 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     safety block first, every position in machine coordinates, each approached from
     below at the feed, a programmed stop at each reading, then what the program changed
     restored or named (see :mod:`vecpin.planning.ncdialect`)."""
-    tag = st.table.upper()
+    tag = sign_tag(st.table)
     moves = _moves(st)
     what = f"vecpin sign test of table {st.table}: read {st.output_axis} at each stop"
     if dialect == "heidenhain":
@@ -207,7 +217,7 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
     address = p.program_name or st.input_axis
     check_address(address, dialect, st.input_axis, profile.where)
     prog_name, prog = program(st, dialect, address)
-    tag = st.table.upper()
+    tag = sign_tag(st.table)
     out.write_text(prog_name, prog)
     out.write_text(f"SIGNTEST_{tag}.json", json.dumps(st.to_dict(), indent=1) + "\n")
     buf = io.StringIO()

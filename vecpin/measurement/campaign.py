@@ -449,49 +449,62 @@ def _parse_cell(name: str, cell: str, lineno: int, column: str) -> float:
 
 # ---------------------------------------------------------------------- writing
 def write_campaign(path: str | Path, campaign: Campaign, machine: Machine) -> None:
-    """Write a campaign CSV (mm, deg; 6 decimals in mm = 1 nm, 8 in deg)."""
+    """Write a campaign CSV (the text of :func:`campaign_text`: mm, deg)."""
+    write_text(path, campaign_text(campaign, machine))
+
+
+def campaign_text(campaign: Campaign, machine: Machine) -> str:
+    """A campaign as the CSV text :func:`read_campaign` reads, the one writer of campaign
+    files (simulated and imported alike): the axes [mm, deg; 6 decimals in mm = 1 nm, 8 in
+    deg], ``tool`` and the tracker-frame ``x``, ``y``, ``z`` [mm, 6 decimals], the extra
+    columns (6 decimals; ``point`` and ``approach_<AXIS>`` as whole numbers when they are),
+    then each per-row column a row uses (:func:`_row_columns`). An empty cell is NaN (a
+    ball bar row's x, y, z)."""
     if list(campaign.axis_names) != machine.axis_names:
         raise ValueError(f"campaign axes {campaign.axis_names} do not match machine axes {machine.axis_names}")
     q_user = machine.to_user(campaign.q)
-    header = machine.axis_names + ["tool", "x", "y", "z"] + list(campaign.extra)
-    fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4 + ["%.6f"] * len(campaign.extra)
+    extra = {k: np.asarray(v, float) for k, v in campaign.extra.items()}
+    fmts = ["%.6f" if a.kind == "linear" else "%.8f" for a in machine.axes] + ["%.6f"] * 4 + \
+        [_extra_format(k, v) for k, v in extra.items()]
     cols = [q_user[:, j] for j in range(machine.n_axes)] + [campaign.tool * MM_PER_M] + \
-        [campaign.xyz[:, k] * MM_PER_M for k in range(3)] + [np.asarray(v, float) for v in campaign.extra.values()]
-    mixed = campaign.mixed
-    if mixed:
-        header += ["instrument", "station", "r", "pivot"]
-    point_header, point_cells = _point_target_cells(campaign, machine)
-    header += point_header
-    lines = [",".join(header)]
-    for i in range(len(campaign)):
-        cells = ["" if np.isnan(c[i]) else f % c[i] for f, c in zip(fmts, cols)]
-        if mixed:
-            bb = campaign.instrument[i] == "ballbar"
-            cells += [campaign.instrument[i], "" if bb else str(int(campaign.station[i])),
-                      f"{campaign.radius[i] * MM_PER_M:.6f}" if bb else "", str(int(campaign.pivot[i])) if bb else ""]
-        lines.append(",".join(cells + point_cells[i]))
-    write_text(path, "\n".join(lines) + "\n")
+        [campaign.xyz[:, k] * MM_PER_M for k in range(3)] + list(extra.values())
+    row_header, row_cells = _row_columns(campaign, machine)
+    cells = [["" if v != v else f % v for v in np.asarray(c, float).tolist()] for f, c in zip(fmts, cols)]  # v != v: NaN
+    lines = [",".join(machine.axis_names + ["tool", "x", "y", "z"] + list(extra) + row_header)]
+    lines += [",".join((*numbers, *more)) for numbers, more in zip(zip(*cells), row_cells)]
+    return "\n".join(lines) + "\n"
 
 
-def _point_target_cells(campaign: Campaign, machine: Machine) -> tuple[list[str], list[list[str]]]:
-    """The ``target`` and ``tool_point`` columns of a campaign file (only when used):
-    header cells and per-row cells (the tool point as its link's name)."""
-    header = []
-    use_target = bool(np.any(campaign.target != ""))
-    use_point = bool(np.any(campaign.point != 0))
-    if use_target:
-        header.append("target")
-    if use_point:
-        header.append("tool_point")
-    rows = []
-    for i in range(len(campaign)):
-        cells = []
-        if use_target:
-            cells.append(str(campaign.target[i]))
-        if use_point:
-            cells.append(machine.tool_links[int(campaign.point[i])])
-        rows.append(cells)
-    return header, rows
+def _extra_format(name: str, values: np.ndarray) -> str:
+    """The number format of an extra column: a plan's point numbers and approach signs
+    (``point``, ``approach_<AXIS>``) as whole numbers when every value is one, else 6
+    decimals (time [s], temperature [°C], others)."""
+    counted = name == "point" or name.startswith("approach_")
+    return "%d" if counted and np.all(np.isfinite(values)) and np.all(values == np.round(values)) else "%.6f"
+
+
+def _row_columns(campaign: Campaign, machine: Machine) -> tuple[list[str], list[list[str]]]:
+    """The per-row text columns of a campaign file, each written only when a row uses it:
+    ``instrument`` (a nest or ball bar row), ``target`` (a target or nest id), ``station``
+    (a tracker station other than 0; empty on ball bar rows), ``r`` [mm] and ``pivot``
+    (ball bar rows; empty elsewhere), ``tool_point`` (a tool point other than the first,
+    as its link's name). Returns the header cells and each row's cells."""
+    bb = campaign.instrument == "ballbar"
+    columns: dict[str, list[str]] = {}
+    if np.any(campaign.instrument != "tracker"):
+        columns["instrument"] = [str(v) for v in campaign.instrument]
+    if np.any(campaign.target != ""):
+        columns["target"] = [str(v) for v in campaign.target]
+    if np.any(campaign.station[~bb] != 0):
+        columns["station"] = ["" if b else str(int(s)) for b, s in zip(bb, campaign.station)]
+    if bb.any():
+        columns["r"] = [f"{r * MM_PER_M:.6f}" if b else "" for b, r in zip(bb, campaign.radius)]
+        columns["pivot"] = [str(int(p)) if b else "" for b, p in zip(bb, campaign.pivot)]
+    if np.any(campaign.point != 0):
+        columns["tool_point"] = [machine.tool_links[int(p)] for p in campaign.point]
+    if not columns:
+        return [], [[] for _ in range(len(campaign))]
+    return list(columns), [list(cells) for cells in zip(*columns.values())]
 
 
 def write_targets(path: str | Path, targets: dict) -> None:

@@ -32,6 +32,7 @@ MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
 # the slowest bundled table machine measured (benchmarks/bench_planning.py, whole `plan` process)
 TABLE_MINUTE_POINTS = 5_500
 TABLE_LARGEST = "head_table_bc with 3 nests: 96 s at 10000 commands, 56 s at 5500, on a 2-core machine"
+AUTO_ORDER = 6              # the order a plan takes for `order` auto: Paper I's, before any data can choose
 BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
 
 
@@ -42,7 +43,8 @@ class PlanSettings:
     ``n_commands``: commands, each measured with every holder length ``tools_mm`` [mm];
     ``model``/``order``/``basis``: the model the campaign is for (``model="auto"``: 6dof on
     a machine with table axes, whose tilt and wobble only nest readings see, ap elsewhere;
-    the plan's settings carry the kind chosen); ``noise``: the fit's
+    ``order="auto"``: :data:`AUTO_ORDER`; the plan's settings carry the kind and order
+    chosen, ``chosen`` names the settings vecpin chose); ``noise``: the fit's
     noise model (default: spherical tracker noise); ``tracker_mm`` (3,) [mm] machine base
     frame (default: 2 m beyond the workspace on the side the tips are seen from); ``exclude``: exclusion zones;
     ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
@@ -63,7 +65,7 @@ class PlanSettings:
     n_commands: int = 100
     tools_mm: tuple[float, ...] = PAPER_I_TOOLS_MM
     model: str = "ap"
-    order: int = 4
+    order: int | str = 4
     basis: str = "auto"
     noise: NoiseModel | None = None
     tracker_mm: tuple[float, float, float] | None = None
@@ -89,6 +91,7 @@ class PlanSettings:
     nest_mm: dict[str, tuple[float, float, float]] | None = None
     expected_error_mm: float = EXPECTED_ERROR_MM
     place_nests: bool = True  # default nests placed for the line of sight, a second station proposed (nestplacement)
+    chosen: tuple[str, ...] = ()  # the settings given as auto that vecpin chose ("model", "order"), as messages say
 
     def nest_places(self, machine: Machine) -> dict[str, np.ndarray]:
         """{nest id: (3,) [m], workpiece frame} of the plan (checked, names the option)."""
@@ -125,8 +128,8 @@ class PlanSettings:
             raise InputError(f"`repeat_points` {self.repeat_points}, `repeat_times` {self.repeat_times}: the repeated "
                              "points are taken from the "
                              f"planned commands, at most `n_commands` ({self.n_commands})")
-        if self.order < 0:
-            raise InputError(f"`order` {self.order}: orders are >= 0")
+        if self.order != "auto" and not (isinstance(self.order, (int, np.integer)) and self.order >= 0):
+            raise InputError(f"`order` {self.order!r}: a whole number >= 0, or auto")
         if self.basis not in BASES:
             raise InputError(f"`basis` '{self.basis}': one of {', '.join(BASES)}")
         if self.tracker_mm is not None and not np.all(np.isfinite(np.asarray(self.tracker_mm, float))):
@@ -152,8 +155,15 @@ class PlanSettings:
         rows = self.n_commands * len(self.tools_mm) + self.repeat_points * self.repeat_times
         eq = 3 * rows if self.noise is None or self.noise.instrument != "range" else rows
         if n_parameters + 6 > eq:
-            raise InputError(f"`order` {self.order}: the {self.model} model of {machine.name} has {n_parameters + 6} "
-                             f"unknowns, but {self.n_commands} commands x {len(self.tools_mm)} holders give {eq} "
+            order = (f"`order` auto (the default: order {self.order} before any data, as Paper I)"
+                     if "order" in self.chosen else f"`order` {self.order}")
+            table = "with" if machine.has_workpiece else "without"
+            model = (f" (`model` auto, the default: {self.model} for a machine {table} table axes)"
+                     if "model" in self.chosen else "")
+            points = f"`n_commands` {self.n_commands}" + (" (the default)" if self.n_commands == PlanSettings.n_commands
+                                                          else "")
+            raise InputError(f"{order}: the {self.model} model of order {self.order} of {machine.name}{model} has "
+                             f"{n_parameters + 6} unknowns, but {points} x {len(self.tools_mm)} holders give {eq} "
                              "equations; plan more `n_commands` or a lower `order`")
 
 
@@ -187,7 +197,9 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
     approach steps, the box the commands may take and the axes' rapid speeds."""
     s.check()
     if s.model == "auto":  # before any data: the kind a table machine needs, else Paper I's
-        s = replace(s, model="6dof" if machine.has_workpiece else "ap")
+        s = replace(s, model="6dof" if machine.has_workpiece else "ap", chosen=s.chosen + ("model",))
+    if s.order == "auto":
+        s = replace(s, order=AUTO_ORDER, chosen=s.chosen + ("order",))
     for z in s.exclude:
         check_zone_axes(machine, z, "exclude")
     if s.zone:

@@ -102,10 +102,12 @@ class ModelChoice:
     before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
 
     def table(self, limit: int = 30) -> str:
+        nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
-                 f"command ({self.rows} rows judged, linearised), mm",
+                 f"command ({self.rows} rows judged: every reading of a point, the tool's{nests}; linearised), mm",
                  f"  {'candidate':<58s} {'model terms':>11s} {'held-out mean':>13s} {'max':>8s}",
-                 f"  {'uncompensated':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} {self.uncompensated_mm[1]:8.4f}"]
+                 f"  {'uncompensated, the rows judged':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
+                 f"{self.uncompensated_mm[1]:8.4f}"]
         shown = sorted(self.candidates, key=lambda c: c.mean)[:limit]
         if self.chosen not in shown:
             shown.append(self.chosen)

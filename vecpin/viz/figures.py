@@ -22,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from vecpin.compensation.tables import table_name  # noqa: E402
 from vecpin.measurement.campaign import Campaign  # noqa: E402
 from vecpin.kinematics.machine import Machine  # noqa: E402
 from vecpin.models import MODELS  # noqa: E402
@@ -51,7 +52,7 @@ def compensation_grid(machine: Machine, solutions: dict, path, n: int = 200) -> 
             x = np.linspace(ai.lower, ai.upper, n)
             drawn = False
             for j, (label, tables) in enumerate(solutions.items()):
-                name = (ao.name + ai.name).lower()
+                name = table_name(ao.name, ai.name)
                 if name not in tables.names():
                     continue
                 y = tables.table(name)(x)
@@ -65,7 +66,7 @@ def compensation_grid(machine: Machine, solutions: dict, path, n: int = 200) -> 
                 ax.set_xlabel(f"{ai.name} [{ai.unit}]", fontsize=8)
             if c == 0:
                 ax.set_ylabel(f"{ao.name} [{'µm' if ao.kind == 'linear' else 'deg'}]", fontsize=8)
-            ax.set_title(f"t_{ao.name.lower()}{ai.name.lower()}", fontsize=7)
+            ax.set_title(f"t_{table_name(ao.name, ai.name)}", fontsize=7)
     handles, labels = grid[0, 0].get_legend_handles_labels()
     fig.suptitle("Compensation functions: input axis across, output axis down", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.94))

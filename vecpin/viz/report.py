@@ -88,7 +88,7 @@ def write_report(data: ReportData, out_dir) -> Path:
         parts = _header(data) + _residual_part(data, fig) + _orders_part(data, fig) + _tables_part(data, fig) \
             + _compensated_part(data, fig) + _vectors_part(data, fig)
         from vecpin.viz.scene import write_html
-        facts = write_html(out.path("scene.html"), data.models[0], data.campaign, 0, None, data.plans[0].tables)
+        facts = write_html(out.path("scene.html"), data.models[0], data.campaign, None, None, data.plans[0].tables)
         parts += [f'<p class="note">3D scene: {html.escape(n)}</p>' for n in facts.get("notes", [])]
         name = html.escape(data.models[0].machine.name)
         page = out.write_text("index.html", f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>vecpin report "

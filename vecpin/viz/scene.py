@@ -142,10 +142,12 @@ def _exaggeration(exaggerate, group: str, span: float, largest: float) -> float:
     return 0.08 * span / max(largest, 1e-12)  # the largest vector: 8 % of the workspace
 
 
-def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0, exaggerate=None,
+def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | None = None, exaggerate=None,
                 tables=None, show: str = "errors") -> dict:
-    """Fill ``vis`` with the machine and the campaign's tips and errors. ``model``: a
-    fitted error model; ``tables``: a TableSet for the compensated view (optional).
+    """Fill ``vis`` with the machine and the campaign's tips and errors, the machine posed
+    at ``row`` (the campaign file's row as messages count it, header = 1; None: its first
+    tracker row of station 0). ``model``: a fitted error model; ``tables``: a TableSet
+    for the compensated view (optional).
 
     Each vector group (:data:`GROUPS`) has its own exaggeration (``exaggerate``: one
     factor for all, {group: factor}, or None: the group's largest vector drawn at 8 %
@@ -154,12 +156,12 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
     m: Machine = model.machine
     from vecpin.measurement.registration import check_same_pose, station0
-    row = _scene_row(campaign, row)
+    at = _scene_row(campaign, row)  # index of the posed row among those drawn
     campaign = station0(campaign)  # the rows the fitted tracker pose describes
     check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
                     campaign.xyz, campaign.source, "the model", campaign.lines)
     vis.delete()
-    notes = _machine_geometry(vis, m, campaign.q[row], mesh_dirs(model))
+    notes = _machine_geometry(vis, m, campaign.q[at], mesh_dirs(model))
     nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
     identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
     measured = to_machine_frame(model, campaign.xyz)
@@ -192,12 +194,13 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int = 0
     root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
     g0 = groups[0]
     facts = {"exaggeration": g0["exaggeration"], "max_error_mm": g0["max_mm"], "rows": len(campaign),
-             "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": row, "notes": notes}
+             "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": int(campaign.lines[at]),
+             "notes": notes}
     if tables is not None:
         facts["max_compensated_mm"] = groups[2]["max_mm"]
     sel = root["selected"]
     sel.set_object(g.Sphere(0.025 * span / 6), g.MeshLambertMaterial(color=0xFFD400))
-    sel.set_transform(tf.translation_matrix(nominal[row] + g0["exaggeration"] * err[row]))
+    sel.set_transform(tf.translation_matrix(nominal[at] + g0["exaggeration"] * err[at]))
     _tracker(root["tracker"], model, span)
     # the viewer orbits the origin: bring the workspace centre there
     centre = 0.5 * (nominal.min(axis=0) + nominal.max(axis=0))
@@ -352,24 +355,31 @@ def _tracker(node, model, span: float) -> None:
     node["axes"].set_object(g.triad(0.3))
 
 
-def _scene_row(campaign: Campaign, row: int) -> int:
-    """The campaign's row ``row`` (0-based) among its station-0
-    tracker rows, which the scene draws; any other row is refused, never replaced."""
+def _scene_row(campaign: Campaign, row: int | None) -> int:
+    """The index among the campaign's station-0 tracker rows (the rows the scene draws)
+    of its row ``row``, counted as every message counts rows: the line of the campaign
+    file (the header is row 1, the first measurement row 2; a campaign made in memory
+    counts alike). None: the first row the scene draws. A row outside the file, or one
+    the scene does not draw, is refused naming the file and the rows there are."""
     from vecpin.errors import InputError
     from vecpin.measurement.registration import station0
-    if not 0 <= row < len(campaign):
-        raise InputError(f"`row` {row}: the campaign {campaign.source} has rows 0 .. {len(campaign) - 1}")
-    line = campaign.lines[row]
     sub = station0(campaign)
-    hit = np.flatnonzero(sub.lines == line)
+    if row is None:
+        return 0
+    first, last = int(campaign.lines.min()), int(campaign.lines.max())
+    if not first <= row <= last:
+        raise InputError(f"`row` {row}: {campaign.source} has rows {first} .. {last} (rows as its messages count them: "
+                         "the header is row 1)")
+    hit = np.flatnonzero(sub.lines == row)
     if hit.size == 0:
-        raise InputError(f"`row` {row}: row {row} of {campaign.source} (line {line}) is not a tracker row of station 0, "
-                         f"the rows the scene draws; pick one of those (e.g. `row` "
-                         f"{int(np.flatnonzero(campaign.lines == sub.lines[0])[0])})")
+        what = "is not a measurement row (a blank line?)" if row not in campaign.lines else \
+            "is not a tracker row of station 0"
+        raise InputError(f"`row` {row}: row {row} of {campaign.source} {what}; the scene draws the tracker rows of "
+                         f"station 0, e.g. `row` {int(sub.lines[0])}")
     return int(hit[0])
 
 
-def write_html(path: str | Path, model, campaign: Campaign, row: int = 0, exaggerate=None,
+def write_html(path: str | Path, model, campaign: Campaign, row: int | None = None, exaggerate=None,
                tables=None, show: str = "errors") -> dict:
     """A self-contained scene page (no server needed) with the legend and colour bars."""
     window = RecordingWindow()
@@ -391,7 +401,7 @@ def legend_lines(facts: dict) -> list[str]:
     return out
 
 
-def serve(model, campaign: Campaign, row: int = 0, exaggerate=None, tables=None,
+def serve(model, campaign: Campaign, row: int | None = None, exaggerate=None, tables=None,
           ready=None, show: str = "errors") -> None:
     """Start a meshcat server with the scene and keep it until Ctrl-C (or a SIGTERM or
     SIGHUP: a closed terminal, ``kill``); ``ready(url, facts)`` is called once the scene

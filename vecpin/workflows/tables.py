@@ -18,14 +18,14 @@ import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
-from vecpin.compensation.tables import TableSet
+from vecpin.compensation.tables import TableSet, table_name
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob, UserCommands, with_constants
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import get_format
 from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, find_table, plan_sign_test, read_check,
-                                    write_sign_test)
+                                    sign_tag, write_sign_test)
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
@@ -115,7 +115,7 @@ class TableRun:
             st = self.sign_test
             out.append(f"  sign test {st.table}: {st.input_axis} at {st.positions[0]:.3f} and {st.positions[1]:.3f} "
                        f"{st.input_unit}, predicted shift {st.predicted:+.4f} {st.output_unit} "
-                       f"(SIGNTEST_{st.table.upper()}.md)")
+                       f"(SIGNTEST_{sign_tag(st.table)}.md)")
         out += [f"  wrote {f}" for f in self.files]
         return out
 
@@ -232,7 +232,7 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
         if fmt.read is None:
             raise InputError(f"`sign_test`: {controller} writes no tables a controller applies")
         key = sign_test.strip().lower()
-        inputs = {a.lower(): a for a in m.axis_names} | {(o + i).lower(): i for o in m.axis_names
+        inputs = {a.lower(): a for a in m.axis_names} | {table_name(o, i): i for o in m.axis_names
                                                          for i in m.axis_names}
         if key not in inputs:
             raise InputError(f"`sign_test` {sign_test}: neither an axis nor a table of {m.name}")

@@ -16,10 +16,11 @@ from vecpin.viz.scene import serve, write_html
 SCENE_COMMANDS = 400   # pseudo-commands of the generic tables the compensated group shows
 
 
-def view(model: ErrorModel, campaign: Campaign, *, row: int = 0, exaggerate=None, show: str = "errors",
+def view(model: ErrorModel, campaign: Campaign, *, row: int | None = None, exaggerate=None, show: str = "errors",
          no_tables: bool = False, html: str | Path | None = None,
          ready: Callable[[str, dict], None] | None = None) -> dict | None:
-    """The scene of ``model`` on ``campaign`` posed at ``row`` (0-based): written to the page
+    """The scene of ``model`` on ``campaign`` posed at ``row`` (the campaign file's row as
+    messages count it: header = 1, first measurement row 2; None: the first row drawn): written to the page
     ``html`` (returns the scene's facts), or served until Ctrl-C with ``ready(url, facts)``
     called once it is up (returns None). ``no_tables``: no compensated group (the
     generic tables of the model are not computed); ``exaggerate``, ``show``: as
