@@ -81,13 +81,15 @@ def _x_lower_60(name: str, family: str):
 
 
 # (layout, error family, beyond after / before at most, inside after / before at most):
-# measured, mm beyond (inside): head spline 0.096 against 0.232 (0.026 against 0.019),
-# portal spline 0.055 against 0.231 (0.028 against 0.022), portal windup and gantry mixed
-# unchanged (0.063, 0.143: X's basis already extrapolated as well as any smaller one)
+# measured, mm beyond (inside), the ends judged on the outer fifth of X's measured span:
+# head spline 0.096 against 0.232 (0.026 against 0.019), portal spline 0.055 against 0.231
+# (0.028 against 0.022), gantry mixed 0.087 against 0.143 (0.053 against 0.050); portal
+# windup 0.070 against 0.063 (0.011 against 0.012): Chebyshev order 2 along X where the
+# twist grows like order 3, the one case of four where the smaller basis costs beyond
 ENDS_CASES = [("head_xyzab", "spline", 0.5, 1.5),
               pytest.param("portal_xyzcb_c720", "spline", 0.5, 1.5, marks=pytest.mark.slow),
-              pytest.param("portal_xyzcb_c720", "windup", 1.03, 1.03, marks=pytest.mark.slow),
-              pytest.param("gantry_xyzca", "mixed", 1.03, 1.03, marks=pytest.mark.slow)]
+              pytest.param("portal_xyzcb_c720", "windup", 1.15, 1.0, marks=pytest.mark.slow),
+              pytest.param("gantry_xyzca", "mixed", 0.7, 1.1, marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("name, family, beyond, inner", ENDS_CASES)
@@ -97,9 +99,9 @@ def test_the_basis_along_a_partly_measured_axis_is_chosen_on_its_ends(name, fami
     ends, which may only take terms away along X and leave every other axis as it was
     (the head: a penalised spline along X becomes a Chebyshev order 2). Against the
     simulated truth over the 40 % of X never measured and inside, the model chosen and the
-    one before (figures above ENDS_CASES): far better beyond, a little worse inside, where a
-    function that extrapolates gracefully follows the interior less closely; never worse
-    beyond where nothing changes."""
+    one before (figures above ENDS_CASES): far better beyond in three of the four, a little
+    worse inside, where a function that extrapolates gracefully follows the interior less
+    closely."""
     from vecpin.selection.choice import choose_or_fix
     m, truth, c, noise, q, tool, inside = _x_lower_60(name, family)
     proto, ch = choose_or_fix(m, c, noise)
@@ -152,3 +154,29 @@ def test_a_zone_fit_judges_the_ends_against_the_zone(machines):
     run = fit_campaign(m, c, NoiseModel.default(m, "spherical"), kind="6dof", zone=zone)
     assert "X" not in run.choice.ends and run.rows_in_zone == len(run.campaign) < len(c)
     assert 0 in partly_measured(m, run.campaign)
+
+
+def test_each_axis_ends_are_judged_with_none_of_their_commands():
+    """Every joint of the UR10 campaign is partly measured, so the main folds' end blocks
+    overlap and one joint's end commands fall into several folds (its 'extrapolation'
+    rows would be interpolated). The basis along a joint is judged on a problem of its
+    own: its low end (the commands within END_SPAN of its measured span from the lowest),
+    its high end, and the rest, each end estimated from the rest and the other end only."""
+    from vecpin.identification.crossval import END_SPAN
+    from vecpin.selection.choice import _subsample
+    from vecpin.selection.search import Problem
+    from vecpin.selection.design import axis_options
+    m = vecpin.Machine.load("ur10")
+    c = _subsample(read_dataset(RANDOM, m).campaign.subset(np.arange(0, 400, 2)), 0)
+    ends = partly_measured(m, c)
+    main = command_folds(c, 5, np.random.default_rng(0), ends)
+    q1 = c.q[:, 0]
+    top = q1 >= q1.max() - END_SPAN * np.ptp(q1)
+    assert len(np.unique(main[top])) > 1                     # the defect the own problem mends
+    options = [axis_options(a, (0, 1))[:2] for a in m.axes]
+    prob = Problem("6dof", m, c, NoiseModel.default(m), options, main)
+    own = prob.on_ends(0, c).problem
+    bottom = q1 <= q1.min() + END_SPAN * np.ptp(q1)
+    np.testing.assert_array_equal(own.fold, np.where(bottom, 0, np.where(top, 1, 2)))
+    np.testing.assert_array_equal(own.judged, prob.judged & (bottom | top))
+    assert prob.on_ends(0, c) is prob.on_ends(0, c)          # built once per axis

@@ -146,3 +146,26 @@ def test_the_ends_of_an_axis_are_held_out_whole():
     assert len(set(fold)) == 5
     plain = command_folds(camp, 5, np.random.default_rng(0))
     assert len(set(plain[::2][order[:m]])) > 1
+
+
+def test_a_refolded_problem_equals_each_new_folds_own_least_squares():
+    """Folded again (three folds: two small blocks and the rest, as an axis' ends are
+    judged), every judged row's held-out residual is that of the plain regularised
+    least-squares solve of the rows outside its new fold; the rows not judged are left out."""
+    J, A, w, r, fold, x0 = _random_problem(seed=3, N=120)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    new = np.full(120, 2)
+    new[:15], new[100:] = 0, 1
+    judged = new < 2
+    again = prob.refolded(new, judged)
+    cols = np.array([0, 1, 4, 6, 7, 10, 12])
+    scale = np.array([1.0, 0.3, 1.0, 1.0, 0.7, 1.0, 1.0])
+    held = again.heldout(cols, scale)
+    assert held.shape == (judged.sum(),)
+    expect = np.empty(120)
+    for f in (0, 1):
+        psi = _lstsq_fold(J, w, new, f, cols, scale, x0)
+        rows = new == f
+        expect[rows] = norm_mm(r[rows] - A[rows][..., cols] @ psi)
+    np.testing.assert_allclose(held, expect[judged], rtol=1e-9)
+    np.testing.assert_allclose(again.G, prob.G)
