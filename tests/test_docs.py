@@ -209,7 +209,7 @@ def test_every_vecpin_command_shown_names_real_options():
 
 
 OTHER_FLAGS = {"--strict": "mkdocs build", "--install": "halcompile", "--poses": "examples/ur10_real_data.py",
-               "--quick": "benchmarks/bench_diagnosis.py"}
+               "--quick": "benchmarks/bench_diagnosis.py", "--data": "benchmarks/bench_figaroh.py"}
 
 
 def test_every_flag_named_anywhere_is_an_option():
