@@ -20,6 +20,12 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
   point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
   then a dwell for the tool target and every table nest read there (``dwell_s`` plus
   ``nest_dwell_s`` per nest; the comment names the read order);
+* a run that reads every point several times in a row (``reads``: a table machine's
+  validation run, :data:`~vecpin.planning.nests.VALIDATION_READS`) reads them at one
+  standstill: the machine moves to the point once, then a comment and a dwell per
+  reading and nothing else between them (``dwell_s``, the tracker's reading time, for the
+  tool's readings and for every further reading of a nest; ``nest_dwell_s`` for a nest's
+  first reading, where the tracker turns to it);
 * on a plan read from several tracker stations (template column ``station``), the
   header says where the tracker stands for which points, and the program stops (``M0``)
   before each further station's block for the tracker to move there (``stations``).
@@ -120,32 +126,70 @@ def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: floa
 
 @dataclass
 class Visit:
-    """One point of the program: its tool row ``row``, the retract axis' height before
+    """One standstill of the program: its tool row ``row``, the retract axis' height before
     the move to it (``lift`` [mm], None: it is high enough already), the approach position
-    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the nest rows read there."""
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the rows read there after
+    the tool row (``after``: the tool's further readings, the nests and theirs)."""
     row: int
     lift: float | None
     a: np.ndarray
     q: np.ndarray
-    nests: range
+    after: range
+
+
+def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
+    """(N,) bool: the rows that read again the point of the row before them, at its
+    standstill: the same instrument, nest, command, holder and station, within runs of
+    ``reads`` (a run that reads every point ``reads`` times in a row; 1: none, as a plan
+    whose repeated points are re-approached)."""
+    n = len(template)
+    if reads <= 1 or n < 2:
+        return np.zeros(n, bool)
+    inst = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
+    target = template.target if template.target is not None else np.full(n, "", dtype=object)
+    st = template.stations
+    same = np.r_[False, (inst[1:] == inst[:-1]) & (target[1:] == target[:-1]) & (st[1:] == st[:-1])
+                 & (template.tool[1:] == template.tool[:-1]) & np.all(template.q[1:] == template.q[:-1], axis=1)]
+    first = np.maximum.accumulate(np.where(same, 0, np.arange(n)))  # each row's first row of its run
+    return same & ((np.arange(n) - first) % reads != 0)
+
+
+def readings(template: PlanTemplate, v: Visit, again: np.ndarray, dwell_s: float,
+             nest_dwell_s: float) -> list[tuple[int, float, str]]:
+    """(row, dwell [s], what is read) of every reading at the standstill ``v``, in order:
+    ``dwell_s`` for the tool target and for every further reading of a point (``again``:
+    :func:`rereads`), ``nest_dwell_s`` for a nest's first reading."""
+    out = []
+    for k in [v.row, *v.after]:
+        nest = template.instrument is not None and template.instrument[k] == "nest"
+        what = f"table nest {template.target[k]}" if nest else "the tool target"
+        name = point_name(template.point[k])
+        if again[k]:
+            out.append((k, dwell_s, f"read {what} again as {name}, the machine standing still"))
+        else:
+            out.append((k, nest_dwell_s if nest else dwell_s, f"read {what} as {name}"))
+    return out
 
 
 def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
-           safe: float) -> tuple[list[Visit], float | None]:
-    """The program's points in order and the retract axis' final lift (None: none needed):
-    the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is and the next
-    approach position before every move between points."""
+           safe: float, reads: int = 1) -> tuple[list[Visit], float | None]:
+    """The program's standstills in order and the retract axis' final lift (None: none
+    needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
+    and the next approach position before every move between points; the nest rows and
+    the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
+    row before them stands."""
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    stay = is_nest | rereads(template, reads)
     q_all = np.round(machine.to_user(template.q), 3)
     step = machine.to_user(np.asarray(steps, float)[None])[0]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
     out: list[Visit] = []
     cur = None
-    for i in np.flatnonzero(~is_nest):
+    for i in np.flatnonzero(~stay):
         a = np.round(q_all[i] - app[i] * step, 3)
         to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
         j = i + 1
-        while j < len(template) and is_nest[j]:
+        while j < len(template) and stay[j]:
             j += 1
         out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j)))
         cur = float(q_all[i][r])
@@ -154,10 +198,11 @@ def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, 
 
 
 def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
-                      retract: str | None = None) -> float:
-    """How far the retract axis travels in the lifts and plunges between points [mm]."""
+                      retract: str | None = None, reads: int = 1) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm]
+    (``reads``: :func:`visits`)."""
     r, up = retract_axis(machine, retract)
-    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
+    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm), reads)
     total, cur = 0.0, None
     for v in vs:
         at = v.lift if v.lift is not None else cur
@@ -191,12 +236,13 @@ def station_notes(template: PlanTemplate, stations: list | None) -> list[str]:
 
 
 def program_header(dialect: str, machine: Machine, template: PlanTemplate, names: list[str], moves: tuple,
-                   times: tuple[float, float, float], title: str = "", stations: list | None = None) -> list[str]:
+                   times: tuple[float, float, float], title: str = "", stations: list | None = None,
+                   reads: int = 1) -> list[str]:
     """The program's header lines (comments): what it measures, in which coordinates, how
     it moves between the points (``moves``: retract axis index, its safe position [mm],
     the other linear and the rotary axis indices), what it does at each (``times``:
-    dwell [s], dwell per nest [s], approach feed [mm/min]) and where the tracker stands
-    (:func:`station_notes`)."""
+    dwell [s], dwell per nest [s], approach feed [mm/min]; ``reads``: readings of every
+    point at its standstill) and where the tracker stands (:func:`station_notes`)."""
     r, safe, others, rotary = moves
     dwell_s, nest_dwell_s, feed_mm_min = times
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
@@ -216,7 +262,10 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, the plan's safe height) or higher, then "
             f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
-            f"for the tool target and {nest_dwell_s:g} s per table nest read there",
+            f"for the tool target and {nest_dwell_s:g} s per table nest read there"
+            + (f"; the tool target and every nest read {reads} times in a row, the machine standing still: a dwell of "
+               f"{dwell_s:g} s (the tracker's reading time) per further reading and no motion between the readings"
+               if reads > 1 else ""),
             *station_notes(template, stations),
             nc.restore_note(dialect),
             "run it first at a reduced rapid override and watch the moves"]
@@ -225,7 +274,7 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
-                  title: str = "", stations: list | None = None) -> str:
+                  title: str = "", stations: list | None = None, reads: int = 1) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
@@ -234,7 +283,8 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     position (default: the end of its travel away from the work); ``retract``: the
     retract axis' name (default: found from the kinematics); ``stations``: the tracker
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
-    several, :func:`station_notes`)."""
+    several, :func:`station_notes`); ``reads``: the template reads every point that many
+    times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
@@ -255,9 +305,10 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
-                          (dwell_s, nest_dwell_s, feed_mm_min), title, stations)
+                          (dwell_s, nest_dwell_s, feed_mm_min), title, stations, reads)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
-    route, end = visits(machine, template, steps, r, up, safe)
+    route, end = visits(machine, template, steps, r, up, safe, reads)
+    again = rereads(template, reads)
     current_tool, current_station = None, 0
     for v in route:
         i = v.row
@@ -281,17 +332,28 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
                 out.append(move(idx, v.a))
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
-        read = f"read the tool target as {point_name(template.point[i])}"
-        if v.nests:
-            read += ", then the table nests in this order: " + ", ".join(
-                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.nests)
-        out += [comment(read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.nests))]
+        out += _reads_at(dialect, template, v, again, dwell_s, nest_dwell_s)
     if end is not None:
         out.append(move([r], {r: end}))
     out += nc.epilogue(dialect)
     if dialect == nc.FANUC:
         out.append("%")
     return "\n".join(out) + "\n"
+
+
+def _reads_at(dialect: str, template: PlanTemplate, v: Visit, again: np.ndarray, dwell_s: float,
+              nest_dwell_s: float) -> list[str]:
+    """The blocks of the readings at the standstill ``v``: one comment and one dwell for all
+    of them when each point is read once; a comment and a dwell [s] per reading when a
+    point is read again there (:func:`readings`), no motion between them."""
+    if not any(again[k] for k in v.after):
+        read = f"read the tool target as {point_name(template.point[v.row])}"
+        if v.after:
+            read += ", then the table nests in this order: " + ", ".join(
+                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.after)
+        return [nc.nc_comment(dialect, read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.after))]
+    return [b for _, sec, what in readings(template, v, again, dwell_s, nest_dwell_s)
+            for b in (nc.nc_comment(dialect, what), nc.dwell(dialect, sec))]
 
 
 def program_name(dialect: str, run: str = "plan") -> str:

@@ -25,6 +25,14 @@ from their centre by sigma sqrt((1 + k (lever / r)^2) / n) per axis, k = 1 for a
 the table's plane and 4/3 for one square to it (averaged over the three axes;
 tests/test_nest_noise.py derives it and checks it against scipy's Kabsch). A tip stands
 0.3-0.9 m from the nests, so the farther out the nests, the less noise at the tip.
+
+No placement removes the tool reading's own noise, nor the part of the nests' that is
+there at any radius: a table machine's validation run therefore reads the tool and each
+nest :data:`VALIDATION_READS` times in a row at every command, the machine standing still
+(one move to the command, a dwell per reading, no motion between the readings:
+:mod:`~vecpin.planning.ncprogram`), and the mean of each point's readings is judged. That
+divides the tracker's noise variance by the number of readings, not the machine's
+positioning noise: the axes stand where they stopped for every reading.
 """
 from __future__ import annotations
 
@@ -43,6 +51,7 @@ TABLE_SHARE = 0.8          # on a table narrower than 2 NEST_EDGE: nests on this
 NEST_EDGE = 0.02           # m: a default nest's centre this far inside the table's edge (its base on the table)
 FACE_TOLERANCE = 0.005     # m: a solid whose top lies this close to the workpiece plane is the table
 NEST_HEIGHTS = (0.02, 0.08)  # m: reflector centres above the table face
+VALIDATION_READS = 4       # readings of the tool and of each nest at a table machine's validation command (at standstill)
 _ID = re.compile(r"[A-Za-z0-9_.-]{1,16}")
 
 
@@ -139,4 +148,4 @@ def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "n
         raise InputError(f"`{option}`: {len(nests)} nests; at most {MAX_NESTS}")
 
 
-__all__ = ["nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
+__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]

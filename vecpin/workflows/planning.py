@@ -22,8 +22,8 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_names, program_name, retract_axis,
-                                      retract_travel_mm, safe_position, write_program)
+from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_names, program_name, rereads,
+                                      retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
@@ -40,6 +40,7 @@ class PlanRun:
     time: CampaignTime | None = None  # the campaign's time as its NC program runs
     timing: ProgramTiming | None = None
     validation_time: CampaignTime | None = None
+    validation_time_once: CampaignTime | None = None  # the same run reading every point once
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -115,11 +116,17 @@ class PlanRun:
         v = p.validation_template
         if v is None:
             return []
-        n = len(v.tool_rows)
+        reads = p.validation_reads
+        n = len(v.tool_rows) // reads
         took = f", {self.validation_time.total_s / 60:.0f} min a run" if self.validation_time is not None else ""
+        if reads > 1 and self.validation_time_once is not None:
+            took += f" ({self.validation_time_once.total_s / 60:.0f} min reading every point once)"
         return [f"  validation run: {n} quasi-random commands inside the measured zone, free and in sight with the "
                 f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
                                                            else "")
+                + (f"; the tool and each nest read {reads} times in a row at every command, the machine standing "
+                   "still (a dwell per reading, no move between them; their mean is judged: less tracker noise at "
+                   "the tip)" if reads > 1 else "")
                 + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
                 "them; a simulation of the plan uses the same commands"]
 
@@ -179,8 +186,11 @@ class PlanRun:
                 "expected_error_mm": s.expected_error_mm,
                 "warnings": list(p.warnings),
                 "validation": None if p.validation_template is None else
-                {"commands": len(p.validation_template.tool_rows), "rows": len(p.validation_template),
-                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
+                {"commands": len(p.validation_template.tool_rows) // p.validation_reads,
+                 "rows": len(p.validation_template),
+                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)}
+                | ({"reads": p.validation_reads, "minutes_one_reading": None if self.validation_time_once is None
+                    else round(self.validation_time_once.total_s / 60, 4)} if p.validation_reads > 1 else {}),
                 "campaign_time": None if self.time is None else self.time.to_dict(),
                 "program": None if self.timing is None else timing_dict(self.timing)}
 
@@ -235,7 +245,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         for d in dialects:
             text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 program_number=1001, title=f"- validation run for {machine.name}")
+                                 program_number=1001, title=f"- validation run for {machine.name}",
+                                 reads=plan.validation_reads)
             files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
@@ -251,8 +262,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
                                 tracker_move_s=tracker_move_s)
+        once = v.take(np.flatnonzero(~rereads(v, plan.validation_reads)))
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
-                      row_times(machine, v, timing)[1])
+                      row_times(machine, v, timing, plan.validation_reads)[1], row_times(machine, once, timing)[1])
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
