@@ -6,7 +6,8 @@
   between the readings; its moves are exactly those of the same run reading every point
   once, with the machine at the point's axis values at every reading.
 * The run's time counts a dwell per reading and no extra move: its moves and approaches
-  are those of the run read once, its dwells the interpreter's sum of the program's G4s.
+  are those of the run read once, its dwells the interpreter's sum of the program's G4s
+  (``read_dwell_s``, the tracker's reading time, for every further reading).
 * The simulator draws the axes' positioning noise once per standstill (every reading
   there, of the tool and of the nests, sees the same axis positions: repeated readings
   are equal without tracker noise, the nests' readings rigid) and the tracker's noise per
@@ -40,7 +41,7 @@ from vecpin.simulation.simulate import Design, simulate
 from vecpin.workflows.evaluation import evaluate
 
 TOL = 5e-4  # values are written with 3 decimals
-DWELL, NEST_DWELL = 3.0, 12.0
+DWELL, NEST_DWELL, READ = 3.0, 12.0, 1.5  # s: a point's first reading, a nest's first, every further one
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +71,7 @@ def test_the_validation_program_reads_every_point_at_standstill(plan, dialect):
     once = v.take(_first_readings(v))
     assert len(v) == reads * len(once)
     axes = {a.name: (a.lower_user, a.upper_user) for a in m.axes}
-    kw = dict(dwell_s=DWELL, nest_dwell_s=NEST_DWELL, feed_mm_min=800.0)
+    kw = dict(dwell_s=DWELL, nest_dwell_s=NEST_DWELL, feed_mm_min=800.0, read_dwell_s=READ)
     prog = run(write_program(dialect, m, v, p.steps, reads=reads, **kw), dialect, axes)
     prog1 = run(write_program(dialect, m, once, p.steps, **kw), dialect, axes)
     # the same moves as reading every point once: no lift, plunge or approach for a further reading
@@ -110,7 +111,7 @@ def test_linuxcncs_own_interpreter_sees_no_motion_between_the_readings(plan, tmp
     v = p.validation_template
     f = tmp_path / "validation.ngc"
     f.write_text(write_program("gcode", m, v, p.steps, dwell_s=DWELL, nest_dwell_s=NEST_DWELL,
-                               reads=p.validation_reads))
+                               reads=p.validation_reads, read_dwell_s=READ))
     out = subprocess.run(["rs274", "-g", str(f)], capture_output=True, text=True, timeout=120,
                          stdin=subprocess.DEVNULL)
     assert out.returncode == 0 and "PROGRAM_END()" in out.stdout, out.stdout[-2000:] + out.stderr[-2000:]
@@ -137,11 +138,12 @@ def test_linuxcncs_own_interpreter_sees_no_motion_between_the_readings(plan, tmp
 
 
 def _expected_dwells(t) -> list[tuple[int, float, bool]]:
-    """(row, dwell [s], a further reading?) of every row: DWELL for the tool and for every
-    further reading of a point, NEST_DWELL for a nest's first reading."""
+    """(row, dwell [s], a further reading?) of every row: DWELL for the tool's first reading,
+    NEST_DWELL for a nest's first, READ for every further reading of a point."""
     first = np.zeros(len(t), bool)
     first[_first_readings(t)] = True
-    return [(k, NEST_DWELL if first[k] and t.instrument[k] == "nest" else DWELL, not first[k]) for k in range(len(t))]
+    return [(k, (NEST_DWELL if t.instrument[k] == "nest" else DWELL) if first[k] else READ, not first[k])
+            for k in range(len(t))]
 
 
 def test_the_run_time_counts_the_readings_and_no_extra_move(plan):
@@ -152,14 +154,14 @@ def test_the_run_time_counts_the_readings_and_no_extra_move(plan):
     v, reads = p.validation_template, p.validation_reads
     once = v.take(_first_readings(v))
     timing = ProgramTiming(axis_speeds(m, p.settings.rapid_mm_min, p.settings.rapid_deg_min), p.steps, DWELL,
-                           NEST_DWELL)
+                           NEST_DWELL, read_dwell_s=READ)
     t, time = row_times(m, v, timing, reads)
     t1, time1 = row_times(m, once, timing)
     assert time.moves_s == pytest.approx(time1.moves_s) and time.approach_s == pytest.approx(time1.approach_s)
-    assert time.dwell_s - time1.dwell_s == pytest.approx((reads - 1) * DWELL * len(once))
+    assert time.dwell_s - time1.dwell_s == pytest.approx((reads - 1) * READ * len(once))
     axes = {a.name: (a.lower_user, a.upper_user) for a in m.axes}
-    prog = run(write_program("gcode", m, v, p.steps, dwell_s=DWELL, nest_dwell_s=NEST_DWELL, reads=reads), "gcode",
-               axes)
+    prog = run(write_program("gcode", m, v, p.steps, dwell_s=DWELL, nest_dwell_s=NEST_DWELL, reads=reads,
+                             read_dwell_s=READ), "gcode", axes)
     assert sum(prog.dwells) == pytest.approx(time.dwell_s)
     assert np.all(np.diff(t) > 0) and t[-1] <= time.total_s
 
@@ -270,10 +272,11 @@ def test_the_plan_files_carry_the_readings_and_both_times(machines, tmp_path):
     from vecpin.workflows.planning import plan_timing, plan_to_dir
     m = machines["trunnion_xyzac"]
     s = PlanSettings(n_commands=24, model="6dof", order=1, candidates=300, validation_points=30, n_validation=12)
-    r = plan_to_dir(m, tmp_path, s, dialects=("gcode",), dwell_s=DWELL, nest_dwell_s=NEST_DWELL)
+    r = plan_to_dir(m, tmp_path, s, dialects=("gcode",), dwell_s=DWELL, nest_dwell_s=NEST_DWELL, read_dwell_s=READ)
     js = json.loads((tmp_path / "plan.json").read_text())["validation"]
     v = read_template(tmp_path / "validation.csv", m)
     timing = plan_timing(tmp_path / "plan.csv")
+    assert timing.read_dwell_s == READ  # plan.json keeps it for the simulator
     t4 = row_times(m, v, timing, VALIDATION_READS)[1].total_s
     t1 = row_times(m, v.take(_first_readings(v)), timing)[1].total_s
     assert js["reads"] == VALIDATION_READS and js["commands"] == 12 and js["rows"] == len(v)
@@ -284,3 +287,24 @@ def test_the_plan_files_carry_the_readings_and_both_times(machines, tmp_path):
     prog = run((tmp_path / "validation.ngc").read_text(), "gcode", axes)
     assert len(prog.dwells) == len(v)
     assert sum(prog.dwells) == pytest.approx(row_times(m, v, timing, VALIDATION_READS)[1].dwell_s)
+
+
+def test_a_bad_read_dwell_is_named_by_its_flag(tmp_path, capsys):
+    """`--read-dwell 0` (read_dwell_s) is refused before any planning, named by its flag."""
+    from vecpin.cli.main import main
+    from vecpin.errors import InputError
+    with pytest.raises(InputError, match="`read_dwell_s` nan"):
+        write_program("gcode", *_head_plan(), read_dwell_s=float("nan"))
+    assert main(["plan", "trunnion_xyzac", "--read-dwell", "0", "--quiet", "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert "--read-dwell 0: the dwell per further reading of a point is a time in seconds > 0" in err
+    assert "Traceback" not in err and not (tmp_path / "p").exists()
+
+
+def _head_plan():
+    """(machine, template, steps) of a two-row plan template: enough for write_program to check its options."""
+    import vecpin
+    from vecpin.measurement.plantemplate import PlanTemplate
+    m = vecpin.Machine.load("flow_xyzcb")
+    q = (m.lower + m.upper)[None] / 2 * np.ones((2, 1))
+    return m, PlanTemplate(np.array([1, 2]), q, np.full(2, 0.2)), np.zeros(m.n_axes)

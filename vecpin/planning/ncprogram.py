@@ -23,9 +23,9 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
 * a run that reads every point several times in a row (``reads``: a table machine's
   validation run, :data:`~vecpin.planning.nests.VALIDATION_READS`) reads them at one
   standstill: the machine moves to the point once, then a comment and a dwell per
-  reading and nothing else between them (``dwell_s``, the tracker's reading time, for the
-  tool's readings and for every further reading of a nest; ``nest_dwell_s`` for a nest's
-  first reading, where the tracker turns to it);
+  reading and nothing else between them (``dwell_s`` for the tool's first reading,
+  ``nest_dwell_s`` for a nest's first, where the tracker turns to it, and
+  ``read_dwell_s``, the tracker's reading time, for every further reading of a point);
 * on a plan read from several tracker stations (template column ``station``), the
   header says where the tracker stands for which points, and the program stops (``M0``)
   before each further station's block for the tracker to move there (``stations``).
@@ -50,6 +50,7 @@ from vecpin.planning import ncdialect as nc
 from vecpin.units import MM_PER_M
 
 DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
+READ_DWELL_S = 2.0  # s, ASSUMED: the tracker's stationary reading of a point it is locked on (no settling, no turning)
 _FANUC_AXES = set("XYZABCUVW")
 _GCODE_AXES = set("XYZABCUVW")
 
@@ -114,12 +115,16 @@ def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | Non
     return round(float(safe_z_mm), 3)
 
 
-def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0) -> None:
+def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0,
+                          read_dwell_s: float = READ_DWELL_S) -> None:
     """The dwells [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
     if not (math.isfinite(dwell_s) and dwell_s > 0):
         raise InputError(f"`dwell_s` {dwell_s}: the dwell is a time in seconds > 0")
     if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
         raise InputError(f"`nest_dwell_s` {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
+    if not (math.isfinite(read_dwell_s) and read_dwell_s > 0):
+        raise InputError(f"`read_dwell_s` {read_dwell_s:g}: the dwell per further reading of a point is a time in "
+                         "seconds > 0")
     if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
         raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
 
@@ -154,18 +159,19 @@ def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
     return same & ((np.arange(n) - first) % reads != 0)
 
 
-def readings(template: PlanTemplate, v: Visit, again: np.ndarray, dwell_s: float,
-             nest_dwell_s: float) -> list[tuple[int, float, str]]:
-    """(row, dwell [s], what is read) of every reading at the standstill ``v``, in order:
-    ``dwell_s`` for the tool target and for every further reading of a point (``again``:
-    :func:`rereads`), ``nest_dwell_s`` for a nest's first reading."""
+def readings(template: PlanTemplate, v: Visit, again: np.ndarray,
+             dwells: tuple[float, float, float]) -> list[tuple[int, float, str]]:
+    """(row, dwell [s], what is read) of every reading at the standstill ``v``, in order;
+    ``dwells`` [s]: (the tool target's first reading, a nest's first reading, every further
+    reading of a point, ``again``: :func:`rereads`)."""
+    dwell_s, nest_dwell_s, read_dwell_s = dwells
     out = []
     for k in [v.row, *v.after]:
         nest = template.instrument is not None and template.instrument[k] == "nest"
         what = f"table nest {template.target[k]}" if nest else "the tool target"
         name = point_name(template.point[k])
         if again[k]:
-            out.append((k, dwell_s, f"read {what} again as {name}, the machine standing still"))
+            out.append((k, read_dwell_s, f"read {what} again as {name}, the machine standing still"))
         else:
             out.append((k, nest_dwell_s if nest else dwell_s, f"read {what} as {name}"))
     return out
@@ -236,15 +242,16 @@ def station_notes(template: PlanTemplate, stations: list | None) -> list[str]:
 
 
 def program_header(dialect: str, machine: Machine, template: PlanTemplate, names: list[str], moves: tuple,
-                   times: tuple[float, float, float], title: str = "", stations: list | None = None,
+                   times: tuple[float, float, float, float], title: str = "", stations: list | None = None,
                    reads: int = 1) -> list[str]:
     """The program's header lines (comments): what it measures, in which coordinates, how
     it moves between the points (``moves``: retract axis index, its safe position [mm],
     the other linear and the rotary axis indices), what it does at each (``times``:
-    dwell [s], dwell per nest [s], approach feed [mm/min]; ``reads``: readings of every
-    point at its standstill) and where the tracker stands (:func:`station_notes`)."""
+    dwell [s], dwell per nest [s], approach feed [mm/min], dwell per further reading [s];
+    ``reads``: readings of every point at its standstill) and where the tracker stands
+    (:func:`station_notes`)."""
     r, safe, others, rotary = moves
-    dwell_s, nest_dwell_s, feed_mm_min = times
+    dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s = times
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
     n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
@@ -264,7 +271,7 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
             f"for the tool target and {nest_dwell_s:g} s per table nest read there"
             + (f"; the tool target and every nest read {reads} times in a row, the machine standing still: a dwell of "
-               f"{dwell_s:g} s (the tracker's reading time) per further reading and no motion between the readings"
+               f"{read_dwell_s:g} s (the tracker's reading time) per further reading and no motion between the readings"
                if reads > 1 else ""),
             *station_notes(template, stations),
             nc.restore_note(dialect),
@@ -274,7 +281,8 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
-                  title: str = "", stations: list | None = None, reads: int = 1) -> str:
+                  title: str = "", stations: list | None = None, reads: int = 1,
+                  read_dwell_s: float = READ_DWELL_S) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
@@ -284,10 +292,11 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     retract axis' name (default: found from the kinematics); ``stations``: the tracker
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
     several, :func:`station_notes`); ``reads``: the template reads every point that many
-    times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading)."""
+    times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
+    ``read_dwell_s`` [s] for every further reading)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
-    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     names = nc_axis_names(machine, dialect, axis_map)
     r, up = retract_axis(machine, retract)
     safe = safe_position(machine, r, up, safe_z_mm)
@@ -305,7 +314,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
-                          (dwell_s, nest_dwell_s, feed_mm_min), title, stations, reads)
+                          (dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s), title, stations, reads)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe, reads)
     again = rereads(template, reads)
@@ -332,7 +341,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
                 out.append(move(idx, v.a))
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
-        out += _reads_at(dialect, template, v, again, dwell_s, nest_dwell_s)
+        out += _reads_at(dialect, template, v, again, (dwell_s, nest_dwell_s, read_dwell_s))
     if end is not None:
         out.append(move([r], {r: end}))
     out += nc.epilogue(dialect)
@@ -341,18 +350,18 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     return "\n".join(out) + "\n"
 
 
-def _reads_at(dialect: str, template: PlanTemplate, v: Visit, again: np.ndarray, dwell_s: float,
-              nest_dwell_s: float) -> list[str]:
+def _reads_at(dialect: str, template: PlanTemplate, v: Visit, again: np.ndarray,
+              dwells: tuple[float, float, float]) -> list[str]:
     """The blocks of the readings at the standstill ``v``: one comment and one dwell for all
     of them when each point is read once; a comment and a dwell [s] per reading when a
-    point is read again there (:func:`readings`), no motion between them."""
+    point is read again there (:func:`readings`, ``dwells`` [s]), no motion between them."""
     if not any(again[k] for k in v.after):
         read = f"read the tool target as {point_name(template.point[v.row])}"
         if v.after:
             read += ", then the table nests in this order: " + ", ".join(
                 f"{template.target[k]} as {point_name(template.point[k])}" for k in v.after)
-        return [nc.nc_comment(dialect, read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.after))]
-    return [b for _, sec, what in readings(template, v, again, dwell_s, nest_dwell_s)
+        return [nc.nc_comment(dialect, read), nc.dwell(dialect, dwells[0] + dwells[1] * len(v.after))]
+    return [b for _, sec, what in readings(template, v, again, dwells)
             for b in (nc.nc_comment(dialect, what), nc.dwell(dialect, sec))]
 
 

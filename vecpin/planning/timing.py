@@ -24,7 +24,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
-from vecpin.planning.ncprogram import readings, rereads, retract_axis, safe_position, visits
+from vecpin.planning.ncprogram import READ_DWELL_S, readings, rereads, retract_axis, safe_position, visits
 
 HOLDER_CHANGE_S = 120.0  # s: swap the target holder at the M0 stop and let the tracker lock on again
 TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, level it, let it settle, lock on
@@ -32,9 +32,10 @@ TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, lev
 
 @dataclass
 class ProgramTiming:
-    """The NC program's settings that make its time: dwells [s], holder change [s],
-    approach feed [mm/min], the retract axis and its safe position [mm], rapid speeds
-    ``speed`` (n,) [m/s, rad/s] and approach ``steps`` (n,) [m, rad]."""
+    """The NC program's settings that make its time: dwells [s] (``read_dwell_s`` per
+    further reading of a point at its standstill), holder change [s], approach feed
+    [mm/min], the retract axis and its safe position [mm], rapid speeds ``speed`` (n,)
+    [m/s, rad/s] and approach ``steps`` (n,) [m, rad]."""
 
     speed: np.ndarray
     steps: np.ndarray
@@ -45,6 +46,7 @@ class ProgramTiming:
     safe_z_mm: float | None = None
     retract: str | None = None
     tracker_move_s: float = TRACKER_MOVE_S
+    read_dwell_s: float = READ_DWELL_S
 
     def check(self) -> None:
         if not (np.isfinite(self.holder_change_s) and self.holder_change_s >= 0):
@@ -129,7 +131,7 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
         step = max(a.max() if a.size else 0.0, 0.0) / feed
         approach += step
         now += step
-        for k, sec, _ in readings(template, v, again, timing.dwell_s, timing.nest_dwell_s):
+        for k, sec, _ in readings(template, v, again, (timing.dwell_s, timing.nest_dwell_s, timing.read_dwell_s)):
             now += sec
             dwell += sec
             t[k] = now

@@ -22,8 +22,8 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_names, program_name, rereads,
-                                      retract_axis, retract_travel_mm, safe_position, write_program)
+from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
+                                      rereads, retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
@@ -199,11 +199,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
-                holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S) -> PlanRun:
+                holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S,
+                read_dwell_s: float = READ_DWELL_S) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
     The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
-    ``retract``, ``axis_map``): :func:`vecpin.planning.ncprogram.write_program`.
+    ``retract``, ``axis_map``; ``read_dwell_s``: the validation run's dwell per further
+    reading of a point at its standstill): :func:`vecpin.planning.ncprogram.write_program`.
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates).
     ``holder_change_s``, ``tracker_move_s``: the time of a holder change and of moving the
@@ -211,7 +213,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     The plan's warnings (:mod:`vecpin.planning.planchecks`) are issued as
     :class:`~vecpin.errors.VecpinWarning` before the files are written."""
     check_output_dir(out_dir)
-    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
     for d in dialects:  # so does an axis without an NC address in a dialect asked for
@@ -246,7 +248,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
                                  program_number=1001, title=f"- validation run for {machine.name}",
-                                 reads=plan.validation_reads)
+                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s)
             files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
@@ -261,7 +263,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
-                                tracker_move_s=tracker_move_s)
+                                tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
         once = v.take(np.flatnonzero(~rereads(v, plan.validation_reads)))
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
                       row_times(machine, v, timing, plan.validation_reads)[1], row_times(machine, once, timing)[1])
@@ -293,17 +295,17 @@ def plan_station_positions(path: str | Path) -> list[np.ndarray] | None:
 
 def program_timing(machine: Machine, plan: Plan, *, dwell_s: float, nest_dwell_s: float, feed_mm_min: float,
                    safe_z_mm: float | None, retract: str | None, holder_change_s: float,
-                   tracker_move_s: float = TRACKER_MOVE_S) -> ProgramTiming:
+                   tracker_move_s: float = TRACKER_MOVE_S, read_dwell_s: float = READ_DWELL_S) -> ProgramTiming:
     """The NC program's timing settings of ``plan`` (its rapid speeds and approach steps)."""
     s = plan.settings
     return ProgramTiming(axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), plan.steps, dwell_s, nest_dwell_s,
-                         holder_change_s, feed_mm_min, safe_z_mm, retract, tracker_move_s)
+                         holder_change_s, feed_mm_min, safe_z_mm, retract, tracker_move_s, read_dwell_s)
 
 
 def timing_dict(t: ProgramTiming) -> dict:
     """plan.json's "program": what the simulator needs to time the plan's rows as the program runs them."""
     return {"dwell_s": t.dwell_s, "nest_dwell_s": t.nest_dwell_s, "holder_change_s": t.holder_change_s,
-            "tracker_move_s": t.tracker_move_s,
+            "tracker_move_s": t.tracker_move_s, "read_dwell_s": t.read_dwell_s,
             "feed_mm_min": t.feed_mm_min, "safe_z_mm": t.safe_z_mm, "retract_axis": t.retract,
             "speed_si": [round(float(v), 9) for v in t.speed], "steps_si": [round(float(v), 12) for v in t.steps]}
 
@@ -320,6 +322,7 @@ def plan_timing(path: str | Path) -> ProgramTiming | None:
             return None
         return ProgramTiming(np.array(d["speed_si"], float), np.array(d["steps_si"], float), float(d["dwell_s"]),
                              float(d["nest_dwell_s"]), float(d["holder_change_s"]), float(d["feed_mm_min"]),
-                             d["safe_z_mm"], d["retract_axis"], float(d["tracker_move_s"]))
+                             d["safe_z_mm"], d["retract_axis"], float(d["tracker_move_s"]),
+                             float(d.get("read_dwell_s", READ_DWELL_S)))  # older plan.json: the default
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"{js}: not a plan.json vecpin wrote ({exc}); plan again or remove it") from None
