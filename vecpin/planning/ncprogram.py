@@ -204,11 +204,10 @@ def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, 
 
 
 def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
-                      retract: str | None = None, reads: int = 1) -> float:
-    """How far the retract axis travels in the lifts and plunges between points [mm]
-    (``reads``: :func:`visits`)."""
+                      retract: str | None = None) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm]."""
     r, up = retract_axis(machine, retract)
-    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm), reads)
+    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
     total, cur = 0.0, None
     for v in vs:
         at = v.lift if v.lift is not None else cur
