@@ -3,7 +3,8 @@ different kinematics (A-C trunnion, B-C trunnion, head-table B-C, the all-table 
 whose spindle stands on the frame), none tuned to:
 
 1. evaluate: a default campaign with three table nests fitted by the default model choice;
-   ``evaluate``'s figures on the validation run (tool and nest rows, 35 commands) against
+   ``evaluate``'s figures on the validation run (tool and nest rows, 35 commands, each
+   point read ``VALIDATION_READS`` times at its standstill and averaged) against
    the simulated truth's own tip-relative-to-table error on the same commands (the true
    machine through its error frames, the nominal tip, the fitted model's tip, registered
    rigidly: nothing of evaluate's path). Noise-free run: like for like. Noisy run: the
@@ -20,7 +21,8 @@ whose spindle stands on the frame), none tuned to:
    against the table floor; the share of each table axis' travel where the campaign read
    three nests at one command, and the error of the tables against the floor inside and
    outside it (what the extrapolation costs); ``--plan-seeds`` true machines each, and on
-   the two trunnions true machines of the independent families (spline, bumps) too.
+   the two trunnions true machines of the independent families (spline, bumps) too; the
+   plan's validation run's time as its NC program runs it, and read once per point.
 4. backlash on the trunnion's A: what the tool rows alone cannot see.
 
 Run: python benchmarks/bench_table_machines.py [--seed N] [--plan-seeds N] [--out docs/results/table_machines.md]
@@ -39,8 +41,12 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
+from vecpin.measurement.tableframe import repeated_readings, table_nests, table_tips, tip_noise
 from vecpin.models.effects.backlash import Backlash
+from vecpin.planning.ncprogram import rereads
+from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
+from vecpin.planning.timing import row_times
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.floor import table_floor, true_compensated_error
 from vecpin.simulation.independent import IndependentMachine
@@ -49,6 +55,7 @@ from vecpin.simulation.simulate import Design, simulate
 from vecpin.units import norm_mm
 from vecpin.workflows.evaluation import evaluate
 from vecpin.workflows.fitting import fit_campaign
+from vecpin.workflows.planning import program_timing
 from vecpin.workflows.verifying import verify
 
 MACHINES = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc", "xyzac_trt"]
@@ -80,21 +87,24 @@ def truth_same_way(run, nests: dict, model) -> float:
     """Mean [mm] of the model's error as a run's readings show it, judged by code that is
     not vecpin's: at each command the true nests registered on their readings (scipy), the
     tool reading taken to the table through it, against the model's tip relative to the
-    workpiece, registered rigidly. On a noisy run this is the truth with the run's noise."""
+    workpiece, registered rigidly. On a noisy run this is the truth with the run's noise.
+    A point read several times at a command (the validation run's readings at standstill)
+    counts as the mean of its readings."""
     key = np.unique(np.round(run.q * 1e9), axis=0, return_inverse=True)[1].ravel()
     tips, rows = [], []
     for k in np.unique(key):
         g = np.flatnonzero(key == k)
         tool = g[run.instrument[g] == "tracker"]
         nest = g[run.instrument[g] == "nest"]
-        if len(nest) < 3 or not len(tool):
+        ids = sorted(set(run.target[nest]))
+        if len(ids) < 3 or not len(tool):
             continue
-        P = np.array([nests[str(t)] for t in run.target[nest]])
-        Q = run.xyz[nest]
+        P = np.array([nests[str(t)] for t in ids])
+        Q = np.array([run.xyz[nest[run.target[nest] == t]].mean(axis=0) for t in ids])
         rot, _ = Rotation.align_vectors(Q - Q.mean(axis=0), P - P.mean(axis=0))
         R = rot.as_matrix()
-        tips.append((run.xyz[tool] - Q.mean(axis=0)) @ R + P.mean(axis=0))
-        rows.append(tool)
+        tips.append((run.xyz[tool].mean(axis=0, keepdims=True) - Q.mean(axis=0)) @ R + P.mean(axis=0))
+        rows.append(tool[:1])
     rows = np.concatenate(rows)
     c = run.subset(rows)
     mod = model.tool_tip(c.q, c.tool, model.b_, jacobian=False, frame="workpiece").tip
@@ -113,6 +123,9 @@ def machine_rows(name: str, seed: int, n_validation: int = 35) -> tuple[list[str
     exact, noisy = evaluate(model, sim.validation_truth), evaluate(model, sim.validation)
     same = truth_same_way(sim.validation, sim.nests, model)
     net = noisy.net
+    once = sim.validation.subset(np.flatnonzero(repeated_readings(sim.validation)[0]))  # the first reading of each point
+    nests_once = table_nests([once], dict(model.setup_.nests))  # as evaluate takes them
+    tip_once = float(tip_noise(once, table_tips(once, *nests_once), model.noise_.tracker).mean()) * 1e6
     tables = plan_tables(model, uncertainty=False).tables
     run = simulate(m, seed=seed + 1, truth=sim.truth, tables=tables)
     ver = verify(m, run.validation_truth, run.compensated_truth, model=model, tables=tables, tables_source="t")
@@ -126,13 +139,15 @@ def machine_rows(name: str, seed: int, n_validation: int = 35) -> tuple[list[str
     tag = name if n_validation == 35 else f"{name}, {n_validation} validation commands"
     figures = {"exact": exact.residual.mean() / mod_t, "same": noisy.residual.mean() / same,
                "net": (net.rms - rms_t) / net.sd, "net_sd": net.sd * 1e3, "verify": ver.after.measured.mean() / true_a,
-               "rms": rms_t * 1e3, "noise": net.noise_rms * 1e3,
+               "rms": rms_t * 1e3, "noise": net.noise_rms * 1e3, "tip": noisy.noise_mm * 1e3, "tip_once": tip_once,
+               "resolved": net.resolved,
                "for_10pct": n_validation * (net.ms_sd / (0.2 * rms_t**2)) ** 2}  # commands for an sd of 10 % of the RMS
     return [
         f"| {tag} | {model.label()} | {unc_t:.4f} | {exact.uncompensated.mean():.4f} | {mod_t * 1e3:.1f} | "
         f"{exact.residual.mean() * 1e3:.1f} | {exact.residual.mean() / mod_t:.3f} | {t_fit:.0f} |",
         f"| {tag} | {noisy.residual.mean() * 1e3:.1f} | {same * 1e3:.1f} | {noisy.residual.mean() / same:.3f} | "
-        f"{noisy.noise_mm * 1e3:.1f} | {rms_t * 1e3:.1f} | {net.rms * 1e3:.1f} ± {net.sd * 1e3:.1f} | "
+        f"{noisy.noise_mm * 1e3:.1f} | {tip_once:.1f} | {net.noise_rms * 1e3:.1f} | {rms_t * 1e3:.1f} | "
+        f"{'' if net.resolved else 'not resolved, '}{net.rms * 1e3:.1f} ± {net.sd * 1e3:.1f} | "
         f"{abs(net.rms - rms_t) / net.sd:.1f} |",
         f"| {tag} | {true_b:.4f} | {ver.before.measured.mean():.4f} | {true_a * 1e3:.1f} | "
         f"{ver.after.measured.mean() * 1e3:.1f} | {ver.after.predicted.mean() * 1e3:.1f} | "
@@ -162,11 +177,27 @@ def seen_travel(m, campaign: Campaign, q: np.ndarray) -> tuple[str, np.ndarray]:
     return ", ".join(out), blind
 
 
-def plan_row(name: str, seed: int, place: bool, family: str | None = None) -> tuple[str, float]:
-    """(table row, tables / floor) on the campaign plan proposes (see the module text);
-    ``family``: the true machine from the independent family (simulation/independent)."""
+def validation_minutes(m, plan) -> tuple[float, float]:
+    """(minutes of the plan's validation run as its NC program runs it, the same run reading
+    every point once), at the program's default settings (4 s dwell, 15 s per nest, 2 s per
+    further reading)."""
+    timing = program_timing(m, plan, dwell_s=4.0, nest_dwell_s=15.0, feed_mm_min=1000.0, safe_z_mm=None,
+                            retract=None, holder_change_s=120.0)
+    v, reads = plan.validation_template, plan.validation_reads
+    once = v.take(np.flatnonzero(~rereads(v, reads)))
+    return row_times(m, v, timing, reads)[1].total_s / 60, row_times(m, once, timing)[1].total_s / 60
+
+
+def plan_row(name: str, seed: int, place: bool, family: str | None = None) -> tuple[str, float, str]:
+    """(table row, tables / floor, the validation run's time row) on the campaign plan
+    proposes (see the module text); ``family``: the true machine from the independent
+    family (simulation/independent)."""
     m = vecpin.Machine.load(name)
     plan = make_plan(m, PlanSettings(place_nests=place, seed=0))
+    minutes, once = validation_minutes(m, plan)
+    v = plan.validation_template
+    timed = (f"| {name} | {'placed' if place else 'default'} | {len(v.tool_rows) // plan.validation_reads} | "
+             f"{plan.validation_reads} | {len(v)} | {minutes:.1f} | {once:.1f} | {minutes / once:.2f} |")
     stations = plan.placement.stations if plan.placement else [plan.tracker]
     truth = IndependentMachine.random(m, family, seed=seed) if family else None
     # the plan as vecpin writes it: a second station's block of rows (template column station) read from there
@@ -186,7 +217,7 @@ def plan_row(name: str, seed: int, place: bool, family: str | None = None) -> tu
     where = "placed" if place else "default"
     return (f"| {name} | {family or 'vecpin'} {seed} | {where} | {len(stations)} | {int(camp.nest_rows.size)} | {seen} | {d_vec.mean():.4f} | "
             f"{d_floor.mean():.4f} | {d_vec.mean() / d_floor.mean():.2f} | {inside} | {outside} |"), \
-        float(d_vec.mean() / d_floor.mean())
+        float(d_vec.mean() / d_floor.mean()), timed
 
 
 def backlash_rows(seed: int) -> list[str]:
@@ -210,11 +241,14 @@ HEAD = {
     "evaluate": ["| machine | model | truth uncomp. | evaluate uncomp. (noise-free) | truth model um | evaluate model um "
                  "(noise-free) | ratio | fit s |", "|---|---|---|---|---|---|---|---|"],
     "noisy": ["| machine | evaluate model um (noisy) | truth the same way um (noisy readings, true nests, scipy) | ratio | "
-              "tracker noise at the tip um | truth model RMS um (noise-free) | evaluate net of noise RMS um (± sd) | "
-              "distance in sd |", "|---|---|---|---|---|---|---|---|"],
+              "tracker noise at the tip um | the same, first reading of each point um | noise netted out um RMS | "
+              "truth model RMS um (noise-free) | evaluate net of noise RMS um (± sd) | distance in sd |",
+              "|---|---|---|---|---|---|---|---|---|---|"],
     "verify": ["| machine | truth before | verify before (noise-free) | truth after um | verify after um | predicted after "
                "um | reduction | verify before (noisy) | verify after um (noisy) | verify before RMS net of noise (truth "
                "RMS) | verify after RMS um net of noise (truth RMS) |", "|---|---|---|---|---|---|---|---|---|---|---|"],
+    "time": ["| machine | nests | validation commands | readings per point | rows | minutes | minutes reading every "
+             "point once | ratio |", "|---|---|---|---|---|---|---|---|"],
     "plan": ["| machine | truth, seed | nests | stations | nest rows | travel with 3 nests read | tables | floor | tables / floor | "
              "seen part / floor | unseen part / floor (share of commands) |", "|---|---|---|---|---|---|---|---|---|---|---|"],
 }
@@ -233,9 +267,12 @@ def summary(figs: list[dict], ratios: dict) -> list[str]:
            f"{n(lambda f: abs(f['verify'] - 1) < 0.1)};",
            f"- noisy: evaluate's figure within 10 % of the truth evaluated the same way in "
            f"{n(lambda f: abs(f['same'] - 1) < 0.1)}; its model error net of the noise within two standard "
-           f"uncertainties of the truth's noise-free RMS in {n(lambda f: abs(f['net']) < 2)} (uncertainty "
-           f"{lo_hi('net_sd')} um: 35 validation commands do not resolve a {lo_hi('rms')} um model error (RMS) under "
-           f"{lo_hi('noise')} um of noise; an uncertainty of 10 % would take {lo_hi('for_10pct', '.0f')} commands);",
+           f"uncertainties of the truth's noise-free RMS in {n(lambda f: abs(f['net']) < 2)}, resolved (at least "
+           f"twice its uncertainty) in {n(lambda f: f['resolved'])} (uncertainty {lo_hi('net_sd')} um, a "
+           f"{lo_hi('rms')} um model error (RMS) under {lo_hi('noise')} um of noise netted out: 35 validation "
+           f"commands, each point read {VALIDATION_READS} times at its standstill; the tracker noise at the tip "
+           f"{lo_hi('tip')} um, {lo_hi('tip_once')} um from the first reading of each point; an uncertainty of 10 % "
+           f"would take {lo_hi('for_10pct', '.0f')} commands);",
            "- tables on the plan's campaign, at most 1.15x the floor: " + "; ".join(
                f"{label} {sum(r <= 1.15 for r in v)} of {len(v)} (median {np.median(v):.2f}x, max {max(v):.2f}x)"
                for label, v in (("default nests, one station:", ratios["default"]),
@@ -264,7 +301,10 @@ def main() -> None:
     cases += [(name, args.seed, fam) for name in MACHINES[:2] for fam in FAMILIES]
     for name, seed, fam in cases:
         for place in (False, True):
-            line, r = plan_row(name, seed, place, fam)
+            line, r, timed = plan_row(name, seed, place, fam)
+            if seed == args.seed and fam is None:
+                rows["time"].append(timed)
+                print(timed, flush=True)
             rows["plan"].append(line)
             ratios["placed" if place else "default"].append(r)
             print(line, flush=True)
@@ -277,7 +317,8 @@ def main() -> None:
         "",
         f"`python benchmarks/bench_table_machines.py --seed {args.seed}` (the module text says what each part does). "
         "Default campaign: 295 commands x 2 tools, 3 table nests, default model choice, 35 validation commands each "
-        "read at the tool and at the 3 nests. Truth: the simulated true machine's tip relative to its table against "
+        f"read at the tool and at the 3 nests, every point {VALIDATION_READS} times at its standstill (their mean "
+        "judged). Truth: the simulated true machine's tip relative to its table against "
         "the nominal / the model's tip, registered rigidly (not evaluate's path). mm unless marked um.",
         "",
         "## summary (counted from the tables below)", "", *summ, "",
@@ -290,7 +331,10 @@ def main() -> None:
         "registered on the true nests by scipy), and evaluate's estimate net of the noise (the noise's expected "
         "contribution per row, from re-noised copies of the run, subtracted in quadrature) against the truth's "
         "noise-free RMS, with its standard uncertainty. 'tracker noise at the tip': evaluate's note (the tracker's "
-        "alone). The last row: the same machine and seed with 1000 validation commands (not in the summary).",
+        "alone, mean, through the nests' registration, each point's readings averaged; beside it the same from the "
+        "first reading of each point). 'noise netted out': the tracker's noise divided by the readings plus the "
+        "axes' positioning noise, the same for every reading at a standstill (tests/test_standstill.py). The last "
+        "row: the same machine and seed with 1000 validation commands (not in the summary).",
         "", *HEAD["noisy"], *rows["noisy"], "",
         "## verify (both runs relative to the table, tables of the model, generic controller)", "",
         "Net of noise: verify's RMS of each noisy run relative to the table with the noise's expected share taken "
@@ -305,6 +349,12 @@ def main() -> None:
         "command; the rest the model's table-axis terms and the tables extrapolate; its cost: tables / floor on the "
         "judging commands in such a twentieth.",
         "", *HEAD["plan"], *rows["plan"], "",
+        "## the plan's validation run: time as its NC program runs it", "",
+        "The plans above (seed 0) at the NC program's defaults (4 s dwell at a point's first reading, 15 s at a "
+        "nest's first, 2 s, the tracker's reading time, at every further reading; approach at 1000 mm/min, rapid "
+        "moves at the plan's speeds): the run reading every "
+        f"point {VALIDATION_READS} times at its standstill, and the same run reading every point once (the moves are "
+        "the same).", "", *HEAD["time"], *rows["time"], "",
         "## backlash on A (trunnion_xyzac, 0.03 mm, noise-free validation of 60 commands)",
         "",
         "| model | evaluate at the tool um | evaluate relative to the table um | truth relative to the table um |",

@@ -23,6 +23,7 @@ from vecpin.measurement.registration import registered_errors
 from vecpin.measurement.tableframe import table_campaign_notes
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.effects.backlash import Backlash
+from vecpin.planning.nests import VALIDATION_READS
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.floor import true_compensated_error
 from vecpin.simulation.simulate import Design, simulate
@@ -60,7 +61,9 @@ def test_simulated_validation_reads_the_nests_and_evaluate_judges_the_tip_relati
     m = machines[name]
     sim = simulate(m, seed=3, design=Design(n_commands=120, n_validation=30))
     v = sim.validation_truth
-    assert len(v.nest_rows) == 3 * 30 and len(v.tracker_rows) == 30 and set(v.target[v.nest_rows]) == set(sim.nests)
+    reads = VALIDATION_READS  # each point read this many times in a row at its standstill, judged as their mean
+    assert len(v.nest_rows) == 3 * 30 * reads and len(v.tracker_rows) == 30 * reads
+    assert set(v.target[v.nest_rows]) == set(sim.nests)
     model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(
         sim.campaign, NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise))
     ev = evaluate(model, v)
@@ -120,13 +123,15 @@ def test_evaluate_takes_the_tracker_noise_out_like_with_like(machines):
     v = sim.validation
     ev = evaluate(model, v)
     tips, rows = [], []
-    for start in range(0, len(v), 4):  # the simulated run: each command's tool row, then its 3 nests
-        tool, nest = start, np.arange(start + 1, start + 4)
-        assert v.instrument[tool] == "tracker" and np.all(v.instrument[nest] == "nest")
-        P, Q = np.array([sim.nests[str(t)] for t in v.target[nest]]), v.xyz[nest]
+    k = VALIDATION_READS  # the simulated run: each command's tool read k times, then each of its 3 nests k times
+    for start in range(0, len(v), 4 * k):
+        tool, nest = np.arange(start, start + k), np.arange(start + k, start + 4 * k).reshape(3, k)
+        assert np.all(v.instrument[tool] == "tracker") and np.all(v.instrument[nest] == "nest")
+        P = np.array([sim.nests[str(v.target[n[0]])] for n in nest])
+        Q = v.xyz[nest].mean(axis=1)  # each nest's readings averaged, as the tool's
         R = Rotation.align_vectors(Q - Q.mean(axis=0), P - P.mean(axis=0))[0].as_matrix()
-        tips.append((v.xyz[tool] - Q.mean(axis=0)) @ R + P.mean(axis=0))
-        rows.append(tool)
+        tips.append((v.xyz[tool].mean(axis=0) - Q.mean(axis=0)) @ R + P.mean(axis=0))
+        rows.append(start)
     c = v.subset(np.array(rows))
     mod = model.tool_tip(c.q, c.tool, model.b_, jacobian=False, frame="workpiece").tip
     same_way = np.linalg.norm(_scipy_rigid(mod, np.array(tips)), axis=1).mean() * 1e3

@@ -78,7 +78,8 @@ def run_plan(args) -> int:
                       dwell_s=args.dwell_s, nest_dwell_s=args.nest_dwell_s, feed_mm_min=args.feed_mm_min,
                       safe_z_mm=args.safe_z_mm, retract=args.retract, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare_with, progress=progress(not args.quiet),
-                      holder_change_s=args.holder_change_s, tracker_move_s=args.tracker_move_s)
+                      holder_change_s=args.holder_change_s, tracker_move_s=args.tracker_move_s,
+                      read_dwell_s=args.read_dwell_s)
     say(args, *run.lines())
     return 0
 
@@ -186,6 +187,9 @@ def _add_program_args(s) -> None:
                    "read the tool target, s (default 4)")
     s.add_argument("--nest-dwell", dest="nest_dwell_s", type=float, default=15.0, help="further dwell per table nest "
                    "read at a point, s (default 15: the operator moves the tracker to each nest)")
+    s.add_argument("--read-dwell", dest="read_dwell_s", type=float, default=2.0, metavar="S", help="dwell per further "
+                   "reading of a point at its standstill (a table machine's validation run reads the tool and each "
+                   "nest 4 times), the tracker's reading time, s (default 2, an assumption: time your tracker)")
     s.add_argument("--safe-z", dest="safe_z_mm", type=float, metavar="MM", help="machine coordinate the retract axis "
                    "(see --retract-axis) moves to before every move between points, mm; the other linear axes, then "
                    "the rotary axes move there and it plunges to the next point (default: the end of its travel away "

@@ -7,7 +7,14 @@ table nests. The nests' positions on the table (the workpiece frame: from the fi
 re-fitted from the run) registered on their readings at that command give the table's
 pose in the tracker frame at that command (the tracker pose registered on the nests:
 Kabsch, three or more nests not on a line), and the tool reading taken back through it
-is the measured tip relative to the table. No machine model enters: the figures judged
+is the measured tip relative to the table. A point read several times in a row at one
+command (the same tool point or nest, the machine standing still: a table machine's
+validation run reads each :data:`~vecpin.planning.nests.VALIDATION_READS` times) counts
+as the mean of those readings (:func:`repeated_readings`). The mean divides the tracker's
+noise variance by the number of readings, not the machine's positioning noise: the axes
+stand where they stopped for every reading of a standstill (:func:`standstills`), so the
+noise netted out (:func:`net_of_noise`) draws the tracker's noise per reading and the
+axes' once per standstill. No machine model enters: the figures judged
 from it (``vecpin evaluate``, ``vecpin verify``) compare it with the nominal or the
 modelled tip relative to the workpiece after the best rigid registration (where the part
 sits is not observable and does not matter, as for the simulated truth).
@@ -57,6 +64,29 @@ def command_keys(campaign) -> np.ndarray:
     return np.unique(k, axis=0, return_inverse=True)[1].ravel()
 
 
+def standstills(campaign) -> np.ndarray:
+    """(N,) id of the standstill each row is read at: consecutive rows at the same (station,
+    command), the machine not moving between them."""
+    k = np.c_[campaign.station, np.round(campaign.q * 10**KEY_DIGITS)]
+    return np.cumsum(np.r_[True, np.any(k[1:] != k[:-1], axis=1)]) - 1 if len(k) else np.zeros(0, int)
+
+
+def repeated_readings(campaign) -> tuple[np.ndarray, np.ndarray]:
+    """((N,) bool: the row starts a run, (N,3) [m] each row's reading averaged over its
+    run): a run is consecutive rows reading the same point (instrument, target, tool point,
+    holder) at one standstill (see the module text)."""
+    n = len(campaign)
+    if not n:
+        return np.zeros(0, bool), np.zeros((0, 3))
+    key = np.c_[standstills(campaign), np.round(campaign.tool * 10**KEY_DIGITS), campaign.point]
+    same = np.r_[False, np.all(key[1:] == key[:-1], axis=1) & (campaign.instrument[1:] == campaign.instrument[:-1])
+                 & (campaign.target[1:] == campaign.target[:-1])]
+    run = np.cumsum(~same) - 1
+    mean = np.zeros((run[-1] + 1, 3))
+    np.add.at(mean, run, campaign.xyz)
+    return ~same, (mean / np.bincount(run)[:, None])[run]
+
+
 def _groups(campaign, nest_ids=None):
     """[(tool rows, nest rows)] of every (station, command) with tool rows and nest rows."""
     key = command_keys(campaign)
@@ -104,8 +134,9 @@ def nest_shape(campaign, start: dict | None = None, iterations: int = 20) -> dic
     (generalised Procrustes: every command's nest readings registered on the mean shape,
     which is then their mean), starting from ``start`` (e.g. the fitted nests) or from the
     command with the most nests read."""
+    xyz = repeated_readings(campaign)[1]  # a nest read several times in a row: its mean
     batches = {ids: b for ids, b in _by_nests(campaign, _groups(campaign)).items()
-               if len(ids) >= MIN_NESTS and spans_plane(campaign.xyz[b[1][0]])}
+               if len(ids) >= MIN_NESTS and spans_plane(xyz[b[1][0]])}
     if not batches:
         return {}
     ids_all = sorted({i for ids in batches for i in ids})
@@ -113,13 +144,13 @@ def nest_shape(campaign, start: dict | None = None, iterations: int = 20) -> dic
         shape = {i: np.asarray(start[i], float) for i in ids_all}
     else:
         ids0 = max(batches, key=len)
-        shape = dict(zip(ids0, campaign.xyz[batches[ids0][1][0]]))
+        shape = dict(zip(ids0, xyz[batches[ids0][1][0]]))
     for _ in range(iterations):
         total, count = {}, {}
         for ids, (_, rows) in batches.items():
             if any(i not in shape for i in ids):
                 continue
-            Q = campaign.xyz[rows]
+            Q = xyz[rows]
             R, t = kabsch(np.array([shape[i] for i in ids]), Q)
             local = np.einsum("gji,gkj->gki", R, Q - t[:, None])  # R^T (Q - t): each reading on the table
             for a, i in enumerate(ids):
@@ -164,21 +195,23 @@ def table_nests(runs: list, fitted: dict | None = None) -> tuple[dict, bool]:
 
 def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
     """The tool rows of ``campaign`` in the workpiece frame of ``nests`` (see the module
-    text): each command's table pose registered on the nests read at it."""
+    text): each command's table pose registered on the nests read at it; a point read
+    several times in a row counts as the mean of its readings, on the row of its first."""
     rows, tips, unjudged, commands = [], [], [], 0
-    groups = [(t, n) for t, n in _groups(campaign, nests) if len(t)]
+    start, xyz = repeated_readings(campaign)
+    groups = [(t[start[t]], n) for t, n in _groups(campaign, nests) if len(t)]
     for ids, (tools, nest_rows) in _by_nests(campaign, groups).items():
         P = np.array([nests[i] for i in ids])
         if len(ids) < MIN_NESTS or not spans_plane(P):
             unjudged += tools
             continue
-        R, tr = kabsch(P, campaign.xyz[nest_rows])
+        R, tr = kabsch(P, xyz[nest_rows])
         g = np.repeat(np.arange(len(tools)), [len(t) for t in tools])  # each tool row's command
         t_rows = np.concatenate(tools)
         rows.append(t_rows)
-        tips.append(np.einsum("gji,gj->gi", R[g], campaign.xyz[t_rows] - tr[g]))
+        tips.append(np.einsum("gji,gj->gi", R[g], xyz[t_rows] - tr[g]))
         commands += len(tools)
-    tool = np.flatnonzero(campaign.instrument == "tracker")
+    tool = np.flatnonzero((campaign.instrument == "tracker") & start)
     missing = np.setdiff1d(tool, np.concatenate(rows + unjudged) if rows or unjudged else np.zeros(0, int))
     rows_a = np.concatenate(rows) if rows else np.zeros(0, int)
     order = np.argsort(rows_a)
@@ -188,11 +221,13 @@ def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
 
 def _axis_jitter(machine, campaign, tips: TableTips, axis_sigma: np.ndarray, rng) -> np.ndarray:
     """(N,3) [m] each row's reading moved by the machine's positioning noise (1-sigma
-    ``axis_sigma`` (n,) [m, rad] on every row's command, drawn per row as the simulator and
-    the likelihood take it), in the tracker frame of each station (its rotation from the
-    nominal points registered on the readings); zero on rows of nests not in ``tips``."""
+    ``axis_sigma`` (n,) [m, rad] on the commands, drawn once per standstill: every reading
+    there, of the tool and of the nests, sees the same axis positions, :func:`standstills`),
+    in the tracker frame of each station (its rotation from the nominal points registered
+    on the readings); zero on rows of nests not in ``tips``."""
     q = campaign.q
-    dq = rng.standard_normal(q.shape) * axis_sigma
+    still = standstills(campaign)
+    dq = (rng.standard_normal((int(still.max(initial=-1)) + 1, q.shape[1])) * axis_sigma)[still]
     d = np.zeros((len(q), 3))
     nominal = np.full((len(q), 3), np.nan)
     tool = np.flatnonzero(campaign.instrument == "tracker")
@@ -269,7 +304,8 @@ class NetOfNoise:
             return f"model error net of the measurement noise: {self.rms:.4f} ± {self.sd:.4f} mm RMS {how}"
         return (f"model error net of the measurement noise: not resolved by this run, {self.rms:.4f} ± {self.sd:.4f} mm "
                 f"RMS, below {self.rms + 2 * self.sd:.4f} mm at two standard uncertainties {how}; more validation "
-                "commands, or each read several times, resolve it")
+                "commands resolve it (more readings of each point at its standstill take out only the tracker's "
+                "share of the noise)")
 
 
 def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine, draws: int = 40,

@@ -20,6 +20,12 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
   point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
   then a dwell for the tool target and every table nest read there (``dwell_s`` plus
   ``nest_dwell_s`` per nest; the comment names the read order);
+* a run that reads every point several times in a row (``reads``: a table machine's
+  validation run, :data:`~vecpin.planning.nests.VALIDATION_READS`) reads them at one
+  standstill: the machine moves to the point once, then a comment and a dwell per
+  reading and nothing else between them (``dwell_s`` for the tool's first reading,
+  ``nest_dwell_s`` for a nest's first, where the tracker turns to it, and
+  ``read_dwell_s``, the tracker's reading time, for every further reading of a point);
 * on a plan read from several tracker stations (template column ``station``), the
   header says where the tracker stands for which points, and the program stops (``M0``)
   before each further station's block for the tracker to move there (``stations``).
@@ -44,6 +50,7 @@ from vecpin.planning import ncdialect as nc
 from vecpin.units import MM_PER_M
 
 DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
+READ_DWELL_S = 2.0  # s, ASSUMED: the tracker's stationary reading of a point it is locked on (no settling, no turning)
 _FANUC_AXES = set("XYZABCUVW")
 _GCODE_AXES = set("XYZABCUVW")
 
@@ -108,44 +115,87 @@ def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | Non
     return round(float(safe_z_mm), 3)
 
 
-def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0) -> None:
+def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0,
+                          read_dwell_s: float = READ_DWELL_S) -> None:
     """The dwells [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
     if not (math.isfinite(dwell_s) and dwell_s > 0):
         raise InputError(f"`dwell_s` {dwell_s}: the dwell is a time in seconds > 0")
     if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
         raise InputError(f"`nest_dwell_s` {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
+    if not (math.isfinite(read_dwell_s) and read_dwell_s > 0):
+        raise InputError(f"`read_dwell_s` {read_dwell_s:g}: the dwell per further reading of a point is a time in "
+                         "seconds > 0")
     if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
         raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
 
 
 @dataclass
 class Visit:
-    """One point of the program: its tool row ``row``, the retract axis' height before
+    """One standstill of the program: its tool row ``row``, the retract axis' height before
     the move to it (``lift`` [mm], None: it is high enough already), the approach position
-    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the nest rows read there."""
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the rows read there after
+    the tool row (``after``: the tool's further readings, the nests and theirs)."""
     row: int
     lift: float | None
     a: np.ndarray
     q: np.ndarray
-    nests: range
+    after: range
+
+
+def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
+    """(N,) bool: the rows that read again the point of the row before them, at its
+    standstill: the same instrument, nest, command, holder and station, within runs of
+    ``reads`` (a run that reads every point ``reads`` times in a row; 1: none, as a plan
+    whose repeated points are re-approached)."""
+    n = len(template)
+    if reads <= 1 or n < 2:
+        return np.zeros(n, bool)
+    inst = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
+    target = template.target if template.target is not None else np.full(n, "", dtype=object)
+    st = template.stations
+    same = np.r_[False, (inst[1:] == inst[:-1]) & (target[1:] == target[:-1]) & (st[1:] == st[:-1])
+                 & (template.tool[1:] == template.tool[:-1]) & np.all(template.q[1:] == template.q[:-1], axis=1)]
+    first = np.maximum.accumulate(np.where(same, 0, np.arange(n)))  # each row's first row of its run
+    return same & ((np.arange(n) - first) % reads != 0)
+
+
+def readings(template: PlanTemplate, v: Visit, again: np.ndarray,
+             dwells: tuple[float, float, float]) -> list[tuple[int, float, str]]:
+    """(row, dwell [s], what is read) of every reading at the standstill ``v``, in order;
+    ``dwells`` [s]: (the tool target's first reading, a nest's first reading, every further
+    reading of a point, ``again``: :func:`rereads`)."""
+    dwell_s, nest_dwell_s, read_dwell_s = dwells
+    out = []
+    for k in [v.row, *v.after]:
+        nest = template.instrument is not None and template.instrument[k] == "nest"
+        what = f"table nest {template.target[k]}" if nest else "the tool target"
+        name = point_name(template.point[k])
+        if again[k]:
+            out.append((k, read_dwell_s, f"read {what} again as {name}, the machine standing still"))
+        else:
+            out.append((k, nest_dwell_s if nest else dwell_s, f"read {what} as {name}"))
+    return out
 
 
 def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
-           safe: float) -> tuple[list[Visit], float | None]:
-    """The program's points in order and the retract axis' final lift (None: none needed):
-    the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is and the next
-    approach position before every move between points."""
+           safe: float, reads: int = 1) -> tuple[list[Visit], float | None]:
+    """The program's standstills in order and the retract axis' final lift (None: none
+    needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
+    and the next approach position before every move between points; the nest rows and
+    the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
+    row before them stands."""
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    stay = is_nest | rereads(template, reads)
     q_all = np.round(machine.to_user(template.q), 3)
     step = machine.to_user(np.asarray(steps, float)[None])[0]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
     out: list[Visit] = []
     cur = None
-    for i in np.flatnonzero(~is_nest):
+    for i in np.flatnonzero(~stay):
         a = np.round(q_all[i] - app[i] * step, 3)
         to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
         j = i + 1
-        while j < len(template) and is_nest[j]:
+        while j < len(template) and stay[j]:
             j += 1
         out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j)))
         cur = float(q_all[i][r])
@@ -191,14 +241,16 @@ def station_notes(template: PlanTemplate, stations: list | None) -> list[str]:
 
 
 def program_header(dialect: str, machine: Machine, template: PlanTemplate, names: list[str], moves: tuple,
-                   times: tuple[float, float, float], title: str = "", stations: list | None = None) -> list[str]:
+                   times: tuple[float, float, float, float], title: str = "", stations: list | None = None,
+                   reads: int = 1) -> list[str]:
     """The program's header lines (comments): what it measures, in which coordinates, how
     it moves between the points (``moves``: retract axis index, its safe position [mm],
     the other linear and the rotary axis indices), what it does at each (``times``:
-    dwell [s], dwell per nest [s], approach feed [mm/min]) and where the tracker stands
+    dwell [s], dwell per nest [s], approach feed [mm/min], dwell per further reading [s];
+    ``reads``: readings of every point at its standstill) and where the tracker stands
     (:func:`station_notes`)."""
     r, safe, others, rotary = moves
-    dwell_s, nest_dwell_s, feed_mm_min = times
+    dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s = times
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
     n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
@@ -216,7 +268,10 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, the plan's safe height) or higher, then "
             f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
-            f"for the tool target and {nest_dwell_s:g} s per table nest read there",
+            f"for the tool target and {nest_dwell_s:g} s per table nest read there"
+            + (f"; the tool target and every nest read {reads} times in a row, the machine standing still: a dwell of "
+               f"{read_dwell_s:g} s (the tracker's reading time) per further reading and no motion between the readings"
+               if reads > 1 else ""),
             *station_notes(template, stations),
             nc.restore_note(dialect),
             "run it first at a reduced rapid override and watch the moves"]
@@ -225,7 +280,8 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
-                  title: str = "", stations: list | None = None) -> str:
+                  title: str = "", stations: list | None = None, reads: int = 1,
+                  read_dwell_s: float = READ_DWELL_S) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
@@ -234,10 +290,12 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     position (default: the end of its travel away from the work); ``retract``: the
     retract axis' name (default: found from the kinematics); ``stations``: the tracker
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
-    several, :func:`station_notes`)."""
+    several, :func:`station_notes`); ``reads``: the template reads every point that many
+    times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
+    ``read_dwell_s`` [s] for every further reading)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
-    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     names = nc_axis_names(machine, dialect, axis_map)
     r, up = retract_axis(machine, retract)
     safe = safe_position(machine, r, up, safe_z_mm)
@@ -255,9 +313,10 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
-                          (dwell_s, nest_dwell_s, feed_mm_min), title, stations)
+                          (dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s), title, stations, reads)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
-    route, end = visits(machine, template, steps, r, up, safe)
+    route, end = visits(machine, template, steps, r, up, safe, reads)
+    again = rereads(template, reads)
     current_tool, current_station = None, 0
     for v in route:
         i = v.row
@@ -281,17 +340,28 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
                 out.append(move(idx, v.a))
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
-        read = f"read the tool target as {point_name(template.point[i])}"
-        if v.nests:
-            read += ", then the table nests in this order: " + ", ".join(
-                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.nests)
-        out += [comment(read), nc.dwell(dialect, dwell_s + nest_dwell_s * len(v.nests))]
+        out += _reads_at(dialect, template, v, again, (dwell_s, nest_dwell_s, read_dwell_s))
     if end is not None:
         out.append(move([r], {r: end}))
     out += nc.epilogue(dialect)
     if dialect == nc.FANUC:
         out.append("%")
     return "\n".join(out) + "\n"
+
+
+def _reads_at(dialect: str, template: PlanTemplate, v: Visit, again: np.ndarray,
+              dwells: tuple[float, float, float]) -> list[str]:
+    """The blocks of the readings at the standstill ``v``: one comment and one dwell for all
+    of them when each point is read once; a comment and a dwell [s] per reading when a
+    point is read again there (:func:`readings`, ``dwells`` [s]), no motion between them."""
+    if not any(again[k] for k in v.after):
+        read = f"read the tool target as {point_name(template.point[v.row])}"
+        if v.after:
+            read += ", then the table nests in this order: " + ", ".join(
+                f"{template.target[k]} as {point_name(template.point[k])}" for k in v.after)
+        return [nc.nc_comment(dialect, read), nc.dwell(dialect, dwells[0] + dwells[1] * len(v.after))]
+    return [b for _, sec, what in readings(template, v, again, dwells)
+            for b in (nc.nc_comment(dialect, what), nc.dwell(dialect, sec))]
 
 
 def program_name(dialect: str, run: str = "plan") -> str:

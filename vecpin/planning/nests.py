@@ -9,11 +9,30 @@ sees them (line of sight).
 
 :func:`nest_positions` is the one default placement: planning uses it for the plan and
 the simulator for the nests of a simulated campaign. Nests stand on the table, evenly
-around a circle of 80 % of the table's radius (from the URDF geometry of the link that
-carries the workpiece frame, when it has a table face at the workpiece frame's z = 0),
-and at most 40 % of half the span of the tool tips relative to the workpiece and 0.3 m,
-at heights of 20-80 mm above the face (different heights: the nests also see tilts).
+around a circle :data:`NEST_EDGE` inside the table's edge (the table's radius from the
+URDF geometry of the link that carries the workpiece frame, when it has a table face at
+the workpiece frame's z = 0; without it at most 40 % of half the span of the tool tips
+relative to the workpiece and 0.3 m), at heights of 20-80 mm above the face (different
+heights: the nests also see tilts).
 Frames: workpiece frame, metres.
+
+Why at the edge: a validation run judges the tip relative to the table
+(:mod:`vecpin.measurement.tableframe`): at each command the table's pose is registered on
+the nests' readings and the tool's reading taken through it, so the tracker noise at the
+tip is the tool reading's own plus what the registration adds. Registering n nests evenly
+on a circle of radius r, each read with noise sigma per axis, moves a tip at ``lever``
+from their centre by sigma sqrt((1 + k (lever / r)^2) / n) per axis, k = 1 for a lever in
+the table's plane and 4/3 for one square to it (averaged over the three axes;
+tests/test_nest_noise.py derives it and checks it against scipy's Kabsch). A tip stands
+0.3-0.9 m from the nests, so the farther out the nests, the less noise at the tip.
+
+No placement removes the tool reading's own noise, nor the part of the nests' that is
+there at any radius: a table machine's validation run therefore reads the tool and each
+nest :data:`VALIDATION_READS` times in a row at every command, the machine standing still
+(one move to the command, a dwell per reading, no motion between the readings:
+:mod:`~vecpin.planning.ncprogram`), and the mean of each point's readings is judged. That
+divides the tracker's noise variance by the number of readings, not the machine's
+positioning noise: the axes stand where they stopped for every reading.
 """
 from __future__ import annotations
 
@@ -28,9 +47,11 @@ from vecpin.units import M_PER_MM
 
 MAX_NESTS = 20             # nests one plan or simulation places
 MAX_REACH = 0.3            # m: farthest a default nest stands from the table centre
-TABLE_SHARE = 0.8          # default nests on a circle of this share of the table radius
+TABLE_SHARE = 0.8          # on a table narrower than 2 NEST_EDGE: nests on this share of its radius
+NEST_EDGE = 0.02           # m: a default nest's centre this far inside the table's edge (its base on the table)
 FACE_TOLERANCE = 0.005     # m: a solid whose top lies this close to the workpiece plane is the table
 NEST_HEIGHTS = (0.02, 0.08)  # m: reflector centres above the table face
+VALIDATION_READS = 4       # readings of the tool and of each nest at a table machine's validation command (at standstill)
 _ID = re.compile(r"[A-Za-z0-9_.-]{1,16}")
 
 
@@ -71,12 +92,17 @@ def table_radius(machine: Machine) -> float | None:
 
 
 def nest_reach(machine: Machine) -> float:
-    """The radius [m] of the default nests' circle about the workpiece origin (see the
-    module text)."""
+    """The radius [m] of the default nests' circle about the workpiece origin: the table's
+    radius from the URDF less :data:`NEST_EDGE` (the nests as far out as their bases stand
+    on the table: the registration's noise at the tip falls with the radius), or without
+    table geometry at most 40 % of half the span of the tool tips relative to the
+    workpiece and :data:`MAX_REACH` (see the module text)."""
+    table = table_radius(machine)
+    if table is not None and table > 2 * NEST_EDGE:
+        return table - NEST_EDGE
     q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
     rel = machine.tool_tip(q, 0.2, frame="workpiece")
     reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
-    table = table_radius(machine)
     return reach if table is None else min(reach, TABLE_SHARE * table)
 
 
@@ -122,4 +148,4 @@ def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "n
         raise InputError(f"`{option}`: {len(nests)} nests; at most {MAX_NESTS}")
 
 
-__all__ = ["nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
+__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]

@@ -20,7 +20,11 @@ Fig. 6; eq. 22 for repeated points).
 On a machine with table axes (a ``workpiece`` frame), reflectors in table nests
 (:mod:`~vecpin.planning.nests`) are read at every command's dwell with the first holder
 (the nests the tracker sees there): their rows, and the nests' unknown positions, count
-in the D-optimal choice and the prediction through the fit's one likelihood.
+in the D-optimal choice and the prediction through the fit's one likelihood. Its
+validation run reads the tool and each nest
+:data:`~vecpin.planning.nests.VALIDATION_READS` times in a row at every command, the
+machine standing still (``Plan.validation_reads``; the NC program and the run's time a
+dwell per reading, no move between them), and their mean is judged.
 """
 from __future__ import annotations
 
@@ -38,6 +42,7 @@ from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
 from vecpin.planning.planchecks import plan_warnings
 from vecpin.planning.nestplacement import Placement, station_blocks
+from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.problem import PlanProblem, PlanSettings, plan_problem, planned_model
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import clip_to_zone, inside
@@ -91,7 +96,8 @@ class Plan:
     ``without_nests`` the score of the same commands without them and ``bare`` the
     problem without them (None on a plan without nests); ``warnings``: what makes the plan doubtful, each with its fix
     (:mod:`~vecpin.planning.planchecks`); ``validation_template``: the rows of the
-    validation run (first holder, in a short order, table nests where seen)."""
+    validation run (first holder, in a short order, table nests where seen), each point
+    read ``validation_reads`` times in a row at its standstill."""
 
     machine: Machine
     settings: PlanSettings
@@ -117,6 +123,7 @@ class Plan:
     warnings: list[str] = field(default_factory=list)
     validation_template: PlanTemplate | None = None
     placement: Placement | None = None
+    validation_reads: int = 1
 
     @property
     def tools(self) -> np.ndarray:
@@ -230,6 +237,7 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
                 problem.steps, score, info, cov, t_random, c.geometry, (problem.lo, problem.hi), vq, problem.nests,
                 without, bare, problem.tracker_side)
     plan.validation_template, plan.placement = run, problem.placement
+    plan.validation_reads = VALIDATION_READS if problem.nests else 1
     plan.warnings = plan_warnings(plan)
     return plan
 
@@ -240,7 +248,8 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
     [lo, hi] (the measurement zone, room for the approach), outside the exclusion zones,
     free of collisions and in sight with the holder ``tool`` [m] (as the plan's
     commands), on the NC grid, in a short order; each read with that holder and at the
-    table nests the tracker sees there."""
+    table nests the tracker sees there, with nests every point
+    :data:`~vecpin.planning.nests.VALIDATION_READS` times in a row (:func:`reread`)."""
     cand = quantise(machine, validation_commands(machine, 8 * s.n_validation, lo, hi, seed=s.seed + 11))
     cand = np.clip(cand, lo, hi)
     cand = cand[~inside(machine, cand, s.exclude)]
@@ -257,7 +266,22 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
             seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
     idx, sign = route.approach_rows(q, s.approach)
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
-    return with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
+    return reread(with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests),
+                  VALIDATION_READS if nests else 1)
+
+
+def reread(template: PlanTemplate, reads: int) -> PlanTemplate:
+    """``template`` with every row read ``reads`` times in a row (the tool, then each
+    nest), the machine standing still: the further readings have no approach (0: no
+    move); every row keeps a point number of its own, numbered on."""
+    if reads == 1:
+        return template
+    out = template.take(np.repeat(np.arange(len(template)), reads))
+    out.point = np.arange(1, len(out) + 1)
+    if out.approach is not None:
+        out.approach = out.approach.copy()
+        out.approach[np.arange(len(out)) % reads != 0] = 0
+    return out
 
 
 def with_nest_rows(q: np.ndarray, tool: np.ndarray, approach: np.ndarray | None, command: np.ndarray,

@@ -4,7 +4,8 @@ The program (:mod:`vecpin.planning.ncprogram`) visits the tool rows in order: th
 retract axis lifts to its safe position, the other linear axes move to the next
 approach position, then the rotary axes, the retract axis plunges, the final approach
 runs at the approach feed, then the dwell for the tool target and one more dwell per
-table nest read there. Each rapid move takes the time of its slowest axis at its rapid
+table nest read there (and, on a run that reads every point several times at one
+standstill, a dwell per further reading, no move). Each rapid move takes the time of its slowest axis at its rapid
 speed (no acceleration: a lower bound of the moves). A change of the target holder
 (the program stops with ``M0``) costs ``holder_change_s`` (the operator swaps the
 holder and the tracker locks on again); the stop where the tracker moves to another
@@ -23,7 +24,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
-from vecpin.planning.ncprogram import retract_axis, safe_position, visits
+from vecpin.planning.ncprogram import READ_DWELL_S, readings, rereads, retract_axis, safe_position, visits
 
 HOLDER_CHANGE_S = 120.0  # s: swap the target holder at the M0 stop and let the tracker lock on again
 TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, level it, let it settle, lock on
@@ -31,9 +32,10 @@ TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, lev
 
 @dataclass
 class ProgramTiming:
-    """The NC program's settings that make its time: dwells [s], holder change [s],
-    approach feed [mm/min], the retract axis and its safe position [mm], rapid speeds
-    ``speed`` (n,) [m/s, rad/s] and approach ``steps`` (n,) [m, rad]."""
+    """The NC program's settings that make its time: dwells [s] (``read_dwell_s`` per
+    further reading of a point at its standstill), holder change [s], approach feed
+    [mm/min], the retract axis and its safe position [mm], rapid speeds ``speed`` (n,)
+    [m/s, rad/s] and approach ``steps`` (n,) [m, rad]."""
 
     speed: np.ndarray
     steps: np.ndarray
@@ -44,6 +46,7 @@ class ProgramTiming:
     safe_z_mm: float | None = None
     retract: str | None = None
     tracker_move_s: float = TRACKER_MOVE_S
+    read_dwell_s: float = READ_DWELL_S
 
     def check(self) -> None:
         if not (np.isfinite(self.holder_change_s) and self.holder_change_s >= 0):
@@ -87,13 +90,17 @@ class CampaignTime:
                 "tracker_moves": self.tracker_moves, "tracker_move_s": self.tracker_move_s}
 
 
-def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -> tuple[np.ndarray, CampaignTime]:
+def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
+              reads: int = 1) -> tuple[np.ndarray, CampaignTime]:
     """(time stamp [s] of every row of ``template``, at the end of its reading; the
-    campaign's time) when the NC program runs it with ``timing``."""
+    campaign's time) when the NC program runs it with ``timing``; ``reads``: every point
+    read that many times at one standstill (:func:`~vecpin.planning.ncprogram.readings`:
+    a dwell per reading, no move)."""
     timing.check()
     r, up = retract_axis(machine, timing.retract)
     safe = safe_position(machine, r, up, timing.safe_z_mm)
-    vs, end = visits(machine, template, timing.steps, r, up, safe)
+    vs, end = visits(machine, template, timing.steps, r, up, safe, reads)
+    again = rereads(template, reads)
     v_user = machine.to_user(np.asarray(timing.speed, float)[None])[0]  # mm/s, deg/s
     lin = np.array([a.kind == "linear" for a in machine.axes])
     others = lin.copy()
@@ -123,12 +130,10 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming) -
         a = np.abs(v.q - v.a)
         step = max(a.max() if a.size else 0.0, 0.0) / feed
         approach += step
-        now += step + timing.dwell_s
-        dwell += timing.dwell_s
-        t[v.row] = now
-        for k in v.nests:
-            now += timing.nest_dwell_s
-            dwell += timing.nest_dwell_s
+        now += step
+        for k, sec, _ in readings(template, v, again, (timing.dwell_s, timing.nest_dwell_s, timing.read_dwell_s)):
+            now += sec
+            dwell += sec
             t[k] = now
         prev = v.q
     if end is not None and prev is not None:

@@ -20,7 +20,7 @@ from vecpin.fileio import OutputSet
 from vecpin.kinematics.machine import Machine
 from vecpin.simulation.design import Design, design_commands
 from vecpin.simulation.effects import EffectSpec
-from vecpin.planning.nests import nest_positions  # noqa: F401  (the one placement, shared with planning)
+from vecpin.planning.nests import VALIDATION_READS, nest_positions  # the one placement, shared with planning
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
 from vecpin.measurement.plantemplate import PlanTemplate
@@ -57,20 +57,29 @@ class Rows:
     def __add__(self, other: "Rows") -> "Rows":
         return Rows(*(np.concatenate([a, b]) for a, b in zip(self.__dict__.values(), other.__dict__.values())))
 
-    def measure(self, truth, rng, features=None, station: int | None = None) -> np.ndarray:
+    def measure(self, truth, rng, features=None, station: int | None = None,
+                standstill: np.ndarray | None = None) -> np.ndarray:
         """Tracker readings (N,3) [m] of every row (tool tips, targets, nests), each from
-        its own ``station`` or, given, from that one."""
+        its own ``station`` or, given, from that one. The axes' positioning noise is drawn
+        per row, or with ``standstill`` ((N,) id of the standstill each row is read at)
+        once per standstill, shared by every reading there; the tracker's noise per row."""
         xyz = np.empty((len(self.q), 3))
         on = np.full(len(self.q), station) if station is not None else self.station
         f = (lambda sel: features.subset(np.flatnonzero(sel))) if features is not None else (lambda sel: None)
+        dq = None
+        if standstill is not None and rng is not None:
+            dq = (rng.standard_normal((int(standstill.max(initial=-1)) + 1, self.q.shape[1]))
+                  * truth.repeatability)[standstill]
+        pick = (lambda sel: None if dq is None else dq[sel])
         for s in np.unique(on):
             nest = (self.instrument == "nest") & (on == s)
             tool = (self.instrument != "nest") & (on == s)
             if tool.any():
                 xyz[tool] = truth.measure(self.q[tool], self.tool[tool], rng, f(tool), int(s), point=self.point[tool],
-                                          offset=self.offset[tool] if np.any(self.offset) else None)
+                                          offset=self.offset[tool] if np.any(self.offset) else None, dq=pick(tool))
             if nest.any():
-                xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), int(s), nest=self.nest[nest])
+                xyz[nest] = truth.measure(self.q[nest], self.tool[nest], rng, f(nest), int(s), nest=self.nest[nest],
+                                          dq=pick(nest))
         return xyz
 
 
@@ -103,12 +112,14 @@ def _and_nests(rows: Rows, q: np.ndarray, tool: float, nests: dict) -> Rows:
     return rows
 
 
-def validation_rows(q: np.ndarray, tool: float, nests: dict) -> Rows:
+def validation_rows(q: np.ndarray, tool: float, nests: dict, reads: int = VALIDATION_READS) -> Rows:
     """The validation run: at every command the tool (tool length ``tool`` [m]), then every
-    table nest {id: (3,) [m], workpiece frame}, the table standing still between them: the
-    rows that judge the tip relative to the table (:mod:`vecpin.measurement.tableframe`)."""
+    table nest {id: (3,) [m], workpiece frame}, each read ``reads`` times in a row when
+    there are nests (as a plan's validation run), the table standing still between them:
+    the rows that judge the tip relative to the table (:mod:`vecpin.measurement.tableframe`)."""
     rows = _and_nests(Rows.tips(q, np.full(len(q), tool)), q, tool, nests)
-    return rows.take(np.arange(len(rows.q)).reshape(1 + len(nests), len(q)).T.ravel())  # command by command
+    order = np.arange(len(rows.q)).reshape(1 + len(nests), len(q)).T.ravel()  # command by command
+    return rows.take(np.repeat(order, reads if nests else 1))
 
 
 def _more_instruments(campaign: Campaign, rows: Rows, truth: TrueMachine, design: Design, rng, seed) -> Campaign:
@@ -441,8 +452,11 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
                      seed: int, t_end: float, tables) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
     """The validation run ``vrows`` 10 min after the campaign's last row (``t_end`` [s]):
     measured (noisy) and noise-free, without the effects that flag rows (gross errors);
-    with ``tables`` the same commands again through the tables, noisy and noise-free."""
+    with ``tables`` the same commands again through the tables, noisy and noise-free. The
+    rows of a command are read at one standstill: the axes' positioning noise is drawn
+    once for them, the tracker's per reading."""
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
+    still = np.cumsum(np.r_[True, np.any(qa[1:] != qa[:-1], axis=1)]) - 1 if len(qa) else np.zeros(0, int)
     times_v = measurement_times(qa, machine, design, start=t_end + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
     feats_v = Features.from_campaign(Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v))
@@ -450,7 +464,7 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
     all_effects, truth.effects = truth.effects, clean
 
     def run(rows, extra, feats, noise, what):
-        return Campaign(machine.axis_names, qa, tv, rows.measure(truth, noise, feats), dict(extra),
+        return Campaign(machine.axis_names, qa, tv, rows.measure(truth, noise, feats, standstill=still), dict(extra),
                         f"simulated seed {seed}, {what}", rows.instrument.copy(), target=rows.target.copy())
     validation = run(vrows, extra_v, feats_v, rng, "validation")
     exact = run(vrows, extra_v, feats_v, None, "noise-free")

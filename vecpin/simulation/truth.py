@@ -135,17 +135,18 @@ class SimulatedMachine:
 
     def measure(self, q: np.ndarray, tool: np.ndarray | float, rng: np.random.Generator | None,
                 features=None, station: int = 0, *, point=0, offset: np.ndarray | None = None,
-                nest: np.ndarray | None = None) -> np.ndarray:
+                nest: np.ndarray | None = None, dq: np.ndarray | None = None) -> np.ndarray:
         """Tracker readings (N,3) [m]: axis repeatability noise on the commands, then the
         true kinematics (with the simulated effects when ``features`` are given), the
         tracker pose, tracker noise in spherical coordinates and gross errors.
         ``rng=None``: noise-free (and no gross errors). The point read is the tool tip
         of tool point ``point`` with target ``offset`` [m] (tool link frame), or, with
         ``nest`` (3,) or (N,3) [m], a reflector fixed at that position in the workpiece
-        frame."""
+        frame. ``dq`` (N,n) [m, rad]: the axes' positioning noise of each row drawn by the
+        caller (rows read at one standstill share it), instead of a draw per row."""
         q = np.atleast_2d(np.asarray(q, float))
         if rng is not None:
-            q = q + rng.standard_normal(q.shape) * self.repeatability
+            q = q + (rng.standard_normal(q.shape) * self.repeatability if dq is None else dq)
         tracker = self.tracker if station == 0 else self.stations[station - 1]
         p = (self.workpiece_points(q, nest, features) if nest is not None
              else self.tool_tip(q, tool, features, point=point, offset=offset))

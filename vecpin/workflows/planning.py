@@ -22,8 +22,8 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
-from vecpin.planning.ncprogram import (DIALECTS, check_program_options, nc_axis_names, program_name, retract_axis,
-                                      retract_travel_mm, safe_position, write_program)
+from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
+                                      rereads, retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
@@ -40,6 +40,7 @@ class PlanRun:
     time: CampaignTime | None = None  # the campaign's time as its NC program runs
     timing: ProgramTiming | None = None
     validation_time: CampaignTime | None = None
+    validation_time_once: CampaignTime | None = None  # the same run reading every point once
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -115,11 +116,17 @@ class PlanRun:
         v = p.validation_template
         if v is None:
             return []
-        n = len(v.tool_rows)
+        reads = p.validation_reads
+        n = len(v.tool_rows) // reads
         took = f", {self.validation_time.total_s / 60:.0f} min a run" if self.validation_time is not None else ""
+        if reads > 1 and self.validation_time_once is not None:
+            took += f" ({self.validation_time_once.total_s / 60:.0f} min reading every point once)"
         return [f"  validation run: {n} quasi-random commands inside the measured zone, free and in sight with the "
                 f"{p.settings.tools_mm[0]:g} mm holder" + (f", {len(v.nest_rows)} table nest readings" if v.has_nests
                                                            else "")
+                + (f"; the tool and each nest read {reads} times in a row at every command, the machine standing "
+                   "still (a dwell per reading, no move between them; their mean is judged: less tracker noise at "
+                   "the tip)" if reads > 1 else "")
                 + f" (validation.csv and its NC programs{took}): measure them without the tables and again with "
                 "them; a simulation of the plan uses the same commands"]
 
@@ -179,8 +186,11 @@ class PlanRun:
                 "expected_error_mm": s.expected_error_mm,
                 "warnings": list(p.warnings),
                 "validation": None if p.validation_template is None else
-                {"commands": len(p.validation_template.tool_rows), "rows": len(p.validation_template),
-                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)},
+                {"commands": len(p.validation_template.tool_rows) // p.validation_reads,
+                 "rows": len(p.validation_template),
+                 "minutes": None if self.validation_time is None else round(self.validation_time.total_s / 60, 4)}
+                | ({"reads": p.validation_reads, "minutes_one_reading": None if self.validation_time_once is None
+                    else round(self.validation_time_once.total_s / 60, 4)} if p.validation_reads > 1 else {}),
                 "campaign_time": None if self.time is None else self.time.to_dict(),
                 "program": None if self.timing is None else timing_dict(self.timing)}
 
@@ -189,11 +199,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
-                holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S) -> PlanRun:
+                holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S,
+                read_dwell_s: float = READ_DWELL_S) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
     The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
-    ``retract``, ``axis_map``): :func:`vecpin.planning.ncprogram.write_program`.
+    ``retract``, ``axis_map``; ``read_dwell_s``: the validation run's dwell per further
+    reading of a point at its standstill): :func:`vecpin.planning.ncprogram.write_program`.
     ``compare_with``: other plans to judge beside this one: template CSV paths, or
     "random" (the same number of commands at random from the same candidates).
     ``holder_change_s``, ``tracker_move_s``: the time of a holder change and of moving the
@@ -201,7 +213,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     The plan's warnings (:mod:`vecpin.planning.planchecks`) are issued as
     :class:`~vecpin.errors.VecpinWarning` before the files are written."""
     check_output_dir(out_dir)
-    check_program_options(dwell_s, feed_mm_min, nest_dwell_s)
+    check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
     for d in dialects:  # so does an axis without an NC address in a dialect asked for
@@ -235,7 +247,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         for d in dialects:
             text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 program_number=1001, title=f"- validation run for {machine.name}")
+                                 program_number=1001, title=f"- validation run for {machine.name}",
+                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s)
             files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
@@ -250,9 +263,10 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                    + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
-                                tracker_move_s=tracker_move_s)
+                                tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
+        once = v.take(np.flatnonzero(~rereads(v, plan.validation_reads)))
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
-                      row_times(machine, v, timing)[1])
+                      row_times(machine, v, timing, plan.validation_reads)[1], row_times(machine, once, timing)[1])
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
@@ -281,17 +295,17 @@ def plan_station_positions(path: str | Path) -> list[np.ndarray] | None:
 
 def program_timing(machine: Machine, plan: Plan, *, dwell_s: float, nest_dwell_s: float, feed_mm_min: float,
                    safe_z_mm: float | None, retract: str | None, holder_change_s: float,
-                   tracker_move_s: float = TRACKER_MOVE_S) -> ProgramTiming:
+                   tracker_move_s: float = TRACKER_MOVE_S, read_dwell_s: float = READ_DWELL_S) -> ProgramTiming:
     """The NC program's timing settings of ``plan`` (its rapid speeds and approach steps)."""
     s = plan.settings
     return ProgramTiming(axis_speeds(machine, s.rapid_mm_min, s.rapid_deg_min), plan.steps, dwell_s, nest_dwell_s,
-                         holder_change_s, feed_mm_min, safe_z_mm, retract, tracker_move_s)
+                         holder_change_s, feed_mm_min, safe_z_mm, retract, tracker_move_s, read_dwell_s)
 
 
 def timing_dict(t: ProgramTiming) -> dict:
     """plan.json's "program": what the simulator needs to time the plan's rows as the program runs them."""
     return {"dwell_s": t.dwell_s, "nest_dwell_s": t.nest_dwell_s, "holder_change_s": t.holder_change_s,
-            "tracker_move_s": t.tracker_move_s,
+            "tracker_move_s": t.tracker_move_s, "read_dwell_s": t.read_dwell_s,
             "feed_mm_min": t.feed_mm_min, "safe_z_mm": t.safe_z_mm, "retract_axis": t.retract,
             "speed_si": [round(float(v), 9) for v in t.speed], "steps_si": [round(float(v), 12) for v in t.steps]}
 
@@ -308,6 +322,7 @@ def plan_timing(path: str | Path) -> ProgramTiming | None:
             return None
         return ProgramTiming(np.array(d["speed_si"], float), np.array(d["steps_si"], float), float(d["dwell_s"]),
                              float(d["nest_dwell_s"]), float(d["holder_change_s"]), float(d["feed_mm_min"]),
-                             d["safe_z_mm"], d["retract_axis"], float(d["tracker_move_s"]))
+                             d["safe_z_mm"], d["retract_axis"], float(d["tracker_move_s"]),
+                             float(d.get("read_dwell_s", READ_DWELL_S)))  # older plan.json: the default
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"{js}: not a plan.json vecpin wrote ({exc}); plan again or remove it") from None

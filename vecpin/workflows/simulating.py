@@ -11,6 +11,7 @@ from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.measurement.tableframe import nest_shape, table_tips
+from vecpin.planning.nests import VALIDATION_READS
 from vecpin.simulation.simulate import Design, Simulation, simulate
 from vecpin.workflows.summary import error_summary
 from vecpin.units import MM_PER_M
@@ -47,8 +48,9 @@ class SimulationRun:
                 if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "
                 f"{', '.join(f'{t:g}' for t in design.tools_mm)} mm")
         out = [f"simulated {m.name}, seed {self.seed}: {len(c)} rows{more} ({what}), "
-               f"{len(sim.validation)} validation rows" + (f" ({len(sim.validation.tracker_rows)} commands, each at "
-                                                           f"the tool and at {len(sim.nests)} nests)"
+               f"{len(sim.validation)} validation rows" + (f" ({len(sim.validation.tracker_rows) // VALIDATION_READS} commands, each at the tool and "
+                                                           f"at {len(sim.nests)} nests, every point read "
+                                                           f"{VALIDATION_READS} times at standstill)"
                                                            if len(sim.validation.nest_rows) else "")
                + (f" from {self.validation_from}" if self.validation_from else ""),
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
@@ -147,7 +149,8 @@ def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
     v = Path(plan_path).with_name("validation.csv")
     if v.is_file() and Path(plan_path).name != "validation.csv":
         vt = read_template(v, machine)
-        out["validation_commands"] = vt.q[vt.tool_rows]
+        q = vt.q[vt.tool_rows]  # a command once: its further readings at standstill the simulator makes itself
+        out["validation_commands"] = q[np.r_[True, np.any(q[1:] != q[:-1], axis=1)]] if len(q) else q
     return out
 
 
