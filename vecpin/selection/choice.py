@@ -28,14 +28,16 @@ than 90 % of its travel: there the commands at each end of its measured span (a 
 each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
 that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
 as it will be used beyond the measured span (a robot measured over part of its joint
-ranges; a machine whose model is asked for over its whole travel). Along such an axis the
-basis is then chosen on the rows of its own held-out ends (:func:`_ends_choice`): each
-kind's choice by the one-SE rule keeps its other axes, and the basis of each partly
-measured axis becomes the one with the fewest terms (never more than it had) within one
-standard error of the lowest held-out mean on that axis' end rows, so the model keeps
-only what extrapolates along it (a constant or a line, where the rest extrapolates
-wildly), while the axes it interpolates keep their richer functions; of the kinds so
-chosen, the one-SE rule on every held-out row decides. A campaign over the whole
+ranges; a machine whose model is asked for over its whole travel). Along such axes the
+basis is then chosen on their held-out ends (:func:`_ends_choice`), each axis' two ends
+(the outer fifth of its measured span) held out on a problem of its own, so that no end
+is predicted by a fit that saw any of its commands: each kind's choice by the one-SE rule
+keeps its other axes, and the basis of each partly measured axis becomes the one with
+the fewest terms (never more than it had) within one standard error of the lowest
+held-out mean on the ends of every partly measured axis, so the model keeps only what
+extrapolates (a constant or a line, where the rest extrapolates wildly), while the axes
+it interpolates keep their richer functions; of the kinds so chosen, the one-SE rule on
+every held-out row decides. A campaign over the whole
 travel keeps interleaved folds only, and the choice as before.
 
 When the noise level is not stated (``noise_from_data``), the best candidate of the
@@ -308,13 +310,13 @@ def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
 def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate, options,
                 ends) -> tuple[Candidate, list[str]]:
     """The basis of every axis measured over part of its travel (``ends``, chain order)
-    chosen again on the held-out rows of that axis' own ends, each end estimated without
-    any of its own commands (:meth:`Problem.on_ends`), the other axes as reached so far:
-    among that axis' options with no more terms than it has (effective terms,
-    :meth:`Problem.size`), the fewest model terms within one paired standard error of the
-    lowest held-out mean on those rows (:func:`one_standard_error`), so that along an axis
-    the model is used beyond, it keeps only what extrapolates there. (The candidate
-    reached, what changed, 'axis old -> new'.)"""
+    chosen again on the held-out ends of every such axis (:func:`_on_every_end`), the
+    other axes as reached so far: among that axis' options with no more terms than it has
+    (effective terms, :meth:`Problem.size`), the fewest model terms within one paired
+    standard error of the lowest held-out mean on those rows (:func:`one_standard_error`),
+    so that along an axis the model is used beyond, it keeps only what extrapolates there,
+    and no axis keeps a function that spoils the extrapolation along another. (The
+    candidate reached, what changed, 'axis old -> new'.)"""
     chosen, changed = start, []
     for i in ends:
         trials = [chosen.axes[:i] + (o,) + chosen.axes[i + 1:] for o in options[i]
@@ -325,14 +327,24 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
             search.add(c)
         pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
         pool = [c.axes for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
-        ends_prob = prob.on_ends(i, camp)
-        judged = ends_prob.candidates(pool) if len(pool) > 1 else [ends_prob.candidate(t) for t in pool]
+        judged = _on_every_end(prob, camp, pool, ends)
         low = min(judged, key=lambda c: c.mean)
         pick = search.scored[(prob.kind, one_standard_error(judged, low, prob.size)[0].axes)]
         if pick is not chosen:
             changed.append(f"{prob.machine.axes[i].name} {chosen.axes[i].label()} -> {pick.axes[i].label()}")
             chosen = pick
     return chosen, changed
+
+
+def _on_every_end(prob: Problem, camp: Campaign, choices: list[tuple], ends) -> list[Candidate]:
+    """``choices`` judged on the held-out ends of every axis in ``ends``, each axis' two
+    ends estimated without any of their own commands (:meth:`Problem.on_ends`): one
+    candidate per choice, its held-out distances those of every axis' ends in turn (a
+    function of one axis moves the predictions where another is extrapolated, too)."""
+    parts = [(p.candidates(choices) if len(choices) > 1 else [p.candidate(t) for t in choices])
+             for p in (prob.on_ends(j, camp) for j in ends)]
+    return [Candidate(prob.kind, t, parts[0][k].n_terms, np.concatenate([part[k].heldout for part in parts]))
+            for k, t in enumerate(choices)]
 
 
 def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:
