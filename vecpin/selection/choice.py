@@ -329,7 +329,8 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
         pool = [c.axes for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
         judged = _on_every_end(prob, camp, pool, ends)
         low = min(judged, key=lambda c: c.mean)
-        pick = search.scored[(prob.kind, one_standard_error(judged, low, prob.size)[0].axes)]
+        size = lambda c: prob.size(search.scored[(prob.kind, c.axes)])   # noqa: E731 (cached on the scored one)
+        pick = search.scored[(prob.kind, one_standard_error(judged, low, size)[0].axes)]
         if pick is not chosen:
             changed.append(f"{prob.machine.axes[i].name} {chosen.axes[i].label()} -> {pick.axes[i].label()}")
             chosen = pick
