@@ -183,15 +183,17 @@ class FoldedProblem:
         blocks are held out, e.g. an axis' two ends)."""
         fold = np.asarray(fold, int)
         k, P = int(fold.max()) + 1, self.n_columns
-        G_in, g_in = np.empty((k, P, P)), np.empty((k, P))
+        G_out, g_out = np.empty((k, P, P)), np.empty((k, P))
         large = int(np.argmax(np.bincount(fold, minlength=k)))
+        G_out[large], g_out[large] = 0.0, 0.0          # the largest fold left out: the others' rows
         for f in (f for f in range(k) if f != large):
             Jf = self.J[fold == f].reshape(-1, P)
-            G_in[f], g_in[f] = _gram(Jf), Jf.T @ self.w[fold == f].ravel()
-        others = [f for f in range(k) if f != large]
-        G_in[large] = self.G - G_in[others].sum(axis=0)
-        g_in[large] = self.g - g_in[others].sum(axis=0)
-        grams = (self.G, self.g, np.subtract(self.G, G_in, out=G_in), np.subtract(self.g, g_in, out=g_in))
+            Gf, gf = _gram(Jf), Jf.T @ self.w[fold == f].ravel()
+            G_out[large] += Gf
+            g_out[large] += gf
+            np.subtract(self.G, Gf, out=G_out[f])
+            g_out[f] = self.g - gf
+        grams = (self.G, self.g, G_out, g_out)
         return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.x0, grams=grams)
 
     # ------------------------------------------------------------------ extension
