@@ -38,20 +38,29 @@ def _kabsch_distances(a, b):
 
 
 def _independent_uncompensated(path):
+    """Each standstill (consecutive rows of one command) averaged: the tool's readings, and
+    each of the three nests' readings; the tool in the frame of the nests, against the
+    nominal tip on the table, after the best rigid fit."""
     rows = list(csv.DictReader(open(path)))
+    axes = ("X", "Y", "Z", "B", "C", "tool")
+    stops = []
+    for r in rows:
+        if not stops or any(r[a] != stops[-1][0][a] for a in axes):
+            stops.append([])
+        stops[-1].append(r)
     measured, nominal = [], []
-    for k, r in enumerate(rows):
-        if r["instrument"] != "tracker":
-            continue
-        nests = sorted((n for n in rows[k + 1:k + 4] if n["instrument"] == "nest"), key=lambda n: n["target"])
-        assert len(nests) == 3
-        p = np.array([[float(n[c]) for c in "xyz"] for n in nests])
+    for stop in stops:
+        xyz = lambda rs: np.mean([[float(n[c]) for c in "xyz"] for n in rs], axis=0)  # noqa: E731
+        tool = [r for r in stop if r["instrument"] == "tracker"]
+        targets = sorted({r["target"] for r in stop if r["instrument"] == "nest"})
+        assert len(tool) >= 1 and len(targets) == 3
+        p = np.array([xyz([r for r in stop if r["instrument"] == "nest" and r["target"] == t]) for t in targets])
         e1 = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
         e3 = np.cross(e1, p[2] - p[0])
         e3 /= np.linalg.norm(e3)
         frame = np.column_stack([e1, np.cross(e3, e1), e3])
-        measured.append(frame.T @ (np.array([float(r[c]) for c in "xyz"]) - p[0]))
-        nominal.append(_nominal_on_table(r))
+        measured.append(frame.T @ (xyz(tool) - p[0]))
+        nominal.append(_nominal_on_table(stop[0]))
     return _kabsch_distances(np.array(nominal), np.array(measured))
 
 
