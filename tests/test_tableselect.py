@@ -1,6 +1,8 @@
 """Choosing tables under controller limits (Paper II): exact search against brute
-force, the GA and the heuristic against the exact optimum, constraints honoured."""
+force (the branch and bound against scoring every combination), the GA and the
+heuristic against the exact optimum, constraints honoured."""
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -9,7 +11,8 @@ from vecpin.compensation.functions import TableProblem, model_as_actual, pitch_n
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
-from vecpin.compensation.selection import Constraints, Scorer, exact_search, genetic_search, impact_heuristic
+from vecpin.compensation.selection import (EXHAUSTIVE_UP_TO, BranchAndBound, Constraints, Scorer,
+                                           admissible_combinations, exact_search, genetic_search, impact_heuristic)
 
 TOOLS = [0.21488, 0.31286]
 
@@ -43,6 +46,37 @@ def test_exact_search_is_the_brute_force_optimum(problem):
     assert len(cand) == 12 and sel.evaluations == 220
     best = min(itertools.combinations(cand, 3), key=lambda c: problem.cost(pitch_names(problem.machine) + list(c)))
     assert sorted(sel.tables) == sorted(best)
+
+
+@pytest.mark.parametrize("cons", [Constraints(5), Constraints(6, no_circular=True),
+                                  Constraints(5, forbid_output=("X",), forbidden_pairs=(("yz", "zb"),))])
+def test_branch_and_bound_keeps_what_scoring_every_combination_keeps(problem, cons):
+    """The ten best combinations and their scores, to the last bit, with a fraction scored."""
+    cand = cons.candidates(problem.machine.axis_names)
+    scorer = Scorer(problem)
+    search = BranchAndBound(scorer, cand, cons, cons.max_tables, 10)
+    combos, scores = search.run()
+    every = admissible_combinations(cand, cons, cons.max_tables)
+    all_scores = scorer.score_many(every, cand)
+    best = np.argsort(all_scores, kind="stable")[:10]
+    assert np.array_equal(combos, every[best]) and np.array_equal(scores, all_scores[best])
+    assert search.scored < len(every) / 3
+
+
+def test_the_exact_search_on_production_xyzbaw_keeps_the_exhaustive_choice(tmp_path):
+    """Fanuc's 6 of production_xyzbaw's 30 cross tables (593,775 combinations): the branch
+    and bound chooses what scoring every combination chose (vecpin before the branch and
+    bound, commit dad7748: the same tables, linearised score and mean error)."""
+    from controller_cases import make_case, profile
+    from vecpin.workflows.tables import make_tables
+    case = make_case("production_xyzbaw", n_commands=200)
+    run = make_tables(case.model, tmp_path, "fanuc-30i", profile=profile(case.machine, "fanuc-30i"),
+                      uncertainty=False, max_tables=6)
+    sel = run.plan.selection
+    assert math.comb(30, 6) > EXHAUSTIVE_UP_TO and sel.evaluations < 10_000
+    assert sel.tables == ["xy", "xw", "yx", "zy", "zb", "aw"]
+    assert sel.rms_mm == pytest.approx(0.052686542158350995, rel=1e-9)
+    assert sel.mean_mm == pytest.approx(0.046437342447614986, rel=1e-9)
 
 
 @pytest.mark.parametrize("cons", [Constraints(6), Constraints(6, no_circular=True), Constraints(6, forbid_output=("X",))])

@@ -313,17 +313,27 @@ class TableProblem:
         self._linearise()
 
     # -------------------------------------------------------------- linear algebra
-    def _design(self, J: np.ndarray, u_nominal: np.ndarray) -> np.ndarray:
+    def _design(self, J: np.ndarray, u_nominal: np.ndarray, names=None) -> np.ndarray:
+        """d (compensated tip error) / d unknowns (3R, columns) [m per unit coefficient]: every
+        column, or (``names``) those of :meth:`columns` ``names`` in its order, built alone."""
         m = self.machine
         R = len(self.q)
-        A = np.empty((R, 3, self.n_columns))
-        A[:, :, 0] = -u_nominal
-        Bv = [B.values(self._held(k, self.q[:, k])) for k, B in enumerate(self.bases)]
+        cols = np.arange(self.n_columns) if names is None else self.columns(names)
+        where = np.full(self.n_columns, -1)
+        where[cols] = np.arange(len(cols))
+        A = np.empty((R, 3, len(cols)))
+        if where[0] >= 0:
+            A[:, :, where[0]] = -u_nominal
+        Bv: dict[int, np.ndarray] = {}
         for (o, i), name in zip(self.pairs, self.names):
+            if where[self.blocks[name][0]] < 0:
+                continue
             oi, ii = m.axis(o).index, m.axis(i).index
+            if ii not in Bv:
+                Bv[ii] = self.bases[ii].values(self._held(ii, self.q[:, ii]))
             Bi = Bv[ii] if o == i else Bv[ii][:, 1:]
-            A[:, :, self.blocks[name]] = J[:, :, oi, None] * Bi[:, None, :]
-        return A.reshape(3 * R, self.n_columns)
+            A[:, :, where[self.blocks[name]]] = J[:, :, oi, None] * Bi[:, None, :]
+        return A.reshape(3 * R, len(cols))
 
     def _linearise(self) -> None:
         nominal = self.machine.kinematics(self.q, self.L, jacobian=True, frame=FRAME, point=self._pt)
@@ -424,7 +434,7 @@ class TableProblem:
             tip, J = self.actual(qc, self.L, True, self._pt)
             nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = self._registered((tip - nominal).ravel())
-            A = self._registered(self._design(J, self.u_nominal)[:, cols])
+            A = self._registered(self._design(J, self.u_nominal, names))
             G = A.T @ A
             G = ridged(G, self.ridge, self.ridge_base[cols])
             dx = -linalg.solve(G, A.T @ e, assume_a="pos")
