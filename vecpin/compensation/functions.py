@@ -314,26 +314,19 @@ class TableProblem:
 
     # -------------------------------------------------------------- linear algebra
     def _design(self, J: np.ndarray, u_nominal: np.ndarray, names=None) -> np.ndarray:
-        """d (compensated tip error) / d unknowns (3R, columns) [m per unit coefficient]: every
-        column, or (``names``) those of :meth:`columns` ``names`` in its order, built alone."""
-        m = self.machine
-        R = len(self.q)
+        """d tip error / d unknowns (3R, columns) [m]: every column, or those of :meth:`columns` ``names``, in order."""
         cols = np.arange(self.n_columns) if names is None else self.columns(names)
         where = np.full(self.n_columns, -1)
         where[cols] = np.arange(len(cols))
-        A = np.empty((R, 3, len(cols)))
+        A = np.empty((len(self.q), 3, len(cols)))
         if where[0] >= 0:
             A[:, :, where[0]] = -u_nominal
-        Bv: dict[int, np.ndarray] = {}
+        Bv = [B.values(self._held(k, self.q[:, k])) for k, B in enumerate(self.bases)]
         for (o, i), name in zip(self.pairs, self.names):
-            if where[self.blocks[name][0]] < 0:
-                continue
-            oi, ii = m.axis(o).index, m.axis(i).index
-            if ii not in Bv:
-                Bv[ii] = self.bases[ii].values(self._held(ii, self.q[:, ii]))
-            Bi = Bv[ii] if o == i else Bv[ii][:, 1:]
-            A[:, :, where[self.blocks[name]]] = J[:, :, oi, None] * Bi[:, None, :]
-        return A.reshape(3 * R, len(cols))
+            k, ii = self.machine.axis(o).index, self.machine.axis(i).index
+            if where[self.blocks[name][0]] >= 0:
+                A[:, :, where[self.blocks[name]]] = J[:, :, k, None] * (Bv[ii] if o == i else Bv[ii][:, 1:])[:, None, :]
+        return A.reshape(-1, len(cols))
 
     def _linearise(self) -> None:
         nominal = self.machine.kinematics(self.q, self.L, jacobian=True, frame=FRAME, point=self._pt)
@@ -429,8 +422,7 @@ class TableProblem:
         cols = self.columns(names)
         x = self.solve_linear(names)
         for _ in range(iterations):
-            f = self.functions(x, names)
-            qc = self.q + f.increments(self.q)
+            qc = self.q + self.functions(x, names).increments(self.q)
             tip, J = self.actual(qc, self.L, True, self._pt)
             nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = self._registered((tip - nominal).ravel())
