@@ -357,10 +357,12 @@ class TableProblem:
         """``M`` (3R,) or (3R, k) with its share of the rigid motions of the whole machine
         removed (projected orthogonally to them): the tables are then fitted jointly with
         the best rigid motion, which no table needs to cancel (the part is set up by
-        probing, and every comparison registers). Unchanged when ``register`` is off."""
-        if self._rigid is None:
-            return M
-        return M - self._rigid @ (self._rigid.T @ M)
+        probing, and every comparison registers). Unchanged when ``register`` is off. A C-ordered
+        (3R, k) ``M`` is overwritten (one BLAS pass through its transpose: M' = M - Q (Q' M))."""
+        if self._rigid is not None and M.ndim == 2 and M.flags.c_contiguous and M.dtype == np.float64:
+            return linalg.blas.dgemm(-1.0, self._rigid.T @ M, self._rigid, 1.0, M.T, trans_a=1, trans_b=1,
+                                     overwrite_c=1).T
+        return M if self._rigid is None else M - self._rigid @ (self._rigid.T @ M)
 
     def _held(self, k: int, q_in: np.ndarray) -> np.ndarray:
         """Positions of input axis k as the table functions see them: clipped to the
@@ -427,9 +429,7 @@ class TableProblem:
             nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = self._registered((tip - nominal).ravel())
             A = self._registered(self._design(J, self.u_nominal, names))
-            G = A.T @ A
-            G = ridged(G, self.ridge, self.ridge_base[cols])
-            dx = -linalg.solve(G, A.T @ e, assume_a="pos")
+            dx = -linalg.solve(ridged(A.T @ A, self.ridge, self.ridge_base[cols]), A.T @ e, assume_a="pos")
             x[cols] += dx
             if np.abs(dx).max() < 1e-12:
                 break
