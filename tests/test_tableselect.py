@@ -2,7 +2,6 @@
 force (the branch and bound against scoring every combination), the GA and the
 heuristic against the exact optimum, constraints honoured."""
 import itertools
-import math
 
 import numpy as np
 import pytest
@@ -11,8 +10,8 @@ from vecpin.compensation.functions import TableProblem, model_as_actual, pitch_n
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
-from vecpin.compensation.selection import (EXHAUSTIVE_UP_TO, BranchAndBound, Constraints, Scorer,
-                                           admissible_combinations, exact_search, genetic_search, impact_heuristic)
+from vecpin.compensation.selection import (BranchAndBound, Constraints, Scorer, admissible_combinations, exact_search,
+                                           genetic_search, impact_heuristic)
 
 TOOLS = [0.21488, 0.31286]
 
@@ -51,7 +50,8 @@ def test_exact_search_is_the_brute_force_optimum(problem):
 @pytest.mark.parametrize("cons", [Constraints(5), Constraints(6, no_circular=True),
                                   Constraints(5, forbid_output=("X",), forbidden_pairs=(("yz", "zb"),))])
 def test_branch_and_bound_keeps_what_scoring_every_combination_keeps(problem, cons):
-    """The ten best combinations and their scores, to the last bit, with a fraction scored."""
+    """The ten best combinations and their scores, to the last bit, with a fraction scored (the
+    large case, Fanuc's 6 of production_xyzbaw's 30 tables: tests/controller_cases.py)."""
     cand = cons.candidates(problem.machine.axis_names)
     scorer = Scorer(problem)
     search = BranchAndBound(scorer, cand, cons, cons.max_tables, 10)
@@ -61,22 +61,6 @@ def test_branch_and_bound_keeps_what_scoring_every_combination_keeps(problem, co
     best = np.argsort(all_scores, kind="stable")[:10]
     assert np.array_equal(combos, every[best]) and np.array_equal(scores, all_scores[best])
     assert search.scored < len(every) / 3
-
-
-def test_the_exact_search_on_production_xyzbaw_keeps_the_exhaustive_choice(tmp_path):
-    """Fanuc's 6 of production_xyzbaw's 30 cross tables (593,775 combinations): the branch
-    and bound chooses what scoring every combination chose (vecpin before the branch and
-    bound, commit dad7748: the same tables, linearised score and mean error)."""
-    from controller_cases import make_case, profile
-    from vecpin.workflows.tables import make_tables
-    case = make_case("production_xyzbaw", n_commands=200)
-    run = make_tables(case.model, tmp_path, "fanuc-30i", profile=profile(case.machine, "fanuc-30i"),
-                      uncertainty=False, max_tables=6)
-    sel = run.plan.selection
-    assert math.comb(30, 6) > EXHAUSTIVE_UP_TO and sel.evaluations < 10_000
-    assert sel.tables == ["xy", "xw", "yx", "zy", "zb", "aw"]
-    assert sel.rms_mm == pytest.approx(0.052686542158350995, rel=1e-9)
-    assert sel.mean_mm == pytest.approx(0.046437342447614986, rel=1e-9)
 
 
 @pytest.mark.parametrize("cons", [Constraints(6), Constraints(6, no_circular=True), Constraints(6, forbid_output=("X",))])
