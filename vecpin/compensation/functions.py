@@ -313,17 +313,20 @@ class TableProblem:
         self._linearise()
 
     # -------------------------------------------------------------- linear algebra
-    def _design(self, J: np.ndarray, u_nominal: np.ndarray) -> np.ndarray:
-        m = self.machine
-        R = len(self.q)
-        A = np.empty((R, 3, self.n_columns))
-        A[:, :, 0] = -u_nominal
+    def _design(self, J: np.ndarray, u_nominal: np.ndarray, names=None) -> np.ndarray:
+        """d tip error / d unknowns (3R, columns) [m]: every column, or those of :meth:`columns` ``names``, in order."""
+        cols = np.arange(self.n_columns) if names is None else self.columns(names)
+        where = np.full(self.n_columns, -1)
+        where[cols] = np.arange(len(cols))
+        A = np.empty((len(self.q), 3, len(cols)))
+        if where[0] >= 0:
+            A[:, :, where[0]] = -u_nominal
         Bv = [B.values(self._held(k, self.q[:, k])) for k, B in enumerate(self.bases)]
         for (o, i), name in zip(self.pairs, self.names):
-            oi, ii = m.axis(o).index, m.axis(i).index
-            Bi = Bv[ii] if o == i else Bv[ii][:, 1:]
-            A[:, :, self.blocks[name]] = J[:, :, oi, None] * Bi[:, None, :]
-        return A.reshape(3 * R, self.n_columns)
+            k, ii = self.machine.axis(o).index, self.machine.axis(i).index
+            if where[self.blocks[name][0]] >= 0:
+                A[:, :, where[self.blocks[name]]] = J[:, :, k, None] * (Bv[ii] if o == i else Bv[ii][:, 1:])[:, None, :]
+        return A.reshape(-1, len(cols))
 
     def _linearise(self) -> None:
         nominal = self.machine.kinematics(self.q, self.L, jacobian=True, frame=FRAME, point=self._pt)
@@ -354,10 +357,12 @@ class TableProblem:
         """``M`` (3R,) or (3R, k) with its share of the rigid motions of the whole machine
         removed (projected orthogonally to them): the tables are then fitted jointly with
         the best rigid motion, which no table needs to cancel (the part is set up by
-        probing, and every comparison registers). Unchanged when ``register`` is off."""
-        if self._rigid is None:
-            return M
-        return M - self._rigid @ (self._rigid.T @ M)
+        probing, and every comparison registers). Unchanged when ``register`` is off. A C-ordered
+        (3R, k) ``M`` is overwritten (one BLAS pass through its transpose: M' = M - Q (Q' M))."""
+        if self._rigid is not None and M.ndim == 2 and M.flags.c_contiguous and M.dtype == np.float64:
+            return linalg.blas.dgemm(-1.0, self._rigid.T @ M, self._rigid, 1.0, M.T, trans_a=1, trans_b=1,
+                                     overwrite_c=1).T
+        return M if self._rigid is None else M - self._rigid @ (self._rigid.T @ M)
 
     def _held(self, k: int, q_in: np.ndarray) -> np.ndarray:
         """Positions of input axis k as the table functions see them: clipped to the
@@ -419,15 +424,12 @@ class TableProblem:
         cols = self.columns(names)
         x = self.solve_linear(names)
         for _ in range(iterations):
-            f = self.functions(x, names)
-            qc = self.q + f.increments(self.q)
+            qc = self.q + self.functions(x, names).increments(self.q)
             tip, J = self.actual(qc, self.L, True, self._pt)
             nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = self._registered((tip - nominal).ravel())
-            A = self._registered(self._design(J, self.u_nominal)[:, cols])
-            G = A.T @ A
-            G = ridged(G, self.ridge, self.ridge_base[cols])
-            dx = -linalg.solve(G, A.T @ e, assume_a="pos")
+            A = self._registered(self._design(J, self.u_nominal, names))
+            dx = -linalg.solve(ridged(A.T @ A, self.ridge, self.ridge_base[cols]), A.T @ e, assume_a="pos")
             x[cols] += dx
             if np.abs(dx).max() < 1e-12:
                 break
