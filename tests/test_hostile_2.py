@@ -507,9 +507,9 @@ def stations(tmp_path_factory):
     return d
 
 
-@pytest.mark.parametrize("row, words", [(70, ["--row 70", "line 72", "not a tracker row of station 0"]),
-                                        (119, ["--row 119", "not a tracker row of station 0"]),
-                                        (120, ["--row 120", "has rows 0 .. 119"])])
+@pytest.mark.parametrize("row, words", [(70, ["--row 70", "not a tracker row of station 0"]),
+                                        (121, ["--row 121", "not a tracker row of station 0"]),
+                                        (122, ["--row 122", "has rows 2 .. 121"])])
 def test_view_row_past_the_drawn_rows(stations, work, capsys, row, words):
     refused(["view", stations / "m.json", stations / "campaign.csv", f"--row={row}", "--no-tables", "--html",
              work / "v.html"], capsys, *words)
