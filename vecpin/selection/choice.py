@@ -37,8 +37,8 @@ the fewest terms (never more than it had) within one standard error of the lowes
 held-out mean on the ends of every partly measured axis, so the model keeps only what
 extrapolates (a constant or a line, where the rest extrapolates wildly), while the axes
 it interpolates keep their richer functions; of the kinds so chosen, the one-SE rule on
-every held-out row decides. A campaign over the whole
-travel keeps interleaved folds only, and the choice as before.
+every held-out row decides. A campaign over the whole travel keeps interleaved folds
+only, and the choice as before.
 
 When the noise level is not stated (``noise_from_data``), the best candidate of the
 first stage tells it: every noise sigma is scaled by sqrt(chi2 / expected) of its

@@ -77,10 +77,10 @@ class Problem(Design):
         """This problem judged on the ends of ``axis`` only (``campaign``: the rows it was
         linearised on): three folds, the commands at its low end, those at its high end
         (the outer :data:`vecpin.identification.crossval.END_SPAN` of its measured span,
-        :func:`end_blocks`) and the rest, so each end is
-        estimated with none of its own commands, whatever other axes' ends hold: its
-        held-out rows judge how a candidate extrapolates beyond the rest of the axis'
-        measured span. The same columns, factors and sizes; cached per axis."""
+        :func:`end_blocks`) and the rest, so each end is estimated with none of its own
+        commands, whatever other axes' ends hold: its held-out rows judge how a candidate
+        extrapolates beyond the rest of the axis' measured span. The same columns,
+        factors and sizes; cached per axis."""
         if axis not in self._ends:
             group, _, blocks = end_blocks(campaign, (axis,), by_span=True)
             fold = np.full(len(group), 2)
