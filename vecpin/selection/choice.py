@@ -254,7 +254,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if ends and per_axis:   # along axes the model is used beyond, what extrapolates (_ends_choice)
         chosen, se, reason, before = _ends_choice(search, problems, camp, options, ends)
     else:
-        chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c))
+        chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c),
+                                                lambda c: problems[c.kind].size_bound(c))
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     limit = search.limit
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
@@ -292,7 +293,7 @@ def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
         own = [c for c in search.cands if c.kind == kind]
         if not own:
             continue
-        start = one_standard_error(own, min(own, key=lambda c: c.mean), prob.size)[0]
+        start = one_standard_error(own, min(own, key=lambda c: c.mean), prob.size, prob.size_bound)[0]
         end, changed = _along_ends(search, prob, camp, start, options, ends)
         results.append(end)
         changes[end.kind], starts[end.kind] = changed, start
@@ -386,26 +387,44 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
 
 
 def one_standard_error(cands: list[Candidate], best: Candidate, size: Callable[[Candidate], float] | None = None,
-                       rows: np.ndarray | None = None) -> tuple[Candidate, float, str]:
+                       bound: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
     """The fewest terms among the candidates within one paired standard error of the best
     (``size``: a candidate's number of terms, default ``n_terms``; only asked of those
-    within; ``rows``: judge on these held-out rows only, default all)."""
+    within, and with ``bound``, a lower bound of it, only of those the bound leaves a
+    chance: :func:`_fewest`)."""
     size = size or (lambda c: c.n_terms)
-    rows = slice(None) if rows is None else rows
-    n = best.heldout[rows].size
+    n = best.heldout.size
     ok = []
     for c in cands:
-        delta = c.heldout[rows] - best.heldout[rows]
+        delta = c.heldout - best.heldout
         se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
         if delta.mean() <= se:
             ok.append((c, se))
-    # sizes in whole terms: a smoothing that leaves as many effective terms as a plain
-    # candidate has ties with it, and the tie goes to the plain one (fewer nominal terms)
-    chosen, se = min(ok, key=lambda x: (round(size(x[0])), x[0].n_terms, x[0].mean))
+    chosen, se = _fewest(ok, size, bound)
     if chosen is best:
         return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
     return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
                         f"mean ({best.label()}, {best.n_terms} model terms, {best.mean:.4f} mm)")
+
+
+def _fewest(ok: list[tuple[Candidate, float]], size: Callable[[Candidate], float],
+            bound: Callable[[Candidate], float] | None) -> tuple[Candidate, float]:
+    """The (candidate, se) of ``ok`` that is least by (whole terms, nominal terms, mean):
+    sizes in whole terms, so a smoothing that leaves as many effective terms as a plain
+    candidate ties with it and the tie goes to the plain one. With ``bound`` (a lower
+    bound of ``size``), candidates are taken in the order of their bound and the search
+    stops where no later one can win, the sizes of the rest never computed."""
+    key = lambda i, f: (round(f(ok[i][0])), ok[i][0].n_terms, ok[i][0].mean, i)   # noqa: E731 (exact ties: the first)
+    if bound is None:
+        return ok[min(range(len(ok)), key=lambda i: key(i, size))]
+    best, best_key = None, None
+    for i in sorted(range(len(ok)), key=lambda i: key(i, bound)):
+        if best_key is not None and key(i, bound) > best_key:
+            break
+        k = key(i, size)
+        if best_key is None or k < best_key:
+            best, best_key = ok[i], k
+    return best
 
 
 def _subsample(campaign: Campaign, seed: int) -> Campaign:

@@ -114,11 +114,23 @@ class Problem(Design):
         other candidate is counted as before."""
         if cand.effective_terms is None and any(a.family == "pspline" for a in cand.axes):
             cols, scale = self.columns(cand.axes)
-            key = cols.tobytes()   # t_0 depends on the columns only: shared by every smoothing of them
-            if key not in self._unpenalised:
-                self._unpenalised[key] = self.effective_terms(cols, np.ones_like(scale))
-            cand.effective_terms = cand.n_terms - (self._unpenalised[key] - self.effective_terms(cols, scale))
+            cand.effective_terms = cand.n_terms - (self._unpenalised_terms(cols) - self.effective_terms(cols, scale))
         return cand.size
+
+    def size_bound(self, cand: Candidate) -> float:
+        """A lower bound of :meth:`size` that costs one trace per set of columns (shared
+        by every smoothing of them): n_terms - t_0 (t_λ >= 0); the size itself when
+        known or when no penalised spline is in the candidate."""
+        if cand.effective_terms is not None or not any(a.family == "pspline" for a in cand.axes):
+            return cand.size
+        return cand.n_terms - self._unpenalised_terms(self.columns(cand.axes)[0])
+
+    def _unpenalised_terms(self, cols: np.ndarray) -> float:
+        """t_0: the hat matrix' trace over these columns without penalties (cached)."""
+        key = cols.tobytes()
+        if key not in self._unpenalised:
+            self._unpenalised[key] = self.effective_terms(cols, np.ones(len(cols)))
+        return self._unpenalised[key]
 
 
 class Search:
