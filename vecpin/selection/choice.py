@@ -71,7 +71,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
-from vecpin.selection.search import Candidate, Problem, Search, supported
+from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      partly_measured, per_turn_measured)
 from vecpin.threads import one_blas_thread
@@ -384,47 +384,6 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{campaign.source}: {len(campaign)} rows give {int(round(limit))} equations, and the smallest model tried "
         f"({MODELS[kind].display_name} with constant errors) has {need[kind]} unknowns: measure at least {more} more "
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
-
-
-def one_standard_error(cands: list[Candidate], best: Candidate, size: Callable[[Candidate], float] | None = None,
-                       bound: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
-    """The fewest terms among the candidates within one paired standard error of the best
-    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those
-    within, and with ``bound``, a lower bound of it, only of those the bound leaves a
-    chance: :func:`_fewest`)."""
-    size = size or (lambda c: c.n_terms)
-    n = best.heldout.size
-    ok = []
-    for c in cands:
-        delta = c.heldout - best.heldout
-        se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
-        if delta.mean() <= se:
-            ok.append((c, se))
-    chosen, se = _fewest(ok, size, bound)
-    if chosen is best:
-        return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
-    return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
-                        f"mean ({best.label()}, {best.n_terms} model terms, {best.mean:.4f} mm)")
-
-
-def _fewest(ok: list[tuple[Candidate, float]], size: Callable[[Candidate], float],
-            bound: Callable[[Candidate], float] | None) -> tuple[Candidate, float]:
-    """The (candidate, se) of ``ok`` that is least by (whole terms, nominal terms, mean):
-    sizes in whole terms, so a smoothing that leaves as many effective terms as a plain
-    candidate ties with it and the tie goes to the plain one. With ``bound`` (a lower
-    bound of ``size``), candidates are taken in the order of their bound and the search
-    stops where no later one can win, the sizes of the rest never computed."""
-    key = lambda i, f: (round(f(ok[i][0])), ok[i][0].n_terms, ok[i][0].mean, i)   # noqa: E731 (exact ties: the first)
-    if bound is None:
-        return ok[min(range(len(ok)), key=lambda i: key(i, size))]
-    best, best_key = None, None
-    for i in sorted(range(len(ok)), key=lambda i: key(i, bound)):
-        if best_key is not None and key(i, bound) > best_key:
-            break
-        k = key(i, size)
-        if best_key is None or k < best_key:
-            best, best_key = ok[i], k
-    return best
 
 
 def _subsample(campaign: Campaign, seed: int) -> Campaign:

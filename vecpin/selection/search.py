@@ -1,14 +1,15 @@
 """The model choice's search (:mod:`vecpin.selection.choice`): a candidate model and its
 held-out distances (:class:`Candidate`), the folded problem of one model kind that scores
-candidates (:class:`Problem`), and the search over them (:class:`Search`: every family at
+candidates (:class:`Problem`), the search over them (:class:`Search`: every family at
 a common order on every axis, then axis by axis around the best), the candidates the
-campaign can determine only.
+campaign can determine only, and the one-standard-error rule that picks among them.
 """
 from __future__ import annotations
 
 import copy
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -227,3 +228,44 @@ def plans_at(machine: Machine, plan: str, order: int | None, options) -> list[tu
         if any(x.family == plan for x in row):
             out.append(row)
     return out
+
+
+def one_standard_error(cands: list[Candidate], best: Candidate, size: Callable[[Candidate], float] | None = None,
+                       bound: Callable[[Candidate], float] | None = None) -> tuple[Candidate, float, str]:
+    """The fewest terms among the candidates within one paired standard error of the best
+    (``size``: a candidate's number of terms, default ``n_terms``; only asked of those
+    within, and with ``bound``, a lower bound of it, only of those the bound leaves a
+    chance: :func:`_fewest`)."""
+    size = size or (lambda c: c.n_terms)
+    n = best.heldout.size
+    ok = []
+    for c in cands:
+        delta = c.heldout - best.heldout
+        se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
+        if delta.mean() <= se:
+            ok.append((c, se))
+    chosen, se = _fewest(ok, size, bound)
+    if chosen is best:
+        return best, 0.0, f"lowest held-out mean ({best.mean:.4f} mm); no smaller model within one standard error"
+    return chosen, se, (f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest held-out "
+                        f"mean ({best.label()}, {best.n_terms} model terms, {best.mean:.4f} mm)")
+
+
+def _fewest(ok: list[tuple[Candidate, float]], size: Callable[[Candidate], float],
+            bound: Callable[[Candidate], float] | None) -> tuple[Candidate, float]:
+    """The (candidate, se) of ``ok`` that is least by (whole terms, nominal terms, mean):
+    sizes in whole terms, so a smoothing that leaves as many effective terms as a plain
+    candidate ties with it and the tie goes to the plain one. With ``bound`` (a lower
+    bound of ``size``), candidates are taken in the order of their bound and the search
+    stops where no later one can win, the sizes of the rest never computed."""
+    key = lambda i, f: (round(f(ok[i][0])), ok[i][0].n_terms, ok[i][0].mean, i)   # noqa: E731 (exact ties: the first)
+    if bound is None:
+        return ok[min(range(len(ok)), key=lambda i: key(i, size))]
+    best, best_key = None, None
+    for i in sorted(range(len(ok)), key=lambda i: key(i, bound)):
+        if best_key is not None and key(i, bound) > best_key:
+            break
+        k = key(i, size)
+        if best_key is None or k < best_key:
+            best, best_key = ok[i], k
+    return best
