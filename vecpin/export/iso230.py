@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
-from vecpin.compensation.tables import joined_axes
+from vecpin.compensation.tables import TABLE_NAME_SEPARATOR, joined_axes
 from vecpin.errors import ControllerFileError, InputError
 from vecpin.export.common import ControllerFormat, ExportJob, no_check, read_lines, to_float
 from vecpin.kinematics.machine import Machine
@@ -62,7 +62,8 @@ def _q_output(name: str, machine: Machine) -> str:
     for a in sorted(machine.axis_names, key=len, reverse=True):
         rest = name[1:]
         tail = rest[len(a):]
-        if rest.startswith(a) and (tail in machine.axis_names or tail[:1] == "_" and tail[1:] in machine.axis_names):
+        joined = tail.startswith(TABLE_NAME_SEPARATOR) and tail[len(TABLE_NAME_SEPARATOR):] in machine.axis_names
+        if rest.startswith(a) and (tail in machine.axis_names or joined):
             return a
     raise InputError(f"column {name}: not Q<output axis><input axis>")
 

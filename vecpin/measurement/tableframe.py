@@ -71,6 +71,12 @@ def standstills(campaign) -> np.ndarray:
     return np.cumsum(np.r_[True, np.any(k[1:] != k[:-1], axis=1)]) - 1 if len(k) else np.zeros(0, int)
 
 
+def standstill_draws(still: np.ndarray, sigma: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(N, n) positioning noise [m, rad] of every row: one draw of 1-sigma ``sigma`` (n,)
+    per standstill (``still``: :func:`standstills`), shared by every reading there."""
+    return (rng.standard_normal((int(still.max(initial=-1)) + 1, len(sigma))) * sigma)[still]
+
+
 def repeated_readings(campaign) -> tuple[np.ndarray, np.ndarray]:
     """((N,) bool: the row starts a run, (N,3) [m] each row's reading averaged over its
     run): a run is consecutive rows reading the same point (instrument, target, tool point,
@@ -226,8 +232,7 @@ def _axis_jitter(machine, campaign, tips: TableTips, axis_sigma: np.ndarray, rng
     in the tracker frame of each station (its rotation from the nominal points registered
     on the readings); zero on rows of nests not in ``tips``."""
     q = campaign.q
-    still = standstills(campaign)
-    dq = (rng.standard_normal((int(still.max(initial=-1)) + 1, q.shape[1])) * axis_sigma)[still]
+    dq = standstill_draws(standstills(campaign), np.asarray(axis_sigma, float), rng)
     d = np.zeros((len(q), 3))
     nominal = np.full((len(q), 3), np.nan)
     tool = np.flatnonzero(campaign.instrument == "tracker")

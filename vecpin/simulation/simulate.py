@@ -23,6 +23,7 @@ from vecpin.simulation.effects import EffectSpec
 from vecpin.planning.nests import VALIDATION_READS, nest_positions  # the one placement, shared with planning
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
+from vecpin.measurement.tableframe import standstill_draws, standstills
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.units import M_PER_MM
 
@@ -68,8 +69,7 @@ class Rows:
         f = (lambda sel: features.subset(np.flatnonzero(sel))) if features is not None else (lambda sel: None)
         dq = None
         if standstill is not None and rng is not None:
-            dq = (rng.standard_normal((int(standstill.max(initial=-1)) + 1, self.q.shape[1]))
-                  * truth.repeatability)[standstill]
+            dq = standstill_draws(standstill, truth.repeatability, rng)
         pick = (lambda sel: None if dq is None else dq[sel])
         for s in np.unique(on):
             nest = (self.instrument == "nest") & (on == s)
@@ -456,10 +456,10 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
     rows of a command are read at one standstill: the axes' positioning noise is drawn
     once for them, the tracker's per reading."""
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
-    still = np.cumsum(np.r_[True, np.any(qa[1:] != qa[:-1], axis=1)]) - 1 if len(qa) else np.zeros(0, int)
     times_v = measurement_times(qa, machine, design, start=t_end + 600.0)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
-    feats_v = Features.from_campaign(Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v))
+    commands = Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v)
+    feats_v, still = Features.from_campaign(commands), standstills(commands)
     clean = [e for e in truth.effects if not e.flags_rows]
     all_effects, truth.effects = truth.effects, clean
 
