@@ -51,13 +51,12 @@ def end_blocks(campaign: Campaign, ends=(), by_span: bool = False
     blocks = []
     for a in ends:
         x = uq[:, a]
-        by_position = np.argsort(x, kind="stable")
-        low, high = by_position[:m], by_position[-m:]
         if by_span:
             reach = END_SPAN * (x.max() - x.min())
-            low = np.flatnonzero(x <= x.min() + reach)
-            high = np.flatnonzero(x >= x.max() - reach)
-        blocks += [(a, low), (a, high)]
+            blocks += [(a, np.flatnonzero(x <= x.min() + reach)), (a, np.flatnonzero(x >= x.max() - reach))]
+        else:
+            by_position = np.argsort(x, kind="stable")
+            blocks += [(a, by_position[:m]), (a, by_position[-m:])]
     return group, len(uq), blocks
 
 
