@@ -14,7 +14,6 @@ from typing import Callable
 
 import numpy as np
 from scipy import linalg
-from scipy.stats import qmc
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.identification.likelihood import Likelihood, ParametricModel
@@ -39,6 +38,7 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
     the table axes would move nothing and all their terms would be removed.
     Returns (redundant mask, ratio) over [E_0, b]."""
     m = model.machine
+    from scipy.stats import qmc   # imported here: scipy.stats takes 0.5 s to import and a fit uses it only when underdetermined
     u = qmc.Halton(m.n_axes, seed=0).random(n)
     q = m.lower + u * (m.upper - m.lower)
     tools = np.atleast_1d(np.asarray(tools, float))
@@ -72,6 +72,7 @@ def reference_nests(machine) -> dict[str, np.ndarray]:
     reference design: on a circle of 40 % of the table's reach (half the span of the tool
     tips relative to the workpiece, at most 0.3 m), at different heights (20-80 mm), so
     that no three lie on a line through a table axis."""
+    from scipy.stats import qmc
     q = machine.lower + qmc.Halton(machine.n_axes, seed=1).random(256) * (machine.upper - machine.lower)
     rel = machine.tool_tip(q, 0.2, frame="workpiece")
     reach = max(min(0.3, 0.2 * float(np.ptp(rel[:, :2], axis=0).min())), 0.05)

@@ -29,7 +29,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from vecpin.measurement.campaign import Campaign
 from vecpin.units import MM_PER_M
@@ -127,6 +126,7 @@ def reml_repeatability(blocks: list[tuple[np.ndarray, np.ndarray]]) -> tuple[flo
             total += float(logdet.sum()) + float(np.einsum("bi,bi->", Z, np.linalg.solve(M, Z[..., None])[..., 0]))
         return 0.5 * total
     scale = np.mean([float(z @ z) / len(z) for z, _ in blocks])
+    from scipy.optimize import minimize_scalar   # imported here: 0.2 s, needed only with poses read twice
     res = minimize_scalar(nll, bounds=(math.log(scale * 1e-8 + 1e-16), math.log(scale * 10 + 1e-16)), method="bounded")
     s2 = math.exp(res.x)
     inverses = [np.linalg.inv(K + s2 * eye) for _, K, eye in stacks]
