@@ -36,7 +36,7 @@ from vecpin.planning.ncprogram import DIALECTS, write_program
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.route import axis_speeds
-from vecpin.planning.timing import ProgramTiming, row_times
+from vecpin.planning.timing import ProgramTiming, row_times, run_times
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.workflows.evaluation import evaluate
 
@@ -157,6 +157,7 @@ def test_the_run_time_counts_the_readings_and_no_extra_move(plan):
                            NEST_DWELL, read_dwell_s=READ)
     t, time = row_times(m, v, timing, reads)
     t1, time1 = row_times(m, once, timing)
+    assert run_times(m, v, timing, reads)[1:] == (time, time1)  # the run read once, from the one pass, to the bit
     assert time.moves_s == pytest.approx(time1.moves_s) and time.approach_s == pytest.approx(time1.approach_s)
     assert time.dwell_s - time1.dwell_s == pytest.approx((reads - 1) * READ * len(once))
     axes = {a.name: (a.lower_user, a.upper_user) for a in m.axes}
