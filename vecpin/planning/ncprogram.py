@@ -122,11 +122,16 @@ def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: floa
         raise InputError(f"`dwell_s` {dwell_s}: the dwell is a time in seconds > 0")
     if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
         raise InputError(f"`nest_dwell_s` {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
+    check_read_dwell(read_dwell_s)
+    if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
+        raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
+
+
+def check_read_dwell(read_dwell_s: float) -> None:
+    """The dwell per further reading of a point [s] is finite and > 0 (names the option)."""
     if not (math.isfinite(read_dwell_s) and read_dwell_s > 0):
         raise InputError(f"`read_dwell_s` {read_dwell_s:g}: the dwell per further reading of a point is a time in "
                          "seconds > 0")
-    if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
-        raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
 
 
 @dataclass

@@ -13,7 +13,8 @@ station (a plan read from several stations) costs ``tracker_move_s`` (carry it t
 next stand, level it, let it settle and lock on again; a holder swapped there meanwhile).
 
 The plan prints the total and the simulator stamps a planned campaign's rows with
-these times, so both book the same campaign.
+these times, so both book the same campaign; it stamps the further readings of a point
+in its validation run ``read_dwell_s`` apart too (:func:`reread_times`).
 """
 from __future__ import annotations
 
@@ -88,6 +89,16 @@ class CampaignTime:
                 "approaches_min": round(self.approach_s / 60, 4), "dwells_min": round(self.dwell_s / 60, 4),
                 "holder_changes": self.changes, "holder_change_s": self.change_s,
                 "tracker_moves": self.tracker_moves, "tracker_move_s": self.tracker_move_s}
+
+
+def reread_times(t: np.ndarray, again: np.ndarray, read_dwell_s: float = READ_DWELL_S) -> np.ndarray:
+    """Time stamps [s] ``t`` (N,) with every further reading of a point at its standstill
+    (``again`` (N,) bool: :func:`~vecpin.planning.ncprogram.rereads`) ``read_dwell_s`` [s]
+    after the reading before it, as the NC program dwells between them (:func:`row_times`);
+    every other row keeps its time stamp."""
+    idx = np.arange(len(t))
+    first = np.maximum.accumulate(np.where(again, 0, idx))  # each row's first reading of its point
+    return np.where(again, t[first] + (idx - first) * read_dwell_s, t)
 
 
 def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
