@@ -43,10 +43,9 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.measurement.tableframe import repeated_readings, table_nests, table_tips, tip_noise
 from vecpin.models.effects.backlash import Backlash
-from vecpin.planning.ncprogram import rereads
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
-from vecpin.planning.timing import row_times
+from vecpin.planning.timing import run_times
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.floor import table_floor, true_compensated_error
 from vecpin.simulation.independent import IndependentMachine
@@ -183,9 +182,8 @@ def validation_minutes(m, plan) -> tuple[float, float]:
     further reading)."""
     timing = program_timing(m, plan, dwell_s=4.0, nest_dwell_s=15.0, feed_mm_min=1000.0, safe_z_mm=None,
                             retract=None, holder_change_s=120.0)
-    v, reads = plan.validation_template, plan.validation_reads
-    once = v.take(np.flatnonzero(~rereads(v, reads)))
-    return row_times(m, v, timing, reads)[1].total_s / 60, row_times(m, once, timing)[1].total_s / 60
+    _, run, once = run_times(m, plan.validation_template, timing, plan.validation_reads)
+    return run.total_s / 60, once.total_s / 60
 
 
 def plan_row(name: str, seed: int, place: bool, family: str | None = None) -> tuple[str, float, str]:

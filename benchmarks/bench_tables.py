@@ -21,6 +21,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.compensation.plan import parameter_spread
 from vecpin.compensation.functions import pseudo_commands
+from vecpin.compensation.tables import cross_table_axes
 from vecpin.compensation.selection import (BranchAndBound, Constraints, Scorer, admissible_combinations, exact_search,
                                            finalise, genetic_search, impact_heuristic)
 from vecpin.export.common import ExportJob
@@ -119,7 +120,7 @@ def six_of_thirty():
     t_bb = time.perf_counter() - t0
     t0 = time.perf_counter()
     scorer = Scorer(problem)
-    every = admissible_combinations(cand, cons, 6)
+    every = admissible_combinations(cand, cons, 6, cross_table_axes(m.axis_names))
     scores = scorer.score_many(every, cand)
     best = np.argsort(scores, kind="stable")[:10]
     t_all = time.perf_counter() - t0

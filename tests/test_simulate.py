@@ -109,3 +109,36 @@ def test_other_machines_simulate(machines, name):
     c = sim.campaign
     err = np.linalg.norm(registered_errors(m.tool_tip(c.q, c.tool), c.xyz), axis=1)
     assert 0.1e-3 < err.mean() < 1.5e-3
+
+
+@pytest.mark.parametrize("read_dwell_s", [None, 1.5])
+def test_a_validation_runs_further_readings_are_the_read_dwell_apart(machines, tmp_path, read_dwell_s):
+    """A table machine's validation run reads every point VALIDATION_READS times at its
+    standstill: each further reading is stamped `read_dwell_s` (default the NC program's
+    2 s) after the reading before it, as the plan's program dwells; every first reading
+    keeps the time the design gives it (10 min after the campaign, then 15 s per point
+    plus the linear axes' path at 0.1 m/s, computed here); the run through the tables
+    too; the written files read back (time never goes backwards)."""
+    from vecpin.compensation.tables import TableSet
+    from vecpin.planning.nests import VALIDATION_READS as k
+    m = machines["trunnion_xyzac"]
+    d = Design(n_commands=30, n_validation=6)
+    kw = {} if read_dwell_s is None else {"read_dwell_s": read_dwell_s}
+    sim = simulate(m, seed=2, design=d, tables=TableSet(m.axis_names, []), **kw)
+    dwell = 2.0 if read_dwell_s is None else read_dwell_s
+    lin = [a.index for a in m.axes if a.kind == "linear"]
+    start = sim.campaign.time[-1] + 600.0
+    for run in (sim.validation, sim.compensated):
+        q, t = run.q, run.time
+        assert len(run) == 6 * 4 * k  # every command: the tool and 3 nests, each read k times in a row
+        path = np.r_[0.0, np.linalg.norm(np.diff(q[:, lin], axis=0), axis=1)]
+        before = start + np.cumsum(15.0 + path / 0.1)   # the design's time stamps, every row
+        first = np.arange(len(run)) % k == 0
+        np.testing.assert_allclose(t[first], before[first], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(np.diff(t)[~first[1:]], dwell, rtol=0, atol=1e-9)
+        again = ~first[1:]
+        assert np.all(q[1:][again] == q[:-1][again]) and np.all(run.target[1:][again] == run.target[:-1][again])
+        assert np.all(np.diff(t) > 0)
+        start = t[-1] + 600.0
+    paths = sim.write(tmp_path)
+    np.testing.assert_allclose(read_campaign(paths["validation"], m).time, sim.validation.time, atol=1e-3)

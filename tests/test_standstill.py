@@ -36,7 +36,7 @@ from vecpin.planning.ncprogram import DIALECTS, write_program
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.route import axis_speeds
-from vecpin.planning.timing import ProgramTiming, row_times
+from vecpin.planning.timing import ProgramTiming, row_times, run_times
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.workflows.evaluation import evaluate
 
@@ -157,6 +157,7 @@ def test_the_run_time_counts_the_readings_and_no_extra_move(plan):
                            NEST_DWELL, read_dwell_s=READ)
     t, time = row_times(m, v, timing, reads)
     t1, time1 = row_times(m, once, timing)
+    assert run_times(m, v, timing, reads)[1:] == (time, time1)  # the run read once, from the one pass, to the bit
     assert time.moves_s == pytest.approx(time1.moves_s) and time.approach_s == pytest.approx(time1.approach_s)
     assert time.dwell_s - time1.dwell_s == pytest.approx((reads - 1) * READ * len(once))
     axes = {a.name: (a.lower_user, a.upper_user) for a in m.axes}
@@ -270,13 +271,15 @@ def test_the_plan_files_carry_the_readings_and_both_times(machines, tmp_path):
 
     from vecpin.measurement.plantemplate import read_template
     from vecpin.workflows.planning import plan_timing, plan_to_dir
+    from vecpin.workflows.simulating import plan_companions
     m = machines["trunnion_xyzac"]
     s = PlanSettings(n_commands=24, model="6dof", order=1, candidates=300, validation_points=30, n_validation=12)
     r = plan_to_dir(m, tmp_path, s, dialects=("gcode",), dwell_s=DWELL, nest_dwell_s=NEST_DWELL, read_dwell_s=READ)
     js = json.loads((tmp_path / "plan.json").read_text())["validation"]
     v = read_template(tmp_path / "validation.csv", m)
     timing = plan_timing(tmp_path / "plan.csv")
-    assert timing.read_dwell_s == READ  # plan.json keeps it for the simulator
+    assert timing.read_dwell_s == READ  # plan.json keeps it for the simulator, which stamps the further readings so
+    assert plan_companions(m, tmp_path / "plan.csv", read_template(tmp_path / "plan.csv", m))["read_dwell_s"] == READ
     t4 = row_times(m, v, timing, VALIDATION_READS)[1].total_s
     t1 = row_times(m, v.take(_first_readings(v)), timing)[1].total_s
     assert js["reads"] == VALIDATION_READS and js["commands"] == 12 and js["rows"] == len(v)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from vecpin.compensation.functions import TableProblem, model_as_actual, pitch_names
+from vecpin.compensation.tables import cross_table_axes, table_name, table_names
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
@@ -56,7 +57,7 @@ def test_branch_and_bound_keeps_what_scoring_every_combination_keeps(problem, co
     scorer = Scorer(problem)
     search = BranchAndBound(scorer, cand, cons, cons.max_tables, 10)
     combos, scores = search.run()
-    every = admissible_combinations(cand, cons, cons.max_tables)
+    every = admissible_combinations(cand, cons, cons.max_tables, cross_table_axes(problem.machine.axis_names))
     all_scores = scorer.score_many(every, cand)
     best = np.argsort(all_scores, kind="stable")[:10]
     assert np.array_equal(combos, every[best]) and np.array_equal(scores, all_scores[best])
@@ -65,19 +66,20 @@ def test_branch_and_bound_keeps_what_scoring_every_combination_keeps(problem, co
 
 @pytest.mark.parametrize("cons", [Constraints(6), Constraints(6, no_circular=True), Constraints(6, forbid_output=("X",))])
 def test_exact_never_loses_to_the_ga_or_the_heuristic(problem, cons):
+    axes = cross_table_axes(problem.machine.axis_names)
     ex = exact_search(problem, cons)
-    assert cons.admissible(ex.tables) and len(ex.tables) == 6
+    assert cons.admissible(ex.tables, axes) and len(ex.tables) == 6
     scorer = Scorer(problem)
     best_rms = min(r for _, r, _ in ex.finalists)
     for seed in range(3):
         ga = genetic_search(problem, cons, seed=seed, scorer=scorer)
-        assert cons.admissible(ga.tables) and len(ga.tables) == 6
+        assert cons.admissible(ga.tables, axes) and len(ga.tables) == 6
         assert best_rms <= ga.rms_mm + 1e-9
         assert ex.mean_mm <= ga.mean_mm + 1e-9
         assert all(b <= a + 1e-12 for a, b in zip(ga.history, ga.history[1:]))  # elitist: never worse
         assert len(ga.history) <= 50
     h = impact_heuristic(problem, cons)
-    assert cons.admissible(h.tables)
+    assert cons.admissible(h.tables, axes)
     assert best_rms <= h.rms_mm + 1e-9 and ex.mean_mm <= h.mean_mm + 1e-9
 
 
@@ -87,6 +89,25 @@ def test_constraints_are_honoured(problem):
         assert not any(t[0] == "x" for t in sel.tables)
         assert not any(t[::-1] in sel.tables for t in sel.tables)
         assert not ("yz" in sel.tables and "zb" in sel.tables)
+
+
+def test_no_circular_forbids_exactly_the_swapped_pair_when_axis_names_hold_the_separator():
+    """Axes whose names hold '_' (table names 'x_1_x_c' = X_1 from X_C): a name can be split
+    into other axes ('x_1_x' from 'c' reads back as 'c_x_1_x', the table of C_X from 1_X);
+    the constraint goes by the axes the tables were made from and forbids exactly the
+    swapped pairs, each one once."""
+    names = ["x_1", "c_x", "x_c", "1_x"]
+    table_names(names)   # no two tables share a name
+    axes = cross_table_axes(names)
+    cons = Constraints(2, no_circular=True)
+    cand = cons.candidates(names)
+    assert len(cand) == 12 and axes["x_1_x_c"] == ("x_1", "x_c")
+    forbidden = {frozenset((a, b)) for a, b in itertools.combinations(cand, 2) if not cons.compatible(a, b, axes)}
+    swapped = {frozenset((table_name(o, i), table_name(i, o))) for o, i in itertools.combinations(names, 2)}
+    assert forbidden == swapped and len(swapped) == 6
+    assert cons.compatible("x_1_x_c", "c_x_1_x", axes) and not cons.compatible("x_1_x_c", "x_c_x_1", axes)
+    assert len(admissible_combinations(cand, cons, 2, axes)) == 66 - 6
+    assert Constraints(2).compatible("x_1_x_c", "x_c_x_1", axes)
 
 
 def test_constraints_cost_accuracy_and_paper_shape(problem):

@@ -36,7 +36,7 @@ import numpy as np
 from scipy import linalg
 
 from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names, ridged
-from vecpin.compensation.tables import reversed_names, table_name
+from vecpin.compensation.tables import cross_table_axes
 from vecpin.errors import VecpinError
 from vecpin.units import MM_PER_M
 
@@ -44,7 +44,9 @@ from vecpin.units import MM_PER_M
 @dataclass(frozen=True)
 class Constraints:
     """What the controller allows. Table names are output then input axis ('zx',
-    :func:`~vecpin.compensation.tables.table_name`)."""
+    :func:`~vecpin.compensation.tables.table_name`); whether two tables may go together
+    is decided on their (output, input) axis pairs, ``axes`` (name -> pair, from
+    :func:`~vecpin.compensation.tables.cross_table_axes` of the machine's axis names)."""
 
     max_tables: int
     forbid_output: tuple[str, ...] = ()
@@ -53,19 +55,24 @@ class Constraints:
     forbidden_pairs: tuple[tuple[str, str], ...] = ()
 
     def candidates(self, axis_names: list[str]) -> list[str]:
+        """The cross tables the output and input axes allowed may make, output axis by output axis."""
         out_forbidden = {a.lower() for a in self.forbid_output}
         in_forbidden = {a.lower() for a in self.forbid_input}
-        return [table_name(o, i) for o in axis_names for i in axis_names
-                if o != i and o.lower() not in out_forbidden and i.lower() not in in_forbidden]
+        return [name for name, (o, i) in cross_table_axes(axis_names).items()
+                if o.lower() not in out_forbidden and i.lower() not in in_forbidden]
 
-    def compatible(self, a: str, b: str) -> bool:
-        if self.no_circular and b in reversed_names(a):
+    def compatible(self, a: str, b: str, axes: dict[str, tuple[str, str]]) -> bool:
+        """Whether tables ``a`` and ``b`` may go together: not the same pair of axes swapped
+        (``no_circular``, on their (output, input) pairs in ``axes``), nor a forbidden pair."""
+        if self.no_circular and axes[a] == axes[b][::-1]:
             return False
         return (a, b) not in self.forbidden_pairs and (b, a) not in self.forbidden_pairs
 
-    def admissible(self, combo) -> bool:
+    def admissible(self, combo, axes: dict[str, tuple[str, str]]) -> bool:
+        """Whether the tables ``combo`` may all go together (``axes`` as in :meth:`compatible`)."""
         combo = list(combo)
-        return len(set(combo)) == len(combo) and all(self.compatible(a, b) for a, b in itertools.combinations(combo, 2))
+        return len(set(combo)) == len(combo) and all(self.compatible(a, b, axes)
+                                                     for a, b in itertools.combinations(combo, 2))
 
 
 @dataclass
@@ -154,14 +161,16 @@ def finalise(problem: TableProblem, names: list[str], n_points: int = 1024):
     return tables, float(d.mean()), float(d.max())
 
 
-def admissible_combinations(candidates: list[str], constraints: Constraints, k: int) -> np.ndarray:
+def admissible_combinations(candidates: list[str], constraints: Constraints, k: int,
+                            axes: dict[str, tuple[str, str]]) -> np.ndarray:
     """Every admissible combination of ``k`` candidate indices, (C, k), in lexicographic order:
     all combinations, less those holding a pair the constraints forbid (checked pair of
-    columns by pair of columns over the whole array)."""
+    columns by pair of columns over the whole array; ``axes``: each table's (output, input)
+    pair, :func:`~vecpin.compensation.tables.cross_table_axes`)."""
     n = len(candidates)
     flat = np.fromiter(itertools.chain.from_iterable(itertools.combinations(range(n), k)), dtype=np.intp)
     combos = flat.reshape(-1, k)
-    clash = np.array([[i != j and not constraints.compatible(a, b) for j, b in enumerate(candidates)]
+    clash = np.array([[i != j and not constraints.compatible(a, b, axes) for j, b in enumerate(candidates)]
                       for i, a in enumerate(candidates)], dtype=bool).reshape(n, n)
     keep = np.ones(len(combos), dtype=bool)
     for i, j in itertools.combinations(range(k), 2):
@@ -234,6 +243,7 @@ class BranchAndBound:
     def __init__(self, scorer: Scorer, candidates: list[str], constraints: Constraints, k: int, keep: int):
         self.scorer, self.candidates, self.constraints, self.k, self.keep = scorer, candidates, constraints, k, keep
         self.blocks = [scorer.problem.blocks[n] for n in candidates]
+        self.axes = cross_table_axes(scorer.problem.machine.axis_names)  # table -> (output, input)
         self.margin = 1e-9 * max(scorer.base, np.finfo(float).tiny)   # [m^2]: bounds vs scores, rounding
         self.best: list[tuple[float, tuple[int, ...]]] = []             # heap of (-residual, combination)
         self.limit = math.inf  # [m^2] keep-th best residual so far plus the margin: above it, none is kept
@@ -268,7 +278,7 @@ class BranchAndBound:
         for p, i in enumerate(order):
             if len(order) - p - 1 < need - 1 or bounds[p] > self.limit:
                 break
-            rest = [q for q in order[p + 1:] if self.constraints.compatible(names[i], names[q])]
+            rest = [q for q in order[p + 1:] if self.constraints.compatible(names[i], names[q], self.axes)]
             if len(rest) < need - 1:
                 continue
             cols = np.concatenate([spans[q] for q in rest])
@@ -300,7 +310,7 @@ def exact_search(problem: TableProblem, constraints: Constraints, finalists: int
     k = min(constraints.max_tables, len(cand))
     scorer = Scorer(problem)
     if math.comb(len(cand), k) <= EXHAUSTIVE_UP_TO:
-        combos = admissible_combinations(cand, constraints, k)
+        combos = admissible_combinations(cand, constraints, k, cross_table_axes(problem.machine.axis_names))
         scores = scorer.score_many(combos, cand) if len(combos) else np.zeros(0)
         scored = len(combos)
         order = np.argsort(scores)[:finalists]
@@ -328,6 +338,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     cand = constraints.candidates(problem.machine.axis_names)
+    axes = cross_table_axes(problem.machine.axis_names)
     k = min(constraints.max_tables, len(cand))
     scorer = scorer or Scorer(problem)
     cache: dict[frozenset, float] = {}
@@ -342,7 +353,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
         for _ in range(1000):
             ch = []
             for g in rng.permutation(cand):
-                if all(constraints.compatible(g, h) for h in ch):
+                if all(constraints.compatible(g, h, axes) for h in ch):
                     ch.append(str(g))
                 if len(ch) == k:
                     return ch
@@ -350,7 +361,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
 
     def replace_gene(ch: list[str], pos: int) -> None:
         others = ch[:pos] + ch[pos + 1:]
-        options = [g for g in cand if g not in ch and all(constraints.compatible(g, h) for h in others)]
+        options = [g for g in cand if g not in ch and all(constraints.compatible(g, h, axes) for h in others)]
         if options:
             ch[pos] = str(rng.choice(options))
 
@@ -362,7 +373,7 @@ def genetic_search(problem: TableProblem, constraints: Constraints, population: 
             rng.shuffle(donors)
             for g in donors:  # a gene already in the child is never duplicated
                 others = child[:pos] + child[pos + 1:]
-                if all(constraints.compatible(g, h) for h in others):
+                if all(constraints.compatible(g, h, axes) for h in others):
                     child[pos] = g
                     break
         return child
@@ -403,7 +414,8 @@ def impact_heuristic(problem: TableProblem, constraints: Constraints, n_points: 
     the error without it, the more it matters; take the top k that fit."""
     t0 = time.perf_counter()
     m = problem.machine
-    every = [table_name(o, i) for o in m.axis_names for i in m.axis_names if o != i]
+    axes = cross_table_axes(m.axis_names)
+    every = list(axes)
     cand = set(constraints.candidates(m.axis_names))
     ranking = []
     for name in every:
@@ -413,7 +425,7 @@ def impact_heuristic(problem: TableProblem, constraints: Constraints, n_points: 
     ranking.sort(key=lambda r: -r[1])
     chosen: list[str] = []
     for name, _ in ranking:
-        if name in cand and all(constraints.compatible(name, c) for c in chosen):
+        if name in cand and all(constraints.compatible(name, c, axes) for c in chosen):
             chosen.append(name)
         if len(chosen) == constraints.max_tables:
             break

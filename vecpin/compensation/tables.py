@@ -67,18 +67,11 @@ def table_names(axis_names) -> list[str]:
     return names
 
 
-def reversed_names(name: str) -> set[str]:
-    """The names of the table that swaps output and input of table ``name`` (one name;
-    a '_' inside vendor axis names can leave a few readings of where the axes part)."""
-    out = set()
-    m = re.fullmatch(r"([a-z][0-9]*)([a-z][0-9]*)", name)
-    if m:
-        out.add(table_name(m.group(2), m.group(1)))
-    for k, c in enumerate(name):
-        o, i = name[:k], name[k + 1:]
-        if c == TABLE_NAME_SEPARATOR and o and i and table_name(o, i) == name:
-            out.add(table_name(i, o))
-    return out
+def cross_table_axes(axis_names) -> dict[str, tuple[str, str]]:
+    """Every cross table's :func:`table_name` -> its (output, input) axis names, output
+    axis by output axis: what a table name stands for, kept where the name is made (a
+    name is never parsed back into its axes: vendor axis names hold the separator)."""
+    return {table_name(o, i): (o, i) for o in axis_names for i in axis_names if o != i}
 
 
 @dataclass

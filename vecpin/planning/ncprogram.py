@@ -122,24 +122,32 @@ def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: floa
         raise InputError(f"`dwell_s` {dwell_s}: the dwell is a time in seconds > 0")
     if not (math.isfinite(nest_dwell_s) and nest_dwell_s > 0):
         raise InputError(f"`nest_dwell_s` {nest_dwell_s}: the dwell per table nest is a time in seconds > 0")
+    check_read_dwell(read_dwell_s)
+    if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
+        raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
+
+
+def check_read_dwell(read_dwell_s: float) -> None:
+    """The dwell per further reading of a point [s] is finite and > 0 (names the option)."""
     if not (math.isfinite(read_dwell_s) and read_dwell_s > 0):
         raise InputError(f"`read_dwell_s` {read_dwell_s:g}: the dwell per further reading of a point is a time in "
                          "seconds > 0")
-    if not (math.isfinite(feed_mm_min) and feed_mm_min > 0):
-        raise InputError(f"`feed_mm_min` {feed_mm_min}: the approach feed is mm/min > 0")
 
 
 @dataclass
 class Visit:
     """One standstill of the program: its tool row ``row``, the retract axis' height before
     the move to it (``lift`` [mm], None: it is high enough already), the approach position
-    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid) and the rows read there after
-    the tool row (``after``: the tool's further readings, the nests and theirs)."""
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid), the rows read there after
+    the tool row (``after``: the tool's further readings, the nests and theirs) and which
+    of them read again the point of the row before them (``again``, (len(after),) bool:
+    :func:`rereads`)."""
     row: int
     lift: float | None
     a: np.ndarray
     q: np.ndarray
     after: range
+    again: np.ndarray
 
 
 def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
@@ -159,21 +167,21 @@ def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
     return same & ((np.arange(n) - first) % reads != 0)
 
 
-def readings(template: PlanTemplate, v: Visit, again: np.ndarray,
-             dwells: tuple[float, float, float]) -> list[tuple[int, float, str]]:
-    """(row, dwell [s], what is read) of every reading at the standstill ``v``, in order;
-    ``dwells`` [s]: (the tool target's first reading, a nest's first reading, every further
-    reading of a point, ``again``: :func:`rereads`)."""
+def readings(template: PlanTemplate, v: Visit,
+             dwells: tuple[float, float, float]) -> list[tuple[int, float, str, bool]]:
+    """(row, dwell [s], what is read, a further reading?) of every reading at the standstill
+    ``v``, in order; ``dwells`` [s]: (the tool target's first reading, a nest's first
+    reading, every further reading of a point, ``v.again``)."""
     dwell_s, nest_dwell_s, read_dwell_s = dwells
     out = []
-    for k in [v.row, *v.after]:
+    for k, again in zip([v.row, *v.after], [False, *v.again]):
         nest = template.instrument is not None and template.instrument[k] == "nest"
         what = f"table nest {template.target[k]}" if nest else "the tool target"
         name = point_name(template.point[k])
-        if again[k]:
-            out.append((k, read_dwell_s, f"read {what} again as {name}, the machine standing still"))
+        if again:
+            out.append((k, read_dwell_s, f"read {what} again as {name}, the machine standing still", True))
         else:
-            out.append((k, nest_dwell_s if nest else dwell_s, f"read {what} as {name}"))
+            out.append((k, nest_dwell_s if nest else dwell_s, f"read {what} as {name}", False))
     return out
 
 
@@ -183,9 +191,10 @@ def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, 
     needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
     and the next approach position before every move between points; the nest rows and
     the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
-    row before them stands."""
+    row before them stands (each :class:`Visit` carries which of its rows are such)."""
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
-    stay = is_nest | rereads(template, reads)
+    again = rereads(template, reads)
+    stay = is_nest | again
     q_all = np.round(machine.to_user(template.q), 3)
     step = machine.to_user(np.asarray(steps, float)[None])[0]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
@@ -197,7 +206,8 @@ def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, 
         j = i + 1
         while j < len(template) and stay[j]:
             j += 1
-        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j)))
+        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j),
+                         again[i + 1:j]))
         cur = float(q_all[i][r])
     end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
     return out, end
@@ -316,7 +326,6 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
                           (dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s), title, stations, reads)
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe, reads)
-    again = rereads(template, reads)
     current_tool, current_station = None, 0
     for v in route:
         i = v.row
@@ -340,7 +349,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
                 out.append(move(idx, v.a))
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
-        out += _reads_at(dialect, template, v, again, (dwell_s, nest_dwell_s, read_dwell_s))
+        out += _reads_at(dialect, template, v, (dwell_s, nest_dwell_s, read_dwell_s))
     if end is not None:
         out.append(move([r], {r: end}))
     out += nc.epilogue(dialect)
@@ -349,18 +358,17 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     return "\n".join(out) + "\n"
 
 
-def _reads_at(dialect: str, template: PlanTemplate, v: Visit, again: np.ndarray,
-              dwells: tuple[float, float, float]) -> list[str]:
+def _reads_at(dialect: str, template: PlanTemplate, v: Visit, dwells: tuple[float, float, float]) -> list[str]:
     """The blocks of the readings at the standstill ``v``: one comment and one dwell for all
     of them when each point is read once; a comment and a dwell [s] per reading when a
     point is read again there (:func:`readings`, ``dwells`` [s]), no motion between them."""
-    if not any(again[k] for k in v.after):
+    if not v.again.any():
         read = f"read the tool target as {point_name(template.point[v.row])}"
         if v.after:
             read += ", then the table nests in this order: " + ", ".join(
                 f"{template.target[k]} as {point_name(template.point[k])}" for k in v.after)
         return [nc.nc_comment(dialect, read), nc.dwell(dialect, dwells[0] + dwells[1] * len(v.after))]
-    return [b for _, sec, what in readings(template, v, again, dwells)
+    return [b for _, sec, what, _ in readings(template, v, dwells)
             for b in (nc.nc_comment(dialect, what), nc.dwell(dialect, sec))]
 
 

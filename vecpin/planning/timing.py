@@ -13,18 +13,19 @@ station (a plan read from several stations) costs ``tracker_move_s`` (carry it t
 next stand, level it, let it settle and lock on again; a holder swapped there meanwhile).
 
 The plan prints the total and the simulator stamps a planned campaign's rows with
-these times, so both book the same campaign.
+these times, so both book the same campaign; it stamps the further readings of a point
+in its validation run ``read_dwell_s`` apart too (:func:`reread_times`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
-from vecpin.planning.ncprogram import READ_DWELL_S, readings, rereads, retract_axis, safe_position, visits
+from vecpin.planning.ncprogram import READ_DWELL_S, readings, retract_axis, safe_position, visits
 
 HOLDER_CHANGE_S = 120.0  # s: swap the target holder at the M0 stop and let the tracker lock on again
 TRACKER_MOVE_S = 1200.0  # s, ASSUMED: move the tracker to its next station, level it, let it settle, lock on
@@ -90,24 +91,42 @@ class CampaignTime:
                 "tracker_moves": self.tracker_moves, "tracker_move_s": self.tracker_move_s}
 
 
+def reread_times(t: np.ndarray, again: np.ndarray, read_dwell_s: float = READ_DWELL_S) -> np.ndarray:
+    """Time stamps [s] ``t`` (N,) with every further reading of a point at its standstill
+    (``again`` (N,) bool: :func:`~vecpin.planning.ncprogram.rereads`) ``read_dwell_s`` [s]
+    after the reading before it, as the NC program dwells between them (:func:`row_times`);
+    every other row keeps its time stamp."""
+    idx = np.arange(len(t))
+    first = np.maximum.accumulate(np.where(again, 0, idx))  # each row's first reading of its point
+    return np.where(again, t[first] + (idx - first) * read_dwell_s, t)
+
+
 def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
               reads: int = 1) -> tuple[np.ndarray, CampaignTime]:
     """(time stamp [s] of every row of ``template``, at the end of its reading; the
     campaign's time) when the NC program runs it with ``timing``; ``reads``: every point
     read that many times at one standstill (:func:`~vecpin.planning.ncprogram.readings`:
     a dwell per reading, no move)."""
+    t, took, _ = run_times(machine, template, timing, reads)
+    return t, took
+
+
+def run_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
+              reads: int = 1) -> tuple[np.ndarray, CampaignTime, CampaignTime]:
+    """:func:`row_times` and the time of the same campaign reading every point once (its
+    further readings at a standstill left out: the same moves, approaches and stops, the
+    dwells of the first readings alone; with ``reads`` 1 the campaign's time)."""
     timing.check()
     r, up = retract_axis(machine, timing.retract)
     safe = safe_position(machine, r, up, timing.safe_z_mm)
     vs, end = visits(machine, template, timing.steps, r, up, safe, reads)
-    again = rereads(template, reads)
     v_user = machine.to_user(np.asarray(timing.speed, float)[None])[0]  # mm/s, deg/s
     lin = np.array([a.kind == "linear" for a in machine.axes])
     others = lin.copy()
     others[r] = False
     feed = timing.feed_mm_min / 60.0
     t = np.zeros(len(template))
-    now = moves = approach = dwell = 0.0
+    now = moves = approach = dwell = dwell_once = 0.0
     changes = tracker_moves = 0
     prev, cur_tool, cur_station = None, None, 0
     for v in vs:
@@ -131,12 +150,14 @@ def row_times(machine: Machine, template: PlanTemplate, timing: ProgramTiming,
         step = max(a.max() if a.size else 0.0, 0.0) / feed
         approach += step
         now += step
-        for k, sec, _ in readings(template, v, again, (timing.dwell_s, timing.nest_dwell_s, timing.read_dwell_s)):
+        for k, sec, _, again in readings(template, v, (timing.dwell_s, timing.nest_dwell_s, timing.read_dwell_s)):
             now += sec
             dwell += sec
+            if not again:
+                dwell_once += sec
             t[k] = now
         prev = v.q
     if end is not None and prev is not None:
         moves += abs(end - prev[r]) / v_user[r]
-    return t, CampaignTime(moves, approach, dwell, changes, timing.holder_change_s, tracker_moves,
-                           timing.tracker_move_s)
+    took = CampaignTime(moves, approach, dwell, changes, timing.holder_change_s, tracker_moves, timing.tracker_move_s)
+    return t, took, replace(took, dwell_s=dwell_once)

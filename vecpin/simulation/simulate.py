@@ -25,6 +25,8 @@ from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
 from vecpin.measurement.tableframe import standstill_draws, standstills
 from vecpin.measurement.plantemplate import PlanTemplate
+from vecpin.planning.ncprogram import READ_DWELL_S, check_read_dwell, rereads
+from vecpin.planning.timing import reread_times
 from vecpin.units import M_PER_MM
 
 DRIFT_LEVELS_OFF_S = 3 * 86400.0  # s: the simulated workshop's temperature drift stops after three days
@@ -253,6 +255,21 @@ def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: fl
     return start + np.cumsum(design.seconds_per_point + moves / design.feed_m_per_s)
 
 
+def validation_times(rows: Rows, machine: Machine, design: Design, start: float, reads: int,
+                     read_dwell_s: float = READ_DWELL_S) -> np.ndarray:
+    """Time stamps [s] of a validation run's rows from ``start`` [s]: every first reading
+    of a point as :func:`measurement_times` stamps it; every further reading of a point at
+    its standstill (:func:`~vecpin.planning.ncprogram.rereads` of ``reads``) ``read_dwell_s``
+    [s] after the reading before it, as the plan's NC program dwells
+    (:func:`~vecpin.planning.timing.reread_times`), or the design's ``seconds_per_point``
+    when that is shorter (a reading takes no longer than settling and reading: the rows
+    stay in time order)."""
+    t = measurement_times(rows.q, machine, design, start)
+    as_read = PlanTemplate(np.arange(1, len(t) + 1), rows.q, rows.tool, instrument=rows.instrument,
+                           target=rows.target, station=rows.station)
+    return reread_times(t, rereads(as_read, reads), min(read_dwell_s, design.seconds_per_point))
+
+
 def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Air temperature [°C]: 20 °C, a slow daily swing, a drift of 0.2 °C per 8 h that levels
     off after three days (a workshop does not warm for ever: a very long simulated campaign
@@ -288,7 +305,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
              effects: list | None = None, plan: "PlanTemplate | tuple[np.ndarray, np.ndarray] | None" = None, tables=None,
              tracker_position: np.ndarray | None = None, plan_times: np.ndarray | None = None,
              validation_commands: np.ndarray | None = None, station_positions: list | None = None,
-             **truth_options) -> Simulation:
+             read_dwell_s: float = READ_DWELL_S, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
     (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
@@ -315,6 +332,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     of a plan read from several (its template's ``station`` column; plan.json): each
     station's block of rows is read from there (station 0 there too unless
     ``tracker_position`` is given), each tracker with a random heading.
+    ``read_dwell_s`` [s]: the time of every further reading of a point in the validation run
+    (the plan's NC program's dwell, :func:`validation_times`).
 
     The stages, in the order they draw from the seeded generator: the true machine, the
     rows measured (the plan's or the design's), the identification campaign, the
@@ -323,7 +342,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     template = plan if isinstance(plan, PlanTemplate) else None
     if template is not None:
         plan = (template.q, template.tool)
-    _check_simulation(machine, seed, design, plan, truth_options.get("mean_error_mm"), tracker_position)
+    _check_simulation(machine, seed, design, plan, truth_options.get("mean_error_mm"), tracker_position, read_dwell_s)
     rng = np.random.default_rng(int(seed))
     if template is not None and np.any(template.stations != 0) and design.stations > 1:
         raise InputError(f"`stations` {design.stations}: the plan says which tracker station reads each row (its "
@@ -337,13 +356,14 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
                                                plan_times if plan is not None else None, targets)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclude) \
         if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
-    runs = _validation_runs(machine, design, truth, validation_rows(qv, tool0, nests), rng, seed,
-                            t_end, tables)
+    reads = VALIDATION_READS if nests else 1
+    runs = _validation_runs(machine, design, truth, validation_rows(qv, tool0, nests, reads), rng, seed,
+                            (t_end, reads, read_dwell_s), tables)
     return Simulation(truth, campaign, *runs, nests, targets)
 
 
 def _check_simulation(machine: Machine, seed, design: Design, plan, mean_error_mm: float | None,
-                      tracker_position: np.ndarray | None) -> None:
+                      tracker_position: np.ndarray | None, read_dwell_s: float = READ_DWELL_S) -> None:
     """Every setting of a simulation inside its meaning, before any work (names the parameter)."""
     if int(seed) != seed or seed < 0:
         raise InputError(f"`seed` {seed}: a whole number >= 0")
@@ -353,6 +373,7 @@ def _check_simulation(machine: Machine, seed, design: Design, plan, mean_error_m
                          "(e.g. 0.65)")
     if tracker_position is not None and not np.all(np.isfinite(tracker_position)):
         raise InputError("`tracker_position`: three finite numbers")
+    check_read_dwell(read_dwell_s)
 
 
 def _true_machine(machine: Machine, rng: np.random.Generator, truth: TrueMachine | None, effects: list | None,
@@ -449,14 +470,17 @@ def _identification_campaign(machine: Machine, design: Design, truth: TrueMachin
 
 
 def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows: Rows, rng: np.random.Generator,
-                     seed: int, t_end: float, tables) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
-    """The validation run ``vrows`` 10 min after the campaign's last row (``t_end`` [s]):
-    measured (noisy) and noise-free, without the effects that flag rows (gross errors);
-    with ``tables`` the same commands again through the tables, noisy and noise-free. The
-    rows of a command are read at one standstill: the axes' positioning noise is drawn
-    once for them, the tracker's per reading."""
+                     seed: int, timed: tuple[float, int, float],
+                     tables) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
+    """The validation run ``vrows`` 10 min after the campaign's last row (``timed``: that
+    row's time [s], the readings of every point and the time [s] of a further one,
+    :func:`validation_times`): measured (noisy) and noise-free, without the effects that
+    flag rows (gross errors); with ``tables`` the same commands again through the tables,
+    noisy and noise-free. The rows of a command are read at one standstill: the axes'
+    positioning noise is drawn once for them, the tracker's per reading."""
+    t_end, reads, read_dwell_s = timed
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
-    times_v = measurement_times(qa, machine, design, start=t_end + 600.0)
+    times_v = validation_times(vrows, machine, design, t_end + 600.0, reads, read_dwell_s)
     extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
     commands = Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v)
     feats_v, still = Features.from_campaign(commands), standstills(commands)
@@ -472,7 +496,7 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
     if tables is not None:  # after everything else: the other outputs do not change
         crows = replace(vrows, q=tables.apply(qa))  # the table moves through the tables too (nest rows)
         truth.effects = clean + [_DriveTurn(tables, machine)] if tables.drives else clean
-        times_c = measurement_times(qa, machine, design, start=times_v[-1] + 600.0)
+        times_c = validation_times(vrows, machine, design, times_v[-1] + 600.0, reads, read_dwell_s)
         extra_c = {"time": times_c, "temperature": workshop_temperature(times_c, rng)}
         feats_c = Features.from_campaign(Campaign(machine.axis_names, crows.q, tv, np.zeros((len(qa), 3)), extra_c))
         comp = run(crows, extra_c, feats_c, rng, "validation with the tables")

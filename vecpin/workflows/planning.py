@@ -23,11 +23,11 @@ from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
-                                      rereads, retract_axis, retract_travel_mm, safe_position, write_program)
+                                      retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
-from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times
+from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times, run_times
 from vecpin.units import M_PER_MM, to_mm
 
 
@@ -264,9 +264,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
                                 tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
-        once = v.take(np.flatnonzero(~rereads(v, plan.validation_reads)))
+        _, run_time, once = run_times(machine, v, timing, plan.validation_reads)
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
-                      row_times(machine, v, timing, plan.validation_reads)[1], row_times(machine, once, timing)[1])
+                      run_time, once)
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run

@@ -131,9 +131,11 @@ def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: 
 def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
     """What a plan's folder holds beside its template ``plan_path`` for the simulator:
     ``plan_times`` (the rows' time stamps as the plan's NC program runs them, from
-    plan.json), ``validation_commands`` (its validation run, validation.csv, inside
-    the plan's zone) and, on a plan read from several tracker stations, ``station_positions``
-    (plan.json's stations_mm, SI). A key is absent when its file is (a plan from an older vecpin)."""
+    plan.json) and ``read_dwell_s`` (its dwell per further reading of a point [s]: the
+    validation run's further readings), ``validation_commands`` (its validation run,
+    validation.csv, inside the plan's zone) and, on a plan read from several tracker
+    stations, ``station_positions`` (plan.json's stations_mm, SI). A key is absent when
+    its file is (a plan from an older vecpin)."""
     from vecpin.measurement.plantemplate import read_template
     from vecpin.planning.timing import row_times
     from vecpin.workflows.planning import plan_station_positions, plan_timing
@@ -141,6 +143,7 @@ def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
     timing = plan_timing(plan_path)
     if timing is not None:
         out["plan_times"] = row_times(machine, template, timing)[0]
+        out["read_dwell_s"] = timing.read_dwell_s
     stations = plan_station_positions(plan_path) if np.any(template.stations != 0) else None
     if stations is not None:
         for p in stations:
