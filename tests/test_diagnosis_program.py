@@ -78,10 +78,14 @@ def test_a_step_at_a_program_change_is_a_tracker_move_only_when_repeated_poses_m
     d = diagnose(m, c, noise=noise)
     assert not _steps(d), [e.finding for e in d.accepted]
     assert any(e.name == "instrument_shift" and "no pose was read" in e.evidence for e in d.effects)
-    # ... which without the program's structure would be called a tracker move at the change
+    # ... and without the program's structure still held back: the two blocks measure different
+    # regions, and the rows after the step inside the region the rows before it measured are too
+    # few to show it (a misfit of the second block's region would look the same)
     monkeypatch.setattr(D, "program_changes", lambda *a: ProgramChanges({}, {}, {}))
-    blind = _steps(diagnose(m, c, noise=noise))
-    assert blind and abs(np.searchsorted(c.time, blind[0].effect.t0) - n1) <= 4
+    blind = diagnose(m, c, noise=noise)
+    assert not _steps(blind), [e.finding for e in blind.accepted]
+    assert any(e.name == "instrument_shift" and "inside the region the rows before it measured" in e.evidence
+               for e in blind.effects)
     monkeypatch.undo()
     # the tracker step at the change with the reference poses read on both sides of it: named
     c, n1 = _campaign(m, True, "move")

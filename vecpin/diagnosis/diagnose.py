@@ -46,9 +46,9 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.structure import ProgramChanges, held_back, program_changes
-from vecpin.diagnosis.scoring import (Kinematics, candidate_effects, distances_mm, effect_columns,
-                                      needed_given, pattern_cosine, score, weakest)
+from vecpin.diagnosis.structure import ProgramChanges, held_back, in_both_regions, program_changes, step_not_shown
+from vecpin.diagnosis.scoring import (Kinematics, beyond, candidate_effects, distances_mm, effect_columns,
+                                      needed_given, on_ends, pattern_cosine, score, weakest)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -59,7 +59,9 @@ from vecpin.models.base import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect
 from vecpin.models.modelfile import check_same_machine
 from vecpin.planning.discriminate import discriminating_plan
+from vecpin.planning.zones import clip_to_zone
 from vecpin.selection.choice import choose_or_fix
+from vecpin.selection.design import partly_measured
 from vecpin.selection.orders import check_folds
 from vecpin.threads import one_blas_thread
 
@@ -158,6 +160,7 @@ class _Problem:
     say: Callable[[str], None]
     proto: object = None
     choice: object = None
+    ends: tuple = ()   # the axes measured over part of their travel (partly_measured): effects judged on their ends
 
     def fit(self, camp: Campaign, effects: list):
         """The base model with ``effects`` fitted to ``camp`` (nonlinear ML)."""
@@ -251,6 +254,8 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
     fold = command_folds(campaign, folds, np.random.default_rng(seed))
     pb = _Problem(machine, campaign, noise, fold, Features.from_campaign(campaign),  # times, directions: the whole file
                   names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
+    zone = getattr(base, "zone_", None)   # a base model fitted in a zone is used there only
+    pb.ends = partly_measured(machine, campaign, clip_to_zone(machine, zone) if zone else None)
     outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
     camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
     if given is not None:
@@ -315,7 +320,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
                              why))
     thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
-    best, judged = None, []
+    best, judged, ends = None, [], None
     for c, ev, _, cols, why in round_scores:
         b_, a_ = ev["before"], ev["after"]
         sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
@@ -324,12 +329,34 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr and not why
                           and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
         sc.evidence = why or ""
+        if sc.significant and getattr(c, "t0", None) is not None:   # a step: shown where both sides measured?
+            both = in_both_regions(st.camp, st.feats, c.t0, c.station)
+            not_shown = step_not_shown(b_, a_, both[lin.point_rows] if lin.point_rows.any() else both, thr)
+            sc.significant, sc.evidence = not_shown is None, not_shown or ""
+        if sc.significant and pb.ends:   # where the model will be used beyond what was measured
+            ends = ends or on_ends(base, st.camp, pb.ends)
+            sc.significant, sc.evidence = _beyond_span(pb, ends, cols)
+            sc.worse_beyond = not sc.significant
         # the most economical explanation wins; on a tie (columns the data cannot tell
         # apart) the first candidate, the one nearer the base of the chain
         if sc.significant and (best is None or sc.bic_gain > best[0].bic_gain + 1e-6 * (1 + abs(best[0].bic_gain))):
             best = (sc, ev, cols)
         judged.append((sc, ev, cols))
     return judged, best, base
+
+
+def _beyond_span(pb: _Problem, ends: list[FoldedProblem], cols: tuple) -> tuple[bool, str]:
+    """(whether a significant candidate stays so, why not): it must not predict the ends
+    of the axes measured over part of their travel worse from the rest of their span
+    (:func:`beyond`) than the model without it: an effect fitted inside the measured
+    span that bends away beyond it would make the model worse where it is used."""
+    before, after = beyond(ends, cols)
+    if after <= before:
+        return True, ""
+    names = ", ".join(pb.machine.axes[a].name for a in pb.ends)
+    return False, (f"predicts the ends of {names} (measured over part of their travel) from the rest of their span "
+                   f"worse than the model without it: held-out mean {before:.4f} -> {after:.4f} mm; not accepted, "
+                   "the model is used beyond what was measured")
 
 
 def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:

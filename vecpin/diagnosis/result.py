@@ -47,6 +47,8 @@ class EffectScore:
     alternatives: list[str] = field(default_factory=list)
     alternative_effects: list = field(default_factory=list, repr=False)  # their Effect instances
     dropped: bool = False  # accepted, then dropped by the backward elimination
+    # significant, but predicts the ends of the axes measured over part of their travel worse
+    worse_beyond: bool = False
     # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
     next_plan: object | None = field(default=None, repr=False)
 
@@ -78,6 +80,7 @@ class EffectScore:
                 "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
+                "worse_beyond_the_measured_span": self.worse_beyond,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
@@ -132,10 +135,15 @@ class Diagnosis:
               "average" + (f" and structured along {', '.join(where)}." if where else
                            ", with no structure beyond the scatter along any axis, time, temperature or direction."))
         acc = [e for e in self.accepted if e.name != "outliers"]
+        beyond = [e for e in self.effects if e.worse_beyond][:3]
         m, _ = self.best
         if acc:
             s2 = (f"Which: {'; '.join(e.finding for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
                   f"{b['heldout_mean_mm']:.4f} -> {m:.4f} mm ({100 * (1 - m / b['heldout_mean_mm']):.0f}% smaller).")
+        elif beyond:
+            s2 = (f"Which: {', '.join(e.label for e in beyond)} would explain part of it where the axes were measured "
+                  "but predict the ends of the axes measured over part of their travel worse from the rest, so none "
+                  "is accepted (the model is used beyond what was measured).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
         if self.outlier_rows:
@@ -150,6 +158,9 @@ class Diagnosis:
         todo = [t if t.endswith(".") else t + "." for t in todo]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           f"(vecpin tables {at}model_base.json).")
+        if beyond and not acc:
+            s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel (or "
+                   "use the model only where they were measured).")
         if self.unexplained:
             s3 += (" Not explained by any candidate: structure along "
                    + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")

@@ -22,8 +22,9 @@ import numpy as np
 from scipy import stats
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.identification.crossval import FoldedProblem, Linearised, end_folds
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.models import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect, TipContext, Visited
@@ -137,6 +138,29 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
               p_heldout=float(stats.t.sf(t, max(delta.size - 1, 1))), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     return ev
+
+
+def on_ends(base: FoldedProblem, campaign: Campaign, axes) -> list[FoldedProblem]:
+    """``base`` (the current model's folded problem on ``campaign``'s rows) refolded on the
+    ends of each axis in ``axes`` (:func:`~vecpin.identification.crossval.end_folds`:
+    each end estimated without any of its own commands), judged on the end rows only."""
+    out = []
+    for a in axes:
+        fold = end_folds(campaign, a)
+        out.append(base.refolded(fold, base.judged & (fold < 2)))
+    return out
+
+
+def beyond(ends: list[FoldedProblem], cand_cols: tuple) -> tuple[float, float]:
+    """(held-out mean [mm] over the end rows of every problem of :func:`on_ends`, the
+    same with the candidate's columns): how the model, and the model with the candidate,
+    predict each end of the axes measured over part of their travel from the rest."""
+    A1, J1 = cand_cols
+    before, after = [], []
+    for p in ends:
+        before.append(np.linalg.norm(p.residuals()[0][p.judged], axis=1))
+        after.append(np.linalg.norm(p.evaluate_extended(J1, A1)["heldout"][p.judged], axis=1))
+    return float(np.concatenate(before).mean()) * MM_PER_M, float(np.concatenate(after).mean()) * MM_PER_M
 
 
 def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:

@@ -103,6 +103,38 @@ def program_changes(machine, campaign: Campaign, feats: Features) -> ProgramChan
     return ProgramChanges(order, changes, spacing)
 
 
+def in_both_regions(campaign: Campaign, feats: Features, t0: float, station: int) -> np.ndarray:
+    """(N,) the rows a step at ``t0`` on ``station`` moves whose commands lie, on every
+    axis, within the range the rows before it measured: where a moved tracker and a
+    model that misfits a region only one side of the step measured part ways (the
+    first moves these rows too, the second does not)."""
+    on = feats.station == station
+    after, before = on & (feats.time >= t0), on & (feats.time < t0)
+    if not before.any():
+        return np.zeros(len(campaign), bool)
+    lo, hi = campaign.q[before].min(axis=0), campaign.q[before].max(axis=0)
+    return after & np.all((campaign.q >= lo) & (campaign.q <= hi), axis=1)
+
+
+def step_not_shown(before: np.ndarray, after: np.ndarray, rows: np.ndarray, threshold: float) -> str | None:
+    """Why a step is not called a tracker move although it is significant: its held-out
+    gain (distances ``before`` and ``after`` [mm] per judged row) is not significant at
+    ``threshold`` on the moved rows inside the region both sides measured (``rows``, a
+    mask over the judged rows, :func:`in_both_regions`); None when it is."""
+    d = before[rows] - after[rows]
+    if d.size > 1 and d.std(ddof=1) > 0:
+        p = float(stats.t.sf(d.mean() / (d.std(ddof=1) / np.sqrt(d.size)), d.size - 1))
+        if p < threshold:
+            return None
+    else:
+        p = 1.0
+    return (f"held back: the rows after the step inside the region the rows before it measured ({int(rows.sum())}) do "
+            f"not show it (held-out mean {before[rows].mean() if rows.any() else float('nan'):.4f} -> "
+            f"{after[rows].mean() if rows.any() else float('nan'):.4f} mm, p = {p:.2g}): the gain comes from a region only "
+            "one side measured, which the model may misfit, so it is not called a tracker move; read reference points "
+            "again before and after to tell them apart")
+
+
 def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int, w: np.ndarray,
                    valid: np.ndarray, alpha: float) -> tuple[int, float]:
     """(poses read on both sides of a step at ``t0`` on ``station``, p-value that their

@@ -68,6 +68,19 @@ def end_rows(campaign: Campaign, axis: int) -> np.ndarray:
     return np.isin(group, np.concatenate([b for _, b in blocks]))
 
 
+def end_folds(campaign: Campaign, axis: int) -> np.ndarray:
+    """(N,) three folds that judge how a model extrapolates along ``axis``: 0 the rows
+    whose command lies within :data:`END_SPAN` of the axis' measured span from its lowest
+    command, 1 those from its highest, 2 the rest (a command at both ends, where the axis
+    stands at one position, goes low): each end is estimated without any of its own
+    commands, whatever other axes' ends hold (:func:`end_blocks` ``by_span``)."""
+    group, _, blocks = end_blocks(campaign, (axis,), by_span=True)
+    fold = np.full(len(group), 2)
+    fold[np.isin(group, blocks[1][1])] = 1
+    fold[np.isin(group, blocks[0][1])] = 0
+    return fold
+
+
 def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=()) -> np.ndarray:
     """Fold index per row; rows with the same axis command share a fold.
 

@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.identification.crossval import end_blocks
+from vecpin.identification.crossval import end_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import MODELS, make_model
@@ -76,17 +76,12 @@ class Problem(Design):
 
     def on_ends(self, axis: int, campaign: Campaign) -> "Problem":
         """This problem judged on the ends of ``axis`` only (``campaign``: the rows it was
-        linearised on): three folds, the commands at its low end, those at its high end
-        (the outer :data:`vecpin.identification.crossval.END_SPAN` of its measured span,
-        :func:`end_blocks`) and the rest, so each end is estimated with none of its own
-        commands, whatever other axes' ends hold: its held-out rows judge how a candidate
-        extrapolates beyond the rest of the axis' measured span. The same columns,
-        factors and sizes; cached per axis."""
+        linearised on; the three folds of
+        :func:`~vecpin.identification.crossval.end_folds`): its held-out rows judge how a
+        candidate extrapolates beyond the rest of the axis' measured span. The same
+        columns, factors and sizes; cached per axis."""
         if axis not in self._ends:
-            group, _, blocks = end_blocks(campaign, (axis,), by_span=True)
-            fold = np.full(len(group), 2)
-            fold[np.isin(group, blocks[1][1])] = 1
-            fold[np.isin(group, blocks[0][1])] = 0      # a command at both ends (one position) goes low
+            fold = end_folds(campaign, axis)
             view = copy.copy(self)
             view.problem = self.problem.refolded(fold, self.judged & (fold < 2))
             self._ends[axis] = view
