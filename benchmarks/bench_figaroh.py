@@ -174,6 +174,24 @@ def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
             "parameters": len(result.x), "errors": e.round(5).tolist()}
 
 
+def split_arguments(ap: argparse.ArgumentParser, page: str) -> None:
+    """``--data``, ``--splits`` and ``--out`` of a benchmark on these splits (``page``: the
+    stem of its results page under docs/results/)."""
+    ap.add_argument("--data", help="series C's whole measurements_random_poses.csv (as bench_figaroh --data)")
+    ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
+    ap.add_argument("--out", help=f"the results page (default docs/results/{page}.md; with --data "
+                    f"docs/results/{page}_series_c.md)")
+
+
+def split_setting(args: argparse.Namespace, page: str) -> tuple[str, Path]:
+    """(the poses' description, the results page) of :func:`split_arguments`' ``args``;
+    points this process and its children at the data."""
+    os.environ[DATA_ENV] = str(Path(args.data).resolve()) if args.data else str(DATA)
+    source = (f"the whole of series C ({Path(args.data).name}, fetched)" if args.data else
+              "the 400 poses of series C in tests/data")
+    return source, Path(args.out or ROOT / "docs" / "results" / (f"{page}_series_c.md" if args.data else f"{page}.md"))
+
+
 def child(argv: list[str]) -> None:
     """One fit in this process; its figures as one JSON line on stdout."""
     tool, split, *setting = argv

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import copy
 import math
-import os
 import sys
 import time
 import warnings
@@ -33,7 +32,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_figaroh import DATA_ENV, ROOT, SPLITS, _split  # noqa: E402
+from bench_figaroh import _split, split_arguments, split_setting  # noqa: E402
 
 END_SHARE = 0.15   # each end: the outer 15 % of a joint's measured positions in the training poses
 FOLDS = 5
@@ -139,18 +138,10 @@ def page(rows: dict, source: str, axes: list[str]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", help="series C's whole measurements_random_poses.csv (as bench_figaroh --data)")
-    ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
-    ap.add_argument("--out", help="the results page (default docs/results/real_data_weighting.md; with --data "
-                    "docs/results/real_data_weighting_series_c.md)")
+    split_arguments(ap, "real_data_weighting")
     args = ap.parse_args()
     warnings.filterwarnings("ignore")
-    if args.data:
-        os.environ[DATA_ENV] = str(Path(args.data).resolve())
-    source = (f"the whole of series C ({Path(args.data).name}, fetched)" if args.data else
-              "the 400 poses of series C in tests/data")
-    out = Path(args.out or ROOT / "docs" / "results" / ("real_data_weighting_series_c.md" if args.data
-                                                          else "real_data_weighting.md"))
+    source, out = split_setting(args, "real_data_weighting")
     rows = {}
     for split in args.splits:
         rows[split] = run_split(split)
