@@ -159,8 +159,9 @@ class Diagnosis:
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
                                                           f"(vecpin tables {at}model_base.json).")
         if beyond and not acc:
-            s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel (or "
-                   "use the model only where they were measured).")
+            s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
+                   "if the machine is used only where they were measured, fit the model in a `zone` over their measured "
+                   "ranges (vecpin fit) and diagnose with it as `base`.")
         if self.unexplained:
             s3 += (" Not explained by any candidate: structure along "
                    + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")
