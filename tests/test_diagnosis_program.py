@@ -93,3 +93,21 @@ def test_a_step_at_a_program_change_is_a_tracker_move_only_when_repeated_poses_m
     steps = _steps(d)
     assert len(steps) == 1 and abs(np.searchsorted(c.time, steps[0].effect.t0) - n1) <= 4, \
         [e.finding for e in d.accepted]
+
+
+def test_the_rows_a_step_moves_inside_the_region_measured_before_it():
+    """in_both_regions: after t0, on the step's station, every axis within the range the
+    rows before t0 measured; step_not_shown: a paired test of those rows' held-out gain."""
+    from types import SimpleNamespace
+    from vecpin.diagnosis.structure import in_both_regions, step_not_shown
+    q = np.array([[0.0, 0.0], [1.0, 2.0], [0.5, 1.0], [1.5, 1.0], [0.2, 1.9], [0.9, 0.1]])
+    feats = SimpleNamespace(time=np.arange(6.0), station=np.array([0, 0, 0, 0, 0, 1]))
+    both = in_both_regions(SimpleNamespace(q=q), feats, 2.0, 0)
+    # rows 0-1 are before (ranges x 0..1, y 0..2); row 3 leaves x's range; row 5 is another station
+    np.testing.assert_array_equal(both, [False, False, True, False, True, False])
+    before = np.array([0.50, 0.52, 0.49, 0.51, 0.50, 0.48])
+    rows = np.ones(6, bool)
+    assert step_not_shown(before, before - 0.1, rows, 0.01) is None   # a clear gain on every row
+    why = step_not_shown(before, before + np.array([0.01, -0.01, 0.0, 0.01, -0.01, 0.0]), rows, 0.01)
+    assert why.startswith("held back") and "(6)" in why
+    assert step_not_shown(before, before, np.zeros(6, bool), 0.01).startswith("held back")

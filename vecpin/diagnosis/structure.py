@@ -122,12 +122,12 @@ def step_not_shown(before: np.ndarray, after: np.ndarray, rows: np.ndarray, thre
     ``threshold`` on the moved rows inside the region both sides measured (``rows``, a
     mask over the judged rows, :func:`in_both_regions`); None when it is."""
     d = before[rows] - after[rows]
-    if d.size > 1 and d.std(ddof=1) > 0:
-        p = float(stats.t.sf(d.mean() / (d.std(ddof=1) / np.sqrt(d.size)), d.size - 1))
-        if p < threshold:
-            return None
-    else:
-        p = 1.0
+    p = 1.0
+    if d.size > 1:
+        sd = float(d.std(ddof=1))
+        p = float(stats.t.sf(d.mean() / (sd / np.sqrt(d.size)), d.size - 1)) if sd > 0 else float(d.mean() <= 0)
+    if p < threshold:
+        return None
     return (f"held back: the rows after the step inside the region the rows before it measured ({int(rows.sum())}) do "
             f"not show it (held-out mean {before[rows].mean() if rows.any() else float('nan'):.4f} -> "
             f"{after[rows].mean() if rows.any() else float('nan'):.4f} mm, p = {p:.2g}): the gain comes from a region only "
