@@ -115,10 +115,11 @@ def test_other_machines_simulate(machines, name):
 def test_a_validation_runs_further_readings_are_the_read_dwell_apart(machines, tmp_path, read_dwell_s):
     """A table machine's validation run reads every point VALIDATION_READS times at its
     standstill: each further reading is stamped `read_dwell_s` (default the NC program's
-    2 s) after the reading before it, as the plan's program dwells; every first reading
-    keeps the time the design gives it (10 min after the campaign, then 15 s per point
-    plus the linear axes' path at 0.1 m/s, computed here); the run through the tables
-    too; the written files read back (time never goes backwards)."""
+    2 s) after the reading before it, as the plan's program dwells; the first readings
+    come as the design times a run of them alone (10 min after the campaign, then 15 s per
+    point plus the linear axes' path at 0.1 m/s, computed here), each later by the dwells
+    of the further readings before it; the run through the tables too; the written files
+    read back (time never goes backwards)."""
     from vecpin.compensation.tables import TableSet
     from vecpin.planning.nests import VALIDATION_READS as k
     m = machines["trunnion_xyzac"]
@@ -131,10 +132,10 @@ def test_a_validation_runs_further_readings_are_the_read_dwell_apart(machines, t
     for run in (sim.validation, sim.compensated):
         q, t = run.q, run.time
         assert len(run) == 6 * 4 * k  # every command: the tool and 3 nests, each read k times in a row
-        path = np.r_[0.0, np.linalg.norm(np.diff(q[:, lin], axis=0), axis=1)]
-        before = start + np.cumsum(15.0 + path / 0.1)   # the design's time stamps, every row
         first = np.arange(len(run)) % k == 0
-        np.testing.assert_allclose(t[first], before[first], rtol=0, atol=1e-9)
+        path = np.r_[0.0, np.linalg.norm(np.diff(q[first][:, lin], axis=0), axis=1)]
+        alone = start + np.cumsum(15.0 + path / 0.1)   # the design's time stamps of the first readings alone
+        np.testing.assert_allclose(t[first], alone + dwell * (k - 1) * np.arange(first.sum()), rtol=0, atol=1e-9)
         np.testing.assert_allclose(np.diff(t)[~first[1:]], dwell, rtol=0, atol=1e-9)
         again = ~first[1:]
         assert np.all(q[1:][again] == q[:-1][again]) and np.all(run.target[1:][again] == run.target[:-1][again])

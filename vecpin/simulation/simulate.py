@@ -257,17 +257,18 @@ def measurement_times(q: np.ndarray, machine: Machine, design: Design, start: fl
 
 def validation_times(rows: Rows, machine: Machine, design: Design, start: float, reads: int,
                      read_dwell_s: float = READ_DWELL_S) -> np.ndarray:
-    """Time stamps [s] of a validation run's rows from ``start`` [s]: every first reading
-    of a point as :func:`measurement_times` stamps it; every further reading of a point at
-    its standstill (:func:`~vecpin.planning.ncprogram.rereads` of ``reads``) ``read_dwell_s``
+    """Time stamps [s] of a validation run's rows from ``start`` [s]: the first readings of
+    the points as :func:`measurement_times` stamps a run of them alone, each later by the
+    dwells of the further readings before it; every further reading of a point at its
+    standstill (:func:`~vecpin.planning.ncprogram.rereads` of ``reads``) ``read_dwell_s``
     [s] after the reading before it, as the plan's NC program dwells
-    (:func:`~vecpin.planning.timing.reread_times`), or the design's ``seconds_per_point``
-    when that is shorter (a reading takes no longer than settling and reading: the rows
-    stay in time order)."""
-    t = measurement_times(rows.q, machine, design, start)
-    as_read = PlanTemplate(np.arange(1, len(t) + 1), rows.q, rows.tool, instrument=rows.instrument,
+    (:func:`~vecpin.planning.timing.reread_times`)."""
+    as_read = PlanTemplate(np.arange(1, len(rows.q) + 1), rows.q, rows.tool, instrument=rows.instrument,
                            target=rows.target, station=rows.station)
-    return reread_times(t, rereads(as_read, reads), min(read_dwell_s, design.seconds_per_point))
+    again = rereads(as_read, reads)
+    t = np.empty(len(again))
+    t[~again] = measurement_times(rows.q[~again], machine, design, start) + read_dwell_s * np.cumsum(again)[~again]
+    return reread_times(t, again, read_dwell_s)
 
 
 def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
