@@ -141,9 +141,11 @@ class Diagnosis:
             s2 = (f"Which: {'; '.join(e.finding for e in acc)} explain{'s' if len(acc) == 1 else ''} it: held-out mean "
                   f"{b['heldout_mean_mm']:.4f} -> {m:.4f} mm ({100 * (1 - m / b['heldout_mean_mm']):.0f}% smaller).")
         elif beyond:
-            s2 = (f"Which: {', '.join(e.label for e in beyond)} would explain part of it where the axes were measured "
-                  "but predict the ends of the axes measured over part of their travel worse from the rest, so none "
-                  "is accepted (the model is used beyond what was measured).")
+            gains = ", ".join(f"{e.label} ({e.heldout_mean_mm_before:.4f} -> {e.heldout_mean_mm_after:.4f} mm)"
+                              for e in beyond)
+            s2 = (f"Which: {gains} would explain part of it where the axes were measured (held-out mean) but predict "
+                  "the ends of the axes measured over part of their travel worse from the rest, so none is accepted "
+                  "(the model is used beyond what was measured).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
         if self.outlier_rows:
