@@ -7,12 +7,11 @@ FIGAROH's default, two ways:
   campaign is measured over 8-24 % of its ±360° travel, so the model is used beyond what
   was measured: an effect is accepted only if it does not predict the ends of those
   joints worse from the rest of their span (docs/diagnosis.md);
-* ``diagnose in the measured zone``: ``vecpin fit ur10 train.csv --zone <each joint's
-  measured range>`` then ``vecpin diagnose ... --base model.json``: the model is used
-  where the joints were measured only (held-out poses outside the zone are judged all
-  the same: the joint-1 split's lie beyond it).
+* ``diagnose in the measured zone``: ``vecpin diagnose ur10 train.csv --zone <each joint's
+  measured range>``: the model is used where the joints were measured only (held-out
+  poses outside the zone are judged all the same: the joint-1 split's lie beyond it).
 
-Each run is whole processes timed from start to exit (both commands for the zone).
+Each run is a whole process timed from start to exit.
 Held-out distances as ``bench_figaroh``: mm, tracker frame; the difference column pairs
 the errors pose by pose (a tie: under two standard errors).
 
@@ -59,13 +58,8 @@ def run_split(split: str, work: Path) -> dict:
     out = {"train": len(train), "held": len(held)}
     for tag in ("diagnose", "zone"):
         folder = work / tag
-        seconds = 0.0
-        base = []
-        if tag == "zone":
-            seconds += _vecpin("fit", "ur10", str(csv), "--zone", measured_zone(m, train), "--out",
-                               str(work / "zone_model.json"))
-            base = ["--base", str(work / "zone_model.json")]
-        seconds += _vecpin("diagnose", "ur10", str(csv), "--out", str(folder), *base)
+        zone = ["--zone", measured_zone(m, train)] if tag == "zone" else []
+        seconds = _vecpin("diagnose", "ur10", str(csv), "--out", str(folder), *zone)
         model = vecpin.ErrorModel.load(folder / "model_best.json")
         e = norm_mm(model.residuals(held))
         accepted = [x["label"] for x in json.loads((folder / "diagnosis.json").read_text())["effects"]

@@ -68,3 +68,18 @@ def test_a_base_model_fitted_in_the_measured_zone_takes_the_effect_there():
     assert "coupled_axes[X,Y]" in [e.label for e in d.accepted]
     errors = _errors(d, truth, q, tool, inside)
     assert errors["best"][0] < 0.8 * errors["base"][0]
+
+
+def test_the_diagnosis_in_a_zone_takes_the_effect_and_its_model_files_record_the_zone(tmp_path):
+    """``diagnose_to_dir(zone=...)`` (``vecpin diagnose --zone``): only the rows in the zone,
+    the model used there only, so the coupling measured there is accepted; both model
+    files carry the zone, as fit's do."""
+    from vecpin.models.base import ErrorModel
+    from vecpin.workflows.diagnosing import diagnose_to_dir
+    m, truth, c, q, tool, inside = _lower_half_of_x()
+    x = m.axis("X")
+    zone = {"X": (float(x.to_user(x.lower)), float(x.to_user(c.q[:, x.index].max())) + 1e-3)}
+    run = diagnose_to_dir(m, c, tmp_path / "d", NoiseModel.default(m, "spherical"), zone=zone)
+    assert "coupled_axes[X,Y]" in [e.label for e in run.diagnosis.accepted]
+    for name in ("model_base.json", "model_best.json"):
+        assert ErrorModel.load(tmp_path / "d" / name).zone_ == zone

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args,
-                               add_quiet_arg, machine, noise, progress, say)
+                               add_quiet_arg, machine, noise, progress, say, zone_option)
 
 
 def run_diagnose(args) -> int:
@@ -11,7 +11,7 @@ def run_diagnose(args) -> int:
     m = machine(args.machine, args)
     run = diagnose_to_dir(m, read_campaign(args.csv, m), args.out, noise(args, m), model=args.model, order=args.order,
                           effects=args.effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
-                          progress=progress(not args.quiet), base=args.base)
+                          progress=progress(not args.quiet), base=args.base, zone=zone_option(args.zone))
     say(args, *run.lines())
     return 0
 
@@ -27,6 +27,10 @@ def register(sub) -> None:
     s.add_argument("--base", metavar="MODEL_JSON", default=None,
                    help="model.json of vecpin fit: its kind, bases and orders are the base model (refitted on the rows "
                         "the diagnosis keeps), so the model choice is not repeated (default: chosen by held-out data)")
+    s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
+                   help="diagnose only the rows commanded in this region of axis space, mm/deg, for a machine used "
+                        "there only: no axis counts as measured over part of its travel beyond it; the model files "
+                        "record it (default: all rows, the model used over the whole travel)")
     s.add_argument("--effects", default="all", help="effects to try: all, or a comma list of effect names (vecpin "
                    "simulate --help-effects lists them) (default %(default)s)")
     s.add_argument("--folds", type=int, default=5,

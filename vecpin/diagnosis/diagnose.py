@@ -239,7 +239,8 @@ def _base_given(machine: Machine, base, model, basis, order):
 
 
 def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise, folds: int, alpha: float,
-             max_effects: int, basis, seed: int, min_shrink_pct: float, say, base=None) -> tuple[_Problem, np.ndarray]:
+             max_effects: int, basis, seed: int, min_shrink_pct: float, say, base=None,
+             travel=None) -> tuple[_Problem, np.ndarray]:
     """The settings checked, the folds, the first pass' gross errors and the base model
     chosen (or fixed, or given as ``base``) on the rows left: (problem, first-pass outliers)."""
     if not (0 < alpha < 1) or not math.isfinite(alpha):
@@ -255,7 +256,8 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
     pb = _Problem(machine, campaign, noise, fold, Features.from_campaign(campaign),  # times, directions: the whole file
                   names, [n for n in names if REGISTRY[n].flags_rows], folds, alpha, max_effects, min_shrink_pct, say)
     zone = getattr(base, "zone_", None)   # a base model fitted in a zone is used there only
-    pb.ends = partly_measured(machine, campaign, clip_to_zone(machine, zone) if zone else None)
+    travel = travel if travel is not None else (clip_to_zone(machine, zone) if zone else None)
+    pb.ends = partly_measured(machine, campaign, travel)
     outliers = fl.first_pass(machine, campaign, noise, fold, pb.all_feats, say) if pb.flaggers else np.array([], int)
     camp = campaign.subset(np.setdiff1d(np.arange(len(campaign)), outliers)) if outliers.size else campaign
     if given is not None:
@@ -263,7 +265,7 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
         say(f"base model given: {given.label()} (refitted; no model choice)")
     else:
         pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed,
-                                            progress=say)
+                                            progress=say, travel=travel)
     return pb, outliers
 
 
@@ -493,11 +495,15 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
 def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: int | str = "auto", effects="all",
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
-             progress: Callable[[str], None] | None = None, base: ErrorModel | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, base: ErrorModel | None = None,
+             travel: tuple[np.ndarray, np.ndarray] | None = None) -> Diagnosis:
     """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
     of the base model (default: chosen by held-out data); ``base``: a fitted model (e.g.
     the model file of ``fit`` on this campaign) whose kind, bases and orders are the base
-    model, refitted here, so the model choice is not repeated; ``effects``: "all" or names;
+    model, refitted here, so the model choice is not repeated; ``travel``: (low, high)
+    [m, rad] per axis where the model will be used (default: a zone ``base`` was fitted
+    in, else the axes' limits): the axes measured over part of it have their ends judged
+    (the base model's choice and every effect); ``effects``: "all" or names;
     ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
     held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
     folds, first pass, base model choice), the base model, forward selection, outliers
@@ -505,7 +511,7 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
-                            min_shrink_pct, say, base)
+                            min_shrink_pct, say, base, travel)
     st = _base_stage(pb, outliers)
     _forward(pb, st)
     _recheck_outliers(pb, st)

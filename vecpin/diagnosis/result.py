@@ -162,8 +162,7 @@ class Diagnosis:
                                                           f"(vecpin tables {at}model_base.json).")
         if beyond and not acc:
             s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
-                   "if the machine is used only where they were measured, fit the model in a `zone` over their measured "
-                   "ranges (vecpin fit) and diagnose with it as `base`.")
+                   "if the machine is used only where they were measured, diagnose in a `zone` over their measured ranges.")
         if self.unexplained:
             s3 += (" Not explained by any candidate: structure along "
                    + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")

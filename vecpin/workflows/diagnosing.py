@@ -14,6 +14,8 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
+from vecpin.planning.zones import Zone, clip_to_zone
+from vecpin.workflows.fitting import zone_rows
 
 
 @dataclass
@@ -31,12 +33,15 @@ class DiagnoseRun:
 def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise: NoiseModel | None = None, *,
                     model: str = "auto", basis: str = "auto", order: int | str = "auto",
                     effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
-                    progress: Callable[[str], None] | None = None, base: str | Path | None = None) -> DiagnoseRun:
+                    progress: Callable[[str], None] | None = None, base: str | Path | None = None,
+                    zone: Zone | None = None) -> DiagnoseRun:
     """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
     "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
     (:meth:`NoiseModel.default`); ``base``: a model file (``fit``'s model.json) whose kind,
     bases and orders are the base model, so the model choice is not repeated; ``folds``,
-    ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`.
+    ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`;
+    ``zone``: diagnose only the rows commanded in it, for a model used there only (the
+    model files record it, as ``fit``'s do).
     The folder, the model file and the folds are checked before any fit, with the effects;
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
@@ -47,8 +52,15 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     noise = noise or NoiseModel.default(machine)
     if noise.instrument == "range":
         check_stations(campaign)
+    if zone:
+        for a in zone:
+            machine.axis(a)
+        campaign = zone_rows(machine, campaign, zone)
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
-                 basis=basis, progress=progress, base=base_model)
+                 basis=basis, progress=progress, base=base_model, travel=clip_to_zone(machine, zone) if zone else None)
+    if zone:
+        for fitted in (d.base_model, d.best_model):
+            fitted.zone_ = dict(zone)
     return DiagnoseRun(d, [Path(p) for p in d.write(out).values()])
 
 
