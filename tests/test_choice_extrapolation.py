@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vecpin
-from vecpin.identification.crossval import END_SHARE, command_folds, end_rows
+from vecpin.identification.crossval import END_SHARE, command_folds, end_blocks
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.robotaccuracy import read_dataset
 from vecpin.planning.zones import clip_to_zone
@@ -49,7 +49,7 @@ def test_the_ur10s_joints_are_judged_on_their_ends():
     assert "held out together" in ch.table() and ch.to_dict()["ends_held_out"] == list(m.axis_names)
 
 
-def test_end_rows_are_the_commands_at_each_end_of_the_axis(machines):
+def test_end_blocks_are_the_commands_at_each_end_of_the_axis(machines):
     """The rows that judge extrapolation along an axis: those of the tenth of the distinct
     commands with the lowest position on it and the tenth with the highest, counted here
     from the commands themselves."""
@@ -59,7 +59,8 @@ def test_end_rows_are_the_commands_at_each_end_of_the_axis(machines):
     share = max(1, int(round(END_SHARE * len(commands))))
     for axis in (0, 3):
         x = np.sort(commands[:, axis])
-        rows = end_rows(c, axis)
+        group, _, blocks = end_blocks(c, (axis,))
+        rows = np.isin(group, np.concatenate([b for _, b in blocks]))
         marked = np.unique(np.round(c.q[rows], 9), axis=0)
         assert len(marked) == 2 * share
         assert ((marked[:, axis] <= x[share - 1]) | (marked[:, axis] >= x[-share])).all()

@@ -347,7 +347,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
     return judged, best, base
 
 
-def _beyond_span(pb: _Problem, ends: list[FoldedProblem], cols: tuple) -> tuple[bool, str]:
+def _beyond_span(pb: _Problem, ends: tuple, cols: tuple) -> tuple[bool, str]:
     """(whether a significant candidate stays so, why not): it must not predict the ends
     of the axes measured over part of their travel worse from the rest of their span
     (:func:`beyond`) than the model without it: an effect fitted inside the measured

@@ -22,7 +22,7 @@ import numpy as np
 from scipy import stats
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import FoldedProblem, Linearised, end_folds
+from vecpin.identification.crossval import FoldedProblem, Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
@@ -132,35 +132,40 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
     F = (d_chi2 / k) / (ev["chi2"] / dof)
     before, after = distances_mm(lin, base_eval["heldout"]), distances_mm(lin, ev["heldout"])
-    delta = before - after
-    sd = float(np.std(delta, ddof=1)) if delta.size > 1 else 0.0
-    t = float(delta.mean() / (sd / math.sqrt(delta.size))) if sd > 0 else (math.inf if delta.mean() > 0 else 0.0)
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
-              p_heldout=float(stats.t.sf(t, max(delta.size - 1, 1))), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
+              p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     return ev
 
 
-def on_ends(base: FoldedProblem, campaign: Campaign, axes) -> list[FoldedProblem]:
-    """``base`` (the current model's folded problem on ``campaign``'s rows) refolded on the
-    ends of each axis in ``axes`` (:func:`~vecpin.identification.crossval.end_folds`:
-    each end estimated without any of its own commands), judged on the end rows only."""
-    out = []
-    for a in axes:
-        fold = end_folds(campaign, a)
-        out.append(base.refolded(fold, base.judged & (fold < 2)))
-    return out
+def paired_gain_p(before: np.ndarray, after: np.ndarray) -> float:
+    """One-sided p-value of the paired t test that the held-out distances ``after`` [mm]
+    are no smaller than ``before``, row by row (no spread in the gain: 0 for a gain, 0.5
+    otherwise)."""
+    delta = before - after
+    sd = float(np.std(delta, ddof=1)) if delta.size > 1 else 0.0
+    t = float(delta.mean() / (sd / math.sqrt(delta.size))) if sd > 0 else (math.inf if delta.mean() > 0 else 0.0)
+    return float(stats.t.sf(t, max(delta.size - 1, 1)))
 
 
-def beyond(ends: list[FoldedProblem], cand_cols: tuple) -> tuple[float, float]:
-    """(held-out mean [mm] over the end rows of every problem of :func:`on_ends`, the
-    same with the candidate's columns): how the model, and the model with the candidate,
-    predict each end of the axes measured over part of their travel from the rest."""
+def on_ends(base: FoldedProblem, campaign: Campaign, axes) -> tuple[list[FoldedProblem], float]:
+    """``base`` (the current model's folded problem on ``campaign``'s rows) judged on the
+    ends of each axis in ``axes`` (:meth:`FoldedProblem.on_ends`: each end estimated
+    without any of its own commands), and the current model's held-out mean [mm] over
+    those end rows."""
+    probs = [base.on_ends(campaign, a) for a in axes]
+    held = np.concatenate([np.linalg.norm(p.residuals()[0][p.judged], axis=1) for p in probs])
+    return probs, float(held.mean()) * MM_PER_M
+
+
+def beyond(ends: tuple[list[FoldedProblem], float], cand_cols: tuple) -> tuple[float, float]:
+    """(held-out mean [mm] over the end rows of :func:`on_ends`' problems without the
+    candidate, the same with its columns): how the model, and the model with the
+    candidate, predict each end of the axes measured over part of their travel from the
+    rest."""
     A1, J1 = cand_cols
-    before, after = [], []
-    for p in ends:
-        before.append(np.linalg.norm(p.residuals()[0][p.judged], axis=1))
-        after.append(np.linalg.norm(p.evaluate_extended(J1, A1)["heldout"][p.judged], axis=1))
-    return float(np.concatenate(before).mean()) * MM_PER_M, float(np.concatenate(after).mean()) * MM_PER_M
+    probs, before = ends
+    after = np.concatenate([np.linalg.norm(p.evaluate_extended(J1, A1)["heldout"][p.judged], axis=1) for p in probs])
+    return before, float(after.mean()) * MM_PER_M
 
 
 def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:

@@ -25,6 +25,7 @@ import numpy as np
 from scipy import stats
 
 from vecpin.diagnosis.grosserrors import pose_keys
+from vecpin.diagnosis.scoring import paired_gain_p
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 
@@ -121,11 +122,7 @@ def step_not_shown(before: np.ndarray, after: np.ndarray, rows: np.ndarray, thre
     gain (distances ``before`` and ``after`` [mm] per judged row) is not significant at
     ``threshold`` on the moved rows inside the region both sides measured (``rows``, a
     mask over the judged rows, :func:`in_both_regions`); None when it is."""
-    d = before[rows] - after[rows]
-    p = 1.0
-    if d.size > 1:
-        sd = float(d.std(ddof=1))
-        p = float(stats.t.sf(d.mean() / (sd / np.sqrt(d.size)), d.size - 1)) if sd > 0 else float(d.mean() <= 0)
+    p = paired_gain_p(before[rows], after[rows]) if rows.sum() > 1 else 1.0
     if p < threshold:
         return None
     return (f"held back: the rows after the step inside the region the rows before it measured ({int(rows.sum())}) do "

@@ -60,14 +60,6 @@ def end_blocks(campaign: Campaign, ends=(), by_span: bool = False
     return group, len(uq), blocks
 
 
-def end_rows(campaign: Campaign, axis: int) -> np.ndarray:
-    """(N,) the rows of ``campaign`` whose command lies in an end block of ``axis``
-    (:func:`end_blocks`): the rows on which the folds of :func:`command_folds` judge
-    how a model extrapolates along that axis."""
-    group, _, blocks = end_blocks(campaign, (axis,))
-    return np.isin(group, np.concatenate([b for _, b in blocks]))
-
-
 def end_folds(campaign: Campaign, axis: int) -> np.ndarray:
     """(N,) three folds that judge how a model extrapolates along ``axis``: 0 the rows
     whose command lies within :data:`END_SPAN` of the axis' measured span from its lowest
@@ -207,6 +199,13 @@ class FoldedProblem:
             g_out[f] = self.g - gf
         grams = (self.G, self.g, G_out, g_out)
         return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.x0, grams=grams)
+
+    def on_ends(self, campaign: Campaign, axis: int) -> "FoldedProblem":
+        """This problem refolded on the ends of ``axis`` (:func:`end_folds`; ``campaign``:
+        its rows), judged on the end rows only: how a model extrapolates beyond the rest of
+        the axis' measured span."""
+        fold = end_folds(campaign, axis)
+        return self.refolded(fold, self.judged & (fold < 2))
 
     # ------------------------------------------------------------------ extension
     def extend(self, J1: np.ndarray, A1: np.ndarray) -> "FoldedProblem":

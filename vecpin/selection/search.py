@@ -13,7 +13,6 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.identification.crossval import end_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import MODELS, make_model
@@ -76,14 +75,12 @@ class Problem(Design):
 
     def on_ends(self, axis: int, campaign: Campaign) -> "Problem":
         """This problem judged on the ends of ``axis`` only (``campaign``: the rows it was
-        linearised on; the three folds of
-        :func:`~vecpin.identification.crossval.end_folds`): its held-out rows judge how a
-        candidate extrapolates beyond the rest of the axis' measured span. The same
-        columns, factors and sizes; cached per axis."""
+        linearised on; :meth:`~vecpin.identification.crossval.FoldedProblem.on_ends`):
+        its held-out rows judge how a candidate extrapolates beyond the rest of the axis'
+        measured span. The same columns, factors and sizes; cached per axis."""
         if axis not in self._ends:
-            fold = end_folds(campaign, axis)
             view = copy.copy(self)
-            view.problem = self.problem.refolded(fold, self.judged & (fold < 2))
+            view.problem = self.problem.on_ends(campaign, axis)
             self._ends[axis] = view
         return self._ends[axis]
 

@@ -53,8 +53,6 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     if noise.instrument == "range":
         check_stations(campaign)
     if zone:
-        for a in zone:
-            machine.axis(a)
         campaign = zone_rows(machine, campaign, zone)
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
                  basis=basis, progress=progress, base=base_model, travel=clip_to_zone(machine, zone) if zone else None)

@@ -168,8 +168,8 @@ NOISE_ROUNDS = 3   # fits of the chosen model at most when the noise level comes
 
 
 def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "zone") -> Campaign:
-    """The rows of ``campaign`` commanded inside ``zone`` (refused when too few remain;
-    ``option``: the parameter named in the message)."""
+    """The rows of ``campaign`` commanded inside ``zone`` (an axis the machine does not
+    have, or too few rows left, refused; ``option``: the parameter named in the message)."""
     keep = inside(machine, campaign.q, [zone])
     need = min_rows(machine.n_axes)
     if keep.sum() < need:
@@ -194,8 +194,6 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     noise = noise or NoiseModel.default(machine)
     rows = len(campaign)
     if zone:
-        for a in zone:
-            machine.axis(a)
         campaign = zone_rows(machine, campaign, zone)
     notes = table_campaign_notes(machine, campaign)  # nest rows without a table are refused
     for note in notes:
