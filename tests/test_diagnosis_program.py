@@ -111,3 +111,50 @@ def test_the_rows_a_step_moves_inside_the_region_measured_before_it():
     why = step_not_shown(before, before + np.array([0.01, -0.01, 0.0, 0.01, -0.01, 0.0]), rows, 0.01)
     assert why.startswith("held back") and "(6)" in why
     assert step_not_shown(before, before, np.zeros(6, bool), 0.01).startswith("held back")
+
+
+def _read_twice(moved_mm: float, predicted_mm: float, straddle: bool = True):
+    """Hand-written readings: six poses read once before t0 = 100 s and once after it (the
+    joint readings 0.005° apart, as a robot reads one pose twice), four poses read twice
+    before it; tracker noise 0.02 mm per axis. The readings after t0 move by ``moved_mm``
+    along x; the step's fit predicts ``predicted_mm`` there. (campaign, feats, step, lin,
+    fitted residuals)."""
+    from types import SimpleNamespace
+    rng = np.random.default_rng(7)
+    poses = np.radians(rng.uniform(-90, 90, (10, 6)))
+    q = np.vstack([poses[:6], poses[6:], poses[6:], poses[:6] + np.radians(0.005)])
+    time = np.r_[np.arange(6.0), 10 + np.arange(4.0), 20 + np.arange(4.0), 200 + np.arange(6.0)]
+    if not straddle:
+        q[-6:] += np.radians(5.0)   # other poses after t0: nothing read on both sides
+    n = len(q)
+    after = time >= 100
+    sigma = 2e-5   # m
+    r = rng.normal(0, sigma, (n, 3)) + np.outer(after, [moved_mm * 1e-3, 0, 0])
+    fit_r = r - np.outer(after, [predicted_mm * 1e-3, 0, 0])
+    camp = SimpleNamespace(q=q, tool=np.zeros(n), point=np.zeros(n, int), target=np.full(n, ""),
+                           station=np.zeros(n, int), instrument=np.full(n, "tracker"))
+    feats = SimpleNamespace(time=time, station=np.zeros(n, int))
+    lin = SimpleNamespace(w=r / sigma, r=r, valid=np.ones((n, 3), bool))
+    return camp, feats, SimpleNamespace(t0=100.0, station=0), lin, (fit_r / sigma, fit_r)
+
+
+def test_poses_read_on_both_sides_of_a_step_confirm_or_contradict_it():
+    """repeats_verdict: the model cancels in the difference of two readings of one pose, so
+    poses read on both sides of a step test it directly, at the noise between readings of
+    one pose (from the poses read twice on one side), whatever the model predicts."""
+    from vecpin.diagnosis.structure import repeats_verdict
+    verdict, text = repeats_verdict(*_read_twice(0.2, 0.2), alpha=0.01)   # the tracker moved 0.2 mm: seen
+    assert verdict == "confirmed" and "the 6 poses read on both sides" in text, text
+    assert "moved by 0.2" in text and "predicts 0.2000 mm" in text
+    verdict, text = repeats_verdict(*_read_twice(0.0, 0.2), alpha=0.01)   # nothing moved, the step says 0.2 mm
+    assert verdict == "contradicted" and text.startswith("held back") and "predicts 0.2000 mm" in text, text
+    verdict, text = repeats_verdict(*_read_twice(0.0, 0.005), alpha=0.01)  # too small to tell from the noise
+    assert verdict == "silent", text
+    assert repeats_verdict(*_read_twice(0.2, 0.2, straddle=False), alpha=0.01) == ("none", "")
+
+
+def test_one_pose_read_twice_is_one_pose_within_the_readings_resolution():
+    from vecpin.measurement.repeatability import reading_groups
+    q = np.radians([[10.0, 20.0], [10.005, 19.995], [10.05, 20.0], [10.0, 20.0]])
+    assert list(reading_groups(q)) == [0, 0, 1, 0]
+    assert list(reading_groups(q, tool=np.array([0.1, 0.1, 0.1, 0.2]))) == [0, 0, 1, 2]

@@ -46,7 +46,8 @@ from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
-from vecpin.diagnosis.structure import ProgramChanges, held_back, in_both_regions, program_changes, step_not_shown
+from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
+                                        step_not_shown)
 from vecpin.diagnosis.scoring import (Kinematics, beyond, candidate_effects, distances_mm, effect_columns,
                                       needed_given, on_ends, pattern_cosine, score, weakest)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
@@ -335,6 +336,9 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             both = in_both_regions(st.camp, st.feats, c.t0, c.station)
             not_shown = step_not_shown(b_, a_, both[lin.point_rows] if lin.point_rows.any() else both, thr)
             sc.significant, sc.evidence = not_shown is None, not_shown or ""
+            verdict, seen = repeats_verdict(st.camp, st.feats, c, lin, _fitted(lin, ev, cols), pb.alpha)
+            sc.significant = sc.significant and verdict != "contradicted"
+            sc.evidence = "; ".join(x for x in (sc.evidence, seen) if x)
         if sc.significant and pb.ends:   # where the model will be used beyond what was measured
             ends = ends or on_ends(base, st.camp, pb.ends)
             sc.significant, sc.evidence = _beyond_span(pb, ends, cols)
@@ -345,6 +349,15 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             best = (sc, ev, cols)
         judged.append((sc, ev, cols))
     return judged, best, base
+
+
+def _fitted(lin: Linearised, ev: dict, cols: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """(whitened, metric [m]) residuals (N,3) of every row with a candidate's columns
+    ``cols`` fitted beside the current model's (``ev``: its :func:`score`)."""
+    P = lin.J.shape[-1]
+    est = ev["estimate"]
+    metric = lin.r - lin.A @ est[:P] - cols[0] @ est[P:]
+    return lin.w - ev["pattern"].reshape(lin.w.shape), metric
 
 
 def _beyond_span(pb: _Problem, ends: tuple, cols: tuple) -> tuple[bool, str]:

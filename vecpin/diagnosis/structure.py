@@ -32,6 +32,7 @@ from vecpin.measurement.features import Features
 WINDOW = 12      # rows of one station on each side of a row that define the regime there
 NEAR_ROWS = 2    # a step within this many rows of a change coincides with it (beyond the scan's own spacing)
 LABEL_VALUES = 50  # a label column: whole numbers with at most this many values
+MIN_REPEAT_EQUATIONS = 6  # the reading noise from poses read twice needs at least this many equations
 
 
 @dataclass
@@ -132,26 +133,84 @@ def step_not_shown(before: np.ndarray, after: np.ndarray, rows: np.ndarray, thre
             "again before and after to tell them apart")
 
 
+def straddling(campaign: Campaign, feats: Features, t0: float, station: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per pose read on both sides of a step at ``t0`` on ``station`` (:func:`pose_keys`:
+    same command within the readings' resolution, tool, point, target, station), the
+    masks of its readings (after, before)."""
+    key = pose_keys(campaign)
+    on = feats.station == station
+    after = on & (feats.time >= t0)
+    before = on & ~after
+    return [(after & (key == p), before & (key == p)) for p in np.intersect1d(key[before], key[after])]
+
+
+def _moved(poses: list, w: np.ndarray, valid: np.ndarray, level: float) -> tuple[float, int]:
+    """(chi2, equations) of the differences of the mean whitened residuals ``w`` of each
+    pose after and before (the model's prediction cancels), at the noise ``level``."""
+    stat, dof = 0.0, 0
+    for a, b in poses:
+        ok = valid[a].all(axis=0) & valid[b].all(axis=0)
+        d = np.where(ok, w[a].mean(axis=0) - w[b].mean(axis=0), 0.0)
+        stat += float(d @ d) / (level * (1 / a.sum() + 1 / b.sum()))
+        dof += int(ok.sum())
+    return stat, dof
+
+
 def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int, w: np.ndarray,
                    valid: np.ndarray, alpha: float) -> tuple[int, float]:
     """(poses read on both sides of a step at ``t0`` on ``station``, p-value that their
     readings did not move): the differences of the mean whitened residuals ``w`` of each
     such pose after and before, whose prediction cancels, against the noise of the rows
     (their robust level), chi2 over the poses' equations. p = 1 when there are none."""
-    key = pose_keys(campaign)
-    on = feats.station == station
-    after = on & (feats.time >= t0)
-    before = on & ~after
-    stat, dof, n = 0.0, 0, 0
-    level = _level(w, valid)
-    for p in np.intersect1d(key[before], key[after]):
-        a, b = after & (key == p), before & (key == p)
-        ok = valid[a].all(axis=0) & valid[b].all(axis=0)
-        d = np.where(ok, w[a].mean(axis=0) - w[b].mean(axis=0), 0.0)
-        stat += float(d @ d) / (level * (1 / a.sum() + 1 / b.sum()))
-        dof += int(ok.sum())
-        n += 1
-    return n, (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
+    poses = straddling(campaign, feats, t0, station)
+    stat, dof = _moved(poses, w, valid, _level(w, valid))
+    return len(poses), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
+
+
+def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: float, feats: Features) -> float:
+    """The whitened residuals' variance per equation between readings of one pose on one
+    side of ``t0`` (the reading noise: the machine's repeatability and the instrument's
+    noise, nothing of the model or of a step), from every pose read more than once there;
+    the rows' robust level (:func:`_level`, larger: it holds the model's misfit too)
+    when they give fewer than :data:`MIN_REPEAT_EQUATIONS` equations."""
+    key = pose_keys(campaign) * 2 + (feats.time >= t0)
+    ss, dof = 0.0, 0
+    for g in np.flatnonzero(np.bincount(key) > 1):
+        rows = key == g
+        ok = valid[rows].all(axis=0)
+        ss += float(np.sum((w[rows] - w[rows].mean(axis=0))[:, ok] ** 2))
+        dof += (int(rows.sum()) - 1) * int(ok.sum())
+    return ss / dof if dof >= MIN_REPEAT_EQUATIONS else _level(w, valid)
+
+
+def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tuple[np.ndarray, np.ndarray],
+                    alpha: float) -> tuple[str, str]:
+    """What the poses read on both sides of a step (``step.t0``, ``step.station``) say of
+    it: ("none", "") without such poses; ("contradicted", why) when their readings differ
+    otherwise than the step predicts, beyond the reading noise (:func:`reading_level`) at
+    ``alpha`` and more than if nothing had moved; ("confirmed", text) when they moved
+    beyond the noise and as it predicts; ("silent", text) otherwise. ``lin``: the model
+    without the step, linearised; ``fitted``: its (whitened, metric [m]) residuals (N,3)
+    with the step fitted. The model's prediction cancels in each pose's difference, so
+    this is the one evidence on a step that no model of the machine colours."""
+    poses = straddling(campaign, feats, step.t0, step.station)
+    if not poses:
+        return "none", ""
+    level = reading_level(campaign, lin.w, lin.valid, step.t0, feats)
+    still, dof = _moved(poses, lin.w, lin.valid, level)
+    left, _ = _moved(poses, fitted[0], lin.valid, level)
+    p_still, p_left = (float(stats.chi2.sf(x, dof)) if dof else 1.0 for x in (still, left))
+    moved = np.array([lin.r[a].mean(axis=0) - lin.r[b].mean(axis=0) for a, b in poses])
+    predicted = moved - np.array([fitted[1][a].mean(axis=0) - fitted[1][b].mean(axis=0) for a, b in poses])
+    seen = (f"the {len(poses)} poses read on both sides of it moved by {np.linalg.norm(moved, axis=1).mean() * 1e3:.4f} "
+            f"mm on average, the step predicts {np.linalg.norm(predicted, axis=1).mean() * 1e3:.4f} mm")
+    if p_left < alpha and left > still:
+        return "contradicted", (f"held back: {seen} (p = {p_left:.2g} that they agree with it, at the noise between "
+                                "readings of one pose): the readings of the same poses, in which no model of the "
+                                "machine enters, contradict a tracker move")
+    if p_still < alpha:
+        return "confirmed", f"confirmed by the poses read twice: {seen} (p = {p_still:.2g} that they did not move)"
+    return "silent", f"the poses read twice cannot tell: {seen} (p = {p_still:.2g} that they did not move)"
 
 
 def _level(w: np.ndarray, valid: np.ndarray) -> float:

@@ -11,7 +11,7 @@ A residual (measured minus modelled point, tracker frame) at a pose has two part
 The **total** per-axis standard deviation comes from the fit: the residuals' mean square
 over the fit's degrees of freedom (its expected chi2, the equations less the effective
 unknowns). The **reading** part comes from the poses read more than once (joint readings
-within :data:`REPEAT_RAD`): the differences of their residuals within a pose contain no
+within :data:`~vecpin.measurement.repeatability.READING_TOL`): the differences of their residuals within a pose contain no
 pose part. It is split into the tracker's own per-axis standard deviations, when the
 campaign carries them (``std_x``, ``std_y``, ``std_z`` columns, mm: the tracker's report of
 each reading) and the machine's **repeatability**, estimated by restricted maximum
@@ -31,9 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.repeatability import reading_groups
 from vecpin.units import MM_PER_M
 
-REPEAT_RAD = 3.5e-4   # rad (0.02°): joint readings of one pose read twice agree to 0.01° in the UR10 data
 STD_COLUMNS = ("std_x", "std_y", "std_z")
 
 
@@ -81,20 +81,12 @@ class VarianceComponents:
                 "repeatability_sd": self.repeatability_sd, "pose": self.pose, "repeated_poses": self.repeated_poses}
 
 
-def repeated_poses(q: np.ndarray, tol: float = REPEAT_RAD) -> list[np.ndarray]:
-    """Groups (row indices, two or more) of poses whose joint readings (N, n) [rad] agree
-    within ``tol`` on every axis (chained: a row joins the group of any row that close)."""
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-    pairs = cKDTree(np.asarray(q, float)).query_pairs(tol, p=np.inf, output_type="ndarray")
-    if not len(pairs):
-        return []
-    from scipy.sparse import coo_matrix
-    n = len(q)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    groups = [np.flatnonzero(label == g) for g in np.unique(label[np.unique(pairs)])]
-    return [g for g in groups if len(g) > 1]
+def repeated_poses(q: np.ndarray) -> list[np.ndarray]:
+    """Groups (row indices, two or more) of one pose read more than once: joint readings
+    (N, n) [rad] within :data:`READING_TOL` on every axis (:func:`reading_groups`)."""
+    label = reading_groups(q)
+    counts = np.bincount(label)
+    return [np.flatnonzero(label == g) for g in np.flatnonzero(counts > 1)]
 
 
 def _helmert(n: int) -> np.ndarray:

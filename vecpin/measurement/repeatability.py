@@ -30,12 +30,33 @@ from vecpin.measurement.tracker import TrackerNoise
 SESSION_GAP_S = 1800.0  # s: repeats further apart than this belong to different sessions
 
 
+READING_TOL = 3.5e-4   # [rad, m] on every axis: 0.02°, twice what a UR10's joint readings of one pose read twice differ by
+
+
+def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, tol: float = READING_TOL) -> np.ndarray:
+    """(N,) one label per pose read: rows whose axis values ``q`` (N, n) [m, rad] agree
+    within ``tol`` on every axis (chained: a row joins the group of any row that close)
+    and whose ``tool`` lengths [m] agree to 1 nm share a label. A file of commands repeats
+    them exactly; a file of axis readings (a robot's joint readings) repeats them to the
+    encoders' resolution and the servo's settling, which ``tol`` admits."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    q = np.asarray(q, float)
+    n = len(q)
+    pairs = cKDTree(q).query_pairs(tol, p=np.inf, output_type="ndarray") if n else np.zeros((0, 2), int)
+    if tool is not None and len(pairs):
+        t = np.asarray(tool, float)
+        pairs = pairs[np.abs(t[pairs[:, 0]] - t[pairs[:, 1]]) <= 1e-9]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return np.asarray(connected_components(graph, directed=False)[1]).ravel()
+
+
 def repeat_groups(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
-    """(group id per row, rows per group): rows with the same command and tool share a
-    group (commands compared to 1 nm / 1 nrad)."""
-    keys = np.round(np.c_[campaign.q, campaign.tool], 9)
-    _, group, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    return np.asarray(group).ravel(), counts
+    """(group id per row, rows per group): rows of one pose read again with the same tool
+    share a group (:func:`reading_groups`)."""
+    group = reading_groups(campaign.q, campaign.tool)
+    return group, np.bincount(group)
 
 
 def eq22(p: np.ndarray) -> np.ndarray:
