@@ -96,10 +96,12 @@ def page(source: str, n: int, hours: float, temp: tuple[float, float], diag: dic
            f"**Accepted**: {', '.join(accepted) or 'nothing'}. Base model held-out mean "
            f"{diag['base']['heldout_mean_mm']:.4f} mm; best model {diag['best']['heldout_mean_mm']:.4f} mm.", "",
            "## The time effects as the diagnosis judged them", "",
-           "| effect | accepted | held-out mean before / after, mm | evidence |", "|---|---|---|---|"]
+           "Size: how much the effect, fitted beside the base model, moves its prediction of the measured points "
+           "(RMS over the rows).", "",
+           "| effect | accepted | held-out mean before / after, mm | size, mm | evidence |", "|---|---|---|---|---|"]
     for e in timely:
         out.append(f"| {e['label']} | {'yes' if e['accepted'] else 'no'} | {e['heldout_mean_mm_before']:.4f} / "
-                   f"{e['heldout_mean_mm_after']:.4f} | {e['evidence'] or '(not significant)'} |")
+                   f"{e['heldout_mean_mm_after']:.4f} | {e['size_rms_mm']:.4f} | {e['evidence'] or '(not significant)'} |")
     out += ["", "## What the series' own repeated poses show", "",
             f"Two readings of one pose (joint readings within {tol_deg:g}° on every joint; the grid reaches some of "
             "its targets again, with joint readings up to 0.2° apart, the robot at the same point within the "

@@ -48,8 +48,8 @@ from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.result import Diagnosis, EffectScore
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
-from vecpin.diagnosis.scoring import (Kinematics, beyond, candidate_effects, distances_mm, effect_columns,
-                                      needed_given, on_ends, pattern_cosine, score, weakest)
+from vecpin.diagnosis.scoring import (Kinematics, beyond_span, candidate_effects, distances_mm, effect_columns, fitted,
+                                      needed_given, on_ends, pattern_cosine, score, size_mm, weakest)
 from vecpin.errors import ConvergenceError, InputError, VecpinError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
@@ -328,7 +328,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         b_, a_ = ev["before"], ev["after"]
         sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                          float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
-                         bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c)
+                         bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c, size_mm=size_mm(lin, ev, cols))
         sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr and not why
                           and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
         sc.evidence = why or ""
@@ -336,12 +336,12 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             both = in_both_regions(st.camp, st.feats, c.t0, c.station)
             not_shown = step_not_shown(b_, a_, both[lin.point_rows] if lin.point_rows.any() else both, thr)
             sc.significant, sc.evidence = not_shown is None, not_shown or ""
-            verdict, seen = repeats_verdict(st.camp, st.feats, c, lin, _fitted(lin, ev, cols), pb.alpha)
+            verdict, seen = repeats_verdict(st.camp, st.feats, c, lin, fitted(lin, ev, cols), pb.alpha)
             sc.significant = sc.significant and verdict != "contradicted"
             sc.evidence = "; ".join(x for x in (sc.evidence, seen) if x)
         if sc.significant and pb.ends:   # where the model will be used beyond what was measured
             ends = ends or on_ends(base, st.camp, pb.ends)
-            sc.significant, sc.evidence = _beyond_span(pb, ends, cols)
+            sc.significant, sc.evidence = beyond_span(", ".join(pb.machine.axes[a].name for a in pb.ends), ends, cols)
             sc.worse_beyond = not sc.significant
         # the most economical explanation wins; on a tie (columns the data cannot tell
         # apart) the first candidate, the one nearer the base of the chain
@@ -349,29 +349,6 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             best = (sc, ev, cols)
         judged.append((sc, ev, cols))
     return judged, best, base
-
-
-def _fitted(lin: Linearised, ev: dict, cols: tuple) -> tuple[np.ndarray, np.ndarray]:
-    """(whitened, metric [m]) residuals (N,3) of every row with a candidate's columns
-    ``cols`` fitted beside the current model's (``ev``: its :func:`score`)."""
-    P = lin.J.shape[-1]
-    est = ev["estimate"]
-    metric = lin.r - lin.A @ est[:P] - cols[0] @ est[P:]
-    return lin.w - ev["pattern"].reshape(lin.w.shape), metric
-
-
-def _beyond_span(pb: _Problem, ends: tuple, cols: tuple) -> tuple[bool, str]:
-    """(whether a significant candidate stays so, why not): it must not predict the ends
-    of the axes measured over part of their travel worse from the rest of their span
-    (:func:`beyond`) than the model without it: an effect fitted inside the measured
-    span that bends away beyond it would make the model worse where it is used."""
-    before, after = beyond(ends, cols)
-    if after <= before:
-        return True, ""
-    names = ", ".join(pb.machine.axes[a].name for a in pb.ends)
-    return False, (f"predicts the ends of {names} (measured over part of their travel) from the rest of their span "
-                   f"worse than the model without it: held-out mean {before:.4f} -> {after:.4f} mm; not accepted, "
-                   "the model is used beyond what was measured")
 
 
 def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:

@@ -112,12 +112,14 @@ def write_report(diag, out) -> Path:
               "An effect is *significant* when the F-test within the fit and the paired test on held-out rows both "
               "pass their Bonferroni threshold and it shrinks the held-out mean enough; the most economical "
               "significant effect of each round is *accepted* into the model.", "",
-              "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | p (fit) | "
-              "p (held-out) |", "|---|---|---|---|---|---|---|---|---|"]
+              "*Size*: the effect as fitted, RMS over the rows of the displacement of the measured point its "
+              "terms give (a drift not accepted is no larger than about this).", "",
+              "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | size (mm) "
+              "| p (fit) | p (held-out) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for k, e in enumerate(diag.effects, 1):
         lines.append(f"| {k} | {e.label} | {'yes' if e.significant else 'no'} | {'yes' if e.accepted else 'no'} | "
                      f"{e.heldout_mean_mm_before:.4f} | {e.heldout_mean_mm_after:.4f} | {e.shrink_pct:.1f}% | "
-                     f"{e.p_value:.1e} | {e.p_heldout:.1e} |")
+                     f"{e.size_text} | {e.p_value:.1e} | {e.p_heldout:.1e} |")
     for e in diag.accepted:
         lines += ["", f"**{e.headword}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
     lines += _next_section(diag)

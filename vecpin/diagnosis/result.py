@@ -4,6 +4,7 @@ sentences that say it."""
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,6 +50,8 @@ class EffectScore:
     dropped: bool = False  # accepted, then dropped by the backward elimination
     # significant, but predicts the ends of the axes measured over part of their travel worse
     worse_beyond: bool = False
+    # its size as fitted: RMS over the rows of the displacement of the measured point its terms give [mm]
+    size_mm: float = float("nan")
     # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
     next_plan: object | None = field(default=None, repr=False)
 
@@ -68,6 +71,11 @@ class EffectScore:
         return f"{self.label} ({self.n_parameters} term{'' if self.n_parameters == 1 else 's'})"
 
     @property
+    def size_text(self) -> str:
+        """:attr:`size_mm` to 0.1 µm, '-' where it has none (outliers, range-only rows)."""
+        return f"{self.size_mm:.4f}" if math.isfinite(self.size_mm) else "-"
+
+    @property
     def shrink_pct(self) -> float:
         return 100.0 * (1 - self.heldout_mean_mm_after / self.heldout_mean_mm_before)
 
@@ -80,7 +88,7 @@ class EffectScore:
                 "n_parameters": self.n_parameters, "delta_chi2": self.delta_chi2, "f_statistic": self.f_statistic,
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
-                "worse_beyond_the_measured_span": self.worse_beyond,
+                "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
@@ -188,11 +196,12 @@ class Diagnosis:
             lines.append(f"outliers: file lines {', '.join(map(str, self.outlier_lines))} of {self.campaign.source} "
                          "flagged and left out")
         lines.append(f"  {'rank':>4s} {'effect':<34s} {'signif.':>7s} {'accepted':>8s} {'before':>8s} {'after':>8s} "
-                     f"{'shrink':>7s} {'p (fit)':>9s} {'p (held)':>9s}")
+                     f"{'shrink':>7s} {'size mm':>8s} {'p (fit)':>9s} {'p (held)':>9s}")
         for k, e in enumerate(self.effects[:12], 1):
             lines.append(f"  {k:4d} {e.label:<34s} {'yes' if e.significant else 'no':>7s} "
                          f"{'yes' if e.accepted else 'no':>8s} {e.heldout_mean_mm_before:8.4f} "
-                         f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.p_value:9.2e} {e.p_heldout:9.2e}")
+                         f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.size_text:>8s} {e.p_value:9.2e} "
+                         f"{e.p_heldout:9.2e}")
         for e in self.accepted:
             lines.append(f"accepted: {e.headword}: {e.evidence}")
             lines += [f"  advice: {a}" for a in e.advice]

@@ -168,6 +168,35 @@ def beyond(ends: tuple[list[FoldedProblem], float], cand_cols: tuple) -> tuple[f
     return before, float(after.mean()) * MM_PER_M
 
 
+def beyond_span(names: str, ends: tuple[list[FoldedProblem], float], cand_cols: tuple) -> tuple[bool, str]:
+    """(whether a significant candidate stays so, why not): it must not predict the ends
+    of the axes measured over part of their travel (``names``) worse from the rest of
+    their span (:func:`beyond`) than the model without it: an effect fitted inside the
+    measured span that bends away beyond it would make the model worse where it is used."""
+    before, after = beyond(ends, cand_cols)
+    if after <= before:
+        return True, ""
+    return False, (f"predicts the ends of {names} (measured over part of their travel) from the rest of their span "
+                   f"worse than the model without it: held-out mean {before:.4f} -> {after:.4f} mm; not accepted, "
+                   "the model is used beyond what was measured")
+
+
+def fitted(lin: Linearised, ev: dict, cand_cols: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """(whitened, metric [m]) residuals (N,3) of every row with a candidate's columns
+    fitted beside the current model's (``ev``: its :func:`score`)."""
+    P = lin.J.shape[-1]
+    est = ev["estimate"]
+    return lin.w - ev["pattern"].reshape(lin.w.shape), lin.r - lin.A @ est[:P] - cand_cols[0] @ est[P:]
+
+
+def size_mm(lin: Linearised, ev: dict, cand_cols: tuple) -> float:
+    """RMS over the point rows of how much [mm] a candidate, fitted beside the current
+    model (``ev``: its :func:`score`), moves the model's prediction of the measured point:
+    its terms and what the model's own terms give back to them."""
+    move = (lin.r - fitted(lin, ev, cand_cols)[1])[lin.point_rows]
+    return float(np.sqrt(np.mean(np.sum(move ** 2, axis=1)))) * MM_PER_M if move.size else float("nan")
+
+
 def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:
     """|cos| of the angle between two candidates' predicted changes to the fit: near 1,
     the campaign cannot tell one from the other."""
