@@ -40,26 +40,35 @@ def first_stretch(time_s: np.ndarray, pause_h: float) -> np.ndarray:
     return np.arange(len(time_s)) < end
 
 
-def read_twice(campaign, tol_deg: float) -> list[dict]:
+def read_twice(machine, campaign, tol_deg: float) -> list[dict]:
     """Every two consecutive readings (in time) of one pose (joint readings within
-    ``tol_deg`` on every joint): time apart [h], distance between the readings [mm],
-    temperature change [°C], the first reading's time [h]."""
+    ``tol_deg`` on every joint): the first reading's time and the time apart [h], the
+    temperature change [°C], the largest joint difference [deg], and the distance [mm]
+    between the two readings less the move the nominal kinematics give their joint
+    readings (rotated into the tracker frame by the registration of every pose): what
+    moved between them beyond what the robot was told."""
+    from vecpin.measurement.registration import register
     from vecpin.measurement.repeatability import reading_groups
-    label = reading_groups(campaign.q, campaign.tool, tol=np.radians(tol_deg))
-    t, xyz = campaign.time, campaign.xyz * 1e3
+    label = reading_groups(campaign.q, campaign.tool, machine.rotary_mask(), rad=np.radians(tol_deg))
+    nominal = machine.tool_tip(campaign.q, campaign.tool)
+    R, _ = register(nominal, campaign.xyz)
+    t, xyz = campaign.time, campaign.xyz
     temp = campaign.extra.get("temperature", np.full(len(t), np.nan))
     out = []
     for g in np.flatnonzero(np.bincount(label) > 1):
         rows = np.flatnonzero(label == g)
         rows = rows[np.argsort(t[rows], kind="stable")]
         for a, b in zip(rows[:-1], rows[1:]):
-            out.append({"at_h": t[a] / 3600, "apart_h": (t[b] - t[a]) / 3600,
-                        "mm": float(np.linalg.norm(xyz[b] - xyz[a])), "dT": float(temp[b] - temp[a])})
+            beyond = (xyz[b] - xyz[a]) - R @ (nominal[b] - nominal[a])
+            out.append({"at_h": t[a] / 3600, "apart_h": (t[b] - t[a]) / 3600, "mm": float(np.linalg.norm(beyond)) * 1e3,
+                        "dT": float(temp[b] - temp[a]), "deg": float(np.degrees(np.abs(campaign.q[b] - campaign.q[a]).max()))})
     return out
 
 
 def repeats_table(pairs: list[dict], end_h: float) -> list[str]:
-    rows = ["| readings | time apart | pairs | distance mean / max, mm | temperature change, °C |", "|---|---|---|---|---|"]
+    """Rows of the pairs of :func:`read_twice` by where and how far apart they were read."""
+    rows = ["| readings | time apart | pairs | joints apart, deg | distance beyond the nominal move, mean / RMS / "
+            "max, mm | temperature change, °C |", "|---|---|---|---|---|---|"]
     for where, keep in (("within the stretch", lambda p: p["at_h"] + p["apart_h"] <= end_h),
                         ("the whole series", lambda p: True)):
         for lo, hi in zip(BINS_H[:-1], BINS_H[1:]):
@@ -71,12 +80,13 @@ def repeats_table(pairs: list[dict], end_h: float) -> list[str]:
             dT = np.array([abs(p["dT"]) for p in sel])
             span = (f"{apart.min() * 3600:.0f}-{apart.max() * 3600:.0f} s" if hi <= 1 else
                     f"{apart.min():.1f}-{apart.max():.1f} h")
-            rows.append(f"| {where} | {span} | {len(sel)} | {d.mean():.3f} / {d.max():.3f} | "
-                        f"{dT.max():.3f} at most |")
+            rows.append(f"| {where} | {span} | {len(sel)} | {max(p['deg'] for p in sel):.3f} at most | "
+                        f"{d.mean():.3f} / {np.sqrt(np.mean(d ** 2)):.3f} / {d.max():.3f} | {dT.max():.3f} at most |")
     return rows
 
 
 def diagnose(csv: Path, folder: Path) -> tuple[dict, float]:
+    """``vecpin diagnose ur10 csv`` in a fresh process: (diagnosis.json, whole-process seconds)."""
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, "-m", "vecpin", "diagnose", "ur10", str(csv), "--out", str(folder), "--quiet"],
                        capture_output=True, text=True)
@@ -85,33 +95,43 @@ def diagnose(csv: Path, folder: Path) -> tuple[dict, float]:
     return json.loads((folder / "diagnosis.json").read_text()), time.perf_counter() - t0
 
 
-def page(source: str, n: int, hours: float, temp: tuple[float, float], diag: dict, seconds: float,
-         pairs: list[dict], tol_deg: float) -> str:
+def _mm(x) -> str:
+    return "-" if x is None else f"{x:.4f}"
+
+
+def page(source: str, stretch, diag: dict, seconds: float, pairs: list[dict], tol_deg: float) -> str:
+    """The results page: the stretch, what the diagnosis accepted, its time effects, the repeats."""
     accepted = [e["label"] for e in diag["effects"] if e["accepted"]]
     timely = [e for e in diag["effects"] if e["name"] in ("instrument_shift", "thermal")]
+    temp, hours = stretch.extra["temperature"], float(stretch.time[-1] / 3600)
+    gross = (f" (file lines {', '.join(map(str, diag['outlier_lines']))} of the stretch; the stretch's first row is "
+             f"file line 2, joints {np.round(np.degrees(stretch.q[0]), 1).tolist()} deg)") if diag["outlier_lines"] else ""
     out = ["# Real data: drift of the UR10's grid series (ipa-robot-accuracy, series A)", "",
            f"Written by `python benchmarks/bench_real_drift.py` on {source} (module docstring: the data, the check). "
-           f"The first stretch of measurement: {n} poses over {hours:.1f} h, air temperature {temp[0]:.3f} .. "
-           f"{temp[1]:.3f} °C. `vecpin diagnose ur10` on it with no options took {seconds:.1f} s (whole process).", "",
-           f"**Accepted**: {', '.join(accepted) or 'nothing'}. Base model held-out mean "
+           f"The first stretch of measurement: {len(stretch)} poses over {hours:.1f} h, air temperature "
+           f"{temp[0]:.3f} °C at the start, {temp[-1]:.3f} °C at the end ({temp.min():.3f} .. {temp.max():.3f}). "
+           f"`vecpin diagnose ur10` on it with no options took {seconds:.1f} s (whole process).", "",
+           f"**Accepted**: {', '.join(accepted) or 'nothing'}{gross}. Base model held-out mean "
            f"{diag['base']['heldout_mean_mm']:.4f} mm; best model {diag['best']['heldout_mean_mm']:.4f} mm.", "",
+           "The diagnosis' headline:", ""] + [f"> {line}  " for line in diag["headline"]] + ["",
            "## The time effects as the diagnosis judged them", "",
            "Size: how much the effect, fitted beside the base model, moves its prediction of the measured points "
            "(RMS over the rows).", "",
            "| effect | accepted | held-out mean before / after, mm | size, mm | evidence |", "|---|---|---|---|---|"]
     for e in timely:
         out.append(f"| {e['label']} | {'yes' if e['accepted'] else 'no'} | {e['heldout_mean_mm_before']:.4f} / "
-                   f"{e['heldout_mean_mm_after']:.4f} | {e['size_rms_mm']:.4f} | {e['evidence'] or '(not significant)'} |")
+                   f"{e['heldout_mean_mm_after']:.4f} | {_mm(e['size_rms_mm'])} | {e['evidence'] or '(not significant)'} |")
     out += ["", "## What the series' own repeated poses show", "",
-            f"Two readings of one pose (joint readings within {tol_deg:g}° on every joint; the grid reaches some of "
-            "its targets again, with joint readings up to 0.2° apart, the robot at the same point within the "
-            "readings' scatter): their distance holds no model of the robot. The diagnosis counts a pose as read "
-            "twice within 0.02° (the readings' resolution in series B).", ""]
+            f"Two readings of one pose: joint readings within {tol_deg:g}° on every joint (the grid reaches some of "
+            "its targets again with joint readings up to 0.2° apart; the diagnosis counts a pose as read twice "
+            "within 0.02°). The distance between the two readings less the move the nominal kinematics give "
+            "their joint readings holds no fitted model: the reading noise and whatever moved in between.", ""]
     out += repeats_table(pairs, hours)
     return "\n".join(out) + "\n"
 
 
 def main() -> None:
+    """Read series A, diagnose its first stretch, tabulate its repeats, write the page."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", required=True, help="series A's Series_A/measurements_grid.csv (fetched)")
     ap.add_argument("--pause", type=float, default=1.0, help="a pause longer than this (h) ends the stretch (default 1)")
@@ -124,13 +144,13 @@ def main() -> None:
     m = vecpin.Machine.load("ur10")
     whole = read_dataset(Path(args.data), m).campaign
     stretch = whole.subset(first_stretch(whole.time, args.pause))
-    temp = stretch.extra["temperature"]
     with tempfile.TemporaryDirectory() as d:
         csv = Path(d) / "stretch.csv"
         vecpin.write_campaign(csv, stretch, m)
         diag, seconds = diagnose(csv, Path(d) / "diagnosis")
-    text = page(f"series A ({Path(args.data).name}, fetched)", len(stretch), float(stretch.time[-1] / 3600),
-                (float(temp.max()), float(temp.min())), diag, seconds, read_twice(whole, args.tol_deg), args.tol_deg)
+        diag["headline"] = [line.replace(str(csv), "stretch.csv") for line in diag["headline"]]
+    text = page(f"series A ({Path(args.data).name}, fetched)", stretch, diag, seconds,
+                read_twice(m, whole, args.tol_deg), args.tol_deg)
     Path(args.out).write_text(text)
     print(text)
     print(f"written {args.out}")

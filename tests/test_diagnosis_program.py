@@ -115,15 +115,15 @@ def test_the_rows_a_step_moves_inside_the_region_measured_before_it():
 
 def _read_twice(moved_mm: float, predicted_mm: float, straddle: bool = True):
     """Hand-written readings: six poses read once before t0 = 100 s and once after it (the
-    joint readings 0.005° apart, as a robot reads one pose twice), four poses read twice
-    before it; tracker noise 0.02 mm per axis. The readings after t0 move by ``moved_mm``
-    along x; the step's fit predicts ``predicted_mm`` there. (campaign, feats, step, lin,
-    fitted residuals)."""
+    joint readings 0.005° apart, as a robot reads one pose twice), twelve poses read twice
+    before it (36 equations of reading noise); tracker noise 0.02 mm per axis. The readings
+    after t0 move by ``moved_mm`` along x; the step's fit predicts ``predicted_mm`` there.
+    (campaign, feats, step, lin, fitted residuals)."""
     from types import SimpleNamespace
     rng = np.random.default_rng(7)
-    poses = np.radians(rng.uniform(-90, 90, (10, 6)))
+    poses = np.radians(rng.uniform(-90, 90, (18, 6)))
     q = np.vstack([poses[:6], poses[6:], poses[6:], poses[:6] + np.radians(0.005)])
-    time = np.r_[np.arange(6.0), 10 + np.arange(4.0), 20 + np.arange(4.0), 200 + np.arange(6.0)]
+    time = np.r_[np.arange(6.0), 10 + np.arange(12.0), 30 + np.arange(12.0), 200 + np.arange(6.0)]
     if not straddle:
         q[-6:] += np.radians(5.0)   # other poses after t0: nothing read on both sides
     n = len(q)
@@ -132,7 +132,7 @@ def _read_twice(moved_mm: float, predicted_mm: float, straddle: bool = True):
     r = rng.normal(0, sigma, (n, 3)) + np.outer(after, [moved_mm * 1e-3, 0, 0])
     fit_r = r - np.outer(after, [predicted_mm * 1e-3, 0, 0])
     camp = SimpleNamespace(q=q, tool=np.zeros(n), point=np.zeros(n, int), target=np.full(n, ""),
-                           station=np.zeros(n, int), instrument=np.full(n, "tracker"))
+                           station=np.zeros(n, int), instrument=np.full(n, "tracker"), rotary=np.ones(6, bool))
     feats = SimpleNamespace(time=time, station=np.zeros(n, int))
     lin = SimpleNamespace(w=r / sigma, r=r, valid=np.ones((n, 3), bool))
     return camp, feats, SimpleNamespace(t0=100.0, station=0), lin, (fit_r / sigma, fit_r)
@@ -145,7 +145,9 @@ def test_poses_read_on_both_sides_of_a_step_confirm_or_contradict_it():
     from vecpin.diagnosis.structure import repeats_verdict
     verdict, text = repeats_verdict(*_read_twice(0.2, 0.2), alpha=0.01)   # the tracker moved 0.2 mm: seen
     assert verdict == "confirmed" and "the 6 poses read on both sides" in text, text
-    assert "moved by 0.2" in text and "predicts 0.2000 mm" in text
+    assert "predicts 0.2000 mm" in text
+    moved = float(text.split("moved by ")[1].split(" mm")[0])
+    assert abs(moved - 0.2) < 0.03, moved    # 0.2 mm and the noise of two readings (0.02 mm per axis each)
     verdict, text = repeats_verdict(*_read_twice(0.0, 0.2), alpha=0.01)   # nothing moved, the step says 0.2 mm
     assert verdict == "contradicted" and text.startswith("held back") and "predicts 0.2000 mm" in text, text
     verdict, text = repeats_verdict(*_read_twice(0.0, 0.005), alpha=0.01)  # too small to tell from the noise
@@ -154,7 +156,16 @@ def test_poses_read_on_both_sides_of_a_step_confirm_or_contradict_it():
 
 
 def test_one_pose_read_twice_is_one_pose_within_the_readings_resolution():
+    """A robot's joint readings of one pose (0.02° on a rotary axis, 1 µm on a linear one);
+    a file of commands (rotary None) compares them exactly: a machine tool's pitch scan in
+    steps of 0.25 mm is as many poses as steps."""
     from vecpin.measurement.repeatability import reading_groups
     q = np.radians([[10.0, 20.0], [10.005, 19.995], [10.05, 20.0], [10.0, 20.0]])
-    assert list(reading_groups(q)) == [0, 0, 1, 0]
-    assert list(reading_groups(q, tool=np.array([0.1, 0.1, 0.1, 0.2]))) == [0, 0, 1, 2]
+    arm = np.array([True, True])
+    assert list(reading_groups(q, rotary=arm)) == [0, 0, 1, 0]
+    assert list(reading_groups(q, tool=np.array([0.1, 0.1, 0.1, 0.2]), rotary=arm)) == [0, 0, 1, 2]
+    assert list(reading_groups(q)) == [0, 1, 2, 0]
+    scan = np.c_[np.arange(0, 0.005, 0.00025), np.zeros(20)]          # X in m, C in rad
+    assert len(set(reading_groups(scan, rotary=np.array([False, True])))) == 20
+    scan[1, 0] = scan[0, 0] + 5e-7                                        # one position read again, 0.5 µm apart
+    assert len(set(reading_groups(scan, rotary=np.array([False, True])))) == 19

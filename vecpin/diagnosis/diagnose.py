@@ -329,9 +329,11 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         sc = EffectScore(c.name, c.label, list(c.axes), c.n_parameters, ev["d_chi2"], ev["F"], ev["p"], thr,
                          float(b_.mean()), float(a_.mean()), float(b_.max()), float(a_.max()), False, rnd,
                          bic_gain=ev["bic_gain"], p_heldout=ev["p_heldout"], effect=c, size_mm=size_mm(lin, ev, cols))
-        sc.significant = (ev["p"] < thr and ev["p_heldout"] < thr and not why
-                          and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100))
-        sc.evidence = why or ""
+        passes = ev["p"] < thr and ev["p_heldout"] < thr and not why
+        sc.significant = passes and a_.mean() < b_.mean() * (1 - pb.min_shrink_pct / 100)
+        sc.small = passes and not sc.significant
+        sc.evidence = why or (f"both tests pass but it takes {sc.shrink_pct:.1f}% off the held-out mean, under the "
+                              f"{pb.min_shrink_pct:g}% an effect must earn to be named" if sc.small else "")
         if sc.significant and getattr(c, "t0", None) is not None:   # a step: shown where both sides measured?
             both = in_both_regions(st.camp, st.feats, c.t0, c.station)
             not_shown = step_not_shown(b_, a_, both[lin.point_rows] if lin.point_rows.any() else both, thr)
@@ -341,7 +343,8 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
             sc.evidence = "; ".join(x for x in (sc.evidence, seen) if x)
         if sc.significant and pb.ends:   # where the model will be used beyond what was measured
             ends = ends or on_ends(base, st.camp, pb.ends)
-            sc.significant, sc.evidence = beyond_span(", ".join(pb.machine.axes[a].name for a in pb.ends), ends, cols)
+            sc.significant, why = beyond_span(", ".join(pb.machine.axes[a].name for a in pb.ends), ends, cols)
+            sc.evidence = "; ".join(x for x in (why, sc.evidence) if x)
             sc.worse_beyond = not sc.significant
         # the most economical explanation wins; on a tie (columns the data cannot tell
         # apart) the first candidate, the one nearer the base of the chain
@@ -401,7 +404,8 @@ def _forward(pb: _Problem, st: _State) -> None:
             break
         before = st.cur_loc
         st.set_current(pb, fitted)
-        sc.evidence, sc.explains = _evidence(sc, before, st.cur_loc)
+        text, sc.explains = _evidence(sc, before, st.cur_loc)
+        sc.evidence = "; ".join(x for x in (text, sc.evidence) if x)   # with what the poses read twice said of a step
         if sc.alternatives:
             sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
                             f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "

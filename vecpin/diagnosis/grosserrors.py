@@ -78,7 +78,7 @@ def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: f
 
 def pose_keys(campaign: Campaign) -> np.ndarray:
     """(N,) one integer per pose read: command (:func:`reading_groups`), tool, tool point, target, station, instrument."""
-    cols = [reading_groups(campaign.q, campaign.tool)[:, None].astype(float), campaign.point[:, None].astype(float)]
+    cols = [reading_groups(campaign.q, campaign.tool, campaign.rotary)[:, None].astype(float), campaign.point[:, None].astype(float)]
     _, tgt = np.unique(campaign.target.astype(str), return_inverse=True)
     _, ins = np.unique(campaign.instrument.astype(str), return_inverse=True)
     cols += [np.asarray(tgt, float).reshape(-1, 1), np.asarray(campaign.station, float)[:, None],

@@ -112,8 +112,8 @@ def write_report(diag, out) -> Path:
               "An effect is *significant* when the F-test within the fit and the paired test on held-out rows both "
               "pass their Bonferroni threshold and it shrinks the held-out mean enough; the most economical "
               "significant effect of each round is *accepted* into the model.", "",
-              "*Size*: the effect as fitted, RMS over the rows of the displacement of the measured point its "
-              "terms give (a drift not accepted is no larger than about this).", "",
+              "*Size*: how much the effect, fitted beside the model, moves its prediction of the measured points, "
+              "RMS over the rows (an estimate: the part of the effect the model does not already hold).", "",
               "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | size (mm) "
               "| p (fit) | p (held-out) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for k, e in enumerate(diag.effects, 1):

@@ -50,8 +50,10 @@ class EffectScore:
     dropped: bool = False  # accepted, then dropped by the backward elimination
     # significant, but predicts the ends of the axes measured over part of their travel worse
     worse_beyond: bool = False
-    # its size as fitted: RMS over the rows of the displacement of the measured point its terms give [mm]
+    # how much it moves the model's prediction when fitted beside it, RMS over the rows [mm]
     size_mm: float = float("nan")
+    # both tests pass, but it takes less off the held-out mean than an effect must earn
+    small: bool = False
     # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
     next_plan: object | None = field(default=None, repr=False)
 
@@ -89,6 +91,7 @@ class EffectScore:
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
+                "detected_but_small": self.small,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
@@ -156,8 +159,13 @@ class Diagnosis:
                   "(the model is used beyond what was measured).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
+        small = [e for e in self.effects if e.small and not e.accepted][:3]
+        if small:
+            s2 += (" Detected but too small to name: " + ", ".join(
+                f"{e.label} ({e.shrink_pct:.1f}% off the held-out mean, size {e.size_text} mm)" for e in small) + ".")
         if self.outlier_rows:
-            s2 += f" {len(self.outlier_rows)} rows are gross errors and were left out."
+            n = len(self.outlier_rows)
+            s2 += f" {n} {'row is a gross error' if n == 1 else 'rows are gross errors'} and {'was' if n == 1 else 'were'} left out."
         if self.misfit_regions:
             s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
                    + " (misfit, not gross errors: a re-measurement would read the same).")
@@ -215,7 +223,8 @@ class Diagnosis:
         committed together (an interruption leaves the previous set)."""
         from vecpin.diagnosis.report import write_report
         with OutputSet(out_dir) as out:
-            paths = {"diagnosis": out.write_text("diagnosis.json", json.dumps(self.to_dict(), indent=1, default=float))}
+            paths = {"diagnosis": out.write_text("diagnosis.json", json.dumps(_strict(self.to_dict()), indent=1,
+                                                                             default=float, allow_nan=False))}
             self.base_model.save(out.path("model_base.json"))
             self.best_model.save(out.path("model_best.json"))
             paths["model_base"], paths["model_best"] = out.final("model_base.json"), out.final("model_best.json")
@@ -250,3 +259,15 @@ def _write_next(machine: Machine, plan, out: OutputSet, folder: str) -> dict[str
         paths[f"{folder}/{dialect}"] = out.write_text(name, text)
         plan.files[dialect] = name
     return paths
+
+
+def _strict(value):
+    """``value`` (nested dicts, lists, numbers) with every NaN or infinity as None: strict
+    JSON (a test that could not run, an F statistic without scatter)."""
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value

@@ -19,6 +19,7 @@ tracker move shows as a difference beyond the noise and a misfit does not.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +33,7 @@ from vecpin.measurement.features import Features
 WINDOW = 12      # rows of one station on each side of a row that define the regime there
 NEAR_ROWS = 2    # a step within this many rows of a change coincides with it (beyond the scan's own spacing)
 LABEL_VALUES = 50  # a label column: whole numbers with at most this many values
-MIN_REPEAT_EQUATIONS = 6  # the reading noise from poses read twice needs at least this many equations
+MIN_REPEAT_EQUATIONS = 30  # the reading noise from poses read twice needs at least this many equations
 
 
 @dataclass
@@ -167,12 +168,14 @@ def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int,
     return len(poses), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
 
 
-def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: float, feats: Features) -> float:
-    """The whitened residuals' variance per equation between readings of one pose on one
-    side of ``t0`` (the reading noise: the machine's repeatability and the instrument's
-    noise, nothing of the model or of a step), from every pose read more than once there;
-    the rows' robust level (:func:`_level`, larger: it holds the model's misfit too)
-    when they give fewer than :data:`MIN_REPEAT_EQUATIONS` equations."""
+def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: float,
+                  feats: Features) -> tuple[float, float]:
+    """(variance per equation, its degrees of freedom) of the whitened residuals between
+    readings of one pose on one side of ``t0`` (the reading noise: the machine's
+    repeatability and the instrument's noise, nothing of the model or of a step), from
+    every pose read more than once there; the rows' robust level (:func:`_level`, larger:
+    it holds the model's misfit too; degrees of freedom inf) when they give fewer than
+    :data:`MIN_REPEAT_EQUATIONS` equations."""
     key = pose_keys(campaign) * 2 + (feats.time >= t0)
     ss, dof = 0.0, 0
     for g in np.flatnonzero(np.bincount(key) > 1):
@@ -180,7 +183,18 @@ def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: floa
         ok = valid[rows].all(axis=0)
         ss += float(np.sum((w[rows] - w[rows].mean(axis=0))[:, ok] ** 2))
         dof += (int(rows.sum()) - 1) * int(ok.sum())
-    return ss / dof if dof >= MIN_REPEAT_EQUATIONS else _level(w, valid)
+    return (ss / dof, float(dof)) if dof >= MIN_REPEAT_EQUATIONS else (_level(w, valid), math.inf)
+
+
+def _p_moved(stat: float, dof: int, level_dof: float) -> float:
+    """p-value that poses whose differences give ``stat`` (chi2 at the estimated level,
+    ``dof`` equations) did not move: an F test against the level's ``level_dof`` degrees
+    of freedom (chi2 when the level is as good as known)."""
+    if not dof:
+        return 1.0
+    if math.isinf(level_dof):
+        return float(stats.chi2.sf(stat, dof))
+    return float(stats.f.sf(stat / dof, dof, level_dof))
 
 
 def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tuple[np.ndarray, np.ndarray],
@@ -196,10 +210,10 @@ def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tupl
     poses = straddling(campaign, feats, step.t0, step.station)
     if not poses:
         return "none", ""
-    level = reading_level(campaign, lin.w, lin.valid, step.t0, feats)
+    level, level_dof = reading_level(campaign, lin.w, lin.valid, step.t0, feats)
     still, dof = _moved(poses, lin.w, lin.valid, level)
     left, _ = _moved(poses, fitted[0], lin.valid, level)
-    p_still, p_left = (float(stats.chi2.sf(x, dof)) if dof else 1.0 for x in (still, left))
+    p_still, p_left = (_p_moved(x, dof, level_dof) for x in (still, left))
     moved = np.array([lin.r[a].mean(axis=0) - lin.r[b].mean(axis=0) for a, b in poses])
     predicted = moved - np.array([fitted[1][a].mean(axis=0) - fitted[1][b].mean(axis=0) for a, b in poses])
     seen = (f"the {len(poses)} poses read on both sides of it moved by {np.linalg.norm(moved, axis=1).mean() * 1e3:.4f} "

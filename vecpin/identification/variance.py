@@ -11,7 +11,7 @@ A residual (measured minus modelled point, tracker frame) at a pose has two part
 The **total** per-axis standard deviation comes from the fit: the residuals' mean square
 over the fit's degrees of freedom (its expected chi2, the equations less the effective
 unknowns). The **reading** part comes from the poses read more than once (joint readings
-within :data:`~vecpin.measurement.repeatability.READING_TOL`): the differences of their residuals within a pose contain no
+within :data:`~vecpin.measurement.repeatability.READING_RAD`): the differences of their residuals within a pose contain no
 pose part. It is split into the tracker's own per-axis standard deviations, when the
 campaign carries them (``std_x``, ``std_y``, ``std_z`` columns, mm: the tracker's report of
 each reading) and the machine's **repeatability**, estimated by restricted maximum
@@ -81,10 +81,10 @@ class VarianceComponents:
                 "repeatability_sd": self.repeatability_sd, "pose": self.pose, "repeated_poses": self.repeated_poses}
 
 
-def repeated_poses(q: np.ndarray) -> list[np.ndarray]:
-    """Groups (row indices, two or more) of one pose read more than once: joint readings
-    (N, n) [rad] within :data:`READING_TOL` on every axis (:func:`reading_groups`)."""
-    label = reading_groups(q)
+def repeated_poses(campaign: Campaign) -> list[np.ndarray]:
+    """Groups (row indices, two or more) of one pose read more than once
+    (:func:`reading_groups`: joint readings within 0.02° on a robot)."""
+    label = reading_groups(campaign.q, campaign.tool, campaign.rotary)
     counts = np.bincount(label)
     return [np.flatnonzero(label == g) for g in np.flatnonzero(counts > 1)]
 
@@ -134,7 +134,7 @@ def variance_components(residuals: np.ndarray, campaign: Campaign, dof: float, s
     ok = np.isfinite(r).all(axis=1)
     total = math.sqrt(float((r[ok] ** 2).sum()) / max(dof, 1.0))
     out = VarianceComponents(total, total / math.sqrt(2 * max(dof, 1.0)), stated_mm)
-    groups = [g[ok[g]] for g in repeated_poses(campaign.q)]
+    groups = [g[ok[g]] for g in repeated_poses(campaign)]
     groups = [g for g in groups if len(g) > 1]
     if not groups:
         return out

@@ -58,8 +58,7 @@ class Machine:
     or a sequence of names (several tool points driven by the same commands); default
     ``spindle`` plus ``spindle_2``, ``spindle_3``, ... when present. ``tool_axis``:
     "+x", "-x", "+y", "-y", "+z" or "-z" of the tool link; default -z, or the ROS-Industrial
-    convention's direction out of the flange: +z of ``tool0``, +x of ``flange``.
-    """
+    convention's direction out of the flange: +z of ``tool0``, +x of ``flange``."""
 
     def __init__(self, urdf_xml: str, source: str = "<string>", urdf_path: Path | None = None, *,
                  tool_link: str | Sequence[str] | None = None, tool_axis: str | None = None):
@@ -279,6 +278,10 @@ class Machine:
     @property
     def axis_names(self) -> list[str]:
         return [a.name for a in self.axes]
+
+    def rotary_mask(self) -> np.ndarray:
+        """(n,) True on the rotary axes, chain order."""
+        return np.array([a.kind == "rotary" for a in self.axes], bool)
 
     def axis(self, name: str) -> Axis:
         for a in self.axes:

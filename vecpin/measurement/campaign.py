@@ -81,6 +81,10 @@ class Campaign:
     point: np.ndarray | None = None        # (N,) tool point index (0: the first tool link)
     target: np.ndarray | None = None       # (N,) target id on tracker rows, nest id on nest rows ("" = none)
     targets: dict = field(default_factory=dict)  # known tool-target offsets {id: (3,) [m], tool link frame}
+    # (n,) True on the rotary axes when ``q`` holds readings of a machine's axes (read from a
+    # file for a machine): poses read twice are compared within the readings' resolution
+    # (:func:`~vecpin.measurement.repeatability.reading_groups`); None: exact commands
+    rotary: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.tool)
@@ -148,7 +152,7 @@ class Campaign:
         return Campaign(list(self.axis_names), self.q[rows], self.tool[rows], self.xyz[rows],
                         {k: v[rows] for k, v in self.extra.items()}, self.source,
                         self.instrument[rows], self.station[rows], self.radius[rows], self.pivot[rows], self.lines[rows],
-                        self.point[rows], self.target[rows], dict(self.targets))
+                        self.point[rows], self.target[rows], dict(self.targets), self.rotary)
 
     def tool_lengths(self) -> np.ndarray:
         """Distinct tool lengths [m] (sorted)."""
@@ -220,7 +224,7 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     codes = [np.unique(a.astype(str), return_inverse=True)[1].ravel() for a in (instrument, *texts.values())]
     warn_duplicates(name, np.column_stack([values, *codes]) if len(codes) > 1 else values, rows)
     return Campaign(machine.axis_names, machine.to_si(q_user), tool_mm * M_PER_MM, xyz_mm * M_PER_MM, extra, name,
-                    instrument, station, radius, pivot, rows, point, target)
+                    instrument, station, radius, pivot, rows, point, target, rotary=machine.rotary_mask())
 
 
 def _refuse_template(exc: CampaignFileError, header: list[str], body: str) -> None:

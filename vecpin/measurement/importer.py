@@ -477,7 +477,8 @@ def _imported(ex: _Export, machine: Machine, template: PlanTemplate | None, j: _
         raise CampaignFileError(name, f"after the best rigid fit the measured points lie {err.mean():.1f} mm (mean) from "
                                 f"the planned tool tips, far more than a machine's error: rows out of order, the wrong "
                                 f"plan, or another holder length? (worst: line {rows_file[worst]}, {err[worst]:.1f} mm)")
-    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, station, target=target)
+    campaign = Campaign(machine.axis_names, q, tool, xyz_mm * M_PER_MM, extra, name, instrument, station, target=target,
+                        rotary=machine.rotary_mask())
     chosen, reason, t_unit = read_as
     columns_used = {f: ex.table.header[k] for f, k in ex.idx.items()}
     u = uncompensated(machine, campaign, strict=False)  # the figure assess and fit print

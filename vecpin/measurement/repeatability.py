@@ -30,32 +30,45 @@ from vecpin.measurement.tracker import TrackerNoise
 SESSION_GAP_S = 1800.0  # s: repeats further apart than this belong to different sessions
 
 
-READING_TOL = 3.5e-4   # [rad, m] on every axis: 0.02°, twice what a UR10's joint readings of one pose read twice differ by
+READING_RAD = 3.5e-4   # rad (0.02°): a robot's joint readings of one pose read twice differ by up to 0.013° (UR10)
+READING_M = 1e-6       # m: a linear axis' readings of one position
+EXACT = 1e-9           # m, rad: commands compared exactly (a file of commands repeats them to the digit)
 
 
-def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, tol: float = READING_TOL) -> np.ndarray:
+def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, rotary: np.ndarray | None = None,
+                   rad: float = READING_RAD) -> np.ndarray:
     """(N,) one label per pose read: rows whose axis values ``q`` (N, n) [m, rad] agree
-    within ``tol`` on every axis (chained: a row joins the group of any row that close)
-    and whose ``tool`` lengths [m] agree to 1 nm share a label. A file of commands repeats
-    them exactly; a file of axis readings (a robot's joint readings) repeats them to the
-    encoders' resolution and the servo's settling, which ``tol`` admits."""
+    on every axis and whose ``tool`` lengths [m] agree to 1 nm share a label. ``rotary``
+    (n,) True on the rotary axes: the values are readings (a robot's joint readings
+    repeat to the encoders' resolution and the servo's settling), compared within
+    :data:`READING_RAD` (``rad``) on a rotary axis and :data:`READING_M` on a linear one, chained
+    (a row joins the group of any row that close); None: commands, compared to 1 nm /
+    1 nrad (:attr:`Campaign.rotary` says which a campaign holds)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
     q = np.asarray(q, float)
-    n = len(q)
-    pairs = cKDTree(q).query_pairs(tol, p=np.inf, output_type="ndarray") if n else np.zeros((0, 2), int)
-    if tool is not None and len(pairs):
-        t = np.asarray(tool, float)
-        pairs = pairs[np.abs(t[pairs[:, 0]] - t[pairs[:, 1]]) <= 1e-9]
+    if not len(q):
+        return np.zeros(0, int)
+    tol = np.full(q.shape[1], EXACT) if rotary is None else np.where(np.asarray(rotary, bool), rad, READING_M)
+    t = np.zeros(len(q)) if tool is None else np.asarray(tool, float)
+    # rows read again to the digit (commands, a pose read many times) are one point before the search
+    rows, back = np.unique(np.c_[q, t], axis=0, return_inverse=True)
+    pairs = cKDTree(rows[:, :-1] / tol).query_pairs(1.0, p=np.inf, output_type="ndarray")
+    pairs = pairs[np.abs(rows[pairs[:, 0], -1] - rows[pairs[:, 1], -1]) <= EXACT]
+    n = len(rows)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    return np.asarray(connected_components(graph, directed=False)[1]).ravel()
+    comp = connected_components(graph, directed=False)[1][np.asarray(back).ravel()]
+    _, first, label = np.unique(comp, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), int)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[np.asarray(label).ravel()]   # numbered in the order the poses are first read
 
 
 def repeat_groups(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
     """(group id per row, rows per group): rows of one pose read again with the same tool
     share a group (:func:`reading_groups`)."""
-    group = reading_groups(campaign.q, campaign.tool)
+    group = reading_groups(campaign.q, campaign.tool, campaign.rotary)
     return group, np.bincount(group)
 
 

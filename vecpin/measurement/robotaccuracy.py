@@ -139,7 +139,7 @@ def read_dataset(path: str | Path, machine: Machine, *, tool_mm: float = TMAC_TO
     extra |= {f"std_{c}": column((n,))[:, 0] for c, n in zip("xyz", STD) if n in table.header}   # mm
     extra = {k: v[order] for k, v in extra.items()}
     campaign = Campaign(list(JOINTS), q[order], np.full(len(order), tool_mm * M_PER_MM), xyz[order], extra,
-                        table.path, lines=np.asarray(table.lines)[order])
+                        table.path, lines=np.asarray(table.lines)[order], rotary=machine.rotary_mask())
     return DatasetRead(campaign, table.path, tool_mm, notes)
 
 

@@ -1,5 +1,6 @@
 """Thermal drift: linear axes grow and the spindle grows with the temperature change
-(or with time when the campaign has no temperature). The machine's own temperature may
+(or with time when the campaign has no temperature); an arm (a machine without linear
+axes: a robot) grows as a whole, its links with it. The machine's own temperature may
 follow the air's with a first-order lag (a heavy structure warms slowly): the diagnosis
 scans the lag (:data:`LAGS_H`) and takes the one the data fit best, so a lagged drift is
 named as one thermal effect, not as a thermal effect plus a step of the tracker."""
@@ -31,13 +32,16 @@ def lagged(time_s: np.ndarray, x: np.ndarray, lag_h: float) -> np.ndarray:
 class Thermal(Effect):
     """Scale of every linear axis and spindle growth along the tool, proportional to the
     temperature change from ``t_ref`` (``driver="temperature"``) or to the hours elapsed
-    (``driver="time"``).
+    (``driver="time"``). A machine without linear axes (an arm) has, instead of axis
+    scales, one scale of the whole chain: every link grows alike, so the tip moves by
+    scale x change x its position from the machine frame's origin (the arm's base).
 
-    Simulated as steel expansion (11.5 ppm/K) of the linear axes and 20 µm/K spindle
-    growth with the temperature above ``t_ref`` (20 °C), or per hour without temperature."""
+    Simulated as steel expansion (11.5 ppm/K) of the linear axes, aluminium expansion
+    (23 ppm/K) of an arm's chain and 20 µm/K spindle growth with the temperature above
+    ``t_ref`` (20 °C), or per hour without temperature."""
 
     name = "thermal"
-    summary = "linear-axis scale and spindle growth with the temperature (or time)"
+    summary = "linear-axis scale (an arm: the chain's scale) and spindle growth with the temperature (or time)"
     kinds = ("command", "tip")
     keys = (Key("t_ref", 20.0, "degC", "reference temperature of the simulated expansion", lo=-50.0, hi=100.0),)
     axis_kinds = ("linear",)
@@ -47,6 +51,7 @@ class Thermal(Effect):
         axes = axes or self.default_axes(machine)
         super().__init__(machine, axes, driver=driver, t_ref=t_ref, lag_h=float(lag_h), **kw)
         self.driver, self.t_ref, self.lag_h = driver, float(t_ref), float(lag_h)
+        self.chain = not any(a.kind == "linear" for a in machine.axes)   # an arm: its links grow as a whole
 
     @classmethod
     def default_axes(cls, machine):
@@ -71,18 +76,22 @@ class Thermal(Effect):
 
     def parameters(self):
         return [self._p(f"{a}.scale_per_{self.unit}", "ratio", 1e-3) for a in self.axes] + \
+               ([self._p(f"chain.scale_per_{self.unit}", "ratio", 1e-3)] if self.chain else []) + \
                [self._p(f"spindle_growth_per_{self.unit}", "length", 1e-3)]
 
     def command(self, q, feats):
         d = self._delta(feats)
-        S = np.zeros((len(q), self.machine.n_axes, len(self.axes) + 1))
+        S = np.zeros((len(q), self.machine.n_axes, len(self.axes) + self.chain + 1))
         for k, a in enumerate(self.axes):
             S[:, self.machine.axis(a).index, k] = q[:, self.machine.axis(a).index] * d
         return S
 
     def tip(self, ctx, feats):
-        D = np.zeros((len(ctx.q), 3, len(self.axes) + 1))
-        D[:, :, -1] = ctx.tool_dir * self._delta(feats)[:, None]
+        d = self._delta(feats)[:, None]
+        D = np.zeros((len(ctx.q), 3, len(self.axes) + self.chain + 1))
+        if self.chain:
+            D[:, :, len(self.axes)] = ctx.tip * d
+        D[:, :, -1] = ctx.tool_dir * d
         return D
 
     @classmethod
@@ -108,13 +117,18 @@ class Thermal(Effect):
         return dq * self.scale
 
     def simulate_tip(self, q, tip, tool_dir, feats):
-        return tip + tool_dir * (20e-6 * self.scale * self._sim_delta(feats))[:, None]
+        d = (self.scale * self._sim_delta(feats))[:, None]
+        return tip + tool_dir * 20e-6 * d + (tip * 23e-6 * d if self.chain else 0.0)
 
     def advice(self, values, std):
         u = self.unit
         lines = []
         for k, a in enumerate(self.axes):
             lines.append(f"{self.label}: {a} scale {values[k] * 1e6:+.1f} ± {std[k] * 1e6:.1f} ppm/{u}")
+        if self.chain:
+            k = len(self.axes)
+            lines.append(f"{self.label}: the arm grows {values[k] * 1e6:+.1f} ± {std[k] * 1e6:.1f} ppm/{u} "
+                         "(aluminium: 23 ppm/K, steel: 11.5)")
         lines.append(f"{self.label}: spindle growth {values[-1] * 1e6:+.1f} ± {std[-1] * 1e6:.1f} µm/{u}")
         if self.driver == "temperature" and self.lag_h > 0:
             lines.append(f"{self.label}: the machine follows the air temperature with a lag of about {self.lag_h:g} h "
