@@ -93,6 +93,8 @@ def test_a_step_at_a_program_change_is_a_tracker_move_only_when_repeated_poses_m
     steps = _steps(d)
     assert len(steps) == 1 and abs(np.searchsorted(c.time, steps[0].effect.t0) - n1) <= 4, \
         [e.finding for e in d.accepted]
+    # ... its entry says what the poses read on both sides of it showed
+    assert "confirmed by the poses read twice" in steps[0].evidence, steps[0].evidence
 
 
 def test_the_rows_a_step_moves_inside_the_region_measured_before_it():
