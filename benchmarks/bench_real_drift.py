@@ -119,7 +119,8 @@ def page(source: str, stretch, diag: dict, seconds: float, pairs: list[dict], to
            "(RMS over the rows).", "",
            "| effect | accepted | held-out mean before / after, mm | size, mm | evidence |", "|---|---|---|---|---|"]
     for e in timely:
-        out.append(f"| {e['label']} | {'yes' if e['accepted'] else 'no'} | {e['heldout_mean_mm_before']:.4f} / "
+        lag = f" (lag {e['options']['lag_h']:g} h)" if "lag_h" in e["options"] else ""
+        out.append(f"| {e['label']}{lag} | {'yes' if e['accepted'] else 'no'} | {e['heldout_mean_mm_before']:.4f} / "
                    f"{e['heldout_mean_mm_after']:.4f} | {_mm(e['size_rms_mm'])} | {e['evidence'] or '(not significant)'} |")
     out += ["", "## What the series' own repeated poses show", "",
             f"Two readings of one pose: joint readings within {tol_deg:g}° on every joint (the grid reaches some of "
