@@ -134,27 +134,53 @@ def step_not_shown(before: np.ndarray, after: np.ndarray, rows: np.ndarray, thre
             "again before and after to tell them apart")
 
 
-def straddling(campaign: Campaign, feats: Features, t0: float, station: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per pose read on both sides of a step at ``t0`` on ``station`` (:func:`pose_keys`:
-    same command within the readings' resolution, tool, point, target, station), the
-    masks of its readings (after, before)."""
+@dataclass
+class Sides:
+    """The readings of every pose on each side of a step: ``group`` (N,) per row its
+    (pose, side) group, 2 x pose + (after the step), -1 off the step's station;
+    ``after``, ``before`` (P,) the two groups of each of the P poses read on both sides."""
+
+    group: np.ndarray
+    after: np.ndarray
+    before: np.ndarray
+
+    def means(self, x: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per group: the mean of ``x`` (N,3) over its valid entries, its readings (G,) and
+        whether every entry of each component is valid (G,3)."""
+        return group_means(self.group, x, valid)
+
+
+def group_means(group: np.ndarray, x: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(means (G,3), readings (G,), all valid (G,3)) of ``x`` (N,3) per ``group`` (N,) id
+    (rows with -1 in no group); one pass of bincount per component."""
+    on = group >= 0
+    g, G = group[on], int(group.max()) + 1 if on.any() else 0
+    n = np.bincount(g, minlength=G).astype(float)
+    xs, ok = np.where(valid, x, 0.0)[on], valid[on]
+    sums = np.column_stack([np.bincount(g, xs[:, c], G) for c in range(x.shape[1])])
+    bad = np.column_stack([np.bincount(g, ~ok[:, c], G) for c in range(x.shape[1])])
+    return sums / np.maximum(n, 1)[:, None], n, bad == 0
+
+
+def straddling(campaign: Campaign, feats: Features, t0: float, station: int) -> Sides:
+    """The poses read on both sides of a step at ``t0`` on ``station`` (:func:`pose_keys`:
+    same command within the readings' resolution, tool, point, target, station)."""
     key = pose_keys(campaign)
     on = feats.station == station
-    after = on & (feats.time >= t0)
-    before = on & ~after
-    return [(after & (key == p), before & (key == p)) for p in np.intersect1d(key[before], key[after])]
+    group = np.where(on, 2 * key + (feats.time >= t0), -1)
+    n = np.bincount(group[on], minlength=2 * (int(key.max()) + 1) if len(key) else 0)
+    both = np.flatnonzero((n[0::2] > 0) & (n[1::2] > 0))
+    return Sides(group, 2 * both + 1, 2 * both)
 
 
-def _moved(poses: list, w: np.ndarray, valid: np.ndarray, level: float) -> tuple[float, int]:
+def _moved(sides: Sides, w: np.ndarray, valid: np.ndarray, level: float) -> tuple[float, int]:
     """(chi2, equations) of the differences of the mean whitened residuals ``w`` of each
     pose after and before (the model's prediction cancels), at the noise ``level``."""
-    stat, dof = 0.0, 0
-    for a, b in poses:
-        ok = valid[a].all(axis=0) & valid[b].all(axis=0)
-        d = np.where(ok, w[a].mean(axis=0) - w[b].mean(axis=0), 0.0)
-        stat += float(d @ d) / (level * (1 / a.sum() + 1 / b.sum()))
-        dof += int(ok.sum())
-    return stat, dof
+    m, n, ok = sides.means(w, valid)
+    a, b = sides.after, sides.before
+    both = ok[a] & ok[b]
+    d = np.where(both, m[a] - m[b], 0.0)
+    return float(np.sum(np.sum(d ** 2, axis=1) / (level * (1 / n[a] + 1 / n[b])))), int(both.sum())
 
 
 def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int, w: np.ndarray,
@@ -163,9 +189,9 @@ def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int,
     readings did not move): the differences of the mean whitened residuals ``w`` of each
     such pose after and before, whose prediction cancels, against the noise of the rows
     (their robust level), chi2 over the poses' equations. p = 1 when there are none."""
-    poses = straddling(campaign, feats, t0, station)
-    stat, dof = _moved(poses, w, valid, _level(w, valid))
-    return len(poses), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
+    sides = straddling(campaign, feats, t0, station)
+    stat, dof = _moved(sides, w, valid, _level(w, valid))
+    return len(sides.after), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
 
 
 def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: float,
@@ -176,13 +202,12 @@ def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: floa
     every pose read more than once there; the rows' robust level (:func:`_level`, larger:
     it holds the model's misfit too; degrees of freedom inf) when they give fewer than
     :data:`MIN_REPEAT_EQUATIONS` equations."""
-    key = pose_keys(campaign) * 2 + (feats.time >= t0)
-    ss, dof = 0.0, 0
-    for g in np.flatnonzero(np.bincount(key) > 1):
-        rows = key == g
-        ok = valid[rows].all(axis=0)
-        ss += float(np.sum((w[rows] - w[rows].mean(axis=0))[:, ok] ** 2))
-        dof += (int(rows.sum()) - 1) * int(ok.sum())
+    group = pose_keys(campaign) * 2 + (feats.time >= t0)
+    m, n, ok = group_means(group, w, valid)
+    m2, _, _ = group_means(group, w ** 2, valid)
+    keep = ok & (n > 1)[:, None]
+    ss = float(np.sum(np.where(keep, n[:, None] * (m2 - m ** 2), 0.0)))
+    dof = int(np.sum(keep * (n - 1)[:, None]))
     return (ss / dof, float(dof)) if dof >= MIN_REPEAT_EQUATIONS else (_level(w, valid), math.inf)
 
 
@@ -207,16 +232,17 @@ def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tupl
     without the step, linearised; ``fitted``: its (whitened, metric [m]) residuals (N,3)
     with the step fitted. The model's prediction cancels in each pose's difference, so
     this is the one evidence on a step that no model of the machine colours."""
-    poses = straddling(campaign, feats, step.t0, step.station)
-    if not poses:
+    sides = straddling(campaign, feats, step.t0, step.station)
+    if not len(sides.after):
         return "none", ""
     level, level_dof = reading_level(campaign, lin.w, lin.valid, step.t0, feats)
-    still, dof = _moved(poses, lin.w, lin.valid, level)
-    left, _ = _moved(poses, fitted[0], lin.valid, level)
+    still, dof = _moved(sides, lin.w, lin.valid, level)
+    left, _ = _moved(sides, fitted[0], lin.valid, level)
     p_still, p_left = (_p_moved(x, dof, level_dof) for x in (still, left))
-    moved = np.array([lin.r[a].mean(axis=0) - lin.r[b].mean(axis=0) for a, b in poses])
-    predicted = moved - np.array([fitted[1][a].mean(axis=0) - fitted[1][b].mean(axis=0) for a, b in poses])
-    seen = (f"the {len(poses)} poses read on both sides of it moved by {np.linalg.norm(moved, axis=1).mean() * 1e3:.4f} "
+    a, b = sides.after, sides.before
+    r, f = sides.means(lin.r, lin.valid)[0], sides.means(fitted[1], lin.valid)[0]
+    moved, predicted = r[a] - r[b], (r[a] - r[b]) - (f[a] - f[b])
+    seen = (f"the {len(a)} poses read on both sides of it moved by {np.linalg.norm(moved, axis=1).mean() * 1e3:.4f} "
             f"mm on average, the step predicts {np.linalg.norm(predicted, axis=1).mean() * 1e3:.4f} mm")
     if p_left < alpha and left > still:
         return "contradicted", (f"held back: {seen} (p = {p_left:.2g} that they agree with it, at the noise between "
