@@ -142,12 +142,12 @@ def _read_twice(moved_mm: float, predicted_mm: float, straddle: bool = True):
 
 def test_poses_read_on_both_sides_of_a_step_confirm_or_contradict_it():
     """repeats_verdict: the model cancels in the difference of two readings of one pose, so
-    poses read on both sides of a step test it directly, at the noise between readings of
-    one pose (from the poses read twice on one side), whatever the model predicts."""
+    poses read on both sides of a step test it directly: their differences regressed on
+    the step's predicted ones, the slope against one half with their own scatter."""
     from vecpin.diagnosis.structure import repeats_verdict
     verdict, text = repeats_verdict(*_read_twice(0.2, 0.2), alpha=0.01)   # the tracker moved 0.2 mm: seen
     assert verdict == "confirmed" and "the 6 poses read on both sides" in text, text
-    assert "predicts 0.2000 mm" in text
+    assert "predicts 0.2000 mm" in text and "they moved by 0.9" in text   # the slope: 0.92 ± 0.05
     moved = float(text.split("moved by ")[1].split(" mm")[0])
     assert abs(moved - 0.2) < 0.03, moved    # 0.2 mm and the noise of two readings (0.02 mm per axis each)
     verdict, text = repeats_verdict(*_read_twice(0.0, 0.2), alpha=0.01)   # nothing moved, the step says 0.2 mm

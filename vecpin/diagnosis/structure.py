@@ -33,7 +33,6 @@ from vecpin.measurement.features import Features
 WINDOW = 12      # rows of one station on each side of a row that define the regime there
 NEAR_ROWS = 2    # a step within this many rows of a change coincides with it (beyond the scan's own spacing)
 LABEL_VALUES = 50  # a label column: whole numbers with at most this many values
-MIN_REPEAT_EQUATIONS = 30  # the reading noise from poses read twice needs at least this many equations
 
 
 @dataclass
@@ -194,63 +193,44 @@ def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int,
     return len(sides.after), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
 
 
-def reading_level(campaign: Campaign, w: np.ndarray, valid: np.ndarray, t0: float,
-                  feats: Features) -> tuple[float, float]:
-    """(variance per equation, its degrees of freedom) of the whitened residuals between
-    readings of one pose on one side of ``t0`` (the reading noise: the machine's
-    repeatability and the instrument's noise, nothing of the model or of a step), from
-    every pose read more than once there; the rows' robust level (:func:`_level`, larger:
-    it holds the model's misfit too; degrees of freedom inf) when they give fewer than
-    :data:`MIN_REPEAT_EQUATIONS` equations."""
-    group = pose_keys(campaign) * 2 + (feats.time >= t0)
-    m, n, ok = group_means(group, w, valid)
-    m2, _, _ = group_means(group, w ** 2, valid)
-    keep = ok & (n > 1)[:, None]
-    ss = float(np.sum(np.where(keep, n[:, None] * (m2 - m ** 2), 0.0)))
-    dof = int(np.sum(keep * (n - 1)[:, None]))
-    return (ss / dof, float(dof)) if dof >= MIN_REPEAT_EQUATIONS else (_level(w, valid), math.inf)
-
-
-def _p_moved(stat: float, dof: int, level_dof: float) -> float:
-    """p-value that poses whose differences give ``stat`` (chi2 at the estimated level,
-    ``dof`` equations) did not move: an F test against the level's ``level_dof`` degrees
-    of freedom (chi2 when the level is as good as known)."""
-    if not dof:
-        return 1.0
-    if math.isinf(level_dof):
-        return float(stats.chi2.sf(stat, dof))
-    return float(stats.f.sf(stat / dof, dof, level_dof))
-
-
 def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tuple[np.ndarray, np.ndarray],
                     alpha: float) -> tuple[str, str]:
     """What the poses read on both sides of a step (``step.t0``, ``step.station``) say of
-    it: ("none", "") without such poses; ("contradicted", why) when their readings differ
-    otherwise than the step predicts, beyond the reading noise (:func:`reading_level`) at
-    ``alpha`` and more than if nothing had moved; ("confirmed", text) when they moved
-    beyond the noise and as it predicts; ("silent", text) otherwise. ``lin``: the model
-    without the step, linearised; ``fitted``: its (whitened, metric [m]) residuals (N,3)
-    with the step fitted. The model's prediction cancels in each pose's difference, so
-    this is the one evidence on a step that no model of the machine colours."""
+    it. The model's prediction cancels in each pose's difference (after - before), so
+    this is the one evidence on a step that no model of the machine colours: the
+    differences d are regressed on the step's predicted differences p (whitened), d = b p,
+    and b judged with the poses' own scatter about it (Student t, one-sided ``alpha``),
+    which holds whatever moved between the readings besides the step. ("none", "")
+    without such poses; ("confirmed", text) when b is above 1/2 (they moved more like the
+    step than like nothing); ("contradicted", why) when below 1/2: held back;
+    ("silent", text) otherwise. ``lin``: the model without the step, linearised;
+    ``fitted``: its (whitened, metric [m]) residuals (N,3) with the step fitted."""
     sides = straddling(campaign, feats, step.t0, step.station)
-    if not len(sides.after):
-        return "none", ""
-    level, level_dof = reading_level(campaign, lin.w, lin.valid, step.t0, feats)
-    still, dof = _moved(sides, lin.w, lin.valid, level)
-    left, _ = _moved(sides, fitted[0], lin.valid, level)
-    p_still, p_left = (_p_moved(x, dof, level_dof) for x in (still, left))
     a, b = sides.after, sides.before
+    if not len(a):
+        return "none", ""
+    (w, _, ok), wf = sides.means(lin.w, lin.valid), sides.means(fitted[0], lin.valid)[0]
+    use = ok[a] & ok[b]
+    d = np.where(use, w[a] - w[b], 0.0)
+    p = np.where(use, d - (wf[a] - wf[b]), 0.0)
+    pp, k = float(np.sum(p ** 2)), int(use.sum())
     r, f = sides.means(lin.r, lin.valid)[0], sides.means(fitted[1], lin.valid)[0]
-    moved, predicted = r[a] - r[b], (r[a] - r[b]) - (f[a] - f[b])
-    seen = (f"the {len(a)} poses read on both sides of it moved by {np.linalg.norm(moved, axis=1).mean() * 1e3:.4f} "
-            f"mm on average, the step predicts {np.linalg.norm(predicted, axis=1).mean() * 1e3:.4f} mm")
-    if p_left < alpha and left > still:
-        return "contradicted", (f"held back: {seen} (p = {p_left:.2g} that they agree with it, at the noise between "
-                                "readings of one pose): the readings of the same poses, in which no model of the "
-                                "machine enters, contradict a tracker move")
-    if p_still < alpha:
-        return "confirmed", f"confirmed by the poses read twice: {seen} (p = {p_still:.2g} that they did not move)"
-    return "silent", f"the poses read twice cannot tell: {seen} (p = {p_still:.2g} that they did not move)"
+    seen = (f"the {len(a)} poses read on both sides of it moved by "
+            f"{np.linalg.norm(r[a] - r[b], axis=1).mean() * 1e3:.4f} mm on average, the step predicts "
+            f"{np.linalg.norm(f[b] - f[a] + r[a] - r[b], axis=1).mean() * 1e3:.4f} mm")
+    if pp <= 0 or k < 2:
+        return "silent", f"the poses read twice cannot tell: {seen}"
+    slope = float(np.sum(d * p)) / pp
+    se = math.sqrt(float(np.sum((d - slope * p) ** 2)) / (k - 1) / pp)
+    t = float(stats.t.isf(alpha, k - 1))
+    share = f"{slope:.2f} ± {se:.2f} of the predicted move"
+    if slope + t * se < 0.5:
+        return "contradicted", (f"held back: {seen}; they moved by {share}, less than half of it beyond their own "
+                                "scatter: the readings of the same poses, in which no model of the machine enters, "
+                                "contradict a tracker move")
+    if slope - t * se > 0.5:
+        return "confirmed", f"confirmed by the poses read twice: {seen}; they moved by {share}"
+    return "silent", f"the poses read twice cannot tell: {seen}; they moved by {share}"
 
 
 def _level(w: np.ndarray, valid: np.ndarray) -> float:
