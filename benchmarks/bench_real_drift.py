@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_real_diagnosis import _vecpin  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BINS_H = (0.0, 1.0, 24.0, np.inf)   # time apart of two readings of one pose, h
@@ -87,12 +88,8 @@ def repeats_table(pairs: list[dict], end_h: float) -> list[str]:
 
 def diagnose(csv: Path, folder: Path) -> tuple[dict, float]:
     """``vecpin diagnose ur10 csv`` in a fresh process: (diagnosis.json, whole-process seconds)."""
-    t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-m", "vecpin", "diagnose", "ur10", str(csv), "--out", str(folder), "--quiet"],
-                       capture_output=True, text=True)
-    if p.returncode:
-        raise SystemExit(f"vecpin diagnose failed: {(p.stderr.strip().splitlines() or ['no output'])[-1]}")
-    return json.loads((folder / "diagnosis.json").read_text()), time.perf_counter() - t0
+    seconds = _vecpin("diagnose", "ur10", str(csv), "--out", str(folder))
+    return json.loads((folder / "diagnosis.json").read_text()), seconds
 
 
 def _mm(x) -> str:

@@ -21,7 +21,7 @@ from scipy import linalg, stats
 from vecpin.identification.crossval import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.repeatability import reading_groups
+from vecpin.measurement.repeatability import repeat_groups
 
 FAMILY_ALPHA = 0.01  # chance that a clean campaign flags any row at all
 REGION_ALPHA = 0.01  # family-wise false-alarm rate of the region (cluster) test
@@ -77,8 +77,9 @@ def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: f
 
 
 def pose_keys(campaign: Campaign) -> np.ndarray:
-    """(N,) one integer per pose read: command (:func:`reading_groups`), tool, tool point, target, station, instrument."""
-    cols = [reading_groups(campaign.q, campaign.tool, campaign.rotary)[:, None].astype(float), campaign.point[:, None].astype(float)]
+    """(N,) one integer per pose read: command and tool (:func:`repeat_groups`), tool point,
+    target, station, instrument."""
+    cols = [repeat_groups(campaign)[0][:, None].astype(float), campaign.point[:, None].astype(float)]
     _, tgt = np.unique(campaign.target.astype(str), return_inverse=True)
     _, ins = np.unique(campaign.instrument.astype(str), return_inverse=True)
     cols += [np.asarray(tgt, float).reshape(-1, 1), np.asarray(campaign.station, float)[:, None],

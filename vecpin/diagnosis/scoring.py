@@ -181,19 +181,26 @@ def beyond_span(names: str, ends: tuple[list[FoldedProblem], float], cand_cols: 
                    "the model is used beyond what was measured")
 
 
+def _change(lin: Linearised, ev: dict, cand_cols: tuple) -> np.ndarray:
+    """(N,3) [m] how much a candidate, fitted beside the current model (``ev``: its
+    :func:`score`), moves the model's metric prediction: its terms and what the model's
+    own terms give back to them."""
+    P = lin.J.shape[-1]
+    est = ev["estimate"]
+    return lin.A @ est[:P] + cand_cols[0] @ est[P:]
+
+
 def fitted(lin: Linearised, ev: dict, cand_cols: tuple) -> tuple[np.ndarray, np.ndarray]:
     """(whitened, metric [m]) residuals (N,3) of every row with a candidate's columns
     fitted beside the current model's (``ev``: its :func:`score`)."""
-    P = lin.J.shape[-1]
-    est = ev["estimate"]
-    return lin.w - ev["pattern"].reshape(lin.w.shape), lin.r - lin.A @ est[:P] - cand_cols[0] @ est[P:]
+    return lin.w - ev["pattern"].reshape(lin.w.shape), lin.r - _change(lin, ev, cand_cols)
 
 
 def size_mm(lin: Linearised, ev: dict, cand_cols: tuple) -> float:
     """RMS over the point rows of how much [mm] a candidate, fitted beside the current
-    model (``ev``: its :func:`score`), moves the model's prediction of the measured point:
-    its terms and what the model's own terms give back to them."""
-    move = (lin.r - fitted(lin, ev, cand_cols)[1])[lin.point_rows]
+    model (``ev``: its :func:`score`), moves the model's prediction of the measured point
+    (:func:`_change`)."""
+    move = _change(lin, ev, cand_cols)[lin.point_rows]
     return float(np.sqrt(np.mean(np.sum(move ** 2, axis=1)))) * MM_PER_M if move.size else float("nan")
 
 

@@ -144,21 +144,16 @@ class Sides:
     before: np.ndarray
 
     def means(self, x: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per group: the mean of ``x`` (N,3) over its valid entries, its readings (G,) and
-        whether every entry of each component is valid (G,3)."""
-        return group_means(self.group, x, valid)
-
-
-def group_means(group: np.ndarray, x: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(means (G,3), readings (G,), all valid (G,3)) of ``x`` (N,3) per ``group`` (N,) id
-    (rows with -1 in no group); one pass of bincount per component."""
-    on = group >= 0
-    g, G = group[on], int(group.max()) + 1 if on.any() else 0
-    n = np.bincount(g, minlength=G).astype(float)
-    xs, ok = np.where(valid, x, 0.0)[on], valid[on]
-    sums = np.column_stack([np.bincount(g, xs[:, c], G) for c in range(x.shape[1])])
-    bad = np.column_stack([np.bincount(g, ~ok[:, c], G) for c in range(x.shape[1])])
-    return sums / np.maximum(n, 1)[:, None], n, bad == 0
+        """Per group (G): the mean of ``x`` (N,3) over its valid entries (G,3), its readings
+        (G,) and whether every entry of each component is valid (G,3); one bincount per
+        component."""
+        on = self.group >= 0
+        g, G = self.group[on], int(self.group.max()) + 1 if on.any() else 0
+        n = np.bincount(g, minlength=G).astype(float)
+        xs, ok = np.where(valid, x, 0.0)[on], valid[on]
+        sums = np.column_stack([np.bincount(g, xs[:, c], G) for c in range(x.shape[1])])
+        bad = np.column_stack([np.bincount(g, ~ok[:, c], G) for c in range(x.shape[1])])
+        return sums / np.maximum(n, 1)[:, None], n, bad == 0
 
 
 def straddling(campaign: Campaign, feats: Features, t0: float, station: int) -> Sides:

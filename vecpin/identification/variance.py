@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.repeatability import reading_groups
+from vecpin.measurement.repeatability import repeat_groups
 from vecpin.units import MM_PER_M
 
 STD_COLUMNS = ("std_x", "std_y", "std_z")
@@ -83,9 +83,8 @@ class VarianceComponents:
 
 def repeated_poses(campaign: Campaign) -> list[np.ndarray]:
     """Groups (row indices, two or more) of one pose read more than once
-    (:func:`reading_groups`: joint readings within 0.02° on a robot)."""
-    label = reading_groups(campaign.q, campaign.tool, campaign.rotary)
-    counts = np.bincount(label)
+    (:func:`~vecpin.measurement.repeatability.repeat_groups`: joint readings within 0.02° on a robot)."""
+    label, counts = repeat_groups(campaign)
     return [np.flatnonzero(label == g) for g in np.flatnonzero(counts > 1)]
 
 
