@@ -50,12 +50,32 @@ def test_jacobians_on_other_machines(machines, rng, name):
 @pytest.mark.parametrize("basis", [AxisBasis(-0.5, 2.0, 7), AxisBasis(-4.7, 4.7, 6, "fourier", rotary=True),
                                    AxisBasis(0.0, 3.0, 3, harmonics=(0.6, 1.3)), AxisBasis(-2, 2, 2, harmonics=(1, 2), rotary=True)])
 def test_basis_derivative_and_constant_column(basis):
-    q = np.linspace(basis.lower, basis.upper, 41)
+    q = np.linspace(basis.lower, basis.upper, 43)[1:-1]   # the ends are kinks: held beyond (next test)
     h = 1e-6
     fd = (basis.values(q + h) - basis.values(q - h)) / (2 * h)
     np.testing.assert_allclose(basis.derivative(q), fd, atol=1e-6 * max(1, np.abs(fd).max()))
     np.testing.assert_allclose(basis.values(q)[:, 0], 1.0)
     assert basis.values(q).shape == (41, basis.size) == (41, len(basis.labels()))
+
+
+def test_basis_beyond_its_span_carries_on_its_line_only():
+    """Chebyshev polynomials over [-0.5, 2.0] (u = (2 q - 1.5) / 2.5) beyond it, closed
+    form: c_k(+-1) = (+-1)^k plus the slope of c_k's least-squares line in u (Legendre:
+    3/2 int c_k u du): 1 for c_1 (its own line), 0 for even k, 3/2 (8/5 - 2) = -0.6 for
+    c_3 (4u^3 - 3u), 3/2 (16 * 2/7 - 20 * 2/5 + 5 * 2/3) = -1/7 for c_5."""
+    cheb = AxisBasis(-0.5, 2.0, 5)
+    k = np.arange(6)
+    b = np.array([0.0, 1.0, 0.0, -0.6, 0.0, 1.5 * (32 / 7 - 8 + 10 / 3)])
+    for q, end in ((2.7, 1.0), (9.0, 1.0), (-0.6, -1.0), (-3.0, -1.0)):
+        du = (2 * q - 1.5) / 2.5 - end
+        np.testing.assert_allclose(cheb.values(np.array([q]))[0], end ** k + b * du, atol=1e-12)
+        np.testing.assert_allclose(cheb.derivative(np.array([q]))[0], b * 2 / 2.5, atol=1e-12)
+    spline = AxisBasis(0.1, 2.2, 3, "bspline", knots=(0.8, 1.5))   # a straight line stays one beyond
+    qs = np.linspace(0.1, 2.2, 50)
+    coef = np.linalg.lstsq(spline.values(qs), 0.3 + 0.7 * qs, rcond=None)[0]
+    np.testing.assert_allclose(spline.values(np.array([-0.5, 3.1])) @ coef, 0.3 + 0.7 * np.array([-0.5, 3.1]), atol=1e-9)
+    per_turn = AxisBasis(-1.0, 1.5, 4, "fourier", rotary=True)   # periodic: repeats a turn on
+    np.testing.assert_allclose(per_turn.values(np.array([1.5 + 2 * np.pi])), per_turn.values(np.array([1.5])), atol=1e-12)
 
 
 def test_chebyshev_recursion_is_eq6():

@@ -81,7 +81,7 @@ def test_pspline_checks_and_derivative():
     with pytest.raises(InputError, match="pspline"):
         AxisBasis(LO, HI, 3, "bspline", knots=KNOTS, smoothing=2.0)
     B = AxisBasis(LO, HI, 3, "pspline", knots=KNOTS, smoothing=40.0)
-    q, h = np.linspace(LO, HI, 101), 1e-6
+    q, h = np.linspace(LO, HI, 103)[1:-1], 1e-6   # the ends are kinks: held beyond
     fd = (B.values(q + h) - B.values(q - h)) / (2 * h)
     np.testing.assert_allclose(B.derivative(q), fd, atol=1e-6 * np.abs(fd).max())
     assert B.short_label() == "pspline10@40" and B.labels()[:3] == ["0", "p1", "p2"]

@@ -24,6 +24,13 @@ position normalised to [-1, 1] over its travel (``kind="chebyshev"``). Other kin
 
 Any kind may append ``harmonics`` (cos/sin of frequency w) and Gaussian ``bumps``
 ``exp(-(q - c)^2 / (2 s^2))`` of given centre c and width s [m or rad].
+
+A basis lives on [lower, upper]: the axis' travel, or the span a campaign measured of it
+(:func:`vecpin.selection.design.measured_spans`). Beyond it only the straight-line part
+of every function carries on from its value at the nearer end (its least-squares line over
+the span): a model extrapolates the line its series hold (a scale error goes on as one)
+and no wiggle of higher order where nothing was measured. A series per turn
+(``"fourier"``) repeats instead.
 """
 from __future__ import annotations
 
@@ -77,7 +84,7 @@ def smoothing_transform(n: int, smoothing: float) -> tuple[np.ndarray, np.ndarra
 
 @dataclass(frozen=True)
 class AxisBasis:
-    """Basis functions of one axis' position.
+    """Basis functions of one axis' position over [lower, upper] [m or rad] (their line beyond).
 
     ``kind`` is one of :data:`KINDS` (see the module text); ``order`` is the series
     order (chebyshev, fourier, fourier_trend) or the spline degree (bspline).
@@ -187,6 +194,26 @@ class AxisBasis:
         return self._columns(np.asarray(q, float), derivative=True)
 
     def _columns(self, q: np.ndarray, derivative: bool) -> np.ndarray:
+        """Every column at q; beyond [lower, upper] (module text) its value at the nearer
+        end plus the slope of its straight-line part (:meth:`line_slopes`) times the
+        distance beyond; a series per turn (``fourier``) is periodic instead."""
+        inside = (q >= self.lower) & (q <= self.upper)
+        if inside.all() or (self.kind == "fourier" and not self.bumps):
+            return self._inside(q, derivative)
+        end = np.clip(q, self.lower, self.upper)
+        cols, slope = self._inside(end, derivative), self.line_slopes()
+        if derivative:
+            return np.where(inside[..., None], cols, slope)
+        return cols + (q - end)[..., None] * slope
+
+    def line_slopes(self) -> np.ndarray:
+        """(size,) the slope [per m or rad] of each column's straight-line part over
+        [lower, upper]: its least-squares line a + b u in the normalised position u
+        (Legendre: b = 3/2 ∫ f u du over [-1, 1]), b times du/dq. A Chebyshev c_1 is
+        its own line (slope 1), an even column has none, c_3 has b = -0.6."""
+        return _line_slopes(self)
+
+    def _inside(self, q: np.ndarray, derivative: bool) -> np.ndarray:
         cols = [self._series(q, derivative)]
         if self.harmonics:
             t, dt = self._argument(q)
@@ -251,6 +278,20 @@ class AxisBasis:
         return cls(lower, upper, int(d["order"]), d["kind"], tuple(d.get("harmonics", ())), bool(rotary),
                    int(d.get("trend", 0)), tuple(k * unit for k in d.get("knots", ())),
                    tuple((c * unit, s * unit) for c, s in d.get("bumps", ())), float(d.get("smoothing", 0.0)))
+
+
+@lru_cache(maxsize=256)
+def _line_slopes(basis: AxisBasis) -> np.ndarray:
+    """:meth:`AxisBasis.line_slopes` by Gauss-Legendre quadrature on each knot interval
+    (exact for the polynomial pieces of a series or a spline)."""
+    edges = np.r_[basis.lower, basis.knots, basis.upper]
+    x, w = np.polynomial.legendre.leggauss(max(basis.order + 2, 24))
+    b = np.zeros(basis.size)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        q = lo + (x + 1.0) * (hi - lo) / 2.0
+        u = normalise(q, basis.lower, basis.upper)
+        b += (w * (hi - lo) / (basis.upper - basis.lower) * u) @ basis._inside(q, False)
+    return 1.5 * b * 2.0 / (basis.upper - basis.lower)
 
 
 def basis_text(kind: str, order: int, trend: int = 0, knots: int = 0, smoothing: float = 0.0, extra: int = 0) -> str:

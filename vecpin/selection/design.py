@@ -55,27 +55,33 @@ class AxisChoice:
     trend: int = 0
     smoothing: float = 0.0
 
-    def basis(self, axis) -> AxisBasis:
+    def basis(self, axis, span: tuple[float, float] | None = None) -> AxisBasis:
+        """The basis on ``axis``: a Chebyshev series or a spline over ``span`` (lowest,
+        highest command [m, rad], :func:`measured_spans`; default the travel), a series
+        per turn (periodic) and its trend over the travel."""
         rot = axis.kind == "rotary"
+        lo, hi = span or (axis.lower, axis.upper)
         if self.family == "chebyshev":
-            return AxisBasis(axis.lower, axis.upper, self.order, "chebyshev", rotary=rot)
+            return AxisBasis(lo, hi, self.order, "chebyshev", rotary=rot)
         if self.family == "fourier":
             return AxisBasis(axis.lower, axis.upper, self.order, "fourier", rotary=rot)
         if self.family == "fourier_trend":
             return AxisBasis(axis.lower, axis.upper, self.order, "fourier_trend", rotary=rot, trend=self.trend)
         if self.family in ("spline", "pspline"):
-            knots = np.linspace(axis.lower, axis.upper, self.order + 2)[1:-1]
-            return AxisBasis(axis.lower, axis.upper, 3, "bspline" if self.family == "spline" else "pspline",
+            knots = np.linspace(lo, hi, self.order + 2)[1:-1]
+            return AxisBasis(lo, hi, 3, "bspline" if self.family == "spline" else "pspline",
                              rotary=rot, knots=tuple(knots), smoothing=self.smoothing)
         raise InputError(f"unknown basis family '{self.family}' (one of {', '.join(FAMILIES)})")
 
-    def functions(self) -> tuple[str, ...]:
-        """Names of its non-constant functions in the union of :func:`axis_functions`."""
+    def functions(self, spanned: bool = False) -> tuple[str, ...]:
+        """Names of its non-constant functions in the union of :func:`axis_functions`
+        (``spanned``: the axis' Chebyshev series lie over a measured span, so a trend over
+        the travel is a function of its own, ``t1..``; else it is the series' ``c1..``)."""
         if self.family == "chebyshev":
             return tuple(f"c{j}" for j in range(1, self.order + 1))
         if self.family in ("fourier", "fourier_trend"):
             four = tuple(f"{'cos' if j % 2 else 'sin'}{math.ceil(j / 2)}" for j in range(1, self.order + 1))
-            return four + tuple(f"c{j}" for j in range(1, self.trend + 1))
+            return four + tuple(f"{'t' if spanned else 'c'}{j}" for j in range(1, self.trend + 1))
         return tuple(f"{'b' if self.family == 'spline' else 'p'}{self.order}.{i}" for i in range(1, self.order + 4))
 
     def scales(self) -> np.ndarray:
@@ -149,14 +155,19 @@ def partly_measured(machine: Machine, campaign: Campaign, travel: tuple[np.ndarr
     return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (hi[a.index] - lo[a.index]))
 
 
-def axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """The union of the options' non-constant functions at positions q: (names, (N, F))."""
+def axis_functions(axis, options: list[AxisChoice], q: np.ndarray,
+                   span: tuple[float, float] | None = None) -> tuple[list[str], np.ndarray]:
+    """The union of the options' non-constant functions at positions q: (names, (N, F));
+    ``span``: as :meth:`AxisChoice.basis`."""
     names, cols = [], []
     cheb = max((o.order for o in options if o.family == "chebyshev"), default=0)
-    cheb = max([cheb] + [o.trend for o in options])
-    if cheb:
-        names += [f"c{j}" for j in range(1, cheb + 1)]
-        cols.append(AxisBasis(axis.lower, axis.upper, cheb, rotary=axis.kind == "rotary").values(q)[:, 1:])
+    trend = max((o.trend for o in options), default=0)
+    travel = (axis.lower, axis.upper)
+    series = [("c", cheb, span), ("t", trend, travel)] if span else [("c", max(cheb, trend), travel)]
+    for prefix, order, (lo, hi) in series:   # a trend is the series' c1.. unless they lie over a span
+        if order:
+            names += [f"{prefix}{j}" for j in range(1, order + 1)]
+            cols.append(AxisBasis(lo, hi, order, rotary=axis.kind == "rotary").values(q)[:, 1:])
     four = max((o.order for o in options if o.family in ("fourier", "fourier_trend")), default=0)
     if four:
         names += list(AxisChoice("fourier", four).functions())
@@ -164,8 +175,23 @@ def axis_functions(axis, options: list[AxisChoice], q: np.ndarray) -> tuple[list
     for fam in ("spline", "pspline"):
         for k in sorted({o.order for o in options if o.family == fam}):
             names += list(AxisChoice(fam, k).functions())
-            cols.append(AxisChoice(fam, k).basis(axis).values(q)[:, 1:])
+            cols.append(AxisChoice(fam, k).basis(axis, span).values(q)[:, 1:])
     return names, (np.concatenate(cols, axis=1) if cols else np.zeros((len(q), 0)))
+
+
+def measured_spans(machine: Machine, campaign: Campaign, travel: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[tuple[float, float] | None, ...]:
+    """Per axis, where its Chebyshev series and splines are built: (lowest, highest)
+    command of ``campaign`` [m, rad] on the axes it measured over part of their travel
+    (:func:`partly_measured`), None (the travel) elsewhere. A series over the whole
+    travel of an axis measured over a part of it resolves little of that part (a UR10's
+    joint 1 measured over 128° of its 720°: eight Chebyshev orders over the travel make
+    about one and a half over the part) and extrapolates beyond it what no command
+    measured; over the measured span the same series resolve the part, and beyond it
+    every function holds its value at the nearer end (:class:`~vecpin.models.basis.AxisBasis`)."""
+    ends = partly_measured(machine, campaign, travel)
+    lo, hi = campaign.q.min(axis=0), campaign.q.max(axis=0)
+    return tuple((float(lo[k]), float(hi[k])) if k in ends and hi[k] > lo[k] else None for k in range(machine.n_axes))
 
 
 
@@ -184,11 +210,13 @@ class Design:
     bases), each scaled by the prior standard deviation of its term in the model the
     candidate builds (``opts``: the model options, ``prior_scale`` and ``tool_lengths``),
     so the unit ridge of the solves is the model's own prior. ``setup``: the tracker
-    poses to linearise at (default: registered on this campaign)."""
+    poses to linearise at (default: registered on this campaign). ``spans``: per axis,
+    where its bases are built (:func:`measured_spans`; default the travel)."""
 
     def __init__(self, kind: str, machine: Machine, campaign: Campaign, noise: NoiseModel, options,
-                 fold: np.ndarray, opts: dict | None = None, setup=None):
+                 fold: np.ndarray, opts: dict | None = None, setup=None, spans: tuple | None = None):
         self.kind, self.machine = kind, machine
+        self.spans = tuple(spans or (None,) * machine.n_axes)
         c = campaign
         opts = {k: v for k, v in (opts or {}).items() if k in ("tool_lengths", "prior_scale")}
         self.proto = make_model(kind, machine, 0, **opts)
@@ -199,7 +227,7 @@ class Design:
         judged = point if point.any() else ev.valid[:, 0]
         # every row's own point (tool tip, target, nest) through the one likelihood's requests
         tool_dir, S = lik.sensitivity(self.proto)
-        functions = [axis_functions(a, options[i], c.q[:, i]) for i, a in enumerate(machine.axes)]
+        functions = [axis_functions(a, options[i], c.q[:, i], self.spans[i]) for i, a in enumerate(machine.axes)]
         D, terms = self.proto.candidate_columns(S, c.tool, tool_dir, functions)   # d point / d psi (N,3,P)
         # E_0 and the instruments' unknowns (stations, pivots, targets, nests) are in every candidate
         fixed = np.r_[np.arange(6), np.arange(6 + lik.n_model, lik.n_unknowns)]
@@ -235,7 +263,7 @@ class Design:
             chosen, factor = np.zeros(len(self._places) + 1, bool), np.ones(len(self._places) + 1)
             chosen[-1] = True                                           # the terms of no function
             for a, c in zip(self.machine.axes, choice):
-                at = [self._places[(a.name, f)] for f in c.functions()]
+                at = [self._places[(a.name, f)] for f in c.functions(self.spans[a.index] is not None)]
                 chosen[at], factor[at] = True, c.scales()
             mine = chosen[self._term_place]
             self._columns[choice] = (np.r_[np.arange(self.n_fixed), self.n_fixed + np.flatnonzero(mine)],

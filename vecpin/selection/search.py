@@ -24,13 +24,16 @@ from vecpin.selection.design import AxisChoice, Design
 class Candidate:
     """One model: kind, a basis per axis, held-out distances [mm] per judged row;
     ``effective_terms``: the number the one-SE rule compares (``n_terms`` unless a
-    penalised spline makes it smaller, :meth:`Design.effective_terms`)."""
+    penalised spline makes it smaller, :meth:`Design.effective_terms`); ``spans``: per
+    axis, where its bases are built (:func:`~vecpin.selection.design.measured_spans`;
+    empty: every travel)."""
 
     kind: str
     axes: tuple[AxisChoice, ...]
     n_terms: int
     heldout: np.ndarray = field(repr=False)
     effective_terms: float | None = None
+    spans: tuple = ()
 
     @property
     def size(self) -> float:
@@ -53,7 +56,8 @@ class Candidate:
         return f"{MODELS[self.kind].display_name} {body}"
 
     def bases(self, machine: Machine) -> list[AxisBasis]:
-        return [c.basis(a) for a, c in zip(machine.axes, self.axes)]
+        spans = self.spans or (None,) * machine.n_axes
+        return [c.basis(a, sp) for a, c, sp in zip(machine.axes, self.axes, spans)]
 
     def model(self, machine: Machine, **kw):
         """The unfitted model of this candidate (custom bases)."""
@@ -86,7 +90,7 @@ class Problem(Design):
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols, scale = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale))
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale), spans=self.spans)
 
     def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
         """Candidates that share most columns (one axis' basis or smoothing differs), at
@@ -97,7 +101,7 @@ class Problem(Design):
         blocks = [(np.array([j for j in d if j not in shared], int),
                    np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
         held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
-        return [Candidate(self.kind, c, len(d) - self.n_fixed, h) for c, d, h in zip(choices, cs, held)]
+        return [Candidate(self.kind, c, len(d) - self.n_fixed, h, spans=self.spans) for c, d, h in zip(choices, cs, held)]
 
     def size(self, cand: Candidate) -> float:
         """The candidate's number of model terms for the one-SE rule, less what its
