@@ -211,3 +211,24 @@ def test_candidates_sharing_columns_equal_their_own_solves(portal):
     for cand in prob.candidates(trials):
         np.testing.assert_allclose(cand.heldout, prob.candidate(cand.axes).heldout, rtol=1e-7, atol=1e-10)
         assert cand.n_terms == prob.candidate(cand.axes).n_terms
+
+
+def test_sizes_of_many_candidates_equal_their_own_traces(portal):
+    """The effective terms of the candidates of one axis' bases, found with the columns
+    they share eliminated once (:meth:`Problem.sizes`), equal each candidate's own trace
+    of (G + I)^-1 G with and without its smoothing (:meth:`Problem.size`)."""
+    from vecpin.identification.crossval import command_folds
+    from vecpin.selection.choice import _Problem
+    from vecpin.selection.design import axis_options
+    sim = simulate(portal, seed=4, design=Design(n_commands=40, n_validation=2))
+    noise = NoiseModel.default(portal, "spherical")
+    fold = command_folds(sim.campaign, 3, np.random.default_rng(0))
+    options = [axis_options(a, families=("chebyshev", "pspline")) for a in portal.axes]
+    prob = _Problem("6dof", portal, sim.campaign, noise, options, fold)
+    rest = (AxisChoice("pspline", PSPLINE_KNOTS, 0, 1e4), AxisChoice("chebyshev", 3), AxisChoice("chebyshev", 2),
+            AxisChoice("chebyshev", 1))
+    trials = [(o,) + rest for o in options[0]]
+    together = prob.sizes(prob.candidates(trials))
+    alone = [prob.size(prob.candidate(t)) for t in trials]
+    np.testing.assert_allclose(together, alone, rtol=1e-9)
+    assert len(set(np.round(together, 3))) > len(trials) // 2   # the smoothings count differently

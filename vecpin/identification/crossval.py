@@ -331,10 +331,50 @@ class FoldedProblem:
         data determine beyond the prior."""
         cols, scale = self._all(cols, scale)
         G = self.normal_matrix(cols, scale)
-        L = linalg.cholesky(G + np.eye(len(cols)), lower=True, check_finite=False)
-        Linv = linalg.solve_triangular(L, np.eye(len(cols)), lower=True, check_finite=False)
-        diag = 1.0 - np.einsum("ij,ij->j", Linv, Linv)   # diag((G + I)^-1 G) = 1 - diag((G + I)^-1)
+        G[np.diag_indices_from(G)] += 1.0
+        L, info = lapack.dpotrf(G, lower=1, clean=1, overwrite_a=1)
+        Linv, info2 = lapack.dtrtri(L, lower=1, overwrite_c=1) if not info else (None, 1)
+        if info or info2:
+            raise np.linalg.LinAlgError("G + I is not positive definite to working precision")
+        # diag((G + I)^-1 G) = 1 - diag((G + I)^-1), (G + I)^-1 = L^-T L^-1: its diagonal from
+        # the triangular inverse (a third of a solve against the identity)
+        diag = 1.0 - np.einsum("ij,ij->j", Linv, Linv)
         return float(diag[skip:].sum())
+
+    def effective_terms_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
+                               skip: int = 0) -> list[float]:
+        """:meth:`effective_terms` of the columns [F, P_b] (factors [sF, s_b]) of every
+        block, ``F``'s first ``skip`` columns skipped: F is eliminated once (A = G_FF + I)
+        and blocks with the same columns (a penalised spline at several smoothings) share
+        the Schur bracket K = G_PP - G_PF A^-1 G_FP, so each costs a solve of its own size:
+        trace((G + I)^-1) = trace(A^-1) + trace(Σ^-1 (S X^T X S + I)), Σ = S K S + I,
+        X = A^-1 G_FP, S the block's factors."""
+        F, sF = np.asarray(F, int), np.asarray(sF, float)
+        A = self.G[np.ix_(F, F)] * np.outer(sF, sF)
+        A[np.diag_indices_from(A)] += 1.0
+        L, info = lapack.dpotrf(A, lower=1, clean=1, overwrite_a=1)
+        Linv, info2 = lapack.dtrtri(L, lower=1) if not info else (None, 1)
+        if info or info2:
+            raise np.linalg.LinAlgError("G + I is not positive definite to working precision")
+        dA = np.einsum("ij,ij->j", Linv, Linv)                      # diag(A^-1)
+        shared: dict = {}
+        out = []
+        for P, s in blocks:
+            P, s = np.asarray(P, int), np.asarray(s, float)
+            if P.tobytes() not in shared:
+                GFP = self.G[np.ix_(F, P)] * sF[:, None]
+                X = lapack.dpotrs(L, GFP, lower=1)[0]
+                shared[P.tobytes()] = (X, self.G[np.ix_(P, P)] - GFP.T @ X, X.T @ X)
+            X, K, W = shared[P.tobytes()]
+            Sig, R = K * np.outer(s, s), W * np.outer(s, s)
+            Sig[np.diag_indices_from(Sig)] += 1.0
+            R[np.diag_indices_from(R)] += 1.0
+            cho = linalg.cho_factor(Sig, lower=True, check_finite=False)
+            Xs = X[:skip] * s
+            d_skip = dA[:skip] + np.einsum("ij,ji->i", Xs, linalg.cho_solve(cho, Xs.T, check_finite=False))
+            trace = dA.sum() + np.trace(linalg.cho_solve(cho, R, check_finite=False))
+            out.append(float(len(F) + len(P) - skip - (trace - d_skip.sum())))
+        return out
 
     # ------------------------------------------------------------------ held out
     def fold_estimates(self, cols=None, scale=None) -> np.ndarray:

@@ -334,7 +334,8 @@ def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate,
         for c in (prob.candidates(new) if len(new) > 1 else [prob.candidate(t) for t in new]):
             search.add(c)
         pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
-        pool = [c.axes for c in pool if round(prob.size(c)) <= round(prob.size(chosen))]   # a smoothing counts too
+        sizes = prob.sizes(pool + [chosen])
+        pool = [c.axes for c, n in zip(pool, sizes) if round(n) <= round(sizes[-1])]   # a smoothing counts too
         judged = _on_every_end(prob, camp, pool, ends)
         low = min(judged, key=lambda c: c.mean)
         size = lambda c: prob.size(search.scored[(prob.kind, c.axes)])   # noqa: E731 (cached on the scored one)

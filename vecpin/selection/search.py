@@ -114,6 +114,27 @@ class Problem(Design):
             cand.effective_terms = cand.n_terms - (self._unpenalised_terms(cols) - self.effective_terms(cols, scale))
         return cand.size
 
+    def sizes(self, cands: list[Candidate]) -> list[float]:
+        """:meth:`size` of several candidates, their effective terms at about the cost of
+        one: the columns they share eliminated once, the penalised splines of one set of
+        columns at every smoothing sharing one bracket
+        (:meth:`~vecpin.identification.crossval.FoldedProblem.effective_terms_blocks`)."""
+        todo = list({id(c): c for c in cands if c.effective_terms is None
+                     and any(a.family == "pspline" for a in c.axes)}.values())
+        if len(todo) > 1:
+            cs = [dict(zip(*(a.tolist() for a in self.columns(c.axes)))) for c in todo]
+            F = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
+            common = set(F)
+            blocks = [(np.array([j for j in d if j not in common], int),
+                       np.array([v for j, v in d.items() if j not in common], float)) for d in cs]
+            sF = np.array([cs[0][j] for j in F], float)
+            t = self.problem.effective_terms_blocks(np.array(F, int), sF, blocks, skip=self.n_fixed)
+            t0 = self.problem.effective_terms_blocks(np.array(F, int), np.ones(len(F)),
+                                                     [(P, np.ones(len(P))) for P, _ in blocks], skip=self.n_fixed)
+            for c, lam, plain in zip(todo, t, t0):
+                c.effective_terms = c.n_terms - (plain - lam)
+        return [self.size(c) for c in cands]
+
     def size_bound(self, cand: Candidate) -> float:
         """A lower bound of :meth:`size` that costs one trace per set of columns (shared
         by every smoothing of them): n_terms - t_0 (t_λ >= 0); the size itself when
