@@ -416,12 +416,13 @@ class FoldedProblem:
         """:meth:`heldout` of several candidates that share the columns ``F`` (factors
         ``sF``) and differ in a block of columns each (``(columns, factors)``, e.g. one
         axis' basis or smoothing), one array per block (:meth:`_solve_blocks`)."""
-        psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks)
+        judging = [f for f, sl in enumerate(self.fold_slices) if sl.stop > sl.start]   # folds with judged rows
+        psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks, judging)
         nF = len(F)
         # every block's change of the judged rows, fold by fold: the shared columns F for all
         # blocks at once, then each group's own columns
         change = np.empty((len(blocks), self.A_rows.shape[1]))
-        for f, sl in enumerate(self.fold_slices):
+        for f, sl in zip(range(len(judging)), (self.fold_slices[j] for j in judging)):
             AU = self.A_rows[U, sl]
             ch = np.stack([p[f, :nF] for p in psi]) @ self.A_rows[F, sl]
             for key, ks in groups.items():
@@ -435,30 +436,33 @@ class FoldedProblem:
             out.append(d)
         return out
 
-    def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]]):
-        """Every fold's estimate of several candidates [F, P_b]: F is eliminated once per
-        fold and each block solves only its Schur complement S_P (G_PP - G_PF N_FF^-1
-        G_FP) S_P + I, whose bracket blocks with the same columns share. Returns (ψ per
-        block (k, |F| + |P_b|), the union U of the blocks' columns, each group's place in
-        U, the groups {columns: block indices})."""
+    def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
+                      folds: list[int] | None = None):
+        """Every fold's estimate (``folds``: these folds only, in this order; an ends
+        problem's rest judges nothing) of several candidates [F, P_b]: F is eliminated
+        once per fold and each block solves only its Schur complement S_P (G_PP - G_PF
+        N_FF^-1 G_FP) S_P + I, whose bracket blocks with the same columns share. Returns
+        (ψ per block (k, |F| + |P_b|), the union U of the blocks' columns, each group's
+        place in U, the groups {columns: block indices})."""
+        fo = np.arange(self.k) if folds is None else np.asarray(folds, int)
         groups: dict = {}
         for k, (P, _) in enumerate(blocks):
             groups.setdefault(tuple(int(c) for c in P), []).append(k)
         U = np.unique(np.concatenate([np.asarray(P, int) for P, _ in blocks] + [np.zeros(0, int)]))
         at = {int(c): i for i, c in enumerate(U)}
         where = {key: np.array([at[c] for c in key], int) for key in groups}
-        nF, k = len(F), self.k
+        nF, k = len(F), len(fo)
         psi = [np.zeros((k, nF + len(P))) for P, _ in blocks]
         x0F, x0U = self.x0[F], self.x0[U]
         # every fold at once (stacked solves: a few calls instead of a few per fold)
-        A = self.G_out[:, F[:, None], F] * np.outer(sF, sF)
+        A = self.G_out[np.ix_(fo, F, F)] * np.outer(sF, sF)
         A[:, np.arange(nF), np.arange(nF)] += 1.0                               # the unit prior
-        GFU = self.G_out[:, F[:, None], U] * sF[:, None]                        # (k, nF, nU)
-        rhs = np.concatenate([(self.g_out[:, F] * sF - x0F)[..., None], GFU], axis=2)
+        GFU = self.G_out[np.ix_(fo, F, U)] * sF[:, None]                        # (k, nF, nU)
+        rhs = np.concatenate([(self.g_out[np.ix_(fo, F)] * sF - x0F)[..., None], GFU], axis=2)
         sol = _solve_pos(A, rhs)
         y, XU = sol[..., 0], sol[..., 1:]                                        # (k, nF), (k, nF, nU)
-        MU = self.G_out[:, U[:, None], U] - np.swapaxes(GFU, 1, 2) @ XU         # the Schur brackets of U
-        rU = self.g_out[:, U] - np.einsum("kfu,kf->ku", GFU, y)
+        MU = self.G_out[np.ix_(fo, U, U)] - np.swapaxes(GFU, 1, 2) @ XU         # the Schur brackets of U
+        rU = self.g_out[np.ix_(fo, U)] - np.einsum("kfu,kf->ku", GFU, y)
         for key, ks in groups.items():
             if not key:
                 for j in ks:
