@@ -330,23 +330,13 @@ class FoldedProblem:
         """trace((G + I)^-1 G) over these columns beyond the first ``skip``: what the
         data determine beyond the prior."""
         cols, scale = self._all(cols, scale)
-        G = self.normal_matrix(cols, scale)
-        G[np.diag_indices_from(G)] += 1.0
-        L, info = lapack.dpotrf(G, lower=1, clean=1, overwrite_a=1)
-        Linv, info2 = lapack.dtrtri(L, lower=1, overwrite_c=1) if not info else (None, 1)
-        if info or info2:
-            raise np.linalg.LinAlgError("G + I is not positive definite to working precision")
-        # diag((G + I)^-1 G) = 1 - diag((G + I)^-1), (G + I)^-1 = L^-T L^-1: its diagonal from
-        # the triangular inverse (a third of a solve against the identity)
-        diag = 1.0 - np.einsum("ij,ij->j", Linv, Linv)
-        return float(diag[skip:].sum())
+        return self.effective_terms_blocks(cols, scale, [(np.zeros(0, int), np.zeros(0))], skip)[0]
 
     def effective_terms_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
                                skip: int = 0) -> list[float]:
-        """:meth:`effective_terms` of the columns [F, P_b] (factors [sF, s_b]) of every
-        block, ``F``'s first ``skip`` columns skipped: F is eliminated once (A = G_FF + I)
-        and blocks with the same columns (a penalised spline at several smoothings) share
-        the Schur bracket K = G_PP - G_PF A^-1 G_FP, so each costs a solve of its own size:
+        """:meth:`effective_terms` of [F, P_b] (factors [sF, s_b]) of every block, F's first
+        ``skip`` skipped: A = G_FF + I factored once, a triangular inverse for diag(A^-1);
+        blocks of the same columns (a spline's smoothings) share K = G_PP - G_PF A^-1 G_FP:
         trace((G + I)^-1) = trace(A^-1) + trace(Σ^-1 (S X^T X S + I)), Σ = S K S + I,
         X = A^-1 G_FP, S the block's factors."""
         F, sF = np.asarray(F, int), np.asarray(sF, float)
@@ -357,10 +347,12 @@ class FoldedProblem:
         if info or info2:
             raise np.linalg.LinAlgError("G + I is not positive definite to working precision")
         dA = np.einsum("ij,ij->j", Linv, Linv)                      # diag(A^-1)
-        shared: dict = {}
-        out = []
+        shared, out = {}, []
         for P, s in blocks:
             P, s = np.asarray(P, int), np.asarray(s, float)
+            if not len(P):   # F alone
+                out.append(float(len(F) - skip - dA[skip:].sum()))
+                continue
             if P.tobytes() not in shared:
                 GFP = self.G[np.ix_(F, P)] * sF[:, None]
                 X = lapack.dpotrs(L, GFP, lower=1)[0]
