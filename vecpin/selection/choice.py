@@ -29,10 +29,10 @@ each end) are held out whole (:func:`vecpin.identification.crossval.command_fold
 that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
 as it will be used beyond the measured span (a robot measured over part of its joint
 ranges; a machine whose model is asked for over its whole travel). Along such axes every
-candidate basis is built over the span measured, not the travel, and holds its values
-beyond it (:func:`~vecpin.selection.design.measured_spans`): a UR10 measured over 96-147°
-of its joints' 720° has errors of 18-30° period there (joints 1 and 2) that series over the
-travel cannot resolve (series C of the public dataset: 0.44 -> 0.27 mm held-out mean on
+candidate series and spline is built over the span measured, not the travel, and beyond
+it only its straight-line part carries on (:func:`~vecpin.selection.design.measured_spans`):
+a UR10 measured over 96-147° of its joints' 720° has errors of 18-30° period there (joints
+1 and 2) that series over the travel cannot resolve (series C of the public dataset: 0.44 -> 0.27 mm held-out mean on
 interleaved poses, 0.42 -> 0.26 mm beyond joint 1's measured span). Along such axes the
 basis is then chosen on their held-out ends (:func:`_ends_choice`), each axis' two ends
 (the outer fifth of its measured span) held out on a problem of its own, so that no end
@@ -134,7 +134,7 @@ class ModelChoice:
         if self.ends:
             lines.append(f"  (measured over less than {PART_OF_TRAVEL:.0%} of their travel (or zone): "
                          f"{', '.join(self.ends)}; "
-                         "their bases are built over the span measured and hold their values beyond it; the "
+                         "their series are built over the span measured and only their lines carry on beyond it; the "
                          "commands at each end of that span were held out together, so the held-out "
                          "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
         if self.before_ends is not None and self.before_ends is not self.chosen:
