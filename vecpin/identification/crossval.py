@@ -414,7 +414,7 @@ class FoldedProblem:
         # every block's change of the judged rows, fold by fold: the shared columns F for all
         # blocks at once, then each group's own columns
         change = np.empty((len(blocks), self.A_rows.shape[1]))
-        for f, sl in zip(range(len(judging)), (self.fold_slices[j] for j in judging)):
+        for f, sl in enumerate(self.fold_slices[j] for j in judging):   # f: the judging fold's place in psi
             AU = self.A_rows[U, sl]
             ch = np.stack([p[f, :nF] for p in psi]) @ self.A_rows[F, sl]
             for key, ks in groups.items():

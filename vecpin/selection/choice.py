@@ -32,8 +32,9 @@ ranges; a machine whose model is asked for over its whole travel). Along such ax
 candidate series and spline is built over the span measured, not the travel, and beyond
 it only its straight-line part carries on (:func:`~vecpin.selection.design.measured_spans`):
 a UR10 measured over 96-147° of its joints' 720° has errors of 18-30° period there (joints
-1 and 2) that series over the travel cannot resolve (series C of the public dataset: 0.44 -> 0.27 mm held-out mean on
-interleaved poses, 0.42 -> 0.26 mm beyond joint 1's measured span). Along such axes the
+1 and 2) that series over the travel cannot resolve (series C of the public dataset: 0.44
+-> 0.27 mm held-out mean on interleaved poses, 0.42 -> 0.26 mm beyond joint 1's measured
+span). Along such axes the
 basis is then chosen on their held-out ends (:func:`_ends_choice`), each axis' two ends
 (the outer fifth of its measured span) held out on a problem of its own, so that no end
 is predicted by a fit that saw any of its commands: each kind's choice by the one-SE rule

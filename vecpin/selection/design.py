@@ -186,13 +186,12 @@ def measured_spans(machine: Machine, campaign: Campaign, travel: tuple[np.ndarra
     (:func:`partly_measured`), None (the travel) elsewhere. A series over the whole
     travel of an axis measured over a part of it resolves little of that part (a UR10's
     joint 1 measured over 128° of its 720°, where its errors have periods of about 30°)
-    and extrapolates beyond it what no command measured; over the measured span the same series resolve the part, and beyond it
-    only each function's straight-line part carries on from its value at the nearer end
-    (:class:`~vecpin.models.basis.AxisBasis`)."""
+    and extrapolates beyond it what no command measured; over the measured span the same
+    series resolve the part, and beyond it only each function's straight-line part carries
+    on from its value at the nearer end (:class:`~vecpin.models.basis.AxisBasis`)."""
     ends = partly_measured(machine, campaign, travel)
     lo, hi = campaign.q.min(axis=0), campaign.q.max(axis=0)
     return tuple((float(lo[k]), float(hi[k])) if k in ends and hi[k] > lo[k] else None for k in range(machine.n_axes))
-
 
 
 class Design:

@@ -90,18 +90,27 @@ class Problem(Design):
 
     def candidate(self, choice: tuple[AxisChoice, ...]) -> Candidate:
         cols, scale = self.columns(choice)
-        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale), spans=self.spans)
+        return Candidate(self.kind, choice, len(cols) - self.n_fixed, self.problem.heldout(cols, scale),
+                         spans=self.spans)
 
     def candidates(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
         """Candidates that share most columns (one axis' basis or smoothing differs), at
         about the cost of one (:meth:`FoldedProblem.heldout_blocks`)."""
+        F, sF, blocks = self._shared(choices)
+        held = self.problem.heldout_blocks(F, sF, blocks)
+        return [Candidate(self.kind, c, len(F) + len(P) - self.n_fixed, h, spans=self.spans)
+                for c, (P, _), h in zip(choices, blocks, held)]
+
+    def _shared(self, choices: list[tuple[AxisChoice, ...]]) -> tuple[np.ndarray, np.ndarray, list]:
+        """(F, its factors, [(P_b, factors)]): the columns every choice has with the same
+        factor (in the first choice's order: E_0 and the instruments' unknowns first), and
+        each choice's others."""
         cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
         common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
         shared = set(common)
         blocks = [(np.array([j for j in d if j not in shared], int),
                    np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
-        held = self.problem.heldout_blocks(np.array(common, int), np.array([cs[0][j] for j in common], float), blocks)
-        return [Candidate(self.kind, c, len(d) - self.n_fixed, h, spans=self.spans) for c, d, h in zip(choices, cs, held)]
+        return np.array(common, int), np.array([cs[0][j] for j in common], float), blocks
 
     def size(self, cand: Candidate) -> float:
         """The candidate's number of model terms for the one-SE rule, less what its
@@ -122,15 +131,10 @@ class Problem(Design):
         todo = list({id(c): c for c in cands if c.effective_terms is None
                      and any(a.family == "pspline" for a in c.axes)}.values())
         if len(todo) > 1:
-            cs = [dict(zip(*(a.tolist() for a in self.columns(c.axes)))) for c in todo]
-            F = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
-            common = set(F)
-            blocks = [(np.array([j for j in d if j not in common], int),
-                       np.array([v for j, v in d.items() if j not in common], float)) for d in cs]
-            sF = np.array([cs[0][j] for j in F], float)
-            t = self.problem.effective_terms_blocks(np.array(F, int), sF, blocks, skip=self.n_fixed)
-            t0 = self.problem.effective_terms_blocks(np.array(F, int), np.ones(len(F)),
-                                                     [(P, np.ones(len(P))) for P, _ in blocks], skip=self.n_fixed)
+            F, sF, blocks = self._shared([c.axes for c in todo])
+            t = self.problem.effective_terms_blocks(F, sF, blocks, skip=self.n_fixed)
+            t0 = self.problem.effective_terms_blocks(F, np.ones(len(F)), [(P, np.ones(len(P))) for P, _ in blocks],
+                                                     skip=self.n_fixed)
             for c, lam, plain in zip(todo, t, t0):
                 c.effective_terms = c.n_terms - (plain - lam)
         return [self.size(c) for c in cands]
