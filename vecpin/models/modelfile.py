@@ -116,7 +116,8 @@ def _correlations(model, std: np.ndarray) -> dict:
     deviations they give back the covariance (tables' uncertainty, significance tests)."""
     idx = np.flatnonzero(std > 0)
     C = model.cov_[np.ix_(idx, idx)] / np.outer(std[idx], std[idx])
-    rows = [[round(float(v), 6) for v in C[i, :i]] for i in range(len(idx))]
+    C = np.round(C, 6).tolist()
+    rows = [C[i][:i] for i in range(len(idx))]
     return {"index": [int(i) for i in idx], "lower": rows,
             "meaning": "corr[i][j] for j < i of the parameters listed by index (0 = E0.dx)"}
 
@@ -140,8 +141,15 @@ def _zone_to_dict(zone) -> dict | None:
 
 
 def save_model(model, path: str | Path) -> None:
-    """Write the model file atomically."""
-    write_text(path, json.dumps(model_to_dict(model), indent=1))
+    """Write the model file atomically: indented, but the correlations (the bulk of a
+    large model's file: P^2 / 2 numbers) one row per line, written by json's C encoder
+    (the indenting encoder is pure Python: 0.4 s for a model of 470 terms)."""
+    d = model_to_dict(model)
+    corr = d.pop("correlations")
+    rows = ",\n  ".join(json.dumps(r) for r in corr["lower"])
+    head = {k: v for k, v in corr.items() if k != "lower"}
+    text = json.dumps(d, indent=1)[:-2]
+    write_text(path, f'{text},\n "correlations": {json.dumps(head)[:-1]}, "lower": [\n  {rows}]}}\n}}')
 
 
 def load_model(path: str | Path, factory: Callable):
