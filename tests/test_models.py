@@ -78,6 +78,24 @@ def test_basis_beyond_its_span_carries_on_its_line_only():
     np.testing.assert_allclose(per_turn.values(np.array([1.5 + 2 * np.pi])), per_turn.values(np.array([1.5])), atol=1e-12)
 
 
+@pytest.mark.parametrize("degree", [1, 2, 3, 5])
+def test_b_splines_are_scipys(rng, degree):
+    """vecpin's Cox-de Boor B-splines (values and derivatives, at random points, on the
+    knots and at both ends, a double knot above degree 1) are scipy's BSpline with
+    identity coefficients (an independent implementation)."""
+    from scipy.interpolate import BSpline
+
+    from vecpin.models.basis import b_splines
+    inner = np.sort(np.r_[rng.uniform(-2.0, 3.0, 6), [0.5, 0.5] if degree > 1 else 0.5])
+    t = np.r_[[-2.0] * (degree + 1), inner, [3.0] * (degree + 1)]
+    x = np.r_[rng.uniform(-2.0, 3.0, 40), -2.0, 3.0, inner]
+    x = x[:len(x) // 2 * 2].reshape(2, -1)   # any shape of positions
+    reference = BSpline(t, np.eye(len(t) - degree - 1), degree)
+    np.testing.assert_allclose(b_splines(t, degree, x), reference(x), atol=1e-13)
+    np.testing.assert_allclose(b_splines(t, degree, x, derivative=True), reference.derivative()(x), atol=1e-11)
+    np.testing.assert_allclose(b_splines(t, degree, x).sum(axis=-1), 1.0, atol=1e-13)   # a partition of unity
+
+
 def test_chebyshev_recursion_is_eq6():
     b = AxisBasis(-1.0, 1.0, 4)
     x = np.linspace(-1, 1, 9)

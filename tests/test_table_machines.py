@@ -286,19 +286,27 @@ def test_nest_rows_on_a_machine_without_a_table_are_refused(flow, tmp_path, caps
 
 
 def test_batched_kabsch_is_the_rigid_registration(rng):
-    """Many registrations at once (the nests of every command) give what one
-    scipy-based registration gives each, and recover a known rotation and shift."""
+    """Many registrations at once (the nests of every command), weighted or not, give
+    what scipy's Rotation.align_vectors (an independent Kabsch) gives each, one at a time
+    through register, and recover a known rotation and shift."""
     from scipy.spatial.transform import Rotation
 
-    from vecpin.measurement.registration import register
-    from vecpin.measurement.tableframe import kabsch
+    from vecpin.measurement.registration import kabsch, register
     P = rng.normal(size=(4, 3)) * 0.1
     R_true = Rotation.random(6, random_state=1).as_matrix()
     t_true = rng.normal(size=(6, 3))
     Q = np.einsum("gij,kj->gki", R_true, P) + t_true[:, None] + rng.normal(size=(6, 4, 3)) * 1e-6
-    R, t = kabsch(P, Q)
-    for g in range(6):
-        R1, t1 = register(P, Q[g])
-        np.testing.assert_allclose(R[g], R1, atol=1e-12)
-        np.testing.assert_allclose(t[g], t1, atol=1e-12)
-        np.testing.assert_allclose(R[g], R_true[g], atol=1e-4)
+    for w in (None, np.array([1.0, 2.0, 0.5, 3.0])):
+        R, t = kabsch(P, Q, w)
+        ww = np.ones(4) / 4 if w is None else w / w.sum()
+        for g in range(6):
+            cp, cq = ww @ P, ww @ Q[g]
+            rot, _ = Rotation.align_vectors(Q[g] - cq, P - cp, weights=ww)
+            np.testing.assert_allclose(R[g], rot.as_matrix(), atol=1e-12)
+            np.testing.assert_allclose(t[g], cq - rot.as_matrix() @ cp, atol=1e-12)
+            R1, t1 = register(P, Q[g], w)
+            np.testing.assert_allclose(R1, R[g], atol=1e-14)
+            np.testing.assert_allclose(t1, t[g], atol=1e-14)
+            np.testing.assert_allclose(R[g], R_true[g], atol=1e-4)
+    mirrored = Q * np.array([1.0, 1.0, -1.0])       # a reflection of the points: still a rotation
+    assert np.allclose(np.linalg.det(kabsch(P, mirrored)[0]), 1.0)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.errors import CampaignFileError
-from vecpin.measurement.registration import register, spans_plane
+from vecpin.measurement.registration import kabsch, register, spans_plane
 from vecpin.units import MM_PER_M
 
 KEY_DIGITS = 9           # commands equal to 1e-9 m / rad are the same command
@@ -120,19 +120,6 @@ def _by_nests(campaign, groups) -> dict:
         tools.append(t)
         nests.append(n)
     return {ids: (tools, np.array(nests)) for ids, (tools, nests) in out.items()}
-
-
-def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(R (G,3,3), t (G,3)) minimising |R P_g + t - Q_g| for each g: P (k,3) or (G,k,3),
-    Q (G,k,3) [m] (:func:`~vecpin.measurement.registration.register`, many at once)."""
-    P = np.broadcast_to(P, Q.shape)
-    cp, cq = P.mean(axis=1), Q.mean(axis=1)
-    H = np.einsum("gki,gkj->gij", P - cp[:, None], Q - cq[:, None])
-    U, _, Vt = np.linalg.svd(H)
-    D = np.ones((len(Q), 3))
-    D[:, 2] = np.sign(np.linalg.det(np.swapaxes(Vt, 1, 2) @ np.swapaxes(U, 1, 2)))
-    R = np.swapaxes(Vt, 1, 2) @ (D[:, :, None] * np.swapaxes(U, 1, 2))
-    return R, cq - np.einsum("gij,gj->gi", R, cp)
 
 
 def nest_shape(campaign, start: dict | None = None, iterations: int = 20) -> dict:
