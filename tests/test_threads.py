@@ -1,6 +1,8 @@
 """One BLAS thread while vecpin computes (vecpin/threads.py): the limit is what
 threadpoolctl reads back from the loaded OpenBLAS/MKL libraries, inside vecpin's entry
 points, and it is undone afterwards; VECPIN_BLAS_THREADS sets another count or none."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_info
@@ -10,6 +12,9 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.threads import blas_limited, blas_threads_wanted
+
+
+UR10_POSES = Path(__file__).resolve().parent / "data" / "ipa_ur10" / "random_poses_400.csv"
 
 
 def blas_threads() -> list[int]:
@@ -89,3 +94,72 @@ def test_the_command_line_limits_scipys_own_blas():
     if not inside:
         pytest.skip("no BLAS library that threadpoolctl can see")
     assert {n for _, n in inside} == {1}, inside
+
+
+def _pid_and_square(x):
+    import os
+    return os.getpid(), x * x
+
+
+def _refuse_three(x):
+    if x == 3:
+        raise ValueError("three refused")
+    return x
+
+
+@pytest.mark.parametrize("processes", [False, True])
+def test_side_by_side_keeps_the_order_and_raises(processes, monkeypatch):
+    """side_by_side gives what a loop gives, in the items' order, in forked processes
+    when asked (other process ids) and raises what a call raised."""
+    import os
+
+    from vecpin.threads import side_by_side
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    out = side_by_side(_pid_and_square, range(5), processes=processes)
+    assert [sq for _, sq in out] == [x * x for x in range(5)]
+    assert all((pid != os.getpid()) == processes for pid, _ in out)
+    with pytest.raises(ValueError, match="three refused"):
+        side_by_side(_refuse_three, range(5), processes=processes)
+
+
+def test_no_fork_while_another_thread_runs(monkeypatch):
+    """A process running threads of its own is not forked (a lock held by one of them
+    would stay locked in the copy): the calls run in threads instead."""
+    import os
+    import threading
+
+    from vecpin.threads import side_by_side
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        out = side_by_side(_pid_and_square, range(3), processes=True)
+    finally:
+        stop.set()
+        other.join()
+    assert all(pid == os.getpid() for pid, _ in out)
+
+
+def test_the_choice_is_the_same_side_by_side_or_one_after_another(monkeypatch):
+    """The model kinds searched side by side (forked processes) give the choice, every
+    candidate and its held-out distances, of the kinds searched one after another, in
+    the same order (the UR10's real campaign: its ends judged, the noise from the data)."""
+    import os
+
+    import vecpin
+    from vecpin.measurement.robotaccuracy import read_dataset
+    from vecpin.selection.choice import choose_model
+    m = vecpin.Machine.load("ur10")
+    c = read_dataset(UR10_POSES, m).campaign.subset(np.arange(0, 400, 3))
+    runs = []
+    for cores in (1, 2):
+        monkeypatch.setattr(os, "cpu_count", lambda n=cores: n)
+        ch = choose_model(m, c, NoiseModel.default(m), orders=(0, 1, 2), noise_from_data=True)
+        runs.append(ch)
+    one, two = runs
+    assert [(k.kind, k.axes) for k in one.candidates] == [(k.kind, k.axes) for k in two.candidates]
+    for a, b in zip(one.candidates, two.candidates):
+        np.testing.assert_array_equal(a.heldout, b.heldout)
+    assert (one.chosen.kind, one.chosen.axes) == (two.chosen.kind, two.chosen.axes)
+    assert one.reason == two.reason and one.chosen_noise_scale == two.chosen_noise_scale != 1.0

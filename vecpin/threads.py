@@ -17,14 +17,25 @@ this, as scikit-learn uses it). The environment variable ``VECPIN_BLAS_THREADS``
 another number (``0``: leave the BLAS as it is, e.g. for a 1,000,000-row fit on a
 machine with many cores). Calls nest: an inner entry point inside an outer one costs
 nothing.
+
+Work that splits into a few independent heavy parts (the model choice's kinds) runs
+them side by side, one per core, each with its one BLAS thread (:func:`side_by_side`):
+in threads, or in forked processes where the Python around the factorisations would
+make threads wait on each other.
 """
 from __future__ import annotations
 
 import functools
 import importlib
+import multiprocessing
 import os
 import threading
+import warnings
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
+from typing import Callable, Iterable, TypeVar
+
+T = TypeVar("T")
 
 ENV = "VECPIN_BLAS_THREADS"
 _state = threading.local()
@@ -80,3 +91,57 @@ def one_blas_thread(fn):
         with blas_limited():
             return fn(*args, **kwargs)
     return wrapper
+
+
+def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = False) -> list[T]:
+    """``[fn(x) for x in items]``, the calls side by side (as many as the machine has
+    cores, at most one per item), the results in the items' order, each with the caller's
+    BLAS limit (:func:`blas_limited`). An exception of any call is raised here; ``fn``
+    must not change what another call reads.
+
+    In threads by default: the factorisations release the interpreter lock, the Python
+    around them does not. ``processes``: in forked processes (each a copy of this one,
+    made in milliseconds; the results come back pickled), for work whose Python share
+    would make threads wait on each other and whose results are small; threads where the
+    platform has no fork or this process runs threads of its own (a fork copies no
+    thread, and a lock one of them held stays locked in the copy)."""
+    items = list(items)
+    workers = min(len(items), os.cpu_count() or 1)
+    if workers <= 1:
+        return [fn(x) for x in items]
+    if processes and _can_fork():
+        return _forked(fn, items, workers)
+
+    def call(x):
+        _state.depth = 1   # inside the limit entered below
+        return fn(x)
+
+    with blas_limited(), ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(call, items))
+
+
+def _can_fork() -> bool:
+    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+
+
+_job: tuple = ()   # (fn, items) of the forked calls under way: the copies find them here
+
+
+def _run_job(i: int):
+    fn, items = _job
+    return fn(items[i])
+
+
+def _forked(fn: Callable[..., T], items: list, workers: int) -> list[T]:
+    """:func:`side_by_side` in ``workers`` forked processes."""
+    global _job
+    _job = (fn, items)
+    try:
+        with blas_limited(), warnings.catch_warnings():
+            # Python 3.12+ warns of any OS thread at a fork; the BLAS' parked threads are
+            # the only ones here (:func:`_can_fork`), and it re-creates them in the copy
+            warnings.filterwarnings("ignore", message=".*multi-threaded.*fork", category=DeprecationWarning)
+            with multiprocessing.get_context("fork").Pool(workers) as pool:
+                return pool.map(_run_job, range(len(items)), chunksize=1)
+    finally:
+        _job = ()

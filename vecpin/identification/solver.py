@@ -37,8 +37,8 @@ PROMISE_ATOL = 1.0
 class Solution:
     psi: np.ndarray           # prior-scaled unknowns (removed terms 0)
     chi2: float               # |w|^2 at psi
-    G: np.ndarray             # J^T J at psi (J = dw/dpsi, all columns)
-    g: np.ndarray             # J^T w at psi
+    G: np.ndarray             # J^T J at psi (J = dw/dpsi, all columns; when converged, at the point
+    g: np.ndarray             # J^T w      before the last step, which lowered the objective by < tol)
     objective: float          # |w|^2 + |psi|^2
     iterations: int
     converged: bool
@@ -102,14 +102,14 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
                                    "settings)")
         obj_new = chi2_new + trial @ trial
         decrease = obj - obj_new
-        psi = trial
+        psi, chi2, obj = trial, chi2_new, obj_new
+        if progress:
+            progress(f"iteration {it}: chi2 {obj:.6g}, step {np.abs(step).max():.3g}")
+        if decrease <= tol * max(obj, 1.0) or np.abs(step).max() < 1e-10:
+            converged = True   # G and g stay those of the point before this last, negligible step
+            break
         chi2, G, g = normal_equations(psi, True)[:3]
         _finite(chi2, G, g, f"at the point accepted in iteration {it}")
         obj = chi2 + psi @ psi
         lam = max(lam / 10, LAMBDA_MIN)
-        if progress:
-            progress(f"iteration {it}: chi2 {obj:.6g}, step {np.abs(step).max():.3g}")
-        if decrease <= tol * max(obj, 1.0) or np.abs(step).max() < 1e-10:
-            converged = True
-            break
     return Solution(psi, chi2, G, g, obj, it, converged)

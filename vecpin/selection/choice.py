@@ -78,9 +78,10 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
+from vecpin.selection.stage import KindStage, kind_stage
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      measured_spans, partly_measured, per_turn_measured)
-from vecpin.threads import one_blas_thread
+from vecpin.threads import one_blas_thread, side_by_side
 
 _Problem = Problem  # the name the tests and older scripts use
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
@@ -108,6 +109,7 @@ class ModelChoice:
     ends: tuple = ()         # axes measured over part of their travel: the ends of their span held out whole
     noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
     before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
+    chosen_noise_scale: float = 1.0  # the level the chosen candidate's own linearised fit gives: the fit starts there
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -159,7 +161,7 @@ class ModelChoice:
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
                 "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
-                "noise_scale": self.noise_scale,
+                "noise_scale": self.noise_scale, "chosen_noise_scale": self.chosen_noise_scale,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "before_ends": None if self.before_ends is None else self.before_ends.to_dict(self.machine),
@@ -240,123 +242,86 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     ends = partly_measured(machine, campaign, travel)
     spans = measured_spans(machine, campaign, travel)
     fold = command_folds(camp, folds, np.random.default_rng(seed), ends)
-    problems = {}
-    for kind in kinds:
+
+    def linearised(kind: str) -> tuple[Problem, Search]:   # the kinds side by side, here and below
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        problems[kind] = Problem(kind, machine, camp, noise, options, fold, opts, spans=spans)
-    search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
+        prob = Problem(kind, machine, camp, noise, options, fold, opts, spans=spans)
+        return prob, _common_stage(prob, machine, campaign, plans, orders, options, underdetermined, say)
+
+    firsts = side_by_side(linearised, kinds)
+    problems = {kind: prob for kind, (prob, _) in zip(kinds, firsts)}
+    search = _joined([own for _, own in firsts])
+    if not search.cands:
+        raise _too_small(machine, campaign, problems, search.limit)
     lowest = min(search.cands, key=lambda c: c.mean)
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
     if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
         say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
         for prob in problems.values():
             prob.problem.rescale(scale)
-        search = _common_stage(problems, machine, campaign, plans, orders, options, underdetermined, say)
-    for prob in (problems.values() if per_axis else ()):  # every kind: a spline may turn the ranking
-        cur = search.refine(prob, options)
-        if cur is not None:
-            say(f"refined axis by axis: {cur.label()}")
+
+    def staged(kind: str) -> KindStage:
+        own = (_common_stage(problems[kind], machine, campaign, plans, orders, options, underdetermined, say)
+               if scale != 1.0 else search.of_kind(kind))
+        return kind_stage(own, problems[kind], camp, options, ends, per_axis, say)
+
+    stages = side_by_side(staged, kinds, processes=True)   # small results, much Python: processes
+    search = _joined([own.search for own in stages])
     cands, first = search.cands, problems[kinds[0]]
     best = min(cands, key=lambda c: c.mean)
     before = None
     if ends and per_axis:   # along axes the model is used beyond, what extrapolates (_ends_choice)
-        chosen, se, reason, before = _ends_choice(search, problems, camp, options, ends)
+        chosen, se, reason, before = _ends_choice([own for own in stages if own.end is not None], problems)
     else:
         chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c),
                                                 lambda c: problems[c.kind].size_bound(c))
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
+    own_scale = scale * _noise_level(problems[chosen.kind], chosen) if noise_from_data else 1.0
     limit = search.limit
     return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
-                       tuple(machine.axes[a].name for a in ends), scale, before)
+                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale)
 
 
-def _common_stage(problems: dict, machine: Machine, campaign: Campaign, plans, orders, options,
+def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,
                   underdetermined: bool, say) -> Search:
-    """A new search with every kind's common-basis candidates scored (refused when the
-    campaign supports none)."""
+    """A new search of one kind with its common-basis candidates scored."""
     search = Search()
-    for kind, prob in problems.items():
-        if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
-            search.limit = prob.n_equations * len(campaign) / len(prob.judged)
-        search.common(prob, machine, plans, orders, options)
-        say(f"{kind}: {sum(c.kind == kind for c in search.cands)} common-basis candidates scored")
-    if not search.cands:
-        raise _too_small(machine, campaign, problems, search.limit)
+    if not underdetermined:  # the whole campaign's equations (the choice may judge a subsample)
+        search.limit = prob.n_equations * len(campaign) / len(prob.judged)
+    search.common(prob, machine, plans, orders, options)
+    say(f"{prob.kind}: {len(search.cands)} common-basis candidates scored")
     return search
 
 
-def _ends_choice(search: Search, problems: dict, camp: Campaign, options,
-                 ends) -> tuple[Candidate, float, str, Candidate]:
-    """The choice when axes were measured over part of their travel (``ends``): every
-    kind's own choice by the one-SE rule, its bases along those axes chosen again on
-    their held-out ends (:func:`_along_ends`), then among the kinds' results the one-SE
-    rule on every held-out row: (chosen, its standard error [mm], the reason, the chosen
-    kind's choice before its ends were judged)."""
-    changes, starts = {}, {}
-    results = []
-    for kind, prob in problems.items():
-        own = [c for c in search.cands if c.kind == kind]
-        if not own:
-            continue
-        start = one_standard_error(own, min(own, key=lambda c: c.mean), prob.size, prob.size_bound)[0]
-        end, changed = _along_ends(search, prob, camp, start, options, ends)
-        results.append(end)
-        changes[end.kind], starts[end.kind] = changed, start
+def _joined(searches: list[Search]) -> Search:
+    """One search of the kinds' own (in the kinds' order: the same table whichever
+    thread finished first)."""
+    search = Search()
+    for own in searches:
+        search.limit = own.limit
+        search.merge(own)
+    return search
+
+
+def _ends_choice(stages: list[KindStage], problems: dict) -> tuple[Candidate, float, str, Candidate]:
+    """The choice when axes were measured over part of their travel: of every kind's
+    choice with its bases along those axes chosen on their held-out ends
+    (:func:`~vecpin.selection.stage.kind_stage`), the one-SE rule on every held-out row: (chosen, its standard
+    error [mm], the reason, the chosen kind's choice before its ends were judged)."""
+    results = [own.end for own in stages]
     low = min(results, key=lambda c: c.mean)
     chosen, se, _ = one_standard_error(results, low, lambda c: problems[c.kind].size(c))
-    changed = changes[chosen.kind]
+    stage = next(own for own in stages if own.end is chosen)
+    changed = stage.changed
     reason = (f"each kind's fewest model terms within one standard error of its lowest held-out mean, its bases along "
               f"the axes measured over part of their travel then chosen on their held-out ends by the same rule"
               f"{' (' + ', '.join(changed) + ')' if changed else ''}; of the kinds, "
               + ("the lowest held-out mean" if chosen is low else
                  f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
-    return chosen, se, reason, starts[chosen.kind]
-
-
-def _along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate, options,
-                ends) -> tuple[Candidate, list[str]]:
-    """The basis of every axis measured over part of its travel (``ends``, chain order)
-    chosen again on the held-out ends of every such axis (:func:`_on_every_end`), the
-    other axes as reached so far: among that axis' options with no more terms than it has
-    (effective terms, :meth:`Problem.size`), the fewest model terms within one paired
-    standard error of the lowest held-out mean on those rows (:func:`one_standard_error`),
-    so that along an axis the model is used beyond, it keeps only what extrapolates there,
-    and no axis keeps a function that spoils the extrapolation along another. (The
-    candidate reached, what changed, 'axis old -> new'.)"""
-    chosen, changed = start, []
-    for i in ends:
-        trials = [chosen.axes[:i] + (o,) + chosen.axes[i + 1:] for o in options[i]
-                  if o.size <= chosen.axes[i].size]
-        new = [t for t in trials if (prob.kind, t) not in search.scored and (prob.kind, t) not in search.left_out
-               and search.supported(prob, t)]
-        for c in (prob.candidates(new) if len(new) > 1 else [prob.candidate(t) for t in new]):
-            search.add(c)
-        pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
-        sizes = prob.sizes(pool + [chosen])
-        pool = [c.axes for c, n in zip(pool, sizes) if round(n) <= round(sizes[-1])]   # a smoothing counts too
-        judged = _on_every_end(prob, camp, pool, ends)
-        low = min(judged, key=lambda c: c.mean)
-        size = lambda c: prob.size(search.scored[(prob.kind, c.axes)])   # noqa: E731 (cached on the scored one)
-        pick = search.scored[(prob.kind, one_standard_error(judged, low, size)[0].axes)]
-        if pick is not chosen:
-            changed.append(f"{prob.machine.axes[i].name} {chosen.axes[i].label()} -> {pick.axes[i].label()}")
-            chosen = pick
-    return chosen, changed
-
-
-def _on_every_end(prob: Problem, camp: Campaign, choices: list[tuple], ends) -> list[Candidate]:
-    """``choices`` judged on the held-out ends of every axis in ``ends``, each axis' two
-    ends estimated without any of their own commands (:meth:`Problem.on_ends`): one
-    candidate per choice, its held-out distances those of every axis' ends in turn (a
-    function of one axis moves the predictions where another is extrapolated, too)."""
-    parts = [(p.candidates(choices) if len(choices) > 1 else [p.candidate(t) for t in choices])
-             for p in (prob.on_ends(j, camp) for j in ends)]
-    return [Candidate(prob.kind, t, parts[0][k].n_terms, np.concatenate([part[k].heldout for part in parts]),
-                      spans=prob.spans)
-            for k, t in enumerate(choices)]
+    return chosen, se, reason, stage.start
 
 
 def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:

@@ -104,13 +104,17 @@ class Problem(Design):
     def _shared(self, choices: list[tuple[AxisChoice, ...]]) -> tuple[np.ndarray, np.ndarray, list]:
         """(F, its factors, [(P_b, factors)]): the columns every choice has with the same
         factor (in the first choice's order: E_0 and the instruments' unknowns first), and
-        each choice's others."""
-        cs = [dict(zip(*(a.tolist() for a in self.columns(c)))) for c in choices]
-        common = [j for j, v in cs[0].items() if all(d.get(j) == v for d in cs[1:])]
-        shared = set(common)
-        blocks = [(np.array([j for j in d if j not in shared], int),
-                   np.array([v for j, v in d.items() if j not in shared], float)) for d in cs]
-        return np.array(common, int), np.array([cs[0][j] for j in common], float), blocks
+        each choice's others (in its own order)."""
+        cols = [self.columns(c) for c in choices]
+        width = 1 + max(int(c.max()) for c, _ in cols)
+        factor = np.full((len(cols), width), np.nan)      # each choice's factor per column (nan: not its column)
+        for row, (c, f) in zip(factor, cols):
+            row[c] = f
+        same = (factor == factor[0]).all(axis=0)          # nan never equals: columns every choice has, alike
+        c0, f0 = cols[0]
+        common = same[c0]
+        blocks = [(c[~same[c]], f[~same[c]]) for c, f in cols]
+        return c0[common], f0[common], blocks
 
     def size(self, cand: Candidate) -> float:
         """The candidate's number of model terms for the one-SE rule, less what its
@@ -164,6 +168,23 @@ class Search:
         self.scored: dict = {}
         self.left_out: set = set()
         self.limit = math.inf
+
+    def of_kind(self, kind: str) -> "Search":
+        """A search of its own for one kind, with this one's candidates of that kind so
+        far (the kinds' searches then run side by side, :meth:`merge` joins them)."""
+        own = Search()
+        own.limit = self.limit
+        own.cands = [c for c in self.cands if c.kind == kind]
+        own.scored = {key: c for key, c in self.scored.items() if key[0] == kind}
+        own.left_out = {key for key in self.left_out if key[0] == kind}
+        return own
+
+    def merge(self, other: "Search") -> None:
+        """Add the candidates ``other`` scored (and left out) that this search has not."""
+        for c in other.cands:
+            if (c.kind, c.axes) not in self.scored:
+                self.add(c)
+        self.left_out |= other.left_out
 
     def supported(self, prob: Problem, choice: tuple) -> bool:
         if prob.unknowns(choice) < self.limit:

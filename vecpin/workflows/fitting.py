@@ -210,7 +210,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                                   travel=clip_to_zone(machine, zone) if zone else None,
                                   noise_from_data=noise_from_data, **opts)
     check_size(model)
-    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.noise_scale if choice else 1.0,
+    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.chosen_noise_scale if choice else 1.0,
                                              noise_from_data, underdetermined, progress)
     rescaled = scale != 1.0
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
@@ -227,7 +227,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
 
 def _fit_rounds(model: ErrorModel, campaign: Campaign, noise: NoiseModel, scale: float, noise_from_data: bool,
                 underdetermined: bool, progress) -> tuple[ErrorModel, float, float | None, float | None]:
-    """Fit ``model`` with every noise sigma times ``scale`` (the choice's level); with
+    """Fit ``model`` with every noise sigma times ``scale`` (the level the chosen model's
+    linearised fit gave in the choice, so that one fit usually lands in band); with
     ``noise_from_data``, while the fit's chi2 leaves its band, fit again (the same
     model, fitted from scratch: one choice per fit) with the scale sqrt(chi2 / expected)
     gives, at most :data:`NOISE_ROUNDS` fits, until it settles within 5 %. Returns (the fitted model,
