@@ -3,6 +3,8 @@ import os
 # the tests run small matrices one after another: one BLAS thread is faster, and much
 # faster on a loaded machine, than threads contending for the cores (set before numpy loads)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+if os.environ.get("PYTEST_XDIST_WORKER"):   # the test workers share the cores out already
+    os.environ.setdefault("VECPIN_WORKERS", "1")
 
 import numpy as np
 import pytest

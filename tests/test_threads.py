@@ -114,7 +114,7 @@ def test_side_by_side_keeps_the_order_and_raises(processes, monkeypatch):
     import os
 
     from vecpin.threads import side_by_side
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setenv("VECPIN_WORKERS", "2")
     out = side_by_side(_pid_and_square, range(5), processes=processes)
     assert [sq for _, sq in out] == [x * x for x in range(5)]
     assert all((pid != os.getpid()) == processes for pid, _ in out)
@@ -129,7 +129,7 @@ def test_no_fork_while_another_thread_runs(monkeypatch):
     import threading
 
     from vecpin.threads import side_by_side
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setenv("VECPIN_WORKERS", "2")
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
     other.start()
@@ -145,16 +145,14 @@ def test_the_choice_is_the_same_side_by_side_or_one_after_another(monkeypatch):
     """The model kinds searched side by side (forked processes) give the choice, every
     candidate and its held-out distances, of the kinds searched one after another, in
     the same order (the UR10's real campaign: its ends judged, the noise from the data)."""
-    import os
-
     import vecpin
     from vecpin.measurement.robotaccuracy import read_dataset
     from vecpin.selection.choice import choose_model
     m = vecpin.Machine.load("ur10")
     c = read_dataset(UR10_POSES, m).campaign.subset(np.arange(0, 400, 3))
     runs = []
-    for cores in (1, 2):
-        monkeypatch.setattr(os, "cpu_count", lambda n=cores: n)
+    for cores in ("1", "2"):
+        monkeypatch.setenv("VECPIN_WORKERS", cores)
         ch = choose_model(m, c, NoiseModel.default(m), orders=(0, 1, 2), noise_from_data=True)
         runs.append(ch)
     one, two = runs

@@ -38,6 +38,7 @@ from typing import Callable, Iterable, TypeVar
 T = TypeVar("T")
 
 ENV = "VECPIN_BLAS_THREADS"
+WORKERS_ENV = "VECPIN_WORKERS"   # how many cores side_by_side uses (default: every core)
 _state = threading.local()
 _controller = None
 
@@ -93,9 +94,17 @@ def one_blas_thread(fn):
     return wrapper
 
 
+def workers_wanted() -> int:
+    """The calls :func:`side_by_side` runs at once: ``VECPIN_WORKERS`` (e.g. 1 where
+    the cores are already shared out, as by parallel test workers), else the machine's
+    cores."""
+    text = os.environ.get(WORKERS_ENV, "").strip()
+    return int(text) if text.isdigit() and int(text) > 0 else (os.cpu_count() or 1)
+
+
 def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = False) -> list[T]:
     """``[fn(x) for x in items]``, the calls side by side (as many as the machine has
-    cores, at most one per item), the results in the items' order, each with the caller's
+    cores, or ``VECPIN_WORKERS``, at most one per item), the results in the items' order, each with the caller's
     BLAS limit (:func:`blas_limited`). An exception of any call is raised here; ``fn``
     must not change what another call reads.
 
@@ -106,7 +115,7 @@ def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = Fal
     platform has no fork or this process runs threads of its own (a fork copies no
     thread, and a lock one of them held stays locked in the copy)."""
     items = list(items)
-    workers = min(len(items), os.cpu_count() or 1)
+    workers = min(len(items), workers_wanted())
     if workers <= 1:
         return [fn(x) for x in items]
     if processes and _can_fork():

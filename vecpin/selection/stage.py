@@ -63,6 +63,8 @@ def along_ends(search: Search, prob: Problem, camp: Campaign, start: Candidate, 
         pool = [search.scored[(prob.kind, t)] for t in trials if (prob.kind, t) in search.scored]
         sizes = prob.sizes(pool + [chosen])
         pool = [c.axes for c, n in zip(pool, sizes) if round(n) <= round(sizes[-1])]   # a smoothing counts too
+        if len(pool) < 2:   # the axis' basis alone (a constant): nothing to choose
+            continue
         judged = on_every_end(prob, camp, pool, ends)
         low = min(judged, key=lambda c: c.mean)
         size = lambda c: prob.size(search.scored[(prob.kind, c.axes)])   # noqa: E731 (cached on the scored one)
