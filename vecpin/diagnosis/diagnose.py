@@ -334,6 +334,10 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         sc.small = passes and not sc.significant
         sc.evidence = why or (f"both tests pass but it takes {sc.shrink_pct:.1f}% off the held-out mean, under the "
                               f"{pb.min_shrink_pct:g}% an effect must earn to be named" if sc.small else "")
+        sc.base_share = ev["base_share"]
+        if sc.alike_base:
+            sc.evidence = "; ".join(x for x in (sc.evidence, f"the model's functions of the axes take {sc.base_share:.0%} "
+                                                "of its shape on these rows: the data cannot tell the two apart") if x)
         if sc.significant and getattr(c, "t0", None) is not None:   # a step: shown where both sides measured?
             both = in_both_regions(st.camp, st.feats, c.t0, c.station)
             not_shown = step_not_shown(b_, a_, both[lin.point_rows] if lin.point_rows.any() else both, thr)

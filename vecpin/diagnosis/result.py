@@ -17,6 +17,11 @@ from vecpin.models import ErrorModel
 from vecpin.models.effects import Effect
 
 
+# an effect in time whose shape the model's functions of the axes take this share of is not told apart from
+# them: a variance inflation factor 1 / (1 - share) of 5, the usual sign of collinearity too strong to separate
+BASE_ALIKE = 0.8
+
+
 @dataclass
 class EffectScore:
     """One candidate's scores. ``significant``: both tests below the threshold and a
@@ -56,6 +61,15 @@ class EffectScore:
     small: bool = False
     # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
     next_plan: object | None = field(default=None, repr=False)
+    # the share of its shape (whitened columns) the model's own columns take on these rows
+    base_share: float = float("nan")
+
+    @property
+    def alike_base(self) -> bool:
+        """A drift or step in time that the model's functions of the axes mimic on these rows
+        (:data:`BASE_ALIKE`), not significant beside them: the data cannot tell the two apart."""
+        return (self.effect is not None and self.effect.in_time and not self.significant
+                and self.base_share >= BASE_ALIKE)
 
     @property
     def finding(self) -> str:
@@ -91,7 +105,7 @@ class EffectScore:
                 "p_value": self.p_value, "p_heldout": self.p_heldout, "p_threshold": self.threshold,
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
-                "detected_but_small": self.small,
+                "detected_but_small": self.small, "share_in_the_model": self.base_share,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
@@ -163,6 +177,11 @@ class Diagnosis:
         if small:
             s2 += (" Detected but too small to name: " + ", ".join(
                 f"{e.label} ({e.shrink_pct:.1f}% off the held-out mean, size {e.size_text} mm)" for e in small) + ".")
+        alike = [e for e in self.effects if e.alike_base][:3]
+        if alike:
+            s2 += (" Not told apart from the model's errors along the axes on these rows: " + ", ".join(
+                f"{e.label} (size {e.size_text} mm; {e.base_share:.0%} of its shape lies in the model's)"
+                for e in alike) + ".")
         if self.outlier_rows:
             n = len(self.outlier_rows)
             s2 += f" {n} {'row is a gross error' if n == 1 else 'rows are gross errors'} and {'was' if n == 1 else 'were'} left out."

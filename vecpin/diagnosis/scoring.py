@@ -133,8 +133,22 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     F = (d_chi2 / k) / (ev["chi2"] / dof)
     before, after = distances_mm(lin, base_eval["heldout"]), distances_mm(lin, ev["heldout"])
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
-              p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
+              p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)),
+              base_share=base_share(base, J1))
     return ev
+
+
+def base_share(base: FoldedProblem, J1: np.ndarray) -> float:
+    """The share of a candidate's columns ``J1`` (N,3,Q, whitened) that the current
+    model's own columns take on these rows: tr(C^T M C) / tr(J1^T J1), C = J^T J1,
+    M = (G + I)^-1 (the fit's projection, priors included). Near 1, the model's functions
+    of the axes mimic the effect on these rows (a drift in time where the program sweeps
+    its axes in time order): the data cannot tell the one from the other."""
+    M, _ = base.full_inverse()
+    b = J1.reshape(-1, J1.shape[-1])
+    C = (b.T @ base.J.reshape(-1, base.n_columns)).T
+    total = float(np.einsum("ij,ij->", b, b))
+    return float(np.einsum("ij,ij->", C, M @ C)) / total if total > 0 else 0.0
 
 
 def paired_gain_p(before: np.ndarray, after: np.ndarray) -> float:

@@ -234,14 +234,14 @@ class FoldedProblem:
         [J, J1] less its value over J alone is u^T S^-1 u, u = g1 - C^T M g0,
         S = J1^T J1 + I - C^T M C, C = J^T J1, M = (G + I)^-1 (g0 = g - x0, g1 = J1^T w).
         Ranks many candidates as :meth:`extend` then :meth:`chi2` would, without their folds."""
-        M, Mg0 = self._full_inverse()
+        M, Mg0 = self.full_inverse()
         b = J1.reshape(-1, J1.shape[-1])
         C = (b.T @ self.J.reshape(-1, self.n_columns)).T               # J^T J1 (this order is the faster product)
         S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
         u = b.T @ self.w.ravel() - C.T @ Mg0
         return float(u @ linalg.solve(S, u, assume_a="pos"))
 
-    def _full_inverse(self) -> tuple[np.ndarray, np.ndarray]:
+    def full_inverse(self) -> tuple[np.ndarray, np.ndarray]:
         """(G + I)^-1 over every column and every row, and its product with g - x0 (the
         full-data estimate); computed once per problem."""
         if self._inverse is None:
@@ -295,7 +295,7 @@ class FoldedProblem:
             held_ws[sl] -= J1[sl] @ x1[f] - J[sl] @ v[f]
         held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
         held[order], held_w[order] = held_s, held_ws
-        M, Ma = self._full_inverse()
+        M, Ma = self.full_inverse()
         MC = M @ C
         S = B + eyeQ - C.T @ MC
         u = b - C.T @ Ma

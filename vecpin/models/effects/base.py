@@ -110,6 +110,7 @@ class Effect:
     keys: ClassVar[tuple[Key, ...]] = ()
     geometric: ClassVar[bool] = False
     scanned: ClassVar[bool] = False
+    in_time: ClassVar[bool] = False   # driven by time or temperature, not by the axes (a drift, a step)
     flags_rows: ClassVar[bool] = False
 
     def __init__(self, machine: Machine, axes=(), strength_mm: float = 0.05, seed: int = 0, **options):

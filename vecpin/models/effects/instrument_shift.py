@@ -28,6 +28,7 @@ class InstrumentShift(Effect):
     summary = "the tracker knocked: a rigid step of the measured points at an unknown time"
     kinds = ("tracker",)
     scanned = True
+    in_time = True
     keys = (Key("at", 0.5, "fraction", "when the simulated step happens, as a fraction of the campaign's time",
                 lo=0.0, hi=1.0),
             Key("station", 0, "", "the tracker station that is knocked (its rows move)", int, lo=0))

@@ -46,6 +46,7 @@ class Thermal(Effect):
     keys = (Key("t_ref", 20.0, "degC", "reference temperature of the simulated expansion", lo=-50.0, hi=100.0),)
     axis_kinds = ("linear",)
     scanned = True
+    in_time = True
 
     def __init__(self, machine, axes=(), driver: str = "temperature", t_ref: float = 20.0, lag_h: float = 0.0, **kw):
         axes = axes or self.default_axes(machine)
