@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import linalg
-from scipy.linalg import blas, lapack
+from scipy.linalg import lapack
 
 from vecpin.identification.likelihood import Likelihood
 from vecpin.measurement.campaign import Campaign
@@ -112,10 +112,9 @@ def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def _gram(Jf: np.ndarray) -> np.ndarray:
-    """Jf^T Jf of a (rows, P) matrix, symmetric (one triangle computed)."""
-    U = blas.dsyrk(1.0, Jf.T, trans=0)
-    U += np.triu(U, 1).T
-    return U
+    """Jf^T Jf of a (rows, P) matrix, exactly symmetric (numpy's matmul sees the transpose
+    and takes BLAS' syrk, one triangle, then mirrors it)."""
+    return Jf.T @ Jf
 
 
 class FoldedProblem:
