@@ -12,7 +12,7 @@ ways into training and held-out poses:
   time stamps were rounded away by a spreadsheet, its row order is the order of
   measurement).
 
-Times: vecpin's default and FIGAROH's default run ``--repeat`` times each (default 3), in
+Times: vecpin's default and FIGAROH's default run ``--repeat`` times each (default 5), in
 turn, and the median is reported (a single run's time on a shared machine varies by 20 %).
 
 vecpin: ``vecpin fit ur10 train.csv`` with no options (kind, bases, orders and the noise
@@ -270,7 +270,7 @@ def main() -> None:
     ap.add_argument("--settings", nargs="+", metavar="METHOD/LEVEL",
                     help="search these FIGAROH settings (its default always runs), e.g. map_cv/full_params")
     ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
-    ap.add_argument("--repeat", type=int, default=3, help="run vecpin's and FIGAROH's defaults this many times each, "
+    ap.add_argument("--repeat", type=int, default=5, help="run vecpin's and FIGAROH's defaults this many times each, "
                     "in turn, and report the median time (one run's time on a shared machine varies by 20 %%)")
     ap.add_argument("--json", help="also save the figures to this file (a run per split can go in parallel)")
     ap.add_argument("--from-json", nargs="+", metavar="FILE", help="write the table from saved runs; fit nothing")
@@ -326,7 +326,9 @@ def write(out: str, rows: dict, every: list[str], searched: str = "", source: st
     text = "\n".join(["# Real data: vecpin's default against FIGAROH (UR10, ipa-robot-accuracy)", "",
                       f"Written by `python benchmarks/bench_figaroh.py` on {source} (module docstring: the data, "
                       "the splits, the settings). Held-out distance between the measured T-Mac centre and the prediction, mm; "
-                      "times are whole processes (start to exit) on a shared 2-core machine. The difference column "
+                      "times are whole processes (start to exit) on a shared 2-core machine"
+                      + (f", those of vecpin's and FIGAROH's defaults the median of {runs} runs each, in turn"
+                         if (runs := _runs(rows)) > 1 else "") + ". The difference column "
                       "pairs the two tools' errors pose by pose: a tie is a difference under two standard errors "
                       "of its mean, which this many held-out poses cannot resolve."
                       + (f" FIGAROH's best among: {searched}." if searched else ""), "",
@@ -336,6 +338,11 @@ def write(out: str, rows: dict, every: list[str], searched: str = "", source: st
     Path(out).write_text(text)
     print("\n".join(table(rows)))
     print(f"written {out}")
+
+
+def _runs(rows: dict) -> int:
+    """How many runs the default times are the median of (1: one run)."""
+    return min((len(r["vecpin"].get("runs_s", [0])) for r in rows.values()), default=1)
 
 
 def readme_table(rows: dict, source: str) -> None:
