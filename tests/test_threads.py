@@ -1,6 +1,7 @@
 """One BLAS thread while vecpin computes (vecpin/threads.py): the limit is what
 threadpoolctl reads back from the loaded OpenBLAS/MKL libraries, inside vecpin's entry
 points, and it is undone afterwards; VECPIN_BLAS_THREADS sets another count or none."""
+import os
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +121,51 @@ def test_side_by_side_keeps_the_order_and_raises(processes, monkeypatch):
     assert all((pid != os.getpid()) == processes for pid, _ in out)
     with pytest.raises(ValueError, match="three refused"):
         side_by_side(_refuse_three, range(5), processes=processes)
+
+
+def _refuse_a_row(x):
+    from vecpin.errors import CampaignFileError
+    if x == 2:
+        raise CampaignFileError("c.csv", "the x column is empty", row=3)
+    return x
+
+
+def _die(x):
+    import os
+    if x == 1:
+        os._exit(3)
+    return x
+
+
+def test_a_forked_call_that_fails_or_dies_is_reported(monkeypatch):
+    """A vecpin error whose constructor pickle cannot replay comes back as a vecpin error
+    with its message (the command line prints it, no traceback); a copy that dies raises
+    rather than leaving the caller waiting."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from vecpin.errors import VecpinError
+    from vecpin.threads import side_by_side
+    monkeypatch.setenv("VECPIN_WORKERS", "2")
+    with pytest.raises(VecpinError, match="the x column is empty"):
+        side_by_side(_refuse_a_row, range(4), processes=True)
+    with pytest.raises(BrokenProcessPool):
+        side_by_side(_die, range(3), processes=True)
+
+
+def _side_by_side_pids(n):
+    from vecpin.threads import side_by_side
+    return side_by_side(_pid_and_square, range(n), processes=True)
+
+
+def test_a_pool_worker_runs_the_calls_in_threads(monkeypatch):
+    """In a multiprocessing pool's worker (which may not have children) the calls run in
+    threads of that worker."""
+    import multiprocessing
+    monkeypatch.setenv("VECPIN_WORKERS", "2")
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        out = pool.apply(_side_by_side_pids, (3,))
+        worker = pool.apply(os.getpid)
+    assert [sq for _, sq in out] == [0, 1, 4] and {pid for pid, _ in out} == {worker}
 
 
 def test_no_fork_while_another_thread_runs(monkeypatch):

@@ -19,7 +19,7 @@ machine with many cores). Calls nest: an inner entry point inside an outer one c
 nothing.
 
 Work that splits into a few independent heavy parts (the model choice's kinds) runs
-them side by side, one per core, each with its one BLAS thread (:func:`side_by_side`):
+them side by side, one per core, each with the BLAS limit above (:func:`side_by_side`):
 in threads, or in forked processes where the Python around the factorisations would
 make threads wait on each other.
 """
@@ -29,11 +29,16 @@ import functools
 import importlib
 import multiprocessing
 import os
+import pickle
+import signal
+import sys
 import threading
 import warnings
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Callable, Iterable, TypeVar
+
+from vecpin.errors import VecpinError
 
 T = TypeVar("T")
 
@@ -95,25 +100,29 @@ def one_blas_thread(fn):
 
 
 def workers_wanted() -> int:
-    """The calls :func:`side_by_side` runs at once: ``VECPIN_WORKERS`` (e.g. 1 where
-    the cores are already shared out, as by parallel test workers), else the machine's
-    cores."""
+    """The calls :func:`side_by_side` runs at once: ``VECPIN_WORKERS`` (a whole number;
+    0 counts as 1: one after the other, e.g. where parallel test workers share the cores
+    out already), else the cores this process may run on."""
     text = os.environ.get(WORKERS_ENV, "").strip()
-    return int(text) if text.isdigit() and int(text) > 0 else (os.cpu_count() or 1)
+    if text.isdigit():
+        return max(int(text), 1)
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = False) -> list[T]:
-    """``[fn(x) for x in items]``, the calls side by side (as many as the machine has
-    cores, or ``VECPIN_WORKERS``, at most one per item), the results in the items' order, each with the caller's
-    BLAS limit (:func:`blas_limited`). An exception of any call is raised here; ``fn``
-    must not change what another call reads.
+    """``[fn(x) for x in items]``, the calls side by side (:func:`workers_wanted` at once,
+    at most one per item), the results in the items' order, each under the caller's BLAS
+    limit (:func:`blas_limited`). An exception of a call is raised here (a vecpin error
+    as such: its message is what the user reads); ``fn`` must not change what another
+    call reads.
 
     In threads by default: the factorisations release the interpreter lock, the Python
     around them does not. ``processes``: in forked processes (each a copy of this one,
     made in milliseconds; the results come back pickled), for work whose Python share
-    would make threads wait on each other and whose results are small; threads where the
-    platform has no fork or this process runs threads of its own (a fork copies no
-    thread, and a lock one of them held stays locked in the copy)."""
+    would make threads wait on each other and whose results are small. A forked call's
+    changes to shared objects, its warnings and anything it reports through a callback
+    stay in its copy (printing goes to the same terminal). Threads where forking is not
+    safe (:func:`_can_fork`)."""
     items = list(items)
     workers = min(len(items), workers_wanted())
     if workers <= 1:
@@ -130,27 +139,48 @@ def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = Fal
 
 
 def _can_fork() -> bool:
-    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    """Fork only on Linux (macOS' system libraries are not fork-safe, which is why Python
+    spawns there), from a process that may have children (a multiprocessing pool's
+    worker may not) and runs no Python thread of its own (a lock one of them held would
+    stay locked in the copy; the BLAS re-creates its own threads in the copy)."""
+    return (sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
+            and threading.active_count() == 1)
 
 
 _job: tuple = ()   # (fn, items) of the forked calls under way: the copies find them here
 
 
 def _run_job(i: int):
+    """Call ``i`` of :data:`_job` in a forked copy; an exception that could not travel
+    back (a custom constructor) travels as its plain vecpin error, message kept."""
     fn, items = _job
-    return fn(items[i])
+    try:
+        return fn(items[i])
+    except Exception as exc:
+        try:
+            pickle.loads(pickle.dumps(exc))
+        except Exception:
+            raise (VecpinError if isinstance(exc, VecpinError) else RuntimeError)(str(exc)) from None
+        raise
+
+
+def _quiet_copy() -> None:
+    """A forked copy leaves Ctrl-C to the parent (which stops the copies): no traceback of its own."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _forked(fn: Callable[..., T], items: list, workers: int) -> list[T]:
-    """:func:`side_by_side` in ``workers`` forked processes."""
+    """:func:`side_by_side` in ``workers`` forked processes (a copy that dies raises
+    ``BrokenProcessPool`` here rather than leaving the caller waiting)."""
     global _job
     _job = (fn, items)
     try:
         with blas_limited(), warnings.catch_warnings():
-            # Python 3.12+ warns of any OS thread at a fork; the BLAS' parked threads are
-            # the only ones here (:func:`_can_fork`), and it re-creates them in the copy
+            # Python 3.12+ warns at a fork from a process with other OS threads; here
+            # those are the BLAS' parked threads only (no Python thread runs: _can_fork)
             warnings.filterwarnings("ignore", message=".*multi-threaded.*fork", category=DeprecationWarning)
-            with multiprocessing.get_context("fork").Pool(workers) as pool:
-                return pool.map(_run_job, range(len(items)), chunksize=1)
+            with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                     initializer=_quiet_copy) as pool:
+                return list(pool.map(_run_job, range(len(items))))
     finally:
         _job = ()

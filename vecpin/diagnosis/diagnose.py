@@ -45,7 +45,7 @@ import numpy as np
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
-from vecpin.diagnosis.result import Diagnosis, EffectScore
+from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
 from vecpin.diagnosis.scoring import (Kinematics, beyond_span, candidate_effects, distances_mm, effect_columns, fitted,
@@ -335,6 +335,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         sc.evidence = why or (f"both tests pass but it takes {sc.shrink_pct:.1f}% off the held-out mean, under the "
                               f"{pb.min_shrink_pct:g}% an effect must earn to be named" if sc.small else "")
         sc.base_share = ev["base_share"]
+        sc.alike_base = not passes and not why and c.in_time and sc.base_share >= BASE_ALIKE
         if sc.alike_base:
             sc.evidence = "; ".join(x for x in (sc.evidence, f"the model's functions of the axes take {sc.base_share:.0%} "
                                                 "of its shape on these rows: the data cannot tell the two apart") if x)

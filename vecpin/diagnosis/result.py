@@ -61,15 +61,11 @@ class EffectScore:
     small: bool = False
     # what to measure next to settle it (a :class:`vecpin.planning.discriminate.Discrimination`)
     next_plan: object | None = field(default=None, repr=False)
-    # the share of its shape (whitened columns) the model's own columns take on these rows
+    # the share of its shape (whitened columns) the model's own functions take on these rows
     base_share: float = float("nan")
-
-    @property
-    def alike_base(self) -> bool:
-        """A drift or step in time that the model's functions of the axes mimic on these rows
-        (:data:`BASE_ALIKE`), not significant beside them: the data cannot tell the two apart."""
-        return (self.effect is not None and self.effect.in_time and not self.significant
-                and self.base_share >= BASE_ALIKE)
+    # a drift or step in time, neither test passed, that the model's functions of the axes mimic on
+    # these rows (base_share >= BASE_ALIKE): the data cannot tell the two apart
+    alike_base: bool = False
 
     @property
     def finding(self) -> str:
@@ -106,6 +102,7 @@ class EffectScore:
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
                 "detected_but_small": self.small, "share_in_the_model": self.base_share,
+                "not_told_apart_from_the_model": self.alike_base,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),

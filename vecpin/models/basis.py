@@ -63,8 +63,9 @@ def chebyshev_derivative(x: np.ndarray, order: int) -> np.ndarray:
 
 
 def b_splines(t: np.ndarray, k: int, x: np.ndarray, derivative: bool = False) -> np.ndarray:
-    """(..., n) every B-spline of degree ``k`` on the knot vector ``t`` (n = len(t) - k - 1)
-    at ``x`` within [t_k, t_n] (the last interval closed), or their derivatives: the
+    """(..., n) every B-spline of degree ``k`` >= 1 on the knot vector ``t`` (n = len(t) - k - 1)
+    at ``x`` within [t_k, t_n] (the last interval closed; beyond, the end intervals'
+    polynomials carry on: :class:`AxisBasis` clips first), or their derivatives: the
     Cox-de Boor recursion, all functions at once (scipy's ``BSpline`` with identity
     coefficients gives the same; the tests hold them equal. Its module costs a fit's
     process 0.3 s to import)."""

@@ -77,10 +77,10 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
-from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
-from vecpin.selection.stage import KindStage, kind_stage
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      measured_spans, partly_measured, per_turn_measured)
+from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
+from vecpin.selection.stage import KindStage, kind_stage
 from vecpin.threads import one_blas_thread, side_by_side
 
 _Problem = Problem  # the name the tests and older scripts use

@@ -173,7 +173,7 @@ class Search:
         """A search of its own for one kind, with this one's candidates of that kind so
         far (the kinds' searches then run side by side, :meth:`merge` joins them)."""
         own = Search()
-        own.limit = self.limit
+        own.limit = self.limit   # the campaign's equations: the same for every kind
         own.cands = [c for c in self.cands if c.kind == kind]
         own.scored = {key: c for key, c in self.scored.items() if key[0] == kind}
         own.left_out = {key for key in self.left_out if key[0] == kind}
