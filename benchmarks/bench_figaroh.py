@@ -283,8 +283,11 @@ def main() -> None:
     if args.from_json:
         saved = [json.loads(Path(f).read_text()) for f in args.from_json]
         rows = {k: v for s in saved for k, v in s["rows"].items()}
-        write(args.out, {k: rows[k] for k in SPLITS if k in rows}, [e for s in saved for e in s["every"]],
-              saved[0].get("searched", ""), saved[0].get("source", source))
+        rows = {k: rows[k] for k in SPLITS if k in rows}
+        write(args.out, rows, [e for s in saved for e in s["every"]], saved[0].get("searched", ""),
+              saved[0].get("source", source))
+        if not args.data and set(rows) == set(SPLITS):
+            readme_table(rows, saved[0].get("source", source))
         return
     settings = ([FIGAROH_DEFAULT] if args.quick else [(m, lv) for lv in LEVELS for m in METHODS] if args.all_settings
                 else list(SEARCHED))
@@ -348,8 +351,10 @@ def _runs(rows: dict) -> int:
 def readme_table(rows: dict, source: str) -> None:
     """The README's real-data table (between :data:`README_MARKS`): per split, vecpin's
     default, FIGAROH's default and best, the paired difference and the times."""
-    lines = [f"UR10, {source}; held-out mean / max distance, mm; whole-process times, s "
-             "(`python benchmarks/bench_figaroh.py`, [all figures](docs/results/real_data.md)):", "",
+    runs = _runs(rows)
+    lines = [f"UR10, {source}; held-out mean / max distance, mm; whole-process times, s"
+             + (f" (the median of {runs} runs each, in turn)" if runs > 1 else "")
+             + " (`python benchmarks/bench_figaroh.py`, [all figures](docs/results/real_data.md)):", "",
              "| split | vecpin default | FIGAROH default | FIGAROH best | vecpin − FIGAROH default | time vecpin / FIGAROH |",
              "|---|---|---|---|---|---|"]
     for split, r in rows.items():
