@@ -87,7 +87,7 @@ def test_the_share_in_the_model_is_the_projection_closed_form():
     orthogonal to them 0, of a sum the share of its squared norm in the span (strong
     data: the unit prior is negligible); what the tracker's pose columns take (a step's
     constant part) counts on neither side."""
-    from vecpin.diagnosis.scoring import base_share
+    from vecpin.diagnosis.scoring import base_share as share_of
     from vecpin.identification.crossval import FoldedProblem
     rng = np.random.default_rng(3)
     N, P = 200, 5
@@ -102,6 +102,10 @@ def test_the_share_in_the_model_is_the_projection_closed_form():
     other -= flat @ np.linalg.lstsq(flat, other, rcond=None)[0]                 # orthogonal to every column
     other = (other / np.linalg.norm(other) * np.linalg.norm(inside)).reshape(N, 3, 1)
     shift = J[:, :, :1] * 5.0                                                   # what the pose takes
+
+    def base_share(base, J1, pose):   # the pieces from the extended problem, as the diagnosis takes them
+        return share_of(base, base.evaluate_extended(J1, J1), pose)
+
     assert abs(base_share(base, inside, none) - 1.0) < 1e-5
     assert abs(base_share(base, other, none)) < 1e-9
     assert abs(base_share(base, inside + other, none) - 0.5) < 1e-5

@@ -133,27 +133,26 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     F = (d_chi2 / k) / (ev["chi2"] / dof)
     before, after = distances_mm(lin, base_eval["heldout"]), distances_mm(lin, ev["heldout"])
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
-              p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)),
-              base_share=base_share(base, J1, pose_columns(lin, base.n_columns)))
+              p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
+    ev["base_share"] = base_share(base, ev, pose_columns(lin, base.n_columns))
     return ev
 
 
-def base_share(base: FoldedProblem, J1: np.ndarray, pose: np.ndarray) -> float:
-    """The share of a candidate's columns ``J1`` (N,3,Q, whitened) that the current
-    model's own functions take on these rows, beyond what the tracker's pose and the
-    instruments' unknowns (``pose``, a mask over ``base``'s columns) take of it anyway
-    (a step's constant part, the mean of a drift): (t - t_0) / (tr J1^T J1 - t_0), with
+def base_share(base: FoldedProblem, ev: dict, pose: np.ndarray) -> float:
+    """The share of a candidate's columns J1 (whitened) that the current model's own
+    functions take on these rows, beyond what the tracker's pose and the instruments'
+    unknowns (``pose``, a mask over ``base``'s columns) take of it anyway (a step's
+    constant part, the mean of a drift): (t - t_0) / (tr J1^T J1 - t_0), with
     t = tr(C^T M C), C = J^T J1, M = (G + I)^-1 over every column (the fit's projection,
-    priors included) and t_0 the same over the pose columns alone. Near 1, the model's
-    functions of the axes mimic the effect on these rows (a drift in time where the
-    program sweeps its axes in time order): the data cannot tell the one from the other."""
-    M, _ = base.full_inverse()
-    b = J1.reshape(-1, J1.shape[-1])
-    C = base.J.reshape(-1, base.n_columns).T @ b
+    priors included; C, M C and J1^T J1 from ``ev``, :meth:`FoldedProblem.evaluate_extended`)
+    and t_0 the same over the pose columns alone. Near 1, the model's functions of the
+    axes mimic the effect on these rows (a drift in time where the program sweeps its axes
+    in time order): the data cannot tell the one from the other."""
+    C, MC = ev["cross"], ev["cross_m"]
     C0 = C[pose]
     t0 = float(np.einsum("ij,ij->", C0, np.linalg.solve(base.G[np.ix_(pose, pose)] + np.eye(len(C0)), C0)))
-    rest = float(np.einsum("ij,ij->", b, b)) - t0
-    return (float(np.einsum("ij,ij->", C, M @ C)) - t0) / rest if rest > 0 else 0.0
+    rest = float(np.trace(ev["gram"])) - t0
+    return (float(np.einsum("ij,ij->", C, MC)) - t0) / rest if rest > 0 else 0.0
 
 
 def pose_columns(lin: Linearised, n: int) -> np.ndarray:

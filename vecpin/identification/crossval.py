@@ -273,7 +273,8 @@ class FoldedProblem:
         candidate costs its cross blocks and Q x Q solves. With M = (G + I)^-1 of the
         rows used, C = J^T J1, the new columns' estimate is S^-1 u, S = J1^T J1 + I -
         C^T M C, u = J1^T w - C^T a (a the present columns' estimate), and the present
-        columns' estimate moves by -M C S^-1 u; p_eff from the trace of the block inverse."""
+        columns' estimate moves by -M C S^-1 u; p_eff from the trace of the block inverse
+        (also returned, over every row: ``cross`` C, ``cross_m`` M C, ``gram`` J1^T J1)."""
         P, Q = self.n_columns, J1.shape[-1]
         eyeQ = np.eye(Q)
         M_f, a_f, order, rows, J, A, w, held_s, held_ws = self._fold_inverses()
@@ -303,7 +304,7 @@ class FoldedProblem:
         tr_inv = np.trace(M) + np.trace(T)
         base_chi2 = float(self.w.ravel() @ self.w.ravel() + self.x0 @ self.x0 - (self.g - self.x0) @ Ma)
         return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "heldout": held,
-                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1]}
+                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1], "cross": C, "cross_m": MC, "gram": B}
 
     # ------------------------------------------------------------------ full-data fit
     def normal_matrix(self, cols=None, scale=None) -> np.ndarray:

@@ -34,8 +34,8 @@ it only its straight-line part carries on (:func:`~vecpin.selection.design.measu
 a UR10 measured over 96-147° of its joints' 720° has errors of 18-30° period there (joints
 1 and 2) that series over the travel cannot resolve (series C of the public dataset: 0.44
 -> 0.27 mm held-out mean on interleaved poses, 0.42 -> 0.26 mm beyond joint 1's measured
-span). Along such axes the
-basis is then chosen on their held-out ends (:func:`_ends_choice`), each axis' two ends
+span). Along such axes the basis is then chosen on their held-out ends
+(:func:`~vecpin.selection.stage.along_ends`), each axis' two ends
 (the outer fifth of its measured span) held out on a problem of its own, so that no end
 is predicted by a fit that saw any of its commands: each kind's choice by the one-SE rule
 keeps its other axes, and the basis of each partly measured axis becomes the one with
@@ -298,7 +298,7 @@ def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, or
 
 def _joined(searches: list[Search]) -> Search:
     """One search of the kinds' own (in the kinds' order: the same table whichever
-    thread finished first)."""
+    kind finished first)."""
     search = Search()
     for own in searches:
         search.limit = own.limit
