@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import linuxcnc_sim as lcnc  # noqa: E402  (the harness that runs the real controller)
 
 import vecpin  # noqa: E402
-from vecpin.compensation.functions import compensated_errors, truth_as_actual  # noqa: E402
+from vecpin.compensation.functions import truth_as_actual  # noqa: E402
+from vecpin.compensation.report import compensated_errors
 from vecpin.export import linuxcnc  # noqa: E402
 from vecpin.export.profile import ControllerProfile  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
@@ -41,7 +42,7 @@ MACHINES = ("trunnion_xyzac", "head_table_bc", "snk_120v")
 
 
 def true_error(truth, m, tables, q, tool) -> tuple[float, float]:
-    d = norm_mm(compensated_errors(truth_as_actual(truth), m, tables, q, tool, register=True))
+    d = norm_mm(compensated_errors(truth_as_actual(truth), m, tables, q, tool))
     return float(d.mean()), float(d.max())
 
 

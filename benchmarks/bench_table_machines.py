@@ -35,7 +35,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import vecpin
-from vecpin.compensation.functions import compensated_errors, truth_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import plan_tables
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
@@ -132,8 +133,7 @@ def machine_rows(name: str, seed: int, n_validation: int = 35) -> tuple[list[str
     c = run.validation_truth.primary()
     true_b = true_compensated_error(sim.truth, None, c.q, c.tool)[0]
     true_a = true_compensated_error(sim.truth, tables, c.q, c.tool)[0]
-    rms_true = [float(np.sqrt(np.mean(norm_mm(compensated_errors(truth_as_actual(sim.truth), m, tb, c.q, c.tool,
-                                                                 register=True)) ** 2))) for tb in (None, tables)]
+    rms_true = [float(np.sqrt(np.mean(norm_mm(compensated_errors(truth_as_actual(sim.truth), m, tb, c.q, c.tool)) ** 2))) for tb in (None, tables)]
     nb, na = ver_n.net
     tag = name if n_validation == 35 else f"{name}, {n_validation} validation commands"
     figures = {"exact": exact.residual.mean() / mod_t, "same": noisy.residual.mean() / same,
@@ -207,8 +207,8 @@ def plan_row(name: str, seed: int, place: bool, family: str | None = None) -> tu
     q, tool = validation_commands(m, 300, seed=7)
     floor = table_floor(sim.truth, q, tool)
     actual = truth_as_actual(sim.truth)
-    d_vec = norm_mm(compensated_errors(actual, m, tables, q, tool, register=True))
-    d_floor = norm_mm(compensated_errors(actual, m, floor.tables, q, tool, register=True))
+    d_vec = norm_mm(compensated_errors(actual, m, tables, q, tool))
+    d_floor = norm_mm(compensated_errors(actual, m, floor.tables, q, tool))
     seen, blind = seen_travel(m, camp, q)
     inside = f"{d_vec[~blind].mean() / d_floor[~blind].mean():.2f}" if (~blind).any() else "-"
     outside = f"{d_vec[blind].mean() / d_floor[blind].mean():.2f} ({100 * blind.mean():.0f} %)" if blind.any() else "-"

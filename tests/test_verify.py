@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from vecpin.cli import main
-from vecpin.compensation.functions import compensated_errors, truth_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import plan_tables
 from vecpin.export.generic import write_tables as write_generic
 from vecpin.measurement.campaign import read_campaign
@@ -35,8 +36,8 @@ def test_compensated_run_is_the_truth_through_the_tables(flow, fitted):
     comp = simulate(flow, 6, design, tables=tables, mean_error_mm=0.65)
     exact = comp.compensated_truth
     np.testing.assert_array_equal(exact.q, comp.validation.q)  # the rows keep the programmed commands
-    want = norm_mm(compensated_errors(truth_as_actual(comp.truth), flow, tables, exact.q, exact.tool, register=True))
-    np.testing.assert_allclose(run_distances(flow, exact, tables.gauge_offset_change), want, atol=1e-9)
+    want = norm_mm(compensated_errors(truth_as_actual(comp.truth), flow, tables, exact.q, exact.tool, "shape"))
+    np.testing.assert_allclose(run_distances(flow, exact, tables.gauge_offset_change, "shape"), want, atol=1e-9)
     # everything else is the run without tables
     for a, b in ((comp.campaign, sim.campaign), (comp.validation, sim.validation)):
         np.testing.assert_array_equal(a.xyz, b.xyz)

@@ -13,7 +13,8 @@ import pytest
 
 from gcode import parse
 from vecpin.cli import main
-from vecpin.compensation.functions import compensated_errors, truth_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.measurement.campaign import read_campaign
 from vecpin.measurement.plantemplate import read_template
 from vecpin.units import norm_mm
@@ -63,7 +64,7 @@ def test_decision_and_verification_beside_the_seed(day, flow):
     # the measured compensated run against the truth seen through the same tables (noise-free)
     after = r["after"]
     truth_d = norm_mm(compensated_errors(truth_as_actual(r["truth"]), flow, r["tables"], after.validation.q,
-                                         after.validation.tool, register=True))
+                                         after.validation.tool))
     assert v.after.measured.mean() == pytest.approx(truth_d.mean(), abs=0.015)
     js = json.loads((out / "verify" / "verify.json").read_text())
     assert js["seed_table3"][1]["mean_mm"] == 0.038 and js["compensated"]["label"].startswith("compensated")

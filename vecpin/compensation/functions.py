@@ -29,8 +29,8 @@ the table coefficients, which the subset selection of Paper II exploits
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Callable, NamedTuple
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy import linalg
@@ -39,8 +39,10 @@ from scipy.stats import qmc
 from vecpin.models.basis import AxisBasis
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement.registration import register as kabsch, registered_errors, rigid_motion_basis
+from vecpin.measurement import partframe
 from vecpin.models import APModel, ErrorModel
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.registration import rigid_motion_basis
 from vecpin.compensation.tables import CompensationTable, TableSet, table_grid, table_name, table_names
 from vecpin.units import MM_PER_M
 
@@ -58,15 +60,48 @@ def geometric_model(model: ErrorModel) -> ErrorModel:
     return model.geometric_part()[0] if model.row_dependent else model
 
 
-def model_as_actual(model: ErrorModel) -> ActualMachine:
-    """The fitted model as the 'actual' machine (tool tip relative to the workpiece, no
-    tracker). Only its geometry (:func:`geometric_model`), as tables cannot carry the rest."""
+def model_as_actual(model: ErrorModel, tools=None, frame: "ReferenceFrame | None" = None) -> ActualMachine:
+    """The fitted model as the 'actual' machine: the tool tip relative to the workpiece,
+    no tracker, in the model's own reference frame (:func:`model_reference_frame`; the
+    orientation the fit happened to settle in is not observable from tracker data, the
+    machine's reference lines are). Only its geometry (:func:`geometric_model`), as tables
+    cannot carry the rest. ``frame``: the model's reference frame when it is known already."""
     geometric = geometric_model(model)
 
-    def actual(q, tool, jacobian=True, point=0):
+    def raw(q, tool, jacobian=True, point=0):
         out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
         return out.tip, out.J_q
-    return actual
+    return in_reference_frame(raw, frame or model_reference_frame(model, raw, tools))
+
+
+def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, tools=None) -> ReferenceFrame:
+    """The reference frame of a fitted model (:func:`reference_frame`) over the commands its
+    campaign measured (:func:`measured_box`) with ``tools`` [m] (default the fit's tool
+    lengths, at most the shortest and the longest)."""
+    if raw is None:
+        geometric = geometric_model(model)
+
+        def raw(q, tool, jacobian=False, point=0):
+            out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
+            return out.tip, out.J_q
+    if tools is None:
+        mm = list(getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
+        tools = [min(mm) / MM_PER_M, max(mm) / MM_PER_M]
+    return reference_frame(raw, model.machine, tools, *measured_box(model))
+
+
+def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
+    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
+    whole travel for a model that does not record it."""
+    m = model.machine
+    rng = getattr(getattr(model, "report_", None), "measured_range", None) or {}
+    lo, hi = m.lower.copy(), m.upper.copy()
+    for a in m.axes:
+        if a.name in rng:
+            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
+            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
+                lo[a.index], hi[a.index] = a.lower, a.upper
+    return lo, hi
 
 
 def truth_as_actual(truth) -> ActualMachine:
@@ -80,27 +115,61 @@ def truth_as_actual(truth) -> ActualMachine:
     return actual
 
 
-RIGID_TOLERANCE = 1e-7  # m, rad: a rigid motion below this is none
+def reference_commands(machine: Machine, lower: np.ndarray | None = None, upper: np.ndarray | None = None,
+                       n: int = 600, seed: int = 0) -> np.ndarray:
+    """Quasi-random commands [m, rad] over the box ``lower``..``upper`` (default the travel)
+    where the machine's reference frame is measured (:mod:`vecpin.measurement.partframe`):
+    with every rotary axis at home (0, or the nearest end of the box) where it is defined by
+    reference lines; over the whole box where it is the volume's mean orientation."""
+    q = pseudo_commands(machine, n, seed, lower, upper)
+    if not partframe.uses_lines(machine):
+        return q
+    rot = [a.index for a in machine.axes if a.kind == "rotary"]
+    lo = machine.lower if lower is None else lower
+    hi = machine.upper if upper is None else upper
+    q[:, rot] = np.clip(0.0, lo[rot], hi[rot])
+    return q
 
 
-def registered_actual(actual: ActualMachine, machine: Machine, q: np.ndarray, tools) -> tuple[ActualMachine, bool]:
-    """(the actual machine moved by the rigid motion that best puts it on the nominal
-    kinematics over commands q x tools x tool points, whether it moved at all). A rigid
-    motion of the whole machine (or of where the part sits) is not observable from
-    tracker data and does not affect parts: tables must not be spent on one."""
+@dataclass
+class ReferenceFrame:
+    """The machine's own reference frame, as tables keep it: ``R`` (3,3) takes the
+    machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
+    says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`)."""
+
+    R: np.ndarray
+    centre: np.ndarray
+    how: str
+
+    @property
+    def angle(self) -> float:
+        """The rotation's angle [rad]: how far the machine's frame is turned from where its tips are given."""
+        return partframe.rotation_angle(self.R)
+
+
+def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.ndarray | None = None,
+                    upper: np.ndarray | None = None) -> ReferenceFrame:
+    """The reference frame of the ``actual`` machine (a model or a simulated truth) from its
+    tips at :func:`reference_commands` in the box ``lower``..``upper`` x ``tools`` [m]."""
+    q = reference_commands(machine, lower, upper)
     tools = np.asarray(tools, float)
-    P = len(machine.tool_links)
-    qq = np.tile(np.repeat(np.asarray(q, float), len(tools), axis=0), (P, 1))
-    tt = np.tile(tools, len(q) * P)
-    pt = 0 if P == 1 else np.repeat(np.arange(P), len(q) * len(tools))
-    R, t = kabsch(actual(qq, tt, False, pt)[0], nominal_tip(machine, qq, tt, pt))
-    if np.abs(R - np.eye(3)).max() < RIGID_TOLERANCE and np.abs(t).max() < RIGID_TOLERANCE:
-        return actual, False
+    qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
+    tip = actual(qq, tt, False, 0)[0]
+    R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt), tip,
+                                          partframe.spindle_axis(machine))
+    return ReferenceFrame(R, tip.mean(axis=0), how)
+
+
+def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMachine:
+    """The ``actual`` machine with its tips expressed in its reference frame ``frame``:
+    tables fitted to it keep that frame (they do not turn the working volume against the
+    machine's own reference lines, which a part on the table would see)."""
+    R, c = frame.R, frame.centre
 
     def moved(q, tool, jacobian=False, point=0):
         tip, J = actual(q, tool, jacobian, point)
-        return tip @ R.T + t, (None if J is None else R @ J)
-    return moved, True
+        return (tip - c) @ R.T + c, (None if J is None else np.einsum("ij,njk->nik", R, J))
+    return moved
 
 
 def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:
@@ -108,6 +177,7 @@ def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:
     return machine.tool_tip(q, tool, frame=FRAME, point=point)
 
 
+TURN_WEIGHT = 1e3  # weight (squared) of the rows that hold the compensated volume's turn at 0 (in the error's norm)
 TABLE_KNOTS = 15  # interior knots of the table functions: finer than any model's functions, coarser than a table
 
 
@@ -274,21 +344,24 @@ class TableProblem:
     functions. ``A x + e0`` approximates the compensated errors (3R,) with ``x`` the
     unknowns; :meth:`cost` of any subset of tables is then a small solve.
 
-    ``register`` (default): the tables are fitted jointly with a small rigid motion of
-    the whole machine, which they leave alone: it does not affect parts (the part's
-    set-up absorbs it) and every comparison registers (the seed's too). ``A`` and
-    ``e0`` are projected orthogonally to the six rigid motions at the nominal tips: on
-    simulated machines 1-38 % less true compensated error than removing the rigid
-    motion first (small AB head: 0.0146 -> 0.0094 mm). ``ridge``: relative to each
-    column's squares before that projection (table values that only trade against a
-    rigid motion stay small).
+    ``free_origin`` (default): the tables are fitted jointly with a translation of the
+    whole volume, which they leave alone: the part's origin is probed, so a translation
+    does not affect it. No rotation is free: the actual machine is given in the frame the
+    tables keep (:func:`in_reference_frame`), and a rotation the tables added would turn the
+    working volume against the table (a part set up by probing its origin and aligning
+    an edge sees every tilt). ``A`` and ``e0`` are projected orthogonally to the three
+    translations. Where the frame kept is the volume's mean orientation (a machine whose
+    table turns, an arm), rows weighted by ``TURN_WEIGHT`` hold the compensated error's best-fit
+    rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
+    the whole volume for a smaller error elsewhere, which a part on the table sees as a tilt. ``ridge``: relative to each column's squares before that projection
+    (table values that only trade against a translation stay small).
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
                  basis: str = "fourier", modulo_axes=(), ridge: float = 1e-4, bases: list[AxisBasis] | None = None,
-                 hold: dict[str, tuple[float, float]] | None = None, register: bool = True):
+                 hold: dict[str, tuple[float, float]] | None = None, free_origin: bool = True):
         self.actual, self.machine = actual, machine
-        self.register = register  # fit the tables jointly with the best rigid motion of the whole machine
+        self.free_origin = free_origin  # fit the tables jointly with a translation of the whole volume
         self.tools = np.asarray(tools, float)
         P = len(machine.tool_links)
         commands = np.asarray(commands, float)
@@ -342,22 +415,34 @@ class TableProblem:
             self.free_gauge = False
         self.e0 = (tip - nominal.tip).ravel()
         self.A = self._design(J, self.u_nominal)
-        self._rigid = rigid_motion_basis(nominal.tip) if self.register else None
-        # the ridge's scale: the columns' squares before the rigid motions are taken out (a pitch constant of a
-        # linear axis is almost a translation: registered, its column nearly vanishes, and a ridge relative to
+        self._rigid = np.tile(np.eye(3), (len(self.q), 1)) / np.sqrt(len(self.q)) if self.free_origin else None
+        # the ridge's scale: the columns' squares before the translations are taken out (a pitch constant of a
+        # linear axis is almost a translation: projected, its column nearly vanishes, and a ridge relative to
         # that would let it grow to metres)
         self.ridge_base = np.einsum("ij,ij->j", self.A, self.A)
         self.e0, self.A = self._registered(self.e0), self._registered(self.A)
-        self.G = self.A.T @ self.A
-        self.g = self.A.T @ self.e0
-        self.e0e0 = float(self.e0 @ self.e0)
+        # where the frame kept is the volume's mean orientation, the tables may not turn it: the rotational
+        # component of the compensated error is held at 0 (weighted rows, TURN_WEIGHT)
+        self._turn = (rigid_motion_basis(nominal.tip)[:, 3:] if self.free_origin
+                      and not partframe.uses_lines(self.machine) else None)
+        self.G, self.g = self._normal(self.A, self.e0)
+        self.e0e0 = float(self.e0 @ self.e0) + (0.0 if self._turn is None else
+                                                  TURN_WEIGHT * float(np.sum((self._turn.T @ self.e0) ** 2)))
         self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
 
+    def _normal(self, A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A'A, A'e) of the least-squares problem, with the rows that hold the volume's turn."""
+        G, g = A.T @ A, A.T @ e
+        if self._turn is not None:
+            C, c = self._turn.T @ A, self._turn.T @ e
+            G, g = G + TURN_WEIGHT * C.T @ C, g + TURN_WEIGHT * C.T @ c
+        return G, g
+
     def _registered(self, M: np.ndarray) -> np.ndarray:
-        """``M`` (3R,) or (3R, k) with its share of the rigid motions of the whole machine
-        removed (projected orthogonally to them): the tables are then fitted jointly with
-        the best rigid motion, which no table needs to cancel (the part is set up by
-        probing, and every comparison registers). Unchanged when ``register`` is off. A C-ordered
+        """``M`` (3R,) or (3R, k) with its share of a translation of the whole volume
+        removed (projected orthogonally to the three translations): the tables are then
+        fitted jointly with the best translation, which no table needs to cancel (the
+        part's origin is probed). Unchanged when ``free_origin`` is off. A C-ordered
         (3R, k) ``M`` is overwritten (one BLAS pass through its transpose: M' = M - Q (Q' M))."""
         if self._rigid is not None and M.ndim == 2 and M.flags.c_contiguous and M.dtype == np.float64:
             return linalg.blas.dgemm(-1.0, self._rigid.T @ M, self._rigid, 1.0, M.T, trans_a=1, trans_b=1,
@@ -429,7 +514,8 @@ class TableProblem:
             nominal = nominal_tip(self.machine, self.q, self.L + x[0], self._pt)
             e = self._registered((tip - nominal).ravel())
             A = self._registered(self._design(J, self.u_nominal, names))
-            dx = -linalg.solve(ridged(A.T @ A, self.ridge, self.ridge_base[cols]), A.T @ e, assume_a="pos")
+            G, g = self._normal(A, e)
+            dx = -linalg.solve(ridged(G, self.ridge, self.ridge_base[cols]), g, assume_a="pos")
             x[cols] += dx
             if np.abs(dx).max() < 1e-12:
                 break
@@ -442,79 +528,3 @@ def all_table_names(machine: Machine) -> list[str]:
 
 def pitch_names(machine: Machine) -> list[str]:
     return [table_name(a, a) for a in machine.axis_names]
-
-
-class ReportRow(NamedTuple):
-    """One row of a :class:`CompensationReport`: volumetric errors [mm] over the report's points.
-
-    ``spread``: (mean over parameter draws, 16th, 84th percentile) [mm] of the mean
-    error on machines that differ from the model by its parameter uncertainty, or None."""
-
-    label: str
-    mean: float
-    max: float
-    tables: int = 0
-    spread: tuple[float, float, float] | None = None
-
-
-@dataclass
-class CompensationReport:
-    """Volumetric errors [mm] before and after compensation, every row on the same points.
-
-    ``basis`` says what the rows are (e.g. "model-predicted at 1000 commands x 2 tools"):
-    rows predicted by a model are a prediction for the model, not a measurement of the
-    machine. ``notes`` are printed under the table (what the spread means, figures on
-    other points such as the fit residual)."""
-
-    rows: list[ReportRow] = field(default_factory=list)
-    basis: str = ""
-    notes: list[str] = field(default_factory=list)
-
-    def add(self, label: str, err: np.ndarray, n_tables: int = 0,
-            spread: tuple[float, float, float] | None = None) -> None:
-        """A row from tool-tip errors (N,3) [m]."""
-        d = np.linalg.norm(err, axis=1) * MM_PER_M
-        self.rows.append(ReportRow(label, float(d.mean()), float(d.max()), n_tables, spread))
-
-    def table(self) -> str:
-        base = self.rows[0].mean
-        with_spread = any(r.spread is not None for r in self.rows)
-        width = max([38] + [len(r.label) for r in self.rows])
-        head = f"  {'compensation':<{width}s} {'tables':>6s} {'mean mm':>9s} {'max mm':>9s} {'reduction':>9s}"
-        if with_spread:
-            head += f"   {'mean mm with parameter uncertainty [68%]':<40s}"
-        lines = ([f"  {self.basis}"] if self.basis else []) + [head]
-        for r in self.rows:
-            red = "-" if r is self.rows[0] else f"{100 * (1 - r.mean / base):8.1f}%"
-            line = f"  {r.label:<{width}s} {r.tables if r.tables else '':>6} {r.mean:9.4f} {r.max:9.4f} {red:>9s}"
-            if r.spread is not None:
-                line += f"   {r.spread[0]:.4f} [{r.spread[1]:.4f}, {r.spread[2]:.4f}]"
-            lines.append(line)
-        lines += [f"  {n}" for n in self.notes]
-        return "\n".join(lines)
-
-
-def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet | None,
-                       q: np.ndarray, tool: np.ndarray, register: bool = True, point=0) -> np.ndarray:
-    """Tool-tip errors (N,3) [m], relative to the workpiece, of the actual machine under
-    ``tables`` against the controller's nominal kinematics (with the changed T_offset);
-    None: uncompensated. ``point``: tool point index, one or per row. The differential
-    tables of twin drives turn their beams (:meth:`TableSet.turn_tips`).
-
-    ``register``: remove the best-fit rigid motion first. Use it when the actual
-    machine's frame is not the model's (a simulated truth): a rigid motion of the
-    whole machine is not observable from tracker data and does not affect parts,
-    and the seed's volumetric errors are registered the same way. Default: registered,
-    with tables or without (tables are fitted jointly with the rigid motion they leave,
-    :class:`TableProblem`, and the uncompensated row is judged the same way)."""
-    q = np.atleast_2d(np.asarray(q, float))
-    tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
-    if tables is None:
-        tip, nominal = actual(q, tool, False, point)[0], nominal_tip(machine, q, tool, point)
-    else:
-        qc = tables.apply(q)
-        tip = tables.turn_tips(machine, qc, actual(qc, tool, False, point)[0], FRAME)  # twin drives turn their beam
-        nominal = nominal_tip(machine, q, tool + tables.gauge_offset_change, point)
-    if register:
-        return registered_errors(nominal, tip)
-    return tip - nominal

@@ -19,10 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (FRAME, CompensationReport, TableProblem, all_table_names,
-                                           compensated_errors, from_ap_model, geometric_model, hold_ranges,
-                                           model_as_actual, nominal_tip, pitch_names, pseudo_commands,
-                                           rich_table_bases, table_bases)
+from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
+                                           hold_ranges, ReferenceFrame, measured_box, model_as_actual,
+                                           model_reference_frame, nominal_tip, pitch_names, reference_commands,
+                                           pseudo_commands, rich_table_bases, table_bases)
+from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -32,7 +33,7 @@ from vecpin.models import APModel, ErrorModel
 from vecpin.planning.zones import clip_to_zone
 from vecpin.units import MM_PER_M, from_mm
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
-from vecpin.measurement.registration import rigid_motion_basis
+from vecpin.measurement import partframe
 from vecpin.threads import one_blas_thread
 
 MAX_TABLE_TOOLS = 4  # tool lengths the table problem is posed on (two fix position and orientation)
@@ -42,6 +43,7 @@ HOLD_MARGIN = 0.02  # unmeasured share of an axis' travel at an end beyond which
 #: over the commands, ranking sets) use at most the first this many of the pseudo-commands (a quasi-random
 #: sequence's first ones cover the space as the whole does); the chosen tables are fitted on all of them
 SUBSET_COMMANDS = 1000
+REFERENCE_TOLERANCE = 1e-8  # rad: a model turned less than this from its reference frame is in it
 
 
 @dataclass
@@ -55,6 +57,8 @@ class TablePlan:
     report: CompensationReport
     problem: TableProblem
     points: int
+    frame: "FrameKept | None" = None
+    reference: ReferenceFrame | None = None  # the model's reference frame the tables keep
 
 
 def covariance_kind(model: ErrorModel) -> str:
@@ -82,31 +86,46 @@ def table_commands(machine: Machine, n_tools: int, modulo_axes=()) -> int:
 
 def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
                      draws: int = 200, seed: int = 0, point=0) -> tuple[float, float, float]:
-    """Mean volumetric error [mm] of ``tables`` on machines that differ from the model
-    by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
+    """Mean volumetric error [mm] in the part's frame of ``tables`` on machines that differ
+    from the model by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
 
     Each draw is ``b_ + db`` with ``db ~ N(0, cov_b)``; the compensated error is
-    linearised around the model, ``e(b_ + db) = e(b_) + J_b db`` (tool tip in the
-    machine frame at the compensated commands, nominal with the changed T_offset).
-    The draws are seeded: reruns print the same figures. Only the model's geometric part
-    counts (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more."""
+    linearised around the model, ``e(b_ + db) = e(b_) + J_b db`` (tool tip relative to the
+    workpiece at the compensated commands, nominal with the changed T_offset). Each drawn
+    machine is taken into its own reference frame (its reference lines move with the
+    draw: :func:`~vecpin.measurement.partframe.reference_rotation_changes`, which also
+    removes the orientation the tracker pose absorbs) and judged as a part set up on it sees
+    it (translation and rotation about the spindle removed, linearised). The draws are
+    seeded: reruns print the same figures. Only the model's geometric part counts
+    (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more."""
     model = geometric_model(model)
+    m = model.machine
+    frame = model_reference_frame(model)
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
-        qc, nominal = q, nominal_tip(model.machine, q, tool, point)
+        qc, nominal = q, nominal_tip(m, q, tool, point)
     else:
-        qc, nominal = tables.apply(q), nominal_tip(model.machine, q, tool + tables.gauge_offset_change, point)
+        qc, nominal = tables.apply(q), nominal_tip(m, q, tool + tables.gauge_offset_change, point)
     out = model.tool_tip(qc, tool, model.b_, jacobian=True, frame=FRAME, point=point)
-    r = out.tip - nominal                                      # (N, 3) [m]
+    tip = (out.tip - frame.centre) @ frame.R.T + frame.centre
+    J_b = np.einsum("ij,njp->nip", frame.R, out.J_b)
     cov = np.asarray(model.cov_, float)[6:, 6:]
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
     F = U * np.sqrt(np.clip(w, 0.0, None))                    # cov = F F^T
     z = np.random.default_rng(seed).standard_normal((draws, F.shape[1])) @ F.T  # (S, P)
-    e = r.ravel()[None] + z @ out.J_b.reshape(3 * len(q), -1).T   # (S, 3N)
-    # a rigid motion of the whole workspace is not observable from tracker data (the
-    # tracker pose absorbs it) and does not affect parts: remove it from every draw
-    Q = rigid_motion_basis(nominal)
+    e = (tip - nominal).ravel()[None] + z @ J_b.reshape(3 * len(q), -1).T   # (S, 3N)
+    # each draw in its own reference frame: its lines measured where the model's were
+    qr = reference_commands(m, *measured_box(model))
+    mm = list(getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
+    tr = np.array([min(mm), max(mm)]) / MM_PER_M
+    qq, tt = np.repeat(qr, 2, axis=0), np.tile(tr, len(qr))
+    ref = model.tool_tip(qq, tt, model.b_, jacobian=True, frame=FRAME)
+    Jr = np.einsum("ij,njp->nip", frame.R, ref.J_b)
+    ref_tip = (ref.tip - frame.centre) @ frame.R.T + frame.centre
+    dw = partframe.reference_rotation_changes(m, qq, tt, ref_tip, np.einsum("nip,sp->sni", Jr, z))
+    e = (e.reshape(draws, -1, 3) + np.cross(dw[:, None, :], tip - frame.centre)).reshape(draws, -1)
+    Q = partframe.part_motion_basis(nominal, partframe.spindle_axis(m))
     flat = e - (e @ Q) @ Q.T
     means = np.linalg.norm(flat.reshape(draws, -1, 3), axis=2).mean(axis=1) * MM_PER_M
     return float(means.mean()), float(np.percentile(means, 16)), float(np.percentile(means, 84))
@@ -139,15 +158,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
                    commands, n_commands)
-    problem, where, hold, lo, hi, q, tools = _table_problem(model, req, modulo_axes, commands, n_commands, seed, zone)
+    frame = model_reference_frame(model)
+    actual = model_as_actual(model, frame=frame)
+    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, req, modulo_axes, commands, n_commands,
+                                                            seed, zone)
     m = model.machine
     unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
                   or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
-                                      f"{', '.join(f'{t:g}' for t in req.tools_mm)} mm (every row on these points):")
+                                      f"{', '.join(f'{t:g}' for t in req.tools_mm)} mm (every row on these points), "
+                                      "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
-    actual = model_as_actual(model)
 
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
 
@@ -155,7 +177,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
         spread = parameter_spread(model, ts, problem.q[spread_rows], problem.L[spread_rows],
                                   point=pt) if with_spread else None
-        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread)
+        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread,
+                   shape=compensated_errors(actual, m, ts, problem.q, problem.L, "shape", point=problem._pt))
 
     add("uncompensated (model)", None, 0)
     if progress:
@@ -163,7 +186,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     # eq. 17 (the AP model's perturbations are the tables) only when the perturbations are the whole
     # model: a geometric effect (a gantry skew, non-zero) is not in them, the projection takes it
     effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
-    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on:
+    # and only when the model's own frame is its reference frame: eq. 17 cancels the perturbations in the frame
+    # the fit settled in, which a rotation of the volume (the tracker pose absorbs it) leaves undefined
+    in_frame = frame.angle < REFERENCE_TOLERANCE
+    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on and in_frame:
         full = from_ap_model(model, modulo_axes, hold).discretise(req.n_points)  # eq. 17: the AP model is tables
     else:
         full = problem.solve(all_table_names(m)).discretise(req.n_points)
@@ -183,8 +209,52 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)
         add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
     lim.check_tables(tables)
-    report.notes += _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
-    return TablePlan(tables, lim, selection, report, problem, req.n_points)
+    kept = frame_kept(actual, m, tables, problem, frame)
+    report.notes += [kept.text] + _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame)
+
+
+@dataclass
+class FrameKept:
+    """How the tables keep the machine's frame: its definition (``how``), the angle [rad] by
+    which the compensated volume is turned against it (best-fit rotation over the plan's
+    points), the largest correction the tables make at the tool tip and the largest error of
+    the model [mm], and the note printed (``text``)."""
+
+    how: str
+    net_rotation: float
+    largest_correction_mm: float
+    largest_error_mm: float
+    text: str
+
+    @property
+    def excessive(self) -> bool:
+        """True when the tables move the tip by more than twice the largest error they remove."""
+        return self.largest_correction_mm > 2.0 * self.largest_error_mm
+
+
+def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, frame) -> FrameKept:
+    """The frame the tables keep and what they do to it (on at most SUBSET_COMMANDS of the plan's
+    commands): :class:`FrameKept`."""
+    rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) < SUBSET_COMMANDS)
+    q, L = problem.q[rows], problem.L[rows]
+    pt = problem._pt if np.isscalar(problem._pt) else problem._pt[rows]
+    nominal = nominal_tip(m, q, L + tables.gauge_offset_change, pt)
+    before = actual(q, L, False, pt)[0]
+    after = tables.turn_tips(m, tables.apply(q), actual(tables.apply(q), L, False, pt)[0], FRAME)
+    angle = partframe.net_rotation(nominal, after)
+    moved = after - before
+    corr = float(np.linalg.norm(moved - moved.mean(axis=0), axis=1).max() * MM_PER_M)  # a translation is the origin's
+    err = float(np.linalg.norm(partframe.part_frame_errors(nominal_tip(m, q, L, pt), before,
+                                                           partframe.spindle_axis(m)), axis=1).max() * MM_PER_M)
+    text = (f"frame kept: {frame.how}; the tables turn the working volume by {angle * 1e6:.1f} µrad against it (best-fit rotation of the compensated "
+            f"tips); largest correction at the tool tip {corr:.4f} mm (net of a translation) against a largest error of {err:.4f} mm")
+    kept = FrameKept(frame.how, angle, corr, err, text)
+    if kept.excessive:
+        kept.text += (": the tables move the tip by more than twice the largest error they remove; a rotation of "
+                      "the volume or an offset of an axis' zero is being corrected that the model cannot tell from "
+                      "the tracker's pose: check the model (vecpin evaluate) before writing these tables")
+    return kept
 
 
 SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
@@ -278,7 +348,7 @@ def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
     return tools_mm, note
 
 
-def _table_problem(model: ErrorModel, req: _Request, modulo_axes, commands, n_commands: int, seed: int, zone):
+def _table_problem(model: ErrorModel, actual, req: _Request, modulo_axes, commands, n_commands: int, seed: int, zone):
     """(problem, where, hold ranges, lower, upper, commands, tools): the table problem on the
     measured box (or zone). Table functions that can follow any model (splines finer than
     its functions) over that box: every spline has pseudo-commands under it, and beyond
@@ -304,7 +374,7 @@ def _table_problem(model: ErrorModel, req: _Request, modulo_axes, commands, n_co
         where = f"{len(q)} campaign commands"
     tools = from_mm(np.array(req.tools_mm, float))
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
-    problem = TableProblem(model_as_actual(model), m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes),
+    problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes),
                            bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
     return problem, where, hold, lo, hi, q, tools
 
@@ -316,8 +386,8 @@ def _notes(model, with_spread: bool, uncertainty: bool, gauge_note: str, left_ou
     notes = []
     if with_spread:
         notes.append("last column: mean over 200 seeded draws of the parameters from the model's covariance, "
-                     "compensated error linearised around the model, rigid motion of the whole workspace "
-                     "removed (not observable from tracker data, no effect on parts); [16th, 84th percentile]")
+                     "compensated error linearised around the model, each draw in its own reference frame and "
+                     "judged in the part's frame; [16th, 84th percentile]")
     elif uncertainty:
         notes.append("no parameter uncertainty: this model carries standard deviations only (a model file "
                      "of an earlier vecpin kept no correlations), and without them the spread would be "
@@ -335,20 +405,6 @@ def _notes(model, with_spread: bool, uncertainty: bool, gauge_note: str, left_ou
                  f"{fit_res['mean']:.4f} mm, max {fit_res['max']:.4f} mm - the compensated machine cannot be "
                  "expected to do better than the model fits it")
     return notes
-
-
-def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
-    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
-    whole travel for a model that does not record it."""
-    m = model.machine
-    rng = getattr(model.report_, "measured_range", None) or {}
-    lo, hi = m.lower.copy(), m.upper.copy()
-    for a in m.axes:
-        if a.name in rng:
-            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
-            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
-                lo[a.index], hi[a.index] = a.lower, a.upper
-    return lo, hi
 
 
 def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
@@ -376,10 +432,11 @@ def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, lab
     written files: resampled, rounded, constants removed), on the plan's points. Only
     the model's geometric part is judged, as in :func:`plan_tables`."""
     model = geometric_model(model)
-    actual = model_as_actual(model)
+    actual = model_as_actual(model, frame=plan.reference)   # in the frame the plan's tables keep
     pt = plan.problem._pt
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
+    shape = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, "shape", point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
     spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt) if with_spread else None
-    plan.report.add(label, err, len(tables.tables), spread)
+    plan.report.add(label, err, len(tables.tables), spread, shape=shape)
 

@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import linalg
 
-from vecpin.compensation.functions import TableProblem, compensated_errors, pitch_names, ridged
+from vecpin.compensation.functions import TableProblem, pitch_names, ridged
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.tables import cross_table_axes
 from vecpin.errors import VecpinError
 from vecpin.units import MM_PER_M

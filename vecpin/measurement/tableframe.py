@@ -301,7 +301,7 @@ class NetOfNoise:
 
 
 def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine, draws: int = 40,
-                 seed: int = 1) -> NetOfNoise:
+                 seed: int = 1, removed: int = 6) -> NetOfNoise:
     """The model error net of the measurement noise from ``residual`` (N,3) [m], the
     judged rows' measured minus modelled tip relative to the table after the rigid
     registration (workpiece frame; the rows of ``tips`` of ``campaign``). A measured
@@ -309,8 +309,9 @@ def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine
     Σ_i from ``draws`` copies of the run given the noise of ``noise`` (a
     :class:`~vecpin.measurement.noise.NoiseModel`: the tracker's, and the positioning noise
     of ``machine``'s axes on every reading) again. With the noise independent of the
-    error, E|r_i|^2 = |e_i|^2 + f tr Σ_i, where f = 1 - 6 / (3N) is the share of the
-    noise a rigid registration of N points leaves. The mean of |r_i|^2 - f tr Σ_i is then
+    error, E|r_i|^2 = |e_i|^2 + f tr Σ_i, where f = 1 - k / (3N) is the share of the
+    noise a registration of ``removed`` = k degrees of freedom on N points leaves (6: the best
+    rigid motion; 4: the part's set-up, a translation and a rotation about the spindle). The mean of |r_i|^2 - f tr Σ_i is then
     an unbiased estimate of the mean squared model error (the figure the truth of a
     simulated machine gives without noise), its uncertainty the spread of that difference
     over the rows and of tr Σ over the draws; the RMS and its uncertainty by the delta method."""
@@ -318,7 +319,7 @@ def net_of_noise(residual: np.ndarray, campaign, tips: TableTips, noise, machine
     n2 = _noise_draws(campaign, tips, noise.tracker, draws, seed, (machine, noise.axis_sigma))
     n2 = n2[np.all(np.isfinite(n2), axis=1)]
     n = len(r2)
-    f = max(1.0 - 6.0 / (3 * n), 0.0)
+    f = max(1.0 - removed / (3 * n), 0.0)
     noise_sq = f * n2.mean(axis=0)                        # (N,) f tr Σ_i
     d = r2 - noise_sq
     ms = float(d.mean())

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (TableProblem, all_table_names, compensated_errors, pitch_names,
-                                           pseudo_commands, registered_actual, rich_table_bases, truth_as_actual)
+from vecpin.compensation.functions import (TableProblem, all_table_names, pitch_names, in_reference_frame,
+                                           pseudo_commands, reference_frame, rich_table_bases, truth_as_actual)
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import table_commands
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import exact_search
@@ -33,27 +34,37 @@ class Floor:
     max_mm: float
 
 
-def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: np.ndarray) -> tuple[float, float]:
+def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
+                           judged: str = "part") -> tuple[float, float]:
     """(mean, max) [mm] of the true machine commanded through ``tables`` (None:
     uncompensated) against the nominal kinematics, the tool tip relative to the workpiece
-    (of every tool point), after the best rigid registration (a rigid motion of the whole
-    machine, or of the part, is not observable and does not affect parts)."""
+    (of every tool point), in the part's frame (the truth's table is where the part is:
+    its origin and the rotation about the spindle removed, nothing else), ``judged``
+    "reference" (the same on a table aligned to the truth's own reference lines, as tracker
+    data alone can know it: :func:`~vecpin.compensation.functions.reference_frame`), or
+    "shape" (the best rigid motion removed)."""
     m = truth.machine
     P = len(m.tool_links)
     qq, tt = np.tile(q, (P, 1)), np.tile(tool, P)
     point = 0 if P == 1 else np.repeat(np.arange(P), len(q))
-    d = norm_mm(compensated_errors(truth_as_actual(truth), m, tables, qq, tt, register=True, point=point))
+    actual = truth_as_actual(truth)
+    if judged == "reference":
+        actual, judged = in_reference_frame(actual, reference_frame(actual, m, PAPER_I_TOOLS)), "part"
+    d = norm_mm(compensated_errors(actual, m, tables, qq, tt, judged, point=point))
     return float(d.mean()), float(d.max())
 
 
 def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS,
-                n_commands: int | None = None, tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0) -> Floor:
+                n_commands: int | None = None, tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0,
+                judged: str = "part") -> Floor:
     """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
     with tool lengths ``tool`` [m]; fitted on ``n_commands`` pseudo-commands (default as
     many as vecpin's tables take: :func:`~vecpin.compensation.plan.table_commands`)."""
     m = truth.machine
     pseudo = pseudo_commands(m, n_commands or table_commands(m, len(tools)), seed)
-    actual = registered_actual(truth_as_actual(truth), m, pseudo, tools)[0]
+    # the best tables that keep the machine's own reference frame: all that tracker data can know of where
+    # the table is (the truth's table may lie turned against it; no tables from a model could know by how much)
+    actual = in_reference_frame(truth_as_actual(truth), reference_frame(truth_as_actual(truth), m, tools))
     problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
     names = all_table_names(m)
     if not limits.cross_tables:
@@ -63,4 +74,4 @@ def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits
         chosen = exact_search(search, limits.constraints(None, axis_names=m.axis_names), n_points=n_points)
         names = pitch_names(m) + chosen.tables
     tables = problem.solve(names).discretise(n_points)
-    return Floor(tables, *true_compensated_error(truth, tables, q, tool))
+    return Floor(tables, *true_compensated_error(truth, tables, q, tool, judged))

@@ -8,6 +8,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.partframe import RunReference, part_frame_errors, spindle_axis
 from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
 from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
                                              station0)
@@ -17,8 +18,12 @@ from vecpin.measurement.stats import distance_stats
 from vecpin.workflows.summary import per_tool_table
 
 
-TRACKER_FRAME = "the tool tip in the tracker frame"
-TABLE_FRAME = "the tool tip relative to the table (workpiece frame, seen from the nests)"
+TRACKER_FRAME = ("the tool tip in the tracker frame; uncompensated in the part's frame (the run taken into the "
+                 "machine's reference lines, a translation and a rotation about the spindle removed), model: measured "
+                 "minus modelled")
+TABLE_FRAME = ("the tool tip relative to the table (workpiece frame, seen from the nests); uncompensated in the part's "
+               "frame (the machine's reference lines, a translation and a rotation about the spindle removed), model: "
+               "measured minus modelled, registered rigidly")
 
 
 @dataclass
@@ -112,14 +117,15 @@ def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_
     """Station 0's tracker rows in the tracker frame (module :func:`evaluate`)."""
     c = station0(campaign)
     if c.plain:
-        nominal = model.machine.tool_tip(c.q, c.tool, frame="base")
+        m = model.machine
+        nominal = m.tool_tip(c.q, c.tool, frame="base")
         if reregister:
             check_registration(nominal, c.xyz, c.source, c.lines)
-            d_nom = norm_mm(registered_errors(nominal, c.xyz))
         else:
-            predicted = model.predict_nominal(c.q, c.tool)
-            check_same_pose(nominal, predicted, c.xyz, c.source, model_source, c.lines)
-            d_nom = norm_mm(c.xyz - predicted)
+            check_same_pose(nominal, model.predict_nominal(c.q, c.tool), c.xyz, c.source, model_source, c.lines)
+        # where a part is: the run in the machine's reference lines, the part's set-up removed
+        d_nom = norm_mm(part_frame_errors(nominal, RunReference(m, c.q, c.tool, nominal, c.xyz)(c.xyz),
+                                          spindle_axis(m)))
     else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
         res = model.nominal_residuals(c)
         d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
@@ -166,7 +172,14 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
                      f"row {campaign.lines[tt.unjudged[0]]})")
     if reregister:
         notes.append("`reregister`: not needed relative to the table (every command registers the tracker on the nests)")
-    return Evaluation(len(c), c.tool, norm_mm(registered_errors(nominal, tt.tip)),
+    if refitted:
+        to_ref = RunReference(m, c.q, c.tool, nominal, tt.tip)
+    else:   # the nests where the fit put them: the model's reference frame
+        from vecpin.compensation.functions import model_reference_frame
+        mf = model_reference_frame(model)
+        to_ref = lambda p: (p - mf.centre) @ mf.R.T + mf.centre  # noqa: E731
+    uncompensated = part_frame_errors(nominal, to_ref(tt.tip), spindle_axis(m))
+    return Evaluation(len(c), c.tool, norm_mm(uncompensated),
                       norm_mm(residual), reregister, len(campaign) - len(c), TABLE_FRAME,
                       notes=notes, noise_mm=float(noise.mean()), net=net), c
 

@@ -13,12 +13,13 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.functions import all_table_names, compensated_errors, model_as_actual
+from vecpin.compensation.functions import all_table_names, model_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import TablePlan, plan_tables
 from vecpin.export.registry import get_format
 from vecpin.fileio import check_output_dir
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import check_same_pose, registered_errors, station0
+from vecpin.measurement.registration import check_same_pose, station0
 from vecpin.models import MODELS, ErrorModel
 from vecpin.models.modelfile import check_same_machine
 from vecpin.selection.orders import check_orders, order_sweep
@@ -143,7 +144,10 @@ def _compensated(models, labels, plans, judged: Campaign) -> dict[str, np.ndarra
 def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.ndarray:
     """Distances [mm] the tables would leave at the campaign's points: the measured
     residual (what the model does not describe, assumed unchanged by the small command
-    changes) plus the model's compensated error, best-fit rigid motion removed."""
+    changes) plus the model's compensated error in its reference frame, judged in the part's
+    frame (a translation and a rotation about the spindle removed)."""
+    from vecpin.compensation.functions import model_reference_frame
+    from vecpin.measurement.partframe import part_frame_errors, spindle_axis
     from vecpin.viz.scene import to_machine_frame
     c = campaign.primary()
     feats = None
@@ -153,8 +157,9 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.n
     m = model.machine
     residual = to_machine_frame(model, c.xyz) - model.predict(c.q, c.tool, "machine", features=feats)
     nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
-    comp = model.predict(tables.apply(c.q), c.tool, "machine", features=feats) - nominal
-    return norm_mm(registered_errors(nominal, nominal + residual + comp))
+    ref = model_reference_frame(model)
+    comp = (model.predict(tables.apply(c.q), c.tool, "machine", features=feats) - ref.centre) @ ref.R.T + ref.centre
+    return norm_mm(part_frame_errors(nominal, residual + comp, spindle_axis(m)))
 
 
 def _ga(plan: TablePlan, axis_names: list[str], max_tables: int | None, say) -> dict[str, list] | None:

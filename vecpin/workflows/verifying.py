@@ -33,11 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.functions import compensated_errors, model_as_actual
+from vecpin.compensation.functions import model_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.partframe import FRAME_TEXT, RunReference, part_frame_errors, spindle_axis
 from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
 from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
 from vecpin.measurement.stats import distance_stats
@@ -69,10 +71,11 @@ class Verification:
     same_commands: bool
     notes: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
-    frame: str = "the tool tip in the tracker frame (each run registered rigidly)"
+    frame: str = FRAME_TEXT
     warnings: list[str] = field(default_factory=list)  # printed first
     commands: str = ""  # which commands the two runs measure (one line)
     net: list[NetOfNoise] | None = None  # relative to the table: before and after, net of the measurement noise
+    shape: list[np.ndarray] | None = None  # measured distances [mm] with each run's best rigid motion removed
 
     def net_reduction(self) -> tuple[float, float] | None:
         """(reduction [%] of the RMS net of the measurement noise, its standard uncertainty
@@ -140,6 +143,10 @@ class Verification:
                 if pst is not None:
                     line += f" | {pst[k]['mean']:10.4f} {pst[k]['max']:8.4f}"
                 out.append(line)
+        if self.shape is not None:
+            out.append(f"  shape of the error (each run's best rigid motion removed, the seed's figure): mean "
+                       f"{self.shape[0].mean():.4f} -> {self.shape[1].mean():.4f} mm, max {self.shape[0].max():.4f} -> "
+                       f"{self.shape[1].max():.4f} mm")
         out += self.net_lines()
         out.append(f"  compensated run judged against the commanded positions with the gauge line changed by "
                    f"{self.gauge_change_mm:+.4f} mm ({self.tables_from})")
@@ -166,6 +173,9 @@ class Verification:
                 "reduction_of_mean_pct": self.reduction("mean"), "reduction_of_max_pct": self.reduction("max"),
                 "same_commands": self.same_commands, "notes": self.notes, "frame": self.frame,
                 "warnings": self.warnings, "commands": self.commands,
+                "shape_mm": None if self.shape is None else
+                {"uncompensated": distance_stats(self.shape[0], self.before.tool)["all"],
+                 "compensated": distance_stats(self.shape[1], self.after.tool)["all"]},
                 "rms_net_of_noise_mm": None if self.net is None else
                 {"uncompensated": [self.net[0].rms, self.net[0].sd], "compensated": [self.net[1].rms, self.net[1].sd],
                  "resolved": [self.net[0].resolved, self.net[1].resolved],
@@ -174,11 +184,18 @@ class Verification:
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
-def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.0) -> np.ndarray:
+def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.0, judged: str = "part",
+                  reference: RunReference | None = None) -> np.ndarray:
     """Distances [mm] of the measured points from the commanded positions (nominal tool
-    length + ``gauge_change`` [m]) after the run's own best-fit rigid motion."""
+    length + ``gauge_change`` [m]): in the part's frame (``judged`` "part": the points taken
+    into the machine's reference frame by ``reference``, default the run's own, then the
+    part's set-up removed), or with the run's own best-fit rigid motion removed ("shape")."""
     c = campaign.primary()
-    return norm_mm(registered_errors(machine.tool_tip(c.q, c.tool + gauge_change, frame="base"), c.xyz))
+    nominal = machine.tool_tip(c.q, c.tool + gauge_change, frame="base")
+    if judged == "shape":
+        return norm_mm(registered_errors(nominal, c.xyz))
+    reference = reference or RunReference(machine, c.q, c.tool + gauge_change, nominal, c.xyz)
+    return norm_mm(part_frame_errors(nominal, reference(c.xyz), spindle_axis(machine)))
 
 
 def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None = None,
@@ -204,7 +221,7 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
         notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
                      "AFTER really the run with them?")
     return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=m.frame,
-                        warnings=m.warnings, commands=compared_commands(machine, b, a, same), net=m.net)
+                        warnings=m.warnings, commands=compared_commands(machine, b, a, same), net=m.net, shape=m.shape)
 
 
 def _check_runs(machine: Machine, before: Campaign, after: Campaign) -> bool:
@@ -257,6 +274,40 @@ class _Measured:
     notes: list[str]
     warnings: list[str]
     net: list[NetOfNoise] | None = None
+    shape: list[np.ndarray] | None = None   # the measured distances [mm] with each run's best rigid motion removed
+
+
+class OnTheModel(RunReference):
+    """The uncompensated run taken into the model's reference frame (the frame its tables
+    keep): registered rigidly onto the model's tips at the run's commands, relative to the
+    workpiece (the base frame on a machine without a table branch). The same motion takes a
+    later run from the same place there, so a turn the tables give the volume stays in it."""
+
+    def __init__(self, model: ErrorModel, q: np.ndarray, tool, points: np.ndarray):
+        from vecpin.compensation.functions import model_as_actual, model_reference_frame
+        from vecpin.measurement.registration import register
+        frame = model_reference_frame(model)
+        tips = model_as_actual(model, frame=frame)(np.atleast_2d(q), np.asarray(tool, float), False)[0]
+        self.R0, self.t0 = register(tips, points)
+        self.centre, self.R1 = np.zeros(3), np.eye(3)
+        self.how = f"the model's reference frame ({frame.how}), the uncompensated run registered onto the model"
+
+
+TRACKER_MOVED = 3e-3  # rad: a compensated run turned this far from the uncompensated one was read from another place
+
+
+def _after_reference(machine: Machine, ref: RunReference, a: Campaign, nominal: np.ndarray, source: str):
+    """(the reference the compensated run is judged in, notes, the frame's words): the
+    uncompensated run's, so that a turn the tables give the working volume counts; the run's
+    own when the tracker was evidently moved between the runs (said in a note)."""
+    if ref.turn_of(nominal, a.xyz) < TRACKER_MOVED:
+        return ref, [], (f"both runs in {ref.how} (the tracker stayed where it was, so a turn the tables give the "
+                         "working volume counts)")
+    own = RunReference(machine, a.q, a.tool, nominal, a.xyz)
+    return own, [f"{source} is turned {1e3 * ref.turn_of(nominal, a.xyz):.1f} mrad from the uncompensated run: the "
+                 "tracker was moved between the runs, so each run is judged in its own reference frame and a turn "
+                 "of the working volume by the tables is not seen; read both runs from one tracker place"], (
+        f"each run in its own reference frame ({ref.how})")
 
 
 def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None, dT: float,
@@ -271,8 +322,16 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
                             f"tip, which the table axes ({', '.join(machine.table_axes)}) do not move, so their "
                             "errors and their compensation are not seen; read table nests in both runs to judge the "
                             "tip relative to the table")
-        return _Measured(b, a, [run_distances(machine, b), run_distances(machine, a, dT)], None, Verification.frame,
-                         [], warnings)
+        nb = machine.tool_tip(b.q, b.tool, frame="base")
+        na = machine.tool_tip(a.q, a.tool + dT, frame="base")
+        ref = OnTheModel(model, b.q, b.tool, b.xyz) if model is not None else RunReference(machine, b.q, b.tool, nb,
+                                                                                            b.xyz)
+        ref_a, notes, frame = _after_reference(machine, ref, a, na, after.source)
+        spindle = spindle_axis(machine)
+        measured = [norm_mm(part_frame_errors(nb, ref(b.xyz), spindle)),
+                    norm_mm(part_frame_errors(na, ref_a(a.xyz), spindle))]
+        shape = [norm_mm(registered_errors(nb, b.xyz)), norm_mm(registered_errors(na, a.xyz))]
+        return _Measured(b, a, measured, None, f"{FRAME_TEXT}; {frame}", notes, warnings, shape=shape)
     nests, refitted = table_nests([before, after], dict(model.setup_.nests) if model is not None else None)
     seen = [table_tips(run, nests, refitted) for run in (before, after)]
     for run, tt in zip((before, after), seen):
@@ -280,18 +339,23 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
             raise InputError(f"{run.source}: no command has tool rows and three or more nests read at it, so the "
                              "tip relative to the table cannot be measured")
     b, a = before.subset(seen[0].rows), after.subset(seen[1].rows)
-    frame = ("the tool tip relative to the table (workpiece frame: every command's table pose from its nests, "
-             f"nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
-                                                      "where the model's fit put them") + "; registered rigidly)")
-    residual = [registered_errors(machine.tool_tip(c.q, c.tool + g, frame="workpiece"), tt.tip)
-                for c, tt, g in ((b, seen[0], 0.0), (a, seen[1], dT))]
+    nominal = [machine.tool_tip(c.q, c.tool + g, frame="workpiece") for c, g in ((b, 0.0), (a, dT))]
+    to_ref = (OnTheModel(model, b.q, b.tool, seen[0].tip) if model is not None else
+              RunReference(machine, b.q, b.tool, nominal[0], seen[0].tip))
+    how = f"{to_ref.how}; both runs taken there by the same motion"
+    frame = (f"{FRAME_TEXT}: the tool tip relative to the table (workpiece frame: every command's table pose from "
+             f"its nests, nests {', '.join(sorted(nests))} " + ("re-fitted from the two runs" if refitted else
+                                                               "where the model's fit put them") + f"), in {how}")
+    spindle = spindle_axis(machine)
+    residual = [part_frame_errors(n, to_ref(tt.tip), spindle) for n, tt in zip(nominal, seen)]
+    shape = [norm_mm(registered_errors(n, tt.tip)) for n, tt in zip(nominal, seen)]
     from vecpin.measurement.noise import NoiseModel
     noise = model.noise_ if model is not None else NoiseModel.default(machine, "spherical")
     note = (f"tracker noise through the nest registration: {1e3 * np.nanmean(tip_noise(after, seen[1], noise.tracker)):.4f} "
             "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
             " tracker noise): the measured figures carry it")
-    net = [net_of_noise(r, run, tt, noise, machine) for r, run, tt in zip(residual, (before, after), seen)]
-    return _Measured(b, a, [norm_mm(r) for r in residual], seen, frame, [note], [], net)
+    net = [net_of_noise(r, run, tt, noise, machine, removed=4) for r, run, tt in zip(residual, (before, after), seen)]
+    return _Measured(b, a, [norm_mm(r) for r in residual], seen, frame, [note], [], net, shape)
 
 
 def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _Measured, dT: float, table: bool,
@@ -299,11 +363,11 @@ def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _M
     """The model's predicted distances [mm] for both runs and the line that says how."""
     b, a = m.b, m.a
     actual = model_as_actual(model)
-    before = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool, register=True))
+    before = norm_mm(compensated_errors(actual, machine, None, b.q, b.tool))
     comp = compensated_errors(actual, machine, tables, a.q, a.tool)  # what the tables leave of the model
     ref = machine.tool_tip(a.q, a.tool + dT, frame="workpiece" if table else "base")
     if not same:
-        return before, norm_mm(registered_errors(ref, ref + comp)), (
+        return before, norm_mm(part_frame_errors(ref, ref + comp, spindle_axis(machine))), (
             f"{model.label()}; compensated: the error the tables leave of the model only "
             "(different commands, so the model's residual cannot be added)")
     # plus what the model does not describe: its residual on the uncompensated run
@@ -311,13 +375,14 @@ def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _M
         resid = registered_errors(actual(b.q, b.tool, False)[0], m.seen[0].tip)
     else:  # machine frame
         from vecpin.measurement.registration import register
-        R, t = register(machine.tool_tip(b.q, b.tool, frame="base"), b.xyz)
         feats = None
         if model.effects:
             from vecpin.measurement.features import Features
             feats = Features.from_campaign(b)
-        resid = (b.xyz - t) @ R - model.predict(b.q, b.tool, "machine", features=feats)
-    return before, norm_mm(registered_errors(ref, ref + comp + resid)), (
+        predicted = model.predict(b.q, b.tool, "machine", features=feats)
+        R, t = register(predicted, b.xyz)     # the run on the model: what is left is what it does not describe
+        resid = (b.xyz - t) @ R - predicted
+    return before, norm_mm(part_frame_errors(ref, ref + comp + resid, spindle_axis(machine))), (
         f"{model.label()}; compensated: the model's residual on the uncompensated run plus the error its tables "
         "leave of the model")
 
