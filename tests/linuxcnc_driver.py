@@ -7,7 +7,7 @@ command of ``commands.json``. After every move it checks the controller: its err
 channel (a following error is reported there as "joint N following error"), the task
 state (ON) and motion (enabled); a fault ends the run with the controller's messages.
 At each command, at rest, it reads the HAL pins asked for and motion's following error
-of every joint (``pos-cmd - pos-fb``, joint units). Last, with ``stall`` given, it stalls
+of every joint (``pos-cmd - pos-fb``, joint units; and its largest so far). Last, with ``stall`` given, it stalls
 the drives (unlinks their feedback pins: a pin off its net keeps its last value, so the
 feedback freezes as a jammed axis's encoder would) and moves every joint ``stall_step``
 (mm or deg) further: motion must then trip a following error. Writes ``result.json``."""
@@ -91,6 +91,7 @@ try:
         check(f"at {cmd}")
         row = {p: hal.get_value(p) for p in cfg["pins"]}
         row["ferror"] = [s.joint[j]["ferror_current"] for j in range(n)]
+        row["ferror_highmark"] = [s.joint[j]["ferror_highmark"] for j in range(n)]
         out["rows"].append(row)
     if cfg["stall"]:
         for pin in cfg["stall"]:

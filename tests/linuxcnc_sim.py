@@ -2,15 +2,18 @@
 
 A simulation configuration is built for a machine's joints around the files vecpin
 wrote (``[JOINT_n] COMP_FILE``, the HAL component ``vecpin_vec`` built with
-``halcompile --install``); ``linuxcnc`` starts it as an ordinary user (its realtime
-layer refuses root) with a small driver as its display (tests/linuxcnc_driver.py),
-which switches the machine on, homes it in place, moves to each command with ``G53 G1``
-in MDI, checks the controller after every move (error channel, task state, motion
-enabled) and reads the HAL pins and following errors of every joint. What the
+``halcompile --compile`` and installed for the run: one run at a time on a machine);
+``linuxcnc`` starts it as an ordinary user (its realtime layer refuses root) with a
+small driver as its display (tests/linuxcnc_driver.py), which switches the machine on,
+homes it in place, moves to each command with ``G53 G1`` in MDI, checks the controller
+after every move (error channel, task state, motion enabled) and reads the HAL pins
+and following errors of every joint. What the
 controller did to a joint is ``motor-pos-cmd - pos-cmd`` (COMP_FILE) plus what the
-component added on the way to the drive (``motor-pos-cmd-out-N - motor-pos-cmd``); on
-the simulated machine the drive's feedback is its command (``motor-pos-cmd-out-N``),
-and goes back to motion through the component.
+component added on the way to the drive (``drive-N.out - motor-pos-cmd``). The
+simulated drive of a joint (``drive-N``, a ``scale`` of gain 1) reads its position first
+in the servo thread, as a Mesa card's ``read`` does: the command of the last servo
+period, reached exactly; its feedback goes back to motion through the component, whose
+feedback function runs after the drives' reads and before motion.
 
 The joints have the following-error limits of LinuxCNC's sample configurations
 (:data:`FERROR`), so a component that breaks the feedback faults the controller, and
@@ -23,11 +26,13 @@ installs them), root (to install the component and to run LinuxCNC as the user
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
 import subprocess
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +40,9 @@ import numpy as np
 
 USER = "vecpin-lcnc"
 HAL_NAME = "vecpin-vec"
+COMPONENT = "vecpin_vec"                          # the component: vecpin_vec.comp, .hal, .so
 MODULES = Path("/usr/lib/linuxcnc/modules")
+LOCK = Path("/tmp/vecpin-linuxcnc.lock")
 
 DRIVER = Path(__file__).with_name("linuxcnc_driver.py")   # LinuxCNC's display: moves, checks, reads
 # Following-error limits, from LinuxCNC's sample configurations: linear joints as
@@ -74,12 +81,26 @@ def ensure_user() -> None:
         subprocess.run(["useradd", "-m", USER], check=True, capture_output=True)
 
 
-def install_component(comp_file: Path) -> None:
-    """``halcompile --install`` (the module lands in LinuxCNC's module folder)."""
+def build_component(comp_file: Path) -> None:
+    """``halcompile --compile``: the module (``vecpin_vec.so``) is built beside its source;
+    :func:`run` installs it in LinuxCNC's module folder, under the lock, just before it
+    starts LinuxCNC."""
     work = comp_file.parent
-    r = subprocess.run(["halcompile", "--install", comp_file.name], cwd=work, capture_output=True, text=True)
+    r = subprocess.run(["halcompile", "--compile", comp_file.name], cwd=work, capture_output=True, text=True)
     if r.returncode != 0:
         raise RuntimeError(f"halcompile failed:\n{r.stdout}\n{r.stderr}")
+
+
+@contextmanager
+def _one_linuxcnc():
+    """One LinuxCNC at a time on this machine, across processes (test workers, other
+    checkouts): its realtime layer, the user and the installed module are shared."""
+    with open(LOCK, "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def _ini(letters: list[str], kinds: list[str], limits: list[tuple[float, float]], comp: dict[int, tuple[str, int]],
@@ -107,14 +128,22 @@ def _ini(letters: list[str], kinds: list[str], limits: list[tuple[float, float]]
 
 
 def _hal(n: int, component: bool) -> str:
+    """The machine's own HAL: motion, and per joint a simulated drive whose function reads
+    its position first in the servo thread (as a Mesa card's ``read`` does): the command
+    of the last servo period, reached exactly. Without the component the drives are
+    wired to motion directly; with it, :func:`run` wires them to the component."""
     lines = ["loadrt [KINS]KINEMATICS",
              "loadrt [EMCMOT]EMCMOT servo_period_nsec=[EMCMOT]SERVO_PERIOD num_joints=[KINS]JOINTS",
              "addf motion-command-handler servo-thread", "addf motion-controller servo-thread",
              "net estop-loop iocontrol.0.user-enable-out iocontrol.0.emc-enable-in",
              "net tool-prep-loop iocontrol.0.tool-prepare iocontrol.0.tool-prepared",
-             "net tool-change-loop iocontrol.0.tool-change iocontrol.0.tool-changed"]
-    if not component:
-        lines += [f"net j{j} joint.{j}.motor-pos-cmd => joint.{j}.motor-pos-fb" for j in range(n)]
+             "net tool-change-loop iocontrol.0.tool-change iocontrol.0.tool-changed",
+             "loadrt scale names=" + ",".join(f"drive-{j}" for j in range(n))]
+    for j in range(n):
+        lines += [f"addf drive-{j} servo-thread {j + 1}", f"setp drive-{j}.gain 1.0", f"setp drive-{j}.offset 0.0"]
+        if not component:
+            lines += [f"net j{j}-cmd joint.{j}.motor-pos-cmd => drive-{j}.in",
+                      f"net j{j}-fb drive-{j}.out => joint.{j}.motor-pos-fb"]
     return "\n".join(lines) + "\n"
 
 
@@ -125,16 +154,20 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     HAL file vecpin wrote): joint ``j`` is axis ``letters[j]`` of kind ``kinds[j]``,
     travel ``limits[j]`` (mm/deg), ``comp_files[j]`` = (file name, COMP_FILE_TYPE);
     ``hal_file``: vecpin's HAL file for the component (its drive nets are completed
-    here: the simulated drive's feedback is its command). Returns the driver's result:
-    ``rows``, per command, the pins of every joint (``joint.j.pos-cmd``,
-    ``motor-pos-cmd``, ``motor-pos-fb``, ``pos-fb`` and, with the component,
-    ``vecpin-vec.0.correction-j`` / ``motor-pos-cmd-out-j`` / ``motor-pos-fb-j``) and
-    ``ferror`` (motion's following error per joint, at rest); ``limits`` (motion's
+    here, and its feedback function goes after the drives' reads, as its comment says).
+    Returns the driver's result: ``rows``, per command, the pins of every joint
+    (``joint.j.pos-cmd``, ``motor-pos-cmd``, ``motor-pos-fb``, ``pos-fb``, the drive's
+    position ``drive-j.out`` and, with the component, ``vecpin-vec.0.correction-j`` /
+    ``motor-pos-cmd-out-j``), ``ferror`` (motion's following error per joint, at rest)
+    and ``ferror_highmark`` (its largest so far, moves included); ``limits`` (motion's
     ``min_ferror`` / ``max_ferror`` per joint); ``stall`` (with ``stall``: the
     controller's errors after the drives stalled and the joints moved on). Raises
     :class:`ControllerFault` when the controller reported an error or left the ON state
     before that."""
     n = len(letters)
+    module = Path(folder) / (COMPONENT + ".so")
+    if hal_file is not None and not module.exists():
+        raise RuntimeError(f"no {module.name} in {folder}: build the component first (build_component)")
     work = Path(tempfile.mkdtemp(prefix="vecpin-lcnc-"))     # in /tmp: the user can reach it
     for f in Path(folder).iterdir():
         if f.is_file():
@@ -144,15 +177,19 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     (folder / "sim.ini").write_text(_ini(letters, kinds, limits, comp_files, coordinates))
     hal = _hal(n, hal_file is not None)
     pins = [f"joint.{j}.{p}" for j in range(n) for p in ("pos-cmd", "motor-pos-cmd", "motor-pos-fb", "pos-fb")]
-    drive_fb = [f"joint.{j}.motor-pos-fb" for j in range(n)]
+    pins += [f"drive-{j}.out" for j in range(n)]
     if hal_file is not None:
         text = (folder / hal_file).read_text()
         lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-        lines += [f"net vecpin-j{j}-drive {HAL_NAME}.0.motor-pos-cmd-out-{j} => {HAL_NAME}.0.motor-pos-fb-{j}"
-                  for j in range(n)]
+        # as its comment says: the feedback function goes after the drives' reads (positions 1..n)
+        lines = [f"addf {HAL_NAME}.0.feedback servo-thread {n + 1}"
+                 if ln.split() == ["addf", f"{HAL_NAME}.0.feedback", "servo-thread", "1"] else ln for ln in lines]
+        for j in range(n):
+            lines += [f"net vecpin-j{j}-drive-cmd {HAL_NAME}.0.motor-pos-cmd-out-{j} => drive-{j}.in",
+                      f"net vecpin-j{j}-drive-fb drive-{j}.out => {HAL_NAME}.0.motor-pos-fb-{j}"]
         hal += "\n".join(lines) + "\n"
-        pins += [f"{HAL_NAME}.0.{p}-{j}" for j in range(n) for p in ("correction", "motor-pos-cmd-out", "motor-pos-fb")]
-        drive_fb = [f"{HAL_NAME}.0.motor-pos-fb-{j}" for j in range(n)]
+        pins += [f"{HAL_NAME}.0.{p}-{j}" for j in range(n) for p in ("correction", "motor-pos-cmd-out")]
+    drive_in = [f"drive-{j}.in" for j in range(n)]
     last = commands[-1]
     step = [STALL_STEP if v < 0.5 * (lo + hi) else -STALL_STEP for v, (lo, hi) in zip(last, limits)]  # inward
     (folder / "sim.hal").write_text(hal)
@@ -162,13 +199,16 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     (folder / "driver.py").chmod(0o755)
     (folder / "commands.json").write_text(json.dumps({"joints": n, "letters": letters, "pins": pins,
                                                       "commands": commands, "creep": 0.01,
-                                                      "stall": drive_fb if stall else None, "stall_step": step}))
+                                                      "stall": drive_in if stall else None, "stall_step": step}))
     ensure_user()
-    subprocess.run(["pkill", "-KILL", "-u", USER], capture_output=True)   # what an earlier, killed run left
     subprocess.run(["chown", "-R", USER, str(folder)], check=True)
     folder.chmod(0o755)
-    r = subprocess.run(["runuser", "-u", USER, "--", "bash", "-c", f"cd {folder} && linuxcnc sim.ini"],
-                       capture_output=True, text=True, timeout=timeout)
+    with _one_linuxcnc():
+        subprocess.run(["pkill", "-KILL", "-u", USER], capture_output=True)   # what an earlier, killed run left
+        if hal_file is not None:
+            shutil.copy(module, MODULES / module.name)
+        r = subprocess.run(["runuser", "-u", USER, "--", "bash", "-c", f"cd {folder} && linuxcnc sim.ini"],
+                           capture_output=True, text=True, timeout=timeout)
     res = folder / "result.json"
     if not res.exists():
         raise RuntimeError(f"LinuxCNC wrote no result (exit {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
@@ -208,6 +248,7 @@ class Readback:
     cross: np.ndarray          # drive position - motor-pos-cmd: what the component added on the way (0 without)
     correction: np.ndarray     # the component's correction-N pin (what it says it added; 0 without)
     ferror: np.ndarray         # motion's following error at rest, pos-cmd - pos-fb (task status)
+    ferror_moving: np.ndarray  # (n,) its largest over the run, moves included (task status: ferror_highmark)
     fb_offset: np.ndarray      # drive position - joint.N.motor-pos-fb: what the feedback path took off
     min_ferror: np.ndarray     # (n,) motion's following-error limits in force, at rest and at full speed
     max_ferror: np.ndarray
@@ -231,11 +272,12 @@ def machine_readback(m, folder: Path, q, joints: dict[str, int], kind: int, comp
     def pins(name):
         return np.array([[r[name.format(j=joints[a])] for a in m.axis_names] for r in rows])
     pos, motor = pins("joint.{j}.pos-cmd"), pins("joint.{j}.motor-pos-cmd")
-    drive = pins(HAL_NAME + ".0.motor-pos-cmd-out-{j}") if component else motor
+    drive = pins("drive-{j}.out")
     correction = pins(HAL_NAME + ".0.correction-{j}") if component else np.zeros_like(pos)
     ferror = np.array([[r["ferror"][joints[a]] for a in m.axis_names] for r in rows])
     lim = out["limits"]
-    return Readback(list(m.axis_names), pos, motor - pos, drive - motor, correction, ferror,
+    highmark = np.array([rows[-1]["ferror_highmark"][joints[a]] for a in m.axis_names])
+    return Readback(list(m.axis_names), pos, motor - pos, drive - motor, correction, ferror, highmark,
                     drive - pins("joint.{j}.motor-pos-fb"),
                     np.array([lim[joints[a]]["min_ferror"] for a in m.axis_names]),
                     np.array([lim[joints[a]]["max_ferror"] for a in m.axis_names]),
@@ -244,12 +286,15 @@ def machine_readback(m, folder: Path, q, joints: dict[str, int], kind: int, comp
 
 def feedback_problems(rb: Readback, tol: float) -> list[str]:
     """What is wrong with the feedback path in a run (tolerance ``tol`` in mm or deg), in
-    words; [] when sound. At rest the drive sits where the command plus the corrections
-    put it, and motion must see the position it commanded (following error 0 on the
-    simulated drive, whose feedback is its command): a feedback that keeps some of the
-    component's correction, or takes it off twice, shows here. The component's
-    correction pin must be what reached the drive. With the drives stalled, motion must
-    trip a following error: a feedback that is not the drive's does not."""
+    words; [] when sound. The simulated drive reaches each command exactly, one servo
+    period later, when its function reads it first in the thread; motion compares the
+    feedback with the command of the last period, so its following error must be 0 at
+    rest, and while moving too: a feedback that keeps some of the component's
+    correction, or takes it off twice, shows at rest; one that reaches motion a servo
+    period late shows while moving (``velocity * period``; at full speed above the
+    limit: a fault). The component's correction pin must be what reached the drive. With
+    the drives stalled, motion must trip a following error: a feedback that is not the
+    drive's does not."""
     out = []
     for k, a in enumerate(rb.names):
         worst = np.abs(rb.ferror[:, k]).max()
@@ -258,6 +303,9 @@ def feedback_problems(rb: Readback, tol: float) -> list[str]:
                        f"where the drive sits at the corrected command: the feedback does not take off "
                        f"exactly what the command got (the drive's position less motion's motor-pos-fb: "
                        f"{np.abs(rb.fb_offset[:, k]).max():.4g}, correction {np.abs(rb.cross[:, k]).max():.4g})")
+        if rb.ferror_moving[k] > tol and worst <= tol:
+            out.append(f"{a}: motion's following error reached {rb.ferror_moving[k]:.4g} mm or deg while moving, where "
+                       f"the simulated drive follows its command exactly: the feedback reaches motion late")
         off = np.abs(rb.correction[:, k] - rb.cross[:, k]).max()
         if off > tol:
             out.append(f"{a}: the drive got {off:.4g} mm or deg more or less than the component's correction pin says")
