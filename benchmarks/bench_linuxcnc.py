@@ -49,7 +49,7 @@ def true_error(truth, m, tables, q, tool) -> tuple[float, float]:
 def through_controller(m, folder: Path, q, tables, component: bool):
     """(commands the controller sent [SI], seconds): vecpin's files in ``folder`` on LinuxCNC."""
     if component:
-        lcnc.install_component(folder / "vecpin_vec.comp")
+        lcnc.build_component(folder / "vecpin_vec.comp")
     t0 = time.time()
     joints = linuxcnc.joint_numbers(m, ControllerProfile())
     pos, pitch, cross = lcnc.machine_run(m, folder, q, joints, 0, component)

@@ -81,6 +81,10 @@ def test_cross_tables_round_trip_through_the_component(tmp_path):
     assert "/* table yx: joint 1 (Y) from joint 0 (X)" in src and "pin in float pos_cmd_#[4]" in src
     hal = (tmp_path / "vecpin_vec.hal").read_text()
     assert "net vecpin-j0-pos-cmd joint.0.pos-cmd => vecpin-vec.0.pos-cmd-0" in hal
+    # the feedback function first in the servo thread (before motion), the command function last (after it)
+    addf = [ln.split() for ln in hal.splitlines() if ln.startswith("addf")]
+    assert addf == [["addf", "vecpin-vec.0.feedback", "servo-thread", "1"],
+                    ["addf", "vecpin-vec.0.command", "servo-thread"]]
     back = linuxcnc.read(tmp_path, m, lprofile())
     assert sorted(back.names()) == ["xx", "yx"]
     np.testing.assert_array_equal(back.table("yx").values, tables.table("yx").values)

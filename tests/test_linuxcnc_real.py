@@ -4,7 +4,16 @@ interpolation, the ends of the tables, joint numbering; COMP_FILE types 0 and 1;
 component for the cross tables), and a fitted model's tables through the controller give
 the true machine the full tables' error. Runs wherever LinuxCNC is installed and the
 tests run as root (CI: .ci/run installs it); skipped with the reason elsewhere.
-The controller is the judge here: vecpin's own reader is not used to check the files."""
+The controller is the judge here: vecpin's own reader is not used to check the files.
+
+The configuration has the following-error limits of LinuxCNC's sample configurations
+(tests/linuxcnc_sim.py: 0.254 mm at rest, 1.27 mm at full speed; 1 and 5 deg), and every
+run checks the component's feedback path: no fault on the way, motion's following error
+0 at rest, a following error when the drives stall. Mutated copies of the component
+(feedback held at 0, negated, keeping or doubling the correction, ...) must fail.
+"""
+import re
+
 import numpy as np
 import pytest
 
@@ -69,7 +78,7 @@ def test_comp_files_and_component_applied_as_vecpin_predicts(tmp_path, machine, 
     prof = ControllerProfile(options={"comp_file_type": kind})
     names = write(tables, m, prof, tmp_path)
     assert "vecpin_vec.comp" in names and all(linuxcnc.comp_file_name(a) in names for a in m.axis_names)
-    lcnc.install_component(tmp_path / "vecpin_vec.comp")
+    lcnc.build_component(tmp_path / "vecpin_vec.comp")
     q = probe_commands(m, tables, rng)
     joints = linuxcnc.joint_numbers(m, prof)
     pos, pitch, cross = lcnc.machine_run(m, tmp_path, q, joints, kind, component=True)
@@ -97,7 +106,7 @@ def test_joint_numbering_follows_the_configuration(tmp_path):
                              options={"ini": str(ini)})
     out = tmp_path / "files"
     write(tables, m, prof, out)
-    lcnc.install_component(out / "vecpin_vec.comp")
+    lcnc.build_component(out / "vecpin_vec.comp")
     q = probe_commands(m, tables, rng, n_random=3)
     pos, pitch, cross = lcnc.machine_run(m, out, q, linuxcnc.joint_numbers(m, prof), 0, component=True)
     np.testing.assert_allclose(pitch, vecpin_corrections(m, tables, pos, "pitch"), atol=TOL_MM)
@@ -124,7 +133,7 @@ def test_a_fitted_model_through_the_controller_gets_the_full_tables_figure(tmp_p
     model = make_model("6dof", m, 4).fit(sim.campaign, NoiseModel.default(m, "spherical"))
     run = make_tables(model, tmp_path, "linuxcnc", uncertainty=False)
     assert any(not t.is_pitch for t in run.plan.tables.tables)
-    lcnc.install_component(tmp_path / "vecpin_vec.comp")
+    lcnc.build_component(tmp_path / "vecpin_vec.comp")
     q, tool = validation_commands(m, 10)
     pos, pitch, cross = lcnc.machine_run(m, tmp_path, q[:10], linuxcnc.joint_numbers(m, ControllerProfile()), 0, True)
     sent = lcnc.ControllerCommands(q[:10], lcnc.to_si(m, pos + pitch + cross), run.plan.tables.gauge_offset_change)
@@ -135,3 +144,86 @@ def test_a_fitted_model_through_the_controller_gets_the_full_tables_figure(tmp_p
     full, controller, uncompensated = err(run.plan.tables), err(sent), err(None)
     assert controller == pytest.approx(full, rel=0.02)
     assert controller < 0.5 * err(pitch_only) and controller < 0.3 * uncompensated
+
+
+def verdict(m, tables: TableSet, folder, q, joints, kind) -> list[str]:
+    """Everything by which a run of vecpin's files in ``folder`` on the controller fails
+    these tests, in words ([]: it passes): a controller fault (a following error), an
+    unsound feedback path, corrections at the drive other than vecpin's tables."""
+    try:
+        rb = lcnc.machine_readback(m, folder, q, joints, kind, component=True)
+    except lcnc.ControllerFault as exc:
+        return [f"controller fault: {'; '.join(exc.errors) or exc}"]
+    out = lcnc.feedback_problems(rb, TOL_MM)
+    for which, got in (("pitch", rb.pitch), ("cross", rb.cross)):
+        diff = np.abs(got - vecpin_corrections(m, tables, rb.pos, which)).max(axis=0)
+        out += [f"{a}: the {which} correction the drive got differs from vecpin's tables by {d:.4g} mm or deg"
+                for a, d in zip(m.axis_names, diff) if d > TOL_MM]
+    return out
+
+
+# the component's feedback and command lines (vecpin/export/linuxcnc_hal.py) and the line of its
+# HAL file that places the feedback function; the mutants: what is broken -> (replacements of those
+# lines, in the .comp or the .hal, and the verdict that must catch it: a pattern)
+FB = "motor_pos_fb_out(j) = motor_pos_fb(j) - applied[j];"
+CMD = "motor_pos_cmd_out(j) = motor_pos_cmd(j) + applied[j];"
+FB_FIRST = "addf vecpin-vec.0.feedback servo-thread 1"
+FAULT = r"^controller fault: .*joint \d following error"            # reported while moving
+AT_REST = r"^\w: motion's following error at rest is"                # below the limit: no fault
+TABLES = r"^\w: the cross correction the drive got differs from vecpin's tables"
+STALLED = r"^with the drives stalled .* no following error"
+MUTANTS = {
+    "feedback held at 0": ({FB: "motor_pos_fb_out(j) = 0.0;"}, FAULT),
+    "feedback sign flipped": ({FB: "motor_pos_fb_out(j) = -(motor_pos_fb(j) - applied[j]);"}, FAULT),
+    "correction not taken off the feedback": ({FB: "motor_pos_fb_out(j) = motor_pos_fb(j);"}, AT_REST),
+    "correction added to the feedback": ({FB: "motor_pos_fb_out(j) = motor_pos_fb(j) + applied[j];"}, AT_REST),
+    "correction taken off the feedback twice": ({FB: "motor_pos_fb_out(j) = motor_pos_fb(j) - 2.0 * applied[j];"},
+                                                AT_REST),
+    "correction applied twice, command and feedback": (
+        {CMD: "motor_pos_cmd_out(j) = motor_pos_cmd(j) + 2.0 * applied[j];",
+         FB: "motor_pos_fb_out(j) = motor_pos_fb(j) - 2.0 * applied[j];"}, TABLES),
+    "feedback is motion's command, not the drive's": ({FB: "motor_pos_fb_out(j) = motor_pos_cmd(j);"}, STALLED),
+    "feedback a servo period late (run after motion)": ({FB_FIRST: "addf vecpin-vec.0.feedback servo-thread"},
+                                                        FAULT),
+}
+
+
+def mutate(folder, edits: dict[str, str]) -> None:
+    """Replace each line ``old`` of vecpin's component or HAL file in ``folder`` by ``new``."""
+    files = [folder / "vecpin_vec.comp", folder / "vecpin_vec.hal"]
+    texts = {f: f.read_text() for f in files}
+    for old, new in edits.items():
+        where = [f for f in files if texts[f].count(old) == 1]
+        assert len(where) == 1 and sum(t.count(old) for t in texts.values()) == 1, \
+            f"vecpin's files have no single line {old!r}: update MUTANTS"
+        texts[where[0]] = texts[where[0]].replace(old, new)
+    for f, t in texts.items():
+        f.write_text(t)
+
+
+@pytest.mark.parametrize("mutant", [None, *MUTANTS], ids=["vecpin's component", *MUTANTS])
+def test_a_broken_feedback_path_fails(tmp_path, mutant):
+    """vecpin's component passes the checks every run makes; each mutated copy of its
+    source or HAL file (built with halcompile, same tables, same moves) fails them,
+    caught by the observable named in MUTANTS: a following error the controller reports
+    while moving (feedback held at 0 or negated; feedback a servo period late: velocity
+    * 1 ms, up to 3 mm at these joints' full speed, over the 1.27 mm limit), motion's
+    following error at rest (the feedback keeps, adds or doubles the correction:
+    0.002-0.24 mm or deg here, below the 0.254 mm / 1 deg limits, so no fault, but the simulated drive
+    sits exactly at its command), the drive's correction against vecpin's tables
+    (doubled in command and feedback alike: motion sees nothing), or no following error
+    with the drives stalled (feedback that is not the drive's)."""
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(7)
+    tables = smooth_tables(m, 41, rng)
+    prof = ControllerProfile()
+    write(tables, m, prof, tmp_path)
+    if mutant is not None:
+        mutate(tmp_path, MUTANTS[mutant][0])
+    lcnc.build_component(tmp_path / "vecpin_vec.comp")
+    q = probe_commands(m, tables, rng, n_random=2)
+    found = verdict(m, tables, tmp_path, q, linuxcnc.joint_numbers(m, prof), 0)
+    if mutant is None:
+        assert found == []
+    else:
+        assert any(re.search(MUTANTS[mutant][1], f) for f in found), f"{mutant}: not caught as expected; found {found}"
