@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vecpin.compensation import plan as plan_module
-from vecpin.compensation.functions import model_as_actual
+from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import parameter_spread, plan_tables
 from vecpin.errors import ControllerLimitError, InputError

@@ -4,7 +4,7 @@ import pytest
 
 from vecpin.viz import figures
 from vecpin.cli import main
-from vecpin.compensation.functions import model_as_actual
+from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel

@@ -10,7 +10,8 @@ from scipy.spatial.transform import Rotation
 
 import vecpin
 from part_frame_judge import judge, part_errors
-from vecpin.compensation.functions import measured_box, pseudo_commands
+from vecpin.compensation.functions import pseudo_commands
+from vecpin.compensation.frame import measured_box
 from vecpin.compensation.plan import plan_tables
 from vecpin.export.generic import write_tables
 from vecpin.measurement import partframe as pf

@@ -7,8 +7,9 @@ from vecpin.measurement.partframe import part_frame_errors, spindle_axis
 import vecpin
 import pytest
 
-from vecpin.compensation.functions import (TableProblem, all_table_names, from_ap_model, model_as_actual,
-                                           pitch_names, pseudo_commands, truth_as_actual)
+from vecpin.compensation.functions import (TableProblem, all_table_names, from_ap_model, pitch_names,
+                                           pseudo_commands, truth_as_actual)
+from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
@@ -56,7 +57,7 @@ def test_table_set_adds_tables_per_output_axis(flow):
 def test_ap_tables_cancel_the_ap_model(flow, fitted):
     """eq. 17: F_AP(q + t_AP(q)) = F_n(q) to first order; 1024 points per table. (In the frame the
     fit settled in, which eq. 17 keeps: plan_tables uses it only when that is the model's reference frame.)"""
-    from vecpin.compensation.functions import ReferenceFrame
+    from vecpin.compensation.frame import ReferenceFrame
     _, models = fitted
     model = models["ap"]
     tables = from_ap_model(model).discretise(1024)
@@ -72,7 +73,7 @@ def test_ap_tables_cancel_the_ap_model(flow, fitted):
 
 def test_projection_matches_ap_direct_tables(flow, fitted):
     _, models = fitted
-    from vecpin.compensation.functions import ReferenceFrame
+    from vecpin.compensation.frame import ReferenceFrame
     model = models["ap"]
     raw = model_as_actual(model, frame=ReferenceFrame(np.eye(3), np.zeros(3), "the fit's own frame"))
     problem = TableProblem(raw, flow, pseudo_commands(flow, 600), TOOLS, order=6)
@@ -166,7 +167,7 @@ def test_measured_box_is_what_the_campaign_commanded(short_and_full):
     (read from the campaign itself); the whole travel for a model that does not record
     it and for an axis the campaign held still."""
     import copy
-    from vecpin.compensation.plan import measured_box
+    from vecpin.compensation.frame import measured_box
     sim, model = short_and_full["short"]
     m = model.machine
     lo, hi = measured_box(model)
@@ -187,7 +188,8 @@ def test_a_campaign_short_of_an_axis_end_gives_held_tables(short_and_full):
     tables are finite, constant beyond the measured range (exactly: the same number at
     every point beyond), and inside the measured range they compensate the true machine
     about as well as tables from a campaign over the whole workspace."""
-    from vecpin.compensation.plan import measured_box, plan_tables
+    from vecpin.compensation.plan import plan_tables
+    from vecpin.compensation.frame import measured_box
     sim, short = short_and_full["short"]
     _, full = short_and_full["full"]
     m = short.machine
@@ -260,7 +262,7 @@ def test_a_machine_that_is_only_moved_rigidly_needs_no_tables(flow):
     few um at most) and the compensated error is as small. Tables fitted to the machine
     as it stands, with no rotation free, cancel the turn instead."""
     from scipy.spatial.transform import Rotation
-    from vecpin.compensation.functions import in_reference_frame, reference_frame
+    from vecpin.compensation.frame import in_reference_frame, reference_frame
     R = Rotation.from_rotvec(1e-3 * np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])).as_matrix()
     t = np.array([3e-4, -2e-4, 1e-4])
 

@@ -10,7 +10,8 @@ import json
 import numpy as np
 import pytest
 from part_frame_judge import part_errors
-from vecpin.compensation.functions import in_reference_frame, reference_frame, truth_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.frame import in_reference_frame, reference_frame
 from vecpin.compensation.plan import plan_tables
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.tableframe import NetOfNoise

@@ -16,6 +16,21 @@ def read_fit_campaign(args, m):
     return c
 
 
+def nest_heights(items: list[str] | None) -> dict | None:
+    """``--nest-height ID=MM`` (repeated) -> {id: mm}; an id given twice is refused."""
+    from vecpin.errors import InputError
+    out = {}
+    for item in items or []:
+        nid, sep, value = str(item).partition("=")
+        if not sep or not nid.strip():
+            raise InputError(f"`--nest-height` '{item}': write ID=MM, a nest id and its reflector centre's height "
+                             "above the table face in mm, e.g. 1=19.05")
+        if nid.strip() in out:
+            raise InputError(f"`--nest-height` {nid.strip()} is given twice; give each nest once")
+        out[nid.strip()] = value.strip()
+    return out or None
+
+
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
     from vecpin.workflows.estimator import ErrorModelCV
@@ -24,7 +39,8 @@ def run_fit(args) -> int:
     est = ErrorModelCV(m, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
                        tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, folds=args.folds, zone=zone_option(args.zone),
-                       noise_from_data=not noise_stated(args), progress=progress(not args.quiet))
+                       noise_from_data=not noise_stated(args), nest_heights=nest_heights(args.nest_height),
+                       progress=progress(not args.quiet))
     est.fit(read_fit_campaign(args, m)).save(args.out)
     say(args, *est.run_.lines())
     print(f"wrote {args.out}")
@@ -99,6 +115,10 @@ def register(sub) -> None:
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit only the rows commanded in this region of axis space, mm/deg (a machine calibrated in "
                         "zones, seed Table 2.12); the model file records it and vecpin tables uses it (default: all rows)")
+    s.add_argument("--nest-height", action="append", metavar="ID=MM",
+                   help="the height of a table nest's reflector centre above the table's face, mm (repeat for three "
+                        "or more nests): the tables then keep the table's face square to the spindle, and every figure "
+                        "is judged on it (default: the machine's own reference lines or mean orientation)")
     s.add_argument("--targets", metavar="CSV",
                    help="known tool-target offsets: a CSV 'target,x,y,z' in mm in the tool link frame; targets of the "
                         "campaign's 'target' column not in it are found by the fit (default: all found by the fit)")

@@ -41,10 +41,8 @@ from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement import partframe
 from vecpin.models import APModel, ErrorModel
-from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.registration import rigid_motion_basis
 from vecpin.compensation.tables import CompensationTable, TableSet, table_grid, table_name, table_names
-from vecpin.units import MM_PER_M
 
 # actual(q, tool, jacobian, point) -> (tip (N,3) relative to the workpiece [m], d tip / d q (N,3,n) or None)
 ActualMachine = Callable[..., tuple]
@@ -60,50 +58,6 @@ def geometric_model(model: ErrorModel) -> ErrorModel:
     return model.geometric_part()[0] if model.row_dependent else model
 
 
-def model_as_actual(model: ErrorModel, tools=None, frame: "ReferenceFrame | None" = None) -> ActualMachine:
-    """The fitted model as the 'actual' machine: the tool tip relative to the workpiece,
-    no tracker, in the model's own reference frame (:func:`model_reference_frame`; the
-    orientation the fit happened to settle in is not observable from tracker data, the
-    machine's reference lines are). Only its geometry (:func:`geometric_model`), as tables
-    cannot carry the rest. ``frame``: the model's reference frame when it is known already."""
-    geometric = geometric_model(model)
-
-    def raw(q, tool, jacobian=True, point=0):
-        out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
-        return out.tip, out.J_q
-    return in_reference_frame(raw, frame or model_reference_frame(model, raw, tools))
-
-
-def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, tools=None) -> ReferenceFrame:
-    """The reference frame of a fitted model (:func:`reference_frame`) over the commands its
-    campaign measured (:func:`measured_box`) with ``tools`` [m] (default the fit's tool
-    lengths, at most the shortest and the longest)."""
-    if raw is None:
-        geometric = geometric_model(model)
-
-        def raw(q, tool, jacobian=False, point=0):
-            out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
-            return out.tip, out.J_q
-    if tools is None:
-        mm = list(getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
-        tools = [min(mm) / MM_PER_M, max(mm) / MM_PER_M]
-    return reference_frame(raw, model.machine, tools, *measured_box(model))
-
-
-def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
-    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
-    whole travel for a model that does not record it."""
-    m = model.machine
-    rng = getattr(getattr(model, "report_", None), "measured_range", None) or {}
-    lo, hi = m.lower.copy(), m.upper.copy()
-    for a in m.axes:
-        if a.name in rng:
-            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
-            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
-                lo[a.index], hi[a.index] = a.lower, a.upper
-    return lo, hi
-
-
 def truth_as_actual(truth) -> ActualMachine:
     """A simulated true machine as the actual machine (for checking tables against
     truth, and for the table floor). Asked for a Jacobian it gives the nominal one: the
@@ -113,63 +67,6 @@ def truth_as_actual(truth) -> ActualMachine:
         tip = truth.tool_tip(q, tool, frame=FRAME, point=point)
         return tip, (truth.machine.kinematics(q, tool, True, frame=FRAME, point=point).jacobian if jacobian else None)
     return actual
-
-
-def reference_commands(machine: Machine, lower: np.ndarray | None = None, upper: np.ndarray | None = None,
-                       n: int = 600, seed: int = 0) -> np.ndarray:
-    """Quasi-random commands [m, rad] over the box ``lower``..``upper`` (default the travel)
-    where the machine's reference frame is measured (:mod:`vecpin.measurement.partframe`):
-    with every rotary axis at home (0, or the nearest end of the box) where it is defined by
-    reference lines; over the whole box where it is the volume's mean orientation."""
-    q = pseudo_commands(machine, n, seed, lower, upper)
-    if not partframe.uses_lines(machine):
-        return q
-    rot = [a.index for a in machine.axes if a.kind == "rotary"]
-    lo = machine.lower if lower is None else lower
-    hi = machine.upper if upper is None else upper
-    q[:, rot] = np.clip(0.0, lo[rot], hi[rot])
-    return q
-
-
-@dataclass
-class ReferenceFrame:
-    """The machine's own reference frame, as tables keep it: ``R`` (3,3) takes the
-    machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
-    says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`)."""
-
-    R: np.ndarray
-    centre: np.ndarray
-    how: str
-
-    @property
-    def angle(self) -> float:
-        """The rotation's angle [rad]: how far the machine's frame is turned from where its tips are given."""
-        return partframe.rotation_angle(self.R)
-
-
-def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.ndarray | None = None,
-                    upper: np.ndarray | None = None) -> ReferenceFrame:
-    """The reference frame of the ``actual`` machine (a model or a simulated truth) from its
-    tips at :func:`reference_commands` in the box ``lower``..``upper`` x ``tools`` [m]."""
-    q = reference_commands(machine, lower, upper)
-    tools = np.asarray(tools, float)
-    qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
-    tip = actual(qq, tt, False, 0)[0]
-    R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt), tip,
-                                          partframe.spindle_axis(machine))
-    return ReferenceFrame(R, tip.mean(axis=0), how)
-
-
-def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMachine:
-    """The ``actual`` machine with its tips expressed in its reference frame ``frame``:
-    tables fitted to it keep that frame (they do not turn the working volume against the
-    machine's own reference lines, which a part on the table would see)."""
-    R, c = frame.R, frame.centre
-
-    def moved(q, tool, jacobian=False, point=0):
-        tip, J = actual(q, tool, jacobian, point)
-        return (tip - c) @ R.T + c, (None if J is None else np.einsum("ij,njk->nik", R, J))
-    return moved
 
 
 def nominal_tip(machine: Machine, q: np.ndarray, tool, point=0) -> np.ndarray:

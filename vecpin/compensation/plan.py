@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
-                                           hold_ranges, ReferenceFrame, measured_box, model_as_actual,
-                                           model_reference_frame, nominal_tip, pitch_names, reference_commands,
-                                           pseudo_commands, rich_table_bases, table_bases)
+                                           hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
+                                           table_bases)
+from vecpin.compensation.frame import ReferenceFrame, measured_box, model_as_actual, model_reference_frame, reference_commands
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic

@@ -25,7 +25,9 @@ class Setup:
     ``nests``: table nests {id: position (3,) [m], workpiece frame}; ``targets``: tool
     targets whose offsets the fit estimates {id: offset (3,) [m], tool link frame};
     ``std``: standard deviations [m] of the fitted nest and target coordinates by
-    unknown name (``nest<id>.x``, ``target<id>.y``, ...)."""
+    unknown name (``nest<id>.x``, ``target<id>.y``, ...); ``nest_heights``: {nest id:
+    height [m] of its reflector's centre above the table face}, where the user gave them
+    (the nests then tell where the table's face is: the frame the tables keep)."""
 
     R: np.ndarray
     t: np.ndarray
@@ -35,6 +37,7 @@ class Setup:
     nests: dict = field(default_factory=dict)
     targets: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
+    nest_heights: dict = field(default_factory=dict)
 
     def pose(self, station: int = 0):
         """(R, t, e) of a station."""

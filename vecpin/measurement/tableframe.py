@@ -481,3 +481,32 @@ def _moved_nests(campaign) -> list[str]:
 
 __all__ = ["TableTips", "table_tips", "tip_noise", "NetOfNoise", "net_of_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
            "command_keys", "unseen_travel_notes"]
+
+
+MAX_NEST_HEIGHT_MM = 2000.0   # a reflector centre farther above the table face is a unit mistake
+
+
+def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_heights") -> dict:
+    """{nest id: height [m]} from ``heights_mm`` {id: mm}: the height of each nest's
+    reflector centre above the table face, for the nests of a fit (``nests`` {id: (3,)
+    [m]}). Refused, naming ``option``: an id the fit has no nest for, a height that is not a
+    number between 0 and 2000 mm, fewer than three nests, nests on a line (no plane)."""
+    from vecpin.errors import InputError
+    out = {}
+    for k, h in heights_mm.items():
+        k = str(k)
+        if k not in nests:
+            raise InputError(f"`{option}` {k}: the campaign has no nest '{k}' (its nests: "
+                             f"{', '.join(sorted(nests)) or 'none'})")
+        try:
+            v = float(h)
+        except (TypeError, ValueError):
+            v = float("nan")
+        if not (0.0 <= v <= MAX_NEST_HEIGHT_MM):
+            raise InputError(f"`{option}` {k}={h}: the height of the nest's reflector centre above the table face, "
+                             f"mm, 0 .. {MAX_NEST_HEIGHT_MM:g} (e.g. 19.05 for a 1.5-inch sphere in a magnetic nest)")
+        out[k] = v * 1e-3
+    if out and (len(out) < 3 or _on_a_line(np.array([nests[k] for k in out]))):
+        raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face needs "
+                         "three or more nests not on a line")
+    return out

@@ -132,6 +132,8 @@ def _points_to_dict(setup) -> dict:
         out[f"{kind}_mm"] = {str(k): [float(v) * MM_PER_M for v in c] for k, c in store.items()}
         key = kind[:-1]
         out[f"{kind}_std_mm"] = {str(k): [setup.std.get(f"{key}{k}.{c}", 0.0) * MM_PER_M for c in "xyz"] for k in store}
+    if setup.nest_heights:
+        out["nest_heights_mm"] = {str(k): float(h) * MM_PER_M for k, h in setup.nest_heights.items()}
     return out
 
 
@@ -271,6 +273,13 @@ def _from_dict(d: dict, path: Path, factory: Callable):
             store[k] = _finite(path, f"tracker.{kind}_mm.{k}", c) * M_PER_MM
             for comp, sd in zip("xyz", tr[f"{kind}_std_mm"][k]):
                 model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
+    for k, h in tr.get("nest_heights_mm", {}).items():
+        if str(k) not in model.setup_.nests:
+            raise ModelFileError(path, f"nest '{k}' is not among the fitted nests "
+                                 f"({', '.join(sorted(model.setup_.nests)) or 'none'})", "tracker.nest_heights_mm")
+        if isinstance(h, bool) or not isinstance(h, (int, float)):
+            raise ModelFileError(path, "a nest's height must be a number, mm", f"tracker.nest_heights_mm.{k}")
+        model.setup_.nest_heights[str(k)] = float(_finite(path, f"tracker.nest_heights_mm.{k}", h)) * M_PER_MM
     zone = d.get("zone")
     if zone:
         for a in zone:

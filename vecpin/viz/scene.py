@@ -169,7 +169,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
     res = measured - identified
     vectors = {"errors": err, "residuals": res}
     if tables is not None:
-        from vecpin.compensation.functions import model_as_actual
+        from vecpin.compensation.frame import model_as_actual
         from vecpin.compensation.report import compensated_errors
         vectors["compensated"] = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
     if show not in vectors:

@@ -30,7 +30,7 @@ class ErrorModelCV:
     or a whole number): what to fix of the model (default: the data choose all three);
     ``tool_corrections``, ``prior_scale``, ``underdetermined``, ``folds`` (of the choice's
     cross-validation, grouped by command), ``zone`` ({axis: (low, high)} mm/deg),
-    ``noise_from_data``, ``progress``.
+    ``noise_from_data``, ``nest_heights`` ({nest id: mm above the table face}), ``progress``.
 
     After :meth:`fit`: ``model_`` (the fitted :class:`~vecpin.models.ErrorModel`),
     ``choice_`` (the :class:`~vecpin.selection.choice.ModelChoice`, None when nothing was
@@ -40,18 +40,21 @@ class ErrorModelCV:
     def __init__(self, machine: Machine, noise: NoiseModel | None = None, *, kind: str = "auto", basis: str = "auto",
                  order: int | str = "auto", tool_corrections: bool = False, prior_scale: float = 1.0,
                  underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None):
+                 noise_from_data: bool = False, nest_heights: dict | None = None,
+                 progress: Callable[[str], None] | None = None):
         self.machine, self.noise = machine, noise
         self.kind, self.basis, self.order = kind, basis, order
         self.tool_corrections, self.prior_scale, self.underdetermined = tool_corrections, prior_scale, underdetermined
         self.folds, self.zone, self.noise_from_data, self.progress = folds, zone, noise_from_data, progress
+        self.nest_heights = nest_heights
 
     def fit(self, campaign: Campaign) -> "ErrorModelCV":
         """Choose (where not fixed) and fit the model of ``campaign``; returns self."""
         run = fit_campaign(self.machine, campaign, self.noise, kind=self.kind, basis=self.basis, order=self.order,
                            tool_corrections=self.tool_corrections, prior_scale=self.prior_scale,
                            underdetermined=self.underdetermined, folds=self.folds, zone=self.zone,
-                           noise_from_data=self.noise_from_data, progress=self.progress)
+                           noise_from_data=self.noise_from_data, nest_heights=self.nest_heights,
+                           progress=self.progress)
         self.run_, self.model_, self.choice_ = run, run.model, run.choice
         return self
 

@@ -175,7 +175,7 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
     if refitted:
         to_ref = RunReference(m, c.q, c.tool, nominal, tt.tip)
     else:   # the nests where the fit put them: the model's reference frame
-        from vecpin.compensation.functions import model_reference_frame
+        from vecpin.compensation.frame import model_reference_frame
         mf = model_reference_frame(model)
         to_ref = lambda p: (p - mf.centre) @ mf.R.T + mf.centre  # noqa: E731
     uncompensated = part_frame_errors(nominal, to_ref(tt.tip), spindle_axis(m))
@@ -191,7 +191,7 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     """Mark the judged rows commanded beyond the range the fit measured (its zone, or the
     lowest and highest command of each axis, by more than ``OUTSIDE_MARGIN`` of the travel):
     the model extrapolates there, so they are reported apart, with a first-line warning."""
-    from vecpin.compensation.plan import measured_box
+    from vecpin.compensation.frame import measured_box
     m = model.machine
     lo, hi = measured_box(model)
     margin = OUTSIDE_MARGIN * np.array([a.travel for a in m.axes])

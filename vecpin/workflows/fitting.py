@@ -24,7 +24,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel, scaled_noise
-from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
+from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_fit, table_campaign_notes
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, clip_to_zone, inside
@@ -181,8 +181,13 @@ def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "z
 def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 noise_from_data: bool = False, progress: Callable[[str], None] | None = None) -> FitRun:
+                 noise_from_data: bool = False, nest_heights: dict | None = None,
+                 progress: Callable[[str], None] | None = None) -> FitRun:
     """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``).
+
+    ``nest_heights``: {nest id: mm}, the height of each table nest's reflector centre above
+    the table's face (three or more): the model then knows where the face is, and the
+    tables keep it square to the spindle (:func:`vecpin.compensation.frame.on_the_table_face`).
 
     ``noise_from_data``: the noise level is not known (the user stated none): the model
     choice scales every noise sigma to what its linearised fit says when the chi2 leaves
@@ -216,6 +221,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
         for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
             warnings.warn(VecpinWarning(note), stacklevel=2)
+    if nest_heights:
+        model.setup_.nest_heights = check_nest_heights(nest_heights, model.setup_.nests)
     if choice is not None:
         model.selection_ = choice.to_dict()
     if zone:

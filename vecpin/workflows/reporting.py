@@ -13,7 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.functions import all_table_names, model_as_actual
+from vecpin.compensation.functions import all_table_names
+from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import TablePlan, plan_tables
 from vecpin.export.registry import get_format
@@ -146,7 +147,7 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.n
     residual (what the model does not describe, assumed unchanged by the small command
     changes) plus the model's compensated error in its reference frame, judged in the part's
     frame (a translation and a rotation about the spindle removed)."""
-    from vecpin.compensation.functions import model_reference_frame
+    from vecpin.compensation.frame import model_reference_frame
     from vecpin.measurement.partframe import part_frame_errors, spindle_axis
     from vecpin.viz.scene import to_machine_frame
     c = campaign.primary()

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.functions import model_as_actual
+from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import InputError
@@ -284,7 +284,7 @@ class OnTheModel(RunReference):
     later run from the same place there, so a turn the tables give the volume stays in it."""
 
     def __init__(self, model: ErrorModel, q: np.ndarray, tool, points: np.ndarray):
-        from vecpin.compensation.functions import model_as_actual, model_reference_frame
+        from vecpin.compensation.frame import model_as_actual, model_reference_frame
         from vecpin.measurement.registration import register
         frame = model_reference_frame(model)
         tips = model_as_actual(model, frame=frame)(np.atleast_2d(q), np.asarray(tool, float), False)[0]

@@ -1,0 +1,155 @@
+"""The frame compensation keeps, for a model or a simulated truth (issue 39).
+
+A rigid motion of the whole working volume is not observable from tracker data, so which
+one the compensated machine keeps is a definition (:mod:`vecpin.measurement.partframe`):
+the machine's ISO 230-1 reference lines where its table stands still, the mean orientation
+of its volume where the table turns and on arms, and, where the campaign read the table's
+face (nests at given heights), that face square to the spindle. :func:`model_as_actual`
+gives a fitted model in that frame: everything that computes or judges tables from a model
+uses it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vecpin.compensation.functions import FRAME, ActualMachine, geometric_model, nominal_tip, pseudo_commands
+from vecpin.errors import VecpinError
+from vecpin.kinematics.machine import Machine
+from vecpin.kinematics.so3 import exp3
+from vecpin.measurement import partframe
+from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.models import ErrorModel
+from vecpin.units import MM_PER_M
+
+
+def reference_commands(machine: Machine, lower: np.ndarray | None = None, upper: np.ndarray | None = None,
+                       n: int = 600, seed: int = 0) -> np.ndarray:
+    """Quasi-random commands [m, rad] over the box ``lower``..``upper`` (default the travel)
+    where the machine's reference frame is measured (:mod:`vecpin.measurement.partframe`):
+    with every rotary axis at home (0, or the nearest end of the box) where it is defined by
+    reference lines; over the whole box where it is the volume's mean orientation."""
+    q = pseudo_commands(machine, n, seed, lower, upper)
+    if not partframe.uses_lines(machine):
+        return q
+    rot = [a.index for a in machine.axes if a.kind == "rotary"]
+    lo = machine.lower if lower is None else lower
+    hi = machine.upper if upper is None else upper
+    q[:, rot] = np.clip(0.0, lo[rot], hi[rot])
+    return q
+
+
+@dataclass
+class ReferenceFrame:
+    """The machine's own reference frame, as tables keep it: ``R`` (3,3) takes the
+    machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
+    says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`)."""
+
+    R: np.ndarray
+    centre: np.ndarray
+    how: str
+
+    @property
+    def angle(self) -> float:
+        """The rotation's angle [rad]: how far the machine's frame is turned from where its tips are given."""
+        return partframe.rotation_angle(self.R)
+
+
+def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.ndarray | None = None,
+                    upper: np.ndarray | None = None) -> ReferenceFrame:
+    """The reference frame of the ``actual`` machine (a model or a simulated truth) from its
+    tips at :func:`reference_commands` in the box ``lower``..``upper`` x ``tools`` [m]."""
+    q = reference_commands(machine, lower, upper)
+    tools = np.asarray(tools, float)
+    qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
+    tip = actual(qq, tt, False, 0)[0]
+    R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt), tip,
+                                          partframe.spindle_axis(machine))
+    return ReferenceFrame(R, tip.mean(axis=0), how)
+
+
+def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMachine:
+    """The ``actual`` machine with its tips expressed in its reference frame ``frame``:
+    tables fitted to it keep that frame (they do not turn the working volume against the
+    machine's own reference lines, which a part on the table would see)."""
+    R, c = frame.R, frame.centre
+
+    def moved(q, tool, jacobian=False, point=0):
+        tip, J = actual(q, tool, jacobian, point)
+        return (tip - c) @ R.T + c, (None if J is None else np.einsum("ij,njk->nik", R, J))
+    return moved
+
+
+def model_as_actual(model: ErrorModel, tools=None, frame: "ReferenceFrame | None" = None) -> ActualMachine:
+    """The fitted model as the 'actual' machine: the tool tip relative to the workpiece,
+    no tracker, in the model's own reference frame (:func:`model_reference_frame`; the
+    orientation the fit happened to settle in is not observable from tracker data, the
+    machine's reference lines are). Only its geometry (:func:`geometric_model`), as tables
+    cannot carry the rest. ``frame``: the model's reference frame when it is known already."""
+    geometric = geometric_model(model)
+
+    def raw(q, tool, jacobian=True, point=0):
+        out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
+        return out.tip, out.J_q
+    return in_reference_frame(raw, frame or model_reference_frame(model, raw, tools))
+
+
+def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, tools=None) -> ReferenceFrame:
+    """The reference frame of a fitted model (:func:`reference_frame`) over the commands its
+    campaign measured (:func:`measured_box`) with ``tools`` [m] (default the fit's tool
+    lengths, at most the shortest and the longest)."""
+    if raw is None:
+        geometric = geometric_model(model)
+
+        def raw(q, tool, jacobian=False, point=0):
+            out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
+            return out.tip, out.J_q
+    if tools is None:
+        mm = list(getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
+        tools = [min(mm) / MM_PER_M, max(mm) / MM_PER_M]
+    frame = reference_frame(raw, model.machine, tools, *measured_box(model))
+    setup = getattr(model, "setup_", None)
+    if setup is not None and len(setup.nest_heights) >= 3:
+        frame = on_the_table_face(frame, model.machine, setup.nests, setup.nest_heights)
+    return frame
+
+
+def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heights: dict) -> ReferenceFrame:
+    """``frame`` tilted so that the table's face is square to the spindle: the face is the
+    plane the nests' fitted positions ``nests`` {id: (3,) [m], workpiece frame} lie
+    ``heights`` {id: [m]} above (least squares; three or more nests not on a line). The
+    turn about the spindle stays the frame's. Where a campaign reads the table this way the
+    tables keep the table itself, not the machine's lines or mean orientation."""
+    ids = sorted(k for k in heights if k in nests)
+    P = (np.array([nests[k] for k in ids]) - frame.centre) @ frame.R.T + frame.centre
+    h = np.array([heights[k] for k in ids])
+    up = -partframe.spindle_axis(machine)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    A = np.column_stack([P @ e1, P @ e2, -np.ones(len(P))])
+    if len(ids) < 3 or np.linalg.matrix_rank(A, tol=1e-6 * max(np.abs(A).max(), 1e-12)) < 3:
+        raise VecpinError(f"nest heights of {', '.join(ids) or 'no nest'}: three or more fitted nests not on a line "
+                          "are needed to find the table's face")
+    a, b, _ = np.linalg.lstsq(A, h - P @ up, rcond=None)[0]
+    n = up + a * e1 + b * e2
+    n /= np.linalg.norm(n)
+    tilt = exp3(np.cross(n, up) * np.arcsin(min(np.linalg.norm(np.cross(n, up)), 1.0))
+                / max(np.linalg.norm(np.cross(n, up)), 1e-300))
+    return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted so that the table's face, found by nests "
+                          + ", ".join(ids) + " at their given heights, is square to the spindle")
+
+
+def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
+    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
+    whole travel for a model that does not record it."""
+    m = model.machine
+    rng = getattr(getattr(model, "report_", None), "measured_range", None) or {}
+    lo, hi = m.lower.copy(), m.upper.copy()
+    for a in m.axes:
+        if a.name in rng:
+            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
+            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
+                lo[a.index], hi[a.index] = a.lower, a.upper
+    return lo, hi
