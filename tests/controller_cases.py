@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from controller_appliers import (fanuc_corrections, heidenhain_corrections, linuxcnc_corrections,
+from controller_appliers import (fanuc_corrections, heidenhain_corrections, linuxcnc_corrections, linuxcnc_type0,
                                  siemens_corrections)
 from linuxcnc_sim import ControllerCommands
 from scipy.spatial.transform import Rotation
@@ -225,6 +225,12 @@ def judge(case: Case, controller: str, folder: Path, q, tool, separation: bool =
            "written": err(applied(True)), "judged by": JUDGED_BY[controller]}
     if controller in ("siemens-840d", "fanuc-30i"):
         out["without data"] = err(applied(False))
+    if controller == "linuxcnc" and (folder / "vecpin_vec.comp").exists():   # the component not built
+        alone = np.zeros_like(q_user)
+        for k, col in enumerate(columns(m, twin)):
+            if (folder / f"comp_{col}.txt").exists():
+                alone[:, k] = linuxcnc_type0(folder, col, q_user[:, k])
+        out["comp files alone"] = err(controller_commands(m, q, alone, gauge, twin))
     if run.as_written is not None:
         run.as_written.gauge_offset_change = gauge
         out["reader"] = err(run.as_written)
@@ -244,14 +250,21 @@ def check_written(case, controller, r, base):
     assert rows["files as written (model-predicted)"].mean == pytest.approx(
         [x for x in run.plan.report.rows if x.tables == len(run.plan.tables.tables)][0].mean, rel=0.02, abs=1e-3)
     full = rows["full tables (model-predicted)"]
-    readme = next(f for f in run.files if f.name.startswith("README_")).read_text().splitlines()[0]
+    text = next(f for f in run.files if f.name.startswith("README_")).read_text().splitlines()
+    assert text[:2 * len(run.warnings):2] == run.warnings == run.lines("m")[:len(run.warnings)]  # warnings first
+    readme = text[2 * len(run.warnings)]
     if rows["files as written (model-predicted)"].mean > 1.02 * full.mean + 1e-3:
-        assert run.headline and run.lines("m")[0] == run.headline == readme and "takes" in readme
+        assert run.headline and run.lines("m")[len(run.warnings)] == run.headline == readme and "takes" in readme
     else:
         assert run.headline is None and r["written"] <= 1.02 * base["full"], c.label
     if controller in ("siemens-840d", "fanuc-30i"):   # without the reference point data: worse, and said
         assert r["without data"] > 1.1 * r["written"]
         assert "files without the reference point data (model-predicted)" in rows
+    if "comp files alone" in r:   # LinuxCNC's COMP_FILEs without the HAL component: the true machine agrees with
+        gain = base["uncompensated"] - r["written"]   # the warning (the model's row keeps less than half the gain)
+        kept = (base["uncompensated"] - r["comp files alone"]) / gain
+        assert "comp files without the component (model-predicted)" in rows
+        assert (kept < 0.5) == bool(run.warnings), (c.label, kept, run.warnings)
 
 
 def prepared_case(name: str, tmp_path_factory):

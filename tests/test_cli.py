@@ -102,7 +102,8 @@ PROFILE = str(DATA / "controllers" / "flow_xyzcb_profile.json")
 
 @pytest.mark.parametrize("controller, extra", [("generic", []), ("siemens-840d", ["--profile", PROFILE, "--axis-map", "X=X1"]),
                                                ("fanuc-30i", ["--profile", PROFILE, "--method", "ga"]),
-                                               ("generic", ["--max-tables", "4", "--no-circular", "--forbid-output", "X", "--method", "heuristic"])])
+                                               ("generic", ["--max-tables", "4", "--no-circular", "--forbid-output", "X", "--method", "heuristic"]),
+                                               ("linuxcnc", [])])
 def test_tables_command(simulated, tmp_path, capsys, controller, extra):
     model = tmp_path / "m.json"
     assert main(["fit", "flow_xyzcb", str(simulated / "campaign.csv"), "--order", "4", "--out", str(model), "--quiet"]) == 0
@@ -118,6 +119,10 @@ def test_tables_command(simulated, tmp_path, capsys, controller, extra):
         assert "files as written" in out
     if controller == "fanuc-30i":
         assert (out_dir / "PITCH.TXT").is_file() and (out_dir / "CNC-PARA.TXT").is_file() and "selection (genetic)" in out
+    if controller == "linuxcnc":   # the COMP_FILEs alone: their row, and the command for pitch tables fitted alone
+        assert "comp files without the component" in out
+        assert f"`vecpin tables {model} --controller linuxcnc --max-tables 0 --out DIR`" in (
+            out_dir / "README_LINUXCNC.md").read_text()
     if "--forbid-output" in extra:
         line = [ln for ln in out.splitlines() if ln.strip().startswith("tables:")][0]
         assert not any(t.startswith("x") and t != "xx" for t in line.split()[1:])

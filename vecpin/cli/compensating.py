@@ -15,8 +15,11 @@ def run_tables(args) -> int:
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)
+    profile = f" --profile {args.profile}" if args.profile else ""
     how = UserCommands(sign_test=f"`vecpin tables {args.model} --controller {args.controller} --sign-test AXIS`",
-                       sign_check=f"`vecpin evaluate {args.model} SIGNTEST_{{tag}}.csv --sign-test-file SIGNTEST_{{tag}}.json`")
+                       sign_check=f"`vecpin evaluate {args.model} SIGNTEST_{{tag}}.csv --sign-test-file SIGNTEST_{{tag}}.json`",
+                       pitch_only=f"`vecpin tables {args.model} --controller {args.controller}{profile} --max-tables 0 "
+                                  "--out DIR`")
     run = make_tables(model, args.out, args.controller, profile=args.profile, axis_map=parse_axis_map(args.axis_map, m),
                       max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
                       method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,

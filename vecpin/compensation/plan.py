@@ -15,6 +15,7 @@ cancels the model to 0.0002 mm is still only as good as the model on the machine
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -209,8 +210,19 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)
         add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
     lim.check_tables(tables)
+    fold_note = None
+    if modulo_axes:   # what folding onto one turn costs: the same tables over the whole travel, on the same points
+        if progress:
+            progress(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
+        written = report.rows[-1] if selection is not None else report.rows[2 if tables is pitch else 1]
+        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge).solve(tables.names()).discretise(
+            req.n_points)
+        add(unfolded_label(modulo_axes), flat, len(flat.tables))
+        fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
     report.notes += [kept.text] + _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+    if fold_note:
+        report.notes.insert(0, fold_note)
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame)
 
 
@@ -255,6 +267,31 @@ def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, fram
                       "the volume or an offset of an axis' zero is being corrected that the model cannot tell from "
                       "the tracker's pose: check the model (vecpin evaluate) before writing these tables")
     return kept
+
+
+def unfolded_label(modulo_axes) -> str:
+    """The report row of the written set's tables fitted over the whole travel of the modulo axes."""
+    return f"same tables, {', '.join(modulo_axes)} over the whole travel (not modulo; model-predicted)"
+
+
+def _unfolded(actual, m: Machine, q: np.ndarray, tools: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+              free_gauge: bool) -> TableProblem:
+    """The table problem of :func:`_table_problem` without modulo axes: every rotary
+    input's table over its travel (the measured part of it, held beyond)."""
+    problem = TableProblem(actual, m, q, tools, hold=hold_ranges(m, lo, hi, ()),
+                           bases=rich_table_bases(m, (), lower=lo, upper=hi))
+    problem.free_gauge = problem.free_gauge and free_gauge
+    return problem
+
+
+def _fold_note(m: Machine, modulo_axes, folded_mm: float, flat_mm: float) -> str:
+    """What the modulo tables (mean error ``folded_mm``) cost against the same tables over
+    the whole travel (``flat_mm``)."""
+    travel = ", ".join(f"{a} {m.axis(a).lower_user:g} .. {m.axis(a).upper_user:g} deg" for a in modulo_axes)
+    loss = f"{100 * (folded_mm / flat_mm - 1):+.0f} %" if flat_mm > 0 else "-"
+    return (f"modulo tables ({', '.join(modulo_axes)}: one turn, repeating) fold the errors of the whole travel "
+            f"({travel}) onto one turn: the set written leaves {folded_mm:.4f} mm, the same tables over the whole "
+            f"travel {flat_mm:.4f} mm ({loss}; model-predicted)")
 
 
 SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
@@ -425,6 +462,24 @@ def _gauge_significance(model: ErrorModel, problem: TableProblem, names) -> str:
     problem.free_gauge = False
     return (f"gauge-line (T_offset) change of the full table set {dT * MM_PER_M:+.4f} ± {sd * MM_PER_M:.4f} "
             f"mm{kind}: not significant (below 2 standard deviations), not applied")
+
+
+def gauge_effect(plan: TablePlan, model: ErrorModel, tables: TableSet | None = None) -> dict[str, float]:
+    """The model-predicted mean error [mm] of ``tables`` (default: the plan's) on the plan's
+    points with their gauge-line (T_offset) change ``dT`` entered as it is ('entered'),
+    not entered ('none': the controller keeps its tool lengths) and entered with the other
+    sign ('flipped'): what the datum and its sign are worth. Only the model's geometric
+    part is judged, as in :func:`plan_tables`."""
+    tables = plan.tables if tables is None else tables
+    model = geometric_model(model)
+    actual = model_as_actual(model)
+    dT = tables.gauge_offset_change
+    out = {}
+    for key, value in (("entered", dT), ("none", 0.0), ("flipped", -dT)):
+        ts = dataclasses.replace(tables, gauge_offset_change=value)
+        err = compensated_errors(actual, model.machine, ts, plan.problem.q, plan.problem.L, point=plan.problem._pt)
+        out[key] = float(np.linalg.norm(err, axis=1).mean() * MM_PER_M)
+    return out
 
 
 def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, label: str) -> None:

@@ -39,10 +39,10 @@ from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
 from vecpin.export import iso230
+from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import ControllerFormat, ExportJob, equidistant, read_lines, to_float, to_int
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
 
 STARTUP, VOL_LIST, README = "startup_entries.lis", "vol_comp_0.lis", "README_BECKHOFF.md"
 FILE_UNIT = 1e-4   # unit 1: 0.1 um = 1e-4 mm; rotary 0.0001 deg
@@ -189,7 +189,7 @@ def _readme(job: ExportJob, comps) -> str:
               "component errors of the 6-DoF model in mm and rad, reference point: origin of each axis' moving frame).",
               "Use either the axis lists or the volumetric compensation for the same errors, not both. `chain` lists",
               "the axes in vecpin's chain order (base to spindle); check that it is the order TF5280 expects.", ""]
-    s += [f"Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]
+    s += ["## Gauge line", "", *gauge_readme("beckhoff", job.tables.gauge_offset_change, job.gauge_effect), ""]
     return "\n".join(s)
 
 

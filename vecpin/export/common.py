@@ -44,6 +44,7 @@ class ExportJob:
     notes: list[str] = field(default_factory=list)
     constants: dict[str, float] = field(default_factory=dict)
     commands: "UserCommands" = field(default_factory=lambda: UserCommands())
+    gauge_effect: dict | None = None   # model-predicted error with the gauge-line change entered / not / flipped
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,7 @@ class UserCommands:
 
     sign_test: str = "`make_tables(model, out_dir, controller, sign_test=\"AXIS\")`"
     sign_check: str = "`check_sign(\"SIGNTEST_{tag}.json\", \"SIGNTEST_{tag}.csv\", machine)`"
+    pitch_only: str = "`make_tables(model, out_dir, controller, max_tables=0)`"   # pitch tables fitted alone
 
 
 def constant_note(axis, value_user: float, file: str, datum: str, datum_file: str) -> str:

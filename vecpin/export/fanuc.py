@@ -45,11 +45,11 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
+from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, modulo_warnings,
                                   new_reference_position, read_lines, to_float, to_int, with_constants)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
 
 PARA_FILE, PITCH_FILE, STRAIGHT_FILE, README = "CNC-PARA.TXT", "PITCH.TXT", "STRAIGHTNESS.CSV", "README_FANUC.md"
 
@@ -326,8 +326,7 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
     else:
         s.append("No cross tables in this set.")
     s += ["", "## Gauge line", "",
-          f"Change the tool-length / pivot offset of the 5-axis transformation by "
-          f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
+          *gauge_readme("fanuc", job.tables.gauge_offset_change, job.gauge_effect), "",
           "## Before relying on the tables", "",
           f"- The sign of the pitch data (correction, not error) is inferred: run the sign test ({job.commands.sign_test}).",
           "- The value range (+-" + str(max_value) + " per point) and magnification range are inferred; the total "

@@ -33,10 +33,10 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError
+from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import ControllerFormat, ExportJob, equidistant, read_lines, signed, to_float
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
 
 CMA_FILE, README = "CONFIG.CMA", "README_HEIDENHAIN.md"
 MAX_ENTRIES = 256  # TNC 407 TM p.622: a .COM with more entries is an error (module 9095 error 3)
@@ -159,8 +159,8 @@ def _readme(job: ExportJob, cma) -> str:
           "  travel lies outside gets its tables over 0..360 (-100 deg is entry 260; INFERRED: check on the control",
           "  that a position outside 0..360 is looked up modulo 360, e.g. with the sign test at a negative angle).",
           "- The header's exact form on your control (version field, `#STRUCTBEGIN`) may differ: compare with a",
-          "  table saved by the control.",
-          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]
+          "  table saved by the control.", "",
+          "## Gauge line", "", *gauge_readme("heidenhain", job.tables.gauge_offset_change, job.gauge_effect), ""]
     return "\n".join(s)
 
 

@@ -44,10 +44,10 @@ from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import linuxcnc_hal as hal
+from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import ControllerFormat, ExportJob, equidistant, read_lines
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
 
 README = "README_LINUXCNC.md"
 COMP_SIZE = 256     # EMCMOT_COMP_SIZE, src/emc/motion/motion.h:396
@@ -303,7 +303,7 @@ def _readme(job: ExportJob, kind: int, joints: dict[str, int], cross: bool) -> s
           "- With `COMP_FILE` set, `BACKLASH` is not used; forward and reverse columns are equal here.",
           "- Below the first and above the last nominal the end values hold. At most 256 lines per joint.",
           "- The tables act on joints (machine axes), so they serve trivkins and the 5-axis kinematics modules alike.",
-          f"- Gauge line: change the tool length offset by {job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", ""]
+          "", "## Gauge line", "", *gauge_readme("linuxcnc", job.tables.gauge_offset_change, job.gauge_effect), ""]
     return "\n".join(s)
 
 

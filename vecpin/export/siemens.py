@@ -39,11 +39,11 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
+from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, modulo_warnings,
                                   new_reference_position, read_lines, to_float, to_int, with_constants)
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
 
 CEC_FILE, EEC_FILE, REFP_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "MD_REFP.INI", "README_SIEMENS.md"
 
@@ -198,8 +198,7 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
                  f"it; it changes by at most {slope:.2e} {ao.unit} per unit of input travel -> `MD32730 "
                  "$MA_CEC_MAX_VELO` (percent of the axis' maximum velocity MD32000) above that ratio x 100")
     s += ["", "## Gauge line", "",
-          f"Change the gauge-line (spindle face to last rotary axis) offset of the 5-axis transformation by "
-          f"{job.tables.gauge_offset_change * MM_PER_M:+.4f} mm.", "",
+          *gauge_readme("siemens", job.tables.gauge_offset_change, job.gauge_effect), "",
           "## Before relying on the tables", "",
           f"- Run the sign test ({job.commands.sign_test}) for one table of each file.",
           "- Beyond MIN/MAX the end values hold; modulo tables repeat every turn.",

@@ -17,10 +17,10 @@ from typing import Callable
 import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
-from vecpin.compensation.plan import TablePlan, add_as_written_row, plan_tables
+from vecpin.compensation.plan import TablePlan, add_as_written_row, gauge_effect, plan_tables, unfolded_label
 from vecpin.compensation.tables import TableSet, table_name
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
-from vecpin.export import drives, generic
+from vecpin.export import boundary, drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob, UserCommands, with_constants
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import get_format
@@ -93,18 +93,20 @@ class TableRun:
     as_written: TableSet | None = None
     sign_test: SignTest | None = None
     headline: str | None = None   # the files leave more than the full tables: how much and why (printed first)
+    warnings: list[str] = field(default_factory=list)  # printed before the headline: files that fail used apart
+    gauge_effect: dict | None = None  # mean error [mm] with the gauge-line change entered / not / flipped
 
     def lines(self, model_name: str) -> list[str]:
         plan = self.plan
         m_name = plan.problem.machine.name
-        out = [self.headline] if self.headline else []
+        out = list(self.warnings) + ([self.headline] if self.headline else [])
         out.append(f"compensation tables for {m_name} ({self.controller}), model {model_name}")
         grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
                 else f"{plan.points} points each")
         out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
-        out.append(f"  gauge line (T_offset) change of these tables: {plan.tables.gauge_offset_change * MM_PER_M:+.4f} mm "
-                   "(enter it in the 5-axis transformation's pivot / tool-length datum, as the controller's "
-                   "README in the output folder says)")
+        out.append("  " + boundary.gauge_text(self.controller, plan.tables.gauge_offset_change, self.gauge_effect)
+                   + (" (the controller's README in the output folder says it too)"
+                      if any(f.name.startswith("README_") for f in self.files) else ""))
         if plan.selection is not None:
             s = plan.selection
             out.append(f"  selection ({s.method}): {' '.join(s.tables)} in {s.seconds:.2f} s, "
@@ -156,9 +158,11 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     as_written = None
     st = None
     xtables, xm, xprof = drives.expand(plan.tables, m, prof)
+    effect = gauge_effect(plan, model) if plan.tables.gauge_offset_change != 0.0 else None
     with OutputSet(out_dir, manifest="tables") as out:  # an earlier run's files it no longer writes go
         how = user_commands or UserCommands()
         job = ExportJob(xtables, xm, xprof, limits, out, model, plan.points, notes, commands=how)
+        job.gauge_effect = effect
         names = fmt.write(job) if fmt.name != "generic" else []
         names += generic.write(ExportJob(plan.tables, m, prof, limits, out, model, plan.points, notes, commands=how))
         if xm is not m:
@@ -175,12 +179,15 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
             names += write_sign_test(out, st, fmt.dialect, prof, notes, how)
         headline = _judge_written(plan, model, as_written, job, names) if fmt.name != "generic" else None
+        warnings = _judge_pitch_alone(fmt, plan, model, (stage, xm, xprof) if as_written is not None else None,
+                                      job, names, controller, out_dir, prof)
+        _fold_alternative(plan, controller, modulo, job, names)
     if out.removed:
         notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
                      "(unchanged since): " + ", ".join(p.name for p in out.removed))
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st,
-                    headline)
+                    headline, warnings, effect)
 
 
 def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
@@ -209,6 +216,71 @@ def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | No
     if readme is not None:
         job.out.write_text(readme, headline + "\n\n" + job.out.path(readme).read_text())
     return headline
+
+
+PART_GAIN = 0.5   # pitch files that keep less than this share of the whole set's gain alone are warned about first
+
+
+def _judge_pitch_alone(fmt: ControllerFormat, plan: TablePlan, model: ErrorModel, staged, job: ExportJob,
+                       names: list[str], controller: str, out_dir, prof: ControllerProfile) -> list[str]:
+    """Where a format's pitch files may be run without the files of the cross tables
+    (LinuxCNC: the COMP_FILEs without the HAL component, :data:`boundary.PITCH_ALONE`):
+    the report row of those files alone as written, on the same points, and a section of
+    the README. When they alone are worse than uncompensated, or keep less than
+    :data:`PART_GAIN` of the files' gain, a warning that says so and what to do: returned
+    (printed first) and put first in the README."""
+    part = boundary.PITCH_ALONE.get(fmt.name)
+    if part is None or staged is None or not any(not t.is_pitch for t in job.tables.tables):
+        return []
+    stage, xm, xprof = staged
+    raw = _read_back(fmt, stage, xm, xprof, controller, out_dir)
+    alone = drives.fold(raw.subset([]), model.machine, prof)
+    alone.gauge_offset_change = plan.tables.gauge_offset_change   # the datum is entered either way
+    add_as_written_row(plan, model, alone, part.label)
+    rows = {r.label: r for r in plan.report.rows}
+    before, files, pitch = (rows["uncompensated (model)"], rows["files as written (model-predicted)"],
+                            rows.get("pitch only (model-predicted)"))
+    own = rows[part.label]
+    gain = before.mean - files.mean
+    kept = (before.mean - own.mean) / gain if gain > 0 else 1.0
+    refit = f" ({pitch.mean:.4f} mm, the printout's 'pitch only' row)" if pitch is not None else ""
+    section = ["", f"## {part.files[0].upper() + part.files[1:]} without {part.rest}", "",
+               f"Fitted together with the cross tables of {part.rest}, {part.files} alone leave a model-predicted mean "
+               f"error of {own.mean:.4f} mm (uncompensated {before.mean:.4f} mm, all the files {files.mean:.4f} mm). "
+               f"Pitch tables fitted to work alone: {job.commands.pitch_only}{refit}.", ""]
+    readme = next((k for k in names if k.startswith("README_")), None)
+    warnings = []
+    if kept < PART_GAIN:
+        how = (f"more than uncompensated ({before.mean:.4f} mm)" if own.mean > before.mean else
+               f"only {100 * kept:.0f} % of the files' gain (uncompensated {before.mean:.4f} mm, with "
+               f"{part.rest} {files.mean:.4f} mm)")
+        warnings.append(f"WARNING: {part.files} without {part.rest} leave a model-predicted mean error of "
+                        f"{own.mean:.4f} mm, {how}: they were fitted together with its cross tables and are not "
+                        f"pitch tables for use on their own. Load {part.rest}: {part.load_rest}; or, to run "
+                        f"{part.files} alone, write pitch tables fitted alone: {job.commands.pitch_only}{refit}.")
+    if readme is not None:
+        text = job.out.path(readme).read_text()
+        job.out.write_text(readme, "".join(w + "\n\n" for w in warnings) + text + "\n".join(section))
+    return warnings
+
+
+def _fold_alternative(plan: TablePlan, controller: str, modulo: list[str], job: ExportJob, names: list[str]) -> None:
+    """With modulo tables: the note on what folding costs (the plan's) with the
+    controller's table over the whole travel, in the printout and the README."""
+    if not modulo:
+        return
+    rows = {r.label: r for r in plan.report.rows}
+    if unfolded_label(modulo) not in rows:
+        return
+    fold = next(n for n in plan.report.notes if n.startswith("modulo tables ("))
+    alt = boundary.unfolded_alternative(controller, modulo)
+    job.notes.append(f"modulo {', '.join(modulo)}: the table over the whole travel on {controller}: {alt}")
+    readme = next((k for k in names if k.startswith("README_")), None)
+    if readme is not None:
+        text = job.out.path(readme).read_text()
+        alt = boundary.unfolded_alternative(controller, modulo, readme=True)
+        job.out.write_text(readme, text + "\n".join(["", "## Modulo tables", "", fold[0].upper() + fold[1:] + ".",
+                                                      "", f"The table over the whole travel: {alt}.", ""]))
 
 
 def _check_request(model: ErrorModel, controller: str, profile, axis_map, points, forbid_output, modulo_axes,
