@@ -23,7 +23,9 @@ from controller_appliers import linuxcnc_type0
 from linuxcnc_sim import ControllerCommands
 
 import vecpin
-from vecpin.compensation.functions import compensated_errors, model_as_actual, truth_as_actual
+from vecpin.compensation.frame import model_as_actual
+from vecpin.compensation.functions import truth_as_actual
+from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import unfolded_label
 from vecpin.compensation.tables import TableSet
 from vecpin.export.profile import ControllerProfile
