@@ -113,3 +113,61 @@ def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
     assert turn < 50.0, after
     assert plan.frame.net_rotation < 50e-6 and not plan.frame.excessive
     assert any(n.startswith("frame kept: ") for n in plan.report.notes)
+
+
+def test_nest_heights_refused_clearly_and_kept_by_the_model_file(tmp_path):
+    """--nest-height: an unknown nest, a height that is not a length, fewer than three
+    nests are refused naming the option; the model file keeps the heights, and a model file
+    that names a nest it did not fit is refused."""
+    import json
+    from vecpin.errors import InputError, ModelFileError
+    from vecpin.measurement.tableframe import check_nest_heights
+    from vecpin.models import ErrorModel
+    nests = {"1": np.array([0.3, 0.0, 0.03]), "2": np.array([-0.15, 0.26, 0.05]), "3": np.array([-0.15, -0.26, 0.07])}
+    with pytest.raises(InputError, match="no nest '9'"):
+        check_nest_heights({"9": 20.0}, nests)
+    with pytest.raises(InputError, match="0 .. 2000"):
+        check_nest_heights({"1": "0.03m"}, nests)
+    with pytest.raises(InputError, match="three or more nests"):
+        check_nest_heights({"1": 30.0, "2": 50.0}, nests)
+    assert check_nest_heights({"1": 30.0, "2": 50.0, "3": 70.0}, nests) == pytest.approx({"1": 0.03, "2": 0.05,
+                                                                                         "3": 0.07})
+    m = vecpin.Machine.load("trunnion_xyzac")
+    sim = simulate(m, seed=6, design=Design(n_commands=60, n_validation=5))
+    heights = {k: float(p[2]) * 1e3 for k, p in sim.nests.items()}
+    model = vecpin.fit(m, sim.campaign, NoiseModel.default(m, "spherical"), kind="6dof", basis="chebyshev", order=2,
+                       nest_heights=heights).model
+    model.save(tmp_path / "m.json")
+    back = ErrorModel.load(tmp_path / "m.json")
+    assert back.setup_.nest_heights == pytest.approx({k: v * 1e-3 for k, v in heights.items()})
+    d = json.loads((tmp_path / "m.json").read_text())
+    d["tracker"]["nest_heights_mm"]["7"] = 30.0
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    with pytest.raises(ModelFileError, match="nest '7' is not among the fitted nests"):
+        ErrorModel.load(tmp_path / "bad.json")
+
+
+def test_the_table_face_from_nest_heights_is_kept(tmp_path):
+    """A trunnion measured with table nests: given the nests' heights above the table's face,
+    the tables keep that face square to the spindle, so the compensated machine judged as a
+    part on the true table is within 10 % of the error's shape; without them it keeps the
+    volume's mean orientation, and the true table's tilt against it stays in the figure."""
+    m = vecpin.Machine.load("trunnion_xyzac")
+    sim = simulate(m, seed=5, design=Design(n_commands=200, n_validation=10))
+    noise = NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise)
+    heights = {k: float(p[2]) * 1e3 for k, p in sim.nests.items()}
+    box = None
+    figures = {}
+    for face in (False, True):
+        model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
+        if face:
+            from vecpin.measurement.tableframe import check_nest_heights
+            model.setup_.nest_heights = check_nest_heights(heights, model.setup_.nests)
+        plan = plan_tables(model, uncertainty=False)
+        assert ("table's face" in plan.frame.how) == face
+        write_tables(plan.tables, m, tmp_path / str(face))
+        box = measured_box(model)
+        q = pseudo_commands(m, 400, seed=9, lower=box[0], upper=box[1])
+        figures[face] = judge(sim.truth, m, tmp_path / str(face) / "tables.json", q, np.tile(TOOLS, 200), box)
+    assert figures[True]["part"] <= 1.10 * figures[True]["shape"], figures
+    assert figures[True]["part"] < figures[False]["part"]

@@ -44,11 +44,14 @@ def reference_commands(machine: Machine, lower: np.ndarray | None = None, upper:
 class ReferenceFrame:
     """The machine's own reference frame, as tables keep it: ``R`` (3,3) takes the
     machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
-    says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`)."""
+    says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`);
+    ``hold_turn``: True where it is the volume's mean orientation, which the tables must
+    not turn (:class:`~vecpin.compensation.functions.TableProblem`'s ``hold_turn``)."""
 
     R: np.ndarray
     centre: np.ndarray
     how: str
+    hold_turn: bool = False
 
     @property
     def angle(self) -> float:
@@ -66,7 +69,7 @@ def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.nd
     tip = actual(qq, tt, False, 0)[0]
     R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt), tip,
                                           partframe.spindle_axis(machine))
-    return ReferenceFrame(R, tip.mean(axis=0), how)
+    return ReferenceFrame(R, tip.mean(axis=0), how, not partframe.uses_lines(machine))
 
 
 def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMachine:

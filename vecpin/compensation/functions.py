@@ -39,7 +39,6 @@ from scipy.stats import qmc
 from vecpin.models.basis import AxisBasis
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
-from vecpin.measurement import partframe
 from vecpin.models import APModel, ErrorModel
 from vecpin.measurement.registration import rigid_motion_basis
 from vecpin.compensation.tables import CompensationTable, TableSet, table_grid, table_name, table_names
@@ -247,18 +246,20 @@ class TableProblem:
     tables keep (:func:`in_reference_frame`), and a rotation the tables added would turn the
     working volume against the table (a part set up by probing its origin and aligning
     an edge sees every tilt). ``A`` and ``e0`` are projected orthogonally to the three
-    translations. Where the frame kept is the volume's mean orientation (a machine whose
-    table turns, an arm), rows weighted by ``TURN_WEIGHT`` hold the compensated error's best-fit
-    rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
+    translations. With ``hold_turn`` (the frame kept is the volume's mean orientation: a
+    machine whose table turns, an arm), rows weighted by ``TURN_WEIGHT`` hold the compensated
+    error's best-fit rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
     the whole volume for a smaller error elsewhere, which a part on the table sees as a tilt. ``ridge``: relative to each column's squares before that projection
     (table values that only trade against a translation stay small).
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
                  basis: str = "fourier", modulo_axes=(), ridge: float = 1e-4, bases: list[AxisBasis] | None = None,
-                 hold: dict[str, tuple[float, float]] | None = None, free_origin: bool = True):
+                 hold: dict[str, tuple[float, float]] | None = None, free_origin: bool = True,
+                 hold_turn: bool = False):
         self.actual, self.machine = actual, machine
         self.free_origin = free_origin  # fit the tables jointly with a translation of the whole volume
+        self.hold_turn = hold_turn  # hold the compensated volume's best-fit rotation at 0
         self.tools = np.asarray(tools, float)
         P = len(machine.tool_links)
         commands = np.asarray(commands, float)
@@ -320,8 +321,7 @@ class TableProblem:
         self.e0, self.A = self._registered(self.e0), self._registered(self.A)
         # where the frame kept is the volume's mean orientation, the tables may not turn it: the rotational
         # component of the compensated error is held at 0 (weighted rows, TURN_WEIGHT)
-        self._turn = (rigid_motion_basis(nominal.tip)[:, 3:] if self.free_origin
-                      and not partframe.uses_lines(self.machine) else None)
+        self._turn = rigid_motion_basis(nominal.tip)[:, 3:] if self.free_origin and self.hold_turn else None
         self.G, self.g = self._normal(self.A, self.e0)
         self.e0e0 = float(self.e0 @ self.e0) + (0.0 if self._turn is None else
                                                   TURN_WEIGHT * float(np.sum((self._turn.T @ self.e0) ** 2)))

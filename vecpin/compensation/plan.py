@@ -161,8 +161,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                    commands, n_commands)
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
-    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, req, modulo_axes, commands, n_commands,
-                                                            seed, zone)
+    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
+                                                            n_commands, seed, zone)
     m = model.machine
     unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
                   or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
@@ -204,6 +204,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
         search = TableProblem(actual, m, q[:SUBSET_COMMANDS], tools, modulo_axes=tuple(modulo_axes), hold=hold,
+                              hold_turn=frame.hold_turn,
                               bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
         selection = SEARCHES[method](search, req.cons, seed, req.n_points)
@@ -215,7 +216,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         if progress:
             progress(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
         written = report.rows[-1] if selection is not None else report.rows[2 if tables is pitch else 1]
-        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge).solve(tables.names()).discretise(
+        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names()).discretise(
             req.n_points)
         add(unfolded_label(modulo_axes), flat, len(flat.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
@@ -275,10 +276,10 @@ def unfolded_label(modulo_axes) -> str:
 
 
 def _unfolded(actual, m: Machine, q: np.ndarray, tools: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-              free_gauge: bool) -> TableProblem:
+              free_gauge: bool, hold_turn: bool) -> TableProblem:
     """The table problem of :func:`_table_problem` without modulo axes: every rotary
     input's table over its travel (the measured part of it, held beyond)."""
-    problem = TableProblem(actual, m, q, tools, hold=hold_ranges(m, lo, hi, ()),
+    problem = TableProblem(actual, m, q, tools, hold=hold_ranges(m, lo, hi, ()), hold_turn=hold_turn,
                            bases=rich_table_bases(m, (), lower=lo, upper=hi))
     problem.free_gauge = problem.free_gauge and free_gauge
     return problem
@@ -385,7 +386,8 @@ def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
     return tools_mm, note
 
 
-def _table_problem(model: ErrorModel, actual, req: _Request, modulo_axes, commands, n_commands: int, seed: int, zone):
+def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Request, modulo_axes, commands,
+                   n_commands: int, seed: int, zone):
     """(problem, where, hold ranges, lower, upper, commands, tools): the table problem on the
     measured box (or zone). Table functions that can follow any model (splines finer than
     its functions) over that box: every spline has pseudo-commands under it, and beyond
@@ -411,7 +413,7 @@ def _table_problem(model: ErrorModel, actual, req: _Request, modulo_axes, comman
         where = f"{len(q)} campaign commands"
     tools = from_mm(np.array(req.tools_mm, float))
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
-    problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes),
+    problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), hold_turn=frame.hold_turn,
                            bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
     return problem, where, hold, lo, hi, q, tools
 

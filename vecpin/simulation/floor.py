@@ -65,13 +65,14 @@ def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits
     pseudo = pseudo_commands(m, n_commands or table_commands(m, len(tools)), seed)
     # the best tables that keep the machine's own reference frame: all that tracker data can know of where
     # the table is (the truth's table may lie turned against it; no tables from a model could know by how much)
-    actual = in_reference_frame(truth_as_actual(truth), reference_frame(truth_as_actual(truth), m, tools))
-    problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m))
+    frame = reference_frame(truth_as_actual(truth), m, tools)
+    actual = in_reference_frame(truth_as_actual(truth), frame)
+    problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m), hold_turn=frame.hold_turn)
     names = all_table_names(m)
     if not limits.cross_tables:
         names = pitch_names(m)
     elif limits.needs_selection(m.axis_names):
-        search = TableProblem(actual, m, pseudo, tools, order=8, basis="fourier")
+        search = TableProblem(actual, m, pseudo, tools, order=8, basis="fourier", hold_turn=frame.hold_turn)
         chosen = exact_search(search, limits.constraints(None, axis_names=m.axis_names), n_points=n_points)
         names = pitch_names(m) + chosen.tables
     tables = problem.solve(names).discretise(n_points)
