@@ -83,7 +83,7 @@ class ImportResult:
             out.append(f"  {len(self.unmatched)} export rows skipped (not in the plan): " + ", ".join(self.unmatched[:12])
                        + (" ..." if len(self.unmatched) > 12 else ""))
         out += [f"  note: {n}" for n in self.notes]
-        out.append(f"  measured vs nominal after a best-fit rigid motion (the uncompensated error): mean "
+        out.append(f"  measured vs nominal in the part's frame (the uncompensated error): mean "
                    f"{self.uncompensated_mm[0]:.4f} mm, max {self.uncompensated_mm[1]:.4f} mm")
         return out
 

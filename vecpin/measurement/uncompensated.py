@@ -9,6 +9,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.partframe import RunReference, part_frame_errors, spindle_axis
 from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.units import norm_mm
 
@@ -16,12 +17,15 @@ from vecpin.units import norm_mm
 @dataclass
 class Uncompensated:
     """The uncompensated volumetric error of a campaign: the distance [mm] of each measured
-    point from its nominal point after one best rigid fit of the nominal points onto the
-    readings (the seed's 'uncompensated' figure), on ``campaign``'s rows ``rows``."""
+    point from its nominal point in the part's frame (the readings taken into the machine's
+    own reference frame, then a translation and a turn about the spindle removed:
+    :class:`~vecpin.measurement.partframe.RunReference`), on ``campaign``'s rows ``rows``;
+    ``shape_mm``: the same after one best rigid fit (the seed's 'uncompensated' figure)."""
 
     distances_mm: np.ndarray   # (n,) mm, one per row in ``rows``
     rows: np.ndarray           # (n,) row indices into the campaign handed in
     tool: np.ndarray           # (n,) tool lengths of those rows [m]
+    shape_mm: np.ndarray | None = None   # (n,) mm, the best rigid motion removed instead
 
     @property
     def mean_mm(self) -> float:
@@ -42,7 +46,7 @@ class Uncompensated:
 
 def uncompensated_line(mean_mm: float, max_mm: float | None, rows: int | None) -> str:
     """The uncompensated error as ``import``, ``assess`` and ``fit`` print it (mm)."""
-    how = f"nominal kinematics, best rigid fit, {rows} rows" if rows else "as given"
+    how = f"nominal kinematics, the part's frame, {rows} rows" if rows else "as given"
     mx = f", max {max_mm:.4f} mm" if max_mm is not None else ""
     return f"  uncompensated error ({how}): mean {mean_mm:.4f} mm{mx}"
 
@@ -51,8 +55,8 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
     """The one uncompensated figure of a campaign, the same for ``import``, ``assess`` and
     ``fit``: every tracker row of station 0 that reads the tool tip or a target of known
     offset (nest rows, ball bar rows and targets the fit must find are left out), the
-    nominal tool points (base frame, m) registered onto the readings (tracker frame, m)
-    by one best rigid motion (:func:`vecpin.measurement.registration.registered_errors`).
+    nominal tool points (base frame, m) against the readings (tracker frame, m) taken into
+    the machine's reference frame and judged as a part sees them (:class:`Uncompensated`).
     Fewer than 3 such rows, or nominal points on a line (the tool of a machine whose every
     axis moves the table stands still): an InputError, or None when not ``strict``."""
     known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
@@ -70,5 +74,7 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
             return None
         raise InputError(f"{campaign.source}: the nominal tool points of its rows lie on a line, so the readings "
                          "cannot be registered onto them: no uncompensated error at the tool")
-    err = norm_mm(registered_errors(nominal, campaign.xyz[rows]))
-    return Uncompensated(err, rows, campaign.tool[rows])
+    xyz, tool = campaign.xyz[rows], campaign.tool[rows]
+    ref = RunReference(machine, campaign.q[rows], tool, nominal, xyz)
+    err = norm_mm(part_frame_errors(nominal, ref(xyz), spindle_axis(machine)))
+    return Uncompensated(err, rows, tool, norm_mm(registered_errors(nominal, xyz)))

@@ -57,15 +57,21 @@ def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: 
 
 def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS,
                 n_commands: int | None = None, tools=PAPER_I_TOOLS, n_points: int = 1024, seed: int = 0,
-                judged: str = "part") -> Floor:
+                judged: str = "part", keep: str = "reference") -> Floor:
     """The best tables for ``truth`` under ``limits``, judged on commands ``q`` [m, rad]
     with tool lengths ``tool`` [m]; fitted on ``n_commands`` pseudo-commands (default as
-    many as vecpin's tables take: :func:`~vecpin.compensation.plan.table_commands`)."""
+    many as vecpin's tables take: :func:`~vecpin.compensation.plan.table_commands`).
+    ``keep``: "reference", the best tables that keep the machine's own reference frame (all
+    that tracker data can know of where the table is: the truth's table may lie turned
+    against it); "table", the best tables in the true table's frame (what a campaign that
+    reads the table's face can aim at)."""
     m = truth.machine
     pseudo = pseudo_commands(m, n_commands or table_commands(m, len(tools)), seed)
-    # the best tables that keep the machine's own reference frame: all that tracker data can know of where
-    # the table is (the truth's table may lie turned against it; no tables from a model could know by how much)
-    frame = reference_frame(truth_as_actual(truth), m, tools)
+    if keep == "table":
+        from vecpin.compensation.frame import ReferenceFrame
+        frame = ReferenceFrame(np.eye(3), np.zeros(3), "the true table")
+    else:
+        frame = reference_frame(truth_as_actual(truth), m, tools)
     actual = in_reference_frame(truth_as_actual(truth), frame)
     problem = TableProblem(actual, m, pseudo, tools, bases=rich_table_bases(m), hold_turn=frame.hold_turn)
     names = all_table_names(m)

@@ -45,6 +45,7 @@ class Evaluation:
     noise_mm: float | None = None  # mean tracker noise of the measured tip relative to the table
     outside: np.ndarray | None = None  # rows commanded beyond what the fit measured (judged apart)
     net: NetOfNoise | None = None  # relative to the table: the model error with the measurement noise taken out
+    shape: np.ndarray | None = None  # uncompensated distances [mm] with the best rigid motion removed instead
 
     @property
     def reduction_pct(self) -> float:
@@ -55,6 +56,9 @@ class Evaluation:
         out += per_tool_table([("uncompensated (nominal kinematics)", self.uncompensated), ("model", self.residual)],
                               self.tool)
         out.append(f"  reduction of the mean: {self.reduction_pct:.1f}%")
+        if self.shape is not None:
+            out.append(f"  uncompensated, shape of the error (the best rigid motion removed, the seed's figure): mean "
+                       f"{self.shape.mean():.4f} mm, max {self.shape.max():.4f} mm")
         if self.outside is not None and self.outside.any():
             k = self.outside
             out += ["  inside and outside the measured range:"]
@@ -72,6 +76,7 @@ class Evaluation:
                 "warnings": self.warnings, "notes": self.notes, "table_tip_noise_mean_mm": self.noise_mm,
                 "model_rms_net_of_noise_mm": None if self.net is None else [self.net.rms, self.net.sd],
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
+                "uncompensated_shape": None if self.shape is None else distance_stats(self.shape, self.tool),
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct,
                 "outside_measured_range": None if self.outside is None or not self.outside.any() else {
                     "rows": int(self.outside.sum()),
@@ -126,11 +131,13 @@ def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_
         # where a part is: the run in the machine's reference lines, the part's set-up removed
         d_nom = norm_mm(part_frame_errors(nominal, RunReference(m, c.q, c.tool, nominal, c.xyz)(c.xyz),
                                           spindle_axis(m)))
+        shape = norm_mm(registered_errors(nominal, c.xyz))
     else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
         res = model.nominal_residuals(c)
         d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
+        shape = norm_mm(registered_errors(c.xyz - res, c.xyz))
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
-    return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c))
+    return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c), shape=shape)
 
 
 def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) -> tuple[Evaluation, Campaign]:
@@ -181,7 +188,8 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
     uncompensated = part_frame_errors(nominal, to_ref(tt.tip), spindle_axis(m))
     return Evaluation(len(c), c.tool, norm_mm(uncompensated),
                       norm_mm(residual), reregister, len(campaign) - len(c), TABLE_FRAME,
-                      notes=notes, noise_mm=float(noise.mean()), net=net), c
+                      notes=notes, noise_mm=float(noise.mean()), net=net,
+                      shape=norm_mm(registered_errors(nominal, tt.tip))), c
 
 
 OUTSIDE_MARGIN = 0.02   # of an axis' travel: commands this far beyond the measured range are extrapolation

@@ -109,6 +109,8 @@ def _relative_to_table(models, labels, validation: Campaign, target: dict) -> li
         ev = evaluate(mod, validation)
         if k == 0:
             rows += stats_rows("validation, tip relative to the table: uncompensated", ev.uncompensated, ev.tool)
+            rows += stats_rows("validation, tip relative to the table: uncompensated, shape (best rigid motion "
+                               "removed)", ev.shape, ev.tool)
             target["nominal"] = ev.uncompensated
         rows += stats_rows(f"validation, tip relative to the table: model {lab}", ev.residual, ev.tool)
         target[lab] = ev.residual

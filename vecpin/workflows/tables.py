@@ -182,6 +182,10 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         warnings = _judge_pitch_alone(fmt, plan, model, (stage, xm, xprof) if as_written is not None else None,
                                       job, names, controller, out_dir, prof)
         _fold_alternative(plan, controller, modulo, job, names)
+    if plan.frame is not None and plan.frame.excessive:   # a correction larger than any error it removes: said first
+        warnings.insert(0, "WARNING: " + plan.frame.text.split(": the tables move the tip", 1)[0].replace(
+            "frame kept: ", "the tables, in the frame they keep (") + "): they move the tip by more than twice the "
+            "largest error they remove; check the model (vecpin evaluate on a validation run) before loading them")
     if out.removed:
         notes.append("removed the files of an earlier vecpin tables run in this folder that this run does not write "
                      "(unchanged since): " + ", ".join(p.name for p in out.removed))
