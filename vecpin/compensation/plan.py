@@ -179,17 +179,34 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         search = TableProblem(actual, m, q[:SUBSET_COMMANDS], tools, modulo_axes=tuple(modulo_axes), hold=hold,
                               bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
-        selection = SEARCHES[method](search, req.cons, seed, req.n_points)
+        as_held = None if lim.hold is None else (lambda ts: lim.hold(ts, m))   # judged as the controller holds them
+        selection = SEARCHES[method](search, req.cons, seed, req.n_points, as_held)
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)
         add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
     lim.check_tables(tables)
     report.notes += _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+    if selection is not None and selection.held:
+        report.notes.append(_held_note(selection, lim.name))
     return TablePlan(tables, lim, selection, report, problem, req.n_points)
 
 
-SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
-            "ga": lambda p, c, seed, n: genetic_search(p, c, seed=seed, n_points=n),
-            "heuristic": lambda p, c, seed, n: impact_heuristic(p, c, n_points=n)}
+def _held_note(selection: Selection, controller: str) -> str:
+    """What judging the search's best sets as the controller holds them did."""
+    chosen = next(h for (names, _, _), h in zip(selection.finalists, selection.held) if names == selection.tables)
+    first = selection.finalists[int(np.argmin([mean for _, _, mean in selection.finalists]))]
+    text = (f"selection: the {len(selection.held)} best sets by the linearised score judged as {controller} holds them "
+            f"(its files written and read back, on the search's commands): the set chosen leaves {chosen:.4f} mm as "
+            f"held, {selection.mean_mm:.4f} mm as planned")
+    if first[0] != selection.tables:
+        held_first = selection.held[selection.finalists.index(first)]
+        text += (f"; the best as planned, {' '.join(first[0])} ({first[2]:.4f} mm), would leave {held_first:.4f} mm "
+                 "as held")
+    return text
+
+
+SEARCHES = {"exact": lambda p, c, seed, n, hold: exact_search(p, c, n_points=n, hold=hold),
+            "ga": lambda p, c, seed, n, hold: genetic_search(p, c, seed=seed, n_points=n),
+            "heuristic": lambda p, c, seed, n, hold: impact_heuristic(p, c, n_points=n)}
 
 
 def _geometric(model: ErrorModel) -> tuple[ErrorModel, list[str]]:
