@@ -82,7 +82,8 @@ def table(rows: list[dict]) -> str:
              "set vecpin chose under the controller's limits; 'files as written': the files with the named machine "
              "data applied to the true machine; 'without data': without the reference point values; "
              "'vecpin's reader': the same files read back by vecpin; 'first line': what the printout and the "
-             "controller's README say first when the files leave more than 2 % above the full tables (model-predicted).",
+             "controller's README say first when the files give up more than 2 % of what the full tables remove "
+             "(model-predicted).",
              "", "| machine | controller | uncompensated | full tables | planned (tables) | files as written | "
              "files / planned | files / full | without data | vecpin's reader | first line | judged by |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]

@@ -32,12 +32,29 @@ def siemens_cec(folder: Path, inp: str, out: str, x_mm: np.ndarray) -> np.ndarra
 
 def fanuc_pitch(folder: Path, number: int, x_mm: np.ndarray, ref_mm=0.0, unit=0.001) -> np.ndarray:
     """B-63980EN p.100: point n at (n - 3620) x 3624 from the reference; its value is the
-    compensation over the section ending at n, x 3623 detection units; zero at the reference."""
+    compensation over the section ending at n, x 3623 detection units; zero at the reference.
+
+    Rotary-axis type, 3625 (travel per rotation of a rotary axis in pitch error
+    compensation, A-77810E table (a)) not 0: B-63980EN p.100 example 2 - the most negative
+    point 3621 is the reference point 3620, the most positive 3622 = 3620 + 3625 / 3624, the
+    points 3620 + 1 .. 3622 hold the sections of one rotation from the reference and the
+    reference point repeats the last point's value (the section ending at the reference is
+    the last one of the turn before). The table covers one rotation and repeats every 3625;
+    "if the sum of the compensation value from 61 to 68 is not zero, the pitch error per
+    rotation accumulates, resulting in a positional shift": so does it here."""
     para = (folder / "CNC-PARA.TXT").read_text()
     p = {int(n): re.search(rf"A{number}P(-?[\d.]+)", body).group(1)
          for n, body in re.findall(r"N0(\d{4})Q1(\S+)", para) if 3620 <= int(n) <= 3625}
     ref, first, last, mag, interval = int(p[3620]), int(p[3621]), int(p[3622]), int(p[3623]), float(p[3624])
+    turn = float(p.get(3625, "0"))
     data = {int(n): int(v) for n, v in re.findall(r"N1(\d{4})Q0P(-?\d+)", (folder / "PITCH.TXT").read_text())}
+    if turn != 0.0:
+        assert first == ref and last == ref + round(turn / interval), (first, ref, last, turn, interval)  # p.100
+        assert data[ref] == data[last], (data[ref], data[last])      # "set the same compensation value as for 68"
+        absolute = np.cumsum([0] + [data[k] for k in range(ref + 1, last + 1)]) * mag * unit
+        u = np.asarray(x_mm, float) - ref_mm
+        turns = np.floor(u / turn)
+        return turns * absolute[-1] + np.interp(u - turns * turn, interval * np.arange(last - ref + 1), absolute)
     points = np.arange(first - 1, last + 1)
     absolute = np.array([sum(data[k] for k in range(ref + 1, n + 1)) - sum(data[k] for k in range(n + 1, ref + 1))
                          for n in points]) * mag * unit
@@ -117,7 +134,13 @@ def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarr
     """Per axis [mm or deg] (controlled-axis numbers 1, 2, ... in the order of ``axes``):
     pitch data anchored at the new reference position 1240, the shift of 1240 from ``ref``,
     and the straightness values entered as STRAIGHTNESS.CSV lists them (absolute, linear
-    between points). ``with_1240`` False: parameter 1240 not loaded (the reference stays ``ref``)."""
+    between points). ``with_1240`` False: parameter 1240 not loaded (the reference stays ``ref``).
+
+    Straightness takes its points from the moving axis' pitch compensation point numbers
+    (B-63522EN p.222); on a moving axis of rotary-axis type (3625 not 0) those points cover
+    one rotation and repeat (B-63980EN p.100), so the straightness values are looked up at
+    the moving axis' position within the rotation, from its first row (INFERRED from the two
+    pages: no sentence on straightness over a rotary-type axis was found)."""
     out = np.zeros_like(q_user)
     for k, a in enumerate(axes):
         new = fanuc_param(folder, 1240, k + 1) if with_1240 else None
@@ -129,7 +152,12 @@ def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarr
     for name in sorted({r["table"] for r in rows}):
         rs = [r for r in rows if r["table"] == name]
         i, o = axes.index(rs[0]["moving_axis"]), axes.index(rs[0]["compensation_axis"])
-        out[:, o] += np.interp(q_user[:, i], [float(r["position"]) for r in rs], [float(r["correction"]) for r in rs])
+        pos, val = np.array([float(r["position"]) for r in rs]), np.array([float(r["correction"]) for r in rs])
+        at = q_user[:, i]
+        turn = fanuc_param(folder, 3625, i + 1) or 0.0
+        if turn != 0.0:
+            at = pos[0] + np.mod(at - pos[0], turn)
+        out[:, o] += np.interp(at, pos, val)
     return out
 
 

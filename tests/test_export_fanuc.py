@@ -108,6 +108,72 @@ def test_rotary_axis_type_reference_value_equals_the_last(tmp_path):
     np.testing.assert_allclose(np.degrees(back(q)), np.degrees(t(q) - t(0.0)), atol=2e-3)
 
 
+def _rotary_type_set(flow):
+    """flow_xyzcb's C (544 deg of travel) as a rotary-axis-type axis: a modulo pitch table
+    and a modulo straightness table of X from C (each with a constant at the reference),
+    beside X's own pitch table."""
+    c = np.linspace(0.0, 2 * math.pi, 721)
+    x = np.linspace(flow.axis("X").lower, flow.axis("X").upper, 201)
+    u = (x - x[0]) / (x[-1] - x[0])
+    return TableSet(flow.axis_names, [
+        CompensationTable("X", "X", x[0], x[1] - x[0], from_mm(0.02 * np.sin(3 * u) + 0.01 * u)),
+        CompensationTable("C", "C", 0.0, c[1], np.radians(0.01 * np.sin(c) + 0.004 * np.cos(3 * c) + 0.003),
+                          modulo=True),
+        CompensationTable("C", "X", 0.0, c[1], from_mm(0.03 * np.sin(c) + 0.02 * np.cos(2 * c)), modulo=True)])
+
+
+def _flow_profile(flow, **limits):
+    from vecpin.export.profile import ControllerProfile
+    ref = {"X": 6096.0, "Y": 2552.0, "Z": 996.0, "C": 30.0, "B": 0.0}      # C's reference away from 0
+    axes = {a: {"number": k + 1, "reference_position": ref[a], "detection_unit": 0.001}
+            for k, a in enumerate(flow.axis_names)}
+    axes["C"]["modulo"] = True
+    return ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": axes,
+                                        "limits": limits}, "flow_xyzcb fanuc profile (test)"), ref
+
+
+def test_a_rotary_type_axis_reads_back_as_the_control_applies_it(flow, tmp_path):
+    """Issue 39: on a rotary-axis-type C (3625 = 360) the pitch table and the straightness
+    table it moves cover one turn and repeat over C's whole travel (-272 .. 272 deg), as
+    the independent applier (tests/controller_appliers.py, from B-63980EN p.100) applies
+    them; vecpin's reader held the straightness table's end values outside 0 .. 360, so
+    the printed prediction of the files as written was off (0.446 mm for 0.091 true on a
+    simulated flow_xyzcb)."""
+    from controller_appliers import fanuc_corrections
+    prof, ref = _flow_profile(flow)
+    write(_rotary_type_set(flow), flow, prof, tmp_path)
+    back = fanuc.read(tmp_path, flow, prof)
+    assert back.table("xc").modulo and back.table("cc").modulo
+    rng = np.random.default_rng(7)
+    q = flow.lower + rng.random((400, flow.n_axes)) * (flow.upper - flow.lower)
+    q_user = flow.to_user(q)
+    want = fanuc_corrections(tmp_path, flow.axis_names, ref, q_user)      # X, C: pitch, 1240 and straightness
+    got = flow.to_user(back.increments(q))
+    # the reader anchors C's table at the profile's reference, the control at the new 1240 (0.003 deg off)
+    np.testing.assert_allclose(got, want, atol=2e-5)
+    outside = (q_user[:, 3] < ref["C"]) | (q_user[:, 3] > ref["C"] + 360.0)
+    assert outside.sum() > 100 and np.ptp(want[outside, 0]) > 0.05        # mm: C beyond the turn moves X's correction
+
+
+def test_a_rotary_type_table_the_control_would_not_hold_is_refused(flow, tmp_path):
+    """B-63980EN p.100: the values of a rotary-axis-type table sum to zero over the turn and
+    the reference point repeats the last; its straightness rows must cover the turn."""
+    prof, _ = _flow_profile(flow)
+    write(_rotary_type_set(flow), flow, prof, tmp_path)
+    pitch = (tmp_path / "PITCH.TXT").read_text().splitlines()
+    g = next(g for g in fanuc.read_grids(tmp_path, flow, prof) if g.axis == "C")
+    k = next(i for i, ln in enumerate(pitch) if ln.startswith(f"N{10000 + g.last}Q0P"))
+    pitch[k] = f"N{10000 + g.last}Q0P{int(g.values[-1]) + 1}"
+    (tmp_path / "PITCH.TXT").write_text("\n".join(pitch) + "\n")
+    with pytest.raises(ControllerFileError, match="sum to 1, not 0"):
+        fanuc.read(tmp_path, flow, prof)
+    write(_rotary_type_set(flow), flow, prof, tmp_path / "b")
+    rows = (tmp_path / "b" / "STRAIGHTNESS.CSV").read_text().splitlines()
+    (tmp_path / "b" / "STRAIGHTNESS.CSV").write_text("\n".join(rows[:-1]) + "\n")   # the row at 360 deg gone
+    with pytest.raises(ControllerFileError, match="must cover the turn"):
+        fanuc.read(tmp_path / "b", flow, prof)
+
+
 def test_magnification_is_chosen_and_the_range_checked(tmp_path):
     m = tiny_machine()
     steep = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.0, 0.3, 0.6, 0.9, 1.2])))

@@ -159,6 +159,27 @@ def test_reruns_write_identical_files(model, tmp_path):
         assert (tmp_path / "a" / n).read_bytes() == (tmp_path / "b" / n).read_bytes(), n
 
 
+def test_the_first_line_measures_the_files_against_what_the_tables_remove(model, tmp_path):
+    """Issue 39: the AP model's full tables are the model (eq. 17) and cancel it to a few
+    tenths of a um; the first line measured the files against that ('+4545 %'). Fanuc's six
+    cross tables give up a share of what the full tables remove, which the first line (and
+    the README's) now states from the rows; Siemens takes every table and says nothing."""
+    prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
+    run = make_tables(model, tmp_path / "f", "fanuc-30i", profile=prof, max_tables=6, uncertainty=False)
+    rows = {r.label: r.mean for r in run.plan.report.rows}
+    before, full = rows["uncompensated (model)"], rows["full tables (model-predicted)"]
+    files = rows["files as written (model-predicted)"]
+    assert full < 0.001 < 0.1 < before                       # mm: degenerate, the tables are the model
+    share = (files - full) / (before - full)
+    assert share > 0.02 and run.headline == run.lines("m")[0]
+    assert run.headline.startswith(f"NOTE: these files give up {100 * share:.0f} % of what the full tables remove")
+    assert "takes 11 of the 25 tables" in run.headline and "+" not in run.headline.split(":")[0]
+    assert (tmp_path / "f" / "README_FANUC.md").read_text().splitlines()[0] == run.headline
+    run = make_tables(model, tmp_path / "s", "siemens-840d", profile=prof, uncertainty=False)
+    rows = {r.label: r.mean for r in run.plan.report.rows}
+    assert rows["files as written (model-predicted)"] < 0.001 and run.headline is None
+
+
 @pytest.fixture(scope="module")
 def backlash_skew(machines):
     """A model with a row-dependent effect (backlash of X) and a geometric one (a gantry

@@ -282,3 +282,23 @@ def test_a_machine_that_is_only_moved_rigidly_needs_no_tables(flow):
     assert before.mean() > 3e-4 and after.max() < 2e-6
     seq = TableProblem(moved, flow, q, TOOLS).solve(all_table_names(flow)).discretise(256)
     assert max(np.abs(tb.values).max() for tb in seq.tables if tb.output_axis in "XYZ") > 1e-4  # what it spent
+
+
+def test_the_files_shortfall_is_measured_against_what_the_tables_remove():
+    """Issue 39: the first line of `vecpin tables` compared the files with the full tables
+    in relative terms, so a model its full tables cancel to 0.0006 mm made files within a
+    few um of it '+500 %' and a real loss '+4545 %'. The shortfall is now the share of
+    what the full tables remove (mm: uncompensated, full tables, files as written)."""
+    from vecpin.workflows.tables import LOST_SHARE, ROUNDING_MM, _given_up
+    # degenerate full set, files 3.4 um above it: fine (the relative rule said +567 %)
+    assert _given_up(0.40, 0.0006, 0.0040) is None and 0.0040 > 1.02 * 0.0006 + ROUNDING_MM
+    # degenerate full set, a controller that takes 6 of 20 cross tables loses 0.027 mm of 0.40: said
+    assert _given_up(0.40, 0.0006, 0.0279) == pytest.approx((0.0279 - 0.0006) / (0.40 - 0.0006))
+    # an ordinary full set (trunnion_xyzac, Fanuc's 6 cross tables): 0.049 mm of 0.50 lost
+    assert _given_up(0.5515, 0.0486, 0.0972) == pytest.approx(0.0966, abs=1e-3)
+    # a grid that costs 1.5 % of what the tables remove, and the files' rounding (1 um): fine
+    assert _given_up(0.5515, 0.0486, 0.0486 + 0.015 * 0.5029) is None
+    assert _given_up(0.0030, 0.0002, 0.0011) is None
+    # just over the share, and tables that remove nothing at all while the files add 5 um
+    assert _given_up(0.5515, 0.0486, 0.0486 + (LOST_SHARE + 1e-3) * 0.5029) is not None
+    assert _given_up(0.0100, 0.0120, 0.0170) == math.inf

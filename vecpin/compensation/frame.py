@@ -14,7 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import FRAME, ActualMachine, geometric_model, nominal_tip, pseudo_commands
+from vecpin.compensation.functions import (FRAME, ActualMachine, TableProblem, geometric_model, nominal_tip,
+                                           pseudo_commands)
+from vecpin.compensation.tables import TableSet
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.kinematics.so3 import exp3
@@ -156,3 +158,50 @@ def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
             if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
                 lo[a.index], hi[a.index] = a.lower, a.upper
     return lo, hi
+
+
+FRAME_COMMANDS = 1000  # commands of a plan on which the tables' turn of the volume is measured
+
+
+@dataclass
+class FrameKept:
+    """How the tables keep the machine's frame: its definition (``how``), the angle [rad] by
+    which the compensated volume is turned against it (best-fit rotation over the plan's
+    points), the largest correction the tables make at the tool tip and the largest error of
+    the model [mm], and the note printed (``text``)."""
+
+    how: str
+    net_rotation: float
+    largest_correction_mm: float
+    largest_error_mm: float
+    text: str
+
+    @property
+    def excessive(self) -> bool:
+        """True when the tables move the tip by more than twice the largest error they remove."""
+        return self.largest_correction_mm > 2.0 * self.largest_error_mm
+
+
+def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, frame) -> FrameKept:
+    """The frame the tables keep and what they do to it (on at most FRAME_COMMANDS of the plan's
+    commands): :class:`FrameKept`."""
+    rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) < FRAME_COMMANDS)
+    q, L = problem.q[rows], problem.L[rows]
+    pt = problem._pt if np.isscalar(problem._pt) else problem._pt[rows]
+    nominal = nominal_tip(m, q, L + tables.gauge_offset_change, pt)
+    before = actual(q, L, False, pt)[0]
+    after = tables.turn_tips(m, tables.apply(q), actual(tables.apply(q), L, False, pt)[0], FRAME)
+    angle = partframe.net_rotation(nominal, after)
+    moved = after - before
+    corr = float(np.linalg.norm(moved - moved.mean(axis=0), axis=1).max() * MM_PER_M)  # a translation is the origin's
+    err = float(np.linalg.norm(partframe.part_frame_errors(nominal_tip(m, q, L, pt), before,
+                                                           partframe.spindle_axis(m)), axis=1).max() * MM_PER_M)
+    text = (f"frame kept: {frame.how}; the tables turn the working volume by {angle * 1e6:.1f} µrad against it "
+            f"(best-fit rotation of the compensated tips); largest correction at the tool tip {corr:.4f} mm (net of a "
+            f"translation) against a largest error of {err:.4f} mm")
+    kept = FrameKept(frame.how, angle, corr, err, text)
+    if kept.excessive:
+        kept.text += (": the tables move the tip by more than twice the largest error they remove; a rotation of "
+                      "the volume or an offset of an axis' zero is being corrected that the model cannot tell from "
+                      "the tracker's pose: check the model (vecpin evaluate) before writing these tables")
+    return kept

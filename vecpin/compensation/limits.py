@@ -13,7 +13,8 @@ limit, its source and what to change.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Callable
 
 from vecpin.compensation.selection import Constraints
 from vecpin.compensation.tables import table_name
@@ -39,6 +40,10 @@ class ControllerLimits:
     ``fixed``: names of limits that a profile may lower but never raise (828D).
     ``no_circular`` / ``forbid_output``: selection constraints of the controller.
     ``source``: where the numbers come from (printed with every limit error).
+    ``hold``: for a controller that resamples (``resampled``), ``hold(tables, machine)``
+    gives a table set as the controller will hold it (the export layer writes its files
+    and reads them back), so that the subset search can judge its best sets as written;
+    None: the tables are held as planned. Not compared, not printed.
     """
 
     name: str
@@ -52,6 +57,7 @@ class ControllerLimits:
     forbid_output: tuple[str, ...] = ()
     fixed: tuple[str, ...] = ()
     source: str = ""
+    hold: Callable | None = field(default=None, compare=False, repr=False)
 
     # ------------------------------------------------------------------ overrides
     def overridden(self, values: dict, where: str = "profile") -> "ControllerLimits":

@@ -23,7 +23,8 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
                                            hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
                                            table_bases)
-from vecpin.compensation.frame import ReferenceFrame, measured_box, model_as_actual, model_reference_frame, reference_commands
+from vecpin.compensation.frame import (FrameKept, ReferenceFrame, frame_kept, measured_box, model_as_actual,
+                                       model_reference_frame, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
@@ -58,7 +59,7 @@ class TablePlan:
     report: CompensationReport
     problem: TableProblem
     points: int
-    frame: "FrameKept | None" = None
+    frame: FrameKept | None = None
     reference: ReferenceFrame | None = None  # the model's reference frame the tables keep
 
 
@@ -151,10 +152,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
     Every limit is checked before the first solve."""
-    if limits is not None and not isinstance(limits, ControllerLimits):
-        raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
-                         "vecpin.export.registry.get_format(name).limits")
-    lim = limits or NO_LIMITS
+    lim = _limits(limits)
     model._check_fitted()
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
@@ -171,7 +169,6 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                       f"{', '.join(f'{t:g}' for t in req.tools_mm)} mm (every row on these points), "
                                       "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
-
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
 
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
@@ -184,16 +181,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
-    # eq. 17 (the AP model's perturbations are the tables) only when the perturbations are the whole
-    # model: a geometric effect (a gantry skew, non-zero) is not in them, the projection takes it
-    effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
-    # and only when the model's own frame is its reference frame: eq. 17 cancels the perturbations in the frame
-    # the fit settled in, which a rotation of the volume (the tracker pose absorbs it) leaves undefined
-    in_frame = frame.angle < REFERENCE_TOLERANCE
-    if isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on and in_frame:
-        full = from_ap_model(model, modulo_axes, hold).discretise(req.n_points)  # eq. 17: the AP model is tables
-    else:
-        full = problem.solve(all_table_names(m)).discretise(req.n_points)
+    full = _full_tables(model, problem, frame, bool(unmeasured), modulo_axes, hold, req.n_points)
     add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
         full, len(full.tables))
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
@@ -204,10 +192,11 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
         search = TableProblem(actual, m, q[:SUBSET_COMMANDS], tools, modulo_axes=tuple(modulo_axes), hold=hold,
-                              hold_turn=frame.hold_turn,
-                              bases=table_bases(m, table_order or 8, "fourier", tuple(modulo_axes), lo, hi))
+                              hold_turn=frame.hold_turn, bases=table_bases(m, table_order or 8, "fourier",
+                                                                           tuple(modulo_axes), lo, hi))
         search.free_gauge = problem.free_gauge
-        selection = SEARCHES[method](search, req.cons, seed, req.n_points)
+        as_held = None if lim.hold is None else (lambda ts: lim.hold(ts, m))   # judged as the controller holds them
+        selection = SEARCHES[method](search, req.cons, seed, req.n_points, as_held)
         tables = problem.solve(pitch_names(m) + selection.tables).discretise(req.n_points)
         add(f"{method}: {' '.join(selection.tables)} (model-predicted)", tables, len(tables.tables))
     lim.check_tables(tables)
@@ -216,58 +205,36 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         if progress:
             progress(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
         written = report.rows[-1] if selection is not None else report.rows[2 if tables is pitch else 1]
-        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names()).discretise(
-            req.n_points)
-        add(unfolded_label(modulo_axes), flat, len(flat.tables))
+        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names())
+        add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
-    report.notes += [kept.text] + _notes(model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
-    if fold_note:
-        report.notes.insert(0, fold_note)
+    report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
+        model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+    report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame)
 
 
-@dataclass
-class FrameKept:
-    """How the tables keep the machine's frame: its definition (``how``), the angle [rad] by
-    which the compensated volume is turned against it (best-fit rotation over the plan's
-    points), the largest correction the tables make at the tool tip and the largest error of
-    the model [mm], and the note printed (``text``)."""
-
-    how: str
-    net_rotation: float
-    largest_correction_mm: float
-    largest_error_mm: float
-    text: str
-
-    @property
-    def excessive(self) -> bool:
-        """True when the tables move the tip by more than twice the largest error they remove."""
-        return self.largest_correction_mm > 2.0 * self.largest_error_mm
+def _limits(limits) -> ControllerLimits:
+    """The controller's limits, or none (vecpin's generic files); a controller's name refused with the way."""
+    if limits is not None and not isinstance(limits, ControllerLimits):
+        raise InputError(f"plan_tables takes ControllerLimits, not {limits!r}: resolve a controller name with "
+                         "vecpin.export.registry.get_format(name).limits")
+    return limits or NO_LIMITS
 
 
-def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, frame) -> FrameKept:
-    """The frame the tables keep and what they do to it (on at most SUBSET_COMMANDS of the plan's
-    commands): :class:`FrameKept`."""
-    rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) < SUBSET_COMMANDS)
-    q, L = problem.q[rows], problem.L[rows]
-    pt = problem._pt if np.isscalar(problem._pt) else problem._pt[rows]
-    nominal = nominal_tip(m, q, L + tables.gauge_offset_change, pt)
-    before = actual(q, L, False, pt)[0]
-    after = tables.turn_tips(m, tables.apply(q), actual(tables.apply(q), L, False, pt)[0], FRAME)
-    angle = partframe.net_rotation(nominal, after)
-    moved = after - before
-    corr = float(np.linalg.norm(moved - moved.mean(axis=0), axis=1).max() * MM_PER_M)  # a translation is the origin's
-    err = float(np.linalg.norm(partframe.part_frame_errors(nominal_tip(m, q, L, pt), before,
-                                                           partframe.spindle_axis(m)), axis=1).max() * MM_PER_M)
-    text = (f"frame kept: {frame.how}; the tables turn the working volume by {angle * 1e6:.1f} µrad against it (best-fit rotation of the compensated "
-            f"tips); largest correction at the tool tip {corr:.4f} mm (net of a translation) against a largest error of {err:.4f} mm")
-    kept = FrameKept(frame.how, angle, corr, err, text)
-    if kept.excessive:
-        kept.text += (": the tables move the tip by more than twice the largest error they remove; a rotation of "
-                      "the volume or an offset of an axis' zero is being corrected that the model cannot tell from "
-                      "the tracker's pose: check the model (vecpin evaluate) before writing these tables")
-    return kept
+def _full_tables(model: ErrorModel, problem: TableProblem, frame: ReferenceFrame, unmeasured: bool, modulo_axes,
+                 hold, n_points: int) -> TableSet:
+    """The full table set: eq. 17 (the AP model's perturbations are the tables) only when the
+    perturbations are the whole model (a geometric effect, a gantry skew, is not in them),
+    nothing is held, the gauge line is free and the model's own frame is its reference
+    frame (eq. 17 cancels the perturbations in the frame the fit settled in, which a
+    rotation of the volume, absorbed by the tracker pose, leaves undefined); else the projection."""
+    effects_on = any(np.any(model.b_[sl] != 0) for _, sl in model.effect_slices())
+    if (isinstance(model, APModel) and not unmeasured and problem.free_gauge and not effects_on
+            and frame.angle < REFERENCE_TOLERANCE):
+        return from_ap_model(model, modulo_axes, hold).discretise(n_points)
+    return problem.solve(all_table_names(model.machine)).discretise(n_points)
 
 
 def unfolded_label(modulo_axes) -> str:
@@ -295,9 +262,23 @@ def _fold_note(m: Machine, modulo_axes, folded_mm: float, flat_mm: float) -> str
             f"travel {flat_mm:.4f} mm ({loss}; model-predicted)")
 
 
-SEARCHES = {"exact": lambda p, c, seed, n: exact_search(p, c, n_points=n),
-            "ga": lambda p, c, seed, n: genetic_search(p, c, seed=seed, n_points=n),
-            "heuristic": lambda p, c, seed, n: impact_heuristic(p, c, n_points=n)}
+def _held_note(selection: Selection, controller: str) -> str:
+    """What judging the search's best sets as the controller holds them did."""
+    chosen = next(h for (names, _, _), h in zip(selection.finalists, selection.held) if names == selection.tables)
+    first = selection.finalists[int(np.argmin([mean for _, _, mean in selection.finalists]))]
+    text = (f"selection: the {len(selection.held)} best sets by the linearised score judged as {controller} holds them "
+            f"(its files written and read back, on the search's commands): the set chosen leaves {chosen:.4f} mm as "
+            f"held, {selection.mean_mm:.4f} mm as planned")
+    if first[0] != selection.tables:
+        held_first = selection.held[selection.finalists.index(first)]
+        text += (f"; the best as planned, {' '.join(first[0])} ({first[2]:.4f} mm), would leave {held_first:.4f} mm "
+                 "as held")
+    return text
+
+
+SEARCHES = {"exact": lambda p, c, seed, n, hold: exact_search(p, c, n_points=n, hold=hold),
+            "ga": lambda p, c, seed, n, hold: genetic_search(p, c, seed=seed, n_points=n),
+            "heuristic": lambda p, c, seed, n, hold: impact_heuristic(p, c, n_points=n)}
 
 
 def _geometric(model: ErrorModel) -> tuple[ErrorModel, list[str]]:

@@ -143,12 +143,11 @@ UNFOLDED_GENERIC = ("tables over the whole travel: make them without {option} an
                     "without \"modulo\": true in the profile")
 
 
-def unfolded_alternative(controller: str, modulo_axes, readme: bool = False) -> str:
+def unfolded_alternative(controller: str, modulo_axes) -> str:
     """The controller's table over the whole travel of ``modulo_axes`` (a sentence); the
-    option named as the library names it (the command line turns it into its flag), or
-    for a README both ways."""
+    option named as the library names it (the command line turns it into its flag)."""
     axes = ", ".join(modulo_axes)
-    option = f"`--modulo {axes}` (`modulo_axes`)" if readme else f"`modulo_axes` {axes}"
+    option = f"`modulo_axes` {axes}"
     return UNFOLDED.get(controller.split("-")[0], UNFOLDED_GENERIC).format(axes=axes, option=option)
 
 

@@ -11,6 +11,9 @@ correction, minus the error). Readers raise
 """
 from __future__ import annotations
 
+import dataclasses
+import functools
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -139,10 +142,27 @@ class ControllerFormat:
             raise InputError(f"{profile.where}, limits: '{unknown[0]}' is not a limit of {self.name} (known: "
                              f"{', '.join(sorted(_TABLE_LIMITS | set(self.extra_limits)))})")
         values = {k: v for k, v in profile.limits.items() if k in _TABLE_LIMITS}
-        return self.limits.overridden(values, f"{profile.where}, limits") if values else self.limits
+        limits = self.limits.overridden(values, f"{profile.where}, limits") if values else self.limits
+        if limits.resampled and self.read is not None:   # the subset search judges its best sets as written
+            limits = dataclasses.replace(limits, hold=functools.partial(held_as_written, self, profile, limits))
+        return limits
 
 
 _TABLE_LIMITS = {"max_cross_tables", "max_cross_points", "max_pitch_points", "no_circular", "forbid_output"}
+
+
+def held_as_written(fmt: ControllerFormat, profile: ControllerProfile, limits: ControllerLimits, tables: TableSet,
+                    machine: Machine) -> TableSet:
+    """``tables`` as ``fmt``'s controller will hold them: its files written into a
+    temporary folder and read back with its reader (the controller's grid and value
+    resolution, the constants its reference point data carry), the gauge-line change
+    kept. A set the format cannot write raises as the writer does."""
+    with tempfile.TemporaryDirectory(prefix="vecpin-held-") as tmp:
+        with OutputSet(tmp) as out:
+            fmt.write(ExportJob(tables, machine, profile, limits, out))
+        back = fmt.read(Path(tmp), machine, profile)
+    back.gauge_offset_change = tables.gauge_offset_change
+    return back
 
 
 def no_check(machine: Machine, profile: ControllerProfile, limits: ControllerLimits, modulo_axes=()) -> None:

@@ -17,8 +17,13 @@ Point rule (0i-PB parameter manual B-63980EN p.100): point n sits at
 over the section ending at n, in detection units x 3623; the compensation is zero at
 the reference position (parameter 1240: the machine coordinate of the reference
 position, from the profile). A constant cannot be carried: it is removed and reported.
-Rotary-axis type (3625 = 360.0, modulo tables): 3621 = 3620, the values over a turn
-sum to zero and the reference point's value equals the last point's (B-63980EN p.100).
+Rotary-axis type (3625 = 360.0, modulo tables): 3621 = 3620, 3622 = 3620 + 3625 / 3624,
+the values over a turn sum to zero and the reference point's value equals the last
+point's (B-63980EN p.100, example 2); the table covers one turn and repeats. The
+straightness values of a table moved by such an axis stand at its pitch points
+(B-63522EN p.222), so they cover the turn and repeat too (INFERRED from the two pages):
+the reader gives both as modulo tables and refuses a rotary-type table that breaks these
+rules (the prediction of the files as written rests on it).
 
 Sign (INFERRED, no sentence found): the values are *compensation* (correction)
 increments, like vecpin's tables. Check with the sign test.
@@ -36,7 +41,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,6 +52,7 @@ from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, equidistant, modulo_warnings,
                                   new_reference_position, read_lines, to_float, to_int, with_constants)
+from vecpin.export.fanuc_tape import read_tape
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
 
@@ -319,7 +324,9 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
               "numbers with the correction in detection units of the compensation axis (a 4-point control takes",
               "four of these points: choose ones where the curve bends). Check the sign with the sign test.",
               "The rows stand at the moving axis' own pitch points: below its first point (the lowest section of",
-              "its grid) the control holds the first point's value.", ""]
+              "its grid) the control holds the first point's value. On a moving axis of rotary-axis type (3625 =",
+              "360.0) the rows cover its turn from the reference point (both ends: the same value) and repeat",
+              "every turn, as its pitch data do.", ""]
         for t in cross:
             s.append(f"- {t.name}: moving axis {t.input_axis} (A{prof.axis(t.input_axis).number}), compensation axis "
                      f"{t.output_axis} (A{prof.axis(t.output_axis).number})")
@@ -336,60 +343,6 @@ def _readme(job: ExportJob, gs: list[PitchGrid], cross) -> str:
 
 
 # ---------------------------------------------------------------------- reader
-_PARAM = re.compile(r"^N(\d{5})Q1(.*)$")
-_DATA = re.compile(r"^N(\d{5})Q0P(-?\d+)$")
-_FIELD = re.compile(r"([ALST])(\d+)([PMI])(-?\d+(?:\.\d*)?)")
-_SINGLE = re.compile(r"^[PMI](-?\d+(?:\.\d*)?)$")
-
-
-def read_tape(path: Path) -> tuple[dict[int, dict], dict[int, int]]:
-    """Parameters {number: {axis number: value text}} and pitch data {point: value} of a
-    parameter tape; text before the first ``%`` is leader, the second ``%`` ends it."""
-    params: dict[int, dict] = {}
-    data: dict[int, int] = {}
-    inside = done = False
-    lines = read_lines(path, "latin-1")
-    for no, raw in enumerate(lines, 1):
-        text = raw.strip()
-        if not text:
-            continue
-        if text == "%":
-            if inside:
-                done = True
-                inside = False
-            elif not done:
-                inside = True
-            continue
-        if not inside:
-            continue
-        md = _DATA.match(text)
-        if md:
-            n = int(md.group(1)) - 10000
-            if n < 0:
-                raise ControllerFileError(path, f"pitch data N{md.group(1)} below N10000", no)
-            if n in data:
-                raise ControllerFileError(path, f"pitch point {n} is given twice", no)
-            data[n] = int(md.group(2))
-            continue
-        mp = _PARAM.match(text)
-        if not mp:
-            raise ControllerFileError(path, f"'{text}' is neither a parameter (N<5 digits>Q1...) nor pitch data "
-                                      "(N<5 digits>Q0P<int>)", no)
-        body = mp.group(2)
-        one = _SINGLE.match(body)
-        if one:
-            params[int(mp.group(1))] = {0: (one.group(1), no)}
-            continue
-        fields = _FIELD.findall(body)
-        if "".join("".join(f) for f in fields) != body:
-            raise ControllerFileError(path, f"parameter N{mp.group(1)}: cannot read '{body}' (A<n>P<value>...)", no)
-        params[int(mp.group(1))] = {int(n): (v, no) for kind, n, _, v in fields if kind == "A"}
-    if not done:
-        raise ControllerFileError(path, "no closing % (the tape is cut short)" if inside else "no % record found",
-                                  len(lines))
-    return params, data
-
-
 def read_tapes(folder: Path) -> tuple[dict[int, dict], dict[int, dict], dict[int, int]]:
     """(``CNC-PARA.TXT``'s parameters, those and ``PITCH.TXT``'s, the pitch data), each file read once."""
     para, data = read_tape(Path(folder) / PARA_FILE)
@@ -417,7 +370,8 @@ def read_grids(folder: Path, machine: Machine, profile: ControllerProfile, tapes
                                  for p in (3620, 3621, 3622, 3623))
         interval = to_float(vals[3624][0], para_path, vals[3624][1], "parameter 3624")
         turn = params.get(3625, {}).get(number, ("0.0", 0))
-        rotary_type = to_float(turn[0], para_path, turn[1], "parameter 3625") != 0.0
+        per_turn = to_float(turn[0], para_path, turn[1], "parameter 3625")
+        rotary_type = per_turn != 0.0
         if first == last == ref == 0:
             continue  # no table on this axis
         if not first - 1 <= ref <= last:   # ref = first - 1: the reference at the negative end (a 0i-MF B axis)
@@ -430,13 +384,37 @@ def read_grids(folder: Path, machine: Machine, profile: ControllerProfile, tapes
         if missing:
             raise ControllerFileError(pitch_path, f"axis {axis}: pitch point {missing[0]} (N{10000 + missing[0]}) is "
                                       "missing", None)
+        values = np.array([data[n] for n in range(first, last + 1)], np.int64)
+        if rotary_type:
+            _check_rotary_type(axis, number, first, ref, last, interval, per_turn, values, para_path, pitch_path,
+                               turn[1])
         a = machine.axis(axis)
         ctl = "fanuc-30i reader"
-        out.append(PitchGrid(axis, number, first, ref, last, interval, mag,
-                             np.array([data[n] for n in range(first, last + 1)], np.int64), 0.0, rotary_type,
+        out.append(PitchGrid(axis, number, first, ref, last, interval, mag, values, 0.0, rotary_type,
                              profile.need(axis, "reference_position", ctl, f"reference position in {a.unit}"),
                              profile.need(axis, "detection_unit", ctl, f"detection unit in {a.unit}")))
     return out
+
+
+def _check_rotary_type(axis: str, number: int, first: int, ref: int, last: int, interval: float, per_turn: float,
+                       values: np.ndarray, para_path: Path, pitch_path: Path, line: int) -> None:
+    """A rotary-axis-type table (3625 = travel per turn, not 0) as B-63980EN p.100 has it:
+    3621 = 3620, 3622 = 3620 + 3625 / 3624, the values of 3620 + 1 .. 3622 summing to zero
+    over the turn (else the error accumulates every turn) and the reference point's value
+    equal to the last point's. The table then repeats every turn, which a modulo table is."""
+    sections = last - ref
+    if first != ref or sections < 1 or abs(sections * interval - per_turn) > 1e-6 * abs(per_turn):
+        raise ControllerFileError(para_path, f"axis A{number} ({axis}) is of rotary-axis type (3625 = {per_turn:g}): "
+                                  f"needs 3621 = 3620 and 3622 = 3620 + 3625 / 3624, not 3621 {first}, 3620 {ref}, "
+                                  f"3622 {last}, 3624 {interval:g}", line)
+    if values[1:].sum() != 0:
+        raise ControllerFileError(pitch_path, f"axis {axis}: the pitch data of points {ref + 1} .. {last} sum to "
+                                  f"{int(values[1:].sum())}, not 0: on a rotary-axis-type table the error would "
+                                  "accumulate every turn (B-63980EN p.100)", None)
+    if values[0] != values[-1]:
+        raise ControllerFileError(pitch_path, f"axis {axis}: the reference point {ref} has {int(values[0])}, the last "
+                                  f"point {last} {int(values[-1])}: on a rotary-axis-type table they must be equal "
+                                  "(B-63980EN p.100)", None)
 
 
 def grid_table(g: PitchGrid, machine: Machine) -> CompensationTable:
@@ -488,15 +466,34 @@ def read_straightness(path: Path, machine: Machine) -> list[CompensationTable]:
     return out
 
 
+def _over_the_turn(t: CompensationTable, g: PitchGrid, machine: Machine, path: Path) -> CompensationTable:
+    """A straightness table whose moving axis is of rotary-axis type: its rows stand at the
+    moving axis' pitch points (B-63522EN p.222), which cover one turn from the reference
+    point and repeat (B-63980EN p.100), so the table repeats every turn too (a modulo
+    table); the rows must cover that turn."""
+    a = machine.axis(g.axis)
+    start, end = float(a.to_user(t.start)), float(a.to_user(t.end))
+    lo, hi = g.position(g.reference), g.position(g.last)
+    if abs(start - lo) > 1e-6 * g.interval or abs(end - hi) > 1e-6 * g.interval:
+        raise ControllerFileError(path, f"table {t.name}: {g.axis} is of rotary-axis type, so its rows must cover the "
+                                  f"turn of its pitch points {g.reference} .. {g.last} ({lo:g} .. {hi:g} {a.unit}), "
+                                  f"not {start:g} .. {end:g} {a.unit}", None)
+    return CompensationTable(t.input_axis, t.output_axis, t.start, t.step, t.values, modulo=True)
+
+
 def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet:
     """Pitch tables from ``CNC-PARA.TXT`` + ``PITCH.TXT`` (zero at the reference, plus
     the constant that a parameter 1240 in the tape adds: the profile's reference position
-    minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``."""
+    minus the tape's) and cross tables from ``STRAIGHTNESS.CSV``; on an axis of
+    rotary-axis type (3625 not 0) its pitch table and the straightness tables it moves
+    cover one turn and repeat (modulo tables), as the control applies them."""
     folder = Path(folder)
     grids_ = read_grids(folder, machine, profile, tapes := read_tapes(folder))
     tables = [grid_table(g, machine) for g in grids_]
     if (folder / STRAIGHT_FILE).exists():
-        tables += read_straightness(folder / STRAIGHT_FILE, machine)
+        rotary = {g.axis: g for g in grids_ if g.rotary_type}
+        tables += [_over_the_turn(t, rotary[t.input_axis], machine, folder / STRAIGHT_FILE) if t.input_axis in rotary
+                   else t for t in read_straightness(folder / STRAIGHT_FILE, machine)]
     params = tapes[0]                                     # 1240 of CNC-PARA.TXT itself
     shifts = {}
     for g in grids_:

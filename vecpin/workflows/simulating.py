@@ -58,9 +58,9 @@ class SimulationRun:
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if sim.nests:   # what a user knows of the nests: the height of each reflector above the table's face
-            out.append("  table nests, reflector centres above the table's face (vecpin fit takes them: the tables then "
-                       "keep the face square to the spindle): "
-                       + " ".join(f"--nest-height {k}={float(p[2]) * MM_PER_M:.2f}" for k, p in sorted(sim.nests.items())))
+            out.append("  table nests, reflector centres above the table's face, mm (the fit's nest heights: the tables "
+                       "then keep the face square to the spindle): "
+                       + " ".join(f"{k}={float(p[2]) * MM_PER_M:.2f}" for k, p in sorted(sim.nests.items())))
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
             out.append(error_summary("true vs nominal tip relative to the workpiece", registered_errors(

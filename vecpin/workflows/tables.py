@@ -31,8 +31,8 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
 from vecpin.units import MM_PER_M
 
-FULL_TOLERANCE = 1.02  # files leaving more than this times the full tables' error say so first
-ROUNDING_MM = 0.001    # ... and more than this above it [mm] (the files' number format rounds to 0.1-1 um)
+LOST_SHARE = 0.02    # files giving up more than this share of what the full tables remove say so first
+ROUNDING_MM = 0.001  # ... and more than this [mm] (the files' number format rounds to 0.1-1 um)
 
 
 def named_axis(machine, name: str, option: str, value: str | None = None):
@@ -197,9 +197,9 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
 def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
                    names: list[str]) -> str | None:
     """Add the report rows of the files as written (and without the reference point data,
-    where the files put constants there); when the files leave more than 2 % above the
-    full tables (and 1 um), say so, and why, in the first line of the controller's README (returned:
-    the printout's first line too)."""
+    where the files put constants there); when the files give up a real share of the
+    compensation (:func:`_given_up`), say so, and why, in the first line of the
+    controller's README (returned: the printout's first line too)."""
     if as_written is None:
         return None
     # the whole model: the drives' differential (read back from the files) turns the beam against its skew
@@ -209,13 +209,17 @@ def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | No
         add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     rows = {r.label: r for r in plan.report.rows}
     full, files = rows.get("full tables (model-predicted)"), rows["files as written (model-predicted)"]
-    if full is None or files.mean <= FULL_TOLERANCE * full.mean + ROUNDING_MM:
+    before = rows.get("uncompensated (model)")
+    given_up = None if full is None or before is None else _given_up(before.mean, full.mean, files.mean)
+    if given_up is None:
         return None
     n = len(plan.tables.tables)
     why = (f"{job.limits.name} takes {n} of the {full.tables} tables ({job.limits.source})" if n < full.tables
            else "the controller's grid and value resolution")
-    headline = (f"NOTE: these files leave a model-predicted mean error of {files.mean:.4f} mm where the full tables "
-                f"leave {full.mean:.4f} mm ({100 * (files.mean / full.mean - 1):+.0f} %): {why}.")
+    share = (f"give up {100 * given_up:.0f} % of what the full tables remove" if np.isfinite(given_up)
+             else "leave more than the full tables, which remove nothing")
+    headline = (f"NOTE: these files {share}: they leave a model-predicted mean error of {files.mean:.4f} mm where the "
+                f"full tables leave {full.mean:.4f} mm (uncompensated {before.mean:.4f} mm): {why}.")
     readme = next((k for k in names if k.startswith("README_")), None)
     if readme is not None:
         job.out.write_text(readme, headline + "\n\n" + job.out.path(readme).read_text())
@@ -282,9 +286,21 @@ def _fold_alternative(plan: TablePlan, controller: str, modulo: list[str], job: 
     readme = next((k for k in names if k.startswith("README_")), None)
     if readme is not None:
         text = job.out.path(readme).read_text()
-        alt = boundary.unfolded_alternative(controller, modulo, readme=True)
+        alt = boundary.unfolded_alternative(controller, modulo)
         job.out.write_text(readme, text + "\n".join(["", "## Modulo tables", "", fold[0].upper() + fold[1:] + ".",
                                                       "", f"The table over the whole travel: {alt}.", ""]))
+
+
+def _given_up(uncompensated: float, full: float, files: float) -> float | None:
+    """The share of the error the full tables remove that the files give up [mm/mm], when
+    it is a real loss: more than :data:`LOST_SHARE` of it and more than :data:`ROUNDING_MM`
+    (inf when the full tables remove nothing and the files leave more); else None.
+    Measured against what the tables remove, not against what the full tables leave: a
+    model its full tables cancel to 0.0006 mm would make any file look many times worse."""
+    lost, removed = files - full, uncompensated - full
+    if lost <= ROUNDING_MM or lost <= LOST_SHARE * max(removed, 0.0):
+        return None
+    return lost / removed if removed > 0 else float("inf")
 
 
 def _check_request(model: ErrorModel, controller: str, profile, axis_map, points, forbid_output, modulo_axes,
