@@ -47,10 +47,10 @@ def pipeline(name: str, seed: int, rows_factor: int = 1, stations: int = 1) -> t
     t1 = time.perf_counter()
     tables = plan_tables(model, uncertainty=False).tables
     t_tab = time.perf_counter() - t1
-    vec = true_compensated_error(sim.truth, tables, q, tool)[0]
+    vec = true_compensated_error(sim.truth, tables, q, tool, "reference")[0]
     # the oracle's tables: what identification with the true error family would give (the noise's share of the gap)
-    vec_o = true_compensated_error(sim.truth, plan_tables(oracle, uncertainty=False).tables, q, tool)[0]
-    floor = table_floor(sim.truth, q, tool).mean_mm
+    vec_o = true_compensated_error(sim.truth, plan_tables(oracle, uncertainty=False).tables, q, tool, "reference")[0]
+    floor = table_floor(sim.truth, q, tool, judged="reference").mean_mm
     unc = uncompensated_error(sim.truth, q, tool)
     tag = name if stations == 1 else f"{name} ({stations} st.)"
     return (f"  {tag:<26s} {seed:4d} {len(sim.campaign):5d} {model.label():<42s} {unc:7.4f} {val:7.4f} {val_o:7.4f} "

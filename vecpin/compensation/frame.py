@@ -64,12 +64,16 @@ class ReferenceFrame:
 def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.ndarray | None = None,
                     upper: np.ndarray | None = None) -> ReferenceFrame:
     """The reference frame of the ``actual`` machine (a model or a simulated truth) from its
-    tips at :func:`reference_commands` in the box ``lower``..``upper`` x ``tools`` [m]."""
+    tips at :func:`reference_commands` in the box ``lower``..``upper`` x ``tools`` [m], at
+    every tool point (several spindles driven together share one frame)."""
     q = reference_commands(machine, lower, upper)
     tools = np.asarray(tools, float)
-    qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
-    tip = actual(qq, tt, False, 0)[0]
-    R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt), tip,
+    P = len(machine.tool_links)
+    qq = np.tile(np.repeat(q, len(tools), axis=0), (P, 1))
+    tt = np.tile(tools, len(q) * P)
+    pt = 0 if P == 1 else np.repeat(np.arange(P), len(q) * len(tools))
+    tip = actual(qq, tt, False, pt)[0]
+    R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt, pt), tip,
                                           partframe.spindle_axis(machine))
     return ReferenceFrame(R, tip.mean(axis=0), how, not partframe.uses_lines(machine))
 

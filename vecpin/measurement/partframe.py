@@ -130,8 +130,9 @@ def table_turns(machine) -> bool:
 
 def uses_lines(machine, spindle: np.ndarray | None = None) -> bool:
     """True when the machine's reference frame is ISO 230-1's reference lines (its table
-    stands still and two linear axes move square to the spindle); False: the mean orientation."""
-    if table_turns(machine):
+    stands still and two linear axes move square to the spindle); False: the mean orientation
+    (also where several tool points are driven together: each has lines of its own)."""
+    if table_turns(machine) or len(getattr(machine, "tool_links", ())) > 1:
         return False
     spindle = spindle_axis(machine) if spindle is None else spindle
     home = home_commands(machine)
@@ -158,7 +159,8 @@ def reference_rotation(machine, q: np.ndarray, tool, nominal: np.ndarray, actual
     if pair is None:
         from vecpin.measurement.registration import register
         R = register(actual, nominal)[0]
-        why = "the table turns" if table_turns(machine) else "no two linear axes move square to the spindle"
+        why = ("the table turns" if table_turns(machine) else "several tool points" if len(
+            getattr(machine, "tool_links", ())) > 1 else "no two linear axes move square to the spindle")
         return R, f"the mean orientation of the working volume relative to the table, its best-fit rotation ({why})"
     p, s = pair
     u1, u2 = (nom_lines[n] / np.linalg.norm(nom_lines[n]) for n in pair)

@@ -222,9 +222,9 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
         out.choice = choice
         if tables:
             plan = plan_tables(model, uncertainty=False)
-            out.tables_mm = true_compensated_error(truth, plan.tables, q, tool)
-            out.floor_mm = (lambda f: (f.mean_mm, f.max_mm))(table_floor(truth, q, tool))
-            out.uncompensated_true_mm = true_compensated_error(truth, None, q, tool)
+            out.tables_mm = true_compensated_error(truth, plan.tables, q, tool, "reference")
+            out.floor_mm = (lambda f: (f.mean_mm, f.max_mm))(table_floor(truth, q, tool, judged="reference"))
+            out.uncompensated_true_mm = true_compensated_error(truth, None, q, tool, "reference")
     if not multi_turn:
         out.default_key = ("ap", "chebyshev", 6)
     choices = [(k, b, o) for k in kinds for b in bases for o in orders if b == "chebyshev" or multi_turn]
@@ -240,7 +240,7 @@ def judge(machine: Machine, truth, design: Design | None = None, *, seed: int = 
             run(f"oracle: {kind}, true family bases", kind, "custom", max(B.order for B in ob), keep=kept, bases=ob)
             if tables and kept:  # the share of the table gap that the noise leaves even with perfect bases
                 out.oracle_tables_mm = true_compensated_error(truth, plan_tables(kept[0], uncertainty=False).tables,
-                                                              q, tool)
+                                                              q, tool, "reference")
         elif hasattr(truth, "separable_part"):
             part = truth.separable_part()
             sim2 = simulate(machine, seed=seed, design=design, truth=part)

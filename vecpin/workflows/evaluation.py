@@ -128,10 +128,12 @@ def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_
             check_registration(nominal, c.xyz, c.source, c.lines)
         else:
             check_same_pose(nominal, model.predict_nominal(c.q, c.tool), c.xyz, c.source, model_source, c.lines)
-        # where a part is: the run in the machine's reference lines, the part's set-up removed
-        d_nom = norm_mm(part_frame_errors(nominal, RunReference(m, c.q, c.tool, nominal, c.xyz)(c.xyz),
-                                          spindle_axis(m)))
-        shape = norm_mm(registered_errors(nominal, c.xyz))
+        if spans_plane(nominal):   # where a part is: the run in the machine's reference frame, its set-up removed
+            d_nom = norm_mm(part_frame_errors(nominal, RunReference(m, c.q, c.tool, nominal, c.xyz)(c.xyz),
+                                              spindle_axis(m)))
+            shape = norm_mm(registered_errors(nominal, c.xyz))
+        else:   # one joint's sweep, one point: nothing to register, the distances from the model's tracker pose
+            d_nom = shape = norm_mm(c.xyz - model.predict_nominal(c.q, c.tool))
     else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
         res = model.nominal_residuals(c)
         d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
