@@ -160,8 +160,8 @@ def test_reruns_write_identical_files(model, tmp_path):
 
 
 def test_the_first_line_measures_the_files_against_what_the_tables_remove(model, tmp_path):
-    """Issue 39: the AP model's full tables are the model (eq. 17) and cancel it to a few
-    tenths of a um; the first line measured the files against that ('+4545 %'). Fanuc's six
+    """Issue 39: the AP model's full tables almost cancel the model (in its reference frame, to
+    about 0.01 mm); the first line measured the files against that ('+4545 %'). Fanuc's six
     cross tables give up a share of what the full tables remove, which the first line (and
     the README's) now states from the rows; Siemens takes every table and says nothing."""
     prof = Path(__file__).parent / "data" / "controllers" / "flow_xyzcb_profile.json"
@@ -169,7 +169,7 @@ def test_the_first_line_measures_the_files_against_what_the_tables_remove(model,
     rows = {r.label: r.mean for r in run.plan.report.rows}
     before, full = rows["uncompensated (model)"], rows["full tables (model-predicted)"]
     files = rows["files as written (model-predicted)"]
-    assert full < 0.001 < 0.1 < before                       # mm: degenerate, the tables are the model
+    assert full < 0.05 * before and 0.1 < before            # mm: near degenerate, the tables are almost the model
     share = (files - full) / (before - full)
     assert share > 0.02 and run.headline == run.lines("m")[0]
     assert run.headline.startswith(f"NOTE: these files give up {100 * share:.0f} % of what the full tables remove")
@@ -177,7 +177,8 @@ def test_the_first_line_measures_the_files_against_what_the_tables_remove(model,
     assert (tmp_path / "f" / "README_FANUC.md").read_text().splitlines()[0] == run.headline
     run = make_tables(model, tmp_path / "s", "siemens-840d", profile=prof, uncertainty=False)
     rows = {r.label: r.mean for r in run.plan.report.rows}
-    assert rows["files as written (model-predicted)"] < 0.001 and run.headline is None
+    assert rows["files as written (model-predicted)"] < rows["full tables (model-predicted)"] + 0.001
+    assert run.headline is None
 
 
 @pytest.fixture(scope="module")
