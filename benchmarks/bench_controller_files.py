@@ -22,8 +22,9 @@ files are applied to the true machine:
   difference;
 * the same files read back by vecpin's own readers (column 'vecpin's reader').
 
-Every figure is the mean true tool-tip error [mm] relative to the workpiece, rigidly
-registered, over 150 fresh commands x 2 tools.
+Every figure is the mean true tool-tip error [mm] relative to the workpiece in the part's
+frame on a table aligned to the truth's own reference frame (a translation and a turn about
+the spindle removed), over 150 fresh commands x 2 tools.
 
 Run: python benchmarks/bench_controller_files.py [--out docs/results/controller_files.md] [--cases NAME ...]
 """
@@ -78,7 +79,8 @@ def one(label: str) -> list[dict]:
 
 def table(rows: list[dict]) -> str:
     lines = ["True compensated error [mm], mean over 150 fresh commands x 2 tools, tool tip relative to the "
-             "workpiece, rigidly registered (written by benchmarks/bench_controller_files.py). 'planned': the table "
+             "workpiece in the part's frame on a table aligned to the truth's own reference frame (written by "
+             "benchmarks/bench_controller_files.py). 'planned': the table "
              "set vecpin chose under the controller's limits; 'files as written': the files with the named machine "
              "data applied to the true machine; 'without data': without the reference point values; "
              "'vecpin's reader': the same files read back by vecpin; 'first line': what the printout and the "

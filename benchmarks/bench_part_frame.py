@@ -86,7 +86,8 @@ def table(rows: list[dict], seed: int) -> str:
              f"measured region; vecpin's default fit and full tables (generic files), simulator seed {seed}; judged by "
              "tests/part_frame_judge.py (its own reader and registrations; written by benchmarks/bench_part_frame.py). "
              "part: as a part set up by probing its origin and aligning an edge sees it; shape: the best rigid motion "
-             "removed; turn: the angle [µrad] between the frames of X's and Y's reference lines before and after (lines), "
+             "removed; turn: the angle [µrad] between the frames of X's and Y's reference lines before and after "
+             "(lines), "
              "and between the best-fit orientations of the whole volume before and after (volume); best part: the best "
              "full table set that exists for the part (fitted to the truth in its table's own frame, judged the same "
              "way by vecpin's own code: simulation only).",
@@ -99,9 +100,9 @@ def table(rows: list[dict], seed: int) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         u, c = r["uncompensated"], r["compensated"]
-        lines.append(f"| {r['class']} | {r['machine']} | {r['frame']} | {u['part']:.4f} | {u['shape']:.4f} | {c['part']:.4f} | "
-                     f"{c['shape']:.4f} | {c['part'] / c['shape']:.2f} | {c['part'] / u['part']:.3f} | {r['floor']:.4f} | "
-                     f"{c['part'] / r['floor']:.2f} | "
+        lines.append(f"| {r['class']} | {r['machine']} | {r['frame']} | {u['part']:.4f} | {u['shape']:.4f} | "
+                     f"{c['part']:.4f} | {c['shape']:.4f} | {c['part'] / c['shape']:.2f} | {c['part'] / u['part']:.3f} | "
+                     f"{r['floor']:.4f} | {c['part'] / r['floor']:.2f} | "
                      f"{c['turn_urad']:.1f} | {c['volume_turn_urad']:.1f} |")
     return "\n".join(lines) + "\n"
 
@@ -122,8 +123,9 @@ def main(argv=None) -> None:
                 r = one(cls, name, family, args.seed, Path(tmp) / f"{name}-{face}", face)
                 u, c = r["uncompensated"], r["compensated"]
                 print(f"{cls:<26s} {r['machine']:<22s} {r['frame']:<32s} part {u['part']:.4f} -> {c['part']:.4f} mm, "
-                      f"shape {u['shape']:.4f} -> {c['shape']:.4f} mm, best part {r['floor']:.4f} mm, turn {c['turn_urad']:.1f} / "
-                      f"{c['volume_turn_urad']:.1f} µrad ({r['seconds']:.0f} s)", flush=True)
+                      f"shape {u['shape']:.4f} -> {c['shape']:.4f} mm, best part {r['floor']:.4f} mm, "
+                      f"turn {c['turn_urad']:.1f} / {c['volume_turn_urad']:.1f} µrad ({r['seconds']:.0f} s)",
+                      flush=True)
                 rows.append(r)
     text = table(rows, args.seed)
     print(text)
