@@ -101,8 +101,8 @@ def table(rows: list[dict], seed: int) -> str:
     for r in rows:
         u, c = r["uncompensated"], r["compensated"]
         lines.append(f"| {r['class']} | {r['machine']} | {r['frame']} | {u['part']:.4f} | {u['shape']:.4f} | "
-                     f"{c['part']:.4f} | {c['shape']:.4f} | {c['part'] / c['shape']:.2f} | {c['part'] / u['part']:.3f} | "
-                     f"{r['floor']:.4f} | {c['part'] / r['floor']:.2f} | "
+                     f"{c['part']:.4f} | {c['shape']:.4f} | {c['part'] / c['shape']:.2f} | "
+                     f"{c['part'] / u['part']:.3f} | {r['floor']:.4f} | {c['part'] / r['floor']:.2f} | "
                      f"{c['turn_urad']:.1f} | {c['volume_turn_urad']:.1f} |")
     return "\n".join(lines) + "\n"
 
