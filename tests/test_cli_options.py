@@ -35,3 +35,20 @@ def test_two_parameters_one_option_sets_are_written_as_that_option():
     text = "`repeat_points` 5000, `repeat_times` 50: too many"
     assert as_flags(text, plan) == "--repeat 5000 50: too many"
     assert as_flags(text, {}) == "repeat_points 5000, repeat_times 50: too many"
+
+
+def test_an_option_given_twice_is_refused_not_overwritten(tmp_path, capsys):
+    """Issue 42: `--zone X=0:3000 --zone Y=0:1200` kept Y's zone alone without a word. A
+    single-valued option given twice (in full or abbreviated) is refused before anything
+    runs, naming it; options meant to repeat (--nest-height) still repeat."""
+    from vecpin.cli.main import main, repeated_option
+    assert main(["fit", "flow_xyzcb", str(tmp_path / "c.csv"), "--zone", "X=0:3000", "--zone", "Y=0:1200",
+                 "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert "--zone is given twice" in err and "X=0:3000,Y=0:1200" in err and not (tmp_path / "m.json").exists()
+    assert main(["fit", "flow_xyzcb", "c.csv", "--quiet", "--qui", "--out", "m.json"]) == 2
+    assert "--quiet is given twice" in capsys.readouterr().err
+    once = ("--zone", "--out", "--quiet")
+    assert repeated_option(["--nest-height", "1=2", "--nest-height", "2=3", "--zone", "X=0:1"], once) is None
+    assert repeated_option(["--out=a", "--out", "b"], once) == "--out"
+    assert repeated_option(["--zone", "X=0:1", "--", "--zone"], once) is None

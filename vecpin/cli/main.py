@@ -22,8 +22,35 @@ def build_parser() -> argparse.ArgumentParser:
     for module in COMMAND_MODULES:
         module.register(sub)
     for name, command in sub.choices.items():
-        command.set_defaults(flags=flag_table(command))
+        command.set_defaults(flags=flag_table(command), once=_single_valued(command))
     return p
+
+
+def _single_valued(command: argparse.ArgumentParser) -> tuple[str, ...]:
+    """The long options of ``command`` that take one value (or none): given twice, argparse
+    keeps the last one without a word."""
+    return tuple(o for a in command._actions if not isinstance(a, (argparse._AppendAction, argparse._CountAction,
+                                                                   argparse._HelpAction))
+                 for o in a.option_strings if o.startswith("--"))
+
+
+def repeated_option(argv: list[str], once: tuple[str, ...]) -> str | None:
+    """The first single-valued option ``argv`` gives twice (written in full, or abbreviated
+    as argparse accepts it), or None."""
+    seen = set()
+    for token in argv:
+        if token == "--":
+            break
+        if not token.startswith("--"):
+            continue
+        name = token.split("=", 1)[0]
+        full = [o for o in once if o == name] or [o for o in once if o.startswith(name)]
+        if len(full) != 1:
+            continue
+        if full[0] in seen:
+            return full[0]
+        seen.add(full[0])
+    return None
 
 
 def _version() -> str:
@@ -49,7 +76,13 @@ _PYTHON_SHOWWARNING = warnings.showwarning
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    twice = repeated_option(argv[1:], args.once)
+    if twice:
+        hint = " (a zone over several axes is one value: X=0:3000,Y=0:1200)" if twice == "--zone" else ""
+        print(f"vecpin: error: {twice} is given twice, and only one value counts: give it once{hint}", file=sys.stderr)
+        return 2
     with warnings.catch_warnings():
         warnings.simplefilter("always", VecpinWarning)
         warnings.showwarning = _warning_printer(args.flags)
