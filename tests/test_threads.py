@@ -2,6 +2,8 @@
 threadpoolctl reads back from the loaded OpenBLAS/MKL libraries, inside vecpin's entry
 points, and it is undone afterwards; VECPIN_BLAS_THREADS sets another count or none."""
 import os
+import signal
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -207,3 +209,52 @@ def test_the_choice_is_the_same_side_by_side_or_one_after_another(monkeypatch):
         np.testing.assert_array_equal(a.heldout, b.heldout)
     assert (one.chosen.kind, one.chosen.axes) == (two.chosen.kind, two.chosen.axes)
     assert one.reason == two.reason and one.chosen_noise_scale == two.chosen_noise_scale != 1.0
+
+
+CHILD = """
+import os, sys, time
+from vecpin.threads import side_by_side
+
+def slow(i):
+    with open(os.path.join(sys.argv[1], f"copy{i}"), "w") as f:
+        f.write(str(os.getpid()))
+    time.sleep(120)
+    return i
+
+print(side_by_side(slow, range(2), processes=True))
+"""
+
+
+def _alive(pid: int) -> bool:
+    """True while ``pid`` runs (a zombie awaiting its reaper counts as ended)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked copies and prctl are Linux's")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+def test_forked_copies_die_with_their_parent(tmp_path, sig):
+    """Issue 42: SIGTERM or SIGKILL to `vecpin fit` during the forked model choice left both
+    copies running (PPID 1). A real run: a parent forks two copies that write their pid and
+    sleep 120 s; the parent is killed; both copies end within 5 s."""
+    import subprocess
+    import time
+    env = dict(os.environ, VECPIN_WORKERS="2")
+    parent = subprocess.Popen([sys.executable, "-c", CHILD, str(tmp_path)], env=env)
+    t0 = time.time()
+    while len(list(tmp_path.glob("copy*"))) < 2 and time.time() - t0 < 60:
+        time.sleep(0.05)
+    pids = [int(p.read_text()) for p in tmp_path.glob("copy*")]
+    assert len(pids) == 2 and all(_alive(p) for p in pids)
+    parent.send_signal(sig)
+    parent.wait(10)
+    t0 = time.time()
+    while any(_alive(p) for p in pids) and time.time() - t0 < 5:
+        time.sleep(0.05)
+    left = [p for p in pids if _alive(p)]
+    for p in left:
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"copies {left} outlived their parent"
