@@ -130,3 +130,24 @@ def test_unfitted_and_bad_frame_are_refused(flow, fixed):
         ErrorModelCV(flow).predict(np.zeros((1, flow.n_axes)))
     with pytest.raises(InputError, match="`frame` 'tracker'"):
         fixed.predict(np.zeros((1, flow.n_axes)), frame="tracker")
+
+
+def test_the_facade_takes_names_and_paths_and_refuses_the_rest(tmp_path):
+    """Issue 42: `vecpin.fit("flow_xyzcb", "c.csv", ...)` raised AttributeError deep inside. The
+    facade takes a machine's name or URDF path and a campaign's path as the CLI does, an
+    instrument's name for the noise, and refuses anything else naming the argument."""
+    import vecpin
+    from vecpin.errors import InputError
+    from vecpin.measurement.campaign import write_campaign
+    m = vecpin.Machine.load("flow_xyzcb")
+    sim = vecpin.simulate(m, seed=3, design=__import__("vecpin.simulation.simulate", fromlist=["Design"]).Design(
+        n_commands=60, n_validation=5))
+    write_campaign(tmp_path / "c.csv", sim.campaign, m)
+    by_name = vecpin.fit("flow_xyzcb", tmp_path / "c.csv", "spherical", kind="6dof", basis="chebyshev", order=1)
+    by_object = vecpin.fit(m, vecpin.read_campaign(tmp_path / "c.csv", m), vecpin.NoiseModel.default(m, "spherical"),
+                           kind="6dof", basis="chebyshev", order=1)
+    np.testing.assert_allclose(by_name.model.b_, by_object.model.b_, atol=1e-9)
+    for args, name in (((m, 3.5), "`campaign` float"), ((None, sim.campaign), "`machine` NoneType"),
+                       ((m, sim.campaign, 3), "`noise` int")):
+        with pytest.raises(InputError, match=name):
+            vecpin.fit(*args)

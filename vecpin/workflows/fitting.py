@@ -178,6 +178,29 @@ def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "z
     return campaign.subset(keep)
 
 
+def fit_arguments(machine, campaign, noise) -> tuple[Machine, Campaign, NoiseModel]:
+    """The facade's arguments as objects: ``machine`` a :class:`Machine`, a bundled name or a
+    URDF path; ``campaign`` a :class:`Campaign` or a CSV path (read for that machine);
+    ``noise`` a :class:`NoiseModel`, None (the default) or an instrument's name
+    ("spherical", "cartesian"). Anything else is refused, naming the argument."""
+    from pathlib import Path
+    from vecpin.measurement.campaign import read_campaign
+    if isinstance(machine, (str, Path)):
+        machine = Machine.load(machine)
+    elif not isinstance(machine, Machine):
+        raise InputError(f"`machine` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
+    if isinstance(campaign, (str, Path)):
+        campaign = read_campaign(campaign, machine)
+    elif not isinstance(campaign, Campaign):
+        raise InputError(f"`campaign` {type(campaign).__name__}: give a Campaign or the path of a campaign CSV")
+    if noise is None or isinstance(noise, str):
+        noise = NoiseModel.default(machine) if noise is None else NoiseModel.default(machine, noise)
+    elif not isinstance(noise, NoiseModel):
+        raise InputError(f"`noise` {type(noise).__name__}: give a NoiseModel, None (the default) or an instrument's "
+                         "name such as \"spherical\"")
+    return machine, campaign, noise
+
+
 def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
@@ -196,7 +219,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     sqrt(chi2 / expected) gives (:func:`_fit_rounds`). The ratio of machine to instrument noise is kept: one level, not
     two variance components, is what the residuals tell apart from the model. ``noise``
     default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
-    noise = noise or NoiseModel.default(machine)
+    machine, campaign, noise = fit_arguments(machine, campaign, noise)
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
