@@ -54,3 +54,22 @@ def test_umask_read_without_proc_falls_back_to_set_and_restore(monkeypatch):
     after = os.umask(0o022)
     os.umask(after)
     assert after == current
+
+
+def test_an_output_file_never_replaces_a_device_or_a_folder(tmp_path):
+    """Issue 42: `--out /dev/null` (as root) replaced the system's /dev/null with a file. A
+    device, a pipe or a folder where an output file should go is refused, naming the option."""
+    import os
+    import pytest
+    from vecpin.errors import OutputError
+    from vecpin.fileio import check_output_file
+    with pytest.raises(OutputError, match="`out` /dev/null: not a regular file"):
+        check_output_file("/dev/null")
+    os.mkfifo(tmp_path / "pipe")
+    with pytest.raises(OutputError, match="not a regular file"):
+        check_output_file(tmp_path / "pipe")
+    with pytest.raises(OutputError, match="a folder"):
+        check_output_file(tmp_path)
+    assert check_output_file(tmp_path / "model.json") == tmp_path / "model.json"
+    (tmp_path / "old.json").write_text("{}")
+    assert check_output_file(tmp_path / "old.json") == tmp_path / "old.json"   # a file is replaced, as before

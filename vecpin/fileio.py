@@ -91,8 +91,16 @@ def _parent_ok(path: Path) -> None:
 
 
 def check_output_file(path: str | Path, option: str = "out") -> Path:
-    """Fail now, naming the parameter ``option``, if a file cannot be written at ``path``."""
+    """Fail now, naming the parameter ``option``, if a file cannot be written at ``path``: also
+    where something that is not a regular file stands there (a device such as /dev/null, a
+    folder, a pipe), which the atomic write would replace."""
     path = Path(path)
+    if path.exists() or path.is_symlink():
+        if path.is_dir():
+            raise OutputError(f"`{option}` {path}: a folder; give the path of a file")
+        if not path.is_file():
+            raise OutputError(f"`{option}` {path}: not a regular file (a device, a pipe or a socket), which writing "
+                              "would replace; give the path of a file")
     try:
         _parent_ok(path)
         _probe(path.parent)
