@@ -90,6 +90,7 @@ def test_linearised_reference_turn_matches_the_exact_one():
             np.testing.assert_allclose(lin[s], exact, atol=2e-3 * np.abs(exact).max() + 1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["flow_xyzcb", "trunnion_xyzac"])
 def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
     """A simulated machine, a fitted model, its full tables written as generic files; the
@@ -115,6 +116,7 @@ def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
     assert any(n.startswith("frame kept: ") for n in plan.report.notes)
 
 
+@pytest.mark.slow
 def test_nest_heights_refused_clearly_and_kept_by_the_model_file(tmp_path):
     """--nest-height: an unknown nest, a height that is not a length, fewer than three
     nests are refused naming the option; the model file keeps the heights, and a model file
@@ -147,6 +149,7 @@ def test_nest_heights_refused_clearly_and_kept_by_the_model_file(tmp_path):
         ErrorModel.load(tmp_path / "bad.json")
 
 
+@pytest.mark.slow
 def test_the_table_face_from_nest_heights_is_kept(tmp_path):
     """A trunnion measured with table nests: given the nests' heights above the table's face,
     the tables keep that face square to the spindle, so the compensated machine judged as a

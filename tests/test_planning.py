@@ -253,7 +253,7 @@ def test_plan_cli_prints_prediction_and_comparison(tmp_path, capsys):
     (["--tools", "a,b"], "--tools 'a,b'"),
     (["--repeat", "3", "1"], "--repeat"),
     (["--tracker", "3000,1000,-1300"], "inside the machine's geometry"),
-    (["--points", "5000", "--candidates", "300"], "--candidates 300: between --points (5000)"),
+    (["--points", "5000"], "--candidates 300: between --points (5000)"),
 ])
 def test_plan_cli_errors(tmp_path, capsys, argv, message):
     assert main(["plan", "flow_xyzcb", "--order", "1", "--candidates", "300", "--out", str(tmp_path / "o")] + argv) == 2
