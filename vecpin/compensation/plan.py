@@ -23,8 +23,8 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
                                            hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
                                            table_bases)
-from vecpin.compensation.frame import (FrameKept, ReferenceFrame, frame_kept, measured_box, model_as_actual,
-                                       model_reference_frame, reference_commands)
+from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, frame_kept, measured_box,
+                                       model_as_actual, model_reference_frame, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
@@ -118,7 +118,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     z = np.random.default_rng(seed).standard_normal((draws, F.shape[1])) @ F.T  # (S, P)
     e = (tip - nominal).ravel()[None] + z @ J_b.reshape(3 * len(q), -1).T   # (S, 3N)
     # each draw in its own reference frame: its lines measured where the model's were
-    qr = reference_commands(m, *measured_box(model))
+    qr = reference_commands(m, *measured_box(model), n=LINE_COMMANDS)   # the draws' changes: a linear functional
     mm = list(getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
     tr = np.array([min(mm), max(mm)]) / MM_PER_M
     qq, tt = np.repeat(qr, 2, axis=0), np.tile(tr, len(qr))
