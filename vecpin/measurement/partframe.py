@@ -18,10 +18,13 @@ compensated machine keeps is therefore a definition, made here as a metrologist 
   lines: the compensated machine moves its primary linear axis (X) along X's own mean line
   of motion, its XY plane keeps the plane of X's and Y's mean lines, and Z is square to it.
   The mean lines are least-squares slopes of the tip against each linear axis' command;
-* on a machine whose table turns (trunnions, head-table, all-table machines) and on arms,
-  the mean orientation of the working volume relative to the table: its best-fit rotation.
-  At no single pose are the table's lines representative of the whole volume, and keeping
-  the mean orientation means the tables add no net turn of the volume.
+* on a machine whose table turns (trunnions, head-table, all-table machines), on arms and
+  where several tool points are driven together, the mean orientation of the working volume
+  relative to the table: its best-fit rotation. At no single pose are the table's lines
+  representative of the whole volume, and keeping the mean orientation means the tables add
+  no net turn of the volume;
+* where the campaign read the table's face (nests at given heights), that face square to
+  the spindle (:func:`vecpin.compensation.frame.on_the_table_face`).
 
 :func:`reference_rotation` gives the rotation that takes a machine's tips into that frame.
 
@@ -36,7 +39,6 @@ from vecpin.kinematics.so3 import exp3, log3
 
 FRAME_TEXT = ("the part's frame: the tip relative to the table, the part set up by probing its origin and "
               "aligning an edge (a translation and a rotation about the spindle axis removed, nothing else)")
-SHAPE_TEXT = "the shape of the error: the best rigid motion of the whole working volume removed (the seed's figure)"
 
 
 def spindle_axis(machine) -> np.ndarray:
