@@ -67,6 +67,10 @@ class ReferenceFrame:
         """The rotation's angle [rad]: how far the machine's frame is turned from where its tips are given."""
         return partframe.rotation_angle(self.R)
 
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """``points`` (N,3) [m], given where the machine's tips are, in this frame."""
+        return (np.asarray(points, float) - self.centre) @ self.R.T + self.centre
+
 
 def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.ndarray | None = None,
                     upper: np.ndarray | None = None) -> ReferenceFrame:
@@ -89,11 +93,9 @@ def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMa
     """The ``actual`` machine with its tips expressed in its reference frame ``frame``:
     tables fitted to it keep that frame (they do not turn the working volume against the
     machine's own reference lines, which a part on the table would see)."""
-    R, c = frame.R, frame.centre
-
     def moved(q, tool, jacobian=False, point=0):
         tip, J = actual(q, tool, jacobian, point)
-        return (tip - c) @ R.T + c, (None if J is None else np.einsum("ij,njk->nik", R, J))
+        return frame.apply(tip), (None if J is None else np.einsum("ij,njk->nik", frame.R, J))
     return moved
 
 
@@ -103,28 +105,32 @@ def model_as_actual(model: ErrorModel, tools=None, frame: "ReferenceFrame | None
     orientation the fit happened to settle in is not observable from tracker data, the
     machine's reference lines are). Only its geometry (:func:`geometric_model`), as tables
     cannot carry the rest. ``frame``: the model's reference frame when it is known already."""
+    raw = _as_fitted(model)
+    return in_reference_frame(raw, frame or model_reference_frame(model, raw, tools))
+
+
+def _as_fitted(model: ErrorModel) -> ActualMachine:
+    """The model's geometric part as the actual machine in the frame its fit settled in."""
     geometric = geometric_model(model)
 
-    def raw(q, tool, jacobian=True, point=0):
+    def raw(q, tool, jacobian=False, point=0):
         out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
         return out.tip, out.J_q
-    return in_reference_frame(raw, frame or model_reference_frame(model, raw, tools))
+    return raw
+
+
+def fit_tools(model: ErrorModel) -> np.ndarray:
+    """The shortest and the longest tool length [m] of the model's fit (Paper I's two when it
+    records none): the tools the model's reference frame is measured with."""
+    mm = list(getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
+    return np.array([min(mm), max(mm)]) / MM_PER_M
 
 
 def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, tools=None) -> ReferenceFrame:
     """The reference frame of a fitted model (:func:`reference_frame`) over the commands its
-    campaign measured (:func:`measured_box`) with ``tools`` [m] (default the fit's tool
-    lengths, at most the shortest and the longest)."""
-    if raw is None:
-        geometric = geometric_model(model)
-
-        def raw(q, tool, jacobian=False, point=0):
-            out = geometric.tool_tip(q, tool, geometric.b_, jacobian, frame=FRAME, point=point)
-            return out.tip, out.J_q
-    if tools is None:
-        mm = list(getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
-        tools = [min(mm) / MM_PER_M, max(mm) / MM_PER_M]
-    frame = reference_frame(raw, model.machine, tools, *measured_box(model))
+    campaign measured (:func:`measured_box`) with ``tools`` [m] (default :func:`fit_tools`)."""
+    frame = reference_frame(raw or _as_fitted(model), model.machine, fit_tools(model) if tools is None else tools,
+                            *measured_box(model))
     setup = getattr(model, "setup_", None)
     if setup is not None and len(setup.nest_heights) >= 3:
         frame = on_the_table_face(frame, model.machine, setup.nests, setup.nest_heights)
@@ -138,7 +144,7 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heig
     turn about the spindle stays the frame's. Where a campaign reads the table this way the
     tables keep the table itself, not the machine's lines or mean orientation."""
     ids = sorted(k for k in heights if k in nests)
-    P = (np.array([nests[k] for k in ids]) - frame.centre) @ frame.R.T + frame.centre
+    P = frame.apply(np.array([nests[k] for k in ids]))
     h = np.array([heights[k] for k in ids])
     up = -partframe.spindle_axis(machine)
     e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
@@ -150,9 +156,9 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heig
                           "are needed to find the table's face")
     a, b, _ = np.linalg.lstsq(A, h - P @ up, rcond=None)[0]
     n = up + a * e1 + b * e2
-    n /= np.linalg.norm(n)
-    tilt = exp3(np.cross(n, up) * np.arcsin(min(np.linalg.norm(np.cross(n, up)), 1.0))
-                / max(np.linalg.norm(np.cross(n, up)), 1e-300))
+    axis = np.cross(n / np.linalg.norm(n), up)            # |axis| = sin of the tilt
+    sin = np.linalg.norm(axis)
+    tilt = exp3(axis * np.arcsin(min(sin, 1.0)) / max(sin, 1e-300))
     return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted so that the table's face, found by nests "
                           + ", ".join(ids) + " at their given heights, is square to the spindle")
 

@@ -23,8 +23,8 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
                                            hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
                                            table_bases)
-from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, frame_kept, measured_box,
-                                       model_as_actual, model_reference_frame, reference_commands)
+from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
+                                       measured_box, model_as_actual, model_reference_frame, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
@@ -87,7 +87,8 @@ def table_commands(machine: Machine, n_tools: int, modulo_axes=()) -> int:
 
 
 def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, tool: np.ndarray,
-                     draws: int = 200, seed: int = 0, point=0) -> tuple[float, float, float]:
+                     draws: int = 200, seed: int = 0, point=0, frame: ReferenceFrame | None = None
+                     ) -> tuple[float, float, float]:
     """Mean volumetric error [mm] in the part's frame of ``tables`` on machines that differ
     from the model by its parameter uncertainty: (mean over draws, 16th and 84th percentile).
 
@@ -99,10 +100,11 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     removes the orientation the tracker pose absorbs) and judged as a part set up on it sees
     it (translation and rotation about the spindle removed, linearised). The draws are
     seeded: reruns print the same figures. Only the model's geometric part counts
-    (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more."""
+    (:func:`~vecpin.compensation.functions.geometric_model`): tables carry no more.
+    ``frame``: the model's reference frame when it is known already."""
     model = geometric_model(model)
     m = model.machine
-    frame = model_reference_frame(model)
+    frame = frame or model_reference_frame(model)
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
@@ -110,7 +112,7 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     else:
         qc, nominal = tables.apply(q), nominal_tip(m, q, tool + tables.gauge_offset_change, point)
     out = model.tool_tip(qc, tool, model.b_, jacobian=True, frame=FRAME, point=point)
-    tip = (out.tip - frame.centre) @ frame.R.T + frame.centre
+    tip = frame.apply(out.tip)
     J_b = np.einsum("ij,njp->nip", frame.R, out.J_b)
     cov = np.asarray(model.cov_, float)[6:, 6:]
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
@@ -119,12 +121,11 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
     e = (tip - nominal).ravel()[None] + z @ J_b.reshape(3 * len(q), -1).T   # (S, 3N)
     # each draw in its own reference frame: its lines measured where the model's were
     qr = reference_commands(m, *measured_box(model), n=LINE_COMMANDS)   # the draws' changes: a linear functional
-    mm = list(getattr(model.report_, "tool_lengths_mm", None) or PAPER_I_TOOLS_MM)
-    tr = np.array([min(mm), max(mm)]) / MM_PER_M
-    qq, tt = np.repeat(qr, 2, axis=0), np.tile(tr, len(qr))
+    tr = fit_tools(model)
+    qq, tt = np.repeat(qr, len(tr), axis=0), np.tile(tr, len(qr))
     ref = model.tool_tip(qq, tt, model.b_, jacobian=True, frame=FRAME)
     Jr = np.einsum("ij,njp->nip", frame.R, ref.J_b)
-    ref_tip = (ref.tip - frame.centre) @ frame.R.T + frame.centre
+    ref_tip = frame.apply(ref.tip)
     dw = partframe.reference_rotation_changes(m, qq, tt, ref_tip, np.einsum("nip,sp->sni", Jr, z))
     e = (e.reshape(draws, -1, 3) + np.cross(dw[:, None, :], tip - frame.centre)).reshape(draws, -1)
     Q = partframe.part_motion_basis(nominal, partframe.spindle_axis(m))
@@ -174,7 +175,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
         spread = parameter_spread(model, ts, problem.q[spread_rows], problem.L[spread_rows],
-                                  point=pt) if with_spread else None
+                                  point=pt, frame=frame) if with_spread else None
         report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread,
                    shape=compensated_errors(actual, m, ts, problem.q, problem.L, "shape", point=problem._pt))
 
@@ -475,6 +476,7 @@ def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, lab
     err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     shape = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, "shape", point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
-    spread = parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt) if with_spread else None
+    spread = (parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt, frame=plan.reference)
+              if with_spread else None)
     plan.report.add(label, err, len(tables.tables), spread, shape=shape)
 

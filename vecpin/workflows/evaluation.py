@@ -185,8 +185,7 @@ def _relative_to_table(model: ErrorModel, campaign: Campaign, reregister: bool) 
         to_ref = RunReference(m, c.q, c.tool, nominal, tt.tip)
     else:   # the nests where the fit put them: the model's reference frame
         from vecpin.compensation.frame import model_reference_frame
-        mf = model_reference_frame(model)
-        to_ref = lambda p: (p - mf.centre) @ mf.R.T + mf.centre  # noqa: E731
+        to_ref = model_reference_frame(model).apply
     uncompensated = part_frame_errors(nominal, to_ref(tt.tip), spindle_axis(m))
     return Evaluation(len(c), c.tool, norm_mm(uncompensated),
                       norm_mm(residual), reregister, len(campaign) - len(c), TABLE_FRAME,

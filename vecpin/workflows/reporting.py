@@ -160,8 +160,7 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.n
     m = model.machine
     residual = to_machine_frame(model, c.xyz) - model.predict(c.q, c.tool, "machine", features=feats)
     nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
-    ref = model_reference_frame(model)
-    comp = (model.predict(tables.apply(c.q), c.tool, "machine", features=feats) - ref.centre) @ ref.R.T + ref.centre
+    comp = model_reference_frame(model).apply(model.predict(tables.apply(c.q), c.tool, "machine", features=feats))
     return norm_mm(part_frame_errors(nominal, residual + comp, spindle_axis(m)))
 
 

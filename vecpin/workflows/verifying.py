@@ -300,11 +300,12 @@ def _after_reference(machine: Machine, ref: RunReference, a: Campaign, nominal: 
     """(the reference the compensated run is judged in, notes, the frame's words): the
     uncompensated run's, so that a turn the tables give the working volume counts; the run's
     own when the tracker was evidently moved between the runs (said in a note)."""
-    if ref.turn_of(nominal, a.xyz) < TRACKER_MOVED:
+    turn = ref.turn_of(nominal, a.xyz)
+    if turn < TRACKER_MOVED:
         return ref, [], (f"both runs in {ref.how} (the tracker stayed where it was, so a turn the tables give the "
                          "working volume counts)")
     own = RunReference(machine, a.q, a.tool, nominal, a.xyz)
-    return own, [f"{source} is turned {1e3 * ref.turn_of(nominal, a.xyz):.1f} mrad from the uncompensated run: the "
+    return own, [f"{source} is turned {1e3 * turn:.1f} mrad from the uncompensated run: the "
                  "tracker was moved between the runs, so each run is judged in its own reference frame and a turn "
                  "of the working volume by the tables is not seen; read both runs from one tracker place"], (
         f"each run in its own reference frame ({ref.how})")
