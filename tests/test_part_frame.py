@@ -75,7 +75,7 @@ def test_linearised_reference_turn_matches_the_exact_one():
     """reference_rotation_changes (the parameter-uncertainty draws) against reference_rotation
     on small changes, for lines and for the mean orientation."""
     rng = np.random.default_rng(3)
-    for name in ("flow_xyzcb", "trunnion_xyzac"):
+    for name in ("flow_xyzcb", "trunnion_xyzac", "spar_mill_23"):
         m = vecpin.Machine.load(name)
         q = pseudo_commands(m, 300, seed=4)
         if pf.uses_lines(m):

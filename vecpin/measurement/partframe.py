@@ -157,7 +157,7 @@ def reference_rotation(machine, q: np.ndarray, tool, nominal: np.ndarray, actual
     nominal, actual = np.asarray(nominal, float), np.asarray(actual, float)
     spindle = spindle_axis(machine) if spindle is None else spindle
     nom_lines = mean_lines(machine, q, tool, nominal)
-    pair = reference_axes(machine, nom_lines, spindle) if uses_lines(machine, spindle) else None
+    pair = _line_pair(machine, nom_lines, spindle)
     if pair is None:
         from vecpin.measurement.registration import register
         R = register(actual, nominal)[0]
@@ -171,19 +171,34 @@ def reference_rotation(machine, q: np.ndarray, tool, nominal: np.ndarray, actual
     for _ in range(3):  # the condition is linear in a small rotation: twice reaches 1e-12 rad
         lines = mean_lines(machine, q, tool, (actual - c) @ R.T)
         a1, a2 = (lines[n] / np.linalg.norm(lines[n]) for n in pair)
-        n = np.cross(u1, u2)
-        n /= np.linalg.norm(n)
-        e2 = np.cross(n, u1)
-        # small w turns a (unit) into a + w x a: want a1 -> u1 (its components along e2, n vanish)
-        # and a2 without a component along n
-        A = np.array([np.cross(a1, e2), np.cross(a1, n), np.cross(a2, n)])
-        b = -np.array([a1 @ e2, a1 @ n, a2 @ n])
+        A, b = _line_conditions(u1, u2, a1, a2, a1, a2)
         w = np.linalg.solve(A, b)
         R = exp3(w) @ R
         if np.abs(w).max() < 1e-13:
             break
     return R, (f"ISO 230-1 reference lines: {p} along {p}'s mean line of motion, the {p}{s} plane that of {p} and "
                f"{s}, the third direction square to it (the bed is aligned to them when the machine is commissioned)")
+
+
+def _line_pair(machine, nom_lines: dict, spindle: np.ndarray) -> tuple[str, str] | None:
+    """The primary and secondary axis of the reference lines, or None where the frame is the
+    volume's mean orientation (:func:`uses_lines`): one decision for the exact turn and its
+    linearisation."""
+    return reference_axes(machine, nom_lines, spindle) if uses_lines(machine, spindle) else None
+
+
+def _line_conditions(u1: np.ndarray, u2: np.ndarray, a1: np.ndarray, a2: np.ndarray, d1: np.ndarray,
+                     d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A (3,3), b (3,) or (S,3)): the reference lines' conditions on a small turn w, A w = b.
+    A small w turns a line direction a into a + w x a; wanted: the primary line along its
+    nominal u1 (its components along e2 = n x u1 and n = u1 x u2 vanish) and the secondary
+    without a component along n. ``a1``, ``a2``: the lines the turn acts on; ``d1``, ``d2``:
+    the components to cancel (the lines themselves, or their small changes)."""
+    n = np.cross(u1, u2)
+    n /= np.linalg.norm(n)
+    e2 = np.cross(n, u1)
+    A = np.array([np.cross(a1, e2), np.cross(a1, n), np.cross(a2, n)])
+    return A, -np.stack([d1 @ e2, d1 @ n, d2 @ n], axis=-1)
 
 
 def rotation_angle(R: np.ndarray) -> float:
@@ -212,7 +227,7 @@ def reference_rotation_changes(machine, q: np.ndarray, tool, nominal: np.ndarray
     dE = np.asarray(changes, float)
     spindle = spindle_axis(machine) if spindle is None else spindle
     nom_lines = mean_lines(machine, q, tool, nominal)
-    pair = reference_axes(machine, nom_lines, spindle)
+    pair = _line_pair(machine, nom_lines, spindle)
     if pair is None:   # best-fit rotation: minus the least-squares rotation the changes make about the centroid
         r = nominal - nominal.mean(0)
         B = -np.cross(r[:, :, None], np.eye(3)[None], axis=1)            # (N,3,3): w -> w x r
@@ -221,13 +236,9 @@ def reference_rotation_changes(machine, q: np.ndarray, tool, nominal: np.ndarray
     X, where = _regressors(machine, q, tool)
     C = np.linalg.pinv(X)                                                 # (k, N)
     u1, u2 = (nom_lines[n] / np.linalg.norm(nom_lines[n]) for n in pair)
-    n = np.cross(u1, u2)
-    n /= np.linalg.norm(n)
-    e2 = np.cross(n, u1)
     i1, i2 = (where[machine.axis(p).index] for p in pair)
     ds1, ds2 = np.einsum("n,sni->si", C[i1], dE), np.einsum("n,sni->si", C[i2], dE)   # (S,3) slope changes
-    A = np.array([np.cross(u1, e2), np.cross(u1, n), np.cross(u2, n)])
-    b = -np.column_stack([ds1 @ e2, ds1 @ n, ds2 @ n])
+    A, b = _line_conditions(u1, u2, u1, u2, ds1, ds2)
     return np.linalg.solve(A, b.T).T
 
 
