@@ -25,7 +25,7 @@ from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names,
                                            table_bases)
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
-from vecpin.compensation.report import CompensationReport, compensated_errors
+from vecpin.compensation.report import CompensationReport, compensated_errors, part_and_shape
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
 from vecpin.compensation.tables import TableSet
@@ -176,8 +176,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
         spread = parameter_spread(model, ts, problem.q[spread_rows], problem.L[spread_rows],
                                   point=pt, frame=frame) if with_spread else None
-        report.add(label, compensated_errors(actual, m, ts, problem.q, problem.L, point=problem._pt), n, spread,
-                   shape=compensated_errors(actual, m, ts, problem.q, problem.L, "shape", point=problem._pt))
+        part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
+        report.add(label, part, n, spread, shape=shape)
 
     add("uncompensated (model)", None, 0)
     if progress:
@@ -473,8 +473,7 @@ def add_as_written_row(plan: TablePlan, model: ErrorModel, tables: TableSet, lab
     model = geometric_model(model)
     actual = model_as_actual(model, frame=plan.reference)   # in the frame the plan's tables keep
     pt = plan.problem._pt
-    err = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
-    shape = compensated_errors(actual, model.machine, tables, plan.problem.q, plan.problem.L, "shape", point=pt)
+    err, shape = part_and_shape(actual, model.machine, tables, plan.problem.q, plan.problem.L, point=pt)
     with_spread = any(r.spread is not None for r in plan.report.rows)
     spread = (parameter_spread(model, tables, plan.problem.q, plan.problem.L, point=pt, frame=plan.reference)
               if with_spread else None)

@@ -100,14 +100,29 @@ def compensated_errors(actual: ActualMachine, machine: Machine, tables: TableSet
     ``"none"``, as they are."""
     if judged not in JUDGED:
         raise VecpinError(f"judged {judged!r}: one of {', '.join(JUDGED)}")
+    return _judged(*_compensated_tips(actual, machine, tables, q, tool, point), machine, judged)
+
+
+def part_and_shape(actual: ActualMachine, machine: Machine, tables: TableSet | None, q: np.ndarray,
+                   tool: np.ndarray, point=0) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`compensated_errors` judged "part", and judged "shape"), the machine commanded once."""
+    nominal, tip = _compensated_tips(actual, machine, tables, q, tool, point)
+    return _judged(nominal, tip, machine, "part"), _judged(nominal, tip, machine, "shape")
+
+
+def _compensated_tips(actual: ActualMachine, machine: Machine, tables: TableSet | None, q: np.ndarray,
+                      tool: np.ndarray, point) -> tuple[np.ndarray, np.ndarray]:
+    """(the controller's nominal tips, the actual machine's tips under ``tables``) (N,3) [m]."""
     q = np.atleast_2d(np.asarray(q, float))
     tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
     if tables is None:
-        tip, nominal = actual(q, tool, False, point)[0], nominal_tip(machine, q, tool, point)
-    else:
-        qc = tables.apply(q)
-        tip = tables.turn_tips(machine, qc, actual(qc, tool, False, point)[0], FRAME)  # twin drives turn their beam
-        nominal = nominal_tip(machine, q, tool + tables.gauge_offset_change, point)
+        return nominal_tip(machine, q, tool, point), actual(q, tool, False, point)[0]
+    qc = tables.apply(q)
+    tip = tables.turn_tips(machine, qc, actual(qc, tool, False, point)[0], FRAME)  # twin drives turn their beam
+    return nominal_tip(machine, q, tool + tables.gauge_offset_change, point), tip
+
+
+def _judged(nominal: np.ndarray, tip: np.ndarray, machine: Machine, judged: str) -> np.ndarray:
     if judged == "part":
         return partframe.part_frame_errors(nominal, tip, partframe.spindle_axis(machine))
     if judged == "shape":
