@@ -6,6 +6,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 if os.environ.get("PYTEST_XDIST_WORKER"):   # the test workers share the cores out already
     os.environ.setdefault("VECPIN_WORKERS", "1")
 
+import time
+
 import numpy as np
 import pytest
 
@@ -28,7 +30,7 @@ def rng():
     return np.random.default_rng(12345)
 
 
-def pytest_terminal_summary(terminalreporter):
+def _linuxcnc_line(terminalreporter):
     """One line on the real-controller tests (tests/test_linuxcnc_real.py): ran or skipped, and why."""
     seen = {}
     for outcome in ("passed", "failed", "skipped", "error"):
@@ -42,3 +44,29 @@ def pytest_terminal_summary(terminalreporter):
             rep = next(r for r in terminalreporter.stats["skipped"] if "test_linuxcnc_real.py" in r.nodeid)
             why = f" ({rep.longrepr[2] if isinstance(rep.longrepr, tuple) else rep.longrepr})"
         terminalreporter.write_line(f"real LinuxCNC controller tests: {counts}{why}")
+
+
+_BUDGET = "VECPIN_TIER_BUDGET_S"   # set by .ci/run for the fast tier: the run fails when it takes longer
+_started = time.monotonic()
+
+
+def _controller() -> bool:
+    return not os.environ.get("PYTEST_XDIST_WORKER")
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """The tier's wall time against its budget (``VECPIN_TIER_BUDGET_S``): over it, the run fails."""
+    budget = os.environ.get(_BUDGET)
+    if budget and _controller() and exitstatus == 0 and time.monotonic() - _started > float(budget):
+        session.exitstatus = 1
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """The real-controller line, and the tier's wall time beside its budget when one is set."""
+    _linuxcnc_line(terminalreporter)
+    budget = os.environ.get(_BUDGET)
+    if budget and _controller():
+        took = time.monotonic() - _started
+        verdict = "within" if took <= float(budget) else "OVER"
+        terminalreporter.write_line(f"tier wall time: {took:.0f} s, {verdict} its {float(budget):.0f} s budget "
+                                    f"(markers: {config.getoption('markexpr') or 'all'})")
