@@ -67,8 +67,8 @@ def registered_errors(p_machine: np.ndarray, p_tracker: np.ndarray) -> np.ndarra
 
 
 # scale factors of the usual unit mistakes: measured / nominal
-_UNIT_SCALES = {25.4: "x, y, z in inches while the commands are mm (or the commands in mm/25.4)",
-                1 / 25.4: "the commands in inches while x, y, z are mm",
+_UNIT_SCALES = {25.4: "the commands in inches while x, y, z are mm",
+                1 / 25.4: "x, y, z in inches while the commands are mm",
                 10.0: "x, y, z in 1/10 mm or the commands in cm", 0.1: "x, y, z in cm",
                 1000.0: "x, y, z in µm", 0.001: "x, y, z in metres"}
 RESIDUAL_LIMIT = 0.02  # m: no machine worth measuring is this far from its nominal kinematics after registration
