@@ -318,3 +318,25 @@ def test_import_cli(flow, day, tmp_path, capsys):
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "give --units in" in err and "Traceback" not in err
+
+
+def test_german_export_with_date_and_time_columns_keeps_names_time_and_temperature(flow, day):
+    """`Punktname;X;Y;Z;Datum;Uhrzeit;Lufttemperatur`: joined by the point names, the date and
+    the time of day read as one stamp, the air temperature kept (none dropped silently)."""
+    d, t, c = day
+    lines = ["Punktname;X;Y;Z;Datum;Uhrzeit;Lufttemperatur"]
+    for i in range(len(c)):
+        stamp = T0 + timedelta(seconds=float(c.time[i]))
+        x, y, z = (f"{v:.6f}".replace(".", ",") for v in c.xyz[i] * 1000.0)
+        lines.append(";".join([point_name(t.point[i]), x, y, z, stamp.strftime("%d.%m.%Y"),
+                               stamp.strftime("%H:%M:%S"), f"{c.temperature[i]:.3f}".replace(".", ",")]))
+    p = d / "de.csv"
+    p.write_text("\r\n".join(lines) + "\r\n", encoding="utf-8")
+    res = import_export(p, flow, d / "plan.csv")
+    assert res.columns["point"] == "Punktname" and res.columns["temperature"] == "Lufttemperatur"
+    assert (res.columns["date"], res.columns["time"]) == ("Datum", "Uhrzeit")
+    got = res.campaign
+    np.testing.assert_array_equal(got.extra["point"], t.point)
+    np.testing.assert_allclose(got.time, c.time - c.time[0], atol=1.0)   # across midnight: the date counts
+    np.testing.assert_allclose(got.temperature, c.temperature, atol=1e-3)
+    np.testing.assert_allclose(got.xyz, c.xyz, atol=1e-9)

@@ -20,7 +20,10 @@ MEAS_WORDS = {"meas", "measured", "measurement", "actual", "act", "value", "val"
 EXCLUDE_WORDS = {"nom", "nominal", "dev", "deviation", "delta", "d", "err", "error", "tol", "tolerance", "offset",
                  "diff", "design", "cad", "sigma", "std", "unc", "uncertainty", "rms", "ref", "reference"}
 POINT_HEADERS = [["point"], ["point", "name"], ["name"], ["id"], ["point", "id"], ["label"], ["pt"], ["pt", "name"],
-                 ["point", "number"], ["point", "no"], ["target"], ["target", "name"], ["feature"], ["no"], ["nr"]]
+                 ["point", "number"], ["point", "no"], ["target"], ["target", "name"], ["feature"], ["no"], ["nr"],
+                 ["punkt"], ["punktname"], ["punktnummer"], ["punktnr"], ["punkt", "nr"], ["bezeichnung"]]  # German
+TIME_WORDS = {"time", "timestamp", "datetime", "date", "zeit", "uhrzeit", "zeitstempel", "datum"}
+DATE_ONLY = ({"date"}, {"datum"}, {"day"})   # a column of dates beside a column of times of day
 UNIT_TOKENS = {"mm", "millimeter", "millimeters", "millimetre", "millimetres", "in", "inch", "inches", "m", "meter",
                "meters", "metre", "metres", "c", "degc", "celsius", "f", "degf", "fahrenheit", "k", "kelvin", "s", "sec",
                "ms", "min", "h", "hr", "hrs"}
@@ -167,8 +170,9 @@ def _is_coord(words: list[str], axis: str) -> bool:
 
 
 def resolve_columns(header: list[str], user: dict[str, str], axes: list[str], want_axes: bool) -> tuple[dict, dict]:
-    """{field: column index} from the user's map and recognised names; second dict: the
-    candidates found for fields that are ambiguous ({field: [names]})."""
+    """{field: column index} from the user's map and recognised names (English and German
+    headers; a date column beside a time-of-day column is field ``date``, read with the time);
+    second dict: the candidates found for fields that are ambiguous ({field: [names]})."""
     idx: dict[str, int] = {}
     ambiguous: dict[str, list[str]] = {}
     lower = {h.lower(): j for j, h in enumerate(header)}
@@ -188,9 +192,10 @@ def resolve_columns(header: list[str], user: dict[str, str], axes: list[str], wa
     toks = [_tokens(h)[0] for h in header]
     tests = {"x": lambda w: _is_coord(w, "x"), "y": lambda w: _is_coord(w, "y"), "z": lambda w: _is_coord(w, "z"),
              "point": lambda w: w in POINT_HEADERS,
-             "time": lambda w: bool({"time", "timestamp", "datetime", "date"} & set(w)) and not
+             "time": lambda w: bool(TIME_WORDS & set(w)) and not
              ({"temp", "temperature"} & set(w)) and not (set(w) & EXCLUDE_WORDS),
-             "temperature": lambda w: any(x.startswith("temp") for x in w) and not (set(w) & EXCLUDE_WORDS),
+             "temperature": lambda w: any(x.startswith("temp") or "temperatur" in x for x in w)
+             and not (set(w) & EXCLUDE_WORDS),
              "tool": lambda w: w in (["tool"], ["tool", "length"], ["holder"], ["holder", "length"])}
     for f, test in tests.items():
         if f in idx:
@@ -198,8 +203,14 @@ def resolve_columns(header: list[str], user: dict[str, str], axes: list[str], wa
         exact = [j for j, h in enumerate(header) if h == f and j not in taken]
         cand = exact or [j for j, w in enumerate(toks) if j not in taken and test(w)]
         if f == "temperature" and len(cand) > 1:
-            air = [j for j in cand if "air" in toks[j]]
+            air = [j for j in cand if any(w in ("air", "luft") or w.startswith("luft") for w in toks[j])]
             cand = air if len(air) == 1 else cand
+        if f == "time" and len(cand) == 2:   # a date column beside a time-of-day column: read as one stamp
+            dates = [j for j in cand if set(toks[j]) in DATE_ONLY]
+            if len(dates) == 1:
+                idx["date"] = dates[0]
+                taken.add(dates[0])
+                cand = [j for j in cand if j != dates[0]]
         if len(cand) == 1:
             idx[f] = cand[0]
             taken.add(cand[0])

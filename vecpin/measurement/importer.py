@@ -106,8 +106,14 @@ def _gyration(p: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
 
 
-def _parse_times(table: ExportTable, col: int, name: str, fmt: str | None, decimal: str, unit: str) -> np.ndarray:
+def _parse_times(table: ExportTable, col: int, name: str, fmt: str | None, decimal: str, unit: str,
+                 date_col: int | None = None) -> np.ndarray:
+    """Seconds [s] from the first row of the time column ``col`` (numbers in ``unit``, or
+    date-and-time stamps; with ``date_col``, that column's date joined to each time of day)."""
     cells = [r[col] for r in table.rows]
+    if date_col is not None:
+        cells = [f"{r[date_col].strip()} {c.strip()}" for r, c in zip(table.rows, cells)]
+        name = f"{table.header[date_col]} + {name}"
     try:
         vals = np.array([parse_number(c, decimal) for c in cells])
         scale = {"ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0, "hrs": 3600.0}.get(unit, 1.0)
@@ -428,7 +434,7 @@ def _time_and_temperature(ex: _Export, j: _Joined, machine: Machine, time_format
     if "time" in ex.idx:
         tunits = _tokens(ex.header_of("time"))[1]
         t = _parse_times(ex.table, ex.idx["time"], ex.header_of("time"), time_format, ex.dec,
-                         tunits[0] if tunits else "s")[j.keep]
+                         tunits[0] if tunits else "s", ex.idx.get("date"))[j.keep]
         if np.any(np.diff(t) < 0):
             order = np.argsort(t, kind="stable")
             ex.notes.append("rows were not in time order; sorted by their time stamps")
