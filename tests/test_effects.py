@@ -74,3 +74,16 @@ def test_user_effect_can_be_registered(small):
         assert effect_from_dict({"name": "z_droop_test"}, m).n_parameters == 1
     finally:
         REGISTRY.pop("z_droop_test")
+
+
+def test_skew_advice_numbers_agree_with_each_other(flow):
+    """The skew's range over an axis, its end-to-end change and its slope are one curve's
+    numbers: slope x travel = end to end, and a curved skew says the rest is curvature."""
+    import re
+    e = GantrySkew(flow, ("Y",), about="x", orders={"X": 2, "Z": 0, "C": 0, "B": 0})
+    line = next(s for s in e.advice(np.array([40e-6, 100e-6]), None) if "over X" in s)
+    vals = [float(v) for v in re.findall(r"[-+]?\d+\.\d+", line)]
+    ptp, travel, ends, slope = vals[0], vals[1], vals[2], vals[3]
+    assert travel == pytest.approx(flow.axis("X").travel, abs=0.01)
+    assert slope * travel == pytest.approx(ends, rel=0.01)
+    assert ptp > ends and "curvature" in line      # a quadratic term: the range exceeds the end-to-end change

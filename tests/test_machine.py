@@ -378,3 +378,19 @@ def test_joint_frames_are_the_axis_frames(machines, rng):
 def test_unknown_machine_name():
     with pytest.raises(vecpin.MachineError, match="bundled"):
         vecpin.Machine.load("no_such_machine")
+
+
+def test_a_mimicked_drive_off_the_branch_is_an_axis_not_a_fixed_joint():
+    """Twin drive: the tool branch runs through Y1, which mimics Y2 on a side branch. Y2 is an
+    axis (a campaign column), so no note calls it fixed at 0."""
+    lim = "<limit lower='-1' upper='1' effort='1' velocity='1'/>"
+    xml = ("<robot name='twin'><link name='base'/><link name='y1'/><link name='y2'/><link name='spindle'/>"
+           f"<joint name='Y2' type='prismatic'><parent link='base'/><child link='y2'/><axis xyz='0 1 0'/>{lim}</joint>"
+           f"<joint name='Y1' type='prismatic'><parent link='base'/><child link='y1'/><axis xyz='0 1 0'/>{lim}"
+           "<mimic joint='Y2'/></joint>"
+           f"<joint name='Z' type='prismatic'><parent link='y1'/><child link='spindle'/><axis xyz='0 0 1'/>{lim}</joint>"
+           "</robot>")
+    m = vecpin.Machine.from_urdf_string(xml)
+    assert "Y2" in m.axis_names
+    assert not any("fixed at 0" in n and "Y2" in n for n in m.notes)
+    assert "fixed at 0" not in m.describe()

@@ -96,9 +96,11 @@ class GantrySkew(Effect):
             ang = np.polynomial.chebyshev.chebval(u, np.r_[0.0, c])
             travel = m.axis(other).travel
             if m.axis(other).kind == "linear" and travel > 0 and np.ptp(ang) > 1e-6:
-                slope = (ang[-1] - ang[0]) / travel * 1e6  # µrad per m
+                ends = (ang[-1] - ang[0]) * 1e6        # µrad from one end of the travel to the other
+                shape = "" if np.ptp(ang) * 1e6 < 1.1 * abs(ends) + 1.0 else "; the rest is curvature"
                 lines.append(f"{self.label}: rotation about {a}'s {self.about} axis varies by "
-                             f"{np.ptp(ang) * 1e6:.1f} µrad over {other} ({slope:+.1f} µrad/m)")
+                             f"{np.ptp(ang) * 1e6:.1f} µrad over {other}'s {travel:.2f} m travel (end to end "
+                             f"{ends:+.1f} µrad, {ends / travel:+.1f} µrad/m{shape})")
             k += self.orders[other]
         lines.append(f"{self.label}: geometric; the tables carry it (vecpin tables with model_best.json); on a gantry "
                      f"with two drives it is a differential table between the drives of {a}")
