@@ -19,7 +19,7 @@ def test_rows_beyond_the_measured_range_are_judged_apart(machines):
     beyond = x > sim.campaign.q[:, 0].max() + 0.02 * m.axis("X").travel
     assert beyond.any() and (~beyond).any()
     np.testing.assert_array_equal(ev.outside, beyond)                          # the rows, nothing else
-    assert ev.warnings[0].startswith(f"warning: {beyond.sum()} of {len(beyond)} rows")
+    assert ev.warnings[0].startswith(f"WARNING: {beyond.sum()} of {len(beyond)} rows")
     assert "(X 35.6..2999.8 mm)" in ev.warnings[0] and "extrapolates" in ev.warnings[0]
     text = "\n".join(ev.lines())
     assert "model, outside" in text and "model, inside" in text

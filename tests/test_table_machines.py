@@ -76,7 +76,7 @@ def test_simulated_validation_reads_the_nests_and_evaluate_judges_the_tip_relati
             evaluate(model, v.subset(v.tracker_rows))
         return
     tool_only = evaluate(model, v.subset(v.tracker_rows))
-    assert tool_only.frame == TRACKER_FRAME and tool_only.warnings[0].startswith("warning: ")
+    assert tool_only.frame == TRACKER_FRAME and tool_only.warnings[0].startswith("WARNING: ")
     assert "no nest rows" in tool_only.warnings[0] and ", ".join(m.table_axes) in tool_only.warnings[0]
 
 

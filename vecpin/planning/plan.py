@@ -232,7 +232,8 @@ def plan_result(problem: PlanProblem, info: Information, c: Candidates, chosen: 
     shuffled = chosen[np.random.default_rng(s.seed + 2).permutation(len(chosen))]
     t_random = route.travel_time(np.vstack([shuffled] * len(tools)), problem.speed)
     say("validation run")
-    run = validation_run(machine, s, problem.lo, problem.hi, tools[0], c.sight, problem.nests, problem.speed)
+    run = validation_run(machine, s, np.maximum(problem.lo, chosen.min(axis=0)),   # inside what the fit measures
+                         np.minimum(problem.hi, chosen.max(axis=0)), tools[0], c.sight, problem.nests, problem.speed)
     plan = Plan(machine, s, template, chosen, c.q, c.removed, c.sight_by, problem.tracker, s.tracker_mm is not None,
                 problem.steps, score, info, cov, t_random, c.geometry, (problem.lo, problem.hi), vq, problem.nests,
                 without, bare, problem.tracker_side)

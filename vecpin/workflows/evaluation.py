@@ -111,7 +111,7 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     ev = _at_the_tool(model, campaign, reregister, model_source)
     _judge_range(model, station0(campaign), ev)
     if model.machine.has_workpiece:
-        ev.warnings.append(f"warning: {campaign.source} has no nest rows: judged at the tool tip, which the table axes "
+        ev.warnings.append(f"WARNING: {campaign.source} has no nest rows: judged at the tool tip, which the table axes "
                            f"({', '.join(model.machine.table_axes)}) do not move, so their errors are not seen; read "
                            "reflectors in three or more table nests at each command to judge the tip relative to the "
                            "table")
@@ -213,6 +213,6 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}" for a in axes)
     inside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan")
     outside_mean = ev.residual[outside].mean()
-    ev.warnings.append(f"warning: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "
+    ev.warnings.append(f"WARNING: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "
                        f"what the fit measured ({where}): the model extrapolates there (model mean {outside_mean:.4f} "
                        f"mm outside, {inside_mean:.4f} mm inside); judged apart below")

@@ -319,7 +319,7 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
         b, a = before.primary(), after.primary()
         warnings = []
         if machine.has_workpiece:
-            warnings.append(f"warning: {before.source} and {after.source} have no nest rows: both judged at the tool "
+            warnings.append(f"WARNING: {before.source} and {after.source} have no nest rows: both judged at the tool "
                             f"tip, which the table axes ({', '.join(machine.table_axes)}) do not move, so their "
                             "errors and their compensation are not seen; read table nests in both runs to judge the "
                             "tip relative to the table")
