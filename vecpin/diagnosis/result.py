@@ -196,8 +196,9 @@ class Diagnosis:
             s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
                    "if the machine is used only where they were measured, diagnose in a `zone` over their measured ranges.")
         if self.unexplained:
-            s3 += (" Not explained by any candidate: structure along "
-                   + ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained) + ".")
+            coords = ", ".join(self.localization_final["breakdowns"][k]["coordinate"] for k in self.unexplained)
+            after = f" after {', '.join(e.label for e in acc)}" if acc else ""
+            s3 += f" Left{after}: structure along {coords} that no candidate explains."
         return [s1, s2, s3]
 
     def to_dict(self) -> dict:
