@@ -10,7 +10,7 @@ import pytest
 from vecpin.cli import main
 from vecpin.measurement.campaign import write_campaign
 from vecpin.planning.plan import PlanSettings, make_plan
-from vecpin.simulation.simulate import simulate
+from vecpin.simulation.simulate import Design, simulate
 from vecpin.measurement.uncompensated import uncompensated
 
 from closed_forms import MACHINES
@@ -92,3 +92,27 @@ def test_import_assess_and_fit_print_the_same_figure(flow, day, tmp_path, capsys
     assert len(set(figures.values())) == 1, figures
     u = uncompensated(flow, c)
     assert figures["fit"] == (f"{u.mean_mm:.4f}", f"{u.max_mm:.4f}")
+
+
+def test_the_all_table_machine_has_one_figure_the_tip_relative_to_the_table(machines, tmp_path, capsys):
+    """xyzac_trt (every axis moves the table, the tool stands still): assess no longer refuses,
+    and assess and fit print the one figure, the tip relative to the table, which evaluate
+    (its nests where the fit put them, its own code path) confirms to 1 %."""
+    import json
+    m = machines["xyzac_trt"]
+    sim = simulate(m, 2, design=Design(n_commands=60, n_validation=5, repeat_points=4, repeat_times=3))
+    write_campaign(tmp_path / "c.csv", sim.campaign, m)
+    u = uncompensated(m, sim.campaign)
+    assert u.table and u.mean_mm > 0.1
+    table = re.compile(r"the tip relative to the table, the part's frame, (\d+) rows\): mean ([\d.]+) mm, "
+                       r"max ([\d.]+) mm")
+    assert main(["assess", str(tmp_path / "c.csv"), "--machine", "xyzac_trt"]) == 0
+    assessed = table.search(capsys.readouterr().out).groups()
+    assert main(["fit", "xyzac_trt", str(tmp_path / "c.csv"), "--model", "6dof", "--order", "3",
+                 "--out", str(tmp_path / "m.json")]) == 0
+    fitted = table.search(capsys.readouterr().out).groups()
+    assert assessed == fitted == (str(len(u.rows)), f"{u.mean_mm:.4f}", f"{u.max_mm:.4f}")
+    assert main(["evaluate", str(tmp_path / "m.json"), str(tmp_path / "c.csv"), "--json", str(tmp_path / "e.json")]) == 0
+    capsys.readouterr()
+    judged = json.loads((tmp_path / "e.json").read_text())["uncompensated"]["all"]
+    assert judged["n"] == len(u.rows) and judged["mean"] == pytest.approx(u.mean_mm, rel=0.01)

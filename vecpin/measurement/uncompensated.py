@@ -26,6 +26,7 @@ class Uncompensated:
     rows: np.ndarray           # (n,) row indices into the campaign handed in
     tool: np.ndarray           # (n,) tool lengths of those rows [m]
     shape_mm: np.ndarray | None = None   # (n,) mm, the best rigid motion removed instead
+    table: bool = False        # True: the tip relative to the table (measured through the table nests)
 
     @property
     def mean_mm(self) -> float:
@@ -41,24 +42,31 @@ class Uncompensated:
 
     def line(self) -> str:
         """The line every command prints alike (:func:`uncompensated_line`)."""
-        return uncompensated_line(self.mean_mm, self.max_mm, len(self.rows))
+        return uncompensated_line(self.mean_mm, self.max_mm, len(self.rows), self.table)
 
 
-def uncompensated_line(mean_mm: float, max_mm: float | None, rows: int | None) -> str:
-    """The uncompensated error as ``import``, ``assess`` and ``fit`` print it (mm)."""
-    how = f"nominal kinematics, the part's frame, {rows} rows" if rows else "as given"
+def uncompensated_line(mean_mm: float, max_mm: float | None, rows: int | None, table: bool = False) -> str:
+    """The uncompensated error as ``import``, ``assess`` and ``fit`` print it (mm); ``table``:
+    the tip relative to the table."""
+    where = "the tip relative to the table, " if table else ""
+    how = f"nominal kinematics, {where}the part's frame, {rows} rows" if rows else "as given"
     mx = f", max {max_mm:.4f} mm" if max_mm is not None else ""
     return f"  uncompensated error ({how}): mean {mean_mm:.4f} mm{mx}"
 
 
 def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> Uncompensated | None:
     """The one uncompensated figure of a campaign, the same for ``import``, ``assess`` and
-    ``fit``: every tracker row of station 0 that reads the tool tip or a target of known
+    ``fit``. A machine with a table branch whose campaign reads table nests: the tip relative
+    to the table (:func:`relative_to_table`), as ``evaluate`` judges it. Otherwise every tracker row of station 0 that reads the tool tip or a target of known
     offset (nest rows, ball bar rows and targets the fit must find are left out), the
     nominal tool points (base frame, m) against the readings (tracker frame, m) taken into
     the machine's reference frame and judged as a part sees them (:class:`Uncompensated`).
     Fewer than 3 such rows, or nominal points on a line (the tool of a machine whose every
     axis moves the table stands still): an InputError, or None when not ``strict``."""
+    if machine.has_workpiece and len(campaign.nest_rows):
+        rel = relative_to_table(machine, campaign)
+        if rel is not None:
+            return rel
     known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
     rows = np.flatnonzero((campaign.instrument == "tracker") & (campaign.station == 0) & known)
     if len(rows) < 3:
@@ -78,3 +86,25 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
     ref = RunReference(machine, campaign.q[rows], tool, nominal, xyz)
     err = norm_mm(part_frame_errors(nominal, ref(xyz), spindle_axis(machine)))
     return Uncompensated(err, rows, tool, norm_mm(registered_errors(nominal, xyz)))
+
+
+def relative_to_table(machine: Machine, campaign: Campaign) -> Uncompensated | None:
+    """The uncompensated error of the tip relative to the table, as a part on the table sees
+    it: each command's table pose registered on the nests read at it (their shape fitted
+    from this run alone: no model), the measured tip against the nominal tip in the workpiece
+    frame, the run taken into the machine's reference frame and a part's set-up removed
+    (:mod:`vecpin.measurement.tableframe`); ``rows``: the tool rows judged. None when no
+    command has three or more nests not on a line, or the nominal tips lie on a line."""
+    from vecpin.measurement.tableframe import table_nests, table_tips
+    nests, refitted = table_nests([campaign])
+    tt = table_tips(campaign, nests, refitted)
+    if len(tt.rows) < 3:
+        return None
+    c = campaign.subset(tt.rows)
+    offset = np.array([campaign.targets.get(str(t), np.zeros(3)) for t in c.target]) if np.any(c.target != "") else None
+    nominal = machine.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
+    if not spans_plane(nominal):
+        return None
+    ref = RunReference(machine, c.q, c.tool, nominal, tt.tip)
+    err = norm_mm(part_frame_errors(nominal, ref(tt.tip), spindle_axis(machine)))
+    return Uncompensated(err, tt.rows, c.tool, norm_mm(registered_errors(nominal, tt.tip)), table=True)

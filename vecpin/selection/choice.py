@@ -116,7 +116,7 @@ class ModelChoice:
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
                  f"command ({self.rows} rows judged: every reading of a point, the tool's{nests}; linearised), mm",
                  f"  {'candidate':<58s} {'model terms':>11s} {'held-out mean':>13s} {'max':>8s}",
-                 f"  {'uncompensated, the rows judged':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
+                 f"  {'uncompensated, the rows scored (tracker frame)':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
                  f"{self.uncompensated_mm[1]:8.4f}"]
         shown = sorted(self.candidates, key=lambda c: c.mean)[:limit]
         if self.chosen not in shown:

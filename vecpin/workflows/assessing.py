@@ -26,6 +26,7 @@ be better than can be measured).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -63,6 +64,7 @@ class Assessment:
     table: list[RepeatabilityStats] = field(default_factory=list)
     source: str = "numbers given"
     rows: int | None = None   # rows behind the uncompensated error (None: numbers given)
+    relative_to_table: bool = False   # the figures of the tip relative to the table (read through table nests)
 
     @property
     def floor_mm(self) -> float:
@@ -112,7 +114,7 @@ class Assessment:
             out += ["  repeatability (eq. 22, Table 2.8), mm:",
                     f"  {'':<12s} {'mean':>9s} {'max':>9s} {'std':>9s} {'time h':>8s} {'points':>7s} {'readings':>8s}"]
             out += [s.row() for s in self.table]
-        out += [uncompensated_line(self.mean_error_mm, self.max_error_mm, self.rows),
+        out += [uncompensated_line(self.mean_error_mm, self.max_error_mm, self.rows, self.relative_to_table),
                 f"  {self.repeatability_kind} repeatability (mean): {self.repeatability_mm:.4f} mm; error / repeatability "
                 f"= {self.mean_error_mm / self.repeatability_mm:.2f}"]
         if self.instrument_mm is not None:
@@ -166,15 +168,14 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
     from vecpin.errors import InputError
     if not (math.isfinite(session_gap) and session_gap > 0):
         raise InputError(f"`session_gap` {session_gap:g} s: a time > 0 (default 1800 s)")
-    c = campaign.primary()
-    check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
+    err = uncompensated(machine, campaign)
+    c = _judged_readings(machine, campaign, err)
     stats = repeatability(c, session_gap)
     if stats["short"] is None and stats["long"] is None:
         raise InputError(f"{campaign.source}: no command is measured twice with the same tool, so the repeatability is "
                          "unknown: plan repeated points (the plan's `repeat_points` and `repeat_times`, e.g. 9 points 4 "
                          "times) or give the numbers (`mean_error_mm`, `long_term_mm`)")
     group, _ = repeat_groups(c)
-    err = uncompensated(machine, campaign)
     short, long = stats["short"], stats["long"]
     rep, kind = (long.mean, "long-term") if long is not None else (short.mean, "short-term (no long-term repeats: "
                                                                                  "optimistic)")
@@ -182,9 +183,23 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
     nt = int(np.median(np.bincount(group)[np.bincount(group) > 1]))
     a = Assessment(err.mean_mm, err.max_mm, rep * MM_PER_M, kind,
                    None if short is None else short.mean * MM_PER_M, None if long is None else long.mean * MM_PER_M,
-                   instrument_repeatability(c, tracker_noise, max(nt, 2)) * MM_PER_M,
+                   instrument_repeatability(campaign, tracker_noise, max(nt, 2)) * MM_PER_M,
                    None if d is None or not np.isfinite(d.per_hour) else d.per_hour * MM_PER_M,
                    None if d is None or d.per_kelvin is None else d.per_kelvin * MM_PER_M,
                    None if d is None else d.hours, None if d is None else d.temperature_range,
-                   [s for s in (short, long) if s is not None], campaign.source, len(err.rows))
+                   [s for s in (short, long) if s is not None], campaign.source, len(err.rows), err.table)
     return a
+
+
+def _judged_readings(machine: Machine, campaign: Campaign, err) -> Campaign:
+    """The readings the repeatability is taken from: the tip relative to the table where the
+    uncompensated figure is (``err.table``: each row's reading replaced by the measured tip in
+    the workpiece frame, so a repeat sees the table axes too), else station 0's tracker rows,
+    refused when they cannot be this machine's tool tips (a unit or frame mistake)."""
+    if err.table:
+        from vecpin.measurement.tableframe import table_nests, table_tips
+        tt = table_tips(campaign, table_nests([campaign])[0], True)
+        return dataclasses.replace(campaign.subset(tt.rows), xyz=tt.tip)
+    c = campaign.primary()
+    check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
+    return c

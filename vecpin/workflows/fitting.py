@@ -110,15 +110,17 @@ def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
                              + fitted, c0.tool)
     elif u is None:
         out = []
+    elif u.table:   # the tip relative to the table; the fit's residuals stay where the tracker reads them
+        out = [u.line()] + per_tool_table([("uncompensated, tip relative to the table", u.distances_mm, u.tool)]
+                                         + [(f"{lab}, fit residual (tracker frame)", d) for lab, d in fitted], c0.tool)
     else:
         out = [u.line()] + per_tool_table([("uncompensated (nominal kinematics)", u.distances_mm, u.tool)] + fitted,
                                          c0.tool)
     if campaign.nest_rows.size:
         cn = campaign.subset(campaign.nest_rows[campaign.station[campaign.nest_rows] == 0])
         if len(cn):
-            out.append(f"  table nest rows (station 0): {len(cn)}, residual mean "
-                       f"{norm_mm(model.residuals(cn)).mean():.4f} mm (uncompensated, registered by the fit "
-                       f"{norm_mm(model.nominal_residuals(cn)).mean():.4f} mm)")
+            out.append(f"  table nest rows (station 0): {len(cn)}, fit residual mean "
+                       f"{norm_mm(model.residuals(cn)).mean():.4f} mm (tracker frame)")
     if campaign.ballbar_rows.size:
         d = np.abs(model.ballbar_residuals(campaign)) * MM_PER_M
         out.append(f"  ball bar rows: {d.size}, |radius residual| mean {d.mean():.4f} mm, max {d.max():.4f} mm")
