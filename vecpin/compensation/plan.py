@@ -23,6 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
                                            hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
                                            table_bases)
+from vecpin.compensation.follow import unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors, part_and_shape
@@ -163,8 +164,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
                                                             n_commands, seed, zone)
     m = model.machine
-    unmeasured = {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
-                  or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
+    unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
                                       f"{', '.join(f'{t:g}' for t in req.tools_mm)} mm (every row on these points), "
@@ -178,13 +178,15 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                   point=pt, frame=frame) if with_spread else None
         part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
         report.add(label, part, n, spread, shape=shape)
+        return part
 
-    add("uncompensated (model)", None, 0)
+    before = add("uncompensated (model)", None, 0)
     if progress:
         progress("solving the full table set")
     full = _full_tables(model, problem, frame, bool(unmeasured), modulo_axes, hold, req.n_points)
-    add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
-        full, len(full.tables))
+    after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
+                full, len(full.tables))
+    left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
@@ -211,9 +213,15 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
     report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
-        model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured)
+        model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame)
+
+
+def _unmeasured(m: Machine, hold: dict) -> dict:
+    """The axes whose held range {axis: (low, high)} [m, rad] stops short of their travel."""
+    return {a: v for a, v in hold.items() if v[0] > m.axis(a).lower + HOLD_MARGIN * m.axis(a).travel
+            or v[1] < m.axis(a).upper - HOLD_MARGIN * m.axis(a).travel}
 
 
 def _limits(limits) -> ControllerLimits:

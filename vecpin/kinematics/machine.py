@@ -248,8 +248,7 @@ class Machine:
         mimics = [MimicJoint(jn, tree.joints[jn].mimic[0], tree.joints[jn].mimic[1], tree.joints[jn].mimic[2])
                   for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is not None]
         self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
-        off_branch = [jn for jn, j in tree.joints.items()   # a mimic's source axis drives the branch: not fixed
-                      if jn not in on_branch and jn not in axis_joints and j.type != "fixed"]
+        off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch + axis_joints and j.type != "fixed"]
         if off_branch:
             self.notes.append(f"joints off the tool and workpiece branches are treated as fixed at 0: "
                               f"{', '.join(off_branch)}")
