@@ -147,6 +147,21 @@ class ThermalTerms:
         return out + [f"  note: {n}" for n in self.notes]
 
 
+def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c) -> np.ndarray:
+    """(N,3) [m] the tool tip's thermal error (base frame) the terms predict at commands
+    ``q`` (N,n) [m, rad], tool lengths [m] and (lagged) temperatures [°C]: each axis where
+    its error line puts it, and the tool's growth along its direction."""
+    q = np.atleast_2d(np.asarray(q, float))
+    T = np.broadcast_to(np.asarray(temperature_c, float), (len(q),))
+    e = np.zeros_like(q)
+    for a in terms.axes:
+        ax = machine.axis(a)
+        e[:, ax.index] = ax.to_si(terms.axis_error_mm(a, ax.to_user(q[:, ax.index]), T))
+    nominal = machine.kinematics(q, tool, jacobian=False, frame="base")
+    moved = machine.kinematics(q + e, tool, jacobian=False, frame="base")
+    return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
+
+
 def default_p0(machine, axes) -> dict[str, float]:
     """The middle of each axis' travel [m]: a reference position that keeps offset and
     slope apart (the controllers let the user state another)."""
