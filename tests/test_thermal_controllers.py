@@ -74,7 +74,7 @@ def fitted():
     camp = Campaign(m.axis_names, q, tool, xyz, extra={"time": t, "temperature": air})
     geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
     terms, _ = fit_thermal(geo, camp)
-    return m, terms
+    return m, terms, geo, camp
 
 
 # --------------------------------------------------------------------- independent readers
@@ -131,7 +131,7 @@ READERS = {"840D": siemens, "beckhoff": beckhoff, "heidenhain": heidenhain, "fan
 
 @pytest.mark.parametrize("controller", list(READERS))
 def test_terms_through_the_controller_remove_the_predicted_error(fitted, tmp_path, controller):
-    m, terms = fitted
+    m, terms = fitted[:2]
     with OutputSet(tmp_path) as out:
         thermal.write(controller, terms, ControllerProfile(), out)
     tv = terms.t0_c + 10.0                                      # steady: the structure at the air's temperature
@@ -153,7 +153,7 @@ def test_terms_through_the_controller_remove_the_predicted_error(fitted, tmp_pat
 
 
 def test_lag_and_the_fold_of_the_growth(fitted):
-    m, terms = fitted
+    m, terms = fitted[:2]
     assert terms.lag_h in (1.0, 2.0)                            # the scanned lags next to the truth's 1.5 h
     assert terms.growth_um_per_k is None and any("growth is Z's offset" in n for n in terms.notes)
 
@@ -177,9 +177,24 @@ def test_what_the_data_cannot_separate_is_said():
 
 
 def test_limits_refused_before_writing(fitted, tmp_path):
-    m, terms = fitted
+    m, terms = fitted[:2]
     big = dataclasses.replace(terms, growth_um_per_k=400.0)
     with OutputSet(tmp_path) as out, pytest.raises(ControllerLimitError, match="MD20392"):
         thermal.write("840D", big, ControllerProfile(), out)
     with OutputSet(tmp_path) as out, pytest.raises(ControllerLimitError, match="9999"):
         thermal.write_fanuc(big, ControllerProfile(), out, detection_unit_mm=0.00001)
+
+
+def test_tables_workflow_writes_the_thermal_files(fitted, tmp_path):
+    """``make_thermal`` (what ``vecpin tables`` runs with a thermal campaign): thermal.json read back
+    equal, the LinuxCNC component, and the predicted error over the measured temperatures."""
+    from vecpin.compensation.thermal import ThermalTerms
+    from vecpin.workflows.thermal import make_thermal
+    m, terms, geo, camp = fitted
+    run = make_thermal(geo, camp, tmp_path, "linuxcnc")
+    assert {f.name for f in run.files} == {"thermal.json", "vecpin_thermal.comp", "vecpin_thermal.hal"}
+    back = ThermalTerms.load(tmp_path / "thermal.json")
+    assert back.offset_um_per_k == pytest.approx(terms.offset_um_per_k) and back.lag_h == terms.lag_h
+    (lo, w_lo, r_lo), _, (hi, w_hi, r_hi) = run.rows
+    assert lo < hi and max(w_lo, w_hi) > 0.01 and r_lo < 0.5 * w_lo and r_hi < 0.5 * w_hi
+    assert any("without" in line and "with" in line for line in run.lines())

@@ -26,6 +26,11 @@ def run_tables(args) -> int:
                       commands=commands, sign_test=args.sign_test, zone=zone, user_commands=how,
                       progress=progress(not args.quiet))
     say(args, *run.lines(args.model))
+    if args.thermal:
+        from vecpin.workflows.thermal import make_thermal
+        th = make_thermal(model, read_campaign(args.thermal, m), args.out, args.controller, profile=args.profile,
+                          axis_map=parse_axis_map(args.axis_map, m))
+        say(args, *th.lines())
     return 0
 
 
@@ -76,6 +81,9 @@ def register(sub) -> None:
                         "fitted in, else the whole measured region)")
     s.add_argument("--out", required=True, help="output folder: tables.json, tables.csv (mm, deg), the controller's "
                    "files and their README")
+    s.add_argument("--thermal", metavar="CSV", help="campaign with time and temperature columns: also fit the "
+                   "controller's thermal terms (offset and slope per linear axis, tool growth) and write them "
+                   "(thermal.json, the controller's thermal files; default: none)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_tables)
     register_profile(sub)
