@@ -198,3 +198,44 @@ def test_tables_workflow_writes_the_thermal_files(fitted, tmp_path):
     (lo, w_lo, r_lo), _, (hi, w_hi, r_hi) = run.rows
     assert lo < hi and max(w_lo, w_hi) > 0.01 and r_lo < 0.5 * w_lo and r_hi < 0.5 * w_hi
     assert any("without" in line and "with" in line for line in run.lines())
+
+
+def test_terms_in_their_own_family_are_recovered(tmp_path):
+    """A machine whose thermal errors are exactly the terms' form (lag 1 h, one of the scanned
+    lags; linear in T) and whose head turns the tool: the fit finds the lag and each
+    coefficient within 4 standard deviations of the truth, the tool's growth apart from the
+    axes; the LinuxCNC files warn first that a joint correction cannot carry the growth."""
+    from vecpin.export import thermal_linuxcnc
+    m = vecpin.Machine.load("snk_120v")
+    rng = np.random.default_rng(11)
+    n = 160
+    lo, hi = np.array([a.lower for a in m.axes]), np.array([a.upper for a in m.axes])
+    q = lo + (hi - lo) * rng.uniform(0, 1, (n, len(lo)))
+    t = np.linspace(0, 9 * 3600, n)
+    air = 20 + 3 * np.sin(2 * np.pi * t / (6 * 3600)) + 0.1 * t / 3600
+    lagged = air.copy()
+    for k in range(1, n):
+        lagged[k] = lagged[k - 1] + (1 - np.exp(-(t[k] - t[k - 1]) / 3600.0)) * (air[k] - lagged[k - 1])
+    a_true = {"X": 7e-6, "Y": -5e-6, "Z": 4e-6}         # m/K at the mid-travel P0
+    b_true = {"X": 11.5e-6, "Y": 6e-6, "Z": 15e-6}      # 1/K
+    c_true = 12e-6                                       # m/K
+    d = lagged - lagged.mean()
+    e = np.zeros_like(q)
+    for a in a_true:
+        i = m.axis(a).index
+        mid = 0.5 * (m.axis(a).lower + m.axis(a).upper)
+        e[:, i] = a_true[a] * d + b_true[a] * d * (q[:, i] - mid)
+    tool = np.full(n, 0.15)
+    kin = m.kinematics(q + e, tool, jacobian=False, frame="base")
+    xyz = kin.tip + c_true * d[:, None] * kin.tool_dir + rng.normal(0, 3e-6, (n, 3))
+    camp = Campaign(m.axis_names, q, tool, xyz, extra={"time": t, "temperature": air})
+    geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
+    terms, _ = fit_thermal(geo, camp)
+    assert terms.lag_h == 1.0
+    for a in a_true:
+        assert abs(terms.offset_um_per_k[a] - a_true[a] * 1e6) < 4 * terms.offset_std[a]
+        assert abs(terms.slope_um_per_m_per_k[a] - b_true[a] * 1e6) < 4 * terms.slope_std[a]
+    assert abs(terms.growth_um_per_k - c_true * 1e6) < 4 * terms.growth_std
+    with OutputSet(tmp_path) as out:
+        thermal_linuxcnc.write(terms, m, {a: k for k, a in enumerate(m.axis_names)}, 5, out, chained=False)
+    assert (tmp_path / "vecpin_thermal.hal").read_text().startswith("# WARNING: the tool's growth")

@@ -79,9 +79,10 @@ def _readme(controller: str, terms: ThermalTerms, body: list[str], warnings: lis
     if terms.growth_um_per_k is not None:
         coef.append(f"- tool growth {terms.growth_um_per_k:+.4f} um/K (positive: the tool gets longer)")
     notes = [f"- {n}" for n in terms.notes]
+    body = [x for b in body for x in (b, "")]
     return "\n".join(head + ["## Coefficients per temperature input (the PLC's table)", "", *coef, "",
-                             _lag_note(terms), "", *body, "", *(["## What the data could not separate", "", *notes,
-                                                                   ""] if notes else []),
+                             _lag_note(terms), "", *body, *(["## What the data could not separate", "", *notes,
+                                                              ""] if notes else []),
                              "## Source", "", SOURCES[controller], ""])
 
 
@@ -113,10 +114,11 @@ def write_siemens(terms: ThermalTerms, profile: ControllerProfile, out) -> list[
     if terms.growth_um_per_k is not None:
         ini += ["$MC_TOOL_TEMP_COMP_ON=1 ; MD20390", "$SC_TOOL_TEMP_COMP[2]=0.0 ; SD42960 at T0 (INFERRED: index 2, "
                 "the tool's length direction in G17)"]
+    tool = terms.growth_um_per_k is not None
     header = ["temperature_degC"] + [f"{_nc(profile, a)}.SD43900_mm" for a in terms.axes] + \
-             [f"{_nc(profile, a)}.SD43910_tanbeta" for a in terms.axes] + ["SD42960_2_mm"]
+             [f"{_nc(profile, a)}.SD43910_tanbeta" for a in terms.axes] + (["SD42960_2_mm"] if tool else [])
     rows = [[T[k]] + [terms.offset_um_per_k[a] * 1e-3 * d[k] for a in terms.axes]
-            + [slope[a][k] for a in terms.axes] + [growth[k]] for k in range(len(T))]
+            + [slope[a][k] for a in terms.axes] + ([growth[k]] if tool else []) for k in range(len(T))]
     body = ["## Where the values go", "",
             "THERMAL_840D.INI sets MD32750 (bit 0: position-independent, SD43900; bit 1: position-dependent, SD43910 "
             "and SD43920; bit 2: tool direction, MD20390 / SD42960) and the reference positions P0. The PLC (or a "
@@ -157,11 +159,14 @@ def write_beckhoff(terms: ThermalTerms, profile: ControllerProfile, out) -> list
             "Sign: the value is the deviation, as in the leadscrew compensation (value = measured - programmed, "
             "TF5200 308695435); INFERRED for the temperature compensation, which the manual calls "
             "'temperature-dependent deviation'. Active only once the axis is referenced."]
+    warnings = []
     if terms.growth_um_per_k is not None:
-        body.append("The tool growth has no field here: add it to the tool-side axis' offset_0 (INFERRED).")
+        warnings.append(f"the tool's growth ({terms.growth_um_per_k:+.3f} um/K along a tool that turns) has no "
+                        "field in the axis compensation: these files leave it uncorrected (the tool length's wear, "
+                        "written by the PLC, could carry it)")
     out.write_text("thermal_beckhoff.lis", "\n".join(lis) + "\n")
     out.write_text("thermal_beckhoff.csv", _csv(header, rows, 4))
-    out.write_text("README_thermal_beckhoff.md", _readme("beckhoff", terms, body, []))
+    out.write_text("README_thermal_beckhoff.md", _readme("beckhoff", terms, body, warnings))
     return ["thermal_beckhoff.lis", "thermal_beckhoff.csv", "README_thermal_beckhoff.md"]
 
 

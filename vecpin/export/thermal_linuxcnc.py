@@ -47,11 +47,16 @@ def joint_coefficients(terms: ThermalTerms, machine: Machine, joints: dict[str, 
         A[j] = -terms.offset_um_per_k[a] * 1e-3
         B[j] = -terms.slope_um_per_m_per_k[a] * 1e-3
         P0[j] = terms.p0_mm[a]
-    if terms.growth_um_per_k is not None:
-        raise InputError("the thermal terms have a tool growth along a tool that turns: LinuxCNC's joint "
-                         "correction cannot carry it (a kinematics module's tool length would); refit with the "
-                         "growth folded into an axis, or leave it out")
     return A, B, P0
+
+
+def growth_warning(terms: ThermalTerms) -> str | None:
+    """Why the component leaves the tool's growth alone, when the terms have one (a tool that turns)."""
+    if terms.growth_um_per_k is None:
+        return None
+    return (f"WARNING: the tool's growth ({terms.growth_um_per_k:+.3f} um/K along a tool that turns) is not in "
+            "vecpin_thermal: a joint correction cannot follow the tool's direction (LinuxCNC's tool length offset "
+            "can: add growth x (T - T0) to it)")
 
 
 def component_source(terms: ThermalTerms, machine: Machine, joints: dict[str, int], n_joints: int) -> str:
@@ -155,5 +160,6 @@ def hal_lines(n_joints: int, chained: bool) -> list[str]:
 def write(terms: ThermalTerms, machine: Machine, joints: dict[str, int], n_joints: int, out, chained: bool) -> list[str]:
     """``vecpin_thermal.comp`` and ``vecpin_thermal.hal`` into the output set ``out``."""
     out.write_text(COMP_FILE, component_source(terms, machine, joints, n_joints))
-    out.write_text(HAL_FILE, "\n".join(hal_lines(n_joints, chained)) + "\n")
+    warn = growth_warning(terms)
+    out.write_text(HAL_FILE, "\n".join(([f"# {warn}"] if warn else []) + hal_lines(n_joints, chained)) + "\n")
     return [COMP_FILE, HAL_FILE]

@@ -35,9 +35,10 @@ class ThermalRun:
     terms: ThermalTerms
     files: list[Path]
     rows: list[tuple[float, float, float]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)   # printed first: what the files leave out
 
     def lines(self) -> list[str]:
-        out = self.terms.lines()
+        out = list(self.warnings) + self.terms.lines()
         out.append("  predicted thermal error over the measured temperatures (model-predicted mean on the campaign's "
                    "commands; with the terms: what their 1-sigma uncertainty leaves)")
         out += [f"    {t:7.2f} degC: without {a:.4f} mm, with {b:.4f} mm" for t, a, b in self.rows]
@@ -78,6 +79,11 @@ def make_thermal(model, campaign, out_dir, controller: str, profile: ControllerP
             joints = linuxcnc.joint_numbers(m, prof)
             chained = (Path(out_dir) / "vecpin_vec.hal").exists()
             names += thermal_linuxcnc.write(terms, m, joints, max(joints.values()) + 1, out, chained)
+            warnings = [w for w in [thermal_linuxcnc.growth_warning(terms)] if w]
         elif controller in KEYS:
             names += thermal.write(KEYS[controller], terms, prof, out)
-    return ThermalRun(terms, [Path(out_dir) / n for n in names], predicted_rows(terms, m, campaign))
+            readme = out.path(names[-1]).read_text(encoding="utf-8")
+            warnings = [ln for ln in readme.splitlines() if ln.startswith("WARNING: ")]
+        else:
+            warnings = []
+    return ThermalRun(terms, [Path(out_dir) / n for n in names], predicted_rows(terms, m, campaign), warnings)
