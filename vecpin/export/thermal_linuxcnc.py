@@ -138,13 +138,18 @@ def hal_lines(n_joints: int, chained: bool) -> list[str]:
     after the cross-table component ``vecpin-vec``, whose drive side it takes)."""
     p = f"{HAL_NAME}.0"
     out = [f"loadrt {COMPONENT}",
-           "# feedback: after the function that reads the drives' feedback (see vecpin_vec.hal), before motion",
+           "# feedback: after the function that reads the drives' feedback (see vecpin_vec.hal), before motion"
+           + (" and before vecpin-vec's feedback (loaded after vecpin_vec.hal, position 1 puts it there)"
+              if chained else ""),
            f"addf {p}.feedback servo-thread 1",
            f"addf {p}.command servo-thread",
-           f"net vecpin-thermal-homed motion.is-all-homed => {p}.enable",
+           (f"net vecpin-all-homed => {p}.enable" if chained
+            else f"net vecpin-thermal-homed motion.is-all-homed => {p}.enable"),
            f"# net vecpin-temperature <the temperature sensor's pin, degC> => {p}.temperature"]
     for n in range(n_joints):
-        out.append(f"net vecpin-t{n}-pos-cmd joint.{n}.pos-cmd => {p}.pos-cmd-{n}")
+        # a pin joins one signal: chained, the joint's command is already on vecpin_vec.hal's signal
+        out.append(f"net vecpin-j{n}-pos-cmd => {p}.pos-cmd-{n}" if chained
+                   else f"net vecpin-t{n}-pos-cmd joint.{n}.pos-cmd => {p}.pos-cmd-{n}")
         if chained:
             out += [f"# chained after vecpin-vec: its drive nets (vecpin-j{n}-drive-cmd, vecpin-j{n}-drive-fb) go here",
                     f"net vecpin-t{n}-in vecpin-vec.0.motor-pos-cmd-out-{n} => {p}.motor-pos-cmd-{n}",
