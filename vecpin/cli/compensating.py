@@ -12,6 +12,11 @@ def run_tables(args) -> int:
     model = ErrorModel.load(args.model)
     m = model.machine
     commands = read_campaign(args.commands, m) if args.commands else None
+    thermal = None
+    if args.thermal:   # checked before the tables are computed
+        from vecpin.workflows.thermal import check_controller
+        check_controller(args.controller)
+        thermal = read_campaign(args.thermal, m)
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)
@@ -26,9 +31,9 @@ def run_tables(args) -> int:
                       commands=commands, sign_test=args.sign_test, zone=zone, user_commands=how,
                       progress=progress(not args.quiet))
     say(args, *run.lines(args.model))
-    if args.thermal:
+    if thermal is not None:
         from vecpin.workflows.thermal import make_thermal
-        th = make_thermal(model, read_campaign(args.thermal, m), args.out, args.controller, profile=args.profile,
+        th = make_thermal(model, thermal, args.out, args.controller, profile=args.profile,
                           axis_map=parse_axis_map(args.axis_map, m))
         say(args, *th.lines())
     return 0

@@ -60,15 +60,20 @@ def predicted_rows(terms: ThermalTerms, machine, campaign) -> list[tuple[float, 
     return rows
 
 
+def check_controller(controller: str) -> None:
+    """Refuse a controller without thermal files before any work."""
+    if controller not in KEYS and controller not in ("linuxcnc", "generic"):
+        raise InputError(f"`controller` {controller}: no thermal files for it (thermal: {', '.join(KEYS)}, linuxcnc, "
+                         "generic: thermal.json only)")
+
+
 def make_thermal(model, campaign, out_dir, controller: str, profile: ControllerProfile | str | Path | None = None,
                  axis_map: dict | None = None, p0_mm: dict | None = None) -> ThermalRun:
     """Fit the thermal terms of ``model`` on ``campaign`` (time and temperature columns) and
     write them for ``controller`` into ``out_dir`` (``thermal.json`` always); ``profile``,
     ``axis_map``: as for the tables (NC names, LinuxCNC joint numbers); ``p0_mm``: the
     reference position of each linear axis [mm] (default: mid-travel)."""
-    if controller not in KEYS and controller != "linuxcnc" and controller != "generic":
-        raise InputError(f"`controller` {controller}: no thermal files for it (thermal: {', '.join(KEYS)}, linuxcnc, "
-                         "generic: thermal.json only)")
+    check_controller(controller)
     m = model.machine
     prof = resolve(controller, m, profile, axis_map)[1]
     terms, _ = fit_thermal(model, campaign, p0_mm=p0_mm)
