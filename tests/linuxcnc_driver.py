@@ -10,7 +10,9 @@ At each command, at rest, it reads the HAL pins asked for and motion's following
 of every joint (``pos-cmd - pos-fb``, joint units; and its largest so far). Last, with ``stall`` given, it stalls
 the drives (unlinks their feedback pins: a pin off its net keeps its last value, so the
 feedback freezes as a jammed axis's encoder would) and moves every joint ``stall_step``
-(mm or deg) further: motion must then trip a following error. Writes ``result.json``."""
+(mm or deg) further: motion must then trip a following error. Before each move it sets
+the pins of ``setp`` (``halcmd setp``), at rest it reads those of ``getp`` (``halcmd
+getp``). Writes ``result.json``."""
 import json
 import subprocess
 import time
@@ -79,7 +81,9 @@ try:
     out["limits"] = [{k: s.joint[j][k] for k in ("min_ferror", "max_ferror")} for j in range(n)]
     c.mode(linuxcnc.MODE_MDI)
     c.wait_complete()
-    for cmd in cfg["commands"]:
+    for k, cmd in enumerate(cfg["commands"]):
+        for pin, value in ((cfg.get("setp") or [{}] * len(cfg["commands"]))[k]).items():   # e.g. a temperature
+            subprocess.run(["halcmd", "setp", pin, repr(float(value))], check=True, capture_output=True)
         # fast to 0.01 short of the command on every joint, then creep to it: the COMP_FILE trim is
         # looked up while a joint moves (control.c), so the last step before the stop must be small
         for dq, feed in ((cfg["creep"], 1000000), (0.0, 6)):
@@ -90,6 +94,9 @@ try:
         time.sleep(0.3)  # let the comp ramps (backlash_filt, the component's fade-in) settle
         check(f"at {cmd}")
         row = {p: hal.get_value(p) for p in cfg["pins"]}
+        for pin in cfg.get("getp") or []:
+            row[pin] = float(subprocess.run(["halcmd", "getp", pin], check=True, capture_output=True,
+                                            text=True).stdout)
         row["ferror"] = [s.joint[j]["ferror_current"] for j in range(n)]
         row["ferror_highmark"] = [s.joint[j]["ferror_highmark"] for j in range(n)]
         out["rows"].append(row)

@@ -149,7 +149,8 @@ def _hal(n: int, component: bool) -> str:
 
 def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[float, float]],
         commands: list[list[float]], comp_files: dict[int, tuple[str, int]], hal_file: str | None = None,
-        stall: bool = True, timeout: float = 300.0) -> dict:
+        stall: bool = True, timeout: float = 300.0, component: str | list[str] = COMPONENT,
+        setp: list[dict] | None = None, getp: list[str] | None = None) -> dict:
     """Run LinuxCNC on a configuration in ``folder`` (which holds the comp files and the
     HAL file vecpin wrote): joint ``j`` is axis ``letters[j]`` of kind ``kinds[j]``,
     travel ``limits[j]`` (mm/deg), ``comp_files[j]`` = (file name, COMP_FILE_TYPE);
@@ -163,11 +164,18 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     ``min_ferror`` / ``max_ferror`` per joint); ``stall`` (with ``stall``: the
     controller's errors after the drives stalled and the joints moved on). Raises
     :class:`ControllerFault` when the controller reported an error or left the ON state
-    before that."""
+    before that. ``component``: the HAL component of ``hal_file`` (default vecpin's cross
+    tables; vecpin_thermal: the thermal terms), or components and their HAL files, lists in
+    the order of the chain from motion to the drive (the last one's outputs drive);
+    ``setp``: per command, HAL pins the driver sets with ``halcmd setp`` before it moves
+    there; ``getp``: pins it then reads with ``halcmd getp`` (in ``rows`` too)."""
     n = len(letters)
-    module = Path(folder) / (COMPONENT + ".so")
-    if hal_file is not None and not module.exists():
-        raise RuntimeError(f"no {module.name} in {folder}: build the component first (build_component)")
+    hal_files = [] if hal_file is None else [hal_file] if isinstance(hal_file, str) else list(hal_file)
+    comps = [component] if isinstance(component, str) else list(component)
+    modules = [Path(folder) / (c + ".so") for c in comps] if hal_files else []
+    for module in modules:
+        if not module.exists():
+            raise RuntimeError(f"no {module.name} in {folder}: build the component first (build_component)")
     work = Path(tempfile.mkdtemp(prefix="vecpin-lcnc-"))     # in /tmp: the user can reach it
     for f in Path(folder).iterdir():
         if f.is_file():
@@ -175,20 +183,23 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     folder = work
     coordinates = "".join(letters)
     (folder / "sim.ini").write_text(_ini(letters, kinds, limits, comp_files, coordinates))
-    hal = _hal(n, hal_file is not None)
+    hal = _hal(n, bool(hal_files))
     pins = [f"joint.{j}.{p}" for j in range(n) for p in ("pos-cmd", "motor-pos-cmd", "motor-pos-fb", "pos-fb")]
     pins += [f"drive-{j}.out" for j in range(n)]
-    if hal_file is not None:
-        text = (folder / hal_file).read_text()
-        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-        # as its comment says: the feedback function goes after the drives' reads (positions 1..n)
-        lines = [f"addf {HAL_NAME}.0.feedback servo-thread {n + 1}"
-                 if ln.split() == ["addf", f"{HAL_NAME}.0.feedback", "servo-thread", "1"] else ln for ln in lines]
+    if hal_files:
+        names = [c.replace("_", "-") for c in comps]
+        lines = [ln for f in hal_files for ln in (folder / f).read_text().splitlines()
+                 if ln.strip() and not ln.lstrip().startswith("#")]
+        # as its comment says: the feedback function goes after the drives' reads (positions 1..n); a later
+        # file's goes before an earlier one's there: the feedback runs the chain from the drive back to motion
+        lines = [f"addf {ln.split()[1]} servo-thread {n + 1}"
+                 if ln.split() in (["addf", f"{h}.0.feedback", "servo-thread", "1"] for h in names) else ln
+                 for ln in lines]
         for j in range(n):
-            lines += [f"net vecpin-j{j}-drive-cmd {HAL_NAME}.0.motor-pos-cmd-out-{j} => drive-{j}.in",
-                      f"net vecpin-j{j}-drive-fb drive-{j}.out => {HAL_NAME}.0.motor-pos-fb-{j}"]
+            lines += [f"net vecpin-j{j}-drive-cmd {names[-1]}.0.motor-pos-cmd-out-{j} => drive-{j}.in",
+                      f"net vecpin-j{j}-drive-fb drive-{j}.out => {names[-1]}.0.motor-pos-fb-{j}"]
         hal += "\n".join(lines) + "\n"
-        pins += [f"{HAL_NAME}.0.{p}-{j}" for j in range(n) for p in ("correction", "motor-pos-cmd-out")]
+        pins += [f"{h}.0.{p}-{j}" for h in names for j in range(n) for p in ("correction", "motor-pos-cmd-out")]
     drive_in = [f"drive-{j}.in" for j in range(n)]
     last = commands[-1]
     step = [STALL_STEP if v < 0.5 * (lo + hi) else -STALL_STEP for v, (lo, hi) in zip(last, limits)]  # inward
@@ -198,14 +209,14 @@ def run(folder: Path, letters: list[str], kinds: list[str], limits: list[tuple[f
     shutil.copy(DRIVER, folder / "driver.py")
     (folder / "driver.py").chmod(0o755)
     (folder / "commands.json").write_text(json.dumps({"joints": n, "letters": letters, "pins": pins,
-                                                      "commands": commands, "creep": 0.01,
+                                                      "commands": commands, "creep": 0.01, "setp": setp, "getp": getp,
                                                       "stall": drive_in if stall else None, "stall_step": step}))
     ensure_user()
     subprocess.run(["chown", "-R", USER, str(folder)], check=True)
     folder.chmod(0o755)
     with _one_linuxcnc():
         subprocess.run(["pkill", "-KILL", "-u", USER], capture_output=True)   # what an earlier, killed run left
-        if hal_file is not None:
+        for module in modules:
             shutil.copy(module, MODULES / module.name)
         r = subprocess.run(["runuser", "-u", USER, "--", "bash", "-c", f"cd {folder} && linuxcnc sim.ini"],
                            capture_output=True, text=True, timeout=timeout)

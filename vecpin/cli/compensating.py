@@ -12,6 +12,11 @@ def run_tables(args) -> int:
     model = ErrorModel.load(args.model)
     m = model.machine
     commands = read_campaign(args.commands, m) if args.commands else None
+    thermal = None
+    if args.thermal:   # checked before the tables are computed
+        from vecpin.workflows.thermal import check_controller
+        check_controller(args.controller)
+        thermal = read_campaign(args.thermal, m)
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)
@@ -26,6 +31,11 @@ def run_tables(args) -> int:
                       commands=commands, sign_test=args.sign_test, zone=zone, user_commands=how,
                       progress=progress(not args.quiet))
     say(args, *run.lines(args.model))
+    if thermal is not None:
+        from vecpin.workflows.thermal import make_thermal
+        th = make_thermal(model, thermal, args.out, args.controller, profile=args.profile,
+                          axis_map=parse_axis_map(args.axis_map, m))
+        say(args, *th.lines())
     return 0
 
 
@@ -76,6 +86,9 @@ def register(sub) -> None:
                         "fitted in, else the whole measured region)")
     s.add_argument("--out", required=True, help="output folder: tables.json, tables.csv (mm, deg), the controller's "
                    "files and their README")
+    s.add_argument("--thermal", metavar="CSV", help="campaign with time and temperature columns: also fit the "
+                   "controller's thermal terms (offset and slope per linear axis, tool growth) and write them "
+                   "(thermal.json, the controller's thermal files; default: none)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_tables)
     register_profile(sub)

@@ -1,0 +1,285 @@
+"""Thermal terms in the controllers' form, fitted from a campaign with temperatures.
+
+A controller's temperature compensation (Siemens K3, Beckhoff/ISG, Heidenhain
+TEMPCOMP, Fanuc's growth along the tool, LinuxCNC through vecpin's HAL component)
+takes, per linear axis, a straight error line that moves with the temperature T [°C]:
+
+    error_i(T, p) = a_i (T - T0) + b_i (T - T0) (p - P0_i)
+
+``a_i`` [µm/K] the offset at the reference position ``P0_i`` [mm], ``b_i`` [µm/m/K]
+the slope (the axis' expansion), ``p`` the axis' commanded position [mm]; and the
+tool's growth along its direction ``c (T - T0)`` [µm/K] (positive: the tool gets
+longer). These are *errors* (where the axis or tool tip actually is, less where it was
+commanded); the correction the controller applies is their negative. ``T`` is the
+sensor's temperature seen through a first-order lag of ``lag_h`` hours
+(:func:`~vecpin.models.effects.thermal.lagged`): the structure follows the air slowly.
+
+:func:`fit_thermal` fits them together with the geometric model on the campaign (the
+geometric model's own terms refitted with them, so the geometry does not absorb the
+drift), the lag scanned over :data:`~vecpin.models.effects.thermal.LAGS_H`, and says
+in words where the data cannot separate them (:func:`separability`).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vecpin.errors import InputError, VecpinError
+from vecpin.fileio import write_text
+from vecpin.measurement.features import Features
+from vecpin.models.effects.base import Effect, TipContext
+from vecpin.models.effects.thermal import LAGS_H, lagged
+
+UM_PER_M = 1e6
+COLLINEAR = 0.95      # |correlation| above which two drivers cannot be told apart
+ILL_CONDITIONED = 1e3  # condition number of the thermal columns above which the terms are not separable
+
+
+class ThermalTermsEffect(Effect):
+    """The controller-form thermal terms as a model effect (not a diagnosis candidate):
+    per linear axis an offset and a slope about ``p0`` [m], both proportional to the
+    lagged temperature change from ``t_ref`` [°C], and (``growth``) the tool's growth."""
+
+    name = "thermal_terms"
+    summary = "controller-form thermal terms: per linear axis offset and slope with temperature, tool growth"
+    kinds = ("command", "tip")
+    in_time = True
+
+    def __init__(self, machine, axes=(), t_ref: float = 20.0, lag_h: float = 0.0, p0=None, growth: bool = True):
+        axes = axes or tuple(a.name for a in machine.axes if a.kind == "linear")
+        p0 = {a: 0.0 for a in axes} if p0 is None else {a: float(p0[a]) for a in axes}
+        super().__init__(machine, axes, t_ref=float(t_ref), lag_h=float(lag_h), p0=p0, growth=bool(growth))
+        self.t_ref, self.lag_h, self.p0, self.growth = float(t_ref), float(lag_h), p0, bool(growth)
+
+    def delta(self, feats: Features) -> np.ndarray:
+        """(N,) the lagged temperature change T - T0 [K] of the rows."""
+        return lagged(feats.time, feats.require_temperature("the thermal terms"), self.lag_h) - self.t_ref
+
+    def parameters(self):
+        out = []
+        for a in self.axes:
+            out += [self._p(f"{a}.offset_per_K", "length", 1e-4), self._p(f"{a}.slope_per_K", "ratio", 1e-4)]
+        return out + ([self._p("tool_growth_per_K", "length", 1e-4)] if self.growth else [])
+
+    def command(self, q, feats):
+        d = self.delta(feats)
+        S = np.zeros((len(q), self.machine.n_axes, self.n_parameters))
+        for k, a in enumerate(self.axes):
+            i = self.machine.axis(a).index
+            S[:, i, 2 * k] = d
+            S[:, i, 2 * k + 1] = (q[:, i] - self.p0[a]) * d
+        return S
+
+    def tip(self, ctx, feats):
+        D = np.zeros((len(ctx.q), 3, self.n_parameters))
+        if self.growth:
+            D[:, :, -1] = ctx.tool_dir * self.delta(feats)[:, None]
+        return D
+
+
+@dataclass
+class ThermalTerms:
+    """Fitted thermal terms (errors, see the module text), in the units controllers take:
+    ``t0_c`` [°C], ``lag_h`` [h], per axis ``p0_mm`` [mm], ``offset_um_per_k`` (a),
+    ``slope_um_per_m_per_k`` (b) and their standard deviations; ``growth_um_per_k`` (c,
+    None where the tool's growth is one of the axes' offsets on this machine, see
+    ``notes``); ``t_range_c``: the lagged temperatures the campaign saw; ``notes``: what
+    the data could not separate, in words."""
+
+    machine: str
+    axes: list[str]
+    t0_c: float
+    lag_h: float
+    p0_mm: dict[str, float]
+    offset_um_per_k: dict[str, float]
+    slope_um_per_m_per_k: dict[str, float]
+    growth_um_per_k: float | None
+    offset_std: dict[str, float] = field(default_factory=dict)
+    slope_std: dict[str, float] = field(default_factory=dict)
+    growth_std: float | None = None
+    t_range_c: tuple[float, float] = (20.0, 20.0)
+    notes: list[str] = field(default_factory=list)
+
+    def axis_error_mm(self, axis: str, pos_mm, temperature_c) -> np.ndarray:
+        """The axis' thermal error [mm] at commanded positions [mm] and (lagged) temperatures [°C]."""
+        d = np.asarray(temperature_c, float) - self.t0_c
+        return (self.offset_um_per_k[axis] + self.slope_um_per_m_per_k[axis] * (np.asarray(pos_mm, float)
+                                                                                  - self.p0_mm[axis]) * 1e-3) * d * 1e-3
+
+    def axis_correction_mm(self, axis: str, pos_mm, temperature_c) -> np.ndarray:
+        """What the controller adds to the axis' command [mm]: minus its error."""
+        return -self.axis_error_mm(axis, pos_mm, temperature_c)
+
+    def growth_mm(self, temperature_c) -> np.ndarray:
+        """The tool's growth along its direction [mm] (0 where it is carried by an axis' offset)."""
+        c = self.growth_um_per_k or 0.0
+        return c * (np.asarray(temperature_c, float) - self.t0_c) * 1e-3
+
+    def to_dict(self) -> dict:
+        return asdict(self) | {"t_range_c": list(self.t_range_c), "format": "vecpin thermal terms 1"}
+
+    def save(self, path) -> None:
+        write_text(Path(path), json.dumps(self.to_dict(), indent=1) + "\n")
+
+    @classmethod
+    def load(cls, path) -> "ThermalTerms":
+        try:
+            d = json.loads(Path(path).read_text())
+            d.pop("format", None)
+            d["t_range_c"] = tuple(d["t_range_c"])
+            return cls(**d)
+        except (OSError, ValueError, TypeError, KeyError) as exc:
+            raise InputError(f"{path}: not a vecpin thermal terms file ({exc})") from None
+
+    def lines(self) -> list[str]:
+        """The terms in words, one line each."""
+        out = [f"thermal terms (errors; the controller corrects their negative): T0 {self.t0_c:.2f} degC, lag "
+               f"{self.lag_h:g} h, fitted over {self.t_range_c[0]:.2f} .. {self.t_range_c[1]:.2f} degC"]
+        for a in self.axes:
+            out.append(f"  {a}: offset {self.offset_um_per_k[a]:+.3f} ± {self.offset_std.get(a, 0.0):.3f} um/K at "
+                       f"P0 {self.p0_mm[a]:g} mm, slope {self.slope_um_per_m_per_k[a]:+.3f} ± "
+                       f"{self.slope_std.get(a, 0.0):.3f} um/m/K")
+        if self.growth_um_per_k is not None:
+            out.append(f"  tool growth {self.growth_um_per_k:+.3f} ± {self.growth_std or 0.0:.3f} um/K along the tool")
+        return out + [f"  note: {n}" for n in self.notes]
+
+
+def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c) -> np.ndarray:
+    """(N,3) [m] the tool tip's thermal error (base frame) the terms predict at commands
+    ``q`` (N,n) [m, rad], tool lengths [m] and (lagged) temperatures [°C]: each axis where
+    its error line puts it, and the tool's growth along its direction."""
+    q = np.atleast_2d(np.asarray(q, float))
+    T = np.broadcast_to(np.asarray(temperature_c, float), (len(q),))
+    e = np.zeros_like(q)
+    for a in terms.axes:
+        ax = machine.axis(a)
+        e[:, ax.index] = ax.to_si(terms.axis_error_mm(a, ax.to_user(q[:, ax.index]), T))
+    nominal = machine.kinematics(q, tool, jacobian=False, frame="base")
+    moved = machine.kinematics(q + e, tool, jacobian=False, frame="base")
+    return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
+
+
+def default_p0(machine, axes) -> dict[str, float]:
+    """The middle of each axis' travel [m]: a reference position that keeps offset and
+    slope apart (the controllers let the user state another)."""
+    return {a: 0.5 * (machine.axis(a).lower + machine.axis(a).upper) for a in axes}
+
+
+def growth_axis(model, campaign) -> str | None:
+    """The linear axis whose motion is along the tool on every row (a tool that keeps its
+    direction: the tool's growth and that axis' offset are one term), else None."""
+    m = model.machine
+    tips = model.tool_tip(campaign.q, campaign.tool, model.b_, jacobian=True)
+    d = tips.tool_dir
+    if np.abs(d - d[0]).max() > 1e-3:   # a fitted model's tilts are µrad
+        return None
+    for a in m.axes:
+        if a.kind != "linear":
+            continue
+        col = tips.J_q[:, :, a.index]
+        n = np.linalg.norm(col, axis=1)
+        if np.all(n > 0) and np.all(np.abs(np.abs(np.einsum("ij,ij->i", col, d)) / n - 1.0) < 1e-4):
+            return a.name
+    return None
+
+
+def separability(model, campaign, effect: ThermalTermsEffect) -> list[str]:
+    """What the campaign cannot separate, in words: the lagged temperature against the
+    time (a drift in time: the tracker's, the air's refraction), against an axis that the
+    program visits in time order, and the thermal columns among themselves (condition
+    number of the column-normalised columns at the model's tips)."""
+    feats = Features.from_campaign(campaign)
+    temp = effect.delta(feats)
+    notes = []
+    if np.ptp(temp) <= 0:
+        return ["the temperature did not change during the campaign: no thermal term can be fitted"]
+    if feats.has_time and np.ptp(feats.time) > 0:
+        r = float(np.corrcoef(temp, feats.time)[0, 1])
+        if abs(r) > COLLINEAR:
+            notes.append(f"the temperature follows the time (correlation {r:+.3f}): the thermal terms cannot be told "
+                         "from any drift in time during the campaign (the tracker's, the air's); measure while the "
+                         "temperature goes up and down, or repeat poses at other times")
+    for a in model.machine.axes:
+        q = campaign.q[:, a.index]
+        if np.ptp(q) > 0:
+            r = float(np.corrcoef(temp, q)[0, 1])
+            if abs(r) > COLLINEAR:
+                notes.append(f"the temperature follows axis {a.name} (correlation {r:+.3f}: the program visits it in "
+                             f"time order): its thermal terms cannot be told from its geometric errors; visit "
+                             f"{a.name}'s positions in another order")
+    tips = model.tool_tip(campaign.q, campaign.tool, model.b_, jacobian=True, features=feats)
+    ctx = TipContext(model.machine, campaign.q, tips.tip, tips.tool_dir)
+    cols = np.einsum("pin,pnk->pik", tips.J_q, effect.command(campaign.q, feats)) + effect.tip(ctx, feats)
+    G = cols.reshape(-1, cols.shape[-1])
+    norms = np.linalg.norm(G, axis=0)
+    if np.any(norms == 0):
+        return notes
+    G = G / norms
+    cond = float(np.linalg.cond(G))
+    if cond > ILL_CONDITIONED:
+        names = [p.name for p in effect.parameters()]
+        C = np.abs(G.T @ G - np.eye(len(names)))
+        i, j = np.unravel_index(int(np.argmax(C)), C.shape)
+        notes.append(f"the thermal terms are nearly collinear on these rows (condition number {cond:.3g}; "
+                     f"{names[i]} and {names[j]} correlate {C[i, j]:.3f}): their values are uncertain alone, "
+                     f"only their sum is fitted well")
+    return notes
+
+
+def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=None) -> tuple[ThermalTerms, object]:
+    """(thermal terms, the model refitted with them): the geometric part of the fitted
+    ``model`` refitted on ``campaign`` together with the controller-form terms, at each
+    lag of ``lags`` [h] (default :data:`LAGS_H`; the model's own thermal effect's lag
+    when it has one); the lag whose fit leaves the smallest chi-square is kept.
+    ``p0_mm``: reference position per axis [mm] (default: mid-travel)."""
+    m = model.machine
+    if campaign.temperature is None:
+        raise InputError(f"{campaign.source}: the thermal terms need a 'temperature' column in the campaign")
+    feats = Features.from_campaign(campaign)
+    if not feats.has_time:
+        lags = (0.0,)
+    elif lags is None:
+        own = [e for e in model.effects if e.name == "thermal" and getattr(e, "driver", "") == "temperature"]
+        lags = (own[0].lag_h,) if own else LAGS_H
+    geometric, _ = model.geometric_part()
+    axes = tuple(a.name for a in m.axes if a.kind == "linear")
+    if not axes:
+        raise VecpinError(f"machine '{m.name}' has no linear axis: the controllers' thermal terms act on linear axes")
+    p0 = default_p0(m, axes)
+    for a, v in (p0_mm or {}).items():
+        if a not in axes:
+            raise InputError(f"`p0_mm`: '{a}' is not a linear axis of {m.name} ({', '.join(axes)})")
+        p0[a] = float(m.axis(a).to_si(v))
+    along = growth_axis(geometric, campaign)
+    best = None
+    for lag in lags:
+        t0 = float(np.mean(lagged(feats.time, campaign.temperature, lag)))
+        eff = ThermalTermsEffect(m, axes, t_ref=t0, lag_h=lag, p0=p0, growth=along is None)
+        fitted = geometric.with_effects(list(geometric.effects) + [eff]).fit(campaign, noise or geometric.noise_)
+        if best is None or fitted.report_.chi2 < best[1].report_.chi2:
+            best = (eff, fitted)
+    eff, fitted = best
+    return _terms(m, eff, fitted, campaign, feats, along), fitted
+
+
+def _terms(m, eff: ThermalTermsEffect, fitted, campaign, feats, along: str | None) -> ThermalTerms:
+    """The fitted effect's parameters in the controllers' units, with the notes."""
+    sl = next(s for e, s in fitted.effect_slices() if e is eff)
+    v, s = fitted.b_[sl], fitted.std_[sl]
+    off = {a: float(v[2 * k] * UM_PER_M) for k, a in enumerate(eff.axes)}
+    slope = {a: float(v[2 * k + 1] * UM_PER_M) for k, a in enumerate(eff.axes)}
+    notes = separability(fitted, campaign, eff)
+    if along is not None:
+        notes.append(f"the tool keeps its direction along {along} on this machine: its growth is {along}'s offset "
+                     f"(carried there; no separate tool-direction term)")
+    temp = lagged(feats.time, campaign.temperature, eff.lag_h)
+    return ThermalTerms(m.name, list(eff.axes), eff.t_ref, eff.lag_h,
+                        {a: float(m.axis(a).to_user(eff.p0[a])) for a in eff.axes}, off, slope,
+                        None if along is not None else float(v[-1] * UM_PER_M),
+                        {a: float(s[2 * k] * UM_PER_M) for k, a in enumerate(eff.axes)},
+                        {a: float(s[2 * k + 1] * UM_PER_M) for k, a in enumerate(eff.axes)},
+                        None if along is not None else float(s[-1] * UM_PER_M),
+                        (float(temp.min()), float(temp.max())), notes)
