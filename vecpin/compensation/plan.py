@@ -23,7 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
                                            hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
                                            table_bases)
-from vecpin.compensation.follow import unfollowed
+from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors, part_and_shape
@@ -62,6 +62,7 @@ class TablePlan:
     points: int
     frame: FrameKept | None = None
     reference: ReferenceFrame | None = None  # the model's reference frame the tables keep
+    unfollowed: Unfollowed | None = None     # what the full tables leave of the model's error, and why
 
 
 def covariance_kind(model: ErrorModel) -> str:
@@ -215,7 +216,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
-    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame)
+    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left)
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:
