@@ -63,7 +63,8 @@ def run_report(args) -> int:
     c = read_campaign(args.csv, models[0].machine)
     v = read_campaign(args.validation, models[0].machine) if args.validation else None
     page = report(models, c, args.out, validation=v, orders=parse_orders(args.orders) if args.orders else None,
-                  controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet))
+                  controller=args.controller, max_tables=args.max_tables, progress=progress(not args.quiet),
+                  profile=args.profile)
     print(f"wrote {page} (with figures/ and scene.html) for {len(models)} model{'s' if len(models) > 1 else ''}")
     return 0
 
@@ -98,6 +99,8 @@ def register(sub) -> None:
                    "one fit per order and model, five per order without --validation)")
     s.add_argument("--controller", default="generic", choices=CONTROLLERS,
                    help="controller the tables are for (default generic: every table)")
+    s.add_argument("--profile", metavar="JSON", help="the machine's controller profile, as vecpin tables takes it "
+                   "(default: none); the tables' files go to OUT/tables_K/ and the page shows them as written")
     s.add_argument("--max-tables", type=int, help="cross tables to choose (default: the controller's limit)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_report)

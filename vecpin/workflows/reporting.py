@@ -16,8 +16,7 @@ import numpy as np
 from vecpin.compensation.functions import all_table_names
 from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
-from vecpin.compensation.plan import TablePlan, plan_tables
-from vecpin.export.registry import get_format
+from vecpin.compensation.plan import TablePlan
 from vecpin.fileio import check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.registration import check_same_pose, station0
@@ -27,17 +26,21 @@ from vecpin.selection.orders import check_orders, order_sweep
 from vecpin.units import norm_mm
 from vecpin.viz.report import ReportData, labels as model_labels, stats_rows, write_report
 from vecpin.measurement.uncompensated import uncompensated
+from vecpin.workflows.tables import make_tables
 
 GA_RATES, GA_SEEDS = (0.0, 0.2, 0.85), 5   # the convergence figure: mutation rates x seeds (Paper II Fig. 4)
 
 
 def report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_dir, validation: Campaign | None = None,
            orders: list[int] | None = None, controller: str = "generic", max_tables: int | None = None,
-           progress: Callable[[str], None] | None = None) -> Path:
+           progress: Callable[[str], None] | None = None, profile=None) -> Path:
     """Write ``index.html``, ``figures/*.png`` and ``scene.html`` into ``out_dir`` for one
     or several fitted models of the same machine; returns the page's path. ``orders``:
     also sweep these series orders of both seed kinds (judged on ``validation``, or by
-    5-fold CV); ``controller``, ``max_tables``: the tables' limits."""
+    5-fold CV); ``controller``, ``profile``, ``max_tables``: the tables, made as ``vecpin
+    tables`` makes them (:func:`~vecpin.workflows.tables.make_tables`), their files written
+    into ``out_dir``/tables_K/ (K: the model's place) and read back, so the page shows the
+    same rows, the files as written included."""
     models = [models] if isinstance(models, ErrorModel) else list(models)
     say = progress or (lambda s: None)
     check_output_dir(out_dir)
@@ -47,9 +50,10 @@ def report(models: ErrorModel | list[ErrorModel], campaign: Campaign, out_dir, v
     rows, hist, vhist = _residuals(models, labels, campaign, validation)
     sweeps = _sweeps(models[0], campaign, validation, orders, say) if orders else []
     plans = []
-    for lab, mod in zip(labels, models):
+    for k, (lab, mod) in enumerate(zip(labels, models), 1):
         say(f"compensation tables of {lab}")
-        plans.append(plan_tables(mod, get_format(controller).limits, max_tables=max_tables))
+        plans.append(make_tables(mod, Path(out_dir) / f"tables_{k}", controller, profile=profile,
+                                 max_tables=max_tables).plan)
     say("compensated errors at the measured points")
     judged = validation if validation is not None else campaign
     data = ReportData(models, labels, campaign.primary(), rows, hist, vhist, plans, controller,
