@@ -32,3 +32,44 @@ def test_urdf_with_a_xacro_macro_is_refused(tmp_path):
     path.write_text(text)
     with pytest.raises(MachineError, match="a xacro macro file, not a URDF: expand the xacro first"):
         vecpin.Machine.load(path, tool_link="tool0")
+
+
+# ---------------------------------------------------------------- names and advice that fit an arm
+def test_arm_tables_read_as_joints_and_the_gauge_line_goes_to_the_tcp():
+    from types import SimpleNamespace
+
+    from vecpin.compensation.tables import CompensationTable, TableSet
+    from vecpin.export import boundary
+    from vecpin.workflows.tables import TableRun
+    m = vecpin.Machine.load("ur5")
+    j = m.axis_names
+    ts = TableSet(j, [CompensationTable(j[0], j[1], -1.0, 0.5, np.zeros(5)),
+                      CompensationTable(j[0], j[0], -1.0, 0.5, np.zeros(5))], gauge_offset_change=2e-5)
+    run = SimpleNamespace(plan=SimpleNamespace(tables=ts, problem=SimpleNamespace(machine=m)))
+    lines = TableRun._table_names(run, "5 points each")
+    assert lines[0].startswith("  tables: J2(J1) J1(J1)  (2 tables") and "J1 shoulder_pan_joint" in lines[1]
+    assert "shoulder_pan_joint_shoulder_lift_joint" not in lines[0]
+    arm = boundary.gauge_text("siemens-840d", 2e-5, arm=True)
+    assert "TCP" in arm and "pivot" not in arm and "transformation" not in arm and "flange" in arm
+    assert "pivot" in boundary.gauge_text("siemens-840d", 2e-5)        # a machine tool's is unchanged
+    cnc = TableRun._table_names(SimpleNamespace(plan=SimpleNamespace(
+        tables=TableSet(["X", "Y"], [CompensationTable("X", "Y", 0.0, 0.1, np.zeros(3))]),
+        problem=SimpleNamespace(machine=vecpin.Machine.load("flow_xyzcb")))), "3 points each")
+    assert cnc == ["  tables: yx  (1 tables, 3 points each)"]
+
+
+def test_diagnosis_advice_for_an_arm_names_robot_remedies():
+    from vecpin.diagnosis.armadvice import BASE_REMEDY, arm_advice
+    from vecpin.models.effects import REGISTRY
+    arm, mill = vecpin.Machine.load("ur5"), vecpin.Machine.load("flow_xyzcb")
+    j2 = arm.axis_names[1]
+    back = REGISTRY["backlash"](arm, (j2,))
+    cnc_lines = back.advice(np.array([1e-4]), np.array([1e-5]))
+    assert "MD32450" in cnc_lines[0]                                    # the machine-tool text names a CNC parameter
+    lines = arm_advice(arm, back, cnc_lines)
+    assert "0.0115" in lines[0] and "MD32450" not in lines[0] and "DH or MDH" in lines[0]
+    assert arm_advice(mill, back, cnc_lines) == cnc_lines               # unchanged on a machine tool
+    coupled = REGISTRY["coupled_axes"](arm, (j2, arm.axis_names[2]))
+    text = " ".join(arm_advice(arm, coupled, coupled.advice(np.zeros(4), np.zeros(4))))
+    assert "table" not in text.replace("compensation table", "") and "DH or MDH parameters in the robot controller" in text
+    assert all(w in BASE_REMEDY for w in ("DH or MDH", "TCP", "payload"))
