@@ -73,3 +73,34 @@ def test_diagnosis_advice_for_an_arm_names_robot_remedies():
     text = " ".join(arm_advice(arm, coupled, coupled.advice(np.zeros(4), np.zeros(4))))
     assert "table" not in text.replace("compensation table", "") and "DH or MDH parameters in the robot controller" in text
     assert all(w in BASE_REMEDY for w in ("DH or MDH", "TCP", "payload"))
+
+
+# ---------------------------------------------------------------- view: package:// meshes of a ROS package
+def test_package_meshes_found_in_a_ros_package_layout(tmp_path):
+    """ur_description/urdf/ur5.urdf naming package://ur_description/meshes/...: the package is
+    the URDF folder's parent; the machine is drawn with the mesh, and a missing one is
+    named in one note."""
+    import shutil
+
+    import meshcat
+
+    from vecpin.viz.scene import RecordingWindow, _machine_geometry, resolve_meshes
+    pkg = tmp_path / "ws" / "src" / "ur_description"
+    (pkg / "urdf").mkdir(parents=True)
+    (pkg / "meshes").mkdir()
+    shutil.copy(Path(__file__).parent / "data" / "hostile" / "tet.stl", pkg / "meshes" / "base.stl")
+    text = UR5.read_text().replace('<cylinder radius="0.075" length="0.06"/>',
+                                   '<mesh filename="package://ur_description/meshes/base.stl"/>', 1)
+    text = text.replace('<cylinder radius="0.06" length="0.08"/>',
+                        '<mesh filename="package://ur_description/meshes/gone.stl"/>', 1)
+    assert text.count("package://") == 2
+    urdf = pkg / "urdf" / "ur5.urdf"
+    urdf.write_text(text)
+    xml, missing = resolve_meshes(text, [urdf.parent])
+    assert missing == ["package://ur_description/meshes/gone.stl"]
+    assert str((pkg / "meshes" / "base.stl").resolve()) in xml
+    m = vecpin.Machine.load(urdf, tool_link="tool0")
+    window = RecordingWindow()
+    notes = _machine_geometry(meshcat.Visualizer(window=window), m, np.zeros(6), [urdf.parent])
+    assert len(notes) == 1 and "drawn without 1 mesh file(s) not found (package://ur_description/meshes/gone.stl" in notes[0]
+    assert any("base_link" in str(k) for k in window.commands)
