@@ -10,7 +10,7 @@ the controller's joint interpolation; from the pre-pose to the measured pose the
 move is short (a few degrees at most), so the holder runs out of the point nearly
 along the tool axis.
 
-Two dialects (``--dialect`` of the plan command; the NC dialects of
+Two dialects (the plan's `dialect`; the NC dialects of
 :mod:`vecpin.planning.ncprogram` do not apply):
 
 * ``urscript``: Universal Robots URScript (the Script Manual, Module motion:

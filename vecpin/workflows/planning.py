@@ -224,17 +224,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     arm = is_arm(machine)
-    if arm:
-        dialects = arm_dialects(dialects, machine)
-        if retract is not None or safe_z_mm is not None:
-            raise InputError(f"`retract`/`safe_z_mm`: {machine.name} is an arm, it has no axis to retract with; its "
-                             "program backs off along the tool axis (`approach_mm`)")
-    else:
-        dialects = tuple(DIALECTS) if dialects is None else tuple(dialects)
-        r, up = retract_axis(machine, retract)
-        safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
-        for d in dialects:  # so does an axis without an NC address in a dialect asked for
-            nc_axis_names(machine, d, axis_map)
+    dialects, r, up = program_request(machine, dialects, retract, safe_z_mm, axis_map)
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,
                   tracker_move_s=tracker_move_s).check()
     from vecpin.viz.figures import plan_figure
@@ -255,13 +245,8 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
         if arm:
-            run = _arm_run(out, machine, plan, files, comparison, dialects, (dwell_s, nest_dwell_s, read_dwell_s),
-                           holder_change_s)
-            plan_figure(plan, out.path("plan.png"))
-            files.append(out.final("plan.png"))
-            files.append(out.final("plan.json"))
-            out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
-            return run
+            return _arm_run(out, machine, plan, files, comparison, dialects, (dwell_s, nest_dwell_s, read_dwell_s),
+                            holder_change_s)
         for d in dialects:
             text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
@@ -318,7 +303,31 @@ def _arm_run(out: OutputSet, machine: Machine, plan: Plan, files: list, comparis
     program = (f"joint moves at {MOVE_SPEED:g} rad/s between points; each point approached from {c * 1000:g} mm back "
                f"along the tool axis at {APPROACH_SPEED:g} rad/s; dwells {dwells[0]:g} s per point"
                if c > 0 else f"joint moves at {MOVE_SPEED:g} rad/s straight to each point; dwells {dwells[0]:g} s")
-    return PlanRun(plan, files, comparison, program, times[0], None, times[1], times[1])
+    from vecpin.viz.figures import plan_figure
+    plan_figure(plan, out.path("plan.png"))
+    files.append(out.final("plan.png"))
+    run = PlanRun(plan, files, comparison, program, times[0], None, times[1], times[1])
+    files.append(out.final("plan.json"))
+    out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
+    return run
+
+
+def program_request(machine: Machine, dialects, retract: str | None, safe_z_mm: float | None,
+                    axis_map: dict | None) -> tuple[tuple[str, ...], int | None, int | None]:
+    """The programs to write (default per kind of machine), the retract axis and its
+    direction (None on an arm), every program option checked before the planning (an
+    arm has no axis to retract with; an axis without an NC address in a dialect asked for)."""
+    if is_arm(machine):
+        if retract is not None or safe_z_mm is not None:
+            raise InputError(f"`retract`/`safe_z_mm`: {machine.name} is an arm, it has no axis to retract with; its "
+                             "program backs off along the tool axis (`approach_mm`)")
+        return arm_dialects(dialects, machine), None, None
+    dialects = tuple(DIALECTS) if dialects is None else tuple(dialects)
+    r, up = retract_axis(machine, retract)
+    safe_position(machine, r, up, safe_z_mm)
+    for d in dialects:
+        nc_axis_names(machine, d, axis_map)
+    return dialects, r, up
 
 
 def plan_stations(plan: Plan) -> list[np.ndarray]:
