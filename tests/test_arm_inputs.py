@@ -71,7 +71,8 @@ def test_diagnosis_advice_for_an_arm_names_robot_remedies():
     assert arm_advice(mill, back, cnc_lines) == cnc_lines               # unchanged on a machine tool
     coupled = REGISTRY["coupled_axes"](arm, (j2, arm.axis_names[2]))
     text = " ".join(arm_advice(arm, coupled, coupled.advice(np.zeros(4), np.zeros(4))))
-    assert "table" not in text.replace("compensation table", "") and "DH or MDH parameters in the robot controller" in text
+    assert "table" not in text.replace("compensation table", "")
+    assert "DH or MDH parameters in the robot controller" in text
     assert all(w in BASE_REMEDY for w in ("DH or MDH", "TCP", "payload"))
 
 
@@ -102,5 +103,6 @@ def test_package_meshes_found_in_a_ros_package_layout(tmp_path):
     m = vecpin.Machine.load(urdf, tool_link="tool0")
     window = RecordingWindow()
     notes = _machine_geometry(meshcat.Visualizer(window=window), m, np.zeros(6), [urdf.parent])
-    assert len(notes) == 1 and "drawn without 1 mesh file(s) not found (package://ur_description/meshes/gone.stl" in notes[0]
+    assert len(notes) == 1
+    assert "drawn without 1 mesh file(s) not found (package://ur_description/meshes/gone.stl" in notes[0]
     assert any("base_link" in str(k) for k in window.commands)

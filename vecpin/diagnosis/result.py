@@ -192,8 +192,9 @@ class Diagnosis:
                  f"{at}next_{k}/ right after the campaign and diagnose again with them appended."
                  for k, e in enumerate(self.to_settle(), 1)]
         todo = [t if t.endswith(".") else t + "." for t in todo]
-        base = (f"compensate with the tables of the base model (vecpin tables {at}model_base.json)." if not
-                is_arm(self.machine) else f"{BASE_REMEDY[0].upper()}{BASE_REMEDY[1:]} (the base model: {at}model_base.json).")
+        base = (f"compensate with the tables of the base model (vecpin tables {at}model_base.json)."
+                if not is_arm(self.machine)
+                else f"{BASE_REMEDY[0].upper()}{BASE_REMEDY[1:]} (the base model: {at}model_base.json).")
         s3 = "What to do: " + (" ".join(todo) if todo else base)
         if beyond and not acc:
             s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
@@ -272,7 +273,8 @@ def _write_next(machine: Machine, plan, out: OutputSet, folder: str) -> dict[str
         from vecpin.planning.armprogram import ARM_DIALECTS, arm_program_name, write_arm_program
         for dialect in ARM_DIALECTS:
             name = f"{folder}/{arm_program_name(dialect)}"
-            paths[f"{folder}/{dialect}"] = out.write_text(name, write_arm_program(dialect, machine, plan.template(), 0.0))
+            text = write_arm_program(dialect, machine, plan.template(), 0.0)
+            paths[f"{folder}/{dialect}"] = out.write_text(name, text)
             plan.files[dialect] = name
         return paths
     for dialect in DIALECTS:

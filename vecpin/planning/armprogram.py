@@ -96,8 +96,8 @@ def arm_poses(machine: Machine, template: PlanTemplate, clearance: float, dwells
     pre, why = pre_poses(machine, template.q[rows], clearance)
     if np.any(why != ""):
         k = int(np.flatnonzero(why != "")[0])
-        raise InputError(f"point {point_name(template.point[rows[k]])}: no approach pose {clearance * MM_PER_M:g} mm back "
-                         f"along the tool axis ({why[k]}); plan it again or leave the row out")
+        raise InputError(f"point {point_name(template.point[rows[k]])}: no approach pose {clearance * MM_PER_M:g} "
+                         f"mm back along the tool axis ({why[k]}); plan it again or leave the row out")
     out: list[Pose] = []
     for i, row in enumerate(rows):
         end = rows[i + 1] if i + 1 < len(rows) else n
@@ -148,9 +148,11 @@ def _header(machine: Machine, template: PlanTemplate, clearance: float, title: s
     return [f"vecpin measurement plan {title}".strip(),
             f"{len(template)} points, one per row of the plan; machine {machine.name} (an arm), target holder lengths "
             + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools) + f" along the tool axis of {machine.tool_links[0]}",
-            f"joint positions of {joints}: the URDF's joint coordinates, which must be the controller's (zero and sign)",
-            (f"each point: a joint move to its approach pose, {clearance * MM_PER_M:g} mm back along the tool axis with "
-             "the measured orientation, then a slow joint move to the point, the dwell, and back to the approach pose"
+            f"joint positions of {joints}: the URDF's joint coordinates, which must be the controller's "
+            "(zero and sign)",
+            (f"each point: a joint move to its approach pose, {clearance * MM_PER_M:g} mm back along the tool axis "
+             "with the measured orientation, then a slow joint move to the point, the dwell, and back to the approach "
+             "pose"
              if clearance > 0 else "each point: a joint move straight to it, then the dwell"),
             f"joint speed {MOVE_SPEED:g} rad/s between points, {APPROACH_SPEED:g} rad/s on the approach and retract, "
             f"acceleration {ACCELERATION:g} rad/s^2 (ASSUMED, careful values)",

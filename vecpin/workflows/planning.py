@@ -72,8 +72,9 @@ class PlanRun:
                f"{c['kept']} left; chosen {s.method}"]
         out += self.nest_lines()
         if "approach" in c:
-            out.append(f"  approach along the tool axis ({s.approach_mm:g} mm back, the arm's pre-pose): {c['approach']} "
-                       "candidates left out (out of reach, a joint limit, near a singularity, or a holder in the geometry)")
+            out.append(f"  approach along the tool axis ({s.approach_mm:g} mm back, the arm's pre-pose): "
+                       f"{c['approach']} candidates left out (out of reach, a joint limit, near a singularity, or a "
+                       "holder in the geometry)")
         if c["sight"]:
             names, counts = np.unique(p.sight_by[p.removed == "sight"].astype(str), return_counts=True)
             top = sorted(zip(counts, names), reverse=True)[:4]
