@@ -74,7 +74,7 @@ def run_plan(args) -> int:
         target_clearance_mm=args.target_clearance_mm, rapid_mm_min=args.rapid_mm_min, rapid_deg_min=args.rapid_deg_min,
         candidates=args.candidates, seed=args.seed, n_validation=args.n_validation,
         expected_error_mm=args.expected_error_mm, nests=args.nests, nest_mm=parse_nest_options(args.nest_mm))
-    run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect or ("siemens-840d", "fanuc", "gcode")),
+    run = plan_to_dir(m, args.out, settings, dialects=tuple(args.dialect) if args.dialect else None,
                       dwell_s=args.dwell_s, nest_dwell_s=args.nest_dwell_s, feed_mm_min=args.feed_mm_min,
                       safe_z_mm=args.safe_z_mm, retract=args.retract, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare_with, progress=progress(not args.quiet),
@@ -203,8 +203,10 @@ def _add_program_args(s) -> None:
                         "the campaign's time (default 1200, an assumption: time yours)")
     s.add_argument("--feed", dest="feed_mm_min", type=float, default=1000.0, help="feed of the final approach move, "
                    "mm/min (default 1000)")
-    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
-                   help="NC program to write; repeatable (default: all three)")
+    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode", "urscript", "joint-list"],
+                   help="program to write; repeatable: siemens-840d, fanuc, gcode for a machine tool (default: all "
+                        "three); urscript (Universal Robots, plan.script) or joint-list (joint positions in degrees, "
+                        "plan_joints.csv) for an arm (default: both)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
 

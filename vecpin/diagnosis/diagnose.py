@@ -42,6 +42,7 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.diagnosis.armadvice import arm_advice
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.localise import describe_structure, explained, localise
@@ -479,7 +480,7 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     for s in st.scores:
         if s.accepted and s.effect is not None:
             sl = next(sl for e, sl in st.cur_model.effect_slices() if e.label == s.label)
-            s.advice = s.effect.advice(st.cur_model.b_[sl], std[sl]) if not s.advice else s.advice
+            s.advice = s.advice or arm_advice(pb.machine, s.effect, s.effect.advice(st.cur_model.b_[sl], std[sl]))
     acc = sorted([s for s in st.scores if s.accepted and s.name != "outliers"], key=lambda s: s.round)
     acc += [s for s in st.scores if s.accepted and s.name == "outliers"]
     rest = sorted([s for s in st.scores if not s.accepted], key=lambda s: -s.bic_gain)

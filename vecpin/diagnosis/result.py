@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.fileio import OutputSet
+from vecpin.diagnosis.armadvice import BASE_REMEDY
+from vecpin.kinematics.axes import is_arm
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
@@ -190,8 +192,10 @@ class Diagnosis:
                  f"{at}next_{k}/ right after the campaign and diagnose again with them appended."
                  for k, e in enumerate(self.to_settle(), 1)]
         todo = [t if t.endswith(".") else t + "." for t in todo]
-        s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
-                                                          f"(vecpin tables {at}model_base.json).")
+        base = (f"compensate with the tables of the base model (vecpin tables {at}model_base.json)."
+                if not is_arm(self.machine)
+                else f"{BASE_REMEDY[0].upper()}{BASE_REMEDY[1:]} (the base model: {at}model_base.json).")
+        s3 = "What to do: " + (" ".join(todo) if todo else base)
         if beyond and not acc:
             s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
                    "if the machine is used only where they were measured, diagnose in a `zone` over their measured ranges.")
@@ -266,6 +270,14 @@ def _write_next(machine: Machine, plan, out: OutputSet, folder: str) -> dict[str
     paths = {f"{folder}/plan": out.write_text(f"{folder}/plan.csv", plan.template().to_csv(machine)),
              f"{folder}/expected": out.write_text(f"{folder}/expected.csv", plan.expected_csv(machine))}
     plan.files = {"plan": f"{folder}/plan.csv", "expected": f"{folder}/expected.csv"}
+    if is_arm(machine):  # an arm's programs (:mod:`vecpin.planning.armprogram`), straight to each point
+        from vecpin.planning.armprogram import ARM_DIALECTS, arm_program_name, write_arm_program
+        for dialect in ARM_DIALECTS:
+            name = f"{folder}/{arm_program_name(dialect)}"
+            text = write_arm_program(dialect, machine, plan.template(), 0.0)
+            paths[f"{folder}/{dialect}"] = out.write_text(name, text)
+            plan.files[dialect] = name
+        return paths
     for dialect in DIALECTS:
         try:
             text = plan.program(machine, dialect)

@@ -77,30 +77,49 @@ GENERIC_DATUM = GaugeDatum(
     "the tool length to)", "vecpin's own convention (compensated_errors: nominal tool length L + dT)")
 
 
+ARM_DATUM = GaugeDatum(
+    "the robot controller's TCP (tool centre point) of every tool: its offset along the tool axis in the tool frame "
+    "(for a flange tool0 as ROS-Industrial's, its z)", "vecpin's own convention (compensated_errors: nominal tool "
+    "length L + dT along the tool axis)")
+
+
+def joint_labels(axis_names) -> dict[str, str]:
+    """An arm's joints as a metrologist reads them: J1, J2, ... in chain order."""
+    return {a: f"J{k}" for k, a in enumerate(axis_names, 1)}
+
+
+def arm_table_label(output_axis: str, input_axis: str, labels: dict[str, str]) -> str:
+    """An arm's table as it reads: ``J2(J1)``, the error of J2 as J1 moves (the file keeps
+    the joint names: :func:`vecpin.compensation.tables.table_name`)."""
+    return f"{labels[output_axis]}({labels[input_axis]})"
+
+
 def gauge_datum(controller: str) -> GaugeDatum:
     """The gauge-line datum of a controller name (siemens-840d and siemens-828d share one);
     the generic wording for a controller vecpin knows no datum of."""
     return GAUGE_DATUMS.get(controller.split("-")[0], GENERIC_DATUM)
 
 
-def gauge_direction(value_m: float) -> str:
-    """The sign of a gauge-line change in words: what the controller then assumes."""
+def gauge_direction(value_m: float, arm: bool = False) -> str:
+    """The sign of a gauge-line change in words: what the controller then assumes (on an
+    ``arm``: from the flange)."""
     mm = abs(value_m) * MM_PER_M
     way = "further from" if value_m > 0 else "closer to"
-    return f"the controller then takes the tool tip {mm:.4f} mm {way} the gauge line (and the rotary pivot) than now"
+    return (f"the controller then takes the tool tip {mm:.4f} mm {way} "
+            + ("the flange than now" if arm else "the gauge line (and the rotary pivot) than now"))
 
 
-def gauge_text(controller: str, value_m: float, effect: dict | None = None) -> str:
-    """One sentence: the gauge-line change, the datum it goes to, its sign in words and,
-    with ``effect`` (:func:`vecpin.compensation.plan.gauge_effect`), what entering it
-    is worth."""
+def gauge_text(controller: str, value_m: float, effect: dict | None = None, arm: bool = False) -> str:
+    """One sentence: the gauge-line change, the datum it goes to (on an ``arm`` the robot
+    controller's TCP, :data:`ARM_DATUM`), its sign in words and, with ``effect``
+    (:func:`vecpin.compensation.plan.gauge_effect`), what entering it is worth."""
     v = value_m * MM_PER_M
     if v == 0.0:
         return ("gauge line (T_offset) change of these tables: 0 mm, nothing to enter: the tool lengths and the "
-                "pivot stay as they are")
-    d = gauge_datum(controller)
+                + ("TCP stay as they are" if arm else "pivot stay as they are"))
+    d = ARM_DATUM if arm else gauge_datum(controller)
     s = (f"gauge line (T_offset) change of these tables: {v:+.4f} mm: add it, with its sign, to {d.where}: "
-         f"{gauge_direction(value_m)}")
+         f"{gauge_direction(value_m, arm)}")
     if effect:
         s += (f". Model-predicted mean error: {effect['entered']:.4f} mm entered so, {effect['none']:.4f} mm not "
               f"entered, {effect['flipped']:.4f} mm entered with the other sign")

@@ -223,3 +223,10 @@ def fill_configurations(template: np.ndarray, fill: tuple[np.ndarray, ...], q: n
     out[...] = template
     out[..., idx] = q[..., src] * mult + off
     return out
+
+
+def is_arm(machine) -> bool:
+    """True for a serial arm: a machine (anything with ``axes``) without linear axes, whose
+    tool no axis lifts along (plans approach along the tool axis in joint space; tables,
+    advice and names read as joints: J1, J2, ...)."""
+    return not any(a.kind == "linear" for a in machine.axes)

@@ -34,9 +34,11 @@ from typing import Callable
 import numpy as np
 
 from vecpin.errors import InputError
+from vecpin.kinematics.axes import is_arm
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning import route
+from vecpin.planning.armpose import arm_approach_signs, arm_clearance, check_arm_approach, screen_approaches
 from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
@@ -130,9 +132,12 @@ class Plan:
         return np.array(self.settings.tools_mm, float) * M_PER_MM
 
     def counts(self) -> dict[str, int]:
-        return {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
-                "collision": int((self.removed == "collision").sum()), "sight": int((self.removed == "sight").sum()),
-                "kept": int((self.removed == "").sum())}
+        out = {"candidates": len(self.candidates), "exclusion": int((self.removed == "exclusion").sum()),
+               "collision": int((self.removed == "collision").sum()), "sight": int((self.removed == "sight").sum()),
+               "kept": int((self.removed == "").sum())}
+        if is_arm(self.machine):  # an arm's approach along the tool axis (:mod:`~vecpin.planning.armpose`)
+            out["approach"] = int((self.removed == "approach").sum())
+        return out
 
 
 def _spread(q: np.ndarray, k: int, speed: np.ndarray) -> np.ndarray:
@@ -154,7 +159,11 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
     measurement order, the predicted uncertainty and the validation run."""
     say = progress or (lambda msg: None)
     problem = plan_problem(machine, settings or PlanSettings())
+    if is_arm(machine):
+        check_arm_approach(problem.settings.approach, problem.settings.approach_mm)
     cands = screen_candidates(problem, say)
+    if is_arm(machine):
+        screen_arm(problem, cands, say)
     model = planned_model(machine, problem.settings)
     problem.settings.check_model(machine, model.n_parameters)
     say(f"{problem.settings.model} model of order {problem.settings.order}: {model.n_parameters + 6} parameters; "
@@ -168,6 +177,25 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         template = station_blocks(machine, template, problem.placement, geometry=s.geometry,
                                   tool_radius=s.tool_radius_mm * M_PER_MM, target_clearance=s.target_clearance_mm * M_PER_MM)
     return plan_result(problem, info, cands, chosen, template, say)
+
+
+def screen_arm(problem: PlanProblem, c: Candidates, say: Callable[[str], None]) -> None:
+    """Mark in ``c`` the candidates of an arm that cannot be approached along the tool
+    axis ('approach'; ``sight_by`` says why: :func:`~vecpin.planning.armpose.screen_approaches`);
+    refuses when fewer than the planned commands are left."""
+    s = problem.settings
+    ok = c.kept
+    say(f"approach poses {s.approach_mm:g} mm back along the tool axis for {len(ok)} commands")
+    sl = c.sight if c.sight is not None else SightLine(
+        problem.machine, problem.tracker, geometry=s.geometry, tool_radius=s.tool_radius_mm * M_PER_MM,
+        target_clearance=s.target_clearance_mm * M_PER_MM)
+    why = screen_approaches(problem.machine, c.q[ok], arm_clearance(s), sl, problem.tools)
+    c.sight_by[ok[why != ""]] = why[why != ""]
+    c.removed[ok[why != ""]] = "approach"
+    if len(c.kept) < s.n_commands:
+        raise InputError(f"only {len(c.kept)} of {len(c.q)} candidate commands of the arm can be approached "
+                         f"{s.approach_mm:g} mm along the tool axis and are free and in sight; ask for fewer "
+                         "`n_commands`, more `candidates`, a shorter `approach_mm`, or move the tracker")
 
 
 def choose_commands(problem: PlanProblem, info: Information, c: Candidates,
@@ -207,6 +235,8 @@ def measurement_order(problem: PlanProblem, chosen: np.ndarray, seen: np.ndarray
     command = np.concatenate([k for _, _, k in passes])
     idx, sign = route.approach_rows(q_cmd, s.approach)
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
+    if approach is not None and is_arm(machine):  # each joint's direction from the pre-pose
+        approach = arm_approach_signs(machine, q_cmd[idx], arm_clearance(s))
     return chosen, with_nest_rows(q_cmd[idx], t_cmd[idx], approach, command[idx], seen, problem.nests)
 
 
@@ -256,6 +286,8 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
     cand = cand[~inside(machine, cand, s.exclude)]
     if sl is not None:
         cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
+    if is_arm(machine):  # an arm's approach along the tool axis, reachable and free
+        cand = cand[screen_approaches(machine, cand, arm_clearance(s), sl, np.array([tool])) == ""]
     if len(cand) < s.n_validation:
         raise InputError(f"`n_validation` {s.n_validation}: only {len(cand)} validation commands are free and in sight "
                          "inside the measurement zone; ask for fewer or move the tracker")
@@ -267,6 +299,8 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
             seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
     idx, sign = route.approach_rows(q, s.approach)
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
+    if approach is not None and is_arm(machine):
+        approach = arm_approach_signs(machine, q[idx], arm_clearance(s))
     return reread(with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests),
                   VALIDATION_READS if nests else 1)
 

@@ -264,6 +264,9 @@ def to_machine_frame(model, xyz: np.ndarray) -> np.ndarray:
     return (p - s.e0[:3]) @ exp3(s.e0[3:])
 
 
+MESH_PARENTS = 3  # parent folders of a URDF's folder searched for the package of a package:// mesh
+
+
 def mesh_dirs(model) -> list[Path]:
     """Folders a relative mesh of the model's URDF is looked for in: the URDF's own folder
     (a machine loaded from a file), the folder recorded in the model file, the model
@@ -275,7 +278,8 @@ def mesh_dirs(model) -> list[Path]:
 
 def resolve_meshes(urdf_xml: str, dirs: list[Path]) -> tuple[str, list[str]]:
     """The URDF with every visual mesh file name made absolute where the file is found
-    (relative to ``dirs``; ``package://PKG/...`` under a folder or its PKG subfolder), and
+    (relative to ``dirs``; ``package://PKG/...`` under a folder or its PKG subfolder, or
+    under a parent folder up to :data:`MESH_PARENTS` levels up that is PKG or holds it), and
     every visual whose mesh is found nowhere left out. Returns (URDF text, missing files)."""
     import xml.etree.ElementTree as ET
     if "<mesh" not in urdf_xml:
@@ -303,8 +307,11 @@ def _find_mesh(name: str, dirs: list[Path]) -> Path | None:
     tries: list[Path] = []
     if name.startswith("package://"):
         pkg, _, rest = name[len("package://"):].partition("/")
-        for d in dirs:
-            tries += [d / rest, d / pkg / rest, d.parent / pkg / rest]
+        for d in dirs:  # the package folder beside the URDF, or the URDF inside it (ROS: PKG/urdf/x.urdf)
+            tries += [d / rest, d / pkg / rest]
+            for a in [d, *list(d.parents)[:MESH_PARENTS]]:
+                tries += [a / rest] if a.name == pkg else []
+                tries += [a.parent / pkg / rest]
     elif Path(name).is_absolute():
         tries.append(Path(name))
     else:

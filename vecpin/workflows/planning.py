@@ -22,6 +22,10 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
+from vecpin.kinematics.axes import is_arm
+from vecpin.planning.armpose import arm_clearance
+from vecpin.planning.armprogram import (APPROACH_SPEED, MOVE_SPEED, arm_dialects, arm_poses, arm_program_name, arm_time,
+                                        write_arm_program)
 from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
                                       retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
@@ -67,6 +71,10 @@ class PlanRun:
                f"in the machine's geometry (collisions), {c['sight']} out of sight (LoS, {p.geometry} geometry), "
                f"{c['kept']} left; chosen {s.method}"]
         out += self.nest_lines()
+        if "approach" in c:
+            out.append(f"  approach along the tool axis ({s.approach_mm:g} mm back, the arm's pre-pose): "
+                       f"{c['approach']} candidates left out (out of reach, a joint limit, near a singularity, or a "
+                       "holder in the geometry)")
         if c["sight"]:
             names, counts = np.unique(p.sight_by[p.removed == "sight"].astype(str), return_counts=True)
             top = sorted(zip(counts, names), reverse=True)[:4]
@@ -103,7 +111,7 @@ class PlanRun:
             out.append("  comparison (same model, noise, tracker and validation commands):")
             out += PlanScore.header() + [x.line() for x in self.comparison]
         if self.program:
-            out.append(f"  NC programs: {self.program}")
+            out.append(f"  {'arm' if is_arm(p.machine) else 'NC'} programs: {self.program}")
         if self.time is not None:
             out.append(f"  {self.time.line()}")
         out += self.validation_lines()
@@ -195,7 +203,7 @@ class PlanRun:
                 "program": None if self.timing is None else timing_dict(self.timing)}
 
 
-def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=tuple(DIALECTS),
+def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=None,
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
@@ -211,13 +219,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     ``holder_change_s``, ``tracker_move_s``: the time of a holder change and of moving the
     tracker to another station, for the campaign's time (:mod:`vecpin.planning.timing`).
     The plan's warnings (:mod:`vecpin.planning.planchecks`) are issued as
-    :class:`~vecpin.errors.VecpinWarning` before the files are written."""
+    :class:`~vecpin.errors.VecpinWarning` before the files are written. ``dialects``: the
+    programs to write (default: every NC dialect; on an arm, :func:`is_arm`, every arm
+    program of :mod:`vecpin.planning.armprogram`, which approach along the tool axis)."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
-    r, up = retract_axis(machine, retract)
-    safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
-    for d in dialects:  # so does an axis without an NC address in a dialect asked for
-        nc_axis_names(machine, d, axis_map)
+    arm = is_arm(machine)
+    dialects, r, up = program_request(machine, dialects, retract, safe_z_mm, axis_map)
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,
                   tracker_move_s=tracker_move_s).check()
     from vecpin.viz.figures import plan_figure
@@ -237,6 +245,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     files = []
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
+        if arm:
+            return _arm_run(out, machine, plan, files, comparison, dialects, (dwell_s, nest_dwell_s, read_dwell_s),
+                            holder_change_s)
         for d in dialects:
             text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
@@ -270,6 +281,54 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
+
+
+def _arm_run(out: OutputSet, machine: Machine, plan: Plan, files: list, comparison: list, dialects: tuple[str, ...],
+             dwells: tuple[float, float, float], holder_change_s: float) -> PlanRun:
+    """Write an arm's programs of the plan and its validation run
+    (:mod:`vecpin.planning.armprogram`; ``dwells`` [s]: the tool's, a nest's, a further
+    reading's) and return the run with their times."""
+    c = arm_clearance(plan.settings)
+    v = plan.validation_template
+    times = []
+    for t, run, title in ((plan.template, "plan", f"for {machine.name}"),
+                          (v, "validation", f"- validation run for {machine.name}")):
+        reads = plan.validation_reads if run == "validation" else 1
+        for d in dialects:
+            text = write_arm_program(d, machine, t, c, dwell_s=dwells[0], nest_dwell_s=dwells[1],
+                                     read_dwell_s=dwells[2], reads=reads, title=title)
+            files.append(out.write_text(arm_program_name(d, run), text))
+        times.append(arm_time(t, arm_poses(machine, t, c, dwells, reads), holder_change_s))
+        if run == "plan":
+            files.append(out.write_text("validation.csv", v.to_csv(machine)))
+    program = (f"joint moves at {MOVE_SPEED:g} rad/s between points; each point approached from {c * 1000:g} mm back "
+               f"along the tool axis at {APPROACH_SPEED:g} rad/s; dwells {dwells[0]:g} s per point"
+               if c > 0 else f"joint moves at {MOVE_SPEED:g} rad/s straight to each point; dwells {dwells[0]:g} s")
+    from vecpin.viz.figures import plan_figure
+    plan_figure(plan, out.path("plan.png"))
+    files.append(out.final("plan.png"))
+    run = PlanRun(plan, files, comparison, program, times[0], None, times[1], times[1])
+    files.append(out.final("plan.json"))
+    out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
+    return run
+
+
+def program_request(machine: Machine, dialects, retract: str | None, safe_z_mm: float | None,
+                    axis_map: dict | None) -> tuple[tuple[str, ...], int | None, int | None]:
+    """The programs to write (default per kind of machine), the retract axis and its
+    direction (None on an arm), every program option checked before the planning (an
+    arm has no axis to retract with; an axis without an NC address in a dialect asked for)."""
+    if is_arm(machine):
+        if retract is not None or safe_z_mm is not None:
+            raise InputError(f"`retract`/`safe_z_mm`: {machine.name} is an arm, it has no axis to retract with; its "
+                             "program backs off along the tool axis (`approach_mm`)")
+        return arm_dialects(dialects, machine), None, None
+    dialects = tuple(DIALECTS) if dialects is None else tuple(dialects)
+    r, up = retract_axis(machine, retract)
+    safe_position(machine, r, up, safe_z_mm)
+    for d in dialects:
+        nc_axis_names(machine, d, axis_map)
+    return dialects, r, up
 
 
 def plan_stations(plan: Plan) -> list[np.ndarray]:

@@ -19,6 +19,7 @@ import numpy as np
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.plan import TablePlan, add_as_written_row, gauge_effect, plan_tables, unfolded_label
 from vecpin.compensation.tables import TableSet, table_name
+from vecpin.kinematics.axes import is_arm
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
 from vecpin.export import boundary, drives, generic
 from vecpin.export.common import ControllerFormat, ExportJob, UserCommands, with_constants
@@ -96,6 +97,17 @@ class TableRun:
     warnings: list[str] = field(default_factory=list)  # printed before the headline: files that fail used apart
     gauge_effect: dict | None = None  # mean error [mm] with the gauge-line change entered / not / flipped
 
+    def _table_names(self, grid: str) -> list[str]:
+        """The line naming the tables; an arm's read as joints (J2(J1)), with the key to them."""
+        tables, m = self.plan.tables, self.plan.problem.machine
+        if not is_arm(m):
+            return [f"  tables: {' '.join(tables.names())}  ({len(tables.tables)} tables, {grid})"]
+        labels = boundary.joint_labels(m.axis_names)
+        named = " ".join(boundary.arm_table_label(t.output_axis, t.input_axis, labels) for t in tables.tables)
+        return [f"  tables: {named}  ({len(tables.tables)} tables, {grid}; J2(J1): the error of J2 as J1 moves)",
+                "  joints: " + ", ".join(f"{v} {k}" for k, v in labels.items())
+                + f" (the files name the tables by the joints, e.g. {tables.names()[0]})"]
+
     def lines(self, model_name: str) -> list[str]:
         plan = self.plan
         m_name = plan.problem.machine.name
@@ -103,8 +115,9 @@ class TableRun:
         out.append(f"compensation tables for {m_name} ({self.controller}), model {model_name}")
         grid = ("resampled on the controller's grid (see its README)" if plan.limits.resampled
                 else f"{plan.points} points each")
-        out.append(f"  tables: {' '.join(plan.tables.names())}  ({len(plan.tables.tables)} tables, {grid})")
-        out.append("  " + boundary.gauge_text(self.controller, plan.tables.gauge_offset_change, self.gauge_effect)
+        arm = is_arm(plan.problem.machine)
+        out += self._table_names(grid)
+        out.append("  " + boundary.gauge_text(self.controller, plan.tables.gauge_offset_change, self.gauge_effect, arm)
                    + (" (the controller's README in the output folder says it too)"
                       if any(f.name.startswith("README_") for f in self.files) else ""))
         if plan.selection is not None:
