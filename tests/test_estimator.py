@@ -95,7 +95,7 @@ def test_std_matches_the_scatter_of_refits_on_redrawn_noise(flow, sim):
     for seed in range(2, 42):
         again = simulate(flow, seed=seed, truth=sim.truth, plan=(c.q, c.tool), design=Design(n_validation=5)).campaign
         assert np.array_equal(again.q, c.q) and not np.array_equal(again.xyz, c.xyz)
-        e, s = ErrorModelCV(flow, **FIXED).fit(again).predict(q, 0.2, return_std=True)
+        e, s = ErrorModelCV(flow, noise_from_data=False, **FIXED).fit(again).predict(q, 0.2, return_std=True)
         errs.append(e)
         stds.append(s)
     ratio = np.array(errs).std(axis=0, ddof=1) / np.array(stds).mean(axis=0)
@@ -145,9 +145,25 @@ def test_the_facade_takes_names_and_paths_and_refuses_the_rest(tmp_path):
     write_campaign(tmp_path / "c.csv", sim.campaign, m)
     by_name = vecpin.fit("flow_xyzcb", tmp_path / "c.csv", "spherical", kind="6dof", basis="chebyshev", order=1)
     by_object = vecpin.fit(m, vecpin.read_campaign(tmp_path / "c.csv", m), vecpin.NoiseModel.default(m, "spherical"),
-                           kind="6dof", basis="chebyshev", order=1)
+                           kind="6dof", basis="chebyshev", order=1, noise_from_data=True)   # a name states no level
     np.testing.assert_allclose(by_name.model.b_, by_object.model.b_, atol=1e-9)
     for args, name in (((m, 3.5), "`campaign` float"), ((None, sim.campaign), "`machine` NoneType"),
                        ((m, sim.campaign, 3), "`noise` int")):
         with pytest.raises(InputError, match=name):
             vecpin.fit(*args)
+
+
+def test_the_facade_and_the_command_line_default_alike(sim, tmp_path, capsys):
+    """No noise given: ``vecpin.fit`` takes the noise level from the data as ``vecpin fit``
+    without noise options does, so one campaign gives one model file either way (a stated
+    NoiseModel keeps its level)."""
+    csv = sim.write(tmp_path / "sim")["campaign"]
+    assert main(["fit", "flow_xyzcb", str(csv), "--out", str(tmp_path / "cli.json"), "--quiet", "--model", "6dof",
+                 "--basis", "chebyshev", "--order", "2"]) == 0
+    capsys.readouterr()
+    run = vecpin.fit("flow_xyzcb", csv, **FIXED)
+    run.model.save(tmp_path / "api.json")
+    assert (tmp_path / "cli.json").read_bytes() == (tmp_path / "api.json").read_bytes()
+    assert "noise from the data" in "\n".join(run.lines())
+    stated = vecpin.fit("flow_xyzcb", csv, vecpin.NoiseModel.default(vecpin.Machine.load("flow_xyzcb")), **FIXED)
+    assert stated.noise_scale is None

@@ -40,7 +40,7 @@ class ErrorModelCV:
     def __init__(self, machine: Machine, noise: NoiseModel | None = None, *, kind: str = "auto", basis: str = "auto",
                  order: int | str = "auto", tool_corrections: bool = False, prior_scale: float = 1.0,
                  underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 noise_from_data: bool = False, nest_heights: dict | None = None,
+                 noise_from_data: bool | None = None, nest_heights: dict | None = None,
                  progress: Callable[[str], None] | None = None):
         self.machine, self.noise = machine, noise
         self.kind, self.basis, self.order = kind, basis, order

@@ -206,7 +206,7 @@ def fit_arguments(machine, campaign, noise) -> tuple[Machine, Campaign, NoiseMod
 def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
                  basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
                  prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 noise_from_data: bool = False, nest_heights: dict | None = None,
+                 noise_from_data: bool | None = None, nest_heights: dict | None = None,
                  progress: Callable[[str], None] | None = None) -> FitRun:
     """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``).
 
@@ -214,13 +214,16 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     the table's face (three or more): the model then knows where the face is, and the
     tables keep it square to the spindle (:func:`vecpin.compensation.frame.on_the_table_face`).
 
-    ``noise_from_data``: the noise level is not known (the user stated none): the model
+    ``noise_from_data``: the noise level is not known (default: when ``noise`` states none, None or an
+    instrument's name, as ``vecpin fit`` without noise settings; a :class:`NoiseModel` states it): the model
     choice scales every noise sigma to what its linearised fit says when the chi2 leaves
     its band (:func:`vecpin.selection.choice.choose_model`), once; when the fit's chi2
     still leaves its band, the same model is fitted again with the scale
     sqrt(chi2 / expected) gives (:func:`_fit_rounds`). The ratio of machine to instrument noise is kept: one level, not
     two variance components, is what the residuals tell apart from the model. ``noise``
     default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
+    if noise_from_data is None:
+        noise_from_data = noise is None or isinstance(noise, str)
     machine, campaign, noise = fit_arguments(machine, campaign, noise)
     rows = len(campaign)
     if zone:
