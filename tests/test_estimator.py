@@ -167,3 +167,19 @@ def test_the_facade_and_the_command_line_default_alike(sim, tmp_path, capsys):
     assert "noise from the data" in "\n".join(run.lines())
     stated = vecpin.fit("flow_xyzcb", csv, vecpin.NoiseModel.default(vecpin.Machine.load("flow_xyzcb")), **FIXED)
     assert stated.noise_scale is None
+
+
+def test_the_estimator_contract_params_score_and_best_score(fixed, flow, sim):
+    """get_params/set_params round-trip the settings; score is minus the mean distance [mm] of
+    a run's readings from the model, computed here from the model's own tips; best_score_
+    is None when nothing was chosen."""
+    params = fixed.get_params()
+    assert params["kind"] == "6dof" and params["order"] == 2
+    est = ErrorModelCV(flow).set_params(**params)
+    assert est.get_params() == params
+    with pytest.raises(VecpinError, match="no setting colour"):
+        est.set_params(colour="red")
+    v = sim.validation
+    d = np.linalg.norm(v.xyz - fixed.model_.predict(v.q, v.tool), axis=1) * 1000.0
+    assert fixed.score(v) == pytest.approx(-d.mean(), rel=1e-9)
+    assert fixed.best_score_ is None

@@ -70,6 +70,41 @@ class ErrorModelCV:
             raise VecpinError("the estimator is not fitted: call fit(campaign) first")
         return self.model_.predict_error(q, tool, frame, features, point=point, offset=offset, return_std=return_std)
 
+    _PARAMS = ("noise", "kind", "basis", "order", "tool_corrections", "prior_scale", "underdetermined", "folds",
+               "zone", "noise_from_data", "nest_heights", "progress")
+
+    def get_params(self) -> dict:
+        """The settings given to the constructor, by name (scikit-learn's contract; ``machine`` apart)."""
+        return {k: getattr(self, k) for k in self._PARAMS}
+
+    def set_params(self, **params) -> "ErrorModelCV":
+        """Change settings by name before the next :meth:`fit`; an unknown name is refused."""
+        unknown = sorted(set(params) - set(self._PARAMS))
+        if unknown:
+            raise VecpinError(f"ErrorModelCV has no setting {', '.join(unknown)}: its settings are "
+                              f"{', '.join(self._PARAMS)}")
+        for k, v in params.items():
+            setattr(self, k, v)
+        return self
+
+    @property
+    def best_score_(self) -> float | None:
+        """The chosen model's held-out score: minus its mean held-out distance [mm] in the
+        model choice's cross-validation (higher is better, scikit-learn's sign); None when
+        nothing was left to choose."""
+        if not hasattr(self, "model_"):
+            raise VecpinError("the estimator is not fitted: call fit(campaign) first")
+        return None if self.choice_ is None else -float(self.choice_.chosen.mean)
+
+    def score(self, campaign: Campaign) -> float:
+        """Minus the mean distance [mm] of ``campaign``'s measured points from the fitted
+        model's, each tracker or nest row in the fit's tracker frame (a campaign measured with
+        the same tracker pose, e.g. a validation run): higher is better, scikit-learn's sign."""
+        if not hasattr(self, "model_"):
+            raise VecpinError("the estimator is not fitted: call fit(campaign) first")
+        d = np.linalg.norm(self.model_.residuals(campaign), axis=1)
+        return -float(np.nanmean(d) * 1000.0)
+
     def save(self, path) -> None:
         """Write the fitted model's file (:meth:`~vecpin.models.ErrorModel.save`)."""
         if not hasattr(self, "model_"):
