@@ -23,7 +23,9 @@ def run_simulate(args) -> int:
                     repeat_points=args.repeat[0] if args.repeat else 0, repeat_times=args.repeat[1] if args.repeat else 0,
                     stations=args.stations, ballbar_points=args.ballbar_points, nests=args.nests, targets_mm=targets,
                     known_targets=args.known_targets)
-    inputs = simulation_inputs(m, plan=args.plan, tables=args.tables, truth=args.truth)
+    inputs = simulation_inputs(m, plan=args.plan, tables=args.tables, truth=args.truth,
+                               temperature_profile=args.temperature_profile, validation_after_h=args.validation_after,
+                               thermal=args.thermal)
     tracker = None
     if args.tracker_position:
         tracker = np.array(parse_floats(args.tracker_position, "--tracker", 3)) * M_PER_MM
@@ -69,6 +71,14 @@ def register(sub) -> None:
                    "run (validation.csv beside it) (default: none)")
     s.add_argument("--tables", help="tables.json (or its folder, from vecpin tables): also run the validation commands "
                    "on the true machine through these tables (default: none)")
+    s.add_argument("--temperature-profile", metavar="PROFILE",
+                   help="the hall's temperature the simulated machine follows: warmup:START:END:HOURS (a ramp, then "
+                        "END), cycle:MEAN:AMPL:PERIOD_H, or a CSV with columns time [s], temperature [degC] "
+                        "(default: the workshop, 20 degC with a daily swing and a slow drift)")
+    s.add_argument("--validation-after", type=float, metavar="HOURS",
+                   help="hours from the campaign's last row to the validation run (default 10 minutes)")
+    s.add_argument("--thermal", metavar="JSON", help="thermal.json (from vecpin tables --thermal): the controller's "
+                   "thermal terms, active in the run through --tables (default: none)")
     s.add_argument("--truth", help="truth.json of an earlier simulation: simulate that true machine instead of a new "
                    "random one (default: random from --seed and --mean-error)")
     s.add_argument("--tracker", dest="tracker_position", metavar="X,Y,Z", help="where the simulated tracker stands, machine base frame, mm "

@@ -21,12 +21,14 @@ in words where the data cannot separate them (:func:`separability`).
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from vecpin.compensation.thermalheld import held_out
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
@@ -87,7 +89,9 @@ class ThermalTerms:
     ``slope_um_per_m_per_k`` (b) and their standard deviations; ``growth_um_per_k`` (c,
     None where the tool's growth is one of the axes' offsets on this machine, see
     ``notes``); ``t_range_c``: the lagged temperatures the campaign saw; ``notes``: what
-    the data could not separate, in words."""
+    the data could not separate, in words; ``held_out``: what the fit leaves, judged on
+    time blocks held out (:func:`vecpin.compensation.thermalheld.held_out`: the
+    coefficients' covariance, the residual's floor and its growth with the temperature)."""
 
     machine: str
     axes: list[str]
@@ -102,6 +106,7 @@ class ThermalTerms:
     growth_std: float | None = None
     t_range_c: tuple[float, float] = (20.0, 20.0)
     notes: list[str] = field(default_factory=list)
+    held_out: dict = field(default_factory=dict)   # see :mod:`vecpin.compensation.thermalheld`
 
     def axis_error_mm(self, axis: str, pos_mm, temperature_c) -> np.ndarray:
         """The axis' thermal error [mm] at commanded positions [mm] and (lagged) temperatures [°C]."""
@@ -130,6 +135,7 @@ class ThermalTerms:
             d = json.loads(Path(path).read_text())
             d.pop("format", None)
             d["t_range_c"] = tuple(d["t_range_c"])
+            d.setdefault("held_out", {})
             return cls(**d)
         except (OSError, ValueError, TypeError, KeyError) as exc:
             raise InputError(f"{path}: not a vecpin thermal terms file ({exc})") from None
@@ -160,6 +166,45 @@ def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c)
     nominal = machine.kinematics(q, tool, jacobian=False, frame="base")
     moved = machine.kinematics(q + e, tool, jacobian=False, frame="base")
     return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
+
+
+DRAWS = 400   # draws of the coefficients' error behind an expected remaining error (seeded: the same figure each time)
+
+
+def _unit_terms(terms: ThermalTerms, name: str) -> ThermalTerms:
+    """The terms with every coefficient 0 but ``name`` (thermalheld's order) at 1 (µm/K or µm/m/K)."""
+    z = dataclasses.replace(terms, offset_um_per_k={a: 0.0 for a in terms.axes},
+                            slope_um_per_m_per_k={a: 0.0 for a in terms.axes},
+                            growth_um_per_k=None if terms.growth_um_per_k is None else 0.0)
+    if name == "tool_growth_per_K":
+        z.growth_um_per_k = 1.0
+    else:
+        axis, kind = name.split(".")
+        (z.offset_um_per_k if kind == "offset_per_K" else z.slope_um_per_m_per_k)[axis] = 1.0
+    return z
+
+
+def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c: float) -> tuple[float, float]:
+    """(expected mean thermal error [mm] the terms leave at the commands ``q`` (N,n) [m, rad],
+    tool lengths [m], at the steady (lagged) temperature ``temperature_c`` [°C]; the
+    floor [mm] the model leaves at any temperature): the coefficients' error drawn from
+    their covariance on held-out time blocks, and the held-out residual's growth with
+    the temperature change as an error in a random direction
+    (:mod:`vecpin.compensation.thermalheld`). Without ``held_out`` (an older
+    ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
+    q = np.atleast_2d(np.asarray(q, float))
+    h = terms.held_out
+    if not h:
+        sigma = dataclasses.replace(terms, offset_um_per_k=dict(terms.offset_std),
+                                    slope_um_per_m_per_k=dict(terms.slope_std), growth_um_per_k=terms.growth_std)
+        return float(np.linalg.norm(tip_errors(sigma, machine, q, tool, temperature_c), axis=1).mean() * 1e3), 0.0
+    C = np.stack([tip_errors(_unit_terms(terms, nm), machine, q, tool, temperature_c) for nm in h["names"]], -1)
+    w, V = np.linalg.eigh(np.asarray(h["cov"], float))
+    rng = np.random.default_rng(0)
+    delta = rng.standard_normal((DRAWS, len(w))) * np.sqrt(np.clip(w, 0, None)) @ V.T      # (draws, P)
+    spread = h["growth_um_per_k"] * 1e-6 * abs(temperature_c - terms.t0_c) / np.sqrt(3.0)
+    e = np.einsum("nip,dp->dni", C, delta) + rng.standard_normal((DRAWS, len(q), 3)) * spread
+    return float(np.linalg.norm(e, axis=2).mean() * 1e3), h["floor_um"] * 1e-3
 
 
 def default_p0(machine, axes) -> dict[str, float]:
@@ -262,7 +307,9 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
         if best is None or fitted.report_.chi2 < best[1].report_.chi2:
             best = (eff, fitted)
     eff, fitted = best
-    return _terms(m, eff, fitted, campaign, feats, along), fitted
+    terms = _terms(m, eff, fitted, campaign, feats, along)
+    terms.held_out = held_out(fitted, campaign, feats, eff)
+    return terms, fitted
 
 
 def _terms(m, eff: ThermalTermsEffect, fitted, campaign, feats, along: str | None) -> ThermalTerms:

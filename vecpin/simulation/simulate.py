@@ -21,6 +21,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.simulation.design import Design, design_commands
 from vecpin.simulation.effects import EffectSpec
 from vecpin.planning.nests import VALIDATION_READS, nest_positions  # the one placement, shared with planning
+from vecpin.simulation.temperature import Hall
 from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
 from vecpin.measurement.tableframe import standstill_draws, standstills
@@ -280,6 +281,11 @@ def workshop_temperature(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return 20.0 + 0.6 * np.sin(2 * math.pi * t / 86400 + phase) + drift + rng.normal(0, 0.02, len(t))
 
 
+def _air(hall: Hall, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The hall sensor's readings [°C] at ``t`` [s]: the hall's profile, else the default workshop."""
+    return workshop_temperature(t, rng) if hall.profile is None else hall.profile.read(t, rng)
+
+
 class _DriveTurn:
     """The twin drives' differential of a table set acting on the true machine, as a
     geometric tip effect: the beam turns (:meth:`TableSet.turn_tips`, base frame)."""
@@ -306,7 +312,7 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
              effects: list | None = None, plan: "PlanTemplate | tuple[np.ndarray, np.ndarray] | None" = None, tables=None,
              tracker_position: np.ndarray | None = None, plan_times: np.ndarray | None = None,
              validation_commands: np.ndarray | None = None, station_positions: list | None = None,
-             read_dwell_s: float = READ_DWELL_S, **truth_options) -> Simulation:
+             read_dwell_s: float = READ_DWELL_S, hall: Hall | None = None, **truth_options) -> Simulation:
     """Simulate a campaign on ``machine`` (a random :class:`TrueMachine` from ``seed``
     unless ``truth`` is given). ``effects``: effects acting on the true machine
     (instances of :mod:`vecpin.models.effects` classes, or :class:`EffectSpec`), scaled
@@ -335,6 +341,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     ``tracker_position`` is given), each tracker with a random heading.
     ``read_dwell_s`` [s]: the time of every further reading of a point in the validation run
     (the plan's NC program's dwell, :func:`validation_times`).
+    ``hall``: the hall's temperature profile, when the validation run starts and the
+    controller's thermal terms in the run through the tables (:mod:`vecpin.simulation.temperature`).
 
     The stages, in the order they draw from the seeded generator: the true machine, the
     rows measured (the plan's or the design's), the identification campaign, the
@@ -344,6 +352,8 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     if template is not None:
         plan = (template.q, template.tool)
     _check_simulation(machine, seed, design, plan, truth_options.get("mean_error_mm"), tracker_position, read_dwell_s)
+    hall = hall or Hall()
+    hall.check()
     rng = np.random.default_rng(int(seed))
     if template is not None and np.any(template.stations != 0) and design.stations > 1:
         raise InputError(f"`stations` {design.stations}: the plan says which tracker station reads each row (its "
@@ -354,12 +364,12 @@ def simulate(machine: Machine, seed: int = 0, design: Design | None = None, trut
     rows, nests, targets, tool0 = _measured_rows(machine, design, plan, template, rng, seed)
     _place_stations(truth, rows.station, station_positions, rng)
     campaign, t_end = _identification_campaign(machine, design, truth, rows, rng, seed,
-                                               plan_times if plan is not None else None, targets)
+                                               plan_times if plan is not None else None, targets, hall)
     qv = design_commands(machine, design.n_validation, rng, "halton", design.exclude) \
         if validation_commands is None else np.atleast_2d(np.asarray(validation_commands, float))
     reads = VALIDATION_READS if nests else 1
     runs = _validation_runs(machine, design, truth, validation_rows(qv, tool0, nests, reads), rng, seed,
-                            (t_end, reads, read_dwell_s), tables)
+                            (t_end, reads, read_dwell_s), tables, hall)
     return Simulation(truth, campaign, *runs, nests, targets)
 
 
@@ -447,7 +457,7 @@ def _measured_rows(machine: Machine, design: Design, plan, template: PlanTemplat
 
 def _identification_campaign(machine: Machine, design: Design, truth: TrueMachine, rows: Rows,
                              rng: np.random.Generator, seed: int, plan_times: np.ndarray | None,
-                             targets: dict) -> tuple[Campaign, float]:
+                             targets: dict, hall: Hall) -> tuple[Campaign, float]:
     """The rows measured on the true machine: time stamps [s] (the design's seconds per
     point and feed, or ``plan_times``), workshop temperature, the effects calibrated to
     their strength on these rows; then further tracker stations and ball bar rows. With
@@ -458,7 +468,7 @@ def _identification_campaign(machine: Machine, design: Design, truth: TrueMachin
         if len(plan_times) != len(qs):
             raise VecpinError("the plan's time stamps do not match its rows")
         t = np.asarray(plan_times, float)
-    extra = {"time": t, "temperature": workshop_temperature(t, rng)}
+    extra = {"time": t, "temperature": _air(hall, t, rng)}
     feats = Features.from_campaign(Campaign(machine.axis_names, qs, tool, np.zeros((len(qs), 3)), extra))
     if truth.effects:
         truth.calibrate_effects(qs, tool, feats)
@@ -472,8 +482,8 @@ def _identification_campaign(machine: Machine, design: Design, truth: TrueMachin
 
 def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows: Rows, rng: np.random.Generator,
                      seed: int, timed: tuple[float, int, float],
-                     tables) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
-    """The validation run ``vrows`` 10 min after the campaign's last row (``timed``: that
+                     tables, hall: Hall) -> tuple[Campaign, Campaign, Campaign | None, Campaign | None]:
+    """The validation run ``vrows`` the hall's delay (default 10 min) after the campaign's last row (``timed``: that
     row's time [s], the readings of every point and the time [s] of a further one,
     :func:`validation_times`): measured (noisy) and noise-free, without the effects that
     flag rows (gross errors); with ``tables`` the same commands again through the tables,
@@ -481,8 +491,8 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
     positioning noise is drawn once for them, the tracker's per reading."""
     t_end, reads, read_dwell_s = timed
     qa, tv = vrows.q, vrows.tool  # the validation commands at the tool, then at every table nest
-    times_v = validation_times(vrows, machine, design, t_end + 600.0, reads, read_dwell_s)
-    extra_v = {"time": times_v, "temperature": workshop_temperature(times_v, rng)}
+    times_v = validation_times(vrows, machine, design, t_end + hall.validation_after_s, reads, read_dwell_s)
+    extra_v = {"time": times_v, "temperature": _air(hall, times_v, rng)}
     commands = Campaign(machine.axis_names, qa, tv, np.zeros((len(qa), 3)), extra_v)
     feats_v, still = Features.from_campaign(commands), standstills(commands)
     clean = [e for e in truth.effects if not e.flags_rows]
@@ -495,10 +505,11 @@ def _validation_runs(machine: Machine, design: Design, truth: TrueMachine, vrows
     exact = run(vrows, extra_v, feats_v, None, "noise-free")
     comp = comp_exact = None
     if tables is not None:  # after everything else: the other outputs do not change
-        crows = replace(vrows, q=tables.apply(qa))  # the table moves through the tables too (nest rows)
         truth.effects = clean + [_DriveTurn(tables, machine)] if tables.drives else clean
         times_c = validation_times(vrows, machine, design, times_v[-1] + 600.0, reads, read_dwell_s)
-        extra_c = {"time": times_c, "temperature": workshop_temperature(times_c, rng)}
+        extra_c = {"time": times_c, "temperature": _air(hall, times_c, rng)}
+        qt, tool_t = hall.controller(machine, tables.apply(qa), vrows.tool, times_c, extra_c["temperature"])
+        crows = replace(vrows, q=qt, tool=tool_t)  # the table moves through the tables too (nest rows)
         feats_c = Features.from_campaign(Campaign(machine.axis_names, crows.q, tv, np.zeros((len(qa), 3)), extra_c))
         comp = run(crows, extra_c, feats_c, rng, "validation with the tables")
         comp_exact = run(crows, extra_c, feats_c, None, "validation with the tables, noise-free")

@@ -68,12 +68,23 @@ class SimulationRun:
         if sim.targets:
             out.append("  tool targets (true offsets, tool link frame, mm): " + "; ".join(
                 f"{k} " + ", ".join(f"{v * MM_PER_M:.3f}" for v in o) for k, o in sim.targets.items()))
+        out += hall_lines(sim)
         if sim.compensated is not None:
             for label, run, g in (("validation run, uncompensated", sim.validation, 0.0),
                                   ("validation run through the tables", sim.compensated, self.gauge_change)):
                 out.append(run_summary(m, label, run, g))
         out += [f"  wrote {p}  ({k})" for k, p in self.paths.items()]
         return out
+
+
+def hall_lines(sim: Simulation) -> list[str]:
+    """The hall's temperature [°C] the campaign and the validation runs saw (mean and range)."""
+    def span(c):
+        t = c.temperature
+        return f"{t.mean():.2f} degC ({t.min():.2f} .. {t.max():.2f})"
+    runs = [("campaign", sim.campaign), ("validation run", sim.validation)]
+    runs += [("run through the tables", sim.compensated)] if sim.compensated is not None else []
+    return ["  hall temperature (sensor): " + "; ".join(f"{k} {span(c)}" for k, c in runs if c.temperature is not None)]
 
 
 def run_summary(machine: Machine, label: str, run, gauge_change: float = 0.0) -> str:
@@ -110,11 +121,15 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
 
 
 def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: str | Path | None = None,
-                      truth: str | Path | None = None) -> dict:
+                      truth: str | Path | None = None, temperature_profile: str | None = None,
+                      validation_after_h: float | None = None, thermal: str | Path | None = None) -> dict:
     """The files a simulation reads, as :func:`simulate_to_dir` takes them: ``plan`` (a
     plan's template, with its table nests and, from its folder, :func:`plan_companions`),
     ``tables`` (tables.json or its folder) and ``truth`` (truth.json of an earlier
-    simulation of ``machine``); a key only for a file given."""
+    simulation of ``machine``); a key only for a file given. ``temperature_profile`` (its
+    text, :func:`vecpin.simulation.temperature.parse_profile`), ``validation_after_h`` [h]
+    and ``thermal`` (thermal.json: the controller's thermal terms, active in the run
+    through the tables) make the ``hall``."""
     out: dict = {}
     if plan is not None:
         from vecpin.measurement.plantemplate import read_template
@@ -123,6 +138,8 @@ def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: 
     if tables is not None:
         from vecpin.workflows.verifying import load_tables
         out["tables"] = load_tables(tables, machine)[0]
+    if temperature_profile is not None or validation_after_h is not None or thermal is not None:
+        out["hall"] = _hall(temperature_profile, validation_after_h, thermal, tables)
     if truth is not None:
         from vecpin.simulation.truth import TrueMachine
         try:
@@ -130,6 +147,20 @@ def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: 
         except (OSError, KeyError, ValueError) as exc:
             raise InputError(f"`truth` {truth}: not a truth file of {machine.name} ({exc})") from None
     return out
+
+
+def _hall(profile: str | None, after_h: float | None, thermal, tables):
+    """The simulation's hall from its options (see :func:`simulation_inputs`)."""
+    from vecpin.compensation.thermal import ThermalTerms
+    from vecpin.simulation.temperature import Hall, parse_profile
+    if thermal is not None and tables is None:
+        raise InputError(f"`thermal` {thermal}: the controller's thermal terms act in the run through the tables; "
+                         "give the tables too")
+    hall = Hall(None if profile is None else parse_profile(profile),
+                600.0 if after_h is None else float(after_h) * 3600.0,
+                None if thermal is None else ThermalTerms.load(thermal))
+    hall.check()
+    return hall
 
 
 def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:

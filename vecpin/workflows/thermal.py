@@ -4,19 +4,19 @@ The fitted model's geometric part is refitted on the campaign together with the
 controller-form thermal terms (:func:`vecpin.compensation.thermal.fit_thermal`); the
 terms go to ``thermal.json`` and the controller's thermal files
 (:mod:`vecpin.export.thermal`, LinuxCNC: :mod:`vecpin.export.thermal_linuxcnc`); the
-printout gives the thermal error vecpin predicts over the measured temperatures, on the
-campaign's commands, without the terms and with them (what their uncertainty leaves).
+printout gives the thermal error vecpin predicts over the measured temperatures and 10 K
+either side of their mean, on the campaign's commands, without the terms and what they
+leave (judged on time blocks held out: :mod:`vecpin.compensation.thermalheld`).
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermal import ThermalTerms, fit_thermal, tip_errors
+from vecpin.compensation.thermal import ThermalTerms, fit_thermal, remaining_mm, tip_errors
 from vecpin.errors import InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
@@ -27,36 +27,53 @@ from vecpin.workflows.tables import resolve
 KEYS = {"siemens-840d": "840D", "fanuc-30i": "fanuc", "beckhoff": "beckhoff", "heidenhain": "heidenhain"}
 
 
+VALIDATION_K = 10.0   # K: the validation temperatures the prediction extends to, either side of T0
+
+
 @dataclass
 class ThermalRun:
     """The fitted terms, the files written, and per temperature [°C] the predicted mean
-    thermal error [mm] on the campaign's commands without the terms and with them."""
+    thermal error [mm] on the campaign's commands without the terms and what they leave
+    (:func:`~vecpin.compensation.thermal.remaining_mm`), with the model's floor [mm]."""
 
     terms: ThermalTerms
     files: list[Path]
-    rows: list[tuple[float, float, float]] = field(default_factory=list)
+    rows: list[tuple[float, float, float, float]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)   # printed first: what the files leave out
 
     def lines(self) -> list[str]:
-        out = list(self.warnings) + self.terms.lines()
-        out.append("  predicted thermal error over the measured temperatures (model-predicted mean on the campaign's "
-                   "commands; with the terms: what their 1-sigma uncertainty leaves)")
-        out += [f"    {t:7.2f} degC: without {a:.4f} mm, with {b:.4f} mm" for t, a, b in self.rows]
-        return out + [f"  wrote {f}" for f in self.files]
+        return list(self.warnings) + self.terms.lines() + prediction_lines(self.terms, self.rows) + \
+            [f"  wrote {f}" for f in self.files]
 
 
-def predicted_rows(terms: ThermalTerms, machine, campaign) -> list[tuple[float, float, float]]:
-    """(T, mean error without, mean error with the terms) [°C, mm] at the ends and middle of
-    the measured temperatures."""
-    q, tool = campaign.q, campaign.tool
-    sigma = dataclasses.replace(terms, offset_um_per_k=dict(terms.offset_std), slope_um_per_m_per_k=dict(terms.slope_std),
-                                growth_um_per_k=terms.growth_std)
-    rows = []
+def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
+    """The prediction in words: one line per temperature, the extrapolated ones marked."""
+    h = terms.held_out
+    how = (f"the coefficients' spread over {h['blocks']} time blocks held out and the held-out residual's growth "
+           f"{h['growth_um_per_k']:.3f} um/K" if h else "their 1-sigma uncertainty (no held-out figures in this file)")
+    out = ["  predicted thermal error (mean on the campaign's commands, steady temperature): without the terms, and "
+           f"what they leave ({how})"]
     lo, hi = terms.t_range_c
-    for t in (lo, 0.5 * (lo + hi), hi):
+    for t, a, b, _ in rows:
+        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
+        mark += "beyond the measured temperatures: the terms assume the error stays linear there)" if mark else ""
+        out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm{mark}")
+    if rows:
+        out.append(f"  and at every temperature what the model leaves besides (held-out residual's floor) "
+                   f"{rows[0][3]:.4f} mm RMS")
+    return out
+
+
+def predicted_rows(terms: ThermalTerms, machine, q, tool) -> list[tuple[float, float, float, float]]:
+    """(T, mean error without, expected mean error left by the terms, the model's floor)
+    [°C, mm] at commands ``q`` [m, rad], tools [m]: the ends and middle of the measured
+    temperatures and :data:`VALIDATION_K` either side of T0."""
+    lo, hi = terms.t_range_c
+    rows = []
+    for t in sorted({terms.t0_c - VALIDATION_K, lo, 0.5 * (lo + hi), hi, terms.t0_c + VALIDATION_K}):
         without = np.linalg.norm(tip_errors(terms, machine, q, tool, t), axis=1).mean() * MM_PER_M
-        left = np.linalg.norm(tip_errors(sigma, machine, q, tool, t), axis=1).mean() * MM_PER_M
-        rows.append((float(t), float(without), float(left)))
+        left, floor = remaining_mm(terms, machine, q, tool, t)
+        rows.append((float(t), float(without), left, floor))
     return rows
 
 
@@ -91,4 +108,4 @@ def make_thermal(model, campaign, out_dir, controller: str, profile: ControllerP
             warnings = [ln for ln in readme.splitlines() if ln.startswith("WARNING: ")]
         else:
             warnings = []
-    return ThermalRun(terms, [Path(out_dir) / n for n in names], predicted_rows(terms, m, campaign), warnings)
+    return ThermalRun(terms, [Path(out_dir) / n for n in names], predicted_rows(terms, m, campaign.q, campaign.tool), warnings)
