@@ -163,8 +163,9 @@ class SimulatedMachine:
         return y
 
     def calibrate_effects(self, q: np.ndarray, tool: np.ndarray, features) -> None:
-        """Scale every effect so that its RMS tool-tip displacement over these rows is
-        its ``strength_mm`` (outliers: the size of the gross errors). On a machine with a
+        """Scale every effect not sized yet so that its RMS tool-tip displacement over these
+        rows is its ``strength_mm`` (outliers: the size of the gross errors); a truth's
+        effects keep that scale in every later run (and in its file). On a machine with a
         workpiece the displacement of a machine effect is that of the tip relative to the
         workpiece (an effect of a table axis moves the part, not the tip in the base
         frame); a tracker effect's is that of the readings."""
@@ -176,7 +177,7 @@ class SimulatedMachine:
                 return self.tool_tip(q, tool, features, frame="workpiece")
             return self.measure(q, tool, None, features)
         for e in effects:
-            if e.flags_rows:
+            if e.flags_rows or getattr(e, "calibrated", False):   # a truth's effects are sized once, when drawn
                 continue
             base = displaced(e)
             e.scale = 1.0
@@ -184,6 +185,7 @@ class SimulatedMachine:
             rms = np.sqrt((np.linalg.norm(displaced(e) - base, axis=1) ** 2).mean())
             self.effects = []
             e.scale = e.strength_mm * M_PER_MM / rms if rms > 0 else 0.0
+            e.calibrated = True
         self.effects = effects
 
 
@@ -322,7 +324,9 @@ class TrueMachine(SimulatedMachine):
                         s = 1e-3 if aj.kind == "linear" else math.pi / 180
                         pert[i][j] = ErrorFunction([v * s for v in e["chebyshev"]], [(w, x * s, y * s) for w, x, y in e["harmonics"]])
         harm = [tuple(d.get("harmonics", {}).get(a.name, ())) for a in machine.axes]
-        return cls(machine, errors, d["gauge_error"] * M_PER_MM, rep, Tracker.from_dict(d["tracker"]), pert, harm)
+        stations = [Tracker.from_dict(s) for s in d.get("stations", [])]
+        return cls(machine, errors, d["gauge_error"] * M_PER_MM, rep, Tracker.from_dict(d["tracker"]), pert, harm,
+                   [_simulated_effect(e, machine) for e in d.get("effects", [])], stations)
 
     @classmethod
     def load(cls, path: str | Path, machine: Machine) -> "TrueMachine":
@@ -403,6 +407,19 @@ class TrueMachine(SimulatedMachine):
         rep = np.array([repeatability_mm * M_PER_MM if a.kind == "linear" else math.radians(repeatability_deg) for a in machine.axes])
         tracker = place_tracker(machine, rng, tracker_noise or TrackerNoise(), tracker_distance_m)
         return cls(machine, raw.errors, gauge, rep, tracker, raw.perturbations, harmonics)
+
+
+def _simulated_effect(d: dict, machine: Machine):
+    """A simulated effect as a truth file keeps it (:meth:`Effect.simulation_dict`): its size,
+    seed and calibrated scale restored, so a reloaded truth displaces the tip as the saved one."""
+    from vecpin.models.effects.base import REGISTRY
+    from vecpin.errors import VecpinError
+    if d.get("name") not in REGISTRY:
+        raise VecpinError(f"unknown effect '{d.get('name')}' in the truth file (known: {', '.join(REGISTRY)})")
+    e = REGISTRY[d["name"]](machine, d.get("axes", ()), strength_mm=d.get("strength_mm", 0.05),
+                            seed=d.get("seed", 0), **d.get("options", {}))
+    e.scale, e.calibrated = float(d.get("scale", 1.0)), True
+    return e
 
 
 def error_slots(machine: Machine) -> list[tuple[str, object, tuple]]:
