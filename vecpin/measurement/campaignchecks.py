@@ -171,3 +171,22 @@ def warn_duplicates(name: str, values: np.ndarray, rows: np.ndarray) -> None:
                                     f"{rows[k]} = row {rows[first[inverse.ravel()[k]]]}): a block pasted twice? They "
                                     "count as extra measurements; delete the copies unless they are real repeats"),
                       stacklevel=3)
+
+
+STILL_SHARE = 1e-4   # an axis whose commands span less than this share of its travel did not move
+
+
+def still_axes_notes(machine: Machine, campaign) -> list[str]:
+    """One note naming the axes that stood still in every row of ``campaign`` (their commands
+    spanning less than :data:`STILL_SHARE` of the travel), with where they stood: the campaign
+    cannot tell how their errors change, so a model of it knows them at that position only."""
+    q = np.asarray(campaign.q, float)
+    if not len(q):
+        return []
+    still = [a for a in machine.axes if np.ptp(q[:, a.index]) < STILL_SHARE * a.travel]
+    if not still:
+        return []
+    where = ", ".join(f"{a.name} at {a.to_user(q[0, a.index]):g} {a.unit}" for a in still)
+    return [f"{campaign.source}: {'this axis' if len(still) == 1 else 'these axes'} did not move in any row ({where}): "
+            "the campaign cannot tell how their errors change, so the model knows them there only; measure them over "
+            "their travel, or use the model and its tables only where they stood"]

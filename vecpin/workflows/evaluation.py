@@ -203,6 +203,10 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     from vecpin.compensation.frame import measured_box
     m = model.machine
     lo, hi = measured_box(model)
+    rng = getattr(model.report_, "measured_range", None) or {}
+    for a in m.axes:   # an axis that stood still in the fit: measured_box widens it for the tables, not here
+        if a.name in rng and abs(rng[a.name][1] - rng[a.name][0]) < 1e-6 * abs(a.to_user(a.travel)):
+            lo[a.index] = hi[a.index] = float(a.to_si(rng[a.name][0]))
     margin = OUTSIDE_MARGIN * np.array([a.travel for a in m.axes])
     beyond = (judged.q < lo - margin) | (judged.q > hi + margin)
     outside = beyond.any(axis=1)
@@ -210,7 +214,9 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
         return
     ev.outside = outside
     axes = [a for a in m.axes if beyond[:, a.index].any()]
-    where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}" for a in axes)
+    where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}"
+                      + (" (it did not move in the fit's campaign)" if hi[a.index] - lo[a.index] < 1e-9 else "")
+                      for a in axes)
     inside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan")
     outside_mean = ev.residual[outside].mean()
     ev.warnings.append(f"WARNING: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "

@@ -24,6 +24,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.campaign import Campaign, min_rows
 from vecpin.measurement.noise import NoiseModel, scaled_noise
+from vecpin.measurement.campaignchecks import still_axes_notes
 from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_fit, table_campaign_notes
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
@@ -228,7 +229,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     rows = len(campaign)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
-    notes = table_campaign_notes(machine, campaign)  # nest rows without a table are refused
+    notes = table_campaign_notes(machine, campaign) + still_axes_notes(machine, campaign)  # nests w/o table refused
     for note in notes:
         warnings.warn(VecpinWarning(note), stacklevel=2)
     check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
