@@ -116,6 +116,10 @@ class PlanSettings:
         tools = np.asarray(self.tools_mm, float)
         if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
             raise InputError("`tools_mm`: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
+        if tools.max() < 1.0 and tools.max() > 0:
+            raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: holders shorter than 1 mm from the gauge "
+                             f"line: metres? Give them in mm ({','.join(f'{t * 1000:g}' for t in tools)} if they were "
+                             "in metres)")
         if len(np.unique(np.round(tools, 6))) < tools.size:
             raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: two holders of the same length measure the "
                              "same point twice; give different lengths (they separate the tool-axis errors)")
@@ -245,3 +249,19 @@ def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
     from vecpin.selection.choice import fixed_model
     return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
 
+
+def check_safe_height(machine: Machine, axis: int, up: int, safe_z_mm: float | None) -> None:
+    """A safe height [mm, machine coordinates] of the retract axis that lies within 1/100 of
+    the travel from the end toward the work, where the value times 1000 would lie inside the
+    travel, was typed in metres: refused, the likely unit named (``safe_z_mm``)."""
+    if safe_z_mm is None or not np.isfinite(safe_z_mm) or safe_z_mm == 0:
+        return
+    a = machine.axes[axis]
+    lo, hi = a.lower_user, a.upper_user
+    span = hi - lo
+    depth = (safe_z_mm - lo) if up > 0 else (hi - safe_z_mm)   # how far from the end toward the work
+    if span > 0 and depth <= span / 100 and lo <= safe_z_mm * 1000 <= hi:
+        raise InputError(f"`safe_z_mm` {safe_z_mm:g}: {safe_z_mm:g} mm is {depth:g} mm from the end of {a.name}'s "
+                         f"travel toward the work ({lo:g} to {hi:g} mm), not a safe height; "
+                         f"{safe_z_mm * 1000:g} mm would be inside the travel: metres? Give it in mm, machine "
+                         "coordinates")

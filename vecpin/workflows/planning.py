@@ -27,6 +27,7 @@ from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_opt
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
+from vecpin.planning.problem import check_safe_height
 from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times, run_times
 from vecpin.units import M_PER_MM, to_mm
 
@@ -216,6 +217,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
+    check_safe_height(machine, r, up, safe_z_mm)
     for d in dialects:  # so does an axis without an NC address in a dialect asked for
         nc_axis_names(machine, d, axis_map)
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,

@@ -29,7 +29,8 @@ from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, f
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
-from vecpin.units import MM_PER_M
+from vecpin.planning.zones import check_zone_units
+from vecpin.units import MM_PER_M, slip_text
 
 LOST_SHARE = 0.02    # files giving up more than this share of what the full tables remove say so first
 ROUNDING_MM = 0.001  # ... and more than this [mm] (the files' number format rounds to 0.1-1 um)
@@ -142,6 +143,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     fmt, prof, limits, modulo = _check_request(model, controller, profile, axis_map, points, forbid_output,
                                                modulo_axes, max_tables, no_circular, sign_test)
     zone = model_zone(model) if zone is None else zone
+    check_lengths(model, tools_mm, zone)
     check_output_dir(out_dir)
     q = None
     if commands is not None:
@@ -192,6 +194,23 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st,
                     headline, warnings, effect)
+
+
+def check_lengths(model: ErrorModel, tools_mm, zone) -> None:
+    """Lengths a user gives the tables, against the model: tool lengths [mm] far below the
+    model's tools (the fit's) but near them times 1000 were typed in metres (refused, the
+    likely unit named); a zone's linear axes likewise against the axis' travel."""
+    fitted = [float(t) for t in (getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or [])]
+    scale = float(np.mean(fitted)) if fitted else None
+    for t in tools_mm or ():
+        if not np.isfinite(t) or t < 0:
+            raise InputError(f"`tools_mm` {t:g}: a tool length is mm from the gauge line, >= 0")
+        text = None if scale is None else slip_text(t, scale, "the model's tools, mean")
+        if text:
+            raise InputError(f"`tools_mm` {t:g}: {text}; the model was fitted with tools "
+                             f"{', '.join(f'{x:g}' for x in fitted)} mm")
+    if zone:
+        check_zone_units(model.machine, zone, "zone")
 
 
 def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
