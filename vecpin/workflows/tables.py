@@ -155,6 +155,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         model, prof, limits, controller, notes, max_tables=max_tables, no_circular=no_circular or None,
         forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm, modulo_axes=modulo,
         commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress)
+    check_corrections(plan, model)
     if progress:
         progress(f"writing the {controller} files")
     as_written = None
@@ -194,6 +195,26 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st,
                     headline, warnings, effect)
+
+
+CORRECTION_FACTOR = 5.0   # tables moving the tip by more than this times the measured largest error are refused
+
+
+def check_corrections(plan: TablePlan, model: ErrorModel) -> None:
+    """Refuse tables whose largest correction at the tool tip [mm] exceeds
+    :data:`CORRECTION_FACTOR` times the largest uncompensated error the campaign measured (the
+    model file's record): a model predicting errors the machine did not have would make it worse."""
+    sel = getattr(model, "selection_", None)
+    measured = (sel or {}).get("uncompensated_mm") if isinstance(sel, dict) else None
+    top = measured.get("max") if isinstance(measured, dict) else None
+    if plan.frame is None or not isinstance(top, (int, float)) or not top > 0:
+        return
+    corr = plan.frame.largest_correction_mm
+    if corr > CORRECTION_FACTOR * top:
+        raise InputError(f"`model`: the tables would move the tool tip by up to {corr:.4f} mm, more than "
+                         f"{CORRECTION_FACTOR:g} times the largest error the campaign measured ({top:.4f} mm): the "
+                         "model predicts errors the machine did not have, and these tables would make it worse; "
+                         "nothing was written. Check the model (vecpin evaluate on a validation run) or fit it again")
 
 
 def check_lengths(model: ErrorModel, tools_mm, zone) -> None:
