@@ -218,6 +218,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)  # a bad option fails before the planning
     check_safe_height(machine, r, up, safe_z_mm)
+    settings.check()   # the settings alone (holder lengths, ...) before the figures' imports
     for d in dialects:  # so does an axis without an NC address in a dialect asked for
         nc_axis_names(machine, d, axis_map)
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,
