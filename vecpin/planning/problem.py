@@ -19,7 +19,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.planning import route
 from vecpin.planning.nestplacement import Placement, place_nests
-from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.nests import check_nest_layout, check_nests, nest_positions
 from vecpin.planning.planchecks import EXPECTED_ERROR_MM
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, default_tracker_placement,
                                        side_name)
@@ -101,9 +101,12 @@ class PlanSettings:
                                  "the other (or the same count)")
             out = {k: np.asarray(v, float) * M_PER_MM for k, v in self.nest_mm.items()}
             check_nests(machine, out, "nest_mm")
+            check_nest_layout(machine, out, "nest_mm")
             return out
         n = (3 if machine.has_workpiece else 0) if self.nests is None else self.nests
         check_nests(machine, {str(k): 0 for k in range(n)}, "nests")
+        if n == 1:
+            raise InputError("`nests` 1: one nest gives the table's place but not its turn; plan at least 3 (or 0)")
         return nest_positions(machine, n)
 
     def check(self) -> None:
@@ -218,6 +221,7 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
         tracker, azimuth = default_tracker_placement(machine)
         side = side_name(azimuth)
     else:
+        check_tracker_units(machine, s.tracker_mm)
         tracker, side = np.asarray(s.tracker_mm, float) * M_PER_MM, ""
     placement = None
     if s.place_nests and s.sight and len(nests) >= 3 and not s.nest_mm:  # nests and stations that see the table
@@ -248,6 +252,21 @@ def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
         return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "fourier")
     from vecpin.selection.choice import fixed_model
     return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
+
+
+def check_tracker_units(machine: Machine, tracker_mm, option: str = "tracker_mm") -> None:
+    """A tracker position [mm, machine base frame] whose every coordinate is within 1/100 of
+    the machine's longest linear travel of the origin (a tracker standing in the machine)
+    was typed in metres: refused, naming the parameter ``option`` and the likely unit."""
+    if tracker_mm is None:
+        return
+    p = np.asarray(tracker_mm, float)
+    spans = [a.upper_user - a.lower_user for a in machine.axes if a.kind == "linear"]
+    top = float(np.abs(p).max()) if p.size and np.all(np.isfinite(p)) else 0.0
+    if spans and 0 < top <= max(spans) / 100:
+        raise InputError(f"`{option}` {','.join(f'{v:g}' for v in p)}: the tracker {top:g} mm or less from the machine "
+                         f"origin, inside a machine whose travel reaches {max(spans):.0f} mm: metres? The position is mm, "
+                         f"machine base frame ({','.join(f'{v * 1000:g}' for v in p)} if it was in metres)")
 
 
 def check_safe_height(machine: Machine, axis: int, up: int, safe_z_mm: float | None) -> None:
