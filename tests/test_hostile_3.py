@@ -198,3 +198,75 @@ def test_out_that_is_no_folder(base, tmp_path, capsys, make):
         out.symlink_to(tmp_path / "nowhere")
     refused(["simulate", "flow_xyzcb", "--out", out, "--points", "6"], capsys, "--out", str(out))
     assert make != "file" or out.read_text() == "mine"
+
+
+def test_profile_reference_position_in_metres_is_warned_first(base, tmp_path, capsys):
+    """A reference point 0.3 mm is possible, so a warning (first line), not a refusal; the
+    run then stops at the tools typed in metres, before any table is computed."""
+    d = copy.deepcopy(PROFILE)
+    d["axes"]["X"]["reference_position"] = 0.3
+    prof = tmp_path / "profile.json"
+    prof.write_text(json.dumps(d))
+    refused(["tables", base.model, "--controller", "siemens-840d", "--profile", prof, "--tools", "0.21488",
+             "--out", tmp_path / "t"], capsys, "--tools 0.21488")
+    rc = main([str(a) for a in ["tables", base.model, "--controller", "siemens-840d", "--profile", prof, "--tools",
+                                "0.21488", "--out", tmp_path / "t"]])
+    first = capsys.readouterr().err.splitlines()[0]
+    assert rc == 2 and first.startswith("vecpin: warning:") and "'axes.X.reference_position'" in first
+    assert "metres?" in first and "300 mm" in first
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["plan", "flow_xyzcb", "--points", "80", "--tracker", "2,3,0.5"], ["--tracker 2,3,0.5", "metres?", "2000,3000,500"]),
+    (["simulate", "flow_xyzcb", "--points", "6", "--tracker", "2,3,0.5"], ["--tracker 2,3,0.5", "metres?"]),
+    (["simulate", "flow_xyzcb", "--points", "6", "--target", "0.05,0,0.02"], ["--target 0.05,0,0.02", "metres?",
+                                                                              "50,0,20"]),
+])
+def test_positions_and_offsets_in_metres(tmp_path, capsys, argv, words):
+    refused(argv + ["--out", tmp_path / "o"], capsys, *words)
+    assert not (tmp_path / "o").exists()
+
+
+# ============================================================ 4. round two's leftovers
+NESTS = {
+    "one nest": (["--nest", "1=100,0,20"], ["one nest", "not on one line"]),
+    "in a row": (["--nest", "1=100,0,20", "--nest", "2=120,0,20", "--nest", "3=140,0,20"], ["on one line"]),
+    "on the C axis": (["--nest", "1=0,0,20", "--nest", "2=0,0,50"], ["on the axis of C"]),
+    "off the table": (["--nest", "1=1000,0,20", "--nest", "2=0,100,20", "--nest", "3=-100,0,20"],
+                      ["beyond its edge", "radius 160 mm"]),
+    "in metres": (["--nest", "1=0.1,0,0.02", "--nest", "2=0,0.1,0.02", "--nest", "3=-0.1,0,0.02"], ["metres?"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NESTS))
+def test_plan_nests_that_cannot_register_the_table(tmp_path, capsys, case):
+    argv, words = NESTS[case]
+    refused(["plan", "trunnion_xyzac", "--points", "60", "--order", "1", "--out", tmp_path / "p"] + argv, capsys,
+            "--nest", *words)
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--mean-error", "100", "--long-term", "0.01"], ["--mean-error 100", "micrometres", "Give it in mm"]),
+    (["--mean-error", "0.5", "--long-term", "0.01", "--short-term", "0.03"], ["--short-term 0.03", "--long-term 0.01",
+                                                                              "swapped?"]),
+])
+def test_assess_numbers_that_cannot_be(capsys, argv, words):
+    refused(["assess"] + argv, capsys, *words)
+
+
+def test_campaign_whose_clock_restarted(base, tmp_path, capsys):
+    lines = base.csv.read_text().splitlines()
+    col = lines[0].split(",").index("time")
+    t0 = float(lines[1].split(",")[col])
+    out = [lines[0]]
+    for k, line in enumerate(lines[1:], start=1):
+        cells = line.split(",")
+        if k > 30:   # a second session counted from 0 again
+            cells[col] = f"{float(cells[col]) - float(lines[31].split(',')[col]) + t0:.3f}"
+        out.append(",".join(cells))
+    csv = tmp_path / "restarted.csv"
+    csv.write_text("\n".join(out) + "\n")
+    refused(["fit", "flow_xyzcb", csv, "--out", tmp_path / "m.json"] + FIT, capsys, str(csv), "column 'time'",
+            "the clock restarted")
+    assert not (tmp_path / "m.json").exists()

@@ -372,6 +372,14 @@ def _check_reference(axis, value: float, modulo: bool, where: str) -> None:
     """A reference position inside the axis' travel (a modulo axis: or 0..360 deg)."""
     tol = 1e-6 * max(1.0, axis.upper_user - axis.lower_user)
     if axis.lower_user - tol <= value <= axis.upper_user + tol or (modulo and 0 <= value <= 360):
+        if axis.kind == "linear" and 0 < abs(value) <= 1.0 and axis.lower_user <= value * 1000 <= axis.upper_user:
+            import warnings
+
+            from vecpin.errors import VecpinWarning
+            warnings.warn(VecpinWarning(f"{where}: {value:g} mm, a reference point within 1 mm of {axis.name}'s zero, "
+                                        f"where {value * 1000:g} mm would lie in its travel too: metres? Reference "
+                                        "positions are mm (NC machine coordinates); the tables are written with "
+                                        f"{value:g} mm"), stacklevel=2)
         return
     raise InputError(f"{where}: {value:g} {axis.unit} is outside the travel of {axis.name} "
                      f"({axis.lower_user:g} .. {axis.upper_user:g} {axis.unit}); give the NC machine coordinate of the "
