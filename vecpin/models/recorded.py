@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.errors import ModelFileError
+from vecpin.errors import ModelFileError, VecpinError
 from vecpin.measurement.partframe import part_frame_errors, spindle_axis
 from vecpin.units import MM_PER_M, norm_mm
 
@@ -48,15 +48,19 @@ def check_commands(model) -> tuple[np.ndarray, np.ndarray]:
     return np.repeat(q, len(tools), axis=0), np.tile(np.asarray(tools), len(q))
 
 
-def check_figure(model) -> dict:
+def check_figure(model) -> dict | None:
     """The model's uncompensated error on its check commands (:func:`check_commands`) [mm]:
     the modelled tip against the nominal one relative to the workpiece, a part's set-up (a
     translation and a turn about the spindle) removed, mean and max; what the file records
-    as ``check``."""
+    as ``check``. None for a model with effects that depend on the rows (time, temperature:
+    no row, no figure; its parameters are still held against their priors)."""
     q, tool = check_commands(model)
     m = model.machine
     nominal = m.tool_tip(q, tool, frame="workpiece")
-    err = model.predict_error(q, tool, frame="workpiece")
+    try:
+        err = model.predict_error(q, tool, frame="workpiece")
+    except VecpinError:
+        return None
     d = norm_mm(part_frame_errors(nominal, nominal + err, spindle_axis(m)))
     return {"mean_mm": float(d.mean()), "max_mm": float(d.max()), "commands": int(len(q)),
             "meaning": "the model's uncompensated error on fixed quasi-random commands in the measured range with "
@@ -85,6 +89,8 @@ def check_recorded(model, d: dict, path) -> None:
     if not isinstance(recorded, dict) and not isinstance(measured, dict):
         return
     fig = check_figure(model)
+    if fig is None:
+        return
     if isinstance(recorded, dict):
         want = recorded.get("mean_mm")
         if not isinstance(want, (int, float)) or not np.isfinite(want):
