@@ -217,7 +217,8 @@ def test_profile_reference_position_in_metres_is_warned_first(base, tmp_path, ca
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["plan", "flow_xyzcb", "--points", "80", "--tracker", "2,3,0.5"], ["--tracker 2,3,0.5", "metres?", "2000,3000,500"]),
+    (["plan", "flow_xyzcb", "--points", "80", "--tracker", "2,3,0.5"],
+     ["--tracker 2,3,0.5", "metres?", "2000,3000,500"]),
     (["simulate", "flow_xyzcb", "--points", "6", "--tracker", "2,3,0.5"], ["--tracker 2,3,0.5", "metres?"]),
     (["simulate", "flow_xyzcb", "--points", "6", "--target", "0.05,0,0.02"], ["--target 0.05,0,0.02", "metres?",
                                                                               "50,0,20"]),

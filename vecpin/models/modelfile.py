@@ -180,6 +180,7 @@ def load_model(path: str | Path, factory: Callable):
     try:
         model = _from_dict(d, path, factory)
         check_recorded(model, d, path)   # what the file records, before anything is written from it
+        model.source_ = str(path)        # messages about the model name its file
         return model
     except VecpinError as exc:
         if isinstance(exc, ModelFileError):

@@ -76,9 +76,9 @@ def check_parameters(path, parameters: list[dict]) -> None:
         if abs(v) > PRIOR_FACTOR * prior:
             unit = p.get("unit", "")
             raise ModelFileError(path, f"parameter {p.get('name')} is {v:g} {unit}, {abs(v) / prior:.0f} times its "
-                                 f"prior scale {prior:g} {unit} (a fitted value stays within a few; beyond {PRIOR_FACTOR:g} is refused): the file was edited or "
-                                 "written in other units (x1000?); nothing is written from it: fit the model again",
-                                 "parameters")
+                                 f"prior scale {prior:g} {unit} (a fitted value stays within a few; beyond "
+                                 f"{PRIOR_FACTOR:g} is refused): the file was edited or written in other units "
+                                 "(x1000?); nothing is written from it: fit the model again", "parameters")
 
 
 def check_recorded(model, d: dict, path) -> None:
@@ -96,16 +96,17 @@ def check_recorded(model, d: dict, path) -> None:
         if not isinstance(want, (int, float)) or not np.isfinite(want):
             raise ModelFileError(path, "the recorded figure is not a number", "check.mean_mm")
         if abs(fig["mean_mm"] - want) > FIGURE_TOLERANCE * abs(want) + FIGURE_ABS_MM:
-            raise ModelFileError(path, f"its parameters give an uncompensated error (model) of {fig['mean_mm']:.4f} mm "
-                                 f"on its check commands where the file records {want:.4f} mm{_suspect(d)}: the "
-                                 "parameters were changed after the fit; nothing is written from it: fit the model "
-                                 "again", "check")
+            raise ModelFileError(path, f"its parameters give an uncompensated error (model) of "
+                                 f"{fig['mean_mm']:.4f} mm on its check commands where the file records "
+                                 f"{want:.4f} mm{_suspect(d)}: the parameters were changed after the fit; nothing "
+                                 "is written from it: fit the model again", "check")
     if isinstance(measured, dict) and isinstance(measured.get("mean"), (int, float)) and measured["mean"] > 0:
         if fig["mean_mm"] > MEASURED_FACTOR * measured["mean"]:
-            raise ModelFileError(path, f"its parameters give an uncompensated error (model) of {fig['mean_mm']:.4f} mm, "
-                                 f"more than {MEASURED_FACTOR:g} times the {measured['mean']:.4f} mm the campaign "
-                                 f"measured{_suspect(d)}; a model does not predict errors the machine did not have: "
-                                 "nothing is written from it", "selection.uncompensated_mm")
+            raise ModelFileError(path, f"its parameters give an uncompensated error (model) of "
+                                 f"{fig['mean_mm']:.4f} mm, more than {MEASURED_FACTOR:g} times the "
+                                 f"{measured['mean']:.4f} mm the campaign measured{_suspect(d)}; a model does not "
+                                 "predict errors the machine did not have: nothing is written from it",
+                                 "selection.uncompensated_mm")
 
 
 def _suspect(d: dict) -> str:

@@ -204,5 +204,5 @@ def _check_on_table_axes(machine: Machine, P: np.ndarray, where: str, option: st
                              f"them and the nests cannot register it: place them away from {a.name}'s axis")
 
 
-__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS",
-           "check_nest_layout"]
+__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest",
+           "check_nests", "MAX_NESTS", "check_nest_layout"]

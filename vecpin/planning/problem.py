@@ -120,9 +120,9 @@ class PlanSettings:
         if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
             raise InputError("`tools_mm`: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
         if tools.max() < 1.0 and tools.max() > 0:
-            raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: holders shorter than 1 mm from the gauge "
-                             f"line: metres? Give them in mm ({','.join(f'{t * 1000:g}' for t in tools)} if they were "
-                             "in metres)")
+            raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: holders shorter than 1 mm from the "
+                             f"gauge line: metres? Give them in mm ({','.join(f'{t * 1000:g}' for t in tools)} if "
+                             "they were in metres)")
         if len(np.unique(np.round(tools, 6))) < tools.size:
             raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: two holders of the same length measure the "
                              "same point twice; give different lengths (they separate the tool-axis errors)")
@@ -264,9 +264,10 @@ def check_tracker_units(machine: Machine, tracker_mm, option: str = "tracker_mm"
     spans = [a.upper_user - a.lower_user for a in machine.axes if a.kind == "linear"]
     top = float(np.abs(p).max()) if p.size and np.all(np.isfinite(p)) else 0.0
     if spans and 0 < top <= max(spans) / 100:
-        raise InputError(f"`{option}` {','.join(f'{v:g}' for v in p)}: the tracker {top:g} mm or less from the machine "
-                         f"origin, inside a machine whose travel reaches {max(spans):.0f} mm: metres? The position is mm, "
-                         f"machine base frame ({','.join(f'{v * 1000:g}' for v in p)} if it was in metres)")
+        raise InputError(f"`{option}` {','.join(f'{v:g}' for v in p)}: the tracker {top:g} mm or less from the "
+                         f"machine origin, inside a machine whose travel reaches {max(spans):.0f} mm: metres? The "
+                         f"position is mm, machine base frame ({','.join(f'{v * 1000:g}' for v in p)} if it was "
+                         "in metres)")
 
 
 def check_safe_height(machine: Machine, axis: int, up: int, safe_z_mm: float | None) -> None:

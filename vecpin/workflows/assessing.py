@@ -156,8 +156,8 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
         raise InputError(f"`max_error_mm` {max_error_mm:g} is below `mean_error_mm` {mean_error_mm:g}: the largest error "
                          "cannot be smaller than the mean; check the two numbers")
     if mean_error_mm > MAX_MEAN_ERROR_MM:
-        raise InputError(f"`mean_error_mm` {mean_error_mm:g}: a mean volumetric error of {mean_error_mm:g} mm is beyond "
-                         f"any machine compensation serves (more than {MAX_MEAN_ERROR_MM:g} mm): micrometres "
+        raise InputError(f"`mean_error_mm` {mean_error_mm:g}: a mean volumetric error of {mean_error_mm:g} mm is "
+                         f"beyond any machine compensation serves (more than {MAX_MEAN_ERROR_MM:g} mm): micrometres "
                          f"({mean_error_mm / 1000:g} mm)? thou ({mean_error_mm * 0.0254:g} mm)? Give it in mm")
     if short_term_mm is not None and long_term_mm is not None and short_term_mm > SHORT_OVER_LONG * long_term_mm:
         raise InputError(f"`short_term_mm` {short_term_mm:g} is above `long_term_mm` {long_term_mm:g}: the long-term "

@@ -211,7 +211,8 @@ def check_corrections(plan: TablePlan, model: ErrorModel) -> None:
         return
     corr = plan.frame.largest_correction_mm
     if corr > CORRECTION_FACTOR * top:
-        raise InputError(f"`model`: the tables would move the tool tip by up to {corr:.4f} mm, more than "
+        raise InputError(f"{getattr(model, 'source_', 'the model')}: the tables would move the tool tip by up to "
+                         f"{corr:.4f} mm, more than "
                          f"{CORRECTION_FACTOR:g} times the largest error the campaign measured ({top:.4f} mm): the "
                          "model predicts errors the machine did not have, and these tables would make it worse; "
                          "nothing was written. Check the model (vecpin evaluate on a validation run) or fit it again")
