@@ -258,9 +258,10 @@ class OutputSet:
     def _generation(self, digests: dict[str, str], complete: bool) -> dict:
         """The manifest of this set (written now with ``complete`` false): files with bytes and
         SHA-256, the command, the UTC time, a new generation id and the one it follows."""
-        old = None
-        try:
-            old = json.loads((self.dir / MANIFEST).read_text(encoding="utf-8")).get("generation")
+        old, prev = None, self.dir / MANIFEST
+        try:   # a regular file of a manifest's size only (not a link to a device)
+            if prev.is_file() and not prev.is_symlink() and prev.stat().st_size < 50_000_000:
+                old = json.loads(prev.read_text(encoding="utf-8")).get("generation")
         except (OSError, ValueError, AttributeError):
             pass
         d = {"format": "vecpin-manifest", "generation": uuid.uuid4().hex, "previous": old, "complete": complete,
