@@ -81,7 +81,9 @@ def parameters(model_path) -> dict[str, float]:
 
 
 def files_of(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    """Every file's bytes but the manifest's (it records the time and a new generation id)."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != "vecpin-manifest.json"}
 
 
 @pytest.fixture(scope="module")

@@ -13,14 +13,36 @@ alone do not tell root or a read-only file system), so a typo does not cost a lo
 computation. A set's file names are data, never paths: a name that would leave the
 output folder (``..``, absolute, a drive) is refused (:func:`inside_name`) before anything
 is written, whatever a URDF or a profile calls its axes.
+
+Every set ends with one generation: :data:`MANIFEST` (``vecpin-manifest.json``) lists the
+files the set wrote (name, bytes, SHA-256), the command, the time and a generation id. It is
+written twice: before the first rename with ``"complete": false`` and after the last with
+``"complete": true``, so an interruption between them leaves a manifest that says the folder
+is mixed and tells the new files (those whose SHA-256 it lists) from the old ones. No file
+of a set is written through a symbolic link that leaves the output folder, and no two
+names of a set differ only by case (they would be one file on a case-insensitive file
+system or controller).
 """
 from __future__ import annotations
 
+import json
 import os
+import sys
 import tempfile
+import time
+import uuid
 from pathlib import Path
 
 from vecpin.errors import OutputError
+
+MANIFEST = "vecpin-manifest.json"   # the generation of the last set written in a folder
+_COMMAND: list[str] | None = None   # the command line the results come from (set by the command line)
+
+
+def set_command(words: list[str] | None) -> None:
+    """The command the manifests record (the command line sets it; else ``sys.argv``)."""
+    global _COMMAND
+    _COMMAND = None if words is None else [str(w) for w in words]
 
 
 def write_bytes(path: str | Path, data: bytes) -> Path:
@@ -123,6 +145,8 @@ def check_output_dir(path: str | Path, option: str = "out_dir") -> Path:
     """Fail now, naming the parameter ``option``, if ``path`` cannot become an output folder
     (a file in the way, no permission); the folder itself is created when the results are written."""
     path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise OutputError(f"`{option}` {path}: a symbolic link to nothing ({os.readlink(path)}); give a folder")
     p = path
     while not p.exists():
         p = p.parent
@@ -173,6 +197,14 @@ class OutputSet:
         would leave the output folder (absolute, ``..``, a drive) is an OutputError: no
         file of a set is ever written outside ``out_dir``, whatever names it is given."""
         p = self._stage / inside_name(name, self.dir)
+        if name == MANIFEST:
+            raise OutputError(f"output file name {name!r}: the name of the manifest vecpin writes last in every output "
+                              "folder; give the file another name")
+        same = [q for q in self.written if q != p and str(q).casefold() == str(p).casefold()]
+        if same:
+            raise OutputError(f"output file names {same[0].relative_to(self._stage).as_posix()!r} and {name!r} differ "
+                              f"only by case: one file on a case-insensitive file system or controller; nothing was "
+                              f"written in {self.dir}")
         p.parent.mkdir(parents=True, exist_ok=True)
         if p not in self.written:
             self.written.append(p)
@@ -201,13 +233,16 @@ class OutputSet:
                     if p.exists():
                         with open(p, "rb") as fh:
                             os.fsync(fh.fileno())
-                digests = {p.relative_to(self._stage).as_posix(): _sha256(p) for p in self.written
-                           if self.manifest and p.exists()}
-                for p in self.written:
-                    if p.exists():
-                        target = self.dir / p.relative_to(self._stage)
-                        target.parent.mkdir(parents=True, exist_ok=True)
-                        os.replace(p, target)
+                staged = [p for p in self.written if p.exists()]
+                digests = {p.relative_to(self._stage).as_posix(): _sha256(p) for p in staged}
+                self._check_links(list(digests))
+                generation = self._generation(digests, complete=False)   # the folder is mixed from here ...
+                for p in staged:
+                    target = self.dir / p.relative_to(self._stage)
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(p, target)
+                generation["complete"] = True                            # ... to here
+                write_text(self.dir / MANIFEST, json.dumps(generation, indent=1) + "\n")
                 if self.manifest:
                     self._remove_stale(digests)
                     write_text(self.dir / self.manifest, f"# files vecpin {self.kind} wrote here: sha256, "
@@ -219,6 +254,41 @@ class OutputSet:
             _remove_tree(self._stage)
         return False
 
+
+    def _generation(self, digests: dict[str, str], complete: bool) -> dict:
+        """The manifest of this set (written now with ``complete`` false): files with bytes and
+        SHA-256, the command, the UTC time, a new generation id and the one it follows."""
+        old, prev = None, self.dir / MANIFEST
+        try:   # a regular file of a manifest's size only (not a link to a device)
+            if prev.is_file() and not prev.is_symlink() and prev.stat().st_size < 50_000_000:
+                old = json.loads(prev.read_text(encoding="utf-8")).get("generation")
+        except (OSError, ValueError, AttributeError):
+            pass
+        d = {"format": "vecpin-manifest", "generation": uuid.uuid4().hex, "previous": old, "complete": complete,
+             "command": _COMMAND if _COMMAND is not None else list(sys.argv),
+             "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+             "meaning": "the files of one result, committed together; complete false: the run stopped while "
+                        "putting them in place, and the files whose sha256 differs are an earlier run's",
+             "files": [{"name": n, "bytes": (self._stage / n).stat().st_size, "sha256": h}
+                       for n, h in sorted(digests.items())]}
+        write_text(self.dir / MANIFEST, json.dumps(d, indent=1) + "\n")
+        return d
+
+    def _check_links(self, names: list[str]) -> None:
+        """Refuse (before anything is renamed) a name whose path in the output folder passes
+        through a symbolic link that leads out of it: the file would be written there."""
+        root = self.dir.resolve()
+        for name in names:
+            cur = self.dir
+            for part in Path(name).parts:
+                cur = cur / part
+                if not cur.is_symlink():
+                    continue
+                dest = cur.resolve()
+                if dest != root and root not in dest.parents:
+                    raise OutputError(f"`out_dir` {self.dir}: {cur} is a symbolic link to {dest}, outside the output "
+                                      f"folder, and {name} would be written through it; nothing was written: remove "
+                                      "the link or give another folder")
 
     def _remove_stale(self, keep: dict[str, str]) -> None:
         """Remove the files the previous manifest lists, that this set does not write and

@@ -10,6 +10,7 @@ from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, 
                         viewing)
 from vecpin.cli.options import as_flags, flag_table
 from vecpin.errors import VecpinError, VecpinWarning
+from vecpin.fileio import set_command
 from vecpin.threads import blas_limited
 
 COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
@@ -78,6 +79,7 @@ _PYTHON_SHOWWARNING = warnings.showwarning
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    set_command(["vecpin", *argv])   # what the output folders' manifests record
     twice = repeated_option(argv[1:], args.once)
     if twice:
         hint = " (a zone over several axes is one value: X=0:3000,Y=0:1200)" if twice == "--zone" else ""

@@ -80,6 +80,10 @@ DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by 
 TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
 OPTIONS = {"comp_file_type": int, "rotary_any_range": bool,  # LinuxCNC file type; Heidenhain rotary range
            "ini": Path}                                        # LinuxCNC: the machine's INI file (joints checked)
+CASE_NOTE = ("names and the file names made of them are compared without case: Heidenhain, Fanuc and Siemens "
+             "controllers read them without case (no vendor source at hand says otherwise), and LinuxCNC's, though "
+             "its Linux file names and HAL pins are case-sensitive, would merge on the case-insensitive file systems "
+             "configurations are copied through (Windows, macOS)")
 NAME_FIELDS = ("nc_name", "general_name", "program_name")     # become file names and NC words: plain names
 UNIQUE_FIELDS = ("nc_name", "general_name", "number")          # one machine drive each
 MAX_NUMBER = 999
@@ -249,18 +253,23 @@ class ControllerProfile:
         self.check_unique()
 
     def check_unique(self) -> None:
-        """No two drives (axes and following drives) share an nc_name, general_name or number."""
-        for key in UNIQUE_FIELDS:
+        """No two drives (axes and following drives) share an nc_name, general_name, program_name
+        or number; names compared without case (:data:`CASE_NOTE`: the controllers read them so)."""
+        for key in UNIQUE_FIELDS + ("program_name",):
             seen: dict = {}
             for a, p in self.axes.items():
                 for drive, facts in ((a, p), (f"{a} (following drive)", p.following)):
                     n = None if facts is None else getattr(facts, key)
                     if n is None:
                         continue
-                    if n in seen:
-                        raise InputError(f"{self.where}, field 'axes.{a}.{key}': axes {seen[n]} and {drive} both have "
-                                         f"{key} {n!r}; each machine axis (and drive) needs its own")
-                    seen[n] = drive
+                    k = n.casefold() if isinstance(n, str) else n
+                    if k in seen:
+                        other, first = seen[k]
+                        case = "" if first == n else f" and {first!r}, which differ only by case ({CASE_NOTE})"
+                        which = f"'axes.{other.split(' ')[0]}.{key}' and 'axes.{a}.{key}'"
+                        raise InputError(f"{self.where}, fields {which}: axes {other} and {drive} both have {key} "
+                                         f"{n!r}{case}; each machine axis (and drive) needs its own")
+                    seen[k] = (drive, n)
 
     def with_axis_map(self, axis_map: dict[str, str]) -> "ControllerProfile":
         """A copy with NC axis names from ``axis_map`` (they win over the file)."""
@@ -363,6 +372,14 @@ def _check_reference(axis, value: float, modulo: bool, where: str) -> None:
     """A reference position inside the axis' travel (a modulo axis: or 0..360 deg)."""
     tol = 1e-6 * max(1.0, axis.upper_user - axis.lower_user)
     if axis.lower_user - tol <= value <= axis.upper_user + tol or (modulo and 0 <= value <= 360):
+        if axis.kind == "linear" and 0 < abs(value) <= 1.0 and axis.lower_user <= value * 1000 <= axis.upper_user:
+            import warnings
+
+            from vecpin.errors import VecpinWarning
+            warnings.warn(VecpinWarning(f"{where}: {value:g} mm, a reference point within 1 mm of {axis.name}'s zero, "
+                                        f"where {value * 1000:g} mm would lie in its travel too: metres? Reference "
+                                        "positions are mm (NC machine coordinates); the tables are written with "
+                                        f"{value:g} mm"), stacklevel=2)
         return
     raise InputError(f"{where}: {value:g} {axis.unit} is outside the travel of {axis.name} "
                      f"({axis.lower_user:g} .. {axis.upper_user:g} {axis.unit}); give the NC machine coordinate of the "

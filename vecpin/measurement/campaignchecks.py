@@ -142,8 +142,10 @@ def check_extra(name: str, extra: dict[str, np.ndarray], rows: np.ndarray) -> No
         back = np.flatnonzero(np.diff(t) < 0)
         if back.size:
             k = back[0] + 1
+            restart = (" or the clock restarted (a later session counted from 0 again: time is seconds since the "
+                       "campaign's first row; add the earlier sessions' length to its rows)" if t[k] <= t[0] else "")
             raise CampaignFileError(name, f"time goes backwards ({t[k - 1]:g} s then {t[k]:g} s): rows must be in "
-                                    "measurement order", row=int(rows[k]), column="time")
+                                    f"measurement order{restart}", row=int(rows[k]), column="time")
     T = extra.get("temperature")
     if T is not None:
         bad = np.flatnonzero((T < TEMPERATURE_RANGE_C[0]) | (T > TEMPERATURE_RANGE_C[1]))

@@ -505,6 +505,9 @@ def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_height
         if not (0.0 <= v <= MAX_NEST_HEIGHT_MM):
             raise InputError(f"`{option}` {k}={h}: the height of the nest's reflector centre above the table face, "
                              f"mm, 0 .. {MAX_NEST_HEIGHT_MM:g} (e.g. 19.05 for a 1.5-inch sphere in a magnetic nest)")
+        if 0.0 < v < 1.0:   # no reflector's centre sits that close to the face: 19.05 mm typed as 0.01905 m
+            raise InputError(f"`{option}` {k}={h}: a reflector centre {v:g} mm above the table face: metres? Heights "
+                             f"are mm ({v * 1000:g} if it was in metres)")
         out[k] = v * 1e-3
     if out and (len(out) < 3 or _on_a_line(np.array([nests[k] for k in out]))):
         raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face needs "

@@ -4,7 +4,9 @@ A model file is self-contained: it embeds the machine's URDF (with its SHA-256),
 the model's specification (:class:`~vecpin.models.spec.ModelSpec`: kind, a basis per
 axis, tool-length corrections, prior scale, effects), every parameter with
 its standard deviation in mm or degrees, the tracker pose (with the fitted table nests
-and tool targets), the measurement zone, the noise settings and the fit report.
+and tool targets), the measurement zone, the noise settings, the fit report and the model's own uncompensated
+figure on fixed check commands (``check``: recomputed and compared when the file is read,
+with the parameters against their priors: :mod:`vecpin.models.recorded`).
 ``format`` is ``"vecpin-model"``, ``version`` 1. Files hold no time stamp or timing, so
 the same fit writes the same bytes.
 
@@ -33,6 +35,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
+from vecpin.models.recorded import check_figure, check_recorded
 from vecpin.models.spec import ModelSpec
 from vecpin.units import MM_PER_M, M_PER_MM, QUANTITY_UNITS, SI_PER_UNIT
 
@@ -92,6 +95,7 @@ def model_to_dict(model) -> dict:
         "correlations": _correlations(model, std),
         "selection": getattr(model, "selection_", None),
         "zone": _zone_to_dict(getattr(model, "zone_", None)),
+        "check": check_figure(model),
     }
 
 
@@ -174,7 +178,10 @@ def load_model(path: str | Path, factory: Callable):
         raise ModelFileError(path, f"model file version {d.get('version')} is not supported (this vecpin reads "
                              f"{', '.join(map(str, READS))})", "version")
     try:
-        return _from_dict(d, path, factory)
+        model = _from_dict(d, path, factory)
+        check_recorded(model, d, path)   # what the file records, before anything is written from it
+        model.source_ = str(path)        # messages about the model name its file
+        return model
     except VecpinError as exc:
         if isinstance(exc, ModelFileError):
             raise

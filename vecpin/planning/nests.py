@@ -43,7 +43,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.machine import Machine
-from vecpin.units import M_PER_MM
+from vecpin.units import M_PER_MM, MM_PER_M
 
 MAX_NESTS = 20             # nests one plan or simulation places
 MAX_REACH = 0.3            # m: farthest a default nest stands from the table centre
@@ -148,4 +148,61 @@ def check_nests(machine: Machine, nests: dict[str, np.ndarray], option: str = "n
         raise InputError(f"`{option}`: {len(nests)} nests; at most {MAX_NESTS}")
 
 
-__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest", "check_nests", "MAX_NESTS"]
+LINE_MM = 5.0    # nests within this [mm] of one line (or of a table axis' line) cannot register a turn about it
+
+
+def check_nest_layout(machine: Machine, nests: dict[str, np.ndarray], option: str = "nest_mm") -> None:
+    """Nests placed by the user (workpiece frame, m) that can register the table, refused
+    naming the parameter ``option`` when not: one nest (a point gives no turn); positions
+    that are all below 1 mm (metres typed for mm); three or more on one line; every nest on
+    the line of a table rotary axis (its turn moves none of them); a nest beyond the table's
+    edge (the URDF's table radius) or below its face."""
+    if not nests or not machine.has_workpiece:
+        return
+    ids = list(nests)
+    P = np.array([nests[k] for k in ids], float) * MM_PER_M
+    where = "; ".join(f"{k} ({', '.join(f'{v:g}' for v in p)})" for k, p in zip(ids, P))
+    if len(P) == 1:
+        raise InputError(f"`{option}` {where} mm: one nest gives the table's place but not its turn; give 3 nests "
+                         "not on one line")
+    if np.abs(P).max() < 1.0:
+        big = "; ".join(f"{k} ({', '.join(f'{v * 1000:g}' for v in p)})" for k, p in zip(ids, P))
+        raise InputError(f"`{option}` {where} mm: every nest within 1 mm of the table origin: metres? Nest positions "
+                         f"are mm in the workpiece frame ({big} if they were in metres)")
+    if len(P) >= 3:
+        off_line = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)[1] / np.sqrt(len(P))
+        if off_line < LINE_MM:
+            raise InputError(f"`{option}` {where} mm: the nests lie on one line (within {LINE_MM:g} mm), so a turn "
+                             "about it is not seen: place them around the table, not in a row")
+    radius = table_radius(machine)
+    for k, p in zip(ids, P):
+        r = float(np.hypot(p[0], p[1]))
+        if radius is not None and r > radius * MM_PER_M + LINE_MM:
+            raise InputError(f"`{option}` {k} ({', '.join(f'{v:g}' for v in p)}) mm: {r:.0f} mm from the table's "
+                             f"centre, beyond its edge (radius {radius * MM_PER_M:.0f} mm from the URDF): a nest "
+                             "stands on the table")
+        if p[2] < -LINE_MM:
+            raise InputError(f"`{option}` {k} ({', '.join(f'{v:g}' for v in p)}) mm: below the table's face "
+                             "(z < 0 in the workpiece frame): a nest stands on the table")
+    _check_on_table_axes(machine, P, where, option)
+
+
+def _check_on_table_axes(machine: Machine, P: np.ndarray, where: str, option: str) -> None:
+    """Refuse nests that every table rotary axis' turn (90 deg, or its travel) from the
+    middle of the travel leaves in place within :data:`LINE_MM`: they are on its line."""
+    q0 = (machine.lower + machine.upper) / 2
+    for a in machine.axes:
+        if a.kind != "rotary" or a.side != "table":
+            continue
+        q1 = q0.copy()
+        q1[a.index] = q0[a.index] + min(np.pi / 2, a.travel / 2)
+        p = P * M_PER_MM
+        moved = machine.workpiece_points(np.repeat(q1[None], len(p), 0), p, jacobian=False).xyz - \
+            machine.workpiece_points(np.repeat(q0[None], len(p), 0), p, jacobian=False).xyz
+        if np.linalg.norm(moved, axis=1).max() * MM_PER_M < LINE_MM:
+            raise InputError(f"`{option}` {where} mm: every nest is on the axis of {a.name}, so its turn moves none of "
+                             f"them and the nests cannot register it: place them away from {a.name}'s axis")
+
+
+__all__ = ["VALIDATION_READS", "nest_positions", "nest_reach", "NEST_HEIGHTS", "table_radius", "parse_nest",
+           "check_nests", "MAX_NESTS", "check_nest_layout"]

@@ -19,7 +19,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.planning import route
 from vecpin.planning.nestplacement import Placement, place_nests
-from vecpin.planning.nests import check_nests, nest_positions
+from vecpin.planning.nests import check_nest_layout, check_nests, nest_positions
 from vecpin.planning.planchecks import EXPECTED_ERROR_MM
 from vecpin.planning.sightline import (DEFAULT_TARGET_CLEARANCE, DEFAULT_TOOL_RADIUS, default_tracker_placement,
                                        side_name)
@@ -101,9 +101,12 @@ class PlanSettings:
                                  "the other (or the same count)")
             out = {k: np.asarray(v, float) * M_PER_MM for k, v in self.nest_mm.items()}
             check_nests(machine, out, "nest_mm")
+            check_nest_layout(machine, out, "nest_mm")
             return out
         n = (3 if machine.has_workpiece else 0) if self.nests is None else self.nests
         check_nests(machine, {str(k): 0 for k in range(n)}, "nests")
+        if n == 1:
+            raise InputError("`nests` 1: one nest gives the table's place but not its turn; plan at least 3 (or 0)")
         return nest_positions(machine, n)
 
     def check(self) -> None:
@@ -116,6 +119,10 @@ class PlanSettings:
         tools = np.asarray(self.tools_mm, float)
         if tools.size == 0 or not np.all(np.isfinite(tools)) or tools.min() < 0 or tools.max() > 10_000:
             raise InputError("`tools_mm`: holder lengths are mm from the gauge line, 0 .. 10000 (e.g. 214.88,312.86)")
+        if tools.max() < 1.0 and tools.max() > 0:
+            raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: holders shorter than 1 mm from the "
+                             f"gauge line: metres? Give them in mm ({','.join(f'{t * 1000:g}' for t in tools)} if "
+                             "they were in metres)")
         if len(np.unique(np.round(tools, 6))) < tools.size:
             raise InputError(f"`tools_mm` {','.join(f'{t:g}' for t in tools)}: two holders of the same length measure the "
                              "same point twice; give different lengths (they separate the tool-axis errors)")
@@ -214,6 +221,7 @@ def plan_problem(machine: Machine, s: PlanSettings) -> PlanProblem:
         tracker, azimuth = default_tracker_placement(machine)
         side = side_name(azimuth)
     else:
+        check_tracker_units(machine, s.tracker_mm)
         tracker, side = np.asarray(s.tracker_mm, float) * M_PER_MM, ""
     placement = None
     if s.place_nests and s.sight and len(nests) >= 3 and not s.nest_mm:  # nests and stations that see the table
@@ -245,3 +253,35 @@ def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
     from vecpin.selection.choice import fixed_model
     return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
 
+
+def check_tracker_units(machine: Machine, tracker_mm, option: str = "tracker_mm") -> None:
+    """A tracker position [mm, machine base frame] whose every coordinate is within 1/100 of
+    the machine's longest linear travel of the origin (a tracker standing in the machine)
+    was typed in metres: refused, naming the parameter ``option`` and the likely unit."""
+    if tracker_mm is None:
+        return
+    p = np.asarray(tracker_mm, float)
+    spans = [a.upper_user - a.lower_user for a in machine.axes if a.kind == "linear"]
+    top = float(np.abs(p).max()) if p.size and np.all(np.isfinite(p)) else 0.0
+    if spans and 0 < top <= max(spans) / 100:
+        raise InputError(f"`{option}` {','.join(f'{v:g}' for v in p)}: the tracker {top:g} mm or less from the "
+                         f"machine origin, inside a machine whose travel reaches {max(spans):.0f} mm: metres? The "
+                         f"position is mm, machine base frame ({','.join(f'{v * 1000:g}' for v in p)} if it was "
+                         "in metres)")
+
+
+def check_safe_height(machine: Machine, axis: int, up: int, safe_z_mm: float | None) -> None:
+    """A safe height [mm, machine coordinates] of the retract axis that lies within 1/100 of
+    the travel from the end toward the work, where the value times 1000 would lie inside the
+    travel, was typed in metres: refused, the likely unit named (``safe_z_mm``)."""
+    if safe_z_mm is None or not np.isfinite(safe_z_mm) or safe_z_mm == 0:
+        return
+    a = machine.axes[axis]
+    lo, hi = a.lower_user, a.upper_user
+    span = hi - lo
+    depth = (safe_z_mm - lo) if up > 0 else (hi - safe_z_mm)   # how far from the end toward the work
+    if span > 0 and depth <= span / 100 and lo <= safe_z_mm * 1000 <= hi:
+        raise InputError(f"`safe_z_mm` {safe_z_mm:g}: {safe_z_mm:g} mm is {depth:g} mm from the end of {a.name}'s "
+                         f"travel toward the work ({lo:g} to {hi:g} mm), not a safe height; "
+                         f"{safe_z_mm * 1000:g} mm would be inside the travel: metres? Give it in mm, machine "
+                         "coordinates")

@@ -11,6 +11,7 @@ import numpy as np
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.units import MM_PER_M
 
 Zone = dict[str, tuple[float, float]]  # axis name -> (low, high) in mm or deg
 
@@ -47,6 +48,27 @@ def check_zone_axes(machine: Machine, zone: Zone, option: str = "exclude") -> No
         if name not in machine.axis_names:
             raise InputError(f"`{option}`: machine '{machine.name}' has no axis '{name}' (axes: "
                              f"{', '.join(machine.axis_names)})")
+    check_zone_units(machine, zone, option)
+
+
+def check_zone_units(machine: Machine, zone: Zone, option: str) -> None:
+    """A zone on a linear axis narrower than 1/20 of its travel whose ends times 1000 lie in
+    the travel and span a fifth of it or more was written in metres: refused, naming the
+    parameter ``option``, the axis and the likely unit (mm/deg are the zone's units)."""
+    for name, (a, b) in zone.items():
+        if name not in machine.axis_names:
+            continue
+        ax = machine.axis(name)
+        if ax.kind == "rotary":
+            continue
+        lo, hi = ax.lower_user, ax.upper_user
+        span = hi - lo
+        wide = (b - a) * MM_PER_M
+        if (span > 0 and b - a <= span / 20 and wide >= span / 5
+                and all(lo - span / 10 <= v * MM_PER_M <= hi + span / 10 for v in (a, b))):
+            raise InputError(f"`{option}` {name}={a:g}:{b:g}: {b - a:g} mm is about 1/1000 of {name}'s travel "
+                             f"{span:.1f} mm ({lo:g} to {hi:g} mm): metres? Zones are mm/deg "
+                             f"({name}={a * MM_PER_M:g}:{b * MM_PER_M:g} if it was in metres)")
 
 
 def zone_bounds(machine: Machine, zone: Zone) -> tuple[np.ndarray, np.ndarray]:

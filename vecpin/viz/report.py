@@ -12,6 +12,7 @@ with the axes it holds fixed and an arrow-scale key), repeatability (eq. 22).
 from __future__ import annotations
 
 import html
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from vecpin.compensation.plan import TablePlan
 from vecpin.compensation.tables import TableSet
+from vecpin.errors import VecpinWarning
 from vecpin.fileio import OutputSet
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.stats import distance_stats
@@ -90,6 +92,8 @@ def write_report(data: ReportData, out_dir) -> Path:
         from vecpin.viz.scene import write_html
         facts = write_html(out.path("scene.html"), data.models[0], data.campaign, None, None, data.plans[0].tables)
         parts += [f'<p class="note">3D scene: {html.escape(n)}</p>' for n in facts.get("notes", [])]
+        for n in facts.get("notes", []):   # meshes left out are said on the console too, not only in the page
+            warnings.warn(VecpinWarning(f"the report's 3D scene: {n}"), stacklevel=2)
         name = html.escape(data.models[0].machine.name)
         page = out.write_text("index.html", f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>vecpin report "
                               f"{name}</title><style>{CSS}</style></head><body>" + "\n".join(parts)

@@ -139,6 +139,10 @@ class Assessment:
                 "predicted_reduction_pct": self.reduction_pct, "verdict": self.verdict, "limits": self.limits()}
 
 
+MAX_MEAN_ERROR_MM = 20.0   # a mean volumetric error [mm] beyond any machine tool or arm compensation serves
+SHORT_OVER_LONG = 1.25     # a short-term repeatability this many times the long-term one is refused
+
+
 def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, short_term_mm: float | None = None,
                    max_error_mm: float | None = None, instrument_mm: float | None = None) -> Assessment:
     """The verdict from numbers measured elsewhere (mm)."""
@@ -153,6 +157,14 @@ def assess_numbers(mean_error_mm: float, long_term_mm: float | None = None, shor
     if max_error_mm is not None and max_error_mm < mean_error_mm:
         raise InputError(f"`max_error_mm` {max_error_mm:g} is below `mean_error_mm` {mean_error_mm:g}: the largest error "
                          "cannot be smaller than the mean; check the two numbers")
+    if mean_error_mm > MAX_MEAN_ERROR_MM:
+        raise InputError(f"`mean_error_mm` {mean_error_mm:g}: a mean volumetric error of {mean_error_mm:g} mm is "
+                         f"beyond any machine compensation serves (more than {MAX_MEAN_ERROR_MM:g} mm): micrometres "
+                         f"({mean_error_mm / 1000:g} mm)? thou ({mean_error_mm * 0.0254:g} mm)? Give it in mm")
+    if short_term_mm is not None and long_term_mm is not None and short_term_mm > SHORT_OVER_LONG * long_term_mm:
+        raise InputError(f"`short_term_mm` {short_term_mm:g} is above `long_term_mm` {long_term_mm:g}: the long-term "
+                         "repeatability holds the short-term scatter and the drift between sessions, so it is not "
+                         "smaller (beyond the noise of the two estimates); swapped?")
     rep = long_term_mm if long_term_mm is not None else short_term_mm
     if rep is None:
         raise InputError("give the long-term (`long_term_mm`) or short-term (`short_term_mm`) repeatability in mm (> 0)")

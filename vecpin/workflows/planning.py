@@ -31,6 +31,7 @@ from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_opt
 from vecpin.planning.route import axis_speeds
 from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_plan
 from vecpin.planning.planchecks import t_offset_identified
+from vecpin.planning.problem import check_safe_height
 from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times, run_times
 from vecpin.units import M_PER_MM, to_mm
 
@@ -226,6 +227,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     arm = is_arm(machine)
     dialects, r, up = program_request(machine, dialects, retract, safe_z_mm, axis_map)
+    settings.check()   # the settings alone (holder lengths, ...) before the figures' imports
     ProgramTiming(np.ones(machine.n_axes), np.zeros(machine.n_axes), holder_change_s=holder_change_s,
                   tracker_move_s=tracker_move_s).check()
     from vecpin.viz.figures import plan_figure
@@ -326,6 +328,7 @@ def program_request(machine: Machine, dialects, retract: str | None, safe_z_mm: 
     dialects = tuple(DIALECTS) if dialects is None else tuple(dialects)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)
+    check_safe_height(machine, r, up, safe_z_mm)
     for d in dialects:
         nc_axis_names(machine, d, axis_map)
     return dialects, r, up

@@ -12,6 +12,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.measurement.tableframe import nest_shape, table_tips
 from vecpin.planning.nests import VALIDATION_READS
+from vecpin.planning.problem import check_tracker_units
 from vecpin.simulation.simulate import Design, Simulation, simulate
 from vecpin.workflows.summary import error_summary
 from vecpin.units import MM_PER_M
@@ -112,6 +113,7 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
         design = replace(design, n_validation=len(truth_options["validation_commands"]))
     design.check(machine, None if plan is None else len(plan[1] if isinstance(plan, tuple) else plan.tool), files=True)  # files vecpin can read back
     _check_tracker(truth_options.get("tracker_position"))
+    check_lengths(machine, truth_options.get("tracker_position"), design)
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
     return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,
@@ -190,6 +192,20 @@ def plan_companions(machine: Machine, plan_path: str | Path, template) -> dict:
         q = vt.q[vt.tool_rows]  # a command once: its further readings at standstill the simulator makes itself
         out["validation_commands"] = q[np.r_[True, np.any(q[1:] != q[:-1], axis=1)]] if len(q) else q
     return out
+
+
+def check_lengths(machine: Machine, position, design: Design) -> None:
+    """Lengths typed in metres: the tracker position (SI here, mm to the user) against the
+    machine's travel, and target offsets [mm] all below 1 mm (a target that close to the tip
+    is the tip; tens of mm in metres)."""
+    if position is not None:
+        check_tracker_units(machine, np.asarray(position, float) * MM_PER_M, "tracker_position")
+    for t in design.targets_mm or ():
+        v = np.asarray(t, float)
+        if v.shape == (3,) and np.all(np.isfinite(v)) and 0 < np.abs(v).max() < 1.0:
+            raise InputError(f"`targets_mm` {','.join(f'{x:g}' for x in v)}: a target offset below 1 mm from the tool "
+                             f"tip: metres? Offsets are mm in the tool link frame "
+                             f"({','.join(f'{x * 1000:g}' for x in v)} if they were in metres)")
 
 
 def _check_tracker(position) -> None:

@@ -30,7 +30,8 @@ from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, f
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
-from vecpin.units import MM_PER_M
+from vecpin.planning.zones import check_zone_units
+from vecpin.units import MM_PER_M, slip_text
 
 LOST_SHARE = 0.02    # files giving up more than this share of what the full tables remove say so first
 ROUNDING_MM = 0.001  # ... and more than this [mm] (the files' number format rounds to 0.1-1 um)
@@ -155,6 +156,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     fmt, prof, limits, modulo = _check_request(model, controller, profile, axis_map, points, forbid_output,
                                                modulo_axes, max_tables, no_circular, sign_test)
     zone = model_zone(model) if zone is None else zone
+    check_lengths(model, tools_mm, zone)
     check_output_dir(out_dir)
     q = None
     if commands is not None:
@@ -166,6 +168,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         model, prof, limits, controller, notes, max_tables=max_tables, no_circular=no_circular or None,
         forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm, modulo_axes=modulo,
         commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress)
+    check_corrections(plan, model)
     if progress:
         progress(f"writing the {controller} files")
     as_written = None
@@ -205,6 +208,44 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     files = [Path(out_dir) / n for n in names]
     return TableRun(plan, files, None if commands is None else commands.source, controller, notes, as_written, st,
                     headline, warnings, effect)
+
+
+CORRECTION_FACTOR = 5.0   # tables moving the tip by more than this times the measured largest error are refused
+
+
+def check_corrections(plan: TablePlan, model: ErrorModel) -> None:
+    """Refuse tables whose largest correction at the tool tip [mm] exceeds
+    :data:`CORRECTION_FACTOR` times the largest uncompensated error the campaign measured (the
+    model file's record): a model predicting errors the machine did not have would make it worse."""
+    sel = getattr(model, "selection_", None)
+    measured = (sel or {}).get("uncompensated_mm") if isinstance(sel, dict) else None
+    top = measured.get("max") if isinstance(measured, dict) else None
+    if plan.frame is None or not isinstance(top, (int, float)) or not top > 0:
+        return
+    corr = plan.frame.largest_correction_mm
+    if corr > CORRECTION_FACTOR * top:
+        raise InputError(f"{getattr(model, 'source_', 'the model')}: the tables would move the tool tip by up to "
+                         f"{corr:.4f} mm, more than "
+                         f"{CORRECTION_FACTOR:g} times the largest error the campaign measured ({top:.4f} mm): the "
+                         "model predicts errors the machine did not have, and these tables would make it worse; "
+                         "nothing was written. Check the model (vecpin evaluate on a validation run) or fit it again")
+
+
+def check_lengths(model: ErrorModel, tools_mm, zone) -> None:
+    """Lengths a user gives the tables, against the model: tool lengths [mm] far below the
+    model's tools (the fit's) but near them times 1000 were typed in metres (refused, the
+    likely unit named); a zone's linear axes likewise against the axis' travel."""
+    fitted = [float(t) for t in (getattr(getattr(model, "report_", None), "tool_lengths_mm", None) or [])]
+    scale = float(np.mean(fitted)) if fitted else None
+    for t in tools_mm or ():
+        if not np.isfinite(t) or t < 0:
+            raise InputError(f"`tools_mm` {t:g}: a tool length is mm from the gauge line, >= 0")
+        text = None if scale is None else slip_text(t, scale, "the model's tools, mean")
+        if text:
+            raise InputError(f"`tools_mm` {t:g}: {text}; the model was fitted with tools "
+                             f"{', '.join(f'{x:g}' for x in fitted)} mm")
+    if zone:
+        check_zone_units(model.machine, zone, "zone")
 
 
 def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
