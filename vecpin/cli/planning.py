@@ -203,7 +203,7 @@ def _add_program_args(s) -> None:
                         "the campaign's time (default 1200, an assumption: time yours)")
     s.add_argument("--feed", dest="feed_mm_min", type=float, default=1000.0, help="feed of the final approach move, "
                    "mm/min (default 1000)")
-    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode"],
+    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode", "heidenhain"],
                    help="NC program to write; repeatable (default: all three)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")

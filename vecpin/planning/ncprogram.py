@@ -49,7 +49,7 @@ from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning import ncdialect as nc
 from vecpin.units import MM_PER_M
 
-DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
+DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc", "heidenhain": "H"}
 READ_DWELL_S = 2.0  # s, ASSUMED: the tracker's stationary reading of a point it is locked on (no settling, no turning)
 _FANUC_AXES = set("XYZABCUVW")
 _GCODE_AXES = set("XYZABCUVW")
@@ -61,7 +61,7 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
     names = [axis_map.get(a.name, a.name) for a in machine.axes]
     for a, nm in zip(machine.axes, names):
         ok = (re.fullmatch(r"[A-Z][A-Z0-9]{0,7}", nm) is not None and nm[0] not in "FGMNOPST") if dialect == "siemens-840d" \
-            else nm in (_FANUC_AXES if dialect == "fanuc" else _GCODE_AXES)
+            else nm in (_FANUC_AXES if dialect == nc.FANUC else _GCODE_AXES)
         if not ok:
             allowed = "a capital letter (not F, G, M, N, O, P, S, T) with up to 7 more capitals or digits" \
                 if dialect == "siemens-840d" else "one of X Y Z A B C U V W"
@@ -264,7 +264,8 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
     n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
-    mc = "SUPA" if dialect == nc.SIEMENS else "G53"
+    mc = {nc.SIEMENS: "SUPA", nc.HEIDENHAIN: "M91"}.get(dialect, "G53")
+    tlc = {nc.SIEMENS: "D0", nc.HEIDENHAIN: "no TOOL CALL; M91 blocks do not compensate it"}.get(dialect, "G49")
     sweep = " ".join(names[j] for j in others) or "-"
     rot = " ".join(names[j] for j in rotary)
     return [f"vecpin measurement plan {title}".strip(),
@@ -273,8 +274,7 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"machine {machine.name}, target holder lengths " + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
             f"axis positions in machine coordinates ({mc} in every positioning block): the URDF axis coordinates, "
             "mm and degrees, whatever work offset is active",
-            "no tool length compensation (" + ("D0" if dialect == nc.SIEMENS else "G49") + "), no TRAORI / G43.4: "
-            "the plan commands axes, not the tool tip",
+            f"no tool length compensation ({tlc}), no TRAORI / G43.4 / M128: the plan commands axes, not the tool tip",
             f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, the plan's safe height) or higher, then "
             f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
@@ -287,11 +287,71 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             "run it first at a reduced rapid override and watch the moves"]
 
 
+def approach_note(machine: Machine, steps: np.ndarray, retract_name: str, sight=None) -> str:
+    """The header line on the approach and the clearance the moves were checked with."""
+    st = machine.to_user(np.asarray(steps, float)[None])[0]
+    lin = [v for a, v in zip(machine.axes, st) if a.kind == "linear"]
+    rot = [v for a, v in zip(machine.axes, st) if a.kind == "rotary"]
+    dist = " / ".join([f"{max(lin):g} mm"] * bool(lin) + [f"{max(rot):g} deg"] * bool(rot))
+    checked = (f"every move was posed with the machine's {sight.geometry} geometry and the target holder's axis "
+               "(gauge line to target centre) is clear of it: the area it sweeps on a move of linear axes, positions "
+               "every 2 deg on a move of a rotary axis, moves taken as straight lines in axis space"
+               if sight is not None else "the moves were not checked against the machine's geometry")
+    return (f"approach clearance {dist}: each point from its approach position that far away on the axes the plan's "
+            f"approach column names, {retract_name} always from the side away from the work, so no rapid passes a "
+            f"point toward the work; {checked}")
+
+
+def program_moves(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int, safe: float,
+                  reads: int = 1) -> list[tuple[int, str, np.ndarray, np.ndarray]]:
+    """Every move of the program between two known machine positions, in order: (tool row,
+    what ("lift", "transit", "rotary move", "plunge", "approach", "final lift"), from,
+    to (n,) mm and deg). The moves before the first point's position is known (its lift
+    and transit from wherever the machine stands) are not among them."""
+    others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
+    rotary = [a.index for a in machine.axes if a.kind == "rotary"]
+    route, end = visits(machine, template, steps, r, up, safe, reads)
+    out, pos = [], None
+    for v in route:
+        if pos is None:
+            pos = v.a.copy()
+            pos[r] = v.lift
+        else:
+            for what, idx, to in (("lift", [r], v.lift), ("transit", others, v.a), ("rotary move", rotary, v.a)):
+                nxt = pos.copy()
+                if to is None or not idx:
+                    continue
+                nxt[idx] = to if np.isscalar(to) else to[idx]
+                out.append((v.row, what, pos, nxt))
+                pos = nxt
+        a = v.a.copy()
+        out += [(v.row, "plunge", pos, a), (v.row, "approach", a, v.q.copy())]
+        pos = v.q.copy()
+    if end is not None and pos is not None:
+        nxt = pos.copy()
+        nxt[r] = end
+        out.append((route[-1].row, "final lift", pos, nxt))
+    return out
+
+
+def program_collisions(machine: Machine, template: PlanTemplate, steps: np.ndarray, sight, *,
+                       safe_z_mm: float | None = None, retract: str | None = None, reads: int = 1) -> list[str]:
+    """What the program's moves (:func:`program_moves`) put the target holder into, a
+    sentence per move that collides (none: the holder is free on every move), each with
+    the holder of its row (:func:`vecpin.planning.approaches.move_hits`)."""
+    from vecpin.planning.approaches import move_hits
+    r, up = retract_axis(machine, retract)
+    moves = program_moves(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm), reads)
+    hits = move_hits(machine, sight, [(a, b) for _, _, a, b in moves], np.array([template.tool[m[0]] for m in moves]))
+    return [f"{point_name(template.point[row])}: the {what} puts the target holder ({template.tool[row] * MM_PER_M:.3f} "
+            f"mm) into {h}" for (row, what, _, _), h in zip(moves, hits) if h]
+
+
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
                   title: str = "", stations: list | None = None, reads: int = 1,
-                  read_dwell_s: float = READ_DWELL_S) -> str:
+                  read_dwell_s: float = READ_DWELL_S, sight=None) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
@@ -302,7 +362,9 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
     several, :func:`station_notes`); ``reads``: the template reads every point that many
     times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
-    ``read_dwell_s`` [s] for every further reading)."""
+    ``read_dwell_s`` [s] for every further reading); ``sight``: a
+    :class:`~vecpin.planning.sightline.SightLine` whose geometry every move is checked
+    with (:func:`program_collisions`): a program whose holder would meet it is refused."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
@@ -312,6 +374,12 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
+    hits = [] if sight is None else program_collisions(machine, template, steps, sight, safe_z_mm=safe_z_mm,
+                                                         retract=retract, reads=reads)
+    if hits:
+        raise InputError(f"the {dialect} program would put the target holder into the machine: {'; '.join(hits[:3])}"
+                         + (f" (and {len(hits) - 3} more)" if len(hits) > 3 else "")
+                         + "; leave these points out (`exclude`) or plan shorter `tools_mm`")
 
     def comment(text: str) -> str:
         return nc.nc_comment(dialect, text)
@@ -320,10 +388,14 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
         return nc.rapid(dialect, [names[j] for j in idx], [float(values[j]) for j in idx])
 
     out: list[str] = []
+    pgm = program_name(dialect, "validation" if program_number == 1001 else "plan").split(".")[0]
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
+    if dialect == nc.HEIDENHAIN:
+        out.append(f"BEGIN PGM {pgm} MM")
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
                           (dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s), title, stations, reads)
+    head.append(approach_note(machine, steps, names[r], sight))
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe, reads)
     current_tool, current_station = None, 0
@@ -355,6 +427,9 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     out += nc.epilogue(dialect)
     if dialect == nc.FANUC:
         out.append("%")
+    if dialect == nc.HEIDENHAIN:  # every block numbered, from 0
+        out.append(f"END PGM {pgm} MM")
+        out = [f"{k} {b}" for k, b in enumerate("\n".join(out).split("\n"))]
     return "\n".join(out) + "\n"
 
 
@@ -376,5 +451,6 @@ def program_name(dialect: str, run: str = "plan") -> str:
     """The file name of a dialect's program: of the plan (``run`` "plan") or of its
     validation run ("validation"; Fanuc program number 1001)."""
     if run == "validation":
-        return {"siemens-840d": "VALID_840D.MPF", "fanuc": "O1001.nc", "gcode": "validation.ngc"}[dialect]
-    return {"siemens-840d": "PLAN_840D.MPF", "fanuc": "O1000.nc", "gcode": "plan.ngc"}[dialect]
+        return {"siemens-840d": "VALID_840D.MPF", "fanuc": "O1001.nc", "gcode": "validation.ngc",
+                "heidenhain": "VALID.H"}[dialect]
+    return {"siemens-840d": "PLAN_840D.MPF", "fanuc": "O1000.nc", "gcode": "plan.ngc", "heidenhain": "PLAN.H"}[dialect]

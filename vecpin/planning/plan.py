@@ -37,6 +37,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning import route
+from vecpin.planning.approaches import free_commands, planning_retract, safe_template
 from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
@@ -167,6 +168,7 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         s = problem.settings
         template = station_blocks(machine, template, problem.placement, geometry=s.geometry,
                                   tool_radius=s.tool_radius_mm * M_PER_MM, target_clearance=s.target_clearance_mm * M_PER_MM)
+    template = safe_template(machine, cands.sight, template, problem.steps, planning_retract(machine))
     return plan_result(problem, info, cands, chosen, template, say)
 
 
@@ -255,6 +257,8 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
     cand = cand[~inside(machine, cand, s.exclude)]
     if sl is not None:
         cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
+        cand = cand[free_commands(machine, sl, cand, tool, s.approach, route.approach_steps(
+            machine, s.approach_mm, s.approach_deg), planning_retract(machine)) == ""]
     if len(cand) < s.n_validation:
         raise InputError(f"`n_validation` {s.n_validation}: only {len(cand)} validation commands are free and in sight "
                          "inside the measurement zone; ask for fewer or move the tracker")
@@ -266,8 +270,9 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
             seen[:, k] = ~sl.check_nests(q, p_wp, tool).blocked
     idx, sign = route.approach_rows(q, s.approach)
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
-    return reread(with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests),
-                  VALIDATION_READS if nests else 1)
+    rows = with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
+    steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
+    return reread(safe_template(machine, sl, rows, steps, planning_retract(machine)), VALIDATION_READS if nests else 1)
 
 
 def reread(template: PlanTemplate, reads: int) -> PlanTemplate:

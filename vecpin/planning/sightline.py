@@ -194,6 +194,39 @@ class SightLine:
             by[hit] = s.name
         return by
 
+    def swept_collisions(self, q0: np.ndarray, q1: np.ndarray, tool: np.ndarray | float, lines: int = 4) -> np.ndarray:
+        """(N,) the solid the target holder runs into on the straight moves q0 -> q1 (N,n)
+        [m, rad] of the linear axes alone ('' where it is free), the rotary axes the same at
+        both ends: relative to every solid the holder then translates, and the area its axis
+        sweeps is covered by the axis at both ends and by ``lines`` + 1 straight paths of
+        points spread evenly along it, gauge line to target centre (as :meth:`collisions`; a
+        solid of the head's moving chain that holds the gauge line at either end does not
+        count)."""
+        q0, q1 = np.atleast_2d(np.asarray(q0, float)), np.atleast_2d(np.asarray(q1, float))
+        tool = np.broadcast_to(np.asarray(tool, float), (len(q0),))
+        m = self.machine
+        k0 = m.kinematics(q0, tool, jacobian=False, frame="base")
+        k1 = m.kinematics(q1, tool, jacobian=False, frame="base")
+        own = m.model.frames[m.spindle_frame_id].parentJoint
+        chain, j = set(), own
+        while j > 0:
+            chain.add(j)
+            j = m.model.parents[j]
+        by = np.full(len(q0), "", dtype=object)
+        p0, p1 = self.solid_poses(q0), self.solid_poses(q1)
+        for k, s in enumerate(self.solids):
+            if s.joint == own:
+                continue
+            n0, t0 = _to_local(p0[:, k], k0.spindle), _to_local(p0[:, k], k0.tip)
+            n1, t1 = _to_local(p1[:, k], k1.spindle), _to_local(p1[:, k], k1.tip)
+            hit = _segment_hits(s, n0, t0) | _segment_hits(s, n1, t1)
+            for u in np.linspace(0.0, 1.0, lines + 1):
+                hit |= _segment_hits(s, n0 + u * (t0 - n0), n1 + u * (t1 - n1))
+            if s.joint in chain:
+                hit &= ~(_contains(s, n0) | _contains(s, n1))
+            by[hit & (by == "")] = s.name
+        return by
+
     def _sight(self, q: np.ndarray, target: np.ndarray, kin, tool: np.ndarray) -> SightResult:
         """The sight lines from the tracker to ``target`` (N,3) [m], base frame, past the
         solids posed at q and the holder of length ``tool`` (tool kinematics ``kin``)."""

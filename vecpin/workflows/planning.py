@@ -22,6 +22,7 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
+from vecpin.planning.sightline import SightLine
 from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
                                       retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
@@ -195,7 +196,8 @@ class PlanRun:
                 "program": None if self.timing is None else timing_dict(self.timing)}
 
 
-def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *, dialects=tuple(DIALECTS),
+def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *,
+                dialects=tuple(d for d in DIALECTS if d != "heidenhain"),
                 dwell_s: float = 4.0, nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0,
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
@@ -235,12 +237,13 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             others.append((Path(c).name, templates[c]))
     comparison = compare(plan, others) if others else []
     files = []
+    sight = None if not settings.sight else SightLine(machine, plan.tracker, geometry=settings.geometry)
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
         for d in dialects:
             text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 title=f"for {machine.name}", stations=plan_stations(plan))
+                                 title=f"for {machine.name}", stations=plan_stations(plan), sight=sight)
             files.append(out.write_text(program_name(d), text))
         v = plan.validation_template
         files.append(out.write_text("validation.csv", v.to_csv(machine)))
@@ -248,7 +251,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
                                  program_number=1001, title=f"- validation run for {machine.name}",
-                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s)
+                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s, sight=sight)
             files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
@@ -260,7 +263,10 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
                    f"`safe_z_mm`) before every move between points: {lifts / 1000:.1f} m up and down, "
                    f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
-                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
+                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min"
+                   + f"; approach clearance {settings.approach_mm:g} mm / {settings.approach_deg:g} deg, "
+                   f"{machine.axis_names[r]} from the side away from the work"
+                   + (", every move of the programs checked against the machine's geometry" if sight else ""))
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
                                 tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
