@@ -214,16 +214,19 @@ def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, 
 
 
 def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
-                      retract: str | None = None) -> float:
-    """How far the retract axis travels in the lifts and plunges between points [mm]."""
-    r, up = retract_axis(machine, retract)
-    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
-    total, cur = 0.0, None
-    for v in vs:
-        at = v.lift if v.lift is not None else cur
-        total += (abs(at - cur) if cur is not None else 0.0) + abs(at - v.a[r])
-        cur = float(v.q[r])
-    return total + (abs(end - cur) if end is not None else 0.0)
+                      retract: str | None = None, sight=None) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm] (and
+    in the swings' lifts and descents where ``sight`` makes the program swing, see
+    :class:`~vecpin.planning.programroute.Router`)."""
+    from vecpin.planning.programroute import Router
+    router = Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract)
+    r, total, cur = router.r, 0.0, None
+    q_of = {v.row: v.q for v in router.route}
+    for s in router.steps():
+        if s.axes == [r] and cur is not None:
+            total += abs(s.to[r] - cur)
+        cur = float(q_of[s.row][r]) if s.what == "plunge" else (float(s.to[r]) if np.isfinite(s.to[r]) else cur)
+    return total
 
 
 def station_where(k: int, stations: list | None) -> str:
@@ -293,58 +296,15 @@ def approach_note(machine: Machine, steps: np.ndarray, retract_name: str, sight=
     lin = [v for a, v in zip(machine.axes, st) if a.kind == "linear"]
     rot = [v for a, v in zip(machine.axes, st) if a.kind == "rotary"]
     dist = " / ".join([f"{max(lin):g} mm"] * bool(lin) + [f"{max(rot):g} deg"] * bool(rot))
-    checked = (f"every move was posed with the machine's {sight.geometry} geometry and the target holder's axis "
+    checked = ("where a tilted holder would meet the machine at the safe height, the rotary axes turn to neutral "
+               "at the highest free height before the transit and back after it; " if sight is not None else "") + (
+               f"every move was posed with the machine's {sight.geometry} geometry and the target holder's axis "
                "(gauge line to target centre) is clear of it: the area it sweeps on a move of linear axes, positions "
                "every 2 deg on a move of a rotary axis, moves taken as straight lines in axis space"
                if sight is not None else "the moves were not checked against the machine's geometry")
     return (f"approach clearance {dist}: each point from its approach position that far away on the axes the plan's "
             f"approach column names, {retract_name} always from the side away from the work, so no rapid passes a "
             f"point toward the work; {checked}")
-
-
-def program_moves(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int, safe: float,
-                  reads: int = 1) -> list[tuple[int, str, np.ndarray, np.ndarray]]:
-    """Every move of the program between two known machine positions, in order: (tool row,
-    what ("lift", "transit", "rotary move", "plunge", "approach", "final lift"), from,
-    to (n,) mm and deg). The moves before the first point's position is known (its lift
-    and transit from wherever the machine stands) are not among them."""
-    others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
-    rotary = [a.index for a in machine.axes if a.kind == "rotary"]
-    route, end = visits(machine, template, steps, r, up, safe, reads)
-    out, pos = [], None
-    for v in route:
-        if pos is None:
-            pos = v.a.copy()
-            pos[r] = v.lift
-        else:
-            for what, idx, to in (("lift", [r], v.lift), ("transit", others, v.a), ("rotary move", rotary, v.a)):
-                nxt = pos.copy()
-                if to is None or not idx:
-                    continue
-                nxt[idx] = to if np.isscalar(to) else to[idx]
-                out.append((v.row, what, pos, nxt))
-                pos = nxt
-        a = v.a.copy()
-        out += [(v.row, "plunge", pos, a), (v.row, "approach", a, v.q.copy())]
-        pos = v.q.copy()
-    if end is not None and pos is not None:
-        nxt = pos.copy()
-        nxt[r] = end
-        out.append((route[-1].row, "final lift", pos, nxt))
-    return out
-
-
-def program_collisions(machine: Machine, template: PlanTemplate, steps: np.ndarray, sight, *,
-                       safe_z_mm: float | None = None, retract: str | None = None, reads: int = 1) -> list[str]:
-    """What the program's moves (:func:`program_moves`) put the target holder into, a
-    sentence per move that collides (none: the holder is free on every move), each with
-    the holder of its row (:func:`vecpin.planning.approaches.move_hits`)."""
-    from vecpin.planning.approaches import move_hits
-    r, up = retract_axis(machine, retract)
-    moves = program_moves(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm), reads)
-    hits = move_hits(machine, sight, [(a, b) for _, _, a, b in moves], np.array([template.tool[m[0]] for m in moves]))
-    return [f"{point_name(template.point[row])}: the {what} puts the target holder ({template.tool[row] * MM_PER_M:.3f} "
-            f"mm) into {h}" for (row, what, _, _), h in zip(moves, hits) if h]
 
 
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
@@ -364,7 +324,8 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
     ``read_dwell_s`` [s] for every further reading); ``sight``: a
     :class:`~vecpin.planning.sightline.SightLine` whose geometry every move is checked
-    with (:func:`program_collisions`): a program whose holder would meet it is refused."""
+    with (:class:`~vecpin.planning.programroute.Router`: the rotary axes swing to neutral
+    where a tilted holder would meet it; a program no swing frees is refused)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
@@ -374,12 +335,11 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
-    hits = [] if sight is None else program_collisions(machine, template, steps, sight, safe_z_mm=safe_z_mm,
-                                                         retract=retract, reads=reads)
-    if hits:
-        raise InputError(f"the {dialect} program would put the target holder into the machine: {'; '.join(hits[:3])}"
-                         + (f" (and {len(hits) - 3} more)" if len(hits) > 3 else "")
-                         + "; leave these points out (`exclude`) or plan shorter `tools_mm`")
+    from vecpin.planning.programroute import Router
+    moves: dict[int, list] = {}
+    for s in Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract, reads=reads).steps():
+        if s.what != "final lift":
+            moves.setdefault(s.row, []).append(s)
 
     def comment(text: str) -> str:
         return nc.nc_comment(dialect, text)
@@ -401,8 +361,9 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     current_tool, current_station = None, 0
     for v in route:
         i = v.row
-        if v.lift is not None:
-            out.append(move([r], {r: v.lift}))
+        mine = moves.get(i, [])
+        first = next((k for k, s in enumerate(mine) if s.what not in ("lift", "swing")), len(mine))
+        out += [move(s.axes, s.to) for s in mine[:first]]   # lifted (the rotary axes neutral where they swing)
         if template.stations[i] != current_station:
             current_station = int(template.stations[i])
             where = station_where(current_station, stations)
@@ -416,9 +377,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
             out.append(nc.stop(dialect, msg))
             current_tool = L
         out.append(comment(point_name(template.point[i])))
-        for idx in (others, rotary, [r]):
-            if idx:
-                out.append(move(idx, v.a))
+        out += [move(s.axes, s.to) for s in mine[first:]]
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
         out += _reads_at(dialect, template, v, (dwell_s, nest_dwell_s, read_dwell_s))

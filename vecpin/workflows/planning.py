@@ -258,7 +258,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         t = plan.template
         nests = int(np.sum(t.instrument == "nest")) if t.instrument is not None else 0
         dwells = (len(t) - nests) * dwell_s + nests * nest_dwell_s
-        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract)
+        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract, sight)
         speed = axis_speeds(machine, settings.rapid_mm_min, settings.rapid_deg_min)[r]
         program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
                    f"`safe_z_mm`) before every move between points: {lifts / 1000:.1f} m up and down, "
