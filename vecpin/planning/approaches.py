@@ -89,30 +89,24 @@ def segment(a: np.ndarray, b: np.ndarray, step=PLUNGE_STEP, pieces: int | None =
     return a + t * (b - a)
 
 
-def approach_moves(q: np.ndarray, sign: np.ndarray, step: np.ndarray, rt: Retract) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The moves (from, to) (mm, deg) of the way into point ``q``: the plunge of the
-    retract axis from its safe position (or the approach height, if higher) to the
-    approach position, then the feed move to ``q``."""
-    a = np.round(q - sign * step, 3)
-    top = a.copy()
-    top[rt.axis] = max(rt.safe, a[rt.axis], key=lambda v: rt.up * v)
-    return [(top, a), (a, np.asarray(q, float))]
-
-
-def move_hits(machine: Machine, sight, moves: list[tuple[np.ndarray, np.ndarray]], tool: np.ndarray) -> np.ndarray:
+def move_hits(machine: Machine, sight, moves, tool: np.ndarray) -> np.ndarray:
     """(M,) the solid the target holder meets on each straight move (from, to) (mm, deg)
     in axis space with holder lengths ``tool`` (M,) [m] ('' where it is free): a move of
     linear axes alone by the area the holder's axis sweeps
     (:meth:`~vecpin.planning.sightline.SightLine.swept_collisions`), a move of a rotary
     axis at positions every :data:`ROTARY_STEP` deg and :data:`PLUNGE_STEP` mm
-    (:meth:`~vecpin.planning.sightline.SightLine.collisions`)."""
-    out = np.full(len(moves), "", dtype=object)
-    if not moves:
+    (:meth:`~vecpin.planning.sightline.SightLine.collisions`). ``moves``: a list of
+    pairs, or the pair of arrays (M, n) from and to."""
+    if isinstance(moves, tuple):
+        a, b = (np.asarray(x, float) for x in moves)
+    else:
+        a = np.array([m[0] for m in moves], float).reshape(len(moves), machine.n_axes)
+        b = np.array([m[1] for m in moves], float).reshape(len(moves), machine.n_axes)
+    out = np.full(len(a), "", dtype=object)
+    if not len(a):
         return out
     tool = np.asarray(tool, float)
-    rot = np.array([a.kind == "rotary" for a in machine.axes])
-    a = np.array([m[0] for m in moves], float)
-    b = np.array([m[1] for m in moves], float)
+    rot = np.array([x.kind == "rotary" for x in machine.axes])
     lin = ~np.any(np.abs(a[:, rot] - b[:, rot]) > 1e-9, axis=1)
     if lin.any():
         out[lin] = sight.swept_collisions(machine.to_si(a[lin]), machine.to_si(b[lin]), tool[lin])
@@ -144,28 +138,26 @@ def choose(machine: Machine, sight, q: np.ndarray, tool: np.ndarray, sign: np.nd
     out = np.zeros_like(sign)
     why = np.full(len(qu), "", dtype=object)
     todo = np.ones(len(qu), bool)
-    cands = [candidate_signs(s, rt.axis, rt.up) for s in sign]
+    kinds, which = np.unique(sign, axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    cands = [candidate_signs(k, rt.axis, rt.up) for k in kinds]
     for level in range(max(len(c) for c in cands)):
-        moves, owner = [], []
-        for i in np.flatnonzero(todo):
-            if level >= len(cands[i]):
-                continue
-            a = qu[i] - cands[i][level] * step
-            if np.any(a < lo) or np.any(a > hi):
-                why[i] = why[i] or "travel"
-                continue
-            moves += approach_moves(qu[i], cands[i][level], step, rt)
-            owner += [i, i]
-        if not moves:
+        S = np.array([c[level] if level < len(c) else c[0] for c in cands])[which]
+        rows = np.flatnonzero(todo & np.array([level < len(c) for c in cands])[which])
+        a = np.round(qu[rows] - S[rows] * step, 3)
+        inside = np.all((a >= lo) & (a <= hi), axis=1)
+        why[rows[~inside]] = np.where(why[rows[~inside]] == "", "travel", why[rows[~inside]])
+        rows, a = rows[inside], a[inside]
+        if not len(rows):
             continue
-        owner = np.array(owner)
-        hits = move_hits(machine, sight, moves, tool[owner])
-        for i in np.unique(owner):
-            h = hits[owner == i]
-            if np.all(h == ""):
-                out[i], todo[i], why[i] = cands[i][level], False, ""
-            elif not why[i] or why[i] == "travel":
-                why[i] = str(h[h != ""][0])
+        top = a.copy()
+        top[:, rt.axis] = rt.up * np.maximum(rt.up * rt.safe, rt.up * a[:, rt.axis])
+        hits = move_hits(machine, sight, (np.vstack([top, a]), np.vstack([a, qu[rows]])), np.tile(tool[rows], 2))
+        h = np.where(hits[:len(rows)] != "", hits[:len(rows)], hits[len(rows):])
+        free = h == ""
+        out[rows[free]], todo[rows[free]], why[rows[free]] = S[rows[free]], False, ""
+        first = rows[~free]
+        why[first] = np.where((why[first] == "") | (why[first] == "travel"), h[~free], why[first])
     return out, why
 
 
@@ -204,5 +196,5 @@ def safe_template(machine: Machine, sight, template, steps: np.ndarray, rt: Retr
     return out
 
 
-__all__ = ["Retract", "planning_retract", "candidate_signs", "segment", "approach_moves", "move_hits", "choose",
+__all__ = ["Retract", "planning_retract", "candidate_signs", "segment", "move_hits", "choose",
            "free_commands", "safe_template", "PLUNGE_STEP", "ROTARY_STEP", "MODE_SIGNS"]
