@@ -58,7 +58,8 @@ def _check_safe_moves(prog, m, safe, step):
             at[0] = prog.moves[e[1]].pos["Z"]
         elif e[0] == "stop":
             assert at[0] is not None and at[0] >= safe - TOL, f"stop {e[1]} with Z at {at[0]}"
-    assert prog.moves[-1].axes == ("Z",) and prog.moves[-1].pos["Z"] >= safe - TOL
+    last = prog.moves[-1]  # a final lift, unless the last point stands at the safe height or above
+    assert (last.axes == ("Z",) or last.before["Z"] >= safe - TOL) and last.pos["Z"] >= safe - TOL
     return large
 
 

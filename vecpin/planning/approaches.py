@@ -111,14 +111,23 @@ def move_hits(machine: Machine, sight, moves, tool: np.ndarray) -> np.ndarray:
     if lin.any():
         out[lin] = sight.swept_collisions(machine.to_si(a[lin]), machine.to_si(b[lin]), tool[lin])
     rows = np.flatnonzero(~lin)
-    if len(rows):
+    if len(rows):  # each move in pieces of at most PLUNGE_STEP mm and ROTARY_STEP deg, every piece's ends posed
         step = np.where(rot, ROTARY_STEP, PLUNGE_STEP)
-        paths = [segment(a[i], b[i], step) for i in rows]
-        owner = np.repeat(rows, [len(p) for p in paths])
+        k = np.ceil(np.max(np.abs(b[rows] - a[rows]) / step, axis=1) - 1e-9).astype(int)
+        paths, owner = [], []
+        for kk in np.unique(k):
+            sel = rows[k == kk]
+            t = np.linspace(0.0, 1.0, kk + 1)[None, :, None]
+            paths.append((a[sel][:, None] + t * (b[sel] - a[sel])[:, None]).reshape(-1, a.shape[1]))
+            owner.append(np.repeat(sel, kk + 1))
+        owner = np.concatenate(owner)
         hits = sight.collisions(machine.to_si(np.vstack(paths)), tool[owner])
-        for i in rows:
-            h = hits[owner == i]
-            out[i] = str(h[h != ""][0]) if np.any(h != "") else ""
+        bad = hits != ""
+        first = {}
+        for i, h in zip(owner[bad], hits[bad]):
+            first.setdefault(i, h)
+        for i, h in first.items():
+            out[i] = str(h)
     return out
 
 

@@ -1,7 +1,8 @@
 """NC programs that drive the machine through a plan and wait for the tracker.
 
-Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of each in
-:mod:`vecpin.planning.ncdialect`). Every program is safe to run as written:
+Four dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC, HEIDENHAIN conversational;
+the blocks of each in :mod:`vecpin.planning.ncdialect`). Every program is safe to run as
+written:
 
 * units and a safety block before the first move (mm; no tool length or radius
   compensation, no canned cycle, no TRAORI; absolute; feed per minute), and at the end
@@ -16,8 +17,12 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
   when a point is), then the other linear axes, then the rotary axes move to the next
   point's approach position, then the retract axis plunges to it; the tool is raised in
   the same way before each holder change (``M0``) and at the end;
-* each point is reached as the plan's approach says (from the approach position, the
-  point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
+* each point is reached as the plan's approach column says (from the approach position,
+  the point minus sign times the approach distance per axis, at ``feed_mm_min``; the plan
+  chooses it so that the retract axis comes from the side away from the work and the
+  holder meets nothing: :mod:`~vecpin.planning.approaches`); given the machine's geometry
+  (``sight``) every move is checked and the rotary axes swing to neutral where a tilted
+  holder would collide (:mod:`~vecpin.planning.programroute`);
   then a dwell for the tool target and every table nest read there (``dwell_s`` plus
   ``nest_dwell_s`` per nest; the comment names the read order);
 * a run that reads every point several times in a row (``reads``: a table machine's
