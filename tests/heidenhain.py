@@ -17,7 +17,9 @@ p.125, iTNC 530 Pilot):
   coordinates to the machine datum, in that block only, and the tool length is not
   compensated in it; without it the coordinates are the workpiece's (the datum shift);
 * ``M128`` (TCPM) keeps the tool tip on the path while rotary axes move and ``M129``
-  cancels it: a measurement program commands axes, so a move with it active is refused;
+  cancels it; "before positioning with M91 or M92 ... reset M128" (TNC 620 User's Manual
+  5/2013 p.340): a move with it active is refused; an ``L`` block may carry
+  miscellaneous functions alone;
 * cycle 9 DWELL TIME: ``CYCL DEF 9.0 DWELL TIME`` then ``CYCL DEF 9.1 DWELL <s>``,
   active when defined; ``STOP`` halts the program run (cycle start goes on);
   ``TOOL CALL`` would load a tool and its length: refused here (the holder is mounted
@@ -79,7 +81,7 @@ def run(text: str, axes: dict[str, tuple[float, float]], start: Start | None = N
             continue
         if code.startswith("TOOL CALL") or code.startswith("CYCL"):
             raise GCodeError(f"line {n}: {code!r} is not allowed in a measurement program")
-        if re.fullmatch(r"(M\d+\s*)+", code):
+        if re.fullmatch(r"L(\s+M\d+)+", code):  # an L block of miscellaneous functions alone ("L M140 MB MAX")
             for mm in re.findall(r"M(\d+)", code):
                 if int(mm) == 129:
                     tcpm = False

@@ -126,7 +126,7 @@ def test_plan_program_runs_safely_on_a_control_in_inch_mode_with_offsets(plans, 
     if dialect == "gcode":
         assert prog.units_at_end == start.units
     elif dialect == "heidenhain":  # its units are the program's own (BEGIN PGM ... MM): no modal state to restore
-        assert prog.units_at_end == "mm" and "M129" in " ".join(prog.comments[:20])
+        assert prog.units_at_end == "mm" and "L M129" in " ".join(prog.comments[:20])
     else:
         unit = "G21" if dialect == "fanuc" else "G710"
         header = " ".join(prog.comments[:20])

@@ -11,6 +11,7 @@ point toward the work (Z+ lifts the tool on these machines). Issue 42: a sign te
 the axis under test alone (after lifting Z before a rotary axis turns), and an address
 of another axis is refused naming the profile field."""
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from gcode import GCodeError, Start, run
@@ -18,7 +19,7 @@ from vecpin.errors import InputError
 from vecpin.export.signtest import SignTest, check_address, program
 from vecpin.planning.ncprogram import write_program
 from vecpin.planning.plan import PlanSettings, make_plan
-from vecpin.planning.sightline import SightLine
+from vecpin.planning.sightline import SightLine, _joint_placements
 
 TOL = 5e-4
 NAMES = ["trunnion_xyzac", "xyzac_trt", "flow_xyzcb"]
@@ -97,19 +98,20 @@ def test_the_validation_run_in_klartext_is_free_too(runs):
 
 def test_the_klartext_interpreter_refuses_what_a_measurement_program_must_not_do():
     axes = {"X": (-500.0, 500.0), "Z": (-450.0, 0.0)}
-    good = ["0 BEGIN PGM T MM", "1 M129", "2 L X+10.000 Z+0.000 R0 FMAX M91", "3 L X+12.000 R0 F500 M91",
+    good = ["0 BEGIN PGM T MM", "1 L M129", "2 L X+10.000 Z+0.000 R0 FMAX M91", "3 L X+12.000 R0 F500 M91",
             "4 CYCL DEF 9.0 DWELL TIME", "5 CYCL DEF 9.1 DWELL 2.5", "6 END PGM T MM"]
     prog = run("\n".join(good) + "\n", "heidenhain", axes, Start())
     assert prog.dwells == [2.5] and [mv.pos["X"] for mv in prog.moves] == [10.0, 12.0]
     for k, bad, said in ((2, "2 L X+10.000 Z+0.000 R0 FMAX", "tool length"),       # workpiece coordinates
-                         (1, "1 M0", "M0"), (2, "2 L X+10.000 Z+0.000 RL FMAX M91", "radius"),
+                         (1, "1 L M0", "M0"), (2, "2 L X+10.000 Z+0.000 RL FMAX M91", "radius"),
                          (3, "3 L X+12.000 R0 M91", "without a feed"), (5, "5 L X+1 R0 FMAX M91", "9.1 DWELL")):
         lines = list(good)
         lines[k] = bad
         with pytest.raises(GCodeError, match=said):
             run("\n".join(lines) + "\n", "heidenhain", axes, Start())
     with pytest.raises(GCodeError, match="TCPM"):  # M128 left on by the control
-        run("\n".join(good[:1] + [g.replace("1 M129", "1 M128") for g in good[1:]]) + "\n", "heidenhain", axes, Start())
+        tcpm = good[:1] + [g.replace("1 L M129", "1 L M128") for g in good[1:]]
+        run("\n".join(tcpm) + "\n", "heidenhain", axes, Start())
 
 
 @pytest.mark.parametrize("dialect", ["heidenhain", "linuxcnc", "siemens"])
@@ -127,3 +129,18 @@ def test_an_address_of_another_axis_is_refused_naming_the_field():
     with pytest.raises(InputError, match=r"'axes\.X\.program_name'.*address of axis Z"):
         check_address("Z", "siemens", "X", "profile p.json", others)
     check_address("X", "siemens", "X", "profile p.json", others)
+
+
+def test_the_batched_joint_placements_are_pinocchios(machines):
+    """The holder checks pose every solid with placements computed for all poses at once:
+    they are Pinocchio's forwardKinematics, pose by pose."""
+    for name in ("trunnion_xyzac", "flow_xyzcb", "ur5"):
+        m = machines[name]
+        q = m.lower + np.random.default_rng(3).random((6, m.n_axes)) * (m.upper - m.lower)
+        qf = m.full_q(q)
+        got = _joint_placements(m.model, qf)
+        data = m.model.createData()
+        for i in range(len(q)):
+            pin.forwardKinematics(m.model, data, qf[i])
+            for j in range(m.model.njoints):
+                np.testing.assert_allclose(got[i, j], data.oMi[j].homogeneous, atol=1e-12)

@@ -161,7 +161,7 @@ def program(st: SignTest, dialect: str, address: str,
             f"{st.input_axis} turns), then {st.input_axis} alone moves" if retract else f"{st.input_axis} alone moves")
     if dialect == "heidenhain":
         name = f"SIGNTEST_{tag}.H"
-        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; {what}", f"; {lift}", "M129"]
+        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; {what}", f"; {lift}", "L M129"]
         if retract:
             lines.append(f"L {retract[0]}{retract[1]:+.3f} R0 FMAX M91")
         f = decimal(FEED, 1)
@@ -277,7 +277,8 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} alone to "
          f"{decimal(st.positions[0], 3)} and {decimal(st.positions[1], 3)} {st.input_unit}, each approached from below"
          + (f", after lifting {retract[0]} to {decimal(retract[1], 3)} mm" if retract else
-            "; the other axes stay where they stand: start with the tool clear of the work") + "). At each stop write a row "
+            "; the other axes stay where they stand: start with the tool clear of the work")
+         + "). At each stop write a row "
          f"`off,<command>,<reading>` into `SIGNTEST_{tag}.csv` ({st.output_unit}). Repeat runs add rows.",
          "3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "

@@ -31,6 +31,8 @@ import numpy as np
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.planning.retract import retract_axis, safe_position
+from vecpin.planning.sweep import swept_collisions
 
 PLUNGE_STEP = 20.0   # mm between the positions checked on a move that turns a rotary axis too
 ROTARY_STEP = 2.0    # deg between the positions checked on a move of a rotary axis
@@ -50,7 +52,6 @@ class Retract:
 def planning_retract(machine: Machine) -> Retract | None:
     """The retract axis the programs use by default (None: the machine has none, e.g. an
     arm, whose approaches are not planned here)."""
-    from vecpin.planning.ncprogram import retract_axis, safe_position
     try:
         r, up = retract_axis(machine)
     except InputError:
@@ -93,7 +94,7 @@ def move_hits(machine: Machine, sight, moves, tool: np.ndarray) -> np.ndarray:
     """(M,) the solid the target holder meets on each straight move (from, to) (mm, deg)
     in axis space with holder lengths ``tool`` (M,) [m] ('' where it is free): a move of
     linear axes alone by the area the holder's axis sweeps
-    (:meth:`~vecpin.planning.sightline.SightLine.swept_collisions`), a move of a rotary
+    (:func:`~vecpin.planning.sweep.swept_collisions`), a move of a rotary
     axis at positions every :data:`ROTARY_STEP` deg and :data:`PLUNGE_STEP` mm
     (:meth:`~vecpin.planning.sightline.SightLine.collisions`). ``moves``: a list of
     pairs, or the pair of arrays (M, n) from and to."""
@@ -109,7 +110,7 @@ def move_hits(machine: Machine, sight, moves, tool: np.ndarray) -> np.ndarray:
     rot = np.array([x.kind == "rotary" for x in machine.axes])
     lin = ~np.any(np.abs(a[:, rot] - b[:, rot]) > 1e-9, axis=1)
     if lin.any():
-        out[lin] = sight.swept_collisions(machine.to_si(a[lin]), machine.to_si(b[lin]), tool[lin])
+        out[lin] = swept_collisions(sight, machine.to_si(a[lin]), machine.to_si(b[lin]), tool[lin])
     rows = np.flatnonzero(~lin)
     if len(rows):  # each move in pieces of at most PLUNGE_STEP mm and ROTARY_STEP deg, every piece's ends posed
         step = np.where(rot, ROTARY_STEP, PLUNGE_STEP)

@@ -31,7 +31,8 @@ Four dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use)
   ``CYCL DEF 9.0 DWELL TIME`` and ``CYCL DEF 9.1 DWELL <s>`` (active as defined, no
   call: syntax as the TNC user's manuals print it, INFERRED for the TNC 640: its page
   was not found in a public copy); the stop ``STOP`` after a comment that says why.
-  ``M129`` first (TCPM, ``M128``, off: the program commands axes); no ``TOOL CALL``:
+  ``L M129`` first (TCPM, ``M128``, off: "before positioning with M91 or M92 ... reset
+  M128", TNC 620 User's Manual 5/2013 p.340); no ``TOOL CALL``:
   the holder is mounted by hand and ``M91`` blocks ignore the tool length.
 """
 from __future__ import annotations
@@ -66,7 +67,7 @@ def prologue(dialect: str) -> list[str]:
     if dialect == FANUC:
         return ["G21", "G17 G40 G49 G80 G90 G94"]
     if dialect == HEIDENHAIN:
-        return ["M129"]
+        return ["L M129"]
     return ["M70", "G21", "G17 G40 G49 G80 G90 G94"]
 
 
@@ -87,7 +88,7 @@ def restore_note(dialect: str) -> str:
         return ("the program sets G21 (mm) G17 G40 G49 G80 G90 G94, which stay active after M30: program G20 again "
                 "before an inch program, and the tool length offset (G43) the next program needs")
     if dialect == HEIDENHAIN:
-        return ("M129 cancels TCPM (M128) before the first move; M91 acts in its own block only, R0 in every block, "
+        return ("L M129 cancels TCPM (M128) before the first move; M91 acts in its own block only, R0 in every block, "
                 "no TOOL CALL: the program changes no other modal state")
     return "M70 saves the modal state (units, distance and feed mode, plane, compensations) and M72 restores it before M2"
 

@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,6 +51,8 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning import ncdialect as nc
+from vecpin.planning.programroute import Router, Visit, rereads, visits
+from vecpin.planning.retract import retract_axis, safe_position
 from vecpin.units import MM_PER_M
 
 DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc", "heidenhain": "H"}
@@ -79,47 +80,6 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
 
 
 
-def retract_axis(machine: Machine, name: str | None = None) -> tuple[int, int]:
-    """(index, sign) of the axis that lifts the tool off the work: ``name``, or the linear
-    axis whose motion is most nearly along the tool at zero rotary angles (mid-travel
-    linear axes; relative to the workpiece on a machine with table axes); ``sign`` +1
-    when its + direction moves the tool back from the work, else -1."""
-    lin = [a for a in machine.axes if a.kind == "linear"]
-    if name is not None and name not in [a.name for a in lin]:
-        raise InputError(f"`retract` {name}: not a linear axis of {machine.name} "
-                         f"({', '.join(a.name for a in lin) or 'it has none'})")
-    if not lin:
-        raise InputError(f"machine {machine.name} has no linear axis to retract the tool with")
-    q = np.array([(a.lower + a.upper) / 2 if a.kind == "linear" or not a.lower <= 0 <= a.upper else 0.0
-                  for a in machine.axes])
-    k = machine.kinematics(q[None], 0.0)
-    J, u = k.jacobian[0], k.tool_dir[0]
-    along = {a.index: -float(J[:, a.index] @ u) / max(float(np.linalg.norm(J[:, a.index])), 1e-12) for a in lin}
-    if name is not None:
-        i = machine.axis(name).index
-    else:
-        i = max(along, key=lambda j: (round(abs(along[j]), 6), machine.axes[j].upper - machine.axes[j].lower))
-        if abs(along[i]) < 0.7:
-            raise InputError(f"machine {machine.name}: no linear axis runs along the tool at zero rotary angles; "
-                             "give `retract`")
-    if abs(along[i]) < 1e-6:
-        raise InputError(f"`retract` {name}: it does not move the tool along its axis")
-    return i, 1 if along[i] > 0 else -1
-
-
-def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | None) -> float:
-    """The retract axis' safe machine position [mm]: ``safe_z_mm`` (inside the travel), or
-    the end of the travel away from the work."""
-    a = machine.axes[axis]
-    lo, hi = a.lower_user, a.upper_user
-    if safe_z_mm is None:
-        return round(hi if sign > 0 else lo, 3)
-    if not (math.isfinite(safe_z_mm) and lo - 1e-9 <= safe_z_mm <= hi + 1e-9):
-        raise InputError(f"`safe_z_mm` {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
-                         "machine coordinates)")
-    return round(float(safe_z_mm), 3)
-
-
 def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0,
                           read_dwell_s: float = READ_DWELL_S) -> None:
     """The dwells [s] and the approach feed [mm/min] are finite and > 0 (names the option)."""
@@ -137,39 +97,6 @@ def check_read_dwell(read_dwell_s: float) -> None:
     if not (math.isfinite(read_dwell_s) and read_dwell_s > 0):
         raise InputError(f"`read_dwell_s` {read_dwell_s:g}: the dwell per further reading of a point is a time in "
                          "seconds > 0")
-
-
-@dataclass
-class Visit:
-    """One standstill of the program: its tool row ``row``, the retract axis' height before
-    the move to it (``lift`` [mm], None: it is high enough already), the approach position
-    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid), the rows read there after
-    the tool row (``after``: the tool's further readings, the nests and theirs) and which
-    of them read again the point of the row before them (``again``, (len(after),) bool:
-    :func:`rereads`)."""
-    row: int
-    lift: float | None
-    a: np.ndarray
-    q: np.ndarray
-    after: range
-    again: np.ndarray
-
-
-def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
-    """(N,) bool: the rows that read again the point of the row before them, at its
-    standstill: the same instrument, nest, command, holder and station, within runs of
-    ``reads`` (a run that reads every point ``reads`` times in a row; 1: none, as a plan
-    whose repeated points are re-approached)."""
-    n = len(template)
-    if reads <= 1 or n < 2:
-        return np.zeros(n, bool)
-    inst = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
-    target = template.target if template.target is not None else np.full(n, "", dtype=object)
-    st = template.stations
-    same = np.r_[False, (inst[1:] == inst[:-1]) & (target[1:] == target[:-1]) & (st[1:] == st[:-1])
-                 & (template.tool[1:] == template.tool[:-1]) & np.all(template.q[1:] == template.q[:-1], axis=1)]
-    first = np.maximum.accumulate(np.where(same, 0, np.arange(n)))  # each row's first row of its run
-    return same & ((np.arange(n) - first) % reads != 0)
 
 
 def readings(template: PlanTemplate, v: Visit,
@@ -190,40 +117,11 @@ def readings(template: PlanTemplate, v: Visit,
     return out
 
 
-def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
-           safe: float, reads: int = 1) -> tuple[list[Visit], float | None]:
-    """The program's standstills in order and the retract axis' final lift (None: none
-    needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
-    and the next approach position before every move between points; the nest rows and
-    the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
-    row before them stands (each :class:`Visit` carries which of its rows are such)."""
-    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
-    again = rereads(template, reads)
-    stay = is_nest | again
-    q_all = np.round(machine.to_user(template.q), 3)
-    step = machine.to_user(np.asarray(steps, float)[None])[0]
-    app = template.approach if template.approach is not None else np.zeros_like(template.q)
-    out: list[Visit] = []
-    cur = None
-    for i in np.flatnonzero(~stay):
-        a = np.round(q_all[i] - app[i] * step, 3)
-        to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
-        j = i + 1
-        while j < len(template) and stay[j]:
-            j += 1
-        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j),
-                         again[i + 1:j]))
-        cur = float(q_all[i][r])
-    end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
-    return out, end
-
-
 def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
                       retract: str | None = None, sight=None) -> float:
     """How far the retract axis travels in the lifts and plunges between points [mm] (and
     in the swings' lifts and descents where ``sight`` makes the program swing, see
     :class:`~vecpin.planning.programroute.Router`)."""
-    from vecpin.planning.programroute import Router
     router = Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract)
     r, total, cur = router.r, 0.0, None
     q_of = {v.row: v.q for v in router.route}
@@ -340,11 +238,8 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
-    from vecpin.planning.programroute import Router
-    moves: dict[int, list] = {}
-    for s in Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract, reads=reads).steps():
-        if s.what != "final lift":
-            moves.setdefault(s.row, []).append(s)
+    moves = _moves_by_row(Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract,
+                                 reads=reads))
 
     def comment(text: str) -> str:
         return nc.nc_comment(dialect, text)
@@ -395,6 +290,16 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
         out.append(f"END PGM {pgm} MM")
         out = [f"{k} {b}" for k, b in enumerate("\n".join(out).split("\n"))]
     return "\n".join(out) + "\n"
+
+
+def _moves_by_row(router: Router) -> dict[int, list]:
+    """The positioning moves into each tool row's point (:meth:`Router.steps`, the final
+    lift left out), by row."""
+    moves: dict[int, list] = {}
+    for s in router.steps():
+        if s.what != "final lift":
+            moves.setdefault(s.row, []).append(s)
+    return moves
 
 
 def _reads_at(dialect: str, template: PlanTemplate, v: Visit, dwells: tuple[float, float, float]) -> list[str]:

@@ -29,10 +29,71 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning.approaches import move_hits
-from vecpin.planning.ncprogram import Visit, retract_axis, safe_position, visits
+from vecpin.planning.retract import retract_axis, safe_position
 from vecpin.units import MM_PER_M
 
 SWING_STEP = 50.0  # mm between the heights tried for a swing of the rotary axes
+
+
+@dataclass
+class Visit:
+    """One standstill of the program: its tool row ``row``, the retract axis' height before
+    the move to it (``lift`` [mm], None: it is high enough already), the approach position
+    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid), the rows read there after
+    the tool row (``after``: the tool's further readings, the nests and theirs) and which
+    of them read again the point of the row before them (``again``, (len(after),) bool:
+    :func:`rereads`)."""
+    row: int
+    lift: float | None
+    a: np.ndarray
+    q: np.ndarray
+    after: range
+    again: np.ndarray
+
+
+def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
+    """(N,) bool: the rows that read again the point of the row before them, at its
+    standstill: the same instrument, nest, command, holder and station, within runs of
+    ``reads`` (a run that reads every point ``reads`` times in a row; 1: none, as a plan
+    whose repeated points are re-approached)."""
+    n = len(template)
+    if reads <= 1 or n < 2:
+        return np.zeros(n, bool)
+    inst = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
+    target = template.target if template.target is not None else np.full(n, "", dtype=object)
+    st = template.stations
+    same = np.r_[False, (inst[1:] == inst[:-1]) & (target[1:] == target[:-1]) & (st[1:] == st[:-1])
+                 & (template.tool[1:] == template.tool[:-1]) & np.all(template.q[1:] == template.q[:-1], axis=1)]
+    first = np.maximum.accumulate(np.where(same, 0, np.arange(n)))  # each row's first row of its run
+    return same & ((np.arange(n) - first) % reads != 0)
+
+
+def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
+           safe: float, reads: int = 1) -> tuple[list[Visit], float | None]:
+    """The program's standstills in order and the retract axis' final lift (None: none
+    needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
+    and the next approach position before every move between points; the nest rows and
+    the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
+    row before them stands (each :class:`Visit` carries which of its rows are such)."""
+    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
+    again = rereads(template, reads)
+    stay = is_nest | again
+    q_all = np.round(machine.to_user(template.q), 3)
+    step = machine.to_user(np.asarray(steps, float)[None])[0]
+    app = template.approach if template.approach is not None else np.zeros_like(template.q)
+    out: list[Visit] = []
+    cur = None
+    for i in np.flatnonzero(~stay):
+        a = np.round(q_all[i] - app[i] * step, 3)
+        to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
+        j = i + 1
+        while j < len(template) and stay[j]:
+            j += 1
+        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j),
+                         again[i + 1:j]))
+        cur = float(q_all[i][r])
+    end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
+    return out, end
 
 
 @dataclass
@@ -159,13 +220,14 @@ class Router:
             a = self._with(t, [r], h)
             b = self._with(a, rot, v.a)
             if not self._free([(t, a), (a, b), (b, v.a), (v.a, v.q)], row):
-                return out + [Step("descent", [r], a, row), Step("swing", rot, b, row), Step("plunge", [r], v.a.copy(), row)]
+                return out + [Step("descent", [r], a, row), Step("swing", rot, b, row),
+                              Step("plunge", [r], v.a.copy(), row)]
         self._refuse(row, "plunge", why)
 
     def _refuse(self, row: int, what: str, solid: str) -> None:
         raise InputError(f"{point_name(self.t.point[row])}: the {what} puts the target holder "
-                         f"({self.t.tool[row] * MM_PER_M:.3f} mm) into {solid} at every height tried; leave the point out "
-                         "(`exclude`) or plan shorter `tools_mm`")
+                         f"({self.t.tool[row] * MM_PER_M:.3f} mm) into {solid} at every height tried; leave the "
+                         "point out (`exclude`) or plan shorter `tools_mm`")
 
     def collisions(self) -> list[str]:
         """A sentence per move the holder meets the machine's geometry on (the moves of
@@ -188,4 +250,4 @@ class Router:
                 f"mm) into {h}" for row, w, h in zip(rows, what, hits) if h]
 
 
-__all__ = ["Router", "Step", "neutral", "SWING_STEP"]
+__all__ = ["Router", "Step", "Visit", "visits", "rereads", "neutral", "SWING_STEP"]
