@@ -10,6 +10,8 @@ ends and at its quarter points as the interpreters report them; no rapid runs pa
 point toward the work (Z+ lifts the tool on these machines). Issue 42: a sign test moves
 the axis under test alone (after lifting Z before a rotary axis turns), and an address
 of another axis is refused naming the profile field."""
+import re
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -46,21 +48,24 @@ def _axes(m):
 
 def _visited(prog, m, tools):
     """(positions (k, n) mm/deg, holder [m] at each) of every move's ends and quarter
-    points from a known position; the holder changes at each programmed stop."""
-    pos, hold, k = [], [], 0
-    stop_lines = [ln for ln, _ in prog.stops]
+    points from a known position; the holder is the one the last stop before the move
+    mounts (its message names the length)."""
+    pos, hold = [], []
+    mounts = [(ln, float(re.search(r"holder of ([\d.]+) mm", c, re.I).group(1)) / 1000.0)
+              for ln, c in prog.stops if re.search(r"holder of ([\d.]+) mm", c, re.I)]  # what each stop mounts
+    assert [x for _, x in mounts] == pytest.approx(tools)
     for mv in prog.moves:
-        k = sum(ln < mv.line for ln in stop_lines) - 1  # the n-th stop mounts the n-th holder length of the plan
+        L = max([(ln, x) for ln, x in mounts if ln < mv.line] or [mounts[0]])[1]
         if any(mv.pos[a] is None for a in m.axis_names):  # a move from where the machine stood: not known yet
             continue
         if any(mv.before[a] is None for a in m.axis_names):
             pos.append([mv.pos[a] for a in m.axis_names])
-            hold.append(tools[max(k, 0)])
+            hold.append(L)
             continue
         a, b = (np.array([d[x] for x in m.axis_names]) for d in (mv.before, mv.pos))
         for t in (0.0, 0.25, 0.5, 0.75, 1.0):
             pos.append(a + t * (b - a))
-            hold.append(tools[max(k, 0)])
+            hold.append(L)
     return np.array(pos, float), np.array(hold)
 
 
