@@ -157,7 +157,11 @@ def _words(code: str, dialect: str, n: int) -> list[tuple[str, str]]:
 
 def run(text: str, dialect: str, axes: dict[str, tuple[float, float]], start: Start | None = None) -> Program:
     """Execute ``text``; ``axes``: NC address -> (low, high) machine limits in mm or deg
-    (A, B and C, and addresses starting with them, are rotary axes as ISO 841 names them)."""
+    (A, B and C, and addresses starting with them, are rotary axes as ISO 841 names them).
+    ``dialect`` "heidenhain": conversational programs, by tests/heidenhain.py."""
+    if dialect == "heidenhain":
+        from heidenhain import run as run_conversational
+        return run_conversational(text, axes, start)
     st = start or Start()
     groups = GROUPS[dialect]
     units, distance, tlc, rcomp, trafo = st.units, st.distance, st.tool_length, st.radius_comp, st.transformation

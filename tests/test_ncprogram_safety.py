@@ -58,7 +58,8 @@ def _check_safe_moves(prog, m, safe, step):
             at[0] = prog.moves[e[1]].pos["Z"]
         elif e[0] == "stop":
             assert at[0] is not None and at[0] >= safe - TOL, f"stop {e[1]} with Z at {at[0]}"
-    assert prog.moves[-1].axes == ("Z",) and prog.moves[-1].pos["Z"] >= safe - TOL
+    last = prog.moves[-1]  # a final lift, unless the last point stands at the safe height or above
+    assert (last.axes == ("Z",) or last.before["Z"] >= safe - TOL) and last.pos["Z"] >= safe - TOL
     return large
 
 
@@ -84,11 +85,14 @@ def test_plan_program_runs_safely_on_a_control_in_inch_mode_with_offsets(plans, 
     want = m.to_user(t.q[tool_rows])
     assert len(at_dwell) == len(tool_rows)
     np.testing.assert_allclose(np.array(at_dwell), want, atol=TOL)
-    # each point reached at the feed from the approach position, below on every axis
+    # each point reached at the feed from the approach position the plan's approach column names (issue 41):
+    # never from below on Z (Z+ lifts the tool on these machines), so no move passes a point toward the work
     step = np.array([APPROACH[a.unit] for a in m.axes])
-    for mv, q in zip(last, want):
+    z = m.axis_names.index("Z")
+    for mv, q, s in zip(last, want, t.approach[tool_rows]):
         assert mv.code == 1 and mv.feed == 800.0
-        np.testing.assert_allclose(q - [mv.before[a] for a in m.axis_names], step, atol=TOL)
+        np.testing.assert_allclose(q - [mv.before[a] for a in m.axis_names], s * step, atol=TOL)
+        assert s[z] <= 0 and mv.before["Z"] >= q[z] - TOL
     # the dwell covers the tool target and every nest read there
     is_nest = np.r_[t.instrument == "nest", False] if t.instrument is not None else np.zeros(len(t) + 1, bool)
     nests = [int(np.argmin(is_nest[i + 1:])) for i in tool_rows]
@@ -121,6 +125,8 @@ def test_plan_program_runs_safely_on_a_control_in_inch_mode_with_offsets(plans, 
     # units: LinuxCNC restores the inch mode it found; Siemens and Fanuc say what stays
     if dialect == "gcode":
         assert prog.units_at_end == start.units
+    elif dialect == "heidenhain":  # its units are the program's own (BEGIN PGM ... MM): no modal state to restore
+        assert prog.units_at_end == "mm" and "L M129" in " ".join(prog.comments[:20])
     else:
         unit = "G21" if dialect == "fanuc" else "G710"
         header = " ".join(prog.comments[:20])

@@ -178,7 +178,8 @@ def test_nc_program_visits_the_template(flow, small_plan, dialect):
     cmd = np.array([[mv.pos[a] for a in flow.axis_names] for mv in g1])
     app = np.array([[mv.before[a] for a in flow.axis_names] for mv in g1])
     np.testing.assert_allclose(cmd, flow.to_user(t.q), atol=5e-4)
-    np.testing.assert_allclose(cmd - app, np.tile(flow.to_user(p.steps), (len(t), 1)), atol=1e-3)
+    np.testing.assert_allclose(cmd - app, t.approach * flow.to_user(p.steps), atol=1e-3)  # the plan's approach column
+    assert np.all(app[:, 2] >= cmd[:, 2] - 1e-3)  # Z never from below (toward the work; issue 41)
     assert all(mv.feed == 800.0 for mv in g1)
     # each point: the G1 to it, then its dwell
     kinds = [("g1" if prog.moves[e[1]].code == 1 else "g0") if e[0] == "move" else e[0] for e in prog.events

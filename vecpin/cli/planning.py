@@ -203,10 +203,11 @@ def _add_program_args(s) -> None:
                         "the campaign's time (default 1200, an assumption: time yours)")
     s.add_argument("--feed", dest="feed_mm_min", type=float, default=1000.0, help="feed of the final approach move, "
                    "mm/min (default 1000)")
-    s.add_argument("--dialect", action="append", choices=["siemens-840d", "fanuc", "gcode", "urscript", "joint-list"],
-                   help="program to write; repeatable: siemens-840d, fanuc, gcode for a machine tool (default: all "
-                        "three); urscript (Universal Robots, plan.script) or joint-list (joint positions in degrees, "
-                        "plan_joints.csv) for an arm (default: both)")
+    s.add_argument("--dialect", action="append",
+                   choices=["siemens-840d", "fanuc", "gcode", "heidenhain", "urscript", "joint-list"],
+                   help="program to write; repeatable: siemens-840d, fanuc, gcode, heidenhain (Klartext) for a machine "
+                        "tool (default: the first three); urscript (Universal Robots, plan.script) or joint-list "
+                        "(joint positions in degrees, plan_joints.csv) for an arm (default: both)")
     s.add_argument("--axis-map", action="append", default=[], metavar="JOINT=NCNAME",
                    help="NC address of an axis when it is not the URDF joint name; repeatable (default: joint names)")
 

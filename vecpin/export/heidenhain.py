@@ -160,6 +160,19 @@ def _readme(job: ExportJob, cma) -> str:
           "  that a position outside 0..360 is looked up modulo 360, e.g. with the sign test at a negative angle).",
           "- The header's exact form on your control (version field, `#STRUCTBEGIN`) may differ: compare with a",
           "  table saved by the control.", "",
+          "## Switching the compensation on", "",
+          "- `CONFIG.CMA`: the line with `*` in `ACTIVE` is the active one; all its tables act (MANUALplus 620",
+          "  technical manual p.718: the `*` is entered with the table editor or by the PLC; one line active at a",
+          "  time). Its column names must be the axis keys of `CfgAxes/axisList` (p.716, p.718).",
+          "- Older TNCs (TNC 407/415/425, technical manual p.153 and p.156): the nonlinear compensation acts only",
+          "  when machine parameter **MP730** selects it, one bit per axis (bit 0 X, bit 1 Y, bit 2 Z, bit 3 the",
+          "  4th, bit 4 the 5th axis; 1 = nonlinear axis error compensation), and a valid `.CMA` exists; the active",
+          "  line is chosen by soft key or PLC module 9095 (TNC 407 TM p.622: it refuses a `.COM` of more than 256",
+          "  entries).",
+          "- TNC 640 / iTNC 530 HSCI: the machine parameter that enables the `.CMA`/`.COM` compensation on these",
+          "  controls was not found in a public manual (INFERRED: the same `CONFIG.CMA` `ACTIVE` line, read from",
+          "  the path the configuration editor gives for compensation tables; ask the machine builder, who needs",
+          "  the OEM code number to edit it). Activate it, reference the axes again, then run the sign test.", "",
           "## Gauge line", "", *gauge_readme("heidenhain", job.tables.gauge_offset_change, job.gauge_effect), ""]
     return "\n".join(s)
 

@@ -146,17 +146,24 @@ _DIN = (["G71", "G17 G40 G90", "D0"], ["M30"],  # Beckhoff TwinCAT CNC (DIN 6602
         "offset the next program needs")
 
 
-def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
+def program(st: SignTest, dialect: str, address: str,
+            retract: tuple[str, float] | None = None) -> tuple[str, str]:
     """(file name, text) of the NC program in the controller's language: units and a
     safety block first, every position in machine coordinates, each approached from
     below at the feed, a programmed stop at each reading, then what the program changed
-    restored or named (see :mod:`vecpin.planning.ncdialect`)."""
+    restored or named (see :mod:`vecpin.planning.ncdialect`). It moves the axis under
+    test alone, after ``retract`` (address, safe machine position [mm]) has lifted the
+    tool: a rotary axis tilts only with the tool lifted."""
     tag = sign_tag(st.table)
     moves = _moves(st)
     what = f"vecpin sign test of table {st.table}: read {st.output_axis} at each stop"
+    lift = (f"{retract[0]} to {decimal(retract[1], 3)} mm first (machine coordinate, the tool lifted before "
+            f"{st.input_axis} turns), then {st.input_axis} alone moves" if retract else f"{st.input_axis} alone moves")
     if dialect == "heidenhain":
         name = f"SIGNTEST_{tag}.H"
-        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; {what}"]
+        lines = [f"BEGIN PGM SIGNTEST_{tag} MM", f"; {what}", f"; {lift}", "L M129"]
+        if retract:
+            lines.append(f"L {retract[0]}{retract[1]:+.3f} R0 FMAX M91")
         f = decimal(FEED, 1)
         for k, (a, p) in enumerate(moves, 1):
             lines += [f"L {address}{a:+.3f} R0 F{f} M91", f"L {address}{p:+.3f} R0 F{f} M91",
@@ -170,9 +177,9 @@ def program(st: SignTest, dialect: str, address: str) -> tuple[str, str]:
     start, end, note = (_DIN if din else (nc.prologue(d), nc.epilogue(d), nc.restore_note(d)))
     mc = {"siemens": "SUPA", "fanuc": "G53: at rapid traverse to the first position, then G91 G01 at the feed"}
     head = [what, f"machine coordinates ({mc.get(dialect, 'G53')}), each position approached from below at "
-            f"F{FEED:g}", note]
+            f"F{FEED:g}; {lift}", note]
     lines = [c for h in head for c in nc.comments(d, h)]
-    blocks = list(start)
+    blocks = list(start) + ([nc.rapid(d, [retract[0]], [retract[1]])] if retract else [])
     cur = None
     for k, (a, p) in enumerate(moves, 1):
         for x in (a, p):
@@ -198,9 +205,22 @@ ADDRESSES = {"siemens": (r"[A-Z][A-Z0-9]{0,7}", "a capital letter (not F, G, M, 
 LETTERS = (r"[XYZABCUVW]", "one of X Y Z A B C U V W")
 
 
-def check_address(address: str, dialect: str, axis: str, where: str) -> None:
-    """Refuse a program address the control would not read as an axis (a vendor joint name
-    such as 'X_axis' taken as the address): ``where`` names the profile in the message."""
+def addresses(profile: ControllerProfile, axis_names: list[str]) -> dict[str, str]:
+    """Each axis' address in the sign-test programs: the profile's ``program_name``, else
+    the axis name."""
+    return {a: profile.axis(a).program_name or a for a in axis_names}
+
+
+def check_address(address: str, dialect: str, axis: str, where: str, others: dict[str, str] | None = None) -> None:
+    """Refuse a program address the control would not read as an axis (a vendor joint
+    name such as 'X_axis' taken as the address), or one that is another axis' address
+    (``others``: axis -> address; issue 42: a sign test of X addressed as Z would move Z):
+    ``where`` names the profile in the message."""
+    taken = [o for o, adr in (others or {}).items() if o != axis and adr == address]
+    if taken:
+        raise InputError(f"{where}, field 'axes.{axis}.program_name': the sign-test program would address {axis} as "
+                         f"'{address}', which is the address of axis {taken[0]}: the test would move {taken[0]}, not "
+                         f"{axis}; give the address of {axis} in your part programs")
     pattern, words = ADDRESSES.get(dialect, LETTERS)
     if re.fullmatch(pattern, address) is None or (dialect == "siemens" and address[0] in "FGMNOPST"):
         raise InputError(f"{where}, field 'axes.{axis}.program_name': the sign-test program would address {axis} as "
@@ -208,15 +228,36 @@ def check_address(address: str, dialect: str, axis: str, where: str) -> None:
                          f"programs use, e.g. \"program_name\": \"{axis[0].upper()}\"")
 
 
+def sign_retract(machine: Machine, st: SignTest, profile: ControllerProfile, dialect: str) -> tuple[str, float] | None:
+    """(address, safe machine position [mm]) of the retract axis that lifts the tool before
+    a rotary axis under test turns (the end of its travel away from the work); None for a
+    linear axis under test or a machine without one."""
+    from vecpin.planning.ncprogram import retract_axis, safe_position
+    if machine.axis(st.input_axis).kind != "rotary":
+        return None
+    try:
+        r, up = retract_axis(machine)
+    except InputError:
+        return None
+    name = machine.axes[r].name
+    address = addresses(profile, machine.axis_names)[name]
+    check_address(address, dialect, name, profile.where, addresses(profile, machine.axis_names))
+    return address, safe_position(machine, r, up, None)
+
+
 def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: ControllerProfile, notes: list[str],
-                    commands: UserCommands = UserCommands()) -> list[str]:
+                    commands: UserCommands = UserCommands(), machine: Machine | None = None) -> list[str]:
     """The program, instructions, prediction and CSV form of one sign test; ``commands``: how the
-    instructions name the check (the caller's words). An address the dialect does not read
-    as an axis is refused (:func:`check_address`)."""
+    instructions name the check (the caller's words); ``machine``: its axes (another axis'
+    address is refused) and the retract axis lifted before a rotary axis turns
+    (:func:`sign_retract`). An address the dialect does not read as an axis is refused
+    (:func:`check_address`)."""
     p = profile.axis(st.input_axis)
     address = p.program_name or st.input_axis
-    check_address(address, dialect, st.input_axis, profile.where)
-    prog_name, prog = program(st, dialect, address)
+    check_address(address, dialect, st.input_axis, profile.where,
+                  addresses(profile, machine.axis_names) if machine is not None else None)
+    retract = sign_retract(machine, st, profile, dialect) if machine is not None else None
+    prog_name, prog = program(st, dialect, address, retract)
     tag = sign_tag(st.table)
     out.write_text(prog_name, prog)
     out.write_text(f"SIGNTEST_{tag}.json", json.dumps(st.to_dict(), indent=1) + "\n")
@@ -233,8 +274,11 @@ def write_sign_test(out: OutputSet, st: SignTest, dialect: str, profile: Control
          f"({st.sign_rule}).", "",
          f"1. Mount an indicator (or use the tracker) reading the **{st.output_axis}** position, positive when "
          f"{st.output_axis} moves in its + direction. Any zero.",
-         f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} to {decimal(st.positions[0], 3)} and "
-         f"{decimal(st.positions[1], 3)} {st.input_unit}, each approached from below). At each stop write a row "
+         f"2. With the compensation **off**, run `{prog_name}` (moves {st.input_axis} alone to "
+         f"{decimal(st.positions[0], 3)} and {decimal(st.positions[1], 3)} {st.input_unit}, each approached from below"
+         + (f", after lifting {retract[0]} to {decimal(retract[1], 3)} mm" if retract else
+            "; the other axes stay where they stand: start with the tool clear of the work")
+         + "). At each stop write a row "
          f"`off,<command>,<reading>` into `SIGNTEST_{tag}.csv` ({st.output_unit}). Repeat runs add rows.",
          "3. Load the files and switch the compensation **on** (reference the axis again where the control needs it).",
          f"   Other tables may stay active: only a table from {st.input_axis} to {st.output_axis} changes these "

@@ -1,6 +1,7 @@
 """The candidate commands of a plan: a scrambled Halton set over the problem's box in
 axis space, on the NC grid (0.001 mm, 0.001 deg), less those in an exclusion zone ("CA"),
-those where a target holder runs into the machine's geometry (collisions) and those the
+those where a target holder runs into the machine's geometry (collisions) or cannot get
+there without (:mod:`~vecpin.planning.approaches`) and those the
 tracker cannot see with every holder ("LoS"); with the table nests the tracker sees at
 each."""
 from __future__ import annotations
@@ -13,6 +14,7 @@ from scipy.stats import qmc
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.planning.approaches import free_commands, planning_retract
 from vecpin.planning.problem import PlanProblem
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import inside
@@ -106,6 +108,12 @@ def _sight_and_collisions(problem: PlanProblem, c: Candidates, say: Callable[[st
         hit = res.blocked & (c.sight_by[test] == "")
         c.sight_by[test[hit]] = res.by[hit]
     c.removed[(c.sight_by != "") & (c.removed == "")] = "sight"
+    rt, test = planning_retract(problem.machine), c.kept
+    for L in tools:  # every approach to it collides: dropped as a collision, the solid named "(approach)"
+        why = free_commands(problem.machine, sl, c.q[test], L, s.approach, problem.steps, rt)
+        new = (why != "") & (c.sight_by[test] == "")
+        c.sight_by[test[new]] = [f"{w} (approach)" for w in why[new]]
+    c.removed[(c.sight_by != "") & (c.removed == "")] = "collision"
     if problem.nests:
         test = c.kept
         say(f"line of sight for {len(test)} commands x {len(problem.nests)} table nests")

@@ -1,6 +1,6 @@
 """The blocks a measurement program is made of, per NC dialect.
 
-Three dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use):
+Four dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use):
 
 * ``siemens-840d`` (SINUMERIK 840D): comments after ``;``; ``SUPA`` in a positioning
   block suppresses every frame, the handwheel (DRF) and external zero offsets and
@@ -22,19 +22,31 @@ Three dialects (the names :mod:`vecpin.planning.ncprogram` and the sign test use
   changes (units, distance and feed mode, plane, compensations) and ``M72`` restores it
   before ``M2``; ``G21``, then ``G17 G40 G49 G80 G90 G94``; ``G53`` (non-modal) with
   ``G0`` or ``G1`` in each positioning block: machine coordinates; the dwell ``G4 P<s>``.
+* ``heidenhain`` (TNC 640 conversational, Klartext): ``BEGIN PGM <name> MM`` first and
+  ``END PGM <name> MM`` last, every block numbered from 0; comments after ``;``; a
+  straight line ``L`` with signed axis words (``X+100.000``), ``R0`` (no radius
+  compensation), ``FMAX`` (rapid) or ``F<mm/min>`` and ``M91``: the coordinates are
+  referenced to the machine datum, in that block only, and the tool length is not
+  compensated in it (TNC 360 / TNC 406 User's Manuals, "M91/M92"); the dwell is cycle 9,
+  ``CYCL DEF 9.0 DWELL TIME`` and ``CYCL DEF 9.1 DWELL <s>`` (active as defined, no
+  call: syntax as the TNC user's manuals print it, INFERRED for the TNC 640: its page
+  was not found in a public copy); the stop ``STOP`` after a comment that says why.
+  ``L M129`` first (TCPM, ``M128``, off: "before positioning with M91 or M92 ... reset
+  M128", TNC 620 User's Manual 5/2013 p.340); no ``TOOL CALL``:
+  the holder is mounted by hand and ``M91`` blocks ignore the tool length.
 """
 from __future__ import annotations
 
 import re
 import textwrap
 
-SIEMENS, FANUC, GCODE = "siemens-840d", "fanuc", "gcode"
+SIEMENS, FANUC, GCODE, HEIDENHAIN = "siemens-840d", "fanuc", "gcode", "heidenhain"
 
 
 def nc_comment(dialect: str, text: str) -> str:
     """A comment block: ``; text`` (Siemens), ``(TEXT)`` (Fanuc: capitals, no ``;``,
     ``%`` or parentheses inside), ``(text)`` (LinuxCNC: no parentheses inside)."""
-    if dialect == SIEMENS:
+    if dialect in (SIEMENS, HEIDENHAIN):
         return f"; {text}"
     text = text.replace("(", "[").replace(")", "]")
     if dialect == FANUC:
@@ -54,11 +66,15 @@ def prologue(dialect: str) -> list[str]:
         return ["G17 G40 G710 G90 G94", "TRAFOOF", "D0"]
     if dialect == FANUC:
         return ["G21", "G17 G40 G49 G80 G90 G94"]
+    if dialect == HEIDENHAIN:
+        return ["L M129"]
     return ["M70", "G21", "G17 G40 G49 G80 G90 G94"]
 
 
 def epilogue(dialect: str) -> list[str]:
     """The blocks after the last move: LinuxCNC restores the modal state, then the end."""
+    if dialect == HEIDENHAIN:
+        return []
     return ["M72", "M2"] if dialect == GCODE else ["M30"]
 
 
@@ -71,21 +87,32 @@ def restore_note(dialect: str) -> str:
     if dialect == FANUC:
         return ("the program sets G21 (mm) G17 G40 G49 G80 G90 G94, which stay active after M30: program G20 again "
                 "before an inch program, and the tool length offset (G43) the next program needs")
+    if dialect == HEIDENHAIN:
+        return ("L M129 cancels TCPM (M128) before the first move; M91 acts in its own block only, R0 in every block, "
+                "no TOOL CALL: the program changes no other modal state")
     return "M70 saves the modal state (units, distance and feed mode, plane, compensations) and M72 restores it before M2"
 
 
 def stop(dialect: str, text: str) -> str:
-    """A programmed stop with a message (cycle start goes on)."""
+    """A programmed stop with a message (cycle start goes on); Heidenhain: the message
+    as a comment block, then ``STOP`` (two lines, each a block)."""
+    if dialect == HEIDENHAIN:
+        return f"{nc_comment(dialect, text)}\nSTOP"
     return f"{'M00' if dialect == FANUC else 'M0'} {nc_comment(dialect, text)}"
 
 
-def axis_words(names: list[str], values: list[float]) -> str:
-    """Axis words with 3 decimals; a Siemens address of more than one character takes '='."""
+def axis_words(names: list[str], values: list[float], signed: bool = False) -> str:
+    """Axis words with 3 decimals; a Siemens address of more than one character takes '=';
+    ``signed``: every value with its sign (Heidenhain ``X+100.000``)."""
+    if signed:
+        return " ".join(f"{n}{v + 0.0:+.3f}" for n, v in zip(names, values))
     return " ".join(f"{n}{'=' if len(n) > 1 else ''}{v:.3f}" for n, v in zip(names, values))
 
 
 def rapid(dialect: str, names: list[str], values: list[float]) -> str:
     """A rapid move to machine coordinates (mm, deg)."""
+    if dialect == HEIDENHAIN:
+        return f"L {axis_words(names, values, True)} R0 FMAX M91"
     w = axis_words(names, values)
     if dialect == SIEMENS:
         return f"SUPA G0 {w}"
@@ -104,6 +131,8 @@ def approach(dialect: str, names: list[str], start: list[float], end: list[float
     if dialect == FANUC:
         inc = [round(round(e, 3) - round(s, 3), 3) + 0.0 for s, e in zip(start, end)]
         return [f"G91 G01 {axis_words(names, inc)} {feed_word(dialect, feed)}", "G90"]
+    if dialect == HEIDENHAIN:
+        return [f"L {axis_words(names, end, True)} R0 F{feed:.0f} M91"]
     w = axis_words(names, end)
     if dialect == SIEMENS:
         return [f"SUPA G1 {w} {feed_word(dialect, feed)}"]
@@ -111,7 +140,10 @@ def approach(dialect: str, names: list[str], start: list[float], end: list[float
 
 
 def dwell(dialect: str, seconds: float) -> str:
-    """A dwell: Siemens ``G4 F<s>``, Fanuc ``G04 P<ms>`` (no decimal point), LinuxCNC ``G4 P<s>``."""
+    """A dwell: Siemens ``G4 F<s>``, Fanuc ``G04 P<ms>`` (no decimal point), LinuxCNC ``G4 P<s>``,
+    Heidenhain cycle 9 (two blocks: ``CYCL DEF 9.0 DWELL TIME``, ``CYCL DEF 9.1 DWELL <s>``)."""
+    if dialect == HEIDENHAIN:
+        return f"CYCL DEF 9.0 DWELL TIME\nCYCL DEF 9.1 DWELL {seconds:.1f}"
     if dialect == SIEMENS:
         return f"G4 F{seconds:.1f}"
     if dialect == FANUC:

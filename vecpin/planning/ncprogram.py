@@ -1,7 +1,8 @@
 """NC programs that drive the machine through a plan and wait for the tracker.
 
-Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of each in
-:mod:`vecpin.planning.ncdialect`). Every program is safe to run as written:
+Four dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC, HEIDENHAIN conversational;
+the blocks of each in :mod:`vecpin.planning.ncdialect`). Every program is safe to run as
+written:
 
 * units and a safety block before the first move (mm; no tool length or radius
   compensation, no canned cycle, no TRAORI; absolute; feed per minute), and at the end
@@ -16,8 +17,12 @@ Three dialects (Siemens 840D, Fanuc, plain G-code as LinuxCNC; the blocks of eac
   when a point is), then the other linear axes, then the rotary axes move to the next
   point's approach position, then the retract axis plunges to it; the tool is raised in
   the same way before each holder change (``M0``) and at the end;
-* each point is reached as the plan's approach says (from the approach position, the
-  point minus the approach distance on every axis for ``below``, at ``feed_mm_min``),
+* each point is reached as the plan's approach column says (from the approach position,
+  the point minus sign times the approach distance per axis, at ``feed_mm_min``; the plan
+  chooses it so that the retract axis comes from the side away from the work and the
+  holder meets nothing: :mod:`~vecpin.planning.approaches`); given the machine's geometry
+  (``sight``) every move is checked and the rotary axes swing to neutral where a tilted
+  holder would collide (:mod:`~vecpin.planning.programroute`);
   then a dwell for the tool target and every table nest read there (``dwell_s`` plus
   ``nest_dwell_s`` per nest; the comment names the read order);
 * a run that reads every point several times in a row (``reads``: a table machine's
@@ -39,7 +44,6 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -47,9 +51,11 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning import ncdialect as nc
+from vecpin.planning.programroute import Router, Visit, rereads, visits
+from vecpin.planning.retract import retract_axis, safe_position
 from vecpin.units import MM_PER_M
 
-DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc"}
+DIALECTS = {"siemens-840d": "MPF", "fanuc": "nc", "gcode": "ngc", "heidenhain": "H"}
 READ_DWELL_S = 2.0  # s, ASSUMED: the tracker's stationary reading of a point it is locked on (no settling, no turning)
 _FANUC_AXES = set("XYZABCUVW")
 _GCODE_AXES = set("XYZABCUVW")
@@ -61,7 +67,7 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
     names = [axis_map.get(a.name, a.name) for a in machine.axes]
     for a, nm in zip(machine.axes, names):
         ok = (re.fullmatch(r"[A-Z][A-Z0-9]{0,7}", nm) is not None and nm[0] not in "FGMNOPST") if dialect == "siemens-840d" \
-            else nm in (_FANUC_AXES if dialect == "fanuc" else _GCODE_AXES)
+            else nm in (_FANUC_AXES if dialect == nc.FANUC else _GCODE_AXES)
         if not ok:
             allowed = "a capital letter (not F, G, M, N, O, P, S, T) with up to 7 more capitals or digits" \
                 if dialect == "siemens-840d" else "one of X Y Z A B C U V W"
@@ -72,47 +78,6 @@ def nc_axis_names(machine: Machine, dialect: str, axis_map: dict[str, str] | Non
     return names
 
 
-
-
-def retract_axis(machine: Machine, name: str | None = None) -> tuple[int, int]:
-    """(index, sign) of the axis that lifts the tool off the work: ``name``, or the linear
-    axis whose motion is most nearly along the tool at zero rotary angles (mid-travel
-    linear axes; relative to the workpiece on a machine with table axes); ``sign`` +1
-    when its + direction moves the tool back from the work, else -1."""
-    lin = [a for a in machine.axes if a.kind == "linear"]
-    if name is not None and name not in [a.name for a in lin]:
-        raise InputError(f"`retract` {name}: not a linear axis of {machine.name} "
-                         f"({', '.join(a.name for a in lin) or 'it has none'})")
-    if not lin:
-        raise InputError(f"machine {machine.name} has no linear axis to retract the tool with")
-    q = np.array([(a.lower + a.upper) / 2 if a.kind == "linear" or not a.lower <= 0 <= a.upper else 0.0
-                  for a in machine.axes])
-    k = machine.kinematics(q[None], 0.0)
-    J, u = k.jacobian[0], k.tool_dir[0]
-    along = {a.index: -float(J[:, a.index] @ u) / max(float(np.linalg.norm(J[:, a.index])), 1e-12) for a in lin}
-    if name is not None:
-        i = machine.axis(name).index
-    else:
-        i = max(along, key=lambda j: (round(abs(along[j]), 6), machine.axes[j].upper - machine.axes[j].lower))
-        if abs(along[i]) < 0.7:
-            raise InputError(f"machine {machine.name}: no linear axis runs along the tool at zero rotary angles; "
-                             "give `retract`")
-    if abs(along[i]) < 1e-6:
-        raise InputError(f"`retract` {name}: it does not move the tool along its axis")
-    return i, 1 if along[i] > 0 else -1
-
-
-def safe_position(machine: Machine, axis: int, sign: int, safe_z_mm: float | None) -> float:
-    """The retract axis' safe machine position [mm]: ``safe_z_mm`` (inside the travel), or
-    the end of the travel away from the work."""
-    a = machine.axes[axis]
-    lo, hi = a.lower_user, a.upper_user
-    if safe_z_mm is None:
-        return round(hi if sign > 0 else lo, 3)
-    if not (math.isfinite(safe_z_mm) and lo - 1e-9 <= safe_z_mm <= hi + 1e-9):
-        raise InputError(f"`safe_z_mm` {safe_z_mm:g}: not a position inside the travel of {a.name} ({lo:g} to {hi:g} mm, "
-                         "machine coordinates)")
-    return round(float(safe_z_mm), 3)
 
 
 def check_program_options(dwell_s: float, feed_mm_min: float, nest_dwell_s: float = 15.0,
@@ -134,39 +99,6 @@ def check_read_dwell(read_dwell_s: float) -> None:
                          "seconds > 0")
 
 
-@dataclass
-class Visit:
-    """One standstill of the program: its tool row ``row``, the retract axis' height before
-    the move to it (``lift`` [mm], None: it is high enough already), the approach position
-    ``a`` and the point ``q`` (mm, deg, on the 0.001 grid), the rows read there after
-    the tool row (``after``: the tool's further readings, the nests and theirs) and which
-    of them read again the point of the row before them (``again``, (len(after),) bool:
-    :func:`rereads`)."""
-    row: int
-    lift: float | None
-    a: np.ndarray
-    q: np.ndarray
-    after: range
-    again: np.ndarray
-
-
-def rereads(template: PlanTemplate, reads: int = 1) -> np.ndarray:
-    """(N,) bool: the rows that read again the point of the row before them, at its
-    standstill: the same instrument, nest, command, holder and station, within runs of
-    ``reads`` (a run that reads every point ``reads`` times in a row; 1: none, as a plan
-    whose repeated points are re-approached)."""
-    n = len(template)
-    if reads <= 1 or n < 2:
-        return np.zeros(n, bool)
-    inst = template.instrument if template.instrument is not None else np.full(n, "tracker", dtype=object)
-    target = template.target if template.target is not None else np.full(n, "", dtype=object)
-    st = template.stations
-    same = np.r_[False, (inst[1:] == inst[:-1]) & (target[1:] == target[:-1]) & (st[1:] == st[:-1])
-                 & (template.tool[1:] == template.tool[:-1]) & np.all(template.q[1:] == template.q[:-1], axis=1)]
-    first = np.maximum.accumulate(np.where(same, 0, np.arange(n)))  # each row's first row of its run
-    return same & ((np.arange(n) - first) % reads != 0)
-
-
 def readings(template: PlanTemplate, v: Visit,
              dwells: tuple[float, float, float]) -> list[tuple[int, float, str, bool]]:
     """(row, dwell [s], what is read, a further reading?) of every reading at the standstill
@@ -185,45 +117,19 @@ def readings(template: PlanTemplate, v: Visit,
     return out
 
 
-def visits(machine: Machine, template: PlanTemplate, steps: np.ndarray, r: int, up: int,
-           safe: float, reads: int = 1) -> tuple[list[Visit], float | None]:
-    """The program's standstills in order and the retract axis' final lift (None: none
-    needed): the retract axis ``r`` goes to the highest (``up``) of ``safe``, where it is
-    and the next approach position before every move between points; the nest rows and
-    the further readings of a point (:func:`rereads` of ``reads``) are read where the tool
-    row before them stands (each :class:`Visit` carries which of its rows are such)."""
-    is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
-    again = rereads(template, reads)
-    stay = is_nest | again
-    q_all = np.round(machine.to_user(template.q), 3)
-    step = machine.to_user(np.asarray(steps, float)[None])[0]
-    app = template.approach if template.approach is not None else np.zeros_like(template.q)
-    out: list[Visit] = []
-    cur = None
-    for i in np.flatnonzero(~stay):
-        a = np.round(q_all[i] - app[i] * step, 3)
-        to = max((safe, a[r]) + (() if cur is None else (cur,)), key=lambda v: up * v)
-        j = i + 1
-        while j < len(template) and stay[j]:
-            j += 1
-        out.append(Visit(int(i), to if cur is None or up * (to - cur) > 1e-9 else None, a, q_all[i], range(i + 1, j),
-                         again[i + 1:j]))
-        cur = float(q_all[i][r])
-    end = None if cur is None or up * (safe - cur) <= 1e-9 else safe
-    return out, end
-
-
 def retract_travel_mm(machine: Machine, template: PlanTemplate, steps: np.ndarray, safe_z_mm: float | None = None,
-                      retract: str | None = None) -> float:
-    """How far the retract axis travels in the lifts and plunges between points [mm]."""
-    r, up = retract_axis(machine, retract)
-    vs, end = visits(machine, template, steps, r, up, safe_position(machine, r, up, safe_z_mm))
-    total, cur = 0.0, None
-    for v in vs:
-        at = v.lift if v.lift is not None else cur
-        total += (abs(at - cur) if cur is not None else 0.0) + abs(at - v.a[r])
-        cur = float(v.q[r])
-    return total + (abs(end - cur) if end is not None else 0.0)
+                      retract: str | None = None, sight=None) -> float:
+    """How far the retract axis travels in the lifts and plunges between points [mm] (and
+    in the swings' lifts and descents where ``sight`` makes the program swing, see
+    :class:`~vecpin.planning.programroute.Router`)."""
+    router = Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract)
+    r, total, cur = router.r, 0.0, None
+    q_of = {v.row: v.q for v in router.route}
+    for s in router.steps():
+        if s.axes == [r] and cur is not None:
+            total += abs(s.to[r] - cur)
+        cur = float(q_of[s.row][r]) if s.what == "plunge" else (float(s.to[r]) if np.isfinite(s.to[r]) else cur)
+    return total
 
 
 def station_where(k: int, stations: list | None) -> str:
@@ -264,7 +170,8 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
     is_nest = np.zeros(len(template), bool) if template.instrument is None else template.instrument == "nest"
     tools = np.unique(np.round(template.tool, 9))
     n_tool, n_nest = len(template) - int(is_nest.sum()), int(is_nest.sum())
-    mc = "SUPA" if dialect == nc.SIEMENS else "G53"
+    mc = {nc.SIEMENS: "SUPA", nc.HEIDENHAIN: "M91"}.get(dialect, "G53")
+    tlc = {nc.SIEMENS: "D0", nc.HEIDENHAIN: "no TOOL CALL; M91 blocks do not compensate it"}.get(dialect, "G49")
     sweep = " ".join(names[j] for j in others) or "-"
     rot = " ".join(names[j] for j in rotary)
     return [f"vecpin measurement plan {title}".strip(),
@@ -273,8 +180,7 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             f"machine {machine.name}, target holder lengths " + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools),
             f"axis positions in machine coordinates ({mc} in every positioning block): the URDF axis coordinates, "
             "mm and degrees, whatever work offset is active",
-            "no tool length compensation (" + ("D0" if dialect == nc.SIEMENS else "G49") + "), no TRAORI / G43.4: "
-            "the plan commands axes, not the tool tip",
+            f"no tool length compensation ({tlc}), no TRAORI / G43.4 / M128: the plan commands axes, not the tool tip",
             f"between points: {names[r]} retracts to {safe:.3f} mm (machine coordinate, the plan's safe height) or higher, then "
             f"{sweep} move, then {rot or 'no rotary axis'}, then {names[r]} plunges to the approach position",
             f"each point: from its approach position at F{feed_mm_min:g} to the point, then a dwell of {dwell_s:g} s "
@@ -287,11 +193,28 @@ def program_header(dialect: str, machine: Machine, template: PlanTemplate, names
             "run it first at a reduced rapid override and watch the moves"]
 
 
+def approach_note(machine: Machine, steps: np.ndarray, retract_name: str, sight=None) -> str:
+    """The header line on the approach and the clearance the moves were checked with."""
+    st = machine.to_user(np.asarray(steps, float)[None])[0]
+    lin = [v for a, v in zip(machine.axes, st) if a.kind == "linear"]
+    rot = [v for a, v in zip(machine.axes, st) if a.kind == "rotary"]
+    dist = " / ".join([f"{max(lin):g} mm"] * bool(lin) + [f"{max(rot):g} deg"] * bool(rot))
+    checked = ("where a tilted holder would meet the machine at the safe height, the rotary axes turn to neutral "
+               "at the highest free height before the transit and back after it; " if sight is not None else "") + (
+               f"every move was posed with the machine's {sight.geometry} geometry and the target holder's axis "
+               "(gauge line to target centre) is clear of it: the area it sweeps on a move of linear axes, positions "
+               "every 2 deg on a move of a rotary axis, moves taken as straight lines in axis space"
+               if sight is not None else "the moves were not checked against the machine's geometry")
+    return (f"approach clearance {dist}: each point from its approach position that far away on the axes the plan's "
+            f"approach column names, {retract_name} always from the side away from the work, so no rapid passes a "
+            f"point toward the work; {checked}")
+
+
 def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps: np.ndarray, *, dwell_s: float = 4.0,
                   nest_dwell_s: float = 15.0, feed_mm_min: float = 1000.0, safe_z_mm: float | None = None,
                   retract: str | None = None, axis_map: dict[str, str] | None = None, program_number: int = 1000,
                   title: str = "", stations: list | None = None, reads: int = 1,
-                  read_dwell_s: float = READ_DWELL_S) -> str:
+                  read_dwell_s: float = READ_DWELL_S, sight=None) -> str:
     """The NC program text visiting ``template``'s rows in order (see the module docstring).
 
     ``steps`` (n,) [m, rad]: approach distance per axis; ``dwell_s`` [s] at every point for
@@ -302,7 +225,10 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
     several, :func:`station_notes`); ``reads``: the template reads every point that many
     times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
-    ``read_dwell_s`` [s] for every further reading)."""
+    ``read_dwell_s`` [s] for every further reading); ``sight``: a
+    :class:`~vecpin.planning.sightline.SightLine` whose geometry every move is checked
+    with (:class:`~vecpin.planning.programroute.Router`: the rotary axes swing to neutral
+    where a tilted holder would meet it; a program no swing frees is refused)."""
     if dialect not in DIALECTS:
         raise InputError(f"unknown NC dialect '{dialect}' ({', '.join(DIALECTS)})")
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
@@ -312,6 +238,8 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     others = [a.index for a in machine.axes if a.kind == "linear" and a.index != r]
     rotary = [a.index for a in machine.axes if a.kind == "rotary"]
     app = template.approach if template.approach is not None else np.zeros_like(template.q)
+    moves = _moves_by_row(Router(machine, template, steps, sight, safe_z_mm=safe_z_mm, retract=retract,
+                                 reads=reads))
 
     def comment(text: str) -> str:
         return nc.nc_comment(dialect, text)
@@ -320,17 +248,22 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
         return nc.rapid(dialect, [names[j] for j in idx], [float(values[j]) for j in idx])
 
     out: list[str] = []
+    pgm = program_name(dialect, "validation" if program_number == 1001 else "plan").split(".")[0]
     if dialect == nc.FANUC:
         out += ["%", f"O{program_number:04d} {comment('vecpin measurement plan')}"]
+    if dialect == nc.HEIDENHAIN:
+        out.append(f"BEGIN PGM {pgm} MM")
     head = program_header(dialect, machine, template, names, (r, safe, others, rotary),
                           (dwell_s, nest_dwell_s, feed_mm_min, read_dwell_s), title, stations, reads)
+    head.append(approach_note(machine, steps, names[r], sight))
     out += [c for h in head for c in nc.comments(dialect, h)] + nc.prologue(dialect)
     route, end = visits(machine, template, steps, r, up, safe, reads)
     current_tool, current_station = None, 0
     for v in route:
         i = v.row
-        if v.lift is not None:
-            out.append(move([r], {r: v.lift}))
+        mine = moves.get(i, [])
+        first = next((k for k, s in enumerate(mine) if s.what not in ("lift", "swing")), len(mine))
+        out += [move(s.axes, s.to) for s in mine[:first]]   # lifted (the rotary axes neutral where they swing)
         if template.stations[i] != current_station:
             current_station = int(template.stations[i])
             where = station_where(current_station, stations)
@@ -344,9 +277,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
             out.append(nc.stop(dialect, msg))
             current_tool = L
         out.append(comment(point_name(template.point[i])))
-        for idx in (others, rotary, [r]):
-            if idx:
-                out.append(move(idx, v.a))
+        out += [move(s.axes, s.to) for s in mine[first:]]
         if np.any(app[i] != 0):
             out += nc.approach(dialect, names, list(v.a), list(v.q), feed_mm_min)
         out += _reads_at(dialect, template, v, (dwell_s, nest_dwell_s, read_dwell_s))
@@ -355,7 +286,20 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     out += nc.epilogue(dialect)
     if dialect == nc.FANUC:
         out.append("%")
+    if dialect == nc.HEIDENHAIN:  # every block numbered, from 0
+        out.append(f"END PGM {pgm} MM")
+        out = [f"{k} {b}" for k, b in enumerate("\n".join(out).split("\n"))]
     return "\n".join(out) + "\n"
+
+
+def _moves_by_row(router: Router) -> dict[int, list]:
+    """The positioning moves into each tool row's point (:meth:`Router.steps`, the final
+    lift left out), by row."""
+    moves: dict[int, list] = {}
+    for s in router.steps():
+        if s.what != "final lift":
+            moves.setdefault(s.row, []).append(s)
+    return moves
 
 
 def _reads_at(dialect: str, template: PlanTemplate, v: Visit, dwells: tuple[float, float, float]) -> list[str]:
@@ -376,5 +320,6 @@ def program_name(dialect: str, run: str = "plan") -> str:
     """The file name of a dialect's program: of the plan (``run`` "plan") or of its
     validation run ("validation"; Fanuc program number 1001)."""
     if run == "validation":
-        return {"siemens-840d": "VALID_840D.MPF", "fanuc": "O1001.nc", "gcode": "validation.ngc"}[dialect]
-    return {"siemens-840d": "PLAN_840D.MPF", "fanuc": "O1000.nc", "gcode": "plan.ngc"}[dialect]
+        return {"siemens-840d": "VALID_840D.MPF", "fanuc": "O1001.nc", "gcode": "validation.ngc",
+                "heidenhain": "VALID.H"}[dialect]
+    return {"siemens-840d": "PLAN_840D.MPF", "fanuc": "O1000.nc", "gcode": "plan.ngc", "heidenhain": "PLAN.H"}[dialect]

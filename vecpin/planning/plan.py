@@ -39,6 +39,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning import route
 from vecpin.planning.armpose import arm_approach_signs, arm_clearance, check_arm_approach, screen_approaches
+from vecpin.planning.approaches import free_commands, planning_retract, safe_template
 from vecpin.planning.candidates import Candidates, quantise, screen_candidates
 from vecpin.planning.doptimal import greedy_d_optimal
 from vecpin.planning.information import Information, PredictedError, validation_commands
@@ -176,6 +177,8 @@ def make_plan(machine: Machine, settings: PlanSettings | None = None,
         s = problem.settings
         template = station_blocks(machine, template, problem.placement, geometry=s.geometry,
                                   tool_radius=s.tool_radius_mm * M_PER_MM, target_clearance=s.target_clearance_mm * M_PER_MM)
+    if not is_arm(machine):   # an arm's approach was screened along its tool axis (screen_arm)
+        template = safe_template(machine, cands.sight, template, problem.steps, planning_retract(machine))
     return plan_result(problem, info, cands, chosen, template, say)
 
 
@@ -286,6 +289,9 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
     cand = cand[~inside(machine, cand, s.exclude)]
     if sl is not None:
         cand = cand[(sl.collisions(cand, tool) == "") & ~sl.check(cand, tool).blocked]
+        if not is_arm(machine):   # the approach, free of the machine (an arm's is screened below)
+            cand = cand[free_commands(machine, sl, cand, tool, s.approach, route.approach_steps(
+                machine, s.approach_mm, s.approach_deg), planning_retract(machine)) == ""]
     if is_arm(machine):  # an arm's approach along the tool axis, reachable and free
         cand = cand[screen_approaches(machine, cand, arm_clearance(s), sl, np.array([tool])) == ""]
     if len(cand) < s.n_validation:
@@ -301,8 +307,11 @@ def validation_run(machine: Machine, s: PlanSettings, lo: np.ndarray, hi: np.nda
     approach = np.repeat(sign[:, None], machine.n_axes, axis=1) if s.approach != "none" else None
     if approach is not None and is_arm(machine):
         approach = arm_approach_signs(machine, q[idx], arm_clearance(s))
-    return reread(with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests),
-                  VALIDATION_READS if nests else 1)
+    rows = with_nest_rows(q[idx], np.full(len(idx), tool), approach, idx, seen, nests)
+    if is_arm(machine):
+        return reread(rows, VALIDATION_READS if nests else 1)
+    steps = route.approach_steps(machine, s.approach_mm, s.approach_deg)
+    return reread(safe_template(machine, sl, rows, steps, planning_retract(machine)), VALIDATION_READS if nests else 1)
 
 
 def reread(template: PlanTemplate, reads: int) -> PlanTemplate:

@@ -124,9 +124,13 @@ class SightLine:
         q = np.atleast_2d(np.asarray(q, float))
         m = self.machine
         joints = sorted({s.joint for s in self.solids})
+        qf = m.full_q(q)
+        oMi = _joint_placements(m.model, qf)
+        if oMi is not None:
+            return np.stack([oMi[:, s.joint] @ s.placement for s in self.solids], axis=1) if self.solids else \
+                np.zeros((len(q), 0, 4, 4))
         oMi = np.empty((len(q), m.model.njoints, 4, 4))
         oMi[:] = np.eye(4)
-        qf = m.full_q(q)
         for i in range(len(q)):  # one Pinocchio call per pose (~1 µs)
             pin.forwardKinematics(m.model, self._data, qf[i])
             for j in joints:
@@ -226,6 +230,38 @@ class SightLine:
 
 
 # ---------------------------------------------------------------------- geometry
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+
+
+def _joint_placements(model: pin.Model, qf: np.ndarray) -> np.ndarray | None:
+    """(N, njoints, 4, 4) every joint's placement in the base frame at the configurations
+    qf (N, nq), as Pinocchio's ``forwardKinematics`` gives them, computed for all poses
+    at once (revolute and prismatic joints, aligned or not); None when the model has
+    another kind of joint (a mimic joint: the caller asks Pinocchio pose by pose)."""
+    N = len(qf)
+    out = np.empty((N, model.njoints, 4, 4))
+    out[:, 0] = np.eye(4)
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        kind = jm.shortname().replace("JointModel", "")
+        if kind[:1] in "RP" and kind[1:] in _AXES:
+            axis = np.array(_AXES[kind[1:]])
+        elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
+            axis = np.asarray(jm.extract().axis, float)
+        else:
+            return None
+        x = qf[:, jm.idx_q]
+        T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
+        if kind[0] == "R":
+            K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+            c, s = np.cos(x)[:, None, None], np.sin(x)[:, None, None]
+            T[:, :3, :3] = np.eye(3) + s * K + (1.0 - c) * (K @ K)
+        else:
+            T[:, :3, 3] = x[:, None] * axis
+        out[:, j] = out[:, model.parents[j]] @ model.jointPlacements[j].homogeneous @ T
+    return out
+
+
 def _to_local(H: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Points p (N,3) in the base frame into the frames H (N,4,4)."""
     R, t = H[:, :3, :3], H[:, :3, 3]

@@ -26,6 +26,7 @@ from vecpin.kinematics.axes import is_arm
 from vecpin.planning.armpose import arm_clearance
 from vecpin.planning.armprogram import (APPROACH_SPEED, MOVE_SPEED, arm_dialects, arm_poses, arm_program_name, arm_time,
                                         write_arm_program)
+from vecpin.planning.sightline import SightLine
 from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
                                       retract_axis, retract_travel_mm, safe_position, write_program)
 from vecpin.planning.route import axis_speeds
@@ -245,6 +246,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             others.append((Path(c).name, templates[c]))
     comparison = compare(plan, others) if others else []
     files = []
+    sight = None if not settings.sight else SightLine(machine, plan.tracker, geometry=settings.geometry)
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
         if arm:
@@ -253,7 +255,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         for d in dialects:
             text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 title=f"for {machine.name}", stations=plan_stations(plan))
+                                 title=f"for {machine.name}", stations=plan_stations(plan), sight=sight)
             files.append(out.write_text(program_name(d), text))
         v = plan.validation_template
         files.append(out.write_text("validation.csv", v.to_csv(machine)))
@@ -261,19 +263,22 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
                                  feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
                                  program_number=1001, title=f"- validation run for {machine.name}",
-                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s)
+                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s, sight=sight)
             files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
         t = plan.template
         nests = int(np.sum(t.instrument == "nest")) if t.instrument is not None else 0
         dwells = (len(t) - nests) * dwell_s + nests * nest_dwell_s
-        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract)
+        lifts = retract_travel_mm(machine, t, plan.steps, safe_z_mm, retract, sight)
         speed = axis_speeds(machine, settings.rapid_mm_min, settings.rapid_deg_min)[r]
         program = (f"{machine.axis_names[r]} to {safe_position(machine, r, up, safe_z_mm):g} mm (machine coordinates, "
                    f"`safe_z_mm`) before every move between points: {lifts / 1000:.1f} m up and down, "
                    f"{lifts * M_PER_MM / speed / 60:.1f} min at its rapid speed; dwells {dwell_s:g} s per point"
-                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min")
+                   + (f" + {nest_dwell_s:g} s per nest reading" if nests else "") + f": {dwells / 60:.1f} min"
+                   + f"; approach clearance {settings.approach_mm:g} mm / {settings.approach_deg:g} deg, "
+                   f"{machine.axis_names[r]} from the side away from the work"
+                   + (", every move of the programs checked against the machine's geometry" if sight else ""))
         timing = program_timing(machine, plan, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min,
                                 safe_z_mm=safe_z_mm, retract=retract, holder_change_s=holder_change_s,
                                 tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
@@ -325,7 +330,7 @@ def program_request(machine: Machine, dialects, retract: str | None, safe_z_mm: 
             raise InputError(f"`retract`/`safe_z_mm`: {machine.name} is an arm, it has no axis to retract with; its "
                              "program backs off along the tool axis (`approach_mm`)")
         return arm_dialects(dialects, machine), None, None
-    dialects = tuple(DIALECTS) if dialects is None else tuple(dialects)
+    dialects = tuple(d for d in DIALECTS if d != "heidenhain") if dialects is None else tuple(dialects)
     r, up = retract_axis(machine, retract)
     safe_position(machine, r, up, safe_z_mm)
     check_safe_height(machine, r, up, safe_z_mm)

@@ -193,7 +193,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         if sign_test is not None:
             table = find_table(as_written, m, sign_test)
             st = plan_sign_test(table, m, controller, [n for n in names if not n.endswith(".md")], fmt.sign)
-            names += write_sign_test(out, st, fmt.dialect, prof, notes, how)
+            names += write_sign_test(out, st, fmt.dialect, prof, notes, how, m)
         headline = _judge_written(plan, model, as_written, job, names) if fmt.name != "generic" else None
         warnings = _judge_pitch_alone(fmt, plan, model, (stage, xm, xprof) if as_written is not None else None,
                                       job, names, controller, out_dir, prof)
@@ -382,8 +382,9 @@ def _check_request(model: ErrorModel, controller: str, profile, axis_map, points
                                                          for i in m.axis_names}
         if key not in inputs:
             raise InputError(f"`sign_test` {sign_test}: neither an axis nor a table of {m.name}")
-        from vecpin.export.signtest import check_address  # its program's address, before the tables are computed
-        check_address(prof.axis(inputs[key]).program_name or inputs[key], fmt.dialect, inputs[key], prof.where)
+        from vecpin.export.signtest import addresses, check_address  # its address, before the tables are computed
+        check_address(prof.axis(inputs[key]).program_name or inputs[key], fmt.dialect, inputs[key], prof.where,
+                      addresses(prof, m.axis_names))
     return fmt, prof, limits, modulo
 
 
