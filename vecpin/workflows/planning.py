@@ -252,19 +252,10 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         if arm:
             return _arm_run(out, machine, plan, files, comparison, dialects, (dwell_s, nest_dwell_s, read_dwell_s),
                             holder_change_s)
-        for d in dialects:
-            text = write_program(d, machine, plan.template, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
-                                 feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 title=f"for {machine.name}", stations=plan_stations(plan), sight=sight)
-            files.append(out.write_text(program_name(d), text))
+        files += _nc_programs(out, machine, plan, dialects, sight, dict(
+            dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract,
+            axis_map=axis_map), read_dwell_s)
         v = plan.validation_template
-        files.append(out.write_text("validation.csv", v.to_csv(machine)))
-        for d in dialects:
-            text = write_program(d, machine, v, plan.steps, dwell_s=dwell_s, nest_dwell_s=nest_dwell_s,
-                                 feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract, axis_map=axis_map,
-                                 program_number=1001, title=f"- validation run for {machine.name}",
-                                 reads=plan.validation_reads, read_dwell_s=read_dwell_s, sight=sight)
-            files.append(out.write_text(program_name(d, "validation"), text))
         plan_figure(plan, out.path("plan.png"))
         files.append(out.final("plan.png"))
         t = plan.template
@@ -288,6 +279,25 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
+
+
+def _nc_programs(out: OutputSet, machine: Machine, plan: Plan, dialects, sight, opts: dict,
+                 read_dwell_s: float) -> list[Path]:
+    """Write the plan's NC program and its validation run's (with validation.csv between)
+    in each dialect; ``opts``: :func:`~vecpin.planning.ncprogram.write_program`'s options."""
+    files = []
+    for d in dialects:
+        text = write_program(d, machine, plan.template, plan.steps, title=f"for {machine.name}",
+                             stations=plan_stations(plan), sight=sight, **opts)
+        files.append(out.write_text(program_name(d), text))
+    v = plan.validation_template
+    files.append(out.write_text("validation.csv", v.to_csv(machine)))
+    for d in dialects:
+        text = write_program(d, machine, v, plan.steps, program_number=1001,
+                             title=f"- validation run for {machine.name}", reads=plan.validation_reads,
+                             read_dwell_s=read_dwell_s, sight=sight, **opts)
+        files.append(out.write_text(program_name(d, "validation"), text))
+    return files
 
 
 def _arm_run(out: OutputSet, machine: Machine, plan: Plan, files: list, comparison: list, dialects: tuple[str, ...],
