@@ -20,7 +20,8 @@ import argparse
 import numpy as np
 
 import vecpin
-from vecpin.compensation.functions import TableProblem, all_table_names, pseudo_commands, truth_as_actual
+from vecpin.compensation.functions import all_table_names, pseudo_commands, truth_as_actual
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.models import make_model
