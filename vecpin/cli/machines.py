@@ -6,7 +6,8 @@ from vecpin.cli.common import add_machine_args, machine, say
 
 
 def run_info(args) -> int:
-    from vecpin.kinematics.machine import Machine, bundled_machines
+    from vecpin.kinematics.axes import bundled_machines
+    from vecpin.kinematics.machine import Machine
     if args.machine is None:
         print("bundled machines (vecpin info NAME for axes, limits and frames):")
         names = bundled_machines()
