@@ -23,7 +23,7 @@ def run_info(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("info", help="the bundled machines and their layouts, or one machine's axes, limits "
                                     "(mm, deg) and frames (bundled name or URDF path)")
     s.add_argument("machine", nargs="?", help="bundled machine name or URDF file; omit to list the bundled machines")
