@@ -228,13 +228,13 @@ def baseline(csv: str, machine: str = "flow_xyzcb", order: int = 6, sigma: float
     correction (every row a tool tip, one isotropic noise of ``sigma`` [m] whitening the
     rows against the parameters' priors); prints its residual [mm]."""
     import vecpin
-    from vecpin.measurement.registration import register
+    from vecpin.measurement.registration import rigid_registration
     from vecpin.models import make_model
     m = vecpin.Machine.load(machine)
     c = vecpin.read_campaign(csv, m)
     model = make_model("6dof", m, order, basis="chebyshev")
     out = model.tool_tip(c.q, c.tool, np.zeros(model.n_parameters))        # base frame, d tip / d b
-    R, t = register(out.tip, c.xyz)
+    R, t = rigid_registration(out.tip, c.xyz)
     res = (c.xyz - t) @ R - out.tip                                          # machine frame [m]
     p = out.tip - out.tip.mean(axis=0)
     cross = np.zeros((len(p), 3, 3))                                         # d (eps x p) / d eps = -[p]x

@@ -48,11 +48,11 @@ def read_twice(machine, campaign, tol_deg: float) -> list[dict]:
     between the two readings less the move the nominal kinematics give their joint
     readings (rotated into the tracker frame by the registration of every pose): what
     moved between them beyond what the robot was told."""
-    from vecpin.measurement.registration import register
+    from vecpin.measurement.registration import rigid_registration
     from vecpin.measurement.repeatability import reading_groups
     label = reading_groups(campaign.q, campaign.tool, machine.rotary_mask(), rad=np.radians(tol_deg))
     nominal = machine.tool_tip(campaign.q, campaign.tool)
-    R, _ = register(nominal, campaign.xyz)
+    R, _ = rigid_registration(nominal, campaign.xyz)
     t, xyz = campaign.time, campaign.xyz
     temp = campaign.extra.get("temperature", np.full(len(t), np.nan))
     out = []

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 import vecpin
-from vecpin.compensation.functions import TableProblem, all_table_names, from_ap_model, pitch_names
+from vecpin.compensation.functions import all_table_names, from_ap_model, pitch_names
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import model_as_actual
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel

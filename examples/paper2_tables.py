@@ -20,14 +20,15 @@ import argparse
 import numpy as np
 
 import vecpin
-from vecpin.compensation.functions import TableProblem, all_table_names, pseudo_commands, truth_as_actual
+from vecpin.compensation.functions import all_table_names, pseudo_commands, truth_as_actual
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.models import make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.simulation.simulate import simulate
 from vecpin.compensation.selection import Constraints, exact_search, finalise, genetic_search, impact_heuristic
-from vecpin.export import fanuc
+from vecpin.export import fanuc, fanuc_read
 from vecpin.export.common import ExportJob
 from vecpin.export.profile import ControllerProfile
 from vecpin.fileio import OutputSet
@@ -114,7 +115,7 @@ def main():
         job = ExportJob(tables, m, prof, fanuc.FORMAT.limits_for(prof), out, model)
         names = fanuc.write(job)
     limit = fanuc.FORMAT.extra_limit(prof, "max_pitch_value")
-    grids = fanuc.read_grids(args.out, m, prof)
+    grids = fanuc_read.read_grids(args.out, m, prof)
     print(f"  {'axis':<5s} {'points':>6s} {'interval':>10s} {'magnification':>13s} {'largest value':>13s}")
     for g in grids:
         print(f"  {g.axis:<5s} {g.last - g.first + 1:6d} {g.interval:10.3f} {g.magnification:13d} "
@@ -123,7 +124,7 @@ def main():
                for g in grids)
     print(f"  every pitch value within +-{limit} x magnification: {'yes' if fits else 'NO'}; "
           f"{len(ex.tables)} straightness tables in STRAIGHTNESS.CSV (entered by hand, see README_FANUC.md)")
-    back = fanuc.read(args.out, m, prof)
+    back = fanuc_read.read(args.out, m, prof)
     back.gauge_offset_change = tables.gauge_offset_change
     print(f"  as written (constants at the reference removed, rounded): model-predicted mean "
           f"{np.linalg.norm(compensated_errors(problem.actual, m, back, problem.q, problem.L), axis=1).mean() * 1e3:.4f} mm,"

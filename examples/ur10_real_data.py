@@ -36,7 +36,7 @@ import numpy as np
 
 from vecpin import Machine, VecpinError
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import rigid_registration
 from vecpin.measurement.robotaccuracy import read_dataset
 from vecpin.units import norm_mm
 from vecpin.workflows.fitting import fit_campaign
@@ -65,7 +65,7 @@ def judge(machine: Machine, campaign, split: str) -> dict:
     test = held_out(machine, campaign, split)
     train, held = campaign.subset(~test), campaign.subset(test)
     run = fit_campaign(machine, train, NoiseModel.default(machine, "cartesian"), noise_from_data=True)
-    R, t = register(machine.tool_tip(train.q, train.tool), train.xyz)
+    R, t = rigid_registration(machine.tool_tip(train.q, train.tool), train.xyz)
     nominal = norm_mm(held.xyz - (machine.tool_tip(held.q, held.tool) @ R.T + t))
     fitted = norm_mm(run.model.residuals(held))
     kept = norm_mm(run.model.hold_beyond_measured().residuals(held))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import vecpin
-from vecpin.kinematics.machine import bundled_machines
+from vecpin.kinematics.axes import bundled_machines
 
 
 @pytest.fixture(scope="session")

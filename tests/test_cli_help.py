@@ -29,7 +29,7 @@ def _commands():
     out = []
     for module in COMMAND_MODULES:
         sub = argparse.ArgumentParser().add_subparsers()
-        module.register(sub)
+        module.add_commands(sub)
         out += [(module.__name__.rsplit(".", 1)[1], name, p) for name, p in sub.choices.items()]
     return out
 

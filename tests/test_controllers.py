@@ -9,7 +9,7 @@ from vecpin.compensation.functions import from_ap_model, pseudo_commands
 from vecpin.compensation.limits import NO_LIMITS
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerLimitError, InputError, VecpinError
-from vecpin.export import fanuc, generic, siemens
+from vecpin.export import fanuc, fanuc_read, generic, siemens
 from vecpin.export.common import ExportJob
 from vecpin.export.profile import ControllerProfile
 from vecpin.export.registry import FORMATS, get_format
@@ -95,7 +95,7 @@ def test_fanuc_round_trip_within_resolution(flow, tables, tmp_path):
     for p in ("N03620Q1A1P", "N03621Q1", "N03622Q1", "N03623Q1", "N03624Q1", "N03625Q1", "N01240Q1A1P"):
         assert p in para
     assert "N10000Q0P" in files[1].read_text()
-    back = fanuc.read(tmp_path, flow, prof)
+    back = fanuc_read.read(tmp_path, flow, prof)
     assert sorted(back.names()) == sorted(sub.names())
     # the pitch tables are zero at the reference position; parameter 1240 (reference position) carries the rest
     const = {g.axis: g.offset for g in fanuc.grids(sub, flow, prof)}
@@ -117,7 +117,7 @@ def test_fanuc_rotary_turn_sums_to_zero(flow, tmp_path):
     t = CompensationTable("C", "C", 0.0, c[1], np.radians(0.02 * np.sin(c) + 0.01 * np.cos(2 * c)), modulo=True)
     prof = flow_profile(flow, modulo=["C"])
     write(fanuc.FORMAT, TableSet(flow.axis_names, [t]), flow, prof, tmp_path)
-    g = fanuc.read_grids(tmp_path, flow, prof)[0]
+    g = fanuc_read.read_grids(tmp_path, flow, prof)[0]
     assert g.rotary_type and g.values[1:].sum() == 0 and g.values[0] == g.values[-1]
 
 
@@ -166,7 +166,7 @@ def test_every_reader_fails_with_file_and_line_on_damaged_files(tmp_path):
     m = tiny_machine()
     named = profile(X={"nc_name": "X"}, Y={"nc_name": "Y"}, Z={"nc_name": "Z"}, C={"nc_name": "C"})
     cases = [("siemens", {"AX_EEC.INI": "AX_EEC.INI", "NC_CEC.INI": "NC_CEC.INI"}, lambda d: siemens.read(d, m, profile())),
-             ("fanuc", {"CNC-PARA.TXT": "CNC-PARA.TXT", "PITCH.TXT": "PITCH.TXT"}, lambda d: fanuc.read(d, m, profile())),
+             ("fanuc", {"CNC-PARA.TXT": "CNC-PARA.TXT", "PITCH.TXT": "PITCH.TXT"}, lambda d: fanuc_read.read(d, m, profile())),
              ("linuxcnc", {"comp_X.txt": "x_comp_type0.txt"}, lambda d: linuxcnc.read(d, m, profile())),
              ("beckhoff", {"achskw_X.lis": "achskw1.lis", "achskw_Y.lis": "achskw2.lis"},
               lambda d: beckhoff.read(d, m, named)),

@@ -108,7 +108,8 @@ def test_diagnosis_files_and_localisation(machines, tmp_path):
     m = machines["flow_xyzcb"]
     sim = simulate(m, seed=12, design=Design(n_commands=200), effects=[EFFECTS["backlash"][0]])
     d = diagnose(m, sim.campaign)
-    paths = d.write(tmp_path)
+    from vecpin.viz.diagnosis import draw_diagnosis
+    paths = d.write(tmp_path, draw=draw_diagnosis)
     j = json.loads(paths["diagnosis"].read_text())
     assert set(j) >= {"base", "effects", "outlier_rows", "localization"}
     assert set(j["base"]) >= {"model", "heldout_mean_mm", "heldout_max_mm"}

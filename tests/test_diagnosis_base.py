@@ -59,3 +59,8 @@ def test_what_to_do_names_the_model_file_where_it_was_written(tmp_path, capsys):
     assert named == f"{d / 'diag'}/model_base.json" and (d / "diag" / "model_base.json").is_file()
     saved = json.loads((d / "diag" / "diagnosis.json").read_text())["headline"][2]
     assert "(vecpin tables model_base.json)" in saved
+    # the command draws the report's figures beside it (vecpin.viz.diagnosis), and the report shows them
+    report = (d / "diag" / "report.md").read_text()
+    for name in ("breakdowns", "effects", "rows"):
+        assert (d / "diag" / "figures" / f"{name}.png").stat().st_size > 1000
+        assert f"![{name}](figures/{name}.png)" in report

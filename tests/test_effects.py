@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from vecpin.models.effects import (REGISTRY, Backlash, CoupledAxes, Effect, GantrySkew, InstrumentShift, RotaryPeriodic, Thermal,
-                            effect_from_dict, register)
+                            effect_from_dict, register_effect)
 from vecpin.measurement.features import Features
 from vecpin.identification.likelihood import predict_tracker
 from vecpin.measurement.setup import Setup
 from vecpin.models import make_model
-from vecpin.measurement.registration import register as rigid
+from vecpin.measurement.registration import rigid_registration
 from vecpin.simulation.simulate import Design, simulate
 
 
@@ -32,7 +32,7 @@ def test_effect_jacobians_match_finite_differences(small, kind, k):
     eff = _effects(m, c)[k]
     eff.prepare(c, f)
     model = make_model(kind, m, 2, effects=[eff])
-    setup = Setup(*rigid(m.tool_tip(c.q, c.tool), c.xyz))
+    setup = Setup(*rigid_registration(m.tool_tip(c.q, c.tool), c.xyz))
     theta = np.random.default_rng(1).normal(size=model.n_parameters + 6) * 1e-5
     _, dy, _ = predict_tracker(model, c.q, c.tool, theta, setup, f)
     h = 1e-7
@@ -54,7 +54,7 @@ def test_effects_round_trip_and_registry(small):
 def test_user_effect_can_be_registered(small):
     m, c, f = small
 
-    @register
+    @register_effect
     class ZDroop(Effect):
         """Z sags in proportion to the X position squared (a user's own effect)."""
         name = "z_droop_test"

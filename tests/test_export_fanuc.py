@@ -10,7 +10,7 @@ from export_helpers import DATA, E_XX_MM, E_YX_MM, X_MM, fixture_tables, profile
 
 from vecpin.compensation.tables import CompensationTable, TableSet
 from vecpin.errors import ControllerFileError, ControllerLimitError, InputError
-from vecpin.export import fanuc
+from vecpin.export import fanuc, fanuc_read
 from vecpin.export.common import ExportJob
 from vecpin.fileio import OutputSet
 from vecpin.units import from_mm, to_mm
@@ -33,7 +33,7 @@ def five_points(**kw):
 def test_reader_parses_the_backup_form():
     """Point n at (n - 3620) x 3624 from the reference; values are correction increments per section."""
     m = tiny_machine()
-    back = fanuc.read(FIX, m, profile())
+    back = fanuc_read.read(FIX, m, profile())
     xx = back.table("xx")
     assert back.names() == ["xx"]                                        # A2, A3 have no table (0, 0, 0)
     np.testing.assert_allclose(to_mm(xx.positions), [-250, -200, -150, -100, -50, 0, 50])
@@ -53,12 +53,12 @@ def test_writer_reproduces_the_backup_form(tmp_path):
     fix = {int(n): int(v) for n, v in re.findall(r"N1(\d{4})Q0P(-?\d+)", (FIX / "PITCH.TXT").read_text())}
     ours = [int(v) for v in re.findall(r"Q0P(-?\d+)", "\n".join(pitch))]
     assert ours == [fix[n] for n in range(2, 7)]                          # the same sections, numbered from 0
-    back = fanuc.read(tmp_path, m, five_points())
+    back = fanuc_read.read(tmp_path, m, five_points())
     np.testing.assert_allclose(to_mm(back.table("xx")(from_mm(X_MM))), -E_XX_MM, atol=1e-12)
 
 
 def test_reader_reads_each_tape_once(tmp_path, monkeypatch):
-    """fanuc.read parses CNC-PARA.TXT and PITCH.TXT once each (it used to parse CNC-PARA.TXT
+    """fanuc_read.read parses CNC-PARA.TXT and PITCH.TXT once each (it used to parse CNC-PARA.TXT
     again for parameter 1240), and the 1240 shift it reads is the profile's reference
     position minus the tape's."""
     m = tiny_machine()
@@ -67,9 +67,9 @@ def test_reader_reads_each_tape_once(tmp_path, monkeypatch):
     assert "N01240Q1A1P0.0" in para.read_text()
     para.write_text(para.read_text().replace("N01240Q1A1P0.0", "N01240Q1A1P-0.5"))
     seen = []
-    real = fanuc.read_tape
-    monkeypatch.setattr(fanuc, "read_tape", lambda path: seen.append(path.name) or real(path))
-    back = fanuc.read(tmp_path, m, five_points())
+    real = fanuc_read.read_tape
+    monkeypatch.setattr(fanuc_read, "read_tape", lambda path: seen.append(path.name) or real(path))
+    back = fanuc_read.read(tmp_path, m, five_points())
     assert sorted(seen) == ["CNC-PARA.TXT", "PITCH.TXT"]
     # 1240 = -0.5 against the profile's reference 0: the axis goes 0.5 mm further at every command
     np.testing.assert_allclose(to_mm(back.table("xx")(from_mm(X_MM))), -E_XX_MM + 0.5, atol=1e-9)
@@ -81,10 +81,10 @@ def test_table_is_anchored_at_the_reference_position_from_the_profile(tmp_path):
     m = tiny_machine()
     t = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.05, 0.04, 0.03, 0.02, 0.01])))
     notes = write(TableSet(m.axis_names, [t]), m, five_points(X={"reference_position": -75.0}), tmp_path)
-    g = fanuc.read_grids(tmp_path, m, five_points(X={"reference_position": -75.0}))[0]
+    g = fanuc_read.read_grids(tmp_path, m, five_points(X={"reference_position": -75.0}))[0]
     assert g.reference_position == -75.0
     assert np.allclose((g.position(np.arange(g.first, g.last + 1)) + 75.0) % g.interval, 0.0, atol=1e-9)
-    back = fanuc.grid_table(g, m)
+    back = fanuc_read.grid_table(g, m)
     assert to_mm(back(from_mm(-75.0))) == pytest.approx(0.0, abs=1e-12)
     assert any("+0.0250 mm" in n for n in notes)                        # t(-75) = 0.025: the constant removed
     x = np.linspace(-200, -35, 34)            # inside the last grid point: the linear table is exact there
@@ -99,11 +99,11 @@ def test_rotary_axis_type_reference_value_equals_the_last(tmp_path):
     t = CompensationTable("C", "C", 0.0, c[1], np.radians(0.01 * np.sin(c) + 0.004 * np.cos(3 * c)), modulo=True)
     prof = profile(C={"modulo": True}, limits={"pitch_points_per_axis": 73})
     write(TableSet(m.axis_names, [t]), m, prof, tmp_path)
-    g = fanuc.read_grids(tmp_path, m, prof)[0]
+    g = fanuc_read.read_grids(tmp_path, m, prof)[0]
     para = (tmp_path / "CNC-PARA.TXT").read_text()
     assert "N03625Q1A4P360.0" in para and g.first == g.reference and g.interval == 5.0
     assert g.values[1:].sum() == 0 and g.values[0] == g.values[-1] != 0
-    back = fanuc.grid_table(g, m)
+    back = fanuc_read.grid_table(g, m)
     q = np.radians(np.linspace(-400, 400, 97))
     np.testing.assert_allclose(np.degrees(back(q)), np.degrees(t(q) - t(0.0)), atol=2e-3)
 
@@ -142,7 +142,7 @@ def test_a_rotary_type_axis_reads_back_as_the_control_applies_it(flow, tmp_path)
     from controller_appliers import fanuc_corrections
     prof, ref = _flow_profile(flow)
     write(_rotary_type_set(flow), flow, prof, tmp_path)
-    back = fanuc.read(tmp_path, flow, prof)
+    back = fanuc_read.read(tmp_path, flow, prof)
     assert back.table("xc").modulo and back.table("cc").modulo
     rng = np.random.default_rng(7)
     q = flow.lower + rng.random((400, flow.n_axes)) * (flow.upper - flow.lower)
@@ -161,24 +161,24 @@ def test_a_rotary_type_table_the_control_would_not_hold_is_refused(flow, tmp_pat
     prof, _ = _flow_profile(flow)
     write(_rotary_type_set(flow), flow, prof, tmp_path)
     pitch = (tmp_path / "PITCH.TXT").read_text().splitlines()
-    g = next(g for g in fanuc.read_grids(tmp_path, flow, prof) if g.axis == "C")
+    g = next(g for g in fanuc_read.read_grids(tmp_path, flow, prof) if g.axis == "C")
     k = next(i for i, ln in enumerate(pitch) if ln.startswith(f"N{10000 + g.last}Q0P"))
     pitch[k] = f"N{10000 + g.last}Q0P{int(g.values[-1]) + 1}"
     (tmp_path / "PITCH.TXT").write_text("\n".join(pitch) + "\n")
     with pytest.raises(ControllerFileError, match="sum to 1, not 0"):
-        fanuc.read(tmp_path, flow, prof)
+        fanuc_read.read(tmp_path, flow, prof)
     write(_rotary_type_set(flow), flow, prof, tmp_path / "b")
     rows = (tmp_path / "b" / "STRAIGHTNESS.CSV").read_text().splitlines()
     (tmp_path / "b" / "STRAIGHTNESS.CSV").write_text("\n".join(rows[:-1]) + "\n")   # the row at 360 deg gone
     with pytest.raises(ControllerFileError, match="must cover the turn"):
-        fanuc.read(tmp_path / "b", flow, prof)
+        fanuc_read.read(tmp_path / "b", flow, prof)
 
 
 def test_magnification_is_chosen_and_the_range_checked(tmp_path):
     m = tiny_machine()
     steep = CompensationTable("X", "X", -0.2, 0.05, from_mm(np.array([0.0, 0.3, 0.6, 0.9, 1.2])))
     write(TableSet(m.axis_names, [steep]), m, five_points(), tmp_path)
-    g = fanuc.read_grids(tmp_path, m, five_points())[0]
+    g = fanuc_read.read_grids(tmp_path, m, five_points())[0]
     assert g.magnification == 3 and np.abs(g.values).max() <= 127          # 300 units per section at mag 1
     with pytest.raises(ControllerLimitError, match="magnification"):
         write(TableSet(m.axis_names, [steep]), m, profile(limits={"pitch_points_per_axis": 5,
@@ -194,7 +194,7 @@ def test_straightness_is_written_for_entry_by_hand(tmp_path):
     readme = (tmp_path / "README_FANUC.md").read_text()
     assert "by hand" in readme and "moving axis X (A1), compensation axis Y (A2)" in readme
     assert any("by hand" in n for n in notes)
-    back = fanuc.read(tmp_path, m, five_points())
+    back = fanuc_read.read(tmp_path, m, five_points())
     # the rows name X's own pitch points only (3621..3622 of A1): X_MM[0] is the start of X's first section,
     # point first - 1, which belongs to no X point (on a second axis it would be the first axis' last point)
     para = (tmp_path / "CNC-PARA.TXT").read_text()
@@ -229,14 +229,14 @@ def test_bad_tapes_name_file_and_line(tmp_path, bad, message, line):
         text = (FIX / f).read_text()
         (tmp_path / f).write_text(text.replace(bad, message))
     with pytest.raises(ControllerFileError) as exc:
-        fanuc.read(tmp_path, tiny_machine(), profile())
+        fanuc_read.read(tmp_path, tiny_machine(), profile())
     assert exc.value.line == line
 
 
 def test_a_cut_tape_is_refused(tmp_path):
     (tmp_path / "CNC-PARA.TXT").write_text("%\nN03620Q1A1P5\n")
     with pytest.raises(ControllerFileError, match="no closing %"):
-        fanuc.read(tmp_path, tiny_machine(), profile())
+        fanuc_read.read(tmp_path, tiny_machine(), profile())
 
 
 def test_reads_a_0i_mf_style_backup():
@@ -252,7 +252,7 @@ def test_reads_a_0i_mf_style_backup():
     prof = ControllerProfile.from_dict({"format": "vecpin-controller-profile", "version": 1, "axes": {
         a: {"number": n, "reference_position": 0.0, "detection_unit": 0.001} for a, n in numbers.items()}})
     folder = DATA / "fanuc" / "0imf_style"
-    back = fanuc.read(folder, m, prof)
+    back = fanuc_read.read(folder, m, prof)
     assert sorted(back.names()) == ["bb", "xx", "yy", "zz"]
     for a, n in numbers.items():
         t = back.table(a + a)

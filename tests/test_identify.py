@@ -10,7 +10,7 @@ from vecpin.measurement.instruments.tracker import E0_NAMES
 from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import rigid_registration
 from vecpin.identification.crossval import command_folds
 from vecpin.selection.orders import order_sweep
 from vecpin.simulation.simulate import Design, simulate
@@ -98,7 +98,7 @@ def test_spherical_beats_cartesian_on_a_long_machine(machines, seed):
 def test_estimator_prediction_jacobian_matches_finite_differences(flow, rng, kind):
     sim = simulate(flow, seed=3, design=Design(n_commands=8, n_validation=2))
     model = make_model(kind, flow, 2)
-    R, t = register(flow.tool_tip(sim.campaign.q, sim.campaign.tool), sim.campaign.xyz)
+    R, t = rigid_registration(flow.tool_tip(sim.campaign.q, sim.campaign.tool), sim.campaign.xyz)
     c = sim.campaign
 
     def predict(th):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import vecpin
-from vecpin.kinematics.machine import bundled_machines
+from vecpin.kinematics.axes import bundled_machines
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.tracker import Tracker
 from vecpin.models import make_model

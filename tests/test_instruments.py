@@ -9,7 +9,7 @@ from vecpin.identification.likelihood import Likelihood
 from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register, registered_errors
+from vecpin.measurement.registration import rigid_registration, registered_errors
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.measurement.tracker import TrackerNoise
 from vecpin.simulation.truth import uniform_commands
@@ -92,8 +92,8 @@ def test_mixed_problem_jacobian_matches_finite_differences(flow, rng):
     nominal = flow.tool_tip(c.q, c.tool)
     r0 = c.tracker_rows[c.station[c.tracker_rows] == 0]
     r1 = c.tracker_rows[c.station[c.tracker_rows] == 1]
-    setup = Setup(*register(nominal[r0], c.xyz[r0]))
-    setup.stations[1] = (*register(nominal[r1], c.xyz[r1]), np.zeros(6))
+    setup = Setup(*rigid_registration(nominal[r0], c.xyz[r0]))
+    setup.stations[1] = (*rigid_registration(nominal[r1], c.xyz[r1]), np.zeros(6))
     setup.pivots[0] = sim.truth.pivot.copy()  # small residuals: C held at the linearisation (ILM)
     for inst in ("cartesian", "range"):
         prob = Likelihood(model, c, NoiseModel.default(flow, inst), setup)

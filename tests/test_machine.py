@@ -12,7 +12,7 @@ import yourdfpy
 import vecpin
 from closed_forms import MACHINES as CLOSED_FORMS
 from closed_forms import homogeneous, rot, ur5_dh, ur5_planar
-from vecpin.kinematics.machine import bundled_machines
+from vecpin.kinematics.axes import bundled_machines
 from vecpin.simulation.truth import uniform_commands
 
 TWO_BRANCH = ["trunnion_xyzac", "trunnion_xyzbc", "head_table_bc", "xyzac_trt"]

@@ -13,7 +13,7 @@ import pytest
 import vecpin
 from vecpin.compensation.plan import plan_tables
 from vecpin.identification.likelihood import Likelihood
-from vecpin.kinematics.machine import _bundled_path
+from vecpin.kinematics.axes import _bundled_path
 from vecpin.measurement.campaign import Campaign, read_campaign, read_targets, write_campaign, write_targets
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model

@@ -5,7 +5,7 @@ import pytest
 
 from vecpin.diagnosis.diagnose import diagnose
 from vecpin.errors import InputError
-from vecpin.models.effects import REGISTRY, Effect, Key, effects_help, parse_effect, register
+from vecpin.models.effects import REGISTRY, Effect, Key, effects_help, parse_effect, register_effect
 from vecpin.simulation.simulate import Design, simulate
 
 
@@ -13,7 +13,7 @@ from vecpin.simulation.simulate import Design, simulate
 def z_sag():
     """The toy effect of ARCHITECTURE.md, registered for one test only."""
 
-    @register
+    @register_effect
     class ZSag(Effect):
         """Z droops with X squared times Y (a ram sagging as it reaches out)."""
         name = "z_sag"

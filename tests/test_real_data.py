@@ -17,7 +17,7 @@ from vecpin.cli import main
 from vecpin.errors import CampaignFileError, IdentifiabilityError, InputError
 from vecpin.measurement.campaign import read_campaign
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import rigid_registration
 from vecpin.measurement.robotaccuracy import JOINTS, read_dataset
 from vecpin.selection.choice import choose_model
 from vecpin.units import norm_mm
@@ -129,7 +129,7 @@ def test_default_fit_of_36_poses_is_not_refused(ur10, tmp_path, capsys):
     model = vecpin.ErrorModel.load(tmp_path / "m.json")
     assert model.n_parameters + 6 < 108
     assert json.loads((tmp_path / "m.json").read_text())["selection"]["left_out_unsupported"] > 0
-    R, t = register(ur10.tool_tip(train.q, train.tool), train.xyz)
+    R, t = rigid_registration(ur10.tool_tip(train.q, train.tool), train.xyz)
     nominal = norm_mm(held.xyz - (ur10.tool_tip(held.q, held.tool) @ R.T + t))
     fitted = norm_mm(model.residuals(held))
     assert fitted.mean() < 0.15 * nominal.mean() and fitted.max() < 0.15 * nominal.max()
@@ -177,7 +177,7 @@ def test_beyond_the_measured_joint_range(ur10, tmp_path):
     test = c.q[:, 0] > np.quantile(c.q[:, 0], 0.8)
     train, held = c.subset(~test), c.subset(test)
     noise = NoiseModel.default(ur10, "cartesian")
-    R, t = register(ur10.tool_tip(train.q, train.tool), train.xyz)
+    R, t = rigid_registration(ur10.tool_tip(train.q, train.tool), train.xyz)
     nominal = norm_mm(held.xyz - (ur10.tool_tip(held.q, held.tool) @ R.T + t))
     run = fit_campaign(ur10, train, noise)
     assert "shoulder_pan_joint" in run.choice.part_turn and "no series per turn on" in run.choice.table()

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from vecpin.measurement.campaign import read_campaign
-from vecpin.measurement.registration import register, registered_errors
+from vecpin.measurement.registration import rigid_registration, registered_errors
 from vecpin.planning.zones import parse_zone
 from vecpin.simulation.simulate import Design, design_commands, simulate
 from vecpin.measurement.tracker import Tracker, TrackerNoise, cartesian_to_spherical, spherical_jacobian, spherical_to_cartesian
@@ -97,7 +97,7 @@ def test_registration_recovers_a_rigid_pose(rng):
     from vecpin.kinematics.so3 import exp3
     R = exp3(np.array([0.3, -1.2, 2.0]))
     t = np.array([1.0, -2.0, 0.5])
-    R2, t2 = register(P, P @ R.T + t)
+    R2, t2 = rigid_registration(P, P @ R.T + t)
     np.testing.assert_allclose(R2, R, atol=1e-12)
     np.testing.assert_allclose(t2, t, atol=1e-12)
 

@@ -295,7 +295,7 @@ def test_batched_kabsch_is_the_rigid_registration(rng):
     through register, and recover a known rotation and shift."""
     from scipy.spatial.transform import Rotation
 
-    from vecpin.measurement.registration import kabsch, register
+    from vecpin.measurement.registration import kabsch, rigid_registration
     P = rng.normal(size=(4, 3)) * 0.1
     R_true = Rotation.random(6, random_state=1).as_matrix()
     t_true = rng.normal(size=(6, 3))
@@ -308,7 +308,7 @@ def test_batched_kabsch_is_the_rigid_registration(rng):
             rot, _ = Rotation.align_vectors(Q[g] - cq, P - cp, weights=ww)
             np.testing.assert_allclose(R[g], rot.as_matrix(), atol=1e-12)
             np.testing.assert_allclose(t[g], cq - rot.as_matrix() @ cp, atol=1e-12)
-            R1, t1 = register(P, Q[g], w)
+            R1, t1 = rigid_registration(P, Q[g], w)
             np.testing.assert_allclose(R1, R[g], atol=1e-14)
             np.testing.assert_allclose(t1, t[g], atol=1e-14)
             np.testing.assert_allclose(R[g], R_true[g], atol=1e-4)

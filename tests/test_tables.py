@@ -7,8 +7,9 @@ from vecpin.measurement.partframe import part_frame_errors, spindle_axis
 import vecpin
 import pytest
 
-from vecpin.compensation.functions import (TableProblem, all_table_names, from_ap_model, pitch_names,
-                                           pseudo_commands, truth_as_actual)
+from vecpin.compensation.functions import (all_table_names, from_ap_model, pitch_names, pseudo_commands,
+                                           truth_as_actual)
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.report import CompensationReport, compensated_errors
 from vecpin.models import make_model

@@ -6,7 +6,8 @@ import itertools
 import numpy as np
 import pytest
 
-from vecpin.compensation.functions import TableProblem, pitch_names
+from vecpin.compensation.functions import pitch_names
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import model_as_actual
 from vecpin.compensation.tables import cross_table_axes, table_name, table_names
 from vecpin.models import make_model

@@ -7,7 +7,7 @@ import pytest
 
 import vecpin
 from vecpin.errors import VecpinWarning
-from vecpin.kinematics.machine import bundled_machines
+from vecpin.kinematics.axes import bundled_machines
 
 URDF = """<?xml version="1.0"?>
 <robot name="mm_limits">

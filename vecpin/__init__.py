@@ -23,8 +23,8 @@ from __future__ import annotations
 import importlib
 
 _NAMES = {
-    "Machine": "vecpin.kinematics.machine", "Axis": "vecpin.kinematics.machine",
-    "bundled_machines": "vecpin.kinematics.machine",
+    "Machine": "vecpin.kinematics.machine", "Axis": "vecpin.kinematics.axes",
+    "bundled_machines": "vecpin.kinematics.axes",
     "Campaign": "vecpin.measurement.campaign", "read_campaign": "vecpin.measurement.campaign",
     "write_campaign": "vecpin.measurement.campaign",
     "VecpinError": "vecpin.errors", "MachineError": "vecpin.errors", "CampaignFileError": "vecpin.errors",

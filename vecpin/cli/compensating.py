@@ -49,7 +49,7 @@ def run_sign_check(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     from vecpin.export.names import CONTROLLERS
     s = sub.add_parser("tables", help="compensation tables of a fitted model for a controller (Paper I §3.3, Paper II)")
     s.add_argument("model", help="fitted model file (JSON)")
@@ -91,7 +91,7 @@ def register(sub) -> None:
                    "(thermal.json, the controller's thermal files; default: none)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_tables)
-    register_profile(sub)
+    add_profile_command(sub)
 
 
 def run_profile(args) -> int:
@@ -105,7 +105,7 @@ def run_profile(args) -> int:
     return 0
 
 
-def register_profile(sub) -> None:
+def add_profile_command(sub) -> None:
     from vecpin.cli.common import add_machine_args
     from vecpin.export.names import CONTROLLERS
     s = sub.add_parser("profile", help="write a controller profile to fill in: every field the controller's files "

@@ -16,7 +16,7 @@ def run_diagnose(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("diagnose", help="where the residual lies, which unmodelled effect causes it, how far it shrinks")
     s.add_argument("machine", help=MACHINE_HELP)
     add_machine_args(s)

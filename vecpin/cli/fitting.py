@@ -95,7 +95,7 @@ def run_demo(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("fit", help="choose and identify an error model from a campaign CSV (maximum likelihood)")
     s.add_argument("machine", help=MACHINE_HELP)
     s.add_argument("csv", help=CAMPAIGN_HELP)

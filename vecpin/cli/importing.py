@@ -15,7 +15,7 @@ def run_import(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("import", help="read a tracker-software export (any column names, delimiter, decimal comma, "
                        "inches) and join it with the plan into a campaign CSV")
     s.add_argument("export", help="the tracker software's export (CSV/TXT)")

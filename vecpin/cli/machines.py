@@ -6,7 +6,8 @@ from vecpin.cli.common import add_machine_args, machine, say
 
 
 def run_info(args) -> int:
-    from vecpin.kinematics.machine import Machine, bundled_machines
+    from vecpin.kinematics.axes import bundled_machines
+    from vecpin.kinematics.machine import Machine
     if args.machine is None:
         print("bundled machines (vecpin info NAME for axes, limits and frames):")
         names = bundled_machines()
@@ -22,7 +23,7 @@ def run_info(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("info", help="the bundled machines and their layouts, or one machine's axes, limits "
                                     "(mm, deg) and frames (bundled name or URDF path)")
     s.add_argument("machine", nargs="?", help="bundled machine name or URDF file; omit to list the bundled machines")

@@ -21,7 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"vecpin {_version()}", help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     for module in COMMAND_MODULES:
-        module.register(sub)
+        module.add_commands(sub)
     for name, command in sub.choices.items():
         command.set_defaults(flags=flag_table(command), once=_single_valued(command))
     return p

@@ -84,7 +84,7 @@ def run_plan(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("plan", help="plan a laser-tracker campaign: D-optimal commands, exclusion zones, line of "
                        "sight, short travel; writes the campaign template, NC programs and Paper I Fig. 6")
     s.add_argument("machine", help="bundled machine name or URDF path")

@@ -47,7 +47,7 @@ class _HelpEffects(argparse.Action):
         parser.exit()
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("simulate", help="simulate a laser-tracker campaign on a machine with known errors")
     s.add_argument("--help-effects", action=_HelpEffects, help="list the effects of --effect with their keys, units "
                    "and defaults, then exit")

@@ -63,7 +63,7 @@ def run_verify(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("assess", help="is volumetric compensation worth it? repeatability (eq. 22, Table 2.8) against "
                        "the uncompensated error, with what limits the result (Section 2.4)")
     s.add_argument("csv", nargs="?", help="campaign CSV with repeated points (same command and tool measured several "

@@ -69,7 +69,7 @@ def run_report(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def add_commands(sub) -> None:
     s = sub.add_parser("view", help="meshcat scene of measured vs modelled tool tips (interactive, or --html)")
     s.add_argument("model", help="fitted model file (JSON, from vecpin fit)")
     s.add_argument("csv", help="campaign CSV the model was fitted to (or one measured with the same tracker pose)")

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (FRAME, ActualMachine, TableProblem, geometric_model, nominal_tip,
-                                           pseudo_commands)
+from vecpin.compensation.functions import FRAME, ActualMachine, geometric_model, nominal_tip, pseudo_commands
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
@@ -55,7 +55,7 @@ class ReferenceFrame:
     machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
     says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`);
     ``hold_turn``: True where it is the volume's mean orientation, which the tables must
-    not turn (:class:`~vecpin.compensation.functions.TableProblem`'s ``hold_turn``)."""
+    not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``)."""
 
     R: np.ndarray
     centre: np.ndarray

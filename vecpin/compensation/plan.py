@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (FRAME, TableProblem, all_table_names, from_ap_model, geometric_model,
-                                           hold_ranges, nominal_tip, pitch_names, pseudo_commands, rich_table_bases,
-                                           table_bases)
+from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model, geometric_model, hold_ranges,
+                                           nominal_tip, pitch_names, pseudo_commands, rich_table_bases, table_bases)
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)

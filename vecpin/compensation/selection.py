@@ -8,7 +8,7 @@ ji), and other forbidden combinations declared per controller.
 Three methods, one interface, one figure of merit:
 
 * :func:`exact_search` - the best admissible combinations, exactly. The table problem is
-  linear in the table coefficients around the model (:class:`~vecpin.compensation.TableProblem`),
+  linear in the table coefficients around the model (:class:`~vecpin.compensation.tableproblem.TableProblem`),
   so with the normal equations precomputed and the always-used block eliminated once
   (Schur complement), each combination is one small solve, batched: every combination
   is scored when they are few; when they are many, a branch and bound
@@ -37,8 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import linalg
 
-from vecpin.compensation.functions import TableProblem, pitch_names, ridged
+from vecpin.compensation.functions import pitch_names
 from vecpin.compensation.report import compensated_errors
+from vecpin.compensation.tableproblem import TableProblem, ridged
 from vecpin.compensation.tables import cross_table_axes
 from vecpin.errors import ControllerLimitError, VecpinError
 from vecpin.units import MM_PER_M

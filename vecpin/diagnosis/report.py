@@ -1,43 +1,47 @@
 """The human report of a diagnosis: three plain sentences, the effects with their
-evidence and advice, where the residual lies (figures of the breakdowns)."""
+evidence and advice, where the residual lies; and the plain data of its figures, which
+:mod:`vecpin.viz.diagnosis` draws."""
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
+from vecpin.units import MM_PER_M
 
-from vecpin.units import MM_PER_M  # noqa: E402
+# the report's figures: what each shows -> its file in the output folder
+FIGURES = {"breakdowns": "figures/breakdowns.png", "effects": "figures/effects.png", "rows": "figures/rows.png"}
 
 
-def _breakdown_figure(ax, b: dict) -> None:
-    bins = b["bins"]
-    x = [(e["from"] + e["to"]) / 2 for e in bins] if "from" in bins[0] else [e["value"] for e in bins]
-    mean = np.array([e["mean_mm"] for e in bins]) * MM_PER_M          # mm -> µm
-    vec = np.array([e["mean_vector_mm"] for e in bins]) * MM_PER_M
-    ax.plot(x, mean, "ko-", label="|residual| mean")
-    for k, (c, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
-        ax.plot(x, vec[:, k], "s--", color=col, ms=3, lw=1, label=f"mean {c}")
-    ax.axhline(0, color="0.7", lw=0.8)
-    title = b["coordinate"] + (f" - structured (p = {b['p']:.0e})" if b["structured"] else "")
-    ax.set_title(title, fontsize=9, color="tab:red" if b["structured"] else "black")
-    ax.set_xlabel(f"{b['coordinate']} [{b['unit']}]" if b["unit"] else b["coordinate"], fontsize=8)
-    ax.set_ylabel("held-out residual [µm]", fontsize=8)
-    ax.tick_params(labelsize=7)
-    ax.xaxis.set_major_locator(MaxNLocator(5))  # a few ticks: each one is an object matplotlib builds and draws
-    ax.yaxis.set_major_locator(MaxNLocator(4))
+@dataclass
+class EffectBar:
+    """One effect of the effects figure: its label, held-out shrink [%] and verdict."""
+
+    label: str
+    shrink_pct: float
+    accepted: bool
+    significant: bool
 
 
-def _margins(fig, left: float, right: float, bottom: float, top: float, wspace: float = 0.2,
-             hspace: float = 0.2) -> None:
-    """Fixed margins in inches (a layout engine would draw the figure twice to find them)."""
-    w, h = fig.get_size_inches()
-    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h, wspace=wspace,
-                        hspace=hspace)
+@dataclass
+class DiagnosisFigures:
+    """What the report's figures show, as plain data: ``breakdowns`` as the diagnosis'
+    ``localization["breakdowns"]`` (bins with mean residuals [mm], F and p, per
+    coordinate), the first twelve effects, the held-out residual norm of every row [mm]
+    and the number of outlier rows left out."""
+
+    breakdowns: dict
+    effects: list[EffectBar]
+    heldout_mm: np.ndarray
+    outliers: int
+
+
+def figure_data(diag) -> DiagnosisFigures:
+    """The data of the report's figures of the diagnosis ``diag``."""
+    return DiagnosisFigures(diag.localization["breakdowns"],
+                            [EffectBar(e.label, e.shrink_pct, e.accepted, e.significant) for e in diag.effects[:12]],
+                            np.linalg.norm(diag.heldout_base, axis=1) * MM_PER_M, len(diag.outlier_rows))
 
 
 def _next_section(diag) -> list[str]:
@@ -62,45 +66,11 @@ def _next_section(diag) -> list[str]:
     return lines
 
 
-def write_report(diag, out) -> Path:
-    """report.md and its figures into ``out`` (a :class:`vecpin.fileio.OutputSet`);
-    returns where report.md lands."""
+def write_report(diag, out, figures: bool) -> Path:
+    """report.md into ``out`` (a :class:`vecpin.fileio.OutputSet`), naming the figures
+    (:data:`FIGURES`) when ``figures`` (they are drawn beside it); returns where it lands."""
     loc = diag.localization["breakdowns"]
     keys = list(loc)
-    ncol = 4
-    nrow = (len(keys) + ncol - 1) // ncol
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4 * ncol, 3 * nrow), squeeze=False)
-    for ax, k in zip(axes.ravel(), keys):
-        _breakdown_figure(ax, loc[k])
-    for ax in axes.ravel()[len(keys):]:
-        ax.axis("off")
-    axes[0, 0].legend(fontsize=6)
-    fig.suptitle("Where the residual lies: held-out residuals of the base model (µm)", fontsize=11)
-    _margins(fig, 0.6, 0.2, 0.5, 0.8, wspace=0.3, hspace=0.45)
-    fig.savefig(out.path("figures/breakdowns.png"), dpi=90)
-    plt.close(fig)
-    eff = diag.effects[:12]
-    fig, ax = plt.subplots(figsize=(8, 0.35 * max(len(eff), 1) + 1.2))
-    y = np.arange(len(eff))[::-1]
-    ax.barh(y, [e.shrink_pct for e in eff],
-            color=["tab:green" if e.accepted else ("tab:olive" if e.significant else "0.7") for e in eff])
-    ax.set_yticks(y, [e.label for e in eff], fontsize=7)
-    ax.set_xlabel("held-out mean residual shrink [%] (green: accepted; olive: significant, not taken)")
-    ax.axvline(0, color="k", lw=0.8)
-    _margins(fig, 0.3 + 0.065 * max([len(e.label) for e in eff] + [10]), 0.2, 0.5, 0.15)  # 7 pt labels
-    fig.savefig(out.path("figures/effects.png"), dpi=90)
-    plt.close(fig)
-    held = np.linalg.norm(diag.heldout_base, axis=1) * MM_PER_M
-    fig, ax = plt.subplots(figsize=(8, 3))
-    ax.plot(np.arange(len(held)), held, ".", ms=3)
-    if diag.outlier_rows:
-        ax.set_title(f"{len(diag.outlier_rows)} outlier rows left out (not shown)", fontsize=9)
-    ax.set_xlabel("row (measurement order)")
-    ax.set_ylabel("held-out |residual| [mm]")
-    _margins(fig, 0.8, 0.2, 0.55, 0.35)
-    fig.savefig(out.path("figures/rows.png"), dpi=90)
-    plt.close(fig)
-
     b = diag.base
     lines = [f"# Diagnosis of {diag.machine.name}", ""] + [s + "  " for s in diag.headline()] + ["",
              f"Base model: {b['label']} (chosen by held-out data unless fixed), {b['rows']} rows, "
@@ -125,7 +95,7 @@ def write_report(diag, out) -> Path:
     lines += _next_section(diag)
     m, x = diag.best_heldout()
     lines += ["", f"Best model (base + accepted effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",
-              "![effects](figures/effects.png)", "", "## Where the residual lies", "",
+              *_image("effects", figures), "## Where the residual lies", "",
               "| breakdown | F (bins) | p (bins) | F (trend) | p (trend) | structured |", "|---|---|---|---|---|---|"]
     for k in keys:
         v = loc[k]
@@ -134,10 +104,15 @@ def write_report(diag, out) -> Path:
     if diag.unexplained:
         lines += ["", "Still structured after the accepted effects (unexplained): "
                   + ", ".join(diag.unexplained) + "."]
-    lines += ["", "![breakdowns](figures/breakdowns.png)", "", "![rows](figures/rows.png)", ""]
+    lines += ["", *_image("breakdowns", figures), *_image("rows", figures)]
     for g in diag.misfit_regions:
         lines += [f"Not fitted (model misfit, kept in the fit, not gross errors): {g['text']}.", ""]
     if diag.outlier_lines:
         lines += [f"Outliers left out: file lines {', '.join(map(str, diag.outlier_lines))} of {diag.campaign.source}",
                   ""]
     return out.write_text("report.md", "\n".join(lines))
+
+
+def _image(name: str, drawn: bool) -> list[str]:
+    """The markdown lines of the figure ``name`` (nothing when the figures are not drawn)."""
+    return [f"![{name}]({FIGURES[name]})", ""] if drawn else []

@@ -7,6 +7,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -239,10 +240,11 @@ class Diagnosis:
                      f"({100 * (1 - m / b['heldout_mean_mm']):.1f}% below the base)")
         return "\n".join(lines)
 
-    def write(self, out_dir: str | Path) -> dict[str, Path]:
-        """diagnosis.json, model_base.json, model_best.json, report.md and figures/,
-        committed together (an interruption leaves the previous set)."""
-        from vecpin.diagnosis.report import write_report
+    def write(self, out_dir: str | Path, draw: Callable | None = None) -> dict[str, Path]:
+        """diagnosis.json, model_base.json, model_best.json, report.md and, with ``draw``
+        (:func:`vecpin.viz.diagnosis.draw_diagnosis`: the figures from their data, into the
+        output set), figures/, committed together (an interruption leaves the previous set)."""
+        from vecpin.diagnosis.report import figure_data, write_report
         with OutputSet(out_dir) as out:
             paths = {"diagnosis": out.write_text("diagnosis.json", json.dumps(_strict(self.to_dict()), indent=1,
                                                                              default=float, allow_nan=False))}
@@ -251,7 +253,9 @@ class Diagnosis:
             paths["model_base"], paths["model_best"] = out.final("model_base.json"), out.final("model_best.json")
             for k, e in enumerate(self.to_settle(), 1):
                 paths.update(_write_next(self.machine, e.next_plan, out, f"next_{k}"))
-            paths["report"] = write_report(self, out)
+            if draw is not None:
+                draw(figure_data(self), out)
+            paths["report"] = write_report(self, out, figures=draw is not None)
         self.folder = str(out_dir)
         return paths
 

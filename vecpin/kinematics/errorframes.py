@@ -39,8 +39,9 @@ import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError
+from vecpin.kinematics.axes import Frame, configuration_map, fill_configurations
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
-from vecpin.kinematics.machine import Frame, Machine, configuration_map, fill_configurations
+from vecpin.kinematics.machine import Machine
 from vecpin.kinematics.so3 import exp3_and_right_jacobian, quaternion_xyzw
 
 ERROR_JOINT_SUFFIX = "__error"

@@ -27,13 +27,14 @@ Frames (argument ``frame``): ``"base"`` (what a floor tracker sees) or ``"workpi
 workpiece link and ``"base"`` otherwise; on a machine without a workpiece both are the
 base frame.
 
+Loading (the tree, tool links, workpiece, axes, notes) is :mod:`vecpin.kinematics.loading`'s.
 Kinematics are Pinocchio's: the checked URDF text is loaded into a Pinocchio model
 (:attr:`Machine.model`, ``<mimic>`` joints honoured), and one Pinocchio call per pose
 gives the placements and Jacobians of the tool links and the workpiece
 (:mod:`vecpin.kinematics.batch`); tool lengths, target offsets, the change to the
 workpiece frame and the Jacobian algebra are numpy over all poses at once. Internally
 everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or degrees
-(rotary), see :class:`Axis`.
+(rotary), see :class:`~vecpin.kinematics.axes.Axis`.
 """
 from __future__ import annotations
 
@@ -44,11 +45,13 @@ import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
-from vecpin.kinematics.axes import (  # noqa: F401 (re-exported: callers import them from here)
-    BUNDLED_OPTIONS, ROS_FLANGE_LINKS, SPINDLE_LINK, WORKPIECE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints, bundled_machines, check_cell_names, configuration_map, fill_configurations, parse_tool_axis, _axis_name, _bundled_path, _check_axis_name)
+from vecpin.kinematics.axes import (SPINDLE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints,
+                                    configuration_map, fill_configurations)
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
-from vecpin.kinematics.urdf import MOVABLE, UrdfTree, check_text, read_urdf
+from vecpin.kinematics.loading import bundled_file, machine_parts, urdf_file_text
+from vecpin.kinematics.urdf import UrdfTree
 from vecpin.units import to_mm
+
 
 class Machine:
     """A machine loaded from URDF: axes, tool points, optional workpiece branch.
@@ -65,57 +68,42 @@ class Machine:
         self.urdf_xml = urdf_xml
         self.source = source
         self.urdf_path = urdf_path  # the file it came from, if any
-        tree = read_urdf(urdf_xml, source)  # checks everything before Pinocchio's parser sees it
-        self.tree: UrdfTree = tree
-        self.notes: list[str] = list(tree.notes)
-        self.name: str = tree.name
-        self.tool_links: tuple[str, ...] = check_cell_names(self._resolve_tool_links(tool_link), "tool link", source)
-        self._resolve_tool_axis(tool_axis)
-        self.workpiece_link: str | None = WORKPIECE_LINK if WORKPIECE_LINK in tree.links else None
-        if self.workpiece_link in self.tool_links:
-            raise MachineError(f"{source}: '{WORKPIECE_LINK}' is the table frame, it cannot be a tool link")
-        self.model: pin.Model = self._pinocchio_model()
-        self._build_axes()
+        parts = machine_parts(urdf_xml, source, tool_link, tool_axis)
+        self.tree: UrdfTree = parts.tree
+        self.notes: list[str] = parts.notes
+        self.name: str = parts.tree.name
+        self.tool_links: tuple[str, ...] = parts.tool_links
+        self.tool_axis: np.ndarray = parts.tool_axis
+        self.tool_axis_name: str = parts.tool_axis_name
+        self.workpiece_link: str | None = parts.workpiece_link
+        self.model: pin.Model = parts.model
+        self._mimic_in_model = parts.mimic_in_model
+        self.axes: tuple[Axis, ...] = parts.axes
+        self.mimic_joints: tuple[MimicJoint, ...] = parts.mimic_joints
         self._data = self.model.createData()
         self.spindle_frame_id: int = self.model.getFrameId(self.tool_links[0], pin.FrameType.BODY)
         self._build_kinematics()
 
-    # ------------------------------------------------------------------ loading
+    # ------------------------------------------------------------------ loading (vecpin.kinematics.loading)
     @classmethod
     def load(cls, name_or_path: str | Path, *, tool_link: str | Sequence[str] | None = None,
              tool_axis: str | None = None) -> "Machine":
-        """Load a bundled machine by name (see :func:`bundled_machines`) or a URDF file."""
+        """Load a bundled machine by name (see :func:`~vecpin.kinematics.axes.bundled_machines`) or a URDF file."""
         p = Path(name_or_path)
         if p.suffix.lower() in (".urdf", ".xacro", ".xml") or p.exists():
             return cls.from_urdf_file(p, tool_link=tool_link, tool_axis=tool_axis)
-        bundled = _bundled_path(str(name_or_path))
-        if bundled is None:
-            raise MachineError(
-                f"'{name_or_path}' is neither a URDF file nor a bundled machine "
-                f"(bundled: {', '.join(bundled_machines())})")
-        defaults = BUNDLED_OPTIONS.get(str(name_or_path), {})
-        m = cls.from_urdf_file(bundled, tool_link=tool_link or defaults.get("tool_link"),
-                               tool_axis=tool_axis or defaults.get("tool_axis"))
+        path, tool_link, tool_axis, note = bundled_file(str(name_or_path), tool_link, tool_axis)
+        m = cls.from_urdf_file(path, tool_link=tool_link, tool_axis=tool_axis)
         m.source = str(name_or_path)
-        if tool_link is None and "tool_link" in defaults:
-            m.notes.insert(0, f"tool link '{defaults['tool_link']}': the bundled default for this machine "
-                              "(its URDF has no 'spindle')")
+        if note:
+            m.notes.insert(0, note)
         return m
 
     @classmethod
     def from_urdf_file(cls, path: str | Path, *, tool_link: str | Sequence[str] | None = None,
                        tool_axis: str | None = None) -> "Machine":
         path = Path(path)
-        if path.suffix.lower() == ".xacro":
-            check_text(b"", str(path))  # raises the xacro message
-        if not path.is_file():
-            raise MachineError(f"{path}: no such URDF file")
-        try:
-            data = path.read_bytes()
-        except OSError as exc:
-            raise MachineError(f"{path}: cannot read the file ({exc.strerror})") from None
-        return cls(check_text(data, str(path)), source=str(path), urdf_path=path, tool_link=tool_link,
-                   tool_axis=tool_axis)
+        return cls(urdf_file_text(path), source=str(path), urdf_path=path, tool_link=tool_link, tool_axis=tool_axis)
 
     @classmethod
     def from_urdf_string(cls, xml: str, source: str = "<string>", *, tool_link: str | Sequence[str] | None = None,
@@ -127,65 +115,6 @@ class Machine:
         """The options that reproduce this machine from its URDF (for model files)."""
         return {"tool_link": ",".join(self.tool_links), "tool_axis": self.tool_axis_name}
 
-    def _resolve_tool_links(self, tool_link) -> tuple[str, ...]:
-        tree, source = self.tree, self.source
-        if tool_link is None:
-            names = [SPINDLE_LINK]
-            k = 2
-            while f"{SPINDLE_LINK}_{k}" in tree.links:
-                names.append(f"{SPINDLE_LINK}_{k}")
-                k += 1
-        elif isinstance(tool_link, str):
-            names = [s.strip() for s in tool_link.split(",")]
-        else:
-            names = [str(s).strip() for s in tool_link]
-        if not names or any(not n for n in names):
-            raise InputError(f"`tool_link` '{tool_link}': give a link name (or several, comma-separated)")
-        if len(set(names)) != len(names):
-            raise InputError(f"`tool_link` '{tool_link}': a link is named twice")
-        for n in names:
-            if n not in tree.links:
-                leaves = [lk for lk in tree.leaves() if lk != WORKPIECE_LINK]
-                default = " (the default tool link, on the gauge line)" if tool_link is None else ""
-                raise MachineError(
-                    f"{source}: no link named '{n}'{default}; candidate end links: {', '.join(leaves)}; "
-                    "name the tool link with `tool_link` NAME")
-        return tuple(names)
-
-    def _resolve_tool_axis(self, tool_axis) -> None:
-        link = self.tool_links[0]
-        if tool_axis is None:
-            if link in ROS_FLANGE_LINKS:  # ROS-Industrial: tool0's +z and flange's +x point out of the flange
-                tool_axis = "+x" if link == "flange" else "+z"
-                self.notes.append(f"tool along {tool_axis} of '{link}' (ROS tool-flange convention of ROS-Industrial: "
-                                  f"{tool_axis} out of the flange; `tool_axis` to change)")
-            else:
-                tool_axis = "-z"
-                if not link.startswith(SPINDLE_LINK):
-                    self.notes.append(f"tool along -z of '{link}' (the default; `tool_axis` if it points elsewhere)")
-        self.tool_axis: np.ndarray = parse_tool_axis(tool_axis)
-        self.tool_axis_name: str = _axis_name(self.tool_axis)
-
-    def _pinocchio_model(self) -> pin.Model:
-        """The URDF as a Pinocchio model; ``<mimic>`` joints as Pinocchio mimic joints when
-        Pinocchio can build them, else as ordinary joints that vecpin sets from their source."""
-        self._mimic_in_model = any(j.mimic is not None for j in self.tree.joints.values())
-        try:
-            return pin.buildModelFromXML(self.urdf_xml, mimic=True) if self._mimic_in_model \
-                else pin.buildModelFromXML(self.urdf_xml)
-        except Exception as exc:  # pinocchio raises RuntimeError/ValueError with its own text
-            if not self._mimic_in_model:
-                raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
-            reason = str(exc)
-        self._mimic_in_model = False
-        try:
-            model = pin.buildModelFromXML(self.urdf_xml)
-        except Exception as exc:
-            raise MachineError(f"{self.source}: not a readable URDF ({exc})") from None
-        self.notes.append(f"Pinocchio could not build the <mimic> joints ({reason}); they are ordinary joints "
-                          "of its model that vecpin sets from their source axis (multiplier * source + offset)")
-        return model
-
     def model_without_mimic(self) -> pin.Model:
         """The URDF as a Pinocchio model whose ``<mimic>`` joints are ordinary joints (one
         configuration entry each): the base of :class:`~vecpin.kinematics.errorframes.ErrorFrames`,
@@ -195,63 +124,6 @@ class Machine:
         if self._plain_model is None:
             self._plain_model = pin.buildModelFromXML(self.urdf_xml)
         return self._plain_model
-
-    def _build_axes(self) -> None:
-        """Axes in vecpin's order (with their sides), mimic joints, notes on joints off the branches."""
-        tree, source = self.tree, self.source
-        targets = list(self.tool_links) + ([self.workpiece_link] if self.workpiece_link else [])
-        on_branch: list[str] = []
-        head: set[str] = set()
-        for t in targets:
-            for jn in tree.path(t):
-                if t != self.workpiece_link:
-                    head.add(jn)
-                if jn not in on_branch:
-                    on_branch.append(jn)
-        table = set(tree.path(self.workpiece_link)) if self.workpiece_link else set()
-        for jn in on_branch:
-            j = tree.joints[jn]
-            if j.type == "continuous":
-                raise MachineError(f"{source}: joint '{jn}' is continuous, not a 1-DoF axis with limits "
-                                   "(a URDF 'continuous' joint: declare it 'revolute' with wide limits)")
-            if j.type not in MOVABLE + ("fixed",):
-                raise MachineError(f"{source}: joint '{jn}' is a {j.type} joint; a machine axis is "
-                                   "prismatic or revolute (or fixed)")
-        # axes: independent movable joints in path order; a mimic joint brings in its source axis
-        axis_joints: list[str] = []
-        for jn in on_branch:
-            j = tree.joints[jn]
-            if j.type in MOVABLE:
-                a = jn if j.mimic is None else j.mimic[0]
-                if a not in axis_joints:
-                    axis_joints.append(a)
-                if jn in head:
-                    head.add(a)
-                if jn in table:
-                    table.add(a)
-        if not axis_joints:
-            raise MachineError(f"{source}: no actuated joint between the base and "
-                               f"{' / '.join(repr(t) for t in targets)}")
-        axes = []
-        for k, jn in enumerate(axis_joints):
-            j = tree.joints[jn]
-            _check_axis_name(jn, source)
-            if j.lower is None or j.upper is None or not j.upper > j.lower:
-                raise MachineError(f"{source}: joint '{jn}' needs finite limits with lower < upper "
-                                   f"(<limit lower=\"{j.lower}\" upper=\"{j.upper}\">)")
-            jid = self.model.getJointId(jn) if self.model.existJointName(jn) else -1
-            idx_q = self.model.joints[jid].idx_q if jid >= 0 else -1
-            side = "both" if (jn in head and jn in table) else ("table" if jn in table else "head")
-            axes.append(Axis(jn, "linear" if j.type == "prismatic" else "rotary", float(j.lower), float(j.upper),
-                             tuple(float(v) for v in j.axis), k, idx_q, jid, side))
-        self.axes: tuple[Axis, ...] = tuple(axes)
-        mimics = [MimicJoint(jn, tree.joints[jn].mimic[0], tree.joints[jn].mimic[1], tree.joints[jn].mimic[2])
-                  for jn in on_branch if tree.joints[jn].type in MOVABLE and tree.joints[jn].mimic is not None]
-        self.mimic_joints: tuple[MimicJoint, ...] = tuple(mimics)
-        off_branch = [jn for jn, j in tree.joints.items() if jn not in on_branch + axis_joints and j.type != "fixed"]
-        if off_branch:
-            self.notes.append(f"joints off the tool and workpiece branches are treated as fixed at 0: "
-                              f"{', '.join(off_branch)}")
 
     def _build_kinematics(self) -> None:
         """Probe frames on the tool links and the workpiece, and the maps between vecpin's

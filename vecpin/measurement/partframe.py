@@ -159,8 +159,8 @@ def reference_rotation(machine, q: np.ndarray, tool, nominal: np.ndarray, actual
     nom_lines = mean_lines(machine, q, tool, nominal)
     pair = _line_pair(machine, nom_lines, spindle)
     if pair is None:
-        from vecpin.measurement.registration import register
-        R = register(actual, nominal)[0]
+        from vecpin.measurement.registration import rigid_registration
+        R = rigid_registration(actual, nominal)[0]
         why = ("the table turns" if table_turns(machine) else "several tool points" if len(
             getattr(machine, "tool_links", ())) > 1 else "no two linear axes move square to the spindle")
         return R, f"the mean orientation of the working volume relative to the table, its best-fit rotation ({why})"
@@ -211,8 +211,8 @@ def net_rotation(nominal: np.ndarray, compensated: np.ndarray) -> float:
     rotation of its tips ``compensated`` (N,3) [m], given in the reference frame of the
     machine before compensation, against the ``nominal`` tips of the same commands. Tables
     that keep the machine's frame turn it by no more than what they cannot follow."""
-    from vecpin.measurement.registration import register
-    return rotation_angle(register(np.asarray(compensated, float), np.asarray(nominal, float))[0])
+    from vecpin.measurement.registration import rigid_registration
+    return rotation_angle(rigid_registration(np.asarray(compensated, float), np.asarray(nominal, float))[0])
 
 
 def reference_rotation_changes(machine, q: np.ndarray, tool, nominal: np.ndarray, changes: np.ndarray,
@@ -264,10 +264,10 @@ class RunReference:
     in this run's frame: a turn of the working volume between the runs stays in its figures."""
 
     def __init__(self, machine, q: np.ndarray, tool, nominal: np.ndarray, points: np.ndarray):
-        from vecpin.measurement.registration import register
+        from vecpin.measurement.registration import rigid_registration
         q = np.atleast_2d(np.asarray(q, float))
         tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
-        self.R0, self.t0 = register(nominal, points)
+        self.R0, self.t0 = rigid_registration(nominal, points)
         in_machine = (np.asarray(points, float) - self.t0) @ self.R0
         self.centre = in_machine.mean(axis=0)
         self.R1, self.how = reference_rotation(machine, q, tool, nominal, in_machine)
@@ -280,5 +280,5 @@ class RunReference:
         """The angle [rad] of the best rigid registration of ``points`` (in this run's frame)
         onto ``nominal``, once taken into the reference frame: a few mrad means the tracker was
         moved between the runs (no table turns a volume that far)."""
-        from vecpin.measurement.registration import register
-        return rotation_angle(register(np.asarray(nominal, float), self(points))[0])
+        from vecpin.measurement.registration import rigid_registration
+        return rotation_angle(rigid_registration(np.asarray(nominal, float), self(points))[0])

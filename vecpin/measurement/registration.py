@@ -16,7 +16,8 @@ from vecpin.errors import VecpinError
 from vecpin.units import MM_PER_M
 
 
-def register(p_machine: np.ndarray, p_tracker: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def rigid_registration(p_machine: np.ndarray, p_tracker: np.ndarray,
+                       weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) minimising sum w_i |R p_machine_i + t - p_tracker_i|^2."""
     P = np.asarray(p_machine, float)
     Q = np.asarray(p_tracker, float)
@@ -32,7 +33,7 @@ def register(p_machine: np.ndarray, p_tracker: np.ndarray, weights: np.ndarray |
 
 def kabsch(P: np.ndarray, Q: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(R (G,3,3), t (G,3)) minimising sum_k w_k |R P_gk + t - Q_gk|^2 for each g: P (k,3)
-    or (G,k,3), Q (G,k,3) [m], ``weights`` (k,) (default equal): :func:`register`, many
+    or (G,k,3), Q (G,k,3) [m], ``weights`` (k,) (default equal): :func:`rigid_registration`, many
     at once."""
     P = np.broadcast_to(P, Q.shape)
     w = np.ones(Q.shape[1]) if weights is None else np.asarray(weights, float)
@@ -62,7 +63,7 @@ def rigid_motion_basis(points: np.ndarray) -> np.ndarray:
 def registered_errors(p_machine: np.ndarray, p_tracker: np.ndarray) -> np.ndarray:
     """(N,3) residuals [same unit] of tracker points after the best rigid fit of the
     machine points: the 'uncompensated' volumetric error of the seed's tables."""
-    R, t = register(p_machine, p_tracker)
+    R, t = rigid_registration(p_machine, p_tracker)
     return p_tracker - (p_machine @ R.T + t)
 
 
@@ -111,7 +112,7 @@ def check_registration(p_machine: np.ndarray, p_tracker: np.ndarray, source: str
         if abs(np.log(scale / s)) < 0.05:
             raise CampaignFileError(source, f"the measured points are {scale:.4g} times the size of the commanded "
                                     f"ones: {cause}? Files are mm; fix the units and fit again", column="x")
-    R, t = register(P, Q)
+    R, t = rigid_registration(P, Q)
     res = np.linalg.norm(Q - (P @ R.T + t), axis=1)
     if mirror is not None:
         res_mirror = np.linalg.norm(B - A @ mirror.T, axis=1)

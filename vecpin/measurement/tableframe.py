@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.errors import CampaignFileError
-from vecpin.measurement.registration import kabsch, register, spans_plane
+from vecpin.measurement.registration import kabsch, rigid_registration, spans_plane
 from vecpin.units import MM_PER_M
 
 KEY_DIGITS = 9           # commands equal to 1e-9 m / rad are the same command
@@ -163,7 +163,7 @@ def _shape_error(a: dict, b: dict) -> float:
     if len(ids) < MIN_NESTS:
         return np.inf
     P, Q = np.array([a[i] for i in ids]), np.array([b[i] for i in ids])
-    R, t = register(P, Q)
+    R, t = rigid_registration(P, Q)
     return float(np.linalg.norm(Q - (P @ R.T + t), axis=1).max())
 
 
@@ -235,7 +235,7 @@ def _axis_jitter(machine, campaign, tips: TableTips, axis_sigma: np.ndarray, rng
     for st in np.unique(campaign.station):
         rows = np.flatnonzero((campaign.station == st) & np.isfinite(nominal[:, 0]))
         if len(rows) >= 3 and spans_plane(nominal[rows]):
-            d[rows] = d[rows] @ register(nominal[rows], campaign.xyz[rows])[0].T
+            d[rows] = d[rows] @ rigid_registration(nominal[rows], campaign.xyz[rows])[0].T
     return d
 
 

@@ -22,7 +22,7 @@ from vecpin.identification.crossval import Linearised, command_folds
 from vecpin.models import MODELS, make_model
 from vecpin.selection.design import partly_measured
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.registration import check_campaign_frames, register
+from vecpin.measurement.registration import check_campaign_frames, rigid_registration
 from vecpin.units import MM_PER_M
 
 
@@ -141,7 +141,7 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
     primary = campaign.primary()
     validation = validation.primary() if validation is not None else None
     nominal = machine.tool_tip(campaign.q, campaign.tool, frame="base")
-    R, t = register(nominal[judged], campaign.xyz[judged])
+    R, t = rigid_registration(nominal[judged], campaign.xyz[judged])
     ui = _dist_mm(primary.xyz - (nominal[judged] @ R.T + t))
     if validation is not None:
         uv = _dist_mm(validation.xyz - (machine.tool_tip(validation.q, validation.tool, frame="base") @ R.T + t))
@@ -152,7 +152,7 @@ def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0,
         uv = np.full(len(campaign), np.nan)
         for f in range(folds):
             tr, te = (fold != f) & judged, (fold == f) & judged
-            Rf, tf = register(nominal[tr], campaign.xyz[tr])
+            Rf, tf = rigid_registration(nominal[tr], campaign.xyz[tr])
             uv[te] = _dist_mm(campaign.xyz[te] - (nominal[te] @ Rf.T + tf))
         uv = uv[judged]
         method = "k-fold CV" + (f" (the ends of {', '.join(machine.axes[a].name for a in ends)} held out whole)"

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.functions import (TableProblem, all_table_names, pitch_names, pseudo_commands,
-                                           rich_table_bases, truth_as_actual)
+from vecpin.compensation.functions import (all_table_names, pitch_names, pseudo_commands, rich_table_bases,
+                                           truth_as_actual)
+from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.frame import in_reference_frame, reference_frame
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import table_commands

@@ -20,7 +20,7 @@ from vecpin.workflows.fitting import zone_rows
 
 @dataclass
 class DiagnoseRun:
-    """The diagnosis and the files written (diagnosis.json, the two model files, report.md)."""
+    """The diagnosis and the files written (diagnosis.json, the two model files, report.md; its figures beside it)."""
 
     diagnosis: Diagnosis
     files: list[Path]
@@ -46,6 +46,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
     from vecpin.models.base import ErrorModel
+    from vecpin.viz.diagnosis import draw_diagnosis  # matplotlib: only when a diagnosis is written
     check_output_dir(out, "out")
     effects = _effect_names(effects)
     base_model = None if base is None else ErrorModel.load(base)
@@ -59,7 +60,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     if zone:
         for fitted in (d.base_model, d.best_model):
             fitted.zone_ = dict(zone)
-    return DiagnoseRun(d, [Path(p) for p in d.write(out).values()])
+    return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=draw_diagnosis).values()])
 
 
 def _effect_names(effects: str | Sequence[str]) -> str | list[str]:

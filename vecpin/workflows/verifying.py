@@ -285,10 +285,10 @@ class OnTheModel(RunReference):
 
     def __init__(self, model: ErrorModel, q: np.ndarray, tool, points: np.ndarray):
         from vecpin.compensation.frame import model_as_actual, model_reference_frame
-        from vecpin.measurement.registration import register
+        from vecpin.measurement.registration import rigid_registration
         frame = model_reference_frame(model)
         tips = model_as_actual(model, frame=frame)(np.atleast_2d(q), np.asarray(tool, float), False)[0]
-        self.R0, self.t0 = register(tips, points)
+        self.R0, self.t0 = rigid_registration(tips, points)
         self.centre, self.R1 = np.zeros(3), np.eye(3)
         self.how = f"the model's reference frame ({frame.how}), the uncompensated run registered onto the model"
 
@@ -375,13 +375,13 @@ def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _M
     if table:
         resid = registered_errors(actual(b.q, b.tool, False)[0], m.seen[0].tip)
     else:  # machine frame
-        from vecpin.measurement.registration import register
+        from vecpin.measurement.registration import rigid_registration
         feats = None
         if model.effects:
             from vecpin.measurement.features import Features
             feats = Features.from_campaign(b)
         predicted = model.predict(b.q, b.tool, "machine", features=feats)
-        R, t = register(predicted, b.xyz)     # the run on the model: what is left is what it does not describe
+        R, t = rigid_registration(predicted, b.xyz)  # the run on the model: what is left is what it does not describe
         resid = (b.xyz - t) @ R - predicted
     return before, norm_mm(part_frame_errors(ref, ref + comp + resid, spindle_axis(machine))), (
         f"{model.label()}; compensated: the model's residual on the uncompensated run plus the error its tables "

@@ -4,7 +4,9 @@ is a new module with a registered :class:`~vecpin.measurement.instruments.base.I
 Built in: ``cartesian`` and ``spherical`` tracker readings, ``range`` (multilateration),
 ``nest`` (tracker readings of reflectors in table nests) and ``ballbar``.
 """
-from vecpin.measurement.instruments import ballbar, cartesian, multilateration, nest, spherical  # noqa: F401 (register)
-from vecpin.measurement.instruments.base import REGISTRY, ROW_KINDS, Equations, Instrument, instrument_for, register
+# each module registers its instrument
+from vecpin.measurement.instruments import ballbar, cartesian, multilateration, nest, spherical  # noqa: F401
+from vecpin.measurement.instruments.base import (REGISTRY, ROW_KINDS, Equations, Instrument, instrument_for,
+                                               register_instrument)
 
-__all__ = ["REGISTRY", "ROW_KINDS", "Equations", "Instrument", "instrument_for", "register"]
+__all__ = ["REGISTRY", "ROW_KINDS", "Equations", "Instrument", "instrument_for", "register_instrument"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.measurement.instruments.base import Equations, Instrument, register
+from vecpin.measurement.instruments.base import Equations, Instrument, register_instrument
 
 PIVOT_PRIOR = 1e-2  # m
 
@@ -15,7 +15,7 @@ def sphere_centre(p: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(A, np.sum(p * p, axis=1), rcond=None)[0][:3]
 
 
-@register
+@register_instrument
 class BallBar(Instrument):
     name = "ballbar"
     row_kind = "ballbar"

@@ -20,7 +20,7 @@ the unknowns of that point (target offsets, nest positions) named after its own.
 The likelihood (:mod:`vecpin.identification.likelihood`) asks the model for those
 points, adds the machine's own positioning noise, whitens and stacks the equations.
 To add an instrument, write one module with a subclass of :class:`Instrument` and
-decorate it with :func:`register`.
+decorate it with :func:`register_instrument`.
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ REGISTRY: dict[str, type["Instrument"]] = {}
 ROW_KINDS: dict[str, list[str]] = {}  # campaign 'instrument' column value -> instrument names
 
 
-def register(cls: type["Instrument"]) -> type["Instrument"]:
+def register_instrument(cls: type["Instrument"]) -> type["Instrument"]:
     """Make an instrument available by its ``name`` (decorator)."""
     REGISTRY[cls.name] = cls
     ROW_KINDS.setdefault(cls.row_kind, []).append(cls.name)

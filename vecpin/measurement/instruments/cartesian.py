@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.measurement.instruments.base import register
+from vecpin.measurement.instruments.base import register_instrument
 from vecpin.measurement.instruments.tracker import TrackerInstrument
 
 
-@register
+@register_instrument
 class CartesianTracker(TrackerInstrument):
     name = "cartesian"
     n_equations = 3

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.errors import InputError
-from vecpin.measurement.instruments.base import register
+from vecpin.measurement.instruments.base import register_instrument
 from vecpin.measurement.instruments.tracker import TrackerInstrument
 
 MIN_STATIONS = 4  # ranges alone fix a point and the tracker positions only from four or more positions
@@ -24,7 +24,7 @@ def check_stations(campaign, option: str = "`multilateration`") -> None:
                          "campaign without `multilateration` (spherical noise, or `cartesian`)")
 
 
-@register
+@register_instrument
 class RangeOnly(TrackerInstrument):
     name = "range"
     n_equations = 1

@@ -9,12 +9,12 @@ Cartesian, spherical or range) of a workpiece point instead of the tool tip.
 """
 from __future__ import annotations
 
-from vecpin.measurement.instruments.base import REGISTRY, register
+from vecpin.measurement.instruments.base import REGISTRY, register_instrument
 from vecpin.measurement.instruments.points import nest_request
 from vecpin.measurement.instruments.tracker import TrackerInstrument
 
 
-@register
+@register_instrument
 class NestTracker(TrackerInstrument):
     name = "nest"
     row_kind = "nest"

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.errors import IdentifiabilityError
-from vecpin.measurement.registration import register as rigid_registration
+from vecpin.measurement.registration import rigid_registration
 from vecpin.measurement.setup import Setup
 
 POINT_PRIOR = 1e-2  # m: prior on the correction of a target offset or nest position from its starting value

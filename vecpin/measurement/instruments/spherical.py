@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.measurement.instruments.base import register
+from vecpin.measurement.instruments.base import register_instrument
 from vecpin.measurement.instruments.tracker import TrackerInstrument
 from vecpin.measurement.tracker import cartesian_to_spherical, spherical_jacobian, wrap_angle
 
 
-@register
+@register_instrument
 class SphericalTracker(TrackerInstrument):
     name = "spherical"
     n_equations = 3

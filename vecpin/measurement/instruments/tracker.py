@@ -12,7 +12,7 @@ import numpy as np
 
 from vecpin.errors import IdentifiabilityError, VecpinError
 from vecpin.measurement.instruments.base import Equations, Instrument
-from vecpin.measurement.registration import register as rigid_registration
+from vecpin.measurement.registration import rigid_registration
 from vecpin.measurement.setup import POSE_NAMES, station_reading
 
 E0_NAMES = tuple(f"E0.{c}" for c in POSE_NAMES)

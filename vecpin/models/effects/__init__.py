@@ -18,7 +18,7 @@ from vecpin.models.effects import (backlash, coupled_axes, gantry_skew, instrume
                                    rotary_periodic, thermal)
 from vecpin.models.effects.backlash import Backlash
 from vecpin.models.effects.base import (REGISTRY, Effect, Key, TipContext, Visited, effect_from_dict,
-                                        effect_names, effects_help, parse_effect, register)
+                                        effect_names, effects_help, parse_effect, register_effect)
 from vecpin.models.effects.coupled_axes import CoupledAxes
 from vecpin.models.effects.gantry_skew import GantrySkew
 from vecpin.models.effects.instrument_shift import InstrumentShift
@@ -27,5 +27,5 @@ from vecpin.models.effects.rotary_periodic import RotaryPeriodic
 from vecpin.models.effects.thermal import Thermal
 
 __all__ = ["REGISTRY", "Effect", "Key", "TipContext", "Visited", "effect_from_dict", "effect_names", "effects_help",
-           "parse_effect", "register", "Backlash", "CoupledAxes", "GantrySkew", "InstrumentShift", "Outliers",
+           "parse_effect", "register_effect", "Backlash", "CoupledAxes", "GantrySkew", "InstrumentShift", "Outliers",
            "RotaryPeriodic", "Thermal"]

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.models.effects.base import Effect, register, tip_unit
+from vecpin.models.effects.base import Effect, register_effect, tip_unit
 
 
-@register
+@register_effect
 class Backlash(Effect):
     """``dq_k = beta * d_k`` with d the sign of axis k's last move (row order).
 

@@ -17,7 +17,7 @@ keys a user may set for that simulation (:class:`Key`, with units and defaults);
 turns fitted parameters into advice (:meth:`Effect.advice`).
 
 To add an effect: write one module with a subclass of :class:`Effect` decorated with
-:func:`register` (see ARCHITECTURE.md); it is then a candidate of the diagnosis, a
+:func:`register_effect` (see ARCHITECTURE.md); it is then a candidate of the diagnosis, a
 simulated effect of ``vecpin simulate`` and listed by :func:`effects_help`.
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ from vecpin.models.parameters import Parameter
 REGISTRY: dict[str, type["Effect"]] = {}
 
 
-def register(cls: type["Effect"]) -> type["Effect"]:
+def register_effect(cls: type["Effect"]) -> type["Effect"]:
     """Make an effect class available everywhere by its ``name`` (decorator)."""
     REGISTRY[cls.name] = cls
     return cls

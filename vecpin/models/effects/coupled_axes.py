@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.models.basis import normalise
-from vecpin.models.effects.base import Effect, axis_chebyshev, in_every_output, register, tip_unit
+from vecpin.models.effects.base import Effect, axis_chebyshev, in_every_output, register_effect, tip_unit
 
 
-@register
+@register_effect
 class CoupledAxes(Effect):
     """``dq_o = sum_{a,b=1..m} c_oab T_a(u_i) T_b(u_j)`` for every output o.
 

@@ -6,10 +6,10 @@ import numpy as np
 
 from vecpin.kinematics.so3 import exp3, skew
 from vecpin.models.basis import normalise
-from vecpin.models.effects.base import Effect, Key, axis_chebyshev, register
+from vecpin.models.effects.base import Effect, Key, axis_chebyshev, register_effect
 
 
-@register
+@register_effect
 class GantrySkew(Effect):
     """Rotation after axis ``axes[0]`` about its frame axis ``about`` (x, y or z) by
     ``theta(q) = sum_k sum_j a_kj T_j(u_k)`` over the other axes k (seed eq. 23-24).

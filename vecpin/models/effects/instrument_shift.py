@@ -12,11 +12,11 @@ import numpy as np
 
 from vecpin.errors import VecpinError
 from vecpin.kinematics.so3 import exp3, skew
-from vecpin.models.effects.base import Effect, Key, register
+from vecpin.models.effects.base import Effect, Key, register_effect
 from vecpin.units import MM_PER_M
 
 
-@register
+@register_effect
 class InstrumentShift(Effect):
     """A rigid step of the tracker of station ``station`` from time ``t0`` on:
     ``dy = delta + eps x y`` in that station's frame, on its rows only.

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.models.effects.base import Effect, Key, register
+from vecpin.models.effects.base import Effect, Key, register_effect
 from vecpin.units import M_PER_MM
 
 
-@register
+@register_effect
 class Outliers(Effect):
     """No model term: the diagnosis flags the rows and leaves them out.
 

@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 
-from vecpin.models.effects.base import Effect, in_every_output, register, tip_unit
+from vecpin.models.effects.base import Effect, in_every_output, register_effect, tip_unit
 
 
-@register
+@register_effect
 class RotaryPeriodic(Effect):
     """Harmonics ``h_min..h_max`` of a rotary axis' angle in every command.
 

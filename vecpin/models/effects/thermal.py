@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.models.effects.base import Effect, Key, register
+from vecpin.models.effects.base import Effect, Key, register_effect
 
 LAGS_H = (0.0, 0.5, 1.0, 2.0, 4.0)  # first-order lags [h] the diagnosis tries (0: the air temperature itself)
 
@@ -28,7 +28,7 @@ def lagged(time_s: np.ndarray, x: np.ndarray, lag_h: float) -> np.ndarray:
     return y
 
 
-@register
+@register_effect
 class Thermal(Effect):
     """Scale of every linear axis and spindle growth along the tool, proportional to the
     temperature change from ``t_ref`` (``driver="temperature"``) or to the hours elapsed

@@ -1,0 +1,85 @@
+"""The figures of a diagnosis report (matplotlib): where the residual lies (the
+breakdowns), which effects shrink it, the held-out residual of every row.
+
+Drawn from plain data (:class:`~vecpin.diagnosis.report.DiagnosisFigures`, made by
+:func:`vecpin.diagnosis.report.figure_data`); the report's text is
+:mod:`vecpin.diagnosis.report`'s, which names the files written here.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
+
+from vecpin.diagnosis.report import FIGURES, DiagnosisFigures  # noqa: E402
+from vecpin.units import MM_PER_M  # noqa: E402
+
+
+def _breakdown_figure(ax, b: dict) -> None:
+    bins = b["bins"]
+    x = [(e["from"] + e["to"]) / 2 for e in bins] if "from" in bins[0] else [e["value"] for e in bins]
+    mean = np.array([e["mean_mm"] for e in bins]) * MM_PER_M          # mm -> µm
+    vec = np.array([e["mean_vector_mm"] for e in bins]) * MM_PER_M
+    ax.plot(x, mean, "ko-", label="|residual| mean")
+    for k, (c, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
+        ax.plot(x, vec[:, k], "s--", color=col, ms=3, lw=1, label=f"mean {c}")
+    ax.axhline(0, color="0.7", lw=0.8)
+    title = b["coordinate"] + (f" - structured (p = {b['p']:.0e})" if b["structured"] else "")
+    ax.set_title(title, fontsize=9, color="tab:red" if b["structured"] else "black")
+    ax.set_xlabel(f"{b['coordinate']} [{b['unit']}]" if b["unit"] else b["coordinate"], fontsize=8)
+    ax.set_ylabel("held-out residual [µm]", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.xaxis.set_major_locator(MaxNLocator(5))  # a few ticks: each one is an object matplotlib builds and draws
+    ax.yaxis.set_major_locator(MaxNLocator(4))
+
+
+def _margins(fig, left: float, right: float, bottom: float, top: float, wspace: float = 0.2,
+             hspace: float = 0.2) -> None:
+    """Fixed margins in inches (a layout engine would draw the figure twice to find them)."""
+    w, h = fig.get_size_inches()
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h, wspace=wspace,
+                        hspace=hspace)
+
+
+def draw_diagnosis(data: DiagnosisFigures, out) -> dict[str, Path]:
+    """The report's figures into ``out`` (a :class:`vecpin.fileio.OutputSet`), under the
+    names :data:`vecpin.diagnosis.report.FIGURES` gives; returns where each lands."""
+    keys = list(data.breakdowns)
+    ncol = 4
+    nrow = (len(keys) + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4 * ncol, 3 * nrow), squeeze=False)
+    for ax, k in zip(axes.ravel(), keys):
+        _breakdown_figure(ax, data.breakdowns[k])
+    for ax in axes.ravel()[len(keys):]:
+        ax.axis("off")
+    axes[0, 0].legend(fontsize=6)
+    fig.suptitle("Where the residual lies: held-out residuals of the base model (µm)", fontsize=11)
+    _margins(fig, 0.6, 0.2, 0.5, 0.8, wspace=0.3, hspace=0.45)
+    fig.savefig(out.path(FIGURES["breakdowns"]), dpi=90)
+    plt.close(fig)
+    eff = data.effects
+    fig, ax = plt.subplots(figsize=(8, 0.35 * max(len(eff), 1) + 1.2))
+    y = np.arange(len(eff))[::-1]
+    ax.barh(y, [e.shrink_pct for e in eff],
+            color=["tab:green" if e.accepted else ("tab:olive" if e.significant else "0.7") for e in eff])
+    ax.set_yticks(y, [e.label for e in eff], fontsize=7)
+    ax.set_xlabel("held-out mean residual shrink [%] (green: accepted; olive: significant, not taken)")
+    ax.axvline(0, color="k", lw=0.8)
+    _margins(fig, 0.3 + 0.065 * max([len(e.label) for e in eff] + [10]), 0.2, 0.5, 0.15)  # 7 pt labels
+    fig.savefig(out.path(FIGURES["effects"]), dpi=90)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(8, 3))
+    ax.plot(np.arange(len(data.heldout_mm)), data.heldout_mm, ".", ms=3)
+    if data.outliers:
+        ax.set_title(f"{data.outliers} outlier rows left out (not shown)", fontsize=9)
+    ax.set_xlabel("row (measurement order)")
+    ax.set_ylabel("held-out |residual| [mm]")
+    _margins(fig, 0.8, 0.2, 0.55, 0.35)
+    fig.savefig(out.path(FIGURES["rows"]), dpi=90)
+    plt.close(fig)
+    return {k: out.final(v) for k, v in FIGURES.items()}
