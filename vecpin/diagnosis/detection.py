@@ -156,7 +156,7 @@ class Sight:
             out.append({"effect": name, "detectable_rms_um": _um(best.rms_mm), "candidate": best.label,
                         "hardest_rms_um": _um(worst.rms_mm), "hardest_candidate": worst.label,
                         "limited_by": best.limited_by, "sizes_um": {k: _um(v) for k, v in best.by.items()},
-                        "candidates": len(mine), "rows": int(len(self.lin.r)),
+                        "candidates": len(mine), "per_candidate_um": {x.label: _um(x.rms_mm) for x in mine}, "rows": int(len(self.lin.r)),
                         "power": POWER, "p_threshold": self.threshold})
         return sorted(out, key=lambda d: math.inf if d["detectable_rms_um"] is None else d["detectable_rms_um"])
 
