@@ -14,6 +14,14 @@ from matplotlib.ticker import MaxNLocator  # noqa: E402
 from vecpin.units import MM_PER_M  # noqa: E402
 
 
+WHICH = ("An effect is *significant* when the F-test within the fit and the paired test on held-out rows both pass "
+         "their Bonferroni threshold and it shrinks the held-out mean enough; the most economical significant effect "
+         "of each round is *accepted* into the model. Every other effect is judged given the accepted ones (its "
+         "figures below are with them in the model; diagnosis.json keeps its figures before them).")
+SIZE = ("*Size*: how much the effect, fitted beside the model, moves its prediction of the measured points, RMS over "
+        "the rows (an estimate: the part of the effect the model does not already hold).")
+
+
 def _breakdown_figure(ax, b: dict) -> None:
     bins = b["bins"]
     x = [(e["from"] + e["to"]) / 2 for e in bins] if "from" in bins[0] else [e["value"] for e in bins]
@@ -126,14 +134,7 @@ def write_report(diag, out) -> Path:
              f"max {b['heldout_max_mm']:.4f} mm; chi2/expected {b['chi2_per_expected']:.2f}.", ""]
     if diag.base_finding:
         lines += [diag.base_finding, ""]
-    lines += ["## Which effect", "",
-              "An effect is *significant* when the F-test within the fit and the paired test on held-out rows both "
-              "pass their Bonferroni threshold and it shrinks the held-out mean enough; the most economical "
-              "significant effect of each round is *accepted* into the model. Every other effect is judged given the "
-              "accepted ones (its figures below are with them in the model; diagnosis.json keeps its figures before "
-              "them).", "",
-              "*Size*: how much the effect, fitted beside the model, moves its prediction of the measured points, "
-              "RMS over the rows (an estimate: the part of the effect the model does not already hold).", "",
+    lines += ["## Which effect", "", WHICH, "", SIZE, "",
               "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | size (mm) "
               "| p (fit) | p (held-out) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for k, e in enumerate(diag.effects, 1):
