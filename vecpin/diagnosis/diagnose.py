@@ -26,6 +26,9 @@ causes it, how far it shrinks once the effect is added, and what to do.
    breakdowns the effect explains (structured before, not after); breakdowns left
    structured at the end are reported as unexplained.
 5. **What to do.** Each accepted effect turns its fitted numbers into advice.
+6. **Given the accepted.** Every other candidate is scored again with the accepted effects in
+   the model (significant means: given them), and each family's detection size is stated
+   (:mod:`.detection`): what this campaign would have named.
 
 Every row is judged with its own likelihood (tracker points from any station, nests,
 tool targets, ranges, ball bar radii: :mod:`vecpin.identification.likelihood`).

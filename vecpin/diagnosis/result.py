@@ -112,7 +112,8 @@ class EffectScore:
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
                     "chi2_gap": self.next_plan.chi2_gap, "outcome": self.next_plan.outcome(),
-                    "files": dict(self.next_plan.files)}}
+                    "files": dict(self.next_plan.files),
+                    "beyond_the_measured_range": {k: list(v) for k, v in self.next_plan.beyond.items()}}}
 
 
 @dataclass
@@ -197,7 +198,9 @@ class Diagnosis:
                    + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
-                 f"{at}next_{k}/ right after the campaign and diagnose again with them appended."
+                 f"{at}next_{k}/ right after the campaign and diagnose again with them appended"
+                 + (f" (they go beyond the measured range, {e.next_plan.beyond_text()}: nothing inside it tells them "
+                    "apart, and the predictions there are extrapolations)" if e.next_plan.beyond else "") + "."
                  for k, e in enumerate(self.to_settle(), 1)]
         todo = [t if t.endswith(".") else t + "." for t in todo]
         s3 = "What to do: " + (" ".join(todo) if todo else "compensate with the tables of the base model "
