@@ -60,14 +60,14 @@ def test_the_mean_distance_of_a_displaced_gaussian(rng):
     assert mean_distance(np.zeros(1), 2.0)[0] == pytest.approx(2 * math.sqrt(8 / math.pi))
 
 
-@pytest.mark.slow   # five small diagnoses (~6 s)
+@pytest.mark.slow   # five small diagnoses (~4 s)
 def test_a_harmonic_at_twice_the_stated_size_is_named_at_half_not(flow):
-    """A per-turn harmonic of C on flow_xyzcb (80 commands): the clean campaign's
+    """A per-turn harmonic of C on flow_xyzcb (60 commands): the clean campaign's
     diagnosis states the size it would detect; the same commands with the harmonic at
     twice that size name it (two seeds), at half of it do not (two seeds). The base model
     is the clean one's, so the harmonic is judged against the model that stated the size."""
     fams = ["rotary_periodic"]
-    design = Design(n_commands=80, n_validation=3)
+    design = Design(n_commands=60, n_validation=3)
     clean = simulate(flow, seed=0, design=design)
     d = diagnose(flow, clean.campaign, effects=fams, model="6dof", basis="chebyshev", order=4)
     fam = {f["effect"]: f for f in d.detection}["rotary_periodic"]

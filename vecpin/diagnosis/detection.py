@@ -111,6 +111,16 @@ class Sight:
         left = np.einsum("niq,niq->n", E, E) / max(tr_b, 1e-300)
         return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left
 
+    def from_round(self, judged: list, base: FoldedProblem) -> list:
+        """Every candidate of a scoring round already run against this model (``judged``:
+        [(score, evaluation, columns)], ``base`` its folded problem) kept and settled at its
+        threshold; returns ``judged``."""
+        self.base = base
+        for sc, _, cols in judged:
+            self.add(sc.effect, cols)
+        self.settle(judged[0][0].threshold)
+        return judged
+
     def settle(self, threshold: float) -> None:
         """Every kept candidate's :class:`Sighting` at the round's ``threshold``."""
         self.threshold = threshold

@@ -26,9 +26,8 @@ causes it, how far it shrinks once the effect is added, and what to do.
    breakdowns the effect explains (structured before, not after); breakdowns left
    structured at the end are reported as unexplained.
 5. **What to do.** Each accepted effect turns its fitted numbers into advice.
-6. **Given the accepted.** Every other candidate is scored again with the accepted effects in
-   the model (significant means: given them), and each family's detection size is stated
-   (:mod:`.detection`): what this campaign would have named.
+6. **Given the accepted.** Every other candidate is judged with the accepted effects in the
+   model (significant: given them); each family's detection size is stated (:mod:`.detection`).
 
 Every row is judged with its own likelihood (tracker points from any station, nests,
 tool targets, ranges, ball bar radii: :mod:`vecpin.identification.likelihood`).
@@ -161,6 +160,7 @@ class _State:
     changes: ProgramChanges | None = None  # the program's changes on the rows fitted (:mod:`.structure`)
     candidates: list = field(default_factory=list)   # every candidate effect the search started from
     detection: list = field(default_factory=list)    # per family what the final model's campaign would detect
+    last: tuple | None = None   # the forward search's last round (judged, folded problem, the model it scored against)
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -367,6 +367,7 @@ def _forward(pb: _Problem, st: _State) -> None:
         judged, best, base = _score_round(pb, st, remaining, rnd)
         st.scores += [sc for sc, _, _ in judged] if rnd == 1 else []
         if best is None:
+            st.last = (judged, base, st.cur_model)   # scored given every accepted effect: reused if the model stays
             break  # the first round without a significant gain ends the search
         sc = best[0]
         sc.accepted = True
@@ -430,21 +431,22 @@ def _backward(pb: _Problem, st: _State) -> None:
 
 
 def _given_accepted(pb: _Problem, st: _State) -> None:
-    """Every candidate not accepted scored again with the accepted effects in the final
-    model (one meaning of significant: given them, :func:`.scoring.adopt_given`), and per
-    family the size this campaign would detect given them (:mod:`.detection`)."""
+    """Every candidate not accepted judged with the accepted effects in the final model (significant: given
+    them, :func:`.scoring.adopt_given`); per family the size this campaign would detect (:mod:`.detection`)."""
     names = [a.label for a in st.accepted]
     remaining = [c for c in st.candidates if c.label not in names
                  and not (c.scanned and any(type(a) is type(c) for a in st.accepted))]
     if not remaining:
         return
-    pb.say(f"what this campaign could have seen: {len(remaining)} candidates scored "
-           + ("given " + ", ".join(names) if names else "against the base model"))
-    held = distances_mm(st.cur_lin, st.cur_eval["heldout"])
-    sight = sight_of(st.cur_lin, st.cur_eval, held, pb.min_shrink_pct, pb.folds)
-    judged = _score_round(pb, st, remaining, 0, sight)[0]
+    sight = sight_of(st.cur_lin, st.cur_eval, distances_mm(st.cur_lin, st.cur_eval["heldout"]), pb.min_shrink_pct,
+                     pb.folds)
+    if st.last and st.last[2] is st.cur_model and st.last[0]:   # the last round scored this model: its figures
+        judged = sight.from_round(*st.last[:2])
+    else:
+        pb.say(f"what this campaign could have seen: {len(remaining)} candidates scored given {names or 'none'}")
+        judged = _score_round(pb, st, remaining, 0, sight)[0]
     if names:
-        adopt_given(st.scores, judged, names)
+        adopt_given(st.scores, judged, names, {x for s in st.scores if s.accepted for x in s.alternatives})
     st.detection = sight.families()
 
 

@@ -288,12 +288,13 @@ ADOPTED = ("delta_chi2", "f_statistic", "p_value", "threshold", "heldout_mean_mm
            "base_share", "alike_base", "worse_beyond")
 
 
-def adopt_given(scores: list, judged: list, given: list[str]) -> None:
+def adopt_given(scores: list, judged: list, given: list[str], grouped: set[str] = frozenset()) -> None:
     """Every score not accepted takes its figures from ``judged`` (the candidates scored
     again with the accepted effects, labelled ``given``, in the model): one meaning of
     significant. The first round's figures stay as ``before_accepted``; a scanned family
     is matched by kind (its best instance may move), a candidate whose family is in the
-    model is not significant."""
+    model, or that is named with an accepted one (``grouped``: its ambiguity group), is
+    not significant given them."""
     new = {sc.label: sc for sc, _, _ in judged}
     by_kind = {type(sc.effect): sc for sc, _, _ in judged if sc.effect is not None and sc.effect.scanned}
     for s in scores:
@@ -307,7 +308,9 @@ def adopt_given(scores: list, judged: list, given: list[str]) -> None:
         n = new.get(s.label) or (by_kind.get(type(s.effect)) if s.effect.scanned else None)
         if n is None:
             s.significant = s.small = s.alike_base = s.worse_beyond = False
-            s.evidence = "; ".join(x for x in (s.evidence, "its family is in the model") if x)
+            why = "named with the accepted effect it stands in for (one finding)" if s.label in grouped else \
+                "its family is in the model"
+            s.evidence = "; ".join(x for x in (s.evidence, why) if x)
             continue
         for name in ADOPTED:
             setattr(s, name, getattr(n, name))
