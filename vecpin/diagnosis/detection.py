@@ -93,8 +93,10 @@ class Sight:
     _pending: list = field(default_factory=list)
 
     def add(self, effect, cols: tuple) -> None:
-        """Keep a candidate's columns' figures (A_e, J_e) until the round's threshold is known."""
-        self._pending.append((effect, self._shape(cols)))
+        """Keep a candidate's columns' figures (A_e, J_e) until the round's threshold is known
+        (none without rows that measure a point: a size at the tool tip needs them)."""
+        if self.lin.point_rows.any():
+            self._pending.append((effect, self._shape(cols)))
 
     def _shape(self, cols: tuple) -> tuple[int, float, np.ndarray]:
         """(k, tr(B)/tr(Q) [m² per unit λ σ²], per point row the mean |move the model leaves|² per unit tr(B))."""
@@ -118,7 +120,8 @@ class Sight:
         self.base = base
         for sc, _, cols in judged:
             self.add(sc.effect, cols)
-        self.settle(judged[0][0].threshold)
+        if judged:
+            self.settle(judged[0][0].threshold)
         return judged
 
     def settle(self, threshold: float) -> None:
