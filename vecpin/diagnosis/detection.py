@@ -17,10 +17,12 @@ detected with probability :data:`POWER` at the test's threshold solves the non-c
 for λ. An effect must also pass the paired test on held-out distances and take
 ``min_shrink_pct`` off their mean: per point row the noise (σ per coordinate, from the
 model's held-out distances), the move a_i the model's terms leave and the spread of the
-effect's own estimate out of fold (k σ² f / (f - 1) over the rows, f folds) give the
+effect's own estimate out of fold (f folds) give the
 expected distances (:func:`mean_distance`, a 3-D Gaussian displaced) and the gain's
-spread (|a_i|² plus that estimate's, over 3: its projection on the noise). The largest
-of the three sizes is the one this campaign would detect.
+spread (|a_i|² plus that estimate's, over 3: its projection on the noise). The effect's
+estimate spreads at a row by E_i S^-1 E_i^T (E_i its move there less what the model's
+terms give back, S = Q + I its projected Gram with its prior), times f / (f - 1) out of
+fold. The largest of the three sizes is the one this campaign would detect.
 """
 from __future__ import annotations
 
@@ -70,6 +72,7 @@ class Sighting:
     label: str
     rms_mm: float
     by: dict
+    left_share: float = 1.0   # RMS of the move the model's terms leave over the effect's RMS (shaped as its prior)
 
     @property
     def limited_by(self) -> str:
@@ -98,20 +101,24 @@ class Sight:
         if self.lin.point_rows.any():
             self._pending.append((effect, self._shape(cols)))
 
-    def _shape(self, cols: tuple) -> tuple[int, float, np.ndarray]:
-        """(k, tr(B)/tr(Q) [m² per unit λ σ²], per point row the mean |move the model leaves|² per unit tr(B))."""
+    def _shape(self, cols: tuple) -> tuple[int, float, np.ndarray, np.ndarray]:
+        """(k, tr(B)/tr(Q) [m² per unit λ σ²], per point row the mean |move the model leaves|² per unit tr(B),
+        per point row the variance [m² per unit whitened variance] of the effect's fitted move, from all rows)."""
         A1, J1 = cols
         Q = J1.shape[-1]
         b = J1.reshape(-1, Q)
         M, _ = self.base.full_inverse()
         C = self.base.J.reshape(-1, self.base.n_columns).T @ b
-        proj = float(np.trace(b.T @ b) - np.einsum("pq,pq->", C, M @ C))
+        MC = M @ C
+        gram = b.T @ b - C.T @ MC       # what the model's terms leave of the effect's columns (whitened)
+        proj = float(np.trace(gram))
         pts = self.lin.point_rows
         A1p = A1[pts]
         tr_b = float(np.einsum("niq,niq->", A1p, A1p)) / max(int(pts.sum()), 1)
-        E = A1p - self.base.A[pts] @ (M @ C)          # the move the model's terms leave, per unit ψ
+        E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
         left = np.einsum("niq,niq->n", E, E) / max(tr_b, 1e-300)
-        return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left
+        spread = np.einsum("niq,qr,nir->n", E, np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
+        return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left, spread
 
     def from_round(self, judged: list, base: FoldedProblem) -> list:
         """Every candidate of a scoring round already run against this model (``judged``:
@@ -129,23 +136,25 @@ class Sight:
         self.threshold = threshold
         sigma = float(np.mean(self.held_mm)) / math.sqrt(8 / math.pi) if self.held_mm.size else 0.0
         lams: dict[int, float] = {}
-        for effect, (k, ratio, left) in self._pending:
+        for effect, (k, ratio, left, spread) in self._pending:
             if k not in lams:
                 lams[k] = detectable_noncentrality(k, self.dof, threshold)
             by = {"the F-test": math.sqrt(lams[k] * self.sigma2 * ratio) * MM_PER_M if math.isfinite(ratio)
                   else math.inf}
-            by.update(self._held_out(left, sigma, k))
-            self.found.append(Sighting(effect.name, effect.label, max(by.values()), by))
+            by.update(self._held_out(left, spread * self.sigma2 * MM_PER_M ** 2, sigma))
+            share = math.sqrt(float(np.mean(left)))
+            self.found.append(Sighting(effect.name, effect.label, max(by.values()), by, share))
         self._pending = []
 
-    def _held_out(self, left: np.ndarray, sigma: float, k: int) -> dict:
+    def _held_out(self, left: np.ndarray, spread: np.ndarray, sigma: float) -> dict:
         """The RMS [mm] at which the paired held-out test passes with probability
         :data:`POWER`, and at which the held-out mean shrinks by ``min_shrink_pct`` (module
-        docstring; each point row's noise σ [mm] per coordinate)."""
+        docstring; each point row's noise σ [mm] per coordinate, ``spread`` [mm²] the
+        variance of the effect's fitted move there, estimated from every row)."""
         n = left.size
         if sigma <= 0 or n < 2 or not np.any(left > 0):
             return {}
-        h = np.full(n, sigma ** 2 * k * self.folds / max(self.folds - 1, 1) / n)   # the estimate's spread per row
+        h = spread * self.folds / max(self.folds - 1, 1)   # estimated out of fold: from (f - 1) / f of the rows
         m_after = mean_distance(np.sqrt(h), sigma)
         need = float(stats.t.isf(self.threshold, n - 1) + stats.norm.ppf(POWER))
         shrink = 1 - self.min_shrink_pct / 100
@@ -167,15 +176,17 @@ class Sight:
             mine = sorted((s for s in self.found if s.name == name), key=lambda s: s.rms_mm)
             best, worst = mine[0], mine[-1]
             out.append({"effect": name, "detectable_rms_um": _um(best.rms_mm), "candidate": best.label,
+                        "detectable_unmodelled_rms_um": _um(best.rms_mm * best.left_share),
                         "hardest_rms_um": _um(worst.rms_mm), "hardest_candidate": worst.label,
                         "limited_by": best.limited_by, "sizes_um": {k: _um(v) for k, v in best.by.items()},
-                        "candidates": len(mine), "per_candidate_um": {x.label: _um(x.rms_mm) for x in mine}, "rows": int(len(self.lin.r)),
+                        "candidates": len(mine), "per_candidate_um": {x.label: _um(x.rms_mm) for x in mine},
+                        "rows": int(len(self.lin.r)),
                         "power": POWER, "p_threshold": self.threshold})
         return sorted(out, key=lambda d: math.inf if d["detectable_rms_um"] is None else d["detectable_rms_um"])
 
 
 def _root(short, scale: float) -> float:
-    """The smallest size [scale's unit] where ``short`` (increasing) reaches 0; inf when no size up to 1e6 x scale does."""
+    """The smallest size [scale's unit] where ``short`` (increasing) reaches 0; inf when none up to 1e6 x scale does."""
     if short(0.0) >= 0:
         return 0.0
     hi = scale

@@ -240,8 +240,8 @@ class Diagnosis:
                          f"{'yes' if e.accepted else 'no':>8s} {e.heldout_mean_mm_before:8.4f} "
                          f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.size_text:>8s} {e.p_value:9.2e} "
                          f"{e.p_heldout:9.2e}")
-        lines += [f"could have seen: {f['effect']} from {um_text(f['detectable_rms_um'])} ({f['candidate']}; limited by "
-                  f"{f['limited_by']})" for f in self.detection]
+        lines += [f"could have seen: {f['effect']} from {um_text(f['detectable_rms_um'])} ({f['candidate']}; "
+                  f"limited by {f['limited_by']})" for f in self.detection]
         for e in self.accepted:
             lines.append(f"accepted: {e.headword}: {e.evidence}")
             lines += [f"  advice: {a}" for a in e.advice]
