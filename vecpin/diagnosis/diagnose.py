@@ -46,16 +46,16 @@ import numpy as np
 
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
+from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.nextplan import next_measurements
 from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
-from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, candidate_effects, distances_mm,
                                       effect_columns, fitted, needed_given, on_ends, pattern_cosine, score, size_mm,
                                       weakest)
-from vecpin.errors import ConvergenceError, InputError, VecpinError
+from vecpin.errors import ConvergenceError, InputError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
