@@ -26,6 +26,8 @@ causes it, how far it shrinks once the effect is added, and what to do.
    breakdowns the effect explains (structured before, not after); breakdowns left
    structured at the end are reported as unexplained.
 5. **What to do.** Each accepted effect turns its fitted numbers into advice.
+6. **Given the accepted.** Every other candidate is judged with the accepted effects in the
+   model (significant: given them); each family's detection size is stated (:mod:`.detection`).
 
 Every row is judged with its own likelihood (tracker points from any station, nests,
 tool targets, ranges, ball bar radii: :mod:`vecpin.identification.likelihood`).
@@ -45,13 +47,16 @@ import numpy as np
 from vecpin.diagnosis.armadvice import arm_advice
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
+from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.localise import describe_structure, explained, localise
+from vecpin.diagnosis.nextplan import next_measurements
 from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
-from vecpin.diagnosis.scoring import (Kinematics, beyond_span, candidate_effects, distances_mm, effect_columns, fitted,
-                                      needed_given, on_ends, pattern_cosine, score, size_mm, weakest)
-from vecpin.errors import ConvergenceError, InputError, VecpinError
+from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, candidate_effects, distances_mm,
+                                      effect_columns, fitted, needed_given, on_ends, pattern_cosine, score, size_mm,
+                                      weakest)
+from vecpin.errors import ConvergenceError, InputError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -60,7 +65,6 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.models.base import ErrorModel
 from vecpin.models.effects import REGISTRY, Effect
 from vecpin.models.modelfile import check_same_machine
-from vecpin.planning.discriminate import discriminating_plan
 from vecpin.planning.zones import clip_to_zone
 from vecpin.selection.choice import choose_or_fix
 from vecpin.selection.design import partly_measured
@@ -104,44 +108,7 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
 
 
 AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
-SETTLES_CHI2 = 9.0  # a discriminating plan is offered when it separates the candidates by 3 sigma at least
 DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
-
-
-def _next_measurements(scores: list[EffectScore], accepted: list[Effect], cur_model, cur_lin: Linearised,
-                       cur_eval: dict, base_fit, camp: Campaign, say: Callable[[str], None]) -> None:
-    """What to measure next (:mod:`vecpin.planning.discriminate`): for every accepted
-    effect of an ambiguity group, the commands that tell its members apart (each member
-    fitted with the other accepted effects); for every effect dropped by the backward
-    elimination, those that tell the final model from the model with it. Stored on the
-    score as ``next_plan``; a rival model that cannot be fitted is left out with a note.
-    A reading scatters about the right model as the final model's held-out rows do (their
-    whitened chi2 per equation, at least the noise's)."""
-    scatter = float(np.sum(cur_eval["heldout_w"][cur_lin.valid] ** 2) / max(cur_lin.valid.sum(), 1))
-    for sc in scores:
-        if sc.effect is None or not ((sc.accepted and sc.alternatives) or sc.dropped):
-            continue
-        others = [a for a in accepted if a is not sc.effect]
-        if sc.accepted:
-            rivals = {sc.label: cur_model} | {e.label: others + [e] for e in sc.alternative_effects}
-        else:
-            rivals = {f"without {sc.label}": cur_model, f"with {sc.label}": accepted + [sc.effect]}
-        models = {}
-        for label, m in rivals.items():
-            try:
-                models[label] = m if not isinstance(m, list) else base_fit(camp, m)
-            except VecpinError as err:
-                say(f"{label}: cannot be fitted for a discriminating plan ({err}); left out of it")
-        if len(models) < 2:
-            continue
-        plan = discriminating_plan(models, camp, scatter=scatter)
-        if plan.chi2_gap < SETTLES_CHI2:
-            sc.evidence += (f"; no {len(plan.tool)} commands over the travel separate {' and '.join(plan.labels)} "
-                            f"beyond the noise (expected chi2 {plan.chi2_gap:.1f}): not settled by where the machine "
-                            "is measured (for time effects: a reference point read again over time)")
-            continue
-        sc.next_plan = plan
-        say(f"what to measure next for {sc.label}: {len(plan.tool)} points")
 
 
 @dataclass
@@ -192,6 +159,9 @@ class _State:
     scores: list = field(default_factory=list)
     put_back: list = field(default_factory=list)
     changes: ProgramChanges | None = None  # the program's changes on the rows fitted (:mod:`.structure`)
+    candidates: list = field(default_factory=list)   # every candidate effect the search started from
+    detection: list = field(default_factory=list)    # per family what the final model's campaign would detect
+    last: tuple | None = None   # the forward search's last round (judged, folded problem, the model it scored against)
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -299,17 +269,23 @@ def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
     return st
 
 
-def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) -> tuple[list, tuple | None, float]:
+def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
+                 sight: Sight | None = None) -> tuple[list, tuple | None, float]:
     """Every remaining candidate scored against the current model (:func:`score`; a
     scanned family by full-data chi2 first, its best cross-validated): ([(score, its
-    evaluation, its columns)], the most economical significant one or None, threshold)."""
+    evaluation, its columns)], the most economical significant one or None, threshold).
+    ``sight``: every candidate's detection size at the round's threshold (:mod:`.detection`)."""
     lin, fold_r = st.cur_lin, st.fold_r
     kin = Kinematics(st.cur_model, lin, st.feats)
     base = lin.folded(fold_r)
+    if sight is not None:
+        sight.base = base
     round_scores, scan_best, held = [], {}, {}
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
+        if sight is not None:
+            sight.add(c, cols)
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
             gain = base.chi2_gain(cols[1])
             why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
@@ -324,6 +300,8 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int) ->
         round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
                              why))
     thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
+    if sight is not None:
+        sight.settle(thr)
     best, judged, ends = None, [], None
     for c, ev, _, cols, why in round_scores:
         b_, a_ = ev["before"], ev["after"]
@@ -377,7 +355,7 @@ def _forward(pb: _Problem, st: _State) -> None:
     """Forward selection (module docstring, step 3): each round's most economical
     significant candidate is accepted with its ambiguity group, the model refitted with
     it; the first round without a significant gain ends the search."""
-    candidates = candidate_effects(pb.machine, st.feats, pb.names, st.camp.q)
+    candidates = st.candidates = candidate_effects(pb.machine, st.feats, pb.names, st.camp.q)
     st.changes = program_changes(pb.machine, st.camp, st.feats)
     named: set[str] = set()  # accepted effects and the members of their ambiguity groups
     for rnd in range(1, pb.max_effects + 1):
@@ -390,6 +368,7 @@ def _forward(pb: _Problem, st: _State) -> None:
         judged, best, base = _score_round(pb, st, remaining, rnd)
         st.scores += [sc for sc, _, _ in judged] if rnd == 1 else []
         if best is None:
+            st.last = (judged, base, st.cur_model)   # scored given every accepted effect: reused if the model stays
             break  # the first round without a significant gain ends the search
         sc = best[0]
         sc.accepted = True
@@ -452,6 +431,26 @@ def _backward(pb: _Problem, st: _State) -> None:
         pb.say(f"dropped {e.label}: {text}")
 
 
+def _given_accepted(pb: _Problem, st: _State) -> None:
+    """Every candidate not accepted judged with the accepted effects in the final model (significant: given
+    them, :func:`.scoring.adopt_given`); per family the size this campaign would detect (:mod:`.detection`)."""
+    names = [a.label for a in st.accepted]
+    remaining = [c for c in st.candidates if c.label not in names
+                 and not (c.scanned and any(type(a) is type(c) for a in st.accepted))]
+    if not remaining:
+        return
+    sight = sight_of(st.cur_lin, st.cur_eval, distances_mm(st.cur_lin, st.cur_eval["heldout"]), pb.min_shrink_pct,
+                     pb.folds)
+    if st.last and st.last[2] is st.cur_model and st.last[0]:   # the last round scored this model: its figures
+        judged = sight.from_round(*st.last[:2])
+    else:
+        pb.say(f"what this campaign could have seen: {len(remaining)} candidates scored given {names or 'none'}")
+        judged = _score_round(pb, st, remaining, 0, sight)[0]
+    if names:
+        adopt_given(st.scores, judged, names, {x for s in st.scores if s.accepted for x in s.alternatives})
+    st.detection = sight.families()
+
+
 def _regions(pb: _Problem, st: _State) -> list[dict]:
     """Rows beyond the noise of the final model that are not gross errors: the regions
     it does not fit, with their file lines and descriptions."""
@@ -488,7 +487,8 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     return Diagnosis(pb.machine, st.base_info, ranked, [int(r) for r in st.outliers], st.loc, st.base_model,
                      st.cur_model, st.bev["heldout"], st.camp, seconds, (float(best_mm.mean()), float(best_mm.max())),
                      st.cur_loc, list(st.cur_loc["most_structured"]), _base_finding(pb.choice),
-                     [int(v) for v in pb.campaign.lines[st.outliers]], misfit_regions=regions)
+                     [int(v) for v in pb.campaign.lines[st.outliers]], misfit_regions=regions,
+                     detection=st.detection)
 
 
 @one_blas_thread
@@ -516,5 +516,6 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     _forward(pb, st)
     _recheck_outliers(pb, st)
     _backward(pb, st)
-    _next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)
+    _given_accepted(pb, st)
+    next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)
     return _result(pb, st, time.perf_counter() - t0)

@@ -14,6 +14,14 @@ from vecpin.units import MM_PER_M
 FIGURES = {"breakdowns": "figures/breakdowns.png", "effects": "figures/effects.png", "rows": "figures/rows.png"}
 
 
+WHICH = ("An effect is *significant* when the F-test within the fit and the paired test on held-out rows both pass "
+         "their Bonferroni threshold and it shrinks the held-out mean enough; the most economical significant effect "
+         "of each round is *accepted* into the model. Every other effect is judged given the accepted ones (its "
+         "figures below are with them in the model; diagnosis.json keeps its figures before them).")
+SIZE = ("*Size*: how much the effect, fitted beside the model, moves its prediction of the measured points, RMS over "
+        "the rows (an estimate: the part of the effect the model does not already hold).")
+
+
 @dataclass
 class EffectBar:
     """One effect of the effects figure: its label, held-out shrink [%] and verdict."""
@@ -66,6 +74,24 @@ def _next_section(diag) -> list[str]:
     return lines
 
 
+def _sight_section(diag) -> list[str]:
+    """'What this campaign could have seen': per effect family the smallest size it would detect."""
+    if not diag.detection:
+        return []
+    from vecpin.diagnosis.detection import POWER, um_text
+    lines = ["", "## What this campaign could have seen", "",
+             f"Per family, the smallest effect (RMS of its displacement of the measured points) this campaign's "
+             f"{diag.base['rows']} rows would name {POWER:.0%} of the time, given the final model: the F-test's "
+             "power at its threshold, the paired held-out test's and the held-out shrink an effect must earn, the "
+             "largest of the three. An effect left unnamed is below this size here.", "",
+             "| effect | detectable from | its most visible candidate | limited by | hardest candidate |",
+             "|---|---|---|---|---|"]
+    for f in diag.detection:
+        lines.append(f"| {f['effect']} | {um_text(f['detectable_rms_um'])} | {f['candidate']} | {f['limited_by']} | "
+                     f"{f['hardest_candidate']} ({um_text(f['hardest_rms_um'])}) |")
+    return lines
+
+
 def write_report(diag, out, figures: bool) -> Path:
     """report.md into ``out`` (a :class:`vecpin.fileio.OutputSet`), naming the figures
     (:data:`FIGURES`) when ``figures`` (they are drawn beside it); returns where it lands."""
@@ -78,12 +104,7 @@ def write_report(diag, out, figures: bool) -> Path:
              f"max {b['heldout_max_mm']:.4f} mm; chi2/expected {b['chi2_per_expected']:.2f}.", ""]
     if diag.base_finding:
         lines += [diag.base_finding, ""]
-    lines += ["## Which effect", "",
-              "An effect is *significant* when the F-test within the fit and the paired test on held-out rows both "
-              "pass their Bonferroni threshold and it shrinks the held-out mean enough; the most economical "
-              "significant effect of each round is *accepted* into the model.", "",
-              "*Size*: how much the effect, fitted beside the model, moves its prediction of the measured points, "
-              "RMS over the rows (an estimate: the part of the effect the model does not already hold).", "",
+    lines += ["## Which effect", "", WHICH, "", SIZE, "",
               "| rank | effect | significant | accepted | held-out mean before (mm) | after (mm) | shrink | size (mm) "
               "| p (fit) | p (held-out) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for k, e in enumerate(diag.effects, 1):
@@ -92,6 +113,7 @@ def write_report(diag, out, figures: bool) -> Path:
                      f"{e.size_text} | {e.p_value:.1e} | {e.p_heldout:.1e} |")
     for e in diag.accepted:
         lines += ["", f"**{e.headword}**: {e.evidence}"] + [f"- {a}" for a in e.advice]
+    lines += _sight_section(diag)
     lines += _next_section(diag)
     m, x = diag.best_heldout()
     lines += ["", f"Best model (base + accepted effects): held-out mean {m:.4f} mm, max {x:.4f} mm.", "",

@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.diagnosis.detection import sightings_text, um_text
 from vecpin.fileio import OutputSet
 from vecpin.diagnosis.armadvice import BASE_REMEDY
 from vecpin.kinematics.axes import is_arm
@@ -69,6 +70,9 @@ class EffectScore:
     # a drift or step in time, neither test passed, that the model's functions of the axes mimic on
     # these rows (base_share >= BASE_ALIKE): the data cannot tell the two apart
     alike_base: bool = False
+    # the accepted effects the figures are given (empty: given none); its first-round figures before them
+    given: list[str] = field(default_factory=list)
+    before_accepted: dict | None = None
 
     @property
     def finding(self) -> str:
@@ -105,12 +109,14 @@ class EffectScore:
                 "round": self.round, "bic_gain": self.bic_gain, "alternatives": self.alternatives,
                 "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
                 "detected_but_small": self.small, "share_in_the_model": self.base_share,
-                "not_told_apart_from_the_model": self.alike_base,
+                "not_told_apart_from_the_model": self.alike_base, "significant_given": self.given,
+                "before_the_accepted_ones": self.before_accepted,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
                     "chi2_gap": self.next_plan.chi2_gap, "outcome": self.next_plan.outcome(),
-                    "files": dict(self.next_plan.files)}}
+                    "files": dict(self.next_plan.files),
+                    "beyond_the_measured_range": {k: list(v) for k, v in self.next_plan.beyond.items()}}}
 
 
 @dataclass
@@ -135,6 +141,9 @@ class Diagnosis:
     # "lines", "rows_there", "where" (short), "text" (with the file lines)}
     misfit_regions: list[dict] = field(default_factory=list)
     folder: str = ""  # where :meth:`write` put the files ("": not written): the printed paths start with it
+    # per effect family the smallest size this campaign would detect given the accepted effects
+    # (:meth:`vecpin.diagnosis.detection.Sight.families`, µm RMS at the measured points)
+    detection: list[dict] = field(default_factory=list)
 
     def to_settle(self) -> list[EffectScore]:
         """Findings with a discriminating measurement (ambiguity groups, dropped effects)."""
@@ -173,6 +182,8 @@ class Diagnosis:
                   "(the model is used beyond what was measured).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
+        if self.detection:
+            s2 += f" Any other effect is below detection here: {sightings_text(self.detection, self.base['rows'])}."
         small = [e for e in self.effects if e.small and not e.accepted][:3]
         if small:
             s2 += (" Detected but too small to name: " + ", ".join(
@@ -190,7 +201,9 @@ class Diagnosis:
                    + " (misfit, not gross errors: a re-measurement would read the same).")
         todo = [e.advice[0] for e in self.accepted if e.advice]
         todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
-                 f"{at}next_{k}/ right after the campaign and diagnose again with them appended."
+                 f"{at}next_{k}/ right after the campaign and diagnose again with them appended"
+                 + (f" (they go beyond the measured range, {e.next_plan.beyond_text()}: nothing inside it tells them "
+                    "apart, and the predictions there are extrapolations)" if e.next_plan.beyond else "") + "."
                  for k, e in enumerate(self.to_settle(), 1)]
         todo = [t if t.endswith(".") else t + "." for t in todo]
         base = (f"compensate with the tables of the base model (vecpin tables {at}model_base.json)."
@@ -211,7 +224,7 @@ class Diagnosis:
                 "effects": [e.to_dict() for e in self.effects], "outlier_rows": self.outlier_rows,
                 "outlier_lines": self.outlier_lines, "misfit_regions": self.misfit_regions,
                 "localization": self.localization, "localization_final": self.localization_final,
-                "unexplained": self.unexplained,
+                "unexplained": self.unexplained, "detection": self.detection,
                 "best": {"effects": [e.label for e in self.accepted], "heldout_mean_mm": self.best[0],
                          "heldout_max_mm": self.best[1]},
                 "units": "mm; p-values are probabilities; localisation bins in the coordinate's unit; outlier_rows "
@@ -232,6 +245,8 @@ class Diagnosis:
                          f"{'yes' if e.accepted else 'no':>8s} {e.heldout_mean_mm_before:8.4f} "
                          f"{e.heldout_mean_mm_after:8.4f} {e.shrink_pct:6.1f}% {e.size_text:>8s} {e.p_value:9.2e} "
                          f"{e.p_heldout:9.2e}")
+        lines += [f"could have seen: {f['effect']} from {um_text(f['detectable_rms_um'])} ({f['candidate']}; "
+                  f"limited by {f['limited_by']})" for f in self.detection]
         for e in self.accepted:
             lines.append(f"accepted: {e.headword}: {e.evidence}")
             lines += [f"  advice: {a}" for a in e.advice]

@@ -281,3 +281,39 @@ def weakest(accepted: list, lin: Linearised, ev: dict, fold_r: np.ndarray):
                     f"folds ({spread:.4f} mm)")
             worst = (margin, e, text)
     return None if worst is None else worst[1:]
+
+
+ADOPTED = ("delta_chi2", "f_statistic", "p_value", "threshold", "heldout_mean_mm_before", "heldout_mean_mm_after",
+           "heldout_max_mm_before", "heldout_max_mm_after", "significant", "bic_gain", "p_heldout", "size_mm", "small",
+           "base_share", "alike_base", "worse_beyond")
+
+
+def adopt_given(scores: list, judged: list, given: list[str], grouped: set[str] = frozenset()) -> None:
+    """Every score not accepted takes its figures from ``judged`` (the candidates scored
+    again with the accepted effects, labelled ``given``, in the model): one meaning of
+    significant. The first round's figures stay as ``before_accepted``; a scanned family
+    is matched by kind (its best instance may move), a candidate whose family is in the
+    model, or that is named with an accepted one (``grouped``: its ambiguity group), is
+    not significant given them."""
+    new = {sc.label: sc for sc, _, _ in judged}
+    by_kind = {type(sc.effect): sc for sc, _, _ in judged if sc.effect is not None and sc.effect.scanned}
+    for s in scores:
+        if s.accepted or s.effect is None or s.label in given:
+            continue
+        s.before_accepted = {"significant": bool(s.significant), "p_value": s.p_value, "p_heldout": s.p_heldout,
+                             "p_threshold": s.threshold, "heldout_mean_mm_before": s.heldout_mean_mm_before,
+                             "heldout_mean_mm_after": s.heldout_mean_mm_after, "shrink_pct": s.shrink_pct,
+                             "size_rms_mm": s.size_mm}
+        s.given = list(given)
+        n = new.get(s.label) or (by_kind.get(type(s.effect)) if s.effect.scanned else None)
+        if n is None:
+            s.significant = s.small = s.alike_base = s.worse_beyond = False
+            why = "named with the accepted effect it stands in for (one finding)" if s.label in grouped else \
+                "its family is in the model"
+            s.evidence = "; ".join(x for x in (s.evidence, why) if x)
+            continue
+        for name in ADOPTED:
+            setattr(s, name, getattr(n, name))
+        if s.effect.scanned and not s.dropped:
+            s.label, s.effect = n.label, n.effect
+        s.evidence = "; ".join(x for x in (n.evidence, s.evidence if s.dropped else "") if x)

@@ -35,6 +35,12 @@ def describe_counts(counts: dict[str, int]) -> str:
     return ", ".join(f"{counts[k]} {words}" for k, words in COUNT_WORDS if counts.get(k))
 
 
+def _noise_options(instrument: str) -> str:
+    """The options that set the instrument noise of ``instrument`` (the Cartesian sigma
+    weighs Cartesian readings only)."""
+    return "`tracker_sigma_mm`" if instrument == "cartesian" else "`tracker_noise`"
+
+
 @dataclass
 class FitReport:
     """Figures of one fit. Residuals in mm (``residuals_mm``: overall and per tool);
@@ -86,7 +92,7 @@ class FitReport:
             scale = (self.chi2 / self.chi2_expected) ** 0.5  # residuals / assumed noise, RMS over the equations
             verdict += (f" (the residuals are {scale:.2f}x the assumed noise; if the model is right, the instrument and "
                         "repeatability sigmas are that much " + ("smaller" if scale < 1 else "larger") +
-                        ": `tracker_sigma_mm` / `tracker_noise`, `repeatability_mm`)")
+                        f": {_noise_options(self.instrument)}, `repeatability_mm`)")
         name = self.label or f"{self.model} model, order {self.order}"
         lines = [f"{name}, {self.instrument} instrument noise: {self.n_rows} rows, "
                  f"{self.n_parameters} unknowns ({describe_counts(self.counts) + '; ' if self.counts else ''}"

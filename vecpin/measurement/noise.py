@@ -82,6 +82,13 @@ def noise_from_options(machine: Machine, instrument: str = "spherical", *, repea
     noise.axis_sigma = sig
     if tracker_sigma_mm is not None:
         noise.cartesian_sigma = _sigma(tracker_sigma_mm, "tracker_sigma_mm", "mm") * M_PER_MM
+        if instrument != "cartesian":   # the Cartesian sigma weighs no reading of another noise model: refused
+            from vecpin.errors import InputError
+            takes = ("the ranges take `tracker_noise` (its range terms)" if instrument == "range" else
+                     "the tracker's spherical noise model (the default) takes `tracker_noise` (range mm, range ppm, "
+                     "transverse mm, transverse ppm)")
+            raise InputError(f"`tracker_sigma_mm` {tracker_sigma_mm}: the Cartesian tracker noise applies only with "
+                             f"`cartesian` and would change nothing here; {takes}")
     if ballbar_sigma_mm is not None:
         noise.ballbar_sigma = _sigma(ballbar_sigma_mm, "ballbar_sigma_mm", "mm") * M_PER_MM
     if tracker_noise is not None:

@@ -66,6 +66,9 @@ class Discrimination:
     time: np.ndarray
     temperature: np.ndarray | None = None
     files: dict = field(default_factory=dict)  # what was written: {"plan": name, "expected": name, programs...}
+    # the axes whose commands leave the campaign's measured range (:func:`measured_box`), with that range in
+    # the axis' unit: {name: (low, high, "mm" or "deg")}; empty: every command inside it (no extrapolation)
+    beyond: dict = field(default_factory=dict)
 
     @property
     def chi2_gap(self) -> float:
@@ -97,15 +100,40 @@ class Discrimination:
         return write_program(dialect, machine, self.template(), np.zeros(machine.n_axes),
                              title=f"to tell {', '.join(self.labels[:-1])} and {self.labels[-1]} apart", **kw)
 
+    @property
+    def extrapolation(self) -> bool:
+        """True when some commands leave the campaign's measured range (:attr:`beyond`)."""
+        return bool(self.beyond)
+
     def outcome(self) -> str:
-        """The expected outcome under each candidate, in words."""
-        d = np.linalg.norm(self.expected[:, None] - self.expected[None, :], axis=-1) * MM_PER_M * 1e3  # µm
+        """The expected outcome under each candidate, in words (sizes in µm, in mm from 1 mm)."""
+        d = np.linalg.norm(self.expected[:, None] - self.expected[None, :], axis=-1) * MM_PER_M  # mm
         pairs = [(i, j) for i in range(len(self.labels)) for j in range(i + 1, len(self.labels))]
-        said = "; ".join(f"{self.labels[i]} and {self.labels[j]} predict readings {d[i, j].mean():.1f} µm apart on "
-                         f"average (up to {d[i, j].max():.1f} µm)" for i, j in pairs)
-        return (f"{len(self.tool)} points where {said}: an expected chi2 of {self.chi2_gap:.0f} between the two "
+        said = "; ".join(f"{self.labels[i]} and {self.labels[j]} predict readings {length_text(d[i, j].mean())} apart "
+                         f"on average (up to {length_text(d[i, j].max())})" for i, j in pairs)
+        text = (f"{len(self.tool)} points where {said}: an expected chi2 of {self.chi2_gap:.0f} between the two "
                 "closest candidates, each refitting its own uncertain terms; the readings will follow the true "
                 "candidate's column of the expected readings")
+        if self.beyond:
+            text += (f". Extrapolation: these points go beyond the campaign's measured range ({self.beyond_text()}), "
+                     "where every candidate's prediction is an extrapolation of a model fitted inside it; trust the "
+                     "readings there, not the predicted sizes")
+        return text
+
+    def beyond_text(self) -> str:
+        """'X beyond its measured 0.0..300.0 mm, ...' per axis the plan leaves the measured range on."""
+        return ", ".join(f"{name} beyond its measured {lo:.1f}..{hi:.1f} {unit}"
+                         for name, (lo, hi, unit) in self.beyond.items())
+
+
+def length_text(mm: float) -> str:
+    """A length [mm] as '12.3 µm' below 1 mm, '40.3 mm' from 1 mm."""
+    return f"{mm:.1f} mm" if abs(mm) >= 1.0 else f"{mm * 1e3:.1f} µm"
+
+
+def measured_box(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (n,) [m, rad]: the range each axis was commanded over in ``campaign``."""
+    return campaign.q.min(axis=0), campaign.q.max(axis=0)
 
 
 def _after(campaign: Campaign, q: np.ndarray, tool: np.ndarray) -> tuple[Campaign, Features]:
@@ -199,10 +227,13 @@ def _choose(pairs: list[_Pair], n_min: int, n_max: int) -> tuple[np.ndarray, np.
 
 
 def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_min: int = 15, n_max: int = 40,
-                        n_pool: int = 2000, seed: int = 0, scatter: float = 1.0) -> Discrimination:
+                        n_pool: int = 2000, seed: int = 0, scatter: float = 1.0,
+                        inside: bool = True) -> Discrimination:
     """Commands that tell the fitted ``models`` {label: model, all fitted to ``campaign``}
-    apart (module docstring): ``n_min`` to ``n_max`` points from ``n_pool`` candidates over
-    the machine's travel, each with every target holder the campaign's tracker rows used.
+    apart (module docstring): ``n_min`` to ``n_max`` points from ``n_pool`` candidates
+    inside the campaign's measured range per axis (:func:`measured_box`; ``inside`` False:
+    over the machine's travel, the plan's :attr:`Discrimination.beyond` naming the axes it
+    leaves the measured range on), each with every target holder the campaign's tracker rows used.
     ``scatter``: a reading's whitened variance about the right model (1: the noise alone;
     the held-out chi2 per equation of the fitted model when it misfits beyond the noise)."""
     if len(models) < 2:
@@ -214,7 +245,8 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
     on = campaign.instrument == "tracker"
     if not on.any():
         raise InputError(f"{campaign.source}: no tracker rows to take the target holders from")
-    lo, hi = machine.lower, machine.upper
+    box = measured_box(campaign)
+    lo, hi = box if inside else (machine.lower, machine.upper)
     holders = np.unique(np.round(campaign.tool[on], 9))
     cmds = candidate_commands(machine, n_pool, lo, hi, seed)
     pool, tool = np.repeat(cmds, len(holders), axis=0), np.tile(holders, len(cmds))  # every holder at every command
@@ -233,7 +265,15 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
     q, tool, gain = q[order], tool[order], gain[order]
     camp, feats = _after(campaign, q, tool)
     y = np.stack([m.predict(q, tool, "tracker", feats) for m in fitted])
-    return Discrimination(labels, q, tool, y, gain, camp.extra.get("time", feats.time), camp.temperature)
+    tol = 1e-9 + 1e-6 * np.abs(box[1] - box[0])
+    out = (q < box[0] - tol).any(axis=0) | (q > box[1] + tol).any(axis=0)
+    beyond = {}
+    for k in np.flatnonzero(out):
+        ax = machine.axes[k]
+        beyond[ax.name] = (float(ax.to_user(box[0][k])), float(ax.to_user(box[1][k])),
+                           "mm" if ax.kind == "linear" else "deg")
+    return Discrimination(labels, q, tool, y, gain, camp.extra.get("time", feats.time), camp.temperature,
+                          beyond=beyond)
 
 
 def _pairs(models: list[ErrorModel], camp: Campaign, feats: Features, scatter: float) -> list[_Pair]:

@@ -1,0 +1,226 @@
+"""What this campaign could have seen: per candidate effect family, the smallest size the
+diagnosis would detect (a power calculation on the final model's linearised problem).
+
+An effect of shape ψ (its prior-scaled parameters, whitened columns ``J_e``, metric
+columns ``A_e``) added to the data moves the whitened readings by ``J_e ψ``; what the
+model's own terms cannot take of it (with their priors, M = (G + I)^-1 over the model's
+columns, C = J^T J_e) leaves the non-centrality
+
+    λ = ψ^T (J_e^T J_e - C^T M C) ψ / σ²
+
+of the F-test on its chi-square reduction (k = its number of terms, the fit's degrees of
+freedom; σ² the scatter left per equation, whitened). Its size is the RMS of its
+displacement of the measured points, ``|A_e ψ|`` over the point rows (the whole effect,
+not the part the model leaves). For a shape spread as its prior (ψ isotropic) the ratio
+of the two is tr(B) / tr(Q), B = mean A_e^T A_e, Q the projected Gram above; the size
+detected with probability :data:`POWER` at the test's threshold solves the non-central F
+for λ. An effect must also pass the paired test on held-out distances and take
+``min_shrink_pct`` off their mean: per point row the noise (σ per coordinate, from the
+model's held-out distances), the move a_i the model's terms leave and the spread of the
+effect's own estimate out of fold (f folds) give the
+expected distances (:func:`mean_distance`, a 3-D Gaussian displaced) and the gain's
+spread (|a_i|² plus that estimate's, over 3: its projection on the noise). The effect's
+estimate spreads at a row by E_i S^-1 E_i^T (E_i its move there less what the model's
+terms give back, S = Q + I its projected Gram with its prior), times f / (f - 1) out of
+fold. The largest of the three sizes is the one this campaign would detect.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, special, stats
+
+from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.units import MM_PER_M
+
+POWER = 0.8   # the probability with which the stated size is detected
+
+
+def detectable_noncentrality(k: int, dof: float, threshold: float, power: float = POWER) -> float:
+    """λ at which the F-test (k, dof) at false-alarm rate ``threshold`` passes with
+    probability ``power`` (the non-central F distribution)."""
+    f_crit = float(stats.f.isf(threshold, k, dof))
+
+    def short(lam: float) -> float:
+        return float(stats.ncf.sf(f_crit, k, dof, lam)) - power
+    hi = 10.0 + k
+    while short(hi) < 0:
+        hi *= 2
+    return float(optimize.brentq(short, 0.0, hi, xtol=1e-6))
+
+
+def mean_distance(a: np.ndarray, sigma: float) -> np.ndarray:
+    """E|n + a| [a's unit] for n ~ N(0, σ² I_3) displaced by |a| = ``a`` (the mean of a
+    non-central chi with 3 degrees of freedom; σ sqrt(8/π) at a = 0)."""
+    a = np.asarray(a, float)
+    x = np.maximum(a, 1e-300)
+    near = sigma * math.sqrt(8 / math.pi) + 2 * a ** 2 / (3 * math.sqrt(2 * math.pi) * sigma)   # a << σ: its series
+    far = (sigma * math.sqrt(2 / math.pi) * np.exp(-a ** 2 / (2 * sigma ** 2))
+           + (a + sigma ** 2 / x) * special.erf(a / (sigma * math.sqrt(2))))
+    return np.where(a < 1e-4 * sigma, near, far)
+
+
+@dataclass
+class Sighting:
+    """One candidate's detection size: ``rms_mm`` its RMS displacement of the measured
+    points detected with probability :data:`POWER` [mm]; ``by`` the size each
+    requirement alone needs {"the F-test", "the held-out test", "the held-out shrink"}."""
+
+    name: str
+    label: str
+    rms_mm: float
+    by: dict
+    left_share: float = 1.0   # RMS of the move the model's terms leave over the effect's RMS (shaped as its prior)
+
+    @property
+    def limited_by(self) -> str:
+        return max(self.by, key=self.by.get)
+
+
+@dataclass
+class Sight:
+    """The detection sizes of one model's candidates (:meth:`add` per candidate's columns):
+    the final model's folded problem ``base``, its linearisation, the noise left and the test."""
+
+    base: FoldedProblem | None     # set by the scoring round that computes the columns
+    lin: Linearised
+    held_mm: np.ndarray            # the model's held-out distances [mm] per point row
+    sigma2: float                  # whitened scatter per equation left by the model
+    dof: float
+    min_shrink_pct: float
+    folds: int = 5
+    threshold: float = float("nan")   # the round's Bonferroni threshold (set once known)
+    found: list[Sighting] = field(default_factory=list)
+    _pending: list = field(default_factory=list)
+
+    def add(self, effect, cols: tuple) -> None:
+        """Keep a candidate's columns' figures (A_e, J_e) until the round's threshold is known
+        (none without rows that measure a point: a size at the tool tip needs them)."""
+        if self.lin.point_rows.any():
+            self._pending.append((effect, self._shape(cols)))
+
+    def _shape(self, cols: tuple) -> tuple[int, float, np.ndarray, np.ndarray]:
+        """(k, tr(B)/tr(Q) [m² per unit λ σ²], per point row the mean |move the model leaves|² per unit tr(B),
+        per point row the variance [m² per unit whitened variance] of the effect's fitted move, from all rows)."""
+        A1, J1 = cols
+        Q = J1.shape[-1]
+        b = J1.reshape(-1, Q)
+        M, _ = self.base.full_inverse()
+        C = self.base.J.reshape(-1, self.base.n_columns).T @ b
+        MC = M @ C
+        gram = b.T @ b - C.T @ MC       # what the model's terms leave of the effect's columns (whitened)
+        proj = float(np.trace(gram))
+        pts = self.lin.point_rows
+        A1p = A1[pts]
+        tr_b = float(np.einsum("niq,niq->", A1p, A1p)) / max(int(pts.sum()), 1)
+        E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
+        left = np.einsum("niq,niq->n", E, E) / max(tr_b, 1e-300)
+        spread = np.einsum("niq,qr,nir->n", E, np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
+        return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left, spread
+
+    def from_round(self, judged: list, base: FoldedProblem) -> list:
+        """Every candidate of a scoring round already run against this model (``judged``:
+        [(score, evaluation, columns)], ``base`` its folded problem) kept and settled at its
+        threshold; returns ``judged``."""
+        self.base = base
+        for sc, _, cols in judged:
+            self.add(sc.effect, cols)
+        if judged:
+            self.settle(judged[0][0].threshold)
+        return judged
+
+    def settle(self, threshold: float) -> None:
+        """Every kept candidate's :class:`Sighting` at the round's ``threshold``."""
+        self.threshold = threshold
+        sigma = float(np.mean(self.held_mm)) / math.sqrt(8 / math.pi) if self.held_mm.size else 0.0
+        lams: dict[int, float] = {}
+        for effect, (k, ratio, left, spread) in self._pending:
+            if k not in lams:
+                lams[k] = detectable_noncentrality(k, self.dof, threshold)
+            by = {"the F-test": math.sqrt(lams[k] * self.sigma2 * ratio) * MM_PER_M if math.isfinite(ratio)
+                  else math.inf}
+            by.update(self._held_out(left, spread * self.sigma2 * MM_PER_M ** 2, sigma))
+            share = math.sqrt(float(np.mean(left)))
+            self.found.append(Sighting(effect.name, effect.label, max(by.values()), by, share))
+        self._pending = []
+
+    def _held_out(self, left: np.ndarray, spread: np.ndarray, sigma: float) -> dict:
+        """The RMS [mm] at which the paired held-out test passes with probability
+        :data:`POWER`, and at which the held-out mean shrinks by ``min_shrink_pct`` (module
+        docstring; each point row's noise σ [mm] per coordinate, ``spread`` [mm²] the
+        variance of the effect's fitted move there, estimated from every row)."""
+        n = left.size
+        if sigma <= 0 or n < 2 or not np.any(left > 0):
+            return {}
+        h = spread * self.folds / max(self.folds - 1, 1)   # estimated out of fold: from (f - 1) / f of the rows
+        m_after = mean_distance(np.sqrt(h), sigma)
+        need = float(stats.t.isf(self.threshold, n - 1) + stats.norm.ppf(POWER))
+        shrink = 1 - self.min_shrink_pct / 100
+
+        def t_short(rms: float) -> float:
+            a = rms * np.sqrt(left)
+            gain = mean_distance(a, sigma) - m_after
+            return float(np.sum(gain) / math.sqrt(np.sum(a ** 2 + h) / 3)) - need
+
+        def shrink_short(rms: float) -> float:
+            return shrink - float(np.sum(m_after)) / float(np.sum(mean_distance(rms * np.sqrt(left), sigma)))
+        return {"the held-out test": _root(t_short, sigma), "the held-out shrink": _root(shrink_short, sigma)}
+
+    def families(self) -> list[dict]:
+        """Per effect family: the smallest size detected (its candidate), the largest, the
+        rows and the test (sizes in µm, RMS over the measured points)."""
+        out = []
+        for name in dict.fromkeys(s.name for s in self.found):
+            mine = sorted((s for s in self.found if s.name == name), key=lambda s: s.rms_mm)
+            best, worst = mine[0], mine[-1]
+            out.append({"effect": name, "detectable_rms_um": _um(best.rms_mm), "candidate": best.label,
+                        "detectable_unmodelled_rms_um": _um(best.rms_mm * best.left_share),
+                        "hardest_rms_um": _um(worst.rms_mm), "hardest_candidate": worst.label,
+                        "limited_by": best.limited_by, "sizes_um": {k: _um(v) for k, v in best.by.items()},
+                        "candidates": len(mine), "per_candidate_um": {x.label: _um(x.rms_mm) for x in mine},
+                        "rows": int(len(self.lin.r)),
+                        "power": POWER, "p_threshold": self.threshold})
+        return sorted(out, key=lambda d: math.inf if d["detectable_rms_um"] is None else d["detectable_rms_um"])
+
+
+def _root(short, scale: float) -> float:
+    """The smallest size [scale's unit] where ``short`` (increasing) reaches 0; inf when none up to 1e6 x scale does."""
+    if short(0.0) >= 0:
+        return 0.0
+    hi = scale
+    while short(hi) < 0:
+        hi *= 2
+        if hi > 1e6 * scale:
+            return math.inf
+    return float(optimize.brentq(short, 0.0, hi, xtol=1e-9 * scale))
+
+
+def _um(mm: float) -> float | None:
+    """mm -> µm, None where nothing this campaign measures would show it."""
+    return float(mm * 1e3) if math.isfinite(mm) else None
+
+
+def sight_of(lin: Linearised, ev: dict, held_mm: np.ndarray, min_shrink_pct: float, folds: int) -> Sight:
+    """A :class:`Sight` for the model of ``lin`` (``ev``: its folded evaluation, ``held_mm``
+    its held-out distances [mm]): the scatter its fit leaves per degree of freedom."""
+    dof = max(lin.n_equations - ev["p_eff"], 1.0)
+    return Sight(None, lin, held_mm, max(float(ev["chi2"]) / dof, 1e-12), dof, min_shrink_pct, folds)
+
+
+def sightings_text(families: list[dict], rows: int, limit: int = 3) -> str:
+    """'this plan (N rows) would detect rotary_periodic from 1.8 µm, ...' (RMS at the measured points)."""
+    seen = [f for f in families if f["detectable_rms_um"] is not None][:limit]
+    if not seen:
+        return f"this plan ({rows} rows) would detect none of the candidate effects"
+    return (f"this plan ({rows} rows) would detect " + ", ".join(
+        f"{f['effect']} from {um_text(f['detectable_rms_um'])}" for f in seen)
+        + f" (RMS at the tool tip, {POWER:.0%} of the time)")
+
+
+def um_text(um: float | None) -> str:
+    """A detection size [µm] as text, in mm from 1 mm (None: the campaign cannot show it)."""
+    if um is None:
+        return "no size (the campaign cannot show it)"
+    return f"{um / 1e3:.1f} mm" if um >= 1e3 else f"{um:.1f} µm"
