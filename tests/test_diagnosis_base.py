@@ -13,7 +13,7 @@ from vecpin.cli import main
 def fitted(tmp_path_factory):
     d = tmp_path_factory.mktemp("diagbase")
     assert main(["simulate", "flow_xyzcb", "--out", str(d / "sim"), "--seed", "3", "--points", "80",
-                 "--validation", "10", "--effect", "backlash:axes=X,strength=0.05"]) == 0
+                 "--validation-count", "10", "--effect", "backlash:axes=X,strength=0.05"]) == 0
     assert main(["fit", "flow_xyzcb", str(d / "sim" / "campaign.csv"), "--out", str(d / "model.json"), "--model",
                  "6dof", "--order", "3", "--quiet"]) == 0
     return d
@@ -38,7 +38,7 @@ def test_a_base_with_a_fixed_order_or_of_another_machine_is_refused(fitted, tmp_
     refused(["diagnose", "flow_xyzcb", csv, "--out", tmp_path / "d", "--base", tmp_path / "none.json"],
             capsys, "none.json", "no such model file")
     assert main(["simulate", "trunnion_xyzac", "--out", str(tmp_path / "t"), "--seed", "1", "--points", "30",
-                 "--validation", "5"]) == 0
+                 "--validation-count", "5"]) == 0
     assert main(["fit", "trunnion_xyzac", str(tmp_path / "t" / "campaign.csv"), "--out", str(tmp_path / "t.json"),
                  "--model", "ap", "--basis", "chebyshev", "--order", "1", "--quiet"]) == 0
     refused(["diagnose", "flow_xyzcb", csv, "--out", tmp_path / "d", "--base", tmp_path / "t.json"],
@@ -51,7 +51,7 @@ def test_what_to_do_names_the_model_file_where_it_was_written(tmp_path, capsys):
     folder, names it relative to itself."""
     d = tmp_path / "run"
     assert main(["simulate", "flow_xyzcb", "--out", str(d / "sim"), "--seed", "5", "--points", "60",
-                 "--validation", "5"]) == 0
+                 "--validation-count", "5"]) == 0
     cap = ok(["diagnose", "flow_xyzcb", d / "sim" / "campaign.csv", "--out", d / "diag", "--effects", "backlash",
               "--model", "6dof", "--order", "3", "--quiet"], capsys)
     advice = next(line for line in cap.out.splitlines() if line.startswith("What to do:"))
