@@ -112,8 +112,25 @@ def score_one(truth: dict, diag: dict) -> dict:
     wrong = sorted(n for n in named if n != want and not (want in groups and n in _group_names(diag, want)))
     flagged = set(diag.get("outlier_lines") or [])
     true_gross = set(truth["gross_lines"])
-    return {"hit": hit, "named": sorted(named), "wrong": wrong, "gross_found": len(flagged & true_gross),
+    return {"hit": hit, "named": sorted(named), "wrong": wrong, "status": true_status(diag, want),
+            "gross_found": len(flagged & true_gross),
             "gross_true": len(true_gross), "gross_false": len(flagged - true_gross)}
+
+
+def true_status(diag: dict, want: str | None) -> str:
+    """What the diagnosis made of the true effect's candidates (the best of them)."""
+    if want is None:
+        return "-"
+    mine = [e for e in diag.get("effects", []) if e["name"] == want]
+    if want == "outliers" and diag.get("outlier_lines"):
+        return "accepted"
+    for status, key in (("accepted", "accepted"), ("significant, not accepted", "significant"),
+                        ("detected, too small to name", "detected_but_small")):
+        if any(e.get(key) for e in mine):
+            return status
+    if not mine:
+        return "not tried"
+    return f"not significant (best shrink {max(e.get('shrink_pct') or 0.0 for e in mine):.1f} %)"
 
 
 def _group_names(diag: dict, want: str) -> set[str]:
@@ -142,6 +159,8 @@ def run_campaign(seed: int, work: Path, stated: bool = True) -> dict:
         return rec
     diag = json.loads((out / "diagnosis.json").read_text())
     rec.update(score_one(truth, diag))
+    bases = ((diag.get("base") or {}).get("choice") or {}).get("chosen", {}).get("bases", {})
+    rec["base_on_axes"] = ", ".join(f"{a}: {bases[a]}" for a in truth["effect_axes"] if a in bases)
     rec["headline"] = diag.get("headline", [""])[1] if len(diag.get("headline", [])) > 1 else ""
     return rec
 
@@ -187,9 +206,10 @@ def summary(records: list[dict], choices: list[dict], how: str) -> list[str]:
              f"* campaigns naming a wrong effect (spurious): {frac(sum(bool(r['wrong']) for r in ok), len(ok))}; "
              f"wrong names per campaign {np.mean([len(r['wrong']) for r in ok]) if ok else 0:.2f}",
              _gross_line(ok), "", f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
-             "(gross errors: all); precision is over every name vecpin gave of that family.", "",
-             "| family | vecpin name | campaigns | recall (size ≥ stated) | recall (all sizes) | precision |",
-             "|---|---|---|---|---|---|"]
+             "(gross errors: all); precision is over every name vecpin gave of that family; *missed but seen*: the "
+             "true effect was significant but not accepted, or detected but too small to name.", "",
+             "| family | vecpin name | campaigns | recall (size ≥ stated) | recall (all sizes) | precision "
+             "| missed but seen | missed, not tried |", "|---|---|---|---|---|---|---|---|"]
     for fam in FAMILIES:
         mine = [r for r in ok if r["truth"]["family"] == fam]
         big = [r for r in mine if fam.startswith("gross") or r["truth"]["size_mm"] >= RECALL_SIZE_MM]
@@ -197,7 +217,9 @@ def summary(records: list[dict], choices: list[dict], how: str) -> list[str]:
         said = [r for r in ok if name in r["named"]]
         right = [r for r in said if r["truth"]["vecpin_name"] == name]
         lines.append(f"| {fam} | {name} | {len(mine)} | {frac(sum(r['hit'] for r in big), len(big))} | "
-                     f"{frac(sum(r['hit'] for r in mine), len(mine))} | {frac(len(right), len(said))} |")
+                     f"{frac(sum(r['hit'] for r in mine), len(mine))} | {frac(len(right), len(said))} | "
+                     f"{sum(not r['hit'] and r['status'].startswith(('signif', 'detected')) for r in mine)} | "
+                     f"{sum(not r['hit'] and r['status'] == 'not tried' for r in mine)} |")
     lines += ["", "Wrong names given, by the campaign's true family:", ""]
     conf = Counter((r["truth"]["family"] or "clean", w) for r in ok for w in r["wrong"])
     lines += [f"* {t}: {w} x{n}" for (t, w), n in sorted(conf.items())] or ["* none"]
@@ -220,7 +242,8 @@ def _choice_lines(choices: list[dict]) -> list[str]:
              "Clean campaigns with three tools; true held-out mean error, µm, on 150 fresh commands x 3 tools",
              "(noise-free readings of the truth in the campaign's tracker frame, `vecpin evaluate` of each model). "
              "Regret: chosen minus the best candidate.", "",
-             "| seed | layout | chosen | " + " | ".join("/".join(c) for c in CANDIDATES) + " | regret | chosen / best |",
+             "| seed | layout | chosen | " + " | ".join("/".join(c) for c in CANDIDATES)
+             + " | regret | chosen / best |",
              "|---|---|---|" + "---|" * len(CANDIDATES) + "---|---|"]
     ratios = []
     for c in choices:
@@ -242,20 +265,25 @@ def _choice_lines(choices: list[dict]) -> list[str]:
 
 
 def _campaign_lines(records: list[dict]) -> list[str]:
-    lines = ["", "## Every campaign", "", "| seed | layout | rows | truth | size µm | vecpin named | verdict | s |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["", "## Every campaign", "", "The true effect's status: the best of its candidates in diagnosis.json; "
+             "for a missed effect, the base model's basis on its axes.", "",
+             "| seed | layout | rows | truth | size µm | vecpin named | verdict | true effect's status | s |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in records:
         t = r["truth"]
         truth = (t["family"] or "clean") + (f" [{','.join(t['effect_axes'])}]" if t["effect_axes"] else "")
         size = "-" if t["size_mm"] is None else f"{t['size_mm'] * 1e3:.0f}"
         if "error" in r:
-            verdict, named = "error: " + r["error"].replace("|", "/")[:90], "-"
+            verdict, named, status = "error: " + r["error"].replace("|", "/")[:90], "-", "-"
         else:
-            named = ", ".join(r["named"]) or "nothing"
+            named, status = ", ".join(r["named"]) or "nothing", r["status"]
+            if not r["hit"] and r.get("base_on_axes"):
+                order = (t.get("params") or {}).get("order_per_turn")
+                status += f"; base {r['base_on_axes']}" + (f" (true order per turn {order})" if order else "")
             verdict = ("hit" if r["hit"] else ("silent" if t["family"] is None and not r["named"] else "missed")) \
                 + (f"; wrong: {', '.join(r['wrong'])}" if r["wrong"] else "")
         lines.append(f"| {r['seed']} | {t['kind']} | {t['rows']} | {truth} | {size} | {named} | {verdict} | "
-                     f"{r['seconds']:.0f} |")
+                     f"{status} | {r['seconds']:.0f} |")
     return lines
 
 
@@ -290,9 +318,10 @@ def main() -> None:
         choices = []
         for s in todo[: args.choice]:
             choices.append(model_choice(s + 7919, Path(tmp), not args.default_noise))
-            print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(
-                f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()), flush=True)
-    how += "; vecpin's default noise" if args.default_noise else "; noise as stated: `--tracker-noise`, `--repeatability-*`"
+            figs = [f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()]
+            print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs), flush=True)
+    how += ("; vecpin's default noise" if args.default_noise
+            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
     how += f"; {time.perf_counter() - t0:.0f} s in all"
     text = "\n".join(summary(records, choices, how)) + "\n"
     print(text)

@@ -3,11 +3,12 @@
 Commands are drawn uniformly within every axis' travel; every command is measured with each tool
 (one block per tool, a tool change between blocks); on a table machine the tracker also reads
 3-4 nests on the table at every command of the first block (``instrument`` = nest, ``target`` = id).
-Every campaign carries ``time`` and ``temperature`` (the air: a smooth random history), whether or
-not the machine responds to it. The tracker stands 1.5..5 m off the work volume, its frame a random
-rigid transform of the machine base (z within 3 deg of up). Readings get the axes' repeatability
-(linear 1..3 um, rotary 5..15 urad) and tracker noise in spherical coordinates: range 5..10 um +
-1 um/m, azimuth and elevation 2..5 urad each.
+Every campaign carries ``time`` and ``temperature`` (the air: a drift of 1..3 K over the campaign
+plus a smooth random history of 0.3..1.5 K RMS), whether or not the machine responds to it. The
+tracker stands 1.5..5 m off the work volume, its frame a random rigid transform of the machine base
+(z within 3 deg of up). Readings get the axes' repeatability (linear 1..3 um, rotary 5..15 urad)
+and tracker noise in spherical coordinates: range 5..10 um + 1 um/m, azimuth and elevation
+2..5 urad each.
 """
 from __future__ import annotations
 
@@ -201,7 +202,7 @@ def _temperatures(rng, time: np.ndarray, lag_h: float | None) -> tuple[np.ndarra
     end = time[-1] + 1.0
     air = gp_1d(rng, 0.0, end, rng.uniform(0.3, 1.5), rng.uniform(0.1, 0.5))
     base = 20.0 + rng.uniform(-2.0, 3.0)
-    drift = rng.uniform(-1.0, 1.0) / end
+    drift = rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 3.0) / end       # a workshop's morning: 1..3 K
     grid = np.linspace(0.0, end, 2000)
     amb = base + air(grid) + drift * grid
     machine = np.empty_like(amb)

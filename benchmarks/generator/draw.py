@@ -38,7 +38,8 @@ def _nests(rng, table: bool) -> np.ndarray:
 
 def _noise(rng, layout: Layout, rows: Rows, q: dict[str, np.ndarray]) -> dict:
     n_visit = int(rows.visit.max()) + 1
-    sigma = {j.name: rng.uniform(1e-6, 3e-6) if j.kind == "prismatic" else rng.uniform(5e-6, 15e-6) for j in layout.axes}
+    sigma = {j.name: rng.uniform(1e-6, 3e-6) if j.kind == "prismatic" else rng.uniform(5e-6, 15e-6)
+             for j in layout.axes}
     v = {name: rng.normal(0.0, s, n_visit) for name, s in sigma.items()}
     return {"v": v, "sigma": sigma, "range_m": rng.uniform(5e-6, 10e-6), "angle_rad": rng.uniform(2e-6, 5e-6),
             "direction": np.ones(n_visit)}

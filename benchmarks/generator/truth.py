@@ -169,7 +169,7 @@ def draw_effect(rng: np.random.Generator, layout: Layout, family: str | None,
         cand = layout.linear() or layout.rotary()
         eff.axes = [cand[int(rng.integers(len(cand)))].name]
     elif family == "thermal":
-        eff.params.update(lag_h=rng.uniform(0.3, 3.0), nonlinearity_per_K=rng.uniform(-0.3, 0.3),
+        eff.params.update(lag_h=rng.uniform(0.2, 1.5), nonlinearity_per_K=rng.uniform(-0.3, 0.3),
                           gains_ppm_per_K={j.name: rng.uniform(-15.0, 15.0) if layout.kind != "arm"
                                            else rng.uniform(10.0, 25.0) for j in layout.axes},
                           spindle_um_per_K=rng.uniform(2.0, 15.0))
