@@ -87,3 +87,17 @@ def test_tracker_noise_is_the_stated_spherical_noise_and_the_file_is_vecpins_for
         lo, hi = (j.lower * 1e3, j.upper * 1e3) if j.kind == "prismatic" else np.degrees([j.lower, j.upper])
         assert lo <= cells[:, k].min() and cells[:, k].max() <= hi
     assert np.all(np.diff(cells[:, -2]) > 0)
+
+
+def test_a_backlash_is_sized_as_its_closed_form():
+    """Lost motion b on a linear axis moves every tool row by b/2 along that axis (its small errors aside), so
+    the effect's drawn RMS size is b/2 and the move flips with the approach direction of the rows' visits."""
+    camp = draw_campaign(5, kind="head", family="backlash", n_commands=40)
+    eff = camp.effect
+    axis = np.asarray(camp.layout.joint(eff.axes[0]).axis)
+    d = camp.base_points() - camp.base_points(with_effect=False)
+    along = d @ axis
+    assert eff.size_mm == pytest.approx(eff.amplitude / 2 * 1e3, rel=1e-3)
+    sign = -camp.noise["direction"][camp.rows.visit]
+    assert np.abs(along - sign * eff.amplitude / 2).max() < 0.01 * eff.amplitude
+    assert {-1.0, 1.0} <= set(np.unique(sign))
