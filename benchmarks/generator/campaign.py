@@ -21,8 +21,8 @@ from scipy.spatial.transform import Rotation
 
 from .fields import gp_1d
 from .kinematics import table_points, tool_points
-from .layouts import Layout, draw_layout, to_urdf
-from .truth import SCALED, AxisField, Effect, applicable, draw_effect, draw_fields
+from .layouts import Layout, to_urdf
+from .truth import AxisField, Effect
 
 
 @dataclass
@@ -54,7 +54,6 @@ class Campaign:
     delta_t: np.ndarray                      # the machine's lagged temperature change per row, K
     measured: np.ndarray = field(default=None)   # (n_rows, 3) tracker frame, m
     gross_rows: list[int] = field(default_factory=list)
-    rng_state: dict = field(default_factory=dict)
 
     # -- the truth --------------------------------------------------------------------------------
     def row_commands(self, q_rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -178,11 +177,11 @@ class Campaign:
         return paths
 
 
-def _commands(rng, layout: Layout, n: int) -> dict[str, np.ndarray]:
+def commands(rng, layout: Layout, n: int) -> dict[str, np.ndarray]:
     return {j.name: rng.uniform(j.lower, j.upper, n) for j in layout.axes}
 
 
-def _rows(rng, n_cmd: int, tools: list[float], n_nests: int) -> Rows:
+def measurement_rows(rng, n_cmd: int, tools: list[float], n_nests: int) -> Rows:
     cmd, nest, tool, visit, time = [], [], [], [], []
     t, v = 0.0, 0
     for b, length in enumerate(tools):
@@ -197,7 +196,7 @@ def _rows(rng, n_cmd: int, tools: list[float], n_nests: int) -> Rows:
     return Rows(np.array(cmd), np.array(nest), np.array(tool), np.array(visit), np.array(time))
 
 
-def _temperatures(rng, time: np.ndarray, lag_h: float | None) -> tuple[np.ndarray, np.ndarray]:
+def temperatures(rng, time: np.ndarray, lag_h: float | None) -> tuple[np.ndarray, np.ndarray]:
     """Air reading per row (degC) and the machine's lagged change since the start (K)."""
     end = time[-1] + 1.0
     air = gp_1d(rng, 0.0, end, rng.uniform(0.3, 1.5), rng.uniform(0.1, 0.5))
@@ -215,7 +214,7 @@ def _temperatures(rng, time: np.ndarray, lag_h: float | None) -> tuple[np.ndarra
     return reading, np.interp(time, grid, machine) - machine[0]
 
 
-def _tracker(rng, centre: np.ndarray, arm: bool) -> np.ndarray:
+def tracker_pose(rng, centre: np.ndarray, arm: bool) -> np.ndarray:
     dist = rng.uniform(1.5, 3.0) if arm else rng.uniform(2.0, 5.0)
     az = rng.uniform(0, 2 * np.pi)
     pos = centre + np.array([dist * np.cos(az), dist * np.sin(az), rng.uniform(-0.5, 0.5)])
@@ -226,7 +225,7 @@ def _tracker(rng, centre: np.ndarray, arm: bool) -> np.ndarray:
     return t
 
 
-def _spherical_noise(rng, trk: np.ndarray, noise: dict) -> np.ndarray:
+def spherical_noise(rng, trk: np.ndarray, noise: dict) -> np.ndarray:
     r = np.linalg.norm(trk, axis=1)
     az = np.arctan2(trk[:, 1], trk[:, 0])
     el = np.arcsin(trk[:, 2] / r)

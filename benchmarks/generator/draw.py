@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .campaign import Campaign, Rows, _commands, _rows, _spherical_noise, _temperatures, _tracker
+from .campaign import Campaign, Rows, commands, measurement_rows, spherical_noise, temperatures, tracker_pose
 from .kinematics import tool_points
 from .layouts import Layout, draw_layout
-from .truth import SCALED, applicable, draw_effect, draw_fields, _unit
+from .truth import SCALED, applicable, draw_effect, draw_fields, unit_vector
 
 CLEAN_SHARE = 0.25
 
@@ -95,7 +95,7 @@ def _gross(rng, camp: Campaign, trk: np.ndarray) -> np.ndarray:
     mags = rng.uniform(0.3e-3, 1.2e-3, len(rows))
     out = trk.copy()
     for r, m in zip(rows, mags):
-        out[r] += m * _unit(rng)
+        out[r] += m * unit_vector(rng)
     camp.gross_rows = sorted(int(r) for r in rows)
     camp.effect.params["magnitudes_mm"] = [float(m * 1e3) for m in mags]
     camp.effect.size_mm = float(mags.min() * 1e3)
@@ -119,15 +119,15 @@ def draw_campaign(seed: int, kind: str | None = None, family: str | None = "rand
     for _ in range(n_tools - 1):
         tools.append(tools[-1] + (rng.uniform(0.05, 0.15) if arm else rng.uniform(0.08, 0.2)))
     nests = _nests(rng, bool(layout.table_chain))
-    q = _commands(rng, layout, n_cmd)
-    rows = _rows(rng, n_cmd, tools, len(nests))
+    q = commands(rng, layout, n_cmd)
+    rows = measurement_rows(rng, n_cmd, tools, len(nests))
     effect = draw_effect(rng, layout, fam)
     noise = _noise(rng, layout, rows, q)
     lag = effect.params["lag_h"] if effect is not None and fam == "thermal" else None
-    temperature, delta_t = _temperatures(rng, rows.time, lag)
+    temperature, delta_t = temperatures(rng, rows.time, lag)
     camp = Campaign(seed, layout, fields, effect, q, rows, tools, nests, np.eye(4), noise, temperature, delta_t)
     nominal = tool_points(layout, camp.row_commands(), rows.tool_m)
-    camp.tracker = _tracker(rng, nominal.mean(axis=0), arm)
+    camp.tracker = tracker_pose(rng, nominal.mean(axis=0), arm)
     if effect is not None and fam == "backlash":
         noise["direction"] = _directions(camp, effect.axes[0])
     if effect is not None and fam in SCALED:
@@ -135,7 +135,7 @@ def draw_campaign(seed: int, kind: str | None = None, family: str | None = "rand
     trk = camp.to_tracker(camp.base_points())
     ranges = np.linalg.norm(trk, axis=1)
     noise["range_span_m"] = (ranges.min(), ranges.max())
-    trk = _spherical_noise(rng, trk, noise)
+    trk = spherical_noise(rng, trk, noise)
     if effect is not None and fam == "shift":
         trk = camp.shifted(trk)
     if effect is not None and fam.startswith("gross"):
@@ -148,7 +148,7 @@ def heldout_csv(camp: Campaign, n: int, seed: int) -> str:
     """A noise-free, effect-free campaign of ``n`` fresh commands with every tool: the truth a model
     is judged on (tool rows only, tracker frame of the campaign)."""
     rng = np.random.default_rng(seed)
-    q = _commands(rng, camp.layout, n)
+    q = commands(rng, camp.layout, n)
     cmd = np.tile(np.arange(n), len(camp.tools_m))
     tool = np.repeat(camp.tools_m, n)
     rows = Rows(cmd, -np.ones(len(cmd), dtype=int), tool, np.zeros(len(cmd), dtype=int), np.arange(len(cmd)) * 10.0)

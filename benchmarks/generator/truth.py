@@ -177,12 +177,12 @@ def draw_effect(rng: np.random.Generator, layout: Layout, family: str | None,
         frac = rng.uniform(0.15, 0.35) if rng.random() < 0.5 else rng.uniform(0.65, 0.85)
         axis = rng.normal(size=3)
         eff.params.update(at_fraction=frac, rot_axis=axis / np.linalg.norm(axis),
-                          rot_weight=rng.uniform(0.0, 1.0), direction=_unit(rng))
+                          rot_weight=rng.uniform(0.0, 1.0), direction=unit_vector(rng))
     elif family.startswith("gross"):
         eff.size_mm = 0.0
     return eff
 
 
-def _unit(rng: np.random.Generator) -> np.ndarray:
+def unit_vector(rng: np.random.Generator) -> np.ndarray:
     v = rng.normal(size=3)
     return v / np.linalg.norm(v)
