@@ -17,7 +17,8 @@ commands) against the best of a few fixed candidates (``vecpin fit --model --bas
 Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
 figures), unless --default-noise.
 
-Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--choice 4] [--default-noise] [--no-write]
+Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--default-noise]
+     [--no-write]
 Fresh seeds every run unless --seed; --heldout reads the frozen set benchmarks/generator/heldout_seeds.txt.
 """
 from __future__ import annotations
@@ -143,9 +144,9 @@ def _group_names(diag: dict, want: str) -> set[str]:
     return out
 
 
-def run_campaign(seed: int, work: Path, stated: bool = True) -> dict:
+def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "random") -> dict:
     """Draw, write, diagnose and score one campaign; its record (truth, verdict, seconds)."""
-    camp = draw_campaign(seed)
+    camp = draw_campaign(seed, family=None if family == "clean" else family)
     paths = camp.write(work / str(seed))
     truth = camp.truth_record()
     t0 = time.perf_counter()
@@ -301,17 +302,20 @@ def main() -> None:
     ap.add_argument("-n", type=int, default=20, help="campaigns to diagnose (default 20)")
     ap.add_argument("--seed", type=int, help="first seed (default: a fresh random one every run)")
     ap.add_argument("--heldout", action="store_true", help="use the frozen held-out seeds")
+    ap.add_argument("--family", default="random", choices=["random", "clean", *FAMILIES],
+                    help="draw only campaigns of this effect family (default: random, a quarter clean)")
     ap.add_argument("--choice", type=int, default=4, help="multi-target campaigns for model choice (default 4)")
     ap.add_argument("--default-noise", action="store_true",
                     help="run vecpin with its default noise (default: the tracker's and the axes' stated noise)")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
     args = ap.parse_args()
     todo, how = seeds(args)
+    how += "" if args.family == "random" else f"; only {args.family} campaigns"
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="unseen_") as tmp:
         records = []
         for s in todo:
-            records.append(run_campaign(s, Path(tmp), not args.default_noise))
+            records.append(run_campaign(s, Path(tmp), not args.default_noise, args.family))
             r = records[-1]
             print(f"seed {s} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
                   f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)", flush=True)

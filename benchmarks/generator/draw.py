@@ -15,6 +15,8 @@ from .layouts import Layout, draw_layout
 from .truth import SCALED, applicable, draw_effect, draw_fields, unit_vector
 
 CLEAN_SHARE = 0.25
+NEEDS_KIND = {"skew": ("gantry",), "harmonic": ("head", "table", "head_table", "gantry"),
+              "coupled": ("head", "table", "head_table", "gantry")}     # the layouts that can carry them
 
 
 def choose_family(rng: np.random.Generator, layout: Layout, family: str | None = "random") -> str | None:
@@ -106,10 +108,15 @@ def draw_campaign(seed: int, kind: str | None = None, family: str | None = "rand
                   n_commands: int | None = None, n_tools: int = 2) -> Campaign:
     """One unseen machine and its measured campaign, deterministic in ``seed``.
 
-    kind: a layout kind (None: drawn); family: an effect family, None (clean) or ``random``.
+    kind: a layout kind (None: drawn, among those that can carry the family); family: an effect
+    family, None (clean) or ``random`` (none with probability 1/4, else one the layout can carry).
     """
     rng = np.random.default_rng(seed)
+    if kind is None and family in NEEDS_KIND:
+        kind = str(rng.choice(NEEDS_KIND[family]))
     layout = draw_layout(rng, kind, name=f"unseen_{seed}")
+    if family not in ("random", None) and family not in applicable(layout):
+        raise ValueError(f"a {layout.kind} layout cannot carry the effect {family!r}")
     fields = draw_fields(rng, layout)
     fam = choose_family(rng, layout, family)
     n_cmd = int(n_commands or rng.integers(120, 201))
