@@ -1,0 +1,338 @@
+"""vecpin judged on machines and errors it has never seen (issue 40).
+
+Every campaign comes from ``benchmarks/generator`` (written blind: it shares no code and no
+assumption with vecpin's simulator or models): a random layout (head, table, head-table, twin-drive
+gantry, 6R arm) written as URDF, smooth Gaussian-process errors per axis, at most one effect (thermal
+with lag and nonlinearity, a knocked tracker, isolated or clustered gross errors, backlash, a per-turn
+harmonic, a non-separable coupling of two linear axes, a twin-drive yaw), spherical tracker noise.
+vecpin is called as a user calls it: ``vecpin diagnose URDF CSV --out DIR`` and its diagnosis.json.
+
+Scores: clean campaigns that stay silent; campaigns naming a wrong effect (spurious); per family the
+recall (the true effect named, or named in the ambiguity group of a named effect) above a stated size,
+and the precision of vecpin's names; gross-error rows found; Wilson 95 % intervals throughout. Then
+model choice on multi-target (three tool) clean campaigns: the chosen model's true held-out error
+(``vecpin evaluate`` of the fitted model on noise-free readings of the generator's truth at fresh
+commands) against the best of a few fixed candidates (``vecpin fit --model --basis --order``).
+
+Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
+figures), unless --default-noise.
+
+Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--default-noise]
+     [--no-write]
+Fresh seeds every run unless --seed; --heldout reads the frozen set benchmarks/generator/heldout_seeds.txt.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import secrets
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+from generator import draw_campaign, heldout_csv  # noqa: E402
+from generator.truth import FAMILIES, VECPIN_NAME  # noqa: E402
+
+RESULT = ROOT / "docs" / "results" / "unseen.md"
+SEEDS_FILE = HERE / "generator" / "heldout_seeds.txt"
+RECALL_SIZE_MM = 0.02          # recall is stated for effects at least this large (RMS at the tip)
+CANDIDATES = [("6dof", "chebyshev", "2"), ("6dof", "chebyshev", "4"), ("6dof", "chebyshev", "6"),
+              ("ap", "chebyshev", "4"), ("6dof", "pspline", "auto")]
+Z95 = 1.959963984540054
+
+
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """Wilson score interval (95 %) of a proportion k/n; (0, 1) when n = 0."""
+    if n == 0:
+        return 0.0, 1.0
+    p = k / n
+    den = 1.0 + Z95 ** 2 / n
+    mid = (p + Z95 ** 2 / (2 * n)) / den
+    half = Z95 * np.sqrt(p * (1 - p) / n + Z95 ** 2 / (4 * n * n)) / den
+    return max(0.0, mid - half), min(1.0, mid + half)
+
+
+def frac(k: int, n: int) -> str:
+    lo, hi = wilson(k, n)
+    return f"{k}/{n} ({(k / n if n else 0):.0%}; {lo:.0%}-{hi:.0%})"
+
+
+def vecpin_cmd(*args: str) -> subprocess.CompletedProcess:
+    """Run the ``vecpin`` command (the console script of the active environment)."""
+    exe = Path(sys.executable).with_name("vecpin")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "vecpin"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    return subprocess.run(cmd + list(args), capture_output=True, text=True, env=env)
+
+
+def tool_options(kind: str) -> list[str]:
+    return ["--tool-link", "tool0", "--tool-axis=+z"] if kind == "arm" else []
+
+
+def noise_options(truth: dict, stated: bool) -> list[str]:
+    """The instrument's and the machine's noise as their specs state them (the truth's), or nothing
+    (vecpin's defaults)."""
+    if not stated:
+        return []
+    out = ["--tracker-noise", *(f"{v:.6g}" for v in truth["tracker_noise"])]
+    if truth["repeatability_mm"] > 0:
+        out += ["--repeatability-mm", f"{truth['repeatability_mm']:.6g}"]
+    if truth["repeatability_deg"] > 0:
+        out += ["--repeatability-deg", f"{truth['repeatability_deg']:.6g}"]
+    return out
+
+
+def named_effects(diag: dict) -> tuple[set[str], set[str]]:
+    """(names vecpin accepted, names in the ambiguity groups of accepted effects), vecpin's effect names."""
+    named, groups = set(), set()
+    for e in diag.get("effects", []):
+        if e.get("accepted"):
+            named.add(e["name"])
+            for alt in e.get("alternatives") or []:
+                groups.add(alt.get("name") if isinstance(alt, dict) else str(alt).split("[")[0])
+    if diag.get("outlier_lines"):
+        named.add("outliers")
+    return named, groups
+
+
+def score_one(truth: dict, diag: dict) -> dict:
+    """One campaign's verdict: hit, wrong names, gross rows found and missed."""
+    named, groups = named_effects(diag)
+    want = truth["vecpin_name"]
+    hit = want is not None and (want in named or want in groups)
+    wrong = sorted(n for n in named if n != want and not (want in groups and n in _group_names(diag, want)))
+    flagged = set(diag.get("outlier_lines") or [])
+    true_gross = set(truth["gross_lines"])
+    return {"hit": hit, "named": sorted(named), "wrong": wrong, "status": true_status(diag, want),
+            "gross_found": len(flagged & true_gross),
+            "gross_true": len(true_gross), "gross_false": len(flagged - true_gross)}
+
+
+def true_status(diag: dict, want: str | None) -> str:
+    """What the diagnosis made of the true effect's candidates (the best of them)."""
+    if want is None:
+        return "-"
+    mine = [e for e in diag.get("effects", []) if e["name"] == want]
+    if want == "outliers" and diag.get("outlier_lines"):
+        return "accepted"
+    for status, key in (("accepted", "accepted"), ("significant, not accepted", "significant"),
+                        ("detected, too small to name", "detected_but_small")):
+        if any(e.get(key) for e in mine):
+            return status
+    if not mine:
+        return "not tried"
+    return f"not significant (best shrink {max(e.get('shrink_pct') or 0.0 for e in mine):.1f} %)"
+
+
+def _group_names(diag: dict, want: str) -> set[str]:
+    """Accepted effects whose ambiguity group holds ``want`` (naming them is naming the group)."""
+    out = set()
+    for e in diag.get("effects", []):
+        alts = {a.get("name") if isinstance(a, dict) else str(a).split("[")[0] for a in e.get("alternatives") or []}
+        if e.get("accepted") and want in alts:
+            out.add(e["name"])
+    return out
+
+
+def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "random") -> dict:
+    """Draw, write, diagnose and score one campaign; its record (truth, verdict, seconds)."""
+    camp = draw_campaign(seed, family=None if family == "clean" else family)
+    paths = camp.write(work / str(seed))
+    truth = camp.truth_record()
+    t0 = time.perf_counter()
+    out = work / str(seed) / "diag"
+    res = vecpin_cmd("diagnose", str(paths["urdf"]), str(paths["csv"]), "--out", str(out), "--quiet",
+                     *tool_options(truth["kind"]), *noise_options(truth, stated))
+    seconds = time.perf_counter() - t0
+    rec = {"seed": seed, "truth": truth, "seconds": seconds}
+    if res.returncode != 0:
+        rec["error"] = (res.stderr.strip().splitlines() or ["exit %d" % res.returncode])[-1]
+        return rec
+    diag = json.loads((out / "diagnosis.json").read_text())
+    rec.update(score_one(truth, diag))
+    bases = ((diag.get("base") or {}).get("choice") or {}).get("chosen", {}).get("bases", {})
+    rec["base_on_axes"] = ", ".join(f"{a}: {bases[a]}" for a in truth["effect_axes"] if a in bases)
+    rec["headline"] = diag.get("headline", [""])[1] if len(diag.get("headline", [])) > 1 else ""
+    return rec
+
+
+def model_choice(seed: int, work: Path, stated: bool = True) -> dict:
+    """Fit the default choice and the fixed candidates on a clean 3-tool campaign; each model's true
+    held-out mean error (mm) on 150 fresh commands x 3 tools read without noise from the truth."""
+    rng = np.random.default_rng(seed)
+    kind = str(rng.choice(["head", "gantry", "arm"]))
+    camp = draw_campaign(seed, kind=kind, family=None, n_tools=3)
+    folder = work / f"choice_{seed}"
+    paths = camp.write(folder)
+    held = folder / "heldout_truth.csv"
+    held.write_text(heldout_csv(camp, 150, seed + 1))
+    out = {"seed": seed, "kind": kind, "models": {}}
+    runs = [("chosen", [])] + [(f"{m}/{b}/{o}", ["--model", m, "--basis", b, "--order", o]) for m, b, o in CANDIDATES]
+    for label, opts in runs:
+        model = folder / f"model_{label.replace('/', '_')}.json"
+        fit = vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model), "--quiet",
+                         *opts, *tool_options(kind), *noise_options(camp.truth_record(), stated))
+        if fit.returncode != 0:
+            out["models"][label] = None
+            continue
+        ev_json = folder / f"eval_{label.replace('/', '_')}.json"
+        ev = vecpin_cmd("evaluate", str(model), str(held), "--json", str(ev_json))
+        out["models"][label] = json.loads(ev_json.read_text())["model_residual"]["all"]["mean"] \
+            if ev.returncode == 0 else None
+    return out
+
+
+def summary(records: list[dict], choices: list[dict], how: str) -> list[str]:
+    """The results page: per-family figures, clean campaigns, gross rows, model choice, every campaign."""
+    ok = [r for r in records if "error" not in r]
+    clean = [r for r in ok if r["truth"]["family"] is None]
+    lines = ["# vecpin on unseen machines (issue 40)", "",
+             f"Written by `python benchmarks/bench_unseen.py` ({how}). Machines, errors and campaigns are drawn by",
+             "`benchmarks/generator`, written blind to vecpin's simulator and models; vecpin is run as",
+             "`vecpin diagnose URDF CSV --out DIR` and judged on its diagnosis.json. Intervals: Wilson 95 %.", "",
+             f"* campaigns: {len(records)} ({len(records) - len(ok)} refused or failed), "
+             f"{np.mean([r['seconds'] for r in records]):.1f} s per diagnosis on average "
+             f"({np.median([r['truth']['rows'] for r in records]):.0f} rows median)",
+             f"* clean campaigns silent: {frac(sum(not r['named'] for r in clean), len(clean))}",
+             f"* campaigns naming a wrong effect (spurious): {frac(sum(bool(r['wrong']) for r in ok), len(ok))}; "
+             f"wrong names per campaign {np.mean([len(r['wrong']) for r in ok]) if ok else 0:.2f}",
+             _gross_line(ok), "", f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
+             "(gross errors: all); precision is over every name vecpin gave of that family; *missed but seen*: the "
+             "true effect was significant but not accepted, or detected but too small to name.", "",
+             "| family | vecpin name | campaigns | recall (size ≥ stated) | recall (all sizes) | precision "
+             "| missed but seen | missed, not tried |", "|---|---|---|---|---|---|---|---|"]
+    for fam in FAMILIES:
+        mine = [r for r in ok if r["truth"]["family"] == fam]
+        big = [r for r in mine if fam.startswith("gross") or r["truth"]["size_mm"] >= RECALL_SIZE_MM]
+        name = VECPIN_NAME[fam]
+        said = [r for r in ok if name in r["named"]]
+        right = [r for r in said if r["truth"]["vecpin_name"] == name]
+        lines.append(f"| {fam} | {name} | {len(mine)} | {frac(sum(r['hit'] for r in big), len(big))} | "
+                     f"{frac(sum(r['hit'] for r in mine), len(mine))} | {frac(len(right), len(said))} | "
+                     f"{sum(not r['hit'] and r['status'].startswith(('signif', 'detected')) for r in mine)} | "
+                     f"{sum(not r['hit'] and r['status'] == 'not tried' for r in mine)} |")
+    lines += ["", "Wrong names given, by the campaign's true family:", ""]
+    conf = Counter((r["truth"]["family"] or "clean", w) for r in ok for w in r["wrong"])
+    lines += [f"* {t}: {w} x{n}" for (t, w), n in sorted(conf.items())] or ["* none"]
+    lines += _choice_lines(choices) + _campaign_lines(records)
+    return lines
+
+
+def _gross_line(ok: list[dict]) -> str:
+    found = sum(r["gross_found"] for r in ok)
+    true = sum(r["gross_true"] for r in ok)
+    false = sum(r["gross_false"] for r in ok)
+    return (f"* gross-error rows found: {frac(found, true)}; rows flagged that carry no gross error: {false} "
+            f"in {len(ok)} campaigns")
+
+
+def _choice_lines(choices: list[dict]) -> list[str]:
+    if not choices:
+        return []
+    lines = ["", "## Model choice on multi-target campaigns", "",
+             "Clean campaigns with three tools; true held-out mean error, µm, on 150 fresh commands x 3 tools",
+             "(noise-free readings of the truth in the campaign's tracker frame, `vecpin evaluate` of each model). "
+             "Regret: chosen minus the best candidate.", "",
+             "| seed | layout | chosen | " + " | ".join("/".join(c) for c in CANDIDATES)
+             + " | regret | chosen / best |",
+             "|---|---|---|" + "---|" * len(CANDIDATES) + "---|---|"]
+    ratios = []
+    for c in choices:
+        vals = [c["models"].get("/".join(k)) for k in CANDIDATES]
+        good = [v for v in vals if v is not None]
+        chosen = c["models"].get("chosen")
+        cells = " | ".join("-" if v is None else f"{v * 1e3:.1f}" for v in vals)
+        if chosen is None or not good:
+            lines.append(f"| {c['seed']} | {c['kind']} | - | {cells} | - | - |")
+            continue
+        best = min(good)
+        ratios.append(chosen / best)
+        lines.append(f"| {c['seed']} | {c['kind']} | {chosen * 1e3:.1f} | {cells} | {(chosen - best) * 1e3:+.1f} | "
+                     f"{chosen / best:.2f} |")
+    if ratios:
+        lines += ["", f"Chosen / best candidate: median {np.median(ratios):.2f}, worst {max(ratios):.2f}; "
+                  f"chosen within 10 % of the best in {frac(sum(r <= 1.1 for r in ratios), len(ratios))}."]
+    return lines
+
+
+def _campaign_lines(records: list[dict]) -> list[str]:
+    lines = ["", "## Every campaign", "", "The true effect's status: the best of its candidates in diagnosis.json; "
+             "for a missed effect, the base model's basis on its axes.", "",
+             "| seed | layout | rows | truth | size µm | vecpin named | verdict | true effect's status | s |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in records:
+        t = r["truth"]
+        truth = (t["family"] or "clean") + (f" [{','.join(t['effect_axes'])}]" if t["effect_axes"] else "")
+        size = "-" if t["size_mm"] is None else f"{t['size_mm'] * 1e3:.0f}"
+        if "error" in r:
+            verdict, named, status = "error: " + r["error"].replace("|", "/")[:90], "-", "-"
+        else:
+            named, status = ", ".join(r["named"]) or "nothing", r["status"]
+            if not r["hit"] and r.get("base_on_axes"):
+                order = (t.get("params") or {}).get("order_per_turn")
+                status += f"; base {r['base_on_axes']}" + (f" (true order per turn {order})" if order else "")
+            verdict = ("hit" if r["hit"] else ("silent" if t["family"] is None and not r["named"] else "missed")) \
+                + (f"; wrong: {', '.join(r['wrong'])}" if r["wrong"] else "")
+        lines.append(f"| {r['seed']} | {t['kind']} | {t['rows']} | {truth} | {size} | {named} | {verdict} | "
+                     f"{status} | {r['seconds']:.0f} |")
+    return lines
+
+
+def seeds(args) -> tuple[list[int], str]:
+    if args.heldout:
+        rows = [ln.strip() for ln in SEEDS_FILE.read_text().splitlines() if ln.strip() and not ln.startswith("#")]
+        chosen = [int(s) for s in rows][: args.n]
+        return chosen, f"the frozen held-out seeds, first {len(chosen)} of {len(rows)}"
+    start = args.seed if args.seed is not None else secrets.randbelow(2 ** 31)
+    return list(range(start, start + args.n)), f"seeds {start}..{start + args.n - 1}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("-n", type=int, default=20, help="campaigns to diagnose (default 20)")
+    ap.add_argument("--seed", type=int, help="first seed (default: a fresh random one every run)")
+    ap.add_argument("--heldout", action="store_true", help="use the frozen held-out seeds")
+    ap.add_argument("--family", default="random", choices=["random", "clean", *FAMILIES],
+                    help="draw only campaigns of this effect family (default: random, a quarter clean)")
+    ap.add_argument("--choice", type=int, default=4, help="multi-target campaigns for model choice (default 4)")
+    ap.add_argument("--default-noise", action="store_true",
+                    help="run vecpin with its default noise (default: the tracker's and the axes' stated noise)")
+    ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
+    args = ap.parse_args()
+    todo, how = seeds(args)
+    how += "" if args.family == "random" else f"; only {args.family} campaigns"
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="unseen_") as tmp:
+        records = []
+        for s in todo:
+            records.append(run_campaign(s, Path(tmp), not args.default_noise, args.family))
+            r = records[-1]
+            print(f"seed {s} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
+                  f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)", flush=True)
+        choices = []
+        for s in todo[: args.choice]:
+            choices.append(model_choice(s + 7919, Path(tmp), not args.default_noise))
+            figs = [f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()]
+            print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs), flush=True)
+    how += ("; vecpin's default noise" if args.default_noise
+            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
+    how += f"; {time.perf_counter() - t0:.0f} s in all"
+    text = "\n".join(summary(records, choices, how)) + "\n"
+    print(text)
+    if not args.no_write:
+        RESULT.write_text(text, encoding="utf-8")
+        print(f"wrote {RESULT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
