@@ -238,6 +238,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                                   travel=clip_to_zone(machine, zone) if zone else None,
                                   noise_from_data=noise_from_data, **opts)
     check_size(model)
+    if choice is not None and choice.gross is not None:   # gross rows the choice left out: the fit leaves them out too
+        campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), choice.gross.rows))
     model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.chosen_noise_scale if choice else 1.0,
                                              noise_from_data, underdetermined, progress)
     rescaled = scale != 1.0
