@@ -470,7 +470,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
     candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
     the choice scales the noise to what the data say (:func:`choose_model`; a fixed
-    choice leaves that to the fit); ``travel``: where the model will be used
+    choice too, its one candidate scored, so that its gross rows are found before the
+    noise level is taken from the data); ``travel``: where the model will be used
     (:func:`~vecpin.selection.design.partly_measured`)."""
     if kind not in ("auto", *MODELS):
         raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
@@ -478,7 +479,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
         raise InputError(f"`basis` {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
     check_basis(machine, basis)
-    if kind != "auto" and basis not in ("auto", "pspline") and order != "auto":
+    fixed = kind != "auto" and basis not in ("auto", "pspline") and order != "auto"
+    if fixed and not noise_from_data:
         return fixed_model(machine, kind, basis, order, **opts), None
     if basis == "auto":
         families = DEFAULT_FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
@@ -492,4 +494,6 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
                           per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
                           underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
                           progress=progress)
+    if fixed:   # its one candidate scored for the noise level and its gross rows (:mod:`.screen`)
+        return fixed_model(machine, kind, basis, order, **opts), choice
     return choice.chosen.model(machine, **opts), choice
