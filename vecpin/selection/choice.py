@@ -236,6 +236,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
     made with that noise (``ModelChoice.noise_scale``), after the gross rows are left out
     (:mod:`vecpin.selection.screen`; ``screen``: look for them, the default))."""
+    args = dict(locals())   # the arguments, for the choice again without the gross rows
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
     say = progress or (lambda s: None)
@@ -260,18 +261,12 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if not search.cands:
         raise _too_small(machine, campaign, problems, search.limit)
     lowest = min(search.cands, key=lambda c: c.mean)
-    gross = (_screened(problems[lowest.kind], lowest, camp, campaign,
-                       lambda setup: Problem(lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans))
-             if noise_from_data and screen else None)
+    gross = _screened(problems[lowest.kind], lowest, camp, campaign, lambda setup: Problem(
+        lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans)) if noise_from_data and screen else None
     if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
         say(gross.text)
-        choice = choose_model(machine, campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows)), noise,
-                              kinds=kinds, families=families, plans=plans, orders=orders, per_axis=per_axis,
-                              folds=folds, seed=seed, fixed_order=fixed_order, opts=opts,
-                              underdetermined=underdetermined, noise_from_data=True, travel=travel,
-                              progress=progress, screen=False)
-        choice.gross = gross
-        return choice
+        keep = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
+        return _with_gross(choose_model(**(args | {"campaign": keep, "noise": noise, "screen": False})), gross)
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
     if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
         say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
@@ -340,6 +335,12 @@ def _ends_choice(stages: list[KindStage], problems: dict) -> tuple[Candidate, fl
               + ("the lowest held-out mean" if chosen is low else
                  f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
     return chosen, se, reason, stage.start
+
+
+def _with_gross(choice: ModelChoice, gross: Screen) -> ModelChoice:
+    """``choice`` (made without the gross rows) with them."""
+    choice.gross = gross
+    return choice
 
 
 def _screened(prob: Problem, cand: Candidate, judged: Campaign, campaign: Campaign, again) -> Screen | None:

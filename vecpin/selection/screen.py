@@ -82,8 +82,8 @@ def what_they_share(campaign: Campaign, rows: np.ndarray) -> str:
                 label = f"{name} {v}" + (" mm" if name == "tool" else "")
                 return f"{there.size} of them are rows of {label} ({there.size} of its {own.size} rows): check {what}"
     if rows.size >= 3 and rows[-1] - rows[0] + 1 <= 2 * rows.size:
-        return ("they were measured one after another: did the tracker move (a bump) or lose its reference during that stretch? re-measure them, or "
-                "re-register the tracker for them")
+        return ("they were measured one after another: did the tracker move (a bump) or lose its reference during "
+                "that stretch? re-measure them, or re-register the tracker for them")
     return ""
 
 
@@ -105,10 +105,10 @@ def screen_rows(J: np.ndarray, w: np.ndarray, valid: np.ndarray, x0: np.ndarray,
     lines = campaign.lines[rows]
     said = _said(fit, campaign, rows, lines)
     if share > GROSS_SHARE:
-        raise InputError(f"{campaign.source}: {said}. So many rows far beyond the noise are not stray readings, and "
-                         f"vecpin will neither scale the noise to them nor leave {share:.0%} of the campaign out on its "
-                         "own: correct the setting they share, or re-measure or remove those rows; to fit them as "
-                         "they are, state the noise (`repeatability_mm`, `tracker_noise`, ...)")
+        raise InputError(f"{campaign.source}: {said}. So many rows far beyond the noise are not stray readings, "
+                         f"and vecpin will neither scale the noise to them nor leave {share:.0%} of the campaign out "
+                         "on its own: correct the setting they share, or re-measure or remove those rows; to fit "
+                         "them as they are, state the noise (`repeatability_mm`, `tracker_noise`, ...)")
     text = (f"{said}. They are left out of the model choice and the fit"
             + ("" if "check" in said else "; re-measure them, or check the tracker log for a broken beam"))
     return Screen(rows, lines, float(np.sqrt(fit.plain)), float(np.sqrt(fit.level)), text)
@@ -119,9 +119,9 @@ def _said(fit: RobustFit, campaign: Campaign, rows: np.ndarray, lines: np.ndarra
     scales, what they share."""
     share = what_they_share(campaign, rows)
     return (f"{rows.size} rows (file lines {shown_lines(lines)}) are gross errors: beyond the limit at which a "
-            f"clean campaign of {len(campaign)} rows has any row with probability {FAMILY_ALPHA:g}, at the robust noise level of "
-            f"the other rows ({np.sqrt(fit.level):.2f} x the stated noise); with them the noise from the data would "
-            f"be {np.sqrt(fit.plain):.2f} x the stated noise" + (f"; {share}" if share else ""))
+            f"clean campaign of {len(campaign)} rows has any row with probability {FAMILY_ALPHA:g}, at the robust "
+            f"noise level of the other rows ({np.sqrt(fit.level):.2f} x the stated noise); with them the noise from "
+            f"the data would be {np.sqrt(fit.plain):.2f} x the stated noise" + (f"; {share}" if share else ""))
 
 
 def trimmed_registration(setup: Setup, r: np.ndarray, xyz: np.ndarray, rows: np.ndarray) -> Setup | None:
