@@ -9,18 +9,19 @@ level is the median of s_i / median(chi2(k_i)) over the rows kept, times
 equations / (equations - effective terms) (the fit takes up that share of the chi2):
 rows far off do not move a median.
 
-The fit is an iteratively reweighted least squares (an M-estimate) of the same linear
-problem with its unit ridge (the priors): first :data:`HUBER_ROUNDS` rounds of Huber
-weights on each row's statistic (a row beyond the chi2(k_i) tail of :data:`HUBER_P` at
-the current robust level counts with weight sqrt(limit / statistic): bounded influence,
-a convex problem that a start pulled by gross rows cannot trap; the first scale comes from the
-residuals at the linearisation point (the nominal machine in the model choice: the
-uncompensated errors, which no gross row pulls, where the least-squares fit of every row
-spreads a target 60 mm off over every row), then rounds of skipped
-(hard redescending) weights: a row beyond the Šidák limit (:func:`row_limit`: a clean
-campaign of any size loses a row with probability :data:`FAMILY_ALPHA` in all) has
-weight 0, every other row 1, until that set settles. A clean campaign ends with every
-weight 1: the plain least-squares solution, bit for bit the fit it had before.
+The fit is an iteratively reweighted least squares (an M-estimate with hard-redescending,
+"skipped" weights) of the same linear problem with its unit ridge (the priors): a row
+beyond the Šidák limit (:func:`row_limit`: a clean campaign of any size has a row beyond
+it with probability :data:`FAMILY_ALPHA` in all) at the current robust level has weight
+0, every other row 1, and the fit and the weights alternate until the rows skipped
+settle (at most :data:`SKIP_ROUNDS` rounds). A redescending estimate needs a start that
+the gross rows did not pull: of the least-squares fit of every row and the linearisation
+point (in the model choice, the nominal machine: the uncompensated errors), the one whose
+residuals have the lower median. A target 60 mm off spreads tens of millimetres over every
+row of the least-squares fit, but leaves the other rows' uncompensated errors as they
+are; a machine whose errors are large at the ends of its travel is started from the fit.
+A clean campaign ends with every weight 1: the plain least-squares solution, bit for bit
+the fit it had before.
 """
 from __future__ import annotations
 
@@ -30,8 +31,6 @@ import numpy as np
 from scipy import linalg, stats
 
 FAMILY_ALPHA = 0.01   # chance that a clean campaign has any row beyond the limit (Šidák over the rows)
-HUBER_P = 0.05        # Huber's corner: the chi2(k) tail beyond which a row is down-weighted in the first rounds
-HUBER_ROUNDS = 4      # convex rounds before the rows beyond the limit are skipped
 SKIP_ROUNDS = 8       # rounds of skipped weights at most (they stop when the rows skipped settle)
 
 
@@ -95,9 +94,8 @@ def robust_fit(J: np.ndarray, w: np.ndarray, valid: np.ndarray, x0: np.ndarray |
     valid = np.asarray(valid, bool)
     Jf, wf = J.reshape(-1, P), np.where(valid, w, 0.0).ravel()
     x0 = np.zeros(P) if x0 is None else np.asarray(x0, float)
-    k = equations(valid)
     n_eq = int(valid.sum())
-    limit, corner = row_limit(valid, n_rows or N, alpha), stats.chi2.isf(HUBER_P, k)
+    limit = row_limit(valid, n_rows or N, alpha)
 
     def stat(z):
         res = np.where(valid, w - J @ z, 0.0)
@@ -111,7 +109,7 @@ def robust_fit(J: np.ndarray, w: np.ndarray, valid: np.ndarray, x0: np.ndarray |
     s = stat(z)
     plain = float((s.sum() + (x0 + z) @ (x0 + z)) / max(n_eq - p_eff, 1.0))
     every = keep = np.ones(N, bool)
-    s_at = stat(np.zeros(P))   # the start: the linearisation point, which no gross row pulled
+    s_at = min(s, stat(np.zeros(P)), key=lambda v: median_level(v, valid))   # the start (module text)
     for rnd in range(SKIP_ROUNDS):
         new = s_at / level_of(s_at, keep if keep.sum() >= N / 2 else every, p_eff) <= limit
         if rnd and np.array_equal(new, keep):
