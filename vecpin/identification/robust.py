@@ -110,9 +110,9 @@ def robust_fit(J: np.ndarray, w: np.ndarray, valid: np.ndarray, x0: np.ndarray |
     plain = float((s.sum() + (x0 + z) @ (x0 + z)) / max(n_eq - p_eff, 1.0))
     every = keep = np.ones(N, bool)
     s_at = min(s, stat(np.zeros(P)), key=lambda v: median_level(v, valid))   # the start (module text)
-    for rnd in range(SKIP_ROUNDS):
+    for _ in range(SKIP_ROUNDS):
         new = s_at / level_of(s_at, keep if keep.sum() >= N / 2 else every, p_eff) <= limit
-        if rnd and np.array_equal(new, keep):
+        if np.array_equal(new, keep):   # (z, s) are the fit of the rows kept already
             break
         keep = new
         z, p_eff = _solve(Jf, wf, np.repeat(keep.astype(float), 3), x0)
