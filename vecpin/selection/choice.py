@@ -261,8 +261,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if not search.cands:
         raise _too_small(machine, campaign, problems, search.limit)
     lowest = min(search.cands, key=lambda c: c.mean)
-    gross = _screened(problems[lowest.kind], lowest, camp, campaign, lambda setup: Problem(
-        lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans)) if noise_from_data and screen else None
+    gross = _screened(screen and noise_from_data, problems[lowest.kind], lowest, camp, campaign, lambda setup: Problem(
+        lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans))
     if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
         say(gross.text)
         keep = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
@@ -343,10 +343,14 @@ def _with_gross(choice: ModelChoice, gross: Screen) -> ModelChoice:
     return choice
 
 
-def _screened(prob: Problem, cand: Candidate, judged: Campaign, campaign: Campaign, again) -> Screen | None:
+def _screened(on: bool, prob: Problem, cand: Candidate, judged: Campaign, campaign: Campaign,
+              again) -> Screen | None:
     """The gross rows of ``campaign`` by the robust linearised fit of ``cand`` on the rows
     ``judged`` (:func:`~vecpin.selection.screen.screen_rows`), linearised again by
-    ``again(setup)`` at a trimmed registration when gross rows pulled the default one."""
+    ``again(setup)`` at a trimmed registration when gross rows pulled the default one
+    (None when not ``on``: the noise stated, or the rows screened already)."""
+    if not on:
+        return None
     fp = prob.problem
     rows = np.flatnonzero((judged.station == 0) & prob.judged)
     robust = trimmed_registration(prob.setup, fp.r, judged.xyz, rows)

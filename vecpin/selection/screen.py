@@ -121,7 +121,8 @@ def _said(fit: RobustFit, campaign: Campaign, rows: np.ndarray, lines: np.ndarra
     return (f"{rows.size} rows (file lines {shown_lines(lines)}) are gross errors: beyond the limit at which a "
             f"clean campaign of {len(campaign)} rows has any row with probability {FAMILY_ALPHA:g}, at the robust "
             f"level of the other rows' residuals from a first model ({np.sqrt(fit.level):.2f} x the stated noise); "
-            f"with them the noise from the data would be {np.sqrt(fit.plain):.2f} x the stated noise" + (f"; {share}" if share else ""))
+            f"with them the noise from the data would be {np.sqrt(fit.plain):.2f} x the stated noise"
+            + (f"; {share}" if share else ""))
 
 
 def trimmed_registration(setup: Setup, r: np.ndarray, xyz: np.ndarray, rows: np.ndarray) -> Setup | None:
