@@ -69,7 +69,7 @@ def one(machine, sim, case: str, seed: int) -> dict:
     t0 = time.perf_counter()
     try:
         run = fit_campaign(machine, spoilt.campaign, noise, noise_from_data=True, **FIXED)
-        g = run.choice.gross
+        g = run.gross
         named = np.array([], int) if g is None else g.rows
         out |= {"did": "left out" if g is not None else "kept all", "named": len(np.intersect1d(named, rows)),
                 "others": len(np.setdiff1d(named, rows)), "noise": run.noise_used,

@@ -98,13 +98,13 @@ def test_isolated_gross_errors_are_left_out_and_the_noise_stays(flow, sim480):
     within 15 % of the clean campaign's fit; the clean campaign flags nothing and keeps
     the stated noise."""
     clean = fit_campaign(flow, sim480.campaign, NoiseModel.default(flow), noise_from_data=True, **FIXED)
-    assert clean.choice.gross is None and clean.noise_used == 1.0 and not clean.noise_rescaled
+    assert clean.gross is None and clean.choice is None and clean.noise_used == 1.0 and not clean.noise_rescaled
     c = copy.deepcopy(sim480.campaign)
     rows = _nine_gross(c, flow)
     run = fit_campaign(flow, c, NoiseModel.default(flow), noise_from_data=True, **FIXED)
-    left = run.choice.gross.rows
+    left = run.gross.rows
     assert len(np.intersect1d(left, rows)) >= 8 and len(left) <= 10, (sorted(rows), sorted(left))
-    assert run.noise_used < 1.2 and run.choice.gross.plain > 3 * run.choice.gross.robust
+    assert run.noise_used < 1.2 and run.gross.plain > 3 * run.gross.robust
     assert _validation_um(run.model, sim480) < 1.15 * _validation_um(clean.model, sim480)
     printed = "\n".join(run.lines())
     assert "gross errors" in printed and str(c.lines[rows[0]]) in printed and len(run.campaign) == 480 - len(left)

@@ -69,7 +69,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.errors import IdentifiabilityError, InputError
+from vecpin.errors import IdentifiabilityError, InputError, VecpinError
 from vecpin.identification.crossval import command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -79,7 +79,7 @@ from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      measured_spans, partly_measured, per_turn_measured)
-from vecpin.selection.screen import Screen, screen_rows, trimmed_registration
+from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
 from vecpin.selection.stage import KindStage, kind_stage
 from vecpin.threads import one_blas_thread, side_by_side
@@ -87,6 +87,7 @@ from vecpin.threads import one_blas_thread, side_by_side
 _Problem = Problem  # the name the tests and older scripts use
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
+SCREEN_PARAMETERS = 2000   # a fixed model scored for its gross rows up to this size (larger: the fit's own checks first)
 
 
 @dataclass
@@ -112,6 +113,7 @@ class ModelChoice:
     before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
     chosen_noise_scale: float = 1.0  # the level the chosen candidate's own linearised fit gives: the fit starts there
     gross: Screen | None = None  # rows left out as gross errors before the noise level was taken from the data
+    fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -476,7 +478,9 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
     the choice scales the noise to what the data say (:func:`choose_model`; a fixed
     choice too, its one candidate scored, so that its gross rows are found before the
-    noise level is taken from the data); ``travel``: where the model will be used
+    noise level is taken from the data, unless it has more than :data:`SCREEN_PARAMETERS`
+    parameters or the choice cannot score it (too few commands for the folds, too few
+    equations): the fit's own checks then refuse it or it takes the level as before); ``travel``: where the model will be used
     (:func:`~vecpin.selection.design.partly_measured`)."""
     if kind not in ("auto", *MODELS):
         raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
@@ -485,20 +489,30 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     order = parse_order(order)
     check_basis(machine, basis)
     fixed = kind != "auto" and basis not in ("auto", "pspline") and order != "auto"
-    if fixed and not noise_from_data:
-        return fixed_model(machine, kind, basis, order, **opts), None
+    if fixed:
+        model = fixed_model(machine, kind, basis, order, **opts)
+        if not noise_from_data or model.n_parameters > SCREEN_PARAMETERS:
+            return model, None
     if basis == "auto":
         families = DEFAULT_FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
     elif basis in ("spline", "pspline") and order != "auto":
         families = (basis,)
     else:
         families = tuple(dict.fromkeys((basis, "chebyshev")))
-    choice = choose_model(machine, campaign, noise, kinds=None if kind == "auto" else (kind,), families=families,
-                          plans=None if basis == "auto" else (basis,),
-                          orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
-                          per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
-                          progress=progress)
+    try:
+        choice = choose_model(machine, campaign, noise, kinds=None if kind == "auto" else (kind,), families=families,
+                              plans=None if basis == "auto" else (basis,),
+                              orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
+                              per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
+                              underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
+                              progress=progress)
+    except GrossRowsRefused:
+        raise
+    except VecpinError:
+        if fixed:   # a fixed model the choice cannot score (too few commands or equations): the fit's own checks
+            return model, None
+        raise
     if fixed:   # its one candidate scored for the noise level and its gross rows (:mod:`.screen`)
-        return fixed_model(machine, kind, basis, order, **opts), choice
+        choice.fixed = True
+        return model, choice
     return choice.chosen.model(machine, **opts), choice

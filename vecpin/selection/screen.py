@@ -44,6 +44,10 @@ PULLED = 1.5        # the default registration is pulled when its median distanc
 C_STEPS = 10        # concentration steps of the trimmed registration
 
 
+class GrossRowsRefused(InputError):
+    """Many rows far beyond the noise that drive its level: the fit is refused, naming them."""
+
+
 @dataclass
 class Screen:
     """The rows a robust fit skips: ``rows`` (indices of the campaign), ``lines`` (their
@@ -105,10 +109,11 @@ def screen_rows(J: np.ndarray, w: np.ndarray, valid: np.ndarray, x0: np.ndarray,
     lines = campaign.lines[rows]
     said = _said(fit, campaign, rows, lines)
     if share > GROSS_SHARE:
-        raise InputError(f"{campaign.source}: {said}. So many rows far beyond the noise are not stray readings, "
-                         f"and vecpin will neither scale the noise to them nor leave {share:.0%} of the campaign out "
-                         "on its own: correct the setting they share, or re-measure or remove those rows; to fit "
-                         "them as they are, state the noise (`repeatability_mm`, `tracker_noise`, ...)")
+        raise GrossRowsRefused(
+            f"{campaign.source}: {said}. So many rows far beyond the noise are not stray readings, and vecpin will "
+            f"neither scale the noise to them nor leave {share:.0%} of the campaign out on its own: correct the "
+            "setting they share, or re-measure or remove those rows; to fit them as they are, state the noise "
+            "(`repeatability_mm`, `tracker_noise`, ...)")
     text = (f"{said}. They are left out of the model choice and the fit"
             + ("" if "check" in said else "; re-measure them, or check the tracker log for a broken beam"))
     return Screen(rows, lines, float(np.sqrt(fit.plain)), float(np.sqrt(fit.level)), text)
