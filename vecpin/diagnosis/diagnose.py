@@ -459,7 +459,8 @@ def _regions(pb: _Problem, st: _State) -> list[dict]:
         g["rows"] = [int(st.rows[r]) for r in g["rows"]]
     if st.put_back:  # flagged rows put back as crowding one region: the region over all rows beyond the noise
         crowd = gross_.crowded_regions(pb.machine, pb.campaign, np.union1d(
-            st.rows[np.union1d(gf, mf)], [r for g in st.put_back for r in g["rows"]]))
+            st.rows[np.union1d(gf, mf)], [r for g in st.put_back for r in g["rows"]]),
+            gross_.spread(len(pb.campaign), st.rows, st.cur_eval["heldout"]))
         regions = (crowd or st.put_back) + [g for g in regions if not g["axis"]]
     for g in regions:
         g["lines"] = [int(pb.campaign.lines[r]) for r in g["rows"]]

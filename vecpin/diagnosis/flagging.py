@@ -27,10 +27,12 @@ FIRST_PASS_SHARE = 0.05  # a first pass flagging more rows than this is seeing m
 
 
 def flag(machine: Machine, lin: Linearised, folds: np.ndarray, ev: dict, n_rows: int):
-    """(gross errors, misfit rows, regions) of the held-out residuals ``ev`` of ``lin``
-    (:mod:`.grosserrors`), the false-alarm rate spread over ``n_rows`` rows."""
-    s = gross_.heldout_statistic(lin, folds, ev["heldout_w"])
-    return gross_.judge(machine, lin.campaign, s, ev["heldout_w"], lin.valid, n_rows, OUTLIER_P)
+    """(gross errors, misfit rows, regions) of ``lin``'s held-out residuals from fold
+    models fitted robustly (:func:`.grosserrors.robust_heldout`: gross rows do not pull
+    them; ``ev``, the plain held-out residuals, kept for the callers), the false-alarm rate
+    spread over ``n_rows`` rows (:mod:`.grosserrors`)."""
+    rob = gross_.robust_heldout(lin, folds, n_rows, OUTLIER_P)
+    return gross_.judge(machine, lin.campaign, rob["s"], rob["heldout_w"], lin.valid, n_rows, OUTLIER_P, rob["heldout"])
 
 
 def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarray, campaign: Campaign,
@@ -38,8 +40,8 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     """(gross, regions they crowd): the flagged rows the final model does not explain either: their residuals through
     the one likelihood (each row in its own frame, with its own equations), as
     predictions of a model that did not see them (noise plus the model's uncertainty
-    there), against the noise level of the rows it was fitted to (``rows``), and that do
-    not crowd one stretch of an axis together with the fitted rows beyond the noise.
+    there), against the noise level of the rows it was fitted to (``rows``), and whose
+    neighbours do not share their misfit (:func:`.grosserrors.crowded_regions`).
     The rows are evaluated within the whole campaign (``feats`` of every row): an effect
     that follows the rows' history (a lagged warm-up) sees the same history as in the fit."""
     level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
@@ -50,17 +52,19 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
             raise InputError("the flagged rows' columns differ from the fit's")
         M = linalg.inv(Jall.T @ Jall + np.eye(Jall.shape[-1]))
         s = gross_.prediction_statistic(lo.w[outliers], lo.J[outliers], M, lo.valid[outliers])
-        valid = lo.valid[outliers]
+        valid, r_out = lo.valid[outliers], lo.r[outliers]
     except VecpinError:
         ev = cur_model.row_residuals(campaign, feats)
         s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[outliers]
-        valid = ev.valid[outliers]
+        valid, r_out = ev.valid[outliers], ev.metric[outliers]
+    resid = gross_.spread(len(campaign), rows, cur_eval["heldout"])   # every row's residual [m]
+    resid[outliers] = r_out
     still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
-    # flagged rows crowded into one stretch of an axis (over all the passes, with the
+    # flagged rows whose neighbours share their misfit (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
     gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
     beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
-    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all)
+    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
 

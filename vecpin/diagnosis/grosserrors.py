@@ -7,24 +7,36 @@
   s = w^T C^-1 w is chi2 with the row's own number of equations wherever the row lies.
 * **The limit.** Šidák over the rows: a clean campaign of any size flags a row with
   probability :data:`FAMILY_ALPHA` (1 %) in all, not 1 % per thousand rows.
+* **Robust before classified.** The fold models are fitted with the rows beyond the
+  limit skipped (:func:`vecpin.identification.robust.robust_fit` on the linearised
+  problem: an M-estimate with skipped, hard-redescending weights, until the rows skipped
+  settle), so gross rows do not pull the models that judge the other rows
+  (:func:`robust_heldout`).
 * **Misfit, not gross error.** A flagged row read again at the same pose (same command,
   tool, point, target and station) whose readings agree within the noise is a place the
-  model does not fit: a re-measurement would read the same. Flagged rows crowded into one
-  stretch of an axis' travel (more than chance puts there) are a region the model does not
-  fit. Both are kept in the fit and reported as regions, not left out.
+  model does not fit: a re-measurement would read the same. A flagged row whose
+  neighbours share its misfit is in a region the model does not fit: along one axis (or in
+  measurement order: rows read one after another), a local linear fit of the neighbours'
+  residuals (a Gaussian kernel, each of :data:`BANDWIDTHS` of the span, the row itself left out)
+  takes up most of its residual (:data:`SHARED`). Rows that merely crowd one stretch,
+  their neighbours near the model, are gross errors. Both kinds of misfit are kept in the
+  fit and reported as regions, not left out.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy import linalg, stats
 
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.identification.robust import robust_fit, row_limit  # noqa: F401 (row_limit: this module's API too)
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.repeatability import repeat_groups
 
 FAMILY_ALPHA = 0.01  # chance that a clean campaign flags any row at all
-REGION_ALPHA = 0.01  # family-wise false-alarm rate of the region (cluster) test
+BANDWIDTHS = (0.01, 0.04)  # the kernel's sigma along an axis, shares of the span measured: narrow and wide misfit
+SHARED = 0.5         # a region's row: its neighbours' local fit leaves at most this share of its residual
+REGION_MIN = 3       # flagged rows that share their misfit along one axis before that stretch is a region
 AGREE_P = 0.01       # repeated readings agree unless their difference is beyond this tail
 
 
@@ -58,17 +70,32 @@ def heldout_statistic(lin: Linearised, folds: np.ndarray, held_w: np.ndarray) ->
     return s
 
 
+def robust_heldout(lin: Linearised, folds: np.ndarray, n_rows: int, alpha: float = FAMILY_ALPHA) -> dict:
+    """The held-out residuals of every row from fold models fitted without the rows a
+    robust fit of all rows skips (module text): {"s": (N,) :func:`prediction_statistic`,
+    "heldout_w" (N,3) whitened, "heldout" (N,3) metric [m], "skipped": indices}."""
+    rf = robust_fit(lin.J, lin.w, lin.valid, lin.psi0, n_rows=n_rows, alpha=alpha)
+    u = np.sqrt(rf.weights)[:, None]
+    if rf.weights.all():
+        prob = lin.folded(folds)
+    else:
+        u3 = u[..., None]
+        prob = FoldedProblem(lin.J * u3, lin.A, lin.w * u, lin.r, folds, None, lin.psi0)
+    psi = prob.fold_estimates()
+    eye = np.eye(prob.n_columns)
+    held, held_w, s = np.empty_like(lin.r), np.empty_like(lin.w), np.empty(len(lin.w))
+    for f in range(prob.k):
+        te = folds == f
+        held[te] = lin.r[te] - lin.A[te] @ psi[f]
+        held_w[te] = lin.w[te] - lin.J[te] @ psi[f]
+        s[te] = prediction_statistic(held_w[te], lin.J[te], linalg.inv(prob.G_out[f] + eye), lin.valid[te])
+    return {"s": s, "heldout_w": held_w, "heldout": held, "skipped": rf.beyond}
+
+
 def robust_level(s: np.ndarray, valid: np.ndarray) -> float:
     """The noise level of statistics s: median of s / median chi2(k) (1 when the noise
     model is right; gross errors do not move a median)."""
     return float(max(np.median(s / stats.chi2.median(_equations(valid))), 1e-300))
-
-
-def row_limit(valid: np.ndarray, n_rows: int, alpha: float = FAMILY_ALPHA) -> np.ndarray:
-    """(N,) the chi2 limit of each row so that ``n_rows`` clean rows pass together with
-    probability 1 - alpha (Šidák)."""
-    p = -np.expm1(np.log1p(-alpha) / max(n_rows, 1))
-    return stats.chi2.isf(p, _equations(valid))
 
 
 def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: float = FAMILY_ALPHA) -> np.ndarray:
@@ -111,70 +138,96 @@ def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, val
     return np.array(out, int)
 
 
-def _bins(x: np.ndarray) -> tuple[np.ndarray, list[tuple[float, float]]]:
-    """Bin index per row along one axis: its distinct positions when there are at most
-    eight, eight equal stretches of the travel otherwise; and each bin's span."""
-    u = np.unique(np.round(x, 9))
-    if len(u) <= 8:
-        idx = np.searchsorted(u, np.round(x, 9))
-        return idx, [(float(v), float(v)) for v in u]
-    edges = np.linspace(x.min(), x.max(), 9)
-    idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, 7)
-    return idx, [(float(edges[k]), float(edges[k + 1])) for k in range(8)]
+def _local_fit(x: np.ndarray, r: np.ndarray, at: np.ndarray, h: float) -> np.ndarray:
+    """(len(at), 3) the local linear fit at rows ``at`` of the residuals ``r`` (N,3) of the
+    other rows along ``x`` (N,), Gaussian kernel of sigma ``h`` (the row itself left out;
+    rows without a residual, nan, carry no weight); a kernel mean where the neighbours
+    stand at one position (an axis measured at a few positions)."""
+    ok = np.isfinite(r).all(axis=1)
+    out = np.full((len(at), 3), np.nan)
+    for n, i in enumerate(at):
+        dx = x - x[i]
+        k = np.exp(-0.5 * (dx / h) ** 2) * ok
+        k[i] = 0.0
+        if k.sum() <= 1e-12:
+            continue
+        s0, s1, s2 = k.sum(), k @ dx, k @ dx**2
+        var = s2 / s0 - (s1 / s0) ** 2
+        rk = np.where(ok[:, None], r, 0.0) * k[:, None]
+        m0, m1 = rk.sum(axis=0), (rk * dx[:, None]).sum(axis=0)
+        out[n] = m0 / s0 if var < (0.1 * h) ** 2 else (s2 * m0 - s1 * m1) / (s0 * s2 - s1**2)
+    return out
 
 
-def crowded_regions(machine: Machine, campaign: Campaign, flagged: np.ndarray,
-                    alpha: float = REGION_ALPHA) -> list[dict]:
-    """Stretches of one axis' travel (one or two neighbouring bins) holding more of the
-    flagged rows than chance puts there (hypergeometric tail, Bonferroni over every
-    stretch tried), at least three and at least half of the flagged rows left:
-    [{"axis", "from", "to", "unit", "rows", "rows_there"}], most crowded first."""
-    left = np.asarray(flagged, int)
-    N = len(campaign)
+def _coordinates(machine: Machine, campaign: Campaign) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """(name, unit, user position, position as a share of its span) of every axis, and the
+    measurement order (the rows' file lines)."""
     out = []
-    while left.size >= 3:
-        trials = []
-        for a in machine.axes:
-            x = a.to_user(campaign.q[:, a.index])
-            idx, spans = _bins(x)
-            nb = len(spans)
-            for lo in range(nb):
-                for hi in (lo, lo + 1):
-                    if hi >= nb or (lo == 0 and hi == nb - 1):
-                        continue
-                    there = (idx >= lo) & (idx <= hi)
-                    c = int(there[left].sum())
-                    trials.append((stats.hypergeom.sf(c - 1, N, left.size, int(there.sum())), c, a, spans[lo][0],
-                                   spans[hi][1], there))
-        if not trials:
+    for a in machine.axes:
+        x = np.asarray(a.to_user(campaign.q[:, a.index]), float)
+        out.append((a.name, a.unit, x, (x - x.min()) / max(float(np.ptp(x)), 1e-300)))
+    lines = np.asarray(campaign.lines, float)
+    order = np.arange(len(campaign), dtype=float)
+    out.append(("file lines", "", lines, order / max(len(campaign) - 1, 1)))
+    return out
+
+
+def spread(n: int, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """(n, 3) ``values`` of ``rows`` in their places, nan elsewhere (residuals of the rows a model saw)."""
+    out = np.full((n, 3), np.nan)
+    out[rows] = values
+    return out
+
+
+def crowded_regions(machine: Machine, campaign: Campaign, flagged: np.ndarray, r: np.ndarray) -> list[dict]:
+    """Regions the model does not fit: flagged rows whose neighbours share their misfit
+    along one axis or in measurement order (module text; ``r`` (N,3) every row's residual
+    [m], nan where there is none), at least :data:`REGION_MIN` along the same coordinate:
+    [{"axis", "from", "to", "unit", "rows", "rows_there"}], the coordinate explaining
+    most rows first; the rows a coordinate explains are not offered to the next."""
+    left = np.asarray(flagged, int)
+    r = np.asarray(r, float)
+    size = np.linalg.norm(np.where(np.isfinite(r), r, 0.0), axis=1)
+    coords = _coordinates(machine, campaign)
+    out = []
+    while left.size >= REGION_MIN:
+        best = None
+        for name, unit, x, u in coords:
+            shared = np.zeros(left.size, bool)
+            for h in BANDWIDTHS:
+                shared |= np.linalg.norm(r[left] - _local_fit(u, r, left, h), axis=1) <= SHARED * size[left]
+            if best is None or shared.sum() > best[0].sum():
+                best = (shared, name, unit, x)
+        shared, name, unit, x = best
+        if shared.sum() < REGION_MIN:
             break
-        p, c, a, x0, x1, there = min(trials, key=lambda t: t[0])
-        if not (p * len(trials) < alpha and c >= 3 and 2 * c >= left.size):
-            break
-        rows = left[there[left]]
-        out.append({"axis": a.name, "from": x0, "to": x1, "unit": a.unit, "rows": [int(r) for r in rows],
-                    "rows_there": int(there.sum()), "p": float(p * len(trials))})
-        left = left[~there[left]]
+        rows = left[shared]
+        lo, hi = float(x[rows].min()), float(x[rows].max())
+        out.append({"axis": name, "from": lo, "to": hi, "unit": unit, "rows": [int(v) for v in rows],
+                    "rows_there": int(((x >= lo) & (x <= hi)).sum())})
+        left = left[~shared]
     return out
 
 
 def judge(machine: Machine, campaign: Campaign, s: np.ndarray, w: np.ndarray, valid: np.ndarray,
-          n_rows: int | None = None, alpha: float = FAMILY_ALPHA) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+          n_rows: int | None = None, alpha: float = FAMILY_ALPHA,
+          r: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, list[dict]]:
     """(gross errors, misfit rows, regions): rows beyond the noise (``s`` the
-    statistics, ``w`` the whitened residuals of ``campaign``'s rows), less those a repeat
-    reading agrees with and those crowded into one stretch of an axis (both misfit)."""
+    statistics, ``w`` the whitened residuals of ``campaign``'s rows, ``r`` their metric
+    residuals [m], default ``w``), less those a repeat reading agrees with and those whose
+    neighbours share their misfit (both misfit)."""
     level = robust_level(s, valid)
     flagged = np.flatnonzero(beyond(s, valid, level, n_rows or len(s), alpha))
     if flagged.size == 0:
         return flagged, flagged, []
     repeat = agreeing_repeats(campaign, flagged, w, valid, level)
     rest = np.setdiff1d(flagged, repeat)
-    regions = crowded_regions(machine, campaign, flagged)
-    in_region = np.array(sorted({r for g in regions for r in g["rows"]}), int)
+    regions = crowded_regions(machine, campaign, flagged, w if r is None else r)
+    in_region = np.array(sorted({v for g in regions for v in g["rows"]}), int)
     alone = np.setdiff1d(repeat, in_region)
     if alone.size:
-        regions.append({"axis": "", "from": np.nan, "to": np.nan, "unit": "", "rows": [int(r) for r in alone],
-                        "rows_there": int(alone.size), "p": np.nan})
+        regions.append({"axis": "", "from": np.nan, "to": np.nan, "unit": "", "rows": [int(v) for v in alone],
+                        "rows_there": int(alone.size)})
     gross = np.setdiff1d(rest, in_region)
     return gross, np.setdiff1d(flagged, gross), regions
 

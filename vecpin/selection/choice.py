@@ -69,7 +69,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.errors import IdentifiabilityError, InputError
+from vecpin.errors import IdentifiabilityError, InputError, VecpinError
 from vecpin.identification.crossval import command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -79,6 +79,7 @@ from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      measured_spans, partly_measured, per_turn_measured)
+from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
 from vecpin.selection.stage import KindStage, kind_stage
 from vecpin.threads import one_blas_thread, side_by_side
@@ -86,6 +87,7 @@ from vecpin.threads import one_blas_thread, side_by_side
 _Problem = Problem  # the name the tests and older scripts use
 MAX_SELECTION_ROWS = 3000  # larger campaigns choose on a subsample grouped by command
 MIN_GROUP_ROWS = 20        # ... in which a command repeated more often keeps this many rows (or its share)
+SCREEN_PARAMETERS = 2000   # a fixed model scored for its gross rows up to this size (larger: the fit's own checks first)
 
 
 @dataclass
@@ -110,6 +112,8 @@ class ModelChoice:
     noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
     before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
     chosen_noise_scale: float = 1.0  # the level the chosen candidate's own linearised fit gives: the fit starts there
+    gross: Screen | None = None  # rows left out as gross errors before the noise level was taken from the data
+    fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -144,6 +148,8 @@ class ModelChoice:
             lines.append(f"  (before the bases along them were chosen on their held-out ends: "
                          f"{self.before_ends.label()}, {self.before_ends.n_terms} model terms, held-out mean "
                          f"{self.before_ends.mean:.4f} mm)")
+        if self.gross is not None:
+            lines.append(f"gross errors: {self.gross.text}")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -162,6 +168,7 @@ class ModelChoice:
                 "equations": self.equations, "left_out_unsupported": self.left_out,
                 "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
                 "noise_scale": self.noise_scale, "chosen_noise_scale": self.chosen_noise_scale,
+                "gross_error_lines": [] if self.gross is None else [int(v) for v in self.gross.lines],
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "before_ends": None if self.before_ends is None else self.before_ends.to_dict(self.machine),
@@ -215,7 +222,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                  families=DEFAULT_FAMILIES, plans=None, orders=CHEB_ORDERS, per_axis: bool = True, folds: int = 5,
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
                  noise_from_data: bool = False, travel: tuple[np.ndarray, np.ndarray] | None = None,
-                 progress: Callable[[str], None] | None = None) -> ModelChoice:
+                 progress: Callable[[str], None] | None = None, screen: bool = True) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
     ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
@@ -229,7 +236,9 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     with as many unknowns as equations or more (module text); ``noise_from_data``: the
     noise level is not known: when the best common candidate's chi2 leaves its band,
     every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
-    made with that noise (``ModelChoice.noise_scale``)."""
+    made with that noise (``ModelChoice.noise_scale``), after the gross rows are left out
+    (:mod:`vecpin.selection.screen`; ``screen``: look for them, the default))."""
+    args = dict(locals())   # the arguments, for the choice again without the gross rows
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
     say = progress or (lambda s: None)
@@ -254,6 +263,12 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if not search.cands:
         raise _too_small(machine, campaign, problems, search.limit)
     lowest = min(search.cands, key=lambda c: c.mean)
+    gross = _screened(screen and noise_from_data, problems[lowest.kind], lowest, camp, campaign, lambda setup: Problem(
+        lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans))
+    if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
+        say(gross.text)
+        keep = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
+        return _with_gross(choose_model(**(args | {"campaign": keep, "noise": noise, "screen": False})), gross)
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
     if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
         say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
@@ -322,6 +337,30 @@ def _ends_choice(stages: list[KindStage], problems: dict) -> tuple[Candidate, fl
               + ("the lowest held-out mean" if chosen is low else
                  f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
     return chosen, se, reason, stage.start
+
+
+def _with_gross(choice: ModelChoice, gross: Screen) -> ModelChoice:
+    """``choice`` (made without the gross rows) with them."""
+    choice.gross = gross
+    return choice
+
+
+def _screened(on: bool, prob: Problem, cand: Candidate, judged: Campaign, campaign: Campaign,
+              again) -> Screen | None:
+    """The gross rows of ``campaign`` by the robust linearised fit of ``cand`` on the rows
+    ``judged`` (:func:`~vecpin.selection.screen.screen_rows`), linearised again by
+    ``again(setup)`` at a trimmed registration when gross rows pulled the default one
+    (None when not ``on``: the noise stated, or the rows screened already)."""
+    if not on:
+        return None
+    fp = prob.problem
+    rows = np.flatnonzero((judged.station == 0) & prob.judged)
+    robust = trimmed_registration(prob.setup, fp.r, judged.xyz, rows)
+    if robust is not None:
+        prob = again(robust)
+    cols, fac = prob.columns(cand.axes)
+    fp = prob.problem
+    return screen_rows(fp.J[..., cols] * fac, fp.w, prob.valid, fp.x0[cols], judged, campaign)
 
 
 def _noise_level(prob: Problem, cand: Candidate, rounds: int = 6) -> float:
@@ -438,7 +477,10 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     ``seed``: the cross-validation folds; ``underdetermined``: the choice may also take
     candidates with more unknowns than equations (:func:`choose_model`); ``noise_from_data``:
     the choice scales the noise to what the data say (:func:`choose_model`; a fixed
-    choice leaves that to the fit); ``travel``: where the model will be used
+    choice too, its one candidate scored, so that its gross rows are found before the
+    noise level is taken from the data, unless it has more than :data:`SCREEN_PARAMETERS`
+    parameters or the choice cannot score it (too few commands for the folds, too few
+    equations): the fit's own checks then refuse it or it takes the level as before); ``travel``: where the model will be used
     (:func:`~vecpin.selection.design.partly_measured`)."""
     if kind not in ("auto", *MODELS):
         raise InputError(f"`model` {kind}: one of auto, {', '.join(MODELS)}")
@@ -446,18 +488,31 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
         raise InputError(f"`basis` {basis}: one of {', '.join(BASES)}")
     order = parse_order(order)
     check_basis(machine, basis)
-    if kind != "auto" and basis not in ("auto", "pspline") and order != "auto":
-        return fixed_model(machine, kind, basis, order, **opts), None
+    fixed = kind != "auto" and basis not in ("auto", "pspline") and order != "auto"
+    if fixed:
+        model = fixed_model(machine, kind, basis, order, **opts)
+        if not noise_from_data or model.n_parameters > SCREEN_PARAMETERS:
+            return model, None
     if basis == "auto":
         families = DEFAULT_FAMILIES if order == "auto" else ("chebyshev", "fourier", "fourier_trend")
     elif basis in ("spline", "pspline") and order != "auto":
         families = (basis,)
     else:
         families = tuple(dict.fromkeys((basis, "chebyshev")))
-    choice = choose_model(machine, campaign, noise, kinds=None if kind == "auto" else (kind,), families=families,
-                          plans=None if basis == "auto" else (basis,),
-                          orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
-                          per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
-                          underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
-                          progress=progress)
+    try:
+        choice = choose_model(machine, campaign, noise, kinds=None if kind == "auto" else (kind,), families=families,
+                              plans=None if basis == "auto" else (basis,),
+                              orders=CHEB_ORDERS if order == "auto" else (order,), fixed_order=order != "auto",
+                              per_axis=order == "auto" and basis == "auto", folds=folds, seed=seed, opts=opts,
+                              underdetermined=underdetermined, noise_from_data=noise_from_data, travel=travel,
+                              progress=progress)
+    except GrossRowsRefused:
+        raise
+    except VecpinError:
+        if fixed:   # a fixed model the choice cannot score (too few commands or equations): the fit's own checks
+            return model, None
+        raise
+    if fixed:   # its one candidate scored for the noise level and its gross rows (:mod:`.screen`)
+        choice.fixed = True
+        return model, choice
     return choice.chosen.model(machine, **opts), choice

@@ -245,6 +245,7 @@ class Design:
         self.uncompensated = norm_mm(ev.metric[judged])
         # what a fit counts (identification.fit): its equations, and the columns that move anything
         self.n_equations = int(ev.valid.sum())
+        self.valid = ev.valid                                           # (N,3) each row's real equations
         self.active = active_columns(np.sqrt(np.einsum("nkp,nkp->p", J, J)))
         self._columns: dict = {}
 

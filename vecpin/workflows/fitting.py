@@ -30,6 +30,7 @@ from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, clip_to_zone, inside
 from vecpin.selection.choice import ModelChoice, choose_or_fix
+from vecpin.selection.screen import Screen
 from vecpin.selection.orders import check_folds
 from vecpin.units import MM_PER_M, norm_mm
 from vecpin.workflows.summary import per_tool_table
@@ -62,6 +63,7 @@ class FitRun:
     noise_used: float = 1.0               # the scale of the stated noise the final fit used
     campaign: Campaign | None = None      # the rows fitted (those in the zone)
     components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
+    gross: Screen | None = None           # rows left out as gross errors (selection.screen)
 
     def lines(self) -> list[str]:
         """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
@@ -73,6 +75,8 @@ class FitRun:
                        "commanded in it")
         if self.choice is not None:
             out.append(self.choice.table())
+        elif self.gross is not None:
+            out.append(f"gross errors: {self.gross.text}")
         rep = model.report_
         out.append(rep.summary())
         if self.noise_line():
@@ -244,8 +248,12 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                                   travel=clip_to_zone(machine, zone) if zone else None,
                                   noise_from_data=noise_from_data, **opts)
     check_size(model)
-    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, choice.chosen_noise_scale if choice else 1.0,
-                                             noise_from_data, underdetermined, progress)
+    start, gross = (choice.chosen_noise_scale, choice.gross) if choice else (1.0, None)
+    if gross is not None:   # gross rows the choice left out: the fit leaves them out too
+        campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
+    choice = None if choice is not None and choice.fixed else choice   # a fixed model: no choice to show or keep
+    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, start, noise_from_data, underdetermined,
+                                             progress)
     rescaled = scale != 1.0
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
         for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
@@ -257,6 +265,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if zone:
         model.zone_ = dict(zone)
     run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
+    run.gross = gross
     run.components = _components(model, campaign, scale)
     return run
 
