@@ -50,7 +50,7 @@ from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.nextplan import next_measurements
-from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore
+from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore, base_finding
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
 from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, candidate_effects, distances_mm,
@@ -70,30 +70,6 @@ from vecpin.selection.choice import choose_or_fix
 from vecpin.selection.design import partly_measured
 from vecpin.selection.orders import check_folds
 from vecpin.threads import one_blas_thread
-
-SEED_REFERENCE = ("6dof", "chebyshev", 6)  # the seed's model: the yardstick of the base-model finding
-
-
-def _base_finding(choice) -> str:
-    """'the base model needed ...' when the chosen model beats the seed's by more than its SE."""
-    if choice is None:
-        return ""
-    kind, family, order = SEED_REFERENCE
-    ref = next((c for c in choice.candidates if c.kind == kind
-                and all(a.family == family and a.order == order for a in c.axes)), None)
-    chosen = choice.chosen
-    if ref is None or ref is chosen:
-        return ""
-    delta = ref.heldout - chosen.heldout
-    se = float(np.std(delta, ddof=1) / math.sqrt(delta.size))
-    if delta.mean() <= 2 * se:
-        return ""
-    special = [f"{a.name} {c.label()}" for a, c in zip(choice.machine.axes, chosen.axes)
-               if not (c.family == "chebyshev" and c.order <= order)]
-    need = f" ({', '.join(special)})" if special else ""
-    return (f"The usual fixed model (6-DoF, Chebyshev order 6 on every axis: Paper I's) was too poor a base: {chosen.label()}{need} cuts the held-out "
-            f"mean from {ref.mean:.4f} to {chosen.mean:.4f} mm ({100 * (1 - chosen.mean / ref.mean):.0f}% smaller).")
-
 
 def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, list[str]]:
     """The effect's own evidence sentence and the breakdowns it explains."""
@@ -487,7 +463,7 @@ def _result(pb: _Problem, st: _State, seconds: float) -> Diagnosis:
     ranked = acc + [s for s in rest if s.label not in {a.label for a in acc}]
     return Diagnosis(pb.machine, st.base_info, ranked, [int(r) for r in st.outliers], st.loc, st.base_model,
                      st.cur_model, st.bev["heldout"], st.camp, seconds, (float(best_mm.mean()), float(best_mm.max())),
-                     st.cur_loc, list(st.cur_loc["most_structured"]), _base_finding(pb.choice),
+                     st.cur_loc, list(st.cur_loc["most_structured"]), base_finding(pb.choice),
                      [int(v) for v in pb.campaign.lines[st.outliers]], misfit_regions=regions,
                      detection=st.detection)
 

@@ -31,7 +31,7 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.identification.robust import FAMILY_ALPHA, RobustFit, robust_fit
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.registration import register
+from vecpin.measurement.registration import rigid_registration
 from vecpin.measurement.setup import Setup
 
 GROSS_SHARE = 0.05  # more gross rows than this share are not stray readings: a wrong setting or a moved tracker
@@ -147,7 +147,7 @@ def trimmed_registration(setup: Setup, r: np.ndarray, xyz: np.ndarray, rows: np.
     d = d0
     for _ in range(C_STEPS):
         half = np.argsort(d)[: rows.size // 2]
-        R, t = register(P[half], x[half])
+        R, t = rigid_registration(P[half], x[half])
         d = np.linalg.norm(P @ R.T + t - x, axis=1)
     if np.median(d0) <= PULLED * np.median(d):
         return None
