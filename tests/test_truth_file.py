@@ -4,7 +4,6 @@ measures the machine that was saved, and a later run (another temperature) does 
 its effects."""
 import numpy as np
 
-import vecpin
 from vecpin.measurement.features import Features
 from vecpin.models.effects import Thermal
 from vecpin.simulation.simulate import Design, simulate

@@ -85,9 +85,9 @@ def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS,
         if a.name in modulo_axes:
             out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
         else:
-            l, h = _span(a, lower, upper)
-            k = tuple(np.linspace(l, h, knots + 2)[1:-1])
-            out.append(AxisBasis(l, h, 3, "bspline", rotary=rot, knots=k))
+            lo, hi = _span(a, lower, upper)
+            k = tuple(np.linspace(lo, hi, knots + 2)[1:-1])
+            out.append(AxisBasis(lo, hi, 3, "bspline", rotary=rot, knots=k))
     return out
 
 
@@ -100,10 +100,10 @@ def table_bases(machine: Machine, order: int, basis: str = "fourier", modulo_axe
     out = []
     for a in machine.axes:
         periodic = a.kind == "rotary" and (a.name in modulo_axes or (basis == "fourier" and a.multiturn))
-        l, h = _span(a, lower, upper)
+        lo, hi = _span(a, lower, upper)
         if periodic:
-            l, h = a.lower, a.upper
-        out.append(AxisBasis(l, h, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
+            lo, hi = a.lower, a.upper
+        out.append(AxisBasis(lo, hi, order, "fourier" if periodic else "chebyshev", rotary=a.kind == "rotary"))
     return out
 
 
@@ -124,9 +124,9 @@ def hold_ranges(machine: Machine, lower: np.ndarray, upper: np.ndarray, modulo_a
     for a in machine.axes:
         if a.name in modulo_axes:
             continue
-        l, h = _span(a, lower, upper)
-        if l > a.lower or h < a.upper:
-            out[a.name] = (l, h)
+        lo, hi = _span(a, lower, upper)
+        if lo > a.lower or hi < a.upper:
+            out[a.name] = (lo, hi)
     return out
 
 

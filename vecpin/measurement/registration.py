@@ -23,7 +23,7 @@ def rigid_registration(p_machine: np.ndarray, p_tracker: np.ndarray,
     Q = np.asarray(p_tracker, float)
     w = np.ones(len(P)) if weights is None else np.asarray(weights, float)
     w = w / w.sum()
-    cp, cq = w @ P, w @ Q
+    cp = w @ P
     sv = np.linalg.svd((P - cp) * np.sqrt(w)[:, None], compute_uv=False)
     if len(sv) < 2 or sv[1] < 1e-9 * max(sv[0], 1e-300):
         raise VecpinError("the measured points are (nearly) collinear: the tracker frame cannot be registered")

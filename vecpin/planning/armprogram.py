@@ -41,7 +41,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning.armpose import pre_poses
-from vecpin.planning.ncprogram import rereads
+from vecpin.planning.programroute import rereads
 from vecpin.planning.timing import CampaignTime
 from vecpin.units import MM_PER_M
 
@@ -86,7 +86,7 @@ def arm_poses(machine: Machine, template: PlanTemplate, clearance: float, dwells
               reads: int = 1) -> list[Pose]:
     """The poses of the program in order: per tool row its approach, measure and retract
     pose (``clearance`` [m] > 0; the measure pose alone at 0); the nest rows and the
-    further readings of a point (:func:`~vecpin.planning.ncprogram.rereads`) read at the
+    further readings of a point (:func:`~vecpin.planning.programroute.rereads`) read at the
     measure pose before them (``dwells`` [s]: the tool target's reading, a nest's, a
     further reading of a point)."""
     n = len(template)

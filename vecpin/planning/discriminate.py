@@ -200,8 +200,8 @@ class _Pair:
                 continue
             col = self.H @ self.H[r]
             col[r] += self.scatter
-            for l in self.L:
-                col -= l * l[r]
+            for row in self.L:
+                col -= row * row[r]
             col /= np.sqrt(v)
             gain += float(self.mu[r]) ** 2 / v
             self.mu -= col * (self.mu[r] / np.sqrt(v))

@@ -51,7 +51,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, point_name
 from vecpin.planning import ncdialect as nc
-from vecpin.planning.programroute import Router, Visit, rereads, visits
+from vecpin.planning.programroute import Router, Visit, visits
 from vecpin.planning.retract import retract_axis, safe_position
 from vecpin.units import MM_PER_M
 
@@ -224,7 +224,7 @@ def write_program(dialect: str, machine: Machine, template: PlanTemplate, steps:
     retract axis' name (default: found from the kinematics); ``stations``: the tracker
     stations' positions (3,) [m], machine base frame, by station id (a plan read from
     several, :func:`station_notes`); ``reads``: the template reads every point that many
-    times in a row, at one standstill (:func:`rereads`; a comment and a dwell per reading,
+    times in a row, at one standstill (:func:`~vecpin.planning.programroute.rereads`; a comment and a dwell per reading,
     ``read_dwell_s`` [s] for every further reading); ``sight``: a
     :class:`~vecpin.planning.sightline.SightLine` whose geometry every move is checked
     with (:class:`~vecpin.planning.programroute.Router`: the rotary axes swing to neutral

@@ -46,7 +46,7 @@ def plan_warnings(plan) -> list[str]:
     lo, hi = work_envelope(plan.machine, plan.candidates, plan.tools)
     tr = plan.tracker
     if np.all((tr >= lo) & (tr <= hi)):
-        box = ", ".join(f"{a} {to_mm(l):.0f} .. {to_mm(h):.0f}" for a, l, h in zip("xyz", lo, hi))
+        box = ", ".join(f"{a} {to_mm(low):.0f} .. {to_mm(high):.0f}" for a, low, high in zip("xyz", lo, hi))
         out.append(f"`tracker_mm` ({', '.join(f'{v:.0f}' for v in to_mm(tr))}) mm stands inside the tool tips' work "
                    f"envelope ({box} mm, machine frame): the machine would run into it; place it outside, e.g. "
                    "2 m in front of the workspace (leave `tracker_mm` out for that)")

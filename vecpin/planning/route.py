@@ -91,7 +91,7 @@ def two_opt(tour: np.ndarray, D: np.ndarray, max_passes: int | None = None, fixe
     if n < 4:
         return p
     max_passes = max_passes or 20 * n
-    I = np.arange(1, n)[:, None]
+    I = np.arange(1, n)[:, None]  # noqa: E741 (the 2-opt grid: I, J index the two edges)
     J = np.arange(n)[None, :]
     upper = (J > I) & (J < n - 1) if fixed_end else J > I
     for _ in range(max_passes):

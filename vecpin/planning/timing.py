@@ -93,7 +93,7 @@ class CampaignTime:
 
 def reread_times(t: np.ndarray, again: np.ndarray, read_dwell_s: float = READ_DWELL_S) -> np.ndarray:
     """Time stamps [s] ``t`` (N,) with every further reading of a point at its standstill
-    (``again`` (N,) bool: :func:`~vecpin.planning.ncprogram.rereads`) ``read_dwell_s`` [s]
+    (``again`` (N,) bool: :func:`~vecpin.planning.programroute.rereads`) ``read_dwell_s`` [s]
     after the reading before it, as the NC program dwells between them (:func:`row_times`);
     every other row keeps its time stamp."""
     idx = np.arange(len(t))

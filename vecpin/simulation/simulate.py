@@ -26,7 +26,8 @@ from vecpin.simulation.truth import TrueMachine
 from vecpin.measurement.features import Features
 from vecpin.measurement.tableframe import standstill_draws, standstills
 from vecpin.measurement.plantemplate import PlanTemplate
-from vecpin.planning.ncprogram import READ_DWELL_S, check_read_dwell, rereads
+from vecpin.planning.ncprogram import READ_DWELL_S, check_read_dwell
+from vecpin.planning.programroute import rereads
 from vecpin.planning.timing import reread_times
 from vecpin.units import M_PER_MM
 
@@ -261,7 +262,7 @@ def validation_times(rows: Rows, machine: Machine, design: Design, start: float,
     """Time stamps [s] of a validation run's rows from ``start`` [s]: the first readings of
     the points as :func:`measurement_times` stamps a run of them alone, each later by the
     dwells of the further readings before it; every further reading of a point at its
-    standstill (:func:`~vecpin.planning.ncprogram.rereads` of ``reads``) ``read_dwell_s``
+    standstill (:func:`~vecpin.planning.programroute.rereads` of ``reads``) ``read_dwell_s``
     [s] after the reading before it, as the plan's NC program dwells
     (:func:`~vecpin.planning.timing.reread_times`)."""
     as_read = PlanTemplate(np.arange(1, len(rows.q) + 1), rows.q, rows.tool, instrument=rows.instrument,
