@@ -223,8 +223,10 @@ class Likelihood:
             T[rows], S[rows] = Tb, Sb
         return T, S
 
-    def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False) -> Evaluation:
-        """The stacked problem at ``theta`` (SI), every row at once."""
+    def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False,
+                 chunk: int = CHUNK_ROWS) -> Evaluation:
+        """The stacked problem at ``theta`` (SI), every row, computed in pieces of at most
+        ``chunk`` rows (the model's Jacobians of one piece at a time)."""
         N, P = len(self.campaign), self.n_unknowns
         w, metric = np.zeros((N, 3)), np.zeros((N, 3))
         valid = np.zeros((N, 3), bool)
@@ -232,7 +234,7 @@ class Likelihood:
         J = np.zeros((N, 3, P)) if jacobian else None
         A = np.zeros((N, 3, P)) if jacobian else None
         ops = {k: np.zeros((N, 3, 3)) for k in ("Gw", "Gy", "Gm", "Gmy")} if operators else None
-        for rows, pc in self._pieces(theta, jacobian, operators):
+        for rows, pc in self._pieces(theta, jacobian, operators, chunk):
             w[rows], metric[rows], valid[rows] = pc["w"], pc["metric"], pc["valid"]
             if pc["y"] is not None:
                 y_all[rows] = pc["y"]
