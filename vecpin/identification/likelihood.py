@@ -245,14 +245,17 @@ class Likelihood:
                     ops[k][rows] = pc[k]
         return Evaluation(w, J, valid, metric, A, y_all, **(ops or {}))
 
-    def normal_equations(self, theta: np.ndarray, jacobian: bool = True, chunk: int = CHUNK_ROWS):
+    def normal_equations(self, theta: np.ndarray, jacobian: bool = True, chunk: int = CHUNK_ROWS,
+                         with_r: bool = False):
         """(chi2 = |w|^2, G = J^T J, g = J^T w, equations) at ``theta``, accumulated over
         blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
-        Without ``jacobian`` G and g are None (a trial point's chi2 only)."""
+        Without ``jacobian`` G and g are None (a trial point's chi2 only). ``with_r``: also
+        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item)."""
         P = self.n_unknowns
         chi2, n_eq = 0.0, 0
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
+        order, R = self.priority(), np.zeros((0, P))
         for rows, pc in self._pieces(theta, jacobian, False, chunk):
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
@@ -261,7 +264,9 @@ class Likelihood:
                 Jf = pc["J"].reshape(wf.size, P)
                 G += Jf.T @ Jf
                 g += Jf.T @ wf
-        return chi2, G, g, n_eq
+                if with_r:
+                    R = linalg.qr(np.vstack([R, Jf[:, order]]), mode="r", check_finite=False)[0][:P]
+        return (chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)
 
     def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
         """(N,3) predicted instrument-frame points [m] (NaN on rows without one)."""
@@ -315,14 +320,16 @@ class Likelihood:
                        f"reads of the machine is partly lost. {STATION_ADVICE}")
         return out
 
-    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
+    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS, R: np.ndarray | None = None):
         """(redundant mask, ratio per unknown) of the QR test in :meth:`priority` order
-        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order."""
+        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order.
+        ``R``: the R factor at ``theta`` when the caller has it (:meth:`normal_equations`)."""
         order = self.priority()
-        R = np.zeros((0, self.n_unknowns))
-        for rows, pc in self._pieces(theta, True, False, chunk):
-            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
-            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
+        if R is None:
+            R = np.zeros((0, self.n_unknowns))
+            for rows, pc in self._pieces(theta, True, False, chunk):
+                stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
+                R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
         red_p, ratio_p = redundant_from_r(R, norms[order])
         red, ratio = np.empty_like(red_p), np.empty_like(ratio_p)
         red[order], ratio[order] = red_p, ratio_p
@@ -355,7 +362,7 @@ class Likelihood:
                 moved = self._tracker_effects and blk.instrument.row_kind in ("tracker", "nest")
                 eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms if moved else None)
                 Aq = eq.dr_dp @ J_q
-                L = np.linalg.cholesky(np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S)
+                L = np.linalg.cholesky((Aq * sig2) @ np.swapaxes(Aq, 1, 2) + eq.S)
                 pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
                       "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
                 if jacobian:
