@@ -131,9 +131,9 @@ def _frames(machine, campaign, rows):
         kin = machine.kinematics(campaign.q[r], 0.0, jacobian=False, frame="base", point=campaign.point[r])
         R[tool], o[tool] = kin.rotation, kin.spindle
         lt = campaign.tool[r][:, None] * machine.tool_axis
-        for i, tid in enumerate(ids[tool]):
-            if tid == "":
-                continue
+        tids = ids[tool]
+        for i in np.flatnonzero(tids != ""):   # the rows of targets only (a million tool tips: no loop)
+            tid = tids[i]
             if tid in campaign.targets:
                 lt[i] = lt[i] + campaign.targets[tid]
             else:
