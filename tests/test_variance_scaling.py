@@ -111,3 +111,25 @@ def test_one_pose_read_5000_times_in_linear_memory():
     assert abs(vc.repeatability - repeat) < 3 * vc.repeatability_sd
     assert vc.instrument == pytest.approx(tracker)
     assert peak < 20e6, f"{peak / 1e6:.0f} MB"
+
+
+def test_the_choice_on_a_subsample_says_so(monkeypatch):
+    """A campaign larger than the choice's subsample (here made small: 200 rows of 590) is
+    judged on whole commands drawn with a fixed seed, the same rows on every run, and the
+    choice table says so; a campaign within it does not."""
+    import vecpin
+    import vecpin.selection.choice as choice
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.simulation.simulate import Design, simulate
+    m = vecpin.Machine.load("flow_xyzcb")
+    c = simulate(m, seed=4, design=Design(n_validation=5)).campaign
+    noise = NoiseModel.default(m)
+    monkeypatch.setattr(choice, "MAX_SELECTION_ROWS", 200)
+    one = choice.choose_model(m, c, noise, kinds=("ap",), families=("chebyshev",), orders=(0, 1), per_axis=False)
+    assert one.subsample[1:] == (len(c), 0) and one.subsample[0] <= 200
+    assert f"chosen on a subsample: {one.subsample[0]} of the campaign's {len(c)} rows" in one.table()
+    a, b = choice._subsample(c, 0), choice._subsample(c, 0)
+    assert len(a) == one.subsample[0] and np.array_equal(a.lines, b.lines)
+    monkeypatch.setattr(choice, "MAX_SELECTION_ROWS", 3000)
+    whole = choice.choose_model(m, c, noise, kinds=("ap",), families=("chebyshev",), orders=(0, 1), per_axis=False)
+    assert whole.subsample == () and "subsample" not in whole.table()

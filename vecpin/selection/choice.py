@@ -110,6 +110,7 @@ class ModelChoice:
     noise_scale: float = 1.0  # every noise sigma times this (the data's level when the noise was not stated)
     before_ends: Candidate | None = None  # the chosen kind's choice before its bases along ``ends`` were judged on them
     chosen_noise_scale: float = 1.0  # the level the chosen candidate's own linearised fit gives: the fit starts there
+    subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -144,6 +145,10 @@ class ModelChoice:
             lines.append(f"  (before the bases along them were chosen on their held-out ends: "
                          f"{self.before_ends.label()}, {self.before_ends.n_terms} model terms, held-out mean "
                          f"{self.before_ends.mean:.4f} mm)")
+        if self.subsample:
+            lines.append(f"  (chosen on a subsample: {self.subsample[0]} of the campaign's {self.subsample[1]} rows, "
+                         f"whole commands drawn at random with seed {self.subsample[2]}, the same rows on every run; "
+                         "the chosen model is then fitted to every row)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -162,6 +167,7 @@ class ModelChoice:
                 "equations": self.equations, "left_out_unsupported": self.left_out,
                 "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
                 "noise_scale": self.noise_scale, "chosen_noise_scale": self.chosen_noise_scale,
+                "subsample": list(self.subsample) or None,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "before_ends": None if self.before_ends is None else self.before_ends.to_dict(self.machine),
@@ -282,7 +288,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
-                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale)
+                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale,
+                       (len(camp), len(campaign), seed) if len(camp) < len(campaign) else ())
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,
