@@ -172,6 +172,9 @@ def initial_setup(machine, campaign, setup: Setup | None = None) -> Setup:
     position (filled into ``setup``, or a new one registered on station 0's rows).
     Stations other than 0 are placed here too when they are not in ``setup``."""
     point_rows = np.flatnonzero(campaign.instrument != "ballbar")
+    placed = setup is not None and set(np.unique(campaign.station[point_rows]).tolist()) <= {0, *setup.stations}
+    if placed and not np.any(campaign.target[point_rows] != "") and not np.any(campaign.instrument == "nest"):
+        return setup   # every pose given and no point to place: nothing to compute over the rows
     R, o, local, key = _frames(machine, campaign, point_rows)
     station = campaign.station[point_rows]
     known = {"target:" + k: v for k, v in (setup.targets.items() if setup else ())}
