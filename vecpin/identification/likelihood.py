@@ -256,7 +256,7 @@ class Likelihood:
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
         order, R = self.priority(), np.zeros((0, P))
-        for rows, pc in self._pieces(theta, jacobian, False, chunk):
+        for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False):
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
             n_eq += int(pc["valid"].sum())
@@ -327,7 +327,7 @@ class Likelihood:
         order = self.priority()
         if R is None:
             R = np.zeros((0, self.n_unknowns))
-            for rows, pc in self._pieces(theta, True, False, chunk):
+            for rows, pc in self._pieces(theta, True, False, chunk, metric=False):
                 stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
                 R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
         red_p, ratio_p = redundant_from_r(R, norms[order])
@@ -335,9 +335,11 @@ class Likelihood:
         red[order], ratio[order] = red_p, ratio_p
         return red, ratio
 
-    def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None):
+    def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None,
+                metric: bool = True):
         """(rows, arrays of those rows) for every block of rows sharing an instrument's
-        unknowns, in pieces of at most ``chunk`` rows."""
+        unknowns, in pieces of at most ``chunk`` rows; ``metric``: with ``jacobian``, also
+        d metric / d ψ (``A``; the normal equations do not need it)."""
         c, m = self.campaign, self.model
         P = self.n_unknowns
         b = theta[6:6 + self.n_model]
@@ -369,17 +371,20 @@ class Likelihood:
                     D = np.zeros((len(rows), 3, P))
                     D[:, :, bsl] = eq.dr_dp @ J_b
                     D[:, :, own] += eq.dr_du
-                    Dm = np.zeros_like(D)
-                    Dm[:, :, bsl] = eq.dmetric_dp @ J_b
-                    Dm[:, :, own] += eq.dmetric_du
+                    Dm = np.zeros_like(D) if metric else np.zeros((len(rows), 3, 0))
+                    if metric:
+                        Dm[:, :, bsl] = eq.dmetric_dp @ J_b
+                        Dm[:, :, own] += eq.dmetric_du
                     if dp_du is not None:  # target offsets, nest positions: through the point
                         D[:, :, blk.unknowns] += eq.dr_dp @ dp_du
-                        Dm[:, :, blk.unknowns] += eq.dmetric_dp @ dp_du
+                        if metric:
+                            Dm[:, :, blk.unknowns] += eq.dmetric_dp @ dp_du
                     if "D" in stash:  # tracker-frame effect columns
                         D[:, :, bsl] += eq.dr_dy @ stash["D"]
-                        Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
+                        if metric:
+                            Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
                     pc["J"] = np.linalg.solve(L, D) * self.sigma
-                    pc["A"] = Dm * self.sigma
+                    pc["A"] = Dm * self.sigma if metric else None
                 if operators:
                     pc["Gw"] = np.linalg.solve(L, eq.dr_dp)
                     pc["Gm"] = eq.dmetric_dp
