@@ -354,7 +354,7 @@ class Likelihood:
                 rows = blk.rows[pos]
                 feats = self.features.subset(rows) if self.features is not None else None
                 # d point / d q is needed for the positioning noise even when no Jacobian is asked
-                p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats)
+                p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats, jacobian)
                 stash = {}
 
                 def terms(y, _rows, feats=feats, stash=stash):
@@ -401,16 +401,17 @@ def _one(point: np.ndarray):
 
 
 def model_point(model: ParametricModel, q: np.ndarray, req: PointRequest, u: np.ndarray, b: np.ndarray,
-                features=None):
+                features=None, parameters: bool = True):
     """The model's prediction of the requested points in the base frame: (p (n,3) [m],
     d p / d b (n,3,P), d p / d q (n,3,n_axes), d p / d u (n,3,U) or None), u the block's
-    unknowns (target offset or nest position corrections among them)."""
+    unknowns (target offset or nest position corrections among them). Without
+    ``parameters`` d p / d b may be None (a model without row effects skips it)."""
     local, cols = req.with_unknowns(u)
     if req.kind == "workpiece":
         wp = model.workpiece_points(q, local, b, True, features)
         p, J_b, J_q, J_local = wp.xyz, wp.J_b, wp.J_q, wp.J_p
     else:
-        mt = model.tool_tip(q, req.tool, b, True, features, frame="base", point=_one(req.point),
+        mt = model.tool_tip(q, req.tool, b, True if parameters else "q", features, frame="base", point=_one(req.point),
                             offset=local if np.any(local) else None)
         p, J_b, J_q, J_local = mt.tip, mt.J_b, mt.J_q, mt.rotation
     if cols is None:

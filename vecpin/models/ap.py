@@ -86,8 +86,10 @@ class APModel(ErrorModel):
         if not jacobian:
             return ModelTip(kin.tip, None, None, kin.tool_dir, kin.rotation)
         J = kin.jacobian  # (N,3,n) at the perturbed commands
-        J_b = self.assemble(J, self._basis_values(q), tool, kin.tool_dir)
         J_q = J + J @ np.swapaxes(D, 1, 2)
+        if jacobian == "q":   # d tip / d q only (ErrorModel.tool_tip)
+            return ModelTip(kin.tip, None, J_q, kin.tool_dir, kin.rotation)
+        J_b = self.assemble(J, self._basis_values(q), tool, kin.tool_dir)
         return ModelTip(kin.tip, J_b, J_q, kin.tool_dir, kin.rotation)
 
     def _base_workpiece_points(self, q, p_wp, b, jacobian=True) -> ModelPoints:
