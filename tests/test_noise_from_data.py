@@ -98,19 +98,3 @@ def _dh_tips(q, tool):
                               [0, sa, ca, dd], [0, 0, 0, 1]])
         out[k] = T[:3, 3] + tool * T[:3, 2]
     return out
-
-
-def test_reml_of_contrasts_with_a_known_part_is_the_closed_form():
-    """Every block's known covariance c I: the REML variance beyond it is mean(z²) - c,
-    its Fisher information n / (2 (c + σ²)²) (closed forms)."""
-    from vecpin.identification.variance import _helmert, reml_repeatability
-    rng = np.random.default_rng(3)
-    c, s2 = 0.4, 1.1
-    z = rng.normal(0.0, np.sqrt(c + s2), 600)
-    blocks = [(z[k:k + 2], c * np.eye(2)) for k in range(0, 600, 2)]
-    est, sd = reml_repeatability(blocks)
-    assert est == pytest.approx(np.mean(z**2) - c, rel=1e-4)
-    assert sd == pytest.approx(np.sqrt(2 * (c + est) ** 2 / 600), rel=1e-3)
-    H = _helmert(4)
-    np.testing.assert_allclose(H @ H.T, np.eye(3), atol=1e-12)
-    np.testing.assert_allclose(H @ np.ones(4), 0.0, atol=1e-12)

@@ -128,8 +128,10 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     def normal_equations(psi, jacobian):
         return lik.normal_equations(psi * lik.sigma, jacobian)
 
-    chi2_0, G0, g0, n_eq = lik.normal_equations(np.zeros(P))  # the solver starts from these (psi = 0)
-    keep, ratio = _columns_to_fit(model, campaign, noise, lik, G0, n_eq, remove_redundant, underdetermined)
+    # the solver starts from these (psi = 0), the redundancy test takes R of the same pass
+    chi2_0, G0, g0, n_eq, *R0 = lik.normal_equations(np.zeros(P), with_r=remove_redundant)
+    keep, ratio = _columns_to_fit(model, campaign, noise, lik, G0, n_eq, remove_redundant, underdetermined,
+                                  R0[0] if R0 else None)
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
                        start=(chi2_0, G0, g0))
     theta = sol.psi * lik.sigma
@@ -165,7 +167,8 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
 
 
 def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihood, G0: np.ndarray, n_eq: int,
-                    remove_redundant: bool, underdetermined: bool) -> tuple[np.ndarray, np.ndarray]:
+                    remove_redundant: bool, underdetermined: bool, R0: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """(columns kept, each one's identifiability ratio): redundant terms removed (on the
     campaign, or on a reference design when ``underdetermined`` and short of equations);
     refused when the kept columns outnumber the equations and not ``underdetermined``."""
@@ -181,7 +184,7 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
         else:
-            red, ratio = lik.redundancy(np.zeros(P), norms)
+            red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
         keep = ~red
     if not underdetermined and (n_active >= n_eq or keep.sum() >= n_eq):
         counts = unknown_counts(lik.names, lik.n_model, active)

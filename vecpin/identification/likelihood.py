@@ -223,8 +223,10 @@ class Likelihood:
             T[rows], S[rows] = Tb, Sb
         return T, S
 
-    def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False) -> Evaluation:
-        """The stacked problem at ``theta`` (SI), every row at once."""
+    def evaluate(self, theta: np.ndarray, jacobian: bool = True, operators: bool = False,
+                 chunk: int = CHUNK_ROWS) -> Evaluation:
+        """The stacked problem at ``theta`` (SI), every row, computed in pieces of at most
+        ``chunk`` rows (the model's Jacobians of one piece at a time)."""
         N, P = len(self.campaign), self.n_unknowns
         w, metric = np.zeros((N, 3)), np.zeros((N, 3))
         valid = np.zeros((N, 3), bool)
@@ -232,7 +234,7 @@ class Likelihood:
         J = np.zeros((N, 3, P)) if jacobian else None
         A = np.zeros((N, 3, P)) if jacobian else None
         ops = {k: np.zeros((N, 3, 3)) for k in ("Gw", "Gy", "Gm", "Gmy")} if operators else None
-        for rows, pc in self._pieces(theta, jacobian, operators):
+        for rows, pc in self._pieces(theta, jacobian, operators, chunk):
             w[rows], metric[rows], valid[rows] = pc["w"], pc["metric"], pc["valid"]
             if pc["y"] is not None:
                 y_all[rows] = pc["y"]
@@ -243,15 +245,18 @@ class Likelihood:
                     ops[k][rows] = pc[k]
         return Evaluation(w, J, valid, metric, A, y_all, **(ops or {}))
 
-    def normal_equations(self, theta: np.ndarray, jacobian: bool = True, chunk: int = CHUNK_ROWS):
+    def normal_equations(self, theta: np.ndarray, jacobian: bool = True, chunk: int = CHUNK_ROWS,
+                         with_r: bool = False):
         """(chi2 = |w|^2, G = J^T J, g = J^T w, equations) at ``theta``, accumulated over
         blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
-        Without ``jacobian`` G and g are None (a trial point's chi2 only)."""
+        Without ``jacobian`` G and g are None (a trial point's chi2 only). ``with_r``: also
+        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item)."""
         P = self.n_unknowns
         chi2, n_eq = 0.0, 0
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
-        for rows, pc in self._pieces(theta, jacobian, False, chunk):
+        order, R = self.priority(), np.zeros((0, P))
+        for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False):
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
             n_eq += int(pc["valid"].sum())
@@ -259,7 +264,9 @@ class Likelihood:
                 Jf = pc["J"].reshape(wf.size, P)
                 G += Jf.T @ Jf
                 g += Jf.T @ wf
-        return chi2, G, g, n_eq
+                if with_r:
+                    R = linalg.qr(np.vstack([R, Jf[:, order]]), mode="r", check_finite=False)[0][:P]
+        return (chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)
 
     def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
         """(N,3) predicted instrument-frame points [m] (NaN on rows without one)."""
@@ -313,22 +320,26 @@ class Likelihood:
                        f"reads of the machine is partly lost. {STATION_ADVICE}")
         return out
 
-    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS):
+    def redundancy(self, theta: np.ndarray, norms: np.ndarray, chunk: int = CHUNK_ROWS, R: np.ndarray | None = None):
         """(redundant mask, ratio per unknown) of the QR test in :meth:`priority` order
-        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order."""
+        (:func:`vecpin.identification.redundancy.redundant_from_r`), in theta's order.
+        ``R``: the R factor at ``theta`` when the caller has it (:meth:`normal_equations`)."""
         order = self.priority()
-        R = np.zeros((0, self.n_unknowns))
-        for rows, pc in self._pieces(theta, True, False, chunk):
-            stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
-            R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
+        if R is None:
+            R = np.zeros((0, self.n_unknowns))
+            for rows, pc in self._pieces(theta, True, False, chunk, metric=False):
+                stacked = np.vstack([R, pc["J"].reshape(-1, self.n_unknowns)[:, order]])
+                R = linalg.qr(stacked, mode="r", check_finite=False)[0][:self.n_unknowns]
         red_p, ratio_p = redundant_from_r(R, norms[order])
         red, ratio = np.empty_like(red_p), np.empty_like(ratio_p)
         red[order], ratio[order] = red_p, ratio_p
         return red, ratio
 
-    def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None):
+    def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None,
+                metric: bool = True):
         """(rows, arrays of those rows) for every block of rows sharing an instrument's
-        unknowns, in pieces of at most ``chunk`` rows."""
+        unknowns, in pieces of at most ``chunk`` rows; ``metric``: with ``jacobian``, also
+        d metric / d ψ (``A``; the normal equations do not need it)."""
         c, m = self.campaign, self.model
         P = self.n_unknowns
         b = theta[6:6 + self.n_model]
@@ -343,7 +354,7 @@ class Likelihood:
                 rows = blk.rows[pos]
                 feats = self.features.subset(rows) if self.features is not None else None
                 # d point / d q is needed for the positioning noise even when no Jacobian is asked
-                p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats)
+                p, J_b, J_q, dp_du = model_point(m, c.q[rows], blk.request.take(pos), u, b, feats, jacobian)
                 stash = {}
 
                 def terms(y, _rows, feats=feats, stash=stash):
@@ -353,24 +364,27 @@ class Likelihood:
                 moved = self._tracker_effects and blk.instrument.row_kind in ("tracker", "nest")
                 eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms if moved else None)
                 Aq = eq.dr_dp @ J_q
-                L = np.linalg.cholesky(np.einsum("pij,j,pkj->pik", Aq, sig2, Aq) + eq.S)
+                L = np.linalg.cholesky((Aq * sig2) @ np.swapaxes(Aq, 1, 2) + eq.S)
                 pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
                       "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
                 if jacobian:
                     D = np.zeros((len(rows), 3, P))
                     D[:, :, bsl] = eq.dr_dp @ J_b
                     D[:, :, own] += eq.dr_du
-                    Dm = np.zeros_like(D)
-                    Dm[:, :, bsl] = eq.dmetric_dp @ J_b
-                    Dm[:, :, own] += eq.dmetric_du
+                    Dm = np.zeros_like(D) if metric else np.zeros((len(rows), 3, 0))
+                    if metric:
+                        Dm[:, :, bsl] = eq.dmetric_dp @ J_b
+                        Dm[:, :, own] += eq.dmetric_du
                     if dp_du is not None:  # target offsets, nest positions: through the point
                         D[:, :, blk.unknowns] += eq.dr_dp @ dp_du
-                        Dm[:, :, blk.unknowns] += eq.dmetric_dp @ dp_du
+                        if metric:
+                            Dm[:, :, blk.unknowns] += eq.dmetric_dp @ dp_du
                     if "D" in stash:  # tracker-frame effect columns
                         D[:, :, bsl] += eq.dr_dy @ stash["D"]
-                        Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
+                        if metric:
+                            Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
                     pc["J"] = np.linalg.solve(L, D) * self.sigma
-                    pc["A"] = Dm * self.sigma
+                    pc["A"] = Dm * self.sigma if metric else None
                 if operators:
                     pc["Gw"] = np.linalg.solve(L, eq.dr_dp)
                     pc["Gm"] = eq.dmetric_dp
@@ -387,16 +401,17 @@ def _one(point: np.ndarray):
 
 
 def model_point(model: ParametricModel, q: np.ndarray, req: PointRequest, u: np.ndarray, b: np.ndarray,
-                features=None):
+                features=None, parameters: bool = True):
     """The model's prediction of the requested points in the base frame: (p (n,3) [m],
     d p / d b (n,3,P), d p / d q (n,3,n_axes), d p / d u (n,3,U) or None), u the block's
-    unknowns (target offset or nest position corrections among them)."""
+    unknowns (target offset or nest position corrections among them). Without
+    ``parameters`` d p / d b may be None (a model without row effects skips it)."""
     local, cols = req.with_unknowns(u)
     if req.kind == "workpiece":
         wp = model.workpiece_points(q, local, b, True, features)
         p, J_b, J_q, J_local = wp.xyz, wp.J_b, wp.J_q, wp.J_p
     else:
-        mt = model.tool_tip(q, req.tool, b, True, features, frame="base", point=_one(req.point),
+        mt = model.tool_tip(q, req.tool, b, True if parameters else "q", features, frame="base", point=_one(req.point),
                             offset=local if np.any(local) else None)
         p, J_b, J_q, J_local = mt.tip, mt.J_b, mt.J_q, mt.rotation
     if cols is None:

@@ -5,7 +5,10 @@ Levenberg-Marquardt damping; a step is accepted only when it lowers the objectiv
 when no damping finds a lower objective the current point is a minimum to numerical
 precision if the decrease a full step promises is negligible (below
 :data:`PROMISE_RTOL` of the objective or one unit of chi2), and otherwise the solver
-raises :class:`~vecpin.errors.ConvergenceError` with what it saw. It raises as well when
+raises :class:`~vecpin.errors.ConvergenceError` with what it saw. When the least damped
+step goes uphill and the full step promised less than the convergence tolerance, the
+point is a minimum at once (no further damping: on a million rows each trial is a
+pass over every row, and a dozen of them found nothing). It raises as well when
 no damping makes the damped normal equations solvable (they are not positive definite).
 Non-finite residuals or normal equations at the start or at an accepted point (a model
 evaluated far outside its travel, a unit mistake in the data) stop it at once; a trial
@@ -50,6 +53,11 @@ def _finite(chi2: float, G, g, what: str) -> None:
                                "far outside what the data support (check units and the axis columns)")
 
 
+def _promise(Nm: np.ndarray, grad: np.ndarray) -> float:
+    """The decrease of the objective a full Gauss-Newton step promises (gᵀ N⁻¹ g)."""
+    return float(grad @ linalg.lstsq(Nm, grad)[0])
+
+
 def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, keep: np.ndarray,
                  max_iter: int = 30, tol: float = 1e-9, progress: Callable[[str], None] | None = None,
                  start: tuple | None = None) -> Solution:
@@ -71,7 +79,9 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
         Nm = G[np.ix_(keep, keep)] + eye
         grad = g[keep] + psi[keep]
         accepted = solved = False
-        for _ in range(MAX_DAMPING + 1):
+        for attempt in range(MAX_DAMPING + 1):
+            if attempt == 1 and solved and _promise(Nm, grad) <= tol * max(obj, 1.0):
+                break   # the least damped step went uphill and promised less than the tolerance: a minimum
             try:
                 step = -linalg.solve(Nm + lam * np.diag(np.diag(Nm)), grad, assume_a="pos", check_finite=False)
             except (linalg.LinAlgError, ValueError):
@@ -92,7 +102,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
         if not accepted:
             # no damping lowers the objective: a minimum to numerical precision when the
             # decrease a full Gauss-Newton step promises is negligible; otherwise stuck
-            promised = float(grad @ linalg.lstsq(Nm, grad)[0])
+            promised = _promise(Nm, grad)
             if 0 <= promised <= max(PROMISE_RTOL * obj, PROMISE_ATOL):
                 converged = True
                 break

@@ -16,7 +16,10 @@ pose part. It is split into the tracker's own per-axis standard deviations, when
 campaign carries them (``std_x``, ``std_y``, ``std_z`` columns, mm: the tracker's report of
 each reading) and the machine's **repeatability**, estimated by restricted maximum
 likelihood on the within-pose contrasts (Helmert contrasts per axis: the pose's mean
-removed, nothing of the model left), with the tracker's variances as known parts. Each
+removed, nothing of the model left), with the tracker's variances as known parts; their
+likelihood is written from per-pose sums (the weighted deviations from the pose's
+weighted mean: :func:`reml_repeatability`), so a pose read 20,000 times costs 20,000
+numbers, not a 20,000 x 20,000 matrix. Each
 estimate comes with its standard deviation (the chi2 of the fit; the REML Fisher
 information). The pose part is the rest of the total: sqrt(total² - reading²).
 
@@ -81,47 +84,58 @@ class VarianceComponents:
                 "repeatability_sd": self.repeatability_sd, "pose": self.pose, "repeated_poses": self.repeated_poses}
 
 
-def repeated_poses(campaign: Campaign) -> list[np.ndarray]:
-    """Groups (row indices, two or more) of one pose read more than once
-    (:func:`~vecpin.measurement.repeatability.repeat_groups`: joint readings within 0.02° on a robot)."""
-    label, counts = repeat_groups(campaign)
-    return [np.flatnonzero(label == g) for g in np.flatnonzero(counts > 1)]
+def repeated_reading_groups(campaign: Campaign, ok: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, pose) of the poses read more than once: the row indices (sorted by pose)
+    and each one's pose number 0 .. G-1 (:func:`~vecpin.measurement.repeatability.repeat_groups`:
+    joint readings within 0.02° on a robot), among the rows ``ok`` (default all). O(N)
+    memory: no per-pose arrays."""
+    label, _ = repeat_groups(campaign)
+    rows = np.arange(len(label)) if ok is None else np.flatnonzero(ok)
+    counts = np.bincount(label[rows], minlength=int(label.max()) + 1 if len(label) else 0)
+    rows = rows[counts[label[rows]] > 1]
+    rows = rows[np.argsort(label[rows], kind="stable")]
+    _, pose = np.unique(label[rows], return_inverse=True)
+    return rows, np.asarray(pose).ravel()
 
 
-def _helmert(n: int) -> np.ndarray:
-    """(n-1, n) orthonormal contrasts: rows orthogonal to the ones vector and to each other."""
-    H = np.zeros((n - 1, n))
-    for k in range(1, n):
-        H[k - 1, :k] = 1.0
-        H[k - 1, k] = -k
-        H[k - 1] /= math.sqrt(k * (k + 1))
-    return H
-
-
-def reml_repeatability(blocks: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float]:
+def reml_repeatability(r: np.ndarray, known: np.ndarray, block: np.ndarray) -> tuple[float, float]:
     """REML variance σ² [mm²] (and its standard deviation) of the reading noise beyond the
-    known variances: ``blocks`` of (z, C D Cᵀ) with z the contrasts of one pose and axis
-    [mm] and C D Cᵀ the known part of their covariance; each block's covariance is
-    C D Cᵀ + σ² I (C orthonormal)."""
-    stacks: dict = {}   # blocks of one size stacked: (B, m) contrasts, (B, m, m) known parts
-    for z, K in blocks:
-        stacks.setdefault(len(z), []).append((z, K))
-    stacks = [(np.array([z for z, _ in bs]), np.array([K for _, K in bs]), np.eye(m)) for m, bs in stacks.items()]
+    known variances, from the within-block contrasts: ``r`` (M,) residuals [mm] of one
+    axis of the readings of repeated poses, ``known`` (M,) their known variances [mm²]
+    (the tracker's), ``block`` (M,) which pose and axis each belongs to (0 .. B-1, every
+    block two readings or more). A block's readings have covariance V = diag(known + σ²)
+    about an unknown mean of their own; the likelihood of its n-1 orthonormal (Helmert)
+    contrasts z = C r is that of the weighted deviations from the weighted mean
+    (w = 1 / (known + σ²), S = Σ w):
+
+        log det(C V Cᵀ) = Σ log(known + σ²) + log S - log n,
+        zᵀ (C V Cᵀ)⁻¹ z = Σ w r² - (Σ w r)² / S,
+
+    and its Fisher information of σ² is ½ tr(P²), P = W - w wᵀ / S: ½ (Σ w² - 2 Σ w³ / S
+    + (Σ w²)² / S²). Sums per block (O(M) memory, no (n, n) matrix)."""
+    r, known, block = np.asarray(r, float), np.asarray(known, float), np.asarray(block)
+    B = int(block.max()) + 1
+    n = np.bincount(block, minlength=B).astype(float)
+    r = r - (np.bincount(block, r, B) / n)[block]   # each block about its own mean (no cancellation below)
+    ss = np.bincount(block, r * r, B)
+    logn = float(np.log(n).sum())
+
+    def sums(s2: float):
+        w = 1.0 / (known + s2)
+        return w, np.bincount(block, w, B)
 
     def nll(log_s2: float) -> float:
         s2 = math.exp(log_s2)
-        total = 0.0
-        for Z, K, eye in stacks:
-            M = K + s2 * eye
-            _, logdet = np.linalg.slogdet(M)
-            total += float(logdet.sum()) + float(np.einsum("bi,bi->", Z, np.linalg.solve(M, Z[..., None])[..., 0]))
-        return 0.5 * total
-    scale = np.mean([float(z @ z) / len(z) for z, _ in blocks])
+        w, S = sums(s2)
+        quad = float((w * r * r).sum()) - float((np.bincount(block, w * r, B) ** 2 / S).sum())
+        return 0.5 * (float(np.log(known + s2).sum()) + float(np.log(S).sum()) - logn + quad)
+    scale = float(np.mean(ss / (n - 1)))
     from scipy.optimize import minimize_scalar   # imported here: 0.2 s, needed only with poses read twice
     res = minimize_scalar(nll, bounds=(math.log(scale * 1e-8 + 1e-16), math.log(scale * 10 + 1e-16)), method="bounded")
     s2 = math.exp(res.x)
-    inverses = [np.linalg.inv(K + s2 * eye) for _, K, eye in stacks]
-    info = 0.5 * sum(float(np.einsum("bij,bji->", Mi, Mi)) for Mi in inverses)   # Fisher information of σ²
+    w, S = sums(s2)
+    w2 = np.bincount(block, w * w, B)
+    info = 0.5 * float((w2 - 2 * np.bincount(block, w**3, B) / S + w2**2 / S**2).sum())   # Fisher information of σ²
     return s2, 1.0 / math.sqrt(info)
 
 
@@ -133,24 +147,20 @@ def variance_components(residuals: np.ndarray, campaign: Campaign, dof: float, s
     ok = np.isfinite(r).all(axis=1)
     total = math.sqrt(float((r[ok] ** 2).sum()) / max(dof, 1.0))
     out = VarianceComponents(total, total / math.sqrt(2 * max(dof, 1.0)), stated_mm)
-    groups = [g[ok[g]] for g in repeated_poses(campaign)]
-    groups = [g for g in groups if len(g) > 1]
-    if not groups:
+    rows, pose = repeated_reading_groups(campaign, ok)
+    if not len(rows):
         return out
     have_std = all(c in campaign.extra for c in STD_COLUMNS)
-    s2 = np.column_stack([campaign.extra[c] for c in STD_COLUMNS]) ** 2 if have_std else np.zeros_like(r)
-    blocks, within = [], []
-    for g in groups:
-        C = _helmert(len(g))
-        for a in range(3):
-            z = C @ r[g, a]
-            blocks.append((z, (C * s2[g, a]) @ C.T))
-            within.append(s2[g, a].mean())
-    rep2, rep2_sd = reml_repeatability(blocks)
-    inst2 = float(np.mean(within)) if have_std else 0.0
+    s2 = (np.column_stack([campaign.extra[c] for c in STD_COLUMNS])[rows] ** 2 if have_std
+          else np.zeros((len(rows), 3)))
+    G = int(pose.max()) + 1
+    block = (pose[:, None] * 3 + np.arange(3)).ravel()   # one block per pose and axis
+    rep2, rep2_sd = reml_repeatability(r[rows].ravel(), s2.ravel(), block)
+    n = np.bincount(pose, minlength=G)
+    inst2 = float(np.mean(np.bincount(block, s2.ravel(), 3 * G) / np.repeat(n, 3))) if have_std else 0.0
     reading = math.sqrt(rep2 + inst2)
     out.reading, out.reading_sd = reading, rep2_sd / (2 * reading)
-    out.repeated_poses, out.contrasts = len(groups), sum(len(z) for z, _ in blocks)
+    out.repeated_poses, out.contrasts = G, 3 * (len(rows) - G)
     if have_std:
         out.instrument = math.sqrt(inst2)
         out.repeatability = math.sqrt(rep2)

@@ -115,6 +115,24 @@ class TipKinematics(NamedTuple):
     frame: str
 
 
+KINEMATICS_ROWS = 50_000   # rows of one piece of Machine.kinematics (Pinocchio's Jacobians: 6 x columns floats a row)
+
+
+def kinematics_in_pieces(kinematics, q, tool, jacobian, frame, point, offset) -> TipKinematics:
+    """``kinematics`` (:meth:`Machine.kinematics`) of :data:`KINEMATICS_ROWS` rows at a
+    time, joined: the memory of one piece's Jacobians, not of every row's (a million rows
+    would hold 6 x columns x 8 bytes each at once). q (N, n), tool (N,), point int or (N,),
+    offset None, (3,) or (N, 3) as there."""
+    N, K = len(q), KINEMATICS_ROWS
+    if offset is not None:
+        offset = np.broadcast_to(np.asarray(offset, float), (N, 3))
+    parts = [kinematics(q[k:k + K], tool[k:k + K], jacobian, frame=frame,
+                        point=point if np.ndim(point) == 0 else point[k:k + K],
+                        offset=None if offset is None else offset[k:k + K]) for k in range(0, N, K)]
+    return TipKinematics(*(None if parts[0][j] is None else np.concatenate([p[j] for p in parts]) for j in range(5)),
+                         parts[0].frame)
+
+
 class WorkpiecePoints(NamedTuple):
     """Points fixed in the workpiece frame, expressed in the base frame (SI).
 

@@ -47,6 +47,7 @@ import pinocchio as pin
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.axes import (SPINDLE_LINK, Axis, Frame, MimicJoint, TipKinematics, WorkpiecePoints,
                                     configuration_map, fill_configurations)
+from vecpin.kinematics.axes import KINEMATICS_ROWS, kinematics_in_pieces
 from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_velocities
 from vecpin.kinematics.loading import bundled_file, machine_parts, urdf_file_text
 from vecpin.kinematics.urdf import UrdfTree
@@ -280,20 +281,19 @@ class Machine:
         is ``rotation``); point: tool point index (int) or one per pose (N,) into
         :attr:`tool_links`; frame: "base" or "workpiece" (default :attr:`default_frame`).
 
-        Pinocchio gives the tool link and workpiece placements and the joint Jacobian
-        columns (one call per pose). The Jacobian d tip / d q is the velocity of the tip
-        point ``v0 + w × tip`` summed over the columns that move the tool link (a mimic
-        joint's column counts for its source axis). Relative to the workpiece,
-        ``p_rel = R_w^T (p_tip - p_w)`` and
-        ``d p_rel = R_w^T (d p_tip - d p_w - w_w × (p_tip - p_w))``, where the bracket is
-        the tip's velocity minus that of the workpiece-fixed point at the tip, so columns
-        shared by both branches cancel.
-        """
+        Pinocchio gives the tool link and workpiece placements and the joint Jacobian columns (one call per
+        pose, :data:`KINEMATICS_ROWS` rows at a time). The Jacobian d tip / d q is the velocity of the tip
+        point ``v0 + w × tip`` summed over the columns that move the tool link (a mimic joint's column counts
+        for its source axis). Relative to the workpiece, ``p_rel = R_w^T (p_tip - p_w)`` and ``d p_rel =
+        R_w^T (d p_tip - d p_w - w_w × (p_tip - p_w))``, where the bracket is the tip's velocity minus that
+        of the workpiece-fixed point at the tip, so columns shared by both branches cancel."""
         q = np.atleast_2d(np.asarray(q, float))
         N = q.shape[0]
         frame = self._frame(frame)
         pt = self._points(point, N)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
+        if N > KINEMATICS_ROWS:   # a piece of the rows at a time
+            return kinematics_in_pieces(self.kinematics, q, tool, jacobian, frame, pt, offset)
         J6 = self._jacobians(q)
         R, o = self._tool_placements(self._probes, J6, pt)
         u = R @ self.tool_axis

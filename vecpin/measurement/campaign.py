@@ -188,9 +188,10 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
     finds wrong, is parsed again cell by cell for the message with row and column."""
     name = str(path)
     text = read_text_file(path)
-    first, _, body_text = text.partition("\n")
     if not text.strip():
         raise CampaignFileError(name, "the file is empty (expected a header line and one row per measurement)")
+    first, _, body_text = text.partition("\n")
+    del text   # one copy of the file's text at a time (a million rows: 130 MB each)
     header = [h.strip() for h in _split_header(name, first)]
     check_header(name, header, machine, body_text)
     parsed = _parse_fast(path, header, body_text)
@@ -201,7 +202,7 @@ def read_campaign(path: str | Path, machine: Machine) -> Campaign:
             _refuse_template(exc, header, body_text)
             raise
     values, instrument, rows, texts = parsed
-    del text, body_text
+    del body_text
     col = {h: values[:, j] for j, h in enumerate(header)}
     need = min_rows(machine.n_axes)
     if len(rows) < need:
@@ -251,7 +252,8 @@ def _parse_fast(path: Path, header: list[str], body: str):
     """(values (N, columns), instrument (N,), line numbers (N,)) by numpy's parser, or
     None when the file needs the cell-by-cell reader (blank lines, an ``instrument``,
     ``target`` or ``tool_point`` column, empty or non-numeric cells, wrong cell counts, values that are not finite)."""
-    if not body.strip() or "instrument" in header or any(h in POINT_COLUMNS for h in header) or re.search(r"\n[ \t,]*\n", "\n" + body.rstrip()):
+    blank = re.match(r"[ \t,]*\n", body) or re.search(r"\n[ \t,]*\n(?=\s*\S)", body)   # a blank line before the end
+    if not body or body.isspace() or "instrument" in header or any(h in POINT_COLUMNS for h in header) or blank:
         return None
     try:
         values = np.loadtxt(path, delimiter=",", comments=None, skiprows=1, ndmin=2, dtype=float, quotechar='"',

@@ -158,19 +158,41 @@ def check_extra(name: str, extra: dict[str, np.ndarray], rows: np.ndarray) -> No
                                     f".. {TEMPERATURE_RANGE_C[1]:g} °C){hint}", row=int(rows[bad[0]]), column="temperature")
 
 
+def _repeated_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows (ascending) that repeat an earlier row in every cell, the first row each one
+    repeats) of ``v`` (N, columns) float, bit for bit. Rows are sorted by a 64-bit hash of
+    their bits (a million rows: 8 MB keys, not a copy of the table per sort) and every
+    match is checked cell by cell; a hash shared by different rows (never seen) falls
+    back to sorting the rows themselves."""
+    bits = v.view(np.uint64)
+    h = np.zeros(len(v), np.uint64)
+    for j in range(v.shape[1]):   # an odd multiplier per column, mixed in (wraps modulo 2**64)
+        h = (h ^ (bits[:, j] * np.uint64(0x9E3779B97F4A7C15 - 2 * j))) * np.uint64(0xBF58476D1CE4E5B9)
+    order = np.argsort(h, kind="stable")
+    hs = h[order]
+    start = np.r_[True, hs[1:] != hs[:-1]]
+    head = order[np.maximum.accumulate(np.where(start, np.arange(len(v)), 0))]
+    dup, first = order[~start], head[~start]
+    if not np.array_equal(v[dup], v[first]):
+        keys = v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
+        _, idx, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        dup = np.flatnonzero(idx[inverse.ravel()] != np.arange(len(keys)))
+        return dup, idx[inverse.ravel()[dup]]
+    by_row = np.argsort(dup)
+    return dup[by_row], first[by_row]
+
+
 def warn_duplicates(name: str, values: np.ndarray, rows: np.ndarray) -> None:
     """Warn about rows that repeat an earlier row in every cell: a block pasted twice (a
     real repeat measurement differs in the last digits of x, y, z)."""
     if len(values) < 2:
         return
     v = np.ascontiguousarray(np.nan_to_num(values, nan=np.inf))
-    keys = v.view(np.dtype((np.void, v.dtype.itemsize * v.shape[1]))).ravel()
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    dup = np.flatnonzero(first[inverse.ravel()] != np.arange(len(keys)))
+    dup, first = _repeated_rows(v)
     if dup.size:
         k = dup[0]
         warnings.warn(VecpinWarning(f"{name}: {dup.size} row(s) repeat an earlier row in every cell (row "
-                                    f"{rows[k]} = row {rows[first[inverse.ravel()[k]]]}): a block pasted twice? They "
+                                    f"{rows[k]} = row {rows[first[0]]}): a block pasted twice? They "
                                     "count as extra measurements; delete the copies unless they are real repeats"),
                       stacklevel=3)
 

@@ -59,7 +59,7 @@ def to_station(p: np.ndarray, R: np.ndarray, t: np.ndarray, e: np.ndarray, jacob
     RR = R @ R0
     de = np.empty((len(y), 3, 6))
     de[:, :, :3] = R
-    de[:, :, 3:] = -np.einsum("ij,pjk,kl->pil", RR, skew(p), right_jacobian(e[3:]))
+    de[:, :, 3:] = -(RR @ skew(p)) @ right_jacobian(e[3:])
     return y, RR, de
 
 

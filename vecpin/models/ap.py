@@ -48,7 +48,7 @@ class APModel(ErrorModel):
     def perturbation(self, q: np.ndarray, b: np.ndarray) -> np.ndarray:
         """q_hat(q) (N, n) [m, rad] (eq. 8)."""
         c, a = self.split(b)
-        return c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a)
+        return c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a, optimize=True)
 
     def sensitivity(self, q: np.ndarray, tool: np.ndarray, *, frame: str = "base", point=0,
                     offset=None) -> tuple[np.ndarray, np.ndarray]:
@@ -75,8 +75,8 @@ class APModel(ErrorModel):
     def _perturbed(self, q, b):
         """(q + q_hat(q), d q_hat_j / d q_i (N,n,n))."""
         c, a = self.split(b)
-        qp = q + c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a)
-        D = np.einsum("pim,mij->pij", self._basis_values(q, derivative=True)[:, :, 1:], a)
+        qp = q + c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a, optimize=True)
+        D = np.einsum("pim,mij->pij", self._basis_values(q, derivative=True)[:, :, 1:], a, optimize=True)
         return qp, D
 
     def _base_tool_tip(self, q, tool, b, jacobian=True, *, frame="base", point=0, offset=None) -> ModelTip:
@@ -86,8 +86,10 @@ class APModel(ErrorModel):
         if not jacobian:
             return ModelTip(kin.tip, None, None, kin.tool_dir, kin.rotation)
         J = kin.jacobian  # (N,3,n) at the perturbed commands
+        J_q = J + J @ np.swapaxes(D, 1, 2)
+        if jacobian == "q":   # d tip / d q only (ErrorModel.tool_tip)
+            return ModelTip(kin.tip, None, J_q, kin.tool_dir, kin.rotation)
         J_b = self.assemble(J, self._basis_values(q), tool, kin.tool_dir)
-        J_q = J + np.einsum("pxj,pij->pxi", J, D)
         return ModelTip(kin.tip, J_b, J_q, kin.tool_dir, kin.rotation)
 
     def _base_workpiece_points(self, q, p_wp, b, jacobian=True) -> ModelPoints:
@@ -97,4 +99,4 @@ class APModel(ErrorModel):
             return ModelPoints(wp.xyz, None, None, None)
         z = np.zeros((len(q), 3))
         J_b = self.assemble(wp.J_q, self._basis_values(q), z[:, 0], z)
-        return ModelPoints(wp.xyz, J_b, wp.J_q + np.einsum("pxj,pij->pxi", wp.J_q, D), wp.J_p)
+        return ModelPoints(wp.xyz, J_b, wp.J_q + wp.J_q @ np.swapaxes(D, 1, 2), wp.J_p)

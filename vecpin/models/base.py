@@ -224,7 +224,8 @@ class ErrorModel:
         workpiece frame: what compensation corrects; the base frame on a machine without
         a workpiece). ``point``: tool point index, one or per pose; ``offset`` (3,) or
         (N,3) [m]: a target offset in the tool link frame. ``features`` are needed when
-        effects depend on the rows (geometric effects need none)."""
+        effects depend on the rows (geometric effects need none). ``jacobian="q"``: d tip / d q,
+        and d tip / d b only where effects need it (a trial point of the fit)."""
         q = np.atleast_2d(np.asarray(q, float))
         N = len(q)
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
@@ -234,6 +235,7 @@ class ErrorModel:
         where = {"frame": frame, "point": point, "offset": offset}
         if not kinematic:
             return self._plain_tip(q, tool, b, jacobian, **where)
+        jacobian = bool(jacobian)   # effects: every column
         if frame == "workpiece" and self.machine.has_workpiece and any("tip" in e.kinds for e, _ in kinematic):
             return self._relative_tip(q, tool, b, jacobian, features, point, offset)
         q_eff, S_all = self._command_effects(q, b, kinematic, features)
@@ -321,7 +323,7 @@ class ErrorModel:
         """The base kinematics; effect columns (tracker-frame effects only) are zero here."""
         nb = len(self.base_parameters)
         out = self._base_tool_tip(q, tool, b[:nb], jacobian, **where)
-        if not jacobian or nb == len(self.parameters):
+        if not jacobian or nb == len(self.parameters) or out.J_b is None:
             return out
         pad = np.zeros(out.J_b.shape[:2] + (len(self.parameters) - nb,))
         return out._replace(J_b=np.concatenate([out.J_b, pad], axis=-1))

@@ -118,7 +118,7 @@ class SixDofModel(ErrorModel):
         if not jacobian:
             return ModelTip(out.tip, None, None, out.tool_dir, out.rotation)
         Jv = np.concatenate([out.J_delta, out.J_eps], axis=-1)  # (N,3,S,6)
-        J_b = self.assemble(Jv, self._basis_values(q), tool, out.tool_dir)
+        J_b = None if jacobian == "q" else self.assemble(Jv, self._basis_values(q), tool, out.tool_dir)
         return ModelTip(out.tip, J_b, self._q_columns(out.J_q, Jv, q, A), out.tool_dir, out.rotation)
 
     def _base_workpiece_points(self, q, p_wp, b, jacobian=True) -> ModelPoints:

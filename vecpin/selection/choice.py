@@ -1,64 +1,55 @@
 """Let the data choose the model: kind, basis of every axis and order, by held-out data.
 
-Every candidate model is a set of columns of one linearised problem. The models are
-linear in their parameters to about 1e-4 around the nominal machine, the whitening of
-each row (instrument and positioning noise, :mod:`vecpin.identification.likelihood`)
-does not depend on the model, and a model's columns are the kinematic sensitivity of
-each axis' error components times functions of that axis' position. So one set of
-normal equations per model kind, over the union of every candidate function of every
-axis, serves the k-fold cross-validation of every candidate: a small solve per
-candidate and fold (folds grouped by command, both tools of a pose in one fold).
+Every candidate model is a set of columns of one linearised problem. The models are linear in their parameters
+to about 1e-4 around the nominal machine, the whitening of each row (instrument and positioning noise,
+:mod:`vecpin.identification.likelihood`) does not depend on the model, and a model's columns are the kinematic
+sensitivity of each axis' error components times functions of that axis' position. So one set of normal
+equations per model kind, over the union of every candidate function of every axis, serves the k-fold
+cross-validation of every candidate: a small solve per candidate and fold (folds grouped by command, both tools
+of a pose in one fold).
 
-Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over
-the travel (orders 0-8) and cubic B-splines with 3, 7 or 15 uniform knots (local errors;
-with ``basis="pspline"`` penalised splines on 31 knots, their smoothing λ from the
-held-out data); on a rotary axis that travels more than a turn, and that the campaign
-measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev
-trend over the travel (errors that repeat every turn,
-and those that do not: cable wind-up, torsion, a gear behind the encoder, drift over a
-long travel). The search scores every model kind with one family on all axes at a
-common order, then refines each kind axis by axis (every basis and smoothing of one axis
-with the other axes eliminated once); the choice follows the one-standard-error rule:
-among the candidates whose held-out mean distance is within one paired standard error
-of the lowest, the one with the fewest terms (a penalised spline's effective terms).
+Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over the travel (orders 0-8)
+and cubic B-splines with 3, 7 or 15 uniform knots (local errors; with ``basis="pspline"`` penalised splines on
+31 knots, their smoothing λ from the held-out data); on a rotary axis that travels more than a turn, and that
+the campaign measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev trend over
+the travel (errors that repeat every turn, and those that do not: cable wind-up, torsion, a gear behind the
+encoder, drift over a long travel). The search scores every model kind with one family on all axes at a common
+order, then refines each kind axis by axis (every basis and smoothing of one axis with the other axes eliminated
+once); the choice follows the one-standard-error rule: among the candidates whose held-out mean distance is
+within one paired standard error of the lowest, the one with the fewest terms (a penalised spline's effective
+terms).
 
-The folds group the rows by command and deal the commands at random (interleaved folds:
-new poses among the measured ones), except on an axis the campaign measured over less
-than 90 % of its travel: there the commands at each end of its measured span (a tenth at
-each end) are held out whole (:func:`vecpin.identification.crossval.command_folds`), so
-that the held-out rows judge how a candidate extrapolates beyond what it was fitted on,
-as it will be used beyond the measured span (a robot measured over part of its joint
-ranges; a machine whose model is asked for over its whole travel). Along such axes every
-candidate series and spline is built over the span measured, not the travel, and beyond
-it only its straight-line part carries on (:func:`~vecpin.selection.design.measured_spans`):
-a UR10 measured over 96-147° of its joints' 720° has errors of 18-30° period there (joints
-1 and 2) that series over the travel cannot resolve (series C of the public dataset: 0.44
--> 0.27 mm held-out mean on interleaved poses, 0.42 -> 0.26 mm beyond joint 1's measured
-span). Along such axes the basis is then chosen on their held-out ends
-(:func:`~vecpin.selection.stage.along_ends`), each axis' two ends
-(the outer fifth of its measured span) held out on a problem of its own, so that no end
-is predicted by a fit that saw any of its commands: each kind's choice by the one-SE rule
-keeps its other axes, and the basis of each partly measured axis becomes the one with
-the fewest terms (never more than it had) within one standard error of the lowest
-held-out mean on the ends of every partly measured axis, so the model keeps only what
-extrapolates (a constant or a line, where the rest extrapolates wildly), while the axes
-it interpolates keep their richer functions; of the kinds so chosen, the one-SE rule on
-every held-out row decides. A campaign over the whole travel keeps interleaved folds
-only, and the choice as before.
+The folds group the rows by command and deal the commands at random (interleaved folds: new poses among the
+measured ones), except on an axis the campaign measured over less than 90 % of its travel: there the commands at
+each end of its measured span (a tenth at each end) are held out whole
+(:func:`vecpin.identification.crossval.command_folds`), so that the held-out rows judge how a candidate
+extrapolates beyond what it was fitted on, as it will be used beyond the measured span (a robot measured over
+part of its joint ranges; a machine whose model is asked for over its whole travel). Along such axes every
+candidate series and spline is built over the span measured, not the travel, and beyond it only its
+straight-line part carries on (:func:`~vecpin.selection.design.measured_spans`): a UR10 measured over 96-147° of
+its joints' 720° has errors of 18-30° period there (joints 1 and 2) that series over the travel cannot resolve
+(series C of the public dataset: 0.44 -> 0.27 mm held-out mean on interleaved poses, 0.42 -> 0.26 mm beyond
+joint 1's measured span). Along such axes the basis is then chosen on their held-out ends
+(:func:`~vecpin.selection.stage.along_ends`), each axis' two ends (the outer fifth of its measured span) held
+out on a problem of its own, so that no end is predicted by a fit that saw any of its commands: each kind's
+choice by the one-SE rule keeps its other axes, and the basis of each partly measured axis becomes the one with
+the fewest terms (never more than it had) within one standard error of the lowest held-out mean on the ends of
+every partly measured axis, so the model keeps only what extrapolates (a constant or a line, where the rest
+extrapolates wildly), while the axes it interpolates keep their richer functions; of the kinds so chosen, the
+one-SE rule on every held-out row decides. A campaign over the whole travel keeps interleaved folds only, and
+the choice as before.
 
-When the noise level is not stated (``noise_from_data``), the best candidate of the
-first stage tells it: every noise sigma is scaled by sqrt(chi2 / expected) of its
-linearised fit, the folded problems are rescaled (no new linearisation) and the search
-runs with that noise, once.
+When the noise level is not stated (``noise_from_data``), gross rows are found first by the robust fit of the
+first stage's best candidate (:mod:`~vecpin.selection.screen`: a few left out and named, many that drive the noise
+level refused); then that candidate tells the level: every noise sigma is scaled by sqrt(chi2 / expected) of its
+linearised fit, the folded problems are rescaled (no new linearisation) and the search runs with that noise, once.
 
-Only candidates the campaign can determine take part: fewer unknowns (the model's terms
-that move anything, the tracker pose and the instruments' unknowns) than the campaign
-has equations, the count the fit holds every model to. Larger ones are left out (the
-table says how many), so a small campaign gets the best model it can support, judged
-on held-out data like any other, and its fit is never refused for its size; with
-``underdetermined`` every candidate takes part, the priors deciding what the data
-cannot. A campaign too small for any candidate, even constant errors, is refused with
-how many more poses it needs.
+Only candidates the campaign can determine take part: fewer unknowns (the model's terms that move anything, the
+tracker pose and the instruments' unknowns) than the campaign has equations, the count the fit holds every model
+to. Larger ones are left out (the table says how many), so a small campaign gets the best model it can support,
+judged on held-out data like any other, and its fit is never refused for its size; with ``underdetermined``
+every candidate takes part, the priors deciding what the data cannot. A campaign too small for any candidate,
+even constant errors, is refused with how many more poses it needs.
 """
 from __future__ import annotations
 
@@ -114,6 +105,7 @@ class ModelChoice:
     chosen_noise_scale: float = 1.0  # the level the chosen candidate's own linearised fit gives: the fit starts there
     gross: Screen | None = None  # rows left out as gross errors before the noise level was taken from the data
     fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
+    subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -150,6 +142,10 @@ class ModelChoice:
                          f"{self.before_ends.mean:.4f} mm)")
         if self.gross is not None:
             lines.append(f"gross errors: {self.gross.text}")
+        if self.subsample:
+            lines.append(f"  (chosen on a subsample: {self.subsample[0]} of the campaign's {self.subsample[1]} rows, "
+                         f"whole commands drawn at random with seed {self.subsample[2]}, the same rows on every run; "
+                         "the chosen model is then fitted to every row)")
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
@@ -169,6 +165,7 @@ class ModelChoice:
                 "no_series_per_turn": list(self.part_turn), "ends_held_out": list(self.ends),
                 "noise_scale": self.noise_scale, "chosen_noise_scale": self.chosen_noise_scale,
                 "gross_error_lines": [] if self.gross is None else [int(v) for v in self.gross.lines],
+                "subsample": list(self.subsample) or None,
                 "seconds": None, "uncompensated_mm": {"mean": self.uncompensated_mm[0], "max": self.uncompensated_mm[1]},
                 "chosen": self.chosen.to_dict(self.machine), "lowest": self.best.to_dict(self.machine),
                 "before_ends": None if self.before_ends is None else self.before_ends.to_dict(self.machine),
@@ -297,7 +294,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
-                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale)
+                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale,
+                       (len(camp), len(campaign), seed) if len(camp) < len(campaign) else ())
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,

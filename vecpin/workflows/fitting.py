@@ -64,6 +64,7 @@ class FitRun:
     campaign: Campaign | None = None      # the rows fitted (those in the zone)
     components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
     gross: Screen | None = None           # rows left out as gross errors (selection.screen)
+    residuals: np.ndarray | None = None   # (N, 3) [m] measured minus modelled of ``campaign``'s rows
 
     def lines(self) -> list[str]:
         """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
@@ -83,7 +84,7 @@ class FitRun:
             out.append(self.noise_line())
         if rep.removed:
             out.append(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
-        return out + residual_lines(model, c) + offset_lines(model) + fitted_points_lines(model)
+        return out + residual_lines(model, c, self.residuals) + offset_lines(model) + fitted_points_lines(model)
 
     def noise_line(self) -> str | None:
         """What the data said of the noise level, for the printout (None: not estimated,
@@ -103,13 +104,14 @@ class FitRun:
                 + (f"\n{parts}" if parts else ""))
 
 
-def residual_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
+def residual_lines(model: ErrorModel, campaign: Campaign, residuals: np.ndarray | None = None) -> list[str]:
     """Uncompensated (:func:`vecpin.measurement.uncompensated.uncompensated`, the figure ``import``
     and ``assess`` print) and fitted distances per tool [mm]; table nest rows and ball bar
-    rows beside them."""
+    rows beside them. ``residuals``: the model's of ``campaign`` [m] when the caller has them."""
     u = uncompensated(model.machine, campaign, strict=False)
     c0 = campaign.primary()
-    fitted = [(model.label(), norm_mm(model.residuals(c0)))] if len(c0) else []
+    r0 = residuals if residuals is not None and c0 is campaign else (model.residuals(c0) if len(c0) else None)
+    fitted = [(model.label(), norm_mm(r0))] if len(c0) else []
     if u is None and len(c0):  # too few rows, or a tool that stands still: registered by the fit instead
         out = per_tool_table([("uncompensated (registered by the fit)", norm_mm(model.nominal_residuals(c0)))]
                              + fitted, c0.tool)
@@ -266,7 +268,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         model.zone_ = dict(zone)
     run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
     run.gross = gross
-    run.components = _components(model, campaign, scale)
+    run.residuals = model.residuals(campaign)
+    run.components = _components(model, campaign, scale, run.residuals)
     return run
 
 
@@ -298,9 +301,9 @@ def _fit_rounds(model: ErrorModel, campaign: Campaign, noise: NoiseModel, scale:
     return model, scale, estimate, sd
 
 
-def _components(model: ErrorModel, campaign: Campaign, scale: float) -> VarianceComponents | None:
-    """The variance components of the fit's residuals (tracker rows of one station only)."""
-    r = model.residuals(campaign)
+def _components(model: ErrorModel, campaign: Campaign, scale: float, r: np.ndarray) -> VarianceComponents | None:
+    """The variance components of the fit's residuals ``r`` (N, 3) [m] (tracker rows of one
+    station only)."""
     rep = model.report_
     if not (campaign.plain and not campaign.mixed and np.isfinite(r).all() and rep.chi2 > 0):
         return None

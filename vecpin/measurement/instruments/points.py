@@ -131,9 +131,9 @@ def _frames(machine, campaign, rows):
         kin = machine.kinematics(campaign.q[r], 0.0, jacobian=False, frame="base", point=campaign.point[r])
         R[tool], o[tool] = kin.rotation, kin.spindle
         lt = campaign.tool[r][:, None] * machine.tool_axis
-        for i, tid in enumerate(ids[tool]):
-            if tid == "":
-                continue
+        tids = ids[tool]
+        for i in np.flatnonzero(tids != ""):   # the rows of targets only (a million tool tips: no loop)
+            tid = tids[i]
             if tid in campaign.targets:
                 lt[i] = lt[i] + campaign.targets[tid]
             else:
@@ -172,6 +172,9 @@ def initial_setup(machine, campaign, setup: Setup | None = None) -> Setup:
     position (filled into ``setup``, or a new one registered on station 0's rows).
     Stations other than 0 are placed here too when they are not in ``setup``."""
     point_rows = np.flatnonzero(campaign.instrument != "ballbar")
+    placed = setup is not None and set(np.unique(campaign.station[point_rows]).tolist()) <= {0, *setup.stations}
+    if placed and not np.any(campaign.target[point_rows] != "") and not np.any(campaign.instrument == "nest"):
+        return setup   # every pose given and no point to place: nothing to compute over the rows
     R, o, local, key = _frames(machine, campaign, point_rows)
     station = campaign.station[point_rows]
     known = {"target:" + k: v for k, v in (setup.targets.items() if setup else ())}
