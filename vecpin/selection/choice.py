@@ -281,12 +281,11 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     search = _joined([own.search for own in stages])
     cands, first = search.cands, problems[kinds[0]]
     best = min(cands, key=lambda c: c.mean)
-    before = None
     if ends and per_axis:   # along axes the model is used beyond, what extrapolates (_ends_choice)
         chosen, se, reason, before = _ends_choice([own for own in stages if own.end is not None], problems)
     else:
-        chosen, se, reason = one_standard_error(cands, best, lambda c: problems[c.kind].size(c),
-                                                lambda c: problems[c.kind].size_bound(c))
+        chosen, se, reason, before = (*one_standard_error(cands, best, lambda c: problems[c.kind].size(c),
+                                                          lambda c: problems[c.kind].size_bound(c)), None)
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     own_scale = scale * _noise_level(problems[chosen.kind], chosen) if noise_from_data else 1.0
     limit = search.limit
@@ -295,7 +294,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
                        tuple(machine.axes[a].name for a in ends), scale, before, own_scale,
-                       (len(camp), len(campaign), seed) if len(camp) < len(campaign) else ())
+                       subsample=(len(camp), len(campaign), seed) if len(camp) < len(campaign) else ())
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,
