@@ -105,6 +105,7 @@ def test_bad_list_names_file_and_line(tmp_path):
     assert exc.value.line == 2
 
 
+@pytest.mark.slow   # a whole report or day: several seconds, in the slow tier
 @pytest.mark.parametrize("machine, why", [("production_xyzbaw", "W is none of them"), ("trunnion_xyzac", "table axes")])
 def test_axis_lists_without_tf5280_where_it_cannot_describe_the_machine(machines, tmp_path, machine, why):
     """A 6-DoF model of a machine with a W axis or with table axes: the axis compensation

@@ -52,6 +52,7 @@ def test_figures_are_drawn(setup, tmp_path):
     assert _is_image(figures.ga_convergence_figure({"a": [[3, 2, 1], [3, 3, 2, 1]]}, tmp_path / "ga.png"))
 
 
+@pytest.mark.slow   # a whole report or day: several seconds, in the slow tier
 def test_report_command(setup, tmp_path, capsys):
     m, sim, model = setup
     model.save(tmp_path / "m.json")

@@ -7,6 +7,7 @@ import csv
 import re
 
 import numpy as np
+import pytest
 
 from vecpin.cli import main
 
@@ -64,6 +65,7 @@ def _independent_uncompensated(path):
     return _kabsch_distances(np.array(nominal), np.array(measured))
 
 
+@pytest.mark.slow   # a whole report or day: several seconds, in the slow tier
 def test_report_validation_is_relative_to_the_table(tmp_path):
     sim = tmp_path / "sim"
     assert main(["simulate", "head_table_bc", "--out", str(sim), "--seed", "2", "--points", "60",

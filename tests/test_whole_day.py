@@ -70,6 +70,7 @@ def test_decision_and_verification_beside_the_seed(day, flow):
     assert js["seed_table3"][1]["mean_mm"] == 0.038 and js["compensated"]["label"].startswith("compensated")
 
 
+@pytest.mark.slow   # a whole report or day: several seconds, in the slow tier
 def test_whole_day_on_a_trunnion_with_table_nests(tmp_path, capsys, machines):
     """The same day on a machine whose rotaries are on the table: the plan reads three
     table nests; the tracker software exports every point under the template's name

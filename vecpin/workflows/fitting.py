@@ -65,6 +65,7 @@ class FitRun:
     components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
     gross: Screen | None = None           # rows left out as gross errors (selection.screen)
     residuals: np.ndarray | None = None   # (N, 3) [m] measured minus modelled of ``campaign``'s rows
+    measured: Campaign | None = None      # the rows measured (in the zone), gross ones included: the uncompensated
 
     def lines(self) -> list[str]:
         """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
@@ -84,7 +85,8 @@ class FitRun:
             out.append(self.noise_line())
         if rep.removed:
             out.append(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
-        return out + residual_lines(model, c, self.residuals) + offset_lines(model) + fitted_points_lines(model)
+        return (out + residual_lines(model, c, self.residuals, self.measured) + offset_lines(model)
+                + fitted_points_lines(model))
 
     def noise_line(self) -> str | None:
         """What the data said of the noise level, for the printout (None: not estimated,
@@ -104,11 +106,13 @@ class FitRun:
                 + (f"\n{parts}" if parts else ""))
 
 
-def residual_lines(model: ErrorModel, campaign: Campaign, residuals: np.ndarray | None = None) -> list[str]:
-    """Uncompensated (:func:`vecpin.measurement.uncompensated.uncompensated`, the figure ``import``
-    and ``assess`` print) and fitted distances per tool [mm]; table nest rows and ball bar
-    rows beside them. ``residuals``: the model's of ``campaign`` [m] when the caller has them."""
-    u = uncompensated(model.machine, campaign, strict=False)
+def residual_lines(model: ErrorModel, campaign: Campaign, residuals: np.ndarray | None = None,
+                   measured: Campaign | None = None) -> list[str]:
+    """Uncompensated (:func:`vecpin.measurement.uncompensated.uncompensated` of ``measured``, every
+    row read, default ``campaign``: the figure ``import`` and ``assess`` print) and fitted distances
+    per tool [mm] of ``campaign`` (the rows fitted); table nest rows and ball bar rows beside them.
+    ``residuals``: the model's of ``campaign`` [m] when the caller has them."""
+    u = uncompensated(model.machine, campaign if measured is None else measured, strict=False)
     c0 = campaign.primary()
     r0 = residuals if residuals is not None and c0 is campaign else (model.residuals(c0) if len(c0) else None)
     fitted = [(model.label(), norm_mm(r0))] if len(c0) else []
@@ -250,7 +254,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                                   travel=clip_to_zone(machine, zone) if zone else None,
                                   noise_from_data=noise_from_data, **opts)
     check_size(model)
-    start, gross = (choice.chosen_noise_scale, choice.gross) if choice else (1.0, None)
+    (start, gross), measured = ((choice.chosen_noise_scale, choice.gross) if choice else (1.0, None)), campaign
     if gross is not None:   # gross rows the choice left out: the fit leaves them out too
         campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
     choice = None if choice is not None and choice.fixed else choice   # a fixed model: no choice to show or keep
@@ -267,7 +271,7 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if zone:
         model.zone_ = dict(zone)
     run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
-    run.gross = gross
+    run.gross, run.measured = gross, measured
     run.residuals = model.residuals(campaign)
     run.components = _components(model, campaign, scale, run.residuals)
     return run
