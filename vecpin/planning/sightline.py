@@ -180,11 +180,7 @@ class SightLine:
         tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
         kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
         m = self.machine
-        own = m.model.frames[m.spindle_frame_id].parentJoint
-        chain, j = set(), own
-        while j > 0:
-            chain.add(j)
-            j = m.model.parents[j]
+        own, chain = spindle_chain(m)
         by = np.full(len(q), "", dtype=object)
         poses = self.solid_poses(q)
         for k, s in enumerate(self.solids):
@@ -458,6 +454,18 @@ def describe_solids(solids: list[Solid]) -> str:
     for s in solids:
         kinds[s.kind] = kinds.get(s.kind, 0) + 1
     return ", ".join(f"{v} {k}{'es' if k == 'box' and v > 1 else ('s' if v > 1 else '')}" for k, v in kinds.items())
+
+
+
+def spindle_chain(machine) -> tuple[int, set[int]]:
+    """(the Pinocchio joint that carries the spindle, the joints of its chain down to the base):
+    solids on that chain hold the gauge line, so the holder meeting them is not a collision."""
+    own = machine.model.frames[machine.spindle_frame_id].parentJoint
+    chain, j = set(), own
+    while j > 0:
+        chain.add(j)
+        j = machine.model.parents[j]
+    return own, chain
 
 
 __all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "default_tracker_placement",

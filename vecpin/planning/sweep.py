@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.planning.sightline import SightLine, Solid, _contains, _segment_hits, _slab, _to_local
+from vecpin.planning.sightline import SightLine, Solid, _contains, _segment_hits, _slab, _to_local, spindle_chain
 
 CHAIN_STEP = 0.010  # m of the gauge line's travel between the poses of a moving-chain solid on a swept move
 
@@ -68,11 +68,7 @@ def swept_collisions(sight: SightLine, q0: np.ndarray, q1: np.ndarray, tool: np.
     m = sight.machine
     k0 = m.kinematics(q0, tool, jacobian=False, frame="base")
     k1 = m.kinematics(q1, tool, jacobian=False, frame="base")
-    own = m.model.frames[m.spindle_frame_id].parentJoint
-    chain, j = set(), own
-    while j > 0:
-        chain.add(j)
-        j = m.model.parents[j]
+    own, chain = spindle_chain(m)
     by = np.full(len(q0), "", dtype=object)
     p0, p1 = sight.solid_poses(q0), sight.solid_poses(q1)
     for k, s in enumerate(sight.solids):
