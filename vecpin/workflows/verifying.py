@@ -415,7 +415,7 @@ def verify_to_dir(machine: Machine, before: Campaign, after: Campaign, out_dir: 
         before_after_histograms({k: r.measured for k, r in runs.items()},
                                 {k: r.predicted for k, r in runs.items() if r.predicted is not None},
                                 out.path("verify.png"),
-                                title="Validation runs before and after compensation (Paper I Fig. 11)")
+                                title="Validation runs before and after compensation, in the part's frame (Paper I Fig. 11)")
         v.files = [out.final("verify.png"), out.final("verify.json")]
         out.write_text("verify.json", json.dumps(v.to_dict(), indent=1) + "\n")
     return v
