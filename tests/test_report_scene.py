@@ -174,3 +174,21 @@ def test_report_screenshot_shows_its_colour_bars(flow, fitted, tmp_path):
     img = shoot(page, tmp_path / "r.png", size="1200,9000")
     assert img.std() > 10
     assert turbo_strips(img, vertical=True) >= 10  # the vector plots' colour bars
+
+
+def test_a_negligible_compensated_error_is_drawn_at_the_errors_scale(flow, fitted, monkeypatch):
+    """Tables that leave (numerically) nothing: the compensated group is not magnified to 8 % of
+    the workspace (issue 41: an AP model's was drawn x489861) but shares the errors' exaggeration
+    and colour scale."""
+    sim, models = fitted
+    from vecpin.compensation.plan import plan_tables
+    tables = plan_tables(models[0], n_commands=200).tables
+    tables.tables = {}                                             # no table: the error left is the error
+    facts = build_scene(meshcat.Visualizer(window=RecordingWindow()), models[0], sim.campaign, 2, None, tables)
+    g = {x["name"]: x for x in facts["groups"]}
+    assert g["compensated"]["scale_mm"] == g["compensated"]["max_mm"]      # not negligible: its own scale
+    monkeypatch.setattr("vecpin.viz.scene.NEGLIGIBLE", 10.0)      # every compensated error counts as negligible
+    facts = build_scene(meshcat.Visualizer(window=RecordingWindow()), models[0], sim.campaign, 2, None, tables)
+    g = {x["name"]: x for x in facts["groups"]}
+    assert g["compensated"]["exaggeration"] == g["errors"]["exaggeration"]
+    assert g["compensated"]["scale_mm"] == g["errors"]["max_mm"]

@@ -37,7 +37,7 @@ import umsgpack
 from vecpin.fileio import write_text
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
-from vecpin.units import MM_PER_M
+from vecpin.units import MM_PER_M, M_PER_MM
 
 
 def _server_helpers():
@@ -134,6 +134,9 @@ GROUPS = {  # group -> (legend text, scene nodes it shows)
 }
 
 
+NEGLIGIBLE = 0.01   # a compensated error below this share of the largest error is drawn at the errors' scale
+
+
 def _exaggeration(exaggerate, group: str, span: float, largest: float) -> float:
     if isinstance(exaggerate, dict) and group in exaggerate:
         return float(exaggerate[group])
@@ -153,7 +156,9 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
     factor for all, {group: factor}, or None: the group's largest vector drawn at 8 %
     of the workspace) and its own colour scale (blue 0 .. red at its largest vector);
     only the group ``show`` is visible at first. Returns facts of the scene, with
-    ``groups``: [{name, label, exaggeration, max_mm, visible}]."""
+    ``groups``: [{name, label, exaggeration, max_mm, scale_mm (its colour scale's top), visible}].
+    A compensated error below :data:`NEGLIGIBLE` of the largest error is drawn at the errors'
+    exaggeration and colour scale: numerical noise is not magnified into a machine."""
     m: Machine = model.machine
     from vecpin.measurement.registration import check_same_pose, station0
     at = _scene_row(campaign, row)  # index of the posed row among those drawn
@@ -183,7 +188,11 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
         size = np.linalg.norm(vec, axis=1)
         vmax = float(size.max())
         k = _exaggeration(exaggerate, name, span, vmax)
-        col = error_colors(size, vmax)
+        scale = vmax
+        if name == "compensated" and groups and vmax < NEGLIGIBLE * groups[0]["max_mm"] * M_PER_MM and not (
+                isinstance(exaggerate, (int, float)) or (isinstance(exaggerate, dict) and name in exaggerate)):
+            k, scale = groups[0]["exaggeration"], groups[0]["max_mm"] * M_PER_MM   # nothing left: the errors' scale
+        col = error_colors(size, scale)
         root[name].set_object(_segments(nominal, k * vec, col))
         if name == "errors":
             root["measured"].set_object(_points(nominal + k * err, col, 1.6 * pt))
@@ -191,7 +200,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
         for node in GROUPS[name][1]:
             root[node].set_property("visible", name == show)
         groups.append({"name": name, "label": GROUPS[name][0], "exaggeration": k, "max_mm": vmax * MM_PER_M,
-                       "visible": name == show})
+                       "scale_mm": scale * MM_PER_M, "visible": name == show})
     root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
     g0 = groups[0]
     facts = {"exaggeration": g0["exaggeration"], "max_error_mm": g0["max_mm"], "rows": len(campaign),
@@ -229,7 +238,7 @@ def legend_html(title: str, groups: list[dict]) -> str:
         rows.append(f'<label><input type="radio" name="vecpin-group" value="{gr["name"]}"{checked} '
                     f'onchange="vecpinShow(this.value)"> {html.escape(gr["label"])}, '
                     f'×{gr["exaggeration"]:.0f}</label>')
-        vmax = gr["max_mm"]
+        vmax = gr.get("scale_mm", gr["max_mm"])   # the colour scale's top (a negligible group: the errors')
         bars.append(f'<div class="vecpin-bar" id="vecpin-bar-{gr["name"]}" style="display:'
                     f'{"block" if gr["visible"] else "none"}"><div>colour: length of the {gr["name"]} vectors [mm]'
                     f'</div><div class="bar" style="background: {grad};"></div><div class="ticks"><span>0</span>'
@@ -403,8 +412,10 @@ def legend_lines(facts: dict) -> list[str]:
     """The legend as text (for the live server, whose page has no overlay)."""
     out = []
     for gr in facts["groups"]:
+        top = gr.get("scale_mm", gr["max_mm"])
+        same = " (the errors' scale: it leaves a negligible error)" if top != gr["max_mm"] else ""
         out.append(f"  /vecpin/{gr['name']:<12s} {gr['label']}: x{gr['exaggeration']:.0f}, colour 0 .. "
-                   f"{gr['max_mm']:.3f} mm (blue .. red){'  [shown]' if gr['visible'] else ''}")
+                   f"{top:.3f} mm (blue .. red){same}{'  [shown]' if gr['visible'] else ''}")
     out += [f"  note: {n}" for n in facts.get("notes", [])]
     return out
 
