@@ -26,7 +26,13 @@ class Uncompensated:
     rows: np.ndarray           # (n,) row indices into the campaign handed in
     tool: np.ndarray           # (n,) tool lengths of those rows [m]
     shape_mm: np.ndarray | None = None   # (n,) mm, the best rigid motion removed instead
-    table: bool = False        # True: the tip relative to the table (measured through the table nests)
+    table_tips: np.ndarray | None = None   # (n,3) [m] the measured tips relative to the table (workpiece frame),
+                                           # where the figure is read through the table nests
+
+    @property
+    def table(self) -> bool:
+        """True: the figure is of the tip relative to the table."""
+        return self.table_tips is not None
 
     @property
     def mean_mm(self) -> float:
@@ -107,4 +113,4 @@ def relative_to_table(machine: Machine, campaign: Campaign) -> Uncompensated | N
         return None
     ref = RunReference(machine, c.q, c.tool, nominal, tt.tip)
     err = norm_mm(part_frame_errors(nominal, ref(tt.tip), spindle_axis(machine)))
-    return Uncompensated(err, tt.rows, c.tool, norm_mm(registered_errors(nominal, tt.tip)), table=True)
+    return Uncompensated(err, tt.rows, c.tool, norm_mm(registered_errors(nominal, tt.tip)), tt.tip)

@@ -209,9 +209,7 @@ def _judged_readings(machine: Machine, campaign: Campaign, err) -> Campaign:
     the workpiece frame, so a repeat sees the table axes too), else station 0's tracker rows,
     refused when they cannot be this machine's tool tips (a unit or frame mistake)."""
     if err.table:
-        from vecpin.measurement.tableframe import table_nests, table_tips
-        tt = table_tips(campaign, table_nests([campaign])[0], True)
-        return dataclasses.replace(campaign.subset(tt.rows), xyz=tt.tip)
+        return dataclasses.replace(campaign.subset(err.rows), xyz=err.table_tips)
     c = campaign.primary()
     check_registration(machine.tool_tip(c.q, c.tool, frame="base"), c.xyz, c.source, c.lines)
     return c
