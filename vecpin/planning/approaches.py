@@ -80,16 +80,6 @@ def candidate_signs(sign: np.ndarray, r: int, up: int) -> list[np.ndarray]:
     return out
 
 
-def segment(a: np.ndarray, b: np.ndarray, step=PLUNGE_STEP, pieces: int | None = None) -> np.ndarray:
-    """(k, n) positions from ``a`` to ``b`` (mm, deg) on the straight line, both ends
-    included: ``pieces`` pieces, or as many as keep every axis within ``step`` (a number
-    or one per axis)."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    k = pieces if pieces is not None else int(np.ceil(np.max(np.abs(b - a) / step) - 1e-9)) if np.any(a != b) else 0
-    t = np.linspace(0.0, 1.0, max(k, 0) + 1)[:, None]
-    return a + t * (b - a)
-
-
 def move_hits(machine: Machine, sight, moves, tool: np.ndarray) -> np.ndarray:
     """(M,) the solid the target holder meets on each straight move (from, to) (mm, deg)
     in axis space with holder lengths ``tool`` (M,) [m] ('' where it is free): a move of
@@ -206,5 +196,5 @@ def safe_template(machine: Machine, sight, template, steps: np.ndarray, rt: Retr
     return out
 
 
-__all__ = ["Retract", "planning_retract", "candidate_signs", "segment", "move_hits", "choose",
+__all__ = ["Retract", "planning_retract", "candidate_signs", "move_hits", "choose",
            "free_commands", "safe_template", "PLUNGE_STEP", "ROTARY_STEP", "MODE_SIGNS"]

@@ -100,11 +100,6 @@ class Discrimination:
         return write_program(dialect, machine, self.template(), np.zeros(machine.n_axes),
                              title=f"to tell {', '.join(self.labels[:-1])} and {self.labels[-1]} apart", **kw)
 
-    @property
-    def extrapolation(self) -> bool:
-        """True when some commands leave the campaign's measured range (:attr:`beyond`)."""
-        return bool(self.beyond)
-
     def outcome(self) -> str:
         """The expected outcome under each candidate, in words (sizes in µm, in mm from 1 mm)."""
         d = np.linalg.norm(self.expected[:, None] - self.expected[None, :], axis=-1) * MM_PER_M  # mm
@@ -270,8 +265,7 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
     beyond = {}
     for k in np.flatnonzero(out):
         ax = machine.axes[k]
-        beyond[ax.name] = (float(ax.to_user(box[0][k])), float(ax.to_user(box[1][k])),
-                           "mm" if ax.kind == "linear" else "deg")
+        beyond[ax.name] = (float(ax.to_user(box[0][k])), float(ax.to_user(box[1][k])), ax.unit)
     return Discrimination(labels, q, tool, y, gain, camp.extra.get("time", feats.time), camp.temperature,
                           beyond=beyond)
 

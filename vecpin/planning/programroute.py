@@ -229,25 +229,4 @@ class Router:
                          f"({self.t.tool[row] * MM_PER_M:.3f} mm) into {solid} at every height tried; leave the "
                          "point out (`exclude`) or plan shorter `tools_mm`")
 
-    def collisions(self) -> list[str]:
-        """A sentence per move the holder meets the machine's geometry on (the moves of
-        :meth:`steps` and every approach at the feed; none: all free)."""
-        moves, rows, what = [], [], []
-        pos = np.full(self.m.n_axes, np.nan)
-        by_row = {v.row: v for v in self.route}
-        for s in self.steps():
-            moves.append((pos, s.to))
-            rows.append(s.row)
-            what.append(s.what)
-            pos = s.to
-            if s.what == "plunge":
-                moves.append((s.to, by_row[s.row].q))
-                rows.append(s.row)
-                what.append("approach")
-                pos = by_row[s.row].q.copy()
-        hits = self._hits(moves, rows)
-        return [f"{point_name(self.t.point[row])}: the {w} puts the target holder ({self.t.tool[row] * MM_PER_M:.3f} "
-                f"mm) into {h}" for row, w, h in zip(rows, what, hits) if h]
-
-
 __all__ = ["Router", "Step", "Visit", "visits", "rereads", "neutral", "SWING_STEP"]

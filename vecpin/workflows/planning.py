@@ -246,12 +246,12 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
             others.append((Path(c).name, templates[c]))
     comparison = compare(plan, others) if others else []
     files = []
-    sight = None if not settings.sight else SightLine(machine, plan.tracker, geometry=settings.geometry)
     with OutputSet(out_dir) as out:
         files.append(out.write_text("plan.csv", plan.template.to_csv(machine)))
         if arm:
             return _arm_run(out, machine, plan, files, comparison, dialects, (dwell_s, nest_dwell_s, read_dwell_s),
                             holder_change_s)
+        sight = None if not settings.sight else SightLine(machine, plan.tracker, geometry=settings.geometry)
         files += _nc_programs(out, machine, plan, dialects, sight, dict(
             dwell_s=dwell_s, nest_dwell_s=nest_dwell_s, feed_mm_min=feed_mm_min, safe_z_mm=safe_z_mm, retract=retract,
             axis_map=axis_map), read_dwell_s)
