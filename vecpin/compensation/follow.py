@@ -19,6 +19,7 @@ from itertools import combinations
 import numpy as np
 
 from vecpin.kinematics.machine import Machine
+from vecpin.units import norm_mm
 
 ORDER = 3              # Chebyshev order per input of the coupling fits
 NAMED_SHARE = 0.25     # a pair named when its products explain this share of the leftover beyond its two inputs alone
@@ -108,5 +109,5 @@ def unfollowed(machine: Machine, q: np.ndarray, tool: np.ndarray, before: np.nda
     inputs = {a.name: q[:, a.index] for a in machine.axes}
     if len(np.unique(np.round(tool, 9))) > 1:
         inputs["the tool length"] = np.asarray(tool, float)
-    mean_mm = lambda e: float(np.linalg.norm(e, axis=1).mean() * 1000.0)
-    return Unfollowed(mean_mm(before), mean_mm(after), fit_mm, coupled_pairs(inputs, after), remedy(machine))
+    return Unfollowed(float(norm_mm(before).mean()), float(norm_mm(after).mean()), fit_mm, coupled_pairs(inputs, after),
+                      remedy(machine))

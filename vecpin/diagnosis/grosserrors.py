@@ -28,20 +28,16 @@ import numpy as np
 from scipy import linalg, stats
 
 from vecpin.identification.crossval import FoldedProblem, Linearised
-from vecpin.identification.robust import robust_fit, row_limit  # noqa: F401 (row_limit: this module's API too)
+from vecpin.identification.robust import FAMILY_ALPHA, robust_fit, row_limit  # noqa: F401 (this module's API too)
+from vecpin.identification.robust import median_level as robust_level
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.repeatability import repeat_groups
 
-FAMILY_ALPHA = 0.01  # chance that a clean campaign flags any row at all
 BANDWIDTHS = (0.01, 0.04)  # the kernel's sigma along an axis, shares of the span measured: narrow and wide misfit
 SHARED = 0.5         # a region's row: its neighbours' local fit leaves at most this share of its residual
 REGION_MIN = 3       # flagged rows that share their misfit along one axis before that stretch is a region
 AGREE_P = 0.01       # repeated readings agree unless their difference is beyond this tail
-
-
-def _equations(valid: np.ndarray) -> np.ndarray:
-    return np.maximum(np.asarray(valid).sum(axis=1), 1)
 
 
 def prediction_statistic(w: np.ndarray, J: np.ndarray, M: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -90,12 +86,6 @@ def robust_heldout(lin: Linearised, folds: np.ndarray, n_rows: int, alpha: float
         held_w[te] = lin.w[te] - lin.J[te] @ psi[f]
         s[te] = prediction_statistic(held_w[te], lin.J[te], linalg.inv(prob.G_out[f] + eye), lin.valid[te])
     return {"s": s, "heldout_w": held_w, "heldout": held, "skipped": rf.beyond}
-
-
-def robust_level(s: np.ndarray, valid: np.ndarray) -> float:
-    """The noise level of statistics s: median of s / median chi2(k) (1 when the noise
-    model is right; gross errors do not move a median)."""
-    return float(max(np.median(s / stats.chi2.median(_equations(valid))), 1e-300))
 
 
 def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: float = FAMILY_ALPHA) -> np.ndarray:

@@ -50,11 +50,7 @@ class ErrorModelCV:
 
     def fit(self, campaign: Campaign) -> "ErrorModelCV":
         """Choose (where not fixed) and fit the model of ``campaign``; returns self."""
-        run = fit_campaign(self.machine, campaign, self.noise, kind=self.kind, basis=self.basis, order=self.order,
-                           tool_corrections=self.tool_corrections, prior_scale=self.prior_scale,
-                           underdetermined=self.underdetermined, folds=self.folds, zone=self.zone,
-                           noise_from_data=self.noise_from_data, nest_heights=self.nest_heights,
-                           progress=self.progress)
+        run = fit_campaign(self.machine, campaign, **self.get_params())
         self.run_, self.model_, self.choice_ = run, run.model, run.choice
         return self
 

@@ -136,8 +136,8 @@ def _at_the_tool(model: ErrorModel, campaign: Campaign, reregister: bool, model_
             d_nom = shape = norm_mm(c.xyz - model.predict_nominal(c.q, c.tool))
     else:  # targets on the tool, several tool points: the fitted targets placed on the nominal machine
         res = model.nominal_residuals(c)
-        d_nom = norm_mm(registered_errors(c.xyz - res, c.xyz)) if reregister else norm_mm(res)
         shape = norm_mm(registered_errors(c.xyz - res, c.xyz))
+        d_nom = shape if reregister else norm_mm(res)
     d_mod = norm_mm(model.residuals(c, reregister=reregister))
     return Evaluation(len(c), c.tool, d_nom, d_mod, reregister, len(campaign) - len(c), shape=shape)
 

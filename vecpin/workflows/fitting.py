@@ -261,8 +261,9 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     model, scale, estimate, sd = _fit_rounds(model, campaign, noise, start, noise_from_data, underdetermined,
                                              progress)
     rescaled = scale != 1.0
+    residuals = model.residuals(campaign)   # for the moved nests, the printout and the variance components
     if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
-        for note in moved_nest_after_fit(campaign, model.residuals(campaign)):
+        for note in moved_nest_after_fit(campaign, residuals):
             warnings.warn(VecpinWarning(note), stacklevel=2)
     if nest_heights:
         model.setup_.nest_heights = check_nest_heights(nest_heights, model.setup_.nests)
@@ -271,9 +272,8 @@ def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     if zone:
         model.zone_ = dict(zone)
     run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
-    run.gross, run.measured = gross, measured
-    run.residuals = model.residuals(campaign)
-    run.components = _components(model, campaign, scale, run.residuals)
+    run.gross, run.measured, run.residuals = gross, measured, residuals
+    run.components = _components(model, campaign, scale, residuals)
     return run
 
 

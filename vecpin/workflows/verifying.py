@@ -184,17 +184,16 @@ class Verification:
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
-def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.0, judged: str = "part",
-                  reference: RunReference | None = None) -> np.ndarray:
+def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.0, judged: str = "part") -> np.ndarray:
     """Distances [mm] of the measured points from the commanded positions (nominal tool
     length + ``gauge_change`` [m]): in the part's frame (``judged`` "part": the points taken
-    into the machine's reference frame by ``reference``, default the run's own, then the
-    part's set-up removed), or with the run's own best-fit rigid motion removed ("shape")."""
+    into the run's own reference frame, then the part's set-up removed), or with the run's
+    own best-fit rigid motion removed ("shape")."""
     c = campaign.primary()
     nominal = machine.tool_tip(c.q, c.tool + gauge_change, frame="base")
     if judged == "shape":
         return norm_mm(registered_errors(nominal, c.xyz))
-    reference = reference or RunReference(machine, c.q, c.tool + gauge_change, nominal, c.xyz)
+    reference = RunReference(machine, c.q, c.tool + gauge_change, nominal, c.xyz)
     return norm_mm(part_frame_errors(nominal, reference(c.xyz), spindle_axis(machine)))
 
 

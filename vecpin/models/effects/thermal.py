@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vecpin.kinematics.axes import is_arm
 from vecpin.models.effects.base import Effect, Key, register_effect
 
 LAGS_H = (0.0, 0.5, 1.0, 2.0, 4.0)  # first-order lags [h] the diagnosis tries (0: the air temperature itself)
@@ -52,7 +53,7 @@ class Thermal(Effect):
         axes = axes or self.default_axes(machine)
         super().__init__(machine, axes, driver=driver, t_ref=t_ref, lag_h=float(lag_h), **kw)
         self.driver, self.t_ref, self.lag_h = driver, float(t_ref), float(lag_h)
-        self.chain = not any(a.kind == "linear" for a in machine.axes)   # an arm: its links grow as a whole
+        self.chain = is_arm(machine)   # an arm: its links grow as a whole
 
     @classmethod
     def default_axes(cls, machine):
