@@ -465,7 +465,7 @@ def gauge_effect(plan: TablePlan, model: ErrorModel, tables: TableSet | None = N
     part is judged, as in :func:`plan_tables`."""
     tables = plan.tables if tables is None else tables
     model = geometric_model(model)
-    actual = model_as_actual(model)
+    actual = model_as_actual(model, frame=plan.reference)   # the frame the plan's tables keep, found once
     dT = tables.gauge_offset_change
     out = {}
     for key, value in (("entered", dT), ("none", 0.0), ("flipped", -dT)):

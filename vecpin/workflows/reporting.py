@@ -144,15 +144,16 @@ def _compensated(models, labels, plans, judged: Campaign) -> dict[str, np.ndarra
     u = uncompensated(models[0].machine, judged, strict=False)
     out = {} if u is None else {"uncompensated": u.distances_mm}
     for lab, mod, plan in zip(labels, models, plans):
-        out[f"{lab} tables"] = predicted_compensated(mod, plan.tables, judged)
+        out[f"{lab} tables"] = predicted_compensated(mod, plan.tables, judged, plan.reference)
     return out
 
 
-def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.ndarray:
+def predicted_compensated(model: ErrorModel, tables, campaign: Campaign, frame=None) -> np.ndarray:
     """Distances [mm] the tables would leave at the campaign's points: the measured
     residual (what the model does not describe, assumed unchanged by the small command
-    changes) plus the model's compensated error in its reference frame, judged in the part's
-    frame (a translation and a rotation about the spindle removed)."""
+    changes) plus the model's compensated error in its reference frame (``frame``, default
+    found from the model), judged in the part's frame (a translation and a rotation about
+    the spindle removed)."""
     from vecpin.compensation.frame import model_reference_frame
     from vecpin.measurement.partframe import part_frame_errors, spindle_axis
     from vecpin.viz.scene import to_machine_frame
@@ -164,7 +165,7 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign) -> np.n
     m = model.machine
     residual = to_machine_frame(model, c.xyz) - model.predict(c.q, c.tool, "machine", features=feats)
     nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
-    comp = model_reference_frame(model).apply(model.predict(tables.apply(c.q), c.tool, "machine", features=feats))
+    comp = (frame or model_reference_frame(model)).apply(model.predict(tables.apply(c.q), c.tool, "machine", features=feats))
     return norm_mm(part_frame_errors(nominal, residual + comp, spindle_axis(m)))
 
 
@@ -186,6 +187,6 @@ def _vectors(model: ErrorModel, plan: TablePlan):
     lin = [a.name for a in m.axes if a.kind == "linear"]
     if len(lin) < 2:
         return None
-    actual = model_as_actual(model)
+    actual = model_as_actual(model, frame=plan.reference)
     return ((lin[0], lin[1]), lambda q, t: compensated_errors(actual, m, None, q, t),
             lambda q, t: compensated_errors(actual, m, plan.tables, q, t))
