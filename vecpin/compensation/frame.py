@@ -23,6 +23,7 @@ from vecpin.kinematics.so3 import exp3
 from vecpin.measurement import partframe
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.models import ErrorModel
+from vecpin.models.recorded import recorded_box
 from vecpin.units import MM_PER_M
 
 
@@ -164,17 +165,10 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heig
 
 
 def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
-    """The commands the model's campaign measured, per axis (lower, upper) [m, rad]; the
-    whole travel for a model that does not record it."""
-    m = model.machine
-    rng = getattr(getattr(model, "report_", None), "measured_range", None) or {}
-    lo, hi = m.lower.copy(), m.upper.copy()
-    for a in m.axes:
-        if a.name in rng:
-            lo[a.index], hi[a.index] = (float(a.to_si(v)) for v in rng[a.name])
-            if hi[a.index] - lo[a.index] < 1e-6 * a.travel:  # an axis held still: its tables cannot be fitted
-                lo[a.index], hi[a.index] = a.lower, a.upper
-    return lo, hi
+    """The commands the model's campaign measured, per axis (lower, upper) [m, rad], where the
+    tables are fitted: the whole travel for a model that does not record it, and for an axis
+    held still (its tables cannot be fitted over one point: :func:`recorded_box`)."""
+    return recorded_box(model, widen_still=True)
 
 
 FRAME_COMMANDS = 1000  # commands of a plan on which the tables' turn of the volume is measured

@@ -30,6 +30,25 @@ FIGURE_ABS_MM = 1e-4
 MEASURED_FACTOR = 10.0    # the model's uncompensated mean at most this many times the measured one
 
 
+STILL_SHARE = 1e-6   # an axis whose recorded range spans less than this share of its travel stood still
+
+
+def recorded_box(model, widen_still: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The commands the model's campaign measured, per axis (lower, upper) [m, rad], as its
+    fit recorded them (the whole travel for an axis the model does not record). An axis that
+    stood still (less than :data:`STILL_SHARE` of its travel) is the one position it stood
+    at, or with ``widen_still`` its whole travel (tables cannot be fitted over one point)."""
+    m = model.machine
+    rng = getattr(getattr(model, "report_", None), "measured_range", None) or {}
+    lo, hi = m.lower.copy(), m.upper.copy()
+    for a in m.axes:
+        if a.name in rng:
+            lo[a.index], hi[a.index] = sorted(float(a.to_si(v)) for v in rng[a.name])
+            if widen_still and hi[a.index] - lo[a.index] < STILL_SHARE * a.travel:
+                lo[a.index], hi[a.index] = a.lower, a.upper
+    return lo, hi
+
+
 def check_commands(model) -> tuple[np.ndarray, np.ndarray]:
     """(q (N,n) [m, rad], tool (N,) [m]): :data:`CHECK_COMMANDS` scrambled-Halton commands
     (seed 0) in the fit's measured range (the axis limits where the file has none), each
@@ -37,11 +56,7 @@ def check_commands(model) -> tuple[np.ndarray, np.ndarray]:
     from scipy.stats import qmc
     m = model.machine
     rep = getattr(model, "report_", None)
-    rng = dict(getattr(rep, "measured_range", None) or {})
-    lo, hi = m.lower.copy(), m.upper.copy()
-    for a in m.axes:
-        if a.name in rng:
-            lo[a.index], hi[a.index] = sorted(float(a.to_si(v)) for v in rng[a.name])
+    lo, hi = recorded_box(model, widen_still=False)
     u = qmc.Halton(d=m.n_axes, scramble=True, seed=0).random(CHECK_COMMANDS)
     q = lo + u * (hi - lo)
     tools = [float(t) / MM_PER_M for t in (getattr(rep, "tool_lengths_mm", None) or [0.0])]

@@ -200,13 +200,9 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     """Mark the judged rows commanded beyond the range the fit measured (its zone, or the
     lowest and highest command of each axis, by more than ``OUTSIDE_MARGIN`` of the travel):
     the model extrapolates there, so they are reported apart, with a first-line warning."""
-    from vecpin.compensation.frame import measured_box
+    from vecpin.models.recorded import recorded_box
     m = model.machine
-    lo, hi = measured_box(model)
-    rng = getattr(model.report_, "measured_range", None) or {}
-    for a in m.axes:   # an axis that stood still in the fit: measured_box widens it for the tables, not here
-        if a.name in rng and abs(rng[a.name][1] - rng[a.name][0]) < 1e-6 * abs(a.to_user(a.travel)):
-            lo[a.index] = hi[a.index] = float(a.to_si(rng[a.name][0]))
+    lo, hi = recorded_box(model, widen_still=False)   # an axis that stood still: the one position it stood at
     margin = OUTSIDE_MARGIN * np.array([a.travel for a in m.axes])
     beyond = (judged.q < lo - margin) | (judged.q > hi + margin)
     outside = beyond.any(axis=1)
