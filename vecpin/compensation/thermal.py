@@ -16,8 +16,12 @@ sensor's temperature seen through a first-order lag of ``lag_h`` hours
 
 :func:`fit_thermal` fits them together with the geometric model on the campaign (the
 geometric model's own terms refitted with them, so the geometry does not absorb the
-drift), the lag scanned over :data:`~vecpin.models.effects.thermal.LAGS_H`, and says
-in words where the data cannot separate them (:func:`separability`).
+drift), the lag scanned over :data:`~vecpin.models.effects.thermal.LAGS_H` and refined
+between them (:func:`refine_lag`), and says in words where the data cannot separate them
+(:func:`separability`). :func:`remaining_mm` predicts what the terms leave at a steady
+temperature as an expected figure with a band: the coefficients' error as time blocks
+held out show it (:mod:`vecpin.compensation.thermalheld`), the lag's uncertainty, and
+the curvature the campaign cannot rule out (:func:`curvature`), extrapolated.
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermalheld import held_out
+from vecpin.compensation.thermalheld import held_out, with_lag
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
@@ -38,6 +42,8 @@ from vecpin.models.effects.thermal import LAGS_H, lagged
 UM_PER_M = 1e6
 COLLINEAR = 0.95      # |correlation| above which two drivers cannot be told apart
 ILL_CONDITIONED = 1e3  # condition number of the thermal columns above which the terms are not separable
+LAG_STEP_H = 0.02     # h: the refined lag's resolution (lags are kept to 0.01 h)
+MAX_REFINE = 4        # parabola steps refining the lag between the scanned ones
 
 
 class ThermalTermsEffect(Effect):
@@ -66,20 +72,62 @@ class ThermalTermsEffect(Effect):
             out += [self._p(f"{a}.offset_per_K", "length", 1e-4), self._p(f"{a}.slope_per_K", "ratio", 1e-4)]
         return out + ([self._p("tool_growth_per_K", "length", 1e-4)] if self.growth else [])
 
-    def command(self, q, feats):
-        d = self.delta(feats)
-        S = np.zeros((len(q), self.machine.n_axes, self.n_parameters))
+    @property
+    def n_terms(self) -> int:
+        return 2 * len(self.axes) + int(self.growth)
+
+    def command_columns(self, q, d) -> np.ndarray:
+        """(N, n, terms) the axes' errors per unit coefficient at temperature changes ``d`` (N,) [K]."""
+        S = np.zeros((len(q), self.machine.n_axes, self.n_terms))
         for k, a in enumerate(self.axes):
             i = self.machine.axis(a).index
             S[:, i, 2 * k] = d
             S[:, i, 2 * k + 1] = (q[:, i] - self.p0[a]) * d
         return S
 
-    def tip(self, ctx, feats):
-        D = np.zeros((len(ctx.q), 3, self.n_parameters))
+    def tip_columns(self, ctx, d) -> np.ndarray:
+        """(N, 3, terms) the tool's growth per unit coefficient at temperature changes ``d`` (N,) [K]."""
+        D = np.zeros((len(ctx.q), 3, self.n_terms))
         if self.growth:
-            D[:, :, -1] = ctx.tool_dir * self.delta(feats)[:, None]
+            D[:, :, -1] = ctx.tool_dir * d[:, None]
         return D
+
+    def command(self, q, feats):
+        return self.command_columns(q, self.delta(feats))
+
+    def tip(self, ctx, feats):
+        return self.tip_columns(ctx, self.delta(feats))
+
+
+class CurvatureEffect(ThermalTermsEffect):
+    """One parameter, the thermal error's relative curvature ``kappa`` [1/K]: the fitted
+    terms' error at a temperature change d = T - T0 [K] becomes their error at
+    ``d + kappa (d^2 - alpha0 - alpha1 d)`` (``alpha``: d^2 regressed on 1 and d over the
+    campaign's rows, so the curvature is what the straight terms cannot follow; a
+    structure whose expansion coefficient grows with the temperature). ``values``: the
+    fitted terms' coefficients [SI] in :class:`ThermalTermsEffect`'s order. Fitted beside
+    the terms only to bound how far the error may bend beyond the measured temperatures
+    (:func:`curvature`); the controllers carry no such term."""
+
+    name = "thermal_curvature"
+    summary = "the thermal terms' relative curvature with the temperature (a bound for the extrapolation)"
+
+    def __init__(self, terms: ThermalTermsEffect, values, alpha):
+        super().__init__(terms.machine, terms.axes, terms.t_ref, terms.lag_h, terms.p0, terms.growth)
+        self.values, self.alpha = np.asarray(values, float), (float(alpha[0]), float(alpha[1]))
+
+    def delta(self, feats: Features) -> np.ndarray:
+        d = super().delta(feats)
+        return d ** 2 - self.alpha[0] - self.alpha[1] * d
+
+    def parameters(self):
+        return [self._p("kappa_per_K", "ratio", 1.0)]
+
+    def command(self, q, feats):
+        return self.command_columns(q, self.delta(feats)) @ self.values[:, None]
+
+    def tip(self, ctx, feats):
+        return self.tip_columns(ctx, self.delta(feats)) @ self.values[:, None]
 
 
 @dataclass
@@ -91,7 +139,9 @@ class ThermalTerms:
     ``notes``); ``t_range_c``: the lagged temperatures the campaign saw; ``notes``: what
     the data could not separate, in words; ``held_out``: what the fit leaves, judged on
     time blocks held out (:func:`vecpin.compensation.thermalheld.held_out`: the
-    coefficients' covariance, the residual's floor and its growth with the temperature)."""
+    coefficients' covariance with the lag's uncertainty, the residual's floor);
+    ``curvature``: how far the error may bend beyond the measured temperatures
+    (:func:`curvature`)."""
 
     machine: str
     axes: list[str]
@@ -107,6 +157,7 @@ class ThermalTerms:
     t_range_c: tuple[float, float] = (20.0, 20.0)
     notes: list[str] = field(default_factory=list)
     held_out: dict = field(default_factory=dict)   # see :mod:`vecpin.compensation.thermalheld`
+    curvature: dict = field(default_factory=dict)  # see :func:`curvature`
 
     def axis_error_mm(self, axis: str, pos_mm, temperature_c) -> np.ndarray:
         """The axis' thermal error [mm] at commanded positions [mm] and (lagged) temperatures [°C]."""
@@ -136,6 +187,7 @@ class ThermalTerms:
             d.pop("format", None)
             d["t_range_c"] = tuple(d["t_range_c"])
             d.setdefault("held_out", {})
+            d.setdefault("curvature", {})
             return cls(**d)
         except (OSError, ValueError, TypeError, KeyError) as exc:
             raise InputError(f"{path}: not a vecpin thermal terms file ({exc})") from None
@@ -168,7 +220,7 @@ def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c)
     return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
 
 
-DRAWS = 400   # draws of the coefficients' error behind an expected remaining error (seeded: the same figure each time)
+DRAWS = 400   # draws behind a predicted remaining error (seeded: the same figure each time)
 
 
 def _unit_terms(terms: ThermalTerms, name: str) -> ThermalTerms:
@@ -184,27 +236,80 @@ def _unit_terms(terms: ThermalTerms, name: str) -> ThermalTerms:
     return z
 
 
-def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c: float) -> tuple[float, float]:
-    """(expected mean thermal error [mm] the terms leave at the commands ``q`` (N,n) [m, rad],
-    tool lengths [m], at the steady (lagged) temperature ``temperature_c`` [°C]; the
-    floor [mm] the model leaves at any temperature): the coefficients' error drawn from
-    their covariance on held-out time blocks, and the held-out residual's growth with
-    the temperature change as an error in a random direction
-    (:mod:`vecpin.compensation.thermalheld`). Without ``held_out`` (an older
-    ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
+BAND = (5.0, 95.0)   # percentiles of the draws that bound the predicted remaining error
+
+
+@dataclass
+class Remaining:
+    """What the thermal terms are predicted to leave at one steady temperature, as the
+    mean over the commands of the tip's error [mm]: ``expected`` (the draws' mean),
+    ``low`` .. ``high`` (:data:`BAND`: the draws' 5th and 95th percentiles), ``floor``
+    (what the model leaves at any temperature, the held-out residual's floor)."""
+
+    expected: float
+    low: float
+    high: float
+    floor: float
+
+
+def _contribution(terms: ThermalTerms, names, machine, q, tool, d: float) -> np.ndarray:
+    """(N, 3, P) [m per unit] the tip's error per unit coefficient of ``names`` at a
+    temperature change ``d`` [K] (or a curvature [K^2])."""
+    return np.stack([tip_errors(_unit_terms(terms, nm), machine, q, tool, terms.t0_c + d) for nm in names], -1)
+
+
+def _draws(cov, rng) -> np.ndarray:
+    """(DRAWS, P) zero-mean draws of a covariance (its negative eigenvalues clipped)."""
+    w, V = np.linalg.eigh(np.asarray(cov, float))
+    return rng.standard_normal((DRAWS, len(w))) * np.sqrt(np.clip(w, 0, None)) @ V.T
+
+
+def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c: float) -> Remaining:
+    """What the terms leave at the commands ``q`` (N,n) [m, rad], tool lengths [m], at the
+    steady (lagged) temperature ``temperature_c`` [°C] (:class:`Remaining`), from draws
+    of (1) the coefficients' error, their covariance over time blocks held out and the
+    lag's uncertainty (:mod:`vecpin.compensation.thermalheld`), and (2) the curvature
+    the straight terms cannot follow, as the campaign bounds it (:func:`curvature`: its
+    estimate and covariance, extrapolated to this temperature). Without ``held_out`` (an
+    older ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
     q = np.atleast_2d(np.asarray(q, float))
-    h = terms.held_out
+    h, c = terms.held_out, terms.curvature
+    d = float(temperature_c) - terms.t0_c
     if not h:
         sigma = dataclasses.replace(terms, offset_um_per_k=dict(terms.offset_std),
                                     slope_um_per_m_per_k=dict(terms.slope_std), growth_um_per_k=terms.growth_std)
-        return float(np.linalg.norm(tip_errors(sigma, machine, q, tool, temperature_c), axis=1).mean() * 1e3), 0.0
-    C = np.stack([tip_errors(_unit_terms(terms, nm), machine, q, tool, temperature_c) for nm in h["names"]], -1)
-    w, V = np.linalg.eigh(np.asarray(h["cov"], float))
+        e = float(np.linalg.norm(tip_errors(sigma, machine, q, tool, temperature_c), axis=1).mean() * 1e3)
+        return Remaining(e, e, e, 0.0)
     rng = np.random.default_rng(0)
-    delta = rng.standard_normal((DRAWS, len(w))) * np.sqrt(np.clip(w, 0, None)) @ V.T      # (draws, P)
-    spread = h["growth_um_per_k"] * 1e-6 * abs(temperature_c - terms.t0_c) / np.sqrt(3.0)
-    e = np.einsum("nip,dp->dni", C, delta) + rng.standard_normal((DRAWS, len(q), 3)) * spread
-    return float(np.linalg.norm(e, axis=2).mean() * 1e3), h["floor_um"] * 1e-3
+    e = np.einsum("nip,dp->dni", _contribution(terms, h["names"], machine, q, tool, d), _draws(h["cov"], rng))
+    if c:
+        bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
+        kappa = c["per_k"] + c["std_per_k"] * rng.standard_normal(DRAWS)
+        e = e + kappa[:, None, None] * tip_errors(terms, machine, q, tool, terms.t0_c + bend)[None]
+    mean = np.linalg.norm(e, axis=2).mean(axis=1) * 1e3
+    lo, hi = np.percentile(mean, BAND)
+    return Remaining(float(mean.mean()), float(lo), float(hi), h["floor_um"] * 1e-3)
+
+
+def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats) -> dict:
+    """How far the thermal error may bend beyond the measured temperatures: the geometric
+    model refitted with the terms and their relative curvature (:class:`CurvatureEffect`,
+    linearised at the ``fitted`` terms): ``per_k`` [1/K] its estimate, ``std_per_k`` its
+    standard deviation (scaled by the fit's chi-square per degree of freedom when above
+    1), ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin seldom
+    resolves a curvature but bounds it; extrapolated 10 K away that bound is a large part
+    of what the terms leave."""
+    d = eff.delta(feats)
+    if np.ptp(d) <= 0:
+        return {}
+    alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
+    curve = CurvatureEffect(eff, _coefficients(eff, fitted) / UM_PER_M, alpha)
+    bent = geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise)
+    k = next(s for e, s in bent.effect_slices() if e is curve).start
+    rep = bent.report_
+    scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
+    return {"per_k": float(bent.b_[k]), "std_per_k": float(np.sqrt(scale * bent.cov_[6 + k, 6 + k])),
+            "alpha": [float(a) for a in alpha]}
 
 
 def default_p0(machine, axes) -> dict[str, float]:
@@ -278,7 +383,8 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     """(thermal terms, the model refitted with them): the geometric part of the fitted
     ``model`` refitted on ``campaign`` together with the controller-form terms, at each
     lag of ``lags`` [h] (default :data:`LAGS_H`; the model's own thermal effect's lag
-    when it has one); the lag whose fit leaves the smallest chi-square is kept.
+    and its neighbours there when it has one); the lag whose fit leaves the smallest
+    chi-square is kept, refined between the scanned ones (:func:`refine_lag`).
     ``p0_mm``: reference position per axis [mm] (default: mid-travel)."""
     m = model.machine
     if campaign.temperature is None:
@@ -288,7 +394,7 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
         lags = (0.0,)
     elif lags is None:
         own = [e for e in model.effects if e.name == "thermal" and getattr(e, "driver", "") == "temperature"]
-        lags = (own[0].lag_h,) if own else LAGS_H
+        lags = LAGS_H if not own else _neighbours(own[0].lag_h)
     geometric, _ = model.geometric_part()
     axes = tuple(a.name for a in m.axes if a.kind == "linear")
     if not axes:
@@ -299,17 +405,67 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
             raise InputError(f"`p0_mm`: '{a}' is not a linear axis of {m.name} ({', '.join(axes)})")
         p0[a] = float(m.axis(a).to_si(v))
     along = growth_axis(geometric, campaign)
-    best = None
-    for lag in lags:
+
+    def fit_at(lag: float):
         t0 = float(np.mean(lagged(feats.time, campaign.temperature, lag)))
         eff = ThermalTermsEffect(m, axes, t_ref=t0, lag_h=lag, p0=p0, growth=along is None)
-        fitted = geometric.with_effects(list(geometric.effects) + [eff]).fit(campaign, noise or geometric.noise_)
-        if best is None or fitted.report_.chi2 < best[1].report_.chi2:
-            best = (eff, fitted)
-    eff, fitted = best
+        return eff, geometric.with_effects(list(geometric.effects) + [eff]).fit(campaign, noise or geometric.noise_)
+
+    fits = {float(lag): fit_at(float(lag)) for lag in lags}
+    lag, lag_std, gradient = refine_lag(fits, fit_at)
+    eff, fitted = fits[lag]
     terms = _terms(m, eff, fitted, campaign, feats, along)
-    terms.held_out = held_out(fitted, campaign, feats, eff)
+    terms.held_out = with_lag(held_out(fitted, campaign, feats, eff), lag_std, gradient)
+    terms.curvature = curvature(geometric, campaign, noise or geometric.noise_, eff, fitted, feats)
     return terms, fitted
+
+
+def _neighbours(lag: float) -> tuple[float, ...]:
+    """``lag`` [h] and the scanned lags either side of it."""
+    below, above = [v for v in LAGS_H if v < lag], [v for v in LAGS_H if v > lag]
+    return tuple(below[-1:]) + (float(lag),) + tuple(above[:1])
+
+
+def _coefficients(eff: ThermalTermsEffect, fitted) -> np.ndarray:
+    """The fitted thermal coefficients [µm/K, µm/m/K] in the effect's parameter order."""
+    sl = next(s for e, s in fitted.effect_slices() if e is eff)
+    return fitted.b_[sl] * UM_PER_M
+
+
+def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
+    """(lag [h], its standard deviation [h], the coefficients' change per hour of lag):
+    the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place) refined
+    by parabolas through the best lag and its neighbours (chi-square against the lag)
+    until the vertex is within :data:`LAG_STEP_H` of a lag already fitted. A lag off
+    the truth by a fraction of the scan's step changes the gain the terms find for a
+    temperature cycle by as much (the lag damps the cycle), and the steady error 10 K
+    away with it: the lag's standard deviation (the parabola's curvature, Δχ² = 1 times
+    the fit's χ² per degree of freedom when above 1) goes into the prediction."""
+    chi2 = lambda lag: fits[lag][1].report_.chi2        # noqa: E731
+    for _ in range(MAX_REFINE):
+        lags = sorted(fits)
+        k = min(range(len(lags)), key=lambda i: chi2(lags[i]))
+        if k == 0 or k == len(lags) - 1:
+            break
+        x = np.array(lags[k - 1:k + 2])
+        a, b, _ = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])
+        vertex = round(float(-b / (2 * a)), 2)
+        if min(abs(vertex - v) for v in lags) < LAG_STEP_H:
+            break
+        fits[vertex] = fit_at(vertex)
+    lags = sorted(fits)
+    k = min(range(len(lags)), key=lambda i: chi2(lags[i]))
+    best = lags[k]
+    if k == 0 or k == len(lags) - 1:
+        return best, 0.0, None
+    x = np.array(lags[k - 1:k + 2])
+    a = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])[0]
+    rep = fits[best][1].report_
+    scale = max(1.0, rep.chi2 / rep.chi2_expected) if rep.chi2_expected > 0 else 1.0
+    std = float(np.sqrt(scale / a)) if a > 0 else 0.0
+    lo, hi = (fits[v] for v in (x[0], x[2]))
+    gradient = (_coefficients(*hi) - _coefficients(*lo)) / (x[2] - x[0])
+    return best, std, gradient
 
 
 def _terms(m, eff: ThermalTermsEffect, fitted, campaign, feats, along: str | None) -> ThermalTerms:

@@ -12,16 +12,17 @@ is solved again without it; then
   it, misfit included (a lag or a curvature the terms cannot follow moves them from block
   to block), where the fit's own covariance knows only the assumed noise;
 - the held-out residuals of the rows (each from the fit without its block) are regressed,
-  squared, on the squared temperature change: ``|r|^2 ~ floor^2 + (g dT)^2``; ``floor``
+  squared, on the squared temperature change: ``|r|^2 ~ floor^2 + s dT^2``; ``floor``
   [m] is what the model leaves at any temperature (geometry it does not describe, the
-  noise), ``g`` [m/K] how fast the residual grows with the temperature's distance from
-  T0 (a misfit of the thermal terms that no coefficient removes), counted when it stands
-  :data:`RESOLVED` standard errors above zero (else 0: the rows do not resolve one).
+  noise). (Their growth ``s`` with the temperature is not used: a held-out block's
+  residual grows with dT by the very coefficient error the spread above already counts,
+  and a curvature the terms cannot follow is bounded by
+  :func:`vecpin.compensation.thermal.curvature` instead.)
 
-Units in the returned dict (``thermal.json``): ``names`` the coefficients (the terms'
-order: per axis offset [µm/K] and slope [µm/m/K], then the tool's growth [µm/K]),
-``cov`` their covariance in those units squared, ``floor_um`` [µm], ``growth_um_per_k``
-[µm/K], ``blocks``.
+:func:`with_lag` adds the lag's uncertainty to the covariance. Units in the returned dict
+(``thermal.json``): ``names`` the coefficients (the terms' order: per axis offset [µm/K]
+and slope [µm/m/K], then the tool's growth [µm/K]), ``cov`` their covariance in those
+units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h].
 """
 from __future__ import annotations
 
@@ -32,7 +33,6 @@ from vecpin.models.effects.thermal import lagged
 
 BLOCKS = 5          # time blocks held out in turn
 UM_PER_SI = 1e6     # m/K -> µm/K; ratio/K -> µm/m/K
-RESOLVED = 2.0      # standard errors above zero that the residual's growth must stand to count
 
 
 def time_blocks(n: int, blocks: int = BLOCKS) -> np.ndarray:
@@ -40,20 +40,16 @@ def time_blocks(n: int, blocks: int = BLOCKS) -> np.ndarray:
     return np.minimum((np.arange(n) * blocks) // max(n, 1), blocks - 1)
 
 
-def _regression(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
-    """Least squares y ~ c0 + c1 x: ((c0, c1), the standard error of c1); zeros with too few rows."""
+def _intercept(x: np.ndarray, y: np.ndarray) -> float:
+    """Least squares y ~ c0 + c1 x: c0 (the mean of y with too few rows)."""
     if len(y) < 4 or np.ptp(x) == 0:
-        return np.array([float(np.mean(y)) if len(y) else 0.0, 0.0]), np.inf
-    X = np.c_[np.ones(len(y)), x]
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    s2 = float(np.sum((y - X @ coef) ** 2)) / (len(y) - 2)
-    return coef, float(np.sqrt(s2 * np.linalg.inv(X.T @ X)[1, 1]))
+        return float(np.mean(y)) if len(y) else 0.0
+    return float(np.linalg.lstsq(np.c_[np.ones(len(y)), x], y, rcond=None)[0][0])
 
 
 def held_out(fitted, campaign, feats, eff, blocks: int = BLOCKS) -> dict:
-    """The thermal coefficients' covariance from the fits without each time block, the
-    held-out residual's floor and its growth with the (lagged) temperature change (see
-    the module text); ``eff`` the fitted model's
+    """The thermal coefficients' covariance from the fits without each time block and
+    the held-out residual's floor (see the module text); ``eff`` the fitted model's
     :class:`~vecpin.compensation.thermal.ThermalTermsEffect`."""
     names = [p.name for p in eff.parameters()]
     n = len(campaign)
@@ -76,8 +72,21 @@ def held_out(fitted, campaign, feats, eff, blocks: int = BLOCKS) -> dict:
     rows = lin.point_rows
     r2 = (held[rows] ** 2).sum(axis=1)
     dT = (lagged(feats.time, feats.require_temperature("the thermal terms"), eff.lag_h) - eff.t_ref)[rows]
-    coef, se = _regression(dT ** 2, r2)
-    floor = float(np.sqrt(coef[0])) if coef[0] > 0 else float(np.sqrt(r2.mean())) if len(r2) else 0.0
-    growth = float(np.sqrt(coef[1])) if coef[1] > RESOLVED * se else 0.0     # a growth the rows resolve
+    c0 = _intercept(dT ** 2, r2)
+    floor = float(np.sqrt(c0)) if c0 > 0 else float(np.sqrt(r2.mean())) if len(r2) else 0.0
     return {"names": [nm.split(".", 1)[1] for nm in names], "cov": cov.tolist(), "floor_um": floor * UM_PER_SI,
-            "growth_um_per_k": growth * UM_PER_SI, "blocks": int(blocks)}
+            "blocks": int(blocks)}
+
+
+def with_lag(held: dict, lag_std_h: float, gradient) -> dict:
+    """``held`` (:func:`held_out`) with the lag's uncertainty in the coefficients'
+    covariance: ``lag_std_h`` [h] times ``gradient`` (the coefficients' change per hour
+    of lag, their units per h; None: the lag was not refined) as a rank-one term; the
+    lag's standard deviation kept as ``lag_std_h``."""
+    if not held:
+        return held
+    out = dict(held, lag_std_h=float(lag_std_h))
+    if gradient is not None and lag_std_h > 0:
+        g = np.asarray(gradient, float)
+        out["cov"] = (np.asarray(held["cov"], float) + lag_std_h ** 2 * np.outer(g, g)).tolist()
+    return out

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermal import ThermalTerms, fit_thermal, remaining_mm, tip_errors
+from vecpin.compensation.thermal import BAND, ThermalTerms, fit_thermal, remaining_mm, tip_errors
 from vecpin.errors import InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
@@ -34,11 +34,12 @@ VALIDATION_K = 10.0   # K: the validation temperatures the prediction extends to
 class ThermalRun:
     """The fitted terms, the files written, and per temperature [°C] the predicted mean
     thermal error [mm] on the campaign's commands without the terms and what they leave
-    (:func:`~vecpin.compensation.thermal.remaining_mm`), with the model's floor [mm]."""
+    (:func:`~vecpin.compensation.thermal.remaining_mm`: expected, low, high), with the
+    model's floor [mm]."""
 
     terms: ThermalTerms
     files: list[Path]
-    rows: list[tuple[float, float, float, float]] = field(default_factory=list)
+    rows: list[tuple[float, float, float, float, float, float]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)   # printed first: what the files leave out
 
     def lines(self) -> list[str]:
@@ -46,34 +47,45 @@ class ThermalRun:
             [f"  wrote {f}" for f in self.files]
 
 
-def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
-    """The prediction in words: one line per temperature, the extrapolated ones marked."""
-    h = terms.held_out
-    how = (f"the coefficients' spread over {h['blocks']} time blocks held out and the held-out residual's growth "
-           f"{h['growth_um_per_k']:.3f} um/K" if h else "their 1-sigma uncertainty (no held-out figures in this file)")
-    out = ["  predicted thermal error (mean on the campaign's commands, steady temperature): without the terms, and "
-           f"what they leave ({how})"]
-    lo, hi = terms.t_range_c
-    for t, a, b, _ in rows:
-        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
-        mark += "beyond the measured temperatures: the terms assume the error stays linear there)" if mark else ""
-        out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm{mark}")
-    if rows:
-        out.append(f"  and at every temperature what the model leaves besides (held-out residual's floor) "
-                   f"{rows[0][3]:.4f} mm RMS")
+def how_predicted(terms: ThermalTerms) -> str:
+    """What the prediction of what the terms leave stands on, in words."""
+    h, c = terms.held_out, terms.curvature
+    if not h:
+        return "their 1-sigma uncertainty (no held-out figures in this file)"
+    out = (f"the coefficients' spread over {h['blocks']} time blocks held out, the lag's uncertainty "
+           f"± {h.get('lag_std_h', 0.0):.2f} h")
+    if c:
+        out += (f", and a curvature of the error with the temperature the campaign bounds to "
+                f"{c['per_k'] * 100:+.1f} ± {c['std_per_k'] * 100:.1f} %/K, extrapolated")
     return out
 
 
-def predicted_rows(terms: ThermalTerms, machine, q, tool) -> list[tuple[float, float, float, float]]:
-    """(T, mean error without, expected mean error left by the terms, the model's floor)
-    [°C, mm] at commands ``q`` [m, rad], tools [m]: the ends and middle of the measured
-    temperatures and :data:`VALIDATION_K` either side of T0."""
+def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
+    """The prediction in words: one line per temperature, the extrapolated ones marked."""
+    lo, hi = terms.t_range_c
+    out = ["  predicted thermal error (mean on the campaign's commands, steady temperature): without the terms, and "
+           f"what they leave, expected and {BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
+    for t, a, b, b_lo, b_hi, _ in rows:
+        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
+        mark += "beyond the measured temperatures)" if mark else ""
+        out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({b_lo:.4f} .. "
+                   f"{b_hi:.4f}){mark}")
+    if rows:
+        out.append(f"  and at every temperature what the model leaves besides (held-out residual's floor) "
+                   f"{rows[0][5]:.4f} mm RMS")
+    return out
+
+
+def predicted_rows(terms: ThermalTerms, machine, q, tool) -> list[tuple[float, float, float, float, float, float]]:
+    """(T, mean error without, what the terms leave: expected, low, high, the model's
+    floor) [°C, mm] at commands ``q`` [m, rad], tools [m]: the ends and middle of the
+    measured temperatures and :data:`VALIDATION_K` either side of T0."""
     lo, hi = terms.t_range_c
     rows = []
     for t in sorted({terms.t0_c - VALIDATION_K, lo, 0.5 * (lo + hi), hi, terms.t0_c + VALIDATION_K}):
         without = np.linalg.norm(tip_errors(terms, machine, q, tool, t), axis=1).mean() * MM_PER_M
-        left, floor = remaining_mm(terms, machine, q, tool, t)
-        rows.append((float(t), float(without), left, floor))
+        left = remaining_mm(terms, machine, q, tool, t)
+        rows.append((float(t), float(without), left.expected, left.low, left.high, left.floor))
     return rows
 
 
