@@ -56,9 +56,13 @@ def run_verify(args) -> int:
         from vecpin.models.modelfile import check_same_machine
         check_same_machine(machine(args.machine, args), model.machine, f"--machine {args.machine}", f"--model-file {args.model_file}")
     tables, src = load_tables(args.tables, m) if args.tables else (None, None)
+    thermal, thermal_src = (None, None)
+    if args.tables:
+        from vecpin.workflows.verifythermal import load_thermal
+        thermal, thermal_src = load_thermal(args.tables, m)
     before, after = read_campaign(args.before, m), read_campaign(args.after, m)
     v = verify_to_dir(m, before, after, args.out, model=model, tables=tables, tables_source=src,
-                      progress=progress(not args.quiet))
+                      progress=progress(not args.quiet), thermal=thermal, thermal_source=thermal_src)
     say(args, *v.lines())
     return 0
 
@@ -89,7 +93,8 @@ def add_commands(sub) -> None:
     add_machine_args(s)
     s.add_argument("--model-file", help="fitted model file: its predicted errors beside the measured ones (default: none)")
     s.add_argument("--tables", help="the table set that was active (tables.json or its folder): its gauge-line change "
-                   "enters the commanded positions (default: none, 0 mm assumed)")
+                   "enters the commanded positions; a thermal.json beside it: the runs are judged with the thermal terms at "
+                   "their temperatures (default: none, 0 mm assumed)")
     s.add_argument("--out", help="folder for verify.json and verify.png (Fig. 11) (default: print only)")
     s.add_argument("--quiet", action="store_true", help="no progress lines (default: progress on stderr)")
     s.set_defaults(func=run_verify)

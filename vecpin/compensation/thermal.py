@@ -435,8 +435,9 @@ def _coefficients(eff: ThermalTermsEffect, fitted) -> np.ndarray:
 def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
     """(lag [h], its standard deviation [h], the coefficients' change per hour of lag):
     the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place) refined
-    by parabolas through the best lag and its neighbours (chi-square against the lag)
-    until the vertex is within :data:`LAG_STEP_H` of a lag already fitted. A lag off
+    by parabolas through the best lag and its neighbours (chi-square against the lag;
+    the best at an end of the scan: the last three, the vertex kept within them) until
+    the vertex is within :data:`LAG_STEP_H` of a lag already fitted. A lag off
     the truth by a fraction of the scan's step changes the gain the terms find for a
     temperature cycle by as much (the lag damps the cycle), and the steady error 10 K
     away with it: the lag's standard deviation (the parabola's curvature, Δχ² = 1 times
@@ -444,12 +445,14 @@ def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
     chi2 = lambda lag: fits[lag][1].report_.chi2        # noqa: E731
     for _ in range(MAX_REFINE):
         lags = sorted(fits)
-        k = min(range(len(lags)), key=lambda i: chi2(lags[i]))
-        if k == 0 or k == len(lags) - 1:
+        if len(lags) < 3:
             break
-        x = np.array(lags[k - 1:k + 2])
+        k = min(max(min(range(len(lags)), key=lambda i: chi2(lags[i])), 1), len(lags) - 2)
+        x = np.array(lags[k - 1:k + 2])     # the best and its neighbours (at an end of the scan: the last three)
         a, b, _ = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])
-        vertex = round(float(-b / (2 * a)), 2)
+        if a <= 0:
+            break
+        vertex = round(float(np.clip(-b / (2 * a), x[0], x[2])), 2)
         if min(abs(vertex - v) for v in lags) < LAG_STEP_H:
             break
         fits[vertex] = fit_at(vertex)

@@ -76,6 +76,7 @@ class Verification:
     commands: str = ""  # which commands the two runs measure (one line)
     net: list[NetOfNoise] | None = None  # relative to the table: before and after, net of the measurement noise
     shape: list[np.ndarray] | None = None  # measured distances [mm] with each run's best rigid motion removed
+    thermal: object | None = None  # the runs at their temperatures with thermal.json (workflows.verifythermal)
 
     def net_reduction(self) -> tuple[float, float] | None:
         """(reduction [%] of the RMS net of the measurement noise, its standard uncertainty
@@ -157,6 +158,7 @@ class Verification:
         for name, mean, rm, mx, rx in SEED_TABLE3:
             out.append(f"    {name:<16s} mean {mean:.3f} mm" + (f" ({rm:.1f}%)" if rm else "") +
                        f", max {mx:.3f} mm" + (f" ({rx:.1f}%)" if rx else ""))
+        out += self.thermal.lines() if self.thermal is not None else []
         out += [f"  note: {n}" for n in self.notes]
         out += [f"  wrote {f}" for f in self.files]
         return out
@@ -181,6 +183,7 @@ class Verification:
                  "resolved": [self.net[0].resolved, self.net[1].resolved],
                  "reduction_pct": None if self.net_reduction() is None else
                  [self.net_reduction()[0], None if np.isnan(self.net_reduction()[1]) else self.net_reduction()[1]]},
+                "thermal": None if self.thermal is None else self.thermal.to_dict(),
                 "seed_table3": [{"model": n, "mean_mm": a, "max_mm": c} for n, a, _, c, _ in SEED_TABLE3]}
 
 
@@ -198,9 +201,13 @@ def run_distances(machine: Machine, campaign: Campaign, gauge_change: float = 0.
 
 
 def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorModel | None = None,
-           tables: TableSet | None = None, tables_source: str | None = None, progress=None) -> Verification:
+           tables: TableSet | None = None, tables_source: str | None = None, progress=None, thermal=None,
+           thermal_source: str | None = None) -> Verification:
     """The two runs side by side (see the module text); ``progress(msg)`` hears of the
-    slow step (tables computed from the model)."""
+    slow step (tables computed from the model); ``thermal``: the controller's thermal
+    terms (:class:`~vecpin.compensation.thermal.ThermalTerms`, from ``thermal_source``)
+    active in the compensated run: both runs judged with them at their temperatures
+    (:mod:`vecpin.workflows.verifythermal`)."""
     table = _check_runs(machine, before, after)
     tables, tables_from = _tables_for(model, tables, tables_source, progress)
     dT = tables.gauge_offset_change if tables is not None else 0.0
@@ -219,8 +226,13 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     if after_run.measured.mean() >= before_run.measured.mean():
         notes.append("the compensated run is not better than the uncompensated one: were the tables active, and is "
                      "AFTER really the run with them?")
+    judged = None
+    if thermal is not None:
+        from vecpin.workflows.verifythermal import judge_thermal
+        judged = judge_thermal(machine, thermal, thermal_source or "thermal terms", b, a)
     return Verification(before_run, after_run, dT / M_PER_MM, tables_from, label, bool(same), notes, frame=m.frame,
-                        warnings=m.warnings, commands=compared_commands(machine, b, a, same), net=m.net, shape=m.shape)
+                        warnings=m.warnings, commands=compared_commands(machine, b, a, same), net=m.net, shape=m.shape,
+                        thermal=judged)
 
 
 def _check_runs(machine: Machine, before: Campaign, after: Campaign) -> bool:
