@@ -49,6 +49,17 @@ SEARCHED = [
     "1366884827-oss/machine-tool-thermal-error (a MATLAB script, no data), darjeeling-Wu/thermal_error_prediction "
     "(MATLAB code, no data)",
     "the project's package lists (PyPI names with 'thermal error', 'spindle'): none ships such data",
+    "searched again (issue 44, later session): pages corpus 'machine tool thermal error dataset spindle temperature "
+    "displacement CSV open data', 'open dataset thermal errors machine tool measured temperatures TCP displacement "
+    "published repository license data availability', 'SFB/TR 96 thermo-energetic design machine tools measurement "
+    "data set zenodo thermal deformation' (papers only: Procedia CIRP 58 457, IJAT 19(5) 758 (307 sensors, data not "
+    "attached), JMMP 9(8) 267, Precision Engineering 66 21, arXiv 2510.03261 (FEM-generated data, not measured)); "
+    "docs corpus 'spindle thermal displacement measurement dataset temperature sensors zenodo CC-BY' (unrelated "
+    "sets); code corpus 'thermal error compensation machine tool temperature sensors displacement data csv load', "
+    "'dataset thermal drift CNC spindle growth measured hours temperature channels github data folder' (the same "
+    "data-less repositories; CNC sets of vibration and tool wear, no thermal displacement); repositories by name "
+    "('thermal-error', 'thermal_error'): the same three; package lists grepped for 'thermal error', 'spindle "
+    "thermal', 'machine tool thermal': none",
 ]
 
 
