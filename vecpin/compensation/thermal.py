@@ -295,10 +295,10 @@ def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats
     """How far the thermal error may bend beyond the measured temperatures: the geometric
     model refitted with the terms and their relative curvature (:class:`CurvatureEffect`,
     linearised at the ``fitted`` terms): ``per_k`` [1/K] its estimate, ``std_per_k`` its
-    standard deviation (scaled by the fit's chi-square per degree of freedom when above
-    1), ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin seldom
-    resolves a curvature but bounds it; extrapolated 10 K away that bound is a large part
-    of what the terms leave."""
+    standard deviation (scaled by the fit's chi-square per degree of freedom: the noise
+    the residuals show), ``alpha`` [K^2, K]. A campaign whose temperatures span a few
+    kelvin seldom resolves a curvature but bounds it; extrapolated 10 K away that bound
+    is a large part of what the terms leave."""
     d = eff.delta(feats)
     if np.ptp(d) <= 0:
         return {}
@@ -441,7 +441,8 @@ def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
     the truth by a fraction of the scan's step changes the gain the terms find for a
     temperature cycle by as much (the lag damps the cycle), and the steady error 10 K
     away with it: the lag's standard deviation (the parabola's curvature, Δχ² = 1 times
-    the fit's χ² per degree of freedom when above 1) goes into the prediction."""
+    the fit's χ² per degree of freedom: the noise the residuals show) goes into the
+    prediction."""
     chi2 = lambda lag: fits[lag][1].report_.chi2        # noqa: E731
     for _ in range(MAX_REFINE):
         lags = sorted(fits)
@@ -464,7 +465,7 @@ def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
     x = np.array(lags[k - 1:k + 2])
     a = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])[0]
     rep = fits[best][1].report_
-    scale = max(1.0, rep.chi2 / rep.chi2_expected) if rep.chi2_expected > 0 else 1.0
+    scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
     std = float(np.sqrt(scale / a)) if a > 0 else 0.0
     lo, hi = (fits[v] for v in (x[0], x[2]))
     gradient = (_coefficients(*hi) - _coefficients(*lo)) / (x[2] - x[0])
