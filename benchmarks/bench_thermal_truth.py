@@ -123,14 +123,14 @@ def page(rows: list[dict], base: int) -> str:
                       f"judging); this run drew seeds {base}..{base + len(rows) - 1}: every run draws fresh ones.", "",
                       *summary(rows), "",
                       "Why a band and not a point: the error the terms leave 10 K away is one draw of the "
-                      "coefficients' error (its mean over the commands still varies by about half its size from "
-                      "campaign to campaign), and a campaign whose structure temperature spans 3..5 K bounds a "
-                      "curvature of the error only to about ±2 %/K, which 10 K away is ±2 K's worth of the whole "
-                      "thermal gain. The lag matters as much: a lag off by a quarter of an hour changes the gain "
-                      "fitted on a hall cycle by about 10 % (the lag damps the cycle), so vecpin refines the lag "
-                      "between the scanned ones and carries its uncertainty. Where the campaign bounds the curvature "
-                      "only loosely (several %/K) the band is wide and its low end is where the prediction misses: the "
-                      "error left below the band, the prediction too cautious, not too optimistic.", "", head,
+                      "coefficients' error, and a campaign over a hall cycle of a few kelvin bounds a curvature of the "
+                      f"error only to ±{np.median([r['kappa_std'] for r in rows]) * 100:.1f} %/K (the median standard "
+                      "deviation over these seeds), which 10 K away is that share per kelvin of the whole thermal "
+                      "gain, times ten. The lag matters too: a lag off by a fraction of the scan's step changes the "
+                      "gain fitted on a hall cycle (the lag damps the cycle), so vecpin refines the lag between the "
+                      "scanned ones and carries its uncertainty. Where the campaign bounds the curvature only loosely "
+                      "the band is wide (the vecpin printout then says to measure over a wider temperature span).",
+                      "", head,
                       *body, ""])
 
 
