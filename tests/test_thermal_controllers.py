@@ -166,3 +166,14 @@ def test_terms_in_their_own_family_are_recovered(tmp_path):
     with OutputSet(tmp_path) as out:
         thermal_linuxcnc.write(terms, m, {a: k for k, a in enumerate(m.axis_names)}, 5, out, chained=False)
     assert (tmp_path / "vecpin_thermal.hal").read_text().startswith("# WARNING: the tool's growth")
+
+
+def test_a_band_wider_than_the_error_without_is_said(fitted):
+    """Only where the temperature is extrapolated: near T0 both figures are noise."""
+    from vecpin.workflows.thermal import prediction_lines
+    terms = fitted[1]
+    lo, hi = terms.t_range_c
+    rows = [(terms.t0_c - 10, 0.05, 0.03, 0.01, 0.07, 0.005), (lo, 0.01, 0.001, 0.0, 0.002, 0.005),
+            (terms.t0_c, 0.0004, 0.0003, 0.0, 0.0006, 0.005), (terms.t0_c + 10, 0.05, 0.01, 0.002, 0.03, 0.005)]
+    notes = [ln for ln in prediction_lines(terms, rows) if "band's top exceeds" in ln]
+    assert len(notes) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in notes[0]

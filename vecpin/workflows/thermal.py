@@ -73,11 +73,11 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     if rows:
         out.append(f"  and at every temperature what the model leaves besides (held-out residual's floor) "
                    f"{rows[0][5]:.4f} mm RMS")
-    loose = [t for t, a, _, _, b_hi, _ in rows if b_hi > a]
+    loose = [t for t, a, _, _, b_hi, _ in rows if b_hi > a and not lo - 1e-9 <= t <= hi + 1e-9]
     if loose:
-        out.append(f"  note: at {', '.join(f'{t:.2f}' for t in loose)} degC the band's top exceeds the error without "
-                   f"the terms: the campaign's {hi - lo:.1f} K of temperatures cannot bound how the error bends that "
-                   "far away; measure over a wider temperature span (a warm-up) to narrow it")
+        out.append(f"  note: at {', '.join(f'{t:.2f}' for t in loose)} degC (extrapolated) the band's top exceeds the "
+                   f"error without the terms: the campaign's {hi - lo:.1f} K of temperatures cannot bound how the "
+                   "error bends that far away; measure over a wider temperature span (a warm-up) to narrow it")
     return out
 
 
