@@ -6,14 +6,15 @@ import os
 import sys
 import warnings
 
-from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
-                        viewing)
+from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, session, simulating,
+                        verifying, viewing)
 from vecpin.cli.options import as_flags, flag_table
 from vecpin.errors import VecpinError, VecpinWarning
 from vecpin.fileio import set_command
 from vecpin.threads import blas_limited
 
-COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
+COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing,
+                   session)
 
 
 def build_parser() -> argparse.ArgumentParser:
