@@ -59,9 +59,15 @@ def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, 
     m = _json(out / OUTPUTS["fit"])
     if m:
         chosen = (m.get("selection") or {}).get("chosen") or {}
-        figs["fit"] = _fig("held-out error of the chosen model (max)", chosen.get("heldout_max_mm"), "max",
-                           tolerance_mm, noise, heldout_mean_mm=chosen.get("heldout_mean_mm"),
-                           model=chosen.get("kind") or (m.get("model") or {}).get("kind"), bases=chosen.get("bases"))
+        kind = chosen.get("kind") or (m.get("model") or {}).get("kind")
+        if chosen.get("heldout_max_mm") is not None:
+            figs["fit"] = _fig("held-out error of the chosen model (max)", chosen["heldout_max_mm"], "max",
+                               tolerance_mm, noise, heldout_mean_mm=chosen.get("heldout_mean_mm"), model=kind,
+                               bases=chosen.get("bases"))
+        else:   # a model the user fixed: no choice, so no held-out figures; the fit's own residual
+            r = ((m.get("fit") or {}).get("residuals_mm") or {}).get("all") or {}
+            figs["fit"] = _fig("residual of the fixed model on its campaign (max; no held-out figures)",
+                               r.get("max"), "max", tolerance_mm, noise, mean_mm=r.get("mean"), model=kind)
     e = _json(out / OUTPUTS["evaluate"])
     if e:
         r = (e.get("model_residual") or {}).get("all") or {}

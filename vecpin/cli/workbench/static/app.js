@@ -39,6 +39,7 @@ const UI = [
    "controller's format, and the error it keeps in the part's frame.",
    fields: [["controller", "controller", "select", ["", "siemens-840d", "siemens-828d", "fanuc-30i", "linuxcnc",
              "beckhoff", "heidenhain", "iso230", "generic"]],
+            ["profile", "controller profile (the profile stage writes profile.json)", "text"],
             ["method", "subset method", "select", ["", "exact", "ga", "heuristic"]],
             ["table-points", "points per table", "int"]]},
   {id: "verify", title: "Verify", run: "Verify", images: ["verify/verify.png"], what: "The validation run without " +
@@ -49,7 +50,7 @@ const UI = [
    "versions (ISO/TR 16907 clauses 11 and 12).", view: "report"},
 ];
 const STAGES = ["plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "verify"];
-let state = null, polling = null, logs = {};
+let state = null, polling = null, logs = {}, drawn = {};
 
 const $ = (id) => document.getElementById(id);
 const el = (tag, attrs = {}, ...kids) => {
@@ -102,7 +103,8 @@ function build() {
     }
     if (s.view === "report") buttons.append(button("run-report", "Write the record", writeRecord));
     sec.append(buttons, el("div", {class: "command", id: `command-${s.id}`}), el("div", {id: `error-${s.id}`}),
-               el("div", {id: `figure-${s.id}`}), el("div", {id: `result-${s.id}`}));
+               el("div", {id: `figure-${s.id}`}), el("div", {id: `output-${s.id}`}),
+               el("div", {id: `result-${s.id}`}));
     if (s.scene) sec.append(el("div", {id: "scene"}));
     main.append(sec);
   });
@@ -160,20 +162,26 @@ async function saveStage(id) {
 function showError(id, text) { $(`error-${id}`).replaceChildren(el("div", {class: "error", text})); }
 
 async function runStage(id) {
+  document.body.dataset.action = "busy";   // "done" once the stage's command ended or its choices were refused
   const owner = id === "scene" ? "fit" : id;
   if (id === "profile") {
     const fields = Object.assign({}, (state.session.stages || {}).tables || {},
                                  {controller: $("profile-controller").value});
     await api("/api/stage/tables", {fields}).catch(() => null);
-  } else if (id !== "scene" && !(await saveStage(id))) return;
+  } else if (id !== "scene" && !(await saveStage(id))) { document.body.dataset.action = "done"; return; }
   $(`error-${owner}`).textContent = "";
-  try { await api(`/api/run/${id}`, {}); } catch (e) { showError(owner, e.message); return; }
+  try { await api(`/api/run/${id}`, {}); } catch (e) {
+    showError(owner, e.message); document.body.dataset.action = "done"; return;
+  }
   poll();
 }
 
 function poll() {
   clearTimeout(polling);
-  polling = setTimeout(async () => { await refresh(); if (state.job && state.job.running) poll(); }, 300);
+  polling = setTimeout(async () => {
+    await refresh();
+    if (state.job && state.job.running) poll(); else document.body.dataset.action = "done";
+  }, 300);
 }
 
 async function refresh() {
@@ -211,7 +219,7 @@ function showResults() {
     const f = state.figures[s.id];
     $(`dot-${s.id}`).className = "dot" + (f && f.passes === false ? " fail" : done ? " done" : "");
     $(`figure-${s.id}`).replaceChildren(...(f ? [figureBox(f, tol)] : []));
-    const job = logs[s.id], out = $(`result-${s.id}`);
+    const job = logs[s.id], out = $(`output-${s.id}`);
     const kids = [];
     if (job) {
       if (!job.running && job.code !== 0 && job.error) showError(s.id, job.error);
@@ -219,7 +227,8 @@ function showResults() {
                 el("pre", {class: "log", id: `log-${s.id}`, text: job.lines.join("\n")}));
     }
     if (done) for (const img of s.images || []) kids.push(el("img", {class: "result", src: `/files/${img}?t=${Date.now()}`}));
-    if (!job || !job.running) out.replaceChildren(...kids);
+    const key = JSON.stringify([done, job && [job.command, job.code, job.running, job.lines.length]]);
+    if (drawn[s.id] !== key) { drawn[s.id] = key; out.replaceChildren(...kids); }
   }
   if (state.done.scene && !$("scene-frame")) showScene();
 }
