@@ -1,4 +1,4 @@
-"""``vecpin run SESSION`` and ``vecpin workbench [FOLDER]``: the day from a session file.
+"""``vecpin run SESSION``: the day from a session file (the workbench writes one).
 
 A stage of a session is one command line: :func:`stage_argv` writes it from the stage's
 fields (each the command's long option without its dashes), and ``run`` hands it to the
@@ -14,7 +14,6 @@ import io
 import os
 import re
 import sys
-from pathlib import Path
 
 from vecpin.errors import InputError
 from vecpin.workflows.session import INPUT_FIELDS, OUTPUTS, STAGES, Session, load_session, session_error
@@ -49,33 +48,34 @@ def _head(session: Session, stage: str, f: dict) -> list[str]:
     return heads[stage]()
 
 
-def _subparser(command: str) -> argparse.ArgumentParser:
-    from vecpin.cli.main import build_parser
-    sub = next(a for a in build_parser()._actions if a.dest == "command")  # argparse: no public accessor
+def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    sub = next(a for a in parser._actions if a.dest == "command")  # argparse: no public accessor
     return sub.choices[command]
 
 
-def stage_argv(session: Session, stage: str) -> list[str]:
+def stage_argv(session: Session, stage: str, parser: argparse.ArgumentParser) -> list[str]:
     """The command line of ``stage`` (without the leading ``vecpin``), run in the output
-    folder. A field that is not an option of the command, or a value of the wrong shape,
-    raises :class:`InputError` naming the session file and the field."""
+    folder; ``parser``: vecpin's (:func:`vecpin.cli.main.build_parser`). A field that is not
+    an option of the command, or a value of the wrong shape, raises :class:`InputError`
+    naming the session file and the field."""
     where = str(session.path or "session")
     f = session.stages[stage]
     command = COMMAND[stage]
-    actions = {o[2:]: a for a in _subparser(command)._actions for o in a.option_strings if o.startswith("--")}
+    actions = {o[2:]: a for a in _subparser(parser, command)._actions for o in a.option_strings
+               if o.startswith("--")}
     argv = _head(session, stage, f)
     for key, value in f.items():
         name = f"stages.{stage}.{key}"
         if key in INPUT_FIELDS.get(stage, ()):
             continue
         if key in MANAGED[stage]:
-            raise session_error(where, name, f"set by the session itself (the stages' files in the output folder, "
-                                f"the session's machine): leave it out")
+            raise session_error(where, name, "set by the session itself (the stages' files in the output folder, "
+                                "the session's machine): leave it out")
         if key not in actions or key == "help":
             known = ", ".join(sorted(k for k in actions if k != "help" and k not in MANAGED[stage]))
             raise session_error(where, name, f"not an option of vecpin {command} (its options: {known})")
         argv += _option(where, name, "--" + key, actions[key], value)
-    _check_values(where, stage, argv)
+    _check_values(where, stage, argv, parser)
     return argv
 
 
@@ -107,14 +107,13 @@ def _word(v) -> str:
     return repr(v) if isinstance(v, float) else str(v)
 
 
-def _check_values(where: str, stage: str, argv: list[str]) -> None:
+def _check_values(where: str, stage: str, argv: list[str], parser: argparse.ArgumentParser) -> None:
     """The command's own parser over the stage's words: its complaint (a type, a choice, a
     count) comes back naming the session's field instead of the flag."""
-    from vecpin.cli.main import build_parser
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err):
-            build_parser().parse_args(argv)
+            parser.parse_args(argv)
     except SystemExit:
         last = err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else "invalid"
         text = last.split("error: ", 1)[-1]
@@ -124,18 +123,17 @@ def _check_values(where: str, stage: str, argv: list[str]) -> None:
         raise session_error(where, field_name, text) from None
 
 
-def session_commands(session: Session) -> dict[str, list[str]]:
+def session_commands(session: Session, parser: argparse.ArgumentParser) -> dict[str, list[str]]:
     """stage -> its command line (without ``vecpin``), every stage of the session checked."""
-    return {s: stage_argv(session, s) for s in STAGES if s in session.stages}
+    return {s: stage_argv(session, s, parser) for s in STAGES if s in session.stages}
 
 
 def run_session(args) -> int:
-    from vecpin.cli.main import main
     from vecpin.cli.common import say
     from vecpin.fileio import check_output_dir
     from vecpin.workflows.record import write_record
     session = load_session(args.session)
-    commands = session_commands(session)
+    commands = session_commands(session, args.parser_factory())
     if args.stages:
         unknown = [s for s in args.stages.split(",") if s not in commands]
         if unknown:
@@ -149,7 +147,7 @@ def run_session(args) -> int:
         os.chdir(out)
         for stage in chosen:
             print(f"vecpin run: {stage}: vecpin {' '.join(commands[stage])}", file=sys.stderr, flush=True)
-            code = main(commands[stage])
+            code = args.entry(commands[stage])
             if code:
                 print(f"vecpin run: stopped at the stage {stage} of {args.session} (its message above)",
                       file=sys.stderr)
@@ -161,11 +159,6 @@ def run_session(args) -> int:
     return 0
 
 
-def run_workbench(args) -> int:
-    from vecpin.cli.workbench.server import serve
-    return serve(Path(args.folder), port=args.port, open_browser=not args.no_browser)
-
-
 def add_commands(sub) -> None:
     s = sub.add_parser("run", help="repeat a day headless from its session file (the workbench writes one; "
                        "docs/workbench.md): every stage's command in the output folder, then the compensation record")
@@ -175,10 +168,3 @@ def add_commands(sub) -> None:
     s.add_argument("--stages", metavar="STAGE,...", help="run only these stages, comma-separated, in the session's "
                    "order; no record then (default: all)")
     s.set_defaults(func=run_session)
-    w = sub.add_parser("workbench", help="the day in a browser: a local web page (127.0.0.1 only) that walks the "
-                       "stages, runs the same commands and keeps the choices in FOLDER/session.json")
-    w.add_argument("folder", nargs="?", default=".", help="the day's folder: session.json and every stage's files "
-                   "(default: the current folder; an empty one starts a new day)")
-    w.add_argument("--port", type=int, default=8745, help="local port (default 8745; 0: any free port)")
-    w.add_argument("--no-browser", action="store_true", help="do not open a browser (default: open one)")
-    w.set_defaults(func=run_workbench)

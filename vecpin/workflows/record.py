@@ -134,7 +134,8 @@ def record_markdown(r: dict) -> str:
     for s in ("assess", "fit", "evaluate"):
         if s in figs:
             f = figs[s]
-            lines.append(f"- {s}: {f['what']}: {_mm(f['value_mm'])}" + (f" ({f['verdict']})" if f.get("verdict") else ""))
+            verdict = f" ({f['verdict']})" if f.get("verdict") else ""
+            lines.append(f"- {s}: {f['what']}: {_mm(f['value_mm'])}{verdict}")
     lines += ["", "## ISO/TR 16907 clause 11: validation of the numerical compensation", ""]
     lines.append("| stage | figure | value | tolerance | instrument noise | result |")
     lines.append("| --- | --- | --- | --- | --- | --- |")

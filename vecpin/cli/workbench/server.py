@@ -64,7 +64,8 @@ class Job:
 class Workbench:
     """The day's folder: its session (kept as written, checked when a stage runs) and its job."""
 
-    def __init__(self, folder: Path):
+    def __init__(self, folder: Path, parser):
+        self.parser = parser   # vecpin's command-line parser: the stages' lines are checked by it
         self.folder = folder.resolve()
         self.folder.mkdir(parents=True, exist_ok=True)
         self.lock = threading.Lock()
@@ -115,7 +116,7 @@ class Workbench:
             return ["profile", session.machine_argument(), "--controller", controller, "--out", TEMPLATE]
         if stage == "scene":
             return ["view", OUTPUTS["fit"], OUTPUTS["import"], "--html", SCENE]
-        return stage_argv(session, stage)
+        return stage_argv(session, stage, self.parser)
 
     def start(self, stage: str) -> dict:
         with self.lock:
@@ -134,11 +135,11 @@ class Workbench:
                 "figures": stage_figures(self.folder, tol), "job": self.job.state() if self.job else None}
 
 
-def create_app(folder: Path):
-    """The Flask application of the workbench in ``folder``."""
+def create_app(folder: Path, parser):
+    """The Flask application of the workbench in ``folder``; ``parser``: vecpin's."""
     from flask import Flask, jsonify, request, send_from_directory
 
-    bench = Workbench(folder)
+    bench = Workbench(folder, parser)
     app = Flask(__name__, static_folder=str(STATIC), static_url_path="/static")
     app.config["bench"] = bench
 
@@ -205,7 +206,8 @@ def create_app(folder: Path):
         from vecpin.workflows.record import write_record
         try:
             session = bench.session()
-            written = write_record(session, bench.folder, {s: c for s, c in session_commands(session).items()
+            commands = session_commands(session, bench.parser)
+            written = write_record(session, bench.folder, {s: c for s, c in commands.items()
                                                            if (bench.folder / OUTPUTS[s]).exists()})
         except VecpinError as exc:
             return fail(exc)
@@ -218,10 +220,11 @@ def create_app(folder: Path):
     return app
 
 
-def serve(folder: Path, port: int = 8745, open_browser: bool = True) -> int:
-    """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address."""
+def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> int:
+    """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address.
+    ``parser``: vecpin's command-line parser."""
     from werkzeug.serving import make_server
-    server = make_server("127.0.0.1", port, create_app(folder), threaded=True)
+    server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
     url = f"http://127.0.0.1:{server.server_port}/"
     print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
     if open_browser:
