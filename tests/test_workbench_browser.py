@@ -160,6 +160,10 @@ def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
     shot(pg, "fit")
     run(pg, "evaluate")
     shot(pg, "evaluate")
+    fill(pg, "diagnose", effects="backlash", more='{"quiet": true}')   # a small campaign: one candidate
+    run(pg, "diagnose")
+    assert "Where:" in pg.inner_text("#figure-diagnose")
+    shot(pg, "diagnose")
 
     pg.select_option("#profile-controller", "siemens-840d")
     run(pg, "profile")
@@ -211,6 +215,6 @@ def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
                and not p.name.startswith((".vecpin-", "record."))]
     names = {str(p.relative_to(out)) for p in written}
     assert {"plan/plan.csv", "plan/PLAN_840D.MPF", "campaign.csv", "assess.json", "model.json", "evaluate.json",
-            "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI", "verify/verify.json"} <= names, names
+            "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI", "verify/verify.json"} <= names, names
     differ = [str(p.relative_to(out)) for p in written if (folder / p.relative_to(out)).read_bytes() != p.read_bytes()]
     assert not differ, differ

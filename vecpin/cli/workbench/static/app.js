@@ -205,6 +205,7 @@ function figureBox(f, tol) {
   const mm = (v) => (v === null || v === undefined ? "-" : `${v.toFixed(4)} mm`);
   const verdict = f.passes === true ? "pass" : f.passes === false ? "fail" : "";
   const box = el("div", {class: "figure " + verdict});
+  if (f.headline) box.append(el("ul", {}, ...f.headline.map((t) => el("li", {text: t}))));
   box.append(el("span", {class: "badge " + verdict, text: f.passes === true ? "PASS" : f.passes === false ? "FAIL" :
     "not judged"}), ` ${f.what}: ${mm(f.value_mm)}` + (f.judged ? `, tolerance ${tol ? mm(tol) : "not stated"}` : "") +
     (f.noise_mm ? `, instrument noise ${mm(f.noise_mm)}` : "") + (f.verdict ? `, verdict: ${f.verdict}` : "") +
@@ -228,7 +229,11 @@ function showResults() {
     }
     if (done) for (const img of s.images || []) kids.push(el("img", {class: "result", src: `/files/${img}?t=${Date.now()}`}));
     const key = JSON.stringify([done, job && [job.command, job.code, job.running, job.lines.length]]);
-    if (drawn[s.id] !== key) { drawn[s.id] = key; out.replaceChildren(...kids); }
+    if (drawn[s.id] !== key) {
+      drawn[s.id] = key;
+      out.replaceChildren(...kids);
+      if (job) $(`command-${s.id}`).textContent = "";   // the job's own line shows the command
+    }
   }
   if (state.done.scene && !$("scene-frame")) showScene();
 }
