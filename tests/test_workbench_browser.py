@@ -215,6 +215,7 @@ def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
                and not p.name.startswith((".vecpin-", "record."))]
     names = {str(p.relative_to(out)) for p in written}
     assert {"plan/plan.csv", "plan/PLAN_840D.MPF", "campaign.csv", "assess.json", "model.json", "evaluate.json",
-            "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI", "verify/verify.json"} <= names, names
+            "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI",
+            "verify/verify.json"} <= names, names
     differ = [str(p.relative_to(out)) for p in written if (folder / p.relative_to(out)).read_bytes() != p.read_bytes()]
     assert not differ, differ

@@ -76,9 +76,10 @@ def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, 
     d = _json(out / OUTPUTS["diagnose"] / "diagnosis.json")
     if d:
         best = d.get("best") or {}
-        figs["diagnose"] = _fig("held-out error of the best model the diagnosis found (max)", best.get("heldout_max_mm"),
-                                "max", tolerance_mm, noise, mean_mm=best.get("heldout_mean_mm"),
-                                effects=best.get("effects"), headline=d.get("headline"))
+        figs["diagnose"] = _fig("held-out error of the best model the diagnosis found (max)",
+                                best.get("heldout_max_mm"), "max", tolerance_mm, noise,
+                                mean_mm=best.get("heldout_mean_mm"), effects=best.get("effects"),
+                                headline=d.get("headline"))
     v = _json(out / OUTPUTS["verify"] / "verify.json")
     if v:
         after = ((v.get("compensated") or {}).get("measured") or {}).get("all") or {}

@@ -141,6 +141,7 @@ def create_app(folder: Path, parser):
 
     bench = Workbench(folder, parser)
     app = Flask(__name__, static_folder=str(STATIC), static_url_path="/static")
+    app.json.sort_keys = False   # the axes and stages in their own order
     app.config["bench"] = bench
 
     def fail(exc: Exception, status: int = 400):

@@ -12,7 +12,8 @@ const UI = [
   {id: "plan", title: "Plan", what: "Points, zones, tracker place; the line of sight is tested unless switched off.",
    run: "Plan", images: ["plan/plan.png"],
    fields: [["points", "points (commands)", "int"], ["order", "order (or auto)", "text"],
-            ["tracker", "tracker X,Y,Z (mm)", "text"], ["exclude", "exclusion zones (AXIS=LO:HI, ';' between)", "list;"],
+            ["tracker", "tracker X,Y,Z (mm)", "text"],
+            ["exclude", "exclusion zones (AXIS=LO:HI, ';' between)", "list;"],
             ["repeat", "repeated points: POINTS TIMES", "words"], ["candidates", "candidate commands", "int"],
             ["validation-count", "validation commands", "int"],
             ["dialect", "program dialects (',' between)", "list,"], ["no-sight", "no line-of-sight test", "bool"]]},
@@ -227,7 +228,8 @@ function showResults() {
       kids.push(el("div", {class: "command", text: job.command}),
                 el("pre", {class: "log", id: `log-${s.id}`, text: job.lines.join("\n")}));
     }
-    if (done) for (const img of s.images || []) kids.push(el("img", {class: "result", src: `/files/${img}?t=${Date.now()}`}));
+    const stamp = Date.now();
+    if (done) for (const img of s.images || []) kids.push(el("img", {class: "result", src: `/files/${img}?t=${stamp}`}));
     const key = JSON.stringify([done, job && [job.command, job.code, job.running, job.lines.length]]);
     if (drawn[s.id] !== key) {
       drawn[s.id] = key;
@@ -273,12 +275,14 @@ async function showProfile() {
   const t = p.template; if (!t) return;
   const have = p.profile || {};
   out.append(el("ul", {class: "comments"}, ...(t.comment || []).map((c) => el("li", {text: c}))));
+  const need = {};   // field -> "needed" or "optional", as the template's comments say
+  for (const c of t.comment || []) { const m = /^(\w+) \((needed|optional)/.exec(c); if (m) need[m[1]] = m[2]; }
   for (const [axis, fields] of Object.entries(t.axes || {})) {
     const grid = el("div", {class: "fields"});
     for (const name of Object.keys(fields)) {
       const v = ((have.axes || {})[axis] || {})[name];
       grid.append(el("label", {for: `profile-${axis}-${name}`, text: name}),
-                  el("input", {id: `profile-${axis}-${name}`, type: "text", size: 30,
+                  el("input", {id: `profile-${axis}-${name}`, type: "text", size: 30, placeholder: need[name] || "",
                                value: v === undefined || v === null ? "" : String(v)}));
     }
     out.append(el("div", {class: "profile-axis"}, el("h4", {text: `axis ${axis}`}), grid));
