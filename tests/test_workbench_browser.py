@@ -120,6 +120,14 @@ def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
     assert "X" in pg.inner_text("#log-machine")
     shot(pg, "machine")
 
+    fill(pg, "plan", points=4000, tracker=TRACKER)   # a long plan: its progress shows, and Cancel stops it
+    pg.click("#run-plan")
+    pg.wait_for_function("() => document.body.dataset.job === 'running'")
+    pg.wait_for_function("() => document.querySelector('#job-text').textContent.includes(' s] ')", timeout=120_000)
+    pg.click("#cancel")
+    pg.wait_for_function("() => document.body.dataset.action === 'done'", timeout=60_000)
+    assert "plan: cancelled" in pg.inner_text("#job-text")
+
     fill(pg, "plan", points=12, order=1, tracker=TRACKER, repeat="2 2", candidates=300, **{"validation-count": 8},
          dialect="siemens-840d", **{"no-sight": True, "more": '{"model": "ap", "quiet": true}'})
     run(pg, "plan")

@@ -229,7 +229,9 @@ function showResults() {
                 el("pre", {class: "log", id: `log-${s.id}`, text: job.lines.join("\n")}));
     }
     const stamp = Date.now();
-    if (done) for (const img of s.images || []) kids.push(el("img", {class: "result", src: `/files/${img}?t=${stamp}`}));
+    for (const img of done ? s.images || [] : []) {
+      kids.push(el("img", {class: "result", src: `/files/${img}?t=${stamp}`}));
+    }
     const key = JSON.stringify([done, job && [job.command, job.code, job.running, job.lines.length]]);
     if (drawn[s.id] !== key) {
       drawn[s.id] = key;
