@@ -111,14 +111,18 @@ def test_the_workbench_keeps_and_checks_the_session(tmp_path):
     one comes back with the session's message, and a new server on the folder restores it."""
     pytest.importorskip("flask")
     from vecpin.cli.workbench.server import create_app
-    client = create_app(tmp_path, build_parser()).test_client()
+    app = create_app(tmp_path, build_parser())
+    app.config["SERVER_NAME"] = "127.0.0.1:8745"
+    client = app.test_client()
+    client.environ_base["HTTP_X_VECPIN_WORKBENCH"] = "1"
     assert b"vecpin workbench" in client.get("/").data
+    assert app.test_client().post("/api/run/plan").status_code == 403   # not from the page: refused
     chosen = {"machine": "flow_xyzcb", "tolerance_mm": 0.05}
     assert client.post("/api/stage/machine", json={"fields": chosen}).json["ok"]
     r = client.post("/api/stage/plan", json={"fields": {"points": 30, "tracker": "3000,-2300,-300"}})
     assert r.json["command"] == "vecpin plan flow_xyzcb --out plan --points 30 --tracker 3000,-2300,-300"
     r = client.post("/api/stage/plan", json={"fields": {"points": "lots"}})
     assert r.status_code == 400 and "field stages.plan.points: invalid int value: 'lots'" in r.json["error"]
-    again = create_app(tmp_path, build_parser()).test_client().get("/api/state").json
+    again = create_app(tmp_path, build_parser()).test_client().get("/api/state", base_url="http://127.0.0.1").json
     assert again["session"]["machine"] == "flow_xyzcb" and again["session"]["tolerance_mm"] == 0.05
     assert again["session"]["stages"]["plan"] == {"points": "lots"} and again["job"] is None

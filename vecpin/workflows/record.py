@@ -143,6 +143,11 @@ def record_markdown(r: dict) -> str:
             f = figs[s]
             verdict = f" ({f['verdict']})" if f.get("verdict") else ""
             lines.append(f"- {s}: {f['what']}: {_mm(f['value_mm'])}{verdict}")
+    lines += ["", "## What was written", ""]
+    tables = r["stages"].get("tables")
+    controller = (r["session"]["stages"].get("tables") or {}).get("controller") or "generic"
+    lines += ([f"- for the controller ({controller}): " + ", ".join(f"`{f['name']}`" for f in tables["files"])]
+              if tables else ["- no tables in this session"])
     lines += ["", "## ISO/TR 16907 clause 11: validation of the numerical compensation", ""]
     lines.append("| stage | figure | value | tolerance | instrument noise | result |")
     lines.append("| --- | --- | --- | --- | --- | --- |")

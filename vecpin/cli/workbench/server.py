@@ -147,6 +147,18 @@ def create_app(folder: Path, parser):
     def fail(exc: Exception, status: int = 400):
         return jsonify({"error": str(exc)}), status
 
+    @app.before_request
+    def only_this_page():
+        """Nothing but this computer's own page: the address it was asked at must be the
+        local one (no other name resolving to it), and a change must carry the page's own
+        header, which another site's page cannot send without asking first."""
+        host = (request.host or "").rsplit(":", 1)[0]
+        if host not in ("127.0.0.1", "localhost"):
+            return jsonify({"error": f"the workbench answers at 127.0.0.1 only, not {host!r}"}), 403
+        if request.method == "POST" and request.headers.get("X-Vecpin-Workbench") != "1":
+            return jsonify({"error": "a change must come from the workbench's own page"}), 403
+        return None
+
     @app.get("/")
     def index():
         return send_from_directory(STATIC, "index.html")
