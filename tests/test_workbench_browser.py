@@ -7,6 +7,7 @@ The measurement itself is not the workbench's (the tracker reads the machine); h
 ``vecpin simulate`` stands in for it between the plan and the import, and for the two
 validation runs, as docs/whole-day.md does. Screenshots of every stage go to
 docs/workbench/ (shown by docs/workbench.md)."""
+import contextlib
 import csv
 import json
 import os
@@ -34,43 +35,53 @@ def vecpin(*args, cwd=None) -> subprocess.CompletedProcess:
                           text=True, timeout=600)
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    """``vecpin workbench`` on an empty folder; the time to a page that answers is printed."""
-    folder = tmp_path_factory.mktemp("day")
+@contextlib.contextmanager
+def workbench(folder: Path):
+    """``vecpin workbench FOLDER`` running; the time to a page that answers is printed."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "vecpin", "workbench", str(folder), "--port", "0", "--no-browser"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    line = proc.stdout.readline()
-    url = re.search(r"http://127\.0\.0\.1:\d+/", line)
-    assert url, line + proc.stdout.read() if proc.poll() is not None else line
-    with urllib.request.urlopen(url.group(0), timeout=10) as r:
-        assert r.status == 200 and b"vecpin workbench" in r.read()
-    print(f"\nvecpin workbench: the page served {time.perf_counter() - t0:.2f} s after the command started "
-          "(target <= 2 s)")
-    yield url.group(0), folder
-    proc.terminate()
-    proc.wait(timeout=10)
+    try:
+        line = proc.stdout.readline()
+        url = re.search(r"http://127\.0\.0\.1:\d+/", line)
+        assert url, line + proc.stdout.read() if proc.poll() is not None else line
+        with urllib.request.urlopen(url.group(0), timeout=10) as r:
+            assert r.status == 200 and b"vecpin workbench" in r.read()
+        print(f"\nvecpin workbench: the page served {time.perf_counter() - t0:.2f} s after the command started "
+              "(target <= 2 s)")
+        yield url.group(0)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
 
 
 @pytest.fixture(scope="module")
-def page(server):
+def browser():
     sync = pytest.importorskip("playwright.sync_api")
     if not Path(CHROMIUM).exists():
         pytest.skip(f"no {CHROMIUM} (apt package chromium; .ci/run installs it)")
-    url, folder = server
     with sync.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+        b = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--disable-background-networking",
             "--disable-component-update", "--disable-sync", "--no-first-run"])
+        yield b
+        b.close()
+
+
+@contextlib.contextmanager
+def day(browser, folder: Path):
+    """The workbench of ``folder`` open in a page of ``browser``."""
+    with workbench(folder) as url:
         pg = browser.new_page(viewport={"width": 1280, "height": 900})
         t0 = time.perf_counter()
         pg.goto(url)
         pg.wait_for_selector("body[data-ready=yes]")
         print(f"the page usable in the browser {time.perf_counter() - t0:.2f} s after it was asked for")
-        yield pg, folder
-        browser.close()
+        try:
+            yield pg
+        finally:
+            pg.close()
 
 
 def fill(pg, stage: str, **fields) -> None:
@@ -113,8 +124,29 @@ def write_export(plan_csv: Path, readings_csv: Path, out: Path, bad_row: int | N
             f.write(f"P{int(p['point']):04d};{';'.join(values)}\n")
 
 
-def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
-    pg, folder = page
+def test_the_day_in_the_browser_equals_vecpin_run(browser, tmp_path):
+    folder = tmp_path / "day"
+    with day(browser, folder) as pg:
+        _flow_day(pg, folder, tmp_path)
+    session = json.loads((folder / "session.json").read_text())
+    assert session["stages"]["tables"]["profile"] == "profile.json"
+    out = tmp_path / "headless"
+    t0 = time.perf_counter()
+    r = vecpin("run", folder / "session.json", "--out", out)
+    print(f"  vecpin run of the saved session: {time.perf_counter() - t0:.1f} s")
+    assert r.returncode == 0, r.stderr
+    written = [p for p in out.rglob("*") if p.is_file() and p.name != "vecpin-manifest.json"
+               and not p.name.startswith((".vecpin-", "record."))]
+    names = {str(p.relative_to(out)) for p in written}
+    assert {"plan/plan.csv", "plan/PLAN_840D.MPF", "campaign.csv", "assess.json", "model.json", "evaluate.json",
+            "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI",
+            "verify/verify.json"} <= names, names
+    differ = [str(p.relative_to(out)) for p in written if (folder / p.relative_to(out)).read_bytes() != p.read_bytes()]
+    assert not differ, differ
+
+
+def _flow_day(pg, folder: Path, tmp_path: Path) -> None:
+    """flow_xyzcb from an empty folder to the record, clicking as a user would."""
     fill(pg, "machine", machine="flow_xyzcb", tolerance_mm="0.2")
     run(pg, "machine")
     assert "X" in pg.inner_text("#log-machine")
@@ -212,18 +244,35 @@ def test_the_day_in_the_browser_equals_vecpin_run(page, tmp_path):
     pg.wait_for_selector("body[data-ready=yes]")
     assert pg.input_value("#plan-points") == "12" and pg.input_value("#machine-machine") == "flow_xyzcb"
 
-    session = json.loads((folder / "session.json").read_text())
-    assert session["stages"]["tables"]["profile"] == "profile.json"
-    out = tmp_path / "headless"
-    t0 = time.perf_counter()
-    r = vecpin("run", folder / "session.json", "--out", out)
-    print(f"  vecpin run of the saved session: {time.perf_counter() - t0:.1f} s")
-    assert r.returncode == 0, r.stderr
-    written = [p for p in out.rglob("*") if p.is_file() and p.name != "vecpin-manifest.json"
-               and not p.name.startswith((".vecpin-", "record."))]
-    names = {str(p.relative_to(out)) for p in written}
-    assert {"plan/plan.csv", "plan/PLAN_840D.MPF", "campaign.csv", "assess.json", "model.json", "evaluate.json",
-            "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI",
-            "verify/verify.json"} <= names, names
-    differ = [str(p.relative_to(out)) for p in written if (folder / p.relative_to(out)).read_bytes() != p.read_bytes()]
-    assert not differ, differ
+
+def test_a_trunnion_day_in_the_browser(browser, tmp_path):
+    """trunnion_xyzac (the table tilts and turns: the nests on it read its pose) from an empty
+    folder to verify, judged relative to the table."""
+    folder = tmp_path / "day"
+    with day(browser, folder) as pg:
+        fill(pg, "machine", machine="trunnion_xyzac", tolerance_mm="0.3")
+        run(pg, "machine")
+        fill(pg, "plan", points=12, order=1, candidates=300, **{"validation-count": 8}, dialect="siemens-840d",
+             **{"no-sight": True, "more": '{"model": "ap", "quiet": true}'})
+        run(pg, "plan")
+        measured = tmp_path / "measured"
+        r = vecpin("simulate", "trunnion_xyzac", "--plan", folder / "plan/plan.csv", "--seed", 8, "--out", measured)
+        assert r.returncode == 0, r.stderr
+        write_export(folder / "plan/plan.csv", measured / "campaign.csv", tmp_path / "export.csv")
+        fill(pg, "import", export=tmp_path / "export.csv")
+        run(pg, "import")
+        assert "imported 60 measured points" in pg.inner_text("#log-import")   # 12 x 2 tool rows, 36 nest rows
+        fill(pg, "fit", model="ap", basis="chebyshev", order=1, more='{"quiet": true}')
+        run(pg, "fit")
+        fill(pg, "tables", controller="generic", **{"table-points": 20, "more": '{"quiet": true}'})
+        run(pg, "tables")
+        validation = tmp_path / "validation"
+        r = vecpin("simulate", "trunnion_xyzac", "--truth", measured / "truth.json", "--plan",
+                   folder / "plan/plan.csv", "--seed", 9, "--tables", folder / "tables", "--out", validation)
+        assert r.returncode == 0, r.stderr
+        fill(pg, "verify", before=validation / "validation.csv", after=validation / "validation_compensated.csv",
+             more='{"quiet": true}')
+        run(pg, "verify")
+        assert "relative to the table" in pg.inner_text("#log-verify")
+        assert re.search(r"PASS|FAIL", pg.inner_text("#figure-verify"))
+        shot(pg, "verify", "trunnion_verify")
