@@ -36,6 +36,15 @@ def test_stages_are_the_command_lines_of_the_day(tmp_path):
         "import", str(tmp_path / "export.csv"), "--machine", "flow_xyzcb", "--plan", "plan/plan.csv", "--out",
         "campaign.csv", "--columns", "x=Meas X"]
     assert stage_argv(s, "fit", parser)[-5:] == ["--tracker-noise", "0.003", "0.5", "0.005", "2.5"]
+    s = load_session(session(tmp_path, {"plan": {}, "import": {"export": "export.csv"}, "fit": {}, "tables": {},
+                                        "import_before": {"export": "/runs/before.csv"},
+                                        "verify": {"after": "/runs/after_campaign.csv"}}))
+    assert stage_argv(s, "import_before", parser) == [
+        "import", "/runs/before.csv", "--machine", "flow_xyzcb", "--plan", "plan/validation.csv", "--out",
+        "validation_before.csv"]
+    assert stage_argv(s, "verify", parser) == [
+        "verify", "validation_before.csv", "/runs/after_campaign.csv", "--model-file", "model.json", "--tables",
+        "tables", "--out", "verify"]
 
 
 @pytest.mark.parametrize("stages, field, words", [
@@ -61,6 +70,8 @@ def test_a_bad_option_field_is_named(tmp_path, stages, field, words):
     ({"stages": {"fitting": {}}}, "stages.fitting", "not a stage of the day"),
     ({"stages": {"fit": {}}}, "stages.fit", "needs the stage import before it"),
     ({"stages": {"plan": {}, "import": {}}}, "stages.import.export", "missing: the file this stage reads"),
+    ({"stages": {"plan": {}, "import": {"export": "e.csv"}, "fit": {}, "tables": {}, "verify": {"before": "b.csv"}}},
+     "stages.verify.after", "or the stage import_after that imports its tracker export"),
     ({"stages": {"plan": {"points": {"n": 3}}}}, "stages.plan.points", "a text, a number"),
     ({"colour": "red"}, "colour", "not a field of a session"),
 ])

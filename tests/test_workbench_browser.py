@@ -105,6 +105,11 @@ def run(pg, stage: str, button: str | None = None, ok: bool = True) -> None:
     assert bool(err) != ok, err or f"{stage}: no message"
 
 
+def save_profile(pg) -> None:
+    pg.click("#save-profile")
+    pg.wait_for_function("() => document.querySelector('#profile-saved').textContent.includes('saved')")
+
+
 def shot(pg, stage: str, name: str | None = None) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
     pg.locator(f"#stage-{stage}").screenshot(path=str(SHOTS / f"{name or stage}.png"))
@@ -140,7 +145,7 @@ def test_the_day_in_the_browser_equals_vecpin_run(browser, tmp_path):
     names = {str(p.relative_to(out)) for p in written}
     assert {"plan/plan.csv", "plan/PLAN_840D.MPF", "campaign.csv", "assess.json", "model.json", "evaluate.json",
             "diagnose/diagnosis.json", "tables/AX_EEC.INI", "tables/NC_CEC.INI", "tables/MD_REFP.INI",
-            "verify/verify.json"} <= names, names
+            "validation_before.csv", "validation_after.csv", "verify/verify.json"} <= names, names
     differ = [str(p.relative_to(out)) for p in written if (folder / p.relative_to(out)).read_bytes() != p.read_bytes()]
     assert not differ, differ
 
@@ -212,8 +217,7 @@ def _flow_day(pg, folder: Path, tmp_path: Path) -> None:
         pg.fill(f"#profile-{axis}-nc_name", nc)
         pg.fill(f"#profile-{axis}-general_name", general)
         pg.fill(f"#profile-{axis}-reference_position", "zero" if axis == "Z" else ref)
-    pg.click("#save-profile")
-    pg.wait_for_function("() => document.querySelector('#command-profile').textContent.includes('saved')")
+    save_profile(pg)
     shot(pg, "profile")
     fill(pg, "tables", **{"table-points": 20, "more": '{"max-tables": 2, "quiet": true}'})
     run(pg, "tables", ok=False)
@@ -221,8 +225,7 @@ def _flow_day(pg, folder: Path, tmp_path: Path) -> None:
     assert "profile.json" in message and "Z" in message and "reference_position" in message, message
     shot(pg, "tables", "tables_bad_profile")
     pg.fill("#profile-Z-reference_position", PROFILE["Z"][2])
-    pg.click("#save-profile")
-    time.sleep(0.5)
+    save_profile(pg)
     run(pg, "tables")
     shot(pg, "tables")
 
@@ -230,9 +233,15 @@ def _flow_day(pg, folder: Path, tmp_path: Path) -> None:
     r = vecpin("simulate", "flow_xyzcb", "--truth", measured / "truth.json", "--plan", folder / "plan/plan.csv",
                "--tracker", TRACKER, "--seed", 9, "--tables", folder / "tables", "--out", validation)
     assert r.returncode == 0, r.stderr
-    fill(pg, "verify", before=validation / "validation.csv", after=validation / "validation_compensated.csv",
-         more='{"quiet": true}')
+    for side, run_csv in (("before", "validation.csv"), ("after", "validation_compensated.csv")):
+        export = tmp_path / f"validation_{side}_export.csv"   # the validation program's run, as the tracker exports it
+        write_export(folder / "plan/validation.csv", validation / run_csv, export)
+        fill(pg, f"import_{side}", export=export)
+        run(pg, f"import_{side}")
+    shot(pg, "import_after")
+    fill(pg, "verify", more='{"quiet": true}')
     run(pg, "verify")
+    assert "validation_before.csv" in pg.inner_text("#log-verify")
     assert re.search(r"PASS|FAIL", pg.inner_text("#figure-verify"))
     shot(pg, "verify")
     pg.click("#run-report")

@@ -20,10 +20,12 @@ from vecpin.workflows.session import INPUT_FIELDS, OUTPUTS, STAGES, Session, loa
 
 #: the command each stage runs
 COMMAND = {"plan": "plan", "import": "import", "assess": "assess", "fit": "fit", "evaluate": "evaluate",
-           "diagnose": "diagnose", "tables": "tables", "verify": "verify"}
+           "diagnose": "diagnose", "tables": "tables", "import_before": "import", "import_after": "import",
+           "verify": "verify"}
 #: options the session sets itself from the output folder (a stage field cannot give them)
 MANAGED = {"plan": ("out",), "import": ("machine", "plan", "out"), "assess": ("machine", "json"), "fit": ("out",),
            "evaluate": ("json",), "diagnose": ("base", "out"), "tables": ("out",),
+           "import_before": ("machine", "plan", "out"), "import_after": ("machine", "plan", "out"),
            "verify": ("machine", "model-file", "tables", "out")}
 
 
@@ -32,6 +34,7 @@ def _head(session: Session, stage: str, f: dict) -> list[str]:
     output folder, inputs absolute)."""
     m, o = session.machine_argument(), OUTPUTS
     inp = lambda key: session.input_path(f[key])
+    run = lambda side: inp(side) if f.get(side) else o[f"import_{side}"]   # a validation run: given, or imported
     heads = {
         "plan": lambda: ["plan", m, "--out", o["plan"]],
         "import": lambda: ["import", inp("export"), "--machine", m, "--plan", f"{o['plan']}/plan.csv", "--out",
@@ -42,7 +45,11 @@ def _head(session: Session, stage: str, f: dict) -> list[str]:
         "diagnose": lambda: ["diagnose", m, o["import"], "--base", o["fit"], "--out", o["diagnose"]],
         "tables": lambda: ["tables", o["fit"], "--out", o["tables"]] + (["--profile", inp("profile")]
                                                                         if f.get("profile") else []),
-        "verify": lambda: ["verify", inp("before"), inp("after"), "--model-file", o["fit"], "--tables", o["tables"],
+        "import_before": lambda: ["import", inp("export"), "--machine", m, "--plan", f"{o['plan']}/validation.csv",
+                                  "--out", o["import_before"]],
+        "import_after": lambda: ["import", inp("export"), "--machine", m, "--plan", f"{o['plan']}/validation.csv",
+                                 "--out", o["import_after"]],
+        "verify": lambda: ["verify", run("before"), run("after"), "--model-file", o["fit"], "--tables", o["tables"],
                            "--out", o["verify"]],
     }
     return heads[stage]()

@@ -6,7 +6,11 @@ the command that stage runs, named as that command's long options (``points``,
 ``tracker``, ``exclude``; a value ``true`` switches an option on, a list repeats it or gives
 its several values). The stages, in the order of the day (docs/whole-day.md)::
 
-    plan -> import -> assess -> fit -> evaluate -> diagnose -> tables -> verify
+    plan -> import -> assess -> fit -> evaluate -> diagnose -> tables
+         -> import_before -> import_after -> verify
+
+(``import_before`` and ``import_after``: the two validation runs' tracker exports, without
+and with the tables, joined to the plan's validation run as ``import`` joins the campaign.)
 
 Each stage writes its results under fixed names in the output folder (:data:`OUTPUTS`),
 and the next stage reads them from there. The files a user brings (the tracker export, the
@@ -34,17 +38,20 @@ from vecpin.fileio import write_text
 FORMAT = "vecpin-session"
 VERSION = 1
 SESSION_FILE = "session.json"   # the workbench's session in its folder
-STAGES = ("plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "verify")
+STAGES = ("plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "import_before", "import_after",
+          "verify")
 #: what each stage writes in the output folder (a folder or a file), which later stages read
 OUTPUTS = {"plan": "plan", "import": "campaign.csv", "assess": "assess.json", "fit": "model.json",
-           "evaluate": "evaluate.json", "diagnose": "diagnose", "tables": "tables", "verify": "verify"}
+           "evaluate": "evaluate.json", "diagnose": "diagnose", "tables": "tables",
+           "import_before": "validation_before.csv", "import_after": "validation_after.csv", "verify": "verify"}
 #: the stage fields that name a file the user brings (not an option of the command but its input)
-INPUT_FIELDS = {"import": ("export",), "tables": ("profile",), "verify": ("before", "after")}
-#: input fields the stage cannot run without
-REQUIRED_FIELDS = {"import": ("export",), "verify": ("before", "after")}
+INPUT_FIELDS = {"import": ("export",), "tables": ("profile",), "import_before": ("export",),
+                "import_after": ("export",), "verify": ("before", "after")}
+#: input fields the stage cannot run without (verify: each run given, or imported by its stage)
+REQUIRED_FIELDS = {"import": ("export",), "import_before": ("export",), "import_after": ("export",)}
 #: the stages the day cannot leave out when a later stage is there (what it reads)
 NEEDS = {"import": ("plan",), "assess": ("import",), "fit": ("import",), "evaluate": ("fit",), "diagnose": ("fit",),
-         "tables": ("fit",), "verify": ("tables",)}
+         "tables": ("fit",), "import_before": ("plan",), "import_after": ("plan",), "verify": ("tables",)}
 RECORD_MD, RECORD_JSON = "record.md", "record.json"
 
 _VALUE = (str, int, float, bool, type(None))
@@ -133,6 +140,10 @@ def session_from_dict(d, where: str, path: Path | None = None) -> Session:
         if missing:
             raise session_error(where, f"stages.{name}", f"needs the stage {missing[0]} before it (it reads "
                                 f"{OUTPUTS[missing[0]]}); add it to the session")
+    for side in ("before", "after"):
+        if "verify" in stages and not stages["verify"].get(side) and f"import_{side}" not in stages:
+            raise session_error(where, f"stages.verify.{side}", f"missing: the validation run {side} the tables "
+                                f"(a campaign CSV), or the stage import_{side} that imports its tracker export")
     return Session(machine=machine.strip(), tolerance_mm=None if tol is None else float(tol),
                    stages={s: dict(stages[s]) for s in STAGES if s in stages}, path=path)
 

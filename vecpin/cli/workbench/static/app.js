@@ -43,14 +43,22 @@ const UI = [
             ["profile", "controller profile (the profile stage writes profile.json)", "text"],
             ["method", "subset method", "select", ["", "exact", "ga", "heuristic"]],
             ["table-points", "points per table", "int"]]},
+  {id: "import_before", title: "Import the validation run without the tables", run: "Import",
+   what: "The tracker export of the plan's validation program run without the tables, joined to the plan's " +
+   "validation run (plan/validation.csv).",
+   fields: [["export", "tracker export (path)", "text"], ["columns", "column mapping FIELD=COLUMN,...", "text"]]},
+  {id: "import_after", title: "Import the validation run with the tables", run: "Import",
+   what: "The same program run again with the tables loaded, its tracker export.",
+   fields: [["export", "tracker export (path)", "text"], ["columns", "column mapping FIELD=COLUMN,...", "text"]]},
   {id: "verify", title: "Verify", run: "Verify", images: ["verify/verify.png"], what: "The validation run without " +
    "and with the tables, in the part's frame.",
-   fields: [["before", "validation run without the tables (campaign CSV)", "text"],
-            ["after", "validation run with the tables (campaign CSV)", "text"]]},
+   fields: [["before", "run without the tables (campaign CSV; empty: the one imported above)", "text"],
+            ["after", "run with the tables (campaign CSV; empty: the one imported above)", "text"]]},
   {id: "report", title: "Compensation record", what: "What was measured, fitted, written and verified, with " +
    "versions (ISO/TR 16907 clauses 11 and 12).", view: "report"},
 ];
-const STAGES = ["plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "verify"];
+const STAGES = ["plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "import_before", "import_after",
+                "verify"];
 let state = null, polling = null, logs = {}, drawn = {};
 
 const $ = (id) => document.getElementById(id);
@@ -62,8 +70,8 @@ const el = (tag, attrs = {}, ...kids) => {
 };
 
 async function api(path, body) {
-  const r = await fetch(path, body === undefined ? {} : {method: "POST", headers: {"Content-Type": "application/json", "X-Vecpin-Workbench": "1"},
-                                                        body: JSON.stringify(body)});
+  const headers = {"Content-Type": "application/json", "X-Vecpin-Workbench": "1"};   // the server's check
+  const r = await fetch(path, body === undefined ? {} : {method: "POST", headers, body: JSON.stringify(body)});
   const data = await r.json();
   if (!r.ok) throw new Error(data.error || r.statusText);
   return data;
@@ -100,7 +108,7 @@ function build() {
     if (s.view === "profile") {
       buttons.append(el("select", {id: "profile-controller"}));
       buttons.append(button("run-profile", "Make the template", () => runStage("profile")));
-      buttons.append(button("save-profile", "Save the profile", saveProfile));
+      buttons.append(button("save-profile", "Save the profile", saveProfile), el("span", {id: "profile-saved"}));
     }
     if (s.view === "report") buttons.append(button("run-report", "Write the record", writeRecord));
     sec.append(buttons, el("div", {class: "command", id: `command-${s.id}`}), el("div", {id: `error-${s.id}`}),
@@ -298,6 +306,7 @@ function typed(v) {
 }
 
 async function saveProfile() {
+  $("profile-saved").textContent = "";
   const p = await api("/api/profile");
   if (!p.template) { showError("profile", "make the template first"); return; }
   const prof = JSON.parse(JSON.stringify(p.template));
@@ -307,7 +316,7 @@ async function saveProfile() {
   }
   await api("/api/profile", {profile: prof});
   $("error-profile").textContent = "";
-  $("command-profile").textContent = "saved profile.json (the tables stage reads it)";
+  $("profile-saved").textContent = "saved profile.json (the tables stage reads it)";
   await loadSession();
 }
 
