@@ -6,19 +6,23 @@ import os
 import sys
 import warnings
 
-from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, simulating, verifying,
-                        viewing)
+from vecpin.cli import (compensating, diagnosing, fitting, importing, machines, planning, session, simulating,
+                        verifying, viewing)
 from vecpin.cli.options import as_flags, flag_table
+from vecpin.cli.workbench import command as workbench
 from vecpin.errors import VecpinError, VecpinWarning
 from vecpin.fileio import set_command
 from vecpin.threads import blas_limited
 
-COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing)
+COMMAND_MODULES = (machines, planning, simulating, importing, fitting, compensating, diagnosing, verifying, viewing,
+                   session, workbench)
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="vecpin", description="Volumetric error compensation of machine tools.")
     p.add_argument("--version", action="version", version=f"vecpin {_version()}", help="print the version and exit")
+    # the session commands run other commands' lines through this parser and main (vecpin/cli/session.py)
+    p.set_defaults(parser_factory=build_parser, entry=main)
     sub = p.add_subparsers(dest="command", required=True)
     for module in COMMAND_MODULES:
         module.add_commands(sub)

@@ -1,0 +1,253 @@
+"""The workbench's local web server (Flask, bound to 127.0.0.1): the page, the session
+kept in FOLDER/session.json, and one job at a time: a stage's command line run as
+``python -m vecpin ...`` in FOLDER, its output lines polled by the page, cancel ends it.
+
+The page asks; this server only stores the choices, runs the commands ``vecpin run``
+would run and hands back their files and the figures they wrote (mm)."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+import webbrowser
+from pathlib import Path
+
+from vecpin.cli.session import stage_argv
+from vecpin.errors import VecpinError
+from vecpin.workflows.session import FORMAT, OUTPUTS, SESSION_FILE, STAGES, VERSION, session_from_dict
+
+STATIC = Path(__file__).with_name("static")
+TEMPLATE = "profile_template.json"   # the profile template the profile stage's form is built from
+PROFILE = "profile.json"             # the filled profile the form writes (the tables stage's input)
+SCENE = "scene.html"                 # the meshcat scene page of the fit
+KEPT_LINES = 400                     # output lines of a job the page is sent
+
+
+class Job:
+    """One command line running in the day's folder, its merged output read line by line."""
+
+    def __init__(self, stage: str, argv: list[str], cwd: Path):
+        self.stage, self.argv = stage, argv
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen([sys.executable, "-m", "vecpin", *argv], cwd=cwd, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True, encoding="utf-8", errors="replace", env=env)
+        self.lines: list[str] = []
+        self.started = time.monotonic()
+        self.ended: float | None = None
+        self.cancelled = False
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.append(line.rstrip("\n"))
+        self.proc.wait()
+        self.ended = time.monotonic()
+
+    def cancel(self) -> None:
+        if self.proc.poll() is None:
+            self.cancelled = True
+            self.proc.terminate()
+
+    def state(self) -> dict:
+        running = self.ended is None
+        errors = [ln for ln in self.lines if ln.startswith("vecpin: error:")]
+        return {"stage": self.stage, "command": "vecpin " + " ".join(self.argv), "running": running,
+                "code": None if running else self.proc.returncode, "cancelled": self.cancelled,
+                "elapsed_s": round((self.ended or time.monotonic()) - self.started, 1),
+                "lines": self.lines[-KEPT_LINES:], "error": errors[-1] if errors else None}
+
+
+class Workbench:
+    """The day's folder: its session (kept as written, checked when a stage runs) and its job."""
+
+    def __init__(self, folder: Path, parser):
+        self.parser = parser   # vecpin's command-line parser: the stages' lines are checked by it
+        self.folder = folder.resolve()
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.lock = threading.Lock()
+        self.job: Job | None = None
+        self.load_error: str | None = None
+        path = self.folder / SESSION_FILE
+        self.raw = {"format": FORMAT, "version": VERSION, "machine": "", "tolerance_mm": None, "stages": {}}
+        if path.exists():
+            try:
+                self.raw = json.loads(path.read_text(encoding="utf-8"))
+                session_from_dict(self.raw, str(path), path)
+            except (ValueError, VecpinError) as exc:
+                self.load_error = str(exc)
+
+    @property
+    def path(self) -> Path:
+        return self.folder / SESSION_FILE
+
+    def session(self):
+        return session_from_dict(self.raw, str(self.path), self.path)
+
+    def save(self) -> None:
+        from vecpin.fileio import write_text
+        write_text(self.path, json.dumps(self.raw, indent=1) + "\n")
+
+    def set_fields(self, stage: str, fields: dict) -> None:
+        """Record a stage's choices (``machine``: the machine and the tolerance) and save."""
+        if stage == "machine":
+            self.raw["machine"] = str(fields.get("machine") or "").strip()
+            self.raw["tolerance_mm"] = fields.get("tolerance_mm")
+        else:
+            if stage not in STAGES:
+                raise KeyError(stage)
+            stages = self.raw.setdefault("stages", {})
+            stages[stage] = {k: v for k, v in fields.items() if v is not None and v != ""}
+            self.raw["stages"] = {s: stages[s] for s in STAGES if s in stages}
+        self.save()
+
+    def argv(self, stage: str) -> list[str]:
+        """The command line of ``stage``; the views that are not session stages: the machine's
+        info, the controller's profile template, the scene page."""
+        session = self.session()
+        if stage == "machine":
+            return ["info", session.machine_argument()]
+        if stage == "profile":
+            controller = session.stages.get("tables", {}).get("controller") or "generic"
+            (self.folder / TEMPLATE).unlink(missing_ok=True)   # the template is the workbench's own file
+            return ["profile", session.machine_argument(), "--controller", controller, "--out", TEMPLATE]
+        if stage == "scene":
+            return ["view", OUTPUTS["fit"], OUTPUTS["import"], "--html", SCENE]
+        return stage_argv(session, stage, self.parser)
+
+    def start(self, stage: str) -> dict:
+        with self.lock:
+            if self.job and self.job.ended is None:
+                raise VecpinError(f"the stage {self.job.stage} is still running: wait for it or cancel it")
+            self.job = Job(stage, self.argv(stage), self.folder)
+            return self.job.state()
+
+    def state(self) -> dict:
+        from vecpin.workflows.record import stage_figures
+        tol = self.raw.get("tolerance_mm") if isinstance(self.raw.get("tolerance_mm"), (int, float)) else None
+        done = {s: (self.folder / OUTPUTS[s]).exists() for s in STAGES}
+        done.update(scene=(self.folder / SCENE).exists(), profile=(self.folder / PROFILE).exists(),
+                    report=(self.folder / "record.md").exists())
+        return {"folder": str(self.folder), "session": self.raw, "load_error": self.load_error, "done": done,
+                "figures": stage_figures(self.folder, tol), "job": self.job.state() if self.job else None}
+
+
+def create_app(folder: Path, parser):
+    """The Flask application of the workbench in ``folder``; ``parser``: vecpin's."""
+    from flask import Flask, jsonify, request, send_from_directory
+
+    bench = Workbench(folder, parser)
+    app = Flask(__name__, static_folder=str(STATIC), static_url_path="/static")
+    app.json.sort_keys = False   # the axes and stages in their own order
+    app.config["bench"] = bench
+
+    def fail(exc: Exception, status: int = 400):
+        return jsonify({"error": str(exc)}), status
+
+    @app.before_request
+    def only_this_page():
+        """Nothing but this computer's own page: the address it was asked at must be the
+        local one (no other name resolving to it), and a change must carry the page's own
+        header, which another site's page cannot send without asking first."""
+        host = (request.host or "").rsplit(":", 1)[0]
+        if host not in ("127.0.0.1", "localhost"):
+            return jsonify({"error": f"the workbench answers at 127.0.0.1 only, not {host!r}"}), 403
+        if request.method == "POST" and request.headers.get("X-Vecpin-Workbench") != "1":
+            return jsonify({"error": "a change must come from the workbench's own page"}), 403
+        return None
+
+    @app.get("/")
+    def index():
+        return send_from_directory(STATIC, "index.html")
+
+    @app.get("/api/state")
+    def state():
+        return jsonify(bench.state())
+
+    @app.get("/api/choices")
+    def choices():
+        from vecpin.export.names import CONTROLLERS
+        from vecpin.kinematics.axes import bundled_machines
+        return jsonify({"machines": bundled_machines(), "controllers": list(CONTROLLERS), "stages": list(STAGES)})
+
+    @app.post("/api/stage/<stage>")
+    def set_stage(stage):
+        try:
+            bench.set_fields(stage, request.get_json(force=True).get("fields", {}))
+            argv = bench.argv(stage) if stage in STAGES else None
+        except KeyError:
+            return fail(KeyError(f"no stage {stage}"), 404)
+        except VecpinError as exc:
+            return fail(exc)
+        return jsonify({"ok": True, "command": "vecpin " + " ".join(argv) if argv else None})
+
+    @app.post("/api/run/<stage>")
+    def run(stage):
+        try:
+            return jsonify(bench.start(stage))
+        except VecpinError as exc:
+            return fail(exc)
+
+    @app.post("/api/cancel")
+    def cancel():
+        if bench.job:
+            bench.job.cancel()
+        return jsonify({"ok": True})
+
+    @app.get("/api/profile")
+    def profile():
+        out = {}
+        for key, name in (("template", TEMPLATE), ("profile", PROFILE)):
+            p = bench.folder / name
+            out[key] = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else None
+        return jsonify(out)
+
+    @app.post("/api/profile")
+    def save_profile():
+        from vecpin.fileio import write_text
+        write_text(bench.folder / PROFILE, json.dumps(request.get_json(force=True)["profile"], indent=1) + "\n")
+        fields = dict(bench.raw.get("stages", {}).get("tables", {}), profile=PROFILE)
+        bench.set_fields("tables", fields)
+        return jsonify({"ok": True})
+
+    @app.post("/api/record")
+    def write_record_():
+        from vecpin.cli.session import session_commands
+        from vecpin.workflows.record import write_record
+        try:
+            session = bench.session()
+            commands = session_commands(session, bench.parser)
+            written = write_record(session, bench.folder, {s: c for s, c in commands.items()
+                                                           if (bench.folder / OUTPUTS[s]).exists()})
+        except VecpinError as exc:
+            return fail(exc)
+        return jsonify({"ok": True, "written": [p.name for p in written]})
+
+    @app.get("/files/<path:name>")
+    def files(name):
+        return send_from_directory(bench.folder, name, max_age=0)
+
+    return app
+
+
+def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> int:
+    """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address.
+    ``parser``: vecpin's command-line parser."""
+    from werkzeug.serving import make_server
+    server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
+    url = f"http://127.0.0.1:{server.server_port}/"
+    print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
+    if open_browser:
+        webbrowser.open(url)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        bench = server.app.config["bench"]
+        if bench.job:
+            bench.job.cancel()
+    return 0
