@@ -71,12 +71,14 @@ def run_section(folder: Path, chunk: list[tuple[int, str, str]]) -> str:
                 out, err = io.StringIO(), io.StringIO()
                 with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), contextlib.chdir(folder):
                     rc = main(shlex.split(c)[1:])
-                assert rc == 0, f"{PAGE.name}:{line} `{c}` exit {rc}:\n{out.getvalue()[-3000:]}\n{err.getvalue()[-3000:]}"
+                assert rc == 0, (f"{PAGE.name}:{line} `{c}` exit {rc}:\n{out.getvalue()[-3000:]}\n"
+                                 f"{err.getvalue()[-3000:]}")
                 printed.append(out.getvalue())
             continue
         argv = ["bash", "-e", "-o", "pipefail", "-c", body] if lang == "bash" else [sys.executable, "-c", body]
         done = subprocess.run(argv, cwd=folder, env=environment(), capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, f"{PAGE.name}:{line} ```{lang} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+        assert done.returncode == 0, (f"{PAGE.name}:{line} ```{lang} failed:\n{done.stdout[-3000:]}\n"
+                                      f"{done.stderr[-3000:]}")
         printed.append(done.stdout)
     return "".join(printed)
 

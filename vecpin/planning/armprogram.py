@@ -172,8 +172,8 @@ def _header(machine: Machine, template: PlanTemplate, clearance: float, title: s
             f"joint speed {MOVE_SPEED:g} rad/s between points, {APPROACH_SPEED:g} rad/s on the approach and retract, "
             f"acceleration {ACCELERATION:g} rad/s^2 (ASSUMED, careful values)",
             ("the moves between points are the controller's joint interpolation, each posed with the arm's geometry "
-             "every 2 deg and the area between (the holder's axis clear of it; a via pose first where the direct move is not): run it first "
-             "at a reduced speed and watch the moves" if left is not None else
+             "every 2 deg and the area between (the holder's axis clear of it; a via pose first where the direct "
+             "move is not): run it first at a reduced speed and watch the moves" if left is not None else
              "the moves between points are the controller's joint interpolation: run it first at a reduced speed and "
              "watch the moves")] + [f"WARNING: the move {m}: no via pose frees it: jog it by hand"
                                     for m in left or []]

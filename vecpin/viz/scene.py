@@ -27,7 +27,6 @@ import re
 import warnings
 from pathlib import Path
 
-import matplotlib
 import meshcat
 import meshcat.geometry as g
 import meshcat.transformations as tf
