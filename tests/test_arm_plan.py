@@ -1,5 +1,5 @@
 """An arm's plan (issue 41): the URScript program and the joint list, read by a small
-reader written here from the URScript manual's movej(q, a, v) (q in radians) and the
+reader (tests/robot_programs.py) written from the URScript manual's movej(q, a, v) (q in radians) and the
 joint list's columns, judged with Pinocchio's forward kinematics of the URDF directly
 (not vecpin's planner): every approach pose lies the stated clearance back along the
 tool axis from the measured tip with the same orientation, every visited pose inside
@@ -7,7 +7,6 @@ the URDF's joint limits, the measured poses are the template's commands."""
 from __future__ import annotations
 
 import csv
-import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from robot_programs import read_joint_list, read_urscript
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.planning.plan import PlanSettings
@@ -25,27 +25,6 @@ UR5 = Path(__file__).resolve().parents[1] / "robots" / "ur5.urdf"
 CLEARANCE_MM = 20.0
 SETTINGS = dict(n_commands=24, order=1, candidates=300, n_validation=4, repeat_points=2, repeat_times=2,
                 approach_mm=CLEARANCE_MM, seed=3)
-MOVEJ = re.compile(r"^\s*movej\(\[([^\]]*)\], a=([0-9.]+), v=([0-9.]+)\)\s+# (approach|measure|retract) (P\d+)$")
-
-
-def read_urscript(text: str) -> list[tuple[str, str, np.ndarray]]:
-    """(kind, point, q [rad]) of every movej line, in order."""
-    out = []
-    for line in text.splitlines():
-        m = MOVEJ.match(line)
-        if m:
-            out.append((m.group(4), m.group(5), np.array([float(v) for v in m.group(1).split(",")])))
-        else:
-            assert "movej" not in line, line
-    return out
-
-
-def read_joint_list(path: Path) -> list[tuple[str, str, float, np.ndarray]]:
-    """(kind, point, holder mm, q [deg]) of every row."""
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    joints = [k for k in rows[0] if k.endswith("_deg")]
-    return [(r["kind"], r["point"], float(r["holder_mm"]), np.array([float(r[j]) for j in joints])) for r in rows]
 
 
 def urdf_limits(path: Path) -> tuple[np.ndarray, np.ndarray]:

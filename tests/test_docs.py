@@ -118,7 +118,10 @@ def run_page(page: Path, folder: Path) -> list[str]:
     return outputs
 
 
-RUNNABLE = [p for p in PAGES if any(lang in RUN for _, lang, _ in blocks(p))]
+OWN_TEST = {  # page -> the test that runs its blocks as written, and judges what they wrote
+    "docs/whole-day-machines.md": "tests/test_whole_day_machines.py",
+}
+RUNNABLE = [p for p in PAGES if any(lang in RUN for _, lang, _ in blocks(p)) and rel(p) not in OWN_TEST]
 
 
 @pytest.mark.parametrize("page", [pytest.param(p, id=rel(p), marks=[pytest.mark.slow] if rel(p) in SLOW else [])

@@ -274,6 +274,15 @@ def test_command_line_nests_targets_zones_and_drives(tmp_path, capsys):
     assert "zone C=-720:0:" in out and "nest 1 (workpiece frame):" in out and "nest 2" in out
     assert main(["tables", str(t / "m.json"), "--out", str(t / "tab"), "--quiet"]) == 0
     assert "zone C=-720:0: tables fitted" in capsys.readouterr().out
+    # issue 42: two nests end to end; what they cannot give (the table's pose at a command) is said, not guessed
+    assert main(["evaluate", str(t / "m.json"), str(t / "validation.csv")]) == 0
+    assert "fewer than three table nests" in capsys.readouterr().out
+    assert main(["simulate", "trunnion_xyzac", "--truth", str(t / "truth.json"), "--validation-count", "10", "--nests", "2",
+                 "--tables", str(t / "tab"), "--out", str(t / "after")]) == 0
+    assert "through the tables: not judged here (fewer than three nests" in capsys.readouterr().out
+    assert main(["verify", str(t / "after" / "validation.csv"), str(t / "after" / "validation_compensated.csv"),
+                 "--model-file", str(t / "m.json"), "--tables", str(t / "tab")]) == 2
+    assert "two give the table's place, not its turn" in capsys.readouterr().err
     r = tmp_path / "r"
     assert main(["simulate", "ur5", "--out", str(r), "--points", "60", "--target", "0,0,100", "--target",
                  "150,0,60", "--seed", "1"]) == 0

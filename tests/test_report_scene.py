@@ -1,6 +1,6 @@
 """The report for several models at once (Paper I Fig. 9-11), histogram bins, the vector
 grid's fixed axes and arrow key, the scene's groups (one shown at a time, each with its
-own exaggeration and colour scale) and, in headless Chromium, the scene's legend and
+own exaggeration, all on one colour scale), one colour scale per quantity across a report's figures and, in headless Chromium, the scene's legend and
 colour bar and the report's colour bars."""
 import re
 import shutil
@@ -94,11 +94,28 @@ def test_vector_grid_states_what_it_holds_fixed(flow, monkeypatch):
 
 
 def test_report_covers_several_models(flow, fitted, tmp_path, monkeypatch):
+    """... and its colour-mapped figures share one scale of the tip error (issue 41): the
+    grid plots before and after the tables take the same colormap and limits, and the 3D
+    scene's colour bar of every group ends where they do."""
     sim, models = fitted
-    grids = []
+    grids, scales = [], {}
     real = figures.compensation_grid
     monkeypatch.setattr(figures, "compensation_grid", lambda m, sols, path: grids.append(list(sols)) or real(m, sols, path))
+    save = figures._save
+
+    def seen(fig, path):
+        scales[path.name] = [(c.get_cmap().name, c.get_clim()) for ax in fig.axes for c in ax.collections
+                             if c.get_array() is not None]
+        return save(fig, path)
+    monkeypatch.setattr(figures, "_save", seen)
     page = write_report(models, sim.campaign, tmp_path / "r", validation=sim.validation)
+    before, after = set(scales["vectors.png"]), set(scales["vectors_comp.png"])   # the arrows and their colour bar
+    assert len(before) == 1 and before == after
+    (cmap, (bottom, top)), = before
+    assert cmap == "turbo" and bottom == 0.0
+    bars = re.findall(r'<span>([\d.]+) mm</span></div></div>', (tmp_path / "r" / "scene.html").read_text())
+    assert len(bars) == 3 and all(float(b) == pytest.approx(top, abs=5e-4) for b in bars)
+    assert f"tip error 0 .. {top:.3f} mm (turbo colormap)" in page.read_text()
     html = page.read_text()
     for needle in ("6-DoF order 2", "AP order 2", "identification: model 6-DoF order 2", "validation: model AP order 2",
                    "figures/histogram_compensated.png", "Paper I Fig. 10", "scene.html"):
@@ -178,17 +195,19 @@ def test_report_screenshot_shows_its_colour_bars(flow, fitted, tmp_path):
 
 def test_a_negligible_compensated_error_is_drawn_at_the_errors_scale(flow, fitted, monkeypatch):
     """Tables that leave (numerically) nothing: the compensated group is not magnified to 8 % of
-    the workspace (issue 41: an AP model's was drawn x489861) but shares the errors' exaggeration
-    and colour scale."""
+    the workspace (issue 41: an AP model's was drawn x489861) but shares the errors' exaggeration;
+    every group shares one colour scale."""
     sim, models = fitted
     from vecpin.compensation.plan import plan_tables
     tables = plan_tables(models[0], n_commands=200).tables
     tables.tables = {}                                             # no table: the error left is the error
     facts = build_scene(meshcat.Visualizer(window=RecordingWindow()), models[0], sim.campaign, 2, None, tables)
     g = {x["name"]: x for x in facts["groups"]}
-    assert g["compensated"]["scale_mm"] == g["compensated"]["max_mm"]      # not negligible: its own scale
+    top = max(x["max_mm"] for x in g.values())                    # one colour scale: the largest of any group
+    assert {x["scale_mm"] for x in g.values()} == {top} and facts["scale"]["limits"] == [0.0, top]
+    assert g["compensated"]["exaggeration"] != g["errors"]["exaggeration"]   # not negligible: its own length
     monkeypatch.setattr("vecpin.viz.scene.NEGLIGIBLE", 10.0)      # every compensated error counts as negligible
     facts = build_scene(meshcat.Visualizer(window=RecordingWindow()), models[0], sim.campaign, 2, None, tables)
     g = {x["name"]: x for x in facts["groups"]}
     assert g["compensated"]["exaggeration"] == g["errors"]["exaggeration"]
-    assert g["compensated"]["scale_mm"] == g["errors"]["max_mm"]
+    assert g["compensated"]["scale_mm"] == g["errors"]["scale_mm"] == top

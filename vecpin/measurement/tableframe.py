@@ -186,6 +186,11 @@ def table_nests(runs: list, fitted: dict | None = None) -> tuple[dict, bool]:
     return own, True
 
 
+def registers_table(campaign) -> bool:
+    """Does the campaign read :data:`MIN_NESTS` or more nests (two miss the turn about their line)?"""
+    return len(set(np.asarray(campaign.target, dtype=object)[np.asarray(campaign.nest_rows, int)])) >= MIN_NESTS
+
+
 def table_tips(campaign, nests: dict, refitted: bool = False) -> TableTips:
     """The tool rows of ``campaign`` in the workpiece frame of ``nests`` (see the module
     text): each command's table pose registered on the nests read at it; a point read

@@ -8,7 +8,9 @@ where the program dwells for the tracker) and the *retract* pose (the pre-pose a
 with ``approach`` none the measure pose alone. The joint moves between the poses are
 the controller's joint interpolation; from the pre-pose to the measured pose the joint
 move is short (a few degrees at most), so the holder runs out of the point nearly
-along the tool axis.
+along the tool axis. The move between two points is posed with the planner's geometry
+and goes through a *via* pose where the direct move would sweep the holder through the
+arm (:mod:`vecpin.planning.armtransit`).
 
 Two dialects (the plan's `dialect`; the NC dialects of
 :mod:`vecpin.planning.ncprogram` do not apply):
@@ -72,7 +74,7 @@ def arm_program_name(dialect: str, run: str = "plan") -> str:
 
 @dataclass
 class Pose:
-    """One pose the program visits: ``kind`` approach/measure/retract, the joint
+    """One pose the program visits: ``kind`` approach/measure/retract/via, the joint
     positions ``q`` (n,) [rad], the template ``row`` it belongs to, the dwell [s] and
     what is read there (measure poses)."""
     kind: str
@@ -133,7 +135,7 @@ def arm_time(template: PlanTemplate, poses: list[Pose], holder_change_s: float) 
         tool = L
         if prev is not None:
             d = float(np.max(np.abs(p.q - prev)))
-            if p.kind == "approach" or not backed_off:  # a move between points
+            if p.kind in ("approach", "via") or not backed_off:  # a move between points
                 moves += _move_time(d, MOVE_SPEED)
             else:
                 approach += _move_time(d, APPROACH_SPEED)
@@ -142,7 +144,20 @@ def arm_time(template: PlanTemplate, poses: list[Pose], holder_change_s: float) 
     return CampaignTime(moves, approach, dwell, changes, holder_change_s)
 
 
-def _header(machine: Machine, template: PlanTemplate, clearance: float, title: str) -> list[str]:
+def arm_route(machine: Machine, template: PlanTemplate, clearance: float, dwells: tuple[float, float, float],
+              reads: int = 1, sight=None) -> tuple[list[Pose], list[str]]:
+    """(the poses of :func:`arm_poses` with the via poses that keep the moves between points
+    clear of the machine (``sight``: the planner's geometry; None: not checked), the moves
+    no via pose frees)."""
+    poses = arm_poses(machine, template, clearance, dwells, reads)
+    if sight is None:
+        return poses, []
+    from vecpin.planning.armtransit import free_transits
+    return free_transits(machine, template, poses, sight)
+
+
+def _header(machine: Machine, template: PlanTemplate, clearance: float, title: str,
+            left: list[str] | None = None) -> list[str]:
     tools = np.unique(np.round(template.tool, 9))
     joints = ", ".join(a.name for a in machine.axes)
     return [f"vecpin measurement plan {title}".strip(),
@@ -156,14 +171,19 @@ def _header(machine: Machine, template: PlanTemplate, clearance: float, title: s
              if clearance > 0 else "each point: a joint move straight to it, then the dwell"),
             f"joint speed {MOVE_SPEED:g} rad/s between points, {APPROACH_SPEED:g} rad/s on the approach and retract, "
             f"acceleration {ACCELERATION:g} rad/s^2 (ASSUMED, careful values)",
-            "the moves between points are the controller's joint interpolation: run it first at a reduced speed and "
-            "watch the moves"]
+            ("the moves between points are the controller's joint interpolation, each posed with the arm's geometry "
+             "every 2 deg and the area between (the holder's axis clear of it; a via pose first where the direct "
+             "move is not): run it first at a reduced speed and watch the moves" if left is not None else
+             "the moves between points are the controller's joint interpolation: run it first at a reduced speed and "
+             "watch the moves")] + [f"WARNING: the move {m}: no via pose frees it: jog it by hand"
+                                    for m in left or []]
 
 
 def write_urscript(machine: Machine, template: PlanTemplate, poses: list[Pose], clearance: float,
-                   title: str = "") -> str:
-    """The URScript program visiting ``poses`` (see the module text)."""
-    out = [f"# {h}" for h in _header(machine, template, clearance, title)]
+                   title: str = "", left: list[str] | None = None) -> str:
+    """The URScript program visiting ``poses`` (see the module text; ``left``: the moves
+    between points checked and not freed, None: not checked)."""
+    out = [f"# {h}" for h in _header(machine, template, clearance, title, left)]
     out.append("def vecpin_plan():")
     tool = None
     for p in poses:
@@ -174,7 +194,7 @@ def write_urscript(machine: Machine, template: PlanTemplate, poses: list[Pose], 
                     f'  popup("{msg}", title="vecpin", blocking=True)']
             tool = L
         q = ", ".join(f"{v:.9f}" for v in p.q)
-        v = APPROACH_SPEED if p.kind != "approach" and clearance > 0 else MOVE_SPEED
+        v = APPROACH_SPEED if p.kind not in ("approach", "via") and clearance > 0 else MOVE_SPEED
         name = point_name(template.point[p.row])
         out.append(f"  movej([{q}], a={ACCELERATION:g}, v={v:g})  # {p.kind} {name}")
         if p.kind == "measure":
@@ -196,10 +216,12 @@ def write_joint_list(machine: Machine, template: PlanTemplate, poses: list[Pose]
 
 def write_arm_program(dialect: str, machine: Machine, template: PlanTemplate, clearance: float, *,
                       dwell_s: float = 4.0, nest_dwell_s: float = 15.0, read_dwell_s: float = 2.0, reads: int = 1,
-                      title: str = "") -> str:
+                      title: str = "", sight=None, route: tuple[list[Pose], list[str]] | None = None) -> str:
     """The ``dialect`` program (:data:`ARM_DIALECTS`) of ``template`` with the approach
-    ``clearance`` [m] (0: none) and the dwells [s] of :func:`arm_poses`."""
-    poses = arm_poses(machine, template, clearance, (dwell_s, nest_dwell_s, read_dwell_s), reads)
+    ``clearance`` [m] (0: none) and the dwells [s] of :func:`arm_poses`; ``sight``: the
+    planner's geometry the moves between points are kept clear of (:func:`arm_route`;
+    ``route``: its result, computed once for several dialects)."""
+    poses, left = route or arm_route(machine, template, clearance, (dwell_s, nest_dwell_s, read_dwell_s), reads, sight)
     if dialect == "urscript":
-        return write_urscript(machine, template, poses, clearance, title)
+        return write_urscript(machine, template, poses, clearance, title, left if (sight or route) else None)
     return write_joint_list(machine, template, poses)

@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import MachineError
+from vecpin.kinematics.axes import is_arm
 from vecpin.kinematics.machine import Machine
 
 DEFAULT_TOOL_RADIUS = 0.010       # m, radius of the target holder (tool shank)
@@ -174,13 +175,16 @@ class SightLine:
         the holder's axis from the gauge line to the target centre. The solids on the
         tool link's own joint (the spindle the holder sits in) do not count, nor a solid
         of the head's moving chain that holds the gauge line itself (coarse geometry: a
-        saddle's box the ram slides through). A command that collides is not a line-of-sight loss: the machine
-        cannot go there at all."""
+        saddle's box the ram slides through); on an arm the flange inside one of its own
+        links is the arm folded into itself, and counts. A command that collides is not a
+        line-of-sight loss: the machine cannot go there at all."""
         q = np.atleast_2d(np.asarray(q, float))
         tool = np.broadcast_to(np.asarray(tool, float), (len(q),))
         kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
         m = self.machine
         own, chain = spindle_chain(m)
+        if is_arm(m):
+            chain = set()
         by = np.full(len(q), "", dtype=object)
         poses = self.solid_poses(q)
         for k, s in enumerate(self.solids):

@@ -27,6 +27,7 @@ from vecpin.measurement.campaign import Campaign  # noqa: E402
 from vecpin.kinematics.machine import Machine  # noqa: E402
 from vecpin.models import MODELS  # noqa: E402
 from vecpin.units import MM_PER_M
+from vecpin.viz.scales import ColourScale, tip_error_scale
 
 COLORS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
 
@@ -157,27 +158,42 @@ def _nice(x: float) -> float:
     return float(min((1, 2, 5, 10), key=lambda m: abs(m * e - x)) * e)
 
 
-def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] = ("X", "Y"), n: int = 12,
-                      fixed: dict | None = None, tool: float = 0.25, title: str = "") -> Path:
-    """Errors on a grid of two linear axes (others at ``fixed`` or mid-travel, rotary axes
-    at 0) as vectors in that plane, coloured by the full 3D size [mm], with an arrow-scale
-    key; the title says which axes and tool length [m] the grid holds fixed.
-    ``errors_fn(q, tool) -> (N,3) [m]``."""
+def _grid(machine: Machine, errors_fn, plane: tuple[str, str], n: int, fixed: dict | None, tool: float):
+    """(axis a, axis b, U, V (n, n) [m], q0 (the held axes' values), errors (n*n, 3) [mm]) on
+    a grid of two linear axes (others at ``fixed`` or mid-travel, rotary axes at 0)."""
     a, b = machine.axis(plane[0]), machine.axis(plane[1])
     q0 = np.array([(ax.lower + ax.upper) / 2 if ax.kind == "linear" else min(max(0.0, ax.lower), ax.upper)
                    for ax in machine.axes])
     for k, v in (fixed or {}).items():
         q0[machine.axis(k).index] = machine.axis(k).to_si(v)
-    u = np.linspace(a.lower, a.upper, n)
-    v = np.linspace(b.lower, b.upper, n)
-    U, V = np.meshgrid(u, v)
+    U, V = np.meshgrid(np.linspace(a.lower, a.upper, n), np.linspace(b.lower, b.upper, n))
     q = np.tile(q0, (U.size, 1))
     q[:, a.index], q[:, b.index] = U.ravel(), V.ravel()
-    e = errors_fn(q, np.full(len(q), tool)) * MM_PER_M
+    return a, b, U, V, q0, errors_fn(q, np.full(len(q), tool)) * MM_PER_M
+
+
+def grid_error_sizes(machine: Machine, errors_fn, plane: tuple[str, str] = ("X", "Y"), n: int = 12,
+                     fixed: dict | None = None, tool: float = 0.25) -> np.ndarray:
+    """(n*n,) the 3D sizes [mm] :func:`error_vector_plot` colours, for a run's colour scale."""
+    return np.linalg.norm(_grid(machine, errors_fn, plane, n, fixed, tool)[5], axis=1)
+
+
+def error_vector_plot(machine: Machine, errors_fn, path, plane: tuple[str, str] = ("X", "Y"), n: int = 12,
+                      fixed: dict | None = None, tool: float = 0.25, title: str = "",
+                      scale: ColourScale | None = None) -> Path:
+    """Errors on a grid of two linear axes (others at ``fixed`` or mid-travel, rotary axes
+    at 0) as vectors in that plane, coloured by the full 3D size [mm] on ``scale`` (the
+    run's tip-error scale; None: this figure's own, 0 .. its largest), with an arrow-scale
+    key; the title says which axes and tool length [m] the grid holds fixed.
+    ``errors_fn(q, tool) -> (N,3) [m]``."""
+    a, b, U, V, q0, e = _grid(machine, errors_fn, plane, n, fixed, tool)
     size = np.linalg.norm(e, axis=1)
+    scale = scale or tip_error_scale(size)
     fig, ax = plt.subplots(figsize=(7, 5.0))
-    qv = ax.quiver(a.to_user(U.ravel()), b.to_user(V.ravel()), e[:, 0], e[:, 1], size, cmap="turbo", angles="xy")
-    fig.colorbar(qv, ax=ax, label="volumetric error [mm] (3D length)", shrink=0.75)
+    qv = ax.quiver(a.to_user(U.ravel()), b.to_user(V.ravel()), e[:, 0], e[:, 1], size, cmap=scale.cmap,
+                   clim=scale.limits, angles="xy")
+    fig.colorbar(qv, ax=ax, label="volumetric error [mm] (3D length; one scale in every figure of the run)",
+                 shrink=0.75, extend="max" if size.max() > scale.top else "neither")
     key = _nice(float(np.percentile(np.hypot(e[:, 0], e[:, 1]), 90)) or 1e-3)
     ax.quiverkey(qv, X=0.03, Y=1.03, U=key, label=f"arrow key: {key:g} mm (in-plane component)",
                  labelpos="E", coordinates="axes", fontproperties={"size": 7})

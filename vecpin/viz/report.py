@@ -28,6 +28,7 @@ from vecpin.models import ErrorModel
 from vecpin.selection.orders import OrderSweep
 from vecpin.units import MM_PER_M
 from vecpin.viz import figures
+from vecpin.viz.scales import ColourScale, tip_error_scale
 
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:20px auto;color:#222}
 table{border-collapse:collapse;margin:8px 0 16px}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}
@@ -87,10 +88,14 @@ def write_report(data: ReportData, out_dir) -> Path:
     ``data``; returns the page's path (the folder is checked by the workflow, before any work)."""
     with OutputSet(out_dir) as out:
         fig = lambda name: out.path(f"figures/{name}")  # noqa: E731
+        scale = tip_scale(data)
         parts = _header(data) + _residual_part(data, fig) + _orders_part(data, fig) + _tables_part(data, fig) \
-            + _compensated_part(data, fig) + _vectors_part(data, fig)
+            + _compensated_part(data, fig) + _vectors_part(data, fig, scale)
         from vecpin.viz.scene import write_html
-        facts = write_html(out.path("scene.html"), data.models[0], data.campaign, None, None, data.plans[0].tables)
+        facts = write_html(out.path("scene.html"), data.models[0], data.campaign, None, None, data.plans[0].tables,
+                           scale=scale)
+        parts += [f'<p class="note">One colour scale for the tip error in every figure of this report and its 3D '
+                  f'scene: {html.escape(scale.caption())}.</p>']
         parts += [f'<p class="note">3D scene: {html.escape(n)}</p>' for n in facts.get("notes", [])]
         for n in facts.get("notes", []):   # meshes left out are said on the console too, not only in the page
             warnings.warn(VecpinWarning(f"the report's 3D scene: {n}"), stacklevel=2)
@@ -161,14 +166,28 @@ def _compensated_part(data: ReportData, fig) -> list[str]:
     return parts
 
 
-def _vectors_part(data: ReportData, fig) -> list[str]:
+def tip_scale(data: ReportData) -> ColourScale:
+    """The tip error's one colour scale of the report: 0 .. the largest tip error any of its
+    colour-mapped figures draws (the grid plots before and after the tables, the scene's
+    groups), so that a colour is one size in all of them."""
+    from vecpin.viz.scene import scene_vectors
+    _, _, vectors = scene_vectors(data.models[0], data.campaign, data.plans[0].tables)
+    sizes = [np.linalg.norm(v, axis=1) * MM_PER_M for v in vectors.values()]
+    if data.vectors is not None:
+        axes, before, after = data.vectors
+        m = data.models[0].machine
+        sizes += [figures.grid_error_sizes(m, before, axes), figures.grid_error_sizes(m, after, axes)]
+    return tip_error_scale(*sizes)
+
+
+def _vectors_part(data: ReportData, fig, scale: ColourScale | None = None) -> list[str]:
     parts = []
     m = data.models[0].machine
     if data.vectors is not None:
         axes, before, after = data.vectors
-        figures.error_vector_plot(m, before, fig("vectors.png"), axes,
+        figures.error_vector_plot(m, before, fig("vectors.png"), axes, scale=scale,
                                   title=f"{data.labels[0]}: model-predicted errors, uncompensated")
-        figures.error_vector_plot(m, after, fig("vectors_comp.png"), axes,
+        figures.error_vector_plot(m, after, fig("vectors_comp.png"), axes, scale=scale,
                                   title=f"{data.labels[0]}: model-predicted errors with its tables (Section 2 Fig. 2.4)")
         parts += ["<h2>Errors on a grid</h2>", '<img src="figures/vectors.png" alt="errors">',
                   '<img src="figures/vectors_comp.png" alt="errors compensated">']

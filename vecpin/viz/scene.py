@@ -8,7 +8,8 @@ The scene (machine base frame, metres):
 * ``/vecpin/errors``: measured minus nominal, ``/vecpin/residuals``: measured minus
   identified, ``/vecpin/compensated``: the model-predicted error left by the
   compensation tables - all drawn from the nominal tip, each group exaggerated by its
-  own factor and coloured by size on its own scale (blue 0, red its largest vector);
+  own factor and coloured by size on one scale, the run's tip error (blue 0, red the
+  largest vector of any group, or the report's scale: :mod:`vecpin.viz.scales`);
   one group is visible at a time (meshcat's ``visible`` property);
 * ``/vecpin/tracker``: the tracker's pose; ``/vecpin/selected``: the selected row.
 
@@ -26,7 +27,6 @@ import re
 import warnings
 from pathlib import Path
 
-import matplotlib
 import meshcat
 import meshcat.geometry as g
 import meshcat.transformations as tf
@@ -38,6 +38,7 @@ from vecpin.fileio import write_text
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M, M_PER_MM
+from vecpin.viz.scales import TIP_ERROR, ColourScale, tip_error_scale
 
 
 def _server_helpers():
@@ -107,9 +108,8 @@ def _renumbered(commands: list[bytes]) -> list[bytes]:
 
 
 def error_colors(size: np.ndarray, vmax: float) -> np.ndarray:
-    """(3, N) RGB in [0, 1] for error sizes (turbo colormap, 0 .. vmax)."""
-    cmap = matplotlib.colormaps["turbo"]
-    return np.asarray(cmap(np.clip(size / max(vmax, 1e-12), 0, 1)))[:, :3].T
+    """(3, N) RGB in [0, 1] for error sizes (the tip error's colormap, 0 .. vmax)."""
+    return ColourScale(TIP_ERROR, "mm", vmax).rgb(size)
 
 
 def _segments(start: np.ndarray, vec: np.ndarray, colors: np.ndarray) -> g.LineSegments:
@@ -145,8 +145,27 @@ def _exaggeration(exaggerate, group: str, span: float, largest: float) -> float:
     return 0.08 * span / max(largest, 1e-12)  # the largest vector: 8 % of the workspace
 
 
+def scene_vectors(model, campaign: Campaign, tables=None) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(nominal tips, identified tips (N, 3) [m], {group: vectors (N, 3) [m]}) the scene
+    draws for the campaign's station-0 rows, machine base frame."""
+    m: Machine = model.machine
+    from vecpin.measurement.registration import check_same_pose, station0
+    campaign = station0(campaign)  # the rows the fitted tracker pose describes
+    check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
+                    campaign.xyz, campaign.source, "the model", campaign.lines)
+    nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
+    identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
+    measured = to_machine_frame(model, campaign.xyz)
+    vectors = {"errors": measured - nominal, "residuals": measured - identified}
+    if tables is not None:
+        from vecpin.compensation.frame import model_as_actual
+        from vecpin.compensation.report import compensated_errors
+        vectors["compensated"] = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
+    return nominal, identified, vectors
+
+
 def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | None = None, exaggerate=None,
-                tables=None, show: str = "errors") -> dict:
+                tables=None, show: str = "errors", scale: ColourScale | None = None) -> dict:
     """Fill ``vis`` with the machine and the campaign's tips and errors, the machine posed
     at ``row`` (the campaign file's row as messages count it, header = 1; None: its first
     tracker row of station 0). ``model``: a fitted error model; ``tables``: a TableSet
@@ -154,32 +173,25 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
 
     Each vector group (:data:`GROUPS`) has its own exaggeration (``exaggerate``: one
     factor for all, {group: factor}, or None: the group's largest vector drawn at 8 %
-    of the workspace) and its own colour scale (blue 0 .. red at its largest vector);
-    only the group ``show`` is visible at first. Returns facts of the scene, with
-    ``groups``: [{name, label, exaggeration, max_mm, scale_mm (its colour scale's top), visible}].
-    A compensated error below :data:`NEGLIGIBLE` of the largest error is drawn at the errors'
-    exaggeration and colour scale: numerical noise is not magnified into a machine."""
+    of the workspace); every group is coloured on one scale, the run's tip error
+    (``scale``: the report's, shared with its grid plots; None: 0 .. the largest vector of
+    any group), so a colour is one size in every group; only the group ``show`` is visible
+    at first. Returns facts of the scene, with ``scale`` and ``groups``: [{name, label,
+    exaggeration, max_mm, scale_mm (the colour scale's top), visible}]. A compensated error
+    below :data:`NEGLIGIBLE` of the largest error is drawn at the errors' exaggeration:
+    numerical noise is not magnified into a machine."""
     m: Machine = model.machine
-    from vecpin.measurement.registration import check_same_pose, station0
+    from vecpin.measurement.registration import station0
     at = _scene_row(campaign, row)  # index of the posed row among those drawn
-    campaign = station0(campaign)  # the rows the fitted tracker pose describes
-    check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
-                    campaign.xyz, campaign.source, "the model", campaign.lines)
-    vis.delete()
-    notes = _machine_geometry(vis, m, campaign.q[at], mesh_dirs(model))
-    nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
-    identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
-    measured = to_machine_frame(model, campaign.xyz)
-    err = measured - nominal
-    res = measured - identified
-    vectors = {"errors": err, "residuals": res}
-    if tables is not None:
-        from vecpin.compensation.frame import model_as_actual
-        from vecpin.compensation.report import compensated_errors
-        vectors["compensated"] = compensated_errors(model_as_actual(model), m, tables, campaign.q, campaign.tool)
+    nominal, identified, vectors = scene_vectors(model, campaign, tables)
+    campaign = station0(campaign)
+    err = vectors["errors"]
     if show not in vectors:
         from vecpin.errors import InputError
         raise InputError(f"`show` {show}: one of {', '.join(vectors)}")
+    scale = scale or tip_error_scale(*(np.linalg.norm(v, axis=1) * MM_PER_M for v in vectors.values()))
+    vis.delete()
+    notes = _machine_geometry(vis, m, campaign.q[at], mesh_dirs(model))
     span = float(np.linalg.norm(np.ptp(nominal, axis=0)))
     root = vis["vecpin"]
     pt = 0.012 * span / 6
@@ -188,11 +200,10 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
         size = np.linalg.norm(vec, axis=1)
         vmax = float(size.max())
         k = _exaggeration(exaggerate, name, span, vmax)
-        scale = vmax
         if name == "compensated" and groups and vmax < NEGLIGIBLE * groups[0]["max_mm"] * M_PER_MM and not (
                 isinstance(exaggerate, (int, float)) or (isinstance(exaggerate, dict) and name in exaggerate)):
-            k, scale = groups[0]["exaggeration"], groups[0]["max_mm"] * M_PER_MM   # nothing left: the errors' scale
-        col = error_colors(size, scale)
+            k = groups[0]["exaggeration"]   # nothing left: the errors' exaggeration
+        col = scale.rgb(size * MM_PER_M)
         root[name].set_object(_segments(nominal, k * vec, col))
         if name == "errors":
             root["measured"].set_object(_points(nominal + k * err, col, 1.6 * pt))
@@ -200,12 +211,12 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
         for node in GROUPS[name][1]:
             root[node].set_property("visible", name == show)
         groups.append({"name": name, "label": GROUPS[name][0], "exaggeration": k, "max_mm": vmax * MM_PER_M,
-                       "scale_mm": scale * MM_PER_M, "visible": name == show})
+                       "scale_mm": scale.top, "visible": name == show})
     root["nominal"].set_object(_points(nominal, (0.55, 0.55, 0.55), pt))
     g0 = groups[0]
     facts = {"exaggeration": g0["exaggeration"], "max_error_mm": g0["max_mm"], "rows": len(campaign),
              "max_residual_mm": groups[1]["max_mm"], "groups": groups, "row": int(campaign.lines[at]),
-             "notes": notes}
+             "notes": notes, "scale": scale.as_dict()}
     if tables is not None:
         facts["max_compensated_mm"] = groups[2]["max_mm"]
     sel = root["selected"]
@@ -397,11 +408,12 @@ def _scene_row(campaign: Campaign, row: int | None) -> int:
 
 
 def write_html(path: str | Path, model, campaign: Campaign, row: int | None = None, exaggerate=None,
-               tables=None, show: str = "errors") -> dict:
-    """A self-contained scene page (no server needed) with the legend and colour bars."""
+               tables=None, show: str = "errors", scale: ColourScale | None = None) -> dict:
+    """A self-contained scene page (no server needed) with the legend and colour bars
+    (``scale``: the run's tip-error scale, see :func:`build_scene`)."""
     window = RecordingWindow()
     vis = meshcat.Visualizer(window=window)
-    facts = build_scene(vis, model, campaign, row, exaggerate, tables, show)
+    facts = build_scene(vis, model, campaign, row, exaggerate, tables, show, scale)
     title = f"vecpin: {model.machine.name}, {model.kind} model, row {facts['row']} posed"
     write_text(path, window.static_html(title, legend_html(title, facts["groups"])))
     facts["commands"] = len(window.commands)
@@ -413,7 +425,7 @@ def legend_lines(facts: dict) -> list[str]:
     out = []
     for gr in facts["groups"]:
         top = gr.get("scale_mm", gr["max_mm"])
-        same = " (the errors' scale: it leaves a negligible error)" if top != gr["max_mm"] else ""
+        same = " (one scale for every group)"
         out.append(f"  /vecpin/{gr['name']:<12s} {gr['label']}: x{gr['exaggeration']:.0f}, colour 0 .. "
                    f"{top:.3f} mm (blue .. red){same}{'  [shown]' if gr['visible'] else ''}")
     out += [f"  note: {n}" for n in facts.get("notes", [])]

@@ -9,7 +9,8 @@ import numpy as np
 from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.partframe import RunReference, part_frame_errors, spindle_axis
-from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
+from vecpin.measurement.tableframe import (NetOfNoise, check_nest_rows, net_of_noise, registers_table, table_nests,
+                                          table_tips, tip_noise)
 from vecpin.measurement.registration import (check_registration, check_same_pose, registered_errors, spans_plane,
                                              station0)
 from vecpin.models import ErrorModel
@@ -98,10 +99,13 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
         from vecpin.workflows.fitting import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
     check_nest_rows(model.machine, campaign)
-    if model.machine.has_workpiece and len(campaign.nest_rows):
+    few = len(campaign.nest_rows) > 0 and not registers_table(campaign)
+    if model.machine.has_workpiece and len(campaign.nest_rows) and not few:
         ev, judged = _relative_to_table(model, campaign, reregister)
         _judge_range(model, judged, ev)
         return ev
+    if few:   # fewer than three nests: no table pose at a command, the tool rows judged as on a head machine
+        campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), campaign.nest_rows))
     if model.machine.has_workpiece:
         c = station0(campaign)
         if not spans_plane(model.machine.tool_tip(c.q, c.tool, frame="base", point=c.point)):
@@ -111,7 +115,9 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     ev = _at_the_tool(model, campaign, reregister, model_source)
     _judge_range(model, station0(campaign), ev)
     if model.machine.has_workpiece:
-        ev.warnings.append(f"WARNING: {campaign.source} has no nest rows: judged at the tool tip, which the table axes "
+        ev.warnings.append(f"WARNING: {campaign.source} has " + ("fewer than three table nests (their rows left out: "
+                           "two nests do not give the table's turn about the line through them)" if few else
+                           "no nest rows") + ": judged at the tool tip, which the table axes "
                            f"({', '.join(model.machine.table_axes)}) do not move, so their errors are not seen; read "
                            "reflectors in three or more table nests at each command to judge the tip relative to the "
                            "table")

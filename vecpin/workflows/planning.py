@@ -24,8 +24,8 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.kinematics.axes import is_arm
 from vecpin.planning.armpose import arm_clearance
-from vecpin.planning.armprogram import (APPROACH_SPEED, MOVE_SPEED, arm_dialects, arm_poses, arm_program_name, arm_time,
-                                        write_arm_program)
+from vecpin.planning.armprogram import (APPROACH_SPEED, MOVE_SPEED, arm_dialects, arm_program_name, arm_route,
+                                        arm_time, write_arm_program)
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.ncprogram import (DIALECTS, READ_DWELL_S, check_program_options, nc_axis_names, program_name,
                                       retract_axis, retract_travel_mm, safe_position, write_program)
@@ -308,14 +308,19 @@ def _arm_run(out: OutputSet, machine: Machine, plan: Plan, files: list, comparis
     c = arm_clearance(plan.settings)
     v = plan.validation_template
     times = []
+    sight = SightLine(machine, plan.tracker, geometry=plan.settings.geometry)
     for t, run, title in ((plan.template, "plan", f"for {machine.name}"),
                           (v, "validation", f"- validation run for {machine.name}")):
         reads = plan.validation_reads if run == "validation" else 1
+        route = arm_route(machine, t, c, dwells, reads, sight)
+        for m in route[1]:
+            warnings.warn(VecpinWarning(f"{arm_program_name(dialects[0], run)}: the move {m}: no via pose frees it "
+                                        "(the program's header says so): jog it by hand"))
         for d in dialects:
             text = write_arm_program(d, machine, t, c, dwell_s=dwells[0], nest_dwell_s=dwells[1],
-                                     read_dwell_s=dwells[2], reads=reads, title=title)
+                                     read_dwell_s=dwells[2], reads=reads, title=title, route=route)
             files.append(out.write_text(arm_program_name(d, run), text))
-        times.append(arm_time(t, arm_poses(machine, t, c, dwells, reads), holder_change_s))
+        times.append(arm_time(t, route[0], holder_change_s))
         if run == "plan":
             files.append(out.write_text("validation.csv", v.to_csv(machine)))
     program = (f"joint moves at {MOVE_SPEED:g} rad/s between points; each point approached from {c * 1000:g} mm back "

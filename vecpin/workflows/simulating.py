@@ -10,7 +10,7 @@ from vecpin.errors import InputError
 from vecpin.fileio import check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import registered_errors, spans_plane
-from vecpin.measurement.tableframe import nest_shape, table_tips
+from vecpin.measurement.tableframe import nest_shape, registers_table, table_tips
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.problem import check_tracker_units
 from vecpin.simulation.simulate import Design, Simulation, simulate
@@ -92,12 +92,15 @@ def run_summary(machine: Machine, label: str, run, gauge_change: float = 0.0) ->
     """One line of a validation run's measured error: relative to the table when it read
     table nests (:mod:`vecpin.measurement.tableframe`, the nests' shape from the run), else
     at the tool tip; registered rigidly."""
-    if machine.has_workpiece and len(run.nest_rows):
+    if machine.has_workpiece and registers_table(run):
         tt = table_tips(run, nest_shape(run))
         c = run.subset(tt.rows)
         nominal = machine.tool_tip(c.q, c.tool + gauge_change, frame="workpiece")
         return error_summary(label + " (tip relative to the table)", registered_errors(nominal, tt.tip) * MM_PER_M)
     c = run.primary()
+    if machine.has_workpiece and len(run.nest_rows):   # two nests: no table pose, and the tool alone says nothing
+        return (f"  {label}: not judged here (fewer than three nests give no table pose at a command; the tool tip "
+                "alone does not show the table axes' errors)")
     return error_summary(label, registered_errors(machine.tool_tip(c.q, c.tool + gauge_change, frame="base"), c.xyz)
                          * MM_PER_M)
 

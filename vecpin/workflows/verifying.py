@@ -41,7 +41,8 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.partframe import FRAME_TEXT, RunReference, part_frame_errors, spindle_axis
 from vecpin.measurement.registration import check_registration, registered_errors, spans_plane
-from vecpin.measurement.tableframe import NetOfNoise, check_nest_rows, net_of_noise, table_nests, table_tips, tip_noise
+from vecpin.measurement.tableframe import (NetOfNoise, check_nest_rows, net_of_noise, registers_table, table_nests,
+                                          table_tips, tip_noise)
 from vecpin.measurement.stats import distance_stats
 from vecpin.models import ErrorModel
 from vecpin.units import M_PER_MM, norm_mm
@@ -348,8 +349,11 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
     seen = [table_tips(run, nests, refitted) for run in (before, after)]
     for run, tt in zip((before, after), seen):
         if not len(tt.rows):
+            few = "" if registers_table(run) else (" (the run reads fewer than three nests: two give the table's "
+                                                    "place, not its turn about the line through them)")
             raise InputError(f"{run.source}: no command has tool rows and three or more nests read at it, so the "
-                             "tip relative to the table cannot be measured")
+                             f"tip relative to the table cannot be measured{few}; a run judged at the tool would not "
+                             "show what the tables do to the table axes: read three or more nests at every command")
     b, a = before.subset(seen[0].rows), after.subset(seen[1].rows)
     nominal = [machine.tool_tip(c.q, c.tool + g, frame="workpiece") for c, g in ((b, 0.0), (a, dT))]
     to_ref = (OnTheModel(model, b.q, b.tool, seen[0].tip) if model is not None else
