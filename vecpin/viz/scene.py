@@ -168,7 +168,7 @@ def build_scene(vis: meshcat.Visualizer, model, campaign: Campaign, row: int | N
     vis.delete()
     notes = _machine_geometry(vis, m, campaign.q[at], mesh_dirs(model))
     nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
-    identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
+    identified = model.predict_tip(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
     measured = to_machine_frame(model, campaign.xyz)
     err = measured - nominal
     res = measured - identified
