@@ -224,24 +224,22 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                  progress: Callable[[str], None] | None = None, screen: bool = True) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
-    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
-    ``orders``: what to try (a fixed choice restricts them);
-    ``plans``: the families tried on every axis at once (default ``families``);
-    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``:
-    ``orders`` is one order the user fixed (splines then have that many knots, trends
-    are at most that order); ``seed``: the folds (and the subsample of a large
-    campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
-    priors and offsets every candidate carries; ``underdetermined``: also candidates
-    with as many unknowns as equations or more (module text); ``noise_from_data``: the
-    noise level is not known: when the best common candidate's chi2 leaves its band,
-    every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
-    made with that noise (``ModelChoice.noise_scale``), after the gross rows are left out
-    (:mod:`vecpin.selection.screen`; ``screen``: look for them, the default))."""
+    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``, ``orders``: what to try (a
+    fixed choice restricts them); ``plans``: the families tried on every axis at once (default ``families``);
+    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``: ``orders`` is one order the
+    user fixed (splines then have that many knots, trends are at most that order); ``folds``: their number, or (N,)
+    the user's fold of each row (no ends held out then); ``seed``: the folds (and the subsample of a large campaign);
+    ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose priors and offsets every candidate
+    carries; ``underdetermined``: also candidates with as many unknowns as equations or more (module text);
+    ``noise_from_data``: the noise level is not known: when the best common candidate's chi2 leaves its band, every
+    noise sigma is scaled by what it says (:func:`_noise_level`) and the choice made with that noise
+    (``ModelChoice.noise_scale``), after the gross rows are left out (:mod:`vecpin.selection.screen`; ``screen``:
+    look for them, the default))."""
     args = dict(locals())   # the arguments, for the choice again without the gross rows
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
     say = progress or (lambda s: None)
-    check_folds(campaign, folds)   # a number of folds, or (N,) fold indices 0..k-1 (the user's labels)
+    check_folds(campaign, folds)
     check_campaign_frames(machine, campaign)
     orders = _check_request(kinds, families, orders)
     noise = noise or NoiseModel.default(machine)
