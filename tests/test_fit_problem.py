@@ -72,3 +72,16 @@ def test_fold_labels_give_the_choice_of_those_folds(flow, sim):
     assert "grouped by command" in by_number.to_dict()["method"]
     with pytest.raises(InputError, match="`cv`"):
         FitProblem.build(flow, c, noise, cv=labels[:-1])
+
+
+def test_the_api_page_tables_the_settings_as_defined():
+    """docs/api.md's settings table: every setting of DEFAULTS once, with its default."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text(encoding="utf-8")
+    rows = {}
+    for line in text[text.index("| setting | default | meaning |"):].splitlines()[2:]:
+        if not line.startswith("|"):
+            break
+        name, value = (cell.strip() for cell in line.split("|")[1:3])
+        rows[name] = value.strip("`")
+    assert rows == {k: repr(v).replace("'", '"') for k, (v, _) in DEFAULTS.items()}
