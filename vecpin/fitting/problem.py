@@ -32,12 +32,11 @@ from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_fit, table_campaign_notes
 from vecpin.models import ErrorModel
-from vecpin.planning.zones import Zone, clip_to_zone, inside
+from vecpin.planning.zones import Zone, clip_to_zone, inside, zone_text
 from vecpin.selection.choice import choose_or_fix
 from vecpin.selection.orders import check_folds, fold_index
 
-__all__ = ["DEFAULTS", "FitProblem", "FitResult", "NOISE_ROUNDS", "check_size", "fit_arguments", "zone_rows",
-           "zone_text"]
+__all__ = ["DEFAULTS", "FitProblem", "FitResult", "NOISE_ROUNDS", "check_size", "fit_arguments", "zone_rows"]
 
 MAX_UNKNOWNS = 5000  # a fit holds a few dense unknowns x unknowns matrices: 5000 -> 200 MB each
 
@@ -49,11 +48,6 @@ def check_size(model: ErrorModel) -> None:
         raise InputError(f"`order` {model.order}: the {model.kind} model has {n} unknowns; its normal equations "
                          f"would need about {4 * n * n * 8 / 1e9:.1f} GB (vecpin fits at most {MAX_UNKNOWNS} "
                          "unknowns); use a lower `order`")
-
-
-def zone_text(zone: Zone) -> str:
-    """``X=0:400,Y=-100:100`` (mm/deg) of a zone."""
-    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
 
 
 def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "zone") -> Campaign:

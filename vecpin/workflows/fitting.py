@@ -10,7 +10,8 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.fitting.problem import FitProblem, FitResult, zone_text
+from vecpin.fitting.problem import FitProblem, FitResult
+from vecpin.planning.zones import zone_text
 from vecpin.measurement.campaignrows import Campaign
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
