@@ -243,7 +243,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     check_campaign_frames(machine, campaign)
     orders = _check_request(kinds, families, orders)
     noise = noise or NoiseModel.default(machine)
-    camp = campaign if (picked := _subsample(campaign, seed)) is None else campaign.subset(picked)
+    camp = campaign if (picked := _subsample(campaign, seed, rows=True)) is None else campaign.subset(picked)
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
     ends = () if np.ndim(folds) else partly_measured(machine, campaign, travel)   # given folds: the user's own
     spans = measured_spans(machine, campaign, travel)
@@ -399,13 +399,13 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
 
 
-def _subsample(campaign: Campaign, seed: int) -> np.ndarray | None:
+def _subsample(campaign: Campaign, seed: int, rows: bool = False) -> Campaign | np.ndarray | None:
     """At most :data:`MAX_SELECTION_ROWS` rows, the rows of a command kept together. A
     command measured more often than its share (``cap`` rows: a campaign of a few
     commands repeated many times) keeps a random ``cap`` of its rows, so the subsample
-    always holds whole groups of many commands, never none. Returns the rows kept (None: all)."""
+    always holds whole groups of many commands, never none. ``rows``: the rows kept instead (None: all)."""
     if len(campaign) <= MAX_SELECTION_ROWS:
-        return None
+        return None if rows else campaign
     _, group = np.unique(np.round(campaign.q, 9), axis=0, return_inverse=True)
     group = np.asarray(group).ravel()
     rng = np.random.default_rng(seed)
@@ -421,7 +421,8 @@ def _subsample(campaign: Campaign, seed: int) -> np.ndarray | None:
         keep_row = rank < cap
         per = np.minimum(per, cap)
     keep_groups = order[np.cumsum(per[order]) <= MAX_SELECTION_ROWS]
-    return np.flatnonzero(np.isin(group, keep_groups) & keep_row)
+    keep = np.flatnonzero(np.isin(group, keep_groups) & keep_row)
+    return keep if rows else campaign.subset(keep)
 
 
 def parse_order(text) -> int | str:
