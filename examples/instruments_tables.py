@@ -38,7 +38,7 @@ def table_31():
     for inst in ("cartesian", "spherical"):
         noise = NoiseModel.default(m, inst, tracker=sim.truth.tracker.noise)
         model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
-        y = model.predict(q, tool)
+        y = model.predict_tip(q, tool)
         d = np.linalg.norm(y - exact, axis=1)
         dR = np.abs(cartesian_to_spherical(exact)[:, 0] - cartesian_to_spherical(y)[:, 0])
         s = seed[inst]
@@ -64,7 +64,7 @@ def table_33():
         noise = NoiseModel.default(m, "cartesian", cartesian_sigma=25.4e-6)
         noise.axis_sigma = np.array([12.7e-6] * 3 + [np.radians(0.002)] * 2)
         model = make_model("ap", m, 6).fit(sim.campaign, noise, underdetermined=True)
-        d = np.linalg.norm(model.predict(qv, tv) - sim.truth.measure(qv, tv, None), axis=1) * 1e3
+        d = np.linalg.norm(model.predict_tip(qv, tv) - sim.truth.measure(qv, tv, None), axis=1) * 1e3
         print(f"  {n_lt:4d} {bb:3d} {n_tools:5d} | {s_mean * THOU:9.4f} {s_max * THOU:9.4f} | {d.mean():8.4f} {d.max():8.4f}")
 
 

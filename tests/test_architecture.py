@@ -8,8 +8,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "vecpin"
 # bottom to top; a module may import its own layer and the layers before it
 LAYERS = [("errors", "units", "fileio", "threads"), ("kinematics",), ("measurement",), ("identification",), ("models",),
-          ("selection",), ("planning",), ("compensation",), ("export",), ("diagnosis",), ("simulation",), ("viz",),
-          ("workflows",), ("cli",)]
+          ("selection",), ("planning",), ("fitting",), ("compensation",), ("export",), ("diagnosis",), ("simulation",),
+          ("viz",), ("workflows",), ("cli",)]
 LEVEL = {name: k for k, names in enumerate(LAYERS) for name in names}
 FACADE = {"vecpin", "vecpin.__main__"}  # the public API may import any layer
 

@@ -47,7 +47,7 @@ def test_a_gantry_skew_is_found_alone_and_its_tables_help():
     q, tool = validation_commands(m, 300, seed=8)
     exact = truth.measure(q, tool, None, features=None)      # geometric truth incl. the skew (no features needed)
     from vecpin.units import norm_mm
-    err = {k: norm_mm(mod.predict(q, tool) - exact).mean() for k, mod in (("base", d.base_model), ("best", d.best_model))}
+    err = {k: norm_mm(mod.predict_tip(q, tool) - exact).mean() for k, mod in (("base", d.base_model), ("best", d.best_model))}
     assert err["best"] < 0.7 * err["base"], err
     base = true_compensated_error(truth, plan_tables(d.base_model, uncertainty=False).tables, q, tool, "reference")[0]
     best = true_compensated_error(truth, plan_tables(d.best_model, uncertainty=False).tables, q, tool, "reference")[0]

@@ -18,8 +18,8 @@ from vecpin.cli.main import build_parser
 from vecpin.cli.options import as_flags
 from vecpin.errors import InputError, VecpinError
 from vecpin.simulation.simulate import Design, simulate
-from vecpin.workflows.estimator import ErrorModelCV
-from vecpin.workflows.fitting import fit_campaign
+from vecpin.fitting.estimator import ErrorModelCV
+from vecpin.workflows.fitting import FitRun, fit_campaign
 
 FIXED = {"kind": "6dof", "basis": "chebyshev", "order": 2}
 
@@ -41,7 +41,7 @@ def test_the_facade_exposes_the_estimator_and_one_fitting_path():
 
 def test_fit_returns_self_with_the_fitted_model_and_no_choice_when_all_is_fixed(fixed, flow):
     assert isinstance(fixed.model_, vecpin.ErrorModel)
-    assert fixed.choice_ is None and fixed.run_.model is fixed.model_
+    assert fixed.choice_ is None and fixed.result_.model is fixed.model_
     assert fixed.model_.spec == vecpin.make_model("6dof", flow, 2, basis="chebyshev").spec
     err = fixed.predict(np.zeros((1, flow.n_axes)), 0.2)
     assert err.shape == (1, 3) and np.all(np.isfinite(err))
@@ -78,7 +78,7 @@ def test_a_model_file_keeps_the_std(fixed, sim, tmp_path):
     back = vecpin.ErrorModel.load(tmp_path / "m.json")
     q = sim.validation.q
     e0, s0 = fixed.predict(q, 0.2, return_std=True)
-    e1, s1 = back.predict_error(q, 0.2, return_std=True)
+    e1, s1 = back.predict(q, 0.2, return_std=True)
     np.testing.assert_allclose(e1, e0, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(s1, s0, rtol=1e-3)
 
@@ -119,7 +119,7 @@ def test_the_estimator_is_the_command_lines_fit(flow, sim, tmp_path, capsys, fla
     assert (tmp_path / "cli.json").read_bytes() == (tmp_path / "est.json").read_bytes()
     flags = build_parser().parse_args(["fit", "flow_xyzcb", str(csv), "--out", "x.json"]).flags
     untimed = lambda text: re.sub(r"in [0-9.]+ s\b", "", text)  # noqa: E731 (the fit's seconds differ)
-    assert untimed(as_flags("\n".join(est.run_.lines()), flags)) in untimed(printed)
+    assert untimed(as_flags("\n".join(FitRun.of(est.result_).lines()), flags)) in untimed(printed)
     if not flags:
         assert est.choice_ is not None and est.model_.selection_ == est.choice_.to_dict()
         assert est.model_.spec == est.choice_.chosen.model(flow).spec
@@ -180,6 +180,6 @@ def test_the_estimator_contract_params_score_and_best_score(fixed, flow, sim):
     with pytest.raises(VecpinError, match="no setting colour"):
         est.set_params(colour="red")
     v = sim.validation
-    d = np.linalg.norm(v.xyz - fixed.model_.predict(v.q, v.tool), axis=1) * 1000.0
+    d = np.linalg.norm(v.xyz - fixed.model_.predict_tip(v.q, v.tool), axis=1) * 1000.0
     assert fixed.score(v) == pytest.approx(-d.mean(), rel=1e-9)
     assert fixed.best_score_ is None

@@ -44,7 +44,7 @@ def test_fit_reaches_the_noise_limited_floor(flow, sims, kind):
     sim = sims[kind]
     q, tool, exact = _validation(sim)
     noise = NoiseModel.default(flow, "spherical")
-    mean = lambda model: np.linalg.norm(model.predict(q, tool) - exact, axis=1).mean()
+    mean = lambda model: np.linalg.norm(model.predict_tip(q, tool) - exact, axis=1).mean()
     floor = mean(make_model(kind, flow, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise))
     sweep = order_sweep(flow, sim.campaign, kind, range(3, 9), noise=noise)
     got = mean(make_model(kind, flow, sweep.best.order).fit(sim.campaign, noise))
@@ -85,7 +85,7 @@ def test_spherical_beats_cartesian_on_a_long_machine(machines, seed):
     for inst in ("cartesian", "spherical"):
         noise = NoiseModel.default(m, inst, tracker=sim.truth.tracker.noise)
         model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
-        y = model.predict(q, tool)
+        y = model.predict_tip(q, tool)
         out[inst] = (np.linalg.norm(y - exact, axis=1).mean(),
                      np.abs(cartesian_to_spherical(exact)[:, 0] - cartesian_to_spherical(y)[:, 0]).mean(),
                      model.report_)
@@ -167,7 +167,7 @@ def test_model_file_round_trip_and_bad_files(flow, sims, tmp_path):
         model = make_model(kind, flow, 3, tool_lengths=list(TOOLS)).fit(c)
         model.save(tmp_path / "m.json")
         back = ErrorModel.load(tmp_path / "m.json")
-        np.testing.assert_allclose(back.predict(c.q, c.tool), model.predict(c.q, c.tool), atol=1e-12)
+        np.testing.assert_allclose(back.predict_tip(c.q, c.tool), model.predict_tip(c.q, c.tool), atol=1e-12)
         np.testing.assert_allclose(back.std_, model.std_, rtol=1e-9, atol=1e-15)
         d = json.loads((tmp_path / "m.json").read_text())
         assert d["format"] == "vecpin-model" and d["version"] == 1 and d["machine"]["name"] == "flow_xyzcb"

@@ -25,7 +25,7 @@ def test_true_family_fit_is_noise_limited_and_chi2_tells_the_noise(flow, sim):
     exact = sim.truth.measure(q, tool, None)                 # noise-free tips, tracker frame [m]
     noise = NoiseModel.default(flow, "spherical")
     model = make_model("6dof", flow, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
-    got = np.linalg.norm(model.predict(q, tool) - exact, axis=1).mean()
+    got = np.linalg.norm(model.predict_tip(q, tool) - exact, axis=1).mean()
     uncompensated = np.linalg.norm(sim.truth.tool_tip(q, tool) - flow.tool_tip(q, tool), axis=1).mean()
     assert got < 0.012e-3                                    # about 8 µm from 18 µm-class readings
     assert got < 0.03 * uncompensated

@@ -27,7 +27,7 @@ def _table_33_fit(m, n_lt, n_tools, bb, seed=5):
     rng = np.random.default_rng(3)
     q = uniform_commands(m, 1500, rng)
     t = np.full(1500, 0.21488)
-    return np.linalg.norm(model.predict(q, t) - sim.truth.measure(q, t, None), axis=1).mean()
+    return np.linalg.norm(model.predict_tip(q, t) - sim.truth.measure(q, t, None), axis=1).mean()
 
 
 @pytest.mark.parametrize("n_lt", [300, 100])
@@ -54,7 +54,7 @@ def test_multilateration_is_the_limit_of_large_angle_variances(flow):
 
     def predict(noise):
         model = make_model("6dof", flow, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
-        return model.predict(q, t, "machine")
+        return model.predict_tip(q, t, "machine")
 
     tn = sim.truth.tracker.noise
     ranged = predict(NoiseModel.default(flow, "range", tracker=tn))
@@ -178,7 +178,7 @@ def test_diagnosis_of_a_range_only_campaign_whitens_with_the_range_variance(flow
     assert np.all(lin.w[rows, 1:] == 0) and lin.n_equations == len(rows)
 
     def ranges(q):
-        tip = model.predict(q, c.tool[rows], frame="machine")
+        tip = model.predict_tip(q, c.tool[rows], frame="machine")
         return np.array([np.linalg.norm(model.setup_.to_tracker(tip[k:k + 1], int(c.station[r]))[0])
                          for k, r in enumerate(rows)])
     q = c.q[rows]

@@ -164,8 +164,10 @@ def test_the_table_face_from_nest_heights_is_kept(tmp_path):
     for face in (False, True):
         model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
         if face:
+            from dataclasses import replace
+
             from vecpin.measurement.tableframe import check_nest_heights
-            model.setup_.nest_heights = check_nest_heights(heights, model.setup_.nests)
+            model.setup_ = replace(model.setup_, nest_heights=check_nest_heights(heights, model.setup_.nests))
         plan = plan_tables(model, uncertainty=False)
         assert ("table's face" in plan.frame.how) == face
         write_tables(plan.tables, m, tmp_path / str(face))

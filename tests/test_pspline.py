@@ -100,7 +100,7 @@ def test_model_file_round_trip_with_a_pspline_axis(flow, tmp_path):
         np.testing.assert_allclose(B1.knots, B2.knots, rtol=1e-12)
     assert back.bases[1].kind == "pspline" and back.bases[1].smoothing == 300.0
     q = uniform_commands(flow, 20, np.random.default_rng(1))
-    np.testing.assert_allclose(back.predict(q, 0.25), model.predict(q, 0.25), atol=1e-9)
+    np.testing.assert_allclose(back.predict_tip(q, 0.25), model.predict_tip(q, 0.25), atol=1e-9)
     assert '"smoothing": 300.0' in path.read_text()
 
 

@@ -196,7 +196,7 @@ def test_beyond_the_measured_joint_range(ur10, tmp_path):
     assert kept.mean() < 0.25 * nominal.mean() and kept.max() < 0.6 * nominal.max()
     model.save(tmp_path / "m.json")
     back = vecpin.ErrorModel.load(tmp_path / "m.json").hold_beyond_measured()
-    np.testing.assert_allclose(back.predict(held.q, held.tool), model.predict(held.q, held.tool), atol=1e-9)
+    np.testing.assert_allclose(back.predict_tip(held.q, held.tool), model.predict_tip(held.q, held.tool), atol=1e-9)
     model.fit(c, noise)
     assert model.range_ is None
 

@@ -13,7 +13,11 @@ The same fit as an estimator (scikit-learn's ``RidgeCV`` pattern: the model choi
 ``fit``), with the predicted tool-tip error and its standard deviation::
 
     est = vecpin.ErrorModelCV(m).fit(campaign)          # est.model_, est.choice_
-    error, std = est.predict(q, tool, return_std=True)  # (N,3) m, relative to the workpiece
+    error, std = est.predict(q, tool, return_std=True)  # tip error (N,3) m, relative to the workpiece
+
+The same fit as a problem and its solution (what both of the above run)::
+
+    result = vecpin.FitProblem.build(m, campaign, kind="6dof").solve()   # a frozen FitResult
 
 Names are imported when first used (PEP 562), so ``import vecpin`` and the command line's help
 do not load Pinocchio and SciPy until a command needs them.
@@ -30,7 +34,8 @@ _NAMES = {
     "VecpinError": "vecpin.errors", "MachineError": "vecpin.errors", "CampaignFileError": "vecpin.errors",
     "ErrorModel": "vecpin.models", "SixDofModel": "vecpin.models", "APModel": "vecpin.models",
     "make_model": "vecpin.models", "ModelSpec": "vecpin.models.spec", "NoiseModel": "vecpin.measurement.noise",
-    "ErrorModelCV": "vecpin.workflows.estimator",
+    "ErrorModelCV": "vecpin.fitting.estimator", "FitProblem": "vecpin.fitting.problem",
+    "FitResult": "vecpin.fitting.problem",
     "fit": ("vecpin.workflows.fitting", "fit_campaign"), "simulate": "vecpin.simulation.simulate",
     "plan_tables": "vecpin.compensation.plan", "TableSet": "vecpin.compensation.tables",
     "make_tables": "vecpin.workflows.tables", "diagnose": "vecpin.diagnosis.diagnose",

@@ -33,16 +33,16 @@ def nest_heights(items: list[str] | None) -> dict | None:
 
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
-    from vecpin.workflows.estimator import ErrorModelCV
+    from vecpin.workflows.fitting import fit_campaign
     m = machine(args.machine, args)
     check_output_file(args.out)
-    est = ErrorModelCV(m, noise(args, m), kind=args.model, basis=args.basis, order=args.order,
-                       tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
-                       underdetermined=args.underdetermined, folds=args.folds, zone=zone_option(args.zone),
+    run = fit_campaign(m, read_fit_campaign(args, m), noise(args, m), kind=args.model, basis=args.basis,
+                       order=args.order, tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
+                       underdetermined=args.underdetermined, cv=args.folds, zone=zone_option(args.zone),
                        noise_from_data=not noise_stated(args), nest_heights=nest_heights(args.nest_height),
                        progress=progress(not args.quiet))
-    est.fit(read_fit_campaign(args, m)).save(args.out)
-    say(args, *est.run_.lines())
+    run.model.save(args.out)
+    say(args, *run.lines())
     print(f"wrote {args.out}")
     return 0
 
@@ -96,16 +96,17 @@ def run_demo(args) -> int:
 
 
 def add_commands(sub) -> None:
+    from vecpin.fitting.settings import default  # the fit's one table of defaults (no numpy: the help stays fast)
     s = sub.add_parser("fit", help="choose and identify an error model from a campaign CSV (maximum likelihood)")
     s.add_argument("machine", help=MACHINE_HELP)
     s.add_argument("csv", help=CAMPAIGN_HELP)
     add_model_args(s)
-    s.add_argument("--folds", type=int, default=5,
+    s.add_argument("--folds", type=int, default=default("cv"),
                    help="cross-validation folds of the model choice, grouped by command (default %(default)s)")
     s.add_argument("--out", required=True, help="model file to write (JSON, mm and deg)")
     s.add_argument("--tool-corrections", action="store_true",
                    help="also fit a length correction per tool, mm (default: the gauge-line correction T_offset only)")
-    s.add_argument("--prior-scale", type=float, default=1.0,
+    s.add_argument("--prior-scale", type=float, default=default("prior_scale"),
                    help="factor on every parameter's prior standard deviation (Σ_b), dimensionless, > 0 "
                         "(default %(default)s)")
     s.add_argument("--underdetermined", action="store_true",

@@ -21,6 +21,7 @@ ALIASES: dict[str, str] = {
     "out_dir": "out",            # a workflow's output folder (plan_to_dir, simulate_to_dir, ...): --out
     "repeat_points": "repeat",   # --repeat POINTS TIMES sets both
     "repeat_times": "repeat",
+    "cv": "folds",               # the fit's cross-validation (the estimator's cv=): --folds
 }
 
 #: library phrases naming two parameters that one option sets together: (phrase, the option's

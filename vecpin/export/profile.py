@@ -77,7 +77,8 @@ AXIS_FIELDS = {
     "reference_position": float, "modulo": bool, "detection_unit": float,
 }
 DRIVE_FIELDS = ("following", "drive_separation_mm")  # twin-drive axes (read by :func:`_drive_facts`)
-TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment"}
+TOP_FIELDS = {"format", "version", "machine", "controller", "axes", "limits", "options", "comment",
+              "$schema"}  # $schema: the JSON Schema an editor checks the file with (vecpin/schemas)
 OPTIONS = {"comp_file_type": int, "rotary_any_range": bool,  # LinuxCNC file type; Heidenhain rotary range
            "ini": Path}                                        # LinuxCNC: the machine's INI file (joints checked)
 CASE_NOTE = ("names and the file names made of them are compared without case: Heidenhain, Fanuc and Siemens "

@@ -26,7 +26,7 @@ the tool rows of one tracker station, one target seen from two stations) share i
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -120,7 +120,7 @@ class Likelihood:
         self.model, self.campaign, self.noise, self.features = model, campaign, noise, features
         tracker = instrument or noise.instrument
         machine = model.machine
-        self.setup = setup = initial_setup(machine, campaign, setup)
+        self.setup = setup = initial_setup(machine, campaign, None if setup is None else setup.copy())
         names = list(E0_NAMES) + list(model.parameter_names)
         index = {n: k for k, n in enumerate(names)}
         extra_sigma: list[float] = []
@@ -183,11 +183,10 @@ class Likelihood:
         return theta
 
     def fold(self, theta: np.ndarray, cov: np.ndarray | None = None) -> Setup:
-        """Put the fitted instrument unknowns into the setup: E_0, station corrections;
+        """A new setup with the fitted instrument unknowns put in: E_0, station corrections;
         pivots, nests and targets moved by their corrections (with their standard
         deviations [m] from ``cov``, the covariance of theta, in ``setup.std``)."""
-        setup = self.setup
-        setup.e0 = theta[:6].copy()
+        setup = replace(self.setup.copy(), e0=theta[:6].copy())
         for k, kind, key, comp in self._extras():
             if kind == "station":
                 R_, t_, e = setup.stations[int(key)]

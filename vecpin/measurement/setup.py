@@ -8,7 +8,7 @@ sockets [m] in the machine frame.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from vecpin.kinematics.so3 import exp3, right_jacobian, skew
 POSE_NAMES = ("dx", "dy", "dz", "ex", "ey", "ez")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Setup:
     """The tracker pose of station 0 (``R``, ``t``, correction ``e0``: dx, dy, dz [m],
     ex, ey, ez [rad]); ``stations``: other tracker positions {id: (R, t, e)};
@@ -27,7 +27,11 @@ class Setup:
     ``std``: standard deviations [m] of the fitted nest and target coordinates by
     unknown name (``nest<id>.x``, ``target<id>.y``, ...); ``nest_heights``: {nest id:
     height [m] of its reflector's centre above the table face}, where the user gave them
-    (the nests then tell where the table's face is: the frame the tables keep)."""
+    (the nests then tell where the table's face is: the frame the tables keep).
+
+    Frozen: vecpin never changes a setup it is given (the likelihood places its stations,
+    pivots, nests and targets in a :meth:`copy`; the fit returns a new one); change one with
+    :func:`dataclasses.replace`."""
 
     R: np.ndarray
     t: np.ndarray
@@ -38,6 +42,12 @@ class Setup:
     targets: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
     nest_heights: dict = field(default_factory=dict)
+
+    def copy(self) -> "Setup":
+        """The same setup with containers of its own (adding a station, pivot, nest or target
+        to the copy leaves this one as it is; the arrays are shared, never written)."""
+        return replace(self, stations=dict(self.stations), pivots=dict(self.pivots), nests=dict(self.nests),
+                       targets=dict(self.targets), std=dict(self.std), nest_heights=dict(self.nest_heights))
 
     def pose(self, station: int = 0):
         """(R, t, e) of a station."""

@@ -27,7 +27,6 @@ Parameters are ordered by priority (offsets, then every order-0 term, then order
 """
 from __future__ import annotations
 
-import copy
 import numpy as np
 
 from vecpin.errors import InputError, VecpinError
@@ -389,36 +388,24 @@ class ErrorModel:
         self._check_fitted()
         return np.sqrt(np.diag(self.cov_)[6:])
 
-    def predict(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker", features=None, *,
-                point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
-        """Modelled tool tips (N,3) [m] for commands q (N,n) [m, rad] and tool lengths
-        [m]: in the tracker frame of the fitted campaign ("tracker"), the machine base
-        frame ("machine") or relative to the workpiece ("workpiece"). ``point``, ``offset``:
-        tool point and target offset [m] (tool link frame). ``features``: per-row
-        time/temperature/directions, for models with effects."""
-        self._check_fitted()
-        if frame not in ("tracker", "machine", "workpiece"):
-            raise InputError("frame is 'tracker', 'machine' or 'workpiece'")
-        if frame == "tracker":
-            return predict_tracker(self, q, tool, np.r_[self.e0_, self.b_], self.setup_, features, False,
-                                   point=point, offset=offset)[0]
-        return self.tool_tip(q, tool, self.b_, jacobian=False, features=features, point=point, offset=offset,
-                             frame="base" if frame == "machine" else "workpiece").tip
-
-    def predict_error(self, q: np.ndarray, tool: np.ndarray | float = 0.0, frame: str = "workpiece", features=None, *,
-                      point: int | np.ndarray = 0, offset: np.ndarray | None = None, return_std: bool = False):
+    def predict(self, q: np.ndarray, tool: np.ndarray | float = 0.0, frame: str = "workpiece", features=None, *,
+                point: int | np.ndarray = 0, offset: np.ndarray | None = None, return_std: bool = False):
         """The modelled tool-tip error (N,3) [m] at commands q (N,n) [m, rad] and tool lengths
         [m]: the modelled tip minus the nominal tip, relative to the workpiece ("workpiece",
         what compensation corrects; the base frame on a machine without a workpiece) or in
-        the machine base frame ("machine"). ``point``, ``offset``: tool point and target
-        offset [m] (tool link frame); ``features``: per-row time/temperature/directions, for
-        models with row-dependent effects. ``return_std``: also its standard deviation (N,3)
-        [m] per coordinate, the fit's covariance of the model parameters (``cov_``, E_0 left
-        out) through d tip / d b at ``b_`` (linearised; 0 for terms the fit removed): what the
-        measurement noise leaves uncertain, not what the model's bases cannot describe."""
+        the machine base frame ("machine"), the frame's axes either way. The one quantity
+        ``predict`` gives, here and on :class:`~vecpin.fitting.estimator.ErrorModelCV`; the
+        modelled tips themselves (where a tracker reads them) are :meth:`predict_tip`.
+        ``point``, ``offset``: tool point and target offset [m] (tool link frame); ``features``:
+        per-row time/temperature/directions, for models with row-dependent effects.
+        ``return_std``: also its standard deviation (N,3) [m] per coordinate, the fit's
+        covariance of the model parameters (``cov_``, E_0 left out) through d tip / d b at
+        ``b_`` (linearised; 0 for terms the fit removed): what the measurement noise leaves
+        uncertain, not what the model's bases cannot describe."""
         self._check_fitted()
         if frame not in ("machine", "workpiece"):
-            raise InputError(f"`frame` '{frame}': the error is 'workpiece' (relative to the table) or 'machine' (base frame)")
+            raise InputError(f"`frame` '{frame}': the error is 'workpiece' (relative to the table) or 'machine' "
+                             "(base frame); the modelled tips in the tracker frame are predict_tip's")
         where = {"frame": "base" if frame == "machine" else "workpiece", "point": point, "offset": offset}
         q = np.atleast_2d(np.asarray(q, float))
         out = self.tool_tip(q, tool, self.b_, jacobian=return_std, features=features, **where)
@@ -427,6 +414,22 @@ class ErrorModel:
             return error
         var = np.einsum("nip,pk,nik->ni", out.J_b, self.cov_[6:, 6:], out.J_b)
         return error, np.sqrt(np.clip(var, 0.0, None))
+
+    def predict_tip(self, q: np.ndarray, tool: np.ndarray | float, frame: str = "tracker", features=None, *,
+                    point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
+        """Modelled tool tips (N,3) [m] for commands q (N,n) [m, rad] and tool lengths
+        [m]: in the tracker frame of the fitted campaign ("tracker", what the tracker reads),
+        the machine base frame ("machine") or relative to the workpiece ("workpiece").
+        ``point``, ``offset``: tool point and target offset [m] (tool link frame).
+        ``features``: per-row time/temperature/directions, for models with effects."""
+        self._check_fitted()
+        if frame not in ("tracker", "machine", "workpiece"):
+            raise InputError(f"`frame` '{frame}': the tips are in 'tracker', 'machine' or 'workpiece'")
+        if frame == "tracker":
+            return predict_tracker(self, q, tool, np.r_[self.e0_, self.b_], self.setup_, features, False,
+                                   point=point, offset=offset)[0]
+        return self.tool_tip(q, tool, self.b_, jacobian=False, features=features, point=point, offset=offset,
+                             frame="base" if frame == "machine" else "workpiece").tip
 
     def predict_nominal(self, q: np.ndarray, tool: np.ndarray | float, *, point: int | np.ndarray = 0,
                         offset: np.ndarray | None = None) -> np.ndarray:
@@ -452,7 +455,7 @@ class ErrorModel:
                 raise VecpinError(f"{campaign.source}: station {s} was not in the fitted campaign")
         if features is None and self.effects:
             features = Features.from_campaign(campaign)
-        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=features)
+        lik = Likelihood(self, campaign, self.noise_, setup=self.setup_, features=features)
         return lik.evaluate(lik.theta_of(self), jacobian=False)
 
     def residuals(self, campaign, reregister: bool = False) -> np.ndarray:
@@ -479,7 +482,7 @@ class ErrorModel:
         if campaign.plain and not campaign.mixed:
             return campaign.xyz - self.predict_nominal(campaign.q, campaign.tool)
         feats = Features.from_campaign(campaign) if self.effects else None
-        lik = Likelihood(self, campaign, self.noise_, setup=copy.deepcopy(self.setup_), features=feats)
+        lik = Likelihood(self, campaign, self.noise_, setup=self.setup_, features=feats)
         return campaign.xyz - lik.predicted_points(np.zeros(lik.n_unknowns))
 
     def ballbar_residuals(self, campaign) -> np.ndarray:

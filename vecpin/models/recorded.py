@@ -73,7 +73,7 @@ def check_figure(model) -> dict | None:
     m = model.machine
     nominal = m.tool_tip(q, tool, frame="workpiece")
     try:
-        err = model.predict_error(q, tool, frame="workpiece")
+        err = model.predict(q, tool, frame="workpiece")
     except VecpinError:
         return None
     d = norm_mm(part_frame_errors(nominal, nominal + err, spindle_axis(m)))

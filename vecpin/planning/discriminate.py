@@ -30,7 +30,6 @@ chi-square between the two closest candidates is printed with the plan).
 """
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -155,7 +154,7 @@ def _whitened(model: ErrorModel, camp: Campaign, feats: Features) -> tuple[np.nd
     the model's own prediction covariance there (``cov_`` = L L^T, H = J L)): the one
     likelihood at the fitted solution (noise of the reading there and the machine's
     positioning noise)."""
-    lik = Likelihood(model, camp, model.noise_, setup=copy.deepcopy(model.setup_), features=feats)
+    lik = Likelihood(model, camp, model.noise_, setup=model.setup_, features=feats)
     ev = lik.evaluate(lik.theta_of(model))
     n = model.cov_.shape[0]
     val, vec = np.linalg.eigh(model.cov_)
@@ -259,7 +258,7 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
         order += list(k)
     q, tool, gain = q[order], tool[order], gain[order]
     camp, feats = _after(campaign, q, tool)
-    y = np.stack([m.predict(q, tool, "tracker", feats) for m in fitted])
+    y = np.stack([m.predict_tip(q, tool, "tracker", feats) for m in fitted])
     tol = 1e-9 + 1e-6 * np.abs(box[1] - box[0])
     out = (q < box[0] - tol).any(axis=0) | (q > box[1] + tol).any(axis=0)
     beyond = {}
@@ -272,7 +271,7 @@ def discriminating_plan(models: dict[str, ErrorModel], campaign: Campaign, *, n_
 
 def _pairs(models: list[ErrorModel], camp: Campaign, feats: Features, scatter: float) -> list[_Pair]:
     """Every pair of candidate models over the pool ``camp`` (its readings are not used)."""
-    y = [m.predict(camp.q, camp.tool, "tracker", feats) for m in models]
+    y = [m.predict_tip(camp.q, camp.tool, "tracker", feats) for m in models]
 
     def reading(k):  # the rows read as candidate k predicts them
         return Campaign(camp.axis_names, camp.q, camp.tool, y[k], camp.extra, camp.source)

@@ -104,3 +104,8 @@ def clip_to_zone(machine: Machine, zone: Zone | None) -> tuple[np.ndarray, np.nd
             raise InputError(f"`zone`: the interval of {a.name} lies outside its limits "
                              f"[{a.lower_user:g}, {a.upper_user:g}] {a.unit}")
     return lo, hi
+
+
+def zone_text(zone: Zone) -> str:
+    """``X=0:400,Y=-100:100`` (mm/deg) of a zone, as :func:`parse_zone` reads it."""
+    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())

@@ -67,7 +67,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
-from vecpin.selection.orders import check_folds
+from vecpin.selection.orders import check_folds, fold_index
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      measured_spans, partly_measured, per_turn_measured)
 from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
@@ -106,11 +106,12 @@ class ModelChoice:
     gross: Screen | None = None  # rows left out as gross errors before the noise level was taken from the data
     fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
     subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
+    grouped: str = "command"  # what the folds group: "command", or "the given fold labels"
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
-                 f"command ({self.rows} rows judged: every reading of a point, the tool's{nests}; linearised), mm",
+                 f"{self.grouped} ({self.rows} rows judged: every reading of a point, the tool's{nests}; linearised), mm",
                  f"  {'candidate':<58s} {'model terms':>11s} {'held-out mean':>13s} {'max':>8s}",
                  f"  {'uncompensated, the rows scored (tracker frame)':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
                  f"{self.uncompensated_mm[1]:8.4f}"]
@@ -158,7 +159,8 @@ class ModelChoice:
                        and c.axes[0].family == "chebyshev"], key=lambda c: c.axes[0].order)
 
     def to_dict(self) -> dict:
-        return {"method": f"{self.folds}-fold cross-validation grouped by command, linearised at the nominal machine",
+        return {"method": f"{self.folds}-fold cross-validation grouped by {self.grouped}, linearised at the nominal "
+                          "machine",
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
@@ -222,19 +224,17 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                  progress: Callable[[str], None] | None = None, screen: bool = True) -> ModelChoice:
     """Score the candidates by linearised k-fold CV and choose one (module docstring).
 
-    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``,
-    ``orders``: what to try (a fixed choice restricts them);
-    ``plans``: the families tried on every axis at once (default ``families``);
-    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``:
-    ``orders`` is one order the user fixed (splines then have that many knots, trends
-    are at most that order); ``seed``: the folds (and the subsample of a large
-    campaign); ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose
-    priors and offsets every candidate carries; ``underdetermined``: also candidates
-    with as many unknowns as equations or more (module text); ``noise_from_data``: the
-    noise level is not known: when the best common candidate's chi2 leaves its band,
-    every noise sigma is scaled by what it says (:func:`_noise_level`) and the choice
-    made with that noise (``ModelChoice.noise_scale``), after the gross rows are left out
-    (:mod:`vecpin.selection.screen`; ``screen``: look for them, the default))."""
+    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``, ``orders``: what to try (a
+    fixed choice restricts them); ``plans``: the families tried on every axis at once (default ``families``);
+    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``: ``orders`` is one order the
+    user fixed (splines then have that many knots, trends are at most that order); ``folds``: their number, or (N,)
+    the user's fold of each row (no ends held out then); ``seed``: the folds (and the subsample of a large campaign);
+    ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose priors and offsets every candidate
+    carries; ``underdetermined``: also candidates with as many unknowns as equations or more (module text);
+    ``noise_from_data``: the noise level is not known: when the best common candidate's chi2 leaves its band, every
+    noise sigma is scaled by what it says (:func:`_noise_level`) and the choice made with that noise
+    (``ModelChoice.noise_scale``), after the gross rows are left out (:mod:`vecpin.selection.screen`; ``screen``:
+    look for them, the default))."""
     args = dict(locals())   # the arguments, for the choice again without the gross rows
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
@@ -243,11 +243,11 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     check_campaign_frames(machine, campaign)
     orders = _check_request(kinds, families, orders)
     noise = noise or NoiseModel.default(machine)
-    camp = _subsample(campaign, seed)
+    camp = campaign if (picked := _subsample(campaign, seed, rows=True)) is None else campaign.subset(picked)
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
-    ends = partly_measured(machine, campaign, travel)
+    ends = () if np.ndim(folds) else partly_measured(machine, campaign, travel)   # given folds: the user's own
     spans = measured_spans(machine, campaign, travel)
-    fold = command_folds(camp, folds, np.random.default_rng(seed), ends)
+    fold = fold_index(folds, picked) if np.ndim(folds) else command_folds(camp, folds, np.random.default_rng(seed), ends)
 
     def linearised(kind: str) -> tuple[Problem, Search]:   # the kinds side by side, here and below
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
@@ -264,8 +264,9 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
         lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans))
     if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
         say(gross.text)
-        keep = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
-        return _with_gross(choose_model(**(args | {"campaign": keep, "noise": noise, "screen": False})), gross)
+        kept = np.setdiff1d(np.arange(len(campaign)), gross.rows)   # (and their fold labels)
+        return _with_gross(choose_model(**(args | {"campaign": campaign.subset(kept), "noise": noise, "screen": False,
+                                                   "folds": folds[kept] if np.ndim(folds) else folds})), gross)
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
     if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
         say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
@@ -288,13 +289,14 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                                                           lambda c: problems[c.kind].size_bound(c)), None)
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
     own_scale = scale * _noise_level(problems[chosen.kind], chosen) if noise_from_data else 1.0
-    limit = search.limit
-    return ModelChoice(machine, cands, best, chosen, se, reason, folds, int(first.judged.sum()),
+    limit = search.limit    # every candidate has fewer unknowns than this (the campaign's equations)
+    return ModelChoice(machine, cands, best, chosen, se, reason, int(fold.max()) + 1, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
                        tuple(machine.axes[a].name for a in ends), scale, before, own_scale,
-                       subsample=(len(camp), len(campaign), seed) if len(camp) < len(campaign) else ())
+                       subsample=(len(camp), len(campaign), seed) if picked is not None else (),
+                       grouped="the given fold labels" if np.ndim(folds) else "command")
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,
@@ -397,13 +399,13 @@ def _too_small(machine: Machine, campaign: Campaign, problems: dict, limit: floa
         f"{'pose' if more == 1 else 'poses'} (or fit with `underdetermined` to let the priors decide the rest)")
 
 
-def _subsample(campaign: Campaign, seed: int) -> Campaign:
+def _subsample(campaign: Campaign, seed: int, rows: bool = False) -> Campaign | np.ndarray | None:
     """At most :data:`MAX_SELECTION_ROWS` rows, the rows of a command kept together. A
     command measured more often than its share (``cap`` rows: a campaign of a few
     commands repeated many times) keeps a random ``cap`` of its rows, so the subsample
-    always holds whole groups of many commands, never none."""
+    always holds whole groups of many commands, never none. ``rows``: the rows kept instead (None: all)."""
     if len(campaign) <= MAX_SELECTION_ROWS:
-        return campaign
+        return None if rows else campaign
     _, group = np.unique(np.round(campaign.q, 9), axis=0, return_inverse=True)
     group = np.asarray(group).ravel()
     rng = np.random.default_rng(seed)
@@ -419,7 +421,8 @@ def _subsample(campaign: Campaign, seed: int) -> Campaign:
         keep_row = rank < cap
         per = np.minimum(per, cap)
     keep_groups = order[np.cumsum(per[order]) <= MAX_SELECTION_ROWS]
-    return campaign.subset(np.flatnonzero(np.isin(group, keep_groups) & keep_row))
+    keep = np.flatnonzero(np.isin(group, keep_groups) & keep_row)
+    return keep if rows else campaign.subset(keep)
 
 
 def parse_order(text) -> int | str:
@@ -461,7 +464,7 @@ BASES = ("auto",) + FAMILIES
 
 
 def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: str = "auto", basis: str = "auto",
-                  order: int | str = "auto", *, folds: int = 5, seed: int = 0, underdetermined: bool = False,
+                  order: int | str = "auto", *, folds: int | np.ndarray = 5, seed: int = 0, underdetermined: bool = False,
                   progress: Callable[[str], None] | None = None, noise_from_data: bool = False,
                   travel: tuple[np.ndarray, np.ndarray] | None = None, **opts):
     """(unfitted model, the choice or None): the model the data choose, with any of

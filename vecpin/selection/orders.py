@@ -111,9 +111,16 @@ def check_orders(machine: Machine, campaign: Campaign, kinds, orders, *, folds: 
                          f"gives {eq} equations{' in each fold' if folds else ''}; this campaign determines {hint}")
 
 
-def check_folds(campaign: Campaign | None, folds: int, option: str = "`folds`") -> None:
+def check_folds(campaign: Campaign | None, folds, option: str = "`folds`") -> None:
     """k-fold cross-validation needs 2 <= k <= the campaign's distinct commands (rows of
-    one command share a fold); ``campaign`` None: only the first."""
+    one command share a fold); ``campaign`` None: only the first. ``folds`` (N,) fold
+    indices, one per row (the user's labels): one per row of ``campaign`` and two folds at least."""
+    if np.ndim(folds):
+        n = len(folds) if campaign is None else len(campaign)
+        if len(folds) != n or len(np.unique(folds)) < 2:
+            raise InputError(f"{option}: {len(folds)} fold labels, {len(np.unique(folds))} distinct, for {n} rows: "
+                             "give one label per row and at least 2 distinct labels")
+        return
     if int(folds) != folds or folds < 2:
         raise InputError(f"{option} {folds}: cross-validation needs at least 2 folds")
     if campaign is None:
@@ -125,6 +132,12 @@ def check_folds(campaign: Campaign | None, folds: int, option: str = "`folds`") 
     if folds > n:
         raise InputError(f"{option} {folds}: {campaign.source} has {n} distinct commands, and the rows of one command "
                          f"share a fold; use at most {n} folds (5 or 10 is usual)")
+
+
+def fold_index(labels: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+    """(n,) fold indices 0..k-1 of the given rows (None: all) from one fold label per row."""
+    labels = np.asarray(labels)
+    return np.unique(labels if rows is None else labels[rows], return_inverse=True)[1].ravel()
 
 
 def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,

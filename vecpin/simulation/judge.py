@@ -145,11 +145,11 @@ def validation_error(model, truth, q: np.ndarray, tool: np.ndarray) -> tuple[flo
     m = truth.machine
     P = range(len(m.tool_links))
     if m.has_workpiece:
-        pred = np.vstack([model.predict(q, tool, "workpiece", point=k) for k in P])
+        pred = np.vstack([model.predict_tip(q, tool, "workpiece", point=k) for k in P])
         true = np.vstack([truth.tool_tip(q, tool, frame="workpiece", point=k) for k in P])
         d = norm_mm(registered_errors(pred, true))
     else:
-        d = norm_mm(np.vstack([model.predict(q, tool, point=k) - truth.measure(q, tool, None, point=k) for k in P]))
+        d = norm_mm(np.vstack([model.predict_tip(q, tool, point=k) - truth.measure(q, tool, None, point=k) for k in P]))
     return float(d.mean()), float(d.max())
 
 

@@ -154,7 +154,7 @@ def scene_vectors(model, campaign: Campaign, tables=None) -> tuple[np.ndarray, n
     check_same_pose(m.tool_tip(campaign.q, campaign.tool, frame="base"), model.predict_nominal(campaign.q, campaign.tool),
                     campaign.xyz, campaign.source, "the model", campaign.lines)
     nominal = m.tool_tip(campaign.q, campaign.tool, frame="base")
-    identified = model.predict(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
+    identified = model.predict_tip(campaign.q, campaign.tool, "machine", features=_features(model, campaign))
     measured = to_machine_frame(model, campaign.xyz)
     vectors = {"errors": measured - nominal, "residuals": measured - identified}
     if tables is not None:

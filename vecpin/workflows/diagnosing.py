@@ -15,7 +15,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
 from vecpin.planning.zones import Zone, clip_to_zone
-from vecpin.workflows.fitting import zone_rows
+from vecpin.fitting.problem import zone_rows
 
 
 @dataclass

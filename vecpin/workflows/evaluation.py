@@ -96,7 +96,7 @@ def evaluate(model: ErrorModel, campaign: Campaign, reregister: bool = False, zo
     if getattr(model, "setup_", None) is not None and model.setup_.targets:
         campaign = dataclasses.replace(campaign, targets=dict(model.setup_.targets) | dict(campaign.targets))
     if zone:
-        from vecpin.workflows.fitting import zone_rows
+        from vecpin.fitting.problem import zone_rows
         campaign = zone_rows(model.machine, campaign, zone)
     check_nest_rows(model.machine, campaign)
     few = len(campaign.nest_rows) > 0 and not registers_table(campaign)

@@ -1,71 +1,31 @@
-"""Fit a campaign with the model the data choose (the ``fit`` command).
-
-With no model options the kind, the basis of every axis and the order are chosen by
-held-out data (:func:`vecpin.selection.choice.choose_model`); ``kind``, ``basis`` and
-``order`` fix any of them. The chosen model is then fitted by maximum likelihood and
-carries the choice (``selection_``, written into its model file).
-
-A *zone* (``zone``: {axis: (low, high)} mm/deg, Section 2.6's East/West) restricts the
-fit to the rows commanded inside it: a machine calibrated in zones gets one model (and
-one table set) per zone, each recording its zone.
+"""Fit a campaign with the model the data choose (the ``fit`` command): a
+:class:`~vecpin.fitting.problem.FitProblem` built from the one table of the fit's settings
+(:data:`~vecpin.fitting.problem.DEFAULTS`), solved, and its result with the lines ``vecpin fit``
+prints (:class:`FitRun`). ``vecpin.fit`` is :func:`fit_campaign`.
 """
 from __future__ import annotations
 
-import math
-import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Callable
 
 import numpy as np
 
-from vecpin.errors import InputError, VecpinWarning
-from vecpin.identification.variance import VarianceComponents, variance_components
-from vecpin.kinematics.machine import Machine
-from vecpin.measurement.instruments.multilateration import check_stations
-from vecpin.measurement.campaign import Campaign, min_rows
-from vecpin.measurement.noise import NoiseModel, scaled_noise
-from vecpin.measurement.campaignchecks import still_axes_notes
-from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_fit, table_campaign_notes
+from vecpin.fitting.problem import FitProblem, FitResult
+from vecpin.planning.zones import zone_text
+from vecpin.measurement.campaignrows import Campaign
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
-from vecpin.planning.zones import Zone, clip_to_zone, inside
-from vecpin.selection.choice import ModelChoice, choose_or_fix
-from vecpin.selection.screen import Screen
-from vecpin.selection.orders import check_folds
 from vecpin.units import MM_PER_M, norm_mm
 from vecpin.workflows.summary import per_tool_table
 
 
-MAX_UNKNOWNS = 5000  # a fit holds a few dense unknowns x unknowns matrices: 5000 -> 200 MB each
+@dataclass(frozen=True)
+class FitRun(FitResult):
+    """A fit's :class:`~vecpin.fitting.problem.FitResult` with :meth:`lines`, what ``vecpin fit`` prints."""
 
-
-def check_size(model: ErrorModel) -> None:
-    """Refuse, before the fit, a model whose normal equations alone would take gigabytes."""
-    n = model.n_parameters + 6
-    if n > MAX_UNKNOWNS:
-        raise InputError(f"`order` {model.order}: the {model.kind} model has {n} unknowns; its normal equations "
-                         f"would need about {4 * n * n * 8 / 1e9:.1f} GB (vecpin fits at most {MAX_UNKNOWNS} unknowns); "
-                         "use a lower `order`")
-
-
-@dataclass
-class FitRun:
-    """A fit of a campaign: the model (fitted), the choice that made it (None: fixed), and
-    what the data said of the noise level; :meth:`lines` is what ``vecpin fit`` prints."""
-
-    model: ErrorModel
-    choice: ModelChoice | None
-    rows_in_zone: int | None = None  # rows the zone kept (None: no zone)
-    rows: int = 0                    # rows of the campaign
-    noise_scale: float | None = None      # the noise level the data gave, times the stated one (None: not asked)
-    noise_scale_sd: float | None = None   # its standard deviation
-    noise_rescaled: bool = False          # the choice and the fit used the noise scaled to the data
-    noise_used: float = 1.0               # the scale of the stated noise the final fit used
-    campaign: Campaign | None = None      # the rows fitted (those in the zone)
-    components: VarianceComponents | None = None  # the residuals' reading and pose parts (tracker rows only)
-    gross: Screen | None = None           # rows left out as gross errors (selection.screen)
-    residuals: np.ndarray | None = None   # (N, 3) [m] measured minus modelled of ``campaign``'s rows
-    measured: Campaign | None = None      # the rows measured (in the zone), gross ones included: the uncompensated
+    @classmethod
+    def of(cls, result: FitResult) -> "FitRun":
+        return cls(*(getattr(result, f.name) for f in fields(FitResult)))
 
     def lines(self) -> list[str]:
         """The fit's printout: zone, choice table, fit report, noise, the uncompensated and
@@ -172,145 +132,14 @@ def fitted_points_lines(model: ErrorModel) -> list[str]:
     return out
 
 
-def zone_text(zone: Zone) -> str:
-    """``X=0:400,Y=-100:100`` (mm/deg) of a zone."""
-    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
-
-
-NOISE_ROUNDS = 3   # fits of the chosen model at most when the noise level comes from the data
-
-
-def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "zone") -> Campaign:
-    """The rows of ``campaign`` commanded inside ``zone`` (an axis the machine does not
-    have, or too few rows left, refused; ``option``: the parameter named in the message)."""
-    keep = inside(machine, campaign.q, [zone])
-    need = min_rows(machine.n_axes)
-    if keep.sum() < need:
-        raise InputError(f"`{option}` {zone_text(zone)}: only {int(keep.sum())} of the {len(campaign)} rows of {campaign.source} "
-                         f"lie in the zone; a fit needs at least {need}")
-    return campaign.subset(keep)
-
-
-def fit_arguments(machine, campaign, noise) -> tuple[Machine, Campaign, NoiseModel]:
-    """The facade's arguments as objects: ``machine`` a :class:`Machine`, a bundled name or a
-    URDF path; ``campaign`` a :class:`Campaign` or a CSV path (read for that machine);
-    ``noise`` a :class:`NoiseModel`, None (the default) or an instrument's name
-    ("spherical", "cartesian"). Anything else is refused, naming the argument."""
-    from pathlib import Path
-    from vecpin.measurement.campaign import read_campaign
-    if isinstance(machine, (str, Path)):
-        machine = Machine.load(machine)
-    elif not isinstance(machine, Machine):
-        raise InputError(f"`machine` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
-    if isinstance(campaign, (str, Path)):
-        campaign = read_campaign(campaign, machine)
-    elif not isinstance(campaign, Campaign):
-        raise InputError(f"`campaign` {type(campaign).__name__}: give a Campaign or the path of a campaign CSV")
-    if noise is None or isinstance(noise, str):
-        noise = NoiseModel.default(machine) if noise is None else NoiseModel.default(machine, noise)
-    elif not isinstance(noise, NoiseModel):
-        raise InputError(f"`noise` {type(noise).__name__}: give a NoiseModel, None (the default) or an instrument's "
-                         "name such as \"spherical\"")
-    return machine, campaign, noise
-
-
-def fit_campaign(machine: Machine, campaign: Campaign, noise: NoiseModel | None = None, *, kind: str = "auto",
-                 basis: str = "auto", order: int | str = "auto", tool_corrections: bool = False,
-                 prior_scale: float = 1.0, underdetermined: bool = False, folds: int = 5, zone: Zone | None = None,
-                 noise_from_data: bool | None = None, nest_heights: dict | None = None,
-                 progress: Callable[[str], None] | None = None) -> FitRun:
-    """Choose (where not fixed) and fit the model of ``campaign`` (of its rows in ``zone``).
-
-    ``nest_heights``: {nest id: mm}, the height of each table nest's reflector centre above
-    the table's face (three or more): the model then knows where the face is, and the
-    tables keep it square to the spindle (:func:`vecpin.compensation.frame.on_the_table_face`).
-
-    ``noise_from_data``: the noise level is not known (default: when ``noise`` states none, None or an
-    instrument's name, as ``vecpin fit`` without noise settings; a :class:`NoiseModel` states it): the model
-    choice scales every noise sigma to what its linearised fit says when the chi2 leaves
-    its band (:func:`vecpin.selection.choice.choose_model`), once; when the fit's chi2
-    still leaves its band, the same model is fitted again with the scale
-    sqrt(chi2 / expected) gives (:func:`_fit_rounds`). The ratio of machine to instrument noise is kept: one level, not
-    two variance components, is what the residuals tell apart from the model. ``noise``
-    default: :meth:`NoiseModel.default`, the tracker's native spherical model."""
-    if noise_from_data is None:
-        noise_from_data = noise is None or isinstance(noise, str)
-    machine, campaign, noise = fit_arguments(machine, campaign, noise)
-    rows = len(campaign)
-    if zone:
-        campaign = zone_rows(machine, campaign, zone)
-    notes = table_campaign_notes(machine, campaign) + still_axes_notes(machine, campaign)  # nests w/o table refused
-    for note in notes:
-        warnings.warn(VecpinWarning(note), stacklevel=2)
-    check_folds(campaign if "auto" in (kind, basis, str(order)) else None, folds)
-    if not (math.isfinite(prior_scale) and prior_scale > 0):
-        raise InputError(f"`prior_scale` {prior_scale}: the prior scale must be a positive number (default 1)")
-    if noise.instrument == "range":
-        check_stations(campaign)
-    opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if tool_corrections else None,
-            "prior_scale": prior_scale}
-    model, choice = choose_or_fix(machine, campaign, noise, kind, basis, order, folds=folds,
-                                  underdetermined=underdetermined, progress=progress,
-                                  travel=clip_to_zone(machine, zone) if zone else None,
-                                  noise_from_data=noise_from_data, **opts)
-    check_size(model)
-    (start, gross), measured = ((choice.chosen_noise_scale, choice.gross) if choice else (1.0, None)), campaign
-    if gross is not None:   # gross rows the choice left out: the fit leaves them out too
-        campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
-    choice = None if choice is not None and choice.fixed else choice   # a fixed model: no choice to show or keep
-    model, scale, estimate, sd = _fit_rounds(model, campaign, noise, start, noise_from_data, underdetermined,
-                                             progress)
-    rescaled = scale != 1.0
-    residuals = model.residuals(campaign)   # for the moved nests, the printout and the variance components
-    if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
-        for note in moved_nest_after_fit(campaign, residuals):
-            warnings.warn(VecpinWarning(note), stacklevel=2)
-    if nest_heights:
-        model.setup_.nest_heights = check_nest_heights(nest_heights, model.setup_.nests)
-    if choice is not None:
-        model.selection_ = choice.to_dict()
-    if zone:
-        model.zone_ = dict(zone)
-    run = FitRun(model, choice, len(campaign) if zone else None, rows, estimate, sd, rescaled, scale, campaign)
-    run.gross, run.measured, run.residuals = gross, measured, residuals
-    run.components = _components(model, campaign, scale, residuals)
-    return run
-
-
-def _fit_rounds(model: ErrorModel, campaign: Campaign, noise: NoiseModel, scale: float, noise_from_data: bool,
-                underdetermined: bool, progress) -> tuple[ErrorModel, float, float | None, float | None]:
-    """Fit ``model`` with every noise sigma times ``scale`` (the level the chosen model's
-    linearised fit gave in the choice, so that one fit usually lands in band); with
-    ``noise_from_data``, while the fit's chi2 leaves its band, fit again (the same
-    model, fitted from scratch: one choice per fit) with the scale sqrt(chi2 / expected)
-    gives, at most :data:`NOISE_ROUNDS` fits, until it settles within 5 %. Returns (the fitted model,
-    the scale it used, the level the data give and its standard deviation (None: not
-    asked))."""
-    estimate, sd = None, None
-    for k in range(NOISE_ROUNDS if noise_from_data else 1):
-        used = scaled_noise(noise, scale) if scale != 1.0 else noise
-        if progress:
-            progress(f"fitting the {model.kind} model ({model.n_parameters} model terms) to {len(campaign)} rows")
-        model.fit(campaign, used, progress=progress, underdetermined=underdetermined)
-        rep = model.report_
-        if not noise_from_data or rep.chi2_expected <= 0:
-            break
-        step = math.sqrt(rep.chi2 / rep.chi2_expected)
-        estimate, sd = scale * step, scale * step / math.sqrt(2 * rep.chi2_expected)
-        if rep.chi2_in_band or abs(step - 1) < 0.05 or k == NOISE_ROUNDS - 1:
-            break
-        scale = estimate
-        if progress:
-            progress(f"noise from the data: {scale:.2f} x the stated noise; fitting again")
-    return model, scale, estimate, sd
-
-
-def _components(model: ErrorModel, campaign: Campaign, scale: float, r: np.ndarray) -> VarianceComponents | None:
-    """The variance components of the fit's residuals ``r`` (N, 3) [m] (tracker rows of one
-    station only)."""
-    rep = model.report_
-    if not (campaign.plain and not campaign.mixed and np.isfinite(r).all() and rep.chi2 > 0):
-        return None
-    total = math.sqrt(float((r**2).sum()) / max(rep.chi2_expected, 1.0)) * MM_PER_M
-    stated = total / math.sqrt(rep.chi2 / max(rep.chi2_expected, 1.0)) / scale  # the stated noise's level, mm
-    return variance_components(r, campaign, rep.chi2_expected, stated)
+def fit_campaign(machine, campaign, noise=None, *, progress: Callable[[str], None] | None = None,
+                 **settings) -> FitRun:
+    """Choose (where not fixed) and fit the model of ``campaign``: the
+    :class:`~vecpin.fitting.problem.FitProblem` of ``machine`` (a Machine, a bundled machine's
+    name or a URDF path), ``campaign`` (a Campaign or a CSV path), ``noise`` (a NoiseModel;
+    None, the default, or an instrument's name such as "spherical": the tracker's native
+    model with its level taken from the data) and ``settings`` by name (``kind``, ``basis``,
+    ``order``, ``tool_corrections``, ``prior_scale``, ``underdetermined``, ``cv``, ``zone``,
+    ``noise_from_data``, ``nest_heights``: :data:`~vecpin.fitting.problem.DEFAULTS`), solved
+    (:meth:`~vecpin.fitting.problem.FitProblem.solve`); ``progress``: a callback for progress lines."""
+    return FitRun.of(FitProblem.build(machine, campaign, noise, **settings).solve(progress))

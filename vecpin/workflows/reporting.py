@@ -163,9 +163,9 @@ def predicted_compensated(model: ErrorModel, tables, campaign: Campaign, frame=N
         from vecpin.measurement.features import Features
         feats = Features.from_campaign(c)
     m = model.machine
-    residual = to_machine_frame(model, c.xyz) - model.predict(c.q, c.tool, "machine", features=feats)
+    residual = to_machine_frame(model, c.xyz) - model.predict_tip(c.q, c.tool, "machine", features=feats)
     nominal = m.tool_tip(c.q, c.tool + tables.gauge_offset_change, frame="base")
-    comp = (frame or model_reference_frame(model)).apply(model.predict(tables.apply(c.q), c.tool, "machine", features=feats))
+    comp = (frame or model_reference_frame(model)).apply(model.predict_tip(tables.apply(c.q), c.tool, "machine", features=feats))
     return norm_mm(part_frame_errors(nominal, residual + comp, spindle_axis(m)))
 
 

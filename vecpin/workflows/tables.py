@@ -30,7 +30,7 @@ from vecpin.export.signtest import (SignTest, SignVerdict, evaluate_sign_test, f
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import ErrorModel
-from vecpin.planning.zones import check_zone_units
+from vecpin.planning.zones import check_zone_units, zone_text
 from vecpin.units import MM_PER_M, slip_text
 
 LOST_SHARE = 0.02    # files giving up more than this share of what the full tables remove say so first
@@ -443,10 +443,6 @@ def _cross_tables_over(tables: TableSet, m, prof: ControllerProfile, differentia
 def model_zone(model) -> dict | None:
     """The zone a model was fitted in ({axis: (low, high)} mm/deg), or None."""
     return getattr(model, "zone_", None)
-
-
-def zone_text(zone: dict) -> str:
-    return ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zone.items())
 
 
 def _without(model: ErrorModel, effects: list) -> ErrorModel:

@@ -395,7 +395,7 @@ def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _M
         if model.effects:
             from vecpin.measurement.features import Features
             feats = Features.from_campaign(b)
-        predicted = model.predict(b.q, b.tool, "machine", features=feats)
+        predicted = model.predict_tip(b.q, b.tool, "machine", features=feats)
         R, t = rigid_registration(predicted, b.xyz)  # the run on the model: what is left is what it does not describe
         resid = (b.xyz - t) @ R - predicted
     return before, norm_mm(part_frame_errors(ref, ref + comp + resid, spindle_axis(machine))), (
