@@ -143,6 +143,11 @@ def best_for(r: dict) -> dict:
     return r["best"]["table" if r["frame"].startswith("the table's face") else "reference"]
 
 
+def _about(w) -> str:
+    """A tilt vector [µrad] in words: its components about the table's x and y."""
+    return f"{w[0]:+.0f} about x, {w[1]:+.0f} about y"
+
+
 def findings(rows: list[dict]) -> list[str]:
     """What the figures say, per frame (markdown paragraphs; every number from ``rows``)."""
     lines = [r for r in rows if r["frame"] == "reference lines"]
@@ -161,7 +166,8 @@ def findings(rows: list[dict]) -> list[str]:
                 "keep the lines (the turn above), the compensated volume stays tilted against the bed by what the "
                 "bed is tilted against the lines, and the best table set that keeps the lines does no better: "
                 + "; ".join(f"{r['machine']}: bed against its lines {r['uncompensated']['lines_tilt_urad']:.0f} µrad, "
-                            f"compensated tilt {r['compensated']['tilt_urad']:.0f} µrad, part "
+                            f"compensated tilt {r['compensated']['tilt_urad']:.0f} µrad ("
+                            f"{_about(r['compensated']['tilt_vector_urad'])}), part "
                             f"{r['compensated']['part']:.4f}"
                             f" against {r['best']['reference']['part']:.4f} mm for the best set keeping the lines and "
                             f"{r['best']['table']['part']:.4f} mm on the true table" for r in lines) + ". "
