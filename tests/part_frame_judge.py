@@ -9,13 +9,26 @@ the simulated true machine with them and judges the tool tip relative to the tru
   and a rotation about the spindle removed, nothing else; found here by
   ``scipy.optimize.least_squares`` over those four numbers, not by vecpin's closed form);
 * shape: the best rigid motion removed (scipy's ``Rotation.align_vectors``);
-* the turn the tables give the working volume, two ways: ISO 230-1's reference lines
-  measured as a metrologist measures them, by straight moves of X and of Y alone (the
-  other axes at home), least-squares lines through the tips (``numpy.polyfit``), before
-  and after compensation, the angle between the two frames those lines span
-  (``turn_urad``); and the angle between the best-fit orientations of the whole volume
-  before and after (``volume_turn_urad``, scipy's ``Rotation.align_vectors``, on 6000
-  quasi-random commands of its own: scipy's Halton sequence).
+* the frame, as a metrologist measures each definition of it:
+
+  - ISO 230-1's reference lines: X moved alone, then Y alone, through the middle of the
+    box (linear axes at its centre, rotary axes at home), least-squares lines through the
+    tips (``numpy.polyfit``); ``turn_urad`` the angle between the frames those lines span
+    before and after compensation (the net rotation tables add where they keep the
+    lines), ``lines_tilt_urad`` the angle between the plane of X's and Y's lines and the
+    true table's face (the nominal plane): uncompensated, the truth's bed against its own
+    lines; compensated, the plane the tip traces with the table at home against the face;
+  - the volume: the best-fit orientation of the whole working volume (scipy's
+    ``Rotation.align_vectors`` on 6000 quasi-random commands of its own: scipy's Halton
+    sequence); ``volume_turn_urad`` the angle between it before and after (the net
+    rotation where the tables keep the volume's mean orientation: a turning table, an arm),
+    ``tilt_urad`` / ``tilt_vector_urad`` its tilt against the true table (the component
+    square to the spindle, which a part set up on the table cannot remove), the angle the
+    table's face is judged by where the campaign read the face.
+
+Removing a squareness error turns the volume's best-fit orientation by about half the
+squareness while the reference lines stay: where tables keep the lines, the volume's turn is
+not a rotation they add.
 
 Only the truth (the simulated machine) and the nominal kinematics come from vecpin."""
 from __future__ import annotations
@@ -79,11 +92,13 @@ def shape_errors(nominal: np.ndarray, tip: np.ndarray) -> np.ndarray:
 
 def line_frame(tip_of, machine, box, tool: float, n: int = 41) -> np.ndarray:
     """(3,3) rows: the directions x, y, z of the frame ISO 230-1's reference lines span:
-    X moved alone, then Y alone (every other axis at home, 0 or the nearest end of the
-    box), a least-squares line through the tips of each; x along X's line, z square to
-    both, y = z x x. ``tip_of(q, tool)`` gives the tips (N,3)."""
+    X moved alone, then Y alone, through the middle of the box (the other linear axes at
+    its centre, every rotary axis at home: 0 or the nearest end of the box), a
+    least-squares line through the tips of each; x along X's line, z square to both,
+    y = z x x. ``tip_of(q, tool)`` gives the tips (N,3)."""
     lo, hi = box
-    home = np.clip(np.zeros(machine.n_axes), lo, hi)
+    rotary = np.array([a.kind == "rotary" for a in machine.axes])
+    home = np.where(rotary, np.clip(np.zeros(machine.n_axes), lo, hi), 0.5 * (lo + hi))
     dirs = []
     for name in ("X", "Y"):
         k = machine.axis_names.index(name)
@@ -97,16 +112,33 @@ def line_frame(tip_of, machine, box, tool: float, n: int = 41) -> np.ndarray:
     return np.array([x, np.cross(z, x), z])
 
 
+def tilt(rotvec: np.ndarray, spindle: np.ndarray) -> np.ndarray:
+    """The part of a small rotation ``rotvec`` (3,) square to ``spindle``: the tilt a part
+    set up on the table sees (the turn about the spindle is removed by aligning an edge)."""
+    s = spindle / np.linalg.norm(spindle)
+    return rotvec - (rotvec @ s) * s
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> float:
+    return float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
+
+
 def judge(truth, machine, tables_path: Path | None, q: np.ndarray, tool: np.ndarray, box) -> dict:
     """Mean tip errors [mm] of the true machine through the tables in ``tables_path`` (None:
     uncompensated) on commands ``q`` x ``tool`` [m], judged as a part (``part``) and as the
-    error's shape (``shape``), and ``turn_urad``, the angle between the frames of the reference
-    lines before and after (0 uncompensated); ``box`` (lower, upper) [m, rad] where lines are moved."""
+    error's shape (``shape``), and the frame [µrad] (the module text): ``turn_urad`` and
+    ``volume_turn_urad`` (0 uncompensated), ``lines_tilt_urad``, ``tilt_urad`` and
+    ``tilt_vector_urad`` (3,); ``box`` (lower, upper) [m, rad] where lines are moved and the
+    volume is sampled."""
+    from scipy.stats import qmc
     tables = read_tables(tables_path) if tables_path is not None else {"gauge_mm": 0.0, "tables": []}
     dT = tables["gauge_mm"] * 1e-3
 
+    def true_tip(qq, tt):
+        return truth.tool_tip(qq, tt, frame="workpiece")
+
     def comp(qq, tt):
-        return truth.tool_tip(apply(tables, machine, qq), tt, frame="workpiece")
+        return true_tip(apply(tables, machine, qq), tt)
 
     def nominal(qq, tt):
         return machine.tool_tip(qq, tt + dT, frame="workpiece")
@@ -116,17 +148,22 @@ def judge(truth, machine, tables_path: Path | None, q: np.ndarray, tool: np.ndar
     out = {"part": float(np.linalg.norm(part_errors(nom, tip, spindle), axis=1).mean() * 1e3),
            "shape": float(np.linalg.norm(shape_errors(nom, tip), axis=1).mean() * 1e3), "turn_urad": 0.0,
            "volume_turn_urad": 0.0}
-    if tables["tables"]:   # on 6000 quasi-random commands of its own: the best-fit rotation of 600 moves by 50 µrad
-        from scipy.stats import qmc
-        lo, hi = box
-        qv = lo + qmc.Halton(len(lo), seed=11).random(6000) * (hi - lo)
-        tv = np.resize(np.unique(tool), len(qv))
-        before = orientation(machine.tool_tip(qv, tv, frame="workpiece"), truth.tool_tip(qv, tv, frame="workpiece"))
-        after = orientation(nominal(qv, tv), comp(qv, tv))
+    # on 6000 quasi-random commands of its own: the best-fit rotation of 600 moves by 50 µrad from one set to the next
+    lo, hi = box
+    qv = lo + qmc.Halton(len(lo), seed=11).random(6000) * (hi - lo)
+    tv = np.resize(np.unique(tool), len(qv))
+    after = orientation(nominal(qv, tv), comp(qv, tv))
+    w = tilt(after.as_rotvec(), spindle) * 1e6
+    out["tilt_urad"], out["tilt_vector_urad"] = float(np.linalg.norm(w)), w.tolist()
+    if tables["tables"]:
+        before = orientation(machine.tool_tip(qv, tv, frame="workpiece"), true_tip(qv, tv))
         out["volume_turn_urad"] = float((after * before.inv()).magnitude() * 1e6)
-    if "X" in machine.axis_names and "Y" in machine.axis_names and tables["tables"]:
+    if "X" in machine.axis_names and "Y" in machine.axis_names:
         t0 = float(np.median(tool))
-        before = line_frame(lambda qq, tt: truth.tool_tip(qq, tt, frame="workpiece"), machine, box, t0)
-        after = line_frame(comp, machine, box, t0)
-        out["turn_urad"] = float(Rotation.from_matrix(after.T @ before).magnitude() * 1e6)
+        now = line_frame(comp, machine, box, t0)
+        out["lines_tilt_urad"] = _angle(now[2], line_frame(lambda qq, tt: machine.tool_tip(qq, tt, frame="workpiece"),
+                                                           machine, box, t0)[2]) * 1e6
+        if tables["tables"]:
+            before = line_frame(true_tip, machine, box, t0)
+            out["turn_urad"] = float(Rotation.from_matrix(now.T @ before).magnitude() * 1e6)
     return out

@@ -90,6 +90,49 @@ def test_linearised_reference_turn_matches_the_exact_one():
             np.testing.assert_allclose(lin[s], exact, atol=2e-3 * np.abs(exact).max() + 1e-9)
 
 
+class _Sheared:
+    """A true head machine in closed form: the nominal one with Z out of square to X by
+    ``gamma`` [rad] (the tip moves gamma x Z along x) and the whole volume tilted by ``w``
+    (3,) [rad] about ``centre`` against the table."""
+
+    def __init__(self, machine, gamma: float, w: np.ndarray, centre: np.ndarray):
+        self.machine, self.gamma, self.R, self.centre = machine, gamma, Rotation.from_rotvec(w), centre
+
+    def tool_tip(self, q, tool, frame="workpiece"):
+        tip = self.machine.tool_tip(q, tool, frame=frame) + np.outer(self.gamma * q[:, 2], [1.0, 0.0, 0.0])
+        return self.R.apply(tip - self.centre) + self.centre
+
+
+def test_the_judge_measures_each_frame_as_defined(tmp_path):
+    """Closed forms on a sheared, tilted head machine: uncompensated, the plane of X's and Y's
+    lines is tilted by the bed's tilt alone (Z's squareness does not touch it); a table
+    X(Z) = -gamma Z that removes the squareness leaves the lines' frame where it was (turn
+    0) and the bed's tilt in place, while the volume's best-fit orientation turns by
+    gamma * var(z) / (var(x) + var(z)) about y: the volume's turn is not a rotation the
+    tables add where they keep the lines."""
+    import json
+    m = vecpin.Machine.load("cincinnati_20v")
+    lo, hi = m.lower.copy(), m.upper.copy()
+    lo[3:] = hi[3:] = 0.0                                   # the head at A = B = 0: tips are the box itself
+    gamma, w = 2e-4, np.array([1e-4, 0.0, 0.0])
+    truth = _Sheared(m, gamma, w, np.array([1.0, -0.4, -0.75]))
+    z = np.linspace(lo[2], hi[2], 201) * 1e3                # mm
+    (tmp_path / "tables.json").write_text(json.dumps({"gauge_offset_change_mm": 0.0, "tables": [
+        {"input_axis": "Z", "output_axis": "X", "start": z[0], "step": z[1] - z[0], "values": list(-gamma * z),
+         "modulo": False}]}))
+    q = pseudo_commands(m, 200, seed=1, lower=lo, upper=hi)
+    tool = np.tile(TOOLS, 100)
+    before = judge(truth, m, None, q, tool, (lo, hi))
+    after = judge(truth, m, tmp_path / "tables.json", q, tool, (lo, hi))
+    assert before["lines_tilt_urad"] == pytest.approx(100.0, abs=0.1)
+    assert after["lines_tilt_urad"] == pytest.approx(100.0, abs=0.1) and after["turn_urad"] < 0.1
+    vx, vz = (hi[0] - lo[0]) ** 2, (hi[2] - lo[2]) ** 2    # variances of a uniform box, up to the same 1/12
+    assert after["volume_turn_urad"] == pytest.approx(200.0 * vz / (vx + vz), rel=0.03)
+    assert after["tilt_urad"] == pytest.approx(100.0, abs=0.5)
+    assert before["tilt_urad"] == pytest.approx(np.hypot(100.0, 200.0 * vz / (vx + vz)), rel=0.03)
+    assert after["shape"] < 1e-6 < 0.01 < after["part"]     # a rigid tilt is all that is left: the part sees it
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["flow_xyzcb", "trunnion_xyzac"])
 def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
@@ -114,6 +157,7 @@ def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
     assert turn < 50.0, after
     assert plan.frame.net_rotation < 50e-6 and not plan.frame.excessive
     assert any(n.startswith("frame kept: ") for n in plan.report.notes)
+    assert ("turn the frame of the reference lines by" in plan.frame.text) == pf.uses_lines(m)
 
 
 @pytest.mark.slow
@@ -170,6 +214,7 @@ def test_the_table_face_from_nest_heights_is_kept(tmp_path):
             model.setup_ = replace(model.setup_, nest_heights=check_nest_heights(heights, model.setup_.nests))
         plan = plan_tables(model, uncertainty=False)
         assert ("table's face" in plan.frame.how) == face
+        assert ("tilt the compensated volume against the table's face by" in plan.frame.text) == face
         write_tables(plan.tables, m, tmp_path / str(face))
         box = measured_box(model)
         q = pseudo_commands(m, 400, seed=9, lower=box[0], upper=box[1])

@@ -19,9 +19,10 @@ from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.tables import TableSet
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
-from vecpin.kinematics.so3 import exp3
+from vecpin.kinematics.so3 import exp3, log3
 from vecpin.measurement import partframe
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
+from vecpin.measurement.registration import rigid_registration
 from vecpin.models import ErrorModel
 from vecpin.models.recorded import recorded_box
 from vecpin.units import MM_PER_M
@@ -56,12 +57,16 @@ class ReferenceFrame:
     machine's tips (relative to the workpiece) about ``centre`` (3,) [m] into it; ``how``
     says how it is defined, in words (:func:`vecpin.measurement.partframe.reference_rotation`);
     ``hold_turn``: True where it is the volume's mean orientation, which the tables must
-    not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``)."""
+    not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``);
+    ``kind``: which definition, as :func:`frame_kept` measures the tables' turn against it:
+    "lines" (ISO 230-1's reference lines), "orientation" (the volume's mean orientation),
+    "face" (the table's face found by nests) or "" (a frame given outright)."""
 
     R: np.ndarray
     centre: np.ndarray
     how: str
     hold_turn: bool = False
+    kind: str = ""
 
     @property
     def angle(self) -> float:
@@ -87,7 +92,8 @@ def reference_frame(actual: ActualMachine, machine: Machine, tools, lower: np.nd
     tip = actual(qq, tt, False, pt)[0]
     R, how = partframe.reference_rotation(machine, qq, tt, nominal_tip(machine, qq, tt, pt), tip,
                                           partframe.spindle_axis(machine))
-    return ReferenceFrame(R, tip.mean(axis=0), how, not partframe.uses_lines(machine))
+    lines = partframe.uses_lines(machine)
+    return ReferenceFrame(R, tip.mean(axis=0), how, not lines, "lines" if lines else "orientation")
 
 
 def in_reference_frame(actual: ActualMachine, frame: ReferenceFrame) -> ActualMachine:
@@ -161,7 +167,7 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heig
     sin = np.linalg.norm(axis)
     tilt = exp3(axis * np.arcsin(min(sin, 1.0)) / max(sin, 1e-300))
     return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted so that the table's face, found by nests "
-                          + ", ".join(ids) + " at their given heights, is square to the spindle")
+                          + ", ".join(ids) + " at their given heights, is square to the spindle", kind="face")
 
 
 def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
@@ -177,9 +183,9 @@ FRAME_COMMANDS = 1000  # commands of a plan on which the tables' turn of the vol
 @dataclass
 class FrameKept:
     """How the tables keep the machine's frame: its definition (``how``), the angle [rad] by
-    which the compensated volume is turned against it (best-fit rotation over the plan's
-    points), the largest correction the tables make at the tool tip and the largest error of
-    the model [mm], and the note printed (``text``)."""
+    which the compensated volume is turned against it (measured as the frame is defined:
+    :func:`tables_turn`), the largest correction the tables make at the tool tip and the
+    largest error of the model [mm], and the note printed (``text``)."""
 
     how: str
     net_rotation: float
@@ -202,17 +208,45 @@ def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, fram
     nominal = nominal_tip(m, q, L + tables.gauge_offset_change, pt)
     before = actual(q, L, False, pt)[0]
     after = tables.turn_tips(m, tables.apply(q), actual(tables.apply(q), L, False, pt)[0], FRAME)
-    angle = partframe.net_rotation(nominal, after)
+    angle, what = _turn(actual, m, tables, frame, q, L, pt, nominal, after)
     moved = after - before
     corr = float(np.linalg.norm(moved - moved.mean(axis=0), axis=1).max() * MM_PER_M)  # a translation is the origin's
     err = float(np.linalg.norm(partframe.part_frame_errors(nominal_tip(m, q, L, pt), before,
                                                            partframe.spindle_axis(m)), axis=1).max() * MM_PER_M)
-    text = (f"frame kept: {frame.how}; the tables turn the working volume by {angle * 1e6:.1f} µrad against it "
-            f"(best-fit rotation of the compensated tips); largest correction at the tool tip {corr:.4f} mm (net of a "
-            f"translation) against a largest error of {err:.4f} mm")
+    text = (f"frame kept: {frame.how}; the tables {what} {angle * 1e6:.1f} µrad against it; largest correction "
+            f"at the tool tip {corr:.4f} mm (net of a translation) against a largest error of {err:.4f} mm")
+    if frame.kind == "face":
+        text += ("; a tilt against a table that turns is mostly beyond tables of one axis (what no table can follow)")
     kept = FrameKept(frame.how, angle, corr, err, text)
     if kept.excessive:
         kept.text += (": the tables move the tip by more than twice the largest error they remove; a rotation of "
                       "the volume or an offset of an axis' zero is being corrected that the model cannot tell from "
                       "the tracker's pose: check the model (vecpin evaluate) before writing these tables")
     return kept
+
+
+def _turn(actual, m: Machine, tables: TableSet, frame: ReferenceFrame, q: np.ndarray, L: np.ndarray, pt,
+          nominal: np.ndarray, after: np.ndarray) -> tuple[float, str]:
+    """(angle [rad], what it is in words): the turn the tables give the compensated volume
+    against the frame they keep, measured as that frame is defined (``nominal`` and
+    ``after``: the nominal and the compensated tips (N,3) [m] of commands ``q`` x tools ``L``).
+    Reference lines: the turn of the frame the primary and secondary axes' mean lines span,
+    before to after, on ``q`` with every rotary axis at home (removing a squareness error
+    turns the volume's best-fit orientation by about half the squareness while the lines
+    stay: the best-fit rotation is not this turn). The table's face: the tilt (square to the
+    spindle) of the compensated volume's best-fit rotation against the face. Otherwise the
+    best-fit rotation of the compensated volume."""
+    if frame.kind == "lines":
+        q = q.copy()
+        rot = [a.index for a in m.axes if a.kind == "rotary"]
+        q[:, rot] = partframe.home_commands(m)[rot]
+        home = nominal_tip(m, q, L, pt)
+        R0 = partframe.reference_rotation(m, q, L, home, actual(q, L, False, pt)[0])[0]
+        qc = tables.apply(q)
+        R1 = partframe.reference_rotation(m, q, L, home, tables.turn_tips(m, qc, actual(qc, L, False, pt)[0], FRAME))[0]
+        return partframe.rotation_angle(R1 @ R0.T), "turn the frame of the reference lines by"
+    if frame.kind == "face":
+        w = log3(rigid_registration(after, nominal)[0])
+        s = partframe.spindle_axis(m)
+        return float(np.linalg.norm(w - (w @ s) * s)), "tilt the compensated volume against the table's face by"
+    return partframe.net_rotation(nominal, after), "turn the working volume by"
