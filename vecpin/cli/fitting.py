@@ -102,7 +102,8 @@ def add_commands(sub) -> None:
     s.add_argument("csv", help=CAMPAIGN_HELP)
     add_model_args(s)
     s.add_argument("--folds", type=int, default=default("cv"),
-                   help="cross-validation folds of the model choice, grouped by command (default %(default)s)")
+                   help="cross-validation folds of the model choice, grouped by pose; whole sweeps where the design "
+                   "moves one joint at a time (default %(default)s)")
     s.add_argument("--out", required=True, help="model file to write (JSON, mm and deg)")
     s.add_argument("--tool-corrections", action="store_true",
                    help="also fit a length correction per tool, mm (default: the gauge-line correction T_offset only)")

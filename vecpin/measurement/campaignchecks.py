@@ -212,5 +212,5 @@ def still_axes_notes(machine: Machine, campaign) -> list[str]:
         return []
     where = ", ".join(f"{a.name} at {a.to_user(q[0, a.index]):g} {a.unit}" for a in still)
     return [f"{campaign.source}: {'this axis' if len(still) == 1 else 'these axes'} did not move in any row ({where}): "
-            "the campaign cannot tell how their errors change, so the model knows them there only; measure them over "
-            "their travel, or use the model and its tables only where they stood"]
+            "the campaign cannot tell how their errors change, so the model holds their errors at that position (no "
+            "slope beyond it); measure them over their travel, or use the model and its tables only where they stood"]

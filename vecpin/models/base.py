@@ -20,7 +20,8 @@ by the estimator (:mod:`vecpin.identification`). Effects
 The estimator API follows scikit-learn: configuration in ``__init__``, learning in
 :meth:`ErrorModel.fit`, learned state with a trailing underscore (``b_``, ``e0_``,
 ``setup_``, ``cov_``, ``noise_``, ``report_``; ``range_`` once the errors are held
-beyond the measured commands).
+beyond the measured commands: after every fit, and on reading a model file, on the axes
+that stood still in the campaign, :func:`~vecpin.models.recorded.still_hold`).
 
 Parameters are ordered by priority (offsets, then every order-0 term, then order 1,
 ...): redundancy removal keeps the earlier of two terms that move the tool tip alike.
@@ -40,6 +41,7 @@ from vecpin.models import modelfile
 from vecpin.models.basis import AxisBasis, bases_text, union_basis
 from vecpin.models.effects.base import TipContext
 from vecpin.models.parameters import DEFAULT_PRIORS, Parameter
+from vecpin.models.recorded import still_hold
 from vecpin.models.spec import ModelSpec
 from vecpin.models.tips import ModelPoints, ModelTip, check_frame
 from vecpin.units import MM_PER_M
@@ -360,6 +362,7 @@ class ErrorModel:
         n = 6 + self.n_parameters  # beyond: station poses and pivots, kept in the setup
         self.b_, self.e0_, self.setup_, self.cov_ = theta[6:n], theta[:6], setup, cov[:n, :n]
         self.noise_, self.report_ = noise, report
+        self.range_ = still_hold(self)   # an axis that stood still: its errors held where it stood
         return self
 
     def hold_beyond_measured(self) -> "ErrorModel":

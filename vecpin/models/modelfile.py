@@ -35,7 +35,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
-from vecpin.models.recorded import check_figure, check_recorded
+from vecpin.models.recorded import check_figure, check_recorded, still_axes, still_hold
 from vecpin.models.spec import ModelSpec
 from vecpin.units import MM_PER_M, M_PER_MM, QUANTITY_UNITS, SI_PER_UNIT
 
@@ -96,7 +96,17 @@ def model_to_dict(model) -> dict:
         "selection": getattr(model, "selection_", None),
         "zone": _zone_to_dict(getattr(model, "zone_", None)),
         "check": check_figure(model),
+        "still_axes": _still_to_dict(model),
     }
+
+
+def _still_to_dict(model) -> dict:
+    """The axes that stood still in the campaign, each with where it stood (mm or deg) and
+    what that means for the model's errors there."""
+    lo, _ = still_hold(model) or (None, None)
+    return {a.name: {"position": float(a.to_user(lo[a.index])), "unit": a.unit,
+                     "meaning": "did not move in any row: its errors are held at this position (no slope beyond)"}
+            for a in still_axes(model)}
 
 
 def pose_correction_to_user(e) -> list[float]:
@@ -296,6 +306,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     fields.setdefault("seconds", 0.0)
     model.report_ = FitReport(**fields)
+    model.range_ = still_hold(model)   # the axes that stood still: their errors held where they stood, as fitted
     if d.get("selection") is not None:
         model.selection_ = d["selection"]
     # where relative meshes of the embedded URDF are looked for (the scene): its folder, then the model file's

@@ -49,6 +49,28 @@ def recorded_box(model, widen_still: bool) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def still_axes(model) -> list:
+    """The axes of ``model``'s machine that stood still in its campaign (their recorded
+    range spanning less than :data:`STILL_SHARE` of their travel, :func:`recorded_box`)."""
+    lo, hi = recorded_box(model, widen_still=False)
+    return [a for a in model.machine.axes if hi[a.index] - lo[a.index] < STILL_SHARE * a.travel]
+
+
+def still_hold(model) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lower, upper) [m, rad] per axis for the model's ``range_``: every axis that stood
+    still in its campaign (:func:`still_axes`) held at the one position it stood at, the
+    others free (infinite bounds); None when every axis moved. The campaign cannot tell how
+    a still axis' errors change, so the correction there is held constant: no slope a
+    series or its priors would extrapolate beyond the one position measured."""
+    still = still_axes(model)
+    if not still:
+        return None
+    lo, hi = recorded_box(model, widen_still=False)
+    free = np.ones(model.machine.n_axes, bool)
+    free[[a.index for a in still]] = False
+    return np.where(free, -np.inf, lo), np.where(free, np.inf, hi)
+
+
 def check_commands(model) -> tuple[np.ndarray, np.ndarray]:
     """(q (N,n) [m, rad], tool (N,) [m]): :data:`CHECK_COMMANDS` scrambled-Halton commands
     (seed 0) in the fit's measured range (the axis limits where the file has none), each

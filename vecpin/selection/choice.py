@@ -5,8 +5,8 @@ to about 1e-4 around the nominal machine, the whitening of each row (instrument 
 :mod:`vecpin.identification.likelihood`) does not depend on the model, and a model's columns are the kinematic
 sensitivity of each axis' error components times functions of that axis' position. So one set of normal
 equations per model kind, over the union of every candidate function of every axis, serves the k-fold
-cross-validation of every candidate: a small solve per candidate and fold (folds grouped by command, both tools
-of a pose in one fold).
+cross-validation of every candidate: a small solve per candidate and fold (folds grouped by pose, every tool and
+target of a pose in one fold; whole sweeps where the design moves one joint at a time: measurement.poses).
 
 Per axis the candidate bases are (:mod:`vecpin.selection.design`): Chebyshev series over the travel (orders 0-8)
 and cubic B-splines with 3, 7 or 15 uniform knots (local errors; with ``basis="pspline"`` penalised splines on
@@ -61,7 +61,6 @@ from typing import Callable
 import numpy as np
 
 from vecpin.errors import IdentifiabilityError, InputError, VecpinError
-from vecpin.identification.crossval import command_folds
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
@@ -69,7 +68,7 @@ from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds, fold_index
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
-                                     measured_spans, partly_measured, per_turn_measured)
+                                     choice_folds, measured_spans, partly_measured, per_turn_measured)
 from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
 from vecpin.selection.stage import KindStage, kind_stage
@@ -106,12 +105,13 @@ class ModelChoice:
     gross: Screen | None = None  # rows left out as gross errors before the noise level was taken from the data
     fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
     subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
-    grouped: str = "command"  # what the folds group: "command", or "the given fold labels"
+    grouping: str = "pose"   # what the folds keep together: poses, or the sweeps of a design moving one joint at a time
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
         lines = [f"model choice: {len(self.candidates)} candidates by {self.folds}-fold cross-validation grouped by "
-                 f"{self.grouped} ({self.rows} rows judged: every reading of a point, the tool's{nests}; linearised), mm",
+                 f"{self.grouping} ({self.rows} rows judged: every reading of a point, the tool's{nests}; "
+                 "linearised), mm",
                  f"  {'candidate':<58s} {'model terms':>11s} {'held-out mean':>13s} {'max':>8s}",
                  f"  {'uncompensated, the rows scored (tracker frame)':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
                  f"{self.uncompensated_mm[1]:8.4f}"]
@@ -159,8 +159,7 @@ class ModelChoice:
                        and c.axes[0].family == "chebyshev"], key=lambda c: c.axes[0].order)
 
     def to_dict(self) -> dict:
-        return {"method": f"{self.folds}-fold cross-validation grouped by {self.grouped}, linearised at the nominal "
-                          "machine",
+        return {"method": f"{self.folds}-fold cross-validation grouped by {self.grouping}, linearised at nominal",
                 "rule": "one standard error: the fewest model terms within one paired standard error of the lowest mean",
                 "rows": self.rows, "standard_error_mm": self.standard_error_mm, "reason": self.reason,
                 "equations": self.equations, "left_out_unsupported": self.left_out,
@@ -247,7 +246,10 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
     ends = () if np.ndim(folds) else partly_measured(machine, campaign, travel)   # given folds: the user's own
     spans = measured_spans(machine, campaign, travel)
-    fold = fold_index(folds, picked) if np.ndim(folds) else command_folds(camp, folds, np.random.default_rng(seed), ends)
+    if np.ndim(folds):   # the user's own fold labels
+        fold, grouping = fold_index(folds, picked), "the given fold labels"
+    else:                # whole sweeps where one joint moves at a time
+        fold, grouping = choice_folds(camp, folds, seed, ends)
 
     def linearised(kind: str) -> tuple[Problem, Search]:   # the kinds side by side, here and below
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
@@ -294,9 +296,8 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
-                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale,
-                       subsample=(len(camp), len(campaign), seed) if picked is not None else (),
-                       grouped="the given fold labels" if np.ndim(folds) else "command")
+                       tuple(machine.axes[a].name for a in ends), scale, before, own_scale, grouping=grouping,
+                       subsample=(len(camp), len(campaign), seed) if picked is not None else ())
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,

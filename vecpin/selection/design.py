@@ -17,12 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import FoldedProblem
+from vecpin.identification.crossval import FoldedProblem, command_folds
 from vecpin.identification.likelihood import Likelihood
 from vecpin.identification.redundancy import active_columns
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.poses import pose_blocks, sweep_folds
 from vecpin.models import make_model
 from vecpin.models.basis import AxisBasis, basis_text, smoothing_transform
 from vecpin.units import norm_mm
@@ -192,6 +193,16 @@ def measured_spans(machine: Machine, campaign: Campaign, travel: tuple[np.ndarra
     ends = partly_measured(machine, campaign, travel)
     lo, hi = campaign.q.min(axis=0), campaign.q.max(axis=0)
     return tuple((float(lo[k]), float(hi[k])) if k in ends and hi[k] > lo[k] else None for k in range(machine.n_axes))
+
+
+def choice_folds(campaign: Campaign, k: int, seed: int, ends=()) -> tuple[np.ndarray, str]:
+    """(the fold of each row, what the folds keep together): whole sweeps where the design
+    moves one joint at a time (:func:`~vecpin.measurement.poses.pose_blocks`), else poses, the
+    ends of the axes ``ends`` held out whole (:func:`command_folds`); ``seed``: the deal."""
+    swept, rng = pose_blocks(campaign, k), np.random.default_rng(seed)
+    if swept is None:
+        return command_folds(campaign, k, rng, ends), "pose"
+    return sweep_folds(swept, k, rng), f"sweep ({swept.max() + 1} sweeps: one joint moved each)"
 
 
 class Design:

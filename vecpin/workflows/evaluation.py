@@ -47,6 +47,7 @@ class Evaluation:
     outside: np.ndarray | None = None  # rows commanded beyond what the fit measured (judged apart)
     net: NetOfNoise | None = None  # relative to the table: the model error with the measurement noise taken out
     shape: np.ndarray | None = None  # uncompensated distances [mm] with the best rigid motion removed instead
+    still: dict = field(default_factory=dict)  # axes that stood still in the fit's campaign: {name: (position, unit)}
 
     @property
     def reduction_pct(self) -> float:
@@ -67,6 +68,10 @@ class Evaluation:
                 if rows.any():
                     out += per_tool_table([(f"uncompensated, {side}", self.uncompensated[rows]),
                                            (f"model, {side}", self.residual[rows])], np.zeros(rows.sum()))[1:]
+        if self.still:
+            n_out = 0 if self.outside is None else int(self.outside.sum())
+            out.append(f"  did not move in the fit's campaign: {_still_text(self.still)} (the model's errors held "
+                       f"there, no slope beyond); {n_out} of {len(self.residual)} rows evaluated leave the measured range")
         if self.other_rows and self.frame == TRACKER_FRAME:
             out.append(f"  (station 0 tracker rows; the file has {self.other_rows} more rows of other stations, "
                        "nests or the ball bar)")
@@ -79,6 +84,8 @@ class Evaluation:
                 "uncompensated": distance_stats(self.uncompensated, self.tool),
                 "uncompensated_shape": None if self.shape is None else distance_stats(self.shape, self.tool),
                 "model_residual": distance_stats(self.residual, self.tool), "reduction_of_mean_pct": self.reduction_pct,
+                "still_axes": {a: {"position": p, "unit": u} for a, (p, u) in self.still.items()},
+                "rows_outside_measured_range": 0 if self.outside is None else int(self.outside.sum()),
                 "outside_measured_range": None if self.outside is None or not self.outside.any() else {
                     "rows": int(self.outside.sum()),
                     "uncompensated": distance_stats(self.uncompensated[self.outside], self.tool[self.outside]),
@@ -206,9 +213,10 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     """Mark the judged rows commanded beyond the range the fit measured (its zone, or the
     lowest and highest command of each axis, by more than ``OUTSIDE_MARGIN`` of the travel):
     the model extrapolates there, so they are reported apart, with a first-line warning."""
-    from vecpin.models.recorded import recorded_box
+    from vecpin.models.recorded import recorded_box, still_axes
     m = model.machine
     lo, hi = recorded_box(model, widen_still=False)   # an axis that stood still: the one position it stood at
+    ev.still = {a.name: (float(a.to_user(lo[a.index])), a.unit) for a in still_axes(model)}
     margin = OUTSIDE_MARGIN * np.array([a.travel for a in m.axes])
     beyond = (judged.q < lo - margin) | (judged.q > hi + margin)
     outside = beyond.any(axis=1)
@@ -217,10 +225,15 @@ def _judge_range(model: ErrorModel, judged: Campaign, ev: Evaluation) -> None:
     ev.outside = outside
     axes = [a for a in m.axes if beyond[:, a.index].any()]
     where = ", ".join(f"{a.name} {a.to_user(lo[a.index]):.1f}..{a.to_user(hi[a.index]):.1f} {a.unit}"
-                      + (" (it did not move in the fit's campaign)" if hi[a.index] - lo[a.index] < 1e-9 else "")
+                      + (" (it did not move in the fit's campaign: errors held there)" if a.name in ev.still else "")
                       for a in axes)
     inside_mean = ev.residual[~outside].mean() if (~outside).any() else float("nan")
     outside_mean = ev.residual[outside].mean()
     ev.warnings.append(f"WARNING: {outside.sum()} of {len(outside)} rows of {judged.source} are commanded beyond "
                        f"what the fit measured ({where}): the model extrapolates there (model mean {outside_mean:.4f} "
                        f"mm outside, {inside_mean:.4f} mm inside); judged apart below")
+
+
+def _still_text(still: dict) -> str:
+    """'J4 at 12.5 deg, Z at 300 mm' of :attr:`Evaluation.still`."""
+    return ", ".join(f"{a} at {p:g} {u}" for a, (p, u) in still.items())
