@@ -69,7 +69,7 @@ def test_fold_labels_give_the_choice_of_those_folds(flow, sim):
     assert [cand.mean for cand in by_label.candidates] == pytest.approx([cand.mean for cand in by_number.candidates])
     assert by_label.chosen.label() == by_number.chosen.label()
     assert "grouped by the given fold labels" in by_label.to_dict()["method"]
-    assert "grouped by command" in by_number.to_dict()["method"]
+    assert "grouped by pose" in by_number.to_dict()["method"]
     with pytest.raises(InputError, match="`cv`"):
         FitProblem.build(flow, c, noise, cv=labels[:-1])
 
