@@ -107,11 +107,14 @@ class Problem(Design):
         one's, the same factors: one family at rising orders) scored as one chain from one
         factorisation per fold (:func:`~vecpin.identification.nested.heldout_nested`)."""
         chains: list[list] = []
+        width = 1 + max((int(self.columns(c)[0].max()) for c in choices), default=0)
         for choice in sorted(choices, key=lambda c: len(self.columns(c)[0])):
             cols, fac = self.columns(choice)
+            mine = np.full(width, np.nan)                 # this choice's factor per column (nan: not its column)
+            mine[cols] = fac
             for chain in chains:
                 last, last_fac = self.columns(chain[-1])
-                if len(last) < len(cols) and nested_order([(last, last_fac), (cols, fac)]) is not None:
+                if len(last) < len(cols) and np.array_equal(mine[last], last_fac):
                     chain.append(choice)
                     break
             else:
