@@ -68,13 +68,15 @@ class Block:
 
     ``unknowns``: indices in theta of the block's unknowns, the instrument's own first
     (``first`` of them: what its equations differentiate), then those of the points its
-    rows measure (target offsets, nest positions); ``request``: which points."""
+    rows measure (target offsets, nest positions); ``request``: which points; ``by_pose``:
+    the rows' places sorted by pose (set when the rows are taken in pieces)."""
 
     instrument: object
     rows: np.ndarray
     unknowns: np.ndarray
     first: int
     request: PointRequest
+    by_pose: np.ndarray | None = None
 
 
 @dataclass
@@ -347,7 +349,12 @@ class Likelihood:
         sig2 = self.noise.axis_sigma**2
         for blk in self.blocks:
             n = len(blk.rows)
-            parts = [np.arange(n)] if not chunk else np.array_split(np.arange(n), max(1, -(-n // chunk)))
+            if chunk and n > chunk:   # pieces of rows sorted by pose: a pose's rows (every tool's) in one piece,
+                if blk.by_pose is None:  # its kinematics computed once (FrameProbes.jacobians)
+                    blk.by_pose = np.lexsort(c.q[blk.rows].T[::-1])
+                parts = np.array_split(blk.by_pose, max(1, -(-n // chunk)))
+            else:
+                parts = [np.arange(n)]
             u = theta[blk.unknowns]
             own = blk.unknowns[:blk.first]
             for pos in parts:
