@@ -53,6 +53,8 @@ from vecpin.kinematics.loading import bundled_file, machine_parts, urdf_file_tex
 from vecpin.kinematics.urdf import UrdfTree
 from vecpin.units import to_mm
 
+TIP_MEMO = 3   # nominal tool tips of this many large campaigns kept (Machine.tool_tip)
+
 
 class Machine:
     """A machine loaded from URDF: axes, tool points, optional workpiece branch.
@@ -319,8 +321,22 @@ class Machine:
 
     def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0, *, frame: Frame | None = None,
                  point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
-        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`)."""
-        return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`). A
+        campaign of more than :data:`KINEMATICS_ROWS` rows is asked for its nominal tips by
+        several checks and by every fit: the last few such answers are kept (keyed by the
+        arrays' bytes) and returned as copies."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if len(q) <= KINEMATICS_ROWS:
+            return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+        asked = (self._frame(frame), q, *(np.asarray(v) for v in (tool, point, 0.0 if offset is None else offset)))
+        memo = self.__dict__.setdefault("_tip_memo", [])
+        for key, tip in memo:
+            if key[0] == asked[0] and all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(key[1:], asked[1:])):
+                return tip.copy()
+        tip = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+        memo.append(((asked[0], *(a.copy() for a in asked[1:])), tip))
+        del memo[:-TIP_MEMO]
+        return tip.copy()
 
     def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
         """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""
