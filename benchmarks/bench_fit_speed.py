@@ -115,8 +115,8 @@ def choices(env: dict, work: Path) -> dict:
 
 def compare(now: dict, before: dict) -> list[str]:
     """Lines: each bundled machine's choice now against before."""
-    lines = [f"{'machine':<18s} {'same model':<10s} {'validation mm before':>20s} {'now':>7s} {'candidates before':>17s} "
-             f"{'now':>5s}  model now"]
+    lines = [f"{'machine':<18s} {'same model':<10s} {'validation mm before':>20s} {'now':>7s} "
+             f"{'candidates before':>17s} {'now':>5s}  model now"]
     for name, c in now.items():
         b = before.get(name)
         if b is None:

@@ -331,7 +331,8 @@ class Machine:
         asked = (self._frame(frame), q, *(np.asarray(v) for v in (tool, point, 0.0 if offset is None else offset)))
         memo = self.__dict__.setdefault("_tip_memo", [])
         for key, tip in memo:
-            if key[0] == asked[0] and all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(key[1:], asked[1:])):
+            same = (a.shape == b.shape and np.array_equal(a, b) for a, b in zip(key[1:], asked[1:]))
+            if key[0] == asked[0] and all(same):
                 return tip.copy()
         tip = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
         memo.append(((asked[0], *(a.copy() for a in asked[1:])), tip))

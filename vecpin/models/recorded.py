@@ -61,8 +61,8 @@ def scrambled_halton(d: int, n: int, seed: int = 0) -> np.ndarray:
     ``numpy.random.default_rng(seed)`` in turn). Written here because importing ``scipy.stats``
     takes about a second, more than a fit of a few hundred rows; tests/test_recorded_halton.py
     holds it to scipy's."""
-    if d > len(PRIMES):
-        raise ValueError(f"at most {len(PRIMES)} dimensions")
+    if d > len(PRIMES) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"at most {len(PRIMES)} dimensions and a whole-number seed")
     rng = np.random.default_rng(seed)
     out = np.zeros((n, d))
     for k, base in enumerate(PRIMES[:d]):
