@@ -149,9 +149,9 @@ def write_page(results, load: float, load_end: float) -> None:
               "2.98 GiB); the solver stops when its least damped step goes uphill and promised less than its "
               "tolerance (on a million rows a dozen further damped trials, each a pass over every row, found "
               "nothing); residuals are computed in pieces of 20,000 rows; the default fit chooses its model on a "
-              "subsample of the rows (the printout says how many), then fits the chosen model to every row. Since issue 43: "
-              "the rows of one pose (every tool's) are taken into the same piece and its kinematics computed once; "
-              "a large fit evaluates each trial step with its Jacobians, so an accepted step needs no second pass; "
+              "subsample of the rows (the printout says how many), then fits the chosen model to every row. "
+              "Since issue 43: the rows of one pose (every tool's) are taken into the same piece and its "
+              "kinematics computed once; a large fit evaluates each trial step with its Jacobians, so an accepted step needs no second pass; "
               "the nominal tool tips of a large campaign, which several checks and the fit ask for, are computed "
               "once.", ""]
     PAGE.write_text("\n".join(lines))
