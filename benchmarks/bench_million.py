@@ -152,8 +152,8 @@ def write_page(results, load: float, load_end: float) -> None:
               "subsample of the rows (the printout says how many), then fits the chosen model to every row. "
               "Since issue 43: the rows of one pose (every tool's) are taken into the same piece and its "
               "kinematics computed once; a large fit evaluates each trial step with its Jacobians, so an "
-              "accepted step needs no second pass; the nominal tool tips of a large campaign, which several checks and the fit ask for, are computed "
-              "once.", ""]
+              "accepted step needs no second pass; the nominal tool tips of a large campaign, which several "
+              "checks and the fit ask for, are computed once.", ""]
     PAGE.write_text("\n".join(lines))
 
 
