@@ -323,8 +323,8 @@ class Machine:
                  point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
         """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`). A
         campaign of more than :data:`KINEMATICS_ROWS` rows is asked for its nominal tips by
-        several checks and by every fit: the last few such answers are kept (keyed by the
-        arrays' bytes) and returned as copies."""
+        several checks and by every fit: the last :data:`TIP_MEMO` such answers are kept with
+        the arrays asked (compared element by element) and returned as copies."""
         q = np.atleast_2d(np.asarray(q, float))
         if len(q) <= KINEMATICS_ROWS:
             return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
