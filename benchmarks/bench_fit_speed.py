@@ -141,7 +141,7 @@ def compare(now: dict, before: dict) -> list[str]:
     return lines
 
 
-def write_page(speed_lines, ratios, before, cmp_lines, load) -> None:
+def write_page(speed_lines, ratios, before, cmp_lines, load, label: str) -> None:
     text = ["# The default fit's speed against a plain fitter (issue 43)", "",
             "Made by `python benchmarks/bench_fit_speed.py`. Whole processes (a fresh Python each, imports "
             "included): `vecpin fit URDF CSV` with its default model choice against "
@@ -151,15 +151,15 @@ def write_page(speed_lines, ratios, before, cmp_lines, load) -> None:
             f"(load average {load[0]:.1f} at the start, {load[1]:.1f} at the end): absolute times are upper "
             "bounds, the ratio of processes measured in turn is the figure.", "", "```text", *speed_lines, "```", "",
             f"Median ratio over {len(ratios)} campaigns: **{statistics.median(ratios):.2f}x** (issue 43's target: "
-            "at most 2.0x)" + (f"; the earlier vecpin given by `--before-src`, run in the same turns: "
+            "at most 2.0x)" + (f"; {label}, run in the same turns: "
                                f"{statistics.median(before):.2f}x." if not math.isnan(statistics.median(before))
                                else "."), "",
             "The reference's whole process is a Python with numpy and one solve (about 0.3 s of CPU); `vecpin fit` "
             "imports scipy.linalg and Pinocchio as well (about 0.5 s of CPU before any of its own code), then chooses "
             "the model among several hundred candidates by cross-validation and fits it.", ""]
     if cmp_lines:
-        text += ["The model chosen on every bundled machine (simulated, seed 0) before and after, judged on the "
-                 "simulator's noise-free validation readings:", "", "```text", *cmp_lines, "```", ""]
+        text += [f"The model chosen on every bundled machine (simulated, seed 0) by {label} ('before') and now, "
+                 "judged on the simulator's noise-free validation readings:", "", "```text", *cmp_lines, "```", ""]
     PAGE.write_text("\n".join(text))
 
 
@@ -170,6 +170,8 @@ def main() -> None:
     p.add_argument("--part", choices=("1", "2", "all"), default="all")
     p.add_argument("--src", default=str(ROOT), help="the vecpin source tree to run (default: this one)")
     p.add_argument("--before-src", help="an earlier vecpin source tree: part 1 also times its fit, in the same turns")
+    p.add_argument("--before-label", default="the earlier vecpin", help="what --before-src and --before are, for "
+                                                                         "the page (e.g. a commit)")
     p.add_argument("--record", metavar="FILE", help="write part 2's choices here (JSON)")
     p.add_argument("--before", metavar="FILE", help="compare part 2 with this recording")
     p.add_argument("--work", help="keep campaigns and models here (default: a temporary folder)")
@@ -194,7 +196,7 @@ def main() -> None:
             cmp_lines = compare(now, json.loads(Path(a.before).read_text()))
             print("\n".join("  " + s for s in cmp_lines))
     if ratios and not a.no_page:
-        write_page(speed_lines, ratios, before, cmp_lines, (load0, os.getloadavg()[0]))
+        write_page(speed_lines, ratios, before, cmp_lines, (load0, os.getloadavg()[0]), a.before_label)
         print(f"wrote {PAGE}")
 
 
