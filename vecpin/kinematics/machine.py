@@ -38,6 +38,7 @@ everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or deg
 """
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Sequence
 
@@ -323,21 +324,23 @@ class Machine:
                  point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
         """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`). A
         campaign of more than :data:`KINEMATICS_ROWS` rows is asked for its nominal tips by
-        several checks and by every fit: the last :data:`TIP_MEMO` such answers are kept with
-        the arrays asked (compared element by element) and returned as copies."""
+        several checks and by every fit: the last :data:`TIP_MEMO` such answers are kept (keyed
+        by a BLAKE2 digest of the arrays asked, not copies of them) and returned as copies."""
         q = np.atleast_2d(np.asarray(q, float))
         if len(q) <= KINEMATICS_ROWS:
             return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
-        asked = (self._frame(frame), q, *(np.asarray(v) for v in (tool, point, 0.0 if offset is None else offset)))
-        memo = self.__dict__.setdefault("_tip_memo", [])
-        for key, tip in memo:
-            same = (a.shape == b.shape and np.array_equal(a, b) for a, b in zip(key[1:], asked[1:]))
-            if key[0] == asked[0] and all(same):
-                return tip.copy()
-        tip = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
-        memo.append(((asked[0], *(a.copy() for a in asked[1:])), tip))
-        del memo[:-TIP_MEMO]
-        return tip.copy()
+        digest = hashlib.blake2b(self._frame(frame).encode())
+        for v in (q, tool, point, 0.0 if offset is None else offset):
+            a = np.ascontiguousarray(v)
+            digest.update(f"{a.dtype}{a.shape}".encode())
+            digest.update(a.tobytes())
+        key = digest.digest()
+        memo = self.__dict__.setdefault("_tip_memo", {})
+        if key not in memo:
+            memo[key] = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+            while len(memo) > TIP_MEMO:
+                memo.pop(next(iter(memo)))
+        return memo[key].copy()
 
     def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
         """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""
