@@ -144,3 +144,31 @@ def test_a_promise_below_the_datas_resolution_is_converged(rng):
     assert sol.converged
     assert 1e-6 * obj_min < sol.objective - obj_min < 1e-5 * obj_min  # stopped a promise short, not far off
     np.testing.assert_allclose(sol.psi, ridge, rtol=0.01, atol=0.01 * np.abs(ridge).max())
+
+
+class Curved(Linear):
+    """w(psi) = w0 + J psi + 0.3 (J psi)^2: a few Gauss-Newton steps, some damped."""
+
+    def __call__(self, psi, jacobian=True):
+        self.calls += 1
+        u = self.J @ psi
+        w = self.w0 + u + 0.3 * u**2
+        if not jacobian:
+            return float(w @ w), None, None
+        self.with_jacobian += 1
+        Jw = self.J * (1 + 0.6 * u)[:, None]
+        return float(w @ w), Jw.T @ Jw, Jw.T @ w
+
+
+def test_eager_trials_take_the_same_steps_with_fewer_passes(rng):
+    """``eager`` (a large campaign: each trial point evaluated with its Jacobians) reaches
+    the same point, bit for bit, and asks for fewer evaluations."""
+    keep = np.ones(6, bool)
+    plain, eager = Curved(np.random.default_rng(3)), Curved(np.random.default_rng(3))
+    a = gauss_newton(plain, 6, keep)
+    b = gauss_newton(eager, 6, keep, eager=True)
+    assert a.iterations == b.iterations and a.iterations > 1
+    np.testing.assert_array_equal(a.psi, b.psi)
+    np.testing.assert_array_equal(a.G, b.G)
+    assert a.objective == b.objective and a.converged and b.converged
+    assert eager.calls < plain.calls

@@ -30,7 +30,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special, stats
+from scipy import optimize, special
+from scipy.special._ufuncs import _ncf_sf   # what scipy.stats' ncf.sf calls, without importing scipy.stats (1 s)
 
 from vecpin.identification.crossval import FoldedProblem, Linearised
 from vecpin.units import MM_PER_M
@@ -41,10 +42,10 @@ POWER = 0.8   # the probability with which the stated size is detected
 def detectable_noncentrality(k: int, dof: float, threshold: float, power: float = POWER) -> float:
     """λ at which the F-test (k, dof) at false-alarm rate ``threshold`` passes with
     probability ``power`` (the non-central F distribution)."""
-    f_crit = float(stats.f.isf(threshold, k, dof))
+    f_crit = float(special.fdtri(k, dof, 1.0 - threshold))
 
     def short(lam: float) -> float:
-        return float(stats.ncf.sf(f_crit, k, dof, lam)) - power
+        return float(_ncf_sf(f_crit, k, dof, lam)) - power
     hi = 10.0 + k
     while short(hi) < 0:
         hi *= 2
@@ -117,7 +118,7 @@ class Sight:
         tr_b = float(np.einsum("niq,niq->", A1p, A1p)) / max(int(pts.sum()), 1)
         E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
         left = np.einsum("niq,niq->n", E, E) / max(tr_b, 1e-300)
-        spread = np.einsum("niq,qr,nir->n", E, np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
+        spread = np.einsum("nir,nir->n", E @ np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
         return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left, spread
 
     def from_round(self, judged: list, base: FoldedProblem) -> list:
@@ -156,7 +157,7 @@ class Sight:
             return {}
         h = spread * self.folds / max(self.folds - 1, 1)   # estimated out of fold: from (f - 1) / f of the rows
         m_after = mean_distance(np.sqrt(h), sigma)
-        need = float(stats.t.isf(self.threshold, n - 1) + stats.norm.ppf(POWER))
+        need = float(-special.stdtrit(n - 1, self.threshold) + special.ndtri(POWER))
         shrink = 1 - self.min_shrink_pct / 100
 
         def t_short(rms: float) -> float:

@@ -25,7 +25,7 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg, special
 
 from vecpin.identification.crossval import FoldedProblem, Linearised
 from vecpin.identification.robust import FAMILY_ALPHA, robust_fit, row_limit  # noqa: F401 (this module's API too)
@@ -121,7 +121,7 @@ def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, val
             both = valid[i] & valid[j]
             d = np.where(both, w[i] - w[j], 0.0)
             shared = 0.5 * min(np.linalg.norm(np.where(both, w[i], 0.0)), np.linalg.norm(np.where(both, w[j], 0.0)))
-            if (float(d @ d) / (2 * level) <= stats.chi2.isf(AGREE_P, max(int(both.sum()), 1))
+            if (float(d @ d) / (2 * level) <= special.chdtri(max(int(both.sum()), 1), AGREE_P)
                     or np.linalg.norm(d) < shared):
                 out.append(int(i))
                 break

@@ -11,7 +11,7 @@ when either p-value is below alpha / (number of breakdowns)."""
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
@@ -84,8 +84,8 @@ def _breakdown(values: np.ndarray, held_m: np.ndarray, held_w: np.ndarray, n_bin
     F_bins = (between / df_b) / max(within / df_w, 1e-300)
     F_trend = (ss_trend / df_t) / max(ss_rest / df_r, 1e-300)
     return {"coordinate": label, "unit": unit, "bins": bins,
-            "F_bins": float(F_bins), "p_bins": float(stats.f.sf(F_bins, df_b, df_w)),
-            "F_trend": float(F_trend), "p_trend": float(stats.f.sf(F_trend, df_t, df_r)),
+            "F_bins": float(F_bins), "p_bins": float(special.fdtrc(df_b, df_w, F_bins)),
+            "F_trend": float(F_trend), "p_trend": float(special.fdtrc(df_t, df_r, F_trend)),
             "scatter": float(within / df_w)}
 
 

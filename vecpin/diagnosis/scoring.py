@@ -19,7 +19,7 @@ import copy
 import math
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from vecpin.errors import InputError
 from vecpin.identification.crossval import FoldedProblem, Linearised
@@ -132,7 +132,7 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
     F = (d_chi2 / k) / (ev["chi2"] / dof)
     before, after = distances_mm(lin, base_eval["heldout"]), distances_mm(lin, ev["heldout"])
-    ev.update(d_chi2=d_chi2, k=k, F=F, p=float(stats.f.sf(F, k, dof)) if F > 0 else 1.0, before=before, after=after,
+    ev.update(d_chi2=d_chi2, k=k, F=F, p=float(special.fdtrc(k, dof, F)) if F > 0 else 1.0, before=before, after=after,
               p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     ev["base_share"] = base_share(base, ev, pose_columns(lin, base.n_columns))
     return ev
@@ -170,7 +170,7 @@ def paired_gain_p(before: np.ndarray, after: np.ndarray) -> float:
     delta = before - after
     sd = float(np.std(delta, ddof=1)) if delta.size > 1 else 0.0
     t = float(delta.mean() / (sd / math.sqrt(delta.size))) if sd > 0 else (math.inf if delta.mean() > 0 else 0.0)
-    return float(stats.t.sf(t, max(delta.size - 1, 1)))
+    return float(special.stdtr(max(delta.size - 1, 1), -t))
 
 
 def on_ends(base: FoldedProblem, campaign: Campaign, axes) -> tuple[list[FoldedProblem], float]:

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from vecpin.diagnosis.grosserrors import pose_keys
 from vecpin.diagnosis.scoring import paired_gain_p
@@ -185,7 +185,7 @@ def repeats_across(campaign: Campaign, feats: Features, t0: float, station: int,
     (their robust level), chi2 over the poses' equations. p = 1 when there are none."""
     sides = straddling(campaign, feats, t0, station)
     stat, dof = _moved(sides, w, valid, _level(w, valid))
-    return len(sides.after), (float(stats.chi2.sf(stat, dof)) if dof else 1.0)
+    return len(sides.after), (float(special.chdtrc(dof, stat)) if dof else 1.0)
 
 
 def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tuple[np.ndarray, np.ndarray],
@@ -217,7 +217,7 @@ def repeats_verdict(campaign: Campaign, feats: Features, step, lin, fitted: tupl
         return "silent", f"the poses read twice cannot tell: {seen}"
     slope = float(np.sum(d * p)) / pp
     se = math.sqrt(float(np.sum((d - slope * p) ** 2)) / (k - 1) / pp)
-    t = float(stats.t.isf(alpha, k - 1))
+    t = float(-special.stdtrit(k - 1, alpha))
     share = f"{slope:.2f} ± {se:.2f} of the predicted move"
     if slope + t * se < 0.5:
         return "contradicted", (f"held back: {seen}; they moved by {share}, less than half of it beyond their own "
@@ -232,7 +232,7 @@ def _level(w: np.ndarray, valid: np.ndarray) -> float:
     """The whitened residuals' robust variance per equation (1 when the noise model is right)."""
     k = np.maximum(valid.sum(axis=1), 1)
     s = np.sum(np.where(valid, w, 0.0) ** 2, axis=1)
-    return float(max(np.median(s / stats.chi2.median(k)), 1e-300))
+    return float(max(np.median(s / special.chdtri(k, 0.5)), 1e-300))
 
 
 def held_back(changes: ProgramChanges, campaign: Campaign, feats: Features, effect, lin, alpha: float) -> str | None:

@@ -64,6 +64,7 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
     return red[:k], ratio[:k]
 
 
+EAGER_ROWS = 20_000   # a larger campaign's trial steps are evaluated with their Jacobians (solver.gauss_newton)
 REFERENCE_NESTS = 4  # table points of the reference design on a machine with a workpiece
 
 
@@ -133,7 +134,7 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     keep, ratio = _columns_to_fit(model, campaign, noise, lik, G0, n_eq, remove_redundant, underdetermined,
                                   R0[0] if R0 else None)
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
-                       start=(chi2_0, G0, g0))
+                       start=(chi2_0, G0, g0), eager=len(campaign) > EAGER_ROWS)
     theta = sol.psi * lik.sigma
     JtJ = sol.G[np.ix_(keep, keep)]
     Ninv = linalg.inv(JtJ + np.eye(keep.sum()))

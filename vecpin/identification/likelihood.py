@@ -39,9 +39,11 @@ from vecpin.measurement.instruments.points import PointRequest, initial_setup, n
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR, STATION_ADVICE
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import POSE_NAMES, Setup, station_reading
+from vecpin.threads import _can_fork, side_by_side, workers_wanted
 
 E0_PRIORS = np.full(6, POSE_PRIOR)
 CHUNK_ROWS = 20000  # rows per piece when normal equations are accumulated
+SHARED_ROWS = 100_000   # a larger campaign's normal equations: its pieces shared out between the cores (forked)
 
 
 class ParametricModel(Protocol):
@@ -68,13 +70,15 @@ class Block:
 
     ``unknowns``: indices in theta of the block's unknowns, the instrument's own first
     (``first`` of them: what its equations differentiate), then those of the points its
-    rows measure (target offsets, nest positions); ``request``: which points."""
+    rows measure (target offsets, nest positions); ``request``: which points; ``by_pose``:
+    the rows' places sorted by pose (set when the rows are taken in pieces)."""
 
     instrument: object
     rows: np.ndarray
     unknowns: np.ndarray
     first: int
     request: PointRequest
+    by_pose: np.ndarray | None = None
 
 
 @dataclass
@@ -250,12 +254,26 @@ class Likelihood:
         blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
         Without ``jacobian`` G and g are None (a trial point's chi2 only). ``with_r``: also
         the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item)."""
+        n = workers_wanted()
+        # the pieces shared out between forked copies (never threads: the machine's Pinocchio data is one object)
+        if not with_r and n > 1 and len(self.campaign) > SHARED_ROWS and _can_fork():
+            self._pose_orders(chunk)
+            parts = side_by_side(lambda k: self._normal_sums(theta, jacobian, chunk, (k, n)), range(n), processes=True)
+            chi2, n_eq = sum(p[0] for p in parts), sum(p[3] for p in parts)
+            if not jacobian:
+                return chi2, None, None, n_eq
+            return chi2, sum(p[1] for p in parts), sum(p[2] for p in parts), n_eq
+        return self._normal_sums(theta, jacobian, chunk, None, with_r)
+
+    def _normal_sums(self, theta: np.ndarray, jacobian: bool, chunk: int, share: tuple[int, int] | None,
+                     with_r: bool = False):
+        """:meth:`normal_equations` over every piece of rows (``share`` (k, n): the k-th of every n)."""
         P = self.n_unknowns
         chi2, n_eq = 0.0, 0
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
         order, R = self.priority(), np.zeros((0, P))
-        for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False):
+        for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False, share=share):
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
             n_eq += int(pc["valid"].sum())
@@ -334,22 +352,37 @@ class Likelihood:
         red[order], ratio[order] = red_p, ratio_p
         return red, ratio
 
+    def _pose_orders(self, chunk: int | None) -> None:
+        """Each block taken in pieces: its rows' places sorted by pose (``Block.by_pose``)."""
+        for blk in self.blocks:
+            if chunk and len(blk.rows) > chunk and blk.by_pose is None:
+                blk.by_pose = np.lexsort(self.campaign.q[blk.rows].T[::-1])
+
     def _pieces(self, theta: np.ndarray, jacobian: bool, operators: bool, chunk: int | None = None,
-                metric: bool = True):
+                metric: bool = True, share: tuple[int, int] | None = None):
         """(rows, arrays of those rows) for every block of rows sharing an instrument's
         unknowns, in pieces of at most ``chunk`` rows; ``metric``: with ``jacobian``, also
-        d metric / d ψ (``A``; the normal equations do not need it)."""
+        d metric / d ψ (``A``; the normal equations do not need it); ``share`` (k, n): the
+        k-th piece of every n only."""
         c, m = self.campaign, self.model
         P = self.n_unknowns
         b = theta[6:6 + self.n_model]
         bsl = slice(6, 6 + self.n_model)
         sig2 = self.noise.axis_sigma**2
+        piece = -1
         for blk in self.blocks:
             n = len(blk.rows)
-            parts = [np.arange(n)] if not chunk else np.array_split(np.arange(n), max(1, -(-n // chunk)))
+            if chunk and n > chunk:   # pieces of rows sorted by pose: a pose's rows (every tool's) in one piece,
+                self._pose_orders(chunk)   # its kinematics computed once (FrameProbes.jacobians)
+                parts = np.array_split(blk.by_pose, max(1, -(-n // chunk)))
+            else:
+                parts = [np.arange(n)]
             u = theta[blk.unknowns]
             own = blk.unknowns[:blk.first]
             for pos in parts:
+                piece += 1
+                if share is not None and piece % share[1] != share[0]:
+                    continue
                 rows = blk.rows[pos]
                 feats = self.features.subset(rows) if self.features is not None else None
                 # d point / d q is needed for the positioning noise even when no Jacobian is asked

@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg, special   # not scipy.stats: 1 s to import, its chi2 is scipy.special's
 
 FAMILY_ALPHA = 0.01   # chance that a clean campaign has any row beyond the limit (Šidák over the rows)
 SKIP_ROUNDS = 8       # rounds of skipped weights at most (they stop when the rows skipped settle)
@@ -43,12 +43,12 @@ def row_limit(valid: np.ndarray, n_rows: int, alpha: float = FAMILY_ALPHA) -> np
     """(N,) the chi2 limit of each row so that ``n_rows`` clean rows pass together with
     probability 1 - alpha (Šidák)."""
     p = -np.expm1(np.log1p(-alpha) / max(n_rows, 1))
-    return stats.chi2.isf(p, equations(valid))
+    return special.chdtri(equations(valid), p)
 
 
 def median_level(s: np.ndarray, valid: np.ndarray) -> float:
     """median(s_i / median chi2(k_i)): 1 when the stated noise is right (a variance factor)."""
-    return float(max(np.median(s / stats.chi2.median(equations(valid))), 1e-300))
+    return float(max(np.median(s / special.chdtri(equations(valid), 0.5)), 1e-300))
 
 
 @dataclass

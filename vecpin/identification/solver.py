@@ -60,13 +60,16 @@ def _promise(Nm: np.ndarray, grad: np.ndarray) -> float:
 
 def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, keep: np.ndarray,
                  max_iter: int = 30, tol: float = 1e-9, progress: Callable[[str], None] | None = None,
-                 start: tuple | None = None) -> Solution:
+                 start: tuple | None = None, eager: bool = False) -> Solution:
     """Minimise ``|w(psi)|^2 + |psi|^2`` over the ``keep`` columns, from psi = 0.
 
     ``normal_equations(psi, jacobian) -> (|w|^2, J^T J, J^T w, ...)`` with J = dw/dpsi
     (G and g may be None without ``jacobian``: a trial point needs its chi2 only).
     ``start``: (|w|^2, J^T J, J^T w) at psi = 0 when the caller has them already (the
-    fit evaluates them for its redundancy test), saving one evaluation with Jacobians."""
+    fit evaluates them for its redundancy test), saving one evaluation with Jacobians.
+    ``eager``: evaluate every trial point with its Jacobians, so that an accepted step
+    (most are) needs no second pass over the rows; the same steps and result (a large
+    campaign: each pass a pass over every row, most of it the kinematics both need)."""
     psi = np.zeros(P)
     chi2, G, g = (start if start is not None else normal_equations(psi, True))[:3]
     _finite(chi2, G, g, "at the start")
@@ -90,7 +93,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
             solved = solved or bool(np.isfinite(step).all())
             trial = psi.copy()
             trial[keep] += step
-            chi2_new = normal_equations(trial, False)[0]
+            chi2_new, *at_trial = normal_equations(trial, eager)
             if np.isfinite(chi2_new) and chi2_new + trial @ trial <= obj:
                 accepted = True
                 break
@@ -118,7 +121,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
         if decrease <= tol * max(obj, 1.0) or np.abs(step).max() < 1e-10:
             converged = True   # G and g stay those of the point before this last, negligible step
             break
-        chi2, G, g = normal_equations(psi, True)[:3]
+        chi2, G, g = (chi2, *at_trial[:2]) if eager else normal_equations(psi, True)[:3]
         _finite(chi2, G, g, f"at the point accepted in iteration {it}")
         obj = chi2 + psi @ psi
         lam = max(lam / 10, LAMBDA_MIN)

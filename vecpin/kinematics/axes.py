@@ -126,11 +126,13 @@ def kinematics_in_pieces(kinematics, q, tool, jacobian, frame, point, offset) ->
     N, K = len(q), KINEMATICS_ROWS
     if offset is not None:
         offset = np.broadcast_to(np.asarray(offset, float), (N, 3))
-    parts = [kinematics(q[k:k + K], tool[k:k + K], jacobian, frame=frame,
-                        point=point if np.ndim(point) == 0 else point[k:k + K],
-                        offset=None if offset is None else offset[k:k + K]) for k in range(0, N, K)]
-    return TipKinematics(*(None if parts[0][j] is None else np.concatenate([p[j] for p in parts]) for j in range(5)),
-                         parts[0].frame)
+    order = np.lexsort(q.T[::-1])   # rows of one pose (every tool's) side by side: its Jacobians computed once
+    back = np.empty(N, int)
+    back[order] = np.arange(N)
+    parts = [kinematics(q[o], tool[o], jacobian, frame=frame, point=point if np.ndim(point) == 0 else point[o],
+                        offset=None if offset is None else offset[o]) for o in (order[k:k + K] for k in range(0, N, K))]
+    return TipKinematics(*(None if parts[0][j] is None else np.concatenate([p[j] for p in parts])[back]
+                           for j in range(5)), parts[0].frame)
 
 
 class WorkpiecePoints(NamedTuple):

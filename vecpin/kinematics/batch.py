@@ -62,10 +62,12 @@ class FrameProbes:
     def jacobians(self, configurations: np.ndarray) -> np.ndarray:
         """(N, 6, nv_extended) world Jacobians ``[v0; w]`` for N configurations (N, nq)."""
         model, data, compute = self.model, self.data, pin.computeJointJacobians
-        out = np.empty((len(configurations), 6, model.nvExtended))
-        for i, qi in enumerate(configurations):
+        cfg = np.asarray(configurations)
+        new = np.r_[True, np.any(cfg[1:] != cfg[:-1], axis=1)] if len(cfg) else np.zeros(0, bool)
+        out = np.empty((int(new.sum()), 6, model.nvExtended))
+        for i, qi in enumerate(cfg[new]):   # a configuration repeated on the next rows: computed once
             out[i] = compute(model, data, qi)
-        return out
+        return out if new.all() else out[np.cumsum(new) - 1]
 
     def placement(self, J: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(R (N,3,3), p (N,3)) of frame ``name`` in the base frame, from its probe's columns.

@@ -38,6 +38,7 @@ everything is SI (m, rad); the user-facing unit of an axis is mm (linear) or deg
 """
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Sequence
 
@@ -52,6 +53,8 @@ from vecpin.kinematics.batch import FrameProbes, apply, apply_transposed, point_
 from vecpin.kinematics.loading import bundled_file, machine_parts, urdf_file_text
 from vecpin.kinematics.urdf import UrdfTree
 from vecpin.units import to_mm
+
+TIP_MEMO = 3   # nominal tool tips of this many large campaigns kept (Machine.tool_tip)
 
 
 class Machine:
@@ -319,8 +322,25 @@ class Machine:
 
     def tool_tip(self, q: np.ndarray, tool: np.ndarray | float = 0.0, *, frame: Frame | None = None,
                  point: int | np.ndarray = 0, offset: np.ndarray | None = None) -> np.ndarray:
-        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`)."""
-        return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+        """(N, 3) nominal tool-tip positions [m] (default frame: :attr:`default_frame`). A
+        campaign of more than :data:`KINEMATICS_ROWS` rows is asked for its nominal tips by
+        several checks and by every fit: the last :data:`TIP_MEMO` such answers are kept (keyed
+        by a BLAKE2 digest of the arrays asked, not copies of them) and returned as copies."""
+        q = np.atleast_2d(np.asarray(q, float))
+        if len(q) <= KINEMATICS_ROWS:
+            return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+        digest = hashlib.blake2b(self._frame(frame).encode())
+        for v in (q, tool, point, 0.0 if offset is None else offset):
+            a = np.ascontiguousarray(v)
+            digest.update(f"{a.dtype}{a.shape}".encode())
+            digest.update(a.tobytes())
+        key = digest.digest()
+        memo = self.__dict__.setdefault("_tip_memo", {})
+        if key not in memo:
+            memo[key] = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+            while len(memo) > TIP_MEMO:
+                memo.pop(next(iter(memo)))
+        return memo[key].copy()
 
     def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
         """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""

@@ -44,9 +44,6 @@ def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, rotary: np.nda
     :data:`READING_RAD` (``rad``) on a rotary axis and :data:`READING_M` on a linear one, chained
     (a row joins the group of any row that close); None: commands, compared to 1 nm /
     1 nrad (:attr:`Campaign.rotary` says which a campaign holds)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
     q = np.asarray(q, float)
     if not len(q):
         return np.zeros(0, int)
@@ -54,15 +51,43 @@ def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, rotary: np.nda
     t = np.zeros(len(q)) if tool is None else np.asarray(tool, float)
     # rows read again to the digit (commands, a pose read many times) are one point before the search
     rows, back = np.unique(np.c_[q, t], axis=0, return_inverse=True)
-    pairs = cKDTree(rows[:, :-1] / tol).query_pairs(1.0, p=np.inf, output_type="ndarray")
+    pairs = close_pairs(rows[:, :-1] / tol)
     pairs = pairs[np.abs(rows[pairs[:, 0], -1] - rows[pairs[:, 1], -1]) <= EXACT]
     n = len(rows)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    comp = connected_components(graph, directed=False)[1][np.asarray(back).ravel()]
+    if len(pairs):
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        comp = connected_components(graph, directed=False)[1][np.asarray(back).ravel()]
+    else:   # every pose its own (a campaign of distinct commands: no graph, no scipy.sparse to import)
+        comp = np.asarray(back).ravel()
     _, first, label = np.unique(comp, return_index=True, return_inverse=True)
     rank = np.empty(len(first), int)
     rank[np.argsort(first)] = np.arange(len(first))
     return rank[np.asarray(label).ravel()]   # numbered in the order the poses are first read
+
+
+def close_pairs(x: np.ndarray) -> np.ndarray:
+    """(M, 2) the pairs i < j of rows of ``x`` (n, d) within 1 of each other on every
+    coordinate (what ``scipy.spatial.cKDTree(x).query_pairs(1.0, p=inf)`` gives, in some
+    order): the rows sorted along the coordinate of widest spread, each compared with the
+    rows after it within 1 on that one; a k-d tree only when that leaves many to compare."""
+    n = len(x)
+    if n < 2:
+        return np.zeros((0, 2), int)
+    key = x[:, int(np.argmax(np.ptp(x, axis=0)))] if x.shape[1] else np.zeros(n)
+    order = np.argsort(key, kind="stable")
+    xs, key = x[order], key[order]
+    count = np.searchsorted(key, key + 1.0, side="right") - np.arange(n) - 1
+    total = int(count.sum())
+    if total > 8 * n + 1000:
+        from scipy.spatial import cKDTree
+        return cKDTree(x).query_pairs(1.0, p=np.inf, output_type="ndarray")
+    i = np.repeat(np.arange(n), count)
+    j = i + 1 + np.arange(total) - np.repeat(np.cumsum(count) - count, count)
+    near = np.all(np.abs(xs[i] - xs[j]) <= 1.0, axis=1)
+    a, b = order[i[near]], order[j[near]]
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
 
 
 def repeat_groups(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:

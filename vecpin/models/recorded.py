@@ -17,6 +17,8 @@ of millimetres. Three checks, in this order, each refusing with the reason:
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vecpin.errors import ModelFileError, VecpinError
@@ -71,15 +73,39 @@ def still_hold(model) -> tuple[np.ndarray, np.ndarray] | None:
     return np.where(free, -np.inf, lo), np.where(free, np.inf, hi)
 
 
+PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47)
+
+
+def scrambled_halton(d: int, n: int, seed: int = 0) -> np.ndarray:
+    """(n, d) in [0, 1): the first ``n`` points of scipy's ``qmc.Halton(d, scramble=True, seed=seed)``,
+    bit for bit (Owen's randomised Halton: per dimension a van der Corput sequence in the next
+    prime base, each digit permuted by one of ``ceil(54 / log2(base)) - 1`` shuffles drawn from
+    ``numpy.random.default_rng(seed)`` in turn). Written here because importing ``scipy.stats``
+    takes about a second, more than a fit of a few hundred rows; tests/test_recorded_halton.py
+    holds it to scipy's."""
+    if d > len(PRIMES) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"at most {len(PRIMES)} dimensions and a whole-number seed")
+    rng = np.random.default_rng(seed)
+    out = np.zeros((n, d))
+    for k, base in enumerate(PRIMES[:d]):
+        perms = np.repeat(np.arange(base)[None], math.ceil(54 / math.log2(base)) - 1, axis=0)
+        for perm in perms:
+            rng.shuffle(perm)
+        q, scale = np.arange(n), 1.0 / base
+        for perm in perms:
+            out[:, k] += perm[q % base] * scale
+            q, scale = q // base, scale / base
+    return out
+
+
 def check_commands(model) -> tuple[np.ndarray, np.ndarray]:
     """(q (N,n) [m, rad], tool (N,) [m]): :data:`CHECK_COMMANDS` scrambled-Halton commands
     (seed 0) in the fit's measured range (the axis limits where the file has none), each
     with every tool of the fit (0 without tools)."""
-    from scipy.stats import qmc
     m = model.machine
     rep = getattr(model, "report_", None)
     lo, hi = recorded_box(model, widen_still=False)
-    u = qmc.Halton(d=m.n_axes, scramble=True, seed=0).random(CHECK_COMMANDS)
+    u = scrambled_halton(m.n_axes, CHECK_COMMANDS, seed=0)
     q = lo + u * (hi - lo)
     tools = [float(t) / MM_PER_M for t in (getattr(rep, "tool_lengths_mm", None) or [0.0])]
     return np.repeat(q, len(tools), axis=0), np.tile(np.asarray(tools), len(q))

@@ -10,7 +10,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.stats import qmc
 
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
@@ -19,6 +18,7 @@ from vecpin.planning.problem import PlanProblem
 from vecpin.planning.sightline import SightLine
 from vecpin.planning.zones import inside
 from vecpin.units import M_PER_MM
+from vecpin.models.recorded import scrambled_halton   # scipy's qmc.Halton, without scipy.stats
 
 
 def default_candidates(n_commands: int) -> int:
@@ -37,7 +37,7 @@ def quantise(machine: Machine, q: np.ndarray, resolution: float = 1e-3) -> np.nd
 
 def candidate_commands(machine: Machine, n: int, lower: np.ndarray, upper: np.ndarray, seed: int = 0) -> np.ndarray:
     """n scrambled-Halton commands in [lower, upper] [m, rad], on the NC grid and inside."""
-    u = qmc.Halton(machine.n_axes, seed=seed).random(n)
+    u = scrambled_halton(machine.n_axes, n, seed=seed)
     q = quantise(machine, lower + u * (upper - lower))
     return np.clip(q, lower, upper)
 

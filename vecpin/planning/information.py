@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
-from scipy.stats import qmc
 
 from vecpin.errors import InputError
 from vecpin.identification.likelihood import E0_PRIORS, Likelihood
@@ -37,6 +36,7 @@ from vecpin.measurement.setup import POSE_NAMES, Setup
 from vecpin.measurement.tracker import cartesian_to_spherical, spherical_jacobian
 from vecpin.models import ErrorModel
 from vecpin.planning.doptimal import CandidateRows
+from vecpin.models.recorded import scrambled_halton   # scipy's qmc.Halton, without scipy.stats
 
 
 def instrument_covariance(noise: NoiseModel, tips: np.ndarray, tracker: np.ndarray) -> np.ndarray:
@@ -211,7 +211,7 @@ class Information:
         station; a further station's pose is counted (its planned rows read points station
         0 reads: the fit determines it, :meth:`Likelihood.priority`)."""
         m = self.machine
-        u = qmc.Halton(m.n_axes, seed=0).random(n_reference)
+        u = scrambled_halton(m.n_axes, n_reference, seed=0)
         q = m.lower + u * (m.upper - m.lower)
         W = self.rows(q).reshape(-1, self.P)
         order = self.priority()
@@ -330,5 +330,5 @@ class PredictedError:
 
 def validation_commands(machine: Machine, n: int, lower: np.ndarray, upper: np.ndarray, seed: int = 1) -> np.ndarray:
     """n quasi-random (scrambled Halton) commands in the box [lower, upper] [m, rad]."""
-    u = qmc.Halton(machine.n_axes, seed=seed).random(n)
+    u = scrambled_halton(machine.n_axes, n, seed=seed)
     return lower + u * (upper - lower)

@@ -31,13 +31,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import qmc
 
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate
 from vecpin.planning.nests import NEST_HEIGHTS, nest_positions, nest_reach
 from vecpin.planning.sightline import SightLine, solids_from_urdf
 from vecpin.units import MM_PER_M
+from vecpin.models.recorded import scrambled_halton   # scipy's qmc.Halton, without scipy.stats
 
 SAMPLES = 120               # commands the sight lines are tested at
 ANGLES = 8                  # candidate nest directions on each circle
@@ -103,7 +103,7 @@ class Placement:
 def _commands(machine: Machine, sl: SightLine, tool: float, seed: int) -> np.ndarray:
     """Quasi-random commands [m, rad] over the travel where the holder of length ``tool``
     [m] is free and the first station sees the tool."""
-    q = machine.lower + qmc.Halton(machine.n_axes, seed=seed).random(2 * SAMPLES) * (machine.upper - machine.lower)
+    q = machine.lower + scrambled_halton(machine.n_axes, 2 * SAMPLES, seed=seed) * (machine.upper - machine.lower)
     ok = (sl.collisions(q, tool) == "") & ~sl.check(q, tool).blocked
     return q[ok][:SAMPLES]
 
@@ -124,7 +124,7 @@ def candidate_stations(machine: Machine, first: np.ndarray, tool: float) -> np.n
     """(S,3) [m] second-station candidates: 8 directions about the tool tips' workspace
     centre at the first station's horizontal distance from it, at the first station's
     height and 0.5 m below and above it (base frame)."""
-    u = qmc.Halton(machine.n_axes, seed=0).random(128)
+    u = scrambled_halton(machine.n_axes, 128, seed=0)
     tips = machine.tool_tip(machine.lower + u * (machine.upper - machine.lower), tool, frame="base")
     centre = (tips.min(axis=0) + tips.max(axis=0)) / 2
     dist = float(np.hypot(*(first - centre)[:2]))

@@ -39,11 +39,11 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from scipy.stats import qmc
 
 from vecpin.errors import InputError, MachineError
 from vecpin.kinematics.machine import Machine
 from vecpin.units import M_PER_MM, MM_PER_M
+from vecpin.models.recorded import scrambled_halton   # scipy's qmc.Halton, without scipy.stats
 
 MAX_NESTS = 20             # nests one plan or simulation places
 MAX_REACH = 0.3            # m: farthest a default nest stands from the table centre
@@ -100,7 +100,7 @@ def nest_reach(machine: Machine) -> float:
     table = table_radius(machine)
     if table is not None and table > 2 * NEST_EDGE:
         return table - NEST_EDGE
-    q = machine.lower + qmc.Halton(machine.n_axes, seed=0).random(256) * (machine.upper - machine.lower)
+    q = machine.lower + scrambled_halton(machine.n_axes, 256, seed=0) * (machine.upper - machine.lower)
     rel = machine.tool_tip(q, 0.2, frame="workpiece")
     reach = min(MAX_REACH, 0.4 * 0.5 * float(np.ptp(rel[:, :2], axis=0).min()))
     return reach if table is None else min(reach, TABLE_SHARE * table)

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.identification.nested import heldout_nested, nested_order
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.models import MODELS, make_model
@@ -100,6 +101,34 @@ class Problem(Design):
         held = self.problem.heldout_blocks(F, sF, blocks)
         return [Candidate(self.kind, c, len(F) + len(P) - self.n_fixed, h, spans=self.spans)
                 for c, (P, _), h in zip(choices, blocks, held)]
+
+    def nested(self, choices: list[tuple[AxisChoice, ...]]) -> list[Candidate]:
+        """:meth:`candidate` of each choice; those whose columns nest (each holds a smaller
+        one's, the same factors: one family at rising orders) scored as one chain from one
+        factorisation per fold (:func:`~vecpin.identification.nested.heldout_nested`)."""
+        chains: list[list] = []
+        width = 1 + max((int(self.columns(c)[0].max()) for c in choices), default=0)
+        for choice in sorted(choices, key=lambda c: len(self.columns(c)[0])):
+            cols, fac = self.columns(choice)
+            mine = np.full(width, np.nan)                 # this choice's factor per column (nan: not its column)
+            mine[cols] = fac
+            for chain in chains:
+                last, last_fac = self.columns(chain[-1])
+                if len(last) < len(cols) and np.array_equal(mine[last], last_fac):
+                    chain.append(choice)
+                    break
+            else:
+                chains.append([choice])
+        out = {}
+        for chain in chains:
+            nest = nested_order([self.columns(c) for c in chain]) if len(chain) > 1 else None
+            held = heldout_nested(self.problem, *nest) if nest is not None else None
+            if held is None:
+                out.update((c, self.candidate(c)) for c in chain)
+                continue
+            out.update((c, Candidate(self.kind, c, n - self.n_fixed, h, spans=self.spans))
+                       for c, n, h in zip(chain, nest[2], held))
+        return [out[c] for c in choices]
 
     def _shared(self, choices: list[tuple[AxisChoice, ...]]) -> tuple[np.ndarray, np.ndarray, list]:
         """(F, its factors, [(P_b, factors)]): the columns every choice has with the same
@@ -204,11 +233,17 @@ class Search:
         return self.scored.get(key)
 
     def common(self, prob: Problem, machine: Machine, plans, orders, options) -> None:
-        """Every plan (one family on every axis it applies to) at every order."""
+        """Every plan (one family on every axis it applies to) at every order, scored in
+        chains of nested candidates (:meth:`Problem.nested`), added in the plans' order."""
+        todo = {}
         for plan in plans:
             for o in (orders if plan not in ("spline", "pspline") else [None]):
                 for plan_axes in plans_at(machine, plan, o, options):
-                    self.score(prob, plan_axes)
+                    if (prob.kind, plan_axes) not in self.scored and self.supported(prob, plan_axes):
+                        todo.setdefault(plan_axes, None)
+        scored = {c.axes: c for c in prob.nested(list(todo))}
+        for choice in todo:
+            self.add(scored[choice])
 
     def refine(self, prob: Problem, options) -> Candidate | None:
         """Around the kind's best, every basis and smoothing of one axis at a time (the
