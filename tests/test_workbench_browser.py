@@ -237,6 +237,9 @@ def test_flow_profile_a_bad_field_then_the_tables(flow):
     pg.fill("#profile-Z-reference_position", PROFILE["Z"][2])
     save_profile(pg)
     run(pg, "tables")
+    pg.wait_for_selector("#table-maps figure")
+    maps = json.loads((folder / "tables/tables.json").read_text())["tables"]
+    assert pg.locator("#table-maps figure").count() == len(maps)
     shot(pg, "tables")
 
 

@@ -312,6 +312,42 @@ function showScene() {
   $("scene").replaceChildren(bar, frame);
 }
 
+async function showTableMaps() {
+  // each table the tables stage wrote (tables/tables.json) drawn as its map: the correction
+  // of the output axis against the input axis's position, in the file's own units
+  const out = $("result-tables"); out.textContent = "";
+  const r = await fetch(`/files/tables/tables.json?t=${Date.now()}`);
+  if (!r.ok) return;
+  const tables = (await r.json()).tables || [];
+  const NS = "http://www.w3.org/2000/svg", W = 240, H = 120, P = 30;
+  const svg = (tag, attrs) => {
+    const e = document.createElementNS(NS, tag);
+    for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, v);
+    return e;
+  };
+  const grid = el("div", {class: "maps", id: "table-maps"});
+  for (const t of tables) {
+    const xs = t.values.map((_, k) => t.start + k * t.step), ys = t.values;
+    const lo = Math.min(0, ...ys), hi = Math.max(0, ...ys), span = hi - lo || 1;
+    const X = (x) => P + (W - P - 6) * (x - xs[0]) / ((xs[xs.length - 1] - xs[0]) || 1);
+    const Y = (y) => H - 18 - (H - 30) * (y - lo) / span;
+    const g = svg("svg", {width: W, height: H, viewBox: `0 0 ${W} ${H}`});
+    g.append(svg("line", {x1: P, x2: W - 6, y1: Y(0), y2: Y(0), stroke: "#bbb"}),
+             svg("polyline", {points: xs.map((x, k) => `${X(x)},${Y(ys[k])}`).join(" "), fill: "none",
+                              stroke: "#1f3a5f", "stroke-width": 1.5}));
+    const label = (x, y, text, anchor = "start") => {
+      const e = svg("text", {x, y, "font-size": 10, fill: "#444", "text-anchor": anchor}); e.textContent = text;
+      return e;
+    };
+    const f = (v) => (Math.abs(v) >= 100 ? v.toFixed(0) : v.toPrecision(3));
+    g.append(label(2, Y(hi) + 4, f(hi)), label(2, Y(lo) + 4, f(lo)),
+             label(P, H - 4, `${f(xs[0])}`), label(W - 6, H - 4, `${f(xs[xs.length - 1])} ${t.input_unit}`, "end"));
+    grid.append(el("figure", {}, g, el("figcaption", {text: `${t.name}: ${t.output_axis} correction ` +
+      `[${t.output_unit}] against ${t.input_axis} [${t.input_unit}], ${t.points} points`})));
+  }
+  out.append(el("h4", {text: `the tables the machine gets (${tables.length}, from tables/tables.json)`}), grid);
+}
+
 async function showPrograms() {
   const list = ["PLAN_840D.MPF", "O1000.nc", "plan.ngc", "plan.H", "plan.script", "VALID_840D.MPF", "O1001.nc",
                 "validation.ngc"];
@@ -393,12 +429,13 @@ async function start() {
   await loadSession();
   if (state.done.plan) showPrograms();
   if (state.done.profile || state.done.plan) showProfile();
+  if (state.done.tables) showTableMaps();
   if (state.job && state.job.running) poll();
   document.body.dataset.ready = "yes";
 }
 
 // results that are views of files refresh when their stage ends
-const afterJob = {plan: showPrograms, profile: showProfile};
+const afterJob = {plan: showPrograms, profile: showProfile, tables: showTableMaps};
 let lastEnded = null;
 setInterval(() => {
   const j = state && state.job;
