@@ -92,9 +92,10 @@ def _context():
     return _CONTEXT
 
 
-def _stage_process(argv: list[str], cwd: str, log: str) -> None:
+def _stage_process(entry, argv: list[str], cwd: str, log: str) -> None:
     """In the stage's own process: stdout and stderr (Python's and the libraries') into
-    ``log``, the command line run by vecpin's ``main`` in ``cwd``, its code the exit code."""
+    ``log``, the command line run by ``entry`` (vecpin's ``main``) in ``cwd``, its code the
+    exit code."""
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     os.dup2(fd, 1)
     os.dup2(fd, 2)
@@ -102,9 +103,8 @@ def _stage_process(argv: list[str], cwd: str, log: str) -> None:
     sys.stdout = open(1, "w", encoding="utf-8", errors="replace", buffering=1, closefd=False)
     sys.stderr = open(2, "w", encoding="utf-8", errors="replace", buffering=1, closefd=False)
     os.chdir(cwd)
-    from vecpin.cli.main import main
     try:
-        code = main(argv)
+        code = entry(argv)
     finally:
         sys.stdout.flush()
         sys.stderr.flush()
@@ -115,9 +115,9 @@ class Job:
     """One command line run in the day's folder (``vecpin ARGV``, by vecpin's ``main`` in a
     process of its own), its merged output read line by line."""
 
-    def __init__(self, stage: str, argv: list[str], cwd: Path, log: Path):
+    def __init__(self, stage: str, argv: list[str], cwd: Path, log: Path, entry):
         self.stage, self.argv = stage, argv
-        self.proc = _context().Process(target=_stage_process, args=(argv, str(cwd), str(log)))
+        self.proc = _context().Process(target=_stage_process, args=(entry, argv, str(cwd), str(log)))
         log.unlink(missing_ok=True)
         self.proc.start()
         self.log = log
@@ -226,7 +226,8 @@ class Workbench:
         with self.lock:
             if self.job and self.job.ended is None:
                 raise VecpinError(f"the stage {self.job.stage} is still running: wait for it or cancel it")
-            self.job = Job(stage, self.argv(stage), self.folder, self.logs / "job.log")
+            entry = self.parser.get_default("entry")   # vecpin's main, as ``vecpin run`` calls it
+            self.job = Job(stage, self.argv(stage), self.folder, self.logs / "job.log", entry)
             return self.job.state()
 
     def state(self) -> dict:
