@@ -237,7 +237,7 @@ function figureBox(f, tol) {
   for (const [k, label] of Object.entries(MORE)) {
     const v = f[k];
     if (v === null || v === undefined) continue;
-    const text = Array.isArray(v) ? v.join(", ") : k.endsWith("_mm") ? mm(v) : typeof v === "number" ?
+    const text = Array.isArray(v) ? v.join(", ") || "none" : k.endsWith("_mm") ? mm(v) : typeof v === "number" ?
       String(Math.round(v * 100) / 100) : String(v);
     table.append(row(label, text, "", "", ""));
   }
