@@ -124,6 +124,7 @@ def save_profile(pg) -> None:
 
 def shot(pg, stage: str, name: str | None = None) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
+    pg.eval_on_selector_all("details.more", "ds => ds.forEach(d => d.removeAttribute('open'))")   # the form folded
     pg.locator(f"#stage-{stage}").screenshot(path=str(SHOTS / f"{name or stage}.png"))
 
 

@@ -149,10 +149,19 @@ function fillFields(s, values) {
     else if (v === undefined || v === null) input.value = "";
     else if (Array.isArray(v)) input.value = v.join(f.kind === "list" ? "; " : " ");
     else input.value = String(v);
-    if (values[f.name] !== undefined) input.closest("details")?.setAttribute("open", "");
   }
+  foldedSummary(s, values);
   // a field the form does not know (a hand-written session) is kept: the command judges it
   extra[s.id] = Object.fromEntries(Object.entries(values).filter(([k]) => !known.has(k)));
+}
+
+function foldedSummary(s, values) {
+  // the folded options' line says which of them are set
+  const more = $(`stage-${s.id}`).querySelector("details.more summary");
+  if (!more) return;
+  const folded = (s.fields || []).filter((f) => !(s.main || []).includes(f.name));
+  const set = folded.filter((f) => values[f.name] !== undefined && values[f.name] !== false).map((f) => f.name);
+  more.textContent = `more options (${folded.length}${set.length ? `; set: ${set.join(", ")}` : ""})`;
 }
 
 async function saveStage(id) {
@@ -162,6 +171,7 @@ async function saveStage(id) {
   try {
     const r = await api(`/api/stage/${id}`, {fields});
     $(`command-${id}`).textContent = r.command || "";
+    foldedSummary(s, fields);
     return true;
   } catch (e) { showError(id, e.message); return false; }
 }
