@@ -137,3 +137,24 @@ def test_the_workbench_keeps_and_checks_the_session(tmp_path):
     again = create_app(tmp_path, build_parser()).test_client().get("/api/state", base_url="http://127.0.0.1").json
     assert again["session"]["machine"] == "flow_xyzcb" and again["session"]["tolerance_mm"] == 0.05
     assert again["session"]["stages"]["plan"] == {"points": "lots"} and again["job"] is None
+
+
+def test_the_workbench_forms_are_the_commands_options():
+    """Each stage's form in the workbench is its command's argparse options (kind, choices,
+    default, help), the files the user brings first, the options the session sets left out."""
+    from vecpin.cli.workbench.server import stage_options
+    parser = build_parser()
+    plan = {o["name"]: o for o in stage_options(parser, "plan")}
+    assert "out" not in plan and "help" not in plan
+    assert plan["points"]["kind"] == "int" and plan["points"]["default"] == 100 and "commands" in plan["points"]["help"]
+    assert plan["method"]["kind"] == "choice" and plan["method"]["choices"] == ["doptimal", "random"]
+    assert plan["exclude"]["kind"] == "list" and plan["no-sight"]["kind"] == "switch"
+    assert plan["repeat"]["kind"] == "several" and plan["repeat"]["count"] == 2
+    assert plan["expected-error"]["kind"] == "number"
+    imp = stage_options(parser, "import")
+    assert imp[0]["name"] == "export" and imp[0]["kind"] == "file"
+    assert not {"machine", "plan", "out"} & {o["name"] for o in imp}
+    verify = [o["name"] for o in stage_options(parser, "verify")]
+    assert verify[:2] == ["before", "after"] and not {"model-file", "tables", "out"} & set(verify)
+    tables = {o["name"]: o for o in stage_options(parser, "tables")}
+    assert tables["profile"]["kind"] == "file" and "siemens-840d" in tables["controller"]["choices"]

@@ -6,34 +6,121 @@ The page asks; this server only stores the choices, runs the commands ``vecpin r
 would run and hands back their files and the figures they wrote (mm)."""
 from __future__ import annotations
 
+import argparse
+import io
 import json
+import multiprocessing
+import multiprocessing.forkserver
 import os
-import subprocess
+import shutil
+import signal
 import sys
+import tempfile
 import threading
 import time
 import webbrowser
 from pathlib import Path
 
-from vecpin.cli.session import stage_argv
+from vecpin.cli.session import COMMAND, MANAGED, _subparser, stage_argv
 from vecpin.errors import VecpinError
-from vecpin.workflows.session import FORMAT, OUTPUTS, SESSION_FILE, STAGES, VERSION, session_from_dict
+from vecpin.workflows.session import FORMAT, INPUT_FIELDS, OUTPUTS, SESSION_FILE, STAGES, VERSION, session_from_dict
 
 STATIC = Path(__file__).with_name("static")
 TEMPLATE = "profile_template.json"   # the profile template the profile stage's form is built from
 PROFILE = "profile.json"             # the filled profile the form writes (the tables stage's input)
 SCENE = "scene.html"                 # the meshcat scene page of the fit
 KEPT_LINES = 400                     # output lines of a job the page is sent
+INPUT_HELP = {"export": "the tracker software's export (a path; relative: from the day's folder)",
+              "before": "the validation run without the tables, as a campaign CSV (empty: the one imported above)",
+              "after": "the validation run with the tables, as a campaign CSV (empty: the one imported above)"}
+
+
+def _kind(action: argparse.Action) -> str:
+    """How the page asks for an option: a switch, a number, a list (repeated option, ';'
+    between), several values (spaces between), a choice or a text."""
+    if action.nargs == 0:
+        return "switch"
+    if isinstance(action, argparse._AppendAction):
+        return "list"
+    if action.nargs in ("+", "*") or (isinstance(action.nargs, int) and action.nargs > 1):
+        return "several"
+    if action.choices:
+        return "choice"
+    return {int: "int", float: "number"}.get(action.type, "text")
+
+
+def _help(action: argparse.Action) -> str:
+    try:
+        return (action.help or "") % {"default": action.default, "prog": "", "choices": action.choices}
+    except (KeyError, TypeError, ValueError):
+        return action.help or ""
+
+
+def stage_options(parser: argparse.ArgumentParser, stage: str) -> list[dict]:
+    """The fields of ``stage``'s form, from its command's own argparse definitions: the
+    files the user brings first (:data:`INPUT_FIELDS`), then every long option the session
+    does not set itself, each with its kind, choices, default and help."""
+    actions = {o[2:]: a for a in _subparser(parser, COMMAND[stage])._actions for o in a.option_strings
+               if o.startswith("--") and a.dest != "help"}
+    out = [{"name": k, "kind": "file", "help": _help(actions[k]) if k in actions else INPUT_HELP[k]}
+           for k in INPUT_FIELDS.get(stage, ())]
+    for name, a in actions.items():
+        if name in MANAGED[stage] or name in INPUT_FIELDS.get(stage, ()):
+            continue
+        default = a.default if isinstance(a.default, (str, int, float, bool)) or a.default is None else None
+        out.append({"name": name, "kind": _kind(a), "choices": list(a.choices) if a.choices else None,
+                    "default": None if default == argparse.SUPPRESS else default, "help": _help(a),
+                    "metavar": a.metavar if isinstance(a.metavar, str) else None,
+                    "count": a.nargs if isinstance(a.nargs, int) and a.nargs > 1 else None})
+    return out
+
+
+#: what a stage's process has loaded before it is asked for (the forkserver's preload):
+#: each stage then starts warm instead of importing these again
+PRELOAD = ["vecpin.cli.main", "scipy.optimize", "scipy.linalg", "pinocchio", "vecpin.workflows.fitting",
+           "vecpin.workflows.tables", "vecpin.workflows.planning", "vecpin.workflows.diagnosing"]
+_CONTEXT = None
+
+
+def _context():
+    """The multiprocessing context the stages run in: processes forked from a server process
+    that imported :data:`PRELOAD` once (started at the first stage, not before the page)."""
+    global _CONTEXT
+    if _CONTEXT is None:
+        _CONTEXT = multiprocessing.get_context("forkserver")
+        _CONTEXT.set_forkserver_preload(PRELOAD)
+    return _CONTEXT
+
+
+def _stage_process(entry, argv: list[str], cwd: str, log: str) -> None:
+    """In the stage's own process: stdout and stderr (Python's and the libraries') into
+    ``log``, the command line run by ``entry`` (vecpin's ``main``) in ``cwd``, its code the
+    exit code."""
+    fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.close(fd)
+    sys.stdout = open(1, "w", encoding="utf-8", errors="replace", buffering=1, closefd=False)
+    sys.stderr = open(2, "w", encoding="utf-8", errors="replace", buffering=1, closefd=False)
+    os.chdir(cwd)
+    try:
+        code = entry(argv)
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    os._exit(code or 0)
 
 
 class Job:
-    """One command line running in the day's folder, its merged output read line by line."""
+    """One command line run in the day's folder (``vecpin ARGV``, by vecpin's ``main`` in a
+    process of its own), its merged output read line by line."""
 
-    def __init__(self, stage: str, argv: list[str], cwd: Path):
+    def __init__(self, stage: str, argv: list[str], cwd: Path, log: Path, entry):
         self.stage, self.argv = stage, argv
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen([sys.executable, "-m", "vecpin", *argv], cwd=cwd, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, text=True, encoding="utf-8", errors="replace", env=env)
+        self.proc = _context().Process(target=_stage_process, args=(entry, argv, str(cwd), str(log)))
+        log.unlink(missing_ok=True)
+        self.proc.start()
+        self.log = log
         self.lines: list[str] = []
         self.started = time.monotonic()
         self.ended: float | None = None
@@ -42,13 +129,29 @@ class Job:
         self.reader.start()
 
     def _read(self) -> None:
-        for line in self.proc.stdout:
-            self.lines.append(line.rstrip("\n"))
-        self.proc.wait()
+        while not self.log.exists() and self.proc.is_alive():
+            time.sleep(0.05)
+        rest = ""
+        with open(self.log, encoding="utf-8", errors="replace") if self.log.exists() else io.StringIO() as f:
+            while True:
+                alive = self.proc.is_alive()
+                rest += f.read()
+                *done, rest = rest.split("\n")
+                self.lines += done
+                if not alive:
+                    break
+                time.sleep(0.1)
+        if rest:
+            self.lines.append(rest)
+        self.proc.join()
         self.ended = time.monotonic()
 
+    @property
+    def code(self) -> int | None:
+        return self.proc.exitcode
+
     def cancel(self) -> None:
-        if self.proc.poll() is None:
+        if self.proc.is_alive():
             self.cancelled = True
             self.proc.terminate()
 
@@ -56,7 +159,7 @@ class Job:
         running = self.ended is None
         errors = [ln for ln in self.lines if ln.startswith("vecpin: error:")]
         return {"stage": self.stage, "command": "vecpin " + " ".join(self.argv), "running": running,
-                "code": None if running else self.proc.returncode, "cancelled": self.cancelled,
+                "code": None if running else self.code, "cancelled": self.cancelled,
                 "elapsed_s": round((self.ended or time.monotonic()) - self.started, 1),
                 "lines": self.lines[-KEPT_LINES:], "error": errors[-1] if errors else None}
 
@@ -70,6 +173,7 @@ class Workbench:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.lock = threading.Lock()
         self.job: Job | None = None
+        self.logs = Path(tempfile.mkdtemp(prefix="vecpin-workbench-"))   # the jobs' output, not in the day's folder
         self.load_error: str | None = None
         path = self.folder / SESSION_FILE
         self.raw = {"format": FORMAT, "version": VERSION, "machine": "", "tolerance_mm": None, "stages": {}}
@@ -122,7 +226,8 @@ class Workbench:
         with self.lock:
             if self.job and self.job.ended is None:
                 raise VecpinError(f"the stage {self.job.stage} is still running: wait for it or cancel it")
-            self.job = Job(stage, self.argv(stage), self.folder)
+            entry = self.parser.get_default("entry")   # vecpin's main, as ``vecpin run`` calls it
+            self.job = Job(stage, self.argv(stage), self.folder, self.logs / "job.log", entry)
             return self.job.state()
 
     def state(self) -> dict:
@@ -172,6 +277,10 @@ def create_app(folder: Path, parser):
         from vecpin.export.names import CONTROLLERS
         from vecpin.kinematics.axes import bundled_machines
         return jsonify({"machines": bundled_machines(), "controllers": list(CONTROLLERS), "stages": list(STAGES)})
+
+    @app.get("/api/options")
+    def options():
+        return jsonify({s: stage_options(bench.parser, s) for s in STAGES})
 
     @app.post("/api/stage/<stage>")
     def set_stage(stage):
@@ -233,6 +342,10 @@ def create_app(folder: Path, parser):
     return app
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> int:
     """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address.
     ``parser``: vecpin's command-line parser."""
@@ -240,8 +353,12 @@ def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> 
     server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
     url = f"http://127.0.0.1:{server.server_port}/"
     print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
+    # the stages' warm process starts beside the page (on the other core), not before it
+    _context()
+    threading.Thread(target=multiprocessing.forkserver.ensure_running, daemon=True).start()
     if open_browser:
         webbrowser.open(url)
+    signal.signal(signal.SIGTERM, _interrupt)   # a terminated workbench ends as Ctrl-C ends it
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -250,4 +367,8 @@ def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> 
         bench = server.app.config["bench"]
         if bench.job:
             bench.job.cancel()
+            bench.job.reader.join(timeout=10)
+        # the stages' warm process ends with the workbench (multiprocessing has no public stop)
+        getattr(multiprocessing.forkserver._forkserver, "_stop", lambda: None)()
+        shutil.rmtree(bench.logs, ignore_errors=True)
     return 0

@@ -2,64 +2,46 @@
 // the server keeps in the folder's session.json; every result is a file a vecpin command wrote.
 "use strict";
 
-// field kinds: text, int, number (kept as typed when it is not a number: the command says why),
-// list; (a list split at ';'), list, (split at ','), words (split at spaces), bool (a switch), select
+// Each stage's form is built from its command's own options (/api/options: argparse's type,
+// choices, default and help); `main` names the ones shown first, the rest are under "more options".
 const UI = [
   {id: "machine", title: "Machine", what: "The machine (a bundled name or a URDF path), its axes and frames, and the " +
     "volumetric error you accept after compensation (mm).", run: "Show axes and frames",
-   fields: [["machine", "machine (bundled name or URDF path)", "text"],
-            ["tolerance_mm", "tolerance after compensation, mm", "number"]]},
+   fields: [{name: "machine", kind: "text", help: "a bundled machine name or a URDF path"},
+            {name: "tolerance_mm", kind: "number", help: "the volumetric error you accept after compensation, mm"}]},
   {id: "plan", title: "Plan", what: "Points, zones, tracker place; the line of sight is tested unless switched off.",
-   run: "Plan", images: ["plan/plan.png"],
-   fields: [["points", "points (commands)", "int"], ["order", "order (or auto)", "text"],
-            ["tracker", "tracker X,Y,Z (mm)", "text"],
-            ["exclude", "exclusion zones (AXIS=LO:HI, ';' between)", "list;"],
-            ["repeat", "repeated points: POINTS TIMES", "words"], ["candidates", "candidate commands", "int"],
-            ["validation-count", "validation commands", "int"],
-            ["dialect", "program dialects (',' between)", "list,"], ["no-sight", "no line-of-sight test", "bool"]]},
+   run: "Plan", images: ["plan/plan.png"], main: ["points", "order", "tracker", "exclude", "repeat", "candidates",
+                                                   "validation-count", "dialect", "no-sight"]},
   {id: "programs", title: "Programs", what: "The measurement and validation programs the plan wrote (dialects: the " +
    "plan's field above).", view: "programs"},
   {id: "import", title: "Import the tracker export", run: "Import", what: "The tracker software's export joined to " +
-   "the plan by point name; the column mapping and any unmatched rows are in the output.",
-   fields: [["export", "tracker export (path)", "text"], ["columns", "column mapping FIELD=COLUMN,...", "text"],
-            ["units", "units of x, y, z", "select", ["", "auto", "mm", "in", "m"]],
-            ["ignore-unmatched", "skip rows not in the plan", "bool"]]},
+   "the plan by point name: the column mapping and any unmatched rows below.",
+   main: ["export", "columns", "units", "ignore-unmatched"]},
   {id: "assess", title: "Assess", run: "Assess", what: "Is compensation worth it? Repeatability, drift, the " +
-   "instrument's floor and the uncompensated error.", fields: []},
+   "instrument's floor and the uncompensated error.", main: []},
   {id: "fit", title: "Fit", run: "Fit", what: "The model the data choose (or the one you fix), with its held-out " +
-   "figures.", scene: true,
-   fields: [["model", "model", "select", ["", "auto", "6dof", "ap"]],
-            ["basis", "basis", "select", ["", "auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline"]],
-            ["order", "order (or auto)", "text"]]},
-  {id: "evaluate", title: "Evaluate", run: "Evaluate", what: "The model's residuals on the campaign.", fields: []},
+   "figures.", scene: true, main: ["model", "basis", "order"]},
+  {id: "evaluate", title: "Evaluate", run: "Evaluate", what: "The model's residuals on the campaign.", main: []},
   {id: "diagnose", title: "Diagnose", run: "Diagnose", what: "What the model does not explain: the three sentences " +
-   "first, then the ambiguity and what to measure next.", fields: [["effects", "candidate effects", "text"]]},
+   "first, then the ambiguity and what to measure next.", main: ["effects"]},
   {id: "profile", title: "Controller profile", what: "What the controller's files need from the machine: fill in " +
    "every null the template marks as needed.", view: "profile"},
   {id: "tables", title: "Tables and files", run: "Write the tables", what: "What the machine gets, in the " +
    "controller's format, and the error it keeps in the part's frame.",
-   fields: [["controller", "controller", "select", ["", "siemens-840d", "siemens-828d", "fanuc-30i", "linuxcnc",
-             "beckhoff", "heidenhain", "iso230", "generic"]],
-            ["profile", "controller profile (the profile stage writes profile.json)", "text"],
-            ["method", "subset method", "select", ["", "exact", "ga", "heuristic"]],
-            ["table-points", "points per table", "int"]]},
+   main: ["controller", "profile", "method", "table-points", "max-tables"]},
   {id: "import_before", title: "Import the validation run without the tables", run: "Import",
    what: "The tracker export of the plan's validation program run without the tables, joined to the plan's " +
-   "validation run (plan/validation.csv).",
-   fields: [["export", "tracker export (path)", "text"], ["columns", "column mapping FIELD=COLUMN,...", "text"]]},
+   "validation run (plan/validation.csv).", main: ["export", "columns"]},
   {id: "import_after", title: "Import the validation run with the tables", run: "Import",
-   what: "The same program run again with the tables loaded, its tracker export.",
-   fields: [["export", "tracker export (path)", "text"], ["columns", "column mapping FIELD=COLUMN,...", "text"]]},
+   what: "The same program run again with the tables loaded, its tracker export.", main: ["export", "columns"]},
   {id: "verify", title: "Verify", run: "Verify", images: ["verify/verify.png"], what: "The validation run without " +
-   "and with the tables, in the part's frame.",
-   fields: [["before", "run without the tables (campaign CSV; empty: the one imported above)", "text"],
-            ["after", "run with the tables (campaign CSV; empty: the one imported above)", "text"]]},
+   "and with the tables, in the part's frame.", main: ["before", "after"]},
   {id: "report", title: "Compensation record", what: "What was measured, fitted, written and verified, with " +
    "versions (ISO/TR 16907 clauses 11 and 12).", view: "report"},
 ];
 const STAGES = ["plan", "import", "assess", "fit", "evaluate", "diagnose", "tables", "import_before", "import_after",
                 "verify"];
-let state = null, polling = null, logs = {}, drawn = {};
+let state = null, polling = null, logs = {}, drawn = {}, extra = {};
 
 const $ = (id) => document.getElementById(id);
 const el = (tag, attrs = {}, ...kids) => {
@@ -77,6 +59,41 @@ async function api(path, body) {
   return data;
 }
 
+function field(stage, f) {
+  // one labelled input for one option: its kind says how it is typed, its help is its title
+  const id = `${stage}-${f.name}`;
+  let input;
+  const dflt = f.default === null || f.default === undefined || f.default === false ? "" : `default ${f.default}`;
+  if (f.kind === "choice") {
+    input = el("select", {id});
+    input.append(el("option", {value: "", text: `(${dflt || "default"})`}));
+    for (const o of f.choices) input.append(el("option", {value: o, text: o}));
+  } else if (f.kind === "switch") input = el("input", {id, type: "checkbox"});
+  else {
+    const hint = {list: "; between several", several: f.count ? `${f.count} values, spaces between` :
+      "spaces between"}[f.kind] || "";
+    input = el("input", {id, type: "text", size: 50, placeholder: [f.metavar, dflt, hint].filter(Boolean).join(", ")});
+  }
+  input.dataset.kind = f.kind;
+  const label = el("label", {for: id, title: f.help || ""}, f.name, el("small", {text: f.help || ""}));
+  return [label, input];
+}
+
+function buildForms(options) {
+  // the stages' forms from their commands' options: `main` first, the others folded
+  for (const s of UI) {
+    const opts = options[s.id];
+    if (!opts) continue;
+    s.fields = opts;
+    const main = opts.filter((o) => s.main.includes(o.name));
+    const rest = opts.filter((o) => !s.main.includes(o.name));
+    const grid = el("div", {class: "fields"}, ...main.flatMap((f) => field(s.id, f)));
+    const more = el("details", {class: "more"}, el("summary", {text: `more options (${rest.length})`}),
+                    el("div", {class: "fields"}, ...rest.flatMap((f) => field(s.id, f))));
+    $(`stage-${s.id}`).querySelector(".what").after(grid, ...(rest.length ? [more] : []));
+  }
+}
+
 function build() {
   const main = $("stages"); main.textContent = "";
   UI.forEach((s, k) => {
@@ -84,24 +101,7 @@ function build() {
                        `${k + 1} ${s.title}`));
     const sec = el("section", {id: "stage-" + s.id}, el("h2", {text: `${k + 1}. ${s.title}`}),
                    el("p", {class: "what", text: s.what}));
-    if (s.fields) {
-      const grid = el("div", {class: "fields"});
-      for (const [name, label, kind, options] of s.fields) {
-        const id = `${s.id}-${name}`;
-        let input;
-        if (kind === "select") {
-          input = el("select", {id});
-          for (const o of options) input.append(el("option", {value: o, text: o || "(default)"}));
-        } else if (kind === "bool") input = el("input", {id, type: "checkbox"});
-        else input = el("input", {id, type: "text", size: 50});
-        grid.append(el("label", {for: id, text: label}), input);
-      }
-      if (STAGES.includes(s.id)) {
-        grid.append(el("label", {for: `${s.id}-more`, text: "other options (JSON object)"}),
-                    el("input", {id: `${s.id}-more`, type: "text", size: 50, placeholder: "{}"}));
-      }
-      sec.append(grid);
-    }
+    if (s.fields) sec.append(el("div", {class: "fields"}, ...s.fields.flatMap((f) => field(s.id, f))));
     const buttons = el("div", {class: "buttons"});
     if (s.run) buttons.append(button(`run-${s.id}`, s.run, () => runStage(s.id)));
     if (s.scene) buttons.append(button("run-scene", "Draw the scene", () => runStage("scene")));
@@ -122,48 +122,56 @@ function build() {
 
 function button(id, text, fn) { const b = el("button", {id, text}); b.onclick = fn; return b; }
 
+const NUM = /^[-+]?\d*\.?\d+(e[-+]?\d+)?$/i;
+const typedWord = (t) => (NUM.test(t) ? Number(t) : t);
+
 function readFields(s) {
+  // the form as session fields: numbers as numbers (a bad one kept as typed: the command says why)
   const out = {};
-  for (const [name, , kind] of s.fields || []) {
-    const input = $(`${s.id}-${name}`);
-    if (kind === "bool") { if (input.checked) out[name] = true; continue; }
+  for (const f of s.fields || []) {
+    const input = $(`${s.id}-${f.name}`);
+    if (f.kind === "switch") { if (input.checked) out[f.name] = true; continue; }
     const v = input.value.trim();
     if (v === "") continue;
-    if (kind === "int" || kind === "number") out[name] = /^[-+]?\d*\.?\d+(e[-+]?\d+)?$/i.test(v) ? Number(v) : v;
-    else if (kind === "list;") out[name] = v.split(";").map((t) => t.trim()).filter(Boolean);
-    else if (kind === "list,") out[name] = v.split(",").map((t) => t.trim()).filter(Boolean);
-    else if (kind === "words") out[name] = v.split(/\s+/).map((t) => (/^\d+$/.test(t) ? Number(t) : t));
-    else out[name] = v;
+    if (f.kind === "int" || f.kind === "number") out[f.name] = typedWord(v);
+    else if (f.kind === "list") out[f.name] = v.split(";").map((t) => t.trim()).filter(Boolean);
+    else if (f.kind === "several") out[f.name] = v.split(/\s+/).map(typedWord);
+    else out[f.name] = v;
   }
-  const more = $(`${s.id}-more`);
-  if (more && more.value.trim()) Object.assign(out, JSON.parse(more.value));
-  return out;
+  return Object.assign({}, extra[s.id] || {}, out);
 }
 
 function fillFields(s, values) {
-  const known = new Set((s.fields || []).map((f) => f[0]));
-  for (const [name, , kind] of s.fields || []) {
-    const input = $(`${s.id}-${name}`), v = values[name];
-    if (kind === "bool") input.checked = !!v;
+  const known = new Set((s.fields || []).map((f) => f.name));
+  for (const f of s.fields || []) {
+    const input = $(`${s.id}-${f.name}`), v = values[f.name];
+    if (f.kind === "switch") input.checked = !!v;
     else if (v === undefined || v === null) input.value = "";
-    else if (Array.isArray(v)) input.value = v.join(kind === "list;" ? "; " : kind === "words" ? " " : ",");
+    else if (Array.isArray(v)) input.value = v.join(f.kind === "list" ? "; " : " ");
     else input.value = String(v);
   }
-  const more = $(`${s.id}-more`);
-  if (more) {
-    const rest = Object.fromEntries(Object.entries(values).filter(([k]) => !known.has(k)));
-    more.value = Object.keys(rest).length ? JSON.stringify(rest) : "";
-  }
+  foldedSummary(s, values);
+  // a field the form does not know (a hand-written session) is kept: the command judges it
+  extra[s.id] = Object.fromEntries(Object.entries(values).filter(([k]) => !known.has(k)));
+}
+
+function foldedSummary(s, values) {
+  // the folded options' line says which of them are set
+  const more = $(`stage-${s.id}`).querySelector("details.more summary");
+  if (!more) return;
+  const folded = (s.fields || []).filter((f) => !(s.main || []).includes(f.name));
+  const set = folded.filter((f) => values[f.name] !== undefined && values[f.name] !== false).map((f) => f.name);
+  more.textContent = `more options (${folded.length}${set.length ? `; set: ${set.join(", ")}` : ""})`;
 }
 
 async function saveStage(id) {
   const s = UI.find((u) => u.id === id);
   $(`error-${id}`).textContent = "";
-  let fields;
-  try { fields = readFields(s); } catch (e) { showError(id, "other options: " + e.message); return false; }
+  const fields = readFields(s);
   try {
     const r = await api(`/api/stage/${id}`, {fields});
     $(`command-${id}`).textContent = r.command || "";
+    foldedSummary(s, fields);
     return true;
   } catch (e) { showError(id, e.message); return false; }
 }
@@ -177,7 +185,11 @@ async function runStage(id) {
     const fields = Object.assign({}, (state.session.stages || {}).tables || {},
                                  {controller: $("profile-controller").value});
     await api("/api/stage/tables", {fields}).catch(() => null);
-  } else if (id !== "scene" && !(await saveStage(id))) { document.body.dataset.action = "done"; return; }
+  }
+  const m = readFields(UI[0]), ses = state.session;   // the machine typed but not yet kept: kept first
+  if (id !== "machine" && (m.machine !== ses.machine || m.tolerance_mm !== ses.tolerance_mm) &&
+      !(await saveStage("machine"))) { document.body.dataset.action = "done"; return; }
+  if (!["scene", "profile"].includes(id) && !(await saveStage(id))) { document.body.dataset.action = "done"; return; }
   $(`error-${owner}`).textContent = "";
   try { await api(`/api/run/${id}`, {}); } catch (e) {
     showError(owner, e.message); document.body.dataset.action = "done"; return;
@@ -210,16 +222,59 @@ async function refresh() {
   showResults();
 }
 
+// the other numbers a stage's file holds beside its figure, as the figure table's rows
+const MORE = {mean_mm: "mean", heldout_mean_mm: "held-out mean", before_max_mm: "without the tables: max",
+  before_mean_mm: "without the tables: mean", reduction_of_mean_pct: "reduction of the mean, %",
+  mean_error_mm: "uncompensated error: mean", repeatability_mm: "repeatability", commands: "commands",
+  rows: "rows", model: "model", bases: "bases", effects: "effects", verdict: "verdict"};
+
 function figureBox(f, tol) {
-  const mm = (v) => (v === null || v === undefined ? "-" : `${v.toFixed(4)} mm`);
+  // the figure that matters against the tolerance, with the instrument's noise beside it
+  const mm = (v) => (v === null || v === undefined ? "-" : `${Number(v).toFixed(4)} mm`);
   const verdict = f.passes === true ? "pass" : f.passes === false ? "fail" : "";
   const box = el("div", {class: "figure " + verdict});
   if (f.headline) box.append(el("ul", {}, ...f.headline.map((t) => el("li", {text: t}))));
-  box.append(el("span", {class: "badge " + verdict, text: f.passes === true ? "PASS" : f.passes === false ? "FAIL" :
-    "not judged"}), ` ${f.what}: ${mm(f.value_mm)}` + (f.judged ? `, tolerance ${tol ? mm(tol) : "not stated"}` : "") +
-    (f.noise_mm ? `, instrument noise ${mm(f.noise_mm)}` : "") + (f.verdict ? `, verdict: ${f.verdict}` : "") +
-    (f.rows !== undefined && f.rows !== null ? `, ${f.rows} rows` : ""));
+  const row = (...cells) => el("tr", {}, ...cells.map((c) => el("td", {text: c})));
+  const table = el("table", {class: "figures"}, el("tr", {}, ...["figure", "value", "tolerance", "instrument noise",
+    "result"].map((h) => el("th", {text: h}))));
+  if (f.value_mm !== null && f.value_mm !== undefined) {
+    const badge = el("td", {}, el("span", {class: "badge " + verdict, text: f.passes === true ? "PASS" :
+      f.passes === false ? "FAIL" : "not judged"}));
+    table.append(el("tr", {}, el("td", {text: f.what}), el("td", {text: mm(f.value_mm)}),
+                    el("td", {text: f.judged ? (tol ? mm(tol) : "not stated") : "-"}),
+                    el("td", {text: mm(f.noise_mm)}), badge));
+  }
+  for (const [k, label] of Object.entries(MORE)) {
+    const v = f[k];
+    if (v === null || v === undefined) continue;
+    const text = Array.isArray(v) ? v.join(", ") || "none" : k.endsWith("_mm") ? mm(v) : typeof v === "number" ?
+      String(Math.round(v * 100) / 100) : String(v);
+    table.append(row(label, text, "", "", ""));
+  }
+  box.append(table);
   return box;
+}
+
+function importTable(lines) {
+  // the import's column mapping and its unmatched rows, as the command printed them
+  const out = [];
+  const cols = lines.find((l) => l.trim().startsWith("columns: "));
+  if (cols) {
+    const pairs = [...cols.matchAll(/(\w+) <- '([^']*)'/g)];
+    out.push(el("table", {class: "figures", id: "columns-table"},
+                el("tr", {}, el("th", {text: "campaign field"}), el("th", {text: "export column"})),
+                ...pairs.map((m) => el("tr", {}, el("td", {text: m[1]}), el("td", {text: m[2]})))));
+  }
+  const rows = [];
+  for (const l of lines) {
+    const m = /^\s*(\d+) (planned points not in the export|export rows skipped \(not in the plan\)): (.*)$/.exec(l);
+    if (m) rows.push(el("tr", {}, el("td", {text: m[2]}), el("td", {text: m[1]}), el("td", {text: m[3]})));
+  }
+  out.push(rows.length ? el("table", {class: "figures", id: "unmatched-table"}, el("tr", {},
+    el("th", {text: "not joined"}), el("th", {text: "rows"}), el("th", {text: "names"})), ...rows) :
+    el("p", {id: "unmatched-table", text: cols ? "every export row joined a planned point, every planned point " +
+      "was measured" : ""}));
+  return out;
 }
 
 function showResults() {
@@ -233,8 +288,9 @@ function showResults() {
     const kids = [];
     if (job) {
       if (!job.running && job.code !== 0 && job.error) showError(s.id, job.error);
-      kids.push(el("div", {class: "command", text: job.command}),
-                el("pre", {class: "log", id: `log-${s.id}`, text: job.lines.join("\n")}));
+      if (s.id.startsWith("import") && !job.running && job.code === 0) kids.push(...importTable(job.lines));
+      kids.push(el("details", {open: ""}, el("summary", {class: "command", text: job.command}),
+                   el("pre", {class: "log", id: `log-${s.id}`, text: job.lines.join("\n")})));
     }
     const stamp = Date.now();
     for (const img of done ? s.images || [] : []) {
@@ -264,6 +320,42 @@ function showScene() {
     }));
   }
   $("scene").replaceChildren(bar, frame);
+}
+
+async function showTableMaps() {
+  // each table the tables stage wrote (tables/tables.json) drawn as its map: the correction
+  // of the output axis against the input axis's position, in the file's own units
+  const out = $("result-tables"); out.textContent = "";
+  const r = await fetch(`/files/tables/tables.json?t=${Date.now()}`);
+  if (!r.ok) return;
+  const tables = (await r.json()).tables || [];
+  const NS = "http://www.w3.org/2000/svg", W = 240, H = 120, P = 30;
+  const svg = (tag, attrs) => {
+    const e = document.createElementNS(NS, tag);
+    for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, v);
+    return e;
+  };
+  const grid = el("div", {class: "maps", id: "table-maps"});
+  for (const t of tables) {
+    const xs = t.values.map((_, k) => t.start + k * t.step), ys = t.values;
+    const lo = Math.min(0, ...ys), hi = Math.max(0, ...ys), span = hi - lo || 1;
+    const X = (x) => P + (W - P - 6) * (x - xs[0]) / ((xs[xs.length - 1] - xs[0]) || 1);
+    const Y = (y) => H - 18 - (H - 30) * (y - lo) / span;
+    const g = svg("svg", {width: W, height: H, viewBox: `0 0 ${W} ${H}`});
+    g.append(svg("line", {x1: P, x2: W - 6, y1: Y(0), y2: Y(0), stroke: "#bbb"}),
+             svg("polyline", {points: xs.map((x, k) => `${X(x)},${Y(ys[k])}`).join(" "), fill: "none",
+                              stroke: "#1f3a5f", "stroke-width": 1.5}));
+    const label = (x, y, text, anchor = "start") => {
+      const e = svg("text", {x, y, "font-size": 10, fill: "#444", "text-anchor": anchor}); e.textContent = text;
+      return e;
+    };
+    const f = (v) => (Math.abs(v) >= 100 ? v.toFixed(0) : v.toPrecision(3));
+    g.append(label(2, Y(hi) + 4, f(hi)), label(2, Y(lo) + 4, f(lo)),
+             label(P, H - 4, `${f(xs[0])}`), label(W - 6, H - 4, `${f(xs[xs.length - 1])} ${t.input_unit}`, "end"));
+    grid.append(el("figure", {}, g, el("figcaption", {text: `${t.name}: ${t.output_axis} correction ` +
+      `[${t.output_unit}] against ${t.input_axis} [${t.input_unit}], ${t.points} points`})));
+  }
+  out.append(el("h4", {text: `the tables the machine gets (${tables.length}, from tables/tables.json)`}), grid);
 }
 
 async function showPrograms() {
@@ -336,8 +428,9 @@ async function loadSession() {
 }
 
 async function start() {
-  const choices = await api("/api/choices");
+  const [choices, options] = await Promise.all([api("/api/choices"), api("/api/options")]);
   build();
+  buildForms(options);
   for (const c of choices.controllers) $("profile-controller").append(el("option", {value: c, text: c}));
   const list = el("datalist", {id: "machines"});
   for (const m of choices.machines) list.append(el("option", {value: m}));
@@ -346,12 +439,13 @@ async function start() {
   await loadSession();
   if (state.done.plan) showPrograms();
   if (state.done.profile || state.done.plan) showProfile();
+  if (state.done.tables) showTableMaps();
   if (state.job && state.job.running) poll();
   document.body.dataset.ready = "yes";
 }
 
 // results that are views of files refresh when their stage ends
-const afterJob = {plan: showPrograms, profile: showProfile};
+const afterJob = {plan: showPrograms, profile: showProfile, tables: showTableMaps};
 let lastEnded = null;
 setInterval(() => {
   const j = state && state.job;
