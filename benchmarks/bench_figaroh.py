@@ -102,14 +102,19 @@ def run_vecpin(split: str, work: Path, *options: str) -> dict:
     return {"mean": float(e.mean()), "max": float(e.max()), "setting": setting, "errors": e.round(5).tolist()}
 
 
-def _figaroh_config(work: Path, n: int, method: str, level: str) -> Path:
-    from vecpin.measurement.robotaccuracy import JOINTS, TMAC_TOOL_MM
+def figaroh_config(work: Path, robot: str, joints, tool_frame: str, markers: dict, n: int, method: str,
+                   level: str, tool_pose_m=(0.0, 0.0, 0.0)) -> Path:
+    """FIGAROH's calibration settings (``work``/figaroh.yaml) for ``n`` training poses in
+    ``work``/figaroh_train.csv: ``markers`` {name: position-only}, the tool pose [m] on
+    ``tool_frame``, the base frame unknown from ``universe``."""
+    lines = "\n".join(f"        - name: {name}\n          measurable_dof: [true, true, true, false, false, false]"
+                      for name in markers)
     cfg = work / "figaroh.yaml"
     cfg.write_text(f"""robot:
-  name: ur10
+  name: {robot}
   properties:
     joints:
-      active_joints: [{", ".join(JOINTS)}]
+      active_joints: [{", ".join(joints)}]
 tasks:
   calibration:
     enabled: true
@@ -120,14 +125,13 @@ tasks:
         method: {method}
     kinematics:
       base_frame: universe
-      tool_frame: tool0
+      tool_frame: {tool_frame}
     measurements:
       markers:
-        - name: tmac
-          measurable_dof: [true, true, true, false, false, false]
+{lines}
       poses:
         base_pose: [0, 0, 0, 0, 0, 0]
-        tool_pose: [0, 0, {TMAC_TOOL_MM / 1000}, 0, 0, 0]
+        tool_pose: [{", ".join(str(v) for v in tool_pose_m)}, 0, 0, 0]
     data:
       source_file: {work / 'figaroh_train.csv'}
       number_of_samples: {n}
@@ -135,30 +139,19 @@ tasks:
     return cfg
 
 
-def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
-    """FIGAROH's geometric calibration of the bundled ur10 URDF with ``method`` and
-    ``level`` on the training poses (base frame and marker point unknown, started at
-    FIGAROH's closed-form guess); held-out distances [mm] of its updated kinematics."""
-    import logging
-    import pandas as pd
-    import pinocchio as pin
+def solve_figaroh(robot, cfg: Path, q_held: np.ndarray):
+    """FIGAROH's calibration of ``robot`` (a pinocchio RobotWrapper) with the settings ``cfg``
+    (base frame and tip point unknown, its printout silenced); (its parameters, the updated
+    kinematics' marker points [m] at the held-out joint positions ``q_held``: (3 x markers, N))."""
     from figaroh.calibration.base_calibration import BaseCalibration
     from figaroh.calibration.calibration_tools import calc_updated_fkm
-    from vecpin.measurement.robotaccuracy import JOINTS
-    logging.disable(logging.WARNING)
-    m, train, held = _split(split)
-    df = pd.DataFrame({"x1": train.xyz[:, 0], "y1": train.xyz[:, 1], "z1": train.xyz[:, 2]})
-    for j, name in enumerate(JOINTS):
-        df[name] = train.q[:, j]
-    df.to_csv(work / "figaroh_train.csv", index=False)
-    robot = pin.RobotWrapper.BuildFromURDF(str(m.urdf_path))
 
     class Calibration(BaseCalibration):
-        def cost_function(self, var):   # the marker's position, m, in the tracker frame
+        def cost_function(self, var):   # the markers' points, m, in the measuring instrument's frame
             return self.PEE_measured - calc_updated_fkm(self.model, self.data, var, self.q_measured,
                                                         self.calib_config)
 
-    cal = Calibration(robot, str(_figaroh_config(work, len(train), method, level)))
+    cal = Calibration(robot, str(cfg))
     cal.calib_config["known_baseframe"] = False
     cal.calib_config["known_tipframe"] = False
     cal.initialize()
@@ -168,13 +161,33 @@ def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
             result = cal.solve(enable_logging=False)
         finally:
             sys.stdout = out
-    q = np.zeros((len(held), robot.model.nq))
-    q[:, cal.calib_config["config_idx"]] = held.q
-    cfg = dict(cal.calib_config, NbSample=len(held))
-    p = calc_updated_fkm(cal.model, cal.data, result.x, q, cfg).reshape(3, -1).T
-    e = np.linalg.norm(p - held.xyz, axis=1) * 1000.0
+    q = np.zeros((len(q_held), robot.model.nq))
+    q[:, cal.calib_config["config_idx"]] = q_held
+    cfg = dict(cal.calib_config, NbSample=len(q_held))
+    return result.x, calc_updated_fkm(cal.model, cal.data, result.x, q, cfg)
+
+
+def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
+    """FIGAROH's geometric calibration of the bundled ur10 URDF with ``method`` and
+    ``level`` on the training poses (base frame and marker point unknown, started at
+    FIGAROH's closed-form guess); held-out distances [mm] of its updated kinematics."""
+    import logging
+    import pandas as pd
+    import pinocchio as pin
+    from vecpin.measurement.robotaccuracy import JOINTS, TMAC_TOOL_MM
+    logging.disable(logging.WARNING)
+    m, train, held = _split(split)
+    df = pd.DataFrame({"x1": train.xyz[:, 0], "y1": train.xyz[:, 1], "z1": train.xyz[:, 2]})
+    for j, name in enumerate(JOINTS):
+        df[name] = train.q[:, j]
+    df.to_csv(work / "figaroh_train.csv", index=False)
+    robot = pin.RobotWrapper.BuildFromURDF(str(m.urdf_path))
+    cfg = figaroh_config(work, "ur10", JOINTS, "tool0", {"tmac": True}, len(train), method, level,
+                         (0.0, 0.0, TMAC_TOOL_MM / 1000))
+    x, p = solve_figaroh(robot, cfg, held.q)
+    e = np.linalg.norm(p.reshape(3, -1).T - held.xyz, axis=1) * 1000.0
     return {"mean": float(e.mean()), "max": float(e.max()), "setting": f"{method}/{level}",
-            "parameters": len(result.x), "errors": e.round(5).tolist()}
+            "parameters": len(x), "errors": e.round(5).tolist()}
 
 
 def split_arguments(ap: argparse.ArgumentParser, page: str) -> None:

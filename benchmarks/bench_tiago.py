@@ -54,7 +54,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_figaroh import FIGAROH_DEFAULT, SEARCHED, _cell, paired  # noqa: E402
+from bench_figaroh import FIGAROH_DEFAULT, SEARCHED, _cell, figaroh_config, paired, solve_figaroh  # noqa: E402
 
 DATA_ENV = "VECPIN_BENCH_TIAGO"   # the folder of the CSV and the URDF (``--data``)
 CSV, URDF, TOOL = "qualysis_base_hand_calibration.csv", "tiago_no_hand.urdf", "wrist_ft_tool_link"
@@ -123,47 +123,12 @@ def run_vecpin(split: str, work: Path) -> dict:
             "setting": f"{chosen.get('kind', model.kind)}, {chosen.get('model_terms', model.n_parameters)} terms"}
 
 
-def _figaroh_config(work: Path, n: int, method: str, level: str) -> Path:
-    markers = "\n".join(f"        - name: m{k + 1}\n          measurable_dof: [true, true, true, false, false, false]"
-                        for k in range(MARKERS))
-    cfg = work / "figaroh.yaml"
-    cfg.write_text(f"""robot:
-  name: tiago
-  properties:
-    joints:
-      active_joints: [{", ".join(JOINTS)}]
-tasks:
-  calibration:
-    enabled: true
-    parameters:
-      calibration_level: {level}
-      include_non_geometric: false
-      estimation:
-        method: {method}
-    kinematics:
-      base_frame: universe
-      tool_frame: {TOOL}
-    measurements:
-      markers:
-{markers}
-      poses:
-        base_pose: [0, 0, 0, 0, 0, 0]
-        tool_pose: [0, 0, 0, 0, 0, 0]
-    data:
-      source_file: {work / 'figaroh_train.csv'}
-      number_of_samples: {n}
-""")
-    return cfg
-
-
 def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
     """FIGAROH's geometric calibration with ``method`` and ``level`` on the training poses
     (module text); held-out distances [mm] of its updated kinematics, marker by marker."""
     import logging
     import pandas as pd
     import pinocchio as pin
-    from figaroh.calibration.base_calibration import BaseCalibration
-    from figaroh.calibration.calibration_tools import calc_updated_fkm
     logging.disable(logging.WARNING)
     q, p = poses()
     test = held_out(q, split)
@@ -172,29 +137,13 @@ def run_figaroh(split: str, work: Path, method: str, level: str) -> dict:
         df[name] = q[~test, j]
     df.to_csv(work / "figaroh_train.csv", index=False)
     robot = pin.RobotWrapper(pin.buildModelFromUrdf(urdf_copy(work)))
-
-    class Calibration(BaseCalibration):
-        def cost_function(self, var):   # every marker's point, m, in the motion-capture frame
-            return self.PEE_measured - calc_updated_fkm(self.model, self.data, var, self.q_measured,
-                                                        self.calib_config)
-
-    cal = Calibration(robot, str(_figaroh_config(work, int((~test).sum()), method, level)))
-    cal.calib_config["known_baseframe"] = False
-    cal.calib_config["known_tipframe"] = False
-    cal.initialize()
-    with open(os.devnull, "w") as null:
-        out, sys.stdout = sys.stdout, null
-        try:
-            result = cal.solve(enable_logging=False)
-        finally:
-            sys.stdout = out
-    qh = np.zeros((int(test.sum()), robot.model.nq))
-    qh[:, cal.calib_config["config_idx"]] = q[test]
-    cfg = dict(cal.calib_config, NbSample=len(qh))
-    pred = calc_updated_fkm(cal.model, cal.data, result.x, qh, cfg).reshape(MARKERS, 3, -1).transpose(2, 0, 1)
+    cfg = figaroh_config(work, "tiago", JOINTS, TOOL, {f"m{k + 1}": True for k in range(MARKERS)},
+                         int((~test).sum()), method, level)
+    x, points = solve_figaroh(robot, cfg, q[test])
+    pred = points.reshape(MARKERS, 3, -1).transpose(2, 0, 1)
     e = (np.linalg.norm(pred - p[test], axis=2) * 1000.0).ravel()   # pose by pose, marker by marker
     return {"mean": float(e.mean()), "max": float(e.max()), "setting": f"{method}/{level}",
-            "parameters": len(result.x), "errors": e.round(5).tolist()}
+            "parameters": len(x), "errors": e.round(5).tolist()}
 
 
 def child(argv: list[str]) -> None:
