@@ -35,7 +35,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial.distance import cdist
 
-from vecpin.planning.sightline import _holder_hits, _joint_placements, _to_local, spindle_chain
+from vecpin.planning.sightline import _holder_hits, _to_local, spindle_chain
 from vecpin.planning.sweep import _swept
 
 STEP_DEG = 2.0        # deg: configurations checked along a joint move, at most this apart on every joint
@@ -63,8 +63,9 @@ def blocked_moves(sight, A: np.ndarray, B: np.ndarray, holder: np.ndarray | floa
     :data:`STEP_DEG` apart, and between two of them the area the holder's axis sweeps
     relative to each solid grown by the holder's radius (its axis at both and paths of
     points along it, in the solid's own frame: :func:`~vecpin.planning.sweep._swept`), so
-    that a link crossed between two configurations counts. The solids of the flange's
-    own link do not count (the holder sits in them)."""
+    that a link crossed between two configurations counts (a mesh, which is not grown: its
+    lines at the holder's radius at every configuration). The solids of the flange's own
+    link do not count (the holder sits in them)."""
     A, B = np.atleast_2d(np.asarray(A, float)), np.atleast_2d(np.asarray(B, float))
     by = np.full(len(A), "", dtype=object)
     if not len(A):
@@ -74,13 +75,36 @@ def blocked_moves(sight, A: np.ndarray, B: np.ndarray, holder: np.ndarray | floa
     L = np.broadcast_to(np.asarray(holder, float), (len(A),))[edge]
     i = np.flatnonzero(edge[:-1] == edge[1:])      # consecutive configurations of one move
     for sol, n, t in _holder_in_solids(sight, q, L):
-        hit = _swept(sol, n[i], t[i], n[i + 1], t[i + 1])
+        # posed only where the swept area can reach the solid's bounding sphere: every point of
+        # it lies within the larger of the two ends' displacements of the holder at the first
+        near = _near(sol, n, t)
+        reach = np.maximum(np.linalg.norm(n[i + 1] - n[i], axis=1), np.linalg.norm(t[i + 1] - t[i], axis=1))
+        j = i[(near[i] <= reach) & (by[edge[i]] == "")]
+        if not len(j):
+            continue
+        hit = _swept(sol, n[j], t[j], n[j + 1], t[j + 1])
         if sol.kind == "mesh" and len(sol.size):   # the lines off the axis at the holder's radius
             off = _holder_hits(sol, n, t)
-            hit |= off[i] | off[i + 1]
-        e = np.unique(edge[i[hit]])
+            hit |= off[j] | off[j + 1]
+        e = np.unique(edge[j[hit]])
         by[e[by[e] == ""]] = sol.name
     return by
+
+
+def _near(s, n: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(N,) how far [m] the segments n-t (the solid's own frame) pass outside the sphere
+    about its origin that holds the solid (<= 0: they may meet it)."""
+    if s.kind == "box":
+        r = float(np.linalg.norm(s.size))
+    elif s.kind == "cylinder":
+        r = float(np.hypot(*s.size))
+    elif s.kind == "sphere":
+        r = float(s.size[0])
+    else:
+        r = float(np.linalg.norm(s.vertices, axis=1).max()) + (float(s.size[0]) if len(s.size) else 0.0)
+    d = t - n
+    u = np.clip(-np.einsum("ij,ij->i", n, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-30), 0.0, 1.0)
+    return np.linalg.norm(n + u[:, None] * d, axis=1) - r
 
 
 def _holder_in_solids(sight, q: np.ndarray, L: np.ndarray):
@@ -92,8 +116,8 @@ def _holder_in_solids(sight, q: np.ndarray, L: np.ndarray):
     m = sight.machine
     own, _ = spindle_chain(m)
     solids = [s for s in sight.holder_solids() if s.joint != own]
-    oMi = _joint_placements(m.model, m.full_q(q))
-    if oMi is None:   # a joint _joint_placements does not pose: Pinocchio pose by pose
+    oMi = _placements(m.model, m.full_q(q))
+    if oMi is None:   # a joint _placements does not pose: Pinocchio pose by pose
         kin = m.kinematics(q, L, jacobian=False, frame="base")
         poses = sight.solid_poses(q)
         keep = [k for k, s in enumerate(sight.solids) if s.joint != own]
@@ -101,14 +125,49 @@ def _holder_in_solids(sight, q: np.ndarray, L: np.ndarray):
             yield s, _to_local(poses[:, k], kin.spindle), _to_local(poses[:, k], kin.tip)
         return
     fr = m.model.frames[m.spindle_frame_id]
-    T = oMi[:, fr.parentJoint] @ fr.placement.homogeneous
-    nose = T[:, :3, 3]
-    tip = nose + (T[:, :3, :3] @ m.tool_axis) * L[:, None]
-    in_joint = {j: (_to_local(oMi[:, j], nose), _to_local(oMi[:, j], tip)) for j in {s.joint for s in solids}}
+    R, t = oMi[fr.parentJoint]
+    nose = t + R @ fr.placement.translation
+    tip = nose + (R @ (fr.placement.rotation @ m.tool_axis)) * L[:, None]
+    in_joint = {}
+    for j in {s.joint for s in solids}:
+        R, t = oMi[j]
+        in_joint[j] = (np.einsum("nij,ni->nj", R, nose - t), np.einsum("nij,ni->nj", R, tip - t))
     for s in solids:
         Rt, p = s.placement[:3, :3], s.placement[:3, 3]
         n, t = in_joint[s.joint]
         yield s, (n - p) @ Rt, (t - p) @ Rt
+
+
+def _placements(model, qf: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]] | None:
+    """{joint: (rotation (N, 3, 3), position (N, 3))} of every joint in the base frame at
+    the configurations qf (N, nq), as Pinocchio's ``forwardKinematics`` gives them, for a
+    chain of revolute and prismatic joints (one product of a stack with a 3 x 3 matrix per
+    joint); None with another kind of joint."""
+    N = len(qf)
+    out = {0: (np.broadcast_to(np.eye(3), (N, 3, 3)), np.zeros((N, 3)))}
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        kind = jm.shortname().replace("JointModel", "")
+        if kind[:1] in "RP" and kind[1:] in ("X", "Y", "Z"):
+            axis = np.eye(3)["XYZ".index(kind[1:])]
+        elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
+            axis = np.asarray(jm.extract().axis, float)
+        else:
+            return None
+        R0, t0 = out[model.parents[j]]
+        P = model.jointPlacements[j]
+        A = (R0.reshape(-1, 3) @ P.rotation).reshape(N, 3, 3)
+        t = t0 + R0 @ P.translation
+        x = qf[:, jm.idx_q]
+        if kind[0] == "R":
+            K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+            AK = (A.reshape(-1, 3) @ K).reshape(N, 3, 3)
+            AKK = (AK.reshape(-1, 3) @ K).reshape(N, 3, 3)
+            A = A + np.sin(x)[:, None, None] * AK + (1.0 - np.cos(x))[:, None, None] * AKK
+        else:
+            t = t + x[:, None] * (A @ axis)
+        out[j] = (A, t)
+    return out
 
 
 def _cost(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -195,18 +254,21 @@ def _lazy_route(sight, nodes: np.ndarray, pairs: np.ndarray, known: dict, holder
     """The shortest route 0 -> 1 over the moves ``pairs`` (P, 2) whose every move is free,
     the moves checked lazily (only those on a shortest route, :func:`blocked_moves`),
     their verdicts kept in ``known`` {(i, j): free}."""
-    while True:
-        ok = np.array([known.get((int(i), int(j)), True) for i, j in pairs], bool)
-        route = _shortest(nodes, pairs[ok, 0], pairs[ok, 1]) if ok.any() else None
+    state = np.array([known.get((int(i), int(j)), True) for i, j in pairs], bool)   # free or not yet checked
+    checked = np.array([(int(i), int(j)) in known for i, j in pairs], bool)
+    at = {(int(i), int(j)): k for k, (i, j) in enumerate(pairs)}
+    while state.any():
+        route = _shortest(nodes, pairs[state, 0], pairs[state, 1])
         if route is None:
             return None
-        moves = [tuple(sorted((int(i), int(j)))) for i, j in zip(route[:-1], route[1:])]
-        new = [mv for mv in moves if mv not in known]
-        if not new:
+        on = np.array([at[tuple(sorted((int(i), int(j))))] for i, j in zip(route[:-1], route[1:])])
+        new = on[~checked[on]]
+        if not len(new):
             return route
-        idx = np.array(new)
-        free = blocked_moves(sight, nodes[idx[:, 0]], nodes[idx[:, 1]], holder) == ""
-        known.update(zip(new, free.tolist()))
+        free = blocked_moves(sight, nodes[pairs[new, 0]], nodes[pairs[new, 1]], holder) == ""
+        state[new], checked[new] = free, True
+        known.update(zip(map(tuple, pairs[new].tolist()), free.tolist()))
+    return None
 
 
 def _roadmap(sight, machine, a: np.ndarray, b: np.ndarray, holder: float, rng) -> np.ndarray | None:
