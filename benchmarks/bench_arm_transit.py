@@ -65,8 +65,9 @@ def one_run(m, template, clearance: float, sight, j, names) -> dict:
                 vias.append(run)
             run = 0
     return dict(moves=len(moves), blocked=int(np.sum(hit != "")), one=sum(v == 1 for v in vias),
-                roadmap=sum(v > 1 for v in vias), left=len(left), cpu=cpu, judged_direct=judged(j, names, poses, template),
-                judged=judged(j, names, routed, template), all_moves=len(routed) - 1)
+                roadmap=sum(v > 1 for v in vias), left=len(left), cpu=cpu,
+                judged_direct=judged(j, names, poses, template), judged=judged(j, names, routed, template),
+                all_moves=len(routed) - 1)
 
 
 def main() -> None:
@@ -103,7 +104,8 @@ def write_page(path: Path, rows: list) -> None:
              "(approach, measure, retract, via) posed every 5 deg by `tests/collision_judge.py` (Pinocchio and Coal on "
              "the URDF, no vecpin code, the holder a capsule of the same radius): moves that meet the arm without the "
              "vias, and with them.", "",
-             "| plan | run | moves | blocked | one via | roadmap | left | route CPU [s] | judge: direct | judge: routed |",
+             "| plan | run | moves | blocked | one via | roadmap | left | route CPU [s] | judge: direct "
+             "| judge: routed |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for name, run, r in rows:
         lines.append(f"| {name} | {run} | {r['moves']} | {r['blocked']} | {r['one']} | {r['roadmap']} | {r['left']} | "

@@ -12,7 +12,8 @@ list (tests/robot_programs.py). They must stop at exactly the plan's commands, a
 position they pass (each move's ends and points along it: at most 5 deg and 25 mm apart,
 in axis space as the controls interpolate) is posed with the machine's URDF geometry by
 tests/collision_judge.py (Pinocchio and Coal, no vecpin code): the target holder's axis
-meets no solid. Last, verify's reduction of the validation error."""
+meets no solid (on the arm the holder a capsule of the radius its program states, on
+every move, approach, retract and via poses included). Last, verify's reduction of the validation error."""
 from __future__ import annotations
 
 import contextlib
