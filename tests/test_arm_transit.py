@@ -63,3 +63,23 @@ def test_a_20_point_program_has_no_colliding_move():
     assert _judged_hits(text, radius) == []
     direct = write_arm_program("urscript", m, t, CLEARANCE, route=([p for p in poses if p.kind != "via"], []))
     assert len(_judged_hits(direct, radius, stop=5)) == 5   # the moves the vias free do meet the arm
+
+
+def test_the_holder_radius_counts_as_the_judge_counts_it():
+    """Poses where the holder's axis clears the arm but a 10 mm holder does not: vecpin's
+    check (the solids grown by the radius) finds them, and the judge's capsule of 10 mm
+    meets the arm there too, of 0.5 mm not; where vecpin's check finds a 10 mm holder
+    free, the judge does too."""
+    m = Machine.load("ur5")
+    thin = SightLine(m, np.zeros(3), tool_radius=0.0)
+    thick = SightLine(m, np.zeros(3), tool_radius=RADIUS)
+    q = m.lower + np.random.default_rng(5).random((400, m.n_axes)) * (m.upper - m.lower)
+    edge = q[(thin.collisions(q, HOLDERS[1]) == "") & (thick.collisions(q, HOLDERS[1]) != "")]
+    assert len(edge) >= 3
+    names = list(judge("ur5").model.names[1:])
+    wide, narrow = judge("ur5", RADIUS), judge("ur5", 0.0005)
+    pos = [dict(zip(names, np.degrees(x))) for x in edge]
+    assert len(narrow.colliding(pos, HOLDERS[1])) == 0
+    assert len(wide.colliding(pos, HOLDERS[1])) == len(edge)
+    free = q[thick.collisions(q, HOLDERS[1]) == ""]
+    assert len(free) > 300 and wide.colliding([dict(zip(names, np.degrees(x))) for x in free], HOLDERS[1]) == []
