@@ -171,7 +171,8 @@ def _add_route_args(s) -> None:
     s.add_argument("--geometry", choices=["auto", "collision", "visual"], default="auto",
                    help="URDF geometry that blocks the sight line (default auto: collision if any, else visual)")
     s.add_argument("--tool-radius-mm", type=float, default=10.0,
-                   help="radius of the target holder, which can block its own target, mm (default 10; 0: ignore)")
+                   help="radius of the target holder, which can block its own target, mm (default 10; 0: ignore); "
+                        "on an arm also the holder's radius in the collision check of every pose its program visits")
     s.add_argument("--target-clearance-mm", type=float, default=19.1,
                    help="radius of the retroreflector; the sight line ends this far from the target centre, mm "
                         "(default 19.1, a 1.5 in SMR)")

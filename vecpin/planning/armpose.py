@@ -18,8 +18,9 @@ singularity needs large joint moves for a small tool move). The approach itself 
 joint move from the pre-pose to the measured pose: its tip must stay within
 :data:`MAX_DEVIATION` of the clearance of the straight line along the tool axis
 (:func:`approach_deviation`); the holder is checked for collisions with
-the planner's geometry (:class:`~vecpin.planning.sightline.SightLine`) at the pre-pose,
-the measured pose and :data:`PATH_SAMPLES` configurations between them.
+the planner's geometry (:class:`~vecpin.planning.sightline.SightLine`, the holder a
+cylinder of the plan's radius) along the whole joint move, as the moves between points
+are (:func:`~vecpin.planning.armtransit.blocked_moves`).
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ from vecpin.units import M_PER_MM
 POSITION_TOL = 1e-7        # m: the pre-pose's tool link within this of its target
 ANGLE_TOL = 1e-7           # rad: and its orientation within this of the measured one
 MAX_JOINT_STEP_DEG = 10.0  # deg, ASSUMED: no joint of the pre-pose further from the measured pose than this
-PATH_SAMPLES = 3           # configurations checked between the pre-pose and the measured pose
+PATH_SAMPLES = 3           # configurations between the pre-pose and the measured pose: the tip's deviation
 MAX_DEVIATION = 0.25       # ASSUMED: the tip leaves the tool axis by at most this fraction of the clearance
 DAMPING = 1e-4             # lambda of the damped least squares [m, rad]
 MAX_ITERATIONS = 40
@@ -118,14 +119,15 @@ def approach_deviation(machine: Machine, q: np.ndarray, pre: np.ndarray, tool: f
 
 def approach_collisions(sight, q: np.ndarray, pre: np.ndarray, tools: np.ndarray) -> np.ndarray:
     """(N,) the solid a holder of any length ``tools`` [m] runs into on the approach from
-    ``pre`` to ``q`` (N, n) [rad] ('' where free), by the sight line's collision test
-    (:meth:`~vecpin.planning.sightline.SightLine.collisions`)."""
+    ``pre`` to ``q`` (N, n) [rad] ('' where free): the joint move posed as the moves
+    between points are (:func:`~vecpin.planning.armtransit.blocked_moves`: every 2 deg
+    and the area between, the holder a cylinder of the plan's radius)."""
+    from vecpin.planning.armtransit import blocked_moves
     by = np.full(len(q), "", dtype=object)
-    for conf in approach_path(q, pre):
-        for L in np.atleast_1d(tools):
-            hit = sight.collisions(conf, float(L))
-            new = (hit != "") & (by == "")
-            by[new] = hit[new]
+    for L in np.atleast_1d(tools):
+        hit = blocked_moves(sight, pre, q, float(L))
+        new = (hit != "") & (by == "")
+        by[new] = hit[new]
     return by
 
 

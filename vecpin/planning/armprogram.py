@@ -9,7 +9,7 @@ with ``approach`` none the measure pose alone. The joint moves between the poses
 the controller's joint interpolation; from the pre-pose to the measured pose the joint
 move is short (a few degrees at most), so the holder runs out of the point nearly
 along the tool axis. The move between two points is posed with the planner's geometry
-and goes through a *via* pose where the direct move would sweep the holder through the
+and goes through *via* poses where the direct move would sweep the holder through the
 arm (:mod:`vecpin.planning.armtransit`).
 
 Two dialects (the plan's `dialect`; the NC dialects of
@@ -157,14 +157,15 @@ def arm_route(machine: Machine, template: PlanTemplate, clearance: float, dwells
 
 
 def _header(machine: Machine, template: PlanTemplate, clearance: float, title: str,
-            left: list[str] | None = None) -> list[str]:
+            left: list[str] | None = None, radius: float | None = None) -> list[str]:
     tools = np.unique(np.round(template.tool, 9))
     joints = ", ".join(a.name for a in machine.axes)
     return [f"vecpin measurement plan {title}".strip(),
             f"{len(template)} points, one per row of the plan; machine {machine.name} (an arm), target holder lengths "
             + ", ".join(f"{t * MM_PER_M:.3f} mm" for t in tools) + f" along the tool axis of {machine.tool_links[0]}",
             f"joint positions of {joints}: the URDF's joint coordinates, which must be the controller's "
-            "(zero and sign)",
+            "(zero and sign)"] + ([f"target holder checked as a cylinder of radius {radius * MM_PER_M:.3f} mm"]
+                                  if radius is not None else []) + [
             (f"each point: a joint move to its approach pose, {clearance * MM_PER_M:g} mm back along the tool axis "
              "with the measured orientation, then a slow joint move to the point, the dwell, and back to the approach "
              "pose"
@@ -172,18 +173,19 @@ def _header(machine: Machine, template: PlanTemplate, clearance: float, title: s
             f"joint speed {MOVE_SPEED:g} rad/s between points, {APPROACH_SPEED:g} rad/s on the approach and retract, "
             f"acceleration {ACCELERATION:g} rad/s^2 (ASSUMED, careful values)",
             ("the moves between points are the controller's joint interpolation, each posed with the arm's geometry "
-             "every 2 deg and the area between (the holder's axis clear of it; a via pose first where the direct "
-             "move is not): run it first at a reduced speed and watch the moves" if left is not None else
+             "every 2 deg and the area between (the holder clear of it; via poses first where the direct move is "
+             "not): run it first at a reduced speed and watch the moves" if left is not None else
              "the moves between points are the controller's joint interpolation: run it first at a reduced speed and "
-             "watch the moves")] + [f"WARNING: the move {m}: no via pose frees it: jog it by hand"
+             "watch the moves")] + [f"WARNING: the move {m}: no route frees it: jog it by hand"
                                     for m in left or []]
 
 
 def write_urscript(machine: Machine, template: PlanTemplate, poses: list[Pose], clearance: float,
-                   title: str = "", left: list[str] | None = None) -> str:
+                   title: str = "", left: list[str] | None = None, radius: float | None = None) -> str:
     """The URScript program visiting ``poses`` (see the module text; ``left``: the moves
-    between points checked and not freed, None: not checked)."""
-    out = [f"# {h}" for h in _header(machine, template, clearance, title, left)]
+    between points checked and not freed, None: not checked; ``radius`` [m]: the holder's
+    radius they were checked with)."""
+    out = [f"# {h}" for h in _header(machine, template, clearance, title, left, radius)]
     out.append("def vecpin_plan():")
     tool = None
     for p in poses:
@@ -216,12 +218,16 @@ def write_joint_list(machine: Machine, template: PlanTemplate, poses: list[Pose]
 
 def write_arm_program(dialect: str, machine: Machine, template: PlanTemplate, clearance: float, *,
                       dwell_s: float = 4.0, nest_dwell_s: float = 15.0, read_dwell_s: float = 2.0, reads: int = 1,
-                      title: str = "", sight=None, route: tuple[list[Pose], list[str]] | None = None) -> str:
+                      title: str = "", sight=None, route: tuple[list[Pose], list[str]] | None = None,
+                      radius: float | None = None) -> str:
     """The ``dialect`` program (:data:`ARM_DIALECTS`) of ``template`` with the approach
     ``clearance`` [m] (0: none) and the dwells [s] of :func:`arm_poses`; ``sight``: the
     planner's geometry the moves between points are kept clear of (:func:`arm_route`;
-    ``route``: its result, computed once for several dialects)."""
+    ``route``: its result, computed once for several dialects, ``radius`` [m] the holder's
+    radius it was checked with)."""
     poses, left = route or arm_route(machine, template, clearance, (dwell_s, nest_dwell_s, read_dwell_s), reads, sight)
+    if sight is not None:
+        radius = sight.holder_radius
     if dialect == "urscript":
-        return write_urscript(machine, template, poses, clearance, title, left if (sight or route) else None)
+        return write_urscript(machine, template, poses, clearance, title, left if (sight or route) else None, radius)
     return write_joint_list(machine, template, poses)

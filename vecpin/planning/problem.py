@@ -50,7 +50,8 @@ class PlanSettings:
     ``zone``: measurement zone; ``method``: "doptimal" or "random"; ``approach``:
     below/above/both/none with distances ``approach_mm`` [mm], ``approach_deg`` [deg];
     ``repeat_points`` x ``repeat_times``: repeated points at the start and at the end;
-    ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``);
+    ``sight``: test the line of sight (``tool_radius_mm``, ``target_clearance_mm``; on an arm
+    ``tool_radius_mm`` is also the holder's radius in the collision check of every pose);
     ``rapid_mm_min``/``rapid_deg_min``: rapid speeds (default: URDF velocity limits);
     ``candidates``: candidate commands (default :func:`default_candidates`); ``validation_points``:
     quasi-random commands the predicted error is judged on; ``n_validation``: the

@@ -15,7 +15,7 @@ spheres, Möller-Trumbore for mesh triangles. Frames: machine base frame, metres
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -169,10 +169,23 @@ class SightLine:
         kin = self.machine.kinematics(q, tool, jacobian=False, frame="base")
         return self._sight(q, target, kin, tool)
 
+    @property
+    def holder_radius(self) -> float:
+        """[m] the holder's radius :meth:`collisions` counts: ``tool_radius`` on an arm (every
+        pose its program visits is checked with the holder as a cylinder), 0 on a machine
+        with linear axes (the holder's axis, the spindle's own solids then hold it)."""
+        return self.tool_radius if is_arm(self.machine) else 0.0
+
+    def holder_solids(self) -> list[Solid]:
+        """The solids grown by :attr:`holder_radius` (:func:`grown`): the holder's axis meets
+        one of them where the holder, a cylinder of that radius, may meet the solid."""
+        return [grown(s, self.holder_radius) for s in self.solids]
+
     def collisions(self, q: np.ndarray, tool: np.ndarray | float) -> np.ndarray:
         """(N,) the name of the solid the target holder runs into at commands q (N,n)
         [m, rad] with holder lengths ``tool`` [m] ('' where it is free): a solid met by
-        the holder's axis from the gauge line to the target centre. The solids on the
+        the holder's axis from the gauge line to the target centre, the solids grown by
+        the holder's radius (:meth:`holder_solids`). The solids on the
         tool link's own joint (the spindle the holder sits in) do not count, nor a solid
         of the head's moving chain that holds the gauge line itself (coarse geometry: a
         saddle's box the ram slides through); on an arm the flange inside one of its own
@@ -187,12 +200,12 @@ class SightLine:
             chain = set()
         by = np.full(len(q), "", dtype=object)
         poses = self.solid_poses(q)
-        for k, s in enumerate(self.solids):
+        for k, s in enumerate(self.holder_solids()):
             if s.joint == own:
                 continue
             H = poses[:, k]
             nose = _to_local(H, kin.spindle)
-            hit = _segment_hits(s, nose, _to_local(H, kin.tip)) & (by == "")
+            hit = _holder_hits(s, nose, _to_local(H, kin.tip)) & (by == "")
             if s.joint in chain:
                 hit &= ~_contains(s, nose)
             by[hit] = s.name
@@ -279,6 +292,34 @@ def _contains(s: Solid, p: np.ndarray) -> np.ndarray:
     far = p + np.array([1e3, 0.0, 0.0])
     n_cross = _segment_triangles(p, far, s.vertices, s.triangles, count=True)
     return n_cross % 2 == 1
+
+
+def grown(s: Solid, r: float) -> Solid:
+    """The solid ``s`` grown by ``r`` [m] all round, so that a segment meeting it marks a
+    cylinder of radius ``r`` about the segment that may meet ``s`` (a box's half sides and a
+    cylinder's radius and half length + r: a little more than the exact grown shape; a
+    sphere's radius + r: exact). A mesh keeps its triangles and gets ``size`` = (r,):
+    :func:`_holder_hits` tests it with lines ``r`` off the axis."""
+    if r <= 0:
+        return s
+    return replace(s, size=np.asarray(s.size, float) + r if s.kind != "mesh" else np.array([r]))
+
+
+def _holder_hits(s: Solid, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """(N,) does the holder, the segment p0-p1 (local frame) with the radius a mesh of
+    :func:`grown` carries, meet the solid: its axis, and on a mesh also 4 lines at that
+    radius about it (the mesh's own triangles)."""
+    hit = _segment_hits(s, p0, p1)
+    if s.kind != "mesh" or not len(s.size):
+        return hit
+    d = p1 - p0
+    e = np.where(np.abs(d[:, :1]) < 0.9 * np.linalg.norm(d, axis=1, keepdims=True), [[1.0, 0, 0]], [[0, 1.0, 0]])
+    u = np.cross(d, e)
+    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-15)
+    v = np.cross(d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-15), u)
+    for w in (u, -u, v, -v):
+        hit |= _segment_hits(s, p0 + s.size[0] * w, p1 + s.size[0] * w)
+    return hit
 
 
 def _segment_hits(s: Solid, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
@@ -460,7 +501,6 @@ def describe_solids(solids: list[Solid]) -> str:
     return ", ".join(f"{v} {k}{'es' if k == 'box' and v > 1 else ('s' if v > 1 else '')}" for k, v in kinds.items())
 
 
-
 def spindle_chain(machine) -> tuple[int, set[int]]:
     """(the Pinocchio joint that carries the spindle, the joints of its chain down to the base):
     solids on that chain hold the gauge line, so the holder meeting them is not a collision."""
@@ -474,4 +514,4 @@ def spindle_chain(machine) -> tuple[int, set[int]]:
 
 __all__ = ["SightLine", "SightResult", "Solid", "solids_from_urdf", "default_tracker_position", "default_tracker_placement",
            "tracker_side", "side_name", "describe_solids",
-           "DEFAULT_TOOL_RADIUS", "DEFAULT_TARGET_CLEARANCE"]
+           "grown", "DEFAULT_TOOL_RADIUS", "DEFAULT_TARGET_CLEARANCE"]

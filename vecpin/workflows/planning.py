@@ -308,17 +308,19 @@ def _arm_run(out: OutputSet, machine: Machine, plan: Plan, files: list, comparis
     c = arm_clearance(plan.settings)
     v = plan.validation_template
     times = []
-    sight = SightLine(machine, plan.tracker, geometry=plan.settings.geometry)
+    sight = SightLine(machine, plan.tracker, geometry=plan.settings.geometry,
+                      tool_radius=plan.settings.tool_radius_mm * M_PER_MM)
     for t, run, title in ((plan.template, "plan", f"for {machine.name}"),
                           (v, "validation", f"- validation run for {machine.name}")):
         reads = plan.validation_reads if run == "validation" else 1
         route = arm_route(machine, t, c, dwells, reads, sight)
         for m in route[1]:
-            warnings.warn(VecpinWarning(f"{arm_program_name(dialects[0], run)}: the move {m}: no via pose frees it "
+            warnings.warn(VecpinWarning(f"{arm_program_name(dialects[0], run)}: the move {m}: no route frees it "
                                         "(the program's header says so): jog it by hand"))
         for d in dialects:
             text = write_arm_program(d, machine, t, c, dwell_s=dwells[0], nest_dwell_s=dwells[1],
-                                     read_dwell_s=dwells[2], reads=reads, title=title, route=route)
+                                     read_dwell_s=dwells[2], reads=reads, title=title, route=route,
+                                     radius=sight.holder_radius)
             files.append(out.write_text(arm_program_name(d, run), text))
         times.append(arm_time(t, route[0], holder_change_s))
         if run == "plan":
