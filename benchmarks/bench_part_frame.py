@@ -118,6 +118,10 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
            "uncompensated": judge(sim.truth, m, None, q, tool, box),
            "compensated": judge(sim.truth, m, folder / "tables.json", q, tool, box),
            "best": best or bounds(sim, m, q, tool, box, folder)}
+    if face:   # the same fit, its tables with product terms (a table of the turning axis times a ramp)
+        run = vecpin.make_tables(model, folder / "products", "generic", uncertainty=False, products=True)
+        row["products"] = judge(sim.truth, m, folder / "products" / "tables.json", q, tool, box)
+        row["terms"] = [p.name for p in run.plan.tables.products]
     row["seconds"] = time.time() - t0
     return row
 
@@ -259,6 +263,8 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "results" / "part_frame.md"))
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--cases", nargs="+", default=[c[1] for c in CASES])
+    ap.add_argument("--rows", choices=("all", "face"), default="all",
+                    help="face: only the rows where the campaign reads the table's face (and no results page)")
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -267,7 +273,8 @@ def main(argv=None) -> None:
                 continue
             m = vecpin.Machine.load(name) if family is None else layout(name)
             best = None
-            for face in (False, True) if m.has_workpiece else (False,):
+            faces = (False, True) if m.has_workpiece else (False,)
+            for face in faces if args.rows == "all" else faces[1:]:
                 r = one(cls, name, family, args.seed, Path(tmp) / f"{name}-{face}", face, best)
                 best = r["best"]
                 u, c, b = r["uncompensated"], r["compensated"], best_for(r)
@@ -276,7 +283,14 @@ def main(argv=None) -> None:
                       f"shape {u['shape']:.4f} -> {c['shape']:.4f} mm, best part {b['part']:.4f} mm; {how}: "
                       f"{added:.1f} µrad (best set {left:.1f}, true table {off:.1f}) ({r['seconds']:.0f} s)",
                       flush=True)
+                if "products" in r:
+                    p = r["products"]
+                    print(f"{'':<26s} with product terms {' '.join(r['terms']) or '(none)'}: part {p['part']:.4f} mm, "
+                          f"shape {p['shape']:.4f} mm, part / shape {p['part'] / p['shape']:.2f} (before "
+                          f"{c['part'] / c['shape']:.2f})", flush=True)
                 rows.append(r)
+    if args.rows != "all":
+        return
     text = table(rows, args.seed)
     print(text)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)

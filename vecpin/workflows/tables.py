@@ -141,7 +141,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                 max_tables: int | None = None, no_circular: bool = False, forbid_output=(), method: str = "exact",
                 points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
                 sign_test: str | None = None, uncertainty: bool = True, zone=None,
-                user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None) -> TableRun:
+                user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None,
+                products: bool = False) -> TableRun:
     """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
 
     ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
@@ -149,7 +150,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     table name for which to write a sign-test program; ``zone``: {axis: (low, high)}
     mm/deg, the region the tables are fitted in (default: the model's zone);
     ``user_commands``: how the READMEs name the sign test's commands (default: the Python
-    calls; the command line gives its commands). A profile
+    calls; the command line gives its commands); ``products``: offer product terms on a turning
+    table where the controller multiplies tables (:mod:`vecpin.compensation.products`). A profile
     axis with a following drive gets its tables for both drives, and a gantry skew of
     the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
@@ -167,7 +169,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     plan, differential = _plan_for_drives(
         model, prof, limits, controller, notes, max_tables=max_tables, no_circular=no_circular or None,
         forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm, modulo_axes=modulo,
-        commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress)
+        commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress,
+        products=products)
     check_corrections(plan, model)
     if progress:
         progress(f"writing the {controller} files")
