@@ -205,8 +205,9 @@ class CompensationFunctions:
             if r in self.modulo_axes:
                 vals[-1] = vals[0]
             fs, fstep = table_grid(self.machine.axis(f), n_points, False)
+            ramp_values = self.ramp(f, fs + fstep * np.arange(n_points))
             products.append(ProductTable(CompensationTable(r, o, start, step, vals, r in self.modulo_axes),
-                                         CompensationTable(f, o, fs, fstep, self.ramp(f, fs + fstep * np.arange(n_points)))))
+                                         CompensationTable(f, o, fs, fstep, ramp_values)))
         return TableSet(self.machine.axis_names, tables, self.gauge_offset_change, products=products)
 
 

@@ -146,18 +146,14 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
-    ``points`` per table (default: the controller's, at most 1024). The
-    pseudo-measurements are ``commands`` [m, rad] (e.g. a campaign's) or
-    ``n_commands`` quasi-random ones (default
-    :func:`table_commands`: enough for the number of
-    table coefficients), each with every tool length (``tools_mm``,
-    default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
+    ``points`` per table (default: the controller's, at most 1024). The pseudo-measurements are
+    ``commands`` [m, rad] (e.g. a campaign's) or ``n_commands`` quasi-random ones (default
+    :func:`table_commands`: enough for the number of table coefficients), each with every tool
+    length (``tools_mm``, default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
-    ``products``: offer product terms (:mod:`~vecpin.compensation.products`: a table of a turning
-    table's axis times a ramp of a linear axis) where the controller multiplies tables and takes the
-    full set. Every limit is checked before the first solve."""
+    ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
     lim = _limits(limits)
     model._check_fitted()
     model, left_out = _geometric(model)
@@ -165,9 +161,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                    commands, n_commands)
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
-    offer = products and lim.products and req.cons is None and not (req.pitch_only or req.only_pitch_note)
     problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
-                                                            n_commands, seed, zone, offer)
+                                                            n_commands, seed, zone, products and lim.products)
     m = model.machine
     unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
@@ -192,9 +187,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
     left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
-    product_note = None
-    if products:
-        full, product_note = with_products(problem, lim, full, after, add, req.n_points, offer)
+    full = with_products(problem, lim, full, after, add, req.n_points, report.notes) if products else full
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
@@ -220,7 +213,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
-    report.notes += [n for n in (fold_note, product_note) if n] + [kept.text] + _notes(
+    report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left)
@@ -413,7 +406,8 @@ def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Reque
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
     problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), hold_turn=frame.hold_turn,
                            bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
-                           products=product_candidates(m) if products else ())
+                           products=product_candidates(m) if products and req.cons is None and not (
+                               req.pitch_only or req.only_pitch_note) else ())
     return problem, where, hold, lo, hi, q, tools
 
 

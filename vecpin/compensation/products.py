@@ -76,23 +76,27 @@ def product_note(chosen: list[str], kept: bool, before_mm: float, after_mm: floa
 
 
 def with_products(problem: TableProblem, limits: ControllerLimits, full, after: np.ndarray, add, n_points: int,
-                  offered: bool):
-    """(the table set to write, the report's line): the full set ``full`` (its errors ``after``
-    (N,3) [m], part's frame) with the chosen product terms where they lower the error in the part's
-    frame; ``add(label, tables, n)`` adds a report row and returns its errors. ``offered`` False:
-    the controller does not multiply tables, or takes only a subset."""
-    if not offered or not problem.products:
-        why = (": the table does not turn" if offered else
+                  notes: list[str]):
+    """The table set to write: the full set ``full`` (its errors ``after`` (N,3) [m], part's frame)
+    with the chosen product terms where they lower the error in the part's frame;
+    ``add(label, tables, n)`` adds a report row and returns its errors; the report's line on them
+    goes into ``notes``. None are offered where the problem has no product columns (the table
+    does not turn, the controller does not multiply tables or takes only a subset)."""
+    if not problem.products:
+        why = (": the table does not turn" if not product_candidates(problem.machine) else
                f": {limits.name} does not multiply tables, or its table limit takes a subset")
-        return full, product_note([], False, 0.0, 0.0, why)
+        notes.append(product_note([], False, 0.0, 0.0, why))
+        return full
     base = [t.name for t in full.tables]
     room = room_for_products(limits, sum(not t.is_pitch for t in full.tables))
     chosen = choose_products(problem, base, room)
     if not chosen:
-        return full, product_note([], False, 0.0, 0.0, f": none lowers the error by {MIN_GAIN:.0%} or more")
+        notes.append(product_note([], False, 0.0, 0.0, f": none lowers the error by {MIN_GAIN:.0%} or more"))
+        return full
     tables = problem.solve(base + chosen).discretise(n_points)
     err = add(f"full tables + product terms {' '.join(chosen)} (model-predicted)", tables,
               len(tables.tables) + TABLES_PER_TERM * len(chosen))
     before_mm, after_mm = (float(norm_mm(e).mean()) for e in (after, err))
     kept = after_mm < before_mm
-    return (tables if kept else full), product_note(chosen, kept, before_mm, after_mm)
+    notes.append(product_note(chosen, kept, before_mm, after_mm))
+    return tables if kept else full

@@ -6,7 +6,8 @@ Files (Function Manual Extended Functions K3, "Interpolatory compensation"):
   ``$AN_CEC[t,N]`` values, ``$AN_CEC_INPUT_AXIS[t]=(AX1)`` (base axis, its setpoint
   is the input), ``$AN_CEC_OUTPUT_AXIS[t]=(AX2)`` (compensated axis), ``_STEP``,
   ``_MIN``, ``_MAX`` (positions of the first and last point), ``_DIRECTION`` (0: both
-  directions), ``_MULT_BY_TABLE`` (0: none), ``_IS_MODULO``; ends with ``M17``.
+  directions), ``_MULT_BY_TABLE`` (0: none; a product term's table: the number of its ramp
+  table, see :func:`product_tables`), ``_IS_MODULO``; ends with ``M17``.
   Axis names in parentheses, general axis names ``AXn`` in multi-channel systems
   (K3 03/2013 p.248-249; 802D sl K3 p.222 example).
 * ``AX_EEC.INI`` - ``%_N_AX_EEC_INI``, ``CHANDATA(1)``, per pitch table
@@ -53,7 +54,8 @@ LIMITS_840D = ControllerLimits(
     source="840D sl: points per table from MD18342 (CEC) / MD38000 (EEC), tables: 64 per the seed (Section 2.2); "
            "set your machine's in the profile", products=True)
 LIMITS_828D = ControllerLimits(
-    "siemens-828d", max_cross_tables=8, max_cross_points=200, fixed=("max_cross_tables", "max_cross_points"), products=True,
+    "siemens-828d", max_cross_tables=8, max_cross_points=200, fixed=("max_cross_tables", "max_cross_points"),
+    products=True,
     source="828D sag compensation option: fixed 8 tables x 200 points, not extendable (K3 03/2013 p.264)")
 
 
@@ -83,7 +85,8 @@ def _modulo_notes(job: ExportJob) -> None:
 
 
 # ---------------------------------------------------------------------- writer
-def product_tables(tables: TableSet, machine: Machine) -> tuple[list[CompensationTable], list[CompensationTable], dict[int, int]]:
+def product_tables(tables: TableSet, machine: Machine) -> tuple[list[CompensationTable], list[CompensationTable],
+                                                                 dict[int, int]]:
     """(CEC tables, EEC tables, {CEC index of a product's table: table number of its ramp}) of ``tables``.
 
     K3 03/2013 p.249, ``$AN_CEC_MULT_BY_TABLE[<index>] = <number>``: the values of table <index> are
@@ -174,7 +177,7 @@ def write(job: ExportJob) -> list[str]:
         if abs(c) > 0:
             job.notes.append(constant_note(m.axis(a), c, EEC_FILE, f"MD34100 $MA_REFP_SET_POS[0,{prof.axis(a).nc_name}]",
                                            REFP_FILE))
-    job.out.write_text(README, _readme(job, cross, pitch, constants))
+    job.out.write_text(README, _readme(job, cross, pitch, constants, mult))
     return [CEC_FILE, EEC_FILE, REFP_FILE, README]
 
 
@@ -195,7 +198,24 @@ def _refp_file(job: ExportJob, constants: dict[str, float]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _readme(job: ExportJob, cross, pitch, constants) -> str:
+def _product_readme(cross, mult: dict[int, int]) -> list[str]:
+    """The README's section on table multiplication (none without product terms)."""
+    if not mult:
+        return []
+    return ["", "## Product terms (table multiplication)", "",
+            "A tilt fixed to the turning table needs a correction that is a function of the rotary axis times a",
+            "linear axis' position. Each such term is a table of the rotary axis multiplied by a ramp table of the",
+            "linear axis (`$AN_CEC_MULT_BY_TABLE[<index>] = <table number>`, table number = index + 1, K3 03/2013",
+            "p.249: the product of the two values is added as a further compensation value; each table still adds",
+            "its own, which the other tables of the same axes cancel). The ramp holds -1 .. 1 across the measured",
+            "range (a plain number); the product of the two values is taken in the axis' unit (ASSUMED: the manual",
+            "names no unit: check one product term with the sign test's program, its axis at two ends of the",
+            "ramp). Enable both tables of each pair (SD41300):", ""] + [
+            f"- table {k} ({cross[k].name}) times table {n - 1} (ramp of {cross[n - 1].input_axis})"
+            for k, n in mult.items()]
+
+
+def _readme(job: ExportJob, cross, pitch, constants, mult: dict[int, int] | None = None) -> str:
     m, prof, ctl = job.machine, job.profile, job.limits.name
     nc = lambda a: prof.axis(a).nc_name  # noqa: E731
     s = [f"# Compensation for {m.name} ({ctl})", "",
@@ -238,6 +258,7 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
         s.append(f"- {a} ({nc(a)}): total CEC value at most {total:.4f} {ao.unit} -> `MD32720 $MA_CEC_MAX_SUM` above "
                  f"it; it changes by at most {slope:.2e} {ao.unit} per unit of input travel -> `MD32730 "
                  "$MA_CEC_MAX_VELO` (percent of the axis' maximum velocity MD32000) above that ratio x 100")
+    s += _product_readme(cross, mult or {})
     s += ["", "## Gauge line", "",
           *gauge_readme("siemens", job.tables.gauge_offset_change, job.gauge_effect), "",
           "## Before relying on the tables", "",
