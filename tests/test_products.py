@@ -66,8 +66,7 @@ def test_a_tilt_fixed_to_a_turning_table_needs_product_terms(machine, problem):
     assert full > 0.5 * before                        # one-axis tables: a tilt on a turning table stays
     assert with_products < 0.2 * full, (before, full, with_products, chosen)
     assert {"zc*x", "zc*y"} <= set(chosen)            # Δz = a(C) x + b(C) y
-    assert choose_products(problem, all_table_names(machine), 1) == [chosen[0]] or len(
-        choose_products(problem, all_table_names(machine), 1)) == 1
+    assert len(choose_products(problem, all_table_names(machine), 1)) == 1     # the room the controller leaves
 
 
 def _product_set(m) -> TableSet:
@@ -139,3 +138,14 @@ def test_generic_files_carry_product_terms(machine, tmp_path):
     np.testing.assert_allclose(judge_apply(read_tables(tmp_path / "tables.json"), m, q), planned.apply(q),
                                atol=1e-12)
     assert "zc*x:factor" in (tmp_path / "tables.csv").read_text()
+
+
+def test_product_terms_count_against_the_controllers_tables():
+    """Two CEC tables per term within the controller's table count; none where the controller cannot multiply."""
+    from vecpin.compensation.limits import NO_LIMITS
+    from vecpin.compensation.products import room_for_products
+    from vecpin.export import fanuc
+    assert room_for_products(siemens.LIMITS_840D, 20) == 22 and room_for_products(siemens.LIMITS_840D, 64) == 0
+    assert room_for_products(siemens.LIMITS_840D.overridden({"max_cross_tables": 25}), 20) == 2
+    assert room_for_products(NO_LIMITS, 20) is None
+    assert room_for_products(fanuc.LIMITS, 6) == 0
