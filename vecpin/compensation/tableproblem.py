@@ -54,7 +54,9 @@ class TableProblem:
     error's best-fit rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
     the whole volume for a smaller error elsewhere, which a part on the table sees as a tilt. ``ridge``: relative
     to each column's squares before that projection (table values that only trade against a translation stay
-    small).
+    small). ``products``: (output, table axis, factor axis) of product terms
+    (:mod:`~vecpin.compensation.products`), named like 'zc*x': their columns are the table axis' basis
+    (no constant) times the fixed ramp of the factor axis, so the problem stays linear.
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
