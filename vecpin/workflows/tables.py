@@ -102,7 +102,9 @@ class TableRun:
         """The line naming the tables; an arm's read as joints (J2(J1)), with the key to them."""
         tables, m = self.plan.tables, self.plan.problem.machine
         if not is_arm(m):
-            return [f"  tables: {' '.join(tables.names())}  ({len(tables.tables)} tables, {grid})"]
+            terms = (f"; product terms {' '.join(p.name for p in tables.products)}: two tables each"
+                     if tables.products else "")
+            return [f"  tables: {' '.join(tables.names())}  ({len(tables.tables)} tables, {grid}{terms})"]
         labels = boundary.joint_labels(m.axis_names)
         named = " ".join(boundary.arm_table_label(t.output_axis, t.input_axis, labels) for t in tables.tables)
         return [f"  tables: {named}  ({len(tables.tables)} tables, {grid}; J2(J1): the error of J2 as J1 moves)",
