@@ -115,18 +115,44 @@ def siemens_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.nda
     and ``AX<k>``): its EEC, the CEC tables whose output it is, and the shift of its
     reference point value MD34100 from ``ref`` (the old values), as a SINUMERIK applies them."""
     out = np.zeros_like(q_user)
-    text = (folder / "NC_CEC.INI").read_text()
     for k, a in enumerate(axes):
         out[:, k] += siemens_eec(folder, f"{a}1", q_user[:, k])
         if with_refp:
             out[:, k] += reference_shift(ref[a], siemens_refp(folder, f"{a}1"))
-        for j, b in enumerate(axes):
-            if j != k and f"=(AX{j + 1})" in text:
-                try:
-                    out[:, k] += siemens_cec(folder, f"AX{j + 1}", f"AX{k + 1}", q_user[:, j])
-                except StopIteration:       # no table with this input and output
-                    pass
+    tables = siemens_cec_tables(folder)
+    column = {f"AX{j + 1}": j for j in range(len(axes))}
+    values = {t: _cec_value(d, q_user[:, column[d["input"]]]) for t, d in tables.items()}
+    for t, d in tables.items():
+        out[:, column[d["output"]]] -= values[t]             # a positive value moves the axis negative
+        if d["mult"]:   # K3 p.249: the product of table t and table number mult (index mult - 1), added as a value
+            other = tables[d["mult"] - 1]
+            assert other["output"] == d["output"], "table 2 of the same compensation axis (K3 p.249)"
+            out[:, column[d["output"]]] -= values[t] * values[d["mult"] - 1]
     return out
+
+
+def siemens_cec_tables(folder: Path) -> dict[int, dict]:
+    """Every table of NC_CEC.INI by index: input and output axis names, values, STEP, MIN, modulo and
+    MULT_BY_TABLE (K3 03/2013 p.248-249)."""
+    text = (folder / "NC_CEC.INI").read_text()
+    out = {}
+    for t, inp in re.findall(r"^\$AN_CEC_INPUT_AXIS\[(\d+)\]=\((\w+)\)", text, re.M):
+        field = lambda name: re.search(rf"^\$AN_CEC_{name}\[{t}\]=(\S+)", text, re.M).group(1)  # noqa: E731
+        vals = {int(n): float(v) for n, v in re.findall(rf"^\$AN_CEC\[{t},(\d+)\]=(\S+)", text, re.M)}
+        out[int(t)] = {"input": inp, "output": field("OUTPUT_AXIS").strip("()"),
+                       "values": np.array([vals[n] for n in range(len(vals))]), "step": float(field("STEP")),
+                       "min": float(field("MIN")), "modulo": int(field("IS_MODULO")) == 1,
+                       "mult": int(field("MULT_BY_TABLE"))}
+    return out
+
+
+def _cec_value(d: dict, x: np.ndarray) -> np.ndarray:
+    """A table's value at input positions x: linear between points, end values beyond MIN/MAX (K3 p.248),
+    repeated cyclically from MIN with the modulo function (p.249)."""
+    v = d["values"]
+    if d["modulo"]:
+        x = d["min"] + np.mod(x - d["min"], d["step"] * (len(v) - 1))
+    return np.interp(x, d["min"] + d["step"] * np.arange(len(v)), v)
 
 
 def fanuc_corrections(folder: Path, axes: list[str], ref: dict, q_user: np.ndarray,

@@ -41,14 +41,32 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 
+def _entry(t: dict) -> tuple:
+    return (t["input_axis"], t["output_axis"], float(t["start"]), float(t["step"]), np.asarray(t["values"], float),
+            bool(t["modulo"]))
+
+
 def read_tables(path: Path) -> dict:
-    """{gauge_mm, tables: [(input, output, start, step, values, modulo)]} from ``tables.json`` (mm, deg)."""
+    """{gauge_mm, tables: [(input, output, start, step, values, modulo)], products: [(table, factor)]} from
+    ``tables.json`` (mm, deg; a product's factor a plain number): the file's "products_convention" adds each
+    product term's table value times its factor value to the output axis."""
     d = json.loads(Path(path).read_text())
     if d.get("drives"):
         raise ValueError("twin-drive differentials are not applied by this judge")
-    return {"gauge_mm": float(d["gauge_offset_change_mm"]),
-            "tables": [(t["input_axis"], t["output_axis"], float(t["start"]), float(t["step"]),
-                        np.asarray(t["values"], float), bool(t["modulo"])) for t in d["tables"]]}
+    products = [(_entry(p["table"]), _entry(p["factor"])) for p in d.get("products", [])]
+    if products and "times its 'factor' value" not in d.get("products_convention", ""):
+        raise ValueError("product terms without the convention this judge applies")
+    return {"gauge_mm": float(d["gauge_offset_change_mm"]), "tables": [_entry(t) for t in d["tables"]],
+            "products": products}
+
+
+def _value(entry: tuple, q_user: np.ndarray, names: list[str]) -> np.ndarray:
+    """One table's interpolated value at the commands (end values hold; modulo repeats every turn)."""
+    inp, _, start, step, values, modulo = entry
+    x = q_user[:, names.index(inp)]
+    if modulo:
+        x = start + np.mod(x - start, step * (len(values) - 1))
+    return np.interp(x, start + step * np.arange(len(values)), values)
 
 
 def apply(tables: dict, machine, q_si: np.ndarray) -> np.ndarray:
@@ -56,12 +74,10 @@ def apply(tables: dict, machine, q_si: np.ndarray) -> np.ndarray:
     q_user = machine.to_user(np.asarray(q_si, float))
     out = q_user.copy()
     names = machine.axis_names
-    for inp, outp, start, step, values, modulo in tables["tables"]:
-        x = q_user[:, names.index(inp)]
-        grid = start + step * np.arange(len(values))
-        if modulo:
-            x = start + np.mod(x - start, step * (len(values) - 1))
-        out[:, names.index(outp)] += np.interp(x, grid, values)
+    for entry in tables["tables"]:
+        out[:, names.index(entry[1])] += _value(entry, q_user, names)
+    for table, factor in tables.get("products", []):
+        out[:, names.index(table[1])] += _value(table, q_user, names) * _value(factor, q_user, names)
     return machine.to_si(out)
 
 

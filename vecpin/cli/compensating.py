@@ -29,7 +29,7 @@ def run_tables(args) -> int:
                       max_tables=args.max_tables, no_circular=args.no_circular, forbid_output=args.forbid_output,
                       method=args.method, points=args.points, tools_mm=args.tools, modulo_axes=args.modulo,
                       commands=commands, sign_test=args.sign_test, zone=zone, user_commands=how,
-                      progress=progress(not args.quiet))
+                      progress=progress(not args.quiet), products=args.products)
     say(args, *run.lines(args.model))
     if thermal is not None:
         from vecpin.workflows.thermal import make_thermal
@@ -86,6 +86,10 @@ def add_commands(sub) -> None:
                         "fitted in, else the whole measured region)")
     s.add_argument("--out", required=True, help="output folder: tables.json, tables.csv (mm, deg), the controller's "
                    "files and their README")
+    s.add_argument("--products", action="store_true",
+                   help="on a machine whose table turns, add product terms (a table of the rotary axis times a ramp of "
+                        "a linear axis: a tilt fixed to the table) where they lower the error; generic files and "
+                        "SINUMERIK ($AN_CEC_MULT_BY_TABLE) only (default: none)")
     s.add_argument("--thermal", metavar="CSV", help="campaign with time and temperature columns: also fit the "
                    "controller's thermal terms (offset and slope per linear axis, tool growth) and write them "
                    "(thermal.json, the controller's thermal files; default: none)")

@@ -37,7 +37,8 @@ from vecpin.models.basis import AxisBasis
 from vecpin.errors import VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.models import APModel, ErrorModel
-from vecpin.compensation.tables import CompensationTable, TableSet, table_grid, table_name, table_names
+from vecpin.compensation.tables import (CompensationTable, ProductTable, TableSet, product_name, table_grid,
+                                        table_name, table_names)
 
 # actual(q, tool, jacobian, point) -> (tip (N,3) relative to the workpiece [m], d tip / d q (N,3,n) or None)
 ActualMachine = Callable[..., tuple]
@@ -143,10 +144,25 @@ class CompensationFunctions:
     gauge_offset_change: float = 0.0
     modulo_axes: tuple[str, ...] = ()
     hold: dict[str, tuple[float, float]] | None = None  # input axis -> measured (lo, hi) [m, rad]: constant outside
+    products: dict[tuple[str, str, str], np.ndarray] | None = None  # (output, table axis, factor axis) -> coef
 
     @property
     def names(self) -> list[str]:
-        return [table_name(o, i) for o, i in self.coef]
+        return [table_name(o, i) for o, i in self.coef] + [product_name(*k) for k in self.products or {}]
+
+    def ramp(self, axis: str, q_in: np.ndarray) -> np.ndarray:
+        """The fixed factor of a product term over ``axis``: -1 .. 1 across its measured range
+        (the travel where nothing is held), held beyond it (dimensionless)."""
+        return ramp(self.machine, self.hold, axis, q_in)
+
+    def product(self, key: tuple[str, str, str], q_table: np.ndarray) -> np.ndarray:
+        """The table of product term ``key`` (output, table axis, factor axis) at the table axis' positions
+        [m or rad of the output]: the table axis' basis without its constant."""
+        o, r, _ = key
+        c = self.products[key]
+        if self.hold and r in self.hold and r not in self.modulo_axes:
+            q_table = np.clip(q_table, *self.hold[r])
+        return self.bases[self.machine.axis(r).index].values(np.asarray(q_table, float))[:, 1:1 + c.size] @ c
 
     def function(self, output_axis: str, input_axis: str, q_in: np.ndarray) -> np.ndarray:
         """t_oi at input positions [m, rad]; held at its value at the edge of the measured
@@ -164,6 +180,9 @@ class CompensationFunctions:
         out = np.zeros_like(q)
         for (o, i), _ in self.coef.items():
             out[:, self.machine.axis(o).index] += self.function(o, i, q[:, self.machine.axis(i).index])
+        for key in self.products or {}:
+            o, r, f = (self.machine.axis(a).index for a in key)
+            out[:, o] += self.product(key, q[:, r]) * self.ramp(key[2], q[:, f])
         return out
 
     def discretise(self, n_points: int = 1024) -> TableSet:
@@ -178,7 +197,25 @@ class CompensationFunctions:
             if modulo:
                 vals[-1] = vals[0]  # the two ends of a modulo table are the same physical position
             tables.append(CompensationTable(i, o, start, step, vals, modulo))
-        return TableSet(self.machine.axis_names, tables, self.gauge_offset_change)
+        products = []
+        for key in self.products or {}:
+            o, r, f = key
+            start, step = table_grid(self.machine.axis(r), n_points, r in self.modulo_axes)
+            vals = self.product(key, start + step * np.arange(n_points))
+            if r in self.modulo_axes:
+                vals[-1] = vals[0]
+            fs, fstep = table_grid(self.machine.axis(f), n_points, False)
+            ramp_values = self.ramp(f, fs + fstep * np.arange(n_points))
+            products.append(ProductTable(CompensationTable(r, o, start, step, vals, r in self.modulo_axes),
+                                         CompensationTable(f, o, fs, fstep, ramp_values)))
+        return TableSet(self.machine.axis_names, tables, self.gauge_offset_change, products=products)
+
+
+def ramp(machine: Machine, hold: dict | None, axis: str, q_in: np.ndarray) -> np.ndarray:
+    """-1 .. 1 across ``axis``' range in ``hold`` (its travel when not held), held beyond (dimensionless)."""
+    a = machine.axis(axis)
+    lo, hi = (hold or {}).get(axis, (a.lower, a.upper))
+    return np.clip((2.0 * np.asarray(q_in, float) - lo - hi) / (hi - lo), -1.0, 1.0)
 
 
 def from_ap_model(model: APModel, modulo_axes=(), hold: dict[str, tuple[float, float]] | None = None

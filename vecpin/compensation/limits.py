@@ -40,6 +40,8 @@ class ControllerLimits:
     ``fixed``: names of limits that a profile may lower but never raise (828D).
     ``no_circular`` / ``forbid_output``: selection constraints of the controller.
     ``source``: where the numbers come from (printed with every limit error).
+    ``products``: the controller multiplies a table by another (Siemens ``$AN_CEC_MULT_BY_TABLE``):
+    each product term takes two of its cross tables.
     ``hold``: for a controller that resamples (``resampled``), ``hold(tables, machine)``
     gives a table set as the controller will hold it (the export layer writes its files
     and reads them back), so that the subset search can judge its best sets as written;
@@ -57,6 +59,7 @@ class ControllerLimits:
     forbid_output: tuple[str, ...] = ()
     fixed: tuple[str, ...] = ()
     source: str = ""
+    products: bool = False
     hold: Callable | None = field(default=None, compare=False, repr=False)
 
     # ------------------------------------------------------------------ overrides
@@ -181,4 +184,4 @@ class ControllerLimits:
                                            f"{cap} ({self.source}): use `points` {cap}")
 
 
-NO_LIMITS = ControllerLimits("generic", source="vecpin's generic files: no controller limit")
+NO_LIMITS = ControllerLimits("generic", source="vecpin's generic files: no controller limit", products=True)

@@ -23,6 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model, geometric_model, hold_ranges,
                                            nominal_tip, pitch_names, pseudo_commands, rich_table_bases, table_bases)
 from vecpin.compensation.tableproblem import TableProblem
+from vecpin.compensation.products import product_candidates, with_products
 from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
@@ -141,20 +142,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int | None = None, tools_mm=None, table_order: int | None = None, seed: int = 0,
                 modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
-                zone: dict | None = None, progress=None) -> TablePlan:
+                zone: dict | None = None, progress=None, products: bool = False) -> TablePlan:
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
-    ``points`` per table (default: the controller's, at most 1024). The
-    pseudo-measurements are ``commands`` [m, rad] (e.g. a campaign's) or
-    ``n_commands`` quasi-random ones (default
-    :func:`table_commands`: enough for the number of
-    table coefficients), each with every tool length (``tools_mm``,
-    default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
+    ``points`` per table (default: the controller's, at most 1024). The pseudo-measurements are
+    ``commands`` [m, rad] (e.g. a campaign's) or ``n_commands`` quasi-random ones (default
+    :func:`table_commands`: enough for the number of table coefficients), each with every tool
+    length (``tools_mm``, default the fit's). ``modulo_axes``: rotary input axes whose tables cover one turn
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
-    Every limit is checked before the first solve."""
+    ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
     lim = _limits(limits)
     model._check_fitted()
     model, left_out = _geometric(model)
@@ -163,7 +162,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
     problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
-                                                            n_commands, seed, zone)
+                                                            n_commands, seed, zone, products and lim.products)
     m = model.machine
     unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
@@ -188,6 +187,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
     left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
+    full = with_products(problem, lim, full, after, add, req.n_points, report.notes) if products else full
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
@@ -378,7 +378,7 @@ def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
 
 
 def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Request, modulo_axes, commands,
-                   n_commands: int, seed: int, zone):
+                   n_commands: int, seed: int, zone, products: bool = False):
     """(problem, where, hold ranges, lower, upper, commands, tools): the table problem on the
     measured box (or zone). Table functions that can follow any model (splines finer than
     its functions) over that box: every spline has pseudo-commands under it, and beyond
@@ -405,7 +405,9 @@ def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Reque
     tools = from_mm(np.array(req.tools_mm, float))
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
     problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), hold_turn=frame.hold_turn,
-                           bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
+                           bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
+                           products=product_candidates(m) if products and req.cons is None and not (
+                               req.pitch_only or req.only_pitch_note) else ())
     return problem, where, hold, lo, hi, q, tools
 
 

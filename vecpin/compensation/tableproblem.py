@@ -14,8 +14,8 @@ import math
 import numpy as np
 from scipy import linalg
 
-from vecpin.compensation.functions import FRAME, ActualMachine, CompensationFunctions, nominal_tip, table_bases
-from vecpin.compensation.tables import table_names
+from vecpin.compensation.functions import FRAME, ActualMachine, CompensationFunctions, nominal_tip, ramp, table_bases
+from vecpin.compensation.tables import product_name, table_names
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.registration import rigid_motion_basis
 from vecpin.models.basis import AxisBasis
@@ -54,13 +54,15 @@ class TableProblem:
     error's best-fit rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
     the whole volume for a smaller error elsewhere, which a part on the table sees as a tilt. ``ridge``: relative
     to each column's squares before that projection (table values that only trade against a translation stay
-    small).
+    small). ``products``: (output, table axis, factor axis) of product terms
+    (:mod:`~vecpin.compensation.products`), named like 'zc*x': their columns are the table axis' basis
+    (no constant) times the fixed ramp of the factor axis, so the problem stays linear.
     """
 
     def __init__(self, actual: ActualMachine, machine: Machine, commands: np.ndarray, tools, order: int = 8,
                  basis: str = "fourier", modulo_axes=(), ridge: float = 1e-4, bases: list[AxisBasis] | None = None,
                  hold: dict[str, tuple[float, float]] | None = None, free_origin: bool = True,
-                 hold_turn: bool = False):
+                 hold_turn: bool = False, products=()):
         self.actual, self.machine = actual, machine
         self.free_origin = free_origin  # fit the tables jointly with a translation of the whole volume
         self.hold_turn = hold_turn  # hold the compensated volume's best-fit rotation at 0
@@ -84,6 +86,12 @@ class TableProblem:
             size = self.bases[machine.axis(i).index].size - (0 if o == i else 1)
             self.blocks[name] = np.arange(col, col + size)
             col += size
+        # product terms (output, table axis, factor axis): a table of the table axis (no constant) times a ramp
+        self.products = {product_name(*k): tuple(k) for k in products}
+        for name, (o, r, f) in self.products.items():
+            size = self.bases[machine.axis(r).index].size - 1
+            self.blocks[name] = np.arange(col, col + size)
+            col += size
         self.n_columns = col
         self._linearise()
 
@@ -101,6 +109,11 @@ class TableProblem:
             k, ii = self.machine.axis(o).index, self.machine.axis(i).index
             if where[self.blocks[name][0]] >= 0:
                 A[:, :, where[self.blocks[name]]] = J[:, :, k, None] * (Bv[ii] if o == i else Bv[ii][:, 1:])[:, None, :]
+        for name, (o, r, f) in self.products.items():
+            if where[self.blocks[name][0]] >= 0:
+                g = ramp(self.machine, self.hold, f, self.q[:, self.machine.axis(f).index])
+                A[:, :, where[self.blocks[name]]] = (J[:, :, self.machine.axis(o).index, None]
+                                                     * (Bv[self.machine.axis(r).index][:, 1:] * g[:, None])[:, None, :])
         return A.reshape(-1, len(cols))
 
     def _linearise(self) -> None:
@@ -196,12 +209,15 @@ class TableProblem:
 
     # -------------------------------------------------------------- exact solve
     def functions(self, x: np.ndarray, names) -> CompensationFunctions:
-        coef = {}
+        coef, products = {}, {}
         for n in names:
+            if n.lower() in self.products:
+                products[self.products[n.lower()]] = x[self.blocks[n.lower()]].copy()
+                continue
             o, i = self.pairs[self.names.index(n.lower())]
             coef[(o, i)] = x[self.blocks[n.lower()]].copy()
         return CompensationFunctions(self.machine, self.bases, coef, float(x[0]) if self.free_gauge else 0.0,
-                                     self.modulo_axes, self.hold)
+                                     self.modulo_axes, self.hold, products or None)
 
     def solve(self, names, iterations: int = 3) -> CompensationFunctions:
         """Tables restricted to ``names`` by Gauss-Newton on the actual machine

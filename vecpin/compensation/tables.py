@@ -113,6 +113,31 @@ class CompensationTable:
 
 
 @dataclass
+class ProductTable:
+    """A table multiplied by a factor table (Siemens ``$AN_CEC_MULT_BY_TABLE``): adds
+    ``table(q_R) * factor(q_L)`` to the command of ``table.output_axis``. ``table``: input R (a
+    rotary table axis), values [m or rad of the output]; ``factor``: input L (a linear axis),
+    output the same axis, values dimensionless (a fixed ramp, -1 .. 1 over L's measured range).
+    A tilt fixed to a turning table is, in machine axes, such a product (Δz = a(C) x + b(C) y)."""
+
+    table: CompensationTable
+    factor: CompensationTable
+
+    @property
+    def name(self) -> str:
+        """'zc*x': Z corrected by a table of C times a ramp of X."""
+        return product_name(self.table.output_axis, self.table.input_axis, self.factor.input_axis)
+
+    def __call__(self, q_table: np.ndarray, q_factor: np.ndarray) -> np.ndarray:
+        return self.table(q_table) * self.factor(q_factor)
+
+
+def product_name(output_axis: str, table_axis: str, factor_axis: str) -> str:
+    """The name of a product term: the table's :func:`table_name`, '*', the factor's input axis (lower case)."""
+    return f"{table_name(output_axis, table_axis)}*{factor_axis.lower()}"
+
+
+@dataclass
 class TwinDrive:
     """A linear (gantry) axis driven by two motors, and the differential table between them.
 
@@ -185,6 +210,18 @@ def _table_from_dict(e: dict, machine: Machine) -> "CompensationTable":
                              ao.to_si(np.array(e["values"], float)), bool(e["modulo"]))
 
 
+def _factor_to_dict(t: "CompensationTable", ai) -> dict:
+    return {"input_axis": t.input_axis, "output_axis": t.output_axis, "input_unit": ai.unit, "output_unit": "1",
+            "modulo": t.modulo, "start": float(ai.to_user(t.start)), "step": float(ai.to_user(t.step)),
+            "points": len(t.values), "values": [float(v) for v in t.values]}
+
+
+def _factor_from_dict(e: dict, machine: Machine) -> "CompensationTable":
+    ai = machine.axis(e["input_axis"])
+    return CompensationTable(ai.name, machine.axis(e["output_axis"]).name, float(ai.to_si(e["start"])),
+                             float(ai.to_si(e["step"])), np.array(e["values"], float), bool(e["modulo"]))
+
+
 @dataclass
 class TableSet:
     """Tables of one machine plus the gauge-line offset change [m] and the twin-drive
@@ -195,6 +232,7 @@ class TableSet:
     gauge_offset_change: float = 0.0
     source: str = ""
     drives: list[TwinDrive] = field(default_factory=list)
+    products: list[ProductTable] = field(default_factory=list)
 
     def names(self) -> list[str]:
         return [t.name for t in self.tables]
@@ -212,6 +250,8 @@ class TableSet:
         idx = {a: k for k, a in enumerate(self.axis_names)}
         for t in self.tables:
             out[:, idx[t.output_axis]] += t(q[:, idx[t.input_axis]])
+        for p in self.products:
+            out[:, idx[p.table.output_axis]] += p(q[:, idx[p.table.input_axis]], q[:, idx[p.factor.input_axis]])
         return out
 
     def apply(self, q: np.ndarray) -> np.ndarray:
@@ -222,7 +262,8 @@ class TableSet:
     def subset(self, names) -> "TableSet":
         keep = {n.lower() for n in names}
         return TableSet(list(self.axis_names), [t for t in self.tables if t.name in keep or t.is_pitch],
-                        self.gauge_offset_change, self.source, list(self.drives))
+                        self.gauge_offset_change, self.source, list(self.drives),
+                        [p for p in self.products if p.name in keep])
 
     def turn_tips(self, machine: Machine, q: np.ndarray, tip: np.ndarray, frame: str = "base") -> np.ndarray:
         """Tool tips (N,3) [m] after the twin drives' differential turned their beams, at
@@ -261,6 +302,15 @@ class TableSet:
                 "beam by -2 d / |s x x| about s x x (s = separation_mm from the leading to the following drive, "
                 "x = the axis direction, base frame)")
             out["drives"] = [d.to_dict(machine) for d in self.drives]
+        if self.products:
+            out["products_convention"] = (
+                "product terms: each adds its 'table' value (interpolated at its input axis, in the output axis' "
+                "unit) times its 'factor' value (interpolated at the factor's input axis; a plain number) to the "
+                "output axis' command, beside the tables above")
+            out["products"] = [{"name": p.name, "table": _table_to_dict(p.table, machine.axis(p.table.input_axis),
+                                                                        machine.axis(p.table.output_axis)),
+                                "factor": _factor_to_dict(p.factor, machine.axis(p.factor.input_axis))}
+                               for p in self.products]
         return out
 
     @classmethod
@@ -269,7 +319,10 @@ class TableSet:
             raise VecpinError("not a vecpin table file")
         tables = [_table_from_dict(e, machine) for e in d["tables"]]
         drives = [TwinDrive.from_dict(e, machine) for e in d.get("drives", [])]
-        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * M_PER_MM, d.get("machine", ""), drives)
+        products = [ProductTable(_table_from_dict(e["table"], machine), _factor_from_dict(e["factor"], machine))
+                    for e in d.get("products", [])]
+        return cls(machine.axis_names, tables, d["gauge_offset_change_mm"] * M_PER_MM, d.get("machine", ""), drives,
+                   products)
 
     @classmethod
     def load_json(cls, path: str | Path, machine: Machine) -> "TableSet":
@@ -277,12 +330,16 @@ class TableSet:
 
     def save_csv(self, path: str | Path, machine: Machine) -> None:
         """One row per table point: table, input, output, index, input position, value (mm/deg);
-        a plain CSV (no comment row: a CSV reader takes every row as data)."""
+        a plain CSV (no comment row: a CSV reader takes every row as data). A product term's two
+        tables are named 'zc*x:table' (mm/deg) and 'zc*x:factor' (a plain number): their product is added."""
         lines = ["table,input_axis,output_axis,modulo,index,input_position,value"]
-        for t in self.tables:
+        named = [(t.name, t, True) for t in self.tables]
+        named += [x for p in self.products for x in ((f"{p.name}:table", p.table, True),
+                                                      (f"{p.name}:factor", p.factor, False))]
+        for name, t, scaled in named:
             ai, ao = machine.axis(t.input_axis), machine.axis(t.output_axis)
-            pos, val = ai.to_user(t.positions), ao.to_user(t.values)
-            lines += [f"{t.name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}"
+            pos, val = ai.to_user(t.positions), ao.to_user(t.values) if scaled else t.values
+            lines += [f"{name},{t.input_axis},{t.output_axis},{int(t.modulo)},{k},{pos[k]:.8f},{val[k]:.9f}"
                       for k in range(len(val))]
         write_text(path, "\n".join(lines) + "\n")   # every row is data: the gauge-line change is in tables.json
 

@@ -101,7 +101,8 @@ def with_constants(tables: TableSet, constants: dict[str, float]) -> TableSet:
     out = [CompensationTable(t.input_axis, t.output_axis, t.start, t.step,
                              t.values + (constants.get(t.input_axis, 0.0) if t.is_pitch else 0.0), t.modulo)
            for t in tables.tables]
-    return TableSet(list(tables.axis_names), out, tables.gauge_offset_change, tables.source, list(tables.drives))
+    return TableSet(list(tables.axis_names), out, tables.gauge_offset_change, tables.source, list(tables.drives),
+                    list(tables.products))
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,8 @@ Files (Function Manual Extended Functions K3, "Interpolatory compensation"):
   ``$AN_CEC[t,N]`` values, ``$AN_CEC_INPUT_AXIS[t]=(AX1)`` (base axis, its setpoint
   is the input), ``$AN_CEC_OUTPUT_AXIS[t]=(AX2)`` (compensated axis), ``_STEP``,
   ``_MIN``, ``_MAX`` (positions of the first and last point), ``_DIRECTION`` (0: both
-  directions), ``_MULT_BY_TABLE`` (0: none), ``_IS_MODULO``; ends with ``M17``.
+  directions), ``_MULT_BY_TABLE`` (0: none; a product term's table: the number of its ramp
+  table, see :func:`product_tables`), ``_IS_MODULO``; ends with ``M17``.
   Axis names in parentheses, general axis names ``AXn`` in multi-channel systems
   (K3 03/2013 p.248-249; 802D sl K3 p.222 example).
 * ``AX_EEC.INI`` - ``%_N_AX_EEC_INI``, ``CHANDATA(1)``, per pitch table
@@ -31,13 +32,14 @@ CEC, MD38000 EEC) and the seed reports 64 tables; a profile sets the real ones.
 """
 from __future__ import annotations
 
+import dataclasses
 import re
 from pathlib import Path
 
 import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
-from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.compensation.tables import CompensationTable, ProductTable, TableSet
 from vecpin.errors import ControllerFileError, InputError
 from vecpin.export.boundary import gauge_readme
 from vecpin.export.common import (ControllerFormat, ExportJob, constant_note, decimal, modulo_warnings,
@@ -50,9 +52,10 @@ CEC_FILE, EEC_FILE, REFP_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "MD_REFP.INI
 LIMITS_840D = ControllerLimits(
     "siemens-840d", max_cross_tables=64,
     source="840D sl: points per table from MD18342 (CEC) / MD38000 (EEC), tables: 64 per the seed (Section 2.2); "
-           "set your machine's in the profile")
+           "set your machine's in the profile", products=True)
 LIMITS_828D = ControllerLimits(
     "siemens-828d", max_cross_tables=8, max_cross_points=200, fixed=("max_cross_tables", "max_cross_points"),
+    products=True,
     source="828D sag compensation option: fixed 8 tables x 200 points, not extendable (K3 03/2013 p.264)")
 
 
@@ -82,28 +85,69 @@ def _modulo_notes(job: ExportJob) -> None:
 
 
 # ---------------------------------------------------------------------- writer
+def product_tables(tables: TableSet, machine: Machine) -> tuple[list[CompensationTable], list[CompensationTable],
+                                                                 dict[int, int]]:
+    """(CEC tables, EEC tables, {CEC index of a product's table: table number of its ramp}) of ``tables``.
+
+    K3 03/2013 p.249, ``$AN_CEC_MULT_BY_TABLE[<index>] = <number>``: the values of table <index> are
+    multiplied by those of table <number> - 1 (both of the same compensation axis) and "the product is
+    added as an additional compensation value": both tables still add their own values too. A product
+    term (table c(R) times factor g(L), vecpin's corrections) is written as table A over R holding the
+    error -c (value: the correction c, as every table) and table B over L holding g as a plain number
+    (its value in mm or deg): the product of the two file values, -c g, is an error, so the axis moves
+    by +c g (the product of two values in the axis' unit taken in that unit: ASSUMED, the manual gives
+    none). Their own corrections, +c from A and -g from B, are cancelled in the tables of the same
+    axes (the set's table of R, its table of L or the pitch table when L is the output axis; one is
+    added where the set has none): a fixed table B keeps the set linear in its values."""
+    cross = [dataclasses.replace(t, values=t.values.copy()) for t in tables.tables if not t.is_pitch]
+    pitch = [dataclasses.replace(t, values=t.values.copy()) for t in tables.tables if t.is_pitch]
+    mult = {}
+    for p in tables.products:
+        a, b = p.table, p.factor
+        for t, values in ((a, -a.values), (b, machine.axis(b.output_axis).to_si(b.values))):
+            _cancel(pitch if t.input_axis == t.output_axis else cross, t, values)
+        mult[len(cross)] = len(cross) + 2
+        cross += [dataclasses.replace(a, values=a.values.copy()), dataclasses.replace(b, values=b.values.copy())]
+    return cross, pitch, mult
+
+
+def _cancel(tables: list[CompensationTable], like: CompensationTable, values: np.ndarray) -> None:
+    """Add ``values`` (a correction on ``like``'s grid) to the table of ``tables`` with the same axes
+    and grid, or append one."""
+    for t in tables:
+        if (t.input_axis, t.output_axis, t.modulo, len(t.values)) == (like.input_axis, like.output_axis, like.modulo,
+                                                                      len(like.values)) \
+                and np.isclose(t.start, like.start) and np.isclose(t.step, like.step):
+            t.values += values
+            return
+    tables.append(dataclasses.replace(like, values=np.asarray(values, float).copy()))
+
+
 def write(job: ExportJob) -> list[str]:
     """``NC_CEC.INI``, ``AX_EEC.INI`` and ``README_SIEMENS.md`` into the job's output set."""
     m, prof, ctl = job.machine, job.profile, job.limits.name
     job.limits.check_tables(job.tables)
     _modulo_notes(job)
-    cross = [t for t in job.tables.tables if not t.is_pitch]
-    pitch = [t for t in job.tables.tables if t.is_pitch]
+    cross, pitch, mult = product_tables(job.tables, m)
     lines = ["%_N_NC_CEC_INI", "CHANDATA(1)",
              f"; vecpin sag/angularity compensation (CEC), machine {m.name}, {ctl}",
              "; value = error of the compensation axis [mm or deg]: a positive value moves it in the negative direction"]
     for k, t in enumerate(cross):
         ai, ao = m.axis(t.input_axis), m.axis(t.output_axis)
         name_in, name_out = _cec_name(prof, ai.name, ctl), _cec_name(prof, ao.name, ctl)
-        pos, vals = ai.to_user(t.positions), -ao.to_user(t.values)
-        lines.append(f"; table {k}: {ao.name} ({name_out}) as a function of {ai.name} ({name_in})")
-        lines += [f"$AN_CEC[{k},{j}]={decimal(v, 6 if ao.kind == 'linear' else 8)} ; {name_out} at {name_in} = "
-                  f"{decimal(x, 4)} {ai.unit}" for j, (x, v) in enumerate(zip(pos, vals))]
+        ramp = k + 1 in mult.values()   # a table number: index + 1
+        pos, vals = ai.to_user(t.positions), (t.values if ramp else -ao.to_user(t.values))
+        lines.append(f"; table {k}: {ao.name} ({name_out}) as a function of {ai.name} ({name_in})" + (
+            f", times table {mult[k] - 1} (product term)" if k in mult else "; ramp, the factor of a product term"
+            if ramp else ""))
+        lines += [f"$AN_CEC[{k},{j}]={decimal(v, 9 if ramp else 6 if ao.kind == 'linear' else 8)} ; {name_out} at "
+                  f"{name_in} = {decimal(x, 4)} {ai.unit}" for j, (x, v) in enumerate(zip(pos, vals))]
         lines += [f"$AN_CEC_INPUT_AXIS[{k}]=({name_in})", f"$AN_CEC_OUTPUT_AXIS[{k}]=({name_out})",
                   f"$AN_CEC_STEP[{k}]={decimal(ai.to_user(t.step), 9)}",
                   f"$AN_CEC_MIN[{k}]={decimal(ai.to_user(t.start), 6)}",
                   f"$AN_CEC_MAX[{k}]={decimal(ai.to_user(t.end), 6)}",
-                  f"$AN_CEC_DIRECTION[{k}]=0", f"$AN_CEC_MULT_BY_TABLE[{k}]=0", f"$AN_CEC_IS_MODULO[{k}]={int(t.modulo)}"]
+                  f"$AN_CEC_DIRECTION[{k}]=0", f"$AN_CEC_MULT_BY_TABLE[{k}]={mult.get(k, 0)}",
+                  f"$AN_CEC_IS_MODULO[{k}]={int(t.modulo)}"]
     lines.append("M17")
     job.out.write_text(CEC_FILE, "\n".join(lines) + "\n")
 
@@ -133,7 +177,7 @@ def write(job: ExportJob) -> list[str]:
         if abs(c) > 0:
             job.notes.append(constant_note(m.axis(a), c, EEC_FILE, f"MD34100 $MA_REFP_SET_POS[0,{prof.axis(a).nc_name}]",
                                            REFP_FILE))
-    job.out.write_text(README, _readme(job, cross, pitch, constants))
+    job.out.write_text(README, _readme(job, cross, pitch, constants, mult))
     return [CEC_FILE, EEC_FILE, REFP_FILE, README]
 
 
@@ -154,7 +198,24 @@ def _refp_file(job: ExportJob, constants: dict[str, float]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _readme(job: ExportJob, cross, pitch, constants) -> str:
+def _product_readme(cross, mult: dict[int, int]) -> list[str]:
+    """The README's section on table multiplication (none without product terms)."""
+    if not mult:
+        return []
+    return ["", "## Product terms (table multiplication)", "",
+            "A tilt fixed to the turning table needs a correction that is a function of the rotary axis times a",
+            "linear axis' position. Each such term is a table of the rotary axis multiplied by a ramp table of the",
+            "linear axis (`$AN_CEC_MULT_BY_TABLE[<index>] = <table number>`, table number = index + 1, K3 03/2013",
+            "p.249: the product of the two values is added as a further compensation value; each table still adds",
+            "its own, which the other tables of the same axes cancel). The ramp holds -1 .. 1 across the measured",
+            "range (a plain number); the product of the two values is taken in the axis' unit (ASSUMED: the manual",
+            "names no unit: check one product term with the sign test's program, its axis at two ends of the",
+            "ramp). Enable both tables of each pair (SD41300):", ""] + [
+            f"- table {k} ({cross[k].name}) times table {n - 1} (ramp of {cross[n - 1].input_axis})"
+            for k, n in mult.items()]
+
+
+def _readme(job: ExportJob, cross, pitch, constants, mult: dict[int, int] | None = None) -> str:
     m, prof, ctl = job.machine, job.profile, job.limits.name
     nc = lambda a: prof.axis(a).nc_name  # noqa: E731
     s = [f"# Compensation for {m.name} ({ctl})", "",
@@ -197,6 +258,7 @@ def _readme(job: ExportJob, cross, pitch, constants) -> str:
         s.append(f"- {a} ({nc(a)}): total CEC value at most {total:.4f} {ao.unit} -> `MD32720 $MA_CEC_MAX_SUM` above "
                  f"it; it changes by at most {slope:.2e} {ao.unit} per unit of input travel -> `MD32730 "
                  "$MA_CEC_MAX_VELO` (percent of the axis' maximum velocity MD32000) above that ratio x 100")
+    s += _product_readme(cross, mult or {})
     s += ["", "## Gauge line", "",
           *gauge_readme("siemens", job.tables.gauge_offset_change, job.gauge_effect), "",
           "## Before relying on the tables", "",
@@ -298,18 +360,20 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
             raise ControllerFileError(path, f"unknown variable $AN_CEC_{key}", no)
         else:
             d["keys"][key] = (no, val)
+    read_cec = {}
     for t in sorted(cec):
         d, keys = cec[t], cec[t]["keys"]
         for k in ("INPUT_AXIS", "OUTPUT_AXIS"):
             if k not in keys:
                 raise ControllerFileError(path, f"table {t}: no $AN_CEC_{k} line", d["line"])
-        for k in ("DIRECTION", "MULT_BY_TABLE"):
-            if k in keys and to_int(keys[k][1], path, keys[k][0], k) != 0:
-                raise ControllerFileError(path, f"table {t}: $AN_CEC_{k} = {keys[k][1]} (direction-dependent or "
-                                          "multiplied tables are not vecpin tables)", keys[k][0])
+        if "DIRECTION" in keys and to_int(keys["DIRECTION"][1], path, keys["DIRECTION"][0], "DIRECTION") != 0:
+            raise ControllerFileError(path, f"table {t}: $AN_CEC_DIRECTION = {keys['DIRECTION'][1]} (direction-"
+                                      "dependent tables are not vecpin tables)", keys["DIRECTION"][0])
         names = [(keys[k][0], keys[k][1].strip("()")) for k in ("INPUT_AXIS", "OUTPUT_AXIS")]
         inp, out = (_axis_of(path, profile, n, no) for no, n in names)
-        tables.append(_table(path, machine, inp, out, d["values"], keys, d["line"], f"table {t}", -1.0))
+        read_cec[t] = _table(path, machine, inp, out, d["values"], keys, d["line"], f"table {t}", -1.0)
+    products = _read_products(path, machine, cec, read_cec)
+    tables += list(read_cec.values())
     path = folder / EEC_FILE
     eec: dict[tuple, dict] = {}
     for no, text in _statements(path, "%_N_AX_EEC_INI"):
@@ -333,9 +397,44 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
             raise ControllerFileError(path, f"{a} has tables for two measuring systems; vecpin reads one", d["line"])
         axes_seen[a] = e
         tables.append(_table(path, machine, a, a, d["values"], d["keys"], d["line"], f"{ax}", -1.0))
-    out = TableSet(machine.axis_names, tables, 0.0)
+    out = TableSet(machine.axis_names, _merged(tables), 0.0, products=products)
     if (folder / REFP_FILE).exists():
         out = with_constants(out, read_reference_shifts(folder / REFP_FILE, machine, profile))
+    return out
+
+
+def _read_products(path: Path, machine: Machine, cec: dict, tables: dict[int, CompensationTable]) -> list:
+    """The product terms of ``$AN_CEC_MULT_BY_TABLE[<index>] = <number>`` (K3 p.249): table <index>
+    times table <number> - 1, both of the same compensation axis; the product of the file values
+    (errors) is an error, so the correction is -(v1 v2): vecpin's product of table 1's correction
+    (-v1) and table 2's file values (plain numbers)."""
+    out = []
+    for t, d in sorted(cec.items()):
+        if "MULT_BY_TABLE" not in d["keys"]:
+            continue
+        line, text = d["keys"]["MULT_BY_TABLE"]
+        n = to_int(text, path, line, "MULT_BY_TABLE")
+        if n == 0:
+            continue
+        if n - 1 not in tables:
+            raise ControllerFileError(path, f"table {t}: $AN_CEC_MULT_BY_TABLE = {n}, but there is no table {n - 1} "
+                                      "(the value is a table number: index + 1)", line)
+        a, b = tables[t], tables[n - 1]
+        if a.output_axis != b.output_axis:
+            raise ControllerFileError(path, f"table {t}: $AN_CEC_MULT_BY_TABLE = {n}: table {n - 1} compensates "
+                                      f"{b.output_axis}, not {a.output_axis} (both tables of a product are of the "
+                                      "same compensation axis, K3 p.249)", line)
+        factor = -machine.axis(b.output_axis).to_user(b.values)
+        out.append(ProductTable(dataclasses.replace(a, values=a.values.copy()),
+                                dataclasses.replace(b, values=np.asarray(factor, float))))
+    return out
+
+
+def _merged(tables: list[CompensationTable]) -> list[CompensationTable]:
+    """Tables of the same input and output axes on the same grid summed into one (a controller adds them)."""
+    out: list[CompensationTable] = []
+    for t in tables:
+        _cancel(out, t, t.values)
     return out
 
 

@@ -102,7 +102,9 @@ class TableRun:
         """The line naming the tables; an arm's read as joints (J2(J1)), with the key to them."""
         tables, m = self.plan.tables, self.plan.problem.machine
         if not is_arm(m):
-            return [f"  tables: {' '.join(tables.names())}  ({len(tables.tables)} tables, {grid})"]
+            terms = (f"; product terms {' '.join(p.name for p in tables.products)}: two tables each"
+                     if tables.products else "")
+            return [f"  tables: {' '.join(tables.names())}  ({len(tables.tables)} tables, {grid}{terms})"]
         labels = boundary.joint_labels(m.axis_names)
         named = " ".join(boundary.arm_table_label(t.output_axis, t.input_axis, labels) for t in tables.tables)
         return [f"  tables: {named}  ({len(tables.tables)} tables, {grid}; J2(J1): the error of J2 as J1 moves)",
@@ -141,7 +143,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                 max_tables: int | None = None, no_circular: bool = False, forbid_output=(), method: str = "exact",
                 points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
                 sign_test: str | None = None, uncertainty: bool = True, zone=None,
-                user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None) -> TableRun:
+                user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None,
+                products: bool = False) -> TableRun:
     """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
 
     ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
@@ -149,7 +152,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     table name for which to write a sign-test program; ``zone``: {axis: (low, high)}
     mm/deg, the region the tables are fitted in (default: the model's zone);
     ``user_commands``: how the READMEs name the sign test's commands (default: the Python
-    calls; the command line gives its commands). A profile
+    calls; the command line gives its commands); ``products``: offer product terms on a turning
+    table where the controller multiplies tables (:mod:`vecpin.compensation.products`). A profile
     axis with a following drive gets its tables for both drives, and a gantry skew of
     the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
@@ -167,7 +171,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     plan, differential = _plan_for_drives(
         model, prof, limits, controller, notes, max_tables=max_tables, no_circular=no_circular or None,
         forbid_output=list(forbid_output), points=points, method=method, tools_mm=tools_mm, modulo_axes=modulo,
-        commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress)
+        commands=None if q is None else np.asarray(q), uncertainty=uncertainty, zone=zone, progress=progress,
+        products=products)
     check_corrections(plan, model)
     if progress:
         progress(f"writing the {controller} files")

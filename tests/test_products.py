@@ -1,0 +1,151 @@
+"""Product terms (issue 39 b): a table of a turning table's axis times a fixed ramp of a linear axis.
+
+* A tilt fixed to a turning table (closed form: the tip relative to the table turned by a
+  constant small rotation) is largely beyond one-axis tables; with product terms the same
+  least-squares problem removes most of it.
+* The SINUMERIK files carry them (``$AN_CEC_MULT_BY_TABLE``, K3 03/2013 p.249): applied by the
+  controller simulated from the manual (tests/controller_appliers.py: each table adds its own
+  value, the product of the two tables' values is added as another), they land on the planned
+  set within 0.0002 mm at the tool tip, and vecpin's reader reads back the same set.
+* The generic files carry them, applied by the part-frame judge's own reader."""
+import numpy as np
+import pytest
+from controller_appliers import siemens_corrections
+from controller_cases import profile as user_profile
+from controller_cases import reference_positions
+from part_frame_judge import apply as judge_apply
+from part_frame_judge import read_tables
+
+import vecpin
+from vecpin.compensation.functions import all_table_names, pseudo_commands, table_bases
+from vecpin.compensation.products import choose_products, product_candidates
+from vecpin.compensation.tableproblem import TableProblem
+from vecpin.compensation.tables import CompensationTable, ProductTable, TableSet
+from vecpin.export import siemens
+from vecpin.export.common import ExportJob
+from vecpin.export.generic import write_tables
+from vecpin.fileio import OutputSet
+
+TILT = np.array([1.5e-4, -1.0e-4, 0.0])   # rad, fixed to the table (about its x and y)
+TOOLS = (0.2, 0.3)                        # m
+
+
+@pytest.fixture(scope="module")
+def machine():
+    return vecpin.Machine.load("head_table_bc")
+
+
+def tilted_table(m):
+    """An actual machine whose table is tilted by TILT in its own frame: the tip relative to the table
+    is the nominal one turned by TILT about the table's origin (closed form, small angle exact to
+    second order); the nominal Jacobian steers the solve."""
+    def actual(q, tool, jacobian=False, point=0):
+        k = m.kinematics(q, tool, jacobian, frame="workpiece", point=point)
+        return k.tip + np.cross(TILT, k.tip), (k.jacobian if jacobian else None)
+    return actual
+
+
+@pytest.fixture(scope="module")
+def problem(machine):
+    q = pseudo_commands(machine, 300, 1)
+    q[:, machine.axis("B").index] = 0.0     # the head vertical: the tip is the linear axes' position plus the tool
+    return TableProblem(tilted_table(machine), machine, q, TOOLS, bases=table_bases(machine, 4, "fourier"),
+                        products=product_candidates(machine))
+
+
+def test_a_tilt_fixed_to_a_turning_table_needs_product_terms(machine, problem):
+    """head_table_bc (C turns the table), its head vertical: every candidate is (linear output, C, linear
+    factor); the full one-axis set leaves most of a 180 µrad tilt fixed to the table, the chosen product terms
+    most of the rest (with the head tilted, the tool's own lever turns with B as well: a product of three)."""
+    assert {r for _, r, _ in product_candidates(machine)} == {"C"} and len(problem.products) == 9
+    assert product_candidates(vecpin.Machine.load("cincinnati_20v")) == []       # no turning table: none
+    before = np.sqrt(problem.e0e0 / len(problem.q))   # no table
+    full = problem.cost(all_table_names(machine))
+    chosen = choose_products(problem, all_table_names(machine), None)
+    with_products = problem.cost(all_table_names(machine) + chosen)
+    assert full > 0.5 * before                        # one-axis tables: a tilt on a turning table stays
+    assert with_products < 0.2 * full, (before, full, with_products, chosen)
+    assert {"zc*x", "zc*y"} <= set(chosen)            # Δz = a(C) x + b(C) y
+    assert len(choose_products(problem, all_table_names(machine), 1)) == 1     # the room the controller leaves
+
+
+def _product_set(m) -> TableSet:
+    """Tables with two product terms (one whose factor axis is its output: the pitch table cancels its ramp)."""
+    rng = np.random.default_rng(5)
+    tables = []
+    for o in ("X", "Y", "Z"):
+        for i in ("X", "Y", "Z", "C"):
+            a = m.axis(i)
+            tables.append(CompensationTable(i, o, a.lower, a.travel / 40, 1e-5 * np.cumsum(rng.standard_normal(41))))
+    for r in ("B", "C"):
+        a = m.axis(r)
+        tables.append(CompensationTable(r, r, a.lower, a.travel / 40, 1e-5 * rng.standard_normal(41)))
+    c = m.axis("C")
+    prods = []
+    for o, f in (("Z", "X"), ("X", "X")):
+        ramp = np.linspace(-1.0, 1.0, 41)
+        angle = np.linspace(c.lower, c.upper, 41)
+        prods.append(ProductTable(CompensationTable("C", o, c.lower, c.travel / 40, 8e-5 * np.cos(angle)),
+                                  CompensationTable(f, o, m.axis(f).lower, m.axis(f).travel / 40, ramp)))
+    return TableSet(m.axis_names, tables, products=prods)
+
+
+def test_siemens_files_with_table_multiplication_land_on_the_planned_set(machine, tmp_path):
+    """K3 p.249: table 1 times table 2 of the same compensation axis, added as another value; each still adds its
+    own. The files as the simulated SINUMERIK applies them and as vecpin reads them back give the planned
+    commands, and the tool tip within 0.0002 mm."""
+    m = machine
+    planned = _product_set(m)
+    prof = user_profile(m, "siemens-840d")
+    with OutputSet(tmp_path) as out:
+        siemens.write(ExportJob(planned, m, prof, siemens.LIMITS_840D, out))
+    text = (tmp_path / "NC_CEC.INI").read_text()
+    # 9 cross tables, then per product its table and its ramp: table 9 times table number 11 (index 10), 11 times 13
+    assert text.count("$AN_CEC_MULT_BY_TABLE[") == 9 + 4
+    assert "$AN_CEC_MULT_BY_TABLE[9]=11" in text and "$AN_CEC_MULT_BY_TABLE[11]=13" in text
+    q = pseudo_commands(m, 400, 7)
+    q_user = m.to_user(q)
+    applied = m.to_si(q_user + siemens_corrections(tmp_path, list(m.axis_names), reference_positions(m), q_user))
+    wanted = planned.apply(q)
+    tips = [m.tool_tip(c, np.full(len(q), 0.25), frame="workpiece") for c in (applied, wanted)]
+    assert np.abs(tips[0] - tips[1]).max() * 1e3 < 2e-4
+    back = siemens.read(tmp_path, m, prof)
+    assert len(back.products) == 2 and sorted(back.names()) == sorted(planned.names())
+    assert np.abs(back.apply(q) - wanted).max() * 1e3 < 2e-4      # mm, deg
+    without = TableSet(m.axis_names, planned.tables)
+    assert np.abs(without.apply(q) - wanted).max() * 1e3 > 0.05   # the products matter here
+
+
+def test_a_multiplied_table_of_another_axis_is_refused(machine, tmp_path):
+    m = machine
+    prof = user_profile(m, "siemens-840d")
+    with OutputSet(tmp_path) as out:
+        siemens.write(ExportJob(_product_set(m), m, prof, siemens.LIMITS_840D, out))
+    path = tmp_path / "NC_CEC.INI"
+    path.write_text(path.read_text().replace("$AN_CEC_MULT_BY_TABLE[9]=11", "$AN_CEC_MULT_BY_TABLE[9]=1"))
+    with pytest.raises(vecpin.errors.ControllerFileError, match="same compensation axis"):
+        siemens.read(tmp_path, m, prof)
+
+
+def test_generic_files_carry_product_terms(machine, tmp_path):
+    """tables.json with its products convention: vecpin reads back the set, the judge's own reader applies it."""
+    m = machine
+    planned = _product_set(m)
+    write_tables(planned, m, tmp_path)
+    q = pseudo_commands(m, 200, 3)
+    back = TableSet.load_json(tmp_path / "tables.json", m)
+    np.testing.assert_allclose(back.apply(q), planned.apply(q), atol=1e-12)
+    np.testing.assert_allclose(judge_apply(read_tables(tmp_path / "tables.json"), m, q), planned.apply(q),
+                               atol=1e-12)
+    assert "zc*x:factor" in (tmp_path / "tables.csv").read_text()
+
+
+def test_product_terms_count_against_the_controllers_tables():
+    """Two CEC tables per term within the controller's table count; none where the controller cannot multiply."""
+    from vecpin.compensation.limits import NO_LIMITS
+    from vecpin.compensation.products import room_for_products
+    from vecpin.export import fanuc
+    assert room_for_products(siemens.LIMITS_840D, 20) == 22 and room_for_products(siemens.LIMITS_840D, 64) == 0
+    assert room_for_products(siemens.LIMITS_840D.overridden({"max_cross_tables": 25}), 20) == 2
+    assert room_for_products(NO_LIMITS, 20) is None
+    assert room_for_products(fanuc.LIMITS, 6) == 0
