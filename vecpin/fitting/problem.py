@@ -34,7 +34,8 @@ from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_f
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, clip_to_zone, inside, zone_text
 from vecpin.selection.choice import choose_or_fix
-from vecpin.selection.orders import check_folds, fold_index
+from vecpin.selection.design import fold_index
+from vecpin.selection.orders import check_folds
 
 __all__ = ["DEFAULTS", "FitProblem", "FitResult", "NOISE_ROUNDS", "check_size", "fit_arguments", "zone_rows"]
 

@@ -66,7 +66,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
-from vecpin.selection.orders import check_folds, fold_index
+from vecpin.selection.orders import check_folds
 from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PART_OF_TRAVEL, AxisChoice, axis_options,
                                      choice_folds, measured_spans, partly_measured, per_turn_measured)
 from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
@@ -246,10 +246,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     plans, options, short = _what_to_try(machine, campaign, camp, families, plans, orders, per_axis, fixed_order)
     ends = () if np.ndim(folds) else partly_measured(machine, campaign, travel)   # given folds: the user's own
     spans = measured_spans(machine, campaign, travel)
-    if np.ndim(folds):   # the user's own fold labels
-        fold, grouping = fold_index(folds, picked), "the given fold labels"
-    else:                # whole sweeps where one joint moves at a time
-        fold, grouping = choice_folds(camp, folds, seed, ends)
+    fold, grouping = choice_folds(camp, folds, seed, ends, picked)   # labels given, or whole sweeps, or poses
 
     def linearised(kind: str) -> tuple[Problem, Search]:   # the kinds side by side, here and below
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")

@@ -195,10 +195,20 @@ def measured_spans(machine: Machine, campaign: Campaign, travel: tuple[np.ndarra
     return tuple((float(lo[k]), float(hi[k])) if k in ends and hi[k] > lo[k] else None for k in range(machine.n_axes))
 
 
-def choice_folds(campaign: Campaign, k: int, seed: int, ends=()) -> tuple[np.ndarray, str]:
-    """(the fold of each row, what the folds keep together): whole sweeps where the design
-    moves one joint at a time (:func:`~vecpin.measurement.poses.pose_blocks`), else poses, the
-    ends of the axes ``ends`` held out whole (:func:`command_folds`); ``seed``: the deal."""
+def fold_index(labels: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+    """(n,) fold indices 0..k-1 of the given rows (None: all) from one fold label per row."""
+    labels = np.asarray(labels)
+    return np.unique(labels if rows is None else labels[rows], return_inverse=True)[1].ravel()
+
+
+def choice_folds(campaign: Campaign, k, seed: int, ends=(), rows: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """(the fold of each row, what the folds keep together): ``k`` labels, one per row of the
+    whole campaign (the user's own folds; ``rows``: the rows of it ``campaign`` holds, None:
+    all); else whole sweeps where the design moves one joint at a time
+    (:func:`~vecpin.measurement.poses.pose_blocks`), else poses, the ends of the axes ``ends``
+    held out whole (:func:`command_folds`); ``seed``: the deal."""
+    if np.ndim(k):
+        return fold_index(k, rows), "the given fold labels"
     swept, rng = pose_blocks(campaign, k), np.random.default_rng(seed)
     if swept is None:
         return command_folds(campaign, k, rng, ends), "pose"

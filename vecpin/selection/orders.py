@@ -134,12 +134,6 @@ def check_folds(campaign: Campaign | None, folds, option: str = "`folds`") -> No
                          f"share a fold; use at most {n} folds (5 or 10 is usual)")
 
 
-def fold_index(labels: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
-    """(n,) fold indices 0..k-1 of the given rows (None: all) from one fold label per row."""
-    labels = np.asarray(labels)
-    return np.unique(labels if rows is None else labels[rows], return_inverse=True)[1].ravel()
-
-
 def order_sweep(machine: Machine, campaign: Campaign, kind: str, orders=range(0, 8), *,
                 validation: Campaign | None = None, folds: int = 5, noise: NoiseModel | None = None,
                 basis: str = "fourier", seed: int = 0, progress: Callable[[str], None] | None = None) -> OrderSweep:
