@@ -3,7 +3,7 @@ accepted ones, and plans its next measurement inside the measured range.
 
 * The F-test's detection size on a small linear problem against a Monte Carlo of the
   F-test written here with numpy (least squares, no vecpin): at the stated size the test
-  passes about 80 % of the time.
+  passes about 90 % of the time.
 * The whole statement on simulated machines: a per-turn harmonic of a rotary axis
   simulated at twice the stated size is named, at half of it not.
 * One meaning of significant: given the accepted effects.
@@ -24,10 +24,10 @@ from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
 
 
-def test_the_f_tests_detection_size_is_detected_80_percent_of_the_time():
+def test_the_f_tests_detection_size_is_detected_90_percent_of_the_time():
     """k = 1 effect column beside P model columns (large, so the unit priors hardly count):
     an effect of the stated size, drawn into the data 4000 times with unit noise, passes
-    the F-test at the threshold in 80 % of the draws (binomial spread 0.6 %)."""
+    the F-test at the threshold in 90 % of the draws (binomial spread 0.5 %)."""
     rng = np.random.default_rng(3)
     N, P, thr = 60, 4, 1e-3
     J = rng.normal(size=(N, 3, P)) * 30
@@ -48,7 +48,7 @@ def test_the_f_tests_detection_size_is_detected_80_percent_of_the_time():
     rss1 = np.sum((w - Q1 @ (Q1.T @ w)) ** 2, axis=0)
     F = (rss0 - rss1) / (rss1 / dof)
     power = float(np.mean(F > stats.f.isf(thr, 1, dof)))
-    assert abs(power - 0.8) < 0.03, power
+    assert abs(power - 0.9) < 0.025, power
 
 
 def test_the_mean_distance_of_a_displaced_gaussian(rng):
