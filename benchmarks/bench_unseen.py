@@ -17,8 +17,11 @@ commands) against the best of a few fixed candidates (``vecpin fit --model --bas
 Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
 figures), unless --default-noise.
 
-Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--default-noise]
-     [--no-write]
+Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--detection 0]
+     [--jobs 1] [--default-noise] [--no-write]
+--detection N: on N more campaigns, the stated detection size checked (the effect injected at 1x and 2x it).
+The page is rewritten every 10 campaigns and after every later step (marked interim until the end); a
+--heldout run writes its own section of the page, a fresh run keeps that section.
 Fresh seeds every run unless --seed; --heldout reads the frozen set benchmarks/generator/heldout_seeds.txt.
 """
 from __future__ import annotations
@@ -32,6 +35,7 @@ import sys
 import tempfile
 import time
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -222,6 +226,14 @@ def detection_check(seed: int, family: str, work: Path, stated: bool = True) -> 
     return rec
 
 
+def _checked(seed: int, family: str, work: Path, stated: bool) -> dict | None:
+    """:func:`detection_check`, None when the layout drawn cannot carry the family."""
+    try:
+        return detection_check(seed, family, work, stated)
+    except ValueError:
+        return None
+
+
 def _diagnose(camp, folder: Path, stated: bool) -> dict | None:
     """``vecpin diagnose`` of a drawn campaign: its diagnosis.json, None when it failed."""
     paths = camp.write(folder)
@@ -265,9 +277,11 @@ def summary(records: list[dict], choices: list[dict], how: str, checks: list[dic
              f"* clean campaigns silent: {frac(sum(not r['named'] for r in clean), len(clean))}",
              f"* campaigns naming a wrong effect (spurious): {frac(sum(bool(r['wrong']) for r in ok), len(ok))}; "
              f"wrong names per campaign {np.mean([len(r['wrong']) for r in ok]) if ok else 0:.2f}",
-             _gross_line(ok), _group_line(ok), "", f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
-             "(gross errors: all); *≥ its detection size*: effects at least the size the campaign's own diagnosis states it "
-             "would detect for that family (`detection`; an effect named whose family has no stated size left is "
+             _gross_line(ok), _group_line(ok), "",
+             f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
+             "(gross errors: all); *≥ its detection size*: effects at least the size the campaign's own diagnosis "
+             "states it would detect for that family (`detection`; an effect named whose family has no stated size "
+             "left is "
              "counted); precision is over every name vecpin gave of that family; *missed but seen*: the "
              "true effect was significant but not accepted, or detected but too small to name.", "",
              f"| family | vecpin name | campaigns | recall (size ≥ {RECALL_SIZE_MM * 1e3:.0f} µm) | recall (≥ its "
@@ -340,7 +354,8 @@ def _choice_lines(choices: list[dict]) -> list[str]:
 def _campaign_lines(records: list[dict]) -> list[str]:
     lines = ["", "## Every campaign", "", "The true effect's status: the best of its candidates in diagnosis.json; "
              "for a missed effect, the base model's basis on its axes.", "",
-             "| seed | layout | rows | truth | size µm | its detection size µm | vecpin named (or, its group) | verdict "
+             "| seed | layout | rows | truth | size µm | its detection size µm | vecpin named (or, its group) "
+             "| verdict "
              "| true effect's status | s |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in records:
@@ -399,42 +414,48 @@ def main() -> None:
     ap.add_argument("--default-noise", action="store_true",
                     help="run vecpin with its default noise (default: the tracker's and the axes' stated noise)")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed at once (default 1)")
     args = ap.parse_args()
     todo, how = seeds(args)
     how += "" if args.family == "random" else f"; only {args.family} campaigns"
+    how += ("; vecpin's default noise" if args.default_noise
+            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="unseen_") as tmp:
-        records = []
-        for s in todo:
-            records.append(run_campaign(s, Path(tmp), not args.default_noise, args.family))
-            r = records[-1]
-            print(f"seed {s} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
+    records, choices, checks = [], [], []
+
+    def write(note: str = "") -> str:
+        """The page as it stands (``note``: what is still to come), written unless --no-write."""
+        text = "\n".join(summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks)
+                         if records else _detection_lines(checks)) + "\n"
+        if not args.no_write:
+            RESULT.write_text(page_with(text, args.heldout), encoding="utf-8")
+        return text
+
+    with tempfile.TemporaryDirectory(prefix="unseen_") as tmp, ThreadPoolExecutor(max(args.jobs, 1)) as pool:
+        runs = pool.map(lambda s: run_campaign(s, Path(tmp), not args.default_noise, args.family), todo)
+        for r in runs:
+            records.append(r)
+            print(f"seed {r['seed']} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
                   f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)", flush=True)
-        choices = []
+            if len(records) % 10 == 0 and len(records) < len(todo):
+                write(f" so far: interim page, {len(records)} of {len(todo)} campaigns")
+        first = todo[0] if todo else (args.seed if args.seed is not None else secrets.randbelow(2 ** 31))
+        plan = [(first + 104729 + i, DETECT_FAMILIES[i % len(DETECT_FAMILIES)]) for i in range(args.detection)]
+        for c in pool.map(lambda sf: _checked(sf[0], sf[1], Path(tmp), not args.default_noise), plan):
+            if c is None:   # the layout drawn cannot carry the family
+                continue
+            checks.append(c)
+            print(f"detection {c['seed']} {c['family']}: stated {c['stated_um']} um, named "
+                  + ", ".join(f"{k:g}x {v[0]} ({v[1]:.1f} um)" for k, v in c["named"].items()), flush=True)
+            write(f" so far: interim page, {len(checks)} detection checks done, model choice to come")
         for s in todo[: args.choice]:
             choices.append(model_choice(s + 7919, Path(tmp), not args.default_noise))
             figs = [f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()]
             print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs), flush=True)
-        checks = []
-        first = todo[0] if todo else (args.seed if args.seed is not None else secrets.randbelow(2 ** 31))
-        for i in range(args.detection):
-            fam = DETECT_FAMILIES[i % len(DETECT_FAMILIES)]
-            try:
-                checks.append(detection_check(first + 104729 + i, fam, Path(tmp), not args.default_noise))
-            except ValueError:   # the layout drawn cannot carry the family
-                continue
-            c = checks[-1]
-            print(f"detection {c['seed']} {fam}: stated {c['stated_um']} um, named "
-                  + ", ".join(f"{k:g}x {v[0]} ({v[1]:.1f} um)" for k, v in c["named"].items()), flush=True)
-    how += ("; vecpin's default noise" if args.default_noise
-            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
-    how += f"; {time.perf_counter() - t0:.0f} s in all"
-    text = "\n".join(summary(records, choices, how, checks) if records else _detection_lines(checks)) + "\n"
-    print(text)
+            write(f" so far: interim page, model choice {len(choices)} of {min(args.choice, len(todo))}")
+    print(write(" in all"))
     if not args.no_write:
-        RESULT.write_text(page_with(text, args.heldout), encoding="utf-8")
         print(f"wrote {RESULT.relative_to(ROOT)}" + (f" ({HELDOUT.strip()})" if args.heldout else ""))
-
 
 if __name__ == "__main__":
     main()
