@@ -53,6 +53,9 @@ RECALL_SIZE_MM = 0.02          # recall is stated for effects at least this larg
 CANDIDATES = [("6dof", "chebyshev", "2"), ("6dof", "chebyshev", "4"), ("6dof", "chebyshev", "6"),
               ("ap", "chebyshev", "4"), ("6dof", "pspline", "auto")]
 Z95 = 1.959963984540054
+OWN = ("The same table for vecpin's own simulator families (bundled machines and the independent truth family): "
+       "[diagnosis.md](diagnosis.md) (`bench_diagnosis.py`); the stated detection size checked on them: "
+       "[detection.md](detection.md) (`bench_detection.py`).")
 
 
 def wilson(k: int, n: int) -> tuple[float, float]:
@@ -246,7 +249,7 @@ def _diagnose(camp, folder: Path, stated: bool) -> dict | None:
 def _detection_lines(checks: list[dict]) -> list[str]:
     if not checks:
         return []
-    lines = ["", "## The stated detection size, checked", "",
+    lines = ["", CHECKED.strip(), "",
              "Each campaign diagnosed without its effect (the same machine, commands and noise); the generator's "
              "effect then injected at 1x and 2x the size that diagnosis states for the family "
              "(`detection` in diagnosis.json) and diagnosed again: named (alone or in its ambiguity group) or not.", "",
@@ -271,6 +274,7 @@ def summary(records: list[dict], choices: list[dict], how: str, checks: list[dic
              f"Written by `python benchmarks/bench_unseen.py` ({how}). Machines, errors and campaigns are drawn by",
              "`benchmarks/generator`, written blind to vecpin's simulator and models; vecpin is run as",
              "`vecpin diagnose URDF CSV --out DIR` and judged on its diagnosis.json. Intervals: Wilson 95 %.", "",
+             OWN, "",
              f"* campaigns: {len(records)} ({len(records) - len(ok)} refused or failed), "
              f"{np.mean([r['seconds'] for r in records]):.1f} s per diagnosis on average "
              f"({np.median([r['truth']['rows'] for r in records]):.0f} rows median)",
@@ -379,17 +383,25 @@ def _campaign_lines(records: list[dict]) -> list[str]:
 
 
 HELDOUT = "\n## Held out: the frozen seeds (run once, not looked at while changing the method)\n"
+CHECKED = "\n## The stated detection size, checked\n"
 
 
 def page_with(text: str, heldout: bool) -> str:
-    """The results page with ``text``: a fresh run's page keeps the held-out section already on the page; a
-    held-out run's text (its title dropped, its sections one level down) replaces that section only."""
+    """The results page with ``text``. A fresh run's page keeps the sections already on the page that it
+    does not write itself (the held-out one; the detection check when it made none). A held-out run's text
+    (its title dropped, its sections one level down) replaces the held-out section only; a run of detection
+    checks alone (``text`` opening with that section) replaces that section only."""
     old = RESULT.read_text(encoding="utf-8") if RESULT.exists() else ""
-    head, _, kept = old.partition(HELDOUT)
-    if not heldout:
-        return text + (HELDOUT + kept if kept else "")
-    body = "\n".join(("#" + ln if ln.startswith("## ") else ln) for ln in text.splitlines()[1:])
-    return (head or "# vecpin on unseen machines (issue 40)\n").rstrip("\n") + "\n" + HELDOUT + body + "\n"
+    rest, _, held = old.partition(HELDOUT)
+    main, _, checked = rest.partition(CHECKED)
+    title = "# vecpin on unseen machines (issue 40)\n"
+    if heldout:
+        body = "\n".join(("#" + ln if ln.startswith("## ") else ln) for ln in text.splitlines()[1:])
+        return (rest or title).rstrip("\n") + "\n" + HELDOUT + body + "\n"
+    if text.startswith(CHECKED):
+        return (main or title).rstrip("\n") + "\n" + text + (HELDOUT + held if held else "")
+    keep = (CHECKED + checked if checked and CHECKED not in text else "") + (HELDOUT + held if held else "")
+    return text.rstrip("\n") + "\n" + keep
 
 
 def seeds(args) -> tuple[list[int], str]:

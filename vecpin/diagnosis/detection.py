@@ -19,12 +19,13 @@ model's terms mostly take needs more size than the average shape). An effect mus
 pass the paired test on held-out distances (its probability averaged over the same draws) and take
 ``min_shrink_pct`` off their mean: per point row the noise (σ per coordinate, from the
 model's held-out distances), the move a_i the model's terms leave and the spread of the
-effect's own estimate out of fold (f folds) give the
+effect's own estimate out of fold give the
 expected distances (:func:`mean_distance`, a 3-D Gaussian displaced) and the gain's
 spread (|a_i|² plus that estimate's, over 3: its projection on the noise). The effect's
-estimate spreads at a row by E_i S^-1 E_i^T (E_i its move there less what the model's
-terms give back, S = Q + I its projected Gram with its prior), times f / (f - 1) out of
-fold. The largest of the three sizes is the one this campaign would detect.
+estimate spreads at a row by E_i S_f^-1 E_i^T (E_i its move there less what the model's
+terms give back, S_f its projected Gram with its prior over the rows out of the row's fold f:
+the fold's own estimate, so a row the other folds hardly determine counts as such). The
+largest of the three sizes is the one this campaign would detect.
 """
 from __future__ import annotations
 
@@ -124,8 +125,31 @@ class Sight:
         ratio = np.where(proj > 1e-12 * np.maximum(size2, 1e-300), size2 / np.maximum(proj, 1e-300), math.inf)
         E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
         left = np.sum(np.einsum("niq,sq->sni", E, psi) ** 2, axis=-1) / np.maximum(size2, 1e-300)[:, None]
-        spread = np.einsum("niq,qr,nir->n", E, np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
-        return Q, ratio, left, spread
+        return Q, ratio, left, self._out_of_fold(A1, J1, MC)[pts]
+
+    def _out_of_fold(self, A1: np.ndarray, J1: np.ndarray, MC: np.ndarray) -> np.ndarray:
+        """Per row the variance [m² per unit whitened variance] of the effect's fitted move there as its fold
+        estimates it (from the other folds' rows, beside the model's terms, with its prior): E_i S_f^-1 E_i^T,
+        S_f = J1^T J1 + I - C^T M C over the rows out of fold f (:meth:`FoldedProblem.evaluate_extended`)."""
+        base = self.base
+        M_f, _, order, rows, J, _, _, _, _ = base._fold_inverses()
+        Q = J1.shape[-1]
+        J1s = J1[order]
+        E = (A1 - base.A @ MC)[order]
+        out = np.empty(len(order))
+        C_f, B_f = [], []
+        for sl in rows:
+            b = J1s[sl].reshape(-1, Q)
+            C_f.append(J[sl].reshape(-1, base.n_columns).T @ b)
+            B_f.append(b.T @ b)
+        C, B = sum(C_f), sum(B_f)
+        for f, sl in enumerate(rows):
+            Co = C - C_f[f]
+            S = (B - B_f[f]) + np.eye(Q) - Co.T @ (M_f[f] @ Co)
+            out[sl] = np.einsum("niq,qr,nir->n", E[sl], np.linalg.inv(S), E[sl])
+        spread = np.empty_like(out)
+        spread[order] = out
+        return spread
 
     def from_round(self, judged: list, base: FoldedProblem) -> list:
         """Every candidate of a scoring round already run against this model (``judged``:
@@ -173,7 +197,7 @@ class Sight:
         n = left.shape[-1]
         if sigma <= 0 or n < 2 or not np.any(left > 0):
             return {}
-        h = spread * self.folds / max(self.folds - 1, 1)   # estimated out of fold: from (f - 1) / f of the rows
+        h = spread                                          # estimated out of fold
         m_after = mean_distance(np.sqrt(h), sigma)
         t_crit = float(stats.t.isf(self.threshold, n - 1))
         shrink = 1 - self.min_shrink_pct / 100
