@@ -2,7 +2,7 @@
 family against how often an effect of that size, simulated, is named.
 
 On flow_xyzcb, for each clean campaign (seeds 0, 1; ``--commands`` commands) the
-diagnosis states the size at which it would name each candidate 80 % of the time
+diagnosis states the size at which it would name each candidate 90 % of the time
 (:mod:`vecpin.diagnosis.detection`). The same commands are then simulated with the effect
 on that candidate at 0.5, 1 and 2 times the stated size (three seeds each) and diagnosed
 again with the clean campaign's base model: the page counts how often it is named.
@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import vecpin
+from vecpin.diagnosis.detection import POWER
 from vecpin.diagnosis.diagnose import diagnose
 from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
@@ -50,7 +51,8 @@ def page(rows: list[dict], seconds: float) -> str:
     lines = ["# What a diagnosis could have seen: stated detection sizes against simulation", "",
              "Written by `python benchmarks/bench_detection.py`. Per clean campaign of flow_xyzcb the diagnosis "
              "states the size (RMS of the effect's displacement of the measured points) at which it would name each "
-             "candidate 80 % of the time; the effect is then simulated on the same commands at 0.5, 1 and 2 times "
+             f"candidate {POWER:.0%} of the time (over the noise and the effect's shape drawn from its prior); the "
+             "effect is then simulated on the same commands at 0.5, 1 and 2 times "
              f"that size ({len(SEEDS)} seeds each) and diagnosed with the clean campaign's base model.", "",
              "| effect | clean seed | rows | stated size (µm) | " + " | ".join(
                  f"named at {k:g}x" for k in FACTORS) + " |",

@@ -17,8 +17,11 @@ commands) against the best of a few fixed candidates (``vecpin fit --model --bas
 Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
 figures), unless --default-noise.
 
-Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--default-noise]
-     [--no-write]
+Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--detection 0]
+     [--jobs 1] [--default-noise] [--no-write]
+--detection N: on N more campaigns, the stated detection size checked (the effect injected at 1x and 2x it).
+The page is rewritten every 10 campaigns and after every later step (marked interim until the end); a
+--heldout run writes its own section of the page, a fresh run keeps that section.
 Fresh seeds every run unless --seed; --heldout reads the frozen set benchmarks/generator/heldout_seeds.txt.
 """
 from __future__ import annotations
@@ -32,6 +35,7 @@ import sys
 import tempfile
 import time
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +53,9 @@ RECALL_SIZE_MM = 0.02          # recall is stated for effects at least this larg
 CANDIDATES = [("6dof", "chebyshev", "2"), ("6dof", "chebyshev", "4"), ("6dof", "chebyshev", "6"),
               ("ap", "chebyshev", "4"), ("6dof", "pspline", "auto")]
 Z95 = 1.959963984540054
+OWN = ("The same table for vecpin's own simulator families (bundled machines and the independent truth family): "
+       "[diagnosis.md](diagnosis.md) (`bench_diagnosis.py`); the stated detection size checked on them: "
+       "[detection.md](detection.md) (`bench_detection.py`).")
 
 
 def wilson(k: int, n: int) -> tuple[float, float]:
@@ -113,7 +120,9 @@ def score_one(truth: dict, diag: dict) -> dict:
     wrong = sorted(n for n in named if n != want and not (want in groups and n in _group_names(diag, want)))
     flagged = set(diag.get("outlier_lines") or [])
     true_gross = set(truth["gross_lines"])
+    sizes = [len(e.get("alternatives") or []) + 1 for e in diag.get("effects", []) if e.get("accepted")]
     return {"hit": hit, "named": sorted(named), "wrong": wrong, "status": true_status(diag, want),
+            "group": max(sizes, default=0), "via_group": hit and want not in named, "also": sorted(groups - named),
             "gross_found": len(flagged & true_gross),
             "gross_true": len(true_gross), "gross_false": len(flagged - true_gross)}
 
@@ -163,6 +172,8 @@ def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "rand
     bases = ((diag.get("base") or {}).get("choice") or {}).get("chosen", {}).get("bases", {})
     rec["base_on_axes"] = ", ".join(f"{a}: {bases[a]}" for a in truth["effect_axes"] if a in bases)
     rec["headline"] = diag.get("headline", [""])[1] if len(diag.get("headline", [])) > 1 else ""
+    fam = {f["effect"]: f for f in diag.get("detection", [])}.get(truth["vecpin_name"] or "")
+    rec["stated_um"] = None if fam is None else fam.get("detectable_rms_um")
     return rec
 
 
@@ -192,7 +203,70 @@ def model_choice(seed: int, work: Path, stated: bool = True) -> dict:
     return out
 
 
-def summary(records: list[dict], choices: list[dict], how: str) -> list[str]:
+DETECT_FAMILIES = ("harmonic", "coupled", "backlash", "thermal", "shift", "skew")
+FACTORS = (1.0, 2.0)
+
+
+def detection_check(seed: int, family: str, work: Path, stated: bool = True) -> dict:
+    """The stated detection size checked: the campaign of ``seed`` without its effect (size 0: the same machine,
+    commands and noise) diagnosed, the size it states for the family read, and the same campaign with the
+    generator's effect at 1x and 2x that size diagnosed again: was it named (alone or in its group)?"""
+    name = VECPIN_NAME[family]
+    rec = {"seed": seed, "family": family, "named": {}}
+    clean = draw_campaign(seed, family=family, size_mm=0.0)
+    rec["kind"], rec["axes"] = clean.truth_record()["kind"], clean.truth_record()["effect_axes"]
+    diag = _diagnose(clean, work / f"det_{seed}_0", stated)
+    fam = {f["effect"]: f for f in (diag or {}).get("detection", [])}.get(name)
+    if not fam or fam.get("detectable_rms_um") is None:
+        rec["stated_um"] = None
+        return rec
+    rec["stated_um"] = fam["detectable_rms_um"]
+    for k in FACTORS:
+        camp = draw_campaign(seed, family=family, size_mm=k * rec["stated_um"] * 1e-3)
+        d = _diagnose(camp, work / f"det_{seed}_{k:g}", stated)
+        named, groups = named_effects(d or {})
+        rec["named"][k] = (name in named or name in groups, camp.truth_record()["size_mm"] * 1e3)
+    return rec
+
+
+def _checked(seed: int, family: str, work: Path, stated: bool) -> dict | None:
+    """:func:`detection_check`, None when the layout drawn cannot carry the family."""
+    try:
+        return detection_check(seed, family, work, stated)
+    except ValueError:
+        return None
+
+
+def _diagnose(camp, folder: Path, stated: bool) -> dict | None:
+    """``vecpin diagnose`` of a drawn campaign: its diagnosis.json, None when it failed."""
+    paths = camp.write(folder)
+    truth = camp.truth_record()
+    res = vecpin_cmd("diagnose", str(paths["urdf"]), str(paths["csv"]), "--out", str(folder / "diag"), "--quiet",
+                     *tool_options(truth["kind"]), *noise_options(truth, stated))
+    return json.loads((folder / "diag" / "diagnosis.json").read_text()) if res.returncode == 0 else None
+
+
+def _detection_lines(checks: list[dict]) -> list[str]:
+    if not checks:
+        return []
+    lines = ["", CHECKED.strip(), "",
+             "Each campaign diagnosed without its effect (the same machine, commands and noise); the generator's "
+             "effect then injected at 1x and 2x the size that diagnosis states for the family "
+             "(`detection` in diagnosis.json) and diagnosed again: named (alone or in its ambiguity group) or not.", "",
+             "| seed | layout | family | axes | stated µm | " + " | ".join(f"named at {k:g}x" for k in FACTORS) + " |",
+             "|---|---|---|---|---|" + "---|" * len(FACTORS)]
+    for c in checks:
+        cells = " | ".join(("yes" if c["named"][k][0] else "no") + f" ({c['named'][k][1]:.1f} µm)"
+                           if k in c["named"] else "-" for k in FACTORS)
+        stated = "-" if c["stated_um"] is None else f"{c['stated_um']:.1f}"
+        lines.append(f"| {c['seed']} | {c['kind']} | {c['family']} | {','.join(c['axes'])} | {stated} | {cells} |")
+    done = [c for c in checks if c["named"]]
+    lines += [""] + [f"* named at {k:g}x the stated size: {frac(sum(c['named'][k][0] for c in done), len(done))}"
+                     for k in FACTORS]
+    return lines
+
+
+def summary(records: list[dict], choices: list[dict], how: str, checks: list[dict] = ()) -> list[str]:
     """The results page: per-family figures, clean campaigns, gross rows, model choice, every campaign."""
     ok = [r for r in records if "error" not in r]
     clean = [r for r in ok if r["truth"]["family"] is None]
@@ -200,32 +274,48 @@ def summary(records: list[dict], choices: list[dict], how: str) -> list[str]:
              f"Written by `python benchmarks/bench_unseen.py` ({how}). Machines, errors and campaigns are drawn by",
              "`benchmarks/generator`, written blind to vecpin's simulator and models; vecpin is run as",
              "`vecpin diagnose URDF CSV --out DIR` and judged on its diagnosis.json. Intervals: Wilson 95 %.", "",
+             OWN, "",
              f"* campaigns: {len(records)} ({len(records) - len(ok)} refused or failed), "
              f"{np.mean([r['seconds'] for r in records]):.1f} s per diagnosis on average "
              f"({np.median([r['truth']['rows'] for r in records]):.0f} rows median)",
              f"* clean campaigns silent: {frac(sum(not r['named'] for r in clean), len(clean))}",
              f"* campaigns naming a wrong effect (spurious): {frac(sum(bool(r['wrong']) for r in ok), len(ok))}; "
              f"wrong names per campaign {np.mean([len(r['wrong']) for r in ok]) if ok else 0:.2f}",
-             _gross_line(ok), "", f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
-             "(gross errors: all); precision is over every name vecpin gave of that family; *missed but seen*: the "
+             _gross_line(ok), _group_line(ok), "",
+             f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
+             "(gross errors: all); *≥ its detection size*: effects at least the size the campaign's own diagnosis "
+             "states it would detect for that family (`detection`; an effect named whose family has no stated size "
+             "left is "
+             "counted); precision is over every name vecpin gave of that family; *missed but seen*: the "
              "true effect was significant but not accepted, or detected but too small to name.", "",
-             "| family | vecpin name | campaigns | recall (size ≥ stated) | recall (all sizes) | precision "
-             "| missed but seen | missed, not tried |", "|---|---|---|---|---|---|---|---|"]
+             f"| family | vecpin name | campaigns | recall (size ≥ {RECALL_SIZE_MM * 1e3:.0f} µm) | recall (≥ its "
+             "detection size) | recall (all sizes) | precision | missed but seen | missed, not tried |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for fam in FAMILIES:
         mine = [r for r in ok if r["truth"]["family"] == fam]
         big = [r for r in mine if fam.startswith("gross") or r["truth"]["size_mm"] >= RECALL_SIZE_MM]
         name = VECPIN_NAME[fam]
         said = [r for r in ok if name in r["named"]]
         right = [r for r in said if r["truth"]["vecpin_name"] == name]
+        seen = [r for r in mine if fam.startswith("gross") or (r["hit"] and r.get("stated_um") is None)
+                or (r.get("stated_um") is not None and r["truth"]["size_mm"] * 1e3 >= r["stated_um"])]
         lines.append(f"| {fam} | {name} | {len(mine)} | {frac(sum(r['hit'] for r in big), len(big))} | "
+                     f"{frac(sum(r['hit'] for r in seen), len(seen))} | "
                      f"{frac(sum(r['hit'] for r in mine), len(mine))} | {frac(len(right), len(said))} | "
                      f"{sum(not r['hit'] and r['status'].startswith(('signif', 'detected')) for r in mine)} | "
                      f"{sum(not r['hit'] and r['status'] == 'not tried' for r in mine)} |")
     lines += ["", "Wrong names given, by the campaign's true family:", ""]
     conf = Counter((r["truth"]["family"] or "clean", w) for r in ok for w in r["wrong"])
     lines += [f"* {t}: {w} x{n}" for (t, w), n in sorted(conf.items())] or ["* none"]
-    lines += _choice_lines(choices) + _campaign_lines(records)
+    lines += _choice_lines(choices) + _detection_lines(checks) + _campaign_lines(records)
     return lines
+
+
+def _group_line(ok: list[dict]) -> str:
+    grouped = [r for r in ok if r.get("group", 0) > 1]
+    return (f"* campaigns answered with an ambiguity group (\"A or B: this data cannot tell them apart\"): "
+            f"{len(grouped)}, of {np.mean([r['group'] for r in grouped]) if grouped else 0:.1f} members on average; "
+            f"true effect named only through its group: {sum(r.get('via_group', False) for r in ok)}")
 
 
 def _gross_line(ok: list[dict]) -> str:
@@ -268,8 +358,10 @@ def _choice_lines(choices: list[dict]) -> list[str]:
 def _campaign_lines(records: list[dict]) -> list[str]:
     lines = ["", "## Every campaign", "", "The true effect's status: the best of its candidates in diagnosis.json; "
              "for a missed effect, the base model's basis on its axes.", "",
-             "| seed | layout | rows | truth | size µm | vecpin named | verdict | true effect's status | s |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| seed | layout | rows | truth | size µm | its detection size µm | vecpin named (or, its group) "
+             "| verdict "
+             "| true effect's status | s |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in records:
         t = r["truth"]
         truth = (t["family"] or "clean") + (f" [{','.join(t['effect_axes'])}]" if t["effect_axes"] else "")
@@ -278,14 +370,38 @@ def _campaign_lines(records: list[dict]) -> list[str]:
             verdict, named, status = "error: " + r["error"].replace("|", "/")[:90], "-", "-"
         else:
             named, status = ", ".join(r["named"]) or "nothing", r["status"]
+            named += f" (or {', '.join(r['also'])})" if r.get("also") else ""
             if not r["hit"] and r.get("base_on_axes"):
                 order = (t.get("params") or {}).get("order_per_turn")
                 status += f"; base {r['base_on_axes']}" + (f" (true order per turn {order})" if order else "")
             verdict = ("hit" if r["hit"] else ("silent" if t["family"] is None and not r["named"] else "missed")) \
                 + (f"; wrong: {', '.join(r['wrong'])}" if r["wrong"] else "")
-        lines.append(f"| {r['seed']} | {t['kind']} | {t['rows']} | {truth} | {size} | {named} | {verdict} | "
+        stated = "-" if r.get("stated_um") is None else f"{r['stated_um']:.0f}"
+        lines.append(f"| {r['seed']} | {t['kind']} | {t['rows']} | {truth} | {size} | {stated} | {named} | {verdict} | "
                      f"{status} | {r['seconds']:.0f} |")
     return lines
+
+
+HELDOUT = "\n## Held out: the frozen seeds (run once, not looked at while changing the method)\n"
+CHECKED = "\n## The stated detection size, checked\n"
+
+
+def page_with(text: str, heldout: bool) -> str:
+    """The results page with ``text``. A fresh run's page keeps the sections already on the page that it
+    does not write itself (the held-out one; the detection check when it made none). A held-out run's text
+    (its title dropped, its sections one level down) replaces the held-out section only; a run of detection
+    checks alone (``text`` opening with that section) replaces that section only."""
+    old = RESULT.read_text(encoding="utf-8") if RESULT.exists() else ""
+    rest, _, held = old.partition(HELDOUT)
+    main, _, checked = rest.partition(CHECKED)
+    title = "# vecpin on unseen machines (issue 40)\n"
+    if heldout:
+        body = "\n".join(("#" + ln if ln.startswith("## ") else ln) for ln in text.splitlines()[1:])
+        return (rest or title).rstrip("\n") + "\n" + HELDOUT + body + "\n"
+    if text.startswith(CHECKED):
+        return (main or title).rstrip("\n") + "\n" + text + (HELDOUT + held if held else "")
+    keep = (CHECKED + checked if checked and CHECKED not in text else "") + (HELDOUT + held if held else "")
+    return text.rstrip("\n") + "\n" + keep
 
 
 def seeds(args) -> tuple[list[int], str]:
@@ -305,34 +421,53 @@ def main() -> None:
     ap.add_argument("--family", default="random", choices=["random", "clean", *FAMILIES],
                     help="draw only campaigns of this effect family (default: random, a quarter clean)")
     ap.add_argument("--choice", type=int, default=4, help="multi-target campaigns for model choice (default 4)")
+    ap.add_argument("--detection", type=int, default=0,
+                    help="campaigns on which to check the stated detection size (default 0; 3 diagnoses each)")
     ap.add_argument("--default-noise", action="store_true",
                     help="run vecpin with its default noise (default: the tracker's and the axes' stated noise)")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed at once (default 1)")
     args = ap.parse_args()
     todo, how = seeds(args)
     how += "" if args.family == "random" else f"; only {args.family} campaigns"
+    how += ("; vecpin's default noise" if args.default_noise
+            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="unseen_") as tmp:
-        records = []
-        for s in todo:
-            records.append(run_campaign(s, Path(tmp), not args.default_noise, args.family))
-            r = records[-1]
-            print(f"seed {s} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
+    records, choices, checks = [], [], []
+
+    def write(note: str = "") -> str:
+        """The page as it stands (``note``: what is still to come), written unless --no-write."""
+        text = "\n".join(summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks)
+                         if records else _detection_lines(checks)) + "\n"
+        if not args.no_write:
+            RESULT.write_text(page_with(text, args.heldout), encoding="utf-8")
+        return text
+
+    with tempfile.TemporaryDirectory(prefix="unseen_") as tmp, ThreadPoolExecutor(max(args.jobs, 1)) as pool:
+        runs = pool.map(lambda s: run_campaign(s, Path(tmp), not args.default_noise, args.family), todo)
+        for r in runs:
+            records.append(r)
+            print(f"seed {r['seed']} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
                   f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)", flush=True)
-        choices = []
+            if len(records) % 10 == 0 and len(records) < len(todo):
+                write(f" so far: interim page, {len(records)} of {len(todo)} campaigns")
+        first = todo[0] if todo else (args.seed if args.seed is not None else secrets.randbelow(2 ** 31))
+        plan = [(first + 104729 + i, DETECT_FAMILIES[i % len(DETECT_FAMILIES)]) for i in range(args.detection)]
+        for c in pool.map(lambda sf: _checked(sf[0], sf[1], Path(tmp), not args.default_noise), plan):
+            if c is None:   # the layout drawn cannot carry the family
+                continue
+            checks.append(c)
+            print(f"detection {c['seed']} {c['family']}: stated {c['stated_um']} um, named "
+                  + ", ".join(f"{k:g}x {v[0]} ({v[1]:.1f} um)" for k, v in c["named"].items()), flush=True)
+            write(f" so far: interim page, {len(checks)} detection checks done, model choice to come")
         for s in todo[: args.choice]:
             choices.append(model_choice(s + 7919, Path(tmp), not args.default_noise))
             figs = [f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()]
             print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs), flush=True)
-    how += ("; vecpin's default noise" if args.default_noise
-            else "; noise as stated: `--tracker-noise`, `--repeatability-mm`, `--repeatability-deg`")
-    how += f"; {time.perf_counter() - t0:.0f} s in all"
-    text = "\n".join(summary(records, choices, how)) + "\n"
-    print(text)
+            write(f" so far: interim page, model choice {len(choices)} of {min(args.choice, len(todo))}")
+    print(write(" in all"))
     if not args.no_write:
-        RESULT.write_text(text, encoding="utf-8")
-        print(f"wrote {RESULT.relative_to(ROOT)}")
-
+        print(f"wrote {RESULT.relative_to(ROOT)}" + (f" ({HELDOUT.strip()})" if args.heldout else ""))
 
 if __name__ == "__main__":
     main()

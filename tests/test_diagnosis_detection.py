@@ -3,7 +3,7 @@ accepted ones, and plans its next measurement inside the measured range.
 
 * The F-test's detection size on a small linear problem against a Monte Carlo of the
   F-test written here with numpy (least squares, no vecpin): at the stated size the test
-  passes about 80 % of the time.
+  passes about 90 % of the time.
 * The whole statement on simulated machines: a per-turn harmonic of a rotary axis
   simulated at twice the stated size is named, at half of it not.
 * One meaning of significant: given the accepted effects.
@@ -24,10 +24,10 @@ from vecpin.simulation.effects import TrueEffect
 from vecpin.simulation.simulate import Design, simulate
 
 
-def test_the_f_tests_detection_size_is_detected_80_percent_of_the_time():
+def test_the_f_tests_detection_size_is_detected_90_percent_of_the_time():
     """k = 1 effect column beside P model columns (large, so the unit priors hardly count):
     an effect of the stated size, drawn into the data 4000 times with unit noise, passes
-    the F-test at the threshold in 80 % of the draws (binomial spread 0.6 %)."""
+    the F-test at the threshold in 90 % of the draws (binomial spread 0.5 %)."""
     rng = np.random.default_rng(3)
     N, P, thr = 60, 4, 1e-3
     J = rng.normal(size=(N, 3, P)) * 30
@@ -48,7 +48,7 @@ def test_the_f_tests_detection_size_is_detected_80_percent_of_the_time():
     rss1 = np.sum((w - Q1 @ (Q1.T @ w)) ** 2, axis=0)
     F = (rss0 - rss1) / (rss1 / dof)
     power = float(np.mean(F > stats.f.isf(thr, 1, dof)))
-    assert abs(power - 0.8) < 0.03, power
+    assert abs(power - 0.9) < 0.025, power
 
 
 def test_the_mean_distance_of_a_displaced_gaussian(rng):
@@ -64,8 +64,11 @@ def test_the_mean_distance_of_a_displaced_gaussian(rng):
 def test_a_harmonic_at_twice_the_stated_size_is_named_at_half_not(flow):
     """A per-turn harmonic of C on flow_xyzcb (60 commands): the clean campaign's
     diagnosis states the size it would detect; the same commands with the harmonic at
-    twice that size name it (two seeds), at half of it do not (two seeds). The base model
-    is the clean one's, so the harmonic is judged against the model that stated the size."""
+    twice that size name it (two seeds), at half of it not both (two seeds). The stated size is
+    named with 90 % probability over the effect's shapes, so at half of it (a quarter of the
+    noncentrality) the tests pass about one time in five: both seeds naming it would say the
+    stated size is twice too large (p ~ 0.04). The base model is the clean one's, so the
+    harmonic is judged against the model that stated the size."""
     fams = ["rotary_periodic"]
     design = Design(n_commands=60, n_validation=3)
     clean = simulate(flow, seed=0, design=design)
@@ -81,7 +84,7 @@ def test_a_harmonic_at_twice_the_stated_size_is_named_at_half_not(flow):
         got = diagnose(flow, sim.campaign, effects=fams, base=d.base_model)
         named[(k, seed)] = "rotary_periodic[C]" in [e.label for e in got.accepted]
     assert named[(2.0, 1)] and named[(2.0, 2)], named
-    assert not named[(0.5, 1)] and not named[(0.5, 2)], named
+    assert not (named[(0.5, 1)] and named[(0.5, 2)]), named
 
 
 def test_significant_means_given_the_accepted_effects(flow):

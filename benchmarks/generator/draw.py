@@ -78,7 +78,7 @@ def _size(camp: Campaign) -> None:
         unit = _rms_mm(camp.shifted(t0) - t0, tool_rows)
     else:
         unit = _rms_mm(camp.base_points(with_effect=True, repeat=False) - p0, tool_rows)
-    factor = eff.size_mm / unit
+    factor = eff.size_mm / unit if eff.size_mm > 0 else 0.0
     if eff.family == "thermal":
         factor = min(factor, 4.0)
         eff.size_mm = unit * factor
@@ -105,11 +105,13 @@ def _gross(rng, camp: Campaign, trk: np.ndarray) -> np.ndarray:
 
 
 def draw_campaign(seed: int, kind: str | None = None, family: str | None = "random",
-                  n_commands: int | None = None, n_tools: int = 2) -> Campaign:
+                  n_commands: int | None = None, n_tools: int = 2, size_mm: float | None = None) -> Campaign:
     """One unseen machine and its measured campaign, deterministic in ``seed``.
 
     kind: a layout kind (None: drawn, among those that can carry the family); family: an effect
-    family, None (clean) or ``random`` (none with probability 1/4, else one the layout can carry).
+    family, None (clean) or ``random`` (none with probability 1/4, else one the layout can carry);
+    size_mm: the scaled effect's size instead of the drawn one (every other draw unchanged, so 0 gives
+    the same campaign without the effect: same machine, commands and noise).
     """
     rng = np.random.default_rng(seed)
     if kind is None and family in NEEDS_KIND:
@@ -129,6 +131,8 @@ def draw_campaign(seed: int, kind: str | None = None, family: str | None = "rand
     q = commands(rng, layout, n_cmd)
     rows = measurement_rows(rng, n_cmd, tools, len(nests))
     effect = draw_effect(rng, layout, fam)
+    if effect is not None and size_mm is not None and fam in SCALED:
+        effect.size_mm = float(size_mm)
     noise = _noise(rng, layout, rows, q)
     lag = effect.params["lag_h"] if effect is not None and fam == "thermal" else None
     temperature, delta_t = temperatures(rng, rows.time, lag)

@@ -11,18 +11,21 @@ columns, C = J^T J_e) leaves the non-centrality
 of the F-test on its chi-square reduction (k = its number of terms, the fit's degrees of
 freedom; σ² the scatter left per equation, whitened). Its size is the RMS of its
 displacement of the measured points, ``|A_e ψ|`` over the point rows (the whole effect,
-not the part the model leaves). For a shape spread as its prior (ψ isotropic) the ratio
-of the two is tr(B) / tr(Q), B = mean A_e^T A_e, Q the projected Gram above; the size
-detected with probability :data:`POWER` at the test's threshold solves the non-central F
-for λ. An effect must also pass the paired test on held-out distances and take
+not the part the model leaves). An effect's shape is not known: it is drawn as its prior
+(ψ isotropic; :data:`SHAPES` fixed draws), each draw with its own ratio ψ^T B ψ / ψ^T Q ψ,
+B = mean A_e^T A_e, Q the projected Gram above; the size stated is the one the test
+passes at with probability :data:`POWER` over the noise *and* the draws (a shape the
+model's terms mostly take needs more size than the average shape). An effect must also
+pass the paired test on held-out distances (its probability averaged over the same draws) and take
 ``min_shrink_pct`` off their mean: per point row the noise (σ per coordinate, from the
 model's held-out distances), the move a_i the model's terms leave and the spread of the
-effect's own estimate out of fold (f folds) give the
+effect's own estimate out of fold give the
 expected distances (:func:`mean_distance`, a 3-D Gaussian displaced) and the gain's
 spread (|a_i|² plus that estimate's, over 3: its projection on the noise). The effect's
-estimate spreads at a row by E_i S^-1 E_i^T (E_i its move there less what the model's
-terms give back, S = Q + I its projected Gram with its prior), times f / (f - 1) out of
-fold. The largest of the three sizes is the one this campaign would detect.
+estimate spreads at a row by E_i S_f^-1 E_i^T (E_i its move there less what the model's
+terms give back, S_f its projected Gram with its prior over the rows out of the row's fold f:
+the fold's own estimate, so a row the other folds hardly determine counts as such). The
+largest of the three sizes is the one this campaign would detect.
 """
 from __future__ import annotations
 
@@ -36,7 +39,8 @@ from scipy.special._ufuncs import _ncf_sf   # what scipy.stats' ncf.sf calls, wi
 from vecpin.identification.crossval import FoldedProblem, Linearised
 from vecpin.units import MM_PER_M
 
-POWER = 0.8   # the probability with which the stated size is detected
+POWER = 0.9   # the probability with which the stated size is detected (over the noise and the effect's shape)
+SHAPES = 48   # shapes drawn from an effect's prior to average that probability over
 
 
 def detectable_noncentrality(k: int, dof: float, threshold: float, power: float = POWER) -> float:
@@ -102,9 +106,10 @@ class Sight:
         if self.lin.point_rows.any():
             self._pending.append((effect, self._shape(cols)))
 
-    def _shape(self, cols: tuple) -> tuple[int, float, np.ndarray, np.ndarray]:
-        """(k, tr(B)/tr(Q) [m² per unit λ σ²], per point row the mean |move the model leaves|² per unit tr(B),
-        per point row the variance [m² per unit whitened variance] of the effect's fitted move, from all rows)."""
+    def _shape(self, cols: tuple) -> tuple:
+        """(k, per drawn shape ψ^T B ψ / ψ^T Q ψ [m² per unit λ σ²], per drawn shape and point row the |move the
+        model leaves|² per unit ψ^T B ψ, per point row the variance [m² per unit whitened variance] of the
+        effect's fitted move, from all rows). Shapes: :data:`SHAPES` isotropic draws of ψ (fixed seed)."""
         A1, J1 = cols
         Q = J1.shape[-1]
         b = J1.reshape(-1, Q)
@@ -112,14 +117,40 @@ class Sight:
         C = self.base.J.reshape(-1, self.base.n_columns).T @ b
         MC = M @ C
         gram = b.T @ b - C.T @ MC       # what the model's terms leave of the effect's columns (whitened)
-        proj = float(np.trace(gram))
         pts = self.lin.point_rows
         A1p = A1[pts]
-        tr_b = float(np.einsum("niq,niq->", A1p, A1p)) / max(int(pts.sum()), 1)
+        B = np.einsum("niq,nir->qr", A1p, A1p) / max(int(pts.sum()), 1)
+        psi = np.random.default_rng(0).normal(size=(SHAPES, Q))
+        size2 = np.einsum("sq,qr,sr->s", psi, B, psi)
+        proj = np.einsum("sq,qr,sr->s", psi, gram, psi)
+        ratio = np.where(proj > 1e-12 * np.maximum(size2, 1e-300), size2 / np.maximum(proj, 1e-300), math.inf)
         E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
-        left = np.einsum("niq,niq->n", E, E) / max(tr_b, 1e-300)
-        spread = np.einsum("nir,nir->n", E @ np.linalg.inv(gram + np.eye(Q)), E)   # E (S^-1) E^T, S with its prior
-        return Q, (tr_b / proj if proj > 1e-12 * max(tr_b, 1e-300) else math.inf), left, spread
+        left = np.sum(np.einsum("niq,sq->sni", E, psi) ** 2, axis=-1) / np.maximum(size2, 1e-300)[:, None]
+        return Q, ratio, left, self._out_of_fold(A1, J1, MC)[pts]
+
+    def _out_of_fold(self, A1: np.ndarray, J1: np.ndarray, MC: np.ndarray) -> np.ndarray:
+        """Per row the variance [m² per unit whitened variance] of the effect's fitted move there as its fold
+        estimates it (from the other folds' rows, beside the model's terms, with its prior): E_i S_f^-1 E_i^T,
+        S_f = J1^T J1 + I - C^T M C over the rows out of fold f (:meth:`FoldedProblem.evaluate_extended`)."""
+        base = self.base
+        M_f, _, order, rows, J, _, _, _, _ = base._fold_inverses()
+        Q = J1.shape[-1]
+        J1s = J1[order]
+        E = (A1 - base.A @ MC)[order]
+        out = np.empty(len(order))
+        C_f, B_f = [], []
+        for sl in rows:
+            b = J1s[sl].reshape(-1, Q)
+            C_f.append(J[sl].reshape(-1, base.n_columns).T @ b)
+            B_f.append(b.T @ b)
+        C, B = sum(C_f), sum(B_f)
+        for f, sl in enumerate(rows):
+            Co = C - C_f[f]
+            S = (B - B_f[f]) + np.eye(Q) - Co.T @ (M_f[f] @ Co)
+            out[sl] = np.einsum("niq,qr,nir->n", E[sl], np.linalg.inv(S), E[sl])
+        spread = np.empty_like(out)
+        spread[order] = out
+        return spread
 
     def from_round(self, judged: list, base: FoldedProblem) -> list:
         """Every candidate of a scoring round already run against this model (``judged``:
@@ -136,37 +167,51 @@ class Sight:
         """Every kept candidate's :class:`Sighting` at the round's ``threshold``."""
         self.threshold = threshold
         sigma = float(np.mean(self.held_mm)) / math.sqrt(8 / math.pi) if self.held_mm.size else 0.0
-        lams: dict[int, float] = {}
         for effect, (k, ratio, left, spread) in self._pending:
-            if k not in lams:
-                lams[k] = detectable_noncentrality(k, self.dof, threshold)
-            by = {"the F-test": math.sqrt(lams[k] * self.sigma2 * ratio) * MM_PER_M if math.isfinite(ratio)
-                  else math.inf}
+            by = {"the F-test": self._f_test(k, ratio)}
             by.update(self._held_out(left, spread * self.sigma2 * MM_PER_M ** 2, sigma))
             share = math.sqrt(float(np.mean(left)))
             self.found.append(Sighting(effect.name, effect.label, max(by.values()), by, share))
         self._pending = []
 
+    def _f_test(self, k: int, ratio: np.ndarray) -> float:
+        """The RMS [mm] at which the F-test (k terms) passes at the threshold with probability :data:`POWER`,
+        averaged over the drawn shapes (``ratio``: each one's size² per unit λ σ², m²)."""
+        ok = np.isfinite(ratio)
+        if ok.mean() < POWER:
+            return math.inf
+        f_crit = float(special.fdtri(k, self.dof, 1.0 - self.threshold))
+        per_lam = 1.0 / (ratio[ok] * self.sigma2)          # λ per m² of size²
+
+        def short(rms_mm: float) -> float:
+            lam = (rms_mm / MM_PER_M) ** 2 * per_lam
+            return float(np.sum(_ncf_sf(f_crit, k, self.dof, lam))) / ratio.size - POWER
+        scale = math.sqrt(detectable_noncentrality(k, self.dof, self.threshold) * self.sigma2
+                          * float(np.median(ratio[ok]))) * MM_PER_M
+        return _root(short, max(scale, 1e-12))
+
     def _held_out(self, left: np.ndarray, spread: np.ndarray, sigma: float) -> dict:
         """The RMS [mm] at which the paired held-out test passes with probability
-        :data:`POWER`, and at which the held-out mean shrinks by ``min_shrink_pct`` (module
-        docstring; each point row's noise σ [mm] per coordinate, ``spread`` [mm²] the
-        variance of the effect's fitted move there, estimated from every row)."""
-        n = left.size
+        :data:`POWER` (averaged over the drawn shapes, ``left`` (S, n)), and at which the held-out mean
+        shrinks by ``min_shrink_pct`` for the average shape (module docstring; each point row's noise σ [mm]
+        per coordinate, ``spread`` [mm²] the variance of the effect's fitted move there, from every row)."""
+        n = left.shape[-1]
         if sigma <= 0 or n < 2 or not np.any(left > 0):
             return {}
-        h = spread * self.folds / max(self.folds - 1, 1)   # estimated out of fold: from (f - 1) / f of the rows
+        h = spread                                          # estimated out of fold
         m_after = mean_distance(np.sqrt(h), sigma)
-        need = float(-special.stdtrit(n - 1, self.threshold) + special.ndtri(POWER))
+        t_crit = float(-special.stdtrit(n - 1, self.threshold))
         shrink = 1 - self.min_shrink_pct / 100
+        mean_left = left.mean(axis=0)
 
         def t_short(rms: float) -> float:
             a = rms * np.sqrt(left)
             gain = mean_distance(a, sigma) - m_after
-            return float(np.sum(gain) / math.sqrt(np.sum(a ** 2 + h) / 3)) - need
+            t = np.sum(gain, axis=-1) / np.sqrt(np.sum(a ** 2 + h, axis=-1) / 3)
+            return float(np.mean(special.ndtr(t - t_crit))) - POWER
 
         def shrink_short(rms: float) -> float:
-            return shrink - float(np.sum(m_after)) / float(np.sum(mean_distance(rms * np.sqrt(left), sigma)))
+            return shrink - float(np.sum(m_after)) / float(np.sum(mean_distance(rms * np.sqrt(mean_left), sigma)))
         return {"the held-out test": _root(t_short, sigma), "the held-out shrink": _root(shrink_short, sigma)}
 
     def families(self) -> list[dict]:
@@ -195,7 +240,7 @@ def _root(short, scale: float) -> float:
         hi *= 2
         if hi > 1e6 * scale:
             return math.inf
-    return float(optimize.brentq(short, 0.0, hi, xtol=1e-9 * scale))
+    return float(optimize.brentq(short, 0.0, hi, xtol=1e-4 * scale, rtol=1e-4))
 
 
 def _um(mm: float) -> float | None:

@@ -54,7 +54,7 @@ from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore, base_fin
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
 from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, candidate_effects, distances_mm,
-                                      effect_columns, fitted, needed_given, on_ends, pattern_cosine, score, size_mm,
+                                      effect_columns, fitted, heldout_gap, needed_given, on_ends, score, size_mm,
                                       weakest)
 from vecpin.errors import ConvergenceError, InputError
 from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
@@ -83,8 +83,8 @@ def _evidence(sc: EffectScore, loc_before: dict, loc_after: dict) -> tuple[str, 
     return text, gone
 
 
-AMBIGUOUS_COS = 0.9  # candidates whose predicted changes to the fit agree this closely: one finding ...
-DECISIVE_BIC = 10.0  # ... unless the best's BIC gain beats theirs by this much (Kass & Raftery 1995: very strong)
+DECISIVE_NATS = math.log(20)   # the best must out-predict a rival's held-out rows by a likelihood ratio of 20
+# (Kass & Raftery 1995: strong) and by a paired test, else the campaign cannot tell them apart: one finding
 
 
 @dataclass
@@ -315,16 +315,26 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
 
 
 def _group(pb: _Problem, st: _State, judged: list, best: tuple, base: FoldedProblem) -> list:
-    """The ambiguity group of the round's best: a significant candidate whose predicted
-    change to the fit is nearly the best one's, whose evidence (BIC) is not decisively
-    below the best's, and given which the best one brings no significant gain (it can
-    stand in for the best; both tests at ``alpha`` shared among the nearly collinear
-    candidates): the same finding, named once with the best's shrink."""
+    """The ambiguity group of the round's best: every rival that also explains the gap on held-out rows (takes
+    ``min_shrink_pct`` off their mean, its held-out gain at ``alpha``, not worse beyond the measured span),
+    that the best does not out-predict decisively on held-out rows (likelihood ratio :data:`DECISIVE_NATS`
+    and a paired test per command, :func:`.scoring.heldout_gap`, at the round's threshold: the evidence that
+    names an effect), and given which the best brings no significant gain at that threshold (the rival can
+    stand in for it): one finding, named once with the best's shrink. No threshold on the families' own scores
+    (BIC, number of terms) decides it."""
     sc, ev, cols_best = best
-    lin = st.cur_lin
-    near = [(o, e, cols) for o, e, cols in judged if o is not sc and o.significant
-            and sc.bic_gain - o.bic_gain < DECISIVE_BIC and pattern_cosine(e["pattern"], ev["pattern"]) >= AMBIGUOUS_COS]
-    return [o for o, e, cols in near if not needed_given(lin, base, cols_best, cols, e, pb.alpha / len(near))]
+    rivals = [(o, e, cols) for o, e, cols in judged if o is not sc and o.shrink_pct >= pb.min_shrink_pct
+              and o.p_heldout < pb.alpha and not o.worse_beyond]
+    if not rivals:
+        return []
+    thr = sc.threshold
+    cmd = np.unique(st.camp.q, axis=0, return_inverse=True)[1].ravel()
+    out = []
+    for o, e, cols in rivals:
+        nats, p = heldout_gap(st.cur_lin, ev, e, cmd)
+        if not (nats >= DECISIVE_NATS and p < thr) and not needed_given(st.cur_lin, base, cols_best, cols, e, thr):
+            out.append(o)
+    return out
 
 
 def _forward(pb: _Problem, st: _State) -> None:
@@ -368,9 +378,9 @@ def _forward(pb: _Problem, st: _State) -> None:
         text, sc.explains = _evidence(sc, before, st.cur_loc)
         sc.evidence = "; ".join(x for x in (text, sc.evidence) if x)   # with what the poses read twice said of a step
         if sc.alternatives:
-            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)} (their predicted "
-                            f"changes to the fit agree to within {math.degrees(math.acos(AMBIGUOUS_COS)):.0f} deg): "
-                            "one finding")
+            sc.evidence += (f"; this campaign cannot tell it from {', '.join(sc.alternatives)}: each explains the "
+                            "held-out rows within a likelihood ratio of "
+                            f"{math.exp(DECISIVE_NATS):.0f} of it and can stand in for it (one finding)")
 
 
 def _recheck_outliers(pb: _Problem, st: _State) -> None:
@@ -417,7 +427,10 @@ def _given_accepted(pb: _Problem, st: _State) -> None:
         return
     sight = sight_of(st.cur_lin, st.cur_eval, distances_mm(st.cur_lin, st.cur_eval["heldout"]), pb.min_shrink_pct,
                      pb.folds)
-    if st.last and st.last[2] is st.cur_model and st.last[0]:   # the last round scored this model: its figures
+    scored = {sc.label for sc, _, _ in st.last[0]} if st.last else set()
+    if st.last and st.last[2] is st.cur_model and st.last[0] and all(c.scanned or c.label in scored
+                                                                      for c in remaining):
+        # the last round scored this model and every candidate (group members are not scored again): its figures
         judged = sight.from_round(*st.last[:2])
     else:
         pb.say(f"what this campaign could have seen: {len(remaining)} candidates scored given {names or 'none'}")

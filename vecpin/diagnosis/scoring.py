@@ -230,11 +230,21 @@ def size_mm(lin: Linearised, ev: dict, cand_cols: tuple) -> float:
     return float(np.sqrt(np.mean(np.sum(move ** 2, axis=1)))) * MM_PER_M if move.size else float("nan")
 
 
-def pattern_cosine(a: np.ndarray, b: np.ndarray) -> float:
-    """|cos| of the angle between two candidates' predicted changes to the fit: near 1,
-    the campaign cannot tell one from the other."""
-    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
-    return abs(float(a @ b)) / (na * nb) if na > 0 and nb > 0 else 0.0
+def heldout_gap(lin: Linearised, ev_a: dict, ev_b: dict, commands: np.ndarray) -> tuple[float, float]:
+    """How much better candidate a predicts the held-out rows than candidate b (``ev_a``, ``ev_b``: their
+    :func:`score`): (the held-out log-likelihood ratio [nats], the one-sided p of a paired t test that a is no
+    better). Per command (``commands``: each row's command index; a command's rows share a fold) the
+    difference of the held-out chi2, in units of the scatter a leaves per equation (a quasi-likelihood: a
+    misjudged noise scale does not inflate it)."""
+    valid = lin.valid
+    chi_a = np.sum(np.where(valid, ev_a["heldout_w"], 0.0) ** 2, axis=1)
+    chi_b = np.sum(np.where(valid, ev_b["heldout_w"], 0.0) ** 2, axis=1)
+    scatter = max(float(chi_a.sum()) / max(int(valid.sum()), 1), 1e-12)
+    d = np.bincount(commands, weights=chi_b - chi_a) / scatter
+    nats = 0.5 * float(d.sum())
+    sd = float(np.std(d, ddof=1)) if d.size > 1 else 0.0
+    t = float(d.mean() / (sd / math.sqrt(d.size))) if sd > 0 else (math.inf if d.mean() > 0 else 0.0)
+    return nats, float(special.stdtr(max(d.size - 1, 1), -t))
 
 
 def needed_given(lin: Linearised, base: FoldedProblem, cols_a: tuple, cols_b: tuple, eval_b: dict,
