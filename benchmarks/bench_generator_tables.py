@@ -58,6 +58,7 @@ FORMATS = ("generic", "siemens-840d", "linuxcnc")
 KNOTS = 48              # knots per table of the best set (piecewise linear over the table's grid)
 N_JUDGE, N_FIT = 600, 10000
 TARGET = 1.15
+TABLE_KINDS = ("table", "head_table")
 
 
 def vecpin_cmd(*args: str) -> subprocess.CompletedProcess:
@@ -268,9 +269,10 @@ def run_vecpin(camp, folder: Path, formats=FORMATS) -> dict:
     return out
 
 
-def one_draw(seed: int, kind: str, work: Path) -> dict:
-    """One generator machine: vecpin's tables and the best sets judged (part, shape) per format."""
-    camp = draw_campaign(seed, kind=kind, family=None)
+def one_draw(seed: int, kind: str, work: Path, n_commands: int | None = None) -> dict:
+    """One generator machine: vecpin's tables and the best sets judged (part, shape) per format;
+    ``n_commands``: the campaign's commands (default: the generator's draw, 120..200)."""
+    camp = draw_campaign(seed, kind=kind, family=None, n_commands=n_commands)
     folder = work / str(seed)
     t0 = time.perf_counter()
     rec = {"seed": seed, "kind": kind, "axes": [j.name for j in camp.layout.axes]}
@@ -293,16 +295,19 @@ def one_draw(seed: int, kind: str, work: Path) -> dict:
             best, bg = bests.solve(specs, frame)
             row["best"][frame] = judge(truth, generic_corrections(best, truth.axes, q_user), bg, q, tool)[frame]
         rec[fmt] = row
-    rec["noise-free"] = noise_free(seed, kind, folder / "noise-free", truth, bests, q, tool)
+    rec["commands_asked"] = n_commands
+    rec["commands"] = int(len(next(iter(camp.q.values()))))
+    rec["noise-free"] = noise_free(seed, kind, folder / "noise-free", truth, bests, q, tool, n_commands)
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
 
-def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool) -> dict:
+def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool,
+               n_commands: int | None = None) -> dict:
     """The same campaign read without noise (the same commands and rows, the truth's points, no
     tracker or axis noise), fitted and tabled (generic) the same way: what identification from the
     noisy readings costs."""
-    camp = draw_campaign(seed, kind=kind, family=None)
+    camp = draw_campaign(seed, kind=kind, family=None, n_commands=n_commands)
     camp.measured = camp.to_tracker(camp.base_points(repeat=False))
     try:
         rec = run_vecpin(camp, folder, ("generic",))
@@ -328,6 +333,33 @@ def _stats(v: list[float]) -> str:
             if len(v) else "-")
 
 
+def nf_ratio(rec: dict, frame: str) -> float | None:
+    nf = rec.get("noise-free") or {}
+    return None if "vecpin" not in nf else nf["vecpin"][frame] / nf["best"][frame]
+
+
+def summary_lines(ok: list[dict]) -> list[str]:
+    """Per campaign size, format and frame: vecpin / best over the table machines and every class;
+    the same campaigns read without noise beside them."""
+    out = []
+    for n_cmd in sorted({r.get("commands_asked") for r in ok}, key=lambda v: v or 0):
+        group = [r for r in ok if r.get("commands_asked") == n_cmd]
+        size = "the generator's campaigns (120..200 commands)" if n_cmd is None else f"campaigns of {n_cmd} commands"
+        out += [f"### {size}, {len(group)} draws", ""]
+        for fmt in FORMATS:
+            for frame in ("part", "shape"):
+                tm = [ratio(r, fmt, frame) for r in group if r["kind"] in TABLE_KINDS]
+                al = [ratio(r, fmt, frame) for r in group]
+                out.append(f"- {fmt}, {frame}: table machines {_stats(tm)}; every class {_stats(al)}")
+        for frame in ("part", "shape"):
+            tm = [v for r in group if r["kind"] in TABLE_KINDS and (v := nf_ratio(r, frame)) is not None]
+            al = [v for r in group if (v := nf_ratio(r, frame)) is not None]
+            out.append(f"- the same campaigns read without noise (generic), {frame}: table machines {_stats(tm)}; "
+                       f"every class {_stats(al)}")
+        out.append("")
+    return out
+
+
 def page(records: list[dict], how: str) -> str:
     """The results page: per draw and format vecpin / best, part and shape; the summary."""
     ok = [r for r in records if "error" not in r]
@@ -340,32 +372,31 @@ def page(records: list[dict], how: str) -> str:
              "parser and tests/controller_appliers.py (the vendors' documented rules), the true tip relative to "
              f"the true table on {N_JUDGE} fresh random commands x the tools, mean [mm]. *best*: the same tables "
              f"(axes and grid ends) with the values that minimise the truth's error in that frame (linear least "
-             f"squares on {N_FIT} other commands, {KNOTS} knots per table, gauge change and the frame's freedoms "
-             "free), judged the same way. part: translation and rotation about the spindle removed; shape: the "
-             "best rigid motion removed.", "", "## summary (vecpin / best)", ""]
-    table_kinds = ("table", "head_table")
-    for fmt in FORMATS:
-        for frame in ("part", "shape"):
-            tm = [ratio(r, fmt, frame) for r in ok if r["kind"] in table_kinds]
-            al = [ratio(r, fmt, frame) for r in ok]
-            lines.append(f"- {fmt}, {frame}: table machines {_stats(tm)}; every class {_stats(al)}")
+             f"squares on {N_FIT} other commands x the tools, {KNOTS} knots per table, gauge change and the "
+             "frame's freedoms free), judged the same way. part: translation and rotation about the spindle "
+             "removed; shape: the best rigid motion removed. *noise-free*: the same campaign (commands, tools, "
+             "nests) read without tracker or axis noise, fitted and tabled the same way (generic).", "",
+             "## summary (vecpin / best; table machines: table and head_table)", "", *summary_lines(ok)]
     if len(ok) < len(records):
-        lines.append(f"- failed runs: {len(records) - len(ok)} (listed below)")
-    lines += ["", "## per draw", "",
-              "| seed | class | axes | model | uncomp. part | " + " | ".join(
-                  f"{f} part / best | {f} shape / best" for f in FORMATS) + " | tables (generic, Siemens, LinuxCNC) |",
-              "|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|"]
+        lines += [f"failed runs: {len(records) - len(ok)} (listed below)", ""]
+    lines += ["## per draw", "",
+              "| seed | class | axes | commands | model | uncomp. part | " + " | ".join(
+                  f"{f} part / best | {f} shape / best" for f in FORMATS)
+              + " | noise-free part / best | noise-free model | tables (generic, Siemens, LinuxCNC) |",
+              "|---|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|---|---|"]
     for r in records:
         if "error" in r:
             lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | failed: {r['error']} |")
             continue
-        cells = []
-        for f in FORMATS:
-            for frame in ("part", "shape"):
-                cells.append(f"{r[f]['vecpin'][frame]:.4f} / {r[f]['best'][frame]:.4f} = {ratio(r, f, frame):.2f}")
-        lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r.get('label', '')} | "
-                     f"{r['uncompensated']['part']:.4f} | " + " | ".join(cells) + " | "
-                     + ", ".join(str(r[f]['tables']) for f in FORMATS) + " |")
+        cells = [f"{r[f]['vecpin'][fr]:.4f} / {r[f]['best'][fr]:.4f} = {ratio(r, f, fr):.2f}"
+                 for f in FORMATS for fr in ("part", "shape")]
+        nf = r.get("noise-free") or {}
+        nf_cell = (f"{nf['vecpin']['part']:.4f} / {nf['best']['part']:.4f} = {nf_ratio(r, 'part'):.2f}"
+                   if "vecpin" in nf else nf.get("error", "-"))
+        lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r.get('commands', '')} | "
+                     f"{r.get('label', '')} | {r['uncompensated']['part']:.4f} | " + " | ".join(cells)
+                     + f" | {nf_cell} | {nf.get('label', '')} | " + ", ".join(str(r[f]['tables']) for f in FORMATS)
+                     + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -375,8 +406,11 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=None, help="first seed (default: fresh)")
     ap.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     ap.add_argument("--out", default=str(RESULT))
+    ap.add_argument("--commands", type=int, default=None,
+                    help="commands per campaign (default: the generator's draw, 120..200)")
     ap.add_argument("--json", default=None, help="also write every record here")
-    ap.add_argument("--work", default=None, help="keep vecpin's files here and reuse them (default: a temporary folder)")
+    ap.add_argument("--work", default=None,
+                    help="keep vecpin's files here and reuse them (default: a temporary folder)")
     ap.add_argument("--from-json", nargs="+", default=None,
                     help="write the page from records saved by --json (runs split over processes)")
     args = ap.parse_args(argv)
@@ -393,7 +427,7 @@ def main(argv=None) -> None:
         tmp = args.work or tmp
         for i in range(args.n):
             seed, kind = first + i, args.kinds[i % len(args.kinds)]
-            rec = one_draw(seed, kind, Path(tmp))
+            rec = one_draw(seed, kind, Path(tmp), args.commands)
             records.append(rec)
             print(json.dumps(rec), flush=True)
             if args.json:
