@@ -180,9 +180,9 @@ class BestSets:
     """The best values for a set of tables for the truth (module text), on fixed fitting commands:
     the truth's linearisation is computed once and shared by every table set and frame."""
 
-    def __init__(self, truth: Truth, seed: int):
+    def __init__(self, truth: Truth, seed: int, n_fit: int = N_FIT):
         self.truth = truth
-        q, tool = truth.commands(N_FIT, seed)
+        q, tool = truth.commands(n_fit, seed)
         self.q_user = q / truth.unit
         self.J = jacobian(truth, q, tool)
         nom = truth.tip(q, tool, errors=False)
