@@ -39,8 +39,11 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-import scipy.sparse
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):   # one thread: the machine is shared
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import scipy.sparse  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -221,7 +224,9 @@ class BestSets:
         N[len(specs) * KNOTS:, len(specs) * KNOTS:] = F.T @ F
         g[len(specs) * KNOTS:] = F.T @ self.r0
         d = np.sqrt(np.maximum(np.diag(N), 1e-300))
-        x = -np.linalg.lstsq(N / np.outer(d, d), g / d, rcond=1e-12)[0] / d
+        w, v = np.linalg.eigh(N / np.outer(d, d))                      # the minimum-norm solution
+        keep = w > 1e-12 * w.max()
+        x = -(v[:, keep] @ ((v[:, keep].T @ (g / d)) / w[keep])) / d
         tables = {"tables": [], "gauge_mm": float(x[len(specs) * KNOTS])}
         for t, (inp, outp, lo, hi) in enumerate(specs):
             tables["tables"].append((inp, outp, lo, (hi - lo) / (KNOTS - 1), x[t * KNOTS:(t + 1) * KNOTS], False))
