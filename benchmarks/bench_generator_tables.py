@@ -61,6 +61,7 @@ FORMATS = ("generic", "siemens-840d", "linuxcnc")
 KNOTS = 48              # knots per table of the best set (piecewise linear over the table's grid)
 N_JUDGE, N_FIT = 600, 10000
 TARGET = 1.15
+EIG_CUT = 1e-8          # eigenvalues of the scaled normal equations below this share of the largest are dropped
 TABLE_KINDS = ("table", "head_table")
 
 
@@ -225,7 +226,7 @@ class BestSets:
         g[len(specs) * KNOTS:] = F.T @ self.r0
         d = np.sqrt(np.maximum(np.diag(N), 1e-300))
         w, v = np.linalg.eigh(N / np.outer(d, d))                      # the minimum-norm solution
-        keep = w > 1e-12 * w.max()
+        keep = w > EIG_CUT * w.max()
         x = -(v[:, keep] @ ((v[:, keep].T @ (g / d)) / w[keep])) / d
         tables = {"tables": [], "gauge_mm": float(x[len(specs) * KNOTS])}
         for t, (inp, outp, lo, hi) in enumerate(specs):
@@ -416,6 +417,8 @@ def main(argv=None) -> None:
     ap.add_argument("--json", default=None, help="also write every record here")
     ap.add_argument("--work", default=None,
                     help="keep vecpin's files here and reuse them (default: a temporary folder)")
+    ap.add_argument("--rejudge", action="store_true",
+                    help="with --work: judge only the draws whose vecpin files are all there (no vecpin run)")
     ap.add_argument("--from-json", nargs="+", default=None,
                     help="write the page from records saved by --json (runs split over processes)")
     args = ap.parse_args(argv)
@@ -432,6 +435,10 @@ def main(argv=None) -> None:
         tmp = args.work or tmp
         for i in range(args.n):
             seed, kind = first + i, args.kinds[i % len(args.kinds)]
+            done = [Path(tmp) / str(seed) / f / "tables.json" for f in FORMATS]
+            if args.rejudge and not all(p.exists() for p in done + [Path(tmp) / str(seed) / "noise-free" / "generic"
+                                                                      / "tables.json"]):
+                continue
             rec = one_draw(seed, kind, Path(tmp), args.commands)
             records.append(rec)
             print(json.dumps(rec), flush=True)
