@@ -258,9 +258,9 @@ def run_vecpin(camp, folder: Path, formats=FORMATS) -> dict:
     if all((folder / f / "tables.json").exists() for f in formats):      # kept from an earlier run (--work)
         return {"fit_s": float("nan"), "label": model_label(model, truth["axes"])}
     t0 = time.perf_counter()
-    fit = vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model), "--quiet",
-                     *noise_options(truth))
-    if fit.returncode != 0:
+    fit = None if model.exists() else vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model),
+                                                 "--quiet", *noise_options(truth))
+    if fit is not None and fit.returncode != 0:
         raise RuntimeError("fit: " + (fit.stderr.strip().splitlines() or ["?"])[-1])
     out = {"fit_s": time.perf_counter() - t0, "label": model_label(model, truth["axes"])}
     for fmt in formats:
@@ -436,7 +436,7 @@ def main(argv=None) -> None:
     ap.add_argument("--work", default=None,
                     help="keep vecpin's files here and reuse them (default: a temporary folder)")
     ap.add_argument("--rejudge", action="store_true",
-                    help="with --work: judge only the draws whose vecpin files are all there (no vecpin run)")
+                    help="with --work: only the draws whose fits are there (no new fit; tables written where missing)")
     ap.add_argument("--from-json", nargs="+", default=None,
                     help="write the page from records saved by --json (runs split over processes)")
     args = ap.parse_args(argv)
@@ -453,9 +453,8 @@ def main(argv=None) -> None:
         tmp = args.work or tmp
         for i in range(args.n):
             seed, kind = first + i, args.kinds[i % len(args.kinds)]
-            done = [Path(tmp) / str(seed) / f / "tables.json" for f in FORMATS]
-            if args.rejudge and not all(p.exists() for p in done + [Path(tmp) / str(seed) / "noise-free" / "generic"
-                                                                      / "tables.json"]):
+            done = [Path(tmp) / str(seed) / "model.json", Path(tmp) / str(seed) / "noise-free" / "model.json"]
+            if args.rejudge and not all(p.exists() for p in done):
                 continue
             rec = one_draw(seed, kind, Path(tmp), args.commands)
             records.append(rec)
