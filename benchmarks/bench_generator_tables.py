@@ -398,7 +398,9 @@ def page(records: list[dict], how: str) -> str:
              f"squares on {N_FIT} other commands x the tools, {KNOTS} knots per table, gauge change and the "
              "frame's freedoms free), judged the same way. part: translation and rotation about the spindle "
              "removed; shape: the best rigid motion removed. *noise-free*: the same campaign (commands, tools, "
-             "nests) read without tracker or axis noise, fitted and tabled the same way (generic).", "",
+             "nests) read without tracker or axis noise, fitted and tabled the same way (generic). The C axis of every "
+             "class travels more than a turn; vecpin's table functions give such an axis their knots per "
+             "turn (vecpin/compensation/functions.py).", "",
              "## summary (vecpin / best; table machines: table and head_table)", "", *summary_lines(ok),
              "## what the figures say", "", *findings(ok), ""]
     if len(ok) < len(records):
