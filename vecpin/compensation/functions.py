@@ -78,7 +78,8 @@ def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS,
     """Table functions able to follow any model: cubic B-splines with ``knots``
     uniform interior knots over the travel of each input axis (or over ``lower`` ..
     ``upper`` [m, rad]: the region the tables are fitted in, the measured box, held
-    beyond it, so that every spline has pseudo-measurements under it); a modulo axis a
+    beyond it, so that every spline has pseudo-measurements under it; a rotary axis that
+    travels more than a turn ``knots`` per turn, as its errors repeat every turn); a modulo axis a
     Fourier series per turn of order 2 (knots + 1) (its table repeats every turn)."""
     out = []
     for a in machine.axes:
@@ -87,7 +88,8 @@ def rich_table_bases(machine: Machine, modulo_axes=(), knots: int = TABLE_KNOTS,
             out.append(AxisBasis(a.lower, a.upper, 2 * (knots + 1), "fourier", rotary=True))
         else:
             lo, hi = _span(a, lower, upper)
-            k = tuple(np.linspace(lo, hi, knots + 2)[1:-1])
+            n = knots if not rot or hi - lo <= 2 * np.pi else int(np.ceil(knots * (hi - lo) / (2 * np.pi)))
+            k = tuple(np.linspace(lo, hi, n + 2)[1:-1])      # a rotary axis of several turns: ``knots`` per turn
             out.append(AxisBasis(lo, hi, 3, "bspline", rotary=rot, knots=k))
     return out
 
