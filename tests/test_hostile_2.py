@@ -304,7 +304,7 @@ PROFILE_REFUSALS = {  # name: (edit, controller, words)
                          ["axes.X.following.modulo", "unknown"]),
     "unknown axis field": (_set("axes.X.ncname", "X1"), "siemens-840d",
                            ["axes.X.ncname", "unknown (known: nc_name, general_name"]),
-    "unknown top field": (_set("axis", {}), "generic", ["unknown field 'axis'", "known: axes, comment"]),
+    "unknown top field": (_set("axis", {}), "generic", ["unknown field 'axis'", "known: $schema, axes, comment"]),
     "unknown option": (_set("options.rotary_anyrange", True), "heidenhain",
                        ["options.rotary_anyrange", "unknown option (known: comp_file_type, ini, rotary_any_range)"]),
     "option of the wrong type": (_set("options.rotary_any_range", "yes"), "heidenhain",
