@@ -155,6 +155,7 @@ def test_simulated_plan_imports_by_name_and_fits_the_table_axes(trunnion_plan, t
     assert with_nests < 0.15 * unc and without > 0.7 * unc
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(machines, tmp_path, capsys):
     """The printout names the nests, the table-axis terms they identify and the error
     relative to the workpiece with and without them; the tracker line says where it is
@@ -182,6 +183,7 @@ def test_plan_command_prints_the_nest_figures_and_refuses_nests_without_a_table(
         assert text in err and "Traceback" not in err
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 def test_predicted_error_matches_a_monte_carlo_of_simulate_and_fit(trunnion_plan):
     """The plan's predicted error of the tool tip relative to the workpiece (linearised
     covariance through the one likelihood, nests included) against 8 simulated campaigns

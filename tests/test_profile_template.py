@@ -38,6 +38,7 @@ def test_template_lists_every_needed_field_as_null(tmp_path, controller, needed,
     assert "the file exists" in capsys.readouterr().err
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 def test_tables_refuse_the_empty_template_then_take_it_filled_in(tmp_path, model_file, capsys):
     prof = tmp_path / "p.json"
     main(["profile", "trunnion_xyzac", "--controller", "siemens-840d", "--out", str(prof)])

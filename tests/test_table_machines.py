@@ -147,6 +147,7 @@ def test_evaluate_takes_the_tracker_noise_out_like_with_like(machines):
     assert any(n.startswith("model error net of the measurement noise") for n in ev.notes)
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 def test_the_all_table_machine_end_to_end(tmp_path, capsys):
     """xyzac_trt (spindle on the frame, every axis under the workpiece): simulate -> fit ->
     evaluate -> tables -> simulate through the tables -> verify on the command line.

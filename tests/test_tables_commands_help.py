@@ -3,12 +3,15 @@ tables are fitted and judged on at least 1000 quasi-random commands, more when t
 set has many coefficients (a five-axis machine with a rotary axis over two turns: more)."""
 import re
 
+import pytest
+
 from hostile_helpers import ok
 
 from vecpin.cli import main
 from vecpin.compensation.plan import MIN_TABLE_COMMANDS, table_commands
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 def test_the_default_number_of_commands_is_the_one_the_help_states(machines, tmp_path, capsys):
     m = machines["trunnion_xyzac"]
     assert main(["simulate", "trunnion_xyzac", "--out", str(tmp_path / "s"), "--seed", "1", "--points", "60",

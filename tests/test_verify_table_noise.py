@@ -28,6 +28,7 @@ def _rms_mm(m, reference: np.ndarray, true: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(part_errors(reference, true, spindle) ** 2, axis=1))) * 1e3)
 
 
+@pytest.mark.slow   # an end-to-end run: kept out of the fast tier (its 180 s budget)
 @pytest.mark.parametrize("seed", [1, 2])
 def test_verify_before_and_after_net_of_the_noise_equal_the_truth(machines, seed, tmp_path):
     """A-C trunnion, 150 commands x 2 tools, the truth's bases fitted, tables from the
