@@ -33,7 +33,6 @@ import argparse
 import json
 import os
 import secrets
-import subprocess
 import sys
 import tempfile
 import time
@@ -54,6 +53,7 @@ from generator import draw_campaign  # noqa: E402
 from generator.kinematics import chain  # noqa: E402
 from controller_appliers import linuxcnc_corrections, siemens_corrections  # noqa: E402
 from part_frame_judge import part_errors, read_tables, shape_errors  # noqa: E402
+from bench_unseen import noise_options, vecpin_cmd  # noqa: E402  (the stated noise; the command as a user runs it)
 
 RESULT = ROOT / "docs" / "results" / "generator_tables.md"
 KINDS = ("table", "head_table", "head", "gantry")
@@ -63,24 +63,6 @@ N_JUDGE, N_FIT = 600, 10000
 TARGET = 1.15
 EIG_CUT = 1e-8          # eigenvalues of the scaled normal equations below this share of the largest are dropped
 TABLE_KINDS = ("table", "head_table")
-
-
-def vecpin_cmd(*args: str) -> subprocess.CompletedProcess:
-    """Run the ``vecpin`` command of the active environment."""
-    exe = Path(sys.executable).with_name("vecpin")
-    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "vecpin"]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    return subprocess.run(cmd + list(args), capture_output=True, text=True, env=env)
-
-
-def noise_options(truth: dict) -> list[str]:
-    """The tracker's and the axes' noise as their specs state them (the generator's figures)."""
-    out = ["--tracker-noise", *(f"{v:.6g}" for v in truth["tracker_noise"])]
-    if truth["repeatability_mm"] > 0:
-        out += ["--repeatability-mm", f"{truth['repeatability_mm']:.6g}"]
-    if truth["repeatability_deg"] > 0:
-        out += ["--repeatability-deg", f"{truth['repeatability_deg']:.6g}"]
-    return out
 
 
 def profile(axes: list[str], controller: str) -> dict:
@@ -259,7 +241,7 @@ def run_vecpin(camp, folder: Path, formats=FORMATS) -> dict:
         return {"fit_s": float("nan"), "label": model_label(model, truth["axes"])}
     t0 = time.perf_counter()
     fit = None if model.exists() else vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model),
-                                                 "--quiet", *noise_options(truth))
+                                                 "--quiet", *noise_options(truth, stated=True))
     if fit is not None and fit.returncode != 0:
         raise RuntimeError("fit: " + (fit.stderr.strip().splitlines() or ["?"])[-1])
     out = {"fit_s": time.perf_counter() - t0, "label": model_label(model, truth["axes"])}
