@@ -19,9 +19,10 @@ geometric model's own terms refitted with them, so the geometry does not absorb 
 drift), the lag scanned over :data:`~vecpin.models.effects.thermal.LAGS_H` and refined
 between them (:func:`refine_lag`), and says in words where the data cannot separate them
 (:func:`separability`). :func:`remaining_mm` predicts what the terms leave at a steady
-temperature as an expected figure with a band: the coefficients' error as time blocks
-held out show it (:mod:`vecpin.compensation.thermalheld`), the lag's uncertainty, and
-the curvature the campaign cannot rule out (:func:`curvature`), extrapolated.
+temperature as a point figure (with the chance it holds to 20 %) and a band, from draws
+of the coefficients' error as time blocks held out show it
+(:mod:`vecpin.compensation.thermalheld`), the lag's uncertainty, and the curvature the
+campaign cannot rule out (:func:`curvature`), extrapolated.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermalheld import held_out, with_lag
+from vecpin.compensation.thermalheld import curvature_draws, held_out, with_lag
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
@@ -244,12 +245,30 @@ class Remaining:
     """What the thermal terms are predicted to leave at one steady temperature, as the
     mean over the commands of the tip's error [mm]: ``expected`` (the draws' mean),
     ``low`` .. ``high`` (:data:`BAND`: the draws' 5th and 95th percentiles), ``floor``
-    (what the model leaves at any temperature, the held-out residual's floor)."""
+    (what the model leaves at any temperature, the held-out residual's floor); ``point``
+    the figure to hold vecpin to (:func:`point_within`: the one the most draws lie within
+    :data:`WITHIN` of) and ``chance`` the draws' share within it (the chance vecpin gives
+    the error of landing within 20 % of ``point``; NaN without draws); ``draws`` [mm]."""
 
     expected: float
     low: float
     high: float
     floor: float
+    point: float = float("nan")
+    chance: float = float("nan")
+    draws: np.ndarray | None = field(default=None, repr=False)
+
+
+WITHIN = 0.2   # the relative distance a point prediction is held to
+
+
+def point_within(draws, within: float = WITHIN) -> tuple[float, float]:
+    """(the value m with the most ``draws`` in [(1 - within) m, (1 + within) m], their
+    share): the point prediction with the best chance of holding to ``within``."""
+    s = np.sort(np.asarray(draws, float))
+    inside = np.searchsorted(s, (1 + within) * s, "right") - np.searchsorted(s, (1 - within) * s, "left")
+    k = int(np.argmax(inside))
+    return float(s[k]), float(inside[k] / len(s))
 
 
 def _contribution(terms: ThermalTerms, names, machine, q, tool, d: float) -> np.ndarray:
@@ -270,7 +289,8 @@ def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_
     of (1) the coefficients' error, their covariance over time blocks held out and the
     lag's uncertainty (:mod:`vecpin.compensation.thermalheld`), and (2) the curvature
     the straight terms cannot follow, as the campaign bounds it (:func:`curvature`: its
-    estimate and covariance, extrapolated to this temperature). Without ``held_out`` (an
+    estimate and deviation, drawn by :func:`~vecpin.compensation.thermalheld.curvature_draws`,
+    extrapolated to this temperature). Without ``held_out`` (an
     older ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
     q = np.atleast_2d(np.asarray(q, float))
     h, c = terms.held_out, terms.curvature
@@ -279,16 +299,16 @@ def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_
         sigma = dataclasses.replace(terms, offset_um_per_k=dict(terms.offset_std),
                                     slope_um_per_m_per_k=dict(terms.slope_std), growth_um_per_k=terms.growth_std)
         e = float(np.linalg.norm(tip_errors(sigma, machine, q, tool, temperature_c), axis=1).mean() * 1e3)
-        return Remaining(e, e, e, 0.0)
+        return Remaining(e, e, e, 0.0, e)
     rng = np.random.default_rng(0)
     e = np.einsum("nip,dp->dni", _contribution(terms, h["names"], machine, q, tool, d), _draws(h["cov"], rng))
     if c:
         bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
-        kappa = c["per_k"] + c["std_per_k"] * rng.standard_normal(DRAWS)
+        kappa = curvature_draws(c["per_k"], c["std_per_k"], rng, DRAWS)
         e = e + kappa[:, None, None] * tip_errors(terms, machine, q, tool, terms.t0_c + bend)[None]
     mean = np.linalg.norm(e, axis=2).mean(axis=1) * 1e3
     lo, hi = np.percentile(mean, BAND)
-    return Remaining(float(mean.mean()), float(lo), float(hi), h["floor_um"] * 1e-3)
+    return Remaining(float(mean.mean()), float(lo), float(hi), h["floor_um"] * 1e-3, *point_within(mean), mean)
 
 
 def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats) -> dict:

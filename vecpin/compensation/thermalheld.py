@@ -19,7 +19,8 @@ is solved again without it; then
   and a curvature the terms cannot follow is bounded by
   :func:`vecpin.compensation.thermal.curvature` instead.)
 
-:func:`with_lag` adds the lag's uncertainty to the covariance. Units in the returned dict
+:func:`with_lag` adds the lag's uncertainty to the covariance; :func:`curvature_draws` draws
+the curvature the prediction extrapolates. Units in the returned dict
 (``thermal.json``): ``names`` the coefficients (the terms' order: per axis offset [µm/K]
 and slope [µm/m/K], then the tool's growth [µm/K]), ``cov`` their covariance in those
 units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h].
@@ -90,3 +91,24 @@ def with_lag(held: dict, lag_std_h: float, gradient) -> dict:
         g = np.asarray(gradient, float)
         out["cov"] = (np.asarray(held["cov"], float) + lag_std_h ** 2 * np.outer(g, g)).tolist()
     return out
+
+
+def curvature_draws(per_k: float, std_per_k: float, rng, draws: int) -> np.ndarray:
+    """(draws,) draws of the thermal error's relative curvature [1/K] given its estimate
+    ``per_k`` and standard deviation ``std_per_k`` (:func:`vecpin.compensation.thermal.curvature`).
+    Drawn around the estimate itself they overstate the curvature's size where the campaign
+    does not resolve it (an estimate's square exceeds the true one's by the variance, and
+    draws add it again); so the draws come from the normal hierarchy curvature ~ N(0, tau^2)
+    with a half-Cauchy scale tau of the estimate's own standard deviation (the campaign's
+    resolution, no outside knowledge): tau drawn from its posterior on a grid, then the
+    curvature from N(s per_k, s std^2), s = tau^2 / (tau^2 + std^2). Resolved (|per_k| >>
+    std): the estimate +- its deviation; unresolved: shrunk towards 0, heavy-tailed."""
+    sd = float(std_per_k)
+    if not sd > 0:
+        return np.full(draws, float(per_k))
+    tau = sd * np.r_[0.0, np.logspace(-3, 3, 400)]
+    var = tau ** 2 + sd ** 2
+    post = np.exp(-0.5 * per_k ** 2 / var) / np.sqrt(var) / (1 + (tau / sd) ** 2) * np.gradient(tau)
+    pick = tau[rng.choice(len(tau), size=draws, p=post / post.sum())]
+    s = pick ** 2 / (pick ** 2 + sd ** 2)
+    return s * per_k + np.sqrt(s) * sd * rng.standard_normal(draws)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermal import BAND, ThermalTerms, fit_thermal, remaining_mm, tip_errors
+from vecpin.compensation.thermal import BAND, WITHIN, ThermalTerms, fit_thermal, remaining_mm, tip_errors
 from vecpin.errors import InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
@@ -34,12 +34,12 @@ VALIDATION_K = 10.0   # K: the validation temperatures the prediction extends to
 class ThermalRun:
     """The fitted terms, the files written, and per temperature [°C] the predicted mean
     thermal error [mm] on the campaign's commands without the terms and what they leave
-    (:func:`~vecpin.compensation.thermal.remaining_mm`: expected, low, high), with the
-    model's floor [mm]."""
+    (:func:`~vecpin.compensation.thermal.remaining_mm`: the point figure, low, high), the
+    model's floor [mm] and the chance vecpin gives the point of holding to 20 %."""
 
     terms: ThermalTerms
     files: list[Path]
-    rows: list[tuple[float, float, float, float, float, float]] = field(default_factory=list)
+    rows: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)   # printed first: what the files leave out
 
     def lines(self) -> list[str]:
@@ -64,16 +64,24 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     """The prediction in words: one line per temperature, the extrapolated ones marked."""
     lo, hi = terms.t_range_c
     out = ["  predicted thermal error (mean on the campaign's commands, steady temperature): without the terms, and "
-           f"what they leave, expected and {BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
-    for t, a, b, b_lo, b_hi, _ in rows:
+           f"what they leave: the figure most likely to hold within {WITHIN * 100:.0f} %, the chance of that, and the "
+           f"{BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
+    for t, a, b, b_lo, b_hi, _, chance in rows:
         mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
         mark += "beyond the measured temperatures)" if mark else ""
-        out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({b_lo:.4f} .. "
+        odds = f"{chance:.0%} chance within {WITHIN * 100:.0f} %; " if np.isfinite(chance) else ""
+        out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({odds}{b_lo:.4f} .. "
                    f"{b_hi:.4f}){mark}")
     if rows:
         out.append(f"  and at every temperature what the model leaves besides (held-out residual's floor) "
                    f"{rows[0][5]:.4f} mm RMS")
-    loose = [t for t, a, _, _, b_hi, _ in rows if b_hi > a and not lo - 1e-9 <= t <= hi + 1e-9]
+    loose = [t for t, a, _, _, b_hi, *_ in rows if b_hi > a and not lo - 1e-9 <= t <= hi + 1e-9]
+    far = [(t, c) for t, *_, c in rows if c < 0.5 and not lo - 1e-9 <= t <= hi + 1e-9]
+    if far:
+        out.append(f"  note: at {', '.join(f'{t:.2f} degC ({c:.0%})' for t, c in far)} the figure left holds to "
+                   f"{WITHIN * 100:.0f} % only with the chance given: so far beyond {hi - lo:.1f} K of measured "
+                   "temperatures the campaign cannot pin what the terms leave (how the error bends there); hold vecpin "
+                   "to the band")
     if loose:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in loose)} degC (extrapolated) the band's top exceeds the "
                    f"error without the terms: the campaign's {hi - lo:.1f} K of temperatures cannot bound how the "
@@ -81,16 +89,17 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     return out
 
 
-def predicted_rows(terms: ThermalTerms, machine, q, tool) -> list[tuple[float, float, float, float, float, float]]:
-    """(T, mean error without, what the terms leave: expected, low, high, the model's
-    floor) [°C, mm] at commands ``q`` [m, rad], tools [m]: the ends and middle of the
-    measured temperatures and :data:`VALIDATION_K` either side of T0."""
+def predicted_rows(terms: ThermalTerms, machine, q, tool) -> list[tuple[float, ...]]:
+    """(T, mean error without, what the terms leave: the point figure, low, high, the
+    model's floor, the point's chance of holding to 20 %) [°C, mm] at commands ``q``
+    [m, rad], tools [m]: the ends and middle of the measured temperatures and
+    :data:`VALIDATION_K` either side of T0."""
     lo, hi = terms.t_range_c
     rows = []
     for t in sorted({terms.t0_c - VALIDATION_K, lo, 0.5 * (lo + hi), hi, terms.t0_c + VALIDATION_K}):
         without = np.linalg.norm(tip_errors(terms, machine, q, tool, t), axis=1).mean() * MM_PER_M
         left = remaining_mm(terms, machine, q, tool, t)
-        rows.append((float(t), float(without), left.expected, left.low, left.high, left.floor))
+        rows.append((float(t), float(without), left.point, left.low, left.high, left.floor, left.chance))
     return rows
 
 

@@ -10,7 +10,8 @@ the readings themselves). At those temperatures, on the run's commands:
   to the campaign's T0 (what its measured error holds besides the geometry);
 - the compensated run (the terms active in the controller): the correction they applied,
   and what vecpin predicts they leave at the run's mean temperature
-  (:func:`vecpin.compensation.thermal.remaining_mm`: expected figure and 5..95 % band),
+  (:func:`vecpin.compensation.thermal.remaining_mm`: the point figure, the chance it holds
+  to 20 %, and the 5..95 % band),
   marked extrapolated beyond the campaign's temperatures.
 
 The model's predicted figures (``verify``'s table) stay geometric: these lines stand beside
@@ -50,7 +51,8 @@ def load_thermal(tables: str | Path, machine) -> tuple[ThermalTerms | None, str 
 class RunTemperature:
     """One run at its temperatures: ``label``, the lagged temperatures' range and mean
     [°C], the mean thermal error the terms describe there [mm]; for the compensated run
-    also what the terms are predicted to leave (expected, low, high [mm]); ``missing``:
+    also what the terms are predicted to leave (expected, low, high, the point figure [mm],
+    the point's chance of holding to 20 %); ``missing``:
     why there are no figures (no temperature column)."""
 
     label: str
@@ -58,7 +60,7 @@ class RunTemperature:
     t_max: float = float("nan")
     t_mean: float = float("nan")
     described_mm: float = float("nan")
-    left: tuple[float, float, float] | None = None
+    left: tuple[float, float, float, float, float] | None = None
     missing: str = ""
 
 
@@ -88,8 +90,9 @@ class ThermalVerification:
                            f"there {r.described_mm:.4f} mm mean (the terms were not active in this run)")
             else:
                 out.append(f"    {r.label}: {r.t_min:.2f} .. {r.t_max:.2f} degC; the terms corrected "
-                           f"{r.described_mm:.4f} mm mean there and vecpin predicts they leave {r.left[0]:.4f} mm "
-                           f"({r.left[1]:.4f} .. {r.left[2]:.4f}, {BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
+                           f"{r.described_mm:.4f} mm mean there and vecpin predicts they leave {r.left[3]:.4f} mm "
+                           f"({r.left[4]:.0%} chance within 20 %; {r.left[1]:.4f} .. {r.left[2]:.4f}, "
+                           f"{BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
                            + self.extrapolated(r))
         out.append("    the model's predicted figures above are geometric: the thermal figures stand beside them")
         return out
@@ -98,7 +101,9 @@ class ThermalVerification:
         return {"file": self.source, "t0_c": self.terms.t0_c, "lag_h": self.terms.lag_h, "units": "degC, mm",
                 "runs": [{"run": r.label, "t_range_c": [r.t_min, r.t_max], "t_mean_c": r.t_mean,
                           "thermal_error_described_mm": r.described_mm,
-                          "left_by_the_terms_mm": None if r.left is None else list(r.left), "missing": r.missing}
+                          "left_by_the_terms_mm": None if r.left is None else list(r.left[:3]),
+                          "left_point_mm": None if r.left is None else r.left[3],
+                          "left_point_chance_within_20pct": None if r.left is None else r.left[4], "missing": r.missing}
                          for r in self.runs]}
 
 
@@ -123,6 +128,6 @@ def judge_thermal(machine, terms: ThermalTerms, source: str, before: Campaign, a
         r = RunTemperature(label, float(T.min()), float(T.max()), float(T.mean()), float(described))
         if active:
             left = remaining_mm(terms, machine, run.q, run.tool, r.t_mean)
-            r.left = (left.expected, left.low, left.high)
+            r.left = (left.expected, left.low, left.high, left.point, left.chance)
         out.runs.append(r)
     return out
