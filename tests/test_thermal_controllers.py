@@ -3,14 +3,20 @@ family vecpin's thermal model does not contain (tests/thermal_truth.py: the stru
 lags the air by 1.5 h, between the lags vecpin scans; the errors grow 1 % per K faster
 than linearly; per-axis offsets, expansions about their own centres, and a tool that
 grows), measured in a campaign with time and temperature; vecpin fits its terms and
-writes each controller's files; an independent reader per controller, written from the
-manuals the READMEs cite (not vecpin's writers), turns the files into the controller's
+writes each controller's files (Siemens, Beckhoff, Heidenhain, Fanuc, LinuxCNC's HAL
+component); an independent reader per controller, written from the manuals the READMEs
+cite (LinuxCNC: the component's source), turns the files into the controller's
 correction; the corrected commands run on the simulated machine at a steady temperature
-10 K from the campaign's mean. The tip's displacement from where the machine put it at
-the campaign's temperature (what the geometric tables leave) lies within 20 % of the
-band vecpin predicts the terms leave (the coefficients' spread over time blocks held
-out, the lag's uncertainty, the curvature the campaign bounds, extrapolated:
-vecpin.compensation.thermal.remaining_mm), and is smaller than without, on two
+10 K from the campaign's mean. Judged there, on two campaigns: the tip's displacement
+from where the machine put it at the campaign's temperature (what the geometric tables
+leave) is what vecpin's terms themselves leave (each controller carries them, its
+rounding aside), a fraction of the error without them, and lies in the 5..95 % band
+vecpin predicts (vecpin.compensation.thermal.remaining_mm: the coefficients' spread over
+time blocks held out, the lag's uncertainty, the curvature the campaign bounds,
+extrapolated). vecpin's point figure is held to 20 % only with the chance it states
+(about one in four from a campaign over a few kelvin, 10 K away: the curvature is not
+resolved there); how often it holds over fresh truths, and the tolerance it does hold to
+four times in five, is benchmarks/bench_thermal_truth.py's page, not a test's two
 campaigns. Also: what the data cannot separate is said."""
 import dataclasses
 
@@ -21,7 +27,7 @@ import vecpin
 from thermal_truth import READERS, Truth, commands, corrected, judged
 from vecpin.compensation.thermal import fit_thermal, remaining_mm
 from vecpin.errors import ControllerLimitError
-from vecpin.export import thermal
+from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
 from vecpin.fileio import OutputSet
 from vecpin.measurement.campaign import Campaign
@@ -60,18 +66,39 @@ def second():
     return fit(2)
 
 
+def write_files(controller, terms, m, folder):
+    """The controller's thermal files for ``terms`` into ``folder`` (LinuxCNC: the HAL component, not chained)."""
+    with OutputSet(folder) as out:
+        if controller == "linuxcnc":
+            joints = linuxcnc.joint_numbers(m, ControllerProfile())
+            thermal_linuxcnc.write(terms, m, joints, max(joints.values()) + 1, out, chained=False)
+        else:
+            thermal.write(controller, terms, ControllerProfile(), out)
+
+
+def terms_applied(m, terms, q, temperature):
+    """The commands with vecpin's own terms' correction [m] at ``temperature`` (what the files should carry)."""
+    qd = q.copy()
+    for a in terms.axes:
+        i = m.axis(a).index
+        qd[:, i] += terms.axis_correction_mm(a, q[:, i] * 1e3, temperature) * 1e-3
+    return qd
+
+
 @pytest.mark.parametrize("controller", list(READERS))
 @pytest.mark.parametrize("which, step", [("fitted", 10.0), ("second", -10.0)])
 def test_terms_through_the_controller_leave_the_predicted_error(request, tmp_path, controller, which, step):
     m, terms = request.getfixturevalue(which)[:2]
-    with OutputSet(tmp_path) as out:
-        thermal.write(controller, terms, ControllerProfile(), out)
+    write_files(controller, terms, m, tmp_path)
     tv = terms.t0_c + step                                     # steady: the structure at the air's temperature
     q = commands(m, 40, np.random.default_rng(9))
     tool = np.full(len(q), 0.12)
     without, with_terms = judged(m, TRUTH, q, tool, corrected(m, q, tmp_path, controller, tv), tv, terms.t0_c)
+    _, direct = judged(m, TRUTH, q, tool, terms_applied(m, terms, q, tv), tv, terms.t0_c)
+    assert with_terms == pytest.approx(direct, rel=0.02, abs=1e-6)   # the files carry the terms (Fanuc: 1 um units)
     left = remaining_mm(terms, m, q, tool, tv)
-    assert 0.8 * left.low <= with_terms * 1e3 <= 1.2 * left.high
+    assert left.low <= with_terms * 1e3 <= left.high                 # in the 5..95 % band
+    assert left.low <= left.point <= left.high and 0.1 < left.chance < 0.5   # a point, honestly not a promise
     assert with_terms < 0.25 * without and left.high < without * 1e3
     assert without > 50e-6                                       # a real thermal error to remove
 
@@ -119,12 +146,13 @@ def test_tables_workflow_writes_the_thermal_files(fitted, tmp_path):
     assert {f.name for f in run.files} == {"thermal.json", "vecpin_thermal.comp", "vecpin_thermal.hal"}
     back = ThermalTerms.load(tmp_path / "thermal.json")
     assert back.offset_um_per_k == pytest.approx(terms.offset_um_per_k) and back.lag_h == terms.lag_h
-    (cold, *_, floor), (lo, w_lo, r_lo, *_), _, (hi, w_hi, r_hi, *_), (warm, w_warm, r_warm, lo_warm, hi_warm, _) = \
-        run.rows
+    (cold, *_, floor, _), (lo, w_lo, r_lo, *_), _, (hi, w_hi, r_hi, *_), \
+        (warm, w_warm, r_warm, lo_warm, hi_warm, _, chance) = run.rows
     assert cold < lo < hi < warm and max(w_lo, w_hi) > 0.01 and r_lo < 0.5 * w_lo and r_hi < 0.5 * w_hi
     assert lo_warm < r_warm < hi_warm < 0.5 * w_warm and 0.003 < floor < 0.01   # floor: 3 um per coordinate, in 3-D
     text = "\n".join(run.lines())
     assert "without" in text and "left by the terms" in text and "extrapolated" in text
+    assert f"{chance:.0%} chance within 20 %" in text and "holds to 20 % only with the chance given" in text
 
 
 def test_terms_in_their_own_family_are_recovered(tmp_path):
@@ -173,7 +201,8 @@ def test_a_band_wider_than_the_error_without_is_said(fitted):
     from vecpin.workflows.thermal import prediction_lines
     terms = fitted[1]
     lo, hi = terms.t_range_c
-    rows = [(terms.t0_c - 10, 0.05, 0.03, 0.01, 0.07, 0.005), (lo, 0.01, 0.001, 0.0, 0.002, 0.005),
-            (terms.t0_c, 0.0004, 0.0003, 0.0, 0.0006, 0.005), (terms.t0_c + 10, 0.05, 0.01, 0.002, 0.03, 0.005)]
+    rows = [(terms.t0_c - 10, 0.05, 0.03, 0.01, 0.07, 0.005, 0.3), (lo, 0.01, 0.001, 0.0, 0.002, 0.005, 0.6),
+            (terms.t0_c, 0.0004, 0.0003, 0.0, 0.0006, 0.005, 0.7),
+            (terms.t0_c + 10, 0.05, 0.01, 0.002, 0.03, 0.005, 0.6)]
     notes = [ln for ln in prediction_lines(terms, rows) if "band's top exceeds" in ln]
     assert len(notes) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in notes[0]

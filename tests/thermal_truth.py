@@ -2,7 +2,8 @@
 the controllers' thermal files written from their manuals (not vecpin's writers): the
 judges of tests/test_thermal_controllers.py and benchmarks/bench_thermal_truth.py. Own
 code only (numpy and the machine's nominal kinematics): nothing of vecpin's thermal
-fit, prediction or export.
+fit, prediction or export. (LinuxCNC: the component's own source, which the real
+LinuxCNC runs in tests/test_thermal_linuxcnc.py.)
 
 The truth family: the structure follows the air through a first-order lag ``lag_s``
 [s]; per linear axis an offset [m/K] and an expansion [1/K] about its own centre [m],
@@ -102,7 +103,20 @@ def fanuc(folder, temperature, unit=0.001):
     return lambda a, pos: -(row[f"{a}.offset_units"] + row[f"{a}.slope_units_per_m"] * (pos - p0[a]) / 1000.0) * unit
 
 
-READERS = {"840D": siemens, "beckhoff": beckhoff, "heidenhain": heidenhain, "fanuc": fanuc}
+def linuxcnc(folder, temperature):
+    """vecpin_thermal.comp, read as its source computes at a steady temperature (the lag
+    settled: T_struct = T): correction_j = a_j dT + b_j dT (pos - p0_j) / 1000 [mm],
+    dT = T - VECPIN_T0; the joint of each axis from the source's joint comments."""
+    text = (folder / "vecpin_thermal.comp").read_text()
+    t0 = float(re.search(r"^#define VECPIN_T0 ([-+\d.e]+)", text, re.M).group(1))
+    arr = {k: [float(v) for v in re.search(rf"vecpin_{k}\[\d+\] = \{{([^}}]*)\}}", text).group(1).split(",")]
+           for k in ("a", "b", "p0")}
+    joint = {a: int(j) for j, a in re.findall(r"^/\* joint (\d+) \((\w+)\):", text, re.M)}
+    d = temperature - t0
+    return lambda a, pos: arr["a"][joint[a]] * d + arr["b"][joint[a]] * d * (pos - arr["p0"][joint[a]]) / 1000.0
+
+
+READERS = {"840D": siemens, "beckhoff": beckhoff, "heidenhain": heidenhain, "fanuc": fanuc, "linuxcnc": linuxcnc}
 
 
 def corrected(m, q, folder, controller, temperature):
