@@ -152,7 +152,7 @@ def test_tables_workflow_writes_the_thermal_files(fitted, tmp_path):
     assert lo_warm < r_warm < hi_warm < 0.5 * w_warm and 0.003 < floor < 0.01   # floor: 3 um per coordinate, in 3-D
     text = "\n".join(run.lines())
     assert "without" in text and "left by the terms" in text and "extrapolated" in text
-    assert f"{chance:.0%} chance within 20 %" in text and "holds to 20 % only with the chance given" in text
+    assert f"{chance * 100:.0f} % chance within 20 %" in text and "holds to 20 % only with the chance given" in text
 
 
 def test_terms_in_their_own_family_are_recovered(tmp_path):

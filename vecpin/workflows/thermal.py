@@ -69,7 +69,7 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     for t, a, b, b_lo, b_hi, _, chance in rows:
         mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
         mark += "beyond the measured temperatures)" if mark else ""
-        odds = f"{chance:.0%} chance within {WITHIN * 100:.0f} %; " if np.isfinite(chance) else ""
+        odds = f"{chance * 100:.0f} % chance within {WITHIN * 100:.0f} %; " if np.isfinite(chance) else ""
         out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({odds}{b_lo:.4f} .. "
                    f"{b_hi:.4f}){mark}")
     if rows:
@@ -78,10 +78,10 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     loose = [t for t, a, _, _, b_hi, *_ in rows if b_hi > a and not lo - 1e-9 <= t <= hi + 1e-9]
     far = [(t, c) for t, *_, c in rows if c < 0.5 and not lo - 1e-9 <= t <= hi + 1e-9]
     if far:
-        out.append(f"  note: at {', '.join(f'{t:.2f} degC ({c:.0%})' for t, c in far)} the figure left holds to "
-                   f"{WITHIN * 100:.0f} % only with the chance given: so far beyond {hi - lo:.1f} K of measured "
-                   "temperatures the campaign cannot pin what the terms leave (how the error bends there); hold vecpin "
-                   "to the band")
+        at = ", ".join(f"{t:.2f} degC ({c * 100:.0f} %)" for t, c in far)
+        out.append(f"  note: at {at} the figure left holds to {WITHIN * 100:.0f} % only with the chance given: so "
+                   f"far beyond {hi - lo:.1f} K of measured temperatures the campaign cannot pin what the terms leave "
+                   "(how the error bends there); hold vecpin to the band")
     if loose:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in loose)} degC (extrapolated) the band's top exceeds the "
                    f"error without the terms: the campaign's {hi - lo:.1f} K of temperatures cannot bound how the "

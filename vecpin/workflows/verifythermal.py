@@ -91,7 +91,7 @@ class ThermalVerification:
             else:
                 out.append(f"    {r.label}: {r.t_min:.2f} .. {r.t_max:.2f} degC; the terms corrected "
                            f"{r.described_mm:.4f} mm mean there and vecpin predicts they leave {r.left[3]:.4f} mm "
-                           f"({r.left[4]:.0%} chance within 20 %; {r.left[1]:.4f} .. {r.left[2]:.4f}, "
+                           f"({r.left[4] * 100:.0f} % chance within 20 %; {r.left[1]:.4f} .. {r.left[2]:.4f}, "
                            f"{BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
                            + self.extrapolated(r))
         out.append("    the model's predicted figures above are geometric: the thermal figures stand beside them")
