@@ -195,9 +195,9 @@ def run(path: Path, temps, disp: str, blocks: int) -> list[str]:
     if "frame_t" in names:          # what Klipper's z_thermal_adjust applies: the frame sensor, no lag
         forms["frame sensor, no lag (Klipper's z_thermal_adjust)"] = lambda tr: mlr(T[:, [names.index("frame_t")]],
                                                                                    d, tr)
-    label = "the homed Z position" if "mcu_pos_z" in path.read_text(encoding="utf-8")[:4000] else disp
+    what = "the homed Z position" if "mcu_pos_z" in path.read_text(encoding="utf-8")[:4000] else disp
     lines = [f"### {path.name}", "", f"{len(t)} rows over {np.ptp(t) / 3600:.1f} h, channels {', '.join(names)}, "
-             f"displacement {label} (range {np.ptp(d):.1f} µm); {blocks} time blocks held out in turn", "",
+             f"displacement {what} (range {np.ptp(d):.1f} µm); {blocks} time blocks held out in turn", "",
              "| form | held-out RMS [µm] per block | all held-out rows [µm] | time per fit [ms] |", "|---|---|---|---|"]
     for label, fit in forms.items():
         left, spent = np.empty_like(d), 0.0
