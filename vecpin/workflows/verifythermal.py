@@ -91,7 +91,7 @@ class ThermalVerification:
             else:
                 out.append(f"    {r.label}: {r.t_min:.2f} .. {r.t_max:.2f} degC; the terms corrected "
                            f"{r.described_mm:.4f} mm mean there and vecpin predicts they leave {r.left[3]:.4f} mm "
-                           f"({r.left[4] * 100:.0f} % chance within 20 %; {r.left[1]:.4f} .. {r.left[2]:.4f}, "
+                           f"({odds(r.left[4])}{r.left[1]:.4f} .. {r.left[2]:.4f}, "
                            f"{BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
                            + self.extrapolated(r))
         out.append("    the model's predicted figures above are geometric: the thermal figures stand beside them")
@@ -105,6 +105,11 @@ class ThermalVerification:
                           "left_point_mm": None if r.left is None else r.left[3],
                           "left_point_chance_within_20pct": None if r.left is None else r.left[4], "missing": r.missing}
                          for r in self.runs]}
+
+
+def odds(chance: float) -> str:
+    """The point figure's chance of holding to 20 %, in words (nothing for an older thermal.json: no draws)."""
+    return f"{chance * 100:.0f} % chance within 20 %; " if np.isfinite(chance) else ""
 
 
 def run_temperatures(run: Campaign, lag_h: float) -> np.ndarray | None:
