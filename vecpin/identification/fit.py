@@ -69,6 +69,7 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
 #: an axis that stood still in every row: terms collinear only there are held by their priors, not removed by
 #: their order (benchmarks/bench_still_joint.py sets it False for the figures before)
 STILL_BY_PRIORS = True
+STILL_REFERENCE = 300   # commands of the reference design that judges redundancy then (more with more unknowns)
 EAGER_ROWS = 20_000   # a larger campaign's trial steps are evaluated with their Jacobians (solver.gauss_newton)
 REFERENCE_NESTS = 4  # table points of the reference design on a machine with a workpiece
 
@@ -190,7 +191,8 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
             # short of equations (changed only by `underdetermined`), or an axis stood still: terms that only the
             # design cannot tell apart are held by their priors (the posterior mean, as the model choice's folds fit
             # them), not removed by their place in the order; only what no design could identify is removed
-            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise)
+            n_ref = 1000 if underdetermined else min(1000, max(STILL_REFERENCE, P))   # rows enough for every term
+            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise, n_ref)
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
             if not underdetermined and (~red).sum() >= n_eq:   # too few equations for that: as a moving design
