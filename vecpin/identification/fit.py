@@ -187,15 +187,16 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
     active = active_columns(norms)
     n_active = int(active.sum())
     if remove_redundant:
-        if (underdetermined and n_active >= n_eq) or (STILL_BY_PRIORS and stood_still(model.machine, campaign)):
+        short = underdetermined and n_active >= n_eq
+        if short or (STILL_BY_PRIORS and stood_still(model.machine, campaign)):
             # short of equations (changed only by `underdetermined`), or an axis stood still: terms that only the
             # design cannot tell apart are held by their priors (the posterior mean, as the model choice's folds fit
             # them), not removed by their place in the order; only what no design could identify is removed
-            n_ref = 1000 if underdetermined else min(1000, max(STILL_REFERENCE, P))   # rows enough for every term
+            n_ref = 1000 if short else min(1000, max(STILL_REFERENCE, P))   # rows enough for every term
             red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise, n_ref)
             extra = P - red.size
             red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
-            if not underdetermined and (~red).sum() >= n_eq:   # too few equations for that: as a moving design
+            if not short and (~red).sum() >= n_eq:   # too few equations for that: as a moving design
                 red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
         else:
             red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
