@@ -194,10 +194,14 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
             # them), not removed by their place in the order; only what no design could identify is removed
             n_ref = 1000 if short else min(1000, max(STILL_REFERENCE, P))   # rows enough for every term
             red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise, n_ref)
-            extra = P - red.size
-            red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
-            if not short and (~red).sum() >= n_eq:   # too few equations for that: as a moving design
-                red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
+            if short:
+                extra = P - red.size
+                red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
+            else:   # the stations' and instruments' unknowns (after the model's) as the campaign tells them
+                own, own_ratio = lik.redundancy(np.zeros(P), norms, R=R0)
+                red, ratio = np.r_[red, own[red.size:]], np.r_[r_model, own_ratio[red.size:]]
+                if (~red).sum() >= n_eq:   # too few equations for that: as a moving design
+                    red, ratio = own, own_ratio
         else:
             red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
         keep = ~red
