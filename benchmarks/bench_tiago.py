@@ -38,6 +38,7 @@ settings, chosen after seeing the held-out poses (an oracle). Held-out distance:
 marker's measured point against the tool's prediction, in the motion-capture frame, mm.
 
 Run: python benchmarks/bench_tiago.py --data DIR [--out docs/results/real_data_tiago.md] [--splits ...]
+[--json FILE] [--figaroh-from FILE] (FIGAROH's figures of a saved run: vecpin alone fits again)
 """
 from __future__ import annotations
 
@@ -206,14 +207,21 @@ def main() -> None:
     ap.add_argument("--splits", nargs="+", default=list(SPLITS), choices=SPLITS)
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "real_data_tiago.md"))
     ap.add_argument("--json", help="also save the figures to this file")
+    ap.add_argument("--figaroh-from", metavar="FILE", help="FIGAROH's figures from a saved run (--json): only vecpin "
+                    "fits again (FIGAROH's code and the data unchanged, its figures are the same)")
     args = ap.parse_args()
     os.environ[DATA_ENV] = str(Path(args.data).resolve())
     q, _ = poses()
     rows, every = {}, []
+    saved = json.loads(Path(args.figaroh_from).read_text()) if args.figaroh_from else None
     for split in args.splits:
         test = held_out(q, split)
         v = timed(["vecpin", split])
         print(f"{split}: vecpin {_cell(v)} ({v.get('setting', v.get('error'))}; {v['seconds']:.1f} s)", flush=True)
+        if saved:
+            rows[split] = dict(saved["rows"][split], vecpin=v)
+            every += [line for line in saved["every"] if line.startswith(f"| {split} |")]
+            continue
         figs = {s: timed(["figaroh", split, *s]) for s in SEARCHED}
         for s, r in figs.items():
             print(f"  FIGAROH {'/'.join(s):24s} {_cell(r)} ({r['seconds']:.1f} s)" + (f" {r['error']}" if "error" in r

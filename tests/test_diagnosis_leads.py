@@ -68,6 +68,9 @@ def test_repeated_readings_that_agree_are_misfit_not_gross_errors(flow):
     assert [sorted(g["rows"]) for g in d.misfit_regions] == [sorted(int(r) for r in pose)]
     assert d.misfit_regions[0]["lines"] == [int(v) for v in c.lines[sorted(pose)]]
     assert "misfit, not gross errors" in d.headline()[1]
+    # the single reading's advice: re-measure it where the tracker stands; agreeing readings are systematic
+    advice = next(e for e in d.effects if e.name == "outliers").advice[0]
+    assert f"file lines {c.lines[single]} " in advice and "systematic at those poses" in advice
 
 
 def test_flagged_rows_crowded_at_one_end_of_an_axis_are_a_region(flow):

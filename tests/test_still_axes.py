@@ -52,3 +52,28 @@ def test_fit_and_evaluate_name_the_axis_that_never_moved(flow, tmp_path):
     assert bend(run.model) < 1e-9 and bend(back) < 1e-9
     back.range_ = None
     assert bend(back) > 1e-5
+
+
+def test_terms_collinear_only_because_a_joint_stood_still_are_held_by_their_priors(monkeypatch):
+    """A one-joint-at-a-time design with joint 3's sweep left out: joint 3 stands still, so
+    constant errors on either side of it are collinear in this campaign though any design
+    moving it tells them apart. They are kept and held by their priors (the posterior mean,
+    as the model choice's folds fit them): only what no design could identify is removed,
+    where the campaign's own redundancy removal drops the later of each collinear pair."""
+    import vecpin.identification.fit as fitmod
+    ur10 = vecpin.Machine.load("ur10")
+    mid = np.array([0.3, -1.2, 1.4, -1.5, -1.4, 0.2])
+    q = np.array([mid + np.eye(6)[k] * v for k in (0, 1, 2, 4, 5) for v in np.linspace(-1.5, 1.5, 8)])
+    c = simulate(ur10, seed=2, plan=(q, np.full(len(q), 0.1)), design=Design(n_validation=5)).campaign
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        now = vecpin.fit(ur10, c, None, kind="6dof", order=0).model
+        monkeypatch.setattr(fitmod, "STILL_BY_PRIORS", False)
+        before = vecpin.fit(ur10, c, None, kind="6dof", order=0).model
+    struct, _ = fitmod.structural_redundancy(now, c.tool_lengths(), now.noise_)
+    names = ["E0"] * 6 + list(now.parameter_names)
+    assert set(now.report_.removed) == {n for n, r in zip(names, struct) if r and n != "E0"}
+    extra = set(before.report_.removed) - set(now.report_.removed)
+    assert extra and set(now.report_.removed) < set(before.report_.removed)
+    held = [now.parameter_names.index(n) for n in extra]
+    assert np.all(np.abs(now.b_[held]) > 0)          # fitted under their priors, not fixed at zero

@@ -140,6 +140,9 @@ def outlier_score(base_model, campaign: Campaign, noise: NoiseModel, feats: Feat
                    "they stay beyond it under the final model; the base model fitted with them predicts the "
                    f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
                    f"{sc.heldout_mean_mm_after:.4f} mm")
-    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} or check the tracker "
-                 "log for a broken beam; they are left out of the fit"]
+    sc.advice = [f"outliers: re-measure the rows at file lines {shown} of {campaign.source} (the same commands, the "
+                 "tracker where it stands; append them and diagnose again) or check the tracker log for a broken beam; "
+                 "they are left out of the fit. If the new readings agree with them, or the same poses are flagged on "
+                 "another day, the error is systematic at those poses (the machine there, not the reading): appended "
+                 "readings that agree are kept and named a misfit"]
     return sc

@@ -3,7 +3,8 @@
 The tracker frame is registered automatically (rigid fit of the nominal tips, station
 0's rows) and the small correction ``E_0`` (eq. 10) is estimated with the model.
 Redundant parameters are found from the prior-scaled sensitivity at the measured
-poses (:mod:`.redundancy`) and removed; the likelihood (:mod:`.likelihood`) is
+poses (:mod:`.redundancy`) and removed (when an axis stood still in every row, only those no
+design could identify: :func:`_columns_to_fit`); the likelihood (:mod:`.likelihood`) is
 minimised by the bounded damped Gauss-Newton of :mod:`.solver`; the report
 (:mod:`.report`) gives χ² against its expectation, conditioning and residuals.
 """
@@ -21,6 +22,7 @@ from vecpin.identification.redundancy import WEAK_RATIO, active_columns
 from vecpin.identification.report import FitReport, describe_counts, unknown_counts
 from vecpin.identification.solver import gauss_newton
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.campaignchecks import stood_still
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import check_campaign_frames, check_registration
@@ -64,6 +66,10 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
     return red[:k], ratio[:k]
 
 
+#: an axis that stood still in every row: terms collinear only there are held by their priors, not removed by
+#: their order (benchmarks/bench_still_joint.py sets it False for the figures before)
+STILL_BY_PRIORS = True
+STILL_REFERENCE = 300   # commands of the reference design that judges redundancy then (more with more unknowns)
 EAGER_ROWS = 20_000   # a larger campaign's trial steps are evaluated with their Jacobians (solver.gauss_newton)
 REFERENCE_NESTS = 4  # table points of the reference design on a machine with a workpiece
 
@@ -171,7 +177,8 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
                     remove_redundant: bool, underdetermined: bool, R0: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray]:
     """(columns kept, each one's identifiability ratio): redundant terms removed (on the
-    campaign, or on a reference design when ``underdetermined`` and short of equations);
+    campaign, or on a reference design when ``underdetermined`` and short of equations or when
+    an axis stood still in every row and the equations allow);
     refused when the kept columns outnumber the equations and not ``underdetermined``."""
     P = lik.n_unknowns
     norms = np.sqrt(np.diag(G0))
@@ -180,10 +187,21 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
     active = active_columns(norms)
     n_active = int(active.sum())
     if remove_redundant:
-        if underdetermined and n_active >= n_eq:  # only a fit short of equations is changed by `underdetermined`
-            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise)
-            extra = P - red.size
-            red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
+        short = underdetermined and n_active >= n_eq
+        if short or (STILL_BY_PRIORS and stood_still(model.machine, campaign)):
+            # short of equations (changed only by `underdetermined`), or an axis stood still: terms that only the
+            # design cannot tell apart are held by their priors (the posterior mean, as the model choice's folds fit
+            # them), not removed by their place in the order; only what no design could identify is removed
+            n_ref = 1000 if short else min(1000, max(STILL_REFERENCE, P))   # rows enough for every term
+            red, r_model = structural_redundancy(model, campaign.tool_lengths(), noise, n_ref)
+            if short:
+                extra = P - red.size
+                red, ratio = np.r_[red, np.zeros(extra, bool)], np.r_[r_model, np.ones(extra)]
+            else:   # the stations' and instruments' unknowns (after the model's) as the campaign tells them
+                own, own_ratio = lik.redundancy(np.zeros(P), norms, R=R0)
+                red, ratio = np.r_[red, own[red.size:]], np.r_[r_model, own_ratio[red.size:]]
+                if (~red).sum() >= n_eq:   # too few equations for that: as a moving design
+                    red, ratio = own, own_ratio
         else:
             red, ratio = lik.redundancy(np.zeros(P), norms, R=R0)
         keep = ~red

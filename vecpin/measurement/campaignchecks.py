@@ -200,14 +200,21 @@ def warn_duplicates(name: str, values: np.ndarray, rows: np.ndarray) -> None:
 STILL_SHARE = 1e-4   # an axis whose commands span less than this share of its travel did not move
 
 
+def stood_still(machine: Machine, campaign) -> list:
+    """The axes of ``machine`` that stood still in every row of ``campaign`` (their commands
+    spanning less than :data:`STILL_SHARE` of the travel); none for an empty campaign."""
+    q = np.asarray(campaign.q, float)
+    if not len(q):
+        return []
+    return [a for a in machine.axes if np.ptp(q[:, a.index]) < STILL_SHARE * a.travel]
+
+
 def still_axes_notes(machine: Machine, campaign) -> list[str]:
     """One note naming the axes that stood still in every row of ``campaign`` (their commands
     spanning less than :data:`STILL_SHARE` of the travel), with where they stood: the campaign
     cannot tell how their errors change, so a model of it knows them at that position only."""
     q = np.asarray(campaign.q, float)
-    if not len(q):
-        return []
-    still = [a for a in machine.axes if np.ptp(q[:, a.index]) < STILL_SHARE * a.travel]
+    still = stood_still(machine, campaign)
     if not still:
         return []
     where = ", ".join(f"{a.name} at {a.to_user(q[0, a.index]):g} {a.unit}" for a in still)
