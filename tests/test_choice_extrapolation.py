@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vecpin
-from vecpin.identification.crossval import END_SHARE, command_folds, end_blocks
+from vecpin.identification.folds import END_SHARE, command_folds, end_blocks
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.robotaccuracy import read_dataset
 from vecpin.planning.zones import clip_to_zone
@@ -169,7 +169,7 @@ def test_each_axis_ends_are_judged_with_none_of_their_commands():
     rows would be interpolated). The basis along a joint is judged on a problem of its
     own: its low end (the commands within END_SPAN of its measured span from the lowest),
     its high end, and the rest, each end estimated from the rest and the other end only."""
-    from vecpin.identification.crossval import END_SPAN
+    from vecpin.identification.folds import END_SPAN
     from vecpin.selection.choice import _subsample
     from vecpin.selection.search import Problem
     from vecpin.selection.design import axis_options

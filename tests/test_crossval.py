@@ -5,7 +5,9 @@ sweep's linearised held-out distances against real refits with each fold left ou
 import numpy as np
 import pytest
 
-from vecpin.identification.crossval import FoldedProblem, command_folds
+from vecpin.identification.crossval import FoldedProblem
+
+from vecpin.identification.folds import command_folds
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.selection.orders import order_sweep
@@ -129,7 +131,7 @@ def test_the_ends_of_an_axis_are_held_out_whole():
     held-out rows judge an extrapolation); rows of one command share a fold; without
     ``ends`` no fold is a block."""
     from types import SimpleNamespace
-    from vecpin.identification.crossval import END_SHARE
+    from vecpin.identification.folds import END_SHARE
     rng = np.random.default_rng(5)
     q = rng.uniform(-1, 1, size=(120, 3))
     camp = SimpleNamespace(q=np.repeat(q, 2, axis=0))          # two tools per command

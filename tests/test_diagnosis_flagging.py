@@ -6,7 +6,8 @@ import numpy as np
 
 import vecpin
 from vecpin.diagnosis.flagging import still_gross
-from vecpin.identification.crossval import Linearised, command_folds
+from vecpin.identification.folds import command_folds
+from vecpin.identification.linearised import Linearised
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model

@@ -202,7 +202,8 @@ def test_backward_elimination_drops_what_the_others_explain(flow):
     agrees with a real refit without it; the real one survives alone."""
     from vecpin.diagnosis import diagnose as D
     from vecpin.diagnosis import scoring as S
-    from vecpin.identification.crossval import Linearised, command_folds
+    from vecpin.identification.folds import command_folds
+    from vecpin.identification.linearised import Linearised
     from vecpin.measurement.features import Features
     from vecpin.measurement.noise import NoiseModel
     from vecpin.models.effects import parse_effect

@@ -8,7 +8,7 @@ import pytest
 
 from vecpin.diagnosis.diagnose import diagnose
 from vecpin.diagnosis.scoring import Kinematics, candidate_effects, effect_columns
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.linearised import Linearised
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model

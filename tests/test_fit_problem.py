@@ -11,7 +11,7 @@ from vecpin.errors import InputError
 from vecpin.fitting.estimator import ErrorModelCV
 from vecpin.fitting.problem import FitProblem
 from vecpin.fitting.settings import DEFAULTS
-from vecpin.identification.crossval import command_folds
+from vecpin.identification.folds import command_folds
 from vecpin.identification.likelihood import Likelihood
 from vecpin.measurement.campaignrows import Campaign
 from vecpin.measurement.noise import NoiseModel

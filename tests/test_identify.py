@@ -11,7 +11,7 @@ from vecpin.measurement.setup import Setup
 from vecpin.models import ErrorModel, make_model
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.registration import rigid_registration
-from vecpin.identification.crossval import command_folds
+from vecpin.identification.folds import command_folds
 from vecpin.selection.orders import order_sweep
 from vecpin.simulation.simulate import Design, simulate
 from vecpin.kinematics.so3 import exp3

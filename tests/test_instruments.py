@@ -167,7 +167,7 @@ def test_diagnosis_of_a_range_only_campaign_whitens_with_the_range_variance(flow
     one equation, the range residual over sqrt(sigma_R(R)^2 + axis noise along the line of
     sight) - computed here independently (finite-difference d range / d q). Before the
     one likelihood, the diagnosis whitened every non-Cartesian campaign as spherical."""
-    from vecpin.identification.crossval import Linearised
+    from vecpin.identification.linearised import Linearised
     sim = simulate(flow, seed=9, design=Design(n_commands=60, stations=4), tracker_noise=LT)
     c = sim.campaign
     noise = NoiseModel.default(flow, "range")

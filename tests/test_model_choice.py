@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vecpin.compensation.plan import plan_tables
-from vecpin.identification.crossval import command_folds
+from vecpin.identification.folds import command_folds
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
 from vecpin.selection.choice import AxisChoice, Candidate, _Problem, axis_options, choose_model, choose_or_fix

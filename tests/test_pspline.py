@@ -114,7 +114,7 @@ def test_choice_columns_with_smoothing_are_the_models_own_jacobian(portal):
     """The choice's union columns times a penalised candidate's factors are the Jacobian
     of the model built from its AxisBasis objects (prior-scaled, whitened): the held-out
     solves judge exactly the model the fit then fits."""
-    from vecpin.identification.crossval import command_folds
+    from vecpin.identification.folds import command_folds
     from vecpin.identification.likelihood import Likelihood
     from vecpin.selection.choice import Candidate, _Problem
     from vecpin.selection.design import axis_options
@@ -171,7 +171,7 @@ def test_the_choice_takes_a_penalised_spline_where_wiggles_need_one(flow):
 def test_smoothing_sweep_equals_one_solve_per_smoothing(portal):
     """The Schur-complement sweep over smoothings gives the held-out distances of the
     plain solve of each candidate (the same algebra, rearranged)."""
-    from vecpin.identification.crossval import command_folds
+    from vecpin.identification.folds import command_folds
     from vecpin.selection.choice import _Problem
     from vecpin.selection.design import axis_options
     sim = simulate(portal, seed=4, design=Design(n_commands=40, n_validation=2))
@@ -196,7 +196,7 @@ def test_smoothing_sweep_equals_one_solve_per_smoothing(portal):
 def test_candidates_sharing_columns_equal_their_own_solves(portal):
     """The axis-by-axis search scores every basis of one axis with the other axes
     eliminated once: the held-out distances equal each candidate's own solve."""
-    from vecpin.identification.crossval import command_folds
+    from vecpin.identification.folds import command_folds
     from vecpin.selection.choice import _Problem
     from vecpin.selection.design import axis_options
     sim = simulate(portal, seed=4, design=Design(n_commands=40, n_validation=2))
@@ -217,7 +217,7 @@ def test_sizes_of_many_candidates_equal_their_own_traces(portal):
     """The effective terms of the candidates of one axis' bases, found with the columns
     they share eliminated once (:meth:`Problem.sizes`), equal each candidate's own trace
     of (G + I)^-1 G with and without its smoothing (:meth:`Problem.size`)."""
-    from vecpin.identification.crossval import command_folds
+    from vecpin.identification.folds import command_folds
     from vecpin.selection.choice import _Problem
     from vecpin.selection.design import axis_options
     sim = simulate(portal, seed=4, design=Design(n_commands=40, n_validation=2))

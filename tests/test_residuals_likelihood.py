@@ -9,7 +9,7 @@ import pytest
 
 from vecpin.diagnosis.grosserrors import beyond, robust_level
 from vecpin.diagnosis.scoring import Kinematics, effect_columns
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.linearised import Linearised
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model

@@ -4,7 +4,7 @@ prediction of :mod:`vecpin.compensation.thermal`.
 The campaign is cut into :data:`BLOCKS` blocks of consecutive rows (time order: a block
 holds a stretch of the temperature history, so a block at the warm or cold end is an
 extrapolation for the fit without it). For each block the fitted model (geometry and
-thermal terms, linearised at the fit: :class:`~vecpin.identification.crossval.Linearised`)
+thermal terms, linearised at the fit: :class:`~vecpin.identification.linearised.Linearised`)
 is solved again without it; then
 
 - the spread of the thermal coefficients over the blocks left out (the jackknife:
@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.linearised import Linearised
 from vecpin.models.effects.thermal import lagged
 
 BLOCKS = 5          # time blocks held out in turn

@@ -36,7 +36,9 @@ import numpy as np
 from scipy import optimize, special
 from scipy.special._ufuncs import _ncf_sf   # what scipy.stats' ncf.sf calls, without importing scipy.stats (1 s)
 
-from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.identification.crossval import FoldedProblem
+
+from vecpin.identification.linearised import Linearised
 from vecpin.units import MM_PER_M
 
 POWER = 0.9   # the probability with which the stated size is detected (over the noise and the effect's shape)

@@ -57,7 +57,9 @@ from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, cand
                                       effect_columns, fitted, heldout_gap, needed_given, on_ends, score, size_mm,
                                       weakest)
 from vecpin.errors import ConvergenceError, InputError
-from vecpin.identification.crossval import FoldedProblem, Linearised, command_folds
+from vecpin.identification.crossval import FoldedProblem
+from vecpin.identification.folds import command_folds
+from vecpin.identification.linearised import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features

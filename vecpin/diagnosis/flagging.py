@@ -14,7 +14,7 @@ from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.result import EffectScore
 from vecpin.diagnosis.scoring import distances_mm
 from vecpin.errors import InputError, VecpinError
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.linearised import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features

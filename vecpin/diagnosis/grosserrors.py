@@ -27,7 +27,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg, special
 
-from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.identification.crossval import FoldedProblem
+
+from vecpin.identification.linearised import Linearised
 from vecpin.identification.robust import FAMILY_ALPHA, robust_fit, row_limit  # noqa: F401 (this module's API too)
 from vecpin.identification.robust import median_level as robust_level
 from vecpin.kinematics.machine import Machine

@@ -10,7 +10,7 @@ import numpy as np
 
 from vecpin.diagnosis.result import EffectScore
 from vecpin.errors import VecpinError
-from vecpin.identification.crossval import Linearised
+from vecpin.identification.linearised import Linearised
 from vecpin.measurement.campaign import Campaign
 from vecpin.models.effects import Effect
 from vecpin.planning.discriminate import discriminating_plan

@@ -22,7 +22,8 @@ import numpy as np
 from scipy import special
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import FoldedProblem, Linearised
+from vecpin.identification.crossval import FoldedProblem
+from vecpin.identification.linearised import Linearised
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features

@@ -8,10 +8,8 @@ A candidate is a set of columns of that problem: a model's terms (the model choi
 scores subsets of the union of every candidate basis' columns, :meth:`FoldedProblem.heldout_blocks`
 eliminating the columns they share once per fold), an effect's terms (the diagnosis adds
 them with :meth:`FoldedProblem.extend`, which computes only the new cross blocks), or
-every term of a fitted model (:class:`Linearised`: the order sweep and the diagnosis).
-
-Folds are grouped by command: both tool lengths of one axis command always fall in the
-same fold (they share the axis position, so splitting them would leak).
+every term of a fitted model (:class:`~vecpin.identification.linearised.Linearised`: the
+order sweep and the diagnosis). Which rows form a fold: :mod:`vecpin.identification.folds`.
 
 Conventions (every array SI, rows in campaign order): ``J`` (N,3,P) and ``A`` (N,3,P)
 are the derivatives of the whitened and of the metric *prediction* with respect to the
@@ -26,75 +24,9 @@ import numpy as np
 from scipy import linalg
 from scipy.linalg import lapack
 
-from vecpin.identification.likelihood import Likelihood
+from vecpin.identification.folds import end_folds
 from vecpin.measurement.campaign import Campaign
-from vecpin.measurement.noise import NoiseModel
 from vecpin.units import norm_mm
-
-
-END_SHARE = 0.1  # the share of the commands at each end of an axis that :func:`command_folds` holds out together
-END_SPAN = 0.2   # the share of an axis' measured span at each end that :func:`end_blocks` ``by_span`` holds out
-
-
-def end_blocks(campaign: Campaign, ends=(), by_span: bool = False
-               ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray]]]:
-    """The commands of ``campaign`` and the ends of the axes ``ends``: (group (N,) the
-    command of each row, n_commands, [(axis, commands)] two blocks per axis, the
-    :data:`END_SHARE` of the commands with the lowest position on it and that share
-    with the highest; ``by_span``: the commands within :data:`END_SPAN` of the axis'
-    measured span from its lowest command, and those from its highest (at least one
-    each), so the extrapolation a block judges reaches as far wherever commands crowd)."""
-    keys = np.round(campaign.q, 9)
-    uq, group = np.unique(keys, axis=0, return_inverse=True)
-    group = np.asarray(group).ravel()
-    m = max(1, int(round(END_SHARE * len(uq))))
-    blocks = []
-    for a in ends:
-        x = uq[:, a]
-        if by_span:
-            reach = END_SPAN * (x.max() - x.min())
-            blocks += [(a, np.flatnonzero(x <= x.min() + reach)), (a, np.flatnonzero(x >= x.max() - reach))]
-        else:
-            by_position = np.argsort(x, kind="stable")
-            blocks += [(a, by_position[:m]), (a, by_position[-m:])]
-    return group, len(uq), blocks
-
-
-def end_folds(campaign: Campaign, axis: int) -> np.ndarray:
-    """(N,) three folds that judge how a model extrapolates along ``axis``: 0 the rows
-    whose command lies within :data:`END_SPAN` of the axis' measured span from its lowest
-    command, 1 those from its highest, 2 the rest (a command at both ends, where the axis
-    stands at one position, goes low): each end is estimated without any of its own
-    commands, whatever other axes' ends hold (:func:`end_blocks` ``by_span``)."""
-    group, _, blocks = end_blocks(campaign, (axis,), by_span=True)
-    fold = np.full(len(group), 2)
-    fold[np.isin(group, blocks[1][1])] = 1
-    fold[np.isin(group, blocks[0][1])] = 0
-    return fold
-
-
-def command_folds(campaign: Campaign, k: int, rng: np.random.Generator, ends=()) -> np.ndarray:
-    """Fold index per row; rows with the same axis command share a fold.
-
-    ``ends``: axis indices whose ends are held out whole: on each such axis the
-    :data:`END_SHARE` of the commands with the lowest position, and that share with the
-    highest, form a block each (:func:`end_blocks`), the blocks dealt to the folds in
-    random order (a command in two blocks goes with the first), so that each block's
-    fold is estimated without any command beyond the rest of the axis' measured span:
-    its held-out rows judge how a model *extrapolates* along that axis. The other
-    commands are dealt at random (interleaved folds). Without ``ends``: interleaved
-    folds only."""
-    group, n, blocks = end_blocks(campaign, ends)
-    if not len(ends):
-        perm = rng.permutation(n)
-        return perm[group] % k
-    fold = np.full(n, -1)
-    for f, b in enumerate(rng.permutation(len(blocks))):
-        free = blocks[b][1][fold[blocks[b][1]] < 0]
-        fold[free] = f % k
-    rest = np.flatnonzero(fold < 0)
-    fold[rest] = rng.permutation(len(rest)) % k
-    return fold[group]
 
 
 def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -421,6 +353,12 @@ class FoldedProblem:
                 if key:
                     ch[ks] += np.stack([psi[k][f, nF:] for k in ks]) @ AU[where[key]]
             change[:, sl] = ch
+        return self.distances(change)
+
+    def distances(self, change: np.ndarray) -> list[np.ndarray]:
+        """Held-out distances [mm] of the judged rows (campaign order), one array per row of
+        ``change`` (b, 3 n_judged): each candidate's change of the judged rows' metric
+        prediction, in the fold-sorted layout of ``A_rows``."""
         out = []
         for c in change:
             d = np.empty(len(self.judged_order))
@@ -470,51 +408,3 @@ class FoldedProblem:
                 psi[j][:, :nF] = sF * (y - np.einsum("kfp,kp->kf", X, sP * xP))
                 psi[j][:, nF:] = sP * xP
         return psi, U, where, groups
-
-
-class Linearised:
-    """A fitted model's likelihood at its solution, per row (three equations, padded).
-
-    ``w`` (N,3) whitened residuals; ``r`` (N,3) metric residuals [m] (point difference,
-    or range / radius in column 0); ``J`` (N,3,k) and ``A`` (N,3,k): derivatives of the
-    whitened and of the metric *prediction* with respect to the prior-scaled kept
-    unknowns ψ (held-out residual = r - A s); ``psi0``: the solution; ``y``: the predicted
-    instrument-frame points; ``point_rows``: rows whose metric is a 3-D point."""
-
-    def __init__(self, model, campaign: Campaign, noise: NoiseModel, feats=None):
-        self.model, self.campaign, self.noise, self.feats = model, campaign, noise, feats
-        lik = Likelihood(model, campaign, noise, setup=model.setup_, features=feats)
-        theta = lik.theta_of(model)
-        ev = lik.evaluate(theta, operators=True)
-        removed = set(model.report_.removed)
-        keep = np.array([n not in removed for n in lik.names])
-        self.likelihood, self.keep, self.sigma = lik, keep, lik.sigma
-        self.w, self.r, self.y = ev.w, ev.metric, ev.y
-        self.valid = ev.valid
-        self.n_equations = ev.n_equations
-        self.J = -ev.J[:, :, keep]
-        self.A = -ev.A[:, :, keep]
-        self.psi0 = (theta / lik.sigma)[keep]
-        self._ops = (ev.Gw, ev.Gm, ev.Gy, ev.Gmy)
-        self.point_rows = ev.valid.all(axis=1) & np.isfinite(ev.y).all(axis=1)
-
-    def folded(self, fold: np.ndarray, judged: np.ndarray | None = None) -> FoldedProblem:
-        """The folded problem of every kept unknown at the solution: held-out figures of
-        the model as fitted (``judged``: default the point rows, else every row)."""
-        if judged is None:
-            judged = self.point_rows if self.point_rows.any() else None
-        return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.psi0)
-
-    def point_columns(self, D: np.ndarray, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Extra ψ-scaled columns from machine-frame point displacements D (N,3,k) per
-        unit of new parameters with prior sigmas ``prior``: (A (N,3,k), J (N,3,k))."""
-        Gw, Gm, _, _ = self._ops
-        Dp = D * prior
-        return -(Gm @ Dp), -(Gw @ Dp)
-
-    def tracker_columns(self, D: np.ndarray, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """As :meth:`point_columns` for displacements in the instrument (tracker) frame."""
-        _, _, Gy, Gmy = self._ops
-        Dp = D * prior
-        return -(Gmy @ Dp), -(Gy @ Dp)
-

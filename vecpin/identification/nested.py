@@ -15,7 +15,6 @@ import numpy as np
 from scipy.linalg import lapack
 
 from vecpin.identification.crossval import FoldedProblem
-from vecpin.units import norm_mm
 
 
 def nested_order(columns: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, list[int]] | None:
@@ -56,9 +55,4 @@ def heldout_nested(prob: FoldedProblem, cols: np.ndarray, scale: np.ndarray, siz
         for i, n in enumerate(sizes):
             x, info = lapack.dtrtrs(L[:n, :n], z[:n], lower=1, trans=1)
             change[i, sl] = (scale[:n] * x) @ A_rows[:n]
-    out = []
-    for c in change:
-        d = np.empty(len(prob.judged_order))
-        d[prob.judged_order] = norm_mm(prob.r_sorted - c.reshape(-1, 3))
-        out.append(d)
-    return out
+    return prob.distances(change)

@@ -8,7 +8,7 @@ one of joint 2, ...; a raster of lines along one axis) joins its poses into swee
 moves that change the same single axis. Cross-validation that deals single poses to its
 folds judges a candidate on poses whose neighbours along the sweep it was fitted on; whole
 sweeps in one fold judge it on a sweep it has not seen, as the next campaign will
-(:func:`vecpin.identification.crossval.command_folds`).
+(:func:`vecpin.identification.folds.command_folds`).
 """
 from __future__ import annotations
 

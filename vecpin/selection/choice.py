@@ -22,7 +22,7 @@ terms).
 The folds group the rows by command and deal the commands at random (interleaved folds: new poses among the
 measured ones), except on an axis the campaign measured over less than 90 % of its travel: there the commands at
 each end of its measured span (a tenth at each end) are held out whole
-(:func:`vecpin.identification.crossval.command_folds`), so that the held-out rows judge how a candidate
+(:func:`vecpin.identification.folds.command_folds`), so that the held-out rows judge how a candidate
 extrapolates beyond what it was fitted on, as it will be used beyond the measured span (a robot measured over
 part of its joint ranges; a machine whose model is asked for over its whole travel). Along such axes every
 candidate series and spline is built over the span measured, not the travel, and beyond it only its

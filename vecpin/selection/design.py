@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.errors import InputError
-from vecpin.identification.crossval import FoldedProblem, command_folds
+from vecpin.identification.crossval import FoldedProblem
+from vecpin.identification.folds import command_folds
 from vecpin.identification.likelihood import Likelihood
 from vecpin.identification.redundancy import active_columns
 from vecpin.kinematics.machine import Machine

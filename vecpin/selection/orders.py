@@ -18,7 +18,8 @@ import numpy as np
 from vecpin.errors import InputError
 from vecpin.measurement.campaign import Campaign
 from vecpin.kinematics.machine import Machine
-from vecpin.identification.crossval import Linearised, command_folds
+from vecpin.identification.folds import command_folds
+from vecpin.identification.linearised import Linearised
 from vecpin.models import MODELS, make_model
 from vecpin.selection.design import partly_measured
 from vecpin.measurement.noise import NoiseModel
