@@ -156,6 +156,9 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
     lim = _limits(limits)
     model._check_fitted()
+    if products and not product_candidates(model.machine):
+        raise InputError(f"`products`: {model.machine.name} has no rotary axis that turns the table, and product terms "
+                         "multiply a turning table's table by a linear axis' ramp: leave them out")
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
                    commands, n_commands)
