@@ -401,13 +401,12 @@ def test_profile_schema_of_the_wrong_kind(base, tmp_path, capsys, value):
 
 # ============================================================ plans: nests; product tables
 @pytest.mark.parametrize("argv, words", [
-    (["--nests", "2"], ["--nests 2", "two nests do not give the table's turn"]),
-    (["--nest", "1=100,0,0", "--nest", "2=0,100,0"], ["two nests do not give the table's turn"]),
+    (["--nest", "1=0,0,0", "--nest", "2=0,0,0", "--nest", "3=0,0,0"], ["the nests stand at one place"]),
     (["--nest", "1=100,0,0", "--nest", "2=100,0,2", "--nest", "3=0,100,0"], ["nests 1 and 2 stand within 5 mm"]),
-], ids=["two", "two-placed", "same-place"])
-def test_plan_nests_that_cannot_register_the_table(tmp_path, capsys, argv, words):
-    """Was: two nests planned without a word (the table's turn about their line unseen),
-    coincident nests answered with "metres?"."""
+], ids=["one-place", "two-at-one-place"])
+def test_plan_nests_that_share_a_place(tmp_path, capsys, argv, words):
+    """Was: three nests at the origin answered "metres? ... (0, 0, 0) if they were in
+    metres"; two nests 2 mm apart planned as two."""
     refused(["plan", "head_table_bc", "--points", "40", "--out", tmp_path / "p"] + argv, capsys, *words)
     assert not (tmp_path / "p").exists()
 

@@ -162,10 +162,9 @@ def check_nest_layout(machine: Machine, nests: dict[str, np.ndarray], option: st
     ids = list(nests)
     P = np.array([nests[k] for k in ids], float) * MM_PER_M
     where = "; ".join(f"{k} ({', '.join(f'{v:g}' for v in p)})" for k, p in zip(ids, P))
-    if len(P) < 3:
-        raise InputError(f"`{option}` {where} mm: " + ("one nest gives the table's place but not its turn" if len(P) == 1
-                         else "two nests do not give the table's turn about the line through them") +
-                         "; give 3 nests not on one line")
+    if len(P) == 1:
+        raise InputError(f"`{option}` {where} mm: one nest gives the table's place but not its turn; give 3 nests "
+                         "not on one line")
     close = [(ids[i], ids[j]) for i in range(len(P)) for j in range(i) if np.linalg.norm(P[i] - P[j]) < LINE_MM]
     if close and np.abs(P).max() >= 1.0:
         raise InputError(f"`{option}` {where} mm: nests {close[0][1]} and {close[0][0]} stand within {LINE_MM:g} mm of "

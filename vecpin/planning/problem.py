@@ -106,10 +106,8 @@ class PlanSettings:
             return out
         n = (3 if machine.has_workpiece else 0) if self.nests is None else self.nests
         check_nests(machine, {str(k): 0 for k in range(n)}, "nests")
-        if n in (1, 2):
-            raise InputError(f"`nests` {n}: " + ("one nest gives the table's place but not its turn" if n == 1 else
-                             "two nests do not give the table's turn about the line through them") +
-                             "; plan at least 3 (or 0)")
+        if n == 1:
+            raise InputError("`nests` 1: one nest gives the table's place but not its turn; plan at least 3 (or 0)")
         return nest_positions(machine, n)
 
     def check(self) -> None:
