@@ -8,21 +8,31 @@ two-nest plans, the Python facade given paths, names and objects of the wrong ki
 Each case is a real run (the CLI in-process, the workbench through Flask's test client,
 the facade called as a script calls it) and its files; a refusal is exit status 2 and one
 ``vecpin: error:`` line naming the input (tests/hostile_helpers.py), a web refusal a 4xx
-with a JSON error. The classes found before the fixes (the issue's table):
+with a JSON error. The classes found before the fixes (the issue's table; measured by
+running this file against the code before them):
 
-=============================  =====  =========  ======  =======  ====  =======  ====
-group                          cases  traceback  silent  unclear  hang  outside  half
-=============================  =====  =========  ======  =======  ====  =======  ====
-verify, table machine, nests     2        0         1       0      0      0       0
-thermal.json read by verify     20       15         1       3      0      0       0
-session files, vecpin run       15        1         4       4      0      0       0
-workbench (Flask)               17        6         3       0      0      0       0
-Python facade                   19       16         2       0      0      0       0
-model files, profiles            8        0         4       2      0      0       0
-plans: nests; product tables     4        0         2       2      0      0       0
-=============================  =====  =========  ======  =======  ====  =======  ====
+======================================  =====  =========  ======  =======  ====  =======  ====  ====
+group                                   cases  traceback  silent  unclear  hang  outside  half  fine
+======================================  =====  =========  ======  =======  ====  =======  ====  ====
+verify: a model, table machine, no nest    2        0         1       0      0      0       0     1
+thermal.json read by verify               21        6         8       3      0      0       0     4
+session files, vecpin run                 16        1         3       3      0      0       0     9
+workbench (Flask)                         18        6         3       0      0      1       0     8
+Python facade                             20       18         1       1      0      0       0     0
+model files, profiles ($schema)            8        0         3       2      0      0       0     3
+plans: nests sharing a place; products     3        0         1       2      0      0       0     0
+all                                       88       31        20      11      0      1       0    25
+======================================  =====  =========  ======  =======  ====  =======  ====  ====
 
-(85 cases; after the fixes every one is refused with its reason or runs as it should.)
+"silent": a wrong figure or an ignored input with exit 0 (a NaN or a mm-for-um thermal term,
+a negative lag, an infinite tolerance, a relative path read from the output folder instead
+of beside the session file, a NaN fold label taken as a fold, still_axes contradicting the
+measured range, product terms asked of a machine whose table does not turn, a bad machine or
+tolerance saved by the workbench); "outside": the workbench served a file through a link
+leaving the day's folder (a read; nothing was written outside an output folder); "fine"
+includes five harmless acceptances now refused (thermal axes as text or twice, a profile's
+``$schema`` that is not a text). After the fixes every case is refused with its reason
+(exit 2, one line naming the file and field, or a 4xx with the reason) or runs as it should.
 
 Built from two tiny simulated campaigns (flow_xyzcb, 16 commands x 2 tools; head_table_bc,
 10 commands with three table nests) and their AP order-1 models: one module fixture.
