@@ -14,14 +14,14 @@ running this file against the code before them):
 ======================================  =====  =========  ======  =======  ====  =======  ====  ====
 group                                   cases  traceback  silent  unclear  hang  outside  half  fine
 ======================================  =====  =========  ======  =======  ====  =======  ====  ====
-verify: a model, table machine, no nest    2        0         1       0      0      0       0     1
+verify: table machine, no or two nests    3        0         1       0      0      0       0     2
 thermal.json read by verify               21        6         8       3      0      0       0     4
 session files, vecpin run                 16        1         3       3      0      0       0     9
 workbench (Flask)                         18        6         3       0      0      1       0     8
 Python facade                             20       18         1       1      0      0       0     0
 model files, profiles ($schema)            8        0         3       2      0      0       0     3
 plans: nests sharing a place; products     3        0         1       2      0      0       0     0
-all                                       88       31        20      11      0      1       0    25
+all                                       89       31        20      11      0      1       0    26
 ======================================  =====  =========  ======  =======  ====  =======  ====  ====
 
 "silent": a wrong figure or an ignored input with exit 0 (a NaN or a mm-for-um thermal term,
@@ -35,7 +35,8 @@ includes five harmless acceptances now refused (thermal axes as text or twice, a
 (exit 2, one line naming the file and field, or a 4xx with the reason) or runs as it should.
 
 Built from two tiny simulated campaigns (flow_xyzcb, 16 commands x 2 tools; head_table_bc,
-10 commands with three table nests) and their AP order-1 models: one module fixture.
+10 commands with three table nests, its validation runs also cut to no nests and to two) and
+their AP order-1 models: one module fixture.
 """
 from __future__ import annotations
 
@@ -73,18 +74,20 @@ def base(tmp_path_factory):
                      "--validation-count", "6"]) == 0
         assert main(["fit", "head_table_bc", str(d / "hsim" / "campaign.csv"), "--out", str(d / "hmodel.json")]
                     + FIT) == 0
-    for name in ("validation", "validation_truth"):   # the runs without their nest rows
+    for name in ("validation", "validation_truth"):   # the runs without their nest rows, and with two nests
         lines = (d / "hsim" / f"{name}.csv").read_text().splitlines()
         col = lines[0].split(",").index("target")
-        keep = [ln for ln in lines if ln.split(",")[col] in ("", "target")]
-        (d / f"h_{name}.csv").write_text("\n".join(keep) + "\n")
+        for prefix, nests in (("h", ("",)), ("h2", ("", "1", "2"))):
+            keep = [lines[0]] + [ln for ln in lines[1:] if ln.split(",")[col] in nests]
+            (d / f"{prefix}_{name}.csv").write_text("\n".join(keep) + "\n")
     tables = d / "tables"
     tables.mkdir()
     (tables / "tables.json").write_text(json.dumps({"format": "vecpin-tables", "version": 1, "machine": "flow_xyzcb",
                                                     "gauge_offset_change_mm": 0.0, "tables": []}))
     return SimpleNamespace(dir=d, csv=d / "sim" / "campaign.csv", val=d / "sim" / "validation.csv",
                            twin=d / "sim" / "validation_truth.csv", model=d / "model.json", hmodel=d / "hmodel.json",
-                           hb=d / "h_validation.csv", ha=d / "h_validation_truth.csv", tables=tables)
+                           hb=d / "h_validation.csv", ha=d / "h_validation_truth.csv", tables=tables,
+                           h2b=d / "h2_validation.csv", h2a=d / "h2_validation_truth.csv")
 
 
 # ============================================================ verify: a model on a table machine, runs without nests
@@ -100,6 +103,16 @@ def test_verify_table_machine_without_nests_or_model_warns_at_the_tool(base, cap
     assert out.startswith("WARNING:") and "no nest rows" in out
     mean = float(out.split("uncompensated (h_validation.csv)")[1].split()[2])
     assert mean < 5.0   # mm: a machine's error, not the hundreds of mm of a frame mixed up
+
+
+def test_two_nest_runs_are_judged_at_the_tool_with_a_warning_or_refused(base, tmp_path, capsys):
+    """A validation run that read two of the three nests: evaluate says why it judges at the
+    tool; verify with the model refuses, naming the two nests' blind turn."""
+    out = ok(["evaluate", base.hmodel, base.h2b], capsys).out
+    assert "fewer than three table nests" in out and "two nests do not give the table's turn" in out
+    refused(["verify", base.h2b, base.h2a, "--model-file", base.hmodel, "--out", tmp_path / "v"], capsys,
+            "h2_validation.csv", "fewer than three nests", "read three or more nests at every command")
+    assert not (tmp_path / "v").exists()
 
 
 # ============================================================ thermal.json beside the tables, read by verify
