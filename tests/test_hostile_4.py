@@ -248,8 +248,9 @@ def test_session_path_options_are_relative_to_the_session_file(tmp_path):
     from vecpin.cli.session import stage_argv
     from vecpin.workflows.session import load_session
     (tmp_path / "day").mkdir()
-    p = session(tmp_path / "day", "s.json", {"plan": {"compare": ["other.csv", "random"]}, "import": {"export": "e.txt"},
-                                              "fit": {"targets": "targets.csv"}, "tables": {"thermal": "t.csv"}})
+    p = session(tmp_path / "day", "s.json", {"plan": {"compare": ["other.csv", "random"]},
+                                              "import": {"export": "e.txt"}, "fit": {"targets": "targets.csv"},
+                                              "tables": {"thermal": "t.csv"}})
     s = load_session(p)
     parser = build_parser()
     day = str((tmp_path / "day").resolve())

@@ -206,7 +206,7 @@ def test_verify_compares_like_with_like(machines):
     both = verify(m, v, t, model=model)
     assert "relative to the table" in both.frame and both.before.predicted is not None and not both.warnings
     with pytest.raises(InputError, match="no nest rows: on trunnion_xyzac the model's figures are the tip relative"):
-        verify(m, v.primary(), t.primary(), model=model)   # the model's frame is the table's: not measurable at the tool
+        verify(m, v.primary(), t.primary(), model=model)   # the model's frame is the table's: not seen at the tool
     tool = verify(m, v.primary(), t.primary())
     assert tool.warnings and "no nest rows" in tool.warnings[0] and tool.before.predicted is None
     assert tool.lines()[0] == tool.warnings[0]

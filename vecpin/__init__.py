@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import importlib
 
-FACADE = "vecpin.workflows.facade"   # the library's functions with their arguments checked (a path, a name or an object)
+FACADE = "vecpin.workflows.facade"   # the library's functions, their arguments checked (a path, a name or an object)
 _NAMES = {
     "Machine": "vecpin.kinematics.machine", "Axis": "vecpin.kinematics.axes",
     "bundled_machines": "vecpin.kinematics.axes",

@@ -36,7 +36,8 @@ def check_terms(path, d) -> None:
     if not isinstance(d["machine"], str):
         raise bad("machine", f"{d['machine']!r}: the machine's name")
     axes = d["axes"]
-    if not isinstance(axes, list) or not axes or not all(isinstance(a, str) for a in axes) or len(set(axes)) < len(axes):
+    if (not isinstance(axes, list) or not axes or not all(isinstance(a, str) for a in axes)
+            or len(set(axes)) < len(axes)):
         raise bad("axes", f"{axes!r}: a list of the machine's linear axes, each once")
     if not _number(d["t0_c"]) or not -50.0 <= d["t0_c"] <= 100.0:
         raise bad("t0_c", f"{d['t0_c']!r}: the reference temperature, a number in degC (-50 .. 100)")
