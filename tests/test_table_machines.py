@@ -197,7 +197,7 @@ def test_the_all_table_machine_end_to_end(tmp_path, capsys):
 
 def test_verify_compares_like_with_like(machines):
     """Both runs with nests: relative to the table; neither: at the tool with a warning
-    and no predicted figures (those are relative to the table); one of each: refused."""
+    (with a model: refused, its figures are relative to the table); one of each: refused."""
     m = machines["trunnion_xyzac"]
     sim = simulate(m, seed=4, design=Design(n_commands=100, n_validation=30))
     model = make_model("6dof", m, 3, bases=sim.truth.family_bases()).fit(
@@ -205,7 +205,9 @@ def test_verify_compares_like_with_like(machines):
     v, t = sim.validation, sim.validation_truth
     both = verify(m, v, t, model=model)
     assert "relative to the table" in both.frame and both.before.predicted is not None and not both.warnings
-    tool = verify(m, v.primary(), t.primary(), model=model)
+    with pytest.raises(InputError, match="no nest rows: on trunnion_xyzac the model's figures are the tip relative"):
+        verify(m, v.primary(), t.primary(), model=model)   # the model's frame is the table's: not seen at the tool
+    tool = verify(m, v.primary(), t.primary())
     assert tool.warnings and "no nest rows" in tool.warnings[0] and tool.before.predicted is None
     assert tool.lines()[0] == tool.warnings[0]
     with pytest.raises(InputError, match="has nest rows and .* has none"):

@@ -26,19 +26,19 @@ from __future__ import annotations
 
 import importlib
 
+FACADE = "vecpin.workflows.facade"   # the library's functions, their arguments checked (a path, a name or an object)
 _NAMES = {
     "Machine": "vecpin.kinematics.machine", "Axis": "vecpin.kinematics.axes",
     "bundled_machines": "vecpin.kinematics.axes",
-    "Campaign": "vecpin.measurement.campaign", "read_campaign": "vecpin.measurement.campaign",
-    "write_campaign": "vecpin.measurement.campaign",
+    "Campaign": "vecpin.measurement.campaign", "read_campaign": FACADE, "write_campaign": FACADE,
     "VecpinError": "vecpin.errors", "MachineError": "vecpin.errors", "CampaignFileError": "vecpin.errors",
     "ErrorModel": "vecpin.models", "SixDofModel": "vecpin.models", "APModel": "vecpin.models",
-    "make_model": "vecpin.models", "ModelSpec": "vecpin.models.spec", "NoiseModel": "vecpin.measurement.noise",
+    "make_model": FACADE, "ModelSpec": "vecpin.models.spec", "NoiseModel": "vecpin.measurement.noise",
     "ErrorModelCV": "vecpin.fitting.estimator", "FitProblem": "vecpin.fitting.problem",
     "FitResult": "vecpin.fitting.problem",
-    "fit": ("vecpin.workflows.fitting", "fit_campaign"), "simulate": "vecpin.simulation.simulate",
-    "plan_tables": "vecpin.compensation.plan", "TableSet": "vecpin.compensation.tables",
-    "make_tables": "vecpin.workflows.tables", "diagnose": "vecpin.diagnosis.diagnose",
+    "fit": ("vecpin.workflows.fitting", "fit_campaign"), "simulate": FACADE,
+    "plan_tables": FACADE, "TableSet": "vecpin.compensation.tables",
+    "make_tables": FACADE, "diagnose": FACADE,
 }
 __all__ = sorted(_NAMES) + ["__version__"]
 

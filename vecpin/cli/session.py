@@ -27,6 +27,9 @@ MANAGED = {"plan": ("out",), "import": ("machine", "plan", "out"), "assess": ("m
            "evaluate": ("json",), "diagnose": ("base", "out"), "tables": ("out",),
            "import_before": ("machine", "plan", "out"), "import_after": ("machine", "plan", "out"),
            "verify": ("machine", "model-file", "tables", "out")}
+#: options that name a file the user brings: a relative path is taken from the session file's folder, as the
+#: input fields are (the stages run in the output folder)
+PATH_OPTIONS = {"plan": ("compare",), "fit": ("targets",), "evaluate": ("sign-test-file",), "tables": ("thermal",)}
 
 
 def _head(session: Session, stage: str, f: dict) -> list[str]:
@@ -81,7 +84,13 @@ def stage_argv(session: Session, stage: str, parser: argparse.ArgumentParser) ->
         if key not in actions or key == "help":
             known = ", ".join(sorted(k for k in actions if k != "help" and k not in MANAGED[stage]))
             raise session_error(where, name, f"not an option of vecpin {command} (its options: {known})")
-        argv += _option(where, name, "--" + key, actions[key], value)
+        if key in PATH_OPTIONS.get(stage, ()):
+            value = _paths(session, value)
+        words = _option(where, name, "--" + key, actions[key], value)
+        bad = [w for w in words if w.startswith("--") and w != "--" + key]
+        if bad:
+            raise session_error(where, name, f"{bad[0]!r}: a value, not an option (each option is a field of its own)")
+        argv += words
     _check_values(where, stage, argv, parser)
     return argv
 
@@ -108,6 +117,13 @@ def _option(where: str, name: str, flag: str, action: argparse.Action, value) ->
     if isinstance(action, argparse._AppendAction):
         return [flag, _word(value)]
     return [flag, *(_word(value).split() if several else [_word(value)])]
+
+
+def _paths(session: Session, value):
+    """A path option's value(s) with relative paths taken from the session file's folder
+    (``random``, plan's own word for a random design, kept)."""
+    one = lambda v: session.input_path(v) if isinstance(v, str) and v and v != "random" else v
+    return [one(v) for v in value] if isinstance(value, list) else one(value)
 
 
 def _word(v) -> str:

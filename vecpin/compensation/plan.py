@@ -138,6 +138,12 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
 
 
 @one_blas_thread
+def _check_products(model: ErrorModel, products: bool) -> None:
+    if products and not product_candidates(model.machine):
+        raise InputError(f"`products`: {model.machine.name} has no rotary axis that turns the table, and product terms "
+                         "multiply a turning table's table by a linear axis' ramp: leave them out")
+
+
 def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, max_tables: int | None = None,
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int | None = None, tools_mm=None, table_order: int | None = None, seed: int = 0,
@@ -156,6 +162,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
     lim = _limits(limits)
     model._check_fitted()
+    _check_products(model, products)
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
                    commands, n_commands)

@@ -183,13 +183,17 @@ class ThermalTerms:
 
     @classmethod
     def load(cls, path) -> "ThermalTerms":
+        from vecpin.compensation.thermalfile import check_terms
         try:
             d = json.loads(Path(path).read_text())
+            check_terms(path, d)
             d.pop("format", None)
             d["t_range_c"] = tuple(d["t_range_c"])
             d.setdefault("held_out", {})
             d.setdefault("curvature", {})
             return cls(**d)
+        except InputError:
+            raise
         except (OSError, ValueError, TypeError, KeyError) as exc:
             raise InputError(f"{path}: not a vecpin thermal terms file ({exc})") from None
 

@@ -146,6 +146,9 @@ class ControllerProfile:
         unknown = sorted(set(d) - TOP_FIELDS)
         if unknown:
             raise InputError(f"{where}: unknown field '{unknown[0]}' (known: {', '.join(sorted(TOP_FIELDS))})")
+        if "$schema" in d and (not isinstance(d["$schema"], str) or not d["$schema"].strip()):
+            raise InputError(f"{where}, field '$schema': {d['$schema']!r}: the address of the JSON Schema an editor "
+                             "checks the file with (a text), or leave the field out")
         axes = {}
         raw_axes = d.get("axes", {})
         if not isinstance(raw_axes, dict):

@@ -62,6 +62,18 @@ def zone_rows(machine: Machine, campaign: Campaign, zone: Zone, option: str = "z
     return campaign.subset(keep)
 
 
+def check_zone_value(zone) -> None:
+    """``zone`` as the fit takes it: None, or {axis: (low, high)} in mm/deg (what the command
+    line's zone text becomes); anything else refused, naming ``zone``."""
+    if zone is None:
+        return
+    pairs = isinstance(zone, dict) and all(
+        isinstance(v, (tuple, list)) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                             and math.isfinite(x) for x in v) for v in zone.values())
+    if not pairs:
+        raise InputError(f"`zone` {zone!r}: give {{axis: (low, high)}} in mm or deg, e.g. {{'X': (0, 3000)}}")
+
+
 def fit_arguments(machine, campaign, noise) -> tuple[Machine, Campaign, NoiseModel]:
     """The facade's arguments as objects: ``machine`` a :class:`Machine`, a bundled name or a
     URDF path; ``campaign`` a :class:`Campaign` or a CSV path (read for that machine);
@@ -89,8 +101,14 @@ def fold_labels(cv, n_rows: int) -> int | np.ndarray:
     0..k-1 from one label per row (any labels: numbers or text). Refused, naming ``cv``:
     a label array of another length than the campaign's rows, fewer than two labels."""
     if np.ndim(cv) == 0:
+        if isinstance(cv, (str, bytes)):
+            raise InputError(f"`cv` {cv!r}: a number of folds, or one fold label per row (a list or an array)")
         return cv
     labels = np.asarray(cv)
+    missing = [k for k, v in enumerate(labels.ravel()) if v is None or v == "" or (isinstance(v, float) and v != v)]
+    if labels.ndim == 1 and missing:
+        raise InputError(f"`cv`: row {missing[0]} has no fold label ({labels[missing[0]]}; {len(missing)} rows "
+                         "without one); give every row its fold")
     if labels.ndim != 1 or len(labels) != n_rows:
         raise InputError(f"`cv`: {labels.size} fold labels for the campaign's {n_rows} rows; give one label per row "
                          "(or a number of folds)")
@@ -141,6 +159,7 @@ class FitProblem:
         if not good:
             raise InputError(f"`prior_scale` {prior}: the prior scale must be a positive number (default 1)")
         values["cv"] = fold_labels(values["cv"], len(campaign))
+        check_zone_value(values["zone"])
         return cls(machine, campaign, noise, **values)
 
     @property

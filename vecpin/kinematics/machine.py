@@ -93,6 +93,8 @@ class Machine:
     def load(cls, name_or_path: str | Path, *, tool_link: str | Sequence[str] | None = None,
              tool_axis: str | None = None) -> "Machine":
         """Load a bundled machine by name (see :func:`~vecpin.kinematics.axes.bundled_machines`) or a URDF file."""
+        if not isinstance(name_or_path, (str, Path)) or not str(name_or_path):
+            raise MachineError(f"{name_or_path!r}: give a bundled machine's name or the path of a URDF file")
         p = Path(name_or_path)
         if p.suffix.lower() in (".urdf", ".xacro", ".xml") or p.exists():
             return cls.from_urdf_file(p, tool_link=tool_link, tool_axis=tool_axis)

@@ -225,6 +225,32 @@ def _object(path, d: dict, key: str) -> dict:
     return v
 
 
+def _check_measured_range(path, machine, rng) -> None:
+    """fit.measured_range: per axis of the machine two finite numbers (mm or deg)."""
+    if rng is None:
+        return
+    if not isinstance(rng, dict):
+        raise ModelFileError(path, "an object: axis -> [low, high] (mm or deg)", "fit.measured_range")
+    for a, v in rng.items():
+        if a not in machine.axis_names:
+            raise ModelFileError(path, f"{a!r} is not an axis of {machine.name} ({', '.join(machine.axis_names)})",
+                                 "fit.measured_range")
+        if (not isinstance(v, list) or len(v) != 2
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)):
+            raise ModelFileError(path, f"{v!r}: [low, high] in the axis' unit", f"fit.measured_range.{a}")
+
+
+def _check_still(path, d: dict, model) -> None:
+    """The file's ``still_axes`` (when there) name the axes its measured range says stood still."""
+    if not isinstance(d.get("still_axes"), (dict, type(None))):
+        raise ModelFileError(path, "an object: axis -> {position, unit}", "still_axes")
+    said, found = sorted(d.get("still_axes") or {}), sorted(a.name for a in still_axes(model))
+    if "still_axes" in d and said != found:
+        raise ModelFileError(path, f"the file says {', '.join(said) or 'no axis'} stood still, its measured range "
+                             f"says {', '.join(found) or 'none'}: one of them was edited; fit the model again",
+                             "still_axes")
+
+
 def _parameter(path, p: dict, key: str) -> float:
     """A parameter's value or std: a finite number, the parameter named when not."""
     v = p.get(key) if isinstance(p, dict) else None
@@ -306,7 +332,9 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     fields = {k: v for k, v in d["fit"].items() if k in FitReport.__dataclass_fields__}
     fields.setdefault("seconds", 0.0)
     model.report_ = FitReport(**fields)
+    _check_measured_range(path, machine, model.report_.measured_range)
     model.range_ = still_hold(model)   # the axes that stood still: their errors held where they stood, as fitted
+    _check_still(path, d, model)
     if d.get("selection") is not None:
         model.selection_ = d["selection"]
     # where relative meshes of the embedded URDF are looked for (the scene): its folder, then the model file's

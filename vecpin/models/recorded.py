@@ -161,8 +161,8 @@ def check_recorded(model, d: dict, path) -> None:
         if abs(fig["mean_mm"] - want) > FIGURE_TOLERANCE * abs(want) + FIGURE_ABS_MM:
             raise ModelFileError(path, f"its parameters give an uncompensated error (model) of "
                                  f"{fig['mean_mm']:.4f} mm on its check commands where the file records "
-                                 f"{want:.4f} mm{_suspect(d)}: the parameters were changed after the fit; nothing "
-                                 "is written from it: fit the model again", "check")
+                                 f"{want:.4f} mm{_suspect(d)}: the parameters (or the measured range) were changed "
+                                 "after the fit; nothing is written from it: fit the model again", "check")
     if isinstance(measured, dict) and isinstance(measured.get("mean"), (int, float)) and measured["mean"] > 0:
         if fig["mean_mm"] > MEASURED_FACTOR * measured["mean"]:
             raise ModelFileError(path, f"its parameters give an uncompensated error (model) of "

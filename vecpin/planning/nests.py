@@ -165,6 +165,13 @@ def check_nest_layout(machine: Machine, nests: dict[str, np.ndarray], option: st
     if len(P) == 1:
         raise InputError(f"`{option}` {where} mm: one nest gives the table's place but not its turn; give 3 nests "
                          "not on one line")
+    close = [(ids[i], ids[j]) for i in range(len(P)) for j in range(i) if np.linalg.norm(P[i] - P[j]) < LINE_MM]
+    if close and np.abs(P).max() >= 1.0:
+        raise InputError(f"`{option}` {where} mm: nests {close[0][1]} and {close[0][0]} stand within {LINE_MM:g} mm of "
+                         "each other: two reflectors cannot share a place; give each nest its own place on the table")
+    if np.ptp(P, axis=0).max() < 1e-6:
+        raise InputError(f"`{option}` {where} mm: the nests stand at one place: give each nest its own place on the "
+                         "table, in mm (the workpiece frame)")
     if np.abs(P).max() < 1.0:
         big = "; ".join(f"{k} ({', '.join(f'{v * 1000:g}' for v in p)})" for k, p in zip(ids, P))
         raise InputError(f"`{option}` {where} mm: every nest within 1 mm of the table origin: metres? Nest positions "

@@ -102,9 +102,12 @@ def load_session(path: str | Path) -> Session:
     the file and the field."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")   # an editor's byte-order mark is no reason to refuse
     except OSError as exc:
         raise InputError(f"session file {path}: cannot be read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"session file {path}: not UTF-8 text (byte {exc.start}: {exc.reason}); save it as "
+                         "UTF-8") from None
     try:
         d = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -118,7 +121,7 @@ def session_from_dict(d, where: str, path: Path | None = None) -> Session:
         raise InputError(f"{where}: a session is a JSON object with format {FORMAT!r}")
     if d.get("format") != FORMAT:
         raise session_error(where, "format", f"{d.get('format')!r}: a session file has format {FORMAT!r}")
-    if d.get("version") != VERSION:
+    if d.get("version") != VERSION or isinstance(d.get("version"), bool):
         raise session_error(where, "version", f"{d.get('version')!r}: this vecpin reads version {VERSION}")
     unknown = sorted(set(d) - {"format", "version", "machine", "tolerance_mm", "stages", "comment"})
     if unknown:
@@ -128,7 +131,7 @@ def session_from_dict(d, where: str, path: Path | None = None) -> Session:
     if not isinstance(machine, str) or not machine.strip():
         raise session_error(where, "machine", f"{machine!r}: a bundled machine name or a URDF path")
     tol = d.get("tolerance_mm")
-    if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0):
+    if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < float("inf")):
         raise session_error(where, "tolerance_mm", f"{tol!r}: a length in mm > 0, or null (not stated)")
     stages = d.get("stages", {})
     if not isinstance(stages, dict):

@@ -210,6 +210,11 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     active in the compensated run: both runs judged with them at their temperatures
     (:mod:`vecpin.workflows.verifythermal`)."""
     table = _check_runs(machine, before, after)
+    if model is not None and machine.has_workpiece and not table:
+        raise InputError(f"{before.source} and {after.source} have no nest rows: on {machine.name} the model's figures "
+                         "are the tip relative to the table, which runs read at the tool alone cannot measure (the "
+                         f"table axes {', '.join(machine.table_axes)} are not seen); read three or more table nests at "
+                         "every command in both runs, or judge them at the tool without the model")
     tables, tables_from = _tables_for(model, tables, tables_source, progress)
     dT = tables.gauge_offset_change if tables is not None else 0.0
     m = _measure(machine, before, after, model, dT, table)
@@ -218,9 +223,7 @@ def verify(machine: Machine, before: Campaign, after: Campaign, model: ErrorMode
     after_run = Run(f"compensated ({Path(after.source).name})", after.source, a.tool, m.measured[1])
     label, notes = None, m.notes
     same = len(a) == len(b) and np.allclose(a.q, b.q, atol=1e-9) and np.allclose(a.tool, b.tool, atol=1e-9)
-    if model is not None and machine.has_workpiece and not table:
-        notes.append("no predicted figures: the model's are relative to the table, the runs' at the tool")
-    elif model is not None:
+    if model is not None:
         before_run.predicted, after_run.predicted, label = _predict(machine, model, tables, m, dT, table, same)
     if not same:
         notes.append("the two runs measure different commands: compare the statistics, not the points")

@@ -44,6 +44,11 @@ def load_thermal(tables: str | Path, machine) -> tuple[ThermalTerms | None, str 
     terms = ThermalTerms.load(f)
     if terms.machine != machine.name:
         raise InputError(f"{f}: the thermal terms are for machine '{terms.machine}', not '{machine.name}'")
+    linear = [a.name for a in machine.axes if a.kind == "linear"]
+    other = [a for a in terms.axes if a not in linear]
+    if other:
+        raise InputError(f"{f}, field 'axes': {other[0]!r} is not a linear axis of {machine.name} "
+                         f"({', '.join(linear)})")
     return terms, str(f)
 
 

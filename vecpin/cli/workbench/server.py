@@ -198,8 +198,12 @@ class Workbench:
     def set_fields(self, stage: str, fields: dict) -> None:
         """Record a stage's choices (``machine``: the machine and the tolerance) and save."""
         if stage == "machine":
-            self.raw["machine"] = str(fields.get("machine") or "").strip()
-            self.raw["tolerance_mm"] = fields.get("tolerance_mm")
+            machine, tol = fields.get("machine") or "", fields.get("tolerance_mm")
+            if not isinstance(machine, str):
+                raise VecpinError(f"machine: {machine!r}: a bundled machine name or a URDF path")
+            if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1e300):
+                raise VecpinError(f"tolerance_mm: {tol!r}: a length in mm > 0, or empty (not stated)")
+            self.raw["machine"], self.raw["tolerance_mm"] = machine.strip(), tol
         else:
             if stage not in STAGES:
                 raise KeyError(stage)
@@ -252,6 +256,14 @@ def create_app(folder: Path, parser):
     def fail(exc: Exception, status: int = 400):
         return jsonify({"error": str(exc)}), status
 
+    def body(key: str, default=None) -> dict:
+        """The request's JSON object's ``key``, itself an object (a page of another shape is refused)."""
+        d = request.get_json(force=True)
+        value = d.get(key, default) if isinstance(d, dict) else None
+        if not isinstance(value, dict):
+            raise VecpinError(f"the request is a JSON object whose '{key}' is an object, not {value!r}")
+        return value
+
     @app.before_request
     def only_this_page():
         """Nothing but this computer's own page: the address it was asked at must be the
@@ -285,7 +297,7 @@ def create_app(folder: Path, parser):
     @app.post("/api/stage/<stage>")
     def set_stage(stage):
         try:
-            bench.set_fields(stage, request.get_json(force=True).get("fields", {}))
+            bench.set_fields(stage, body("fields", {}))
             argv = bench.argv(stage) if stage in STAGES else None
         except KeyError:
             return fail(KeyError(f"no stage {stage}"), 404)
@@ -295,6 +307,8 @@ def create_app(folder: Path, parser):
 
     @app.post("/api/run/<stage>")
     def run(stage):
+        if stage not in STAGES + ("machine", "profile", "scene"):
+            return fail(KeyError(f"no stage {stage}"), 404)
         try:
             return jsonify(bench.start(stage))
         except VecpinError as exc:
@@ -317,7 +331,11 @@ def create_app(folder: Path, parser):
     @app.post("/api/profile")
     def save_profile():
         from vecpin.fileio import write_text
-        write_text(bench.folder / PROFILE, json.dumps(request.get_json(force=True)["profile"], indent=1) + "\n")
+        try:
+            profile = body("profile")
+        except VecpinError as exc:
+            return fail(exc)
+        write_text(bench.folder / PROFILE, json.dumps(profile, indent=1) + "\n")
         fields = dict(bench.raw.get("stages", {}).get("tables", {}), profile=PROFILE)
         bench.set_fields("tables", fields)
         return jsonify({"ok": True})
@@ -337,6 +355,8 @@ def create_app(folder: Path, parser):
 
     @app.get("/files/<path:name>")
     def files(name):
+        if not (bench.folder / name).resolve().is_relative_to(bench.folder):   # a link that leaves the day's folder
+            return fail(FileNotFoundError(f"{name}: not a file of the day's folder"), 404)
         return send_from_directory(bench.folder, name, max_age=0)
 
     return app
