@@ -64,6 +64,7 @@ class TablePlan:
     frame: FrameKept | None = None
     reference: ReferenceFrame | None = None  # the model's reference frame the tables keep
     unfollowed: Unfollowed | None = None     # what the full tables leave of the model's error, and why
+    written: str = ""                        # the label of the report row of ``tables`` (the set to write)
 
 
 def covariance_kind(model: ErrorModel) -> str:
@@ -171,6 +172,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                       "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
+    rows: list[tuple] = []   # (table set, the label of its row), the sets kept alive
 
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
@@ -178,6 +180,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                   point=pt, frame=frame) if with_spread else None
         part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
         report.add(label, part, n, spread, shape=shape)
+        rows.append((ts, label))
         return part
 
     before = add("uncompensated (model)", None, 0)
@@ -216,7 +219,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
-    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left)
+    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left,
+                     next(label for ts, label in rows if ts is tables))
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:

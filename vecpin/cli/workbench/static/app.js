@@ -223,10 +223,12 @@ async function refresh() {
 }
 
 // the other numbers a stage's file holds beside its figure, as the figure table's rows
-const MORE = {mean_mm: "mean", heldout_mean_mm: "held-out mean", before_max_mm: "without the tables: max",
+const MORE = {mean_mm: "mean", shape_mean_mm: "shape (best rigid motion removed as well): mean",
+  heldout_mean_mm: "held-out mean", before_max_mm: "without the tables: max",
   before_mean_mm: "without the tables: mean", reduction_of_mean_pct: "reduction of the mean, %",
   mean_error_mm: "uncompensated error: mean", repeatability_mm: "repeatability", commands: "commands",
-  rows: "rows", model: "model", bases: "bases", effects: "effects", verdict: "verdict"};
+  rows: "rows", model: "model", bases: "bases", effects: "effects", verdict: "verdict", row: "the printout's row",
+  frame: "judged in", points: "on"};
 
 function figureBox(f, tol) {
   // the figure that matters against the tolerance, with the instrument's noise beside it
