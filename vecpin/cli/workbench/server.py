@@ -18,7 +18,6 @@ import sys
 import tempfile
 import threading
 import time
-import webbrowser
 from pathlib import Path
 
 from vecpin.cli.session import COMMAND, MANAGED, _subparser, stage_argv
@@ -90,6 +89,18 @@ def _context():
         _CONTEXT = multiprocessing.get_context("forkserver")
         _CONTEXT.set_forkserver_preload(PRELOAD)
     return _CONTEXT
+
+
+_WARMING = threading.Event()
+
+
+def warm_stages() -> None:
+    """Start the stages' warm process (:func:`_context`) in the background, once: called when
+    the page has asked for its session, so that it loads beside a usable page, not before it."""
+    if not _WARMING.is_set():
+        _WARMING.set()
+        _context()
+        threading.Thread(target=multiprocessing.forkserver.ensure_running, daemon=True).start()
 
 
 def _stage_process(entry, argv: list[str], cwd: str, log: str) -> None:
@@ -270,12 +281,14 @@ def create_app(folder: Path, parser):
 
     @app.get("/api/state")
     def state():
-        return jsonify(bench.state())
+        answer = jsonify(bench.state())
+        warm_stages()   # the page's last call before it is usable
+        return answer
 
     @app.get("/api/choices")
     def choices():
         from vecpin.export.names import CONTROLLERS
-        from vecpin.kinematics.axes import bundled_machines
+        from vecpin.kinematics.bundled import bundled_machines   # no Pinocchio before the page
         return jsonify({"machines": bundled_machines(), "controllers": list(CONTROLLERS), "stages": list(STAGES)})
 
     @app.get("/api/options")
@@ -353,10 +366,8 @@ def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> 
     server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
     url = f"http://127.0.0.1:{server.server_port}/"
     print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
-    # the stages' warm process starts beside the page (on the other core), not before it
-    _context()
-    threading.Thread(target=multiprocessing.forkserver.ensure_running, daemon=True).start()
     if open_browser:
+        import webbrowser
         webbrowser.open(url)
     signal.signal(signal.SIGTERM, _interrupt)   # a terminated workbench ends as Ctrl-C ends it
     try:
