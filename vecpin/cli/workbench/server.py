@@ -77,7 +77,9 @@ def stage_options(parser: argparse.ArgumentParser, stage: str) -> list[dict]:
 #: what a stage's process has loaded before it is asked for (the forkserver's preload):
 #: each stage then starts warm instead of importing these again
 PRELOAD = ["vecpin.cli.main", "scipy.optimize", "scipy.linalg", "pinocchio", "vecpin.workflows.fitting",
-           "vecpin.workflows.tables", "vecpin.workflows.planning", "vecpin.workflows.diagnosing"]
+           "vecpin.workflows.tables", "vecpin.workflows.planning", "vecpin.workflows.diagnosing", "vecpin.viz.figures",
+           "vecpin.workflows.verifying", "vecpin.workflows.importing", "vecpin.workflows.assessing",
+           "vecpin.workflows.evaluation", "vecpin.workflows.viewing"]
 _CONTEXT = None
 
 

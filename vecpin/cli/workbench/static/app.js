@@ -198,11 +198,13 @@ async function runStage(id) {
 }
 
 function poll() {
+  // the job's state every 0.3 s while it is young (most stages end within seconds), then every second
   clearTimeout(polling);
+  const young = !state || !state.job || state.job.elapsed_s < 3;
   polling = setTimeout(async () => {
     await refresh();
     if (state.job && state.job.running) poll(); else document.body.dataset.action = "done";
-  }, 300);
+  }, young ? 300 : 1000);
 }
 
 async function refresh() {
@@ -285,7 +287,11 @@ function showResults() {
     const done = state.done[s.id] || (s.id === "programs" && state.done.plan);
     const f = state.figures[s.id];
     $(`dot-${s.id}`).className = "dot" + (f && f.passes === false ? " fail" : done ? " done" : "");
-    $(`figure-${s.id}`).replaceChildren(...(f ? [figureBox(f, tol)] : []));
+    const figKey = JSON.stringify([f, tol]);   // drawn again only when it changed (the page polls while a job runs)
+    if ($(`figure-${s.id}`).dataset.key !== figKey) {
+      $(`figure-${s.id}`).dataset.key = figKey;
+      $(`figure-${s.id}`).replaceChildren(...(f ? [figureBox(f, tol)] : []));
+    }
     const job = logs[s.id], out = $(`output-${s.id}`);
     const kids = [];
     if (job) {
@@ -309,16 +315,33 @@ function showResults() {
 }
 
 function showScene() {
-  const frame = el("iframe", {class: "scene", id: "scene-frame", src: `/files/scene.html?t=${Date.now()}`});
+  const scene = () => `/files/scene.html?t=${Date.now()}`;
+  const frame = el("iframe", {class: "scene", id: "scene-frame", src: scene()});
   const views = {iso: null, front: [0, 0, 1], side: [1, 0, 0], top: [0, 1, 0.01]};
-  const bar = el("div", {class: "buttons"});
-  for (const [name, dir] of Object.entries(views)) {
-    bar.append(button(`view-${name}`, name, () => {
-      if (!dir) { frame.src = `/files/scene.html?t=${Date.now()}`; return; }
-      const v = frame.contentWindow.viewer, p = v.camera.position;
-      const d = Math.max(3, Math.hypot(p.x, p.y, p.z));   // meshcat's frame: y up; the machine's z is y there
+  let wanted = "iso";
+  const look = () => {   // the view asked for, once the scene's viewer is there (data-view says which is shown)
+    const v = frame.contentWindow && frame.contentWindow.viewer, dir = views[wanted];
+    frame.dataset.view = "";
+    if (!v) return;   // the scene is loading: its load event comes back here
+    if (dir) {
+      const p = v.camera.position, d = Math.max(3, Math.hypot(p.x, p.y, p.z));   // meshcat's frame: y up
       v.set_property(["Cameras", "default", "rotated", "<object>"], "position", dir.map((c) => c * d));
       v.set_dirty();
+    }
+    frame.dataset.view = wanted;
+  };
+  frame.addEventListener("load", look);
+  // a 3-D view draws all the time it is open, on the processor here (no graphics card in a
+  // browser without one): the scene is loaded while it is on the screen only
+  new IntersectionObserver(([e]) => {
+    const open = !frame.src.startsWith("about:");
+    if (e.isIntersecting && !open) frame.src = scene(); else if (!e.isIntersecting && open) frame.src = "about:blank";
+  }).observe(frame);
+  const bar = el("div", {class: "buttons"});
+  for (const name of Object.keys(views)) {
+    bar.append(button(`view-${name}`, name, () => {
+      wanted = name;
+      if (name === "iso") frame.src = scene(); else look();   // iso: the scene as it opens
     }));
   }
   $("scene").replaceChildren(bar, frame);
