@@ -128,9 +128,14 @@ def save_profile(pg) -> None:
     until(pg, "document.querySelector('#profile-saved').textContent.includes('saved')")
 
 
+def fold(pg) -> None:
+    """The stages' forms folded (their "more options"), as every screenshot shows them."""
+    pg.eval_on_selector_all("details.more", "ds => ds.forEach(d => d.removeAttribute('open'))")
+
+
 def shot(pg, stage: str, name: str | None = None) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
-    pg.eval_on_selector_all("details.more", "ds => ds.forEach(d => d.removeAttribute('open'))")   # the form folded
+    fold(pg)
     pg.locator(f"#stage-{stage}").screenshot(path=str(SHOTS / f"{name or stage}.png"))
 
 
@@ -161,12 +166,12 @@ def test_flow_machine_plan_and_cancel(flow):
     """From an empty folder: the machine, a long plan cancelled while it shows progress, the
     small plan and its programs."""
     pg, folder, tmp = flow
-    fill(pg, "machine", machine="flow_xyzcb", tolerance_mm="0.2")
+    fill(pg, "machine", machine="flow_xyzcb", tolerance_mm="0.2", tracker=TRACKER)   # the tracker: set once
     run(pg, "machine")
     assert "X" in pg.inner_text("#log-machine")
     shot(pg, "machine")
 
-    fill(pg, "plan", points=4000, tracker=TRACKER)   # a long plan: its progress shows, and Cancel stops it
+    fill(pg, "plan", points=4000)   # a long plan: its progress shows, and Cancel stops it
     pg.click("#run-plan")
     until(pg, "document.body.dataset.job === 'running'")
     until(pg, "document.querySelector('#job-text').textContent.includes(' s] ')", timeout=120_000)
@@ -174,9 +179,10 @@ def test_flow_machine_plan_and_cancel(flow):
     until(pg, "document.body.dataset.action === 'done'", timeout=60_000)
     assert "plan: cancelled" in pg.inner_text("#job-text")
 
-    fill(pg, "plan", points=12, order=1, tracker=TRACKER, repeat="2 2", candidates=300, validation_count=8,
+    fill(pg, "plan", points=12, order=1, repeat="2 2", candidates=300, validation_count=8,
          dialect="siemens-840d", no_sight=True, model="ap", quiet=True)
     run(pg, "plan")
+    assert f"--tracker {TRACKER}" in pg.inner_text("#output-plan")   # the machine's tracker, carried into the plan
     assert re.search(r"PASS|FAIL", pg.inner_text("#figure-plan"))
     assert "instrument noise" in pg.inner_text("#figure-plan")
     shot(pg, "plan")
@@ -213,7 +219,8 @@ def test_flow_assess_fit_scene_evaluate_diagnose(flow):
     fill(pg, "fit", model="ap", basis="chebyshev", order=1, quiet=True)
     run(pg, "fit")
     run(pg, "scene")
-    pg.locator("#scene-frame").scroll_into_view_if_needed()   # the page loads the scene while it is on screen
+    fold(pg)   # the page's layout as the screenshot has it, then the scene on the screen (the page loads it there)
+    pg.locator("#scene-frame").scroll_into_view_if_needed()
     pg.frame_locator("#scene-frame").locator("canvas").wait_for()
     pg.click("#view-front")
     until(pg, "document.querySelector('#scene-frame').dataset.view === 'front'")
@@ -279,6 +286,7 @@ def test_flow_validation_runs_verify_record_and_reopen(flow):
     pg.reload()
     pg.wait_for_selector("body[data-ready=yes]")
     assert pg.input_value("#plan-points") == "12" and pg.input_value("#machine-machine") == "flow_xyzcb"
+    assert pg.input_value("#machine-tracker") == TRACKER
 
 
 def test_flow_files_equal_vecpin_run_of_the_session(flow):
@@ -287,6 +295,7 @@ def test_flow_files_equal_vecpin_run_of_the_session(flow):
     pg, folder, tmp = flow
     session = json.loads((folder / "session.json").read_text())
     assert session["stages"]["tables"]["profile"] == "profile.json"
+    assert session["machine_options"] == {"tracker": TRACKER} and "tracker" not in session["stages"]["plan"]
     out = tmp / "headless"
     t0 = time.perf_counter()
     vecpin("run", folder / "session.json", "--out", out)

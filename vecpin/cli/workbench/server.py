@@ -209,10 +209,14 @@ class Workbench:
         write_text(self.path, json.dumps(self.raw, indent=1) + "\n")
 
     def set_fields(self, stage: str, fields: dict) -> None:
-        """Record a stage's choices (``machine``: the machine and the tolerance) and save."""
-        if stage == "machine":
-            self.raw["machine"] = str(fields.get("machine") or "").strip()
-            self.raw["tolerance_mm"] = fields.get("tolerance_mm")
+        """Record a stage's choices (``machine``: the machine, the tolerance and the options set
+        once for the day) and save."""
+        if stage == "machine":   # the options set once for the day go to the session's machine_options
+            shared = {k: v for k, v in fields.items() if k not in ("machine", "tolerance_mm") and v not in (None, "")}
+            head = {"format": self.raw.get("format"), "version": self.raw.get("version"),
+                    "machine": str(fields.get("machine") or "").strip(), "tolerance_mm": fields.get("tolerance_mm")}
+            rest = {k: v for k, v in self.raw.items() if k not in head and k != "machine_options"}
+            self.raw = head | ({"machine_options": shared} if shared else {}) | rest
         else:
             if stage not in STAGES:
                 raise KeyError(stage)
@@ -284,7 +288,8 @@ def create_app(folder: Path, parser):
     @app.get("/api/state")
     def state():
         answer = jsonify(bench.state())
-        warm_stages()   # the page's last call before it is usable
+        if app.config.get("WARM_STAGES"):   # set by serve(): the page's last call before it is usable
+            warm_stages()
         return answer
 
     @app.get("/api/choices")
@@ -365,7 +370,9 @@ def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> 
     """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address.
     ``parser``: vecpin's command-line parser."""
     from werkzeug.serving import make_server
-    server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
+    app = create_app(folder, parser)
+    app.config["WARM_STAGES"] = True
+    server = make_server("127.0.0.1", port, app, threaded=True)
     url = f"http://127.0.0.1:{server.server_port}/"
     print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
     if open_browser:

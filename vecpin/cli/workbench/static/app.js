@@ -5,10 +5,12 @@
 // Each stage's form is built from its command's own options (/api/options: argparse's type,
 // choices, default and help); `main` names the ones shown first, the rest are under "more options".
 const UI = [
-  {id: "machine", title: "Machine", what: "The machine (a bundled name or a URDF path), its axes and frames, and the " +
-    "volumetric error you accept after compensation (mm).", run: "Show axes and frames",
+  {id: "machine", title: "Machine", what: "The machine (a bundled name or a URDF path), its axes and frames, the " +
+    "volumetric error you accept after compensation (mm) and the tracker's place, set once for the day.", run: "Show axes and frames",
    fields: [{name: "machine", kind: "text", help: "a bundled machine name or a URDF path"},
-            {name: "tolerance_mm", kind: "number", help: "the volumetric error you accept after compensation, mm"}]},
+            {name: "tolerance_mm", kind: "number", help: "the volumetric error you accept after compensation, mm"},
+            {name: "tracker", kind: "text", help: "the tracker's place, X,Y,Z mm in the machine's base frame: set " +
+             "once for the day, every stage whose command takes it gets it (a stage's own field wins)"}]},
   {id: "plan", title: "Plan", what: "Points, zones, tracker place; the line of sight is tested unless switched off.",
    run: "Plan", images: ["plan/plan.png"], main: ["points", "order", "tracker", "exclude", "repeat", "candidates",
                                                    "validation-count", "dialect", "no-sight"]},
@@ -187,7 +189,10 @@ async function runStage(id) {
     await api("/api/stage/tables", {fields}).catch(() => null);
   }
   const m = readFields(UI[0]), ses = state.session;   // the machine typed but not yet kept: kept first
-  if (id !== "machine" && (m.machine !== ses.machine || m.tolerance_mm !== ses.tolerance_mm) &&
+  const kept = Object.assign({machine: ses.machine, tolerance_mm: ses.tolerance_mm}, ses.machine_options || {});
+  const changed = [...new Set([...Object.keys(m), ...Object.keys(kept)])].some((k) =>
+    JSON.stringify(m[k] ?? null) !== JSON.stringify(kept[k] ?? null));
+  if (id !== "machine" && changed &&
       !(await saveStage("machine"))) { document.body.dataset.action = "done"; return; }
   if (!["scene", "profile"].includes(id) && !(await saveStage(id))) { document.body.dataset.action = "done"; return; }
   $(`error-${owner}`).textContent = "";
@@ -332,10 +337,13 @@ function showScene() {
   };
   frame.addEventListener("load", look);
   // a 3-D view draws all the time it is open, on the processor here (no graphics card in a
-  // browser without one): the scene is loaded while it is on the screen only
+  // browser without one): the scene is closed when it has been off the screen for 5 s, and
+  // opened again (in the view asked for last) when it comes back
+  let closing = null;
   new IntersectionObserver(([e]) => {
-    const open = !frame.src.startsWith("about:");
-    if (e.isIntersecting && !open) frame.src = scene(); else if (!e.isIntersecting && open) frame.src = "about:blank";
+    clearTimeout(closing);
+    if (!e.isIntersecting) closing = setTimeout(() => { frame.src = "about:blank"; }, 5000);
+    else if (frame.src.startsWith("about:")) { frame.dataset.view = ""; frame.src = scene(); }
   }).observe(frame);
   const bar = el("div", {class: "buttons"});
   for (const name of Object.keys(views)) {
@@ -447,7 +455,7 @@ async function writeRecord() {
 async function loadSession() {
   await refresh();
   const ses = state.session, stages = ses.stages || {};
-  fillFields(UI[0], {machine: ses.machine, tolerance_mm: ses.tolerance_mm});
+  fillFields(UI[0], Object.assign({machine: ses.machine, tolerance_mm: ses.tolerance_mm}, ses.machine_options || {}));
   for (const s of UI) if (STAGES.includes(s.id)) fillFields(s, stages[s.id] || {});
   $("profile-controller").value = (stages.tables || {}).controller || "siemens-840d";
 }
