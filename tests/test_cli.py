@@ -1,4 +1,5 @@
 """The command line: runs in-process, bad input gives one line and status 2."""
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -114,6 +115,17 @@ def test_tables_command(simulated, tmp_path, capsys, controller, extra):
     assert "pitch only" in out and "full tables" in out and "gauge line" in out
     assert "model-predicted" in out and "every row on these points" in out   # honest labels
     assert (out_dir / "tables.json").is_file()
+    # tables.json keeps the printout's figures of what the machine gets (the files as written where read back)
+    predicted = json.loads((out_dir / "tables.json").read_text())["predicted"]
+    row = predicted["written"]
+    if controller != "generic" or not extra:
+        assert row["label"] == ("full tables (model-predicted)" if controller == "generic" else
+                                "files as written (model-predicted)")
+    line = next(ln for ln in out.splitlines() if ln.startswith(f"  {row['label']}  "))
+    tables, mean, top, _, shape = line[len(row["label"]) + 2:].split()[:5]   # the printout's columns
+    assert (int(tables), mean, top, shape) == (row["tables"], *(f"{row[k]:.4f}" for k in
+                                                                 ("mean_mm", "max_mm", "shape_mean_mm"))), line
+    assert "part's frame" in predicted["frame"] and predicted["uncompensated"]["label"] == "uncompensated (model)"
     if controller == "siemens-840d":
         assert (out_dir / "NC_CEC.INI").is_file() and (out_dir / "README_SIEMENS.md").is_file()
         assert "files as written" in out

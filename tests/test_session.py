@@ -47,6 +47,28 @@ def test_stages_are_the_command_lines_of_the_day(tmp_path):
         "tables", "--out", "verify"]
 
 
+def test_machine_options_go_to_every_stage_whose_command_has_them(tmp_path):
+    """Set once for the day (the tracker's place, its noise): each stage whose command has the
+    option gets it, after the stage's own fields, which win; the others do not."""
+    (tmp_path / "export.csv").write_text("x\n")
+    s = load_session(session(tmp_path, {"plan": {"points": 10}, "import": {"export": "export.csv"},
+                                        "fit": {"tracker-noise": [0.01, 1, 0.02, 3]}},
+                             machine_options={"tracker": "3000,-2300,-300", "tracker-noise": [0.003, 0.5, 0.005, 2.5]}))
+    parser = build_parser()
+    plan = stage_argv(s, "plan", parser)
+    assert plan[plan.index("--tracker") + 1] == "3000,-2300,-300" and "--points" in plan
+    assert plan[plan.index("--tracker-noise") + 1:][:4] == ["0.003", "0.5", "0.005", "2.5"]
+    fit = stage_argv(s, "fit", parser)
+    assert fit.count("--tracker-noise") == 1 and fit[-5:] == ["--tracker-noise", "0.01", "1", "0.02", "3"]
+    assert "--tracker" not in stage_argv(s, "import", parser)   # vecpin import has no such option
+    assert s.to_dict()["machine_options"]["tracker"] == "3000,-2300,-300"
+    for shared, words in (({"trackr": "1,2,3"}, "not an option of any stage's command"),
+                          ({"tracker": [1, 2]}, "one value, not a list")):
+        with pytest.raises(InputError) as e:
+            stage_argv(load_session(session(tmp_path, {"plan": {}}, machine_options=shared)), "plan", parser)
+        assert f"field machine_options.{next(iter(shared))}: " in str(e.value) and words in str(e.value), str(e.value)
+
+
 @pytest.mark.parametrize("stages, field, words", [
     ({"plan": {"points": "many"}}, "stages.plan.points", "invalid int value: 'many'"),
     ({"plan": {"method": "best"}}, "stages.plan.method", "invalid choice: 'best'"),
@@ -132,10 +154,17 @@ def test_the_workbench_keeps_and_checks_the_session(tmp_path):
     assert client.post("/api/stage/machine", json={"fields": chosen}).json["ok"]
     r = client.post("/api/stage/plan", json={"fields": {"points": 30, "tracker": "3000,-2300,-300"}})
     assert r.json["command"] == "vecpin plan flow_xyzcb --out plan --points 30 --tracker 3000,-2300,-300"
+    tracked = dict(chosen, tracker="3000,-2300,-400")   # set once for the day; the plan's own field wins
+    assert client.post("/api/stage/machine", json={"fields": tracked}).json["ok"]
+    r = client.post("/api/stage/plan", json={"fields": {"points": 30}})
+    assert r.json["command"] == "vecpin plan flow_xyzcb --out plan --tracker 3000,-2300,-400 --points 30"
+    r = client.post("/api/stage/plan", json={"fields": {"points": 30, "tracker": "3000,-2300,-300"}})
+    assert r.json["command"] == "vecpin plan flow_xyzcb --out plan --points 30 --tracker 3000,-2300,-300"
     r = client.post("/api/stage/plan", json={"fields": {"points": "lots"}})
     assert r.status_code == 400 and "field stages.plan.points: invalid int value: 'lots'" in r.json["error"]
     again = create_app(tmp_path, build_parser()).test_client().get("/api/state", base_url="http://127.0.0.1").json
     assert again["session"]["machine"] == "flow_xyzcb" and again["session"]["tolerance_mm"] == 0.05
+    assert again["session"]["machine_options"] == {"tracker": "3000,-2300,-400"}
     assert again["session"]["stages"]["plan"] == {"points": "lots"} and again["job"] is None
 
 

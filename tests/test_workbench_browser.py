@@ -94,6 +94,12 @@ def day(browser, folder: Path):
             pg.close()
 
 
+def until(pg, condition: str, timeout: float = 30_000) -> None:
+    """Wait for a condition of the page, asked every 0.2 s (not at every frame: the browser's
+    processor time is the test's)."""
+    pg.wait_for_function(f"() => {condition}", polling=200, timeout=timeout)
+
+
 def fill(pg, stage: str, **fields) -> None:
     """Type into a stage's form as a user does (a field under "more options" opened first)."""
     for name, value in fields.items():
@@ -111,7 +117,7 @@ def run(pg, stage: str, button: str | None = None, ok: bool = True) -> None:
     """Click a stage's button and wait for its command to end; ``ok``: it must succeed."""
     t0 = time.perf_counter()
     pg.click(f"#run-{button or stage}")
-    pg.wait_for_function("() => document.body.dataset.action === 'done'", timeout=300_000)
+    until(pg, "document.body.dataset.action === 'done'", timeout=300_000)
     print(f"  {stage}: {time.perf_counter() - t0:.1f} s")
     err = pg.inner_text(f"#error-{'fit' if stage == 'scene' else stage}")
     assert bool(err) != ok, err or f"{stage}: no message"
@@ -119,12 +125,17 @@ def run(pg, stage: str, button: str | None = None, ok: bool = True) -> None:
 
 def save_profile(pg) -> None:
     pg.click("#save-profile")
-    pg.wait_for_function("() => document.querySelector('#profile-saved').textContent.includes('saved')")
+    until(pg, "document.querySelector('#profile-saved').textContent.includes('saved')")
+
+
+def fold(pg) -> None:
+    """The stages' forms folded (their "more options"), as every screenshot shows them."""
+    pg.eval_on_selector_all("details.more", "ds => ds.forEach(d => d.removeAttribute('open'))")
 
 
 def shot(pg, stage: str, name: str | None = None) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
-    pg.eval_on_selector_all("details.more", "ds => ds.forEach(d => d.removeAttribute('open'))")   # the form folded
+    fold(pg)
     pg.locator(f"#stage-{stage}").screenshot(path=str(SHOTS / f"{name or stage}.png"))
 
 
@@ -155,22 +166,23 @@ def test_flow_machine_plan_and_cancel(flow):
     """From an empty folder: the machine, a long plan cancelled while it shows progress, the
     small plan and its programs."""
     pg, folder, tmp = flow
-    fill(pg, "machine", machine="flow_xyzcb", tolerance_mm="0.2")
+    fill(pg, "machine", machine="flow_xyzcb", tolerance_mm="0.2", tracker=TRACKER)   # the tracker: set once
     run(pg, "machine")
     assert "X" in pg.inner_text("#log-machine")
     shot(pg, "machine")
 
-    fill(pg, "plan", points=4000, tracker=TRACKER)   # a long plan: its progress shows, and Cancel stops it
+    fill(pg, "plan", points=4000)   # a long plan: its progress shows, and Cancel stops it
     pg.click("#run-plan")
-    pg.wait_for_function("() => document.body.dataset.job === 'running'")
-    pg.wait_for_function("() => document.querySelector('#job-text').textContent.includes(' s] ')", timeout=120_000)
+    until(pg, "document.body.dataset.job === 'running'")
+    until(pg, "document.querySelector('#job-text').textContent.includes(' s] ')", timeout=120_000)
     pg.click("#cancel")
-    pg.wait_for_function("() => document.body.dataset.action === 'done'", timeout=60_000)
+    until(pg, "document.body.dataset.action === 'done'", timeout=60_000)
     assert "plan: cancelled" in pg.inner_text("#job-text")
 
-    fill(pg, "plan", points=12, order=1, tracker=TRACKER, repeat="2 2", candidates=300, validation_count=8,
+    fill(pg, "plan", points=12, order=1, repeat="2 2", candidates=300, validation_count=8,
          dialect="siemens-840d", no_sight=True, model="ap", quiet=True)
     run(pg, "plan")
+    assert f"--tracker {TRACKER}" in pg.inner_text("#output-plan")   # the machine's tracker, carried into the plan
     assert re.search(r"PASS|FAIL", pg.inner_text("#figure-plan"))
     assert "instrument noise" in pg.inner_text("#figure-plan")
     shot(pg, "plan")
@@ -207,9 +219,11 @@ def test_flow_assess_fit_scene_evaluate_diagnose(flow):
     fill(pg, "fit", model="ap", basis="chebyshev", order=1, quiet=True)
     run(pg, "fit")
     run(pg, "scene")
-    pg.wait_for_selector("#scene-frame")
+    fold(pg)   # the page's layout as the screenshot has it, then the scene on the screen (the page loads it there)
+    pg.locator("#scene-frame").scroll_into_view_if_needed()
     pg.frame_locator("#scene-frame").locator("canvas").wait_for()
     pg.click("#view-front")
+    until(pg, "document.querySelector('#scene-frame').dataset.view === 'front'")
     pg.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
     shot(pg, "fit")
     run(pg, "evaluate")
@@ -231,7 +245,7 @@ def test_flow_profile_a_bad_field_then_the_tables(flow):
         pg.fill(f"#profile-{axis}-reference_position", "zero" if axis == "Z" else ref)
     save_profile(pg)
     shot(pg, "profile")
-    fill(pg, "tables", table_points=20, max_tables=2, quiet=True)
+    fill(pg, "tables", table_points=20, quiet=True)
     run(pg, "tables", ok=False)
     message = pg.inner_text("#error-tables")
     assert "profile.json" in message and "Z" in message and "reference_position" in message, message
@@ -240,8 +254,11 @@ def test_flow_profile_a_bad_field_then_the_tables(flow):
     save_profile(pg)
     run(pg, "tables")
     pg.wait_for_selector("#table-maps figure")
-    maps = json.loads((folder / "tables/tables.json").read_text())["tables"]
-    assert pg.locator("#table-maps figure").count() == len(maps)
+    written = json.loads((folder / "tables/tables.json").read_text())
+    assert pg.locator("#table-maps figure").count() == len(written["tables"])
+    figure = pg.inner_text("#figure-tables")   # the files as written, judged as the other stages are
+    assert re.search(r"PASS|FAIL", figure) and "part's frame" in figure and "instrument noise" in figure, figure
+    assert f"{written['predicted']['written']['max_mm']:.4f} mm" in figure, figure
     shot(pg, "tables")
 
 
@@ -269,6 +286,7 @@ def test_flow_validation_runs_verify_record_and_reopen(flow):
     pg.reload()
     pg.wait_for_selector("body[data-ready=yes]")
     assert pg.input_value("#plan-points") == "12" and pg.input_value("#machine-machine") == "flow_xyzcb"
+    assert pg.input_value("#machine-tracker") == TRACKER
 
 
 def test_flow_files_equal_vecpin_run_of_the_session(flow):
@@ -277,6 +295,7 @@ def test_flow_files_equal_vecpin_run_of_the_session(flow):
     pg, folder, tmp = flow
     session = json.loads((folder / "session.json").read_text())
     assert session["stages"]["tables"]["profile"] == "profile.json"
+    assert session["machine_options"] == {"tracker": TRACKER} and "tracker" not in session["stages"]["plan"]
     out = tmp / "headless"
     t0 = time.perf_counter()
     vecpin("run", folder / "session.json", "--out", out)
@@ -308,7 +327,9 @@ def test_a_trunnion_day_in_the_browser(browser, tmp_path):
         assert "imported 60 measured points" in pg.inner_text("#log-import")   # 12 x 2 tool rows, 36 nest rows
         fill(pg, "fit", model="ap", basis="chebyshev", order=1, quiet=True)
         run(pg, "fit")
-        fill(pg, "tables", controller="generic", table_points=20, quiet=True)
+        # the tables fitted on the campaign's own commands (a fraction of the default's CPU; they still
+        # lower the error of this small campaign's validation run)
+        fill(pg, "tables", controller="generic", table_points=20, commands="campaign.csv", quiet=True)
         run(pg, "tables")
         validation = tmp_path / "validation"
         vecpin("simulate", "trunnion_xyzac", "--truth", measured / "truth.json", "--plan", folder / "plan/plan.csv",

@@ -65,7 +65,8 @@ def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.Argume
 
 def stage_argv(session: Session, stage: str, parser: argparse.ArgumentParser) -> list[str]:
     """The command line of ``stage`` (without the leading ``vecpin``), run in the output
-    folder; ``parser``: vecpin's (:func:`vecpin.cli.main.build_parser`). A field that is not
+    folder; ``parser``: vecpin's (:func:`vecpin.cli.main.build_parser`). The session's
+    ``machine_options`` the command has come first, the stage's own fields win. A field that is not
     an option of the command, or a value of the wrong shape, raises :class:`InputError`
     naming the session file and the field."""
     where = str(session.path or "session")
@@ -74,8 +75,11 @@ def stage_argv(session: Session, stage: str, parser: argparse.ArgumentParser) ->
     actions = {o[2:]: a for a in _subparser(parser, command)._actions for o in a.option_strings
                if o.startswith("--")}
     argv = _head(session, stage, f)
+    shared = _shared(session, parser, where)
+    f = {k: v for k, v in shared.items() if k in actions and k not in MANAGED[stage] and k not in f} | f
+    own = session.stages[stage]
     for key, value in f.items():
-        name = f"stages.{stage}.{key}"
+        name = f"stages.{stage}.{key}" if key in own else f"machine_options.{key}"
         if key in INPUT_FIELDS.get(stage, ()):
             continue
         if key in MANAGED[stage]:
@@ -91,8 +95,18 @@ def stage_argv(session: Session, stage: str, parser: argparse.ArgumentParser) ->
         if bad:
             raise session_error(where, name, f"{bad[0]!r}: a value, not an option (each option is a field of its own)")
         argv += words
-    _check_values(where, stage, argv, parser)
+    _check_values(where, stage, argv, parser, set(shared) - set(own))
     return argv
+
+
+def _shared(session: Session, parser: argparse.ArgumentParser, where: str) -> dict:
+    """The session's ``machine_options``, each an option of some stage's command (else refused)."""
+    for key in session.machine_options:
+        if not any(key in {o[2:] for a in _subparser(parser, c)._actions for o in a.option_strings} - {"help"}
+                   - set(MANAGED[s]) for s, c in COMMAND.items()):
+            raise session_error(where, f"machine_options.{key}", "not an option of any stage's command (set once "
+                                "for the day, it goes to every stage whose command has it)")
+    return session.machine_options
 
 
 def _option(where: str, name: str, flag: str, action: argparse.Action, value) -> list[str]:
@@ -130,7 +144,8 @@ def _word(v) -> str:
     return repr(v) if isinstance(v, float) else str(v)
 
 
-def _check_values(where: str, stage: str, argv: list[str], parser: argparse.ArgumentParser) -> None:
+def _check_values(where: str, stage: str, argv: list[str], parser: argparse.ArgumentParser,
+                  shared: set = frozenset()) -> None:
     """The command's own parser over the stage's words: its complaint (a type, a choice, a
     count) comes back naming the session's field instead of the flag."""
     err = io.StringIO()
@@ -141,7 +156,8 @@ def _check_values(where: str, stage: str, argv: list[str], parser: argparse.Argu
         last = err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else "invalid"
         text = last.split("error: ", 1)[-1]
         m = re.search(r"argument --([a-z0-9-]+)", text)
-        field_name = f"stages.{stage}.{m.group(1)}" if m else f"stages.{stage}"
+        field_name = (f"machine_options.{m.group(1)}" if m and m.group(1) in shared else
+                      f"stages.{stage}.{m.group(1)}" if m else f"stages.{stage}")
         text = re.sub(r"argument --[a-z0-9-]+(/-\w)?: ", "", text)
         raise session_error(where, field_name, text) from None
 

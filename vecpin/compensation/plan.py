@@ -64,6 +64,7 @@ class TablePlan:
     frame: FrameKept | None = None
     reference: ReferenceFrame | None = None  # the model's reference frame the tables keep
     unfollowed: Unfollowed | None = None     # what the full tables leave of the model's error, and why
+    written: str = ""                        # the label of the report row of ``tables`` (the set to write)
 
 
 def covariance_kind(model: ErrorModel) -> str:
@@ -160,8 +161,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
     ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
-    lim = _limits(limits)
-    model._check_fitted()
+    lim, _ = _limits(limits), model._check_fitted()
     _check_products(model, products)
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
@@ -178,6 +178,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                       "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
+    rows: dict[int, tuple] = {}   # id of a table set -> (the set, kept alive; the label of its row)
 
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
@@ -185,6 +186,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                   point=pt, frame=frame) if with_spread else None
         part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
         report.add(label, part, n, spread, shape=shape)
+        rows[id(ts)] = (ts, label)
         return part
 
     before = add("uncompensated (model)", None, 0)
@@ -197,8 +199,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     full = with_products(problem, lim, full, after, add, req.n_points, report.notes) if products else full
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
-    selection = None
-    tables = pitch if req.pitch_only or req.only_pitch_note else full
+    selection, tables = None, (pitch if req.pitch_only or req.only_pitch_note else full)
     if req.cons is not None:
         if progress:
             progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
@@ -223,7 +224,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
-    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left)
+    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left, rows[id(tables)][1])
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:

@@ -16,6 +16,7 @@ from vecpin.compensation.tables import TableSet
 from vecpin.export.common import ControllerFormat, ExportJob, no_check
 from vecpin.export.profile import ControllerProfile
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.partframe import FRAME_TEXT
 
 JSON_FILE, CSV_FILE = "tables.json", "tables.csv"
 
@@ -25,6 +26,26 @@ def write(job: ExportJob) -> list[str]:
     job.out.write_text(JSON_FILE, json.dumps(job.tables.to_dict(job.machine), indent=1) + "\n")
     job.tables.save_csv(job.out.path(CSV_FILE), job.machine)
     return [JSON_FILE, CSV_FILE]
+
+
+PREDICTED_SHAPE = "the best rigid motion of the whole volume removed as well (the error's shape)"
+
+
+def add_prediction(out, report, labels: tuple[str, ...]) -> None:
+    """Add to the ``tables.json`` staged in ``out`` (an OutputSet) the model-predicted figures
+    of the report's row of the tables the machine gets (the first of ``labels`` the report
+    has: the files as written where a controller's files were read back, else the set
+    written) and of its first row (the
+    uncompensated machine), as the printout states them: mean and max in the part's frame,
+    the shape's mean, mm, with the points they are on (``report.basis``)."""
+    def row(r) -> dict:
+        return {"label": r.label, "tables": r.tables, "mean_mm": round(r.mean, 6), "max_mm": round(r.max, 6),
+                "shape_mean_mm": None if r.shape is None else round(r.shape, 6)}
+    written = next(r for lb in labels for r in report.rows if r.label == lb)
+    d = json.loads(out.path(JSON_FILE).read_text(encoding="utf-8"))
+    d["predicted"] = {"basis": report.basis.rstrip(":"), "frame": FRAME_TEXT, "shape": PREDICTED_SHAPE,
+                      "written": row(written), "uncompensated": row(report.rows[0])}
+    out.write_text(JSON_FILE, json.dumps(d, indent=1) + "\n")
 
 
 def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet:

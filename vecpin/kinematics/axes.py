@@ -6,14 +6,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from importlib import resources
-from pathlib import Path
 from typing import Literal, NamedTuple, Sequence
 
 import numpy as np
 import pinocchio as pin
 
 from vecpin.errors import InputError, MachineError
+from vecpin.kinematics.bundled import _bundled_path, bundled_machines  # noqa: F401  (named here too)
 
 SPINDLE_LINK = "spindle"
 WORKPIECE_LINK = "workpiece"
@@ -145,16 +144,6 @@ class WorkpiecePoints(NamedTuple):
     xyz: np.ndarray
     J_q: np.ndarray | None
     J_p: np.ndarray | None
-
-
-def bundled_machines() -> list[str]:
-    """Names of the machines shipped in ``robots/``."""
-    return sorted(p.name[:-5] for p in resources.files("vecpin.robots").iterdir() if p.name.endswith(".urdf"))
-
-
-def _bundled_path(name: str) -> Path | None:
-    res = resources.files("vecpin.robots").joinpath(name + ".urdf")
-    return Path(str(res)) if res.is_file() else None
 
 
 def parse_tool_axis(text: str) -> np.ndarray:

@@ -2,7 +2,7 @@
 stages wrote, and the compensation record (ISO/TR 16907:2015 clauses 11 and 12).
 
 Nothing here computes a result: every figure is one a command wrote (plan.json,
-assess.json, model.json, evaluate.json, verify/verify.json); this module only puts them
+assess.json, model.json, evaluate.json, tables/tables.json, verify/verify.json); this module only puts them
 beside the tolerance (mm) and the instrument's noise (mm), and lists what was written.
 """
 from __future__ import annotations
@@ -33,7 +33,8 @@ def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, 
     """stage -> its figure (see :func:`_fig`) for every stage whose file is in ``out_dir``.
     A stage passes when its figure (mm) is at most ``tolerance_mm``: the plan's predicted
     maximum on its validation run, the assessment's predicted compensated error (the high
-    end), the fit's held-out maximum, the verified compensated maximum."""
+    end), the fit's held-out maximum, the tables' model-predicted maximum in the part's
+    frame (tables.json's ``predicted``), the verified compensated maximum."""
     out = Path(out_dir)
     noise = None
     a = _json(out / OUTPUTS["assess"])
@@ -80,6 +81,14 @@ def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, 
                                 best.get("heldout_max_mm"), "max", tolerance_mm, noise,
                                 mean_mm=best.get("heldout_mean_mm"), effects=best.get("effects"),
                                 headline=d.get("headline"))
+    t = (_json(out / OUTPUTS["tables"] / "tables.json") or {}).get("predicted")
+    if t:   # the tables the machine gets, model-predicted on the printout's points
+        w, u = t.get("written") or {}, t.get("uncompensated") or {}
+        figs["tables"] = _fig("model-predicted error the tables leave, in the part's frame (max)", w.get("max_mm"),
+                              "max", tolerance_mm, noise, mean_mm=w.get("mean_mm"),
+                              shape_mean_mm=w.get("shape_mean_mm"), before_mean_mm=u.get("mean_mm"),
+                              before_max_mm=u.get("max_mm"), row=w.get("label"), frame=t.get("frame"),
+                              points=t.get("basis"))
     v = _json(out / OUTPUTS["verify"] / "verify.json")
     if v:
         after = ((v.get("compensated") or {}).get("measured") or {}).get("all") or {}

@@ -1,10 +1,11 @@
 """The session file: every choice of the engineer's day in one JSON file, so that the day
 re-runs headless (``vecpin run``) and the workbench reopens it (issue 45).
 
-A session is the machine, the user's tolerance and, per stage of the day, the options of
-the command that stage runs, named as that command's long options (``points``,
-``tracker``, ``exclude``; a value ``true`` switches an option on, a list repeats it or gives
-its several values). The stages, in the order of the day (docs/whole-day.md)::
+A session is the machine, the user's tolerance, the options set once for the whole day
+(``machine_options``: each given to every stage whose command has it, unless the stage sets
+its own) and, per stage of the day, the options of the command that stage runs, named as
+that command's long options (``points``, ``tracker``, ``exclude``; a value ``true`` switches
+an option on, a list repeats it or gives its several values). The stages, in the order of the day (docs/whole-day.md)::
 
     plan -> import -> assess -> fit -> evaluate -> diagnose -> tables
          -> import_before -> import_after -> verify
@@ -67,10 +68,13 @@ class Session:
     tolerance_mm: float | None = None
     stages: dict[str, dict] = field(default_factory=dict)
     path: Path | None = None
+    machine_options: dict = field(default_factory=dict)   # set once: every stage whose command has the option
 
     def to_dict(self) -> dict:
-        return {"format": FORMAT, "version": VERSION, "machine": self.machine, "tolerance_mm": self.tolerance_mm,
-                "stages": {s: self.stages[s] for s in STAGES if s in self.stages}}
+        d = {"format": FORMAT, "version": VERSION, "machine": self.machine, "tolerance_mm": self.tolerance_mm}
+        if self.machine_options:
+            d["machine_options"] = dict(self.machine_options)
+        return d | {"stages": {s: self.stages[s] for s in STAGES if s in self.stages}}
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=1) + "\n"
@@ -123,16 +127,21 @@ def session_from_dict(d, where: str, path: Path | None = None) -> Session:
         raise session_error(where, "format", f"{d.get('format')!r}: a session file has format {FORMAT!r}")
     if d.get("version") != VERSION or isinstance(d.get("version"), bool):
         raise session_error(where, "version", f"{d.get('version')!r}: this vecpin reads version {VERSION}")
-    unknown = sorted(set(d) - {"format", "version", "machine", "tolerance_mm", "stages", "comment"})
+    unknown = sorted(set(d) - {"format", "version", "machine", "tolerance_mm", "machine_options", "stages", "comment"})
     if unknown:
         raise session_error(where, unknown[0], "not a field of a session (fields: format, version, machine, "
-                            "tolerance_mm, stages, comment)")
+                            "tolerance_mm, machine_options, stages, comment)")
     machine = d.get("machine")
     if not isinstance(machine, str) or not machine.strip():
         raise session_error(where, "machine", f"{machine!r}: a bundled machine name or a URDF path")
     tol = d.get("tolerance_mm")
     if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < float("inf")):
         raise session_error(where, "tolerance_mm", f"{tol!r}: a length in mm > 0, or null (not stated)")
+    shared = d.get("machine_options") or {}
+    if not isinstance(shared, dict):
+        raise session_error(where, "machine_options", "an object: option -> value, given to every stage whose "
+                            "command has the option")
+    _check_values(where, "machine_options", shared)
     stages = d.get("stages", {})
     if not isinstance(stages, dict):
         raise session_error(where, "stages", "an object: stage name -> its fields")
@@ -148,7 +157,7 @@ def session_from_dict(d, where: str, path: Path | None = None) -> Session:
             raise session_error(where, f"stages.verify.{side}", f"missing: the validation run {side} the tables "
                                 f"(a campaign CSV), or the stage import_{side} that imports its tracker export")
     return Session(machine=machine.strip(), tolerance_mm=None if tol is None else float(tol),
-                   stages={s: dict(stages[s]) for s in STAGES if s in stages}, path=path)
+                   stages={s: dict(stages[s]) for s in STAGES if s in stages}, path=path, machine_options=dict(shared))
 
 
 def _check_stage(where: str, name: str, fields) -> None:
@@ -156,17 +165,21 @@ def _check_stage(where: str, name: str, fields) -> None:
         raise session_error(where, f"stages.{name}", f"not a stage of the day (stages: {', '.join(STAGES)})")
     if not isinstance(fields, dict):
         raise session_error(where, f"stages.{name}", "an object: field -> value ({} for the defaults)")
-    for key, value in fields.items():
-        ok = isinstance(value, _VALUE) or (isinstance(value, list) and all(isinstance(v, _VALUE[:3]) for v in value))
-        if not ok:
-            raise session_error(where, f"stages.{name}.{key}", f"{value!r}: a text, a number, true/false, null or a "
-                                "list of texts and numbers")
+    _check_values(where, f"stages.{name}", fields)
     for key in INPUT_FIELDS.get(name, ()):
         if key in fields and fields[key] is not None and (not isinstance(fields[key], str) or not fields[key]):
             raise session_error(where, f"stages.{name}.{key}", f"{fields[key]!r}: a file path")
     for key in REQUIRED_FIELDS.get(name, ()):
         if not fields.get(key):
             raise session_error(where, f"stages.{name}.{key}", "missing: the file this stage reads")
+
+
+def _check_values(where: str, prefix: str, fields: dict) -> None:
+    for key, value in fields.items():
+        ok = isinstance(value, _VALUE) or (isinstance(value, list) and all(isinstance(v, _VALUE[:3]) for v in value))
+        if not ok:
+            raise session_error(where, f"{prefix}.{key}", f"{value!r}: a text, a number, true/false, null or a "
+                                "list of texts and numbers")
 
 
 def save_session(session: Session, path: str | Path) -> Path:

@@ -203,6 +203,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
         warnings = _judge_pitch_alone(fmt, plan, model, (stage, xm, xprof) if as_written is not None else None,
                                       job, names, controller, out_dir, prof)
         _fold_alternative(plan, controller, modulo, job, names)
+        generic.add_prediction(out, plan.report, (AS_WRITTEN, plan.written))   # what the machine gets, predicted
     if plan.frame is not None and plan.frame.excessive:   # a correction larger than any error it removes: said first
         warnings.insert(0, "WARNING: " + plan.frame.text.split(": the tables move the tip", 1)[0].replace(
             "frame kept: ", "the tables, in the frame they keep (") + "): they move the tip by more than twice the "
@@ -253,6 +254,9 @@ def check_lengths(model: ErrorModel, tools_mm, zone) -> None:
         check_zone_units(model.machine, zone, "zone")
 
 
+AS_WRITTEN = "files as written (model-predicted)"   # the report row of the controller's files read back
+
+
 def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | None, job: ExportJob,
                    names: list[str]) -> str | None:
     """Add the report rows of the files as written (and without the reference point data,
@@ -262,12 +266,12 @@ def _judge_written(plan: TablePlan, model: ErrorModel, as_written: TableSet | No
     if as_written is None:
         return None
     # the whole model: the drives' differential (read back from the files) turns the beam against its skew
-    add_as_written_row(plan, model, as_written, "files as written (model-predicted)")
+    add_as_written_row(plan, model, as_written, AS_WRITTEN)
     if any(abs(c) > 0 for c in job.constants.values()):   # the loss if the reference point data are not loaded
         without = with_constants(as_written, {a: -c for a, c in job.constants.items()})
         add_as_written_row(plan, model, without, "files without the reference point data (model-predicted)")
     rows = {r.label: r for r in plan.report.rows}
-    full, files = rows.get("full tables (model-predicted)"), rows["files as written (model-predicted)"]
+    full, files = rows.get("full tables (model-predicted)"), rows[AS_WRITTEN]
     before = rows.get("uncompensated (model)")
     given_up = None if full is None or before is None else _given_up(before.mean, full.mean, files.mean)
     if given_up is None:
@@ -305,7 +309,7 @@ def _judge_pitch_alone(fmt: ControllerFormat, plan: TablePlan, model: ErrorModel
     alone.gauge_offset_change = plan.tables.gauge_offset_change   # the datum is entered either way
     add_as_written_row(plan, model, alone, part.label)
     rows = {r.label: r for r in plan.report.rows}
-    before, files, pitch = (rows["uncompensated (model)"], rows["files as written (model-predicted)"],
+    before, files, pitch = (rows["uncompensated (model)"], rows[AS_WRITTEN],
                             rows.get("pitch only (model-predicted)"))
     own = rows[part.label]
     gain = before.mean - files.mean

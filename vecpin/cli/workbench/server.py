@@ -18,7 +18,6 @@ import sys
 import tempfile
 import threading
 import time
-import webbrowser
 from pathlib import Path
 
 from vecpin.cli.session import COMMAND, MANAGED, _subparser, stage_argv
@@ -78,7 +77,9 @@ def stage_options(parser: argparse.ArgumentParser, stage: str) -> list[dict]:
 #: what a stage's process has loaded before it is asked for (the forkserver's preload):
 #: each stage then starts warm instead of importing these again
 PRELOAD = ["vecpin.cli.main", "scipy.optimize", "scipy.linalg", "pinocchio", "vecpin.workflows.fitting",
-           "vecpin.workflows.tables", "vecpin.workflows.planning", "vecpin.workflows.diagnosing"]
+           "vecpin.workflows.tables", "vecpin.workflows.planning", "vecpin.workflows.diagnosing", "vecpin.viz.figures",
+           "vecpin.workflows.verifying", "vecpin.workflows.importing", "vecpin.workflows.assessing",
+           "vecpin.workflows.evaluation", "vecpin.workflows.viewing"]
 _CONTEXT = None
 
 
@@ -90,6 +91,18 @@ def _context():
         _CONTEXT = multiprocessing.get_context("forkserver")
         _CONTEXT.set_forkserver_preload(PRELOAD)
     return _CONTEXT
+
+
+_WARMING = threading.Event()
+
+
+def warm_stages() -> None:
+    """Start the stages' warm process (:func:`_context`) in the background, once: called when
+    the page has asked for its session, so that it loads beside a usable page, not before it."""
+    if not _WARMING.is_set():
+        _WARMING.set()
+        _context()
+        threading.Thread(target=multiprocessing.forkserver.ensure_running, daemon=True).start()
 
 
 def _stage_process(entry, argv: list[str], cwd: str, log: str) -> None:
@@ -196,14 +209,19 @@ class Workbench:
         write_text(self.path, json.dumps(self.raw, indent=1) + "\n")
 
     def set_fields(self, stage: str, fields: dict) -> None:
-        """Record a stage's choices (``machine``: the machine and the tolerance) and save."""
-        if stage == "machine":
+        """Record a stage's choices (``machine``: the machine, the tolerance and the options set
+        once for the day) and save."""
+        if stage == "machine":   # the options set once for the day go to the session's machine_options
             machine, tol = fields.get("machine") or "", fields.get("tolerance_mm")
             if not isinstance(machine, str):
                 raise VecpinError(f"machine: {machine!r}: a bundled machine name or a URDF path")
             if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1e300):
                 raise VecpinError(f"tolerance_mm: {tol!r}: a length in mm > 0, or empty (not stated)")
-            self.raw["machine"], self.raw["tolerance_mm"] = machine.strip(), tol
+            shared = {k: v for k, v in fields.items() if k not in ("machine", "tolerance_mm") and v not in (None, "")}
+            head = {"format": self.raw.get("format"), "version": self.raw.get("version"),
+                    "machine": machine.strip(), "tolerance_mm": tol}
+            rest = {k: v for k, v in self.raw.items() if k not in head and k != "machine_options"}
+            self.raw = head | ({"machine_options": shared} if shared else {}) | rest
         else:
             if stage not in STAGES:
                 raise KeyError(stage)
@@ -282,12 +300,15 @@ def create_app(folder: Path, parser):
 
     @app.get("/api/state")
     def state():
-        return jsonify(bench.state())
+        answer = jsonify(bench.state())
+        if app.config.get("WARM_STAGES"):   # set by serve(): the page's last call before it is usable
+            warm_stages()
+        return answer
 
     @app.get("/api/choices")
     def choices():
         from vecpin.export.names import CONTROLLERS
-        from vecpin.kinematics.axes import bundled_machines
+        from vecpin.kinematics.bundled import bundled_machines   # no Pinocchio before the page
         return jsonify({"machines": bundled_machines(), "controllers": list(CONTROLLERS), "stages": list(STAGES)})
 
     @app.get("/api/options")
@@ -370,13 +391,13 @@ def serve(folder: Path, parser, port: int = 8745, open_browser: bool = True) -> 
     """Serve the workbench of ``folder`` on 127.0.0.1 until Ctrl-C; prints its address.
     ``parser``: vecpin's command-line parser."""
     from werkzeug.serving import make_server
-    server = make_server("127.0.0.1", port, create_app(folder, parser), threaded=True)
+    app = create_app(folder, parser)
+    app.config["WARM_STAGES"] = True
+    server = make_server("127.0.0.1", port, app, threaded=True)
     url = f"http://127.0.0.1:{server.server_port}/"
     print(f"vecpin workbench of {Path(folder).resolve()}: {url} (Ctrl-C stops it)", flush=True)
-    # the stages' warm process starts beside the page (on the other core), not before it
-    _context()
-    threading.Thread(target=multiprocessing.forkserver.ensure_running, daemon=True).start()
     if open_browser:
+        import webbrowser
         webbrowser.open(url)
     signal.signal(signal.SIGTERM, _interrupt)   # a terminated workbench ends as Ctrl-C ends it
     try:

@@ -5,10 +5,12 @@
 // Each stage's form is built from its command's own options (/api/options: argparse's type,
 // choices, default and help); `main` names the ones shown first, the rest are under "more options".
 const UI = [
-  {id: "machine", title: "Machine", what: "The machine (a bundled name or a URDF path), its axes and frames, and the " +
-    "volumetric error you accept after compensation (mm).", run: "Show axes and frames",
+  {id: "machine", title: "Machine", what: "The machine (a bundled name or a URDF path), its axes and frames, the " +
+    "volumetric error you accept after compensation (mm) and the tracker's place, set once for the day.", run: "Show axes and frames",
    fields: [{name: "machine", kind: "text", help: "a bundled machine name or a URDF path"},
-            {name: "tolerance_mm", kind: "number", help: "the volumetric error you accept after compensation, mm"}]},
+            {name: "tolerance_mm", kind: "number", help: "the volumetric error you accept after compensation, mm"},
+            {name: "tracker", kind: "text", help: "the tracker's place, X,Y,Z mm in the machine's base frame: set " +
+             "once for the day, every stage whose command takes it gets it (a stage's own field wins)"}]},
   {id: "plan", title: "Plan", what: "Points, zones, tracker place; the line of sight is tested unless switched off.",
    run: "Plan", images: ["plan/plan.png"], main: ["points", "order", "tracker", "exclude", "repeat", "candidates",
                                                    "validation-count", "dialect", "no-sight"]},
@@ -187,7 +189,10 @@ async function runStage(id) {
     await api("/api/stage/tables", {fields}).catch(() => null);
   }
   const m = readFields(UI[0]), ses = state.session;   // the machine typed but not yet kept: kept first
-  if (id !== "machine" && (m.machine !== ses.machine || m.tolerance_mm !== ses.tolerance_mm) &&
+  const kept = Object.assign({machine: ses.machine, tolerance_mm: ses.tolerance_mm}, ses.machine_options || {});
+  const changed = [...new Set([...Object.keys(m), ...Object.keys(kept)])].some((k) =>
+    JSON.stringify(m[k] ?? null) !== JSON.stringify(kept[k] ?? null));
+  if (id !== "machine" && changed &&
       !(await saveStage("machine"))) { document.body.dataset.action = "done"; return; }
   if (!["scene", "profile"].includes(id) && !(await saveStage(id))) { document.body.dataset.action = "done"; return; }
   $(`error-${owner}`).textContent = "";
@@ -198,11 +203,13 @@ async function runStage(id) {
 }
 
 function poll() {
+  // the job's state every 0.3 s while it is young (most stages end within seconds), then every second
   clearTimeout(polling);
+  const young = !state || !state.job || state.job.elapsed_s < 3;
   polling = setTimeout(async () => {
     await refresh();
     if (state.job && state.job.running) poll(); else document.body.dataset.action = "done";
-  }, 300);
+  }, young ? 300 : 1000);
 }
 
 async function refresh() {
@@ -223,10 +230,12 @@ async function refresh() {
 }
 
 // the other numbers a stage's file holds beside its figure, as the figure table's rows
-const MORE = {mean_mm: "mean", heldout_mean_mm: "held-out mean", before_max_mm: "without the tables: max",
+const MORE = {mean_mm: "mean", shape_mean_mm: "shape (best rigid motion removed as well): mean",
+  heldout_mean_mm: "held-out mean", before_max_mm: "without the tables: max",
   before_mean_mm: "without the tables: mean", reduction_of_mean_pct: "reduction of the mean, %",
   mean_error_mm: "uncompensated error: mean", repeatability_mm: "repeatability", commands: "commands",
-  rows: "rows", model: "model", bases: "bases", effects: "effects", verdict: "verdict"};
+  rows: "rows", model: "model", bases: "bases", effects: "effects", verdict: "verdict", row: "the printout's row",
+  frame: "judged in", points: "on"};
 
 function figureBox(f, tol) {
   // the figure that matters against the tolerance, with the instrument's noise beside it
@@ -283,7 +292,11 @@ function showResults() {
     const done = state.done[s.id] || (s.id === "programs" && state.done.plan);
     const f = state.figures[s.id];
     $(`dot-${s.id}`).className = "dot" + (f && f.passes === false ? " fail" : done ? " done" : "");
-    $(`figure-${s.id}`).replaceChildren(...(f ? [figureBox(f, tol)] : []));
+    const figKey = JSON.stringify([f, tol]);   // drawn again only when it changed (the page polls while a job runs)
+    if ($(`figure-${s.id}`).dataset.key !== figKey) {
+      $(`figure-${s.id}`).dataset.key = figKey;
+      $(`figure-${s.id}`).replaceChildren(...(f ? [figureBox(f, tol)] : []));
+    }
     const job = logs[s.id], out = $(`output-${s.id}`);
     const kids = [];
     if (job) {
@@ -307,16 +320,36 @@ function showResults() {
 }
 
 function showScene() {
-  const frame = el("iframe", {class: "scene", id: "scene-frame", src: `/files/scene.html?t=${Date.now()}`});
+  const scene = () => `/files/scene.html?t=${Date.now()}`;
+  const frame = el("iframe", {class: "scene", id: "scene-frame", src: scene()});
   const views = {iso: null, front: [0, 0, 1], side: [1, 0, 0], top: [0, 1, 0.01]};
-  const bar = el("div", {class: "buttons"});
-  for (const [name, dir] of Object.entries(views)) {
-    bar.append(button(`view-${name}`, name, () => {
-      if (!dir) { frame.src = `/files/scene.html?t=${Date.now()}`; return; }
-      const v = frame.contentWindow.viewer, p = v.camera.position;
-      const d = Math.max(3, Math.hypot(p.x, p.y, p.z));   // meshcat's frame: y up; the machine's z is y there
+  let wanted = "iso";
+  const look = () => {   // the view asked for, once the scene's viewer is there (data-view says which is shown)
+    const v = frame.contentWindow && frame.contentWindow.viewer, dir = views[wanted];
+    frame.dataset.view = "";
+    if (!v) return;   // the scene is loading: its load event comes back here
+    if (dir) {
+      const p = v.camera.position, d = Math.max(3, Math.hypot(p.x, p.y, p.z));   // meshcat's frame: y up
       v.set_property(["Cameras", "default", "rotated", "<object>"], "position", dir.map((c) => c * d));
       v.set_dirty();
+    }
+    frame.dataset.view = wanted;
+  };
+  frame.addEventListener("load", look);
+  // a 3-D view draws all the time it is open, on the processor here (no graphics card in a
+  // browser without one): the scene is closed when it has been off the screen for 5 s, and
+  // opened again (in the view asked for last) when it comes back
+  let closing = null;
+  new IntersectionObserver(([e]) => {
+    clearTimeout(closing);
+    if (!e.isIntersecting) closing = setTimeout(() => { frame.src = "about:blank"; }, 5000);
+    else if (frame.src.startsWith("about:")) { frame.dataset.view = ""; frame.src = scene(); }
+  }).observe(frame);
+  const bar = el("div", {class: "buttons"});
+  for (const name of Object.keys(views)) {
+    bar.append(button(`view-${name}`, name, () => {
+      wanted = name;
+      if (name === "iso") frame.src = scene(); else look();   // iso: the scene as it opens
     }));
   }
   $("scene").replaceChildren(bar, frame);
@@ -422,7 +455,7 @@ async function writeRecord() {
 async function loadSession() {
   await refresh();
   const ses = state.session, stages = ses.stages || {};
-  fillFields(UI[0], {machine: ses.machine, tolerance_mm: ses.tolerance_mm});
+  fillFields(UI[0], Object.assign({machine: ses.machine, tolerance_mm: ses.tolerance_mm}, ses.machine_options || {}));
   for (const s of UI) if (STAGES.includes(s.id)) fillFields(s, stages[s.id] || {});
   $("profile-controller").value = (stages.tables || {}).controller || "siemens-840d";
 }
