@@ -397,7 +397,7 @@ class Likelihood:
                 eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms if moved else None)
                 Aq = eq.dr_dp @ J_q
                 L = np.linalg.cholesky((Aq * sig2) @ np.swapaxes(Aq, 1, 2) + eq.S)
-                pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
+                pc = {"w": forward(L, eq.r), "metric": eq.metric,
                       "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
                 if jacobian:
                     D = np.zeros((len(rows), 3, P))
@@ -415,15 +415,25 @@ class Likelihood:
                         D[:, :, bsl] += eq.dr_dy @ stash["D"]
                         if metric:
                             Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
-                    pc["J"] = np.linalg.solve(L, D) * self.sigma
+                    pc["J"] = forward(L, D) * self.sigma
                     pc["A"] = Dm * self.sigma if metric else None
                 if operators:
-                    pc["Gw"] = np.linalg.solve(L, eq.dr_dp)
+                    pc["Gw"] = forward(L, eq.dr_dp)
                     pc["Gm"] = eq.dmetric_dp
-                    pc["Gy"] = np.linalg.solve(L, eq.dr_dy) if eq.dr_dy is not None else np.zeros((len(rows), 3, 3))
+                    pc["Gy"] = forward(L, eq.dr_dy) if eq.dr_dy is not None else np.zeros((len(rows), 3, 3))
                     pc["Gmy"] = ((-np.eye(3) if eq.valid.all() else eq.dr_dy) if eq.dr_dy is not None
                                  else np.zeros((len(rows), 3, 3)))
                 yield rows, pc
+
+
+def forward(L: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``L^-1 X`` row by row for lower-triangular L (n,3,3) and X (n,3) or (n,3,k): forward
+    substitution written out (a batched general solve factorises every 3 x 3 again)."""
+    L0, L1, L2 = (L[:, :, j].reshape((len(L), 3) + (1,) * (X.ndim - 2)) for j in range(3))
+    x0 = X[:, 0] / L0[:, 0]
+    x1 = (X[:, 1] - L0[:, 1] * x0) / L1[:, 1]
+    x2 = (X[:, 2] - L0[:, 2] * x0 - L1[:, 2] * x1) / L2[:, 2]
+    return np.stack([x0, x1, x2], axis=1)
 
 
 def _one(point: np.ndarray):

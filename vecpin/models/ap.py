@@ -69,7 +69,8 @@ class APModel(ErrorModel):
         (``mask``: :meth:`ErrorModel.assemble`)."""
         N = len(B)
         mask = self._mask if mask is None else mask
-        J_a = np.einsum("pxj,pim->pxmij", J, B[:, :, 1:])[:, :, mask[1:], :].reshape(N, 3, -1)
+        m, i = np.nonzero(mask[1:])   # the (column, input axis) pairs kept, in the parameters' order
+        J_a = (J[:, :, None, :] * B[:, i, m + 1][:, None, :, None]).reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J, J_a], axis=-1)
 
     def _perturbed(self, q, b):
