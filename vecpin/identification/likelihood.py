@@ -131,7 +131,7 @@ class Likelihood:
         self.blocks: list[Block] = []
         self.nominal = np.full((len(campaign), 3), np.nan)  # machine-frame points at the start (no model)
         kinds = {"tracker": tracker, "ballbar": "ballbar"}
-        for kind in np.unique(campaign.instrument):
+        for kind in _kinds(campaign.instrument):
             inst = instrument_for(kinds.get(kind, kind), noise)
             if hasattr(inst, "read_with"):  # nest rows are read as the tracker rows are
                 inst.read_with(instrument_for(tracker, noise))
@@ -434,6 +434,11 @@ def forward(L: np.ndarray, X: np.ndarray) -> np.ndarray:
     x1 = (X[:, 1] - L0[:, 1] * x0) / L1[:, 1]
     x2 = (X[:, 2] - L0[:, 2] * x0 - L1[:, 2] * x1) / L2[:, 2]
     return np.stack([x0, x1, x2], axis=1)
+
+
+def _kinds(instrument: np.ndarray) -> np.ndarray:
+    """np.unique of the rows' instruments (one instrument in every row: no sort of a million names)."""
+    return instrument[:1] if len(instrument) and np.all(instrument == instrument[0]) else np.unique(instrument)
 
 
 def _one(point: np.ndarray):

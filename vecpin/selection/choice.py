@@ -64,6 +64,7 @@ from vecpin.errors import IdentifiabilityError, InputError, VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.poses import unique_rows
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
@@ -404,8 +405,7 @@ def _subsample(campaign: Campaign, seed: int, rows: bool = False) -> Campaign | 
     always holds whole groups of many commands, never none. ``rows``: the rows kept instead (None: all)."""
     if len(campaign) <= MAX_SELECTION_ROWS:
         return None if rows else campaign
-    _, group = np.unique(np.round(campaign.q, 9), axis=0, return_inverse=True)
-    group = np.asarray(group).ravel()
+    group = unique_rows(np.round(campaign.q, 9))[1]
     rng = np.random.default_rng(seed)
     order = rng.permutation(group.max() + 1)
     per = np.bincount(group)

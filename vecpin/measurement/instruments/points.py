@@ -107,7 +107,8 @@ def nominal_points(machine, q: np.ndarray, req: PointRequest) -> np.ndarray:
     """(n,3) [m] the requested points of the nominal machine in the base frame."""
     if req.kind == "workpiece":
         return machine.workpiece_points(q, req.p_wp, jacobian=False).xyz
-    return machine.tool_tip(q, req.tool, frame="base", point=req.point, offset=req.offset)
+    offset = req.offset if np.any(req.offset) else None   # no offset: the tips the campaign's checks asked for
+    return machine.tool_tip(q, req.tool, frame="base", point=req.point, offset=offset)
 
 
 # ---------------------------------------------------------------------- starting values
