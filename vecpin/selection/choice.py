@@ -107,6 +107,7 @@ class ModelChoice:
     fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
     subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
     grouping: str = "pose"   # what the folds keep together: poses, or the sweeps of a design moving one joint at a time
+    given: str = ""          # why a choice was made although the kind and the order were given
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -152,7 +153,7 @@ class ModelChoice:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
                          "is among the models this campaign supports)")
-        return "\n".join(lines)
+        return "\n".join([self.given] * bool(self.given) + lines)
 
     def sweep(self, kind: str) -> list[Candidate]:
         """The common-order candidates of one kind with Chebyshev everywhere (Paper I Table 2)."""
@@ -184,8 +185,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
 
 def _check_request(kinds, families, orders) -> list[int]:
     """Refuse unknown kinds and families and orders below 0: the orders sorted."""
-    orders = sorted(set(int(o) for o in orders))
-    if not orders or orders[0] < 0:
+    if not (orders := sorted(set(int(o) for o in orders))) or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")
     for k in kinds:
         if k not in MODELS:
@@ -513,4 +513,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     if fixed:   # its one candidate scored for the noise level and its gross rows (:mod:`.screen`)
         choice.fixed = True
         return model, choice
+    if kind != "auto" and order != "auto" and basis == "auto":
+        choice.given = (f"the kind ({kind}) and order ({order}) were given, not the basis: the data chose each axis' basis "
+                        "of that order below (Chebyshev; on an axis turning a full turn also Fourier, with or without a "
+                        "trend); with a basis given too the model is fitted with no choice")
     return choice.chosen.model(machine, **opts), choice
