@@ -253,27 +253,44 @@ class Likelihood:
         """(chi2 = |w|^2, G = J^T J, g = J^T w, equations) at ``theta``, accumulated over
         blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
         Without ``jacobian`` G and g are None (a trial point's chi2 only). ``with_r``: also
-        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item)."""
+        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item). The
+        predicted points of the pass are kept for :meth:`predicted_points` at the same theta."""
         n = workers_wanted()
         # the pieces shared out between forked copies (never threads: the machine's Pinocchio data is one object)
         if not with_r and n > 1 and len(self.campaign) > SHARED_ROWS and _can_fork():
             self._pose_orders(chunk)
             parts = side_by_side(lambda k: self._normal_sums(theta, jacobian, chunk, (k, n)), range(n), processes=True)
+            self._keep_points(theta, chunk, [p[1] for p in parts])
+            parts = [p[0] for p in parts]
             chi2, n_eq = sum(p[0] for p in parts), sum(p[3] for p in parts)
             if not jacobian:
                 return chi2, None, None, n_eq
             return chi2, sum(p[1] for p in parts), sum(p[2] for p in parts), n_eq
-        return self._normal_sums(theta, jacobian, chunk, None, with_r)
+        sums, points = self._normal_sums(theta, jacobian, chunk, None, with_r)
+        self._keep_points(theta, chunk, [points])
+        return sums
+
+    def _keep_points(self, theta: np.ndarray, chunk: int, parts: list) -> None:
+        """Keep the predicted points (N,3) [m] of a pass at ``theta`` from its parts' (rows, points)."""
+        y = np.full((len(self.campaign), 3), np.nan)
+        for rows, points in (p for p in parts if p is not None):
+            y[rows] = points
+        self._points = (theta.copy(), chunk, y)
 
     def _normal_sums(self, theta: np.ndarray, jacobian: bool, chunk: int, share: tuple[int, int] | None,
                      with_r: bool = False):
-        """:meth:`normal_equations` over every piece of rows (``share`` (k, n): the k-th of every n)."""
+        """(:meth:`normal_equations` over every piece of rows (``share`` (k, n): the k-th of every
+        n), (rows, their predicted points) of the pieces or None (no row has a point))."""
         P = self.n_unknowns
         chi2, n_eq = 0.0, 0
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
         order, R = self.priority(), np.zeros((0, P))
+        taken, ys = [], []
         for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False, share=share):
+            if pc["y"] is not None:
+                taken.append(rows)
+                ys.append(pc["y"])
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
             n_eq += int(pc["valid"].sum())
@@ -283,10 +300,15 @@ class Likelihood:
                 g += Jf.T @ wf
                 if with_r:
                     R = linalg.qr(np.vstack([R, Jf[:, order]]), mode="r", check_finite=False)[0][:P]
-        return (chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)
+        points = (np.concatenate(taken), np.concatenate(ys)) if taken else None
+        return ((chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)), points
 
     def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
-        """(N,3) predicted instrument-frame points [m] (NaN on rows without one)."""
+        """(N,3) predicted instrument-frame points [m] (NaN on rows without one); those of
+        :meth:`normal_equations`' last pass when it was at ``theta`` (the same numbers)."""
+        kept = getattr(self, "_points", None)
+        if kept is not None and kept[1] == chunk and np.array_equal(kept[0], theta):
+            return kept[2].copy()
         y = np.full((len(self.campaign), 3), np.nan)
         for rows, pc in self._pieces(theta, False, False, chunk):
             if pc["y"] is not None:

@@ -84,7 +84,7 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
     for i in np.flatnonzero(campaign.target[rows] != ""):   # rows of targets only (a million tool tips: no loop)
         offset[i] = campaign.targets[campaign.target[rows[i]]]
     nominal = machine.tool_tip(campaign.q[rows], campaign.tool[rows], frame="base", point=campaign.point[rows],
-                               offset=offset)
+                               offset=offset if np.any(offset) else None)   # no offset: the tips the checks asked for
     if not spans_plane(nominal):
         if not strict:
             return None
