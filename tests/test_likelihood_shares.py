@@ -26,7 +26,7 @@ def test_the_shares_sum_to_the_whole_pass(machines):
 
 def test_a_pass_keeps_its_points_for_the_same_theta(machines):
     """The points a pass predicted (every share's rows) are those a pass without Jacobians
-    computes afresh, to the last digit; a theta of another pass computes them afresh."""
+    computes afresh, to the last digit; two passes at other thetas later, they are computed afresh."""
     m = machines["trunnion_xyzac"]
     c = simulate(m, seed=3, design=Design(n_commands=40, n_validation=4, nests=3)).campaign
     model, noise = make_model("ap", m, 1), NoiseModel.default(m, "spherical")
@@ -39,5 +39,7 @@ def test_a_pass_keeps_its_points_for_the_same_theta(machines):
     np.testing.assert_array_equal(y, fresh)
     lik.normal_equations(theta, chunk=17)
     np.testing.assert_array_equal(lik.predicted_points(theta, chunk=17), fresh)
-    lik.normal_equations(theta * 0.5, chunk=17)   # another theta: the kept points are not these
+    for other in (0.5, 0.25):
+        lik.normal_equations(theta * other, chunk=17)
+    assert not any(np.array_equal(kept[0], theta) for kept in lik._points)
     np.testing.assert_array_equal(lik.predicted_points(theta, chunk=17), fresh)

@@ -271,11 +271,12 @@ class Likelihood:
         return sums
 
     def _keep_points(self, theta: np.ndarray, chunk: int, parts: list) -> None:
-        """Keep the predicted points (N,3) [m] of a pass at ``theta`` from its parts' (rows, points)."""
+        """Keep the predicted points (N,3) [m] of a pass at ``theta`` from its parts' (rows, points),
+        those of the last two passes (the solver's last point is often the one before its last trial)."""
         y = np.full((len(self.campaign), 3), np.nan)
         for rows, points in (p for p in parts if p is not None):
             y[rows] = points
-        self._points = (theta.copy(), chunk, y)
+        self._points = [(theta.copy(), chunk, y)] + getattr(self, "_points", [])[:1]
 
     def _normal_sums(self, theta: np.ndarray, jacobian: bool, chunk: int, share: tuple[int, int] | None,
                      with_r: bool = False):
@@ -305,10 +306,10 @@ class Likelihood:
 
     def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
         """(N,3) predicted instrument-frame points [m] (NaN on rows without one); those of
-        :meth:`normal_equations`' last pass when it was at ``theta`` (the same numbers)."""
-        kept = getattr(self, "_points", None)
-        if kept is not None and kept[1] == chunk and np.array_equal(kept[0], theta):
-            return kept[2].copy()
+        one of :meth:`normal_equations`' last two passes when it was at ``theta`` (the same numbers)."""
+        for kept in getattr(self, "_points", []):
+            if kept[1] == chunk and np.array_equal(kept[0], theta):
+                return kept[2].copy()
         y = np.full((len(self.campaign), 3), np.nan)
         for rows, pc in self._pieces(theta, False, False, chunk):
             if pc["y"] is not None:
