@@ -129,8 +129,7 @@ def _frames(machine, campaign, rows):
     tool = ~nest
     if tool.any():
         r = rows[tool]
-        kin = machine.kinematics(campaign.q[r], 0.0, jacobian=False, frame="base", point=campaign.point[r])
-        R[tool], o[tool] = kin.rotation, kin.spindle
+        R[tool], o[tool] = machine.tool_placements(campaign.q[r], campaign.point[r])
         lt = campaign.tool[r][:, None] * machine.tool_axis
         tids = ids[tool]
         for i in np.flatnonzero(tids != ""):   # the rows of targets only (a million tool tips: no loop)
