@@ -343,6 +343,9 @@ class Machine:
         for them several times (its nominal tips, the fit's starting values): the last
         :data:`TIP_MEMO` answers are kept (keyed by a BLAKE2 digest of the arrays asked)."""
         q = np.atleast_2d(np.asarray(q, float))
+        pt = np.asarray(point)
+        if pt.ndim and pt.size and np.all(pt == pt.flat[0]):   # one tool point on every row: one key, one answer
+            point = int(pt.flat[0])
 
         def compute():
             kin = self.kinematics(q, 0.0, jacobian=False, frame="base", point=point)
