@@ -514,7 +514,7 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
         choice.fixed = True
         return model, choice
     if kind != "auto" and order != "auto" and basis == "auto":
-        choice.given = (f"the kind ({kind}) and order ({order}) were given, not the basis: the data chose each axis' basis "
-                        "of that order below (Chebyshev; on an axis turning a full turn also Fourier, with or without a "
-                        "trend); with a basis given too the model is fitted with no choice")
+        choice.given = (f"the kind ({kind}) and order ({order}) were given, not the basis: the data chose each axis' "
+                        "basis of that order below (Chebyshev; on an axis turning a full turn also Fourier, with or "
+                        "without a trend); with a basis given too the model is fitted with no choice")
     return choice.chosen.model(machine, **opts), choice
