@@ -394,3 +394,30 @@ def test_a_mimicked_drive_off_the_branch_is_an_axis_not_a_fixed_joint():
     assert "Y2" in m.axis_names
     assert not any("fixed at 0" in n and "Y2" in n for n in m.notes)
     assert "fixed at 0" not in m.describe()
+
+
+def test_tips_of_a_large_campaign_from_kept_placements(machines, monkeypatch):
+    """A campaign above KINEMATICS_ROWS: its tips come from the tool link placements kept for
+    it (tool_placements), to the last digit of the one-piece kinematics, in the base frame
+    with and without a target offset, and relative to the workpiece; a kept answer is a copy."""
+    import vecpin.kinematics.axes as axes_module
+    import vecpin.kinematics.machine as machine_module
+    m = machines["flow_xyzcb"]
+    rng = np.random.default_rng(4)
+    q = m.lower + rng.random((300, m.n_axes)) * (m.upper - m.lower)
+    tool = rng.choice([0.2, 0.3], 300)
+    offset = np.array([0.01, -0.02, 0.003])
+    whole = m.kinematics(q, tool, jacobian=False, frame="base")
+    shifted = m.kinematics(q, tool, jacobian=False, frame="base", offset=offset).tip
+    relative = m.kinematics(q, tool, jacobian=False, frame="workpiece").tip
+    placed = m.kinematics(q, 0.0, jacobian=False, frame="base")
+    for module in (axes_module, machine_module):   # kinematics in pieces of 100 rows
+        monkeypatch.setattr(module, "KINEMATICS_ROWS", 100)
+    np.testing.assert_array_equal(m.tool_tip(q, tool, frame="base"), whole.tip)
+    np.testing.assert_array_equal(m.tool_tip(q, tool, frame="base", offset=offset), shifted)
+    np.testing.assert_array_equal(m.tool_tip(q, tool, frame="workpiece"), relative)
+    R, o = m.tool_placements(q)
+    np.testing.assert_array_equal(R, placed.rotation)
+    np.testing.assert_array_equal(o, placed.spindle)
+    R[:] = 0.0   # the caller's copy: the kept placements stay
+    np.testing.assert_array_equal(m.tool_placements(q)[0], placed.rotation)

@@ -75,3 +75,17 @@ def test_rows_without_a_number_are_never_explained():
     # limits chi2.isf(1 - 0.999^(1/4) ~ 2.5e-4): 19.19 with 3 equations, 13.41 with 1; 4^2 = 16 is beyond, NaN always
     assert out.tolist() == [False, True, True, False]
     assert np.isfinite(s) and s > 0
+
+
+def test_a_fit_keeps_its_own_residuals_to_the_last_digit(machines):
+    """The residuals a fit leaves (the fit's own last pass) are those the likelihood computes
+    again from the fitted model, to the last digit; parameters changed afterwards are not
+    served from the fit's points."""
+    m = machines["flow_xyzcb"]
+    c = simulate(m, seed=6, design=Design(n_commands=40, n_validation=5)).campaign
+    em = make_model("ap", m, 1).fit(c, NoiseModel.default(m, "spherical"))
+    assert em._fitted_points is not None
+    np.testing.assert_array_equal(em.residuals(c), c.xyz - em.row_residuals(c).y)
+    em.b_ = em.b_ + 1e-6
+    np.testing.assert_array_equal(em.residuals(c), c.xyz - em.row_residuals(c).y)
+    assert not np.array_equal(em.residuals(c), c.xyz - em._fitted_points[3])

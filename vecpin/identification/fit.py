@@ -108,8 +108,12 @@ def measured_range(machine, campaign: Campaign) -> dict:
 
 def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = None, *, max_iter: int = 30,
         tol: float = 1e-9, remove_redundant: bool = True, underdetermined: bool = False,
-        progress: Callable[[str], None] | None = None):
+        progress: Callable[[str], None] | None = None, points: dict | None = None):
     """Identify ``model``'s parameters from ``campaign``; returns (theta, setup, cov, report).
+    ``points``: a dict that receives "y", the fitted instrument-frame points (N,3) [m] of
+    every row (NaN where none), and "folded", True when the setup folds instrument unknowns
+    other than station poses into positions (the points of the folded setup may then differ
+    from these in the last digits).
 
     theta = [E_0 (6), b (P), the instruments' unknowns] SI; cov is the covariance of
     theta (zeros for removed terms). ``underdetermined``: accept fewer equations than
@@ -161,7 +165,10 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     if not sol.converged:
         warnings.append(f"did not converge in {max_iter} iterations")
     trk = campaign.tracker_rows
-    stats_ = residual_stats(campaign.xyz[trk] - lik.predicted_points(theta)[trk], campaign.tool[trk])
+    predicted = lik.predicted_points(theta)
+    stats_ = residual_stats(campaign.xyz[trk] - predicted[trk], campaign.tool[trk])
+    if points is not None:
+        points.update(y=predicted, folded=any(not n.startswith("station") for n in lik.extra_names))
     setup = lik.fold(theta, cov)  # the instruments' unknowns into the setup
     instrument = noise.instrument
     report = FitReport(getattr(model, "kind", "model"), getattr(model, "order", -1), instrument, len(campaign), n_eq, P,

@@ -131,7 +131,7 @@ class Likelihood:
         self.blocks: list[Block] = []
         self.nominal = np.full((len(campaign), 3), np.nan)  # machine-frame points at the start (no model)
         kinds = {"tracker": tracker, "ballbar": "ballbar"}
-        for kind in np.unique(campaign.instrument):
+        for kind in _kinds(campaign.instrument):
             inst = instrument_for(kinds.get(kind, kind), noise)
             if hasattr(inst, "read_with"):  # nest rows are read as the tracker rows are
                 inst.read_with(instrument_for(tracker, noise))
@@ -253,27 +253,45 @@ class Likelihood:
         """(chi2 = |w|^2, G = J^T J, g = J^T w, equations) at ``theta``, accumulated over
         blocks of at most ``chunk`` rows: memory does not grow with rows x unknowns.
         Without ``jacobian`` G and g are None (a trial point's chi2 only). ``with_r``: also
-        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item)."""
+        the R factor of :meth:`redundancy`'s QR test, from the same pass (a fifth item). The
+        predicted points of the pass are kept for :meth:`predicted_points` at the same theta."""
         n = workers_wanted()
         # the pieces shared out between forked copies (never threads: the machine's Pinocchio data is one object)
         if not with_r and n > 1 and len(self.campaign) > SHARED_ROWS and _can_fork():
             self._pose_orders(chunk)
             parts = side_by_side(lambda k: self._normal_sums(theta, jacobian, chunk, (k, n)), range(n), processes=True)
+            self._keep_points(theta, chunk, [p[1] for p in parts])
+            parts = [p[0] for p in parts]
             chi2, n_eq = sum(p[0] for p in parts), sum(p[3] for p in parts)
             if not jacobian:
                 return chi2, None, None, n_eq
             return chi2, sum(p[1] for p in parts), sum(p[2] for p in parts), n_eq
-        return self._normal_sums(theta, jacobian, chunk, None, with_r)
+        sums, points = self._normal_sums(theta, jacobian, chunk, None, with_r)
+        self._keep_points(theta, chunk, [points])
+        return sums
+
+    def _keep_points(self, theta: np.ndarray, chunk: int, parts: list) -> None:
+        """Keep the predicted points (N,3) [m] of a pass at ``theta`` from its parts' (rows, points),
+        those of the last two passes (the solver's last point is often the one before its last trial)."""
+        y = np.full((len(self.campaign), 3), np.nan)
+        for rows, points in (p for p in parts if p is not None):
+            y[rows] = points
+        self._points = [(theta.copy(), chunk, y)] + getattr(self, "_points", [])[:1]
 
     def _normal_sums(self, theta: np.ndarray, jacobian: bool, chunk: int, share: tuple[int, int] | None,
                      with_r: bool = False):
-        """:meth:`normal_equations` over every piece of rows (``share`` (k, n): the k-th of every n)."""
+        """(:meth:`normal_equations` over every piece of rows (``share`` (k, n): the k-th of every
+        n), (rows, their predicted points) of the pieces or None (no row has a point))."""
         P = self.n_unknowns
         chi2, n_eq = 0.0, 0
         G = np.zeros((P, P)) if jacobian else None
         g = np.zeros(P) if jacobian else None
         order, R = self.priority(), np.zeros((0, P))
+        taken, ys = [], []
         for rows, pc in self._pieces(theta, jacobian, False, chunk, metric=False, share=share):
+            if pc["y"] is not None:
+                taken.append(rows)
+                ys.append(pc["y"])
             wf = pc["w"].ravel()
             chi2 += float(wf @ wf)
             n_eq += int(pc["valid"].sum())
@@ -283,10 +301,15 @@ class Likelihood:
                 g += Jf.T @ wf
                 if with_r:
                     R = linalg.qr(np.vstack([R, Jf[:, order]]), mode="r", check_finite=False)[0][:P]
-        return (chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)
+        points = (np.concatenate(taken), np.concatenate(ys)) if taken else None
+        return ((chi2, G, g, n_eq, R) if with_r else (chi2, G, g, n_eq)), points
 
     def predicted_points(self, theta: np.ndarray, chunk: int = CHUNK_ROWS) -> np.ndarray:
-        """(N,3) predicted instrument-frame points [m] (NaN on rows without one)."""
+        """(N,3) predicted instrument-frame points [m] (NaN on rows without one); those of
+        one of :meth:`normal_equations`' last two passes when it was at ``theta`` (the same numbers)."""
+        for kept in getattr(self, "_points", []):
+            if kept[1] == chunk and np.array_equal(kept[0], theta):
+                return kept[2].copy()
         y = np.full((len(self.campaign), 3), np.nan)
         for rows, pc in self._pieces(theta, False, False, chunk):
             if pc["y"] is not None:
@@ -397,7 +420,7 @@ class Likelihood:
                 eq = blk.instrument.equations(c, rows, p, self.setup, u[:blk.first], terms if moved else None)
                 Aq = eq.dr_dp @ J_q
                 L = np.linalg.cholesky((Aq * sig2) @ np.swapaxes(Aq, 1, 2) + eq.S)
-                pc = {"w": np.linalg.solve(L, eq.r[..., None])[..., 0], "metric": eq.metric,
+                pc = {"w": forward(L, eq.r), "metric": eq.metric,
                       "valid": np.broadcast_to(eq.valid, (len(rows), 3)), "y": eq.y}
                 if jacobian:
                     D = np.zeros((len(rows), 3, P))
@@ -415,15 +438,30 @@ class Likelihood:
                         D[:, :, bsl] += eq.dr_dy @ stash["D"]
                         if metric:
                             Dm[:, :, bsl] += -stash["D"] if eq.valid.all() else eq.dr_dy @ stash["D"]
-                    pc["J"] = np.linalg.solve(L, D) * self.sigma
+                    pc["J"] = forward(L, D) * self.sigma
                     pc["A"] = Dm * self.sigma if metric else None
                 if operators:
-                    pc["Gw"] = np.linalg.solve(L, eq.dr_dp)
+                    pc["Gw"] = forward(L, eq.dr_dp)
                     pc["Gm"] = eq.dmetric_dp
-                    pc["Gy"] = np.linalg.solve(L, eq.dr_dy) if eq.dr_dy is not None else np.zeros((len(rows), 3, 3))
+                    pc["Gy"] = forward(L, eq.dr_dy) if eq.dr_dy is not None else np.zeros((len(rows), 3, 3))
                     pc["Gmy"] = ((-np.eye(3) if eq.valid.all() else eq.dr_dy) if eq.dr_dy is not None
                                  else np.zeros((len(rows), 3, 3)))
                 yield rows, pc
+
+
+def forward(L: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``L^-1 X`` row by row for lower-triangular L (n,3,3) and X (n,3) or (n,3,k): forward
+    substitution written out (a batched general solve factorises every 3 x 3 again)."""
+    L0, L1, L2 = (L[:, :, j].reshape((len(L), 3) + (1,) * (X.ndim - 2)) for j in range(3))
+    x0 = X[:, 0] / L0[:, 0]
+    x1 = (X[:, 1] - L0[:, 1] * x0) / L1[:, 1]
+    x2 = (X[:, 2] - L0[:, 2] * x0 - L1[:, 2] * x1) / L2[:, 2]
+    return np.stack([x0, x1, x2], axis=1)
+
+
+def _kinds(instrument: np.ndarray) -> np.ndarray:
+    """np.unique of the rows' instruments (one instrument in every row: no sort of a million names)."""
+    return instrument[:1] if len(instrument) and np.all(instrument == instrument[0]) else np.unique(instrument)
 
 
 def _one(point: np.ndarray):

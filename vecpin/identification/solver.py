@@ -69,7 +69,9 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
     fit evaluates them for its redundancy test), saving one evaluation with Jacobians.
     ``eager``: evaluate every trial point with its Jacobians, so that an accepted step
     (most are) needs no second pass over the rows; the same steps and result (a large
-    campaign: each pass a pass over every row, most of it the kinematics both need)."""
+    campaign: each pass a pass over every row, most of it the kinematics both need). A
+    step whose linearised decrease is below the tolerance is evaluated without them: taken,
+    it ends the fit (the solution keeps the normal equations of the point before it)."""
     psi = np.zeros(P)
     chi2, G, g = (start if start is not None else normal_equations(psi, True))[:3]
     _finite(chi2, G, g, "at the start")
@@ -93,7 +95,9 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
             solved = solved or bool(np.isfinite(step).all())
             trial = psi.copy()
             trial[keep] += step
-            chi2_new, *at_trial = normal_equations(trial, eager)
+            # a step promising less than the tolerance ends the fit when taken: its Jacobians would go unused
+            with_j = eager and -(2 * grad @ step + step @ Nm @ step) > tol * max(obj, 1.0)
+            chi2_new, *at_trial = normal_equations(trial, with_j)
             if np.isfinite(chi2_new) and chi2_new + trial @ trial <= obj:
                 accepted = True
                 break
@@ -121,7 +125,7 @@ def gauss_newton(normal_equations: Callable[[np.ndarray, bool], tuple], P: int, 
         if decrease <= tol * max(obj, 1.0) or np.abs(step).max() < 1e-10:
             converged = True   # G and g stay those of the point before this last, negligible step
             break
-        chi2, G, g = (chi2, *at_trial[:2]) if eager else normal_equations(psi, True)[:3]
+        chi2, G, g = (chi2, *at_trial[:2]) if with_j else normal_equations(psi, True)[:3]
         _finite(chi2, G, g, f"at the point accepted in iteration {it}")
         obj = chi2 + psi @ psi
         lam = max(lam / 10, LAMBDA_MIN)

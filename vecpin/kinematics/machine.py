@@ -331,18 +331,44 @@ class Machine:
         q = np.atleast_2d(np.asarray(q, float))
         if len(q) <= KINEMATICS_ROWS:
             return self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
-        digest = hashlib.blake2b(self._frame(frame).encode())
-        for v in (q, tool, point, 0.0 if offset is None else offset):
+        if self._frame(frame) == "base":   # the tool link placements kept: the tip as kinematics computes it
+            R, o = self.tool_placements(q, point)
+            local = np.broadcast_to(np.asarray(tool, float), (len(q),))[:, None] * self.tool_axis
+            return o + apply(R, local if offset is None else local + np.broadcast_to(np.asarray(offset, float),
+                                                                                     (len(q), 3)))
+        return self._memo(("tip", frame), (q, tool, point, 0.0 if offset is None else offset), lambda: self.kinematics(
+            q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip).copy()
+
+    def tool_placements(self, q: np.ndarray, point: int | np.ndarray = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(R (N,3,3), origin (N,3) [m]) of the tool link (tool point ``point``) in the base frame
+        for commands q (N, n) [m, rad]. A campaign of more than :data:`KINEMATICS_ROWS` rows asks
+        for them several times (its nominal tips, the fit's starting values): the last
+        :data:`TIP_MEMO` answers are kept (keyed by a BLAKE2 digest of the arrays asked)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        pt = np.asarray(point)
+        if pt.ndim and pt.size and np.all(pt == pt.flat[0]):   # one tool point on every row: one key, one answer
+            point = int(pt.flat[0])
+
+        def compute():
+            kin = self.kinematics(q, 0.0, jacobian=False, frame="base", point=point)
+            return kin.rotation, kin.spindle
+        R, o = compute() if len(q) <= KINEMATICS_ROWS else self._memo(("placements",), (q, point), compute)
+        return R.copy(), o.copy()
+
+    def _memo(self, what: tuple, arrays: tuple, compute):
+        """``compute()``, kept for the last :data:`TIP_MEMO` keys (``what`` and a digest of ``arrays``)."""
+        digest = hashlib.blake2b(repr(what).encode())
+        for v in arrays:
             a = np.ascontiguousarray(v)
             digest.update(f"{a.dtype}{a.shape}".encode())
             digest.update(a.tobytes())
         key = digest.digest()
         memo = self.__dict__.setdefault("_tip_memo", {})
         if key not in memo:
-            memo[key] = self.kinematics(q, tool, jacobian=False, frame=frame, point=point, offset=offset).tip
+            memo[key] = compute()
             while len(memo) > TIP_MEMO:
                 memo.pop(next(iter(memo)))
-        return memo[key].copy()
+        return memo[key]
 
     def workpiece_pose(self, q: np.ndarray) -> np.ndarray:
         """(N, 4, 4) pose T_bw of the workpiece frame in the base frame (identity without one)."""

@@ -168,8 +168,9 @@ def reference_rotation(machine, q: np.ndarray, tool, nominal: np.ndarray, actual
     u1, u2 = (nom_lines[n] / np.linalg.norm(nom_lines[n]) for n in pair)
     c = actual.mean(0)
     R = np.eye(3)
+    centred = mean_lines(machine, q, tool, actual - c)   # the regression is linear: turned points, turned lines
     for _ in range(3):  # the condition is linear in a small rotation: twice reaches 1e-12 rad
-        lines = mean_lines(machine, q, tool, (actual - c) @ R.T)
+        lines = {n: v @ R.T for n, v in centred.items()}
         a1, a2 = (lines[n] / np.linalg.norm(lines[n]) for n in pair)
         A, b = _line_conditions(u1, u2, a1, a2, a1, a2)
         w = np.linalg.solve(A, b)

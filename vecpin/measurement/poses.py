@@ -23,9 +23,23 @@ MIN_SWEEP = 3        # ... and some sweep joins at least this many poses
 def poses(campaign: Campaign) -> tuple[np.ndarray, np.ndarray]:
     """(pose of each row (N,), the distinct commands (P, n) [m, rad]): rows with the same
     axis command (to 1e-9) are one pose."""
-    keys = np.round(campaign.q, 9)
-    uq, group = np.unique(keys, axis=0, return_inverse=True)
-    return np.asarray(group).ravel(), uq
+    uq, group = unique_rows(np.round(campaign.q, 9))
+    return group, uq
+
+
+def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the distinct rows of ``a`` (N, k) in lexicographic order, the index of each row's
+    among them (N,)): ``np.unique(a, axis=0, return_inverse=True)``, by a lexicographic
+    sort of the columns (twice as fast on a million rows)."""
+    a = np.asarray(a)
+    if not len(a):
+        return a.copy(), np.zeros(0, np.intp)
+    order = np.lexsort(a.T[::-1])
+    s = a[order]
+    new = np.r_[True, np.any(s[1:] != s[:-1], axis=1)]
+    inverse = np.empty(len(a), np.intp)
+    inverse[order] = np.cumsum(new) - 1
+    return s[new], inverse
 
 
 def sweep_of_moves(axis: np.ndarray) -> np.ndarray:

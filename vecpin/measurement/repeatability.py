@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.poses import unique_rows
 from vecpin.measurement.tracker import TrackerNoise
 
 SESSION_GAP_S = 1800.0  # s: repeats further apart than this belong to different sessions
@@ -50,7 +51,7 @@ def reading_groups(q: np.ndarray, tool: np.ndarray | None = None, rotary: np.nda
     tol = np.full(q.shape[1], EXACT) if rotary is None else np.where(np.asarray(rotary, bool), rad, READING_M)
     t = np.zeros(len(q)) if tool is None else np.asarray(tool, float)
     # rows read again to the digit (commands, a pose read many times) are one point before the search
-    rows, back = np.unique(np.c_[q, t], axis=0, return_inverse=True)
+    rows, back = unique_rows(np.c_[q, t])
     pairs = close_pairs(rows[:, :-1] / tol)
     pairs = pairs[np.abs(rows[pairs[:, 0], -1] - rows[pairs[:, 1], -1]) <= EXACT]
     n = len(rows)

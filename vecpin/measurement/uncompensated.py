@@ -73,16 +73,18 @@ def uncompensated(machine: Machine, campaign: Campaign, strict: bool = True) -> 
         rel = relative_to_table(machine, campaign)
         if rel is not None:
             return rel
-    known = np.array([t == "" or t in campaign.targets for t in campaign.target], bool)
+    known = (campaign.target == "") | np.isin(campaign.target, list(campaign.targets))
     rows = np.flatnonzero((campaign.instrument == "tracker") & (campaign.station == 0) & known)
     if len(rows) < 3:
         if not strict:
             return None
         raise InputError(f"{campaign.source}: {len(rows)} tracker rows of station 0 read the tool tip or a known "
                          "target; the uncompensated error needs at least 3")
-    offset = np.array([campaign.targets.get(t, np.zeros(3)) if t else np.zeros(3) for t in campaign.target[rows]])
+    offset = np.zeros((len(rows), 3))
+    for i in np.flatnonzero(campaign.target[rows] != ""):   # rows of targets only (a million tool tips: no loop)
+        offset[i] = campaign.targets[campaign.target[rows[i]]]
     nominal = machine.tool_tip(campaign.q[rows], campaign.tool[rows], frame="base", point=campaign.point[rows],
-                               offset=offset)
+                               offset=offset if np.any(offset) else None)   # no offset: the tips the checks asked for
     if not spans_plane(nominal):
         if not strict:
             return None

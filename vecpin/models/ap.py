@@ -69,18 +69,21 @@ class APModel(ErrorModel):
         (``mask``: :meth:`ErrorModel.assemble`)."""
         N = len(B)
         mask = self._mask if mask is None else mask
-        J_a = np.einsum("pxj,pim->pxmij", J, B[:, :, 1:])[:, :, mask[1:], :].reshape(N, 3, -1)
+        m, i = np.nonzero(mask[1:])   # the (column, input axis) pairs kept, in the parameters' order
+        J_a = (J[:, :, None, :] * B[:, i, m + 1][:, None, :, None]).reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J, J_a], axis=-1)
 
-    def _perturbed(self, q, b):
-        """(q + q_hat(q), d q_hat_j / d q_i (N,n,n))."""
+    def _perturbed(self, q, b, B=None):
+        """(q + q_hat(q), d q_hat_j / d q_i (N,n,n)); ``B``: the basis values at q when known."""
         c, a = self.split(b)
-        qp = q + c + np.einsum("pim,mij->pj", self._basis_values(q)[:, :, 1:], a, optimize=True)
+        B = self._basis_values(q) if B is None else B
+        qp = q + c + np.einsum("pim,mij->pj", B[:, :, 1:], a, optimize=True)
         D = np.einsum("pim,mij->pij", self._basis_values(q, derivative=True)[:, :, 1:], a, optimize=True)
         return qp, D
 
     def _base_tool_tip(self, q, tool, b, jacobian=True, *, frame="base", point=0, offset=None) -> ModelTip:
-        qp, D = self._perturbed(q, b)
+        B = self._basis_values(q)
+        qp, D = self._perturbed(q, b, B)
         kin = self.machine.kinematics(qp, self._effective_tool(tool, b), jacobian, frame=frame, point=point,
                                       offset=offset)
         if not jacobian:
@@ -89,7 +92,7 @@ class APModel(ErrorModel):
         J_q = J + J @ np.swapaxes(D, 1, 2)
         if jacobian == "q":   # d tip / d q only (ErrorModel.tool_tip)
             return ModelTip(kin.tip, None, J_q, kin.tool_dir, kin.rotation)
-        J_b = self.assemble(J, self._basis_values(q), tool, kin.tool_dir)
+        J_b = self.assemble(J, B, tool, kin.tool_dir)
         return ModelTip(kin.tip, J_b, J_q, kin.tool_dir, kin.rotation)
 
     def _base_workpiece_points(self, q, p_wp, b, jacobian=True) -> ModelPoints:

@@ -357,12 +357,16 @@ class ErrorModel:
         ``noise_`` and ``report_``; returns self."""
         noise = noise or NoiseModel.default(self.machine)
         self.range_ = None  # a former fit's hold (hold_beyond_measured) has no say in this one
+        points: dict = {}
         theta, setup, cov, report = ml_fit(self, campaign, noise, remove_redundant=remove_redundant,
-                                           max_iter=max_iter, underdetermined=underdetermined, progress=progress)
+                                           max_iter=max_iter, underdetermined=underdetermined, progress=progress,
+                                           points=points)
         n = 6 + self.n_parameters  # beyond: station poses and pivots, kept in the setup
         self.b_, self.e0_, self.setup_, self.cov_ = theta[6:n], theta[:6], setup, cov[:n, :n]
         self.noise_, self.report_ = noise, report
         self.range_ = still_hold(self)   # an axis that stood still: its errors held where it stood
+        same = not (self.effects or points["folded"] or self.range_ is not None)   # residuals: the same numbers
+        self._fitted_points = (campaign, np.r_[self.e0_, self.b_], self.setup_, points["y"]) if same else None
         return self
 
     def hold_beyond_measured(self) -> "ErrorModel":
@@ -467,7 +471,9 @@ class ErrorModel:
         :meth:`row_residuals`. ``reregister``: fit the tracker pose to this campaign first
         (the tracker was moved). Effects take time, temperature and approach directions
         from the campaign's rows."""
-        y = self.row_residuals(campaign).y
+        kept = getattr(self, "_fitted_points", None)   # the fit's own points of these rows at these parameters
+        same = kept is not None and kept[0] is campaign and kept[2] is self.setup_ and self.range_ is None
+        y = kept[3] if same and np.array_equal(kept[1], np.r_[self.e0_, self.b_]) else self.row_residuals(campaign).y
         if not reregister:
             return campaign.xyz - y
         out = np.full((len(campaign), 3), np.nan)

@@ -97,7 +97,8 @@ class SixDofModel(ErrorModel):
         N = len(B)
         Bs = B[:, self.slot_axis, :]
         slot_mask = self._slot_mask() if mask is None else mask[:, self.slot_axis]
-        J_coef = np.einsum("pisc,psk->piksc", Jv, Bs)[:, :, slot_mask, :].reshape(N, 3, -1)
+        k, s = np.nonzero(slot_mask)   # the (column, slot) pairs kept, in the parameters' order
+        J_coef = (Jv[:, :, s, :] * Bs[:, s, k][:, None, :, None]).reshape(N, 3, -1)
         return np.concatenate([self._offset_columns(tool, tool_dir), J_coef], axis=-1)
 
     def _q_columns(self, J_q: np.ndarray, Jv: np.ndarray, q: np.ndarray, A: np.ndarray) -> np.ndarray:

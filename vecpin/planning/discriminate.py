@@ -148,14 +148,17 @@ def _after(campaign: Campaign, q: np.ndarray, tool: np.ndarray) -> tuple[Campaig
     return new, feats
 
 
-def _whitened(model: ErrorModel, camp: Campaign, feats: Features) -> tuple[np.ndarray, np.ndarray]:
+def _whitened(model: ErrorModel, camp: Campaign, feats: Features, jacobian: bool = True
+              ) -> tuple[np.ndarray, np.ndarray | None]:
     """(w (N,3): the whitened residuals of ``camp``'s readings under ``model``; H (N,3,P):
     the whitened Jacobian of the readings over theta = [E_0, b], scaled so that H H^T is
     the model's own prediction covariance there (``cov_`` = L L^T, H = J L)): the one
     likelihood at the fitted solution (noise of the reading there and the machine's
-    positioning noise)."""
+    positioning noise). Without ``jacobian``: (w, None)."""
     lik = Likelihood(model, camp, model.noise_, setup=model.setup_, features=feats)
-    ev = lik.evaluate(lik.theta_of(model))
+    ev = lik.evaluate(lik.theta_of(model), jacobian=jacobian)
+    if not jacobian:
+        return np.where(ev.valid, ev.w, 0.0), None
     n = model.cov_.shape[0]
     val, vec = np.linalg.eigh(model.cov_)
     root = vec * np.sqrt(np.clip(val, 0.0, None))  # cov_ = root root^T (semi-definite: terms removed are 0)
@@ -279,5 +282,5 @@ def _pairs(models: list[ErrorModel], camp: Campaign, feats: Features, scatter: f
     out = []
     for i in range(len(models)):
         for j in range(i + 1, len(models)):
-            out.append(_Pair(_whitened(models[i], reading(j), feats)[0], H[i], H[j], scatter))
+            out.append(_Pair(_whitened(models[i], reading(j), feats, jacobian=False)[0], H[i], H[j], scatter))
     return out

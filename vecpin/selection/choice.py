@@ -64,6 +64,7 @@ from vecpin.errors import IdentifiabilityError, InputError, VecpinError
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.poses import unique_rows
 from vecpin.measurement.registration import check_campaign_frames
 from vecpin.models import MODELS, ErrorModel, make_model
 from vecpin.selection.orders import check_folds
@@ -106,6 +107,7 @@ class ModelChoice:
     fixed: bool = False          # a fixed model's one candidate, scored for its gross rows and noise level only
     subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
     grouping: str = "pose"   # what the folds keep together: poses, or the sweeps of a design moving one joint at a time
+    given: str = ""          # why a choice was made although the kind and the order were given
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -151,7 +153,7 @@ class ModelChoice:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
                          "is among the models this campaign supports)")
-        return "\n".join(lines)
+        return "\n".join([self.given] * bool(self.given) + lines)
 
     def sweep(self, kind: str) -> list[Candidate]:
         """The common-order candidates of one kind with Chebyshev everywhere (Paper I Table 2)."""
@@ -183,8 +185,7 @@ def check_basis(machine: Machine, basis: str, alternatives: str = "chebyshev, sp
 
 def _check_request(kinds, families, orders) -> list[int]:
     """Refuse unknown kinds and families and orders below 0: the orders sorted."""
-    orders = sorted(set(int(o) for o in orders))
-    if not orders or orders[0] < 0:
+    if not (orders := sorted(set(int(o) for o in orders))) or orders[0] < 0:
         raise InputError("orders are whole numbers >= 0")
     for k in kinds:
         if k not in MODELS:
@@ -404,8 +405,7 @@ def _subsample(campaign: Campaign, seed: int, rows: bool = False) -> Campaign | 
     always holds whole groups of many commands, never none. ``rows``: the rows kept instead (None: all)."""
     if len(campaign) <= MAX_SELECTION_ROWS:
         return None if rows else campaign
-    _, group = np.unique(np.round(campaign.q, 9), axis=0, return_inverse=True)
-    group = np.asarray(group).ravel()
+    group = unique_rows(np.round(campaign.q, 9))[1]
     rng = np.random.default_rng(seed)
     order = rng.permutation(group.max() + 1)
     per = np.bincount(group)
@@ -513,4 +513,8 @@ def choose_or_fix(machine: Machine, campaign: Campaign, noise: NoiseModel, kind:
     if fixed:   # its one candidate scored for the noise level and its gross rows (:mod:`.screen`)
         choice.fixed = True
         return model, choice
+    if kind != "auto" and order != "auto" and basis == "auto":
+        choice.given = (f"the kind ({kind}) and order ({order}) were given, not the basis: the data chose each axis' "
+                        "basis of that order below (Chebyshev; on an axis turning a full turn also Fourier, with or "
+                        "without a trend); with a basis given too the model is fitted with no choice")
     return choice.chosen.model(machine, **opts), choice

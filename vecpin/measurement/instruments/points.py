@@ -107,7 +107,8 @@ def nominal_points(machine, q: np.ndarray, req: PointRequest) -> np.ndarray:
     """(n,3) [m] the requested points of the nominal machine in the base frame."""
     if req.kind == "workpiece":
         return machine.workpiece_points(q, req.p_wp, jacobian=False).xyz
-    return machine.tool_tip(q, req.tool, frame="base", point=req.point, offset=req.offset)
+    offset = req.offset if np.any(req.offset) else None   # no offset: the tips the campaign's checks asked for
+    return machine.tool_tip(q, req.tool, frame="base", point=req.point, offset=offset)
 
 
 # ---------------------------------------------------------------------- starting values
@@ -128,8 +129,7 @@ def _frames(machine, campaign, rows):
     tool = ~nest
     if tool.any():
         r = rows[tool]
-        kin = machine.kinematics(campaign.q[r], 0.0, jacobian=False, frame="base", point=campaign.point[r])
-        R[tool], o[tool] = kin.rotation, kin.spindle
+        R[tool], o[tool] = machine.tool_placements(campaign.q[r], campaign.point[r])
         lt = campaign.tool[r][:, None] * machine.tool_axis
         tids = ids[tool]
         for i in np.flatnonzero(tids != ""):   # the rows of targets only (a million tool tips: no loop)
