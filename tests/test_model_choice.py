@@ -54,9 +54,8 @@ def test_linearised_cv_agrees_with_refitting_each_fold(flow):
     np.testing.assert_allclose(cand.heldout, ref, rtol=0.02, atol=0.005)  # row by row, within 5 µm
 
 
-CASES = [("portal_xyzcb_c720", "windup", 1.2), ("portal_xyzcb_c720", "spline", 2.0),
-         ("head_xyzab_b540", "periodic_drift", 1.25), ("head_xyzab_b540", "bumps", 3.5),
-         ("gantry_xyzca", "windup", 1.25), ("gantry_xyzca", "mixed", None)]
+# two layouts beyond a turn here; every layout x truth family, over seeds, is benchmarks/bench_truth_families.py
+CASES = [("head_xyzab_b540", "periodic_drift", 1.25), ("gantry_xyzca", "windup", 1.25)]
 # gantry_xyzca windup: 1.15x with plain splines, 1.20x since penalised splines are in the
 # default (a smoothed Z beats Chebyshev 3 on held-out data by less than the noise; the spline
 # and bump truths gain 0.2-0.9x, see vecpin.selection.design.DEFAULT_FAMILIES)
