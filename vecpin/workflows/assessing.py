@@ -189,8 +189,8 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
                          "times) or give the numbers (`mean_error_mm`, `long_term_mm`)")
     group, _ = repeat_groups(c)
     short, long = stats["short"], stats["long"]
-    rep, kind = (long.mean, "long-term") if long is not None else (short.mean, "short-term (no long-term repeats: "
-                                                                                 "optimistic)")
+    rep, kind = (long.mean, "long-term") if long is not None else (
+        short.mean, f"short-term (no repeats {session_gap / 60:g} min or more apart: optimistic)")
     d = drift(c)
     nt = int(np.median(np.bincount(group)[np.bincount(group) > 1]))
     a = Assessment(err.mean_mm, err.max_mm, rep * MM_PER_M, kind,
