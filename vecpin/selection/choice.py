@@ -150,7 +150,9 @@ class ModelChoice:
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
-                         "is among the models this campaign supports)")
+                         "is among the models this campaign supports; unknowns count the tracker pose, the instruments' "
+                         "unknowns and the model terms that move the tip unlike the others, not the redundant terms "
+                         "the model terms above include)")
         return "\n".join(lines)
 
     def sweep(self, kind: str) -> list[Candidate]:
