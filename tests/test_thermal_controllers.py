@@ -206,3 +206,7 @@ def test_a_band_wider_than_the_error_without_is_said(fitted):
             (terms.t0_c + 10, 0.05, 0.01, 0.002, 0.03, 0.005, 0.6)]
     notes = [ln for ln in prediction_lines(terms, rows) if "band's top exceeds" in ln]
     assert len(notes) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in notes[0]
+    assert not [ln for ln in prediction_lines(terms, rows) if "above the error without them" in ln]
+    rows[0] = (terms.t0_c - 10, 0.03, 0.032, 0.013, 0.11, 0.03, 0.23)   # the point above the error without: said
+    worse = [ln for ln in prediction_lines(terms, rows) if "above the error without them" in ln]
+    assert len(worse) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in worse[0]
