@@ -59,7 +59,8 @@ class FitRun(FitResult):
         if not self.noise_rescaled:
             return (f"noise from the data: residuals {s:.2f} ± {sd:.2f} x the stated noise, within the chi2 band: "
                     "the stated noise kept" + (f"\n{parts}" if parts else ""))
-        return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
+        return (f"noise from the data: at the stated noise the chi2 left its band (the model choice's linearised "
+                f"one, or the fit's); every noise sigma (machine and "
                 f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted with it; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
                 "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)"
