@@ -113,10 +113,11 @@ def offset_lines(model: ErrorModel) -> list[str]:
         if name in removed:
             out.append(f"  {what}: not identified by this campaign (removed as redundant), left at 0")
         else:
+            held = name in model.report_.weak or sd[k] > 0.5 * model.priors[k]
             out.append(f"  {what}: {model.b_[k] * MM_PER_M:+.4f} ± {sd[k] * MM_PER_M:.4f} mm (along the tool: the "
                        "tip lies that much farther from the gauge line than the tool length says)"
-                       + ("; held by its prior: the campaign barely determines it (two tool lengths at the same "
-                          "commands do)" if name in model.report_.weak or sd[k] > 0.5 * model.priors[k] else ""))
+                       + ("; held by its prior: the campaign barely determines it" if held else "")
+                       + (" (two tool lengths at the same commands do)" if held and name == "T_offset" else ""))
     return out
 
 
