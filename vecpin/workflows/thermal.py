@@ -114,6 +114,13 @@ def check_controller(controller: str) -> None:
                          "generic: thermal.json only)")
 
 
+def check_campaign(campaign) -> None:
+    """Refuse a campaign the thermal terms cannot be fitted on before any work (no table written yet)."""
+    if campaign.temperature is None:
+        raise InputError(f"{campaign.source}: the thermal terms need a 'temperature' column [°C] in the campaign, "
+                         "the hall sensor's reading at every row (nothing was written)")
+
+
 def make_thermal(model, campaign, out_dir, controller: str, profile: ControllerProfile | str | Path | None = None,
                  axis_map: dict | None = None, p0_mm: dict | None = None) -> ThermalRun:
     """Fit the thermal terms of ``model`` on ``campaign`` (time and temperature columns) and
