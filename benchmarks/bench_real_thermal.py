@@ -191,7 +191,8 @@ def run(path: Path, temps, disp: str, blocks: int) -> list[str]:
     block = np.minimum((np.arange(len(t)) * blocks) // len(t), blocks - 1)
     forms = {"none (the displacement itself)": lambda tr: np.zeros_like(d),
              "controller form (one sensor, one lag)": lambda tr: controller_form(t, T, d, tr)[2],
-             "MLR on every channel": lambda tr: mlr(T, d, tr), "ridge on every channel": lambda tr: ridge(T, d, tr)}
+             "linear regression on every channel, no lag (MLR)": lambda tr: mlr(T, d, tr),
+             "ridge on every channel": lambda tr: ridge(T, d, tr)}
     if "frame_t" in names:          # what Klipper's z_thermal_adjust applies: the frame sensor, no lag
         forms["frame sensor, no lag (Klipper's z_thermal_adjust)"] = lambda tr: mlr(T[:, [names.index("frame_t")]],
                                                                                    d, tr)

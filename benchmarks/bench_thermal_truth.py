@@ -165,18 +165,18 @@ def summary(rows: list[dict]) -> list[str]:
 
 
 WHY = ("Why 20 % is out of reach from such a campaign: the error the terms leave 10 K away is one draw of the "
-       "coefficients' error plus the curvature the straight terms cannot follow, and a campaign over a hall cycle of "
-       "a few kelvin bounds that curvature only to ±{k:.1f} %/K (the median standard deviation over these seeds), "
-       "which 10 K away is that share per kelvin of the whole thermal gain, times ten: as large as the error left "
-       "itself. vecpin draws the curvature from a normal hierarchy whose scale has a half-Cauchy prior of the "
-       "campaign's own resolution, nothing taken from this truth family (drawn around its estimate alone, the "
-       "draws overstated an unresolved curvature: an earlier run's every miss was an overestimate); its point is "
-       "the figure its draws put most often within 20 %, and that share is the chance it prints beside the point "
-       "and the band. An honest chance matches the share of fresh truths within 20 % (first line), and the error "
-       "left then falls evenly among the draws (third line, which says when it does not). A wider temperature "
-       "span resolves more of the curvature and raises the chance (`--amplitude`); there the hierarchy's shrinkage "
-       "towards no curvature can understate one the campaign half resolves, and the curvature is one for all axes "
-       "while this family bends each axis its own way.")
+       "coefficients' error plus the curvature the straight terms cannot follow, and a campaign over this hall "
+       "cycle bounds that curvature only to ±{k:.1f} %/K (the median standard deviation over these seeds), which "
+       "10 K away is that share per kelvin of the whole thermal gain, times ten: a median {c:.0f} um here, against"
+       " a median error left of {left:.0f} um. vecpin draws the curvature from a normal hierarchy whose scale has "
+       "a half-Cauchy prior of the campaign's own resolution, nothing taken from this truth family (drawn around "
+       "its estimate alone, the draws overstated an unresolved curvature: an earlier run's every miss was an "
+       "overestimate); its point is the figure its draws put most often within 20 %, and that share is the chance "
+       "it prints beside the point and the band. An honest chance matches the share of fresh truths within 20 % "
+       "(first line), and the error left then falls evenly among the draws (third line, which says when it does "
+       "not). A wider temperature span resolves more of the curvature and raises the chance (`--amplitude`); there"
+       " the hierarchy's shrinkage towards no curvature can understate one the campaign half resolves, and the "
+       "curvature is one for all axes while this family bends each axis its own way.")
 
 
 def page(rows: list[dict], base: int, amplitude) -> str:
@@ -192,7 +192,9 @@ def page(rows: list[dict], base: int, amplitude) -> str:
                       f"judging); this run drew seeds {base}..{base + len(rows) - 1}: every run draws fresh ones. The "
                       f"hall cycled {amplitude[0]:g}..{amplitude[1]:g} K (amplitude) during the campaigns: the "
                       f"campaigns spanned {np.median([r['span'] for r in rows]):.1f} K (median).", "",
-                      *summary(rows), "", WHY.format(k=np.median([r["kappa_std"] for r in rows]) * 100), "", head,
+                      *summary(rows), "", WHY.format(k=np.median([r["kappa_std"] for r in rows]) * 100,
+                                                     c=np.median([r["kappa_std"] * 10 * r["without"] for r in rows]),
+                                                     left=np.median([r["with"] for r in rows])), "", head,
                       *body, ""])
 
 

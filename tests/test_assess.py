@@ -94,8 +94,12 @@ def test_assess_a_simulated_campaign_and_the_cli(flow, tmp_path, capsys):
                  "--json", str(tmp_path / "a.json")]) == 0
     out = capsys.readouterr().out
     assert "short term" in out and "long term" in out and "WORTHWHILE" in out
+    # at the default gap (30 min) the repeats 15 min apart are one session: the printout says why it is optimistic
+    assert main(["assess", str(tmp_path / "c.csv"), "--machine", "flow_xyzcb"]) == 0
+    assert "short-term (no repeats 30 min or more apart: optimistic) repeatability" in capsys.readouterr().out
     assert main(["assess", "--mean-error", str(3.6 * THOU_MM), "--long-term", str(3.4 * THOU_MM)]) == 0
-    assert "NOT WORTHWHILE" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "NOT WORTHWHILE" in out and "no reduction of the mean predicted: 3 x the floor is above" in out
     # a campaign without repeats cannot be judged
     c = simulate(flow, 1).campaign.subset(np.arange(40))
     write_campaign(tmp_path / "n.csv", c, flow)

@@ -270,7 +270,8 @@ def test_command_line_nests_targets_zones_and_drives(tmp_path, capsys):
     from vecpin.cli import main
     t = tmp_path / "t"
     assert main(["simulate", "trunnion_xyzac", "--out", str(t), "--points", "60", "--nests", "2", "--seed", "3"]) == 0
-    assert "120 table nest rows (2 nests)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "+ 120 rows: 120 table nest rows (2 nests) (" in out   # no "0 more stations", no "0 ball bar rows"
     assert main(["fit", "trunnion_xyzac", str(t / "campaign.csv"), "--model", "6dof", "--basis",
                  "chebyshev", "--order", "3", "--zone", "C=-720:0", "--out", str(t / "m.json"), "--quiet"]) == 0
     out = capsys.readouterr().out

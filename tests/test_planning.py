@@ -242,6 +242,7 @@ def test_plan_cli_prints_prediction_and_comparison(tmp_path, capsys):
                    "this plan (doptimal)", "(given)", "out of sight", "repeated points (eq. 22): 3 commands x 4"):
         assert needle in text
     assert "no repeated points" not in text
+    assert "less than the 30 min that part two sessions" in text   # a short campaign: no long-term repeatability
     assert main(["plan", "flow_xyzcb", "--points", "20", "--order", "2", "--candidates", "300", "--compare",
                  str(out / "plan.csv"), "--out", str(tmp_path / "q"), "--quiet"]) == 0
     text = capsys.readouterr().out

@@ -149,3 +149,18 @@ def test_product_terms_count_against_the_controllers_tables():
     assert room_for_products(siemens.LIMITS_840D.overridden({"max_cross_tables": 25}), 20) == 2
     assert room_for_products(NO_LIMITS, 20) is None
     assert room_for_products(fanuc.LIMITS, 6) == 0
+
+
+def test_why_no_product_terms_are_offered_is_said(machine):
+    """On a turning table: a controller that cannot multiply tables is named as such, apart
+    from one whose table limit takes a subset."""
+    from types import SimpleNamespace
+
+    from vecpin.compensation.products import with_products
+    from vecpin.export import fanuc
+    none = SimpleNamespace(products=(), machine=machine)
+    for limits, words in ((fanuc.LIMITS, "does not multiply one table by another"),
+                          (siemens.LIMITS_840D, "table limit takes only a subset")):
+        notes = []
+        assert with_products(none, limits, "full", None, None, 0, notes) == "full"
+        assert len(notes) == 1 and f"none chosen: {limits.name}" in notes[0] and words in notes[0], notes

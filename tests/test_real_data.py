@@ -126,6 +126,7 @@ def test_default_fit_of_36_poses_is_not_refused(ur10, tmp_path, capsys):
     assert main(["fit", "ur10", str(tmp_path / "train.csv"), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "larger candidates left out: as many unknowns as the campaign's 108 equations or more" in out
+    assert "unknowns: the tracker pose's, the instruments' and the model terms that move" in out
     model = vecpin.ErrorModel.load(tmp_path / "m.json")
     assert model.n_parameters + 6 < 108
     assert json.loads((tmp_path / "m.json").read_text())["selection"]["left_out_unsupported"] > 0

@@ -187,3 +187,15 @@ def test_the_workbench_forms_are_the_commands_options():
     assert verify[:2] == ["before", "after"] and not {"model-file", "tables", "out"} & set(verify)
     tables = {o["name"]: o for o in stage_options(parser, "tables")}
     assert tables["profile"]["kind"] == "file" and "siemens-840d" in tables["controller"]["choices"]
+
+
+def test_vecpin_run_refuses_a_missing_machine_or_input_before_running_anything(tmp_path, capsys):
+    """The machine and the files a stage brings are checked up front, naming their field;
+    a stage left out by ``--stages`` needs none of its files yet (the plan comes before the export)."""
+    path = session(tmp_path, {"plan": {"points": 10}, "import": {"export": "x.csv"}}, machine="flow_xyz")
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert f"{path}, field machine: 'flow_xyz': not a bundled machine (" in capsys.readouterr().err
+    path = session(tmp_path, {"plan": {"points": 10}, "import": {"export": "x.csv"}})
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert f"{path}, field stages.import.export: 'x.csv': no such file (" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

@@ -26,7 +26,7 @@ def test_fit_and_evaluate_name_the_axis_that_never_moved(flow, tmp_path):
         warnings.simplefilter("always")
         run = vecpin.fit(flow, sim.campaign, vecpin.NoiseModel.default(flow), kind="6dof", basis="chebyshev", order=2)
     said = [str(w.message) for w in seen if issubclass(w.category, VecpinWarning)]
-    assert any("did not move in any row (Z at" in s for s in said), said
+    assert any("did not move in any row (Z at" in s and "holds its errors" in s for s in said), said
     moving = simulate(flow, seed=5, truth=sim.truth, design=Design(n_commands=20, n_validation=5)).campaign
     ev = evaluate(run.model, moving)                               # the same tracker, Z over its travel
     assert any("Z" in w and "did not move in the fit's campaign" in w for w in ev.warnings), ev.warnings
@@ -77,3 +77,18 @@ def test_terms_collinear_only_because_a_joint_stood_still_are_held_by_their_prio
     assert extra and set(now.report_.removed) < set(before.report_.removed)
     held = [now.parameter_names.index(n) for n in extra]
     assert np.all(np.abs(now.b_[held]) > 0)          # fitted under their priors, not fixed at zero
+
+
+def test_a_gauge_line_held_by_its_prior_is_said():
+    """T_offset whose standard deviation is most of its prior's (one tool length): the
+    printout says the campaign barely determines it, not only a number."""
+    from types import SimpleNamespace
+
+    from vecpin.workflows.fitting import offset_lines
+    report = SimpleNamespace(removed=[], weak=[])
+    model = SimpleNamespace(report_=report, cov_=np.diag([1.0] * 6 + [4.47e-3**2, 1e-10]), b_=np.array([1.8e-5, 0.0]),
+                            parameter_names=["T_offset", "X.dx.1"], priors=np.array([5e-3, 1e-3]))
+    line, = offset_lines(model)
+    assert line.startswith("  gauge line T_offset: +0.0180 ± 4.4700 mm") and "held by its prior" in line
+    model.cov_ = np.diag([1.0] * 6 + [0.02e-3**2, 1e-10])
+    assert "held by its prior" not in offset_lines(model)[0]

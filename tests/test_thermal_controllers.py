@@ -26,7 +26,7 @@ import pytest
 import vecpin
 from thermal_truth import READERS, Truth, commands, corrected, judged
 from vecpin.compensation.thermal import fit_thermal, remaining_mm
-from vecpin.errors import ControllerLimitError
+from vecpin.errors import ControllerLimitError, InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
 from vecpin.fileio import OutputSet
@@ -206,3 +206,17 @@ def test_a_band_wider_than_the_error_without_is_said(fitted):
             (terms.t0_c + 10, 0.05, 0.01, 0.002, 0.03, 0.005, 0.6)]
     notes = [ln for ln in prediction_lines(terms, rows) if "band's top exceeds" in ln]
     assert len(notes) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in notes[0]
+    assert not [ln for ln in prediction_lines(terms, rows) if "above the error without them" in ln]
+    rows[0] = (terms.t0_c - 10, 0.03, 0.032, 0.013, 0.11, 0.03, 0.23)   # the point above the error without: said
+    worse = [ln for ln in prediction_lines(terms, rows) if "above the error without them" in ln]
+    assert len(worse) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in worse[0]
+
+
+def test_a_campaign_without_temperatures_is_refused_before_the_tables():
+    """``vecpin tables --thermal`` checks the campaign before writing any table."""
+    from types import SimpleNamespace
+
+    from vecpin.workflows.thermal import check_campaign
+    with pytest.raises(InputError, match=r"c\.csv: the thermal terms need a .temperature. column .*was written"):
+        check_campaign(SimpleNamespace(temperature=None, source="c.csv"))
+    check_campaign(SimpleNamespace(temperature=np.zeros(3), source="c.csv"))

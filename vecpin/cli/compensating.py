@@ -14,9 +14,10 @@ def run_tables(args) -> int:
     commands = read_campaign(args.commands, m) if args.commands else None
     thermal = None
     if args.thermal:   # checked before the tables are computed
-        from vecpin.workflows.thermal import check_controller
+        from vecpin.workflows.thermal import check_campaign, check_controller
         check_controller(args.controller)
         thermal = read_campaign(args.thermal, m)
+        check_campaign(thermal)
     zone = zone_option(args.zone)
     for a in zone or {}:
         m.axis(a)

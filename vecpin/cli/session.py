@@ -16,7 +16,8 @@ import re
 import sys
 
 from vecpin.errors import InputError
-from vecpin.workflows.session import INPUT_FIELDS, OUTPUTS, STAGES, Session, load_session, session_error
+from vecpin.workflows.session import (INPUT_FIELDS, OUTPUTS, STAGES, Session, check_inputs, load_session,
+                                     session_error)
 
 #: the command each stage runs
 COMMAND = {"plan": "plan", "import": "import", "assess": "assess", "fit": "fit", "evaluate": "evaluate",
@@ -178,9 +179,10 @@ def run_session(args) -> int:
         if unknown:
             raise InputError(f"--stages: {unknown[0]!r} is not a stage of this session (its stages: "
                              f"{', '.join(commands)})")
+    chosen = args.stages.split(",") if args.stages else list(commands)
+    check_inputs(session, str(args.session), chosen)
     out = check_output_dir(args.out, "out")
     out.mkdir(parents=True, exist_ok=True)
-    chosen = args.stages.split(",") if args.stages else list(commands)
     here = os.getcwd()
     try:
         os.chdir(out)

@@ -84,7 +84,8 @@ def with_products(problem: TableProblem, limits: ControllerLimits, full, after: 
     does not turn, the controller does not multiply tables or takes only a subset)."""
     if not problem.products:
         why = (": the table does not turn" if not product_candidates(problem.machine) else
-               f": {limits.name} does not multiply tables, or its table limit takes a subset")
+               f": {limits.name} does not multiply one table by another (the generic files and SINUMERIK's do)"
+               if not limits.products else f": {limits.name}'s table limit takes only a subset of the tables")
         notes.append(product_note([], False, 0.0, 0.0, why))
         return full
     base = [t.name for t in full.tables]

@@ -200,7 +200,8 @@ class ThermalTerms:
     def lines(self) -> list[str]:
         """The terms in words, one line each."""
         out = [f"thermal terms (errors; the controller corrects their negative): T0 {self.t0_c:.2f} degC, lag "
-               f"{self.lag_h:g} h, fitted over {self.t_range_c[0]:.2f} .. {self.t_range_c[1]:.2f} degC"]
+               f"{self.lag_h:g} h, fitted over {self.t_range_c[0]:.2f} .. {self.t_range_c[1]:.2f} degC (the sensor's "
+               "readings through the lag)"]
         for a in self.axes:
             out.append(f"  {a}: offset {self.offset_um_per_k[a]:+.3f} ± {self.offset_std.get(a, 0.0):.3f} um/K at "
                        f"P0 {self.p0_mm[a]:g} mm, slope {self.slope_um_per_m_per_k[a]:+.3f} ± "

@@ -1,6 +1,8 @@
 """What a fit tells: χ² against its band, residuals, conditioning, removed terms."""
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -100,6 +102,8 @@ class FitReport:
                  f"{self.effective_parameters:.1f} effective), {self.iterations} iterations in {self.seconds:.2f} s",
                  f"chi2 = {self.chi2:.1f}, expected {self.chi2_expected:.1f} ± {self.chi2_sigma:.1f} "
                  f"(3σ band {lo:.1f} .. {hi:.1f}): {verdict}",
-                 f"condition number (prior-scaled, kept terms): {self.condition_number:.3g}"]
+                 f"condition number (prior-scaled, kept terms): {self.condition_number:.3g}"
+                 + (" (the data alone leave some kept terms undetermined: their priors hold them)"
+                    if not math.isfinite(self.condition_number) else "")]
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)

@@ -218,6 +218,9 @@ def still_axes_notes(machine: Machine, campaign) -> list[str]:
     if not still:
         return []
     where = ", ".join(f"{a.name} at {a.to_user(q[0, a.index]):g} {a.unit}" for a in still)
-    return [f"{campaign.source}: {'this axis' if len(still) == 1 else 'these axes'} did not move in any row ({where}): "
-            "the campaign cannot tell how their errors change, so the model holds their errors at that position (no "
-            "slope beyond it); measure them over their travel, or use the model and its tables only where they stood"]
+    one = len(still) == 1
+    its, it = ("its", "it") if one else ("their", "they")
+    return [f"{campaign.source}: {'this axis' if one else 'these axes'} did not move in any row ({where}): "
+            f"the campaign cannot tell how {its} errors change, so the model holds {its} errors at that position (no "
+            f"slope beyond it); measure {'it' if one else 'them'} over {its} travel, or use the model and its tables "
+            f"only where {it} stood"]

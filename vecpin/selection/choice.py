@@ -118,8 +118,7 @@ class ModelChoice:
                  f"  {'uncompensated, the rows scored (tracker frame)':<58s} {'':>11s} {self.uncompensated_mm[0]:13.4f} "
                  f"{self.uncompensated_mm[1]:8.4f}"]
         shown = sorted(self.candidates, key=lambda c: c.mean)[:limit]
-        if self.chosen not in shown:
-            shown.append(self.chosen)
+        shown += [self.chosen] * (self.chosen not in shown)
         for c in sorted(shown, key=lambda c: c.mean):
             mark = " <- chosen" if c is self.chosen else (" <- lowest" if c is self.best else "")
             lines.append(f"  {c.label():<58s} {c.n_terms:11d} {c.mean:13.4f} {c.max:8.4f}{mark}")
@@ -140,9 +139,9 @@ class ModelChoice:
                          "commands at each end of that span were held out together, so the held-out "
                          "rows judge how each candidate extrapolates beyond what it was fitted on, too)")
         if self.before_ends is not None and self.before_ends is not self.chosen:
-            lines.append(f"  (before the bases along them were chosen on their held-out ends: "
-                         f"{self.before_ends.label()}, {self.before_ends.n_terms} model terms, held-out mean "
-                         f"{self.before_ends.mean:.4f} mm)")
+            b = self.before_ends
+            lines.append(f"  (before the bases along them were chosen on their held-out ends: {b.label()}, "
+                         f"{b.n_terms} model terms, held-out mean {b.mean:.4f} mm)")
         if self.gross is not None:
             lines.append(f"gross errors: {self.gross.text}")
         if self.subsample:
@@ -152,7 +151,8 @@ class ModelChoice:
         if self.left_out:
             lines.append(f"  ({self.left_out} larger candidates left out: as many unknowns as the campaign's "
                          f"{self.equations} equations or more, which its {self.rows} rows cannot determine; the choice "
-                         "is among the models this campaign supports)")
+                         "is among the models this campaign supports; unknowns: the tracker pose's, the instruments' "
+                         "and the model terms that move the tip unlike the others, not the redundant ones)")
         return "\n".join([self.given] * bool(self.given) + lines)
 
     def sweep(self, kind: str) -> list[Candidate]:

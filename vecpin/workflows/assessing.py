@@ -122,7 +122,8 @@ class Assessment:
         if self.temperature_range_k is not None:
             out.append(f"  temperature range over the campaign: {self.temperature_range_k:.2f} K in {self.hours:.2f} h")
         out += [f"  expected after compensation: {lo:.4f} .. {hi:.4f} mm mean (2-3 x the floor {self.floor_mm:.4f} mm); "
-                f"predicted reduction of the mean {self.reduction_pct:.0f}% (at 3x)",
+                + (f"predicted reduction of the mean {self.reduction_pct:.0f}% (at 3x)" if self.reduction_pct > 0 else
+                 "no reduction of the mean predicted: 3 x the floor is above the uncompensated mean"),
                 f"  verdict: volumetric compensation is {self.verdict.upper()}"]
         out += ["  limited by: " + lim for lim in self.limits()]
         if self.verdict == "not worthwhile":
@@ -189,8 +190,8 @@ def assess_campaign(campaign: Campaign, machine: Machine, tracker_noise: Tracker
                          "times) or give the numbers (`mean_error_mm`, `long_term_mm`)")
     group, _ = repeat_groups(c)
     short, long = stats["short"], stats["long"]
-    rep, kind = (long.mean, "long-term") if long is not None else (short.mean, "short-term (no long-term repeats: "
-                                                                                 "optimistic)")
+    rep, kind = (long.mean, "long-term") if long is not None else (
+        short.mean, f"short-term (no repeats {session_gap / 60:g} min or more apart: optimistic)")
     d = drift(c)
     nt = int(np.median(np.bincount(group)[np.bincount(group) > 1]))
     a = Assessment(err.mean_mm, err.max_mm, rep * MM_PER_M, kind,

@@ -59,7 +59,8 @@ class FitRun(FitResult):
         if not self.noise_rescaled:
             return (f"noise from the data: residuals {s:.2f} ± {sd:.2f} x the stated noise, within the chi2 band: "
                     "the stated noise kept" + (f"\n{parts}" if parts else ""))
-        return (f"noise from the data: the stated noise was contradicted by the chi2; every noise sigma (machine and "
+        return (f"noise from the data: at the stated noise the chi2 left its band (the model choice's linearised "
+                f"one, or the fit's); every noise sigma (machine and "
                 f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted with it; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
                 "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)"
@@ -112,8 +113,11 @@ def offset_lines(model: ErrorModel) -> list[str]:
         if name in removed:
             out.append(f"  {what}: not identified by this campaign (removed as redundant), left at 0")
         else:
+            held = name in model.report_.weak or sd[k] > 0.5 * model.priors[k]
             out.append(f"  {what}: {model.b_[k] * MM_PER_M:+.4f} ± {sd[k] * MM_PER_M:.4f} mm (along the tool: the "
-                       "tip lies that much farther from the gauge line than the tool length says)")
+                       "tip lies that much farther from the gauge line than the tool length says)"
+                       + ("; held by its prior: the campaign barely determines it" if held else "")
+                       + (" (two tool lengths at the same commands do)" if held and name == "T_offset" else ""))
     return out
 
 

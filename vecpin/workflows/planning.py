@@ -22,6 +22,7 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
+from vecpin.measurement.repeatability import SESSION_GAP_S
 from vecpin.kinematics.axes import is_arm
 from vecpin.planning.armpose import arm_clearance
 from vecpin.planning.armprogram import (APPROACH_SPEED, MOVE_SPEED, arm_dialects, arm_program_name, arm_route,
@@ -84,6 +85,11 @@ class PlanRun:
         if s.repeat_points:
             out.append(f"  repeated points (eq. 22): {s.repeat_points} commands x {s.repeat_times} sequences, "
                        "half at the start and half at the end (short- and long-term repeatability)")
+            if self.time is not None and self.time.total_s < SESSION_GAP_S:
+                out.append(f"    the campaign takes {self.time.total_s / 60:.0f} min, less than the "
+                           f"{SESSION_GAP_S / 60:.0f} min that part two sessions: its repeats give the short-term "
+                           "repeatability only (assess calls it optimistic); for the long-term one, let that long pass "
+                           "before the repeats at the end (a program stop)")
         else:
             out.append("  no repeated points: the decision (assess) needs the machine's repeatability, measured on "
                        "commands repeated in the campaign; add them, e.g. `repeat_points` 9, `repeat_times` 4: nine "

@@ -100,6 +100,25 @@ def session_error(where: str, field_name: str, text: str) -> InputError:
     return InputError(f"{where}, field {field_name}: {text}")
 
 
+def check_inputs(session: Session, where: str, stages: list[str]) -> None:
+    """What the day cannot start without, refused before any of ``stages`` runs, naming its
+    session field: the machine (a bundled name, or a URDF file that exists) and the files the
+    user brings to those stages (:data:`INPUT_FIELDS`)."""
+    from vecpin.kinematics.axes import bundled_machines
+    arg = session.machine_argument()
+    if arg == session.machine and arg not in bundled_machines():
+        raise session_error(where, "machine", f"{arg!r}: not a bundled machine ({', '.join(bundled_machines())}); a "
+                            "URDF is named by its path (ending in .urdf)")
+    if arg != session.machine and not Path(arg).is_file():
+        raise session_error(where, "machine", f"{session.machine!r}: no such URDF file ({arg})")
+    for stage in stages:
+        for name in INPUT_FIELDS.get(stage, ()):
+            value = session.stages.get(stage, {}).get(name)
+            if isinstance(value, str) and value and not Path(session.input_path(value)).is_file():
+                raise session_error(where, f"stages.{stage}.{name}",
+                                    f"{value!r}: no such file ({session.input_path(value)})")
+
+
 def load_session(path: str | Path) -> Session:
     """Read and check a session file (structure and value types; what each option means is
     checked by the command the stage runs). Bad input raises :class:`InputError` naming

@@ -41,9 +41,10 @@ class SimulationRun:
         more = ""
         if full.mixed:
             k = len(np.unique(full.station[full.instrument != "ballbar"])) - 1
-            more = (f" + {len(full) - len(c)} rows: {k} more station{'s' if k != 1 else ''}, "
-                    f"{full.nest_rows.size} table nest rows ({len(sim.nests)} nests), "
-                    f"{full.ballbar_rows.size} ball bar rows")
+            parts = [f"{k} more station{'s' if k != 1 else ''}" if k else "",
+                     f"{full.nest_rows.size} table nest rows ({len(sim.nests)} nests)" if full.nest_rows.size else "",
+                     f"{full.ballbar_rows.size} ball bar rows" if full.ballbar_rows.size else ""]
+            more = f" + {len(full) - len(c)} rows: " + (", ".join(p for p in parts if p) or "other instruments")
         dist = np.linalg.norm(c.xyz, axis=1)
         what = (f"the plan's rows in its order, holders {', '.join(f'{t * MM_PER_M:g}' for t in c.tool_lengths())} mm"
                 if self.planned else f"{design.n_commands} commands x {len(design.tools_mm)} tools "

@@ -82,6 +82,10 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
         out.append(f"  note: at {at} the figure left holds to {WITHIN * 100:.0f} % only with the chance given: so "
                    f"far beyond {hi - lo:.1f} K of measured temperatures the campaign cannot pin what the terms leave "
                    "(how the error bends there); hold vecpin to the band")
+    worse = [t for t, a, b, *_ in rows if b > a and not lo - 1e-9 <= t <= hi + 1e-9]
+    if worse:
+        out.append(f"  note: at {', '.join(f'{t:.2f}' for t in worse)} degC (extrapolated) the figure the terms leave "
+                   "is above the error without them: there vecpin expects the terms to add error, not remove it")
     if loose:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in loose)} degC (extrapolated) the band's top exceeds the "
                    f"error without the terms: the campaign's {hi - lo:.1f} K of temperatures cannot bound how the "
@@ -108,6 +112,13 @@ def check_controller(controller: str) -> None:
     if controller not in KEYS and controller not in ("linuxcnc", "generic"):
         raise InputError(f"`controller` {controller}: no thermal files for it (thermal: {', '.join(KEYS)}, linuxcnc, "
                          "generic: thermal.json only)")
+
+
+def check_campaign(campaign) -> None:
+    """Refuse a campaign the thermal terms cannot be fitted on before any work (no table written yet)."""
+    if campaign.temperature is None:
+        raise InputError(f"{campaign.source}: the thermal terms need a 'temperature' column [°C] in the campaign, "
+                         "the hall sensor's reading at every row (nothing was written)")
 
 
 def make_thermal(model, campaign, out_dir, controller: str, profile: ControllerProfile | str | Path | None = None,

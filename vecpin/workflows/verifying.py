@@ -154,8 +154,8 @@ class Verification:
                    f"{self.gauge_change_mm:+.4f} mm ({self.tables_from})")
         if pred:
             out.append(f"  model: {self.model_label} (best-fit rigid motion removed)")
-        out.append("  for comparison, Paper I Table 3 (another machine: the dissertation's laboratory XYZCB, 35 "
-                   "validation points, short tool):")
+        out.append("  for comparison, Paper I Table 3 (the dissertation's laboratory XYZCB as measured, the machine "
+                   "bundled as flow_xyzcb; 35 validation points, short tool):")
         for name, mean, rm, mx, rx in SEED_TABLE3:
             out.append(f"    {name:<16s} mean {mean:.3f} mm" + (f" ({rm:.1f}%)" if rm else "") +
                        f", max {mx:.3f} mm" + (f" ({rx:.1f}%)" if rx else ""))
