@@ -177,3 +177,36 @@ def test_linuxcnc_component_with_product_terms_lands_on_the_planned_set(machine,
     assert np.abs(back.apply(q) - wanted).max() * 1e3 < 2e-4      # mm, deg
     without = TableSet(m.axis_names, planned.tables)
     assert np.abs(without.apply(q) - wanted).max() * 1e3 > 0.05   # the products matter here
+
+
+def test_products_by_default_where_the_face_is_read_and_the_controller_carries_them(machine):
+    """The default (``products`` None): on where the campaign read the table's face and the controller carries
+    products exactly as planned (generic files, vecpin's LinuxCNC component); on SINUMERIK computed and printed
+    but written only when asked (the unit of its product is inferred); off where the face was not read, the
+    table does not turn, the controller cannot multiply, or its table limit forces a subset (said so)."""
+    from vecpin.compensation.limits import NO_LIMITS
+    from vecpin.compensation.products import products_wanted
+    from vecpin.export import fanuc
+    m = machine
+    for limits in (NO_LIMITS, linuxcnc.LIMITS):
+        assert products_wanted(None, limits, True, m, False) == (True, "", "")
+        offer, held, line = products_wanted(None, limits, False, m, False)
+        assert not offer and "did not read the table's face" in line and "`products`" in line
+        assert products_wanted(True, limits, False, m, False) == (True, "", "")
+        assert products_wanted(False, limits, True, m, False)[:2] == (False, "")
+    offer, held, _ = products_wanted(None, siemens.LIMITS_840D, True, m, False)
+    assert offer and "inferred" in held and "confirm it on the machine" in held and "`products`" in held
+    assert products_wanted(True, siemens.LIMITS_828D, True, m, False) == (True, "", "")
+    offer, _, line = products_wanted(None, fanuc.LIMITS, True, m, False)
+    assert not offer and "does not multiply tables" in line
+    offer, _, line = products_wanted(True, siemens.LIMITS_828D, True, m, True)
+    assert not offer and "subset" in line
+    assert products_wanted(None, NO_LIMITS, True, vecpin.Machine.load("cincinnati_20v"), False) == (False, "", "")
+
+
+def test_command_line_products_default_on_and_off():
+    from vecpin.cli.main import build_parser
+    parse = build_parser().parse_args
+    assert parse(["tables", "m.json", "--out", "d"]).products is None
+    assert parse(["tables", "m.json", "--out", "d", "--products"]).products is True
+    assert parse(["tables", "m.json", "--out", "d", "--no-products"]).products is False

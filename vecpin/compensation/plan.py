@@ -23,7 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model, geometric_model, hold_ranges,
                                            nominal_tip, pitch_names, pseudo_commands, rich_table_bases, table_bases)
 from vecpin.compensation.tableproblem import TableProblem
-from vecpin.compensation.products import product_candidates, with_products
+from vecpin.compensation.products import product_candidates, products_wanted, with_products
 from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
@@ -142,7 +142,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int | None = None, tools_mm=None, table_order: int | None = None, seed: int = 0,
                 modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
-                zone: dict | None = None, progress=None, products: bool = False) -> TablePlan:
+                zone: dict | None = None, progress=None, products: bool | None = None) -> TablePlan:
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
@@ -153,7 +153,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
-    ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
+    ``products``: :mod:`~vecpin.compensation.products` on, off, None: its default. Limits checked before solving."""
     lim = _limits(limits)
     model._check_fitted()
     model, left_out = _geometric(model)
@@ -161,9 +161,10 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                    commands, n_commands)
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
-    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
-                                                            n_commands, seed, zone, products and lim.products)
     m = model.machine
+    offer, held_back, product_line = products_wanted(products, lim, frame.kind == "face", m, req.cons is not None)
+    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
+                                                            n_commands, seed, zone, offer)
     unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
@@ -187,7 +188,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
     left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
-    full = with_products(problem, lim, full, after, add, req.n_points, report.notes) if products else full
+    full, full_row = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection = None
@@ -208,7 +209,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if modulo_axes:   # what folding onto one turn costs: the same tables over the whole travel, on the same points
         if progress:
             progress(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
-        written = report.rows[-1] if selection is not None else report.rows[2 if tables is pitch else 1]
+        written = report.rows[-1] if selection is not None else report.rows[-1] if tables is pitch else full_row
         flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names())
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
@@ -217,6 +218,16 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left)
+
+
+def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
+                   report: CompensationReport, held_back: str, line: str):
+    """(the full set with the product terms where they are written, its report row); ``line``: the report's
+    line where none were offered (:func:`~vecpin.compensation.products.with_products`)."""
+    if problem.products:
+        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back)
+    report.notes += [line] if line else []
+    return full, report.rows[-1] if full.products else report.rows[1]
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:

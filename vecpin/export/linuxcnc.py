@@ -268,6 +268,10 @@ def _readme(job: ExportJob, kind: int, joints: dict[str, int], cross: bool) -> s
            f"errors): the HAL component `{hal.COMP_FILE}`, which adds them between motion and the drives; the joint",
            "gets both, vecpin's full table set."] if cross else
           ["No cross tables in this set (pitch only): the straightness, squareness and rotary-axis errors stay."])
+    if job.tables.products:
+        s += ["", f"Product terms {' '.join(p.name for p in job.tables.products)} (a tilt fixed to the turning table): "
+              "the component adds, per term, its table over the rotary joint times its factor (a fixed ramp, a plain "
+              f"number) over the linear joint to the output joint (`{hal.COMP_FILE}`'s header says how it holds them)."]
     s += ["", "Add to the machine's INI file, per joint (joints count from 0):", "", "```ini"]
     for t in job.tables.tables:
         if t.is_pitch:
