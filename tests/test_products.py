@@ -201,7 +201,9 @@ def test_products_by_default_where_the_face_is_read_and_the_controller_carries_t
     assert not offer and "does not multiply tables" in line
     offer, _, line = products_wanted(True, siemens.LIMITS_828D, True, m, True)
     assert not offer and "subset" in line
-    assert products_wanted(None, NO_LIMITS, True, vecpin.Machine.load("cincinnati_20v"), False) == (False, "", "")
+    head = vecpin.Machine.load("cincinnati_20v")
+    assert products_wanted(None, NO_LIMITS, True, head, False) == (False, "", "")
+    assert "does not turn" in products_wanted(True, NO_LIMITS, True, head, False)[2]
 
 
 def test_command_line_products_default_on_and_off():

@@ -81,8 +81,10 @@ def products_wanted(asked: bool | None, limits: ControllerLimits, face: bool, ma
     when none are offered ('' : none)). ``asked``: True / False, or None: the default (on where the
     campaign read the table's face, ``face``, and ``limits`` carry them without a caveat);
     ``subset``: the controller's table limit forces a subset of the cross tables."""
-    if not product_candidates(machine) or asked is False:
-        return False, "", ("" if asked is not False or not face else f"{LABEL}: turned off")
+    if not product_candidates(machine):
+        return False, "", f"{LABEL}: none, the table does not turn" if asked else ""
+    if asked is False:
+        return False, "", f"{LABEL}: turned off" if face else ""
     if not limits.products:
         return False, "", (f"{LABEL}: none, {limits.name} does not multiply tables (a tilt fixed to the turning table "
                            "stays)" if asked or face else "")
