@@ -247,4 +247,16 @@ def linuxcnc_corrections(folder: Path, axes: list[str], q_user: np.ndarray) -> n
             r"\{(\d+), (\d+), (\d+), (\S+), (\S+), (vecpin_v\d+)\}", text):
         x = float(start) + float(step) * np.arange(int(n))
         out[:, int(o)] += np.interp(q_user[:, int(i)], x, arrays[name][:int(n)])
+    # product terms (the component's header): entry k of vecpin_ptables (a table over a rotary joint, the output
+    # joint's units) times entry k of vecpin_pfactors (a plain number over a linear joint), added to the output joint
+    value = {}
+    for o, i, n, start, step, name in re.findall(
+            r"\{(\d+), (\d+), (\d+), (\S+), (\S+), (vecpin_p[tf]\d+)\}", text):
+        x = float(start) + float(step) * np.arange(int(n))
+        value[name] = (int(o), np.interp(q_user[:, int(i)], x, arrays[name][:int(n)]))
+    for name, (o, v) in value.items():
+        if name.startswith("vecpin_pt"):
+            factor_out, factor = value["vecpin_pf" + name[len("vecpin_pt"):]]
+            assert factor_out == o, f"{name}: its factor has another output joint"
+            out[:, o] += v * factor
     return out

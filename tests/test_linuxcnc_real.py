@@ -11,6 +11,9 @@ The configuration has the following-error limits of LinuxCNC's sample configurat
 run checks the component's feedback path: no fault on the way, motion's following error
 0 at rest, a following error when the drives stall. Mutated copies of the component
 (feedback held at 0, negated, keeping or doubling the correction, ...) must fail.
+The component's product terms (a table over a rotary joint times a ramp over a linear
+joint) reach the drive as planned within 1e-6 mm, and a component with the product's sign
+flipped or its ramp read on the wrong joint fails.
 """
 import re
 
@@ -19,7 +22,7 @@ import pytest
 
 import linuxcnc_sim as lcnc
 import vecpin
-from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.compensation.tables import CompensationTable, ProductTable, TableSet
 from vecpin.export import linuxcnc
 from vecpin.export.common import ExportJob
 from vecpin.export.profile import AxisProfile, ControllerProfile
@@ -227,3 +230,64 @@ def test_a_broken_feedback_path_fails(tmp_path, mutant):
         assert found == []
     else:
         assert any(re.search(MUTANTS[mutant][1], f) for f in found), f"{mutant}: not caught as expected; found {found}"
+
+
+def product_set(m, rng) -> TableSet:
+    """Pitch tables of every axis (smooth_tables) and two product terms, no cross table: Z += a table of C
+    (cos and sin of C, 30-60 µm) times a ramp of X (-1 .. 1), Y += a table of A times a ramp of Z."""
+    pitch = [t for t in smooth_tables(m, 41, rng).tables if t.is_pitch]
+    products = []
+    for out, r, f in (("Z", "C", "X"), ("Y", "A", "Z")):
+        ar, af = m.axis(r), m.axis(f)
+        angle = np.linspace(ar.lower, ar.upper, 41)
+        values = rng.uniform(3e-5, 6e-5) * np.cos(angle + rng.uniform(0, 2 * np.pi)) + 1e-5 * np.sin(3 * angle)
+        products.append(ProductTable(CompensationTable(r, out, ar.lower, ar.travel / 40, values),
+                                     CompensationTable(f, out, af.lower, af.travel / 40, np.linspace(-1.0, 1.0, 41))))
+    return TableSet(m.axis_names, pitch, products=products)
+
+
+def product_corrections(m, tables: TableSet, pos_user: np.ndarray) -> np.ndarray:
+    """The planned product terms at the commanded positions [mm or deg], computed here: each term's table
+    (interpolated at its rotary axis) times its factor (at its linear axis), added to its output axis."""
+    out = np.zeros_like(pos_user)
+    for p in tables.products:
+        t, f = p.table, p.factor
+        value = [np.interp(m.axis(x.input_axis).to_si(pos_user[:, m.axis(x.input_axis).index]), x.positions, x.values)
+                 for x in (t, f)]
+        out[:, m.axis(t.output_axis).index] += m.axis(t.output_axis).to_user(value[0] * value[1])
+    return out
+
+
+PRODUCT = "target[t->out] += vecpin_lookup(t, pos_cmd(t->in)) * vecpin_lookup(f, pos_cmd(f->in));"
+PRODUCT_MUTANTS = {
+    "product sign flipped": {PRODUCT: PRODUCT.replace("+=", "-=")},
+    "ramp read on the rotary joint": {PRODUCT: PRODUCT.replace("pos_cmd(f->in)", "pos_cmd(t->in)")},
+}
+
+
+@pytest.mark.parametrize("mutant", [None, *PRODUCT_MUTANTS], ids=["vecpin's component", *PRODUCT_MUTANTS])
+def test_product_terms_reach_the_drive_as_planned(tmp_path, mutant):
+    """trunnion_xyzac with pitch tables and two product terms: the correction LinuxCNC's drives get from the
+    component (drive position - motor-pos-cmd, and its correction pin) equals the planned product terms,
+    computed here from the plan's arrays, within 1e-6 mm at table points, between them, beyond the ends and at
+    random poses; the feedback path stays sound. Each mutated copy (the product's sign flipped, the ramp read
+    on the rotary joint instead of its linear one) fails."""
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(11)
+    tables = product_set(m, rng)
+    prof = ControllerProfile()
+    write(tables, m, prof, tmp_path)
+    if mutant is not None:
+        mutate(tmp_path, PRODUCT_MUTANTS[mutant])
+    lcnc.build_component(tmp_path / "vecpin_vec.comp")
+    q = probe_commands(m, tables, rng, n_random=3)
+    rb = lcnc.machine_readback(m, tmp_path, q, linuxcnc.joint_numbers(m, prof), 0, component=True, stall=False)
+    want = product_corrections(m, tables, rb.pos)
+    off = np.abs(rb.cross - want).max()
+    if mutant is not None:
+        assert off > 1e-3, f"{mutant}: not caught (the drive's correction is off the plan by {off:.3g} mm)"
+        return
+    assert lcnc.feedback_problems(rb, 1e-6) == []
+    assert off < 1e-6 and np.abs(rb.correction - want).max() < 1e-6
+    np.testing.assert_allclose(rb.pitch, vecpin_corrections(m, tables, rb.pos, "pitch"), atol=TOL_MM)
+    assert np.abs(want).max() > 0.02      # the products are not trivially met

@@ -198,7 +198,8 @@ def test_the_table_face_from_nest_heights_is_kept(tmp_path):
     """A trunnion measured with table nests: given the nests' heights above the table's face,
     the tables keep that face square to the spindle, so the compensated machine judged as a
     part on the true table is within 10 % of the error's shape; without them it keeps the
-    volume's mean orientation, and the true table's tilt against it stays in the figure."""
+    volume's mean orientation, and the true table's tilt against it stays in the figure. With the face read,
+    the default tables carry product terms (a tilt fixed to the turning table)."""
     m = vecpin.Machine.load("trunnion_xyzac")
     sim = simulate(m, seed=5, design=Design(n_commands=200, n_validation=10))
     noise = NoiseModel.default(m, "spherical", tracker=sim.truth.tracker.noise)
@@ -213,6 +214,7 @@ def test_the_table_face_from_nest_heights_is_kept(tmp_path):
             from vecpin.measurement.tableframe import check_nest_heights
             model.setup_ = replace(model.setup_, nest_heights=check_nest_heights(heights, model.setup_.nests))
         plan = plan_tables(model, uncertainty=False)
+        assert bool(plan.tables.products) == face        # the default: product terms where the face was read
         assert ("table's face" in plan.frame.how) == face
         assert ("tilt the compensated volume against the table's face by" in plan.frame.text) == face
         write_tables(plan.tables, m, tmp_path / str(face))

@@ -7,10 +7,13 @@
   controller simulated from the manual (tests/controller_appliers.py: each table adds its own
   value, the product of the two tables' values is added as another), they land on the planned
   set within 0.0002 mm at the tool tip, and vecpin's reader reads back the same set.
-* The generic files carry them, applied by the part-frame judge's own reader."""
+* The generic files carry them, applied by the part-frame judge's own reader.
+* vecpin's LinuxCNC HAL component carries them (its own definition, in the component's header): read from
+  the C arrays by the independent applier, they land on the planned set within 0.0002 mm; the real
+  controller applies them in tests/test_linuxcnc_real.py."""
 import numpy as np
 import pytest
-from controller_appliers import siemens_corrections
+from controller_appliers import linuxcnc_corrections, siemens_corrections
 from controller_cases import profile as user_profile
 from controller_cases import reference_positions
 from part_frame_judge import apply as judge_apply
@@ -21,8 +24,10 @@ from vecpin.compensation.functions import all_table_names, pseudo_commands, tabl
 from vecpin.compensation.products import choose_products, product_candidates
 from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.tables import CompensationTable, ProductTable, TableSet
-from vecpin.export import siemens
+from vecpin.export import linuxcnc, siemens
+from vecpin.export.profile import ControllerProfile
 from vecpin.export.common import ExportJob
+from vecpin.errors import InputError
 from vecpin.export.generic import write_tables
 from vecpin.fileio import OutputSet
 
@@ -149,18 +154,63 @@ def test_product_terms_count_against_the_controllers_tables():
     assert room_for_products(siemens.LIMITS_840D.overridden({"max_cross_tables": 25}), 20) == 2
     assert room_for_products(NO_LIMITS, 20) is None
     assert room_for_products(fanuc.LIMITS, 6) == 0
+    assert room_for_products(linuxcnc.LIMITS, 30) is None       # vecpin's own HAL component: no table limit
 
 
-def test_why_no_product_terms_are_offered_is_said(machine):
-    """On a turning table: a controller that cannot multiply tables is named as such, apart
-    from one whose table limit takes a subset."""
-    from types import SimpleNamespace
+def test_linuxcnc_component_with_product_terms_lands_on_the_planned_set(machine, tmp_path):
+    """The component's product arrays (table over the rotary joint times factor over the linear joint, added to
+    the output joint), applied by the test's own reader of the C source with the COMP_FILEs, give the planned
+    commands and the tool tip within 0.0002 mm; vecpin's reader reads back the same set."""
+    m = machine
+    planned = _product_set(m)
+    prof = ControllerProfile()
+    with OutputSet(tmp_path) as out:
+        names = linuxcnc.write(ExportJob(planned, m, prof, linuxcnc.LIMITS, out))
+    assert "vecpin_vec.comp" in names
+    q = pseudo_commands(m, 400, 7)
+    q_user = m.to_user(q)
+    applied = m.to_si(q_user + linuxcnc_corrections(tmp_path, list(m.axis_names), q_user))
+    wanted = planned.apply(q)
+    tips = [m.tool_tip(c, np.full(len(q), 0.25), frame="workpiece") for c in (applied, wanted)]
+    assert np.abs(tips[0] - tips[1]).max() * 1e3 < 2e-4
+    back = linuxcnc.read(tmp_path, m, prof)
+    assert sorted(p.name for p in back.products) == ["xc*x", "zc*x"]
+    assert np.abs(back.apply(q) - wanted).max() * 1e3 < 2e-4      # mm, deg
+    without = TableSet(m.axis_names, planned.tables)
+    assert np.abs(without.apply(q) - wanted).max() * 1e3 > 0.05   # the products matter here
 
-    from vecpin.compensation.products import with_products
+
+def test_products_by_default_where_the_face_is_read_and_the_controller_carries_them(machine):
+    """The default (``products`` None): on where the campaign read the table's face and the controller carries
+    products exactly as planned (generic files, vecpin's LinuxCNC component); on SINUMERIK computed and printed
+    but written only when asked (the unit of its product is inferred); off where the face was not read, the
+    table does not turn, the controller cannot multiply, or its table limit forces a subset (said so)."""
+    from vecpin.compensation.limits import NO_LIMITS
+    from vecpin.compensation.products import products_wanted
     from vecpin.export import fanuc
-    none = SimpleNamespace(products=(), machine=machine)
-    for limits, words in ((fanuc.LIMITS, "does not multiply one table by another"),
-                          (siemens.LIMITS_840D, "table limit takes only a subset")):
-        notes = []
-        assert with_products(none, limits, "full", None, None, 0, notes) == "full"
-        assert len(notes) == 1 and f"none chosen: {limits.name}" in notes[0] and words in notes[0], notes
+    m = machine
+    for limits in (NO_LIMITS, linuxcnc.LIMITS):
+        assert products_wanted(None, limits, True, m, False) == (True, "", "")
+        offer, held, line = products_wanted(None, limits, False, m, False)
+        assert not offer and "did not read the table's face" in line and "`products`" in line
+        assert products_wanted(True, limits, False, m, False) == (True, "", "")
+        assert products_wanted(False, limits, True, m, False)[:2] == (False, "")
+    offer, held, _ = products_wanted(None, siemens.LIMITS_840D, True, m, False)
+    assert offer and "inferred" in held and "confirm it on the machine" in held and "`products`" in held
+    assert products_wanted(True, siemens.LIMITS_828D, True, m, False) == (True, "", "")
+    offer, _, line = products_wanted(None, fanuc.LIMITS, True, m, False)
+    assert not offer and "does not multiply tables" in line
+    offer, _, line = products_wanted(True, siemens.LIMITS_828D, True, m, True)
+    assert not offer and "subset" in line
+    head = vecpin.Machine.load("cincinnati_20v")
+    assert products_wanted(None, NO_LIMITS, True, head, False) == (False, "", "")
+    with pytest.raises(InputError, match="has no rotary axis that turns the table"):
+        products_wanted(True, NO_LIMITS, True, head, False)
+
+
+def test_command_line_products_default_on_and_off():
+    from vecpin.cli.main import build_parser
+    parse = build_parser().parse_args
+    assert parse(["tables", "m.json", "--out", "d"]).products is None
+    assert parse(["tables", "m.json", "--out", "d", "--products"]).products is True
+    assert parse(["tables", "m.json", "--out", "d", "--no-products"]).products is False

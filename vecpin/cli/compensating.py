@@ -1,6 +1,8 @@
 """``vecpin tables``: compensation tables of a fitted model for a controller; the sign check."""
 from __future__ import annotations
 
+import argparse
+
 from vecpin.cli.common import progress, say, zone_option
 
 
@@ -87,10 +89,13 @@ def add_commands(sub) -> None:
                         "fitted in, else the whole measured region)")
     s.add_argument("--out", required=True, help="output folder: tables.json, tables.csv (mm, deg), the controller's "
                    "files and their README")
-    s.add_argument("--products", action="store_true",
+    s.add_argument("--products", action=argparse.BooleanOptionalAction, default=None,
                    help="on a machine whose table turns, add product terms (a table of the rotary axis times a ramp of "
-                        "a linear axis: a tilt fixed to the table) where they lower the error; generic files and "
-                        "SINUMERIK ($AN_CEC_MULT_BY_TABLE) only (default: none)")
+                        "a linear axis: a tilt fixed to the table) where they lower the error; generic files, LinuxCNC "
+                        "(vecpin's HAL component) and SINUMERIK ($AN_CEC_MULT_BY_TABLE). Default: on where the model "
+                        "was fitted with the nests' heights above the table's face (--nest-height) and the controller "
+                        "carries them as planned (generic, LinuxCNC); on SINUMERIK only with --products (the unit of "
+                        "its product is inferred from the manual: confirm on the machine); --no-products: none")
     s.add_argument("--thermal", metavar="CSV", help="campaign with time and temperature columns: also fit the "
                    "controller's thermal terms (offset and slope per linear axis, tool growth) and write them "
                    "(thermal.json, the controller's thermal files; default: none)")

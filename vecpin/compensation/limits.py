@@ -41,7 +41,8 @@ class ControllerLimits:
     ``no_circular`` / ``forbid_output``: selection constraints of the controller.
     ``source``: where the numbers come from (printed with every limit error).
     ``products``: the controller multiplies a table by another (Siemens ``$AN_CEC_MULT_BY_TABLE``):
-    each product term takes two of its cross tables.
+    each product term takes two of its cross tables. ``products_caveat``: why the controller's
+    meaning of a product is not certain ('': it is; else product terms are written only when asked for).
     ``hold``: for a controller that resamples (``resampled``), ``hold(tables, machine)``
     gives a table set as the controller will hold it (the export layer writes its files
     and reads them back), so that the subset search can judge its best sets as written;
@@ -60,6 +61,7 @@ class ControllerLimits:
     fixed: tuple[str, ...] = ()
     source: str = ""
     products: bool = False
+    products_caveat: str = ""
     hold: Callable | None = field(default=None, compare=False, repr=False)
 
     # ------------------------------------------------------------------ overrides

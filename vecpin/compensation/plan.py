@@ -23,7 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model, geometric_model, hold_ranges,
                                            nominal_tip, pitch_names, pseudo_commands, rich_table_bases, table_bases)
 from vecpin.compensation.tableproblem import TableProblem
-from vecpin.compensation.products import product_candidates, with_products
+from vecpin.compensation.products import product_candidates, products_wanted, with_products
 from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
                                        measured_box, model_as_actual, model_reference_frame, reference_commands)
@@ -139,17 +139,11 @@ def parameter_spread(model: ErrorModel, tables: TableSet | None, q: np.ndarray, 
 
 
 @one_blas_thread
-def _check_products(model: ErrorModel, products: bool) -> None:
-    if products and not product_candidates(model.machine):
-        raise InputError(f"`products`: {model.machine.name} has no rotary axis that turns the table, and product terms "
-                         "multiply a turning table's table by a linear axis' ramp: leave them out")
-
-
 def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, max_tables: int | None = None,
                 no_circular: bool | None = None, forbid_output=(), points: int | None = None, method: str = "exact",
                 n_commands: int | None = None, tools_mm=None, table_order: int | None = None, seed: int = 0,
                 modulo_axes=(), commands: np.ndarray | None = None, uncertainty: bool = True,
-                zone: dict | None = None, progress=None, products: bool = False) -> TablePlan:
+                zone: dict | None = None, progress=None, products: bool | None = None) -> TablePlan:
     """Compensation tables of a fitted model under a controller's ``limits``
     (None: no controller limit, vecpin's generic files).
 
@@ -160,17 +154,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     and repeat. ``uncertainty``: add the parameter-uncertainty spread to each row.
     ``zone``: {axis: (low, high)} mm/deg, fit the tables in this region only (a machine
     calibrated in zones, seed Section 2.6), within what the model's campaign measured.
-    ``products``: offer :mod:`~vecpin.compensation.products`. Every limit is checked before the first solve."""
-    lim, _ = _limits(limits), model._check_fitted()
-    _check_products(model, products)
+    ``products``: :mod:`~vecpin.compensation.products` on, off, None: its default. Limits checked before solving."""
+    lim, say = _limits(limits), progress or (lambda text: None)
+    model._check_fitted()
     model, left_out = _geometric(model)
     req = _request(model, lim, max_tables, no_circular, forbid_output, points, method, modulo_axes, tools_mm,
                    commands, n_commands)
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
-    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
-                                                            n_commands, seed, zone, products and lim.products)
     m = model.machine
+    offer, held_back, product_line = products_wanted(products, lim, frame.kind == "face", m, req.cons is not None)
+    problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
+                                                            n_commands, seed, zone, offer)
     unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
@@ -190,19 +185,17 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         return part
 
     before = add("uncompensated (model)", None, 0)
-    if progress:
-        progress("solving the full table set")
+    say("solving the full table set")
     full = _full_tables(model, problem, frame, bool(unmeasured), modulo_axes, hold, req.n_points)
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
     left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
-    full = with_products(problem, lim, full, after, add, req.n_points, report.notes) if products else full
+    full, full_row = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection, tables = None, (pitch if req.pitch_only or req.only_pitch_note else full)
     if req.cons is not None:
-        if progress:
-            progress(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
+        say(f"choosing {req.cons.max_tables} of the {m.n_axes * (m.n_axes - 1)} cross tables ({method})")
         search = TableProblem(actual, m, q[:SUBSET_COMMANDS], tools, modulo_axes=tuple(modulo_axes), hold=hold,
                               hold_turn=frame.hold_turn, bases=table_bases(m, table_order or 8, "fourier",
                                                                            tuple(modulo_axes), lo, hi))
@@ -214,9 +207,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     lim.check_tables(tables)
     fold_note = None
     if modulo_axes:   # what folding onto one turn costs: the same tables over the whole travel, on the same points
-        if progress:
-            progress(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
-        written = report.rows[-1] if selection is not None else report.rows[2 if tables is pitch else 1]
+        say(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
+        written = report.rows[-1] if selection is not None else report.rows[-1] if tables is pitch else full_row
         flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names())
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
@@ -225,6 +217,16 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left, rows[id(tables)][1])
+
+
+def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
+                   report: CompensationReport, held_back: str, line: str):
+    """(the full set with the product terms where they are written, its report row); ``line``: the report's
+    line where none were offered (:func:`~vecpin.compensation.products.with_products`)."""
+    if problem.products:
+        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back)
+    report.notes += [line] if line else []
+    return full, report.rows[-1] if full.products else report.rows[1]
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:

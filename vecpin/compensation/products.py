@@ -15,6 +15,13 @@ the full table set (not where the controller's table limit forces a subset), and
 forward selection on the problem's linearised error: a term stays when it lowers it by at
 least :data:`MIN_GAIN` of what is left, within the controller's table count (two tables per
 term). The set with them is kept only when its error in the part's frame is lower.
+
+By default (:func:`products_wanted`) they are on where the campaign reads the table's face
+(the fit was given the nests' heights above it: the tables keep the table, and a tilt fixed
+to it is what is left) and the controller carries them exactly as planned (vecpin's generic
+files, vecpin's LinuxCNC component). Where the controller's meaning of a product is
+inferred (``ControllerLimits.products_caveat``: SINUMERIK) they are computed and their gain
+printed, but written only when asked for.
 """
 from __future__ import annotations
 
@@ -22,6 +29,7 @@ import numpy as np
 
 from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tableproblem import TableProblem
+from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.units import norm_mm
 
@@ -65,29 +73,58 @@ def choose_products(problem: TableProblem, base: list[str], room: int | None) ->
     return sorted(chosen)
 
 
-def product_note(chosen: list[str], kept: bool, before_mm: float, after_mm: float, why: str = "") -> str:
-    """The report's line on product terms: which, what they do in the part's frame, and whether they are used."""
+LABEL = "product terms (a table of a turning table's axis times a ramp of a linear axis)"
+
+
+def products_wanted(asked: bool | None, limits: ControllerLimits, face: bool, machine: Machine,
+                    subset: bool) -> tuple[bool, str, str]:
+    """(offer product terms, why they are computed but not written ('' : written), the report's line
+    when none are offered ('' : none)). ``asked``: True / False, or None: the default (on where the
+    campaign read the table's face, ``face``, and ``limits`` carry them without a caveat);
+    ``subset``: the controller's table limit forces a subset of the cross tables. Asked for on a machine
+    whose table does not turn: refused (:class:`InputError`), before anything is solved."""
+    if not product_candidates(machine):
+        if asked:
+            raise InputError(f"`products`: {machine.name} has no rotary axis that turns the table, and product terms "
+                             "multiply a turning table's table by a linear axis' ramp: leave them out")
+        return False, "", ""
+    if asked is False:
+        return False, "", f"{LABEL}: turned off" if face else ""
+    if not limits.products:
+        return False, "", (f"{LABEL}: none, {limits.name} does not multiply tables (a tilt fixed to the turning table "
+                           "stays)" if asked or face else "")
+    if subset:
+        return False, "", (f"{LABEL}: left out, the controller's table limit takes a subset of the cross tables and "
+                           "they would compete for it" if asked or face else "")
+    if asked is None and not face:
+        return False, "", (f"{LABEL}: not by default, the campaign did not read the table's face (nests' heights above "
+                           "it); ask for them with `products`")
+    if asked is None and limits.products_caveat:
+        return True, limits.products_caveat + "; ask for them with `products`", ""
+    return True, "", ""
+
+
+def product_note(chosen: list[str], kept: bool, before_mm: float, after_mm: float, why: str = "",
+                 held_back: str = "") -> str:
+    """The report's line on product terms: which, what they do in the part's frame, and whether they are used
+    (``held_back``: why they are computed but not written)."""
     if not chosen:
-        return f"product terms (a table of a turning table's axis times a ramp of a linear axis): none chosen{why}"
-    verdict = "used" if kept else "not used (they do not lower the error in the part's frame)"
+        return f"{LABEL}: none chosen{why}"
+    verdict = ("used" if kept and not held_back else f"not written by default: {held_back}" if kept else
+               "not used (they do not lower the error in the part's frame)")
     return (f"product terms {' '.join(chosen)} (a table of the rotary axis times a fixed ramp of the linear axis, "
             f"-1 .. 1 over its measured range: a tilt fixed to the turning table): the full tables leave "
             f"{before_mm:.4f} mm, with them {after_mm:.4f} mm (model-predicted, part's frame); {verdict}")
 
 
 def with_products(problem: TableProblem, limits: ControllerLimits, full, after: np.ndarray, add, n_points: int,
-                  notes: list[str]):
+                  notes: list[str], held_back: str = ""):
     """The table set to write: the full set ``full`` (its errors ``after`` (N,3) [m], part's frame)
-    with the chosen product terms where they lower the error in the part's frame;
-    ``add(label, tables, n)`` adds a report row and returns its errors; the report's line on them
-    goes into ``notes``. None are offered where the problem has no product columns (the table
-    does not turn, the controller does not multiply tables or takes only a subset)."""
-    if not problem.products:
-        why = (": the table does not turn" if not product_candidates(problem.machine) else
-               f": {limits.name} does not multiply one table by another (the generic files and SINUMERIK's do)"
-               if not limits.products else f": {limits.name}'s table limit takes only a subset of the tables")
-        notes.append(product_note([], False, 0.0, 0.0, why))
-        return full
+    with the chosen product terms where they lower the error in the part's frame and are not
+    ``held_back`` (why not written: then their row and what they would gain are reported, and
+    ``full`` returned); ``add(label, tables, n)`` adds a report row and returns its errors; the
+    report's line on them goes into ``notes``. The problem has product columns
+    (:func:`products_wanted` offered them)."""
     base = [t.name for t in full.tables]
     room = room_for_products(limits, sum(not t.is_pitch for t in full.tables))
     chosen = choose_products(problem, base, room)
@@ -95,9 +132,9 @@ def with_products(problem: TableProblem, limits: ControllerLimits, full, after: 
         notes.append(product_note([], False, 0.0, 0.0, f": none lowers the error by {MIN_GAIN:.0%} or more"))
         return full
     tables = problem.solve(base + chosen).discretise(n_points)
-    err = add(f"full tables + product terms {' '.join(chosen)} (model-predicted)", tables,
-              len(tables.tables) + TABLES_PER_TERM * len(chosen))
+    err = add(f"full tables + product terms {' '.join(chosen)} (model-predicted{', not written' if held_back else ''})",
+              tables, len(tables.tables) + TABLES_PER_TERM * len(chosen))
     before_mm, after_mm = (float(norm_mm(e).mean()) for e in (after, err))
     kept = after_mm < before_mm
-    notes.append(product_note(chosen, kept, before_mm, after_mm))
-    return tables if kept else full
+    notes.append(product_note(chosen, kept, before_mm, after_mm, held_back=held_back))
+    return tables if kept and not held_back else full

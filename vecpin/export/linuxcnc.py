@@ -55,9 +55,9 @@ LINELEN = 255       # src/emc/linuxcnc.h:18; fgets reads at most LINELEN - 1 cha
 MAX_JOINTS = 16     # EMCMOT_MAX_JOINTS, src/emc/motion/emcmotcfg.h
 
 LIMITS = ControllerLimits(
-    "linuxcnc", max_pitch_points=COMP_SIZE, max_cross_points=COMP_SIZE,
+    "linuxcnc", max_pitch_points=COMP_SIZE, max_cross_points=COMP_SIZE, products=True,
     source="LinuxCNC: COMP_FILE (one joint's own position, at most 256 entries, motion.h EMCMOT_COMP_SIZE) for "
-           "pitch, vecpin's HAL component for cross tables (the same 256 points)")
+           "pitch, vecpin's HAL component for cross tables and product terms (the same 256 points)")
 
 
 def comp_file_name(axis: str) -> str:
@@ -238,7 +238,11 @@ def write(job: ExportJob) -> list[str]:
         job.out.write_text(name, "\n".join(lines) + "\n")
         names.append(name)
     n_joints = ini_joints(job.profile) or max(joints.values()) + 1
-    cross = any(not t.is_pitch for t in job.tables.tables)
+    cross = any(not t.is_pitch for t in job.tables.tables) or bool(job.tables.products)
+    for p in job.tables.products:
+        if p.table.modulo or p.factor.modulo:
+            raise ControllerLimitError(f"linuxcnc: product term {p.name} is modulo, but the component reads its tables "
+                                       "at the raw joint position: make the tables without `modulo_axes`")
     if cross:
         job.out.write_text(hal.COMP_FILE, hal.component_source(m, job.tables, joints, n_joints))
         job.out.write_text(hal.HAL_FILE, "\n".join(_hal_header(m) + hal.hal_lines(joints, n_joints)) + "\n")
@@ -264,6 +268,10 @@ def _readme(job: ExportJob, kind: int, joints: dict[str, int], cross: bool) -> s
            f"errors): the HAL component `{hal.COMP_FILE}`, which adds them between motion and the drives; the joint",
            "gets both, vecpin's full table set."] if cross else
           ["No cross tables in this set (pitch only): the straightness, squareness and rotary-axis errors stay."])
+    if job.tables.products:
+        s += ["", f"Product terms {' '.join(p.name for p in job.tables.products)} (a tilt fixed to the turning table): "
+              "the component adds, per term, its table over the rotary joint times its factor (a fixed ramp, a plain "
+              f"number) over the linear joint to the output joint (`{hal.COMP_FILE}`'s header says how it holds them)."]
     s += ["", "Add to the machine's INI file, per joint (joints count from 0):", "", "```ini"]
     for t in job.tables.tables:
         if t.is_pitch:
@@ -362,11 +370,14 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
                                       "do not depend on the direction", k + 1)
         start, step = equidistant(path, nominal, 1, "nominal positions")
         tables.append(CompensationTable(a.name, a.name, float(a.to_si(start)), float(a.to_si(step)), a.to_si(fwd)))
+    products = []
     if (folder / hal.COMP_FILE).exists():
-        tables += hal.read_component(folder / hal.COMP_FILE, machine, joint_numbers(machine, profile))
+        joints = joint_numbers(machine, profile)
+        products = hal.read_products(folder / hal.COMP_FILE, machine, joints)
+        tables += hal.read_component(folder / hal.COMP_FILE, machine, joints, empty_ok=bool(products))
     if not tables:
         raise ControllerFileError(folder, f"no comp_<AXIS>.txt file for the axes {', '.join(machine.axis_names)}")
-    return TableSet(machine.axis_names, tables, 0.0)
+    return TableSet(machine.axis_names, tables, 0.0, products=products)
 
 
 FORMAT = ControllerFormat(

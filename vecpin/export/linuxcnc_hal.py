@@ -21,6 +21,18 @@ and the drives, per joint ``n``, with two functions in the servo thread:
   ``velocity * period`` more following error (0.5 mm at 500 mm/s and 1 ms). Never run,
   it leaves the feedback at 0: a following error on the first move.
 
+Product terms (:mod:`vecpin.compensation.products`, a tilt fixed to a turning table): each
+adds ``table(joint r) * factor(joint l)`` to joint ``o``'s ``c_o``; ``table`` a table over
+the rotary joint ``r`` in ``o``'s units, ``factor`` a plain number over the linear joint
+``l`` (a fixed ramp), both read like the cross tables. This is vecpin's own definition
+(the component is vecpin's), checked on the real controller (tests/test_linuxcnc_real.py).
+In the source: per term a comment ``/* product NAME: joint o (O) += table over joint r (R)
+times factor over joint l (L) */``, then the table's and the factor's arrays
+``vecpin_pt<k>`` and ``vecpin_pf<k>``, each after a comment ``/* product table|factor
+NAME: joint .. from joint .., start S, step H, N points */``; the entries of
+``vecpin_ptables`` and ``vecpin_pfactors`` (``{out, in, n, start, step, values}``) pair
+them by index.
+
 The pitch tables stay in the joints' ``COMP_FILE`` (added by motion to
 ``motor-pos-cmd``): the joint gets pitch plus cross, vecpin's full table set.
 The correction only applies while ``enable`` is true (wire ``motion.is-all-homed``):
@@ -40,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.tables import CompensationTable, TableSet
+from vecpin.compensation.tables import CompensationTable, ProductTable, TableSet
 from vecpin.errors import ControllerFileError
 from vecpin.export.common import read_lines
 from vecpin.kinematics.machine import Machine
@@ -51,6 +63,9 @@ HAL_FILE = COMPONENT + ".hal"
 HAL_NAME = COMPONENT.replace("_", "-")        # halcompile turns '_' into '-' in HAL names
 DEFAULT_SLEW = 1.0                            # units/s while the correction switches on or off
 
+_PRODUCT = re.compile(r"^/\* product (?P<kind>table|factor) (?P<name>[\w*-]+): joint (?P<out>\d+) \((?P<oname>[^)]*)\) "
+                      r"from joint (?P<inp>\d+) \((?P<iname>[^)]*)\), start (?P<start>\S+), step (?P<step>\S+), "
+                      r"(?P<n>\d+) points \*/$")
 _TABLE = re.compile(r"^/\* table (?P<name>[\w-]+): joint (?P<out>\d+) \((?P<oname>[^)]*)\) from joint (?P<inp>\d+) "
                     r"\((?P<iname>[^)]*)\), start (?P<start>\S+), step (?P<step>\S+), (?P<n>\d+) points \*/$")
 
@@ -62,8 +77,8 @@ def _number(v: float) -> str:
 
 
 def component_source(machine: Machine, tables: TableSet, joints: dict[str, int], n_joints: int) -> str:
-    """The ``halcompile`` source of the component for the cross tables of ``tables``
-    (SI, vecpin convention), written in joint units (mm, deg); ``joints``: LinuxCNC
+    """The ``halcompile`` source of the component for the cross tables and product terms of
+    ``tables`` (SI, vecpin convention), written in joint units (mm, deg); ``joints``: LinuxCNC
     joint number of every axis; ``n_joints``: the component's pin count (``[KINS] JOINTS``)."""
     cross = [t for t in tables.tables if not t.is_pitch]
     lines = [f'component {COMPONENT} "vecpin volumetric compensation of {machine.name}: cross tables between '
@@ -102,8 +117,42 @@ def component_source(machine: Machine, tables: TableSet, joints: dict[str, int],
     lines.append(f"#define VECPIN_N_TABLES {len(cross)}")
     lines.append("static const vecpin_table vecpin_tables[VECPIN_N_TABLES + 1] = {"
                  + ", ".join(entries + ["{0, 0, 0, 0.0, 0.0, 0}"]) + "};")
+    lines += _product_source(machine, tables.products, joints)
     lines += [_FUNCTION.replace("N_JOINTS", str(n_joints)), ""]
     return "\n".join(lines)
+
+
+def _entry(machine: Machine, t: CompensationTable, out: int, joints: dict[str, int], array: str) -> str:
+    ai = machine.axis(t.input_axis)
+    return (f"{{{out}, {joints[t.input_axis]}, {len(t.values)}, {_number(ai.to_user(t.start))}, "
+            f"{_number(ai.to_user(t.step))}, {array}}}")
+
+
+def _product_source(machine: Machine, products: list[ProductTable], joints: dict[str, int]) -> list[str]:
+    """The C arrays of the product terms (module docstring): per term its table over the rotary
+    joint (output joint's units) and its factor over the linear joint (a plain number)."""
+    lines, tabs, facs = [], [], []
+    for k, p in enumerate(products):
+        t, f = p.table, p.factor
+        ao, ar, al = machine.axis(t.output_axis), machine.axis(t.input_axis), machine.axis(f.input_axis)
+        o = joints[ao.name]
+        lines.append(f"/* product {p.name}: joint {o} ({ao.name}) += table over joint {joints[ar.name]} ({ar.name}) "
+                     f"times factor over joint {joints[al.name]} ({al.name}) */")
+        for kind, tab, values, arr in (("table", t, ao.to_user(t.values), f"vecpin_pt{k}"),
+                                       ("factor", f, np.asarray(f.values, float), f"vecpin_pf{k}")):
+            ai = machine.axis(tab.input_axis)
+            lines.append(f"/* product {kind} {p.name}: joint {o} ({ao.name}) from joint {joints[ai.name]} "
+                         f"({ai.name}), start {_number(ai.to_user(tab.start))}, step {_number(ai.to_user(tab.step))}, "
+                         f"{len(values)} points */")
+            lines.append(f"static const double {arr}[{len(values)}] = {{{', '.join(_number(v) for v in values)}}};")
+        tabs.append(_entry(machine, t, o, joints, f"vecpin_pt{k}"))
+        facs.append(_entry(machine, f, o, joints, f"vecpin_pf{k}"))
+    end = ["{0, 0, 0, 0.0, 0.0, 0}"]
+    return lines + [f"#define VECPIN_N_PRODUCTS {len(products)}",
+                    "static const vecpin_table vecpin_ptables[VECPIN_N_PRODUCTS + 1] = {" + ", ".join(tabs + end)
+                    + "};",
+                    "static const vecpin_table vecpin_pfactors[VECPIN_N_PRODUCTS + 1] = {" + ", ".join(facs + end)
+                    + "};"]
 
 
 _FUNCTION = r"""
@@ -135,6 +184,11 @@ FUNCTION(command) {
     if (enable)
         for (k = 0; k < VECPIN_N_TABLES; k++)
             target[vecpin_tables[k].out] += vecpin_lookup(&vecpin_tables[k], pos_cmd(vecpin_tables[k].in));
+    if (enable)
+        for (k = 0; k < VECPIN_N_PRODUCTS; k++) {  /* product terms: table(joint r) * factor(joint l) */
+            const vecpin_table *t = &vecpin_ptables[k], *f = &vecpin_pfactors[k];
+            target[t->out] += vecpin_lookup(t, pos_cmd(t->in)) * vecpin_lookup(f, pos_cmd(f->in));
+        }
     for (j = 0; j < N_JOINTS; j++) {
         double d = target[j] - applied[j];
         if (ramping && d > dmax) { applied[j] += dmax; done = 0; }
@@ -179,9 +233,11 @@ def hal_lines(joints: dict[str, int], n_joints: int, drive_cmd: dict[int, str] |
     return out
 
 
-def read_component(path: Path, machine: Machine, joints: dict[str, int]) -> list[CompensationTable]:
+def read_component(path: Path, machine: Machine, joints: dict[str, int],
+                   empty_ok: bool = False) -> list[CompensationTable]:
     """The cross tables of a ``vecpin_vec.comp`` (SI), from its table comments and arrays;
-    raises where the comment and the array disagree or a joint is not the profile's."""
+    raises where the comment and the array disagree or a joint is not the profile's, and
+    where it has no table (``empty_ok``: it has product terms, :func:`read_products`)."""
     path = Path(path)
     lines = read_lines(path, "utf-8")
     by_joint = {n: a for a, n in joints.items()}
@@ -207,6 +263,41 @@ def read_component(path: Path, machine: Machine, joints: dict[str, int]) -> list
         ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
         tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(float(m.group("start")))),
                                         float(ai.to_si(float(m.group("step")))), ao.to_si(values)))
-    if not tables:
+    if not tables and not empty_ok:
         raise ControllerFileError(path, "no table in the component")
     return tables
+
+
+def read_products(path: Path, machine: Machine, joints: dict[str, int]) -> list[ProductTable]:
+    """The product terms of a ``vecpin_vec.comp`` (SI tables, plain factors): each term's table and
+    factor from their comments and arrays; raises where a term lacks one of them, a factor's
+    output is not its table's, or a joint is not the profile's."""
+    path = Path(path)
+    lines = read_lines(path, "utf-8")
+    by_joint = {n: a for a, n in joints.items()}
+    found: dict[str, dict[str, CompensationTable]] = {}
+    for no, ln in enumerate(lines, 1):
+        m = _PRODUCT.match(ln.strip())
+        if not m:
+            continue
+        nxt = lines[no] if no < len(lines) else ""
+        arr = re.match(r"^static const double vecpin_p[tf]\d+\[(\d+)\] = \{(.*)\};$", nxt.strip())
+        n = int(m.group("n"))
+        if arr is None or int(arr.group(1)) != n or len(arr.group(2).split(",")) != n:
+            raise ControllerFileError(path, f"product {m.group('kind')} {m.group('name')}: no array of {n} values on "
+                                      "the next line", no)
+        for j, name in ((int(m.group("out")), m.group("oname")), (int(m.group("inp")), m.group("iname"))):
+            if by_joint.get(j) != name:
+                raise ControllerFileError(path, f"joint {j} is {name} in the file but "
+                                          f"{by_joint.get(j, 'no axis')} in the profile", no)
+        ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
+        values = np.array([float(v) for v in arr.group(2).split(",")])
+        found.setdefault(m.group("name"), {})[m.group("kind")] = CompensationTable(
+            ai.name, ao.name, float(ai.to_si(float(m.group("start")))), float(ai.to_si(float(m.group("step")))),
+            ao.to_si(values) if m.group("kind") == "table" else values)
+    out = []
+    for name, parts in found.items():
+        if set(parts) != {"table", "factor"}:
+            raise ControllerFileError(path, f"product {name} has no {({'table', 'factor'} - set(parts)).pop()}")
+        out.append(ProductTable(parts["table"], parts["factor"]))
+    return out

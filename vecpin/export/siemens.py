@@ -49,13 +49,16 @@ from vecpin.kinematics.machine import Machine
 
 CEC_FILE, EEC_FILE, REFP_FILE, README = "NC_CEC.INI", "AX_EEC.INI", "MD_REFP.INI", "README_SIEMENS.md"
 
+PRODUCTS_CAVEAT = ("the unit of the product of two CEC tables (mm x mm read as mm) is inferred from Function Manual K3 "
+                   "(03/2013 p.249), not confirmed on a SINUMERIK: confirm it on the machine (a sign test on a product "
+                   "term's table) before loading them")
 LIMITS_840D = ControllerLimits(
     "siemens-840d", max_cross_tables=64,
     source="840D sl: points per table from MD18342 (CEC) / MD38000 (EEC), tables: 64 per the seed (Section 2.2); "
-           "set your machine's in the profile", products=True)
+           "set your machine's in the profile", products=True, products_caveat=PRODUCTS_CAVEAT)
 LIMITS_828D = ControllerLimits(
     "siemens-828d", max_cross_tables=8, max_cross_points=200, fixed=("max_cross_tables", "max_cross_points"),
-    products=True,
+    products=True, products_caveat=PRODUCTS_CAVEAT,
     source="828D sag compensation option: fixed 8 tables x 200 points, not extendable (K3 03/2013 p.264)")
 
 

@@ -144,7 +144,7 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
                 points: int | None = None, tools_mm=None, modulo_axes=(), commands: Campaign | None = None,
                 sign_test: str | None = None, uncertainty: bool = True, zone=None,
                 user_commands: UserCommands | None = None, progress: Callable[[str], None] | None = None,
-                products: bool = False) -> TableRun:
+                products: bool | None = None) -> TableRun:
     """Tables of ``model`` for ``controller``, written into ``out_dir`` with the generic files.
 
     ``profile``: the machine's controller profile (path or object); ``axis_map``: NC axis
@@ -152,8 +152,8 @@ def make_tables(model: ErrorModel, out_dir: str | Path, controller: str = "gener
     table name for which to write a sign-test program; ``zone``: {axis: (low, high)}
     mm/deg, the region the tables are fitted in (default: the model's zone);
     ``user_commands``: how the READMEs name the sign test's commands (default: the Python
-    calls; the command line gives its commands); ``products``: offer product terms on a turning
-    table where the controller multiplies tables (:mod:`vecpin.compensation.products`). A profile
+    calls; the command line gives its commands); ``products``: product terms on a turning table, as
+    :func:`~vecpin.compensation.plan.plan_tables` takes them (None: its default). A profile
     axis with a following drive gets its tables for both drives, and a gantry skew of
     the model on it a differential table between them (:mod:`vecpin.export.drives`)."""
     m = model.machine
