@@ -205,6 +205,7 @@ def test_verify_compares_like_with_like(machines):
     v, t = sim.validation, sim.validation_truth
     both = verify(m, v, t, model=model)
     assert "relative to the table" in both.frame and both.before.predicted is not None and not both.warnings
+    assert [n for n in both.notes if n.startswith("the table's face was not read")]   # no nest heights in the fit
     with pytest.raises(InputError, match="no nest rows: on trunnion_xyzac the model's figures are the tip relative"):
         verify(m, v.primary(), t.primary(), model=model)   # the model's frame is the table's: not seen at the tool
     tool = verify(m, v.primary(), t.primary())

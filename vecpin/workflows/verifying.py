@@ -374,7 +374,16 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
             "mm mean on the compensated run (" + ("the model's" if model is not None else "default") +
             " tracker noise): the measured figures carry it")
     net = [net_of_noise(r, run, tt, noise, machine, removed=4) for r, run, tt in zip(residual, (before, after), seen)]
-    return _Measured(b, a, [norm_mm(r) for r in residual], seen, frame, [note], [], net, shape)
+    return _Measured(b, a, [norm_mm(r) for r in residual], seen, frame, [note] + _face_unread(model), [], net, shape)
+
+
+def _face_unread(model: ErrorModel | None) -> list[str]:
+    """The note where the model's fit had no nest heights: the table's face was not read."""
+    if model is None or len(getattr(model.setup_, "nest_heights", {})) >= 3:
+        return []
+    return ["the table's face was not read (the fit had no heights of the nests above it): the table is taken as the "
+            "model places it, and a tilt of the true face against that, which nests without their heights cannot "
+            "show, adds to what a part clamped on the face sees; give the nests' heights to the fit to judge it"]
 
 
 def _predict(machine: Machine, model: ErrorModel, tables: TableSet | None, m: _Measured, dT: float, table: bool,
