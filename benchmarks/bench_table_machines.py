@@ -39,7 +39,7 @@ from vecpin.compensation.frame import in_reference_frame, reference_frame
 from vecpin.compensation.functions import truth_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import plan_tables
-from vecpin.measurement.campaign import PAPER_I_TOOLS, Campaign
+from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.features import Features
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import make_model
@@ -49,7 +49,7 @@ from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.timing import run_times
 from vecpin.simulation.effects import TrueEffect
-from vecpin.simulation.floor import table_floor, true_compensated_error
+from vecpin.simulation.floor import PAPER_I_TOOLS, table_floor, true_compensated_error
 from vecpin.simulation.independent import IndependentMachine
 from vecpin.simulation.judge import validation_commands
 from vecpin.simulation.simulate import Design, simulate
