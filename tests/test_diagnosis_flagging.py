@@ -32,3 +32,29 @@ def test_flagged_rows_of_a_lagged_warm_up_are_judged_with_the_whole_history():
     whole = np.linalg.norm(model.row_residuals(c, feats).metric[late], axis=1)
     alone = np.linalg.norm(model.row_residuals(c.subset(late), feats.subset(late)).metric, axis=1)
     assert np.all(alone > 3 * whole), (alone, whole)
+
+
+def test_rows_an_effect_fitted_to_the_other_rows_predicts_are_not_gross_errors():
+    """A backlash of X misfits the rows read after X reversed; before it is in the model the worst of them look
+    like gross errors. With backlash fitted to the other rows (the flagged ones left out), those rows are within
+    the noise: kept. A real gross error (0.5 mm on one row) is predicted by no candidate fitted without it."""
+    from vecpin.diagnosis.flagging import explained_by_effects
+    from vecpin.simulation.effects import TrueEffect
+    m = vecpin.Machine.load("flow_xyzcb")
+    noise = NoiseModel.default(m, "spherical")
+    c = simulate(m, seed=12, design=Design(n_commands=100, n_validation=5),
+                 effects=[TrueEffect("backlash", ("X",), 0.05, seed=2)]).campaign
+    gross = 7
+    c.xyz[gross] += 5e-4 / np.sqrt(3)                   # 0.5 mm
+    feats = Features.from_campaign(c)
+    plain = make_model("6dof", m, 3).fit(c, noise)
+    miss = np.linalg.norm(plain.row_residuals(c, feats).metric, axis=1)
+    worst = np.setdiff1d(np.argsort(miss)[-6:], [gross])[-3:]   # the backlash rows the plain model misfits most
+    flagged = np.r_[worst, gross]
+    rows = np.setdiff1d(np.arange(len(c)), flagged)
+    base = make_model("6dof", m, 3).fit(c.subset(rows), noise)
+    back, by = explained_by_effects(base, c, noise, feats, rows, flagged, ["backlash", "thermal"], 0.01)
+    assert gross not in back and set(back) & set(worst), (back, worst)
+    assert by and all(b.startswith("backlash") for b in by), by
+    # and with no effect that could: nothing is put back
+    assert explained_by_effects(base, c, noise, feats, rows, flagged, ["thermal"], 0.01)[0].size == 0

@@ -236,6 +236,13 @@ def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
         pb.say(f"{st.outliers.size} rows flagged as outliers; refitting without them")
         st.base_model = pb.fit(st.camp, [])
         st.blin, st.bev = st.linearise(pb, st.base_model)
+    back, by = fl.explained_by_effects(st.base_model, pb.campaign, pb.noise, pb.all_feats, st.rows, st.outliers,
+                                       pb.names, pb.alpha)
+    if len(back):   # a misfit on a few rows an effect fitted to the other rows predicts: not gross errors, kept
+        pb.say(f"{len(back)} flagged rows are predicted by {', '.join(by)} fitted to the other rows: kept")
+        st.keep_rows(pb, np.setdiff1d(st.outliers, back))
+        st.base_model = pb.fit(st.camp, [])
+        st.blin, st.bev = st.linearise(pb, st.base_model)
     held = distances_mm(st.blin, st.bev["heldout"])
     rep = st.base_model.report_
     st.base_info.update(heldout_mean_mm=float(held.mean()), heldout_max_mm=float(held.max()), rows=int(len(st.rows)),

@@ -8,11 +8,11 @@ import copy
 from typing import Callable
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, special
 
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.result import EffectScore
-from vecpin.diagnosis.scoring import distances_mm
+from vecpin.diagnosis.scoring import Kinematics, candidate_effects, distances_mm, effect_columns
 from vecpin.errors import InputError, VecpinError
 from vecpin.identification.crossval import Linearised
 from vecpin.kinematics.machine import Machine
@@ -67,6 +67,58 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feats: Features, rows: np.ndarray,
+                         flagged: np.ndarray, names: list[str], alpha: float) -> tuple[np.ndarray, list[str]]:
+    """(the flagged rows an effect candidate predicts, those candidates' labels). A systematic misfit that sits on
+    a few rows (the reversal rows of a backlash, the far corner of a skew) looks like gross errors until its
+    effect is in the model; a gross error is a row no other row shares. Per candidate (every instance of
+    ``names``): the base model and the candidate fitted, linearised at the base model's solution, to the rows
+    kept (``rows``: the flagged rows do not steer it); the candidate must be significant there (F-test of its
+    chi2 gain at ``alpha`` over the candidates); a flagged row is explained when its residual under that fit is
+    within the limit the flags use, against the noise alone (the fit's uncertainty there does not excuse it)."""
+    if not flagged.size:
+        return flagged, []
+    try:
+        lo = Linearised(base_model, campaign, noise, feats)
+        kin = Kinematics(base_model, lo, feats)
+        cands = candidate_effects(base_model.machine, feats, names, campaign.q)
+    except VecpinError:
+        return np.array([], int), []
+    v = lo.valid.astype(float)
+    Jk = (lo.J[rows] * v[rows][..., None]).reshape(-1, lo.J.shape[-1])
+    wk = (lo.w[rows] * v[rows]).ravel()
+    n_eq = max(float(v[rows].sum()), 1.0)
+    M0 = linalg.inv(Jk.T @ Jk + np.eye(Jk.shape[1]))
+    g0 = Jk.T @ wk - lo.psi0
+    d0 = M0 @ g0
+    scatter = max(float(np.sum((wk - Jk @ d0) ** 2)) / n_eq, 1e-300)
+    level = gross_.robust_level(np.sum((lo.w * v)[rows] ** 2, axis=1), lo.valid[rows])
+    out, why = set(), []
+    for c in cands:
+        c.prepare(campaign, feats)
+        try:
+            Jc = effect_columns(kin, lo, c, feats)[1] * v[..., None]
+        except VecpinError:
+            continue
+        k = Jc.shape[-1]
+        Jck = Jc[rows].reshape(-1, k)
+        B = Jk.T @ Jck
+        S = Jck.T @ Jck + np.eye(k) - B.T @ M0 @ B
+        gc = Jck.T @ wk - B.T @ d0
+        dc = linalg.solve(S, gc, assume_a="sym")
+        gain = float(gc @ dc)
+        if not float(special.fdtrc(k, max(n_eq - Jk.shape[1] - k, 1.0), gain / k / scatter)) < alpha / len(cands):
+            continue
+        dz = d0 - M0 @ B @ dc
+        wf = lo.w[flagged] - lo.J[flagged] @ dz - Jc[flagged] @ dc
+        s = np.sum(np.where(lo.valid[flagged], wf, 0.0) ** 2, axis=1)
+        hit = flagged[~gross_.beyond(s, lo.valid[flagged], level, len(campaign), OUTLIER_P)]
+        if hit.size:
+            out.update(hit.tolist())
+            why.append(c.label)
+    return np.array(sorted(out), int), why
 
 
 def _rows(lin: Linearised, rows: np.ndarray) -> Linearised:
