@@ -26,41 +26,27 @@ class GantrySkew(Effect):
     keys = (Key("about", "x", "", "frame axis of the rotation", str, ("x", "y", "z")),
             Key("depends", None, "", "axis the simulated angle varies along (default: the first axis)", str))
 
-    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, orders: dict | None = None,
-                 joint: int = 0, **kw):
+    def __init__(self, machine, axes=(), about: str = "x", order: int = 3, orders: dict | None = None, **kw):
         if orders is not None:
             kw["orders"] = {str(k): int(v) for k, v in orders.items()}
-        if joint:
-            kw["joint"] = int(joint)
         super().__init__(machine, axes, about=about, order=order, **kw)
-        self.about, self.order, self.joint = about, int(order), int(joint)
+        self.about, self.order = about, int(order)
         if self.options.get("depends"):
             machine.axis(self.options["depends"])
         # the series order along each other axis (``orders`` caps it where a campaign visits few positions)
         self.orders = {a.name: int((orders or {}).get(a.name, self.order)) for a in machine.axes
                        if a.name != self.axes[0]}
         self.others = [k for k, o in self.orders.items() if o >= 1]
-        # ``joint``: the angle also varies with the axis itself and each other linear axis together (products of
-        # their series up to this order): twin drives out of step by an amount that depends on where the load is
-        self.paired = [k for k in self.others if machine.axis(k).kind == "linear"] if self.joint >= 1 else []
 
     @property
     def label(self) -> str:
         return f"{self.name}[{self.axes[0]}/{self.about}]"
 
     def parameters(self):
-        return ([self._p(f"{k}.{j}", "angle", 1e-3) for k in self.others for j in range(1, self.orders[k] + 1)]
-                + [self._p(f"{self.axes[0]}*{k}.{i}{j}", "angle", 1e-3) for k in self.paired
-                   for i in range(1, self.joint + 1) for j in range(1, min(self.joint, self.orders[k]) + 1)])
+        return [self._p(f"{k}.{j}", "angle", 1e-3) for k in self.others for j in range(1, self.orders[k] + 1)]
 
     def _basis(self, q):
-        cols = [axis_chebyshev(self.machine, k, q, self.orders[k]) for k in self.others]
-        if self.paired:
-            own = axis_chebyshev(self.machine, self.axes[0], q, self.joint)
-            for k in self.paired:
-                other = axis_chebyshev(self.machine, k, q, min(self.joint, self.orders[k]))
-                cols.append((own[:, :, None] * other[:, None, :]).reshape(len(q), -1))
-        return np.concatenate(cols, axis=1)
+        return np.concatenate([axis_chebyshev(self.machine, k, q, self.orders[k]) for k in self.others], axis=1)
 
     def tip(self, ctx, feats):
         F = ctx.frames(self.axes[0])
@@ -77,19 +63,15 @@ class GantrySkew(Effect):
         """The series along each other axis cut to that axis' distinct positions less one
         (an axis visited at one position drops out)."""
         orders = {k: min(o, design.max_order(k)) for k, o in self.orders.items()}
-        joint = min(self.joint, design.max_order(self.axes[0]))
         if not any(o >= 1 for o in orders.values()):
             return None
-        if orders == self.orders and joint == self.joint:
+        if orders == self.orders:
             return self
-        return type(self)(self.machine, self.axes, **(self.options | {"orders": orders, "joint": joint}))
+        return type(self)(self.machine, self.axes, **(self.options | {"orders": orders}))
 
     @classmethod
     def candidates(cls, machine, feats):
-        """Every linear axis but the last, about each frame axis; the angle a sum over the other axes plus their
-        products with the axis itself (order 3: a twin-drive yaw that changes with the load's position)."""
-        return [cls(machine, (a.name,), about=c, joint=3) for a in machine.axes[:-1] if a.kind == "linear"
-                for c in "xyz"]
+        return [cls(machine, (a.name,), about=c) for a in machine.axes[:-1] if a.kind == "linear" for c in "xyz"]
 
     def simulate_tip(self, q, tip, tool_dir, feats):
         rng = self._rng()
@@ -120,10 +102,6 @@ class GantrySkew(Effect):
                              f"{np.ptp(ang) * 1e6:.1f} µrad over {other}'s {travel:.2f} m travel (end to end "
                              f"{ends:+.1f} µrad, {ends / travel:+.1f} µrad/m{shape})")
             k += self.orders[other]
-        if self.paired and np.any(np.abs(values[k:]) > 2 * (0.0 if std is None else np.asarray(std)[k:])):
-            lines.append(f"{self.label}: the angle also changes with {a} and {', '.join(self.paired)} together "
-                         f"(up to {np.abs(values[k:]).sum() * 1e6:.1f} µrad): the drives of {a} go out of step by an "
-                         "amount that depends on where the load is")
         lines.append(f"{self.label}: geometric; the tables carry it (vecpin tables with model_best.json); on a gantry "
                      f"with two drives it is a differential table between the drives of {a}")
         return lines
