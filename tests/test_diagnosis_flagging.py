@@ -42,7 +42,7 @@ def test_rows_an_effect_fitted_to_the_other_rows_predicts_are_not_gross_errors()
     from vecpin.simulation.effects import TrueEffect
     m = vecpin.Machine.load("flow_xyzcb")
     noise = NoiseModel.default(m, "spherical")
-    c = simulate(m, seed=12, design=Design(n_commands=100, n_validation=5),
+    c = simulate(m, seed=12, design=Design(n_commands=60, n_validation=5),
                  effects=[TrueEffect("backlash", ("X",), 0.05, seed=2)]).campaign
     gross = 7
     c.xyz[gross] += 5e-4 / np.sqrt(3)                   # 0.5 mm
