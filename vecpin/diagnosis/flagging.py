@@ -5,6 +5,7 @@ rows judged again under the final model, and the outliers' entry in the report."
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -59,7 +60,8 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
         valid, r_out = ev.valid[outliers], ev.metric[outliers]
     resid = gross_.spread(len(campaign), rows, cur_eval["heldout"])   # every row's residual [m]
     resid[outliers] = r_out
-    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
+    still = at_unknown_approach(cur_model, campaign, feats, outliers[gross_.beyond(s, valid, level, len(campaign),
+                                                                                 OUTLIER_P)], level)
     # flagged rows whose neighbours share their misfit (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
     gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
@@ -67,6 +69,22 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.ndarray, level: float) -> np.ndarray:
+    """``flagged`` less the rows read before an axis first moved (approach direction 0: the file does not say how
+    the axis came there, so a backlash's state at that reading is unknown) that ``model`` explains within the
+    noise at an approach they could have had (every unknown direction +1, or every one -1)."""
+    unknown = flagged[np.any(feats.direction[flagged] == 0, axis=1)]
+    if not unknown.size:
+        return flagged
+    fine = np.zeros(len(unknown), bool)
+    for sign in (1.0, -1.0):
+        ev = model.row_residuals(campaign, replace(feats, direction=np.where(feats.direction == 0, sign,
+                                                                             feats.direction)))
+        s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[unknown]
+        fine |= ~gross_.beyond(s, ev.valid[unknown], level, len(campaign), OUTLIER_P)
+    return np.setdiff1d(flagged, unknown[fine])
 
 
 def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feats: Features, rows: np.ndarray,
