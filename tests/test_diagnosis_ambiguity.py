@@ -22,7 +22,9 @@ from vecpin.simulation.simulate import Design, simulate
 def test_the_heldout_comparison_is_a_paired_test_per_command(rng):
     """40 commands of 3 rows each, point rows and range rows (one equation): a's held-out whitened
     residuals smaller than b's. The log-likelihood ratio is half the difference of chi2 in units of the
-    scatter a leaves per equation; p is scipy's one-sided paired t test over the per-command sums."""
+    scatter a leaves per equation; p is scipy's one-sided paired t test over the per-command sums of the
+    commands where the two predictions differ by more than the noise (|wa - wb|² summed over the command's
+    equations beyond the scatter); with fewer than two such commands nothing tells them apart (p = 1)."""
     n_cmd, per = 40, 3
     commands = np.repeat(np.arange(n_cmd), per)
     valid = np.ones((n_cmd * per, 3), bool)
@@ -37,7 +39,12 @@ def test_the_heldout_comparison_is_a_paired_test_per_command(rng):
     sum_a = np.array([chi_a[commands == c].sum() for c in range(n_cmd)]) / scatter
     sum_b = np.array([chi_b[commands == c].sum() for c in range(n_cmd)]) / scatter
     assert nats == pytest.approx(0.5 * (sum_b - sum_a).sum(), rel=1e-12)
-    assert p == pytest.approx(stats.ttest_rel(sum_b, sum_a, alternative="greater").pvalue, rel=1e-9)
+    gap = np.array([(np.where(valid, wa - wb, 0.0) ** 2)[commands == c].sum() for c in range(n_cmd)])
+    apart = gap > scatter
+    assert 2 <= apart.sum() < n_cmd                                   # the selection bites here
+    assert p == pytest.approx(stats.ttest_rel(sum_b[apart], sum_a[apart], alternative="greater").pvalue, rel=1e-9)
+    alike = {"heldout_w": wa + 1e-3}                                   # predictions within the noise everywhere
+    assert heldout_gap(lin, {"heldout_w": wa}, alike, commands)[1] == 1.0
     back, p_back = heldout_gap(lin, {"heldout_w": wb}, {"heldout_w": wa}, commands)
     assert back < 0 and p_back > 0.5 and p < 0.01
 

@@ -32,9 +32,10 @@ def test_the_chosen_points_add_what_the_joint_gaussian_says(rng):
 
 
 @pytest.mark.slow   # two diagnoses of a 590-row campaign: the edit loop (-m 'not slow') leaves it to CI
-@pytest.mark.xfail(strict=True, reason="issue 40 regression, open: groups formed by held-out likelihood (per-command "
-                   "paired test at the round's threshold) do not split when the deciding evidence is 15-40 "
-                   "appended commands; the plan's first half (group, plan, files) still holds")
+@pytest.mark.xfail(strict=True, reason="issue 40 regression, open: after the 15-point plan the truth gantry_skew[Y/x] "
+                   "is named first and out-predicts the skew of Z by 600 nats and coupled_axes[X,Y] by 113, but the "
+                   "paired test over the commands where they differ gives p = 0.008 and 0.007 against the round's "
+                   "threshold 6.6e-5 (about 45 such commands would reach it; the plan stops at 40), so the group holds")
 def test_a_discriminating_plan_settles_an_ambiguity_group(flow, tmp_path):
     """A gantry skew of Y (about x, growing with X) measured with the ram Z at one height:
     a skew of Y and a skew of Z turn the tip alike, so the diagnosis names a group. Its

@@ -7,9 +7,9 @@ causes it, how far it shrinks once the effect is added, and what to do.
    rate for the whole campaign: :mod:`.grosserrors`) flags rows no noise explains, so
    they do not steer the choice of the base model; the chosen base model flags again,
    and every flagged row is judged once more under the final model (rows it explains are
-   kept). Rows whose repeated readings agree, and rows crowded into one stretch of an
-   axis, are misfit, not gross errors: kept, and reported as regions the model does not
-   fit.
+   kept). Rows whose repeated readings agree, rows crowded into one stretch of an axis, and
+   rows an effect fitted to the other rows predicts (:func:`.flagging.explained_by_effects`)
+   are misfit, not gross errors: kept (the first two reported as regions the model does not fit).
 1. **The base model.** The model the data choose (kind, per-axis bases, orders:
    :mod:`vecpin.selection.choice`), on the rows left; a base model richer than the seed's
    6-DoF order 6 is itself a finding, with its shrink. Effects are scored against it.
@@ -236,6 +236,13 @@ def _base_stage(pb: _Problem, outliers: np.ndarray) -> _State:
             break
         st.keep_rows(pb, np.sort(np.r_[st.outliers, st.rows[new]]))
         pb.say(f"{st.outliers.size} rows flagged as outliers; refitting without them")
+        st.base_model = pb.fit(st.camp, [])
+        st.blin, st.bev = st.linearise(pb, st.base_model)
+    back, by = fl.explained_by_effects(st.base_model, pb.campaign, pb.noise, pb.all_feats, st.rows, st.outliers,
+                                       pb.names, pb.alpha)
+    if len(back):   # a misfit on a few rows an effect fitted to the other rows predicts: not gross errors, kept
+        pb.say(f"{len(back)} flagged rows are predicted by {', '.join(by)} fitted to the other rows: kept")
+        st.keep_rows(pb, np.setdiff1d(st.outliers, back))
         st.base_model = pb.fit(st.camp, [])
         st.blin, st.bev = st.linearise(pb, st.base_model)
     held = distances_mm(st.blin, st.bev["heldout"])

@@ -5,14 +5,15 @@ rows judged again under the final model, and the outliers' entry in the report."
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, special
 
 from vecpin.diagnosis import grosserrors as gross_
 from vecpin.diagnosis.result import EffectScore
-from vecpin.diagnosis.scoring import distances_mm
+from vecpin.diagnosis.scoring import Kinematics, candidate_effects, distances_mm, effect_columns
 from vecpin.errors import InputError, VecpinError
 from vecpin.identification.linearised import Linearised
 from vecpin.kinematics.machine import Machine
@@ -59,7 +60,8 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
         valid, r_out = ev.valid[outliers], ev.metric[outliers]
     resid = gross_.spread(len(campaign), rows, cur_eval["heldout"])   # every row's residual [m]
     resid[outliers] = r_out
-    still = outliers[gross_.beyond(s, valid, level, len(campaign), OUTLIER_P)]
+    still = at_unknown_approach(cur_model, campaign, feats, outliers[gross_.beyond(s, valid, level, len(campaign),
+                                                                                 OUTLIER_P)], level)
     # flagged rows whose neighbours share their misfit (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
     gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
@@ -67,6 +69,74 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.ndarray, level: float) -> np.ndarray:
+    """``flagged`` less the rows read before an axis first moved (approach direction 0: the file does not say how
+    the axis came there, so a backlash's state at that reading is unknown) that ``model`` explains within the
+    noise at an approach they could have had (every unknown direction +1, or every one -1)."""
+    unknown = flagged[np.any(feats.direction[flagged] == 0, axis=1)]
+    if not unknown.size:
+        return flagged
+    fine = np.zeros(len(unknown), bool)
+    for sign in (1.0, -1.0):
+        ev = model.row_residuals(campaign, replace(feats, direction=np.where(feats.direction == 0, sign,
+                                                                             feats.direction)))
+        s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[unknown]
+        fine |= ~gross_.beyond(s, ev.valid[unknown], level, len(campaign), OUTLIER_P)
+    return np.setdiff1d(flagged, unknown[fine])
+
+
+def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feats: Features, rows: np.ndarray,
+                         flagged: np.ndarray, names: list[str], alpha: float) -> tuple[np.ndarray, list[str]]:
+    """(the flagged rows an effect candidate predicts, those candidates' labels). A systematic misfit that sits on
+    a few rows (the reversal rows of a backlash, the far corner of a skew) looks like gross errors until its
+    effect is in the model; a gross error is a row no other row shares. Per candidate (every instance of
+    ``names``): the base model and the candidate fitted, linearised at the base model's solution, to the rows
+    kept (``rows``: the flagged rows do not steer it); the candidate must be significant there (F-test of its
+    chi2 gain at ``alpha`` over the candidates); a flagged row is explained when its residual under that fit is
+    within the limit the flags use, against the noise alone (the fit's uncertainty there does not excuse it)."""
+    if not flagged.size:
+        return flagged, []
+    try:
+        lo = Linearised(base_model, campaign, noise, feats)
+        kin = Kinematics(base_model, lo, feats)
+        cands = candidate_effects(base_model.machine, feats, names, campaign.q)
+    except VecpinError:
+        return np.array([], int), []
+    v = lo.valid.astype(float)
+    Jk = (lo.J[rows] * v[rows][..., None]).reshape(-1, lo.J.shape[-1])
+    wk = (lo.w[rows] * v[rows]).ravel()
+    n_eq = max(float(v[rows].sum()), 1.0)
+    M0 = linalg.inv(Jk.T @ Jk + np.eye(Jk.shape[1]))
+    g0 = Jk.T @ wk - lo.psi0
+    d0 = M0 @ g0
+    scatter = max(float(np.sum((wk - Jk @ d0) ** 2)) / n_eq, 1e-300)
+    level = gross_.robust_level(np.sum((lo.w * v)[rows] ** 2, axis=1), lo.valid[rows])
+    out, why = set(), []
+    for c in cands:
+        c.prepare(campaign, feats)
+        try:
+            Jc = effect_columns(kin, lo, c, feats)[1] * v[..., None]
+        except VecpinError:
+            continue
+        k = Jc.shape[-1]
+        Jck = Jc[rows].reshape(-1, k)
+        B = Jk.T @ Jck
+        S = Jck.T @ Jck + np.eye(k) - B.T @ M0 @ B
+        gc = Jck.T @ wk - B.T @ d0
+        dc = linalg.solve(S, gc, assume_a="sym")
+        gain = float(gc @ dc)
+        if not float(special.fdtrc(k, max(n_eq - Jk.shape[1] - k, 1.0), gain / k / scatter)) < alpha / len(cands):
+            continue
+        dz = d0 - M0 @ B @ dc
+        wf = lo.w[flagged] - lo.J[flagged] @ dz - Jc[flagged] @ dc
+        s = np.sum(np.where(lo.valid[flagged], wf, 0.0) ** 2, axis=1)
+        hit = flagged[~gross_.beyond(s, lo.valid[flagged], level, len(campaign), OUTLIER_P)]
+        if hit.size:
+            out.update(hit.tolist())
+            why.append(c.label)
+    return np.array(sorted(out), int), why
 
 
 def _rows(lin: Linearised, rows: np.ndarray) -> Linearised:

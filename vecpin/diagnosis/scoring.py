@@ -236,13 +236,21 @@ def heldout_gap(lin: Linearised, ev_a: dict, ev_b: dict, commands: np.ndarray) -
     :func:`score`): (the held-out log-likelihood ratio [nats], the one-sided p of a paired t test that a is no
     better). Per command (``commands``: each row's command index; a command's rows share a fold) the
     difference of the held-out chi2, in units of the scatter a leaves per equation (a quasi-likelihood: a
-    misjudged noise scale does not inflate it)."""
+    misjudged noise scale does not inflate it). The paired test runs over the commands where the two held-out
+    predictions differ by more than the noise (|difference|² over the command's equations beyond the scatter):
+    only they can tell the candidates apart, and the commands where both predict alike would only dilute a
+    difference that sits in a few; fewer than two such commands tell nothing (p = 1)."""
     valid = lin.valid
     chi_a = np.sum(np.where(valid, ev_a["heldout_w"], 0.0) ** 2, axis=1)
     chi_b = np.sum(np.where(valid, ev_b["heldout_w"], 0.0) ** 2, axis=1)
     scatter = max(float(chi_a.sum()) / max(int(valid.sum()), 1), 1e-12)
     d = np.bincount(commands, weights=chi_b - chi_a) / scatter
     nats = 0.5 * float(d.sum())
+    apart = np.bincount(commands, weights=np.sum(np.where(valid, ev_a["heldout_w"] - ev_b["heldout_w"], 0.0) ** 2,
+                                                 axis=1)) > scatter
+    if apart.sum() < 2:
+        return nats, 1.0
+    d = d[apart]
     sd = float(np.std(d, ddof=1)) if d.size > 1 else 0.0
     t = float(d.mean() / (sd / math.sqrt(d.size))) if sd > 0 else (math.inf if d.mean() > 0 else 0.0)
     return nats, float(special.stdtr(max(d.size - 1, 1), -t))
