@@ -32,7 +32,8 @@ def test_the_chosen_points_add_what_the_joint_gaussian_says(rng):
 
 
 @pytest.mark.slow   # two diagnoses of a 590-row campaign: the edit loop (-m 'not slow') leaves it to CI
-@pytest.mark.xfail(strict=True, reason="issue 40 regression, open: after the 15-point plan the truth gantry_skew[Y/x] "
+# run=False while it is known to fail (18 s of CI for a known answer); remove it with the fix
+@pytest.mark.xfail(strict=True, run=False, reason="issue 40 regression, open: after the 15-point plan the truth gantry_skew[Y/x] "
                    "is named first and out-predicts the skew of Z by 600 nats and coupled_axes[X,Y] by 113, but the "
                    "paired test over the commands where they differ gives p = 0.008 and 0.007 against the round's "
                    "threshold 6.6e-5 (about 45 such commands would reach it; the plan stops at 40), so the group holds")
