@@ -136,13 +136,17 @@ def frame_figures(r: dict) -> tuple[str, float, float, float]:
     """(the frame's measure in words, the net rotation vecpin's tables add [µrad], what the
     best table set leaves by the same measure, the true table against the frame kept
     uncompensated): the reference lines' turn before/after; the volume's best-fit turn
-    before/after; the tilt against the table's face, beyond the best set's own."""
+    before/after; the tilt against the table's face: where the tables carry product terms the whole tilt
+    (they can remove a tilt fixed to the table, so none of it is the one-axis set's floor), else beyond
+    the best one-axis set's own."""
     u, c, b = r["uncompensated"], r["compensated"], r["best"]
     if r["frame"] == "reference lines":
         return "lines' frame, before/after", c["turn_urad"], b["reference"]["turn_urad"], u["lines_tilt_urad"]
     if r["frame"] == "mean orientation":
         return ("volume's best-fit orientation, before/after", c["volume_turn_urad"],
                 b["reference"]["volume_turn_urad"], u["tilt_urad"])
+    if r.get("terms"):
+        return "tilt against the true face (product terms)", c["tilt_urad"], b["table"]["tilt_urad"], u["tilt_urad"]
     added = float(np.linalg.norm(np.subtract(c["tilt_vector_urad"], b["table"]["tilt_vector_urad"])))
     return "tilt against the true face, beyond the best set's", added, b["table"]["tilt_urad"], u["tilt_urad"]
 
@@ -274,8 +278,10 @@ def table(rows: list[dict], seed: int) -> str:
              "lines, the frame X's and Y's least-squares lines span (X, then Y moved alone through the middle of "
              "the box), before and after compensation; mean orientation, the best-fit orientation of the whole "
              "volume before and after; the table's face, the tilt of the compensated volume's best-fit orientation "
-             "against the true table (square to the spindle), less the tilt the best table set in the true table's "
-             "frame leaves (a vector difference). best set leaves: the best set's figure by the same measure. true "
+             "against the true table (square to the spindle): the whole tilt where the tables carry product terms "
+             "(they can take a tilt fixed to the table), else less the tilt the best one-axis table set in the "
+             "true table's frame leaves (a vector difference). best set leaves: the best set's figure by the same "
+             "measure. true "
              "table against the frame: uncompensated, the tilt of the truth's table against its reference lines (the "
              "plane of X's and Y's lines) or against its volume's mean orientation. tilt: the compensated volume's "
              "best-fit tilt against the true table. volume turn: the best-fit orientation before/after, for every "
