@@ -173,7 +173,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                       "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
-    rows: dict[int, tuple] = {}   # id of a table set -> (the set, kept alive; the label of its row)
+    rows: dict[int, tuple] = {}   # id of a table set -> (the set, kept alive; its report row)
 
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
@@ -181,7 +181,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                   point=pt, frame=frame) if with_spread else None
         part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
         report.add(label, part, n, spread, shape=shape)
-        rows[id(ts)] = (ts, label)
+        rows[id(ts)] = (ts, report.rows[-1])
         return part
 
     before = add("uncompensated (model)", None, 0)
@@ -190,7 +190,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
     left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
-    full, full_row = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
+    full = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection, tables = None, (pitch if req.pitch_only or req.only_pitch_note else full)
@@ -208,7 +208,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     fold_note = None
     if modulo_axes:   # what folding onto one turn costs: the same tables over the whole travel, on the same points
         say(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
-        written = report.rows[-1] if selection is not None else report.rows[-1] if tables is pitch else full_row
+        written = rows[id(tables)][1]   # the row of the set written, before the unfolded row is added
         flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names())
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
@@ -216,17 +216,18 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
-    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left, rows[id(tables)][1])
+    return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left,
+                     rows[id(tables)][1].label)
 
 
 def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
                    report: CompensationReport, held_back: str, line: str):
-    """(the full set with the product terms where they are written, its report row); ``line``: the report's
-    line where none were offered (:func:`~vecpin.compensation.products.with_products`)."""
+    """The full set with the product terms where they are written; ``line``: the report's line where
+    none were offered (:func:`~vecpin.compensation.products.with_products`)."""
     if problem.products:
         full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back)
     report.notes += [line] if line else []
-    return full, report.rows[-1] if full.products else report.rows[1]
+    return full
 
 
 def _unmeasured(m: Machine, hold: dict) -> dict:
