@@ -255,17 +255,22 @@ def read_component(path: Path, machine: Machine, joints: dict[str, int],
         if len(values) != n or int(arr.group(1)) != n:
             raise ControllerFileError(path, f"table {m.group('name')}: {len(values)} values, the comment says {n}",
                                       no + 1)
-        o, i = int(m.group("out")), int(m.group("inp"))
-        for j, name in ((o, m.group("oname")), (i, m.group("iname"))):
-            if by_joint.get(j) != name:
-                raise ControllerFileError(path, f"joint {j} is {name} in the file but "
-                                          f"{by_joint.get(j, 'no axis')} in the profile", no)
+        _check_joints(path, m, by_joint, no)
         ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
         tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(float(m.group("start")))),
                                         float(ai.to_si(float(m.group("step")))), ao.to_si(values)))
     if not tables and not empty_ok:
         raise ControllerFileError(path, "no table in the component")
     return tables
+
+
+def _check_joints(path: Path, m: re.Match, by_joint: dict[int, str], no: int) -> None:
+    """A table or product comment's output and input joints (``out``/``oname``, ``inp``/``iname``) are
+    the profile's (``by_joint``: joint number -> axis), else :class:`ControllerFileError` at line ``no``."""
+    for j, name in ((int(m.group("out")), m.group("oname")), (int(m.group("inp")), m.group("iname"))):
+        if by_joint.get(j) != name:
+            raise ControllerFileError(path, f"joint {j} is {name} in the file but "
+                                      f"{by_joint.get(j, 'no axis')} in the profile", no)
 
 
 def read_products(path: Path, machine: Machine, joints: dict[str, int]) -> list[ProductTable]:
@@ -286,10 +291,7 @@ def read_products(path: Path, machine: Machine, joints: dict[str, int]) -> list[
         if arr is None or int(arr.group(1)) != n or len(arr.group(2).split(",")) != n:
             raise ControllerFileError(path, f"product {m.group('kind')} {m.group('name')}: no array of {n} values on "
                                       "the next line", no)
-        for j, name in ((int(m.group("out")), m.group("oname")), (int(m.group("inp")), m.group("iname"))):
-            if by_joint.get(j) != name:
-                raise ControllerFileError(path, f"joint {j} is {name} in the file but "
-                                          f"{by_joint.get(j, 'no axis')} in the profile", no)
+        _check_joints(path, m, by_joint, no)
         ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
         values = np.array([float(v) for v in arr.group(2).split(",")])
         found.setdefault(m.group("name"), {})[m.group("kind")] = CompensationTable(
