@@ -3,6 +3,8 @@ refusal is exit status 2, one ``vecpin: error:`` line, no traceback and no stagi
 named; a success is exit status 0 without a traceback."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from types import SimpleNamespace
 
 from vecpin.cli import main
@@ -43,3 +45,12 @@ def simulated_base(folder, fit_args) -> SimpleNamespace:
     model = folder / "model.json"
     assert main(["fit", "flow_xyzcb", str(csv), "--out", str(model)] + list(fit_args)) == 0
     return SimpleNamespace(dir=folder, csv=csv, val=folder / "sim" / "validation.csv", model=model)
+
+
+def edited_model(base, folder: Path, edit) -> Path:
+    """The base model file with ``edit(dict)`` applied (what a script or a hand would do)."""
+    d = json.loads(base.model.read_text())
+    edit(d)
+    p = folder / "edited.json"
+    p.write_text(json.dumps(d))
+    return p

@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 
 import pytest
-from hostile_helpers import ok, refused, simulated_base
+from hostile_helpers import edited_model, ok, refused, simulated_base
 
 from vecpin.cli import main
 from vecpin.errors import OutputError
@@ -37,15 +37,6 @@ def base(tmp_path_factory):
     """A simulated flow_xyzcb campaign (60 rows, tools 214.88 and 312.86 mm) and an AP
     order-1 model of it."""
     return simulated_base(tmp_path_factory.mktemp("hostile3"), FIT)
-
-
-def edited_model(base, folder: Path, edit) -> Path:
-    """The base model file with ``edit(dict)`` applied (what a script or a hand would do)."""
-    d = json.loads(base.model.read_text())
-    edit(d)
-    p = folder / "edited.json"
-    p.write_text(json.dumps(d))
-    return p
 
 
 def to_priors(name: str, priors: float):

@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hostile_helpers import ok, refused
+from hostile_helpers import edited_model, ok, refused
 
 import vecpin
 from vecpin.cli import main
@@ -384,14 +384,6 @@ def test_facade_takes_names_and_paths(base, flow):
 
 
 # ============================================================ model files and profiles edited by hand
-def edited(base, tmp_path: Path, edit) -> Path:
-    d = json.loads(base.model.read_text())
-    edit(d)
-    p = tmp_path / "edited.json"
-    p.write_text(json.dumps(d))
-    return p
-
-
 def _range(axis, value):
     return lambda d: d["fit"]["measured_range"].__setitem__(axis, value)
 
@@ -408,7 +400,7 @@ def test_model_file_still_axes_and_measured_range(base, tmp_path, capsys, edit, 
     """Was: ``still_axes`` ignored on reading (a file saying X stood still wrote tables for a
     moving X), an unknown axis in the range ignored, a range edited into a point blamed on
     the parameters alone."""
-    p = edited(base, tmp_path, edit)
+    p = edited_model(base, tmp_path, edit)
     refused(["tables", p, "--out", tmp_path / "t"], capsys, str(p), *words)
     assert not (tmp_path / "t").exists()
 
