@@ -35,7 +35,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import vecpin
-from vecpin.compensation.frame import in_reference_frame, reference_frame
 from vecpin.compensation.functions import truth_as_actual
 from vecpin.compensation.report import compensated_errors
 from vecpin.compensation.plan import plan_tables
@@ -49,7 +48,7 @@ from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.plan import PlanSettings, make_plan
 from vecpin.planning.timing import run_times
 from vecpin.simulation.effects import TrueEffect
-from vecpin.simulation.floor import PAPER_I_TOOLS, table_floor, true_compensated_error
+from vecpin.simulation.floor import table_floor, true_compensated_error, truth_on_its_reference_lines
 from vecpin.simulation.independent import IndependentMachine
 from vecpin.simulation.judge import validation_commands
 from vecpin.simulation.simulate import Design, simulate
@@ -136,8 +135,7 @@ def machine_rows(name: str, seed: int, n_validation: int = 35) -> tuple[list[str
     # aligned to its own reference lines; the part's frame (the true table's face) beside it
     true_b, true_a, part_a = (true_compensated_error(sim.truth, tb, c.q, c.tool, j)[0]
                               for tb, j in ((None, "reference"), (tables, "reference"), (tables, "part")))
-    ref = truth_as_actual(sim.truth)
-    ref = in_reference_frame(ref, reference_frame(ref, m, PAPER_I_TOOLS))
+    ref = truth_on_its_reference_lines(sim.truth)
     rms_true = [float(np.sqrt(np.mean(norm_mm(compensated_errors(ref, m, tb, c.q, c.tool)) ** 2))) for tb in (None, tables)]
     nb, na = ver_n.net
     tag = name if n_validation == 35 else f"{name}, {n_validation} validation commands"

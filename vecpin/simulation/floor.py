@@ -49,11 +49,20 @@ def true_compensated_error(truth, tables: TableSet | None, q: np.ndarray, tool: 
     P = len(m.tool_links)
     qq, tt = np.tile(q, (P, 1)), np.tile(tool, P)
     point = 0 if P == 1 else np.repeat(np.arange(P), len(q))
-    actual = truth_as_actual(truth)
-    if judged == "reference":
-        actual, judged = in_reference_frame(actual, reference_frame(actual, m, PAPER_I_TOOLS)), "part"
+    if judged == "reference":   # the part's frame on the table aligned to the truth's reference lines
+        actual, judged = truth_on_its_reference_lines(truth), "part"
+    else:
+        actual = truth_as_actual(truth)
     d = norm_mm(compensated_errors(actual, m, tables, qq, tt, judged, point=point))
     return float(d.mean()), float(d.max())
+
+
+def truth_on_its_reference_lines(truth, tools=PAPER_I_TOOLS):
+    """The true machine (an :class:`~vecpin.compensation.functions.ActualMachine`) with its table aligned
+    to its own reference lines over ``tools`` [m], as tracker data alone can know it
+    (:func:`~vecpin.compensation.frame.reference_frame`)."""
+    actual = truth_as_actual(truth)
+    return in_reference_frame(actual, reference_frame(actual, truth.machine, tools))
 
 
 def table_floor(truth, q: np.ndarray, tool: np.ndarray, limits: ControllerLimits = NO_LIMITS,
