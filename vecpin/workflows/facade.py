@@ -19,7 +19,8 @@ PATH = (str, Path)
 
 
 def _real(module: str, name: str):
-    """The library's function (imported when first called: the facade stays light to import)."""
+    """The library's function, looked up by name when called (``_wraps`` has imported its module already,
+    for its text and signature, when the facade is first used)."""
     return getattr(importlib.import_module(module), name)
 
 
