@@ -88,13 +88,14 @@ def terms_applied(m, terms, q, temperature):
 @pytest.mark.parametrize("controller", list(READERS))
 @pytest.mark.parametrize("which, step", [("fitted", 10.0), ("second", -10.0)])
 def test_terms_through_the_controller_leave_the_predicted_error(request, tmp_path, controller, which, step):
-    m, terms = request.getfixturevalue(which)[:2]
+    m, terms, _, camp = request.getfixturevalue(which)
     write_files(controller, terms, m, tmp_path)
+    held = TRUTH.structure(camp.time, camp.temperature)               # what the geometry took up: its mean
     tv = terms.t0_c + step                                     # steady: the structure at the air's temperature
     q = commands(m, 40, np.random.default_rng(9))
     tool = np.full(len(q), 0.12)
-    without, with_terms = judged(m, TRUTH, q, tool, corrected(m, q, tmp_path, controller, tv), tv, terms.t0_c)
-    _, direct = judged(m, TRUTH, q, tool, terms_applied(m, terms, q, tv), tv, terms.t0_c)
+    without, with_terms = judged(m, TRUTH, q, tool, corrected(m, q, tmp_path, controller, tv), tv, held)
+    _, direct = judged(m, TRUTH, q, tool, terms_applied(m, terms, q, tv), tv, held)
     assert with_terms == pytest.approx(direct, rel=0.02, abs=1e-6)   # the files carry the terms (Fanuc: 1 um units)
     left = remaining_mm(terms, m, q, tool, tv)
     assert left.low <= with_terms * 1e3 <= left.high                 # in the 5..95 % band
@@ -107,6 +108,9 @@ def test_lag_and_the_fold_of_the_growth(fitted):
     m, terms = fitted[:2]
     assert abs(terms.lag_h - 1.5) < 0.3 and 0 < terms.held_out["lag_std_h"] < 0.5   # refined between 1 and 2 h
     assert terms.growth_um_per_k is None and any("growth is Z's offset" in n for n in terms.notes)
+    c = terms.curvature                      # a curvature per axis (the growth is Z's), the truth's 1 %/K each
+    sd = np.sqrt(np.diag(c["cov_per_k"]))
+    assert c["names"] == ["X", "Y", "Z"] and np.all(np.abs(np.array(c["per_k"]) - 0.01) < 3 * sd)
 
 
 def test_what_the_data_cannot_separate_is_said():

@@ -2,8 +2,10 @@
 terms at their temperatures (the readings through the terms' lag). Closed forms: terms
 with an X offset only, on a machine whose X moves the tool along the base X: the error
 they describe at a steady temperature is offset x dT on every command; what they leave,
-drawn from a coefficient error N(0, s^2) alone, has the mean of |N(0, s^2)| dT,
-s dT sqrt(2/pi), and its 5th and 95th percentiles at 0.063 s dT and 1.96 s dT."""
+drawn from a coefficient error of standard deviation s alone, estimated over 5 time
+blocks (Student's t with 4 degrees of freedom), has the mean of |t_4| s dT, s dT (E|t_4| =
+4 Gamma(5/2) / (3 sqrt(pi)) = 1), and its 5th and 95th percentiles at the t_4 quantiles
+0.525 and 0.975: 0.066 s dT and 2.776 s dT."""
 import json
 
 import numpy as np
@@ -60,8 +62,8 @@ def test_verify_judges_the_runs_with_the_thermal_terms(tmp_path, capsys):
     assert b.left is None
     assert a.described_mm == pytest.approx(6.0 * 10 * 1e-3, rel=1e-6)
     s = S_UM_PER_K * 10 * 1e-3                                       # mm: the coefficient error at dT = 10 K
-    assert a.left[0] == pytest.approx(s * np.sqrt(2 / np.pi), rel=0.1)
-    assert a.left[2] == pytest.approx(1.96 * s, rel=0.15) and a.left[1] < 0.2 * s
+    assert a.left[0] == pytest.approx(s * 1.0, rel=0.1)
+    assert a.left[2] == pytest.approx(2.776 * s, rel=0.15) and a.left[1] < 0.2 * s
     text = "\n".join(judged.lines())
     assert "extrapolated 9.0 K beyond" in text and "not active in this run" in text
     from vecpin.workflows.verifying import verify

@@ -130,11 +130,17 @@ def corrected(m, q, folder, controller, temperature):
     return qc
 
 
-def judged(m, truth, q, tool, qc, temperature, t0):
+def judged(m, truth, q, tool, qc, temperature, campaign_c):
     """(mean error [m] without the thermal terms, with them) at a steady ``temperature``
-    [°C]: the tip's displacement from where the machine put it at the campaign's
-    temperature ``t0`` [°C] (what the geometric tables, measured there, leave it at)."""
-    temp = np.full(len(q), float(temperature))
-    ref = truth.tip(m, q, tool, np.full(len(q), float(t0)))
+    [°C]: the tip's displacement from where the geometric tables, measured over the
+    campaign, leave it: the truth's tip averaged over the campaign's structure
+    temperatures ``campaign_c`` [°C] (a least-squares geometry takes up the mean of the
+    thermal error over its campaign, a curvature's mean included; one number: the tip at
+    that temperature)."""
+    temps = np.atleast_1d(np.asarray(campaign_c, float))
+    n = len(q)
+    at = truth.tip(m, np.tile(q, (len(temps), 1)), np.tile(tool, len(temps)), np.repeat(temps, n))
+    ref = at.reshape(len(temps), n, 3).mean(axis=0)
+    temp = np.full(n, float(temperature))
     without = np.linalg.norm(truth.tip(m, q, tool, temp) - ref, axis=1).mean()
     return without, np.linalg.norm(truth.tip(m, qc, tool, temp) - ref, axis=1).mean()

@@ -22,7 +22,11 @@ between them (:func:`refine_lag`), and says in words where the data cannot separ
 temperature as a point figure (with the chance it holds to 20 %) and a band, from draws
 of the coefficients' error as time blocks held out show it
 (:mod:`vecpin.compensation.thermalheld`), the lag's uncertainty, and the curvature the
-campaign cannot rule out (:func:`curvature`), extrapolated.
+campaign cannot rule out per term (:func:`~vecpin.compensation.thermalheld.curvature`),
+extrapolated. The controllers' forms are straight in T: the curvature is not written, and
+the prediction is of what the written straight terms leave, the curvature part of it.
+The effects fitted (:class:`ThermalTermsEffect`, the curvature's) are in
+:mod:`vecpin.compensation.thermaleffect`.
 """
 from __future__ import annotations
 
@@ -33,11 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermalheld import curvature_draws, held_out, with_lag
+from vecpin.compensation.thermaleffect import BENT_GROWTH, ThermalTermsEffect
+from vecpin.compensation.thermalheld import bend_terms, curvature, curvature_draws, held_out, with_lag
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
-from vecpin.models.effects.base import Effect, TipContext
+from vecpin.models.effects.base import TipContext
 from vecpin.models.effects.thermal import LAGS_H, lagged
 
 UM_PER_M = 1e6
@@ -45,90 +50,6 @@ COLLINEAR = 0.95      # |correlation| above which two drivers cannot be told apa
 ILL_CONDITIONED = 1e3  # condition number of the thermal columns above which the terms are not separable
 LAG_STEP_H = 0.02     # h: the refined lag's resolution (lags are kept to 0.01 h)
 MAX_REFINE = 4        # parabola steps refining the lag between the scanned ones
-
-
-class ThermalTermsEffect(Effect):
-    """The controller-form thermal terms as a model effect (not a diagnosis candidate):
-    per linear axis an offset and a slope about ``p0`` [m], both proportional to the
-    lagged temperature change from ``t_ref`` [°C], and (``growth``) the tool's growth."""
-
-    name = "thermal_terms"
-    summary = "controller-form thermal terms: per linear axis offset and slope with temperature, tool growth"
-    kinds = ("command", "tip")
-    in_time = True
-
-    def __init__(self, machine, axes=(), t_ref: float = 20.0, lag_h: float = 0.0, p0=None, growth: bool = True):
-        axes = axes or tuple(a.name for a in machine.axes if a.kind == "linear")
-        p0 = {a: 0.0 for a in axes} if p0 is None else {a: float(p0[a]) for a in axes}
-        super().__init__(machine, axes, t_ref=float(t_ref), lag_h=float(lag_h), p0=p0, growth=bool(growth))
-        self.t_ref, self.lag_h, self.p0, self.growth = float(t_ref), float(lag_h), p0, bool(growth)
-
-    def delta(self, feats: Features) -> np.ndarray:
-        """(N,) the lagged temperature change T - T0 [K] of the rows."""
-        return lagged(feats.time, feats.require_temperature("the thermal terms"), self.lag_h) - self.t_ref
-
-    def parameters(self):
-        out = []
-        for a in self.axes:
-            out += [self._p(f"{a}.offset_per_K", "length", 1e-4), self._p(f"{a}.slope_per_K", "ratio", 1e-4)]
-        return out + ([self._p("tool_growth_per_K", "length", 1e-4)] if self.growth else [])
-
-    @property
-    def n_terms(self) -> int:
-        return 2 * len(self.axes) + int(self.growth)
-
-    def command_columns(self, q, d) -> np.ndarray:
-        """(N, n, terms) the axes' errors per unit coefficient at temperature changes ``d`` (N,) [K]."""
-        S = np.zeros((len(q), self.machine.n_axes, self.n_terms))
-        for k, a in enumerate(self.axes):
-            i = self.machine.axis(a).index
-            S[:, i, 2 * k] = d
-            S[:, i, 2 * k + 1] = (q[:, i] - self.p0[a]) * d
-        return S
-
-    def tip_columns(self, ctx, d) -> np.ndarray:
-        """(N, 3, terms) the tool's growth per unit coefficient at temperature changes ``d`` (N,) [K]."""
-        D = np.zeros((len(ctx.q), 3, self.n_terms))
-        if self.growth:
-            D[:, :, -1] = ctx.tool_dir * d[:, None]
-        return D
-
-    def command(self, q, feats):
-        return self.command_columns(q, self.delta(feats))
-
-    def tip(self, ctx, feats):
-        return self.tip_columns(ctx, self.delta(feats))
-
-
-class CurvatureEffect(ThermalTermsEffect):
-    """One parameter, the thermal error's relative curvature ``kappa`` [1/K]: the fitted
-    terms' error at a temperature change d = T - T0 [K] becomes their error at
-    ``d + kappa (d^2 - alpha0 - alpha1 d)`` (``alpha``: d^2 regressed on 1 and d over the
-    campaign's rows, so the curvature is what the straight terms cannot follow; a
-    structure whose expansion coefficient grows with the temperature). ``values``: the
-    fitted terms' coefficients [SI] in :class:`ThermalTermsEffect`'s order. Fitted beside
-    the terms only to bound how far the error may bend beyond the measured temperatures
-    (:func:`curvature`); the controllers carry no such term."""
-
-    name = "thermal_curvature"
-    summary = "the thermal terms' relative curvature with the temperature (a bound for the extrapolation)"
-
-    def __init__(self, terms: ThermalTermsEffect, values, alpha):
-        super().__init__(terms.machine, terms.axes, terms.t_ref, terms.lag_h, terms.p0, terms.growth)
-        self.values, self.alpha = np.asarray(values, float), (float(alpha[0]), float(alpha[1]))
-
-    def delta(self, feats: Features) -> np.ndarray:
-        d = super().delta(feats)
-        return d ** 2 - self.alpha[0] - self.alpha[1] * d
-
-    def parameters(self):
-        return [self._p("kappa_per_K", "ratio", 1.0)]
-
-    def command(self, q, feats):
-        return self.command_columns(q, self.delta(feats)) @ self.values[:, None]
-
-    def tip(self, ctx, feats):
-        return self.tip_columns(ctx, self.delta(feats)) @ self.values[:, None]
 
 
 @dataclass
@@ -226,7 +147,7 @@ def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c)
     return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
 
 
-DRAWS = 400   # draws behind a predicted remaining error (seeded: the same figure each time)
+DRAWS = 2000  # draws behind a predicted remaining error (seeded: the same figure each time)
 
 
 def _unit_terms(terms: ThermalTerms, name: str) -> ThermalTerms:
@@ -282,21 +203,36 @@ def _contribution(terms: ThermalTerms, names, machine, q, tool, d: float) -> np.
     return np.stack([tip_errors(_unit_terms(terms, nm), machine, q, tool, terms.t0_c + d) for nm in names], -1)
 
 
-def _draws(cov, rng) -> np.ndarray:
-    """(DRAWS, P) zero-mean draws of a covariance (its negative eigenvalues clipped)."""
+def _draws(cov, rng, dof: int) -> np.ndarray:
+    """(DRAWS, P) zero-mean draws of a covariance estimated with ``dof`` degrees of freedom
+    (its negative eigenvalues clipped): Student's t, the normal draws scaled by
+    sqrt(dof / chi2_dof) (a covariance from a few held-out blocks is itself uncertain)."""
     w, V = np.linalg.eigh(np.asarray(cov, float))
-    return rng.standard_normal((DRAWS, len(w))) * np.sqrt(np.clip(w, 0, None)) @ V.T
+    z = rng.standard_normal((DRAWS, len(w))) * np.sqrt(np.clip(w, 0, None)) @ V.T
+    return z * np.sqrt(dof / rng.chisquare(dof, (DRAWS, 1))) if dof > 0 else z
+
+
+def _only(terms: ThermalTerms, name: str) -> ThermalTerms:
+    """The terms of one bent term ``name`` (an axis, :data:`BENT_GROWTH`, or all of them), the others 0."""
+    if name not in terms.axes and name != BENT_GROWTH:
+        return terms
+    keep = {name} if name in terms.axes else set()
+    return dataclasses.replace(terms, offset_um_per_k={a: v * (a in keep) for a, v in terms.offset_um_per_k.items()},
+                               slope_um_per_m_per_k={a: v * (a in keep) for a, v in terms.slope_um_per_m_per_k.items()},
+                               growth_um_per_k=terms.growth_um_per_k if name == BENT_GROWTH else None)
 
 
 def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c: float) -> Remaining:
-    """What the terms leave at the commands ``q`` (N,n) [m, rad], tool lengths [m], at the
-    steady (lagged) temperature ``temperature_c`` [°C] (:class:`Remaining`), from draws
-    of (1) the coefficients' error, their covariance over time blocks held out and the
-    lag's uncertainty (:mod:`vecpin.compensation.thermalheld`), and (2) the curvature
-    the straight terms cannot follow, as the campaign bounds it (:func:`curvature`: its
-    estimate and deviation, drawn by :func:`~vecpin.compensation.thermalheld.curvature_draws`,
-    extrapolated to this temperature). Without ``held_out`` (an
-    older ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
+    """What the written (straight) terms leave at the commands ``q`` (N,n) [m, rad], tool
+    lengths [m], at the steady (lagged) temperature ``temperature_c`` [°C]
+    (:class:`Remaining`), from draws of (1) the coefficients' error, their covariance over
+    time blocks held out and the lag's uncertainty (:mod:`vecpin.compensation.thermalheld`;
+    Student's t, the blocks less one its degrees of freedom), and (2) the curvature per
+    term the straight terms cannot follow, as the campaign bounds it
+    (:func:`~vecpin.compensation.thermalheld.curvature`, drawn by
+    :func:`~vecpin.compensation.thermalheld.curvature_draws`, each term's error bent by its
+    own, extrapolated to this temperature). Without ``held_out`` (an older
+    ``thermal.json``): the 1-sigma coefficients' error alone, floor 0."""
     q = np.atleast_2d(np.asarray(q, float))
     h, c = terms.held_out, terms.curvature
     d = float(temperature_c) - terms.t0_c
@@ -306,35 +242,17 @@ def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_
         e = float(np.linalg.norm(tip_errors(sigma, machine, q, tool, temperature_c), axis=1).mean() * 1e3)
         return Remaining(e, e, e, 0.0, e)
     rng = np.random.default_rng(0)
-    e = np.einsum("nip,dp->dni", _contribution(terms, h["names"], machine, q, tool, d), _draws(h["cov"], rng))
+    coef = _draws(h["cov"], rng, int(h.get("blocks", 0)) - 1)
+    e = np.einsum("nip,dp->dni", _contribution(terms, h["names"], machine, q, tool, d), coef)
     if c:
         bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
-        kappa = curvature_draws(c["per_k"], c["std_per_k"], rng, DRAWS)
-        e = e + kappa[:, None, None] * tip_errors(terms, machine, q, tool, terms.t0_c + bend)[None]
+        names, per_k, cov = bend_terms(c)
+        kappa = curvature_draws(per_k, cov, rng, DRAWS)
+        bent = np.stack([tip_errors(_only(terms, nm), machine, q, tool, terms.t0_c + bend) for nm in names], -1)
+        e = e + np.einsum("nik,dk->dni", bent, kappa)
     mean = np.linalg.norm(e, axis=2).mean(axis=1) * 1e3
     lo, hi = np.percentile(mean, BAND)
     return Remaining(float(mean.mean()), float(lo), float(hi), h["floor_um"] * 1e-3, *point_within(mean), mean)
-
-
-def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats) -> dict:
-    """How far the thermal error may bend beyond the measured temperatures: the geometric
-    model refitted with the terms and their relative curvature (:class:`CurvatureEffect`,
-    linearised at the ``fitted`` terms): ``per_k`` [1/K] its estimate, ``std_per_k`` its
-    standard deviation (scaled by the fit's chi-square per degree of freedom: the noise
-    the residuals show), ``alpha`` [K^2, K]. A campaign whose temperatures span a few
-    kelvin seldom resolves a curvature but bounds it; extrapolated 10 K away that bound
-    is a large part of what the terms leave."""
-    d = eff.delta(feats)
-    if np.ptp(d) <= 0:
-        return {}
-    alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-    curve = CurvatureEffect(eff, _coefficients(eff, fitted) / UM_PER_M, alpha)
-    bent = geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise)
-    k = next(s for e, s in bent.effect_slices() if e is curve).start
-    rep = bent.report_
-    scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
-    return {"per_k": float(bent.b_[k]), "std_per_k": float(np.sqrt(scale * bent.cov_[6 + k, 6 + k])),
-            "alpha": [float(a) for a in alpha]}
 
 
 def default_p0(machine, axes) -> dict[str, float]:

@@ -66,11 +66,32 @@ def check_terms(path, d) -> None:
         raise bad("held_out", "missing, and no offset_std and slope_std either: the file records no uncertainty "
                   "of the terms, so what they leave cannot be predicted")
     _check_held_out(d.get("held_out") or {}, axes, bad)
-    c = d.get("curvature") or {}
-    if not isinstance(c, dict) or (c and not (_number(c.get("per_k")) and _number(c.get("std_per_k"))
-                                             and isinstance(c.get("alpha"), list) and len(c["alpha"]) == 2
-                                             and all(_number(a) for a in c["alpha"]))):
-        raise bad("curvature", "an object with per_k, std_per_k (numbers) and alpha (two numbers), or {}")
+    _check_curvature(d.get("curvature") or {}, axes, bad)
+
+
+def _check_curvature(c, axes, bad) -> None:
+    """The curvature record: per term (names, per_k, cov_per_k, alpha) or, in an older file,
+    one for all terms (per_k, std_per_k, alpha), or empty."""
+    alpha = isinstance(c, dict) and isinstance(c.get("alpha"), list) and len(c["alpha"]) == 2 \
+        and all(_number(a) for a in c["alpha"])
+    if isinstance(c, dict) and not c:
+        return
+    if not alpha:
+        raise bad("curvature", "an object with names, per_k, cov_per_k and alpha (two numbers), or {}")
+    if "names" not in c:
+        if not (_number(c.get("per_k")) and _number(c.get("std_per_k"))):
+            raise bad("curvature", "per_k and std_per_k: numbers (one curvature for all terms)")
+        return
+    names, per_k, cov = c["names"], c.get("per_k"), c.get("cov_per_k")
+    known = set(axes) | {"tool_growth"}
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) and n in known for n in names):
+        raise bad("curvature.names", f"{names!r}: the bent terms, each an axis of 'axes' or tool_growth")
+    n = len(names)
+    if not isinstance(per_k, list) or len(per_k) != n or not all(_number(v) for v in per_k):
+        raise bad("curvature.per_k", f"{n} finite numbers [1/K], one per name")
+    if (not isinstance(cov, list) or len(cov) != n
+            or not all(isinstance(row, list) and len(row) == n and all(_number(x) for x in row) for row in cov)):
+        raise bad("curvature.cov_per_k", f"a {n} x {n} matrix of finite numbers [1/K^2] (one row and column per name)")
 
 
 def _check_held_out(h, axes, bad) -> None:
@@ -89,5 +110,8 @@ def _check_held_out(h, axes, bad) -> None:
     if (not isinstance(cov, list) or len(cov) != n
             or not all(isinstance(row, list) and len(row) == n and all(_number(x) for x in row) for row in cov)):
         raise bad("held_out.cov", f"a {n} x {n} matrix of finite numbers (one row and column per name)")
+    b = h.get("blocks", 0)
+    if not isinstance(b, int) or isinstance(b, bool) or b < 0:
+        raise bad("held_out.blocks", f"{b!r}: the number of time blocks held out, a whole number")
     if not _number(h.get("floor_um")) or h["floor_um"] < 0:
         raise bad("held_out.floor_um", f"{h.get('floor_um')!r}: a length in um >= 0")

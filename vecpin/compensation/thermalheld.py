@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vecpin.compensation.thermaleffect import CurvatureEffect, ThermalTermsEffect
 from vecpin.identification.linearised import Linearised
 from vecpin.models.effects.thermal import lagged
 
@@ -93,22 +94,84 @@ def with_lag(held: dict, lag_std_h: float, gradient) -> dict:
     return out
 
 
-def curvature_draws(per_k: float, std_per_k: float, rng, draws: int) -> np.ndarray:
-    """(draws,) draws of the thermal error's relative curvature [1/K] given its estimate
-    ``per_k`` and standard deviation ``std_per_k`` (:func:`vecpin.compensation.thermal.curvature`).
-    Drawn around the estimate itself they overstate the curvature's size where the campaign
-    does not resolve it (an estimate's square exceeds the true one's by the variance, and
-    draws add it again); so the draws come from the normal hierarchy curvature ~ N(0, tau^2)
-    with a half-Cauchy scale tau of the estimate's own standard deviation (the campaign's
-    resolution, no outside knowledge): tau drawn from its posterior on a grid, then the
-    curvature from N(s per_k, s std^2), s = tau^2 / (tau^2 + std^2). Resolved (|per_k| >>
-    std): the estimate +- its deviation; unresolved: shrunk towards 0, heavy-tailed."""
-    sd = float(std_per_k)
-    if not sd > 0:
-        return np.full(draws, float(per_k))
-    tau = sd * np.r_[0.0, np.logspace(-3, 3, 400)]
-    var = tau ** 2 + sd ** 2
-    post = np.exp(-0.5 * per_k ** 2 / var) / np.sqrt(var) / (1 + (tau / sd) ** 2) * np.gradient(tau)
-    pick = tau[rng.choice(len(tau), size=draws, p=post / post.sum())]
-    s = pick ** 2 / (pick ** 2 + sd ** 2)
-    return s * per_k + np.sqrt(s) * sd * rng.standard_normal(draws)
+def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats) -> dict:
+    """How far the thermal error may bend beyond the measured temperatures, per term: the
+    ``geometric`` model refitted with the terms ``eff`` and their relative curvatures
+    (:class:`~vecpin.compensation.thermaleffect.CurvatureEffect`: one per linear axis and
+    one for the tool's growth, linearised at the ``fitted`` terms): ``names`` the bent
+    terms, ``per_k`` [1/K] their estimates, ``cov_per_k`` [1/K^2] their covariance (scaled
+    by the fit's chi-square per degree of freedom: the noise the residuals show),
+    ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin seldom resolves a
+    curvature but bounds it; extrapolated 10 K away that bound is a large part of what the
+    terms leave. (An older ``thermal.json`` holds one curvature for all terms,
+    ``per_k`` and ``std_per_k``: :func:`bend_terms` reads both.)"""
+    d = eff.delta(feats)
+    if np.ptp(d) <= 0:
+        return {}
+    alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
+    sl = next(s for e, s in fitted.effect_slices() if e is eff)
+    curve = CurvatureEffect(eff, fitted.b_[sl], alpha)
+    bent = geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise)
+    k = next(s for e, s in bent.effect_slices() if e is curve)
+    rep = bent.report_
+    scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
+    idx = np.arange(k.start, k.stop) + 6
+    return {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
+            "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": [float(a) for a in alpha]}
+
+
+ALL_TERMS = "all"   # an older thermal.json's one curvature: every term bent alike
+
+
+def bend_terms(c: dict) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(the bent terms' names, their curvatures [1/K], covariance [1/K^2]) of a
+    ``curvature`` record (:func:`curvature`; an older one curvature for all terms:
+    ``[ALL_TERMS]``)."""
+    if "names" not in c:
+        return [ALL_TERMS], np.array([float(c["per_k"])]), np.array([[float(c["std_per_k"]) ** 2]])
+    return list(c["names"]), np.asarray(c["per_k"], float), np.asarray(c["cov_per_k"], float)
+
+
+GRID = np.r_[0.0, np.logspace(-2, 2, 49)]   # the hierarchy's scales, in units of the resolution: 0 and log-spaced
+
+
+def curvature_draws(per_k, cov, rng, draws: int) -> np.ndarray:
+    """(draws, K) draws of the K terms' relative curvatures [1/K] given their estimates
+    ``per_k`` (K,) and covariance ``cov`` (K, K) (:func:`curvature`). Drawn around the
+    estimates themselves they overstate a curvature the campaign does not resolve (an
+    estimate's square exceeds the true one's by the variance, and draws add it again); so
+    they come from a normal hierarchy: the terms of one structure bend alike and each its
+    own way, curvature_k = mu + delta_k, mu ~ N(0, tau_c^2), delta_k ~ N(0, tau_d^2). Both
+    scales have the scale-free prior (uniform in log tau: Jeffreys'), on :data:`GRID`
+    times the campaign's own resolution (the standard deviation of the curvature it
+    resolves best, every term bending alike: 1 / sqrt(1' cov^-1 1)) and at 0; no outside
+    knowledge. The scales are drawn from their posterior on that grid (the estimates
+    ~ N(0, cov + P), P = tau_c^2 11' + tau_d^2 I), then the curvatures from
+    N(P (P + cov)^-1 per_k, P - P (P + cov)^-1 P). What the campaign resolves (a common
+    curvature, a term's own): the estimate +- its deviation; what it does not: shrunk
+    towards the common curvature, and that towards 0. One term (an older file): tau_d 0."""
+    k_hat = np.atleast_1d(np.asarray(per_k, float))
+    C = np.atleast_2d(np.asarray(cov, float))
+    K = len(k_hat)
+    C = 0.5 * (C + C.T) + 1e-12 * max(float(np.trace(C)), 1e-30) * np.eye(K)
+    ones = np.ones(K)
+    try:
+        res = float(1.0 / np.sqrt(ones @ np.linalg.solve(C, ones)))
+    except np.linalg.LinAlgError:
+        res = 0.0
+    if not res > 0:
+        return np.broadcast_to(k_hat, (draws, K)).copy()
+    tc, td = np.meshgrid(res * GRID, res * GRID if K > 1 else np.zeros(1), indexing="ij")
+    tc, td = tc.ravel(), td.ravel()
+    P = tc[:, None, None] ** 2 * np.outer(ones, ones) + td[:, None, None] ** 2 * np.eye(K)   # (G, K, K)
+    A = P + C
+    logdet = np.linalg.slogdet(A)[1]
+    Ainv_k = np.linalg.solve(A, np.broadcast_to(k_hat, (len(A), K))[..., None])[..., 0]
+    log = -0.5 * (Ainv_k @ k_hat + logdet)     # the grid's points weigh alike: uniform in log tau
+    post = np.exp(log - log.max())
+    pick = rng.choice(len(post), size=draws, p=post / post.sum())
+    mean = np.einsum("gij,gj->gi", P, Ainv_k)[pick]
+    S = (P - P @ np.linalg.solve(A, P))[pick]
+    w, V = np.linalg.eigh(0.5 * (S + np.transpose(S, (0, 2, 1))))
+    z = rng.standard_normal((draws, K)) * np.sqrt(np.clip(w, 0.0, None))
+    return mean + np.einsum("dij,dj->di", V, z)

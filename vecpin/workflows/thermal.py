@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.compensation.thermal import BAND, WITHIN, ThermalTerms, fit_thermal, remaining_mm, tip_errors
+from vecpin.compensation.thermalheld import ALL_TERMS, bend_terms
 from vecpin.errors import InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
 from vecpin.export.profile import ControllerProfile
@@ -55,8 +56,12 @@ def how_predicted(terms: ThermalTerms) -> str:
     out = (f"the coefficients' spread over {h['blocks']} time blocks held out, the lag's uncertainty "
            f"± {h.get('lag_std_h', 0.0):.2f} h")
     if c:
-        out += (f", and a curvature of the error with the temperature the campaign bounds to "
-                f"{c['per_k'] * 100:+.1f} ± {c['std_per_k'] * 100:.1f} %/K, extrapolated")
+        names, per_k, cov = bend_terms(c)
+        each = ", ".join(f"{'every term' if nm == ALL_TERMS else nm} {k * 100:+.1f} ± {s * 100:.1f} %/K"
+                         for nm, k, s in zip(names, per_k, np.sqrt(np.diag(cov))))
+        out += (f", and a curvature of the error with the temperature the campaign bounds to {each}, extrapolated; "
+                "the controllers' forms are straight in T and carry no curvature: these are the figures of the "
+                "written straight terms, the curvature they cannot follow part of what they leave")
     return out
 
 

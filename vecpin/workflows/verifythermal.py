@@ -99,6 +99,9 @@ class ThermalVerification:
                            f"({odds(r.left[4])}{r.left[1]:.4f} .. {r.left[2]:.4f}, "
                            f"{BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
                            + self.extrapolated(r))
+        if t.curvature and any(r.left is not None for r in self.runs):
+            out.append("    the controllers' terms are straight in T and carry no curvature: the figure left is what "
+                       "the written terms leave, the curvature vecpin bounds per term counted in it")
         out.append("    the model's predicted figures above are geometric: the thermal figures stand beside them")
         return out
 
