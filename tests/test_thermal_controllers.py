@@ -8,16 +8,18 @@ component); an independent reader per controller, written from the manuals the R
 cite (LinuxCNC: the component's source), turns the files into the controller's
 correction; the corrected commands run on the simulated machine at a steady temperature
 10 K from the campaign's mean. Judged there, on two campaigns: the tip's displacement
-from where the machine put it at the campaign's temperature (what the geometric tables
-leave) is what vecpin's terms themselves leave (each controller carries them, its
+from where the geometric tables leave it (the truth's tip averaged over the campaign's
+structure temperatures: a least-squares geometry takes up the thermal error's mean over
+its campaign) is what vecpin's terms themselves leave (each controller carries them, its
 rounding aside), a fraction of the error without them, and lies in the 5..95 % band
 vecpin predicts (vecpin.compensation.thermal.remaining_mm: the coefficients' spread over
-time blocks held out, the lag's uncertainty, the curvature the campaign bounds,
-extrapolated). vecpin's point figure is held to 20 % only with the chance it states
+time blocks held out, the lag's uncertainty, the curvature per axis the campaign
+bounds, extrapolated). vecpin's point figure is held to 20 % only with the chance it states
 (about one in four from a campaign over a few kelvin, 10 K away: the curvature is not
 resolved there); how often it holds over fresh truths, and the tolerance it does hold to
 four times in five, is benchmarks/bench_thermal_truth.py's page, not a test's two
-campaigns. Also: what the data cannot separate is said."""
+campaigns. Also: what the data cannot separate is said, and the curvature fitted per axis
+lies within three of its standard deviations of the truth's."""
 import dataclasses
 
 import numpy as np
