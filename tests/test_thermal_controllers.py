@@ -165,7 +165,7 @@ def test_terms_in_their_own_family_are_recovered(tmp_path):
     """A machine whose thermal errors are exactly the terms' form (lag 1 h, one of the scanned
     lags; linear in T) and whose head turns the tool: the fit finds the lag and each
     coefficient within 4 standard deviations of the truth, the tool's growth apart from the
-    axes; the LinuxCNC files warn first that a joint correction cannot carry the growth."""
+    axes, each term's curvature within 4 of none; the LinuxCNC files warn first that a joint correction cannot carry the growth."""
     from vecpin.export import thermal_linuxcnc
     m = vecpin.Machine.load("snk_120v")
     rng = np.random.default_rng(11)
@@ -197,6 +197,9 @@ def test_terms_in_their_own_family_are_recovered(tmp_path):
         assert abs(terms.offset_um_per_k[a] - a_true[a] * 1e6) < 4 * terms.offset_std[a]
         assert abs(terms.slope_um_per_m_per_k[a] - b_true[a] * 1e6) < 4 * terms.slope_std[a]
     assert abs(terms.growth_um_per_k - c_true * 1e6) < 4 * terms.growth_std
+    c = terms.curvature                                  # straight in T: no curvature, the growth a term of its own
+    assert c["names"] == ["X", "Y", "Z", "tool_growth"]
+    assert np.all(np.abs(c["per_k"]) < 4 * np.sqrt(np.diag(c["cov_per_k"])))
     with OutputSet(tmp_path) as out:
         thermal_linuxcnc.write(terms, m, {a: k for k, a in enumerate(m.axis_names)}, 5, out, chained=False)
     assert (tmp_path / "vecpin_thermal.hal").read_text().startswith("# WARNING: the tool's growth")
