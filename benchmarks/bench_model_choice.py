@@ -140,7 +140,8 @@ def main() -> None:
                   + f" um; chosen/best {'-' if r is None else f'{r:.2f}'} ({d['seconds']:.0f} s)", flush=True)
     text = page(draws, f"{how}; {time.perf_counter() - t0:.0f} s")
     if held is not None:
-        print(held.write(text.splitlines(), final=True) if not args.no_write else "\n".join(aggregate(text.splitlines())))
+        lines = text.splitlines()
+        print(held.write(lines, final=True) if not args.no_write else "\n".join(aggregate(lines)))
         return
     print(text)
     if not args.no_write:

@@ -12,8 +12,9 @@ recall (the true effect named, or named in the ambiguity group of a named effect
 and the precision of vecpin's names; gross-error rows found; Wilson 95 % intervals throughout. Then
 model choice on multi-target (three tool) clean campaigns: the chosen model's true held-out error
 (``vecpin evaluate`` of the fitted model on noise-free readings of the generator's truth at fresh
-commands) against the best of a few fixed candidates (``vecpin fit --model --basis --order``). On campaigns with gross errors, validation after them
-(:mod:`unseen_gross`): the model the diagnosis hands the user against a fit without the true gross rows.
+commands) against the best of a few fixed candidates (``vecpin fit --model --basis --order``).
+On campaigns with gross errors, validation after them (:mod:`unseen_gross`): the model the diagnosis
+hands the user against a fit without the true gross rows.
 
 Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
 figures), unless --default-noise.

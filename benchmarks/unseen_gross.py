@@ -83,8 +83,8 @@ def validation_lines(records: list[dict], frac: Callable[[int, int], str], detai
         lines.append(f"* no campaign judged ({len(done)} with gross errors: a run failed in each)")
     if not detail:
         return lines
-    lines += ["", "| seed | layout | rows | gross rows (found) | rows flagged, no gross error | vecpin µm | clean fit µm "
-              "| vecpin / clean |", "|---|---|---|---|---|---|---|---|"]
+    lines += ["", "| seed | layout | rows | gross rows (found) | rows flagged, no gross error | vecpin µm "
+              "| clean fit µm | vecpin / clean |", "|---|---|---|---|---|---|---|---|"]
     for r in done:
         v = r["validation"]
         cells = [("-" if v[k] is None else f"{v[k] * 1e3:.1f}") for k in ("vecpin_mm", "clean_mm")]
