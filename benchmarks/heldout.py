@@ -73,8 +73,9 @@ def is_draw_row(line: str) -> bool:
 
 
 def aggregate(lines: list[str]) -> list[str]:
-    """A bench page without any draw's details: the title dropped, the rows of one draw and the sections
-    listing every draw ("## Every ...", "## per draw") left out, the remaining sections one level down."""
+    """A bench page without any draw's details: the title dropped, the rows of one draw, the tables left
+    with no row and the sections listing every draw ("## Every ...", "## per draw") left out, the remaining
+    sections one level down."""
     out, skip = [], False
     for ln in lines[1:] if lines and lines[0].startswith("# ") else lines:
         if ln.startswith("## "):
@@ -83,7 +84,9 @@ def aggregate(lines: list[str]) -> list[str]:
         if skip or is_draw_row(ln):
             continue
         out.append(ln)
-    return out
+    empty = {i for i, ln in enumerate(out) if i and ln.startswith("|---") and out[i - 1].startswith("|")
+             and not (i + 1 < len(out) and out[i + 1].startswith("|"))}
+    return [ln for i, ln in enumerate(out) if i not in empty and i + 1 not in empty]
 
 
 class Run:

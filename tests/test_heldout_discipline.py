@@ -45,20 +45,22 @@ def test_a_heldout_run_refuses_uncommitted_code_and_keeps_every_run(tmp_path, mo
     with pytest.raises(SystemExit, match="commit first"):
         heldout.Run("unseen", 3)
     subprocess.run(["git", "-C", str(repo), "checkout", "-q", "--", "vecpin/a.py"], check=True)
-    page = ["# title", "", "* clean campaigns silent: 2/2", "| family | x |", "| 1681772631 | head | 3 |",
-            "## Model choice", "| 662839765 | arm | 1.02 |", "## Every campaign", "| seed | layout |", "| 7 | x |"]
+    page = ["# title", "", "* clean campaigns silent: 2/2", "| family | x |", "|---|---|", "| thermal | 1 |",
+            "## Model choice", "| seed | ratio |", "|---|---|", "| 662839765 | 1.02 |", "median 1.02",
+            "## Every campaign", "| seed | layout |", "| 7 | x |"]
     runs = []
     for _ in range(2):
         run = heldout.Run("unseen", 3)
         run.page = repo / "heldout.md"
         run.title += f" #{len(runs)}"       # two runs in the same minute
-        run.write(page[:5], final=False)
+        run.write(page[:6], final=False)
         run.write(page, final=True)         # replaces the interim entry
         runs.append(run)
     text = (repo / "heldout.md").read_text()
     assert text.startswith("# Held-out draws") and all(text.count(r.title) == 1 for r in runs)
     assert "interim" not in text and "clean campaigns silent: 2/2" in text and "### Model choice" in text
-    assert not any(s in text for s in ("1681772631", "662839765", "Every campaign", "| 7 |"))
+    assert "| thermal | 1 |" in text and "median 1.02" in text    # the summaries stay
+    assert not any(s in text for s in ("662839765", "| seed | ratio |", "Every campaign", "| 7 |"))
     runs[0].progress(2)
     assert capsys.readouterr().out == "held-out unseen: 2 of 3 draws done\n"
 
