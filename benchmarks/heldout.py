@@ -19,9 +19,11 @@ note as they come; never change the method because of them, and never look at th
 """
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import re
 import subprocess
+import tempfile
 import time
 from pathlib import Path
 
@@ -107,10 +109,12 @@ class Run:
         state = "" if final else " (interim: the run had not finished)"
         entry = "\n".join([self.title, "", f"{self.n} held-out draws (seeds 0..{self.n - 1} of the rule for "
                            f"`{self.bench}`){state}.", *aggregate(page_lines)]).rstrip() + "\n"
-        old = self.page.read_text(encoding="utf-8") if self.page.exists() else INTRO
-        parts = old.split("\n" + self.title + "\n")
-        if len(parts) == 2:   # this run's interim entry: replace it (it runs to the next entry or the end)
-            rest = parts[1].split("\n## ", 1)
-            old = parts[0] + ("\n## " + rest[1] if len(rest) == 2 else "")
-        self.page.write_text(old.rstrip("\n") + "\n\n" + entry, encoding="utf-8")
+        with open(Path(tempfile.gettempdir()) / "vecpin_heldout_page.lock", "w") as lock:   # two runs at once
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            old = self.page.read_text(encoding="utf-8") if self.page.exists() else INTRO
+            parts = old.split("\n" + self.title + "\n")
+            if len(parts) == 2:   # this run's interim entry: replace it (it runs to the next entry or the end)
+                rest = parts[1].split("\n## ", 1)
+                old = parts[0] + ("\n## " + rest[1] if len(rest) == 2 else "")
+            self.page.write_text(old.rstrip("\n") + "\n\n" + entry, encoding="utf-8")
         return entry
