@@ -24,8 +24,9 @@ rotation about the spindle; shape: the rigid motion) free. One fit per judged fr
 by the same judge, through the exact (not linearised) truth.
 
 Run: python benchmarks/bench_generator_tables.py [-n 30] [--seed S] [--kinds table head_table ...]
-     [--out docs/results/generator_tables.md]
-Fresh seeds every run unless --seed.
+     [--out docs/results/generator_tables.md] [--heldout]
+Fresh seeds every run unless --seed; --heldout: the held-out seeds of ``benchmarks/heldout.py`` (committed code
+only, no draw's details shown, the summary added to docs/results/heldout.md; run it once per stop, never tune).
 """
 from __future__ import annotations
 
@@ -54,6 +55,7 @@ from generator.kinematics import chain  # noqa: E402
 from controller_appliers import linuxcnc_corrections, siemens_corrections  # noqa: E402
 from part_frame_judge import part_errors, read_tables, shape_errors  # noqa: E402
 from bench_unseen import noise_options, vecpin_cmd  # noqa: E402  (the stated noise; the command as a user runs it)
+from heldout import Run, heldout_seeds  # noqa: E402
 
 RESULT = ROOT / "docs" / "results" / "generator_tables.md"
 KINDS = ("table", "head_table", "head", "gantry")
@@ -421,6 +423,8 @@ def main(argv=None) -> None:
                     help="keep vecpin's files here and reuse them (default: a temporary folder)")
     ap.add_argument("--rejudge", action="store_true",
                     help="with --work: only the draws whose fits are there (no new fit; tables written where missing)")
+    ap.add_argument("--heldout", action="store_true",
+                    help="the held-out seeds: committed code only, the summary only, added to docs/results/heldout.md")
     ap.add_argument("--from-json", nargs="+", default=None,
                     help="write the page from records saved by --json (runs split over processes)")
     args = ap.parse_args(argv)
@@ -432,20 +436,29 @@ def main(argv=None) -> None:
         print(f"wrote {args.out}")
         return
     first = args.seed if args.seed is not None else secrets.randbelow(10**8)
+    held = Run("generator_tables", args.n) if args.heldout else None   # refused on uncommitted code
+    seeds = heldout_seeds("generator_tables", args.n) if held else [first + i for i in range(args.n)]
     records = []
     with tempfile.TemporaryDirectory(prefix="vecpin_gentables_") as tmp:
         tmp = args.work or tmp
         for i in range(args.n):
-            seed, kind = first + i, args.kinds[i % len(args.kinds)]
+            seed, kind = seeds[i], args.kinds[i % len(args.kinds)]
             done = [Path(tmp) / str(seed) / "model.json", Path(tmp) / str(seed) / "noise-free" / "model.json"]
             if args.rejudge and not all(p.exists() for p in done):
                 continue
             rec = one_draw(seed, kind, Path(tmp), args.commands)
             records.append(rec)
-            print(json.dumps(rec), flush=True)
+            if held is not None:   # no draw's details
+                held.progress(len(records))
+            else:
+                print(json.dumps(rec), flush=True)
             if args.json:
                 Path(args.json).write_text(json.dumps(records, indent=1))
-    how = f"{args.n} draws from seed {first}, classes {', '.join(args.kinds)} in turn"
+    how = (f"{args.n} draws from seed {first}" if held is None else f"{args.n} held-out draws") + \
+        f", classes {', '.join(args.kinds)} in turn"
+    if held is not None:
+        print(held.write(page(records, how).splitlines(), final=True))
+        return
     Path(args.out).write_text(page(records, how))
     print(f"wrote {args.out}")
 

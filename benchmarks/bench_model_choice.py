@@ -15,8 +15,9 @@ with the lowest true error, chosen after seeing the truth); the target is the ch
 10 % of the best. Every vecpin run is given the tracker's and the axes' noise as their specs state
 them (the truth's figures).
 
-Run: python benchmarks/bench_model_choice.py [-n 10] [--seed S] [--kind arm] [--jobs 2] [--no-write]
-Fresh seeds every run unless --seed.
+Run: python benchmarks/bench_model_choice.py [-n 10] [--seed S | --heldout] [--kind arm] [--jobs 2] [--no-write]
+Fresh seeds every run unless --seed; --heldout: the held-out seeds of ``benchmarks/heldout.py`` (committed code
+only, no draw's details shown, the summary added to docs/results/heldout.md; run it once per stop, never tune).
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ sys.path.insert(0, str(HERE))
 
 from bench_unseen import frac, noise_options, tool_options, vecpin_cmd  # noqa: E402
 from generator import draw_campaign, heldout_csv  # noqa: E402
+from heldout import Run, aggregate, heldout_seeds  # noqa: E402
 
 RESULT = ROOT / "docs" / "results" / "model_choice.md"
 #: the fixed candidates (model, basis, order): constant 6-DoF errors (a geometric calibration), 6-DoF
@@ -116,20 +118,31 @@ def main() -> None:
     ap.add_argument("--seed", type=int, help="first seed (default: a fresh random one every run)")
     ap.add_argument("--kind", default="arm", help="the generator's layout kind (default arm)")
     ap.add_argument("--jobs", type=int, default=1, help="draws fitted at once (default 1)")
+    ap.add_argument("--heldout", action="store_true",
+                    help="the held-out seeds: committed code only, the summary only, added to docs/results/heldout.md")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
     args = ap.parse_args()
+    held = Run(f"model_choice {args.kind}", args.n) if args.heldout else None   # refused on uncommitted code
     start = args.seed if args.seed is not None else secrets.randbelow(2 ** 31)
-    how = f"{args.n} {args.kind} draws, seeds {start}..{start + args.n - 1}"
+    seeds = heldout_seeds(f"model_choice {args.kind}", args.n) if held else list(range(start, start + args.n))
+    how = f"{args.n} {args.kind} draws, " + ("held-out seeds" if held else f"seeds {start}..{start + args.n - 1}")
     t0 = time.perf_counter()
     draws = []
     with tempfile.TemporaryDirectory(prefix="choice_") as tmp, ThreadPoolExecutor(max(args.jobs, 1)) as pool:
-        for d in pool.map(lambda s: one_draw(s, args.kind, Path(tmp)), range(start, start + args.n)):
+        for d in pool.map(lambda s: one_draw(s, args.kind, Path(tmp)), seeds):
             draws.append(d)
+            if held is not None:   # no draw's details
+                held.progress(len(draws))
+                continue
             r = ratio(d)
             print(f"seed {d['seed']}: chosen {d['chosen'] or '-'}; "
                   + ", ".join(f"{k} {'-' if v is None else f'{v * 1e3:.1f}'}" for k, v in d["models"].items())
                   + f" um; chosen/best {'-' if r is None else f'{r:.2f}'} ({d['seconds']:.0f} s)", flush=True)
     text = page(draws, f"{how}; {time.perf_counter() - t0:.0f} s")
+    if held is not None:
+        lines = text.splitlines()
+        print(held.write(lines, final=True) if not args.no_write else "\n".join(aggregate(lines)))
+        return
     print(text)
     if not args.no_write:
         RESULT.write_text(text, encoding="utf-8")

@@ -13,16 +13,18 @@ and the precision of vecpin's names; gross-error rows found; Wilson 95 % interva
 model choice on multi-target (three tool) clean campaigns: the chosen model's true held-out error
 (``vecpin evaluate`` of the fitted model on noise-free readings of the generator's truth at fresh
 commands) against the best of a few fixed candidates (``vecpin fit --model --basis --order``).
+On campaigns with gross errors, validation after them (:mod:`unseen_gross`): the model the diagnosis
+hands the user against a fit without the true gross rows.
 
 Every vecpin run is given the tracker's and the axes' noise as their specs state them (the truth's
 figures), unless --default-noise.
 
 Run: python benchmarks/bench_unseen.py [-n 20] [--seed S | --heldout] [--family F] [--choice 4] [--detection 0]
-     [--jobs 1] [--default-noise] [--no-write]
+     [--jobs 1] [--default-noise] [--no-write] [--page PATH]
 --detection N: on N more campaigns, the stated detection size checked (the effect injected at 1x and 2x it).
-The page is rewritten every 10 campaigns and after every later step (marked interim until the end); a
---heldout run writes its own section of the page, a fresh run keeps that section.
-Fresh seeds every run unless --seed; --heldout reads the frozen set benchmarks/generator/heldout_seeds.txt.
+The page is rewritten every 10 campaigns and after every later step (marked interim until the end).
+Fresh seeds every run unless --seed; --heldout: the held-out seeds of ``benchmarks/heldout.py`` (committed code
+only, no draw's details shown, the summary added to docs/results/heldout.md; run it once per stop, never tune).
 """
 from __future__ import annotations
 
@@ -46,9 +48,10 @@ sys.path.insert(0, str(HERE))
 
 from generator import draw_campaign, heldout_csv  # noqa: E402
 from generator.truth import FAMILIES, VECPIN_NAME  # noqa: E402
+from heldout import Run, aggregate, heldout_seeds  # noqa: E402
+from unseen_gross import gross_validation, validation_lines  # noqa: E402
 
 RESULT = ROOT / "docs" / "results" / "unseen.md"
-SEEDS_FILE = HERE / "generator" / "heldout_seeds.txt"
 RECALL_SIZE_MM = 0.02          # recall is stated for effects at least this large (RMS at the tip)
 CANDIDATES = [("6dof", "chebyshev", "2"), ("6dof", "chebyshev", "4"), ("6dof", "chebyshev", "6"),
               ("ap", "chebyshev", "4"), ("6dof", "pspline", "auto")]
@@ -155,6 +158,8 @@ def _group_names(diag: dict, want: str) -> set[str]:
 
 def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "random") -> dict:
     """Draw, write, diagnose and score one campaign; its record (truth, verdict, seconds)."""
+    if family == "gross":   # either kind of gross errors, by the seed (the validation after gross errors)
+        family = ("gross_isolated", "gross_cluster")[seed % 2]
     camp = draw_campaign(seed, family=None if family == "clean" else family)
     paths = camp.write(work / str(seed))
     truth = camp.truth_record()
@@ -174,6 +179,9 @@ def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "rand
     rec["headline"] = diag.get("headline", [""])[1] if len(diag.get("headline", [])) > 1 else ""
     fam = {f["effect"]: f for f in diag.get("detection", [])}.get(truth["vecpin_name"] or "")
     rec["stated_um"] = None if fam is None else fam.get("detectable_rms_um")
+    if truth["gross_lines"]:   # validation after gross errors (unseen_gross): the diagnosis' model, a clean fit
+        rec["validation"] = gross_validation(vecpin_cmd, camp, paths, out,
+                                             [*tool_options(truth["kind"]), *noise_options(truth, stated)])
     return rec
 
 
@@ -307,7 +315,7 @@ def summary(records: list[dict], choices: list[dict], how: str, checks: list[dic
     lines += ["", "Wrong names given, by the campaign's true family:", ""]
     conf = Counter((r["truth"]["family"] or "clean", w) for r in ok for w in r["wrong"])
     lines += [f"* {t}: {w} x{n}" for (t, w), n in sorted(conf.items())] or ["* none"]
-    lines += _choice_lines(choices) + _detection_lines(checks) + _campaign_lines(records)
+    lines += validation_lines(ok, frac) + _choice_lines(choices) + _detection_lines(checks) + _campaign_lines(records)
     return lines
 
 
@@ -382,33 +390,25 @@ def _campaign_lines(records: list[dict]) -> list[str]:
     return lines
 
 
-HELDOUT = "\n## Held out: the frozen seeds (run once, not looked at while changing the method)\n"
 CHECKED = "\n## The stated detection size, checked\n"
 
 
-def page_with(text: str, heldout: bool) -> str:
-    """The results page with ``text``. A fresh run's page keeps the sections already on the page that it
-    does not write itself (the held-out one; the detection check when it made none). A held-out run's text
-    (its title dropped, its sections one level down) replaces the held-out section only; a run of detection
-    checks alone (``text`` opening with that section) replaces that section only."""
-    old = RESULT.read_text(encoding="utf-8") if RESULT.exists() else ""
-    rest, _, held = old.partition(HELDOUT)
-    main, _, checked = rest.partition(CHECKED)
+def page_with(text: str, page: Path = RESULT) -> str:
+    """The results page with ``text``. A fresh run's page keeps the detection check already on the page
+    when it made none; a run of detection checks alone (``text`` opening with that section) replaces that
+    section only. (Held-out runs write docs/results/heldout.md: :mod:`heldout`.)"""
+    old = page.read_text(encoding="utf-8") if page.exists() else ""
+    main, _, checked = old.partition(CHECKED)
     title = "# vecpin on unseen machines (issue 40)\n"
-    if heldout:
-        body = "\n".join(("#" + ln if ln.startswith("## ") else ln) for ln in text.splitlines()[1:])
-        return (rest or title).rstrip("\n") + "\n" + HELDOUT + body + "\n"
     if text.startswith(CHECKED):
-        return (main or title).rstrip("\n") + "\n" + text + (HELDOUT + held if held else "")
-    keep = (CHECKED + checked if checked and CHECKED not in text else "") + (HELDOUT + held if held else "")
+        return (main or title).rstrip("\n") + "\n" + text
+    keep = CHECKED + checked if checked and CHECKED not in text else ""
     return text.rstrip("\n") + "\n" + keep
 
 
 def seeds(args) -> tuple[list[int], str]:
     if args.heldout:
-        rows = [ln.strip() for ln in SEEDS_FILE.read_text().splitlines() if ln.strip() and not ln.startswith("#")]
-        chosen = [int(s) for s in rows][: args.n]
-        return chosen, f"the frozen held-out seeds, first {len(chosen)} of {len(rows)}"
+        return heldout_seeds("unseen", args.n), f"the first {args.n} held-out seeds (benchmarks/heldout.py)"
     start = args.seed if args.seed is not None else secrets.randbelow(2 ** 31)
     return list(range(start, start + args.n)), f"seeds {start}..{start + args.n - 1}"
 
@@ -417,9 +417,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-n", type=int, default=20, help="campaigns to diagnose (default 20)")
     ap.add_argument("--seed", type=int, help="first seed (default: a fresh random one every run)")
-    ap.add_argument("--heldout", action="store_true", help="use the frozen held-out seeds")
-    ap.add_argument("--family", default="random", choices=["random", "clean", *FAMILIES],
-                    help="draw only campaigns of this effect family (default: random, a quarter clean)")
+    ap.add_argument("--heldout", action="store_true",
+                    help="the held-out seeds: committed code only, the summary only, added to docs/results/heldout.md")
+    ap.add_argument("--family", default="random", choices=["random", "clean", "gross", *FAMILIES],
+                    help="draw only campaigns of this effect family; gross: isolated or clustered gross errors "
+                         "(default: random, a quarter clean)")
     ap.add_argument("--choice", type=int, default=4, help="multi-target campaigns for model choice (default 4)")
     ap.add_argument("--detection", type=int, default=0,
                     help="campaigns on which to check the stated detection size (default 0; 3 diagnoses each)")
@@ -427,7 +429,10 @@ def main() -> None:
                     help="run vecpin with its default noise (default: the tracker's and the axes' stated noise)")
     ap.add_argument("--no-write", action="store_true", help=f"print only, do not write {RESULT.relative_to(ROOT)}")
     ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed at once (default 1)")
+    ap.add_argument("--page", type=Path, default=RESULT, help=f"the page to write (default {RESULT.relative_to(ROOT)})")
     args = ap.parse_args()
+    held = Run("unseen", args.n) if args.heldout else None   # refused on uncommitted code
+    say = (lambda text: None) if held is not None else (lambda text: print(text, flush=True))   # no draw's details
     todo, how = seeds(args)
     how += "" if args.family == "random" else f"; only {args.family} campaigns"
     how += ("; vecpin's default noise" if args.default_noise
@@ -437,18 +442,23 @@ def main() -> None:
 
     def write(note: str = "") -> str:
         """The page as it stands (``note``: what is still to come), written unless --no-write."""
-        text = "\n".join(summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks)
-                         if records else _detection_lines(checks)) + "\n"
+        lines = (summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks)
+                 if records else _detection_lines(checks))
+        if held is not None:   # the summary only, on the held-out page
+            return held.write(lines, final=note == " in all") if not args.no_write else "\n".join(aggregate(lines))
+        text = "\n".join(lines) + "\n"
         if not args.no_write:
-            RESULT.write_text(page_with(text, args.heldout), encoding="utf-8")
+            args.page.write_text(page_with(text, args.page), encoding="utf-8")
         return text
 
     with tempfile.TemporaryDirectory(prefix="unseen_") as tmp, ThreadPoolExecutor(max(args.jobs, 1)) as pool:
         runs = pool.map(lambda s: run_campaign(s, Path(tmp), not args.default_noise, args.family), todo)
         for r in runs:
             records.append(r)
-            print(f"seed {r['seed']} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
-                  f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)", flush=True)
+            if held is not None:
+                held.progress(len(records))
+            say(f"seed {r['seed']} {r['truth']['kind']:<10} {r['truth']['family'] or 'clean':<14} -> "
+                  f"{r.get('error') or ', '.join(r['named']) or 'nothing'}  ({r['seconds']:.1f} s)")
             if len(records) % 10 == 0 and len(records) < len(todo):
                 write(f" so far: interim page, {len(records)} of {len(todo)} campaigns")
         first = todo[0] if todo else (args.seed if args.seed is not None else secrets.randbelow(2 ** 31))
@@ -457,17 +467,17 @@ def main() -> None:
             if c is None:   # the layout drawn cannot carry the family
                 continue
             checks.append(c)
-            print(f"detection {c['seed']} {c['family']}: stated {c['stated_um']} um, named "
-                  + ", ".join(f"{k:g}x {v[0]} ({v[1]:.1f} um)" for k, v in c["named"].items()), flush=True)
+            say(f"detection {c['seed']} {c['family']}: stated {c['stated_um']} um, named "
+                  + ", ".join(f"{k:g}x {v[0]} ({v[1]:.1f} um)" for k, v in c["named"].items()))
             write(f" so far: interim page, {len(checks)} detection checks done, model choice to come")
         for s in todo[: args.choice]:
             choices.append(model_choice(s + 7919, Path(tmp), not args.default_noise))
             figs = [f"{k} {'-' if v is None else f'{v * 1e3:.1f} um'}" for k, v in choices[-1]["models"].items()]
-            print(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs), flush=True)
+            say(f"choice {s + 7919} {choices[-1]['kind']}: " + ", ".join(figs))
             write(f" so far: interim page, model choice {len(choices)} of {min(args.choice, len(todo))}")
     print(write(" in all"))
     if not args.no_write:
-        print(f"wrote {RESULT.relative_to(ROOT)}" + (f" ({HELDOUT.strip()})" if args.heldout else ""))
+        print(f"wrote {args.page if held is None else held.page}")
 
 if __name__ == "__main__":
     main()
