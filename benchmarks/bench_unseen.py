@@ -274,11 +274,14 @@ def _detection_lines(checks: list[dict]) -> list[str]:
     return lines
 
 
-def summary(records: list[dict], choices: list[dict], how: str, checks: list[dict] = ()) -> list[str]:
-    """The results page: per-family figures, clean campaigns, gross rows, model choice, every campaign."""
+def summary(records: list[dict], choices: list[dict], how: str, checks: list[dict] = (),
+            family: str = "random") -> list[str]:
+    """The results page: per-family figures, clean campaigns, gross rows, model choice, every campaign
+    (``family``: the family drawn, named in the title when the run draws one only)."""
     ok = [r for r in records if "error" not in r]
     clean = [r for r in ok if r["truth"]["family"] is None]
-    lines = ["# vecpin on unseen machines (issue 40)", "",
+    title = "# vecpin on unseen machines (issue 40)"
+    lines = [title if family == "random" else f"{title[:-11]}: {family} campaigns only (issue 40)", "",
              f"Written by `python benchmarks/bench_unseen.py` ({how}). Machines, errors and campaigns are drawn by",
              "`benchmarks/generator`, written blind to vecpin's simulator and models; vecpin is run as",
              "`vecpin diagnose URDF CSV --out DIR` and judged on its diagnosis.json. Intervals: Wilson 95 %.", "",
@@ -442,7 +445,8 @@ def main() -> None:
 
     def write(note: str = "") -> str:
         """The page as it stands (``note``: what is still to come), written unless --no-write."""
-        lines = (summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks)
+        lines = (summary(records, choices, f"{how}; {time.perf_counter() - t0:.0f} s{note}", checks,
+                         args.family)
                  if records else _detection_lines(checks))
         if held is not None:   # the summary only, on the held-out page
             return held.write(lines, final=note == " in all") if not args.no_write else "\n".join(aggregate(lines))
