@@ -223,9 +223,10 @@ class FoldedProblem:
         x1 = np.linalg.solve(S_f, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
         v = (MC @ x1[..., None])[..., 0]
         held_s, held_ws = held_s.copy(), held_ws.copy()
-        for f, sl in enumerate(rows):
-            held_s[sl] -= A1[sl] @ x1[f] - A[sl] @ v[f]
-            held_ws[sl] -= J1[sl] @ x1[f] - J[sl] @ v[f]
+        for f, sl in enumerate(rows):   # each fold's rows as one matrix (a product each, not one per row)
+            n3 = 3 * (sl.stop - sl.start)
+            held_s[sl] -= (A1[sl].reshape(n3, Q) @ x1[f] - A[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
+            held_ws[sl] -= (J1[sl].reshape(n3, Q) @ x1[f] - J[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
         held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
         held[order], held_w[order] = held_s, held_ws
         M, Ma = self.full_inverse()
