@@ -51,6 +51,34 @@ def test_the_f_tests_detection_size_is_detected_90_percent_of_the_time():
     assert abs(power - 0.9) < 0.025, power
 
 
+def test_the_out_of_fold_spread_is_the_folds_own_estimate(rng):
+    """Per row the variance of a 3-term effect's fitted move as its fold estimates it,
+    E_i S_f^-1 E_i^T, against numpy: E the effect's metric columns less what the model's
+    terms give back (full data), S_f the effect's Gram beside the model's terms with unit
+    priors over the rows out of fold f. The same figures whether the scoring's blocks
+    (:meth:`FoldedProblem.evaluate_extended`) are handed over or formed from the columns."""
+    N, P, Q = 40, 4, 3
+    J, A = rng.normal(size=(N, 3, P)), rng.normal(size=(N, 3, P))
+    J1, A1 = rng.normal(size=(N, 3, Q)), rng.normal(size=(N, 3, Q))
+    fold = np.arange(N) % 5
+    base = FoldedProblem(J, A, rng.normal(size=(N, 3)), np.zeros((N, 3)), fold)
+    lin = SimpleNamespace(point_rows=np.ones(N, bool), r=np.zeros((N, 3)))
+    Jf, J1f = J.reshape(-1, P), J1.reshape(-1, Q)
+    E = A1 - A @ (np.linalg.inv(Jf.T @ Jf + np.eye(P)) @ (Jf.T @ J1f))
+    want = np.empty(N)
+    for f in range(5):
+        out = np.repeat(fold != f, 3)
+        a, b = Jf[out], J1f[out]
+        S = b.T @ b + np.eye(Q) - (a.T @ b).T @ np.linalg.inv(a.T @ a + np.eye(P)) @ (a.T @ b)
+        want[fold == f] = np.einsum("niq,qr,nir->n", E[fold == f], np.linalg.inv(S), E[fold == f])
+    sight = Sight(base, lin, np.ones(N), 1.0, 3 * N - P - Q, 0.0)
+    formed = sight._shape((A1, J1))
+    handed = sight._shape((A1, J1), base.evaluate_extended(J1, A1))
+    np.testing.assert_allclose(formed[3], want, rtol=1e-9)
+    for x, y in zip(formed[1:], handed[1:]):
+        np.testing.assert_allclose(x, y, rtol=1e-9)
+
+
 def test_the_mean_distance_of_a_displaced_gaussian(rng):
     """E|n + a| for n ~ N(0, I_3): the closed form against 200 000 draws, and sqrt(8/pi) at 0."""
     n = rng.normal(size=(200_000, 3))

@@ -62,11 +62,15 @@ def mean_distance(a: np.ndarray, sigma: float) -> np.ndarray:
     """E|n + a| [a's unit] for n ~ N(0, σ² I_3) displaced by |a| = ``a`` (the mean of a
     non-central chi with 3 degrees of freedom; σ sqrt(8/π) at a = 0)."""
     a = np.asarray(a, float)
-    x = np.maximum(a, 1e-300)
+    z = a / (sigma * math.sqrt(2))
+    far = np.exp(-z * z)
+    far *= sigma * math.sqrt(2 / math.pi)
+    far += (a + sigma ** 2 / np.maximum(a, 1e-300)) * special.erf(z)
+    small = a < 1e-4 * sigma
+    if not small.any():   # the series below only where a << σ (most calls: nowhere)
+        return far
     near = sigma * math.sqrt(8 / math.pi) + 2 * a ** 2 / (3 * math.sqrt(2 * math.pi) * sigma)   # a << σ: its series
-    far = (sigma * math.sqrt(2 / math.pi) * np.exp(-a ** 2 / (2 * sigma ** 2))
-           + (a + sigma ** 2 / x) * special.erf(a / (sigma * math.sqrt(2))))
-    return np.where(a < 1e-4 * sigma, near, far)
+    return np.where(small, near, far)
 
 
 @dataclass
@@ -102,54 +106,66 @@ class Sight:
     found: list[Sighting] = field(default_factory=list)
     _pending: list = field(default_factory=list)
 
-    def add(self, effect, cols: tuple) -> None:
+    def add(self, effect, cols: tuple, ev: dict | None = None) -> None:
         """Keep a candidate's columns' figures (A_e, J_e) until the round's threshold is known
-        (none without rows that measure a point: a size at the tool tip needs them)."""
+        (none without rows that measure a point: a size at the tool tip needs them). ``ev``: the
+        candidate's :meth:`FoldedProblem.evaluate_extended` on ``base`` when scored (its cross blocks
+        are then not formed again)."""
         if self.lin.point_rows.any():
-            self._pending.append((effect, self._shape(cols)))
+            self._pending.append((effect, self._shape(cols, ev)))
 
-    def _shape(self, cols: tuple) -> tuple:
+    def _shape(self, cols: tuple, ev: dict | None = None) -> tuple:
         """(k, per drawn shape ψ^T B ψ / ψ^T Q ψ [m² per unit λ σ²], per drawn shape and point row the |move the
         model leaves|² per unit ψ^T B ψ, per point row the variance [m² per unit whitened variance] of the
         effect's fitted move, from all rows). Shapes: :data:`SHAPES` isotropic draws of ψ (fixed seed)."""
         A1, J1 = cols
         Q = J1.shape[-1]
-        b = J1.reshape(-1, Q)
-        M, _ = self.base.full_inverse()
-        C = self.base.J.reshape(-1, self.base.n_columns).T @ b
-        MC = M @ C
-        gram = b.T @ b - C.T @ MC       # what the model's terms leave of the effect's columns (whitened)
+        if ev is None:
+            b = J1.reshape(-1, Q)
+            M, _ = self.base.full_inverse()
+            C = self.base.J.reshape(-1, self.base.n_columns).T @ b
+            MC, JtJ = M @ C, b.T @ b
+        else:
+            C, MC, JtJ = ev["cross"], ev["cross_m"], ev["gram"]
+        gram = JtJ - C.T @ MC       # what the model's terms leave of the effect's columns (whitened)
         pts = self.lin.point_rows
-        A1p = A1[pts]
-        B = np.einsum("niq,nir->qr", A1p, A1p) / max(int(pts.sum()), 1)
+        A1p = A1[pts].reshape(-1, Q)
+        B = A1p.T @ A1p / max(int(pts.sum()), 1)
         psi = np.random.default_rng(0).normal(size=(SHAPES, Q))
         size2 = np.einsum("sq,qr,sr->s", psi, B, psi)
         proj = np.einsum("sq,qr,sr->s", psi, gram, psi)
         ratio = np.where(proj > 1e-12 * np.maximum(size2, 1e-300), size2 / np.maximum(proj, 1e-300), math.inf)
-        E = A1p - self.base.A[pts] @ MC          # the move the model's terms leave, per unit ψ
-        left = np.sum(np.einsum("niq,sq->sni", E, psi) ** 2, axis=-1) / np.maximum(size2, 1e-300)[:, None]
-        return Q, ratio, left, self._out_of_fold(A1, J1, MC)[pts]
+        A = self.base.A
+        E = A1 - (A.reshape(-1, A.shape[-1]) @ MC).reshape(A1.shape)   # the move the model's terms leave, per unit ψ
+        n = int(pts.sum())
+        left = np.sum(((E[pts].reshape(-1, Q) @ psi.T) ** 2).reshape(n, 3, SHAPES), axis=1).T
+        left /= np.maximum(size2, 1e-300)[:, None]
+        return Q, ratio, left, self._out_of_fold(E, J1, None if ev is None else ev["fold_schur"])[pts]
 
-    def _out_of_fold(self, A1: np.ndarray, J1: np.ndarray, MC: np.ndarray) -> np.ndarray:
+    def _out_of_fold(self, E: np.ndarray, J1: np.ndarray, S_f: np.ndarray | None = None) -> np.ndarray:
         """Per row the variance [m² per unit whitened variance] of the effect's fitted move there as its fold
         estimates it (from the other folds' rows, beside the model's terms, with its prior): E_i S_f^-1 E_i^T,
-        S_f = J1^T J1 + I - C^T M C over the rows out of fold f (:meth:`FoldedProblem.evaluate_extended`)."""
+        S_f = J1^T J1 + I - C^T M C over the rows out of fold f (:meth:`FoldedProblem.evaluate_extended`, whose
+        ``fold_schur`` they are when given; ``E`` (N,3,Q): the effect's move less what the model's terms give back,
+        per unit of its parameters, every row)."""
         base = self.base
         M_f, _, order, rows, J, _, _, _, _ = base._fold_inverses()
         Q = J1.shape[-1]
-        J1s = J1[order]
-        E = (A1 - base.A @ MC)[order]
+        E = E[order]
         out = np.empty(len(order))
-        C_f, B_f = [], []
-        for sl in rows:
-            b = J1s[sl].reshape(-1, Q)
-            C_f.append(J[sl].reshape(-1, base.n_columns).T @ b)
-            B_f.append(b.T @ b)
-        C, B = sum(C_f), sum(B_f)
+        if S_f is None:
+            J1s = J1[order]
+            C_f, B_f = [], []
+            for sl in rows:
+                b = J1s[sl].reshape(-1, Q)
+                C_f.append(J[sl].reshape(-1, base.n_columns).T @ b)
+                B_f.append(b.T @ b)
+            C, B = sum(C_f), sum(B_f)
+            S_f = np.stack([(B - B_f[f]) + np.eye(Q) - (C - C_f[f]).T @ (M_f[f] @ (C - C_f[f]))
+                            for f in range(len(rows))])
         for f, sl in enumerate(rows):
-            Co = C - C_f[f]
-            S = (B - B_f[f]) + np.eye(Q) - Co.T @ (M_f[f] @ Co)
-            out[sl] = np.einsum("niq,qr,nir->n", E[sl], np.linalg.inv(S), E[sl])
+            Ef = E[sl].reshape(-1, Q)
+            out[sl] = np.einsum("nq,nq->n", Ef @ np.linalg.inv(S_f[f]), Ef).reshape(-1, 3).sum(axis=1)
         spread = np.empty_like(out)
         spread[order] = out
         return spread
@@ -159,8 +175,8 @@ class Sight:
         [(score, evaluation, columns)], ``base`` its folded problem) kept and settled at its
         threshold; returns ``judged``."""
         self.base = base
-        for sc, _, cols in judged:
-            self.add(sc.effect, cols)
+        for sc, ev, cols in judged:
+            self.add(sc.effect, cols, ev)
         if judged:
             self.settle(judged[0][0].threshold)
         return judged
@@ -204,10 +220,10 @@ class Sight:
         m_after = mean_distance(np.sqrt(h), sigma)
         t_crit = float(-special.stdtrit(n - 1, self.threshold))
         shrink = 1 - self.min_shrink_pct / 100
-        mean_left = left.mean(axis=0)
+        mean_left, root_left = left.mean(axis=0), np.sqrt(left)
 
         def t_short(rms: float) -> float:
-            a = rms * np.sqrt(left)
+            a = rms * root_left
             gain = mean_distance(a, sigma) - m_after
             t = np.sum(gain, axis=-1) / np.sqrt(np.sum(a ** 2 + h, axis=-1) / 3)
             return float(np.mean(special.ndtr(t - t_crit))) - POWER

@@ -175,9 +175,8 @@ class _State:
 
 
 def _base_given(machine: Machine, base, model, basis, order):
-    """The base model of a fitted model (``base``: its kind, bases and orders, refitted
-    without its effects), checked against the machine and the other settings; None when
-    no ``base`` is given (the data choose)."""
+    """The base model of a fitted model (``base``: its kind, bases and orders, refitted without its effects),
+    checked against the machine and the other settings; None when no ``base`` is given (the data choose)."""
     if base is None:
         return None
     fixed = [f"`{k}` {v}" for k, v in (("model", model), ("basis", basis), ("order", order)) if str(v) != "auto"]
@@ -269,8 +268,9 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
     for c in remaining:
         c.prepare(st.camp, st.feats)
         cols = effect_columns(kin, lin, c, st.feats)
+        ev = None if c.scanned else score(lin, base, cols, st.cur_eval)
         if sight is not None:
-            sight.add(c, cols)
+            sight.add(c, cols, ev)   # a scored candidate's cross blocks are not formed again
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
             gain = base.chi2_gain(cols[1])
             why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
@@ -278,7 +278,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
             if type(c) not in slot or gain > slot[type(c)][0]:
                 slot[type(c)] = (gain, c, cols, why)
             continue
-        round_scores.append((c, score(lin, base, cols, st.cur_eval), 1, cols, None))
+        round_scores.append((c, ev, 1, cols, None))
     for kind, (gain, c, cols, why) in list(scan_best.items()) + list(held.items()):
         if why and kind in scan_best and scan_best[kind][0] >= gain:
             continue  # a step held back is shown when it would have been the family's best

@@ -206,7 +206,8 @@ class FoldedProblem:
         rows used, C = J^T J1, the new columns' estimate is S^-1 u, S = J1^T J1 + I -
         C^T M C, u = J1^T w - C^T a (a the present columns' estimate), and the present
         columns' estimate moves by -M C S^-1 u; p_eff from the trace of the block inverse
-        (also returned, over every row: ``cross`` C, ``cross_m`` M C, ``gram`` J1^T J1)."""
+        (also returned, over every row: ``cross`` C, ``cross_m`` M C, ``gram`` J1^T J1; per fold left out
+        ``fold_schur`` S (k,Q,Q))."""
         P, Q = self.n_columns, J1.shape[-1]
         eyeQ = np.eye(Q)
         M_f, a_f, order, rows, J, A, w, held_s, held_ws = self._fold_inverses()
@@ -218,13 +219,14 @@ class FoldedProblem:
         C, B, b = C_f.sum(axis=0), B_f.sum(axis=0), b_f.sum(axis=0)
         Co = C - C_f                                                           # (k,P,Q): every fold left out
         MC = M_f @ Co
-        S = (B - B_f) + eyeQ - Co.transpose(0, 2, 1) @ MC
-        x1 = np.linalg.solve(S, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
+        S_f = (B - B_f) + eyeQ - Co.transpose(0, 2, 1) @ MC
+        x1 = np.linalg.solve(S_f, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
         v = (MC @ x1[..., None])[..., 0]
         held_s, held_ws = held_s.copy(), held_ws.copy()
-        for f, sl in enumerate(rows):
-            held_s[sl] -= A1[sl] @ x1[f] - A[sl] @ v[f]
-            held_ws[sl] -= J1[sl] @ x1[f] - J[sl] @ v[f]
+        for f, sl in enumerate(rows):   # each fold's rows as one matrix (a product each, not one per row)
+            n3 = 3 * (sl.stop - sl.start)
+            held_s[sl] -= (A1[sl].reshape(n3, Q) @ x1[f] - A[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
+            held_ws[sl] -= (J1[sl].reshape(n3, Q) @ x1[f] - J[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
         held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
         held[order], held_w[order] = held_s, held_ws
         M, Ma = self.full_inverse()
@@ -236,7 +238,8 @@ class FoldedProblem:
         tr_inv = np.trace(M) + np.trace(T)
         base_chi2 = float(self.w.ravel() @ self.w.ravel() + self.x0 @ self.x0 - (self.g - self.x0) @ Ma)
         return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "heldout": held,
-                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1], "cross": C, "cross_m": MC, "gram": B}
+                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1], "cross": C, "cross_m": MC, "gram": B,
+                "fold_schur": S_f}
 
     # ------------------------------------------------------------------ full-data fit
     def normal_matrix(self, cols=None, scale=None) -> np.ndarray:

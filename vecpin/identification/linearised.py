@@ -40,10 +40,20 @@ class Linearised:
 
     def folded(self, fold: np.ndarray, judged: np.ndarray | None = None) -> FoldedProblem:
         """The folded problem of every kept unknown at the solution: held-out figures of
-        the model as fitted (``judged``: default the point rows, else every row)."""
+        the model as fitted (``judged``: default the point rows, else every row). Asked again
+        for the same folds, the same problem (its normal equations and inverses formed once:
+        the diagnosis evaluates, scores and flags one model on one set of folds); a caller
+        must not change it."""
         if judged is None:
             judged = self.point_rows if self.point_rows.any() else None
-        return FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.psi0)
+        key = (np.asarray(fold).tobytes(), None if judged is None else np.asarray(judged, bool).tobytes())
+        memo = self.__dict__.setdefault("_folded", {})
+        p = memo.get(key)
+        # a copy with other columns or residuals (``copy.copy`` then new arrays) gets its own problem
+        if p is None or not (p.J is self.J and p.A is self.A and p.w is self.w and p.r is self.r
+                             and p.x0 is self.psi0):
+            p = memo[key] = FoldedProblem(self.J, self.A, self.w, self.r, fold, judged, self.psi0)
+        return p
 
     def point_columns(self, D: np.ndarray, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Extra ψ-scaled columns from machine-frame point displacements D (N,3,k) per

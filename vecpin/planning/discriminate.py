@@ -162,7 +162,8 @@ def _whitened(model: ErrorModel, camp: Campaign, feats: Features, jacobian: bool
     n = model.cov_.shape[0]
     val, vec = np.linalg.eigh(model.cov_)
     root = vec * np.sqrt(np.clip(val, 0.0, None))  # cov_ = root root^T (semi-definite: terms removed are 0)
-    H = (ev.J[..., :n] / lik.sigma[:n]) @ root
+    N = len(ev.J)
+    H = ((ev.J[..., :n] / lik.sigma[:n]).reshape(-1, n) @ root).reshape(N, 3, n)   # one product, not N small ones
     return np.where(ev.valid, ev.w, 0.0), np.where(ev.valid[..., None], H, 0.0)
 
 
@@ -181,7 +182,7 @@ class _Pair:
         self.mu = d.ravel().copy()
         self.scatter = scatter
         self.var = scatter + np.einsum("rp,rp->r", self.H, self.H)
-        self.L: list[np.ndarray] = []
+        self.L = np.empty((0, len(self.mu)))   # the Cholesky factor's rows taken so far (rows x 3N)
 
     def gains(self) -> np.ndarray:
         """(N,) per point the sum of its three rows' conditional gains mu^2 / var."""
@@ -197,13 +198,12 @@ class _Pair:
                 continue
             col = self.H @ self.H[r]
             col[r] += self.scatter
-            for row in self.L:
-                col -= row * row[r]
+            col -= self.L[:, r] @ self.L
             col /= np.sqrt(v)
             gain += float(self.mu[r]) ** 2 / v
             self.mu -= col * (self.mu[r] / np.sqrt(v))
             self.var = np.maximum(self.var - col ** 2, 0.0)
-            self.L.append(col)
+            self.L = np.vstack([self.L, col])
         return gain
 
 

@@ -22,7 +22,7 @@ simulated effect of ``vecpin simulate`` and listed by :func:`effects_help`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -79,15 +79,19 @@ COMMON_KEYS = (Key("strength", 0.05, "mm", "RMS tool-tip displacement the effect
 class TipContext:
     """What tip effects may use: commands [m, rad], modelled tips (N,3) and tool
     directions (N,3) in the machine frame; ``frames(axis)`` gives the (N,4,4) placement
-    of an axis' joint frame after its motion (computed on demand)."""
+    of an axis' joint frame after its motion (computed on demand, once per axis: every
+    candidate about that axis reads the same array, so none may write to it)."""
 
     machine: Machine
     q: np.ndarray
     tip: np.ndarray
     tool_dir: np.ndarray
+    _frames: dict = field(default_factory=dict, repr=False, compare=False)
 
     def frames(self, axis: str) -> np.ndarray:
-        return self.machine.joint_frames(self.q, axis)
+        if axis not in self._frames:
+            self._frames[axis] = self.machine.joint_frames(self.q, axis)
+        return self._frames[axis]
 
 
 class Effect:
