@@ -129,7 +129,7 @@ def add_commands(sub) -> None:
                         "or more nests): the tables then keep the table's face square to the spindle, and every figure "
                         "is judged on it (default: the machine's own reference lines or mean orientation)")
     s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
-                   "nest_heights.csv vecpin plan writes with table nests, its height_mm column filled in (mm)")
+                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (default: none, as above)")
     s.add_argument("--targets", metavar="CSV",
                    help="known tool-target offsets: a CSV 'target,x,y,z' in mm in the tool link frame; targets of the "
                         "campaign's 'target' column not in it are found by the fit (default: all found by the fit)")
