@@ -27,7 +27,7 @@ def test_stages_are_the_command_lines_of_the_day(tmp_path):
         "plan": {"points": 80, "order": 4, "tracker": "3000,-2300,-300", "exclude": ["X=0:600", "B=-111:-60"],
                  "repeat": [4, 4], "compare": "random", "no-sight": True, "zone": None, "quiet": False},
         "import": {"export": "export.csv", "columns": "x=Meas X"},
-        "fit": {"tracker-noise": [0.003, 0.5, 0.005, 2.5], "nest-heights": "heights.csv"}}))
+        "fit": {"nest-heights": "heights.csv", "tracker-noise": [0.003, 0.5, 0.005, 2.5]}}))
     parser = build_parser()
     assert str(tmp_path / "heights.csv") in stage_argv(s, "fit", parser)   # the nests' heights: the user's file
     assert stage_argv(s, "plan", parser) == [
