@@ -26,7 +26,8 @@ one-axis tables: the share of a unit tilt the full table set cannot produce is c
 from vecpin's linearised table problem on the truth.
 
 Every row is vecpin's default path: where the campaign read the table's face, `vecpin tables`
-adds product terms (a table of the turning axis times a ramp of a linear axis) by default; the
+adds product terms (a table of the turning axis times a ramp of a linear axis) by default, and
+holds the tables' turn of the volume against the face at zero with them; the
 table's-face rows also write the same fit's one-axis tables (`vecpin tables --no-products`) and
 judge them alike.
 
@@ -241,7 +242,12 @@ def _product_findings(face: list[dict]) -> list[str]:
                         f"{r['compensated']['part'] / r['compensated']['shape']:.2f} ({' '.join(r['terms']) or '-'}), "
                         f"{r['compensated']['part'] / r['best']['table']['part']:.2f} x the best one-axis set on the "
                         "true table" for r in rows)
-            + ". The shape drops too: a product term also follows errors of the turning axis that grow with a "
+            + ". Written, they come with the tables' turn of the volume against the face held at zero (one-axis "
+            "tables are the least-squares fit, as no one-axis set can carry most of such a tilt): the tilt of the "
+            "compensated volume against the true face is "
+            + ", ".join(f"{r['compensated']['tilt_urad']:.1f}" for r in rows) + " µrad (target 50), the one-axis "
+            "tables' " + ", ".join(f"{r['one_axis']['tilt_urad']:.1f}" for r in rows) + " µrad. The shape drops "
+            "too: a product term also follows errors of the turning axis that grow with a "
             "linear axis' position. The default writes them where the controller carries them exactly as planned: "
             "vecpin's generic files and vecpin's LinuxCNC HAL component (a real LinuxCNC 2.9 applies them to 1e-6 mm: "
             "tests/test_linuxcnc_real.py). SINUMERIK carries them (`$AN_CEC_MULT_BY_TABLE`, its files land on the "

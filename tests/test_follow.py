@@ -41,3 +41,6 @@ def test_the_line_says_what_is_left_and_what_removes_it(machines, rng):
     assert "X with A" in line and "5-axis transformation" in line and f"{u.after_mm:.4f} of 0.2000 mm" in line
     assert "robot controller" in remedy(machines["ur5"]) and "volumetric" in remedy(machines["flow_xyzcb"])
     assert "follow the model" in Unfollowed(0.2, 0.006, 0.005, [], "").line()   # within the fit: nothing to say
+    with_products = Unfollowed(0.2, 0.05, 0.005, [], "", "zc*x", 0.08).line()   # quoted after the terms written
+    assert "0.0500 of 0.2000 mm mean, after the full tables with the product terms zc*x" in with_products
+    assert "the one-axis tables alone, before the product terms, leave 0.0800 mm" in with_products

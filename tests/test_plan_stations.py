@@ -26,7 +26,8 @@ from vecpin.models import make_model
 from vecpin.planning.plan import PlanSettings
 from vecpin.planning.sightline import SightLine
 from vecpin.simulation.simulate import Design, simulate
-from vecpin.workflows.planning import plan_to_dir
+from vecpin.measurement.nestheights import read_nest_heights
+from vecpin.workflows.planning import PlanRun, plan_to_dir
 from vecpin.workflows.simulating import simulate_to_dir, simulation_inputs
 
 
@@ -40,6 +41,24 @@ def planned(machines, tmp_path_factory):
         warnings.simplefilter("ignore", VecpinWarning)
         run = plan_to_dir(m, out, PlanSettings(seed=0), dialects=("gcode",))
     return m, run.plan, out
+
+
+def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
+    """Issue 39: with table nests the plan writes nest_heights.csv (the heights left for the operator, the planned
+    ones beside), says what to measure and where, or, declined, what that leaves; the fit's reader names the file,
+    row and column of a height not filled in, and reads a filled one (mm)."""
+    m, plan, out = planned
+    rows = (out / "nest_heights.csv").read_text().splitlines()
+    assert rows[0] == "nest,planned_mm,height_mm" and len(rows) == 1 + len(plan.nests)
+    assert [r.split(",")[0] for r in rows[1:]] == sorted(plan.nests) and all(r.endswith(",") for r in rows[1:])
+    assert json.loads((out / "plan.json").read_text())["nest_heights"] == "nest_heights.csv"
+    asked = PlanRun(plan, []).heights_line()
+    assert "measure each reflector centre's height above the face, mm" in asked and "nest_heights.csv" in asked
+    assert "not asked (declined)" in PlanRun(plan, [], nest_heights=False).heights_line()
+    with pytest.raises(CampaignFileError, match=r"nest_heights.csv, row 2, column 'height_mm': no height for nest 1"):
+        read_nest_heights(out / "nest_heights.csv")
+    (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(f"{r}{20.5 + i}\n" for i, r in enumerate(rows[1:])))
+    assert read_nest_heights(tmp_path / "h.csv") == {k: 20.5 + i for i, k in enumerate(sorted(plan.nests))}
 
 
 def test_the_second_station_reads_its_own_block_of_the_plan(planned):
@@ -121,6 +140,8 @@ def test_simulate_reads_each_station_and_the_fit_sees_the_tilt_range_better(plan
         np.testing.assert_allclose(truth.stations[0].position_in_machine, plan.placement.stations[1], atol=1e-9)
         c = read_campaign(run.paths["campaign"], m)
         assert np.array_equal(c.station, inputs["plan"].stations)
+        assert read_nest_heights(run.paths["nest_heights"]) == pytest.approx(   # as the operator measures them
+            {k: round(float(p[2]) * 1e3, 2) for k, p in run.simulation.nests.items()})
         noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
         errors = []
         for camp in (c.subset(np.flatnonzero(c.station == 0)), c):

@@ -27,8 +27,9 @@ def test_stages_are_the_command_lines_of_the_day(tmp_path):
         "plan": {"points": 80, "order": 4, "tracker": "3000,-2300,-300", "exclude": ["X=0:600", "B=-111:-60"],
                  "repeat": [4, 4], "compare": "random", "no-sight": True, "zone": None, "quiet": False},
         "import": {"export": "export.csv", "columns": "x=Meas X"},
-        "fit": {"tracker-noise": [0.003, 0.5, 0.005, 2.5]}}))
+        "fit": {"nest-heights": "heights.csv", "tracker-noise": [0.003, 0.5, 0.005, 2.5]}}))
     parser = build_parser()
+    assert str(tmp_path / "heights.csv") in stage_argv(s, "fit", parser)   # the nests' heights: the user's file
     assert stage_argv(s, "plan", parser) == [
         "plan", "flow_xyzcb", "--out", "plan", "--points", "80", "--order", "4", "--tracker", "3000,-2300,-300",
         "--exclude", "X=0:600", "--exclude", "B=-111:-60", "--repeat", "4", "4", "--compare", "random", "--no-sight"]
@@ -124,7 +125,10 @@ def test_figures_are_the_files_against_the_tolerance(tmp_path):
         {"uncompensated": run(0.5, 1.1), "compensated": run(0.03, 0.07), "reduction_of_mean_pct": 94.0}))
     (tmp_path / "assess.json").write_text(json.dumps({"instrument": 0.016, "predicted_compensated": [0.03, 0.05],
                                                       "verdict": "worthwhile"}))
+    (tmp_path / "plan").mkdir()   # the plan's figure is the model's predicted validation residual, named as such
+    (tmp_path / "plan" / "plan.json").write_text(json.dumps({"score": {"validation_max_mm": 0.04}}))
     ok = stage_figures(tmp_path, 0.1)
+    assert ok["plan"]["what"].startswith("predicted validation residual of the model") and ok["plan"]["passes"]
     assert ok["verify"]["value_mm"] == 0.07 and ok["verify"]["passes"] is True
     assert ok["verify"]["noise_mm"] == 0.016 and ok["assess"]["passes"] is True
     tight = stage_figures(tmp_path, 0.06)

@@ -10,6 +10,7 @@ import pytest
 import vecpin
 from vecpin.errors import VecpinWarning
 from vecpin.simulation.simulate import Design, simulate
+from vecpin.selection.design import partly_measured
 from vecpin.simulation.truth import uniform_commands
 from vecpin.workflows.evaluation import evaluate
 
@@ -27,6 +28,12 @@ def test_fit_and_evaluate_name_the_axis_that_never_moved(flow, tmp_path):
         run = vecpin.fit(flow, sim.campaign, vecpin.NoiseModel.default(flow), kind="6dof", basis="chebyshev", order=2)
     said = [str(w.message) for w in seen if issubclass(w.category, VecpinWarning)]
     assert any("did not move in any row (Z at" in s and "holds its errors" in s for s in said), said
+    printed = "\n".join(said + run.lines())   # said once; no ends of a span it does not have held out
+    assert printed.count("did not move") == 1 and "measured over less than" not in printed, printed
+    x = flow.axis("X")   # an axis measured over part of its travel keeps its ends held out
+    half = sim.campaign.subset(np.flatnonzero(sim.campaign.q[:, x.index] < 0.5 * (x.lower + x.upper)))
+    assert z.index not in partly_measured(flow, sim.campaign) and x.index in partly_measured(flow, half)
+    assert z.index not in partly_measured(flow, half)
     moving = simulate(flow, seed=5, truth=sim.truth, design=Design(n_commands=20, n_validation=5)).campaign
     ev = evaluate(run.model, moving)                               # the same tracker, Z over its travel
     assert any("Z" in w and "did not move in the fit's campaign" in w for w in ev.warnings), ev.warnings

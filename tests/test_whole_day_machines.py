@@ -217,6 +217,9 @@ def test_the_day_as_written(day, tmp_path):
         for prog in ("plan", "validation"):
             check_nc("xyzac_trt", "gcode", d / "plan" / f"{prog}.ngc", d / "plan" / f"{prog}.csv")
         assert "relative to the table" in out
+        # the plan asks for the nests' heights above the face; the simulation, standing in for the operator, fills them
+        assert (d / "plan" / "nest_heights.csv").is_file() and (d / "measured" / "nest_heights.csv").is_file()
+        assert "heights above the table's face: once the nests are placed" in out
     else:
         check_nc("trunnion_xyzac", "heidenhain", d / "plan" / "PLAN.H", d / "plan" / "plan.csv")
         check_nc("trunnion_xyzac", "heidenhain", d / "plan" / "VALID.H", d / "plan" / "validation.csv")

@@ -16,10 +16,16 @@ def read_fit_campaign(args, m):
     return c
 
 
-def nest_heights(items: list[str] | None) -> dict | None:
-    """``--nest-height ID=MM`` (repeated) -> {id: mm}; an id given twice is refused."""
+def nest_heights(items: list[str] | None, path: str | None = None) -> dict | None:
+    """``--nest-height ID=MM`` (repeated) and ``--nest-heights CSV`` (the plan's nest_heights.csv, filled in)
+    -> {id: mm}; an id given twice is refused."""
     from vecpin.errors import InputError
+    from vecpin.measurement.nestheights import read_nest_heights
     out = {}
+    for nid, value in (read_nest_heights(path) if path else {}).items():
+        if any(str(i).partition("=")[0].strip() == nid for i in items or []):
+            raise InputError(f"`--nest-height` {nid} is also in `--nest-heights` {path}; give each nest once")
+        out[nid] = value
     for item in items or []:
         nid, sep, value = str(item).partition("=")
         if not sep or not nid.strip():
@@ -39,7 +45,8 @@ def run_fit(args) -> int:
     run = fit_campaign(m, read_fit_campaign(args, m), noise(args, m), kind=args.model, basis=args.basis,
                        order=args.order, tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, cv=args.folds, zone=zone_option(args.zone),
-                       noise_from_data=not noise_stated(args), nest_heights=nest_heights(args.nest_height),
+                       noise_from_data=not noise_stated(args),
+                       nest_heights=nest_heights(args.nest_height, args.nest_heights),
                        progress=progress(not args.quiet))
     run.model.save(args.out)
     say(args, *run.lines())
@@ -121,6 +128,8 @@ def add_commands(sub) -> None:
                    help="the height of a table nest's reflector centre above the table's face, mm (repeat for three "
                         "or more nests): the tables then keep the table's face square to the spindle, and every figure "
                         "is judged on it (default: the machine's own reference lines or mean orientation)")
+    s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
+                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (default: none, as above)")
     s.add_argument("--targets", metavar="CSV",
                    help="known tool-target offsets: a CSV 'target,x,y,z' in mm in the tool link frame; targets of the "
                         "campaign's 'target' column not in it are found by the fit (default: all found by the fit)")

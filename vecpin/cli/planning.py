@@ -79,7 +79,7 @@ def run_plan(args) -> int:
                       safe_z_mm=args.safe_z_mm, retract=args.retract, axis_map=parse_axis_map(args.axis_map, m),
                       compare_with=args.compare_with, progress=progress(not args.quiet),
                       holder_change_s=args.holder_change_s, tracker_move_s=args.tracker_move_s,
-                      read_dwell_s=args.read_dwell_s)
+                      read_dwell_s=args.read_dwell_s, nest_heights=not args.no_nest_heights)
     say(args, *run.lines())
     return 0
 
@@ -91,7 +91,7 @@ def add_commands(sub) -> None:
     add_machine_args(s)
     s.add_argument("--out", required=True, help="output folder (plan.csv, PLAN_840D.MPF, O1000.nc, plan.ngc, the validation run "
                    "validation.csv, VALID_840D.MPF, O1001.nc, validation.ngc, plan.png, "
-                   "plan.json)")
+                   "plan.json; with table nests nest_heights.csv)")
     _add_setup_args(s)
     _add_choice_args(s)
     _add_route_args(s)
@@ -119,6 +119,10 @@ def _add_setup_args(s) -> None:
     s.add_argument("--nest", dest="nest_mm", action="append", default=[], metavar="ID=X,Y,Z",
                    help="a table nest where you place it: its id and position, mm in the workpiece (table) frame; "
                         "repeatable, replaces the default places (default: on a circle on the table at 20-80 mm)")
+    s.add_argument("--no-nest-heights", action="store_true",
+                   help="do not ask for the nests' heights above the table's face (default: with table nests the plan "
+                        "writes nest_heights.csv for the heights you measure, mm; vecpin fit --nest-heights reads it "
+                        "and keeps the table's face; without it the table is taken where the model places it)")
     s.add_argument("--exclude", action="append", default=[], metavar="AXIS=LO:HI[,...]",
                    help="exclusion zone in axis space, mm/deg: commands inside are not measured (collision "
                         "avoidance); repeatable (default: none)")

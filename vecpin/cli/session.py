@@ -30,7 +30,8 @@ MANAGED = {"plan": ("out",), "import": ("machine", "plan", "out"), "assess": ("m
            "verify": ("machine", "model-file", "tables", "out")}
 #: options that name a file the user brings: a relative path is taken from the session file's folder, as the
 #: input fields are (the stages run in the output folder)
-PATH_OPTIONS = {"plan": ("compare",), "fit": ("targets",), "evaluate": ("sign-test-file",), "tables": ("thermal",)}
+PATH_OPTIONS = {"plan": ("compare",), "fit": ("targets", "nest-heights"), "evaluate": ("sign-test-file",),
+                "tables": ("thermal",)}
 
 
 def _head(session: Session, stage: str, f: dict) -> list[str]:

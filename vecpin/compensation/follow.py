@@ -37,6 +37,8 @@ class Unfollowed:
     fit_mm: float
     pairs: list[tuple[str, float]]
     remedy: str
+    products: str = ""                 # the product terms written with the full tables ('' : none)
+    one_axis_mm: float | None = None   # where they are: what the one-axis tables alone leave [mm]
 
     @property
     def share(self) -> float:
@@ -44,14 +46,20 @@ class Unfollowed:
         return self.after_mm / self.before_mm if self.before_mm > 0 else 0.0
 
     def line(self) -> str:
+        """The report's line: what the tables written leave (with their product terms where they carry
+        any, the one-axis tables' figure beside it), and what would remove it."""
+        tables = "the full tables" + (f" with the product terms {self.products}" if self.products else "")
+        alone = ("" if self.one_axis_mm is None else
+                 f"; the one-axis tables alone, before the product terms, leave {self.one_axis_mm:.4f} mm")
         if self.after_mm <= MATERIAL * self.fit_mm or self.after_mm < 1e-3:
-            return (f"what no table can follow: the full tables leave {self.after_mm:.4f} mm mean, within "
-                    f"{MATERIAL:g} x the model's own fit residual ({self.fit_mm:.4f} mm): they follow the model")
+            return (f"what no table can follow: {tables} leave {self.after_mm:.4f} mm mean, within "
+                    f"{MATERIAL:g} x the model's own fit residual ({self.fit_mm:.4f} mm): they follow the model{alone}")
         coupled = ("; the leftover couples " + ", ".join(f"{p} ({s:.0%})" for p, s in self.pairs)
                    if self.pairs else "; the leftover is spread over many inputs at once")
         return (f"what no table can follow: {self.share:.0%} of the model's error ({self.after_mm:.4f} of "
-                f"{self.before_mm:.4f} mm mean) depends on two or more inputs at once, which tables of one input "
-                f"axis cannot carry{coupled}. What would remove it: {self.remedy}")
+                f"{self.before_mm:.4f} mm mean, after {tables}) depends on two or more inputs at once, which "
+                f"{'these tables' if self.products else 'tables of one input axis'} cannot carry{coupled}{alone}. "
+                f"What would remove it: {self.remedy}")
 
 
 def _chebyshev(u: np.ndarray, order: int) -> np.ndarray:
@@ -101,13 +109,15 @@ def remedy(machine: Machine) -> str:
 
 
 def unfollowed(machine: Machine, q: np.ndarray, tool: np.ndarray, before: np.ndarray, after: np.ndarray,
-               fit_mm: float) -> Unfollowed:
+               fit_mm: float, products: str = "", one_axis: np.ndarray | None = None) -> Unfollowed:
     """What the full tables leave: ``before`` / ``after`` (N,3) [m] the model-predicted errors
-    without and with the full table set at commands ``q`` (N, n) [m, rad] with tools ``tool``
-    (N,) [m], judged in the part's frame; ``fit_mm`` the model's own mean fit residual [mm].
-    The tool length is an input where the commands carry several."""
+    without and with the full table set written at commands ``q`` (N, n) [m, rad] with tools
+    ``tool`` (N,) [m], judged in the part's frame; ``fit_mm`` the model's own mean fit residual
+    [mm]. Where the set written carries product terms (``products``, their names), ``after`` is
+    with them and ``one_axis`` (N,3) [m] what the one-axis tables alone leave. The tool length is
+    an input where the commands carry several."""
     inputs = {a.name: q[:, a.index] for a in machine.axes}
     if len(np.unique(np.round(tool, 9))) > 1:
         inputs["the tool length"] = np.asarray(tool, float)
     return Unfollowed(float(norm_mm(before).mean()), float(norm_mm(after).mean()), fit_mm, coupled_pairs(inputs, after),
-                      remedy(machine))
+                      remedy(machine), products, None if one_axis is None else float(norm_mm(one_axis).mean()))

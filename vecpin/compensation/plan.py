@@ -165,7 +165,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     m = model.machine
     offer, held_back, product_line = products_wanted(products, lim, frame.kind == "face", m, req.cons is not None)
     problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
-                                                            n_commands, seed, zone, offer)
+                                                            n_commands, seed, zone, offer, not held_back)
     unmeasured = _unmeasured(m, hold)
     gauge_note = _gauge_significance(model, problem, pitch_names(m) if req.pitch_only else all_table_names(m))
     report = CompensationReport(basis=f"model-predicted volumetric error at {where} x tools "
@@ -173,7 +173,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                       "in the part's frame; shape: the best rigid motion removed as well:")
     with_spread = uncertainty and covariance_kind(model) == "full"
     spread_rows = np.flatnonzero((np.arange(len(problem.q)) // len(problem.tools)) % len(q) < SUBSET_COMMANDS)
-    rows: dict[int, tuple] = {}   # id of a table set -> (the set, kept alive; its report row)
+    rows: dict[int, tuple] = {}   # id of a table set -> (the set, kept alive; its report row; its errors)
 
     def add(label, ts, n):  # the spread, a statistic over the commands, on at most SUBSET_COMMANDS of them
         pt = problem._pt if np.isscalar(problem._pt) else problem._pt[spread_rows]
@@ -181,7 +181,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
                                   point=pt, frame=frame) if with_spread else None
         part, shape = part_and_shape(actual, m, ts, problem.q, problem.L, point=problem._pt)
         report.add(label, part, n, spread, shape=shape)
-        rows[id(ts)] = (ts, report.rows[-1])
+        rows[id(ts)] = (ts, report.rows[-1], part)
         return part
 
     before = add("uncompensated (model)", None, 0)
@@ -189,8 +189,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     full = _full_tables(model, problem, frame, bool(unmeasured), modulo_axes, hold, req.n_points)
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
-    left = unfollowed(m, problem.q, problem.L, before, after, model.report_.residuals_mm["all"]["mean"])
     full = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
+    left = _unfollowed(model, problem, before, after, full, rows[id(full)][2])
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
     selection, tables = None, (pitch if req.pitch_only or req.only_pitch_note else full)
@@ -209,7 +209,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     if modulo_axes:   # what folding onto one turn costs: the same tables over the whole travel, on the same points
         say(f"solving the same tables over the whole travel of {', '.join(modulo_axes)} (not modulo)")
         written = rows[id(tables)][1]   # the row of the set written, before the unfolded row is added
-        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, frame.hold_turn).solve(tables.names())
+        flat = _unfolded(actual, m, q, tools, lo, hi, problem.free_gauge, problem.hold_turn).solve(tables.names())
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
@@ -218,6 +218,14 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left,
                      rows[id(tables)][1].label)
+
+
+def _unfollowed(model: ErrorModel, problem: TableProblem, before, one_axis, full: TableSet, written) -> Unfollowed:
+    """What no table can follow: what the full set ``full`` (its errors ``written`` (N,3) [m]) leaves of the model's
+    errors ``before``, after its product terms where it carries any (``one_axis``: the one-axis set's errors)."""
+    terms = " ".join(p.name for p in full.products)
+    return unfollowed(model.machine, problem.q, problem.L, before, written, model.report_.residuals_mm["all"]["mean"],
+                      terms, one_axis if terms else None)
 
 
 def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
@@ -389,13 +397,19 @@ def _table_tools(model: ErrorModel, tools_mm) -> tuple[list[float], str | None]:
 
 
 def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Request, modulo_axes, commands,
-                   n_commands: int, seed: int, zone, products: bool = False):
+                   n_commands: int, seed: int, zone, products: bool = False, written: bool = False):
     """(problem, where, hold ranges, lower, upper, commands, tools): the table problem on the
     measured box (or zone). Table functions that can follow any model (splines finer than
     its functions) over that box: every spline has pseudo-commands under it, and beyond
     the box the functions are held constant, exactly - a table must not extrapolate what
     was never measured. The subset search works on a cheaper Chebyshev problem over the
-    same box; the chosen set is re-solved on this one."""
+    same box; the chosen set is re-solved on this one. ``products``: with product-term columns;
+    ``written``: they will be written. In the table's-face frame with product terms written the
+    tables hold the compensated volume's turn against the face at 0 (``hold_turn``): they can carry a
+    tilt fixed to the turning table, and least squares would otherwise leave up to 60 µrad of it for a
+    smaller error elsewhere (xyzac_trt), which a part clamped on the face sees. One-axis tables cannot
+    carry most of such a tilt: held, it would cost the part more than it leaves (trunnion_xyzac 0.031 ->
+    0.041 mm), so they leave what least squares leaves, as every one-axis set does."""
     m = model.machine
     lo, hi = measured_box(model)
     if zone:
@@ -415,10 +429,11 @@ def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Reque
         where = f"{len(q)} campaign commands"
     tools = from_mm(np.array(req.tools_mm, float))
     hold = hold_ranges(m, lo, hi, tuple(modulo_axes))
-    problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), hold_turn=frame.hold_turn,
-                           bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi),
-                           products=product_candidates(m) if products and req.cons is None and not (
-                               req.pitch_only or req.only_pitch_note) else ())
+    terms = product_candidates(m) if products and req.cons is None and not (req.pitch_only or
+                                                                            req.only_pitch_note) else []
+    problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), products=terms,
+                           hold_turn=frame.hold_turn or (frame.kind == "face" and bool(terms) and written),
+                           bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
     return problem, where, hold, lo, hi, q, tools
 
 

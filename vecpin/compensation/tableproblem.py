@@ -50,7 +50,8 @@ class TableProblem:
     working volume against the table (a part set up by probing its origin and aligning
     an edge sees every tilt). ``A`` and ``e0`` are projected orthogonally to the three
     translations. With ``hold_turn`` (the frame kept is the volume's mean orientation: a
-    machine whose table turns, an arm), rows weighted by ``TURN_WEIGHT`` hold the compensated
+    machine whose table turns, an arm; or the table's face with product terms written),
+    rows weighted by ``TURN_WEIGHT`` hold the compensated
     error's best-fit rotation at 0: the least-squares tables would otherwise trade a turn of up to 0.1 mrad of
     the whole volume for a smaller error elsewhere, which a part on the table sees as a tilt. ``ridge``: relative
     to each column's squares before that projection (table values that only trade against a translation stay

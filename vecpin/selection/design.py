@@ -27,6 +27,7 @@ from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.poses import pose_blocks, sweep_folds
 from vecpin.models import make_model
 from vecpin.models.basis import AxisBasis, basis_text, smoothing_transform
+from vecpin.models.recorded import STILL_SHARE
 from vecpin.units import norm_mm
 
 FAMILIES = ("chebyshev", "fourier", "fourier_trend", "spline", "pspline")
@@ -151,10 +152,13 @@ def partly_measured(machine: Machine, campaign: Campaign, travel: tuple[np.ndarr
     choice holds out the commands at both ends of their measured span
     (:func:`command_folds`' ``ends``) and judges how each candidate extrapolates along
     them. ``travel``: (low, high) [m, rad] per axis, where the model will be used
-    (default: the axes' limits; a zone's model is used in its zone only)."""
+    (default: the axes' limits; a zone's model is used in its zone only). An axis that
+    stood still (:data:`~vecpin.models.recorded.STILL_SHARE`) has no span whose ends could
+    be held out: the fit says it did not move and holds its errors where it stood."""
     lo, hi = (machine.lower, machine.upper) if travel is None else travel
     span = np.ptp(campaign.q, axis=0)
-    return tuple(a.index for a, sp in zip(machine.axes, span) if sp < PART_OF_TRAVEL * (hi[a.index] - lo[a.index]))
+    return tuple(a.index for a, sp in zip(machine.axes, span)
+                 if STILL_SHARE * a.travel <= sp < PART_OF_TRAVEL * (hi[a.index] - lo[a.index]))
 
 
 def axis_functions(axis, options: list[AxisChoice], q: np.ndarray,

@@ -21,6 +21,7 @@ import numpy as np
 from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.repeatability import SESSION_GAP_S
 from vecpin.kinematics.axes import is_arm
@@ -35,7 +36,7 @@ from vecpin.planning.plan import Plan, PlanScore, PlanSettings, compare, make_pl
 from vecpin.planning.planchecks import t_offset_identified
 from vecpin.planning.problem import check_safe_height
 from vecpin.planning.timing import HOLDER_CHANGE_S, TRACKER_MOVE_S, CampaignTime, ProgramTiming, row_times, run_times
-from vecpin.units import M_PER_MM, to_mm
+from vecpin.units import M_PER_MM, MM_PER_M, to_mm
 
 
 @dataclass
@@ -48,6 +49,7 @@ class PlanRun:
     timing: ProgramTiming | None = None
     validation_time: CampaignTime | None = None
     validation_time_once: CampaignTime | None = None  # the same run reading every point once
+    nest_heights: bool = True   # the nests' heights above the table's face asked for (nest_heights.csv)
 
     def lines(self) -> list[str]:
         p, s = self.plan, self.plan.settings
@@ -169,8 +171,20 @@ class PlanRun:
                 "leave out",
                 f"    predicted error of the tool tip relative to the workpiece: mean {to_mm(a.model_mean):.4f} mm, "
                 f"max {to_mm(a.model_max):.4f} mm with the nests; mean {to_mm(b.model_mean):.4f} mm, max "
-                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)"] + \
+                f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)", self.heights_line()] + \
             ([f"    {x}" for x in p.placement.lines(p.machine)] if p.placement else [])
+
+    def heights_line(self) -> str:
+        """What the operator measures of the nests for the fit to see the table's face, and where it goes."""
+        if not self.nest_heights:
+            return ("    heights above the table's face: not asked (declined): the fit sees the nests, not the face; the "
+                    "tables keep the table where the model places it, and a tilt of the true face against that stays "
+                    "in what a part clamped on it sees")
+        planned = ", ".join(f"{k} at {float(x[2]) * MM_PER_M:.0f}" for k, x in sorted(self.plan.nests.items()))
+        return (f"    heights above the table's face: once the nests are placed, measure each reflector centre's height "
+                f"above the face, mm (a height gauge on the face: the reflector's top less its radius), and write "
+                f"it in {NEST_HEIGHTS_FILE}, column height_mm (planned: {planned} mm); give that file to the fit "
+                "(`nest_heights`): it then finds the face, and the tables keep the table a part is clamped to")
 
     def to_dict(self) -> dict:
         p, s = self.plan, self.plan.settings
@@ -196,6 +210,7 @@ class PlanRun:
                 "stations_mm": [[round(float(v), 6) for v in to_mm(x)] for x in plan_stations(p)],
                 "counts": p.counts(), "geometry": p.geometry,
                 "nests_mm": {k: [round(float(v), 6) for v in to_mm(x)] for k, x in p.nests.items()},
+                "nest_heights": (NEST_HEIGHTS_FILE if self.nest_heights else "declined") if p.nests else None,
                 "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
                 "without_nests": None if p.without_nests is None else score(p.without_nests),
                 "moves_random_order_min": round(p.travel_random_s / 60, 4),
@@ -216,7 +231,7 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                 safe_z_mm: float | None = None, retract: str | None = None, axis_map: dict | None = None,
                 compare_with: list[str] = (), progress: Callable[[str], None] | None = None,
                 holder_change_s: float = HOLDER_CHANGE_S, tracker_move_s: float = TRACKER_MOVE_S,
-                read_dwell_s: float = READ_DWELL_S) -> PlanRun:
+                read_dwell_s: float = READ_DWELL_S, nest_heights: bool = True) -> PlanRun:
     """Plan (see :func:`vecpin.planning.plan.make_plan`) and write the files into ``out_dir``.
 
     The NC programs' options (``dwell_s``, ``nest_dwell_s``, ``feed_mm_min``, ``safe_z_mm``,
@@ -229,7 +244,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     The plan's warnings (:mod:`vecpin.planning.planchecks`) are issued as
     :class:`~vecpin.errors.VecpinWarning` before the files are written. ``dialects``: the
     programs to write (default: every NC dialect; on an arm, :func:`is_arm`, every arm
-    program of :mod:`vecpin.planning.armprogram`, which approach along the tool axis)."""
+    program of :mod:`vecpin.planning.armprogram`, which approach along the tool axis). ``nest_heights``: with
+    table nests, write :data:`~vecpin.measurement.nestheights.NEST_HEIGHTS_FILE` for the heights of their
+    reflectors above the table's face, which the operator measures (False: not asked)."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     arm = is_arm(machine)
@@ -281,7 +298,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
                                 tracker_move_s=tracker_move_s, read_dwell_s=read_dwell_s)
         _, run_time, once = run_times(machine, v, timing, plan.validation_reads)
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
-                      run_time, once)
+                      run_time, once, nest_heights)
+        if plan.nests and nest_heights:
+            files.append(out.write_text(NEST_HEIGHTS_FILE, nest_heights_csv(plan.nests)))
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run

@@ -32,9 +32,11 @@ def _fig(what: str, value: float | None, judged: str | None = None, tolerance: f
 def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, dict]:
     """stage -> its figure (see :func:`_fig`) for every stage whose file is in ``out_dir``.
     A stage passes when its figure (mm) is at most ``tolerance_mm``: the plan's predicted
-    maximum on its validation run, the assessment's predicted compensated error (the high
-    end), the fit's held-out maximum, the tables' model-predicted maximum in the part's
-    frame (tables.json's ``predicted``), the verified compensated maximum."""
+    maximum of the model's validation residual (its parameter uncertainty and the measurement
+    noise: what the fitted model would leave on the validation run's readings, not a
+    compensated error), the assessment's predicted compensated error (the high end), the
+    fit's held-out maximum, the tables' model-predicted maximum in the part's frame
+    (tables.json's ``predicted``), the verified compensated maximum."""
     out = Path(out_dir)
     noise = None
     a = _json(out / OUTPUTS["assess"])
@@ -45,8 +47,8 @@ def stage_figures(out_dir: str | Path, tolerance_mm: float | None) -> dict[str, 
     if p:
         s = p.get("score") or {}
         cart = ((p.get("settings") or {}).get("noise") or {}).get("cartesian_sigma_mm")
-        figs["plan"] = _fig("predicted compensated error on the validation run (max)", s.get("validation_max_mm"),
-                            "max", tolerance_mm, noise if noise is not None else cart,
+        figs["plan"] = _fig("predicted validation residual of the model, measurement noise included (max)",
+                            s.get("validation_max_mm"), "max", tolerance_mm, noise if noise is not None else cart,
                             mean_mm=s.get("validation_mean_mm"), commands=s.get("commands"), rows=s.get("rows"))
     campaign = out / OUTPUTS["import"]
     if campaign.is_file():

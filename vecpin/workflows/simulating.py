@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from vecpin.errors import InputError
-from vecpin.fileio import check_output_dir
+from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
 from vecpin.measurement.registration import registered_errors, spans_plane
 from vecpin.measurement.tableframe import nest_shape, registers_table, table_tips
 from vecpin.planning.nests import VALIDATION_READS
@@ -60,8 +61,8 @@ class SimulationRun:
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if sim.nests:   # what a user knows of the nests: the height of each reflector above the table's face
-            out.append("  table nests, reflector centres above the table's face, mm (the fit's nest heights: the tables "
-                       "then keep the face square to the spindle): "
+            out.append(f"  table nests, reflector centres above the table's face, mm (the fit's nest heights, in "
+                       f"{NEST_HEIGHTS_FILE}: the tables then keep the face square to the spindle): "
                        + " ".join(f"{k}={float(p[2]) * MM_PER_M:.2f}" for k, p in sorted(sim.nests.items())))
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
@@ -120,7 +121,11 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
     check_lengths(machine, truth_options.get("tracker_position"), design)
     sim = simulate(machine, seed=seed, design=design, effects=effects or None, **truth_options)
     tables = truth_options.get("tables")
-    return SimulationRun(sim, design, sim.write(out_dir), seed, truth_options.get("plan") is not None,
+    with OutputSet(out_dir) as out:
+        files = sim.write_into(out)
+        if sim.nests:   # as the operator measures them: the reflectors' heights above the table's face (the fit's)
+            files["nest_heights"] = out.write_text(NEST_HEIGHTS_FILE, nest_heights_csv(sim.nests, measured=True))
+    return SimulationRun(sim, design, files, seed, truth_options.get("plan") is not None,
                          0.0 if tables is None else tables.gauge_offset_change,
                          "the plan's validation run (its validation.csv)"
                          if truth_options.get("validation_commands") is not None else "")
