@@ -232,7 +232,7 @@ def _product_findings(face: list[dict]) -> list[str]:
     if not rows:
         return []
     worst = max(r["compensated"]["part"] / r["compensated"]["shape"] for r in rows)
-    return [f"**On the default path the compensated part is within {worst - 1:.0%} of its shape** (target 10 %): "
+    return [f"**On the default path the compensated part is at most {worst:.2f} x its shape** (target 1.10): "
             "where the campaign reads the table's face, `vecpin tables` adds product terms by default (a table of the "
             "turning axis times a fixed ramp of a linear axis, chosen one by one while each lowers the model's error "
             "by 1 % or more; generic files with their products, applied by the same judge). One-axis tables -> "
