@@ -165,7 +165,8 @@ def test_terms_in_their_own_family_are_recovered(tmp_path):
     """A machine whose thermal errors are exactly the terms' form (lag 1 h, one of the scanned
     lags; linear in T) and whose head turns the tool: the fit finds the lag and each
     coefficient within 4 standard deviations of the truth, the tool's growth apart from the
-    axes, each term's curvature within 4 of none; the LinuxCNC files warn first that a joint correction cannot carry the growth."""
+    axes, each term's curvature within 4 of none; the LinuxCNC files warn first that a joint
+    correction cannot carry the growth."""
     from vecpin.export import thermal_linuxcnc
     m = vecpin.Machine.load("snk_120v")
     rng = np.random.default_rng(11)
