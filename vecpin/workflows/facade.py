@@ -14,6 +14,7 @@ import importlib
 from pathlib import Path
 
 from vecpin.errors import InputError
+from vecpin.kinematics.machine import as_machine
 
 PATH = (str, Path)
 
@@ -38,16 +39,6 @@ def as_model(model, name: str = "model"):
         raise InputError(f"`{name}` {type(model).__name__}: give a fitted ErrorModel or the path of a model file "
                          "(model.json)")
     return model
-
-
-def as_machine(machine, name: str = "machine"):
-    """A :class:`Machine`, a bundled machine's name or a URDF path (loaded); else refused."""
-    from vecpin.kinematics.machine import Machine
-    if isinstance(machine, PATH):
-        return Machine.load(machine)
-    if not isinstance(machine, Machine):
-        raise InputError(f"`{name}` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
-    return machine
 
 
 def _path(path, name: str):
