@@ -13,11 +13,12 @@ and cubic B-splines with 3, 7 or 15 uniform knots (local errors; with ``basis="p
 31 knots, their smoothing λ from the held-out data); on a rotary axis that travels more than a turn, and that
 the campaign measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev trend over
 the travel (errors that repeat every turn, and those that do not: cable wind-up, torsion, a gear behind the
-encoder, drift over a long travel). The search scores every model kind with one family on all axes at a common
-order, then refines each kind axis by axis (every basis and smoothing of one axis with the other axes eliminated
-once); the choice follows the one-standard-error rule: among the candidates whose held-out mean distance is
-within one paired standard error of the lowest, the one with the fewest terms (a penalised spline's effective
-terms).
+encoder, drift over a long travel). The search scores the first model kind (6-DoF) with one family on all axes at
+a common order, then refines it axis by axis (every basis and smoothing of one axis with the other axes eliminated
+once); a later kind (AP) is scored at its bases first and searched so only where it could be chosen
+(:func:`~vecpin.selection.stage.screen_kind`). The choice follows the one-standard-error rule: among the
+candidates whose held-out mean distance is within one paired standard error of the lowest, the one with the
+fewest terms (a penalised spline's effective terms).
 
 The folds group the rows by command and deal the commands at random (interleaved folds: new poses among the
 measured ones), except on an axis the campaign measured over less than 90 % of its travel: there the commands at
