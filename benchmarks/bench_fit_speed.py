@@ -213,7 +213,8 @@ def write_page(speed_lines, ratios, before, cmp_lines, load, label: str, floor_l
                  "choice: its one candidate is still scored for gross rows and the noise level, then fitted by "
                  "Gauss-Newton with its redundancy analysis) and with the kind fixed (its bases still chosen). "
                  "Row by row: what the imports cost beyond numpy, what the fit of one model adds, what the choice "
-                 "of the bases of one kind adds, and what the second kind (AP) adds:", "", "```text", *floor_lines,
+                 "of the bases of one kind adds, and what the second kind (AP: scored at 6-DoF's bases, searched only "
+                 "where it could be chosen) adds:", "", "```text", *floor_lines,
                  "```", ""]
     if cmp_lines:
         text += [f"The model chosen on every bundled machine (simulated, seed 0) by {label} ('before') and now, "
