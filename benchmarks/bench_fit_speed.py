@@ -237,8 +237,11 @@ def main() -> None:
     p.add_argument("--no-page", action="store_true")
     a = p.parse_args()
     tmp = None if a.work else tempfile.TemporaryDirectory()
-    work = Path(a.work or tmp.name)
+    work = Path(a.work or tmp.name).resolve()
     work.mkdir(parents=True, exist_ok=True)
+    a.src, a.before_src = str(Path(a.src).resolve()), a.before_src and str(Path(a.before_src).resolve())
+    a.record, a.before = (a.record and str(Path(a.record).resolve())), (a.before and str(Path(a.before).resolve()))
+    os.chdir(work)   # `python -m` puts the working folder first on sys.path: in a source tree it would run that tree
     env = cached(dict(os.environ, PYTHONPATH=os.pathsep.join([a.src, os.environ.get("PYTHONPATH", "")])), work)
     load0 = os.getloadavg()[0]
     speed_lines, ratios, before, cmp_lines, floor_lines = [], [], [], [], []
