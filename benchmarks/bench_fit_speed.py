@@ -213,7 +213,8 @@ def write_page(speed_lines, ratios, before, cmp_lines, load, label: str, floor_l
                  "choice: its one candidate is still scored for gross rows and the noise level, then fitted by "
                  "Gauss-Newton with its redundancy analysis) and with the kind fixed (its bases still chosen). "
                  "Row by row: what the imports cost beyond numpy, what the fit of one model adds, what the choice "
-                 "of the bases of one kind adds, and what the second kind (AP) adds:", "", "```text", *floor_lines,
+                 "of the bases of one kind adds, and what the second kind (AP: scored at 6-DoF's bases, searched only "
+                 "where it could be chosen) adds:", "", "```text", *floor_lines,
                  "```", ""]
     if cmp_lines:
         text += [f"The model chosen on every bundled machine (simulated, seed 0) by {label} ('before') and now, "
@@ -236,8 +237,11 @@ def main() -> None:
     p.add_argument("--no-page", action="store_true")
     a = p.parse_args()
     tmp = None if a.work else tempfile.TemporaryDirectory()
-    work = Path(a.work or tmp.name)
+    work = Path(a.work or tmp.name).resolve()
     work.mkdir(parents=True, exist_ok=True)
+    a.src, a.before_src = str(Path(a.src).resolve()), a.before_src and str(Path(a.before_src).resolve())
+    a.record, a.before = (a.record and str(Path(a.record).resolve())), (a.before and str(Path(a.before).resolve()))
+    os.chdir(work)   # `python -m` puts the working folder first on sys.path: in a source tree it would run that tree
     env = cached(dict(os.environ, PYTHONPATH=os.pathsep.join([a.src, os.environ.get("PYTHONPATH", "")])), work)
     load0 = os.getloadavg()[0]
     speed_lines, ratios, before, cmp_lines, floor_lines = [], [], [], [], []

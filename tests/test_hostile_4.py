@@ -352,6 +352,7 @@ def flow():
     (lambda b, m, c: vecpin.make_tables(5, b.dir / "t"), "`model` int"),
     (lambda b, m, c: vecpin.make_tables(b.model, 5), "`out_dir` 5"),
     (lambda b, m, c: vecpin.diagnose(5, c), "`machine` int"),
+    (lambda b, m, c: vecpin.fit([m], c, kind="ap", order=1), "`machine` list"),
     (lambda b, m, c: vecpin.diagnose(m, c, base=5), "`base` int"),
     (lambda b, m, c: vecpin.simulate(m, seed="a"), "`seed` 'a'"),
     (lambda b, m, c: vecpin.simulate(5), "`machine` int"),
@@ -361,7 +362,7 @@ def flow():
     (lambda b, m, c: vecpin.write_campaign(b.dir / "w.csv", [1], m), "`campaign` list"),
     (lambda b, m, c: vecpin.make_model("ap", 5, 1), "`machine` int"),
 ], ids=["cv-text", "cv-nan-label", "cv-none-labels", "zone-text", "zone-shape", "plan-none", "plan-int",
-        "profile-dict", "tables-int", "out-int", "diagnose-machine", "diagnose-base", "seed-text", "simulate-int",
+        "profile-dict", "tables-int", "out-int", "diagnose-machine", "fit-machine-list", "diagnose-base", "seed-text", "simulate-int",
         "read-int", "read-machine-int", "load-int", "write-list", "make-model-int"])
 def test_facade_wrong_kinds(base, flow, call, words):
     """Was: AttributeError/TypeError/ValueError deep inside (16 of 19), a NaN fold label

@@ -54,7 +54,8 @@ def __getattr__(name: str):
     if target is None:
         raise AttributeError(f"module 'vecpin' has no attribute '{name}'")
     module, attr = target if isinstance(target, tuple) else (target, name)
-    value = getattr(importlib.import_module(module), attr)
+    found = importlib.import_module(module)
+    value = found.facade(attr) if module == FACADE else getattr(found, attr)   # the facade: per name (facade.facade)
     globals()[name] = value
     return value
 

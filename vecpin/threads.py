@@ -25,17 +25,12 @@ make threads wait on each other.
 """
 from __future__ import annotations
 
-import ctypes
 import functools
 import importlib
-import multiprocessing
 import os
-import pickle
-import signal
 import sys
 import threading
 import warnings
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Callable, Iterable, TypeVar
 
@@ -123,13 +118,14 @@ def side_by_side(fn: Callable[..., T], items: Iterable, *, processes: bool = Fal
     would make threads wait on each other and whose results are small. A forked call's
     changes to shared objects, its warnings and anything it reports through a callback
     stay in its copy (printing goes to the same terminal). Threads where forking is not
-    safe (:func:`_can_fork`)."""
+    safe (:func:`_can_fork`). (The pools' modules are imported here, by the calls that need them.)"""
     items = list(items)
     workers = min(len(items), workers_wanted())
     if workers <= 1:
         return [fn(x) for x in items]
     if processes and _can_fork():
         return _forked(fn, items, workers)
+    from concurrent.futures import ThreadPoolExecutor   # here: a command that never runs calls side by side skips it
 
     def call(x):
         _state.depth = 1   # inside the limit entered below
@@ -144,6 +140,7 @@ def _can_fork() -> bool:
     spawns there), from a process that may have children (a multiprocessing pool's
     worker may not) and runs no Python thread of its own (a lock one of them held would
     stay locked in the copy; the BLAS re-creates its own threads in the copy)."""
+    import multiprocessing
     return (sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
             and threading.active_count() == 1)
 
@@ -154,6 +151,7 @@ _job: tuple = ()   # (fn, items) of the forked calls under way: the copies find 
 def _run_job(i: int):
     """Call ``i`` of :data:`_job` in a forked copy; an exception that could not travel
     back (a custom constructor) travels as its plain vecpin error, message kept."""
+    import pickle
     fn, items = _job
     try:
         return fn(items[i])
@@ -175,6 +173,8 @@ def _quiet_copy(parent: int) -> None:
     its parent: a SIGTERM or SIGKILL to ``vecpin fit`` left both copies running, 378 MB
     each, for as long as anyone watched (prctl's parent-death signal; a copy whose parent
     ended before it was armed ends at once)."""
+    import ctypes
+    import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM))
@@ -187,6 +187,8 @@ def _quiet_copy(parent: int) -> None:
 def _forked(fn: Callable[..., T], items: list, workers: int) -> list[T]:
     """:func:`side_by_side` in ``workers`` forked processes (a copy that dies raises
     ``BrokenProcessPool`` here rather than leaving the caller waiting)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
     global _job
     _job = (fn, items)
     try:

@@ -25,7 +25,7 @@ import numpy as np
 from vecpin.errors import InputError, VecpinWarning
 from vecpin.fitting.settings import DEFAULTS, default
 from vecpin.fitting.result import FitResult, NOISE_ROUNDS, fit_rounds, variance_parts
-from vecpin.kinematics.machine import Machine
+from vecpin.kinematics.machine import Machine, as_machine
 from vecpin.measurement.campaignchecks import still_axes_notes
 from vecpin.measurement.campaignrows import Campaign, min_rows
 from vecpin.measurement.instruments.multilateration import check_stations
@@ -80,10 +80,7 @@ def fit_arguments(machine, campaign, noise) -> tuple[Machine, Campaign, NoiseMod
     ``noise`` a :class:`NoiseModel`, None (the default) or an instrument's name
     ("spherical", "cartesian"). Anything else is refused, naming the argument."""
     from vecpin.measurement.campaign import read_campaign
-    if isinstance(machine, (str, Path)):
-        machine = Machine.load(machine)
-    elif not isinstance(machine, Machine):
-        raise InputError(f"`machine` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
+    machine = as_machine(machine)
     if isinstance(campaign, (str, Path)):
         campaign = read_campaign(campaign, machine)
     elif not isinstance(campaign, Campaign):

@@ -438,3 +438,14 @@ class Machine:
         for note in self.notes:
             lines.append(f"  note: {note}")
         return "\n".join(lines)
+
+
+def as_machine(machine, name: str = "machine") -> Machine:
+    """``machine`` as a :class:`Machine`: a Machine as it is, a bundled machine's name or a URDF path
+    loaded (:meth:`Machine.load`); anything else refused naming the argument ``name``. The one coercion the
+    facade (:mod:`vecpin.workflows.facade`) and the fit's arguments (:mod:`vecpin.fitting.problem`) share."""
+    if isinstance(machine, (str, Path)):
+        return Machine.load(machine)
+    if not isinstance(machine, Machine):
+        raise InputError(f"`{name}` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
+    return machine

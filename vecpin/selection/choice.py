@@ -13,11 +13,12 @@ and cubic B-splines with 3, 7 or 15 uniform knots (local errors; with ``basis="p
 31 knots, their smoothing λ from the held-out data); on a rotary axis that travels more than a turn, and that
 the campaign measured over a turn or more, also Fourier series per turn, alone or with a Chebyshev trend over
 the travel (errors that repeat every turn, and those that do not: cable wind-up, torsion, a gear behind the
-encoder, drift over a long travel). The search scores every model kind with one family on all axes at a common
-order, then refines each kind axis by axis (every basis and smoothing of one axis with the other axes eliminated
-once); the choice follows the one-standard-error rule: among the candidates whose held-out mean distance is
-within one paired standard error of the lowest, the one with the fewest terms (a penalised spline's effective
-terms).
+encoder, drift over a long travel). The search scores the first model kind (6-DoF) with one family on all axes at
+a common order, then refines it axis by axis (every basis and smoothing of one axis with the other axes eliminated
+once); a later kind (AP) is scored at its bases first and searched so only where it could be chosen
+(:func:`~vecpin.selection.stage.screen_kind`). The choice follows the one-standard-error rule: among the
+candidates whose held-out mean distance is within one paired standard error of the lowest, the one with the
+fewest terms (a penalised spline's effective terms).
 
 The folds group the rows by command and deal the commands at random (interleaved folds: new poses among the
 measured ones), except on an axis the campaign measured over less than 90 % of its travel: there the commands at
@@ -72,7 +73,7 @@ from vecpin.selection.design import (CHEB_ORDERS, DEFAULT_FAMILIES, FAMILIES, PA
                                      choice_folds, measured_spans, partly_measured, per_turn_measured)
 from vecpin.selection.screen import GrossRowsRefused, Screen, screen_rows, trimmed_registration
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error, supported
-from vecpin.selection.stage import KindStage, kind_stage
+from vecpin.selection.stage import KindStage, ends_choice, kind_stage, other_kinds, rescaled
 from vecpin.threads import one_blas_thread, side_by_side
 
 _Problem = Problem  # the name the tests and older scripts use
@@ -108,6 +109,7 @@ class ModelChoice:
     subsample: tuple = ()    # (rows chosen on, the campaign's rows, seed) when the choice judged a subsample
     grouping: str = "pose"   # what the folds keep together: poses, or the sweeps of a design moving one joint at a time
     given: str = ""          # why a choice was made although the kind and the order were given
+    screened: tuple = ()     # kinds judged at the first kind's bases only, and why (selection.stage.screen_kind)
 
     def table(self, limit: int = 30) -> str:
         nests = " and any table nest's" if self.machine.has_workpiece else ""  # nest rows are judged as tool rows are
@@ -142,6 +144,7 @@ class ModelChoice:
             b = self.before_ends
             lines.append(f"  (before the bases along them were chosen on their held-out ends: {b.label()}, "
                          f"{b.n_terms} model terms, held-out mean {b.mean:.4f} mm)")
+        lines += [f"  ({text})" for text in self.screened]
         if self.gross is not None:
             lines.append(f"gross errors: {self.gross.text}")
         if self.subsample:
@@ -222,19 +225,17 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
                  seed: int = 0, fixed_order: bool = False, opts: dict | None = None, underdetermined: bool = False,
                  noise_from_data: bool = False, travel: tuple[np.ndarray, np.ndarray] | None = None,
                  progress: Callable[[str], None] | None = None, screen: bool = True) -> ModelChoice:
-    """Score the candidates by linearised k-fold CV and choose one (module docstring).
-
-    ``kinds`` (default: every registered kind, ``vecpin.models.MODELS``), ``families``, ``orders``: what to try (a
-    fixed choice restricts them); ``plans``: the families tried on every axis at once (default ``families``);
-    ``per_axis``: refine each axis' basis around the best common one; ``fixed_order``: ``orders`` is one order the
-    user fixed (splines then have that many knots, trends are at most that order); ``folds``: their number, or (N,)
-    the user's fold of each row (no ends held out then); ``seed``: the folds (and the subsample of a large campaign);
-    ``opts``: the model options (``prior_scale``, ``tool_lengths``), whose priors and offsets every candidate
-    carries; ``underdetermined``: also candidates with as many unknowns as equations or more (module text);
-    ``noise_from_data``: the noise level is not known: when the best common candidate's chi2 leaves its band, every
-    noise sigma is scaled by what it says (:func:`_noise_level`) and the choice made with that noise
-    (``ModelChoice.noise_scale``), after the gross rows are left out (:mod:`vecpin.selection.screen`; ``screen``:
-    look for them, the default))."""
+    """Score the candidates by linearised k-fold CV and choose one (module docstring). ``kinds`` (default: every
+    registered kind, ``vecpin.models.MODELS``; the first searched, the others screened at its bases:
+    :func:`~vecpin.selection.stage.other_kinds`), ``families``, ``orders``: what to try; ``plans``: the families
+    tried on every axis at once (default ``families``); ``per_axis``: refine each axis' basis around the best common
+    one; ``fixed_order``: ``orders`` is one order the user fixed (splines then have that many knots, trends are at
+    most that order); ``folds``: their number, or (N,) the user's fold of each row (no ends held out then); ``seed``:
+    the folds (and the subsample of a large campaign); ``opts``: the model options (``prior_scale``,
+    ``tool_lengths``) every candidate carries; ``underdetermined``: also candidates with as many unknowns as
+    equations or more; ``noise_from_data``: the noise level is not known: when the best common candidate's chi2
+    leaves its band, every noise sigma is scaled by what it says (:func:`_noise_level`, ``ModelChoice.noise_scale``),
+    after the gross rows are left out (:mod:`vecpin.selection.screen`; ``screen``: look for them, the default)."""
     args = dict(locals())   # the arguments, for the choice again without the gross rows
     t0 = time.perf_counter()
     kinds = tuple(kinds or MODELS)
@@ -249,19 +250,18 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     spans = measured_spans(machine, campaign, travel)
     fold, grouping = choice_folds(camp, folds, seed, ends, picked)   # labels given, or whole sweeps, or poses
 
+    make = lambda kind, opt=options, setup=None: Problem(  # noqa: E731 (the linearised problem of a kind)
+        kind, machine, camp, noise, opt, fold, opts, setup, spans=spans)
+
     def linearised(kind: str) -> tuple[Problem, Search]:   # the kinds side by side, here and below
         say(f"{kind}: linearising {len(camp)} rows with every candidate basis")
-        prob = Problem(kind, machine, camp, noise, options, fold, opts, spans=spans)
+        prob = make(kind)
         return prob, _common_stage(prob, machine, campaign, plans, orders, options, underdetermined, say)
 
-    firsts = side_by_side(linearised, kinds)
-    problems = {kind: prob for kind, (prob, _) in zip(kinds, firsts)}
-    search = _joined([own for _, own in firsts])
-    if not search.cands:
-        raise _too_small(machine, campaign, problems, search.limit)
+    problems, search = _first_kind(kinds, linearised, machine, campaign)
     lowest = min(search.cands, key=lambda c: c.mean)
-    gross = _screened(screen and noise_from_data, problems[lowest.kind], lowest, camp, campaign, lambda setup: Problem(
-        lowest.kind, machine, camp, noise, options, fold, opts, setup, spans=spans))
+    gross = _screened(screen and noise_from_data, problems[lowest.kind], lowest, camp, campaign,
+                      lambda setup: make(lowest.kind, setup=setup))
     if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
         say(gross.text)
         kept = np.setdiff1d(np.arange(len(campaign)), gross.rows)   # (and their fold labels)
@@ -270,32 +270,36 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     scale = _noise_level(problems[lowest.kind], lowest) if noise_from_data else 1.0
     if scale != 1.0:  # the choice made again with the noise the data give (no new linearisation)
         say(f"noise from the data: {scale:.2f} x the stated noise; scoring again with it")
-        for prob in problems.values():
-            prob.problem.rescale(scale)
+    problems = {kind: rescaled(prob, scale) for kind, prob in problems.items()}
 
     def staged(kind: str) -> KindStage:
-        own = (_common_stage(problems[kind], machine, campaign, plans, orders, options, underdetermined, say)
-               if scale != 1.0 else search.of_kind(kind))
-        return kind_stage(own, problems[kind], camp, options, ends, per_axis, say)
+        if new := kind not in problems:   # a kind the screen let in: linearised now, at the data's noise
+            problems[kind] = rescaled(make(kind), scale)
+        prob = problems[kind]
+        own = (_common_stage(prob, machine, campaign, plans, orders, options, underdetermined, say)
+               if scale != 1.0 or new else search.of_kind(kind))
+        return kind_stage(own, prob, camp, options, ends, per_axis, say)
 
-    stages = side_by_side(staged, kinds, processes=True)   # small results, much Python: processes
+    stages = side_by_side(staged, list(problems), processes=True)   # small results, much Python: processes
+    stages += other_kinds([k for k in kinds if k not in problems], stages[0], problems, search.limit, scale, say,
+                          make, staged)
     search = _joined([own.search for own in stages])
     cands, first = search.cands, problems[kinds[0]]
     best = min(cands, key=lambda c: c.mean)
-    if ends and per_axis:   # along axes the model is used beyond, what extrapolates (_ends_choice)
-        chosen, se, reason, before = _ends_choice([own for own in stages if own.end is not None], problems)
+    if ends and per_axis:   # along axes the model is used beyond, what extrapolates (ends_choice)
+        chosen, se, reason, before = ends_choice([own for own in stages if own.end is not None], problems)
     else:
         chosen, se, reason, before = (*one_standard_error(cands, best, lambda c: problems[c.kind].size(c),
                                                           lambda c: problems[c.kind].size_bound(c)), None)
     say(f"chose {chosen.label()} ({len(cands)} candidates in {time.perf_counter() - t0:.1f} s)")
-    own_scale = scale * _noise_level(problems[chosen.kind], chosen) if noise_from_data else 1.0
-    limit = search.limit    # every candidate has fewer unknowns than this (the campaign's equations)
+    own_scale, limit = scale * _noise_level(problems[chosen.kind], chosen) if noise_from_data else 1.0, search.limit
     return ModelChoice(machine, cands, best, chosen, se, reason, int(fold.max()) + 1, int(first.judged.sum()),
                        (float(first.uncompensated.mean()), float(first.uncompensated.max())),
                        time.perf_counter() - t0, first.n_fixed,
                        int(round(limit)) if math.isfinite(limit) else first.n_equations, len(search.left_out), short,
                        tuple(machine.axes[a].name for a in ends), scale, before, own_scale, grouping=grouping,
-                       subsample=(len(camp), len(campaign), seed) if picked is not None else ())
+                       subsample=(len(camp), len(campaign), seed) if picked is not None else (),
+                       screened=tuple(own.note for own in stages if own.note))
 
 
 def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, orders, options,
@@ -309,6 +313,19 @@ def _common_stage(prob: Problem, machine: Machine, campaign: Campaign, plans, or
     return search
 
 
+def _first_kind(kinds, linearised, machine: Machine, campaign: Campaign) -> tuple[dict, Search]:
+    """(problems, search): the first kind's, its common-basis candidates scored (the others are screened at its
+    bases: :func:`~vecpin.selection.stage.other_kinds`); every kind's where the first supports no candidate."""
+    firsts = side_by_side(linearised, kinds[:1])
+    if not firsts[0][1].cands:
+        firsts += side_by_side(linearised, kinds[1:])
+    problems = {kind: prob for kind, (prob, _) in zip(kinds, firsts)}
+    search = _joined([own for _, own in firsts])
+    if not search.cands:
+        raise _too_small(machine, campaign, problems, search.limit)
+    return problems, search
+
+
 def _joined(searches: list[Search]) -> Search:
     """One search of the kinds' own (in the kinds' order: the same table whichever
     kind finished first)."""
@@ -317,24 +334,6 @@ def _joined(searches: list[Search]) -> Search:
         search.limit = own.limit
         search.merge(own)
     return search
-
-
-def _ends_choice(stages: list[KindStage], problems: dict) -> tuple[Candidate, float, str, Candidate]:
-    """The choice when axes were measured over part of their travel: of every kind's
-    choice with its bases along those axes chosen on their held-out ends
-    (:func:`~vecpin.selection.stage.kind_stage`), the one-SE rule on every held-out row: (chosen, its standard
-    error [mm], the reason, the chosen kind's choice before its ends were judged)."""
-    results = [own.end for own in stages]
-    low = min(results, key=lambda c: c.mean)
-    chosen, se, _ = one_standard_error(results, low, lambda c: problems[c.kind].size(c))
-    stage = next(own for own in stages if own.end is chosen)
-    changed = stage.changed
-    reason = (f"each kind's fewest model terms within one standard error of its lowest held-out mean, its bases along "
-              f"the axes measured over part of their travel then chosen on their held-out ends by the same rule"
-              f"{' (' + ', '.join(changed) + ')' if changed else ''}; of the kinds, "
-              + ("the lowest held-out mean" if chosen is low else
-                 f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
-    return chosen, se, reason, stage.start
 
 
 def _with_gross(choice: ModelChoice, gross: Screen) -> ModelChoice:

@@ -2,15 +2,17 @@
 kinds run side by side): its best refined axis by axis, then along the axes the campaign
 measured over part of their travel, the bases chosen again on those axes' held-out ends,
 so that the model keeps only what extrapolates where it will be used beyond the span
-measured.
+measured. The kinds after the first are screened before they are searched (:func:`screen_kind`).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from vecpin.measurement.campaign import Campaign
+from vecpin.models import MODELS
 from vecpin.selection.search import Candidate, Problem, Search, one_standard_error
 
 
@@ -24,6 +26,8 @@ class KindStage:
     start: Candidate | None = None
     end: Candidate | None = None
     changed: tuple = ()
+    common: float = math.nan   # the lowest held-out mean [mm] of its common-basis candidates, before refinement
+    note: str = ""             # a kind after the first screened at its bases (screen_kind): what was found
 
 
 def kind_stage(own: Search, prob: Problem, camp: Campaign, options, ends, per_axis: bool, say) -> KindStage:
@@ -31,7 +35,7 @@ def kind_stage(own: Search, prob: Problem, camp: Campaign, options, ends, per_ax
     best refined axis by axis (``per_axis``: every kind, a spline may turn the ranking),
     then with ``ends`` its bases along them chosen on their held-out ends
     (:func:`along_ends`)."""
-    stage = KindStage(own)
+    stage = KindStage(own, common=min((c.mean for c in own.cands), default=math.nan))
     cur = own.refine(prob, options) if per_axis else None
     if cur is not None:
         say(f"refined axis by axis: {cur.label()}")
@@ -85,3 +89,90 @@ def on_every_end(prob: Problem, camp: Campaign, choices: list[tuple], ends) -> l
     return [Candidate(prob.kind, t, parts[0][k].n_terms, np.concatenate([part[k].heldout for part in parts]),
                       spans=prob.spans)
             for k, t in enumerate(choices)]
+
+
+def screen_choices(first: KindStage, prob: Problem) -> tuple[list[tuple], list[list]]:
+    """(choices, options per axis): the bases of the first kind's choice by the one-SE rule (``prob``: its
+    problem; along partly measured axes also after its ends) and of its lowest held-out mean, where another kind
+    is screened (:func:`screen_kind`)."""
+    lowest = min(first.search.cands, key=lambda c: c.mean)
+    start = first.start or one_standard_error(first.search.cands, lowest, prob.size, prob.size_bound)[0]
+    picks = [c for c in (first.end, start, lowest) if c is not None]
+    choices = list(dict.fromkeys(c.axes for c in picks))
+    return choices, [list(dict.fromkeys(t[i] for t in choices)) for i in range(len(choices[0]))]
+
+
+def screen_kind(prob: Problem, choices: list[tuple], first: KindStage, limit: float) -> tuple[Search, bool, str]:
+    """Another kind judged at the first kind's bases (``choices``, :func:`screen_choices`; ``prob``: its problem
+    with those bases only) before its own search, the same folds and noise: (its search of them, whether it
+    joins, what was found). It joins where one of them comes within one paired standard error of the first
+    kind's lowest held-out mean plus what refining its bases gained the first kind (its common-basis lowest
+    less its lowest): a kind that the same refinement would not bring within one standard error of the lowest
+    cannot be chosen by the one-SE rule, and its search is left out. (The axis-perturbation model's terms at a
+    set of bases are nearly those of the 6-DoF model along the axes they perturb; on the 19 campaigns of
+    ``benchmarks/bench_fit_speed.py`` it was never chosen, its search a third of a default fit.)"""
+    search = Search()
+    search.limit = limit
+    for choice in choices:
+        search.score(prob, choice)
+    if not search.cands:   # none it can determine at those bases: its own search decides
+        return search, True, f"{MODELS[prob.kind].display_name}: no candidate at the first kind's bases; searched in full"
+    lowest = min(first.search.cands, key=lambda c: c.mean)
+    gain = max(first.common - lowest.mean, 0.0) if math.isfinite(first.common) else 0.0
+    n = lowest.heldout.size
+    margins = []
+    for c in search.cands:
+        delta = c.heldout - lowest.heldout
+        se = float(np.std(delta, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
+        margins.append(delta.mean() - se - gain)
+    best = search.cands[int(np.argmin(margins))]
+    joins = min(margins) <= 0
+    name, first_name = (MODELS[k].display_name for k in (prob.kind, lowest.kind))
+    text = (f"{name} at {first_name}'s bases: {best.label()} {best.mean:.4f} mm held-out mean against {first_name}'s "
+            f"lowest {lowest.mean:.4f} mm" + ("; searched in full" if joins else
+                                               f", {min(margins):.4f} mm beyond one standard error and the "
+                                               f"{gain:.4f} mm its refinement gained: its own bases not searched"))
+    return search, joins, text
+
+
+def other_kinds(kinds, first: KindStage, problems: dict, limit: float, scale: float, say, problem, staged) -> list:
+    """The stages of the kinds after the first, each screened at the first kind's bases (``problem(kind,
+    options)``: its problem with those bases only; :func:`screen_kind`): its search in
+    full (``staged``) where it could be chosen, else the candidates screened (no choice of its own)."""
+    out = []
+    if not kinds:   # every kind searched in full already (the first supports no candidate)
+        return out
+    choices, options = screen_choices(first, problems[next(iter(problems))])
+    for kind in kinds:
+        problems[kind] = rescaled(problem(kind, options), scale)
+        own, joins, text = screen_kind(problems[kind], choices, first, limit)
+        say(text)
+        if joins:
+            del problems[kind]
+        out.append(staged(kind) if joins else KindStage(own, note=text))
+    return out
+
+
+def rescaled(prob: Problem, scale: float) -> Problem:
+    """``prob`` with every noise sigma times ``scale``."""
+    if scale != 1.0:
+        prob.problem.rescale(scale)
+    return prob
+
+
+def ends_choice(stages: list[KindStage], problems: dict) -> tuple[Candidate, float, str, Candidate]:
+    """The choice when axes were measured over part of their travel: of every kind's
+    choice with its bases along those axes chosen on their held-out ends
+    (:func:`kind_stage`), the one-SE rule on every held-out row: (chosen, its standard
+    error [mm], the reason, the chosen kind's choice before its ends were judged)."""
+    results = [own.end for own in stages]
+    low = min(results, key=lambda c: c.mean)
+    chosen, se, _ = one_standard_error(results, low, lambda c: problems[c.kind].size(c))
+    stage = next(own for own in stages if own.end is chosen)
+    changed = stage.changed
+    reason = (f"each kind's fewest model terms within one standard error of its lowest held-out mean, its bases along "
+              f"the axes measured over part of their travel then chosen on their held-out ends by the same rule"
+              f"{' (' + ', '.join(changed) + ')' if changed else ''}; of the kinds, "
+              + ("the lowest held-out mean" if chosen is low else
+                 f"the fewest model terms within one standard error ({se:.4f} mm) of the lowest ({low.mean:.4f} mm)"))
+    return chosen, se, reason, stage.start

@@ -4,8 +4,9 @@
 is read as the command line reads it (a model file, a bundled machine, a campaign CSV),
 anything else refused naming the argument and what it takes, never an error deep inside.
 
-Each function here is the library's own function (same signature, same text), its
-arguments converted first; ``vecpin.fit`` does the same in
+Each function here is the library's own function (same signature, same text, given by
+:func:`facade` when ``vecpin.<name>`` is first used: only that function's module imported),
+its arguments converted first; ``vecpin.fit`` does the same in
 :func:`vecpin.fitting.problem.fit_arguments`."""
 from __future__ import annotations
 
@@ -14,19 +15,22 @@ import importlib
 from pathlib import Path
 
 from vecpin.errors import InputError
+from vecpin.kinematics.machine import as_machine
 
 PATH = (str, Path)
 
 
 def _real(module: str, name: str):
-    """The library's function, looked up by name when called (``_wraps`` has imported its module already,
-    for its text and signature, when the facade is first used)."""
+    """The library's function, looked up by name when called (its module imported by :func:`facade` already)."""
     return getattr(importlib.import_module(module), name)
 
 
-def _wraps(module: str, name: str):
-    """functools.wraps of the library's function, imported now only for its text and signature."""
-    return functools.wraps(_real(module, name))
+def facade(name: str):
+    """The facade's function ``name`` with the library function's text and signature (functools.wraps), that
+    function's module imported now: the first time ``vecpin.<name>`` is used, not with the facade's other names
+    (their seven modules together cost a script's first facade call about 3 s of CPU, one of them 0.7 s)."""
+    fn = globals()[name]
+    return fn if hasattr(fn, "__wrapped__") else functools.update_wrapper(fn, _real(_LIBRARY[name], name))
 
 
 def as_model(model, name: str = "model"):
@@ -40,16 +44,6 @@ def as_model(model, name: str = "model"):
     return model
 
 
-def as_machine(machine, name: str = "machine"):
-    """A :class:`Machine`, a bundled machine's name or a URDF path (loaded); else refused."""
-    from vecpin.kinematics.machine import Machine
-    if isinstance(machine, PATH):
-        return Machine.load(machine)
-    if not isinstance(machine, Machine):
-        raise InputError(f"`{name}` {type(machine).__name__}: give a Machine, a bundled machine's name or a URDF path")
-    return machine
-
-
 def _path(path, name: str):
     if not isinstance(path, PATH) or not str(path):
         raise InputError(f"`{name}` {path!r}: give a file path")
@@ -58,14 +52,14 @@ def _path(path, name: str):
 
 PLAN, TABLES, DIAGNOSE = "vecpin.compensation.plan", "vecpin.workflows.tables", "vecpin.diagnosis.diagnose"
 SIMULATE, CAMPAIGN, MODELS = "vecpin.simulation.simulate", "vecpin.measurement.campaign", "vecpin.models"
+_LIBRARY = {"plan_tables": PLAN, "make_tables": TABLES, "diagnose": DIAGNOSE, "simulate": SIMULATE,
+            "read_campaign": CAMPAIGN, "write_campaign": CAMPAIGN, "make_model": MODELS}   # each name's module
 
 
-@_wraps(PLAN, "plan_tables")
 def plan_tables(model, *args, **kw):
     return _real(PLAN, "plan_tables")(as_model(model), *args, **kw)
 
 
-@_wraps(TABLES, "make_tables")
 def make_tables(model, out_dir, *args, profile=None, **kw):
     from vecpin.export.profile import ControllerProfile
     if profile is not None and not isinstance(profile, PATH + (ControllerProfile,)):
@@ -74,7 +68,6 @@ def make_tables(model, out_dir, *args, profile=None, **kw):
     return _real(TABLES, "make_tables")(as_model(model), _path(out_dir, "out_dir"), *args, profile=profile, **kw)
 
 
-@_wraps(DIAGNOSE, "diagnose")
 def diagnose(machine, campaign, *args, noise=None, base=None, **kw):
     from vecpin.fitting.problem import fit_arguments
     machine, campaign, converted = fit_arguments(machine, campaign, noise)
@@ -83,19 +76,16 @@ def diagnose(machine, campaign, *args, noise=None, base=None, **kw):
                                        **kw)
 
 
-@_wraps(SIMULATE, "simulate")
 def simulate(machine, seed=0, *args, **kw):
     if isinstance(seed, bool) or not isinstance(seed, int):
         raise InputError(f"`seed` {seed!r}: a whole number")
     return _real(SIMULATE, "simulate")(as_machine(machine), seed, *args, **kw)
 
 
-@_wraps(CAMPAIGN, "read_campaign")
 def read_campaign(path, machine):
     return _real(CAMPAIGN, "read_campaign")(_path(path, "path"), as_machine(machine))
 
 
-@_wraps(CAMPAIGN, "write_campaign")
 def write_campaign(path, campaign, machine):
     from vecpin.measurement.campaignrows import Campaign
     if not isinstance(campaign, Campaign):
@@ -103,7 +93,5 @@ def write_campaign(path, campaign, machine):
     return _real(CAMPAIGN, "write_campaign")(_path(path, "path"), campaign, as_machine(machine))
 
 
-@_wraps(MODELS, "make_model")
 def make_model(kind, machine, *args, **kw):
     return _real(MODELS, "make_model")(kind, as_machine(machine), *args, **kw)
-
