@@ -362,8 +362,8 @@ def flow():
     (lambda b, m, c: vecpin.write_campaign(b.dir / "w.csv", [1], m), "`campaign` list"),
     (lambda b, m, c: vecpin.make_model("ap", 5, 1), "`machine` int"),
 ], ids=["cv-text", "cv-nan-label", "cv-none-labels", "zone-text", "zone-shape", "plan-none", "plan-int",
-        "profile-dict", "tables-int", "out-int", "diagnose-machine", "fit-machine-list", "diagnose-base", "seed-text", "simulate-int",
-        "read-int", "read-machine-int", "load-int", "write-list", "make-model-int"])
+        "profile-dict", "tables-int", "out-int", "diagnose-machine", "fit-machine-list", "diagnose-base", "seed-text",
+        "simulate-int", "read-int", "read-machine-int", "load-int", "write-list", "make-model-int"])
 def test_facade_wrong_kinds(base, flow, call, words):
     """Was: AttributeError/TypeError/ValueError deep inside (16 of 19), a NaN fold label
     taken as a fold of its own and labels of None fitted as one fold's worth."""

@@ -116,7 +116,8 @@ def screen_kind(prob: Problem, choices: list[tuple], first: KindStage, limit: fl
     for choice in choices:
         search.score(prob, choice)
     if not search.cands:   # none it can determine at those bases: its own search decides
-        return search, True, f"{MODELS[prob.kind].display_name}: no candidate at the first kind's bases; searched in full"
+        name = MODELS[prob.kind].display_name
+        return search, True, f"{name}: no candidate at the first kind's bases; searched in full"
     lowest = min(first.search.cands, key=lambda c: c.mean)
     gain = max(first.common - lowest.mean, 0.0) if math.isfinite(first.common) else 0.0
     n = lowest.heldout.size
