@@ -129,14 +129,23 @@ def judge(truth: Truth, corr_user: np.ndarray, gauge_mm: float, q: np.ndarray, t
             "shape": float(np.linalg.norm(shape_errors(nom, tip), axis=1).mean() * 1e3)}
 
 
+def _table_value(entry: tuple, axes: list[str], q_user: np.ndarray) -> np.ndarray:
+    """A table's value at the commands (linear between its points, ends held, modulo wraps)."""
+    inp, _, start, step, values, modulo = entry
+    x = q_user[:, axes.index(inp)]
+    if modulo:
+        x = start + np.mod(x - start, step * (len(values) - 1))
+    return np.interp(x, start + step * np.arange(len(values)), values)
+
+
 def generic_corrections(tables: dict, axes: list[str], q_user: np.ndarray) -> np.ndarray:
-    """Corrections [mm, deg] of a generic tables.json by its stated convention (sum, linear, ends hold)."""
+    """Corrections [mm, deg] of a generic tables.json by its stated conventions: tables summed per
+    output axis; a product term adds its table's value times its factor table's value."""
     out = np.zeros_like(q_user)
-    for inp, outp, start, step, values, modulo in tables["tables"]:
-        x = q_user[:, axes.index(inp)]
-        if modulo:
-            x = start + np.mod(x - start, step * (len(values) - 1))
-        out[:, axes.index(outp)] += np.interp(x, start + step * np.arange(len(values)), values)
+    for entry in tables["tables"]:
+        out[:, axes.index(entry[1])] += _table_value(entry, axes, q_user)
+    for table, factor in tables.get("products", []):
+        out[:, axes.index(table[1])] += _table_value(table, axes, q_user) * _table_value(factor, axes, q_user)
     return out
 
 
