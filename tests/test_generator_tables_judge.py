@@ -45,3 +45,23 @@ def test_best_set_is_the_pitch_table_and_the_judge_reads_it():
         before = bench.judge(truth, np.zeros_like(q), 0.0, q, tool)[frame]
         after = bench.judge(truth, bench.generic_corrections(tables, truth.axes, q_user), gauge, q, tool)[frame]
         assert before > 0.015 and after < 2e-4, (before, after)
+
+
+
+def test_oracle_posterior_mean_reproduces_readings_of_a_quiet_campaign():
+    """The achievable column's oracle (benchmarks/gentables_oracle.py): with the axes and the
+    tracker's angles quiet (only the range's 1 um/m that the generator's tracker always has) the
+    posterior mean of the error functions must reproduce every reading (tools and nests) within that
+    noise, where the errors move the points ten times as much."""
+    from gentables_oracle import _points, estimated_campaign
+    camp = draw_campaign(11, kind="table", family=None, n_commands=20)
+    q = camp.row_commands()
+    moved = np.linalg.norm(_points(camp, q, camp.errors(False)) - _points(camp, q, {}), axis=1)
+    camp.noise["sigma"] = {k: 1e-9 for k in camp.noise["sigma"]}
+    camp.noise["range_m"], camp.noise["angle_rad"] = 1e-8, 1e-12
+    camp.measured = camp.to_tracker(camp.base_points(repeat=False))
+    quiet = estimated_campaign(camp)
+    seen = camp.measured @ camp.tracker[:3, :3].T + camp.tracker[:3, 3]
+    left = np.linalg.norm(_points(quiet, q, quiet.errors(False)) - seen, axis=1)
+    floor = 1e-6 * np.linalg.norm(camp.measured, axis=1).max()        # m: 1 um per m of range
+    assert np.median(moved) > 10 * floor and left.max() < floor, (np.median(moved), left.max(), floor)
