@@ -88,7 +88,11 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
                    f"far beyond {hi - lo:.1f} K of measured temperatures the campaign cannot pin what the terms leave "
                    "(how the error bends there); hold vecpin to the band")
     worse = [t for t, a, b, *_ in rows if b > a and not lo - 1e-9 <= t <= hi + 1e-9]
-    if worse:
+    if rows and all(b > a for _, a, b, *_ in rows):
+        out.append("  note: at every temperature above, the measured ones too, the figure the terms leave is above the "
+                   "error without them: this campaign does not resolve the thermal terms (their uncertainty is as "
+                   "large as they are); leave them out of the controller, or measure over a wider temperature span")
+    elif worse:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in worse)} degC (extrapolated) the figure the terms leave "
                    "is above the error without them: there vecpin expects the terms to add error, not remove it")
     if loose:
