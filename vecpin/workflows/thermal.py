@@ -72,7 +72,7 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
            f"what they leave: the figure most likely to hold within {WITHIN * 100:.0f} %, the chance of that, and the "
            f"{BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
     for t, a, b, b_lo, b_hi, _, chance in rows:
-        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
+        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.2f} K "
         mark += "beyond the measured temperatures)" if mark else ""
         odds = f"{chance * 100:.0f} % chance within {WITHIN * 100:.0f} %; " if np.isfinite(chance) else ""
         out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({odds}{b_lo:.4f} .. "
