@@ -68,6 +68,9 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
         (tmp_path / "bad.csv").write_text("\n".join([rows[0], *bad]) + "\n")
         with pytest.raises(CampaignFileError, match=f"bad.csv, {where}"):   # before the fit, its row named
             read_nest_heights(tmp_path / "bad.csv", ids)
+    (tmp_path / "semi.csv").write_text("nest;planned_mm;height_mm\n1;80,00;80,1\n")
+    with pytest.raises(CampaignFileError, match="semi.csv, row 1: .* separated by ';': save it with commas"):
+        read_nest_heights(tmp_path / "semi.csv")
     (tmp_path / "two.csv").write_text("\n".join([rows[0], f"{ids[0]},,20", f"{ids[1]},,20"]) + "\n")
     with pytest.raises(CampaignFileError, match="two.csv: heights of 2 nest.s.: the table's face needs three"):
         read_nest_heights(tmp_path / "two.csv")

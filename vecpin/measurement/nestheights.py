@@ -60,7 +60,10 @@ def read_nest_heights(path: str | Path, nests=None) -> dict[str, float]:
     rows = list(csv.reader(io.StringIO(read_text_file(path, "no such file (the plan writes nest_heights.csv: fill "
                                                               "in height_mm and give it to the fit)"))))
     if not rows or [c.strip() for c in rows[0][:1]] != ["nest"] or "height_mm" not in [c.strip() for c in rows[0]]:
-        raise CampaignFileError(path, f"the header must name the columns nest and height_mm ({','.join(COLUMNS)})", 1)
+        semi = bool(rows) and ";" in ";".join(rows[0]) and len(rows[0]) == 1   # a spreadsheet's regional setting
+        raise CampaignFileError(path, f"the header must name the columns nest and height_mm ({','.join(COLUMNS)})"
+                                + ("; this file is separated by ';': save it with commas and decimal points"
+                                   if semi else ""), 1)
     col = [c.strip() for c in rows[0]].index("height_mm")
     known = None if nests is None else sorted(str(k) for k in nests)
     out: dict[str, float] = {}
