@@ -90,8 +90,8 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     worse = [t for t, a, b, *_ in rows if b > a and not lo - 1e-9 <= t <= hi + 1e-9]
     if rows and all(b > a for _, a, b, *_ in rows):
         out.append("  note: at every temperature above, the measured ones too, the figure the terms leave is above the "
-                   "error without them: this campaign does not resolve the thermal terms (their uncertainty is as "
-                   "large as they are); leave them out of the controller, or measure over a wider temperature span")
+                   "error without them: this campaign does not resolve the thermal terms; leave them out of the "
+                   "controller, or measure over a wider temperature span")
     elif worse:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in worse)} degC (extrapolated) the figure the terms leave "
                    "is above the error without them: there vecpin expects the terms to add error, not remove it")
