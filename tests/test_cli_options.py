@@ -48,7 +48,9 @@ def test_an_option_given_twice_is_refused_not_overwritten(tmp_path, capsys):
     assert "--zone is given twice" in err and "X=0:3000,Y=0:1200" in err and not (tmp_path / "m.json").exists()
     assert main(["fit", "flow_xyzcb", "c.csv", "--quiet", "--qui", "--out", "m.json"]) == 2
     assert "--quiet is given twice" in capsys.readouterr().err
-    once = ("--zone", "--out", "--quiet")
-    assert repeated_option(["--nest-height", "1=2", "--nest-height", "2=3", "--zone", "X=0:1"], once) is None
+    once = ("--zone", "--out", "--quiet", "--nest-heights")
+    argv = ["--nest-height", "1=2", "--nest-height", "2=3", "--zone", "X=0:1"]   # not --nest-heights abbreviated
+    assert repeated_option(argv, once, once + ("--nest-height",)) is None
+    assert repeated_option(argv + ["--nest-heights", "h.csv", "--nest-heights", "g.csv"], once) == "--nest-heights"
     assert repeated_option(["--out=a", "--out", "b"], once) == "--out"
     assert repeated_option(["--zone", "X=0:1", "--", "--zone"], once) is None

@@ -59,6 +59,21 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
         read_nest_heights(out / "nest_heights.csv")
     (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(f"{r}{20.5 + i}\n" for i, r in enumerate(rows[1:])))
     assert read_nest_heights(tmp_path / "h.csv") == {k: 20.5 + i for i, k in enumerate(sorted(plan.nests))}
+    ids = sorted(plan.nests)
+    for cells, where in (((ids[0], "abc"), r"row 2, column 'height_mm': 'abc' is not a height"),
+                         (("99", "20"), r"row 2, column 'nest': the campaign has no nest '99'"),
+                         ((ids[0], "-5"), r"row 2, column 'height_mm': -5 mm: .* 0 \.\. 2000 mm"),
+                         ((ids[0], "0.02"), r"row 2, column 'height_mm': 0.02: .* metres\?")):
+        bad = [f"{cells[0]},,{cells[1]}"] + [f"{k},,{20 + i}" for i, k in enumerate(ids[1:])]
+        (tmp_path / "bad.csv").write_text("\n".join([rows[0], *bad]) + "\n")
+        with pytest.raises(CampaignFileError, match=f"bad.csv, {where}"):   # before the fit, its row named
+            read_nest_heights(tmp_path / "bad.csv", ids)
+    (tmp_path / "semi.csv").write_text("nest;planned_mm;height_mm\n1;80,00;80,1\n")
+    with pytest.raises(CampaignFileError, match="semi.csv, row 1: .* separated by ';': save it with commas"):
+        read_nest_heights(tmp_path / "semi.csv")
+    (tmp_path / "two.csv").write_text("\n".join([rows[0], f"{ids[0]},,20", f"{ids[1]},,20"]) + "\n")
+    with pytest.raises(CampaignFileError, match="two.csv: heights of 2 nest.s.: the table's face needs three"):
+        read_nest_heights(tmp_path / "two.csv")
 
 
 def test_the_second_station_reads_its_own_block_of_the_plan(planned):
@@ -142,6 +157,11 @@ def test_simulate_reads_each_station_and_the_fit_sees_the_tilt_range_better(plan
         assert np.array_equal(c.station, inputs["plan"].stations)
         assert read_nest_heights(run.paths["nest_heights"]) == pytest.approx(   # as the operator measures them
             {k: round(float(p[2]) * 1e3, 2) for k, p in run.simulation.nests.items()})
+        if seed == 1:   # each figure's frame printed; a nest the campaign has not, refused before the fit
+            assert sum("(tracker frame)" in ln or "(machine base frame)" in ln for ln in run.lines()) == 2
+            from vecpin.fitting.problem import FitProblem
+            with pytest.raises(InputError, match="`nest_heights` 9: the campaign has no nest '9'"):
+                FitProblem.build(m, c, nest_heights={"1": 20, "2": 20, "9": 20})
         noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
         errors = []
         for camp in (c.subset(np.flatnonzero(c.station == 0)), c):
@@ -150,6 +170,18 @@ def test_simulate_reads_each_station_and_the_fit_sees_the_tilt_range_better(plan
         assert errors[1] < errors[0]
         ratios.append(errors[1] / errors[0])
     assert np.mean(ratios) < 0.9
+
+
+def test_the_fit_says_what_it_knows_of_the_face():
+    """On a campaign with nest rows the fit's printout gives the heights it was given (mm above the face) and
+    what they do, or that none were and what that leaves; without nest rows it says nothing of a face."""
+    from types import SimpleNamespace as NS
+    from vecpin.workflows.fitting import face_lines
+    rows = NS(nest_rows=np.arange(3))
+    given = face_lines(NS(setup_=NS(nest_heights={"1": 0.02, "2": 0.0305, "3": 0.04})), rows)
+    assert "1 at 20.00, 2 at 30.50, 3 at 40.00 mm" in given[0] and "keep the face square to the spindle" in given[0]
+    assert "no nests' heights given" in face_lines(NS(setup_=NS(nest_heights={})), rows)[0]
+    assert face_lines(NS(setup_=NS(nest_heights={})), NS(nest_rows=np.arange(0))) == []
 
 
 def test_bad_station_columns_and_settings_are_refused(planned, tmp_path):

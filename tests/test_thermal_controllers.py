@@ -220,6 +220,10 @@ def test_a_band_wider_than_the_error_without_is_said(fitted):
     rows[0] = (terms.t0_c - 10, 0.03, 0.032, 0.013, 0.11, 0.03, 0.23)   # the point above the error without: said
     worse = [ln for ln in prediction_lines(terms, rows) if "above the error without them" in ln]
     assert len(worse) == 1 and f"at {terms.t0_c - 10:.2f} degC (extrapolated)" in worse[0]
+    rows = [r[:1] + (r[1], 3 * r[1]) + r[3:] for r in rows]   # worse everywhere, the measured ends too: unresolved
+    notes = prediction_lines(terms, rows)
+    assert [ln for ln in notes if "does not resolve the thermal terms" in ln]
+    assert not [ln for ln in notes if "degC (extrapolated) the figure the terms leave" in ln]
 
 
 def test_a_campaign_without_temperatures_is_refused_before_the_tables():

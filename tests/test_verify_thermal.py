@@ -65,7 +65,7 @@ def test_verify_judges_the_runs_with_the_thermal_terms(tmp_path, capsys):
     assert a.left[0] == pytest.approx(s * 1.0, rel=0.1)
     assert a.left[2] == pytest.approx(2.776 * s, rel=0.15) and a.left[1] < 0.2 * s
     text = "\n".join(judged.lines())
-    assert "extrapolated 9.0 K beyond" in text and "not active in this run" in text
+    assert "extrapolated 9.00 K beyond" in text and "not active in this run" in text
     from vecpin.workflows.verifying import verify
     saved = verify(m, before, after, thermal=loaded, thermal_source=source).to_dict()["thermal"]
     assert saved["runs"][0]["thermal_error_described_mm"] == pytest.approx(0.030, rel=1e-6)

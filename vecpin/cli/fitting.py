@@ -16,13 +16,15 @@ def read_fit_campaign(args, m):
     return c
 
 
-def nest_heights(items: list[str] | None, path: str | None = None) -> dict | None:
+def nest_heights(items: list[str] | None, path: str | None = None, campaign=None) -> dict | None:
     """``--nest-height ID=MM`` (repeated) and ``--nest-heights CSV`` (the plan's nest_heights.csv, filled in)
-    -> {id: mm}; an id given twice is refused."""
+    -> {id: mm}; an id given twice is refused, and with ``campaign`` a file's id it has no nest for (its row
+    named, before the fit)."""
     from vecpin.errors import InputError
     from vecpin.measurement.nestheights import read_nest_heights
+    ids = None if campaign is None else set(campaign.target[campaign.nest_rows])
     out = {}
-    for nid, value in (read_nest_heights(path) if path else {}).items():
+    for nid, value in (read_nest_heights(path, ids) if path else {}).items():
         if any(str(i).partition("=")[0].strip() == nid for i in items or []):
             raise InputError(f"`--nest-height` {nid} is also in `--nest-heights` {path}; give each nest once")
         out[nid] = value
@@ -33,6 +35,9 @@ def nest_heights(items: list[str] | None, path: str | None = None) -> dict | Non
                              "above the table face in mm, e.g. 1=19.05")
         if nid.strip() in out:
             raise InputError(f"`--nest-height` {nid.strip()} is given twice; give each nest once")
+        if ids is not None and nid.strip() not in ids:
+            raise InputError(f"`nest_height` {item}: the campaign has no nest '{nid.strip()}' (its nests: "
+                             f"{', '.join(sorted(ids)) or 'none'})")
         out[nid.strip()] = value.strip()
     return out or None
 
@@ -42,11 +47,12 @@ def run_fit(args) -> int:
     from vecpin.workflows.fitting import fit_campaign
     m = machine(args.machine, args)
     check_output_file(args.out)
-    run = fit_campaign(m, read_fit_campaign(args, m), noise(args, m), kind=args.model, basis=args.basis,
+    campaign = read_fit_campaign(args, m)
+    run = fit_campaign(m, campaign, noise(args, m), kind=args.model, basis=args.basis,
                        order=args.order, tool_corrections=args.tool_corrections, prior_scale=args.prior_scale,
                        underdetermined=args.underdetermined, cv=args.folds, zone=zone_option(args.zone),
                        noise_from_data=not noise_stated(args),
-                       nest_heights=nest_heights(args.nest_height, args.nest_heights),
+                       nest_heights=nest_heights(args.nest_height, args.nest_heights, campaign),
                        progress=progress(not args.quiet))
     run.model.save(args.out)
     say(args, *run.lines())

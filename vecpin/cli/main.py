@@ -39,9 +39,10 @@ def _single_valued(command: argparse.ArgumentParser) -> tuple[str, ...]:
                  for o in a.option_strings if o.startswith("--"))
 
 
-def repeated_option(argv: list[str], once: tuple[str, ...]) -> str | None:
+def repeated_option(argv: list[str], once: tuple[str, ...], every: tuple[str, ...] = ()) -> str | None:
     """The first single-valued option ``argv`` gives twice (written in full, or abbreviated
-    as argparse accepts it), or None."""
+    as argparse accepts it), or None; a token that is one of ``every`` (the command's long
+    options) in full is no abbreviation (--nest-height repeats, --nest-heights does not)."""
     seen = set()
     for token in argv:
         if token == "--":
@@ -49,7 +50,7 @@ def repeated_option(argv: list[str], once: tuple[str, ...]) -> str | None:
         if not token.startswith("--"):
             continue
         name = token.split("=", 1)[0]
-        full = [o for o in once if o == name] or [o for o in once if o.startswith(name)]
+        full = [o for o in once if o == name] or ([] if name in every else [o for o in once if o.startswith(name)])
         if len(full) != 1:
             continue
         if full[0] in seen:
@@ -96,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     set_command(["vecpin", *argv])   # what the output folders' manifests record
-    twice = repeated_option(argv[1:], args.once)
+    twice = repeated_option(argv[1:], args.once, tuple(args.flags.values()))
     if twice:
         hint = " (a zone over several axes is one value: X=0:3000,Y=0:1200)" if twice == "--zone" else ""
         print(f"vecpin: error: {twice} is given twice, and only one value counts: give it once{hint}", file=sys.stderr)

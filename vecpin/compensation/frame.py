@@ -248,5 +248,5 @@ def _turn(actual, m: Machine, tables: TableSet, frame: ReferenceFrame, q: np.nda
     if frame.kind == "face":
         w = log3(rigid_registration(after, nominal)[0])
         s = partframe.spindle_axis(m)
-        return float(np.linalg.norm(w - (w @ s) * s)), "tilt the compensated volume against the table's face by"
+        return float(np.linalg.norm(w - (w @ s) * s)), "tilt the compensated volume by"
     return partframe.net_rotation(nominal, after), "turn the working volume by"

@@ -157,6 +157,8 @@ class FitProblem:
             raise InputError(f"`prior_scale` {prior}: the prior scale must be a positive number (default 1)")
         values["cv"] = fold_labels(values["cv"], len(campaign))
         check_zone_value(values["zone"])
+        if values["nest_heights"]:   # ids and heights checked before the fit, the nests' line after it
+            check_nest_heights(values["nest_heights"], dict.fromkeys(campaign.target[campaign.nest_rows]))
         return cls(machine, campaign, noise, **values)
 
     @property

@@ -31,6 +31,7 @@ from pathlib import Path
 
 from vecpin.errors import CampaignFileError
 from vecpin.measurement.campaign import read_text_file
+from vecpin.measurement.tableframe import MAX_NEST_HEIGHT_MM
 from vecpin.units import MM_PER_M
 
 NEST_HEIGHTS_FILE = "nest_heights.csv"
@@ -50,15 +51,21 @@ def nest_heights_csv(nests: dict, measured: bool = False) -> str:
     return out.getvalue()
 
 
-def read_nest_heights(path: str | Path) -> dict[str, float]:
+def read_nest_heights(path: str | Path, nests=None) -> dict[str, float]:
     """{nest id: height [mm] of its reflector centre above the table's face} from a filled
-    ``nest_heights.csv``; every problem names the file, row (line, header = 1) and column."""
+    ``nest_heights.csv``; every problem names the file, row (line, header = 1) and column:
+    a missing or repeated id, an empty or non-numeric height, one outside 0 .. 2000 mm or
+    below 1 mm (metres typed), fewer than three nests and, with ``nests`` (the campaign's
+    nest ids), an id the campaign has no nest for."""
     rows = list(csv.reader(io.StringIO(read_text_file(path, "no such file (the plan writes nest_heights.csv: fill "
                                                               "in height_mm and give it to the fit)"))))
     if not rows or [c.strip() for c in rows[0][:1]] != ["nest"] or "height_mm" not in [c.strip() for c in rows[0]]:
-        raise CampaignFileError(path, f"the header must name the columns nest and height_mm ({','.join(COLUMNS)})", 1)
-    head = [c.strip() for c in rows[0]]
-    col = head.index("height_mm")
+        semi = bool(rows) and ";" in ";".join(rows[0]) and len(rows[0]) == 1   # a spreadsheet's regional setting
+        raise CampaignFileError(path, f"the header must name the columns nest and height_mm ({','.join(COLUMNS)})"
+                                + ("; this file is separated by ';': save it with commas and decimal points"
+                                   if semi else ""), 1)
+    col = [c.strip() for c in rows[0]].index("height_mm")
+    known = None if nests is None else sorted(str(k) for k in nests)
     out: dict[str, float] = {}
     for line, row in enumerate(rows[1:], start=2):
         if not any(c.strip() for c in row):
@@ -68,17 +75,32 @@ def read_nest_heights(path: str | Path) -> dict[str, float]:
             raise CampaignFileError(path, "a nest id is missing", line, "nest")
         if nest in out:
             raise CampaignFileError(path, f"nest {nest} is given twice; one height per nest", line, "nest")
-        text = row[col].strip() if col < len(row) else ""
-        if not text:
-            raise CampaignFileError(path, f"no height for nest {nest}: measure its reflector centre above the "
-                                    "table's face, mm, and write it here", line, "height_mm")
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
-            raise CampaignFileError(path, f"'{text}' is not a height in mm", line, "height_mm")
-        out[nest] = value
-    if not out:
-        raise CampaignFileError(path, "no nest's height: one row per nest (nest,height_mm)")
+        if known is not None and nest not in known:
+            raise CampaignFileError(path, f"the campaign has no nest '{nest}' (its nests: "
+                                    f"{', '.join(known) or 'none'})", line, "nest")
+        out[nest] = _height(path, line, nest, row[col].strip() if col < len(row) else "")
+    if len(out) < 3:
+        raise CampaignFileError(path, f"heights of {len(out)} nest(s): the table's face needs three or more nests "
+                                "not on a line, one row per nest (nest,height_mm)")
     return out
+
+
+def _height(path, line: int, nest: str, text: str) -> float:
+    """The height [mm] in cell ``text`` of nest ``nest`` on file line ``line``, checked."""
+    if not text:
+        raise CampaignFileError(path, f"no height for nest {nest}: measure its reflector centre above the "
+                                "table's face, mm, and write it here", line, "height_mm")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise CampaignFileError(path, f"'{text}' is not a height in mm", line, "height_mm")
+    if not 0.0 <= value <= MAX_NEST_HEIGHT_MM:
+        raise CampaignFileError(path, f"{text} mm: the height of nest {nest}'s reflector centre above the table's "
+                                f"face is 0 .. {MAX_NEST_HEIGHT_MM:g} mm (e.g. 19.05 for a 1.5-inch sphere in a "
+                                "magnetic nest)", line, "height_mm")
+    if 0.0 < value < 1.0:   # no reflector's centre sits that close to the face: 19.05 mm typed as 0.01905 m
+        raise CampaignFileError(path, f"{text}: a reflector centre {value:g} mm above the table's face: metres? "
+                                f"Heights are mm ({value * 1000:g} if it was in metres)", line, "height_mm")
+    return value

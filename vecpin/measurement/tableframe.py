@@ -492,10 +492,9 @@ MAX_NEST_HEIGHT_MM = 2000.0   # a reflector centre farther above the table face 
 
 
 def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_heights") -> dict:
-    """{nest id: height [m]} from ``heights_mm`` {id: mm}: the height of each nest's
-    reflector centre above the table face, for the nests of a fit (``nests`` {id: (3,)
-    [m]}). Refused, naming ``option``: an id the fit has no nest for, a height that is not a
-    number between 0 and 2000 mm, fewer than three nests, nests on a line (no plane)."""
+    """{nest id: height [m]} from ``heights_mm`` {id: mm}: each nest's reflector centre above the table face, for
+    the nests of a fit (``nests`` {id: (3,) [m]}, None before the fit). Refused, naming ``option``: an id the fit
+    has no nest for, a height not a number in 0 .. 2000 mm, fewer than three nests, nests on a line (no plane)."""
     from vecpin.errors import InputError
     out = {}
     for k, h in heights_mm.items():
@@ -514,7 +513,8 @@ def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_height
             raise InputError(f"`{option}` {k}={h}: a reflector centre {v:g} mm above the table face: metres? Heights "
                              f"are mm ({v * 1000:g} if it was in metres)")
         out[k] = v * 1e-3
-    if out and (len(out) < 3 or _on_a_line(np.array([nests[k] for k in out]))):
+    found = all(nests[k] is not None for k in out)   # before the fit no nest is found: no line to judge
+    if out and (len(out) < 3 or found and _on_a_line(np.array([nests[k] for k in out]))):
         raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face needs "
                          "three or more nests not on a line")
     return out

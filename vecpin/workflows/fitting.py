@@ -46,7 +46,7 @@ class FitRun(FitResult):
         if rep.removed:
             out.append(f"redundant terms removed ({len(rep.removed)}): {', '.join(rep.removed)}")
         return (out + residual_lines(model, c, self.residuals, self.measured) + offset_lines(model)
-                + fitted_points_lines(model))
+                + fitted_points_lines(model) + face_lines(model, c))
 
     def noise_line(self) -> str | None:
         """What the data said of the noise level, for the printout (None: not estimated,
@@ -134,6 +134,21 @@ def fitted_points_lines(model: ErrorModel) -> list[str]:
     if any(s == 0 for s in su.std.values()) or (su.targets and not su.std):
         out.append("  (fixed: a coordinate the design cannot tell from the model's terms stays at its start value)")
     return out
+
+
+def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
+    """On a campaign with table nest rows, what the fit knows of the table's face: the nests'
+    heights it was given (mm above the face), or that it was given none and what that leaves."""
+    if not len(campaign.nest_rows):
+        return []
+    heights = model.setup_.nest_heights
+    if heights:
+        given = ", ".join(f"{k} at {h * MM_PER_M:.2f}" for k, h in sorted(heights.items()))
+        return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
+                "model file keeps them); the tables keep the face square to the spindle"]
+    return ["  table's face: no nests' heights given: the tables keep the working volume's mean orientation relative "
+            "to the table, not its face (`nest_heights`: each nest's reflector centre above the face, mm, as the "
+            "plan's nest_heights.csv asks)"]
 
 
 def fit_campaign(machine, campaign, noise=None, *, progress: Callable[[str], None] | None = None,

@@ -57,7 +57,7 @@ class SimulationRun:
                                                            if len(sim.validation.nest_rows) else "")
                + (f" from {self.validation_from}" if self.validation_from else ""),
                error_summary("true vs nominal tip (machine base frame)", (true_tip - nominal) * MM_PER_M),
-               error_summary("uncompensated (measured, registered)", registered_errors(nominal, c.xyz) * MM_PER_M)
+               error_summary("uncompensated, measured (tracker frame)", registered_errors(nominal, c.xyz) * MM_PER_M)
                if spans_plane(nominal) else "  (the tool tips stand still in the base frame: every axis moves the table)",
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if sim.nests:   # what a user knows of the nests: the height of each reflector above the table's face

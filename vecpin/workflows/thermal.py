@@ -72,7 +72,7 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
            f"what they leave: the figure most likely to hold within {WITHIN * 100:.0f} %, the chance of that, and the "
            f"{BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
     for t, a, b, b_lo, b_hi, _, chance in rows:
-        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.1f} K "
+        mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.2f} K "
         mark += "beyond the measured temperatures)" if mark else ""
         odds = f"{chance * 100:.0f} % chance within {WITHIN * 100:.0f} %; " if np.isfinite(chance) else ""
         out.append(f"    {t:7.2f} degC: without {a:.4f} mm, left by the terms {b:.4f} mm ({odds}{b_lo:.4f} .. "
@@ -88,7 +88,11 @@ def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
                    f"far beyond {hi - lo:.1f} K of measured temperatures the campaign cannot pin what the terms leave "
                    "(how the error bends there); hold vecpin to the band")
     worse = [t for t, a, b, *_ in rows if b > a and not lo - 1e-9 <= t <= hi + 1e-9]
-    if worse:
+    if rows and all(b > a for _, a, b, *_ in rows):
+        out.append("  note: at every temperature above, the measured ones too, the figure the terms leave is above the "
+                   "error without them: this campaign does not resolve the thermal terms; leave them out of the "
+                   "controller, or measure over a wider temperature span")
+    elif worse:
         out.append(f"  note: at {', '.join(f'{t:.2f}' for t in worse)} degC (extrapolated) the figure the terms leave "
                    "is above the error without them: there vecpin expects the terms to add error, not remove it")
     if loose:

@@ -81,7 +81,7 @@ class ThermalVerification:
         lo, hi = self.terms.t_range_c
         if lo - 1e-9 <= r.t_mean <= hi + 1e-9:
             return ""
-        return f" (extrapolated {min(abs(r.t_mean - lo), abs(r.t_mean - hi)):.1f} K beyond the campaign's temperatures)"
+        return f" (extrapolated {min(abs(r.t_mean - lo), abs(r.t_mean - hi)):.2f} K beyond the campaign's temperatures)"
 
     def lines(self) -> list[str]:
         t = self.terms
