@@ -88,3 +88,17 @@ def test_verify_command_says_what_it_did_with_thermal_json(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "thermal terms (" in out and "applied at each run's temperatures" in out
     assert "after.csv has no temperature column" in out
+
+
+def test_verify_says_when_the_terms_leave_more_than_they_correct():
+    """A run where the terms are predicted to leave more than the thermal error they correct gets a line
+    saying so (the campaign does not resolve them); a run where they leave less gets none."""
+    from vecpin.workflows.verifythermal import RunTemperature, ThermalVerification
+    terms = ThermalTerms(machine="m", axes=["X"], t0_c=20.0, lag_h=0.0, p0_mm={"X": 0.0},
+                         offset_um_per_k={"X": 1.0}, slope_um_per_m_per_k={"X": 0.0}, growth_um_per_k=None,
+                         t_range_c=(19.0, 21.0))
+    worse = RunTemperature("validation", 19.5, 20.5, 20.0, 0.0056, (0.02, 0.01, 0.03, 0.0194, 0.3))
+    better = RunTemperature("campaign", 19.5, 20.5, 20.0, 0.0194, (0.002, 0.001, 0.003, 0.0021, 0.3))
+    text = "\n".join(ThermalVerification(terms, "thermal.json", [worse, better]).lines())
+    assert text.count("leave more (0.0194 mm) than they correct (0.0056 mm)") == 1
+    assert "does not resolve them" in text

@@ -99,6 +99,10 @@ class ThermalVerification:
                            f"({odds(r.left[4])}{r.left[1]:.4f} .. {r.left[2]:.4f}, "
                            f"{BAND[0]:g}..{BAND[1]:g} %) at {r.t_mean:.2f} degC"
                            + self.extrapolated(r))
+                if r.left[3] > r.described_mm:
+                    out.append(f"      at these temperatures the terms are predicted to leave more ({r.left[3]:.4f} mm)"
+                               f" than they correct ({r.described_mm:.4f} mm): the campaign does not resolve them; "
+                               "leave them out of the controller or measure over a wider temperature span")
         if t.curvature and any(r.left is not None for r in self.runs):
             out.append("    the controllers' terms are straight in T and carry no curvature: the figure left is what "
                        "the written terms leave, the curvature vecpin bounds per term counted in it")
