@@ -3,15 +3,18 @@ from __future__ import annotations
 
 from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args,
                                add_quiet_arg, machine, noise, progress, say, zone_option)
+from vecpin.cli.fitting import add_nest_height_args, nest_heights
 
 
 def run_diagnose(args) -> int:
     from vecpin.measurement.campaign import read_campaign
     from vecpin.workflows.diagnosing import diagnose_to_dir
     m = machine(args.machine, args)
-    run = diagnose_to_dir(m, read_campaign(args.csv, m), args.out, noise(args, m), model=args.model, order=args.order,
+    campaign = read_campaign(args.csv, m)
+    run = diagnose_to_dir(m, campaign, args.out, noise(args, m), model=args.model, order=args.order,
                           effects=args.effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
-                          progress=progress(not args.quiet), base=args.base, zone=zone_option(args.zone))
+                          progress=progress(not args.quiet), base=args.base, zone=zone_option(args.zone),
+                          nest_heights=nest_heights(args.nest_height, args.nest_heights, campaign))
     say(args, *run.lines())
     return 0
 
@@ -31,6 +34,7 @@ def add_commands(sub) -> None:
                    help="diagnose only the rows commanded in this region of axis space, mm/deg, for a machine used "
                         "there only: no axis counts as measured over part of its travel beyond it; the model files "
                         "record it (default: all rows, the model used over the whole travel)")
+    add_nest_height_args(s)
     s.add_argument("--effects", default="all", help="effects to try: all, or a comma list of effect names (vecpin "
                    "simulate --help-effects lists them) (default %(default)s)")
     s.add_argument("--folds", type=int, default=5,

@@ -42,6 +42,16 @@ def nest_heights(items: list[str] | None, path: str | None = None, campaign=None
     return out or None
 
 
+def add_nest_height_args(s) -> None:
+    """``--nest-height ID=MM`` (repeated) and ``--nest-heights CSV``: the table nests' heights above its face."""
+    s.add_argument("--nest-height", action="append", metavar="ID=MM",
+                   help="the height of a table nest's reflector centre above the table's face, mm (repeat for three "
+                        "or more nests): the tables then keep the table's face square to the spindle, and every figure "
+                        "is judged on it (default: the machine's own reference lines or mean orientation)")
+    s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
+                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (default: none, as above)")
+
+
 def run_fit(args) -> int:
     from vecpin.fileio import check_output_file
     from vecpin.workflows.fitting import fit_campaign
@@ -130,12 +140,7 @@ def add_commands(sub) -> None:
     s.add_argument("--zone", metavar="AXIS=LO:HI[,...]",
                    help="fit only the rows commanded in this region of axis space, mm/deg (a machine calibrated in "
                         "zones, seed Table 2.12); the model file records it and vecpin tables uses it (default: all rows)")
-    s.add_argument("--nest-height", action="append", metavar="ID=MM",
-                   help="the height of a table nest's reflector centre above the table's face, mm (repeat for three "
-                        "or more nests): the tables then keep the table's face square to the spindle, and every figure "
-                        "is judged on it (default: the machine's own reference lines or mean orientation)")
-    s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
-                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (default: none, as above)")
+    add_nest_height_args(s)
     s.add_argument("--targets", metavar="CSV",
                    help="known tool-target offsets: a CSV 'target,x,y,z' in mm in the tool link frame; targets of the "
                         "campaign's 'target' column not in it are found by the fit (default: all found by the fit)")

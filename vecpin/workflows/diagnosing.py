@@ -3,7 +3,7 @@ command): :func:`vecpin.diagnosis.diagnose.diagnose` on a campaign, its files wr
 into one folder."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -14,6 +14,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
+from vecpin.measurement.tableframe import check_nest_heights
 from vecpin.planning.zones import Zone, clip_to_zone
 from vecpin.fitting.problem import zone_rows
 
@@ -34,14 +35,16 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
                     model: str = "auto", basis: str = "auto", order: int | str = "auto",
                     effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
                     progress: Callable[[str], None] | None = None, base: str | Path | None = None,
-                    zone: Zone | None = None) -> DiagnoseRun:
+                    zone: Zone | None = None, nest_heights: dict | None = None) -> DiagnoseRun:
     """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
     "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
     (:meth:`NoiseModel.default`); ``base``: a model file (``fit``'s model.json) whose kind,
     bases and orders are the base model, so the model choice is not repeated; ``folds``,
     ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`;
     ``zone``: diagnose only the rows commanded in it, for a model used there only (the
-    model files record it, as ``fit``'s do).
+    model files record it, as ``fit``'s do); ``nest_heights``: {nest id: height [mm] of its
+    reflector centre above the table's face}, carried by both model files as ``fit``'s model
+    carries them (the tables then keep the table's face).
     The folder, the model file and the folds are checked before any fit, with the effects;
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
@@ -53,13 +56,17 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     noise = noise or NoiseModel.default(machine)
     if noise.instrument == "range":
         check_stations(campaign)
+    if nest_heights:   # ids and heights checked before any fit, the nests' line after it
+        check_nest_heights(nest_heights, dict.fromkeys(campaign.target[campaign.nest_rows]))
     if zone:
         campaign = zone_rows(machine, campaign, zone)
     d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
                  basis=basis, progress=progress, base=base_model, travel=clip_to_zone(machine, zone) if zone else None)
-    if zone:
-        for fitted in (d.base_model, d.best_model):
+    for fitted in (d.base_model, d.best_model):
+        if zone:
             fitted.zone_ = dict(zone)
+        if nest_heights:
+            fitted.setup_ = replace(fitted.setup_, nest_heights=check_nest_heights(nest_heights, fitted.setup_.nests))
     return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=draw_diagnosis).values()])
 
 
