@@ -258,3 +258,48 @@ def test_forked_copies_die_with_their_parent(tmp_path, sig):
     for p in left:
         os.kill(p, signal.SIGKILL)
     assert not left, f"copies {left} outlived their parent"
+
+
+def _two_steps(x, die_unless=0, fail=""):
+    """Step one at once (its process id), step two with what is handed later; a copy
+    dies in step one outside process ``die_unless`` if given."""
+    import os
+    first = os.getpid()
+    if die_unless and first != die_unless:
+        os._exit(3)
+    if fail == "first":
+        raise ValueError("first step refused")
+    later = yield
+    if fail == "second":
+        _refuse_a_row(2)
+    yield first, os.getpid(), x + later
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_background_gives_what_the_steps_give_here(workers, monkeypatch):
+    """Background's two steps in a forked copy (another process id, both steps in it)
+    give what they give in this process (one worker: both steps here, in finish)."""
+    from vecpin.threads import Background
+    monkeypatch.setenv("VECPIN_WORKERS", workers)
+    first, second, total = Background(_two_steps, 40).finish(2)
+    assert total == 42 and first == second and (first != os.getpid()) == (workers == "2")
+
+
+def test_background_raises_what_a_step_raised_and_survives_a_dead_copy(monkeypatch):
+    """An exception of either step is raised by finish (a vecpin error whose constructor
+    pickle cannot replay, with its message); a copy that dies leaves both steps to this
+    process; close ends a copy never finished."""
+    from vecpin.errors import VecpinError
+    from vecpin.threads import Background
+    monkeypatch.setenv("VECPIN_WORKERS", "2")
+    with pytest.raises(ValueError, match="first step refused"):
+        Background(_two_steps, 1, 0, "first").finish(2)
+    with pytest.raises(VecpinError, match="the x column is empty"):
+        Background(_two_steps, 1, 0, "second").finish(2)
+    dead = Background(_two_steps, 1, os.getpid())
+    dead._proc.join()   # the copy died in its first step
+    assert dead._proc.exitcode == 3 and dead.finish(2) == (os.getpid(), os.getpid(), 3)   # both steps here
+    idle = Background(_two_steps, 1)
+    proc = idle._proc
+    idle.close()
+    assert proc.exitcode is not None and idle._proc is None

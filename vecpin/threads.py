@@ -21,7 +21,8 @@ nothing.
 Work that splits into a few independent heavy parts (the model choice's kinds) runs
 them side by side, one per core, each with the BLAS limit above (:func:`side_by_side`):
 in threads, or in forked processes where the Python around the factorisations would
-make threads wait on each other.
+make threads wait on each other. A part whose result is wanted later (a report's
+figures) runs in a forked copy beside the rest (:class:`Background`).
 """
 from __future__ import annotations
 
@@ -151,16 +152,14 @@ _job: tuple = ()   # (fn, items) of the forked calls under way: the copies find 
 def _run_job(i: int):
     """Call ``i`` of :data:`_job` in a forked copy; an exception that could not travel
     back (a custom constructor) travels as its plain vecpin error, message kept."""
-    import pickle
     fn, items = _job
     try:
         return fn(items[i])
     except Exception as exc:
-        try:
-            pickle.loads(pickle.dumps(exc))
-        except Exception:
-            raise (VecpinError if isinstance(exc, VecpinError) else RuntimeError)(str(exc)) from None
-        raise
+        sent = _travelling(exc)
+        if sent is exc:
+            raise
+        raise sent from None
 
 
 PR_SET_PDEATHSIG = 1   # Linux prctl(2): the signal a process gets when the thread that made it ends
@@ -201,3 +200,85 @@ def _forked(fn: Callable[..., T], items: list, workers: int) -> list[T]:
                 return list(pool.map(_run_job, range(len(items))))
     finally:
         _job = ()
+
+
+class Background:
+    """A generator function's two steps in a forked process, on the second core, while this
+    one goes on: ``fn(*args)`` runs at once up to its first ``yield``; :meth:`finish` hands
+    it ``later`` and returns what it yields next (e.g. a report's figures: the parts already
+    known drawn meanwhile, the rest when known). Results come back pickled. Where forking is
+    not safe (:func:`_can_fork`) or :func:`workers_wanted` is 1, or if the copy dies, both
+    steps run here, in :meth:`finish`: the same result. An exception of ``fn`` is raised by
+    :meth:`finish` (a vecpin error as such). :meth:`close` ends a copy never finished."""
+
+    def __init__(self, fn: Callable, *args):
+        self._fn, self._args, self._conn, self._proc = fn, args, None, None
+        if workers_wanted() > 1 and _can_fork():
+            import multiprocessing
+            ctx = multiprocessing.get_context("fork")
+            self._conn, child = ctx.Pipe()
+            self._proc = ctx.Process(target=_background, args=(os.getpid(), child, self._conn, fn, args), daemon=True)
+            with warnings.catch_warnings():   # as in _forked: the BLAS' parked threads only
+                warnings.filterwarnings("ignore", message=".*multi-threaded.*fork", category=DeprecationWarning)
+                self._proc.start()
+            child.close()
+
+    def finish(self, later):
+        """``later`` handed to the second step; what it yields."""
+        if self._proc is not None:
+            try:
+                self._conn.send(later)
+                ok, value = self._conn.recv()
+            except (EOFError, OSError):   # the copy died (killed, out of memory): both steps here
+                ok, value = None, None
+            finally:
+                self.close()
+            if ok:
+                return value
+            if ok is False:
+                raise value
+        steps = self._fn(*self._args)
+        next(steps)
+        return steps.send(later)
+
+    def close(self) -> None:
+        """End the copy (it reads the end of its pipe and stops) and wait for it."""
+        if self._proc is not None:
+            self._conn.close()
+            self._proc.join(5)
+            if self._proc.exitcode is None:
+                self._proc.terminate()
+                self._proc.join()
+            self._proc = None
+
+
+def _travelling(exc: Exception) -> Exception:
+    """``exc`` if it pickles, else its plain vecpin error (message kept)."""
+    import pickle
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        return (VecpinError if isinstance(exc, VecpinError) else RuntimeError)(str(exc))
+
+
+def _background(parent: int, conn, parent_end, fn: Callable, args: tuple) -> None:
+    """:class:`Background`'s copy: the first step, then the second with what the parent
+    hands; (True, result) or (False, exception) sent back. A closed pipe ends it."""
+    parent_end.close()
+    _quiet_copy(parent)
+    try:
+        steps = fn(*args)
+        next(steps)
+    except Exception as exc:
+        conn.send((False, _travelling(exc)))
+        return
+    try:
+        later = conn.recv()
+    except EOFError:   # the parent closed the pipe: never finished
+        return
+    try:
+        reply = (True, steps.send(later))
+    except Exception as exc:
+        reply = (False, _travelling(exc))
+    conn.send(reply)

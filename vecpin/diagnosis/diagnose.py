@@ -495,18 +495,16 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
              noise: NoiseModel | None = None, folds: int = 5, alpha: float = 0.01, max_effects: int = 4,
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
              progress: Callable[[str], None] | None = None, base: ErrorModel | None = None,
-             travel: tuple[np.ndarray, np.ndarray] | None = None) -> Diagnosis:
-    """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
-    of the base model (default: chosen by held-out data); ``base``: a fitted model (e.g.
-    the model file of ``fit`` on this campaign) whose kind, bases and orders are the base
-    model, refitted here, so the model choice is not repeated; ``travel``: (low, high)
-    [m, rad] per axis where the model will be used (default: a zone ``base`` was fitted
-    in, else the axes' limits): the axes measured over part of it have their ends judged
-    (the base model's choice and every effect); ``effects``: "all" or names;
-    ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
-    held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
-    folds, first pass, base model choice), the base model, forward selection, outliers
-    judged again, backward elimination, what to measure next, the result."""
+             travel: tuple[np.ndarray, np.ndarray] | None = None, base_known: Callable | None = None) -> Diagnosis:
+    """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part of the base model
+    (default: chosen by held-out data); ``base``: a fitted model (``fit``'s model file) whose kind, bases and orders
+    are the base model, refitted here, so the model choice is not repeated; ``travel``: (low, high) [m, rad] per
+    axis where the model will be used (default: a zone ``base`` was fitted in, else the axes' limits): the axes
+    measured over part of it have their ends judged (the model choice, every effect); ``effects``: "all" or names;
+    ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the held-out shrink an effect must
+    bring to be worth its terms; ``base_known(localization, heldout [m], outlier rows)``: called once these are
+    final (e.g. to draw them meanwhile). Stages: the problem (checks, folds, first pass, model choice), the base
+    model, forward selection, outliers judged again, backward elimination, what to measure next, the result."""
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
@@ -514,6 +512,8 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     st = _base_stage(pb, outliers)
     _forward(pb, st)
     _recheck_outliers(pb, st)
+    if base_known is not None:
+        base_known(st.loc, st.bev["heldout"], st.outliers)
     _backward(pb, st)
     _given_accepted(pb, st)
     next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)

@@ -7,6 +7,8 @@ Drawn from plain data (:class:`~vecpin.diagnosis.report.DiagnosisFigures`, made 
 """
 from __future__ import annotations
 
+import io
+import pickle
 from pathlib import Path
 
 import matplotlib
@@ -46,22 +48,41 @@ def _margins(fig, left: float, right: float, bottom: float, top: float, wspace: 
                         hspace=hspace)
 
 
-def draw_diagnosis(data: DiagnosisFigures, out) -> dict[str, Path]:
-    """The report's figures into ``out`` (a :class:`vecpin.fileio.OutputSet`), under the
-    names :data:`vecpin.diagnosis.report.FIGURES` gives; returns where each lands."""
+def _png(fig) -> bytes:
+    """The figure as PNG bytes (90 dpi), closed."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def draw_base(data: DiagnosisFigures) -> dict[str, bytes]:
+    """The base model's figures of ``data`` (the breakdowns, the held-out residual of every
+    row; ``data.effects`` unused): PNG bytes by :data:`~vecpin.diagnosis.report.FIGURES` key."""
     keys = list(data.breakdowns)
     ncol = 4
     nrow = (len(keys) + ncol - 1) // ncol
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4 * ncol, 3 * nrow), squeeze=False)
-    for ax, k in zip(axes.ravel(), keys):
+    fig = plt.figure(figsize=(4 * ncol, 3 * nrow))
+    axes = [fig.add_subplot(nrow, ncol, k + 1) for k in range(len(keys))]   # no Axes for the empty cells
+    for ax, k in zip(axes, keys):
         _breakdown_figure(ax, data.breakdowns[k])
-    for ax in axes.ravel()[len(keys):]:
-        ax.axis("off")
-    axes[0, 0].legend(fontsize=6)
+    axes[0].legend(fontsize=6)
     fig.suptitle("Where the residual lies: held-out residuals of the base model (µm)", fontsize=11)
     _margins(fig, 0.6, 0.2, 0.5, 0.8, wspace=0.3, hspace=0.45)
-    fig.savefig(out.path(FIGURES["breakdowns"]), dpi=90)
-    plt.close(fig)
+    pngs = {"breakdowns": _png(fig)}
+    fig, ax = plt.subplots(figsize=(8, 3))
+    ax.plot(np.arange(len(data.heldout_mm)), data.heldout_mm, ".", ms=3)
+    if data.outliers:
+        ax.set_title(f"{data.outliers} outlier rows left out (not shown)", fontsize=9)
+    ax.set_xlabel("row (measurement order)")
+    ax.set_ylabel("held-out |residual| [mm]")
+    _margins(fig, 0.8, 0.2, 0.55, 0.35)
+    pngs["rows"] = _png(fig)
+    return pngs
+
+
+def draw_effects(data: DiagnosisFigures) -> dict[str, bytes]:
+    """The effects figure of ``data`` (held-out shrink of each effect): PNG bytes by key."""
     eff = data.effects
     fig, ax = plt.subplots(figsize=(8, 0.35 * max(len(eff), 1) + 1.2))
     y = np.arange(len(eff))[::-1]
@@ -71,15 +92,17 @@ def draw_diagnosis(data: DiagnosisFigures, out) -> dict[str, Path]:
     ax.set_xlabel("held-out mean residual shrink [%] (green: accepted; olive: significant, not taken)")
     ax.axvline(0, color="k", lw=0.8)
     _margins(fig, 0.3 + 0.065 * max([len(e.label) for e in eff] + [10]), 0.2, 0.5, 0.15)  # 7 pt labels
-    fig.savefig(out.path(FIGURES["effects"]), dpi=90)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(8, 3))
-    ax.plot(np.arange(len(data.heldout_mm)), data.heldout_mm, ".", ms=3)
-    if data.outliers:
-        ax.set_title(f"{data.outliers} outlier rows left out (not shown)", fontsize=9)
-    ax.set_xlabel("row (measurement order)")
-    ax.set_ylabel("held-out |residual| [mm]")
-    _margins(fig, 0.8, 0.2, 0.55, 0.35)
-    fig.savefig(out.path(FIGURES["rows"]), dpi=90)
-    plt.close(fig)
-    return {k: out.final(v) for k, v in FIGURES.items()}
+    return {"effects": _png(fig)}
+
+
+def same_base(a: DiagnosisFigures, b: DiagnosisFigures) -> bool:
+    """Whether ``a`` and ``b`` draw the same base model's figures (:func:`draw_base`)."""
+    return (a.outliers == b.outliers and np.array_equal(a.heldout_mm, b.heldout_mm)
+            and pickle.dumps(a.breakdowns) == pickle.dumps(b.breakdowns))
+
+
+def draw_diagnosis(data: DiagnosisFigures, out) -> dict[str, Path]:
+    """The report's figures into ``out`` (a :class:`vecpin.fileio.OutputSet`), under the
+    names :data:`vecpin.diagnosis.report.FIGURES` gives; returns where each lands."""
+    pngs = draw_base(data) | draw_effects(data)
+    return {k: out.write_bytes(FIGURES[k], pngs[k]) for k in FIGURES}

@@ -7,6 +7,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
+import numpy as np
+
 from vecpin.diagnosis.result import Diagnosis
 from vecpin.errors import InputError
 from vecpin.fileio import check_output_dir
@@ -49,7 +51,6 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
     from vecpin.models.base import ErrorModel
-    from vecpin.viz.diagnosis import draw_diagnosis  # matplotlib: only when a diagnosis is written
     check_output_dir(out, "out")
     effects = _effect_names(effects)
     base_model = None if base is None else ErrorModel.load(base)
@@ -60,14 +61,66 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
         check_nest_heights(nest_heights, dict.fromkeys(campaign.target[campaign.nest_rows]))
     if zone:
         campaign = zone_rows(machine, campaign, zone)
-    d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds, alpha=alpha,
-                 basis=basis, progress=progress, base=base_model, travel=clip_to_zone(machine, zone) if zone else None)
-    for fitted in (d.base_model, d.best_model):
-        if zone:
-            fitted.zone_ = dict(zone)
-        if nest_heights:
-            fitted.setup_ = replace(fitted.setup_, nest_heights=check_nest_heights(nest_heights, fitted.setup_.nests))
-    return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=draw_diagnosis).values()])
+    drawing = _Drawing()
+    try:
+        d = diagnose(machine, campaign, model=model, order=order, effects=effects, noise=noise, folds=folds,
+                     alpha=alpha, basis=basis, progress=progress, base=base_model,
+                     travel=clip_to_zone(machine, zone) if zone else None, base_known=drawing.start)
+        for fitted in (d.base_model, d.best_model):
+            if zone:
+                fitted.zone_ = dict(zone)
+            if nest_heights:
+                fitted.setup_ = replace(fitted.setup_, nest_heights=check_nest_heights(nest_heights,
+                                                                                       fitted.setup_.nests))
+        return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=drawing.finish).values()])
+    finally:
+        drawing.close()
+
+
+def _figures(early):
+    """The report's figures in two steps (:class:`vecpin.threads.Background`): the base
+    model's from ``early`` (a :class:`~vecpin.diagnosis.report.DiagnosisFigures`) at once,
+    then the effects' from the whole figure data handed later (the base model's drawn again
+    if they differ from ``early``); PNG bytes by figure key. matplotlib is imported here,
+    in the drawing process only."""
+    from vecpin.viz.diagnosis import draw_base, draw_effects, same_base
+    pngs = draw_base(early) if early is not None else None
+    data = yield
+    if pngs is None or not same_base(early, data):
+        pngs = draw_base(data)
+    yield pngs | draw_effects(data)
+
+
+class _Drawing:
+    """The diagnosis' figures drawn beside it: started in a forked process as soon as the
+    base model's breakdowns, held-out residuals and outliers are final
+    (:func:`vecpin.diagnosis.diagnose.diagnose`'s ``base_known``), while the diagnosis
+    goes on; the effects' figure and the files when the diagnosis is written."""
+
+    def __init__(self):
+        self._bg = None
+
+    def start(self, localization: dict, heldout: np.ndarray, outliers: np.ndarray) -> None:
+        """The base model's figures started (``heldout`` [m] per row, ``outliers`` rows)."""
+        from types import SimpleNamespace
+        from vecpin.diagnosis.report import figure_data
+        from vecpin.threads import Background
+        early = figure_data(SimpleNamespace(localization=localization, heldout_base=heldout, outlier_rows=outliers,
+                                            effects=[]))   # the fields figure_data reads of a Diagnosis
+        self.close()
+        self._bg = Background(_figures, early)
+
+    def finish(self, data, out) -> dict[str, Path]:
+        """The figures of ``data`` (the whole figure data) written into ``out`` (an output set)."""
+        from vecpin.diagnosis.report import FIGURES
+        from vecpin.threads import Background
+        bg, self._bg = self._bg or Background(_figures, None), None
+        return {k: out.write_bytes(FIGURES[k], png) for k, png in bg.finish(data).items()}
+
+    def close(self) -> None:
+        if self._bg is not None:
+            self._bg.close()
+            self._bg = None
 
 
 def _effect_names(effects: str | Sequence[str]) -> str | list[str]:
