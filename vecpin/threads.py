@@ -232,7 +232,9 @@ class Background:
             except (EOFError, OSError):   # the copy died (killed, out of memory): both steps here
                 ok, value = None, None
             finally:
-                self.close()
+                self._conn.close()
+                self._proc.join()   # it has sent its reply, or died
+                self._proc = None
             if ok:
                 return value
             if ok is False:
@@ -242,13 +244,11 @@ class Background:
         return steps.send(later)
 
     def close(self) -> None:
-        """End the copy (it reads the end of its pipe and stops) and wait for it."""
+        """End a copy never finished (its work is not wanted: e.g. the caller failed) at once."""
         if self._proc is not None:
             self._conn.close()
-            self._proc.join(5)
-            if self._proc.exitcode is None:
-                self._proc.terminate()
-                self._proc.join()
+            self._proc.terminate()
+            self._proc.join()
             self._proc = None
 
 
