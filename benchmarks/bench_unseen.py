@@ -99,14 +99,23 @@ def noise_options(truth: dict, stated: bool) -> list[str]:
     return out
 
 
+# vecpin's names of one family: its twin-drive yaw (varying with the beam and the carriage together) is a gantry skew
+SAME_FAMILY = {"twin_skew": "gantry_skew"}
+
+
+def family_of(name: str) -> str:
+    """The family name (:data:`VECPIN_NAME`'s) of one of vecpin's effect names."""
+    return SAME_FAMILY.get(name, name)
+
+
 def named_effects(diag: dict) -> tuple[set[str], set[str]]:
     """(names vecpin accepted, names in the ambiguity groups of accepted effects), vecpin's effect names."""
     named, groups = set(), set()
     for e in diag.get("effects", []):
         if e.get("accepted"):
-            named.add(e["name"])
+            named.add(family_of(e["name"]))
             for alt in e.get("alternatives") or []:
-                groups.add(alt.get("name") if isinstance(alt, dict) else str(alt).split("[")[0])
+                groups.add(family_of(alt.get("name") if isinstance(alt, dict) else str(alt).split("[")[0]))
     if diag.get("outlier_lines"):
         named.add("outliers")
     return named, groups
@@ -131,7 +140,7 @@ def true_status(diag: dict, want: str | None) -> str:
     """What the diagnosis made of the true effect's candidates (the best of them)."""
     if want is None:
         return "-"
-    mine = [e for e in diag.get("effects", []) if e["name"] == want]
+    mine = [e for e in diag.get("effects", []) if family_of(e["name"]) == want]
     if want == "outliers" and diag.get("outlier_lines"):
         return "accepted"
     for status, key in (("accepted", "accepted"), ("significant, not accepted", "significant"),
@@ -147,9 +156,10 @@ def _group_names(diag: dict, want: str) -> set[str]:
     """Accepted effects whose ambiguity group holds ``want`` (naming them is naming the group)."""
     out = set()
     for e in diag.get("effects", []):
-        alts = {a.get("name") if isinstance(a, dict) else str(a).split("[")[0] for a in e.get("alternatives") or []}
+        alts = {family_of(a.get("name") if isinstance(a, dict) else str(a).split("[")[0])
+                for a in e.get("alternatives") or []}
         if e.get("accepted") and want in alts:
-            out.add(e["name"])
+            out.add(family_of(e["name"]))
     return out
 
 
