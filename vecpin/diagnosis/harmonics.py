@@ -12,7 +12,10 @@ model with them, by the same two tests and the same held-out shrink as any candi
 (:func:`.scoring.score`), Bonferroni over every harmonic judged. The strongest significant
 harmonic of an axis is named ``rotary_periodic[axis]``, carried by the base model (no
 term is added: the model and its tables stay as they are), with the order per turn and
-its size (RMS at the measured points, mm).
+its size (RMS at the measured points, mm). The order is the series': a 6-DoF model's
+errors live in the axis' moving frame (an index, runout or tilt error of k cycles is k
+there; a displacement fixed in the machine frame at k cycles shows at k-1 and k+1), an
+AP model's in the commands.
 """
 from __future__ import annotations
 
