@@ -47,6 +47,7 @@ import numpy as np
 from vecpin.diagnosis.armadvice import arm_advice
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
+from vecpin.diagnosis.harmonics import base_harmonics
 from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.nextplan import next_measurements
@@ -496,19 +497,17 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
              basis: str = "auto", seed: int = 0, min_shrink_pct: float = 2.0,
              progress: Callable[[str], None] | None = None, base: ErrorModel | None = None,
              travel: tuple[np.ndarray, np.ndarray] | None = None) -> Diagnosis:
-    """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part
-    of the base model (default: chosen by held-out data); ``base``: a fitted model (e.g.
-    the model file of ``fit`` on this campaign) whose kind, bases and orders are the base
-    model, refitted here, so the model choice is not repeated; ``travel``: (low, high)
-    [m, rad] per axis where the model will be used (default: a zone ``base`` was fitted
-    in, else the axes' limits): the axes measured over part of it have their ends judged
-    (the base model's choice and every effect); ``effects``: "all" or names;
-    ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the
-    held-out shrink an effect must bring to be worth its terms. Stages: the problem (checks,
-    folds, first pass, base model choice), the base model, forward selection, outliers
-    judged again, backward elimination, what to measure next, the result."""
-    t0 = time.perf_counter()
-    say = progress or (lambda s: None)
+    """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part of the base model
+    (default: chosen by held-out data); ``base``: a fitted model (e.g. the model file of ``fit`` on this campaign)
+    whose kind, bases and orders are the base model, refitted here, so the model choice is not repeated;
+    ``travel``: (low, high) [m, rad] per axis where the model will be used (default: a zone ``base`` was fitted
+    in, else the axes' limits): the axes measured over part of it have their ends judged (the base model's choice
+    and every effect); ``effects``: "all" or names; ``alpha``: the family-wise false-alarm rate per round;
+    ``min_shrink_pct``: the held-out shrink an effect must bring to be worth its terms. Stages: the problem
+    (checks, folds, first pass, base model choice), the base model, forward selection, outliers judged again,
+    backward elimination, what to measure next, the periodic errors the base model carries (:mod:`.harmonics`),
+    the result."""
+    t0, say = time.perf_counter(), progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
                             min_shrink_pct, say, base, travel)
     st = _base_stage(pb, outliers)
@@ -517,4 +516,5 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     _backward(pb, st)
     _given_accepted(pb, st)
     next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)
+    st.scores += base_harmonics(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, st.scores, pb)
     return _result(pb, st, time.perf_counter() - t0)
