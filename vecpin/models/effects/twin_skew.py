@@ -118,5 +118,5 @@ class TwinSkew(Effect):
         return [f"{self.label}: the rotation of {a} about its {self.about} axis depends on {a} and {b} together, "
                 f"{np.ptp(grid) * 1e6:.1f} µrad peak to peak over both travels (beyond each axis' own part): "
                 f"geometric; on a gantry driven at both ends of {a}, the drives' positions depend on where {b} is "
-                f"(load, stiffness, a differential that follows {b}); a table on input {a} alone cannot carry it: a 2-D "
-                f"(volumetric) table, or a table on {a} multiplied by one on {b} (Siemens $AN_CEC_MULT_BY_TABLE)"]
+                f"(load, stiffness, a differential that follows {b}); a table on input {a} alone cannot carry it: "
+                f"a 2-D (volumetric) table, or a table on {a} multiplied by one on {b} (Siemens $AN_CEC_MULT_BY_TABLE)"]
