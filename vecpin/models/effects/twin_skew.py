@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from vecpin.kinematics.so3 import exp3, skew
 from vecpin.models.basis import normalise
 from vecpin.models.effects.base import Effect, Key, axis_chebyshev, register_effect
+from vecpin.models.effects.gantry_skew import rotated_tip, rotation_gradient, rotation_tip
 
 
 def _carries(machine, a: str, b: str) -> bool:
@@ -69,15 +69,10 @@ class TwinSkew(Effect):
         return (Ba[:, :, None] * Bb[:, None, :]).reshape(len(q), -1)
 
     def tip(self, ctx, feats):
-        F = ctx.frames(self.axes[0])
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        lever = np.cross(axis_w, ctx.tip - F[:, :3, 3])  # d tip / d angle
-        return lever[:, :, None] * self._basis(ctx.q)[:, None, :]
+        return rotation_tip(ctx, self.axes[0], self.about, self._basis(ctx.q))
 
     def tip_gradient(self, ctx, feats, theta):
-        F = ctx.frames(self.axes[0])
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        return skew(axis_w * (self._basis(ctx.q) @ theta)[:, None])
+        return rotation_gradient(ctx, self.axes[0], self.about, self._basis(ctx.q), theta)
 
     def supported(self, design):
         """At most one product term per distinct position less one along either axis."""
@@ -105,10 +100,7 @@ class TwinSkew(Effect):
         pa, pb = rng.uniform(0, 2 * np.pi, 2)
         angle = 1e-4 * self.scale * np.sin(np.pi * normalise(q[:, a.index], a.lower, a.upper) + pa) * \
             np.sin(np.pi * normalise(q[:, b.index], b.lower, b.upper) + pb)
-        F = m.joint_frames(q, a.name)
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        R = exp3(axis_w * angle[:, None])  # exact rotation of everything after the axis
-        return F[:, :3, 3] + np.einsum("pij,pj->pi", R, tip - F[:, :3, 3])
+        return rotated_tip(m, q, a.name, self.about, angle, tip)
 
     def advice(self, values, std):
         a, b = self.axes
