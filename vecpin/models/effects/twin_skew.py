@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.models.basis import normalise
-from vecpin.models.effects.base import Effect, Key, axis_chebyshev, register_effect
+from vecpin.models.effects.base import Effect, Key, ProductOrder, axes_product_chebyshev, register_effect
 from vecpin.models.effects.gantry_skew import rotated_tip, rotation_gradient, rotation_tip
 
 
@@ -32,7 +32,7 @@ def yaw_axis(machine, a: str, b: str) -> str | None:
 
 
 @register_effect
-class TwinSkew(Effect):
+class TwinSkew(ProductOrder, Effect):
     """Rotation after a linear axis ``axes[0]`` (the twin-driven beam) about its frame axis ``about`` by
     ``theta(q) = sum_{i,j=1..m} c_ij T_i(u_a) T_j(u_b)`` [rad]: products only of Chebyshev series in the beam's
     position ``u_a`` and in the position ``u_b`` of the axis it carries (``axes[1]``, the carriage on the beam),
@@ -64,22 +64,13 @@ class TwinSkew(Effect):
         return [self._p(f"{i}{j}", "angle", 1e-3) for i in range(1, self.order + 1) for j in range(1, self.order + 1)]
 
     def _basis(self, q):
-        Ba = axis_chebyshev(self.machine, self.axes[0], q, self.order)
-        Bb = axis_chebyshev(self.machine, self.axes[1], q, self.order)
-        return (Ba[:, :, None] * Bb[:, None, :]).reshape(len(q), -1)
+        return axes_product_chebyshev(self.machine, self.axes, q, self.order)
 
     def tip(self, ctx, feats):
         return rotation_tip(ctx, self.axes[0], self.about, self._basis(ctx.q))
 
     def tip_gradient(self, ctx, feats, theta):
         return rotation_gradient(ctx, self.axes[0], self.about, self._basis(ctx.q), theta)
-
-    def supported(self, design):
-        """At most one product term per distinct position less one along either axis."""
-        o = min(self.order, design.max_order(self.axes[0]), design.max_order(self.axes[1]))
-        if o < 1:
-            return None
-        return self if o == self.order else type(self)(self.machine, self.axes, **(self.options | {"order": o}))
 
     @classmethod
     def candidates(cls, machine, feats):
