@@ -54,3 +54,13 @@ def test_an_option_given_twice_is_refused_not_overwritten(tmp_path, capsys):
     assert repeated_option(argv + ["--nest-heights", "h.csv", "--nest-heights", "g.csv"], once) == "--nest-heights"
     assert repeated_option(["--out=a", "--out", "b"], once) == "--out"
     assert repeated_option(["--zone", "X=0:1", "--", "--zone"], once) is None
+
+
+def test_the_plan_names_the_fits_option_for_the_nest_heights_file():
+    """The plan's library text names the fit's `nest_heights` parameter; on plan's command line (whose
+    --no-nest-heights marks it) that becomes the fit's flag, not a plan flag or a bare setting name."""
+    from vecpin.cli.options import as_flags
+    text = "write it in nest_heights.csv; give that file to the fit (`nest_heights`): it then finds the face"
+    out = as_flags(text, {"no_nest_heights": "--no-nest-heights"})
+    assert "give that file to the fit (vecpin fit --nest-heights FILE): it then" in out
+    assert as_flags(text, {}) == text.replace("`", "")

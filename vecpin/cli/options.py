@@ -24,10 +24,13 @@ ALIASES: dict[str, str] = {
     "cv": "folds",               # the fit's cross-validation (the estimator's cv=): --folds
 }
 
-#: library phrases naming two parameters that one option sets together: (phrase, the option's
-#: dest, the phrase as the command line writes it with {flag} for the option's flag)
+#: library phrases naming two parameters that one option sets together, or a parameter of the
+#: next command: (phrase, the option's dest that marks the command, the phrase as the command
+#: line writes it with {flag} for that option's flag)
 PHRASES: list[tuple[re.Pattern, str, str]] = [
     (re.compile(r"`repeat_points` (\S+?), `repeat_times` (\S+?):"), "repeat", r"{flag} \1 \2:"),
+    (re.compile(r"give that file to the fit \(`nest_heights`\)"), "no_nest_heights",
+     "give that file to the fit (vecpin fit --nest-heights FILE)"),
 ]
 
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")

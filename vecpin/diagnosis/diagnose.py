@@ -47,6 +47,7 @@ import numpy as np
 from vecpin.diagnosis.armadvice import arm_advice
 from vecpin.diagnosis import flagging as fl
 from vecpin.diagnosis import grosserrors as gross_
+from vecpin.diagnosis.harmonics import base_harmonics
 from vecpin.diagnosis.detection import Sight, sight_of
 from vecpin.diagnosis.localise import describe_structure, explained, localise
 from vecpin.diagnosis.nextplan import next_measurements
@@ -498,15 +499,13 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
              travel: tuple[np.ndarray, np.ndarray] | None = None, base_known: Callable | None = None) -> Diagnosis:
     """Run the diagnosis (module docstring). ``model``, ``basis``, ``order`` fix any part of the base model
     (default: chosen by held-out data); ``base``: a fitted model (``fit``'s model file) whose kind, bases and orders
-    are the base model, refitted here, so the model choice is not repeated; ``travel``: (low, high) [m, rad] per
-    axis where the model will be used (default: a zone ``base`` was fitted in, else the axes' limits): the axes
-    measured over part of it have their ends judged (the model choice, every effect); ``effects``: "all" or names;
-    ``alpha``: the family-wise false-alarm rate per round; ``min_shrink_pct``: the held-out shrink an effect must
-    bring to be worth its terms; ``base_known(localization, heldout [m], outlier rows)``: called once these are
-    final (e.g. to draw them meanwhile). Stages: the problem (checks, folds, first pass, model choice), the base
-    model, forward selection, outliers judged again, backward elimination, what to measure next, the result."""
-    t0 = time.perf_counter()
-    say = progress or (lambda s: None)
+    are the base model, refitted here (no model choice); ``travel``: (low, high) [m, rad] per axis where the model
+    will be used (default: a zone ``base`` was fitted in, else the axes' limits): the axes measured over part of it
+    have their ends judged (the model choice, every effect); ``effects``: "all" or names; ``alpha``: the family-wise
+    false-alarm rate per round; ``min_shrink_pct``: the held-out shrink an effect must bring to be worth its terms;
+    ``base_known(localization, heldout [m], outlier rows)``: called once these are final. Stages: checks and model
+    choice, base, forward, outliers again, backward, next measurements, periodic errors (:mod:`.harmonics`), result."""
+    t0, say = time.perf_counter(), progress or (lambda s: None)
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
                             min_shrink_pct, say, base, travel)
     st = _base_stage(pb, outliers)
@@ -517,4 +516,5 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     _backward(pb, st)
     _given_accepted(pb, st)
     next_measurements(st.scores, st.accepted, st.cur_model, st.cur_lin, st.cur_eval, pb.fit, st.camp, say)
+    st.scores += base_harmonics(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, st.scores, pb)
     return _result(pb, st, time.perf_counter() - t0)

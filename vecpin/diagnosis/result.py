@@ -73,6 +73,8 @@ class EffectScore:
     # the accepted effects the figures are given (empty: given none); its first-round figures before them
     given: list[str] = field(default_factory=list)
     before_accepted: dict | None = None
+    # named, but carried by the base model's own series (no term added: :mod:`.harmonics`)
+    in_base: bool = False
 
     @property
     def finding(self) -> str:
@@ -110,7 +112,7 @@ class EffectScore:
                 "worse_beyond_the_measured_span": self.worse_beyond, "size_rms_mm": self.size_mm,
                 "detected_but_small": self.small, "share_in_the_model": self.base_share,
                 "not_told_apart_from_the_model": self.alike_base, "significant_given": self.given,
-                "before_the_accepted_ones": self.before_accepted,
+                "before_the_accepted_ones": self.before_accepted, "carried_by_the_base_model": self.in_base,
                 "options": self.effect.options if self.effect is not None else {},
                 "next_measurement": None if self.next_plan is None else {
                     "candidates": self.next_plan.labels, "points": int(len(self.next_plan.tool)),
@@ -168,7 +170,8 @@ class Diagnosis:
         s1 = (f"Where: after the base model ({b['label']}) the held-out residual is {b['heldout_mean_mm']:.4f} mm on "
               "average" + (f" and structured along {', '.join(where)}." if where else
                            ", with no structure beyond the scatter along any axis, time, temperature or direction."))
-        acc = [e for e in self.accepted if e.name != "outliers"]
+        acc = [e for e in self.accepted if e.name != "outliers" and not e.in_base]
+        carried = [e for e in self.accepted if e.in_base]
         beyond = [e for e in self.effects if e.worse_beyond][:3]
         m, _ = self.best
         if acc:
@@ -182,6 +185,9 @@ class Diagnosis:
                   "(the model is used beyond what was measured).")
         else:
             s2 = "Which: no unmodelled effect is needed; the base model explains what the noise allows."
+        for e in carried:
+            s2 += (f" The base model's own series carry {e.label} (size {e.size_text} mm; held-out mean "
+                   f"{e.heldout_mean_mm_after:.4f} mm with it, {e.heldout_mean_mm_before:.4f} mm without).")
         if self.detection:
             s2 += f" Any other effect is below detection here: {sightings_text(self.detection, self.base['rows'])}."
         small = [e for e in self.effects if e.small and not e.accepted][:3]
@@ -199,7 +205,7 @@ class Diagnosis:
         if self.misfit_regions:
             s2 += (" The model does not fit " + "; ".join(g["where"] for g in self.misfit_regions)
                    + " (misfit, not gross errors: a re-measurement would read the same).")
-        todo = [e.advice[0] for e in self.accepted if e.advice]
+        todo = [e.advice[0] for e in self.accepted if e.advice and not e.in_base]
         todo += [f"To tell {_apart(e.next_plan.labels)} apart, measure the {len(e.next_plan.tool)} points of "
                  f"{at}next_{k}/ right after the campaign and diagnose again with them appended"
                  + (f" (they go beyond the measured range, {e.next_plan.beyond_text()}: nothing inside it tells them "
@@ -209,7 +215,7 @@ class Diagnosis:
         base = (f"compensate with the tables of the base model (vecpin tables {at}model_base.json)."
                 if not is_arm(self.machine)
                 else f"{BASE_REMEDY[0].upper()}{BASE_REMEDY[1:]} (the base model: {at}model_base.json).")
-        s3 = "What to do: " + (" ".join(todo) if todo else base)
+        s3 = "What to do: " + (" ".join(todo) if todo else base) + "".join(f" {e.advice[0]}." for e in carried)
         if beyond and not acc:
             s3 += (f" To settle {', '.join(e.label for e in beyond)}, measure the axes over more of their travel; or, "
                    "if the machine is used only where they were measured, diagnose in a `zone` over their measured ranges.")

@@ -177,13 +177,13 @@ class PlanRun:
     def heights_line(self) -> str:
         """What the operator measures of the nests for the fit to see the table's face, and where it goes."""
         if not self.nest_heights:
-            return ("    heights above the table's face: not asked (declined): the fit sees the nests, not the face; the "
-                    "tables keep the table where the model places it, and a tilt of the true face against that stays "
-                    "in what a part clamped on it sees")
+            return ("    heights above the table's face: not asked (declined): the fit sees the nests, not the face; "
+                    "the tables keep the table where the model places it, and a tilt of the true face against that "
+                    "stays in what a part clamped on it sees")
         planned = ", ".join(f"{k} at {float(x[2]) * MM_PER_M:.0f}" for k, x in sorted(self.plan.nests.items()))
-        return (f"    heights above the table's face: once the nests are placed, measure each reflector centre's height "
-                f"above the face, mm (a height gauge on the face: the reflector's top less its radius), and write "
-                f"it in {NEST_HEIGHTS_FILE}, column height_mm (planned: {planned} mm); give that file to the fit "
+        return (f"    heights above the table's face: once the nests are placed, measure each reflector centre's "
+                f"height above the face, mm (a height gauge on the face: the reflector's top less its radius), and "
+                f"write it in {NEST_HEIGHTS_FILE}, column height_mm (planned: {planned} mm); give that file to the fit "
                 "(`nest_heights`): it then finds the face, and the tables keep the table a part is clamped to")
 
     def to_dict(self) -> dict:

@@ -322,6 +322,25 @@ def axis_chebyshev(machine: Machine, axis: str, q: np.ndarray, order: int) -> np
     return chebyshev(normalise(q[:, a.index], a.lower, a.upper), order)[:, 1:]
 
 
+def axes_product_chebyshev(machine: Machine, axes: tuple[str, str], q: np.ndarray, order: int) -> np.ndarray:
+    """(N, order**2) products of the two axes' Chebyshev columns 1..order (the first axis' index
+    runs slower): a series in both positions together, nothing of either alone."""
+    Ba = axis_chebyshev(machine, axes[0], q, order)
+    Bb = axis_chebyshev(machine, axes[1], q, order)
+    return (Ba[:, :, None] * Bb[:, None, :]).reshape(len(q), -1)
+
+
+class ProductOrder:
+    """For an effect whose series is :func:`axes_product_chebyshev` of order ``order``."""
+
+    def supported(self, design):
+        """At most one product term per distinct position less one along either axis."""
+        o = min(self.order, design.max_order(self.axes[0]), design.max_order(self.axes[1]))
+        if o < 1:
+            return None
+        return self if o == self.order else type(self)(self.machine, self.axes, **(self.options | {"order": o}))
+
+
 def tip_unit(machine: Machine) -> np.ndarray:
     """(n,) a command step of each axis moving the tip about 1 mm (rotary: 1 mm at 0.3 m)."""
     return np.array([1e-3 if a.kind == "linear" else 1e-3 / 0.3 for a in machine.axes])

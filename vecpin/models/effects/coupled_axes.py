@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from vecpin.models.basis import normalise
-from vecpin.models.effects.base import Effect, axis_chebyshev, in_every_output, register_effect, tip_unit
+from vecpin.models.effects.base import (Effect, ProductOrder, axes_product_chebyshev, in_every_output, register_effect,
+                                        tip_unit)
 
 
 @register_effect
-class CoupledAxes(Effect):
+class CoupledAxes(ProductOrder, Effect):
     """``dq_o = sum_{a,b=1..m} c_oab T_a(u_i) T_b(u_j)`` for every output o.
 
     Simulated as every command perturbed by sin(pi u_i) sin(pi u_j + 0.5)."""
@@ -32,16 +33,7 @@ class CoupledAxes(Effect):
         return out
 
     def command(self, q, feats):
-        Bi = axis_chebyshev(self.machine, self.axes[0], q, self.order)
-        Bj = axis_chebyshev(self.machine, self.axes[1], q, self.order)
-        return in_every_output((Bi[:, :, None] * Bj[:, None, :]).reshape(len(q), -1), self.machine.n_axes)
-
-    def supported(self, design):
-        """At most one product term per distinct position less one along either axis."""
-        o = min(self.order, design.max_order(self.axes[0]), design.max_order(self.axes[1]))
-        if o < 1:
-            return None
-        return self if o == self.order else type(self)(self.machine, self.axes, **(self.options | {"order": o}))
+        return in_every_output(axes_product_chebyshev(self.machine, self.axes, q, self.order), self.machine.n_axes)
 
     @classmethod
     def candidates(cls, machine, feats):

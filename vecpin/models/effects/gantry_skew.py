@@ -49,15 +49,10 @@ class GantrySkew(Effect):
         return np.concatenate([axis_chebyshev(self.machine, k, q, self.orders[k]) for k in self.others], axis=1)
 
     def tip(self, ctx, feats):
-        F = ctx.frames(self.axes[0])
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        lever = np.cross(axis_w, ctx.tip - F[:, :3, 3])  # d tip / d angle
-        return lever[:, :, None] * self._basis(ctx.q)[:, None, :]
+        return rotation_tip(ctx, self.axes[0], self.about, self._basis(ctx.q))
 
     def tip_gradient(self, ctx, feats, theta):
-        F = ctx.frames(self.axes[0])
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        return skew(axis_w * (self._basis(ctx.q) @ theta)[:, None])
+        return rotation_gradient(ctx, self.axes[0], self.about, self._basis(ctx.q), theta)
 
     def supported(self, design):
         """The series along each other axis cut to that axis' distinct positions less one
@@ -79,10 +74,7 @@ class GantrySkew(Effect):
         dep = m.axis(self.options.get("depends") or m.axis_names[0])
         phase = rng.uniform(0, 2 * np.pi)
         angle = 1e-4 * self.scale * np.sin(0.8 * np.pi * normalise(q[:, dep.index], dep.lower, dep.upper) + phase)
-        F = m.joint_frames(q, self.axes[0])
-        axis_w = F[:, :3, "xyz".index(self.about)]
-        R = exp3(axis_w * angle[:, None])  # exact rotation of everything after the axis
-        return F[:, :3, 3] + np.einsum("pij,pj->pi", R, tip - F[:, :3, 3])
+        return rotated_tip(m, q, self.axes[0], self.about, angle, tip)
 
     def advice(self, values, std):
         m = self.machine
@@ -105,3 +97,26 @@ class GantrySkew(Effect):
         lines.append(f"{self.label}: geometric; the tables carry it (vecpin tables with model_best.json); on a gantry "
                      f"with two drives it is a differential table between the drives of {a}")
         return lines
+
+
+def rotation_tip(ctx, axis: str, about: str, basis: np.ndarray) -> np.ndarray:
+    """(P, 3, K) d tip / d theta [m per rad] of a rotation after ``axis`` about its frame axis
+    ``about`` ("x", "y" or "z") by the angle ``basis @ theta`` [rad] ((P, K) ``basis``)."""
+    F = ctx.frames(axis)
+    axis_w = F[:, :3, "xyz".index(about)]
+    lever = np.cross(axis_w, ctx.tip - F[:, :3, 3])  # d tip / d angle
+    return lever[:, :, None] * basis[:, None, :]
+
+
+def rotation_gradient(ctx, axis: str, about: str, basis: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """(P, 3, 3) the skew matrices of the rotation vectors [rad] of :func:`rotation_tip` at ``theta``."""
+    F = ctx.frames(axis)
+    return skew(F[:, :3, "xyz".index(about)] * (basis @ theta)[:, None])
+
+
+def rotated_tip(machine, q: np.ndarray, axis: str, about: str, angle: np.ndarray, tip: np.ndarray) -> np.ndarray:
+    """(P, 3) ``tip`` [m] with everything after ``axis`` turned exactly by ``angle`` [rad] about its
+    frame axis ``about``, at the commands ``q``."""
+    F = machine.joint_frames(q, axis)
+    R = exp3(F[:, :3, "xyz".index(about)] * angle[:, None])
+    return F[:, :3, 3] + np.einsum("pij,pj->pi", R, tip - F[:, :3, 3])
