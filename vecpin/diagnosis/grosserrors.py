@@ -297,7 +297,7 @@ def _near_region(machine: Machine, campaign: Campaign, rows: np.ndarray) -> dict
     spans = [(float(np.ptp(u[rows])), name, unit, x) for name, unit, x, u in coords]
     _, name, unit, x = min(spans, key=lambda v: v[0])
     lo, hi = float(x[rows].min()), float(x[rows].max())
-    every = "; ".join(_span(nm, un, float(xx[rows].min()), float(xx[rows].max())) for nm, un, xx, _ in coords)
+    every = ", ".join(_span(nm, un, float(xx[rows].min()), float(xx[rows].max())) for nm, un, xx, _ in coords)
     return {"axis": name, "from": lo, "to": hi, "unit": unit, "rows": [int(v) for v in rows],
             "rows_there": int(((x >= lo) & (x <= hi)).sum()), "near": True, "span": every}
 
