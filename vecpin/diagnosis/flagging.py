@@ -66,7 +66,9 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     # fitted rows beyond the noise now) are misfit
     gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
     beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
-    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid)
+    excess = np.full(len(campaign), np.nan)
+    excess[outliers] = s / (level * gross_.row_limit(valid, len(campaign), OUTLIER_P))
+    regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid, excess)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
 

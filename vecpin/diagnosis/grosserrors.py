@@ -18,9 +18,14 @@
   neighbours share its misfit is in a region the model does not fit: along one axis (or in
   measurement order: rows read one after another), a local linear fit of the neighbours'
   residuals (a Gaussian kernel, each of :data:`BANDWIDTHS` of the span, the row itself left out)
-  takes up most of its residual (:data:`SHARED`). Rows that merely crowd one stretch,
-  their neighbours near the model, are gross errors. Both kinds of misfit are kept in the
-  fit and reported as regions, not left out.
+  takes up most of its residual (:data:`SHARED`). So is a flagged row whose neighbours in
+  joint space (every axis scaled by its measured travel) share it: the same command read at
+  another visit (another tool or target, another time: a reading error does not come back),
+  else a local linear fit of the other commands' residuals, predicts it within the noise
+  (:func:`shared_nearby`). Other targets of the same visit, and other flagged rows of other
+  commands (a cluster read while the tracker moved), do not vouch for it. Rows that merely
+  crowd one stretch, their neighbours near the model, are gross errors. Both kinds of misfit
+  are kept in the fit and reported as regions, not left out.
 """
 from __future__ import annotations
 
@@ -38,6 +43,7 @@ from vecpin.measurement.repeatability import repeat_groups
 
 BANDWIDTHS = (0.01, 0.04)  # the kernel's sigma along an axis, shares of the span measured: narrow and wide misfit
 SHARED = 0.5         # a region's row: its neighbours' local fit leaves at most this share of its residual
+NEAR_COMMANDS = 2    # the joint-space kernel's width: the distance to this many commands per fitted coefficient
 REGION_MIN = 3       # flagged rows that share their misfit along one axis before that stretch is a region
 AGREE_P = 0.01       # repeated readings agree unless their difference is beyond this tail
 
@@ -171,16 +177,29 @@ def spread(n: int, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
     return out
 
 
-def crowded_regions(machine: Machine, campaign: Campaign, flagged: np.ndarray, r: np.ndarray) -> list[dict]:
+def crowded_regions(machine: Machine, campaign: Campaign, flagged: np.ndarray, r: np.ndarray,
+                    excess: np.ndarray | None = None) -> list[dict]:
     """Regions the model does not fit: flagged rows whose neighbours share their misfit
     along one axis or in measurement order (module text; ``r`` (N,3) every row's residual
     [m], nan where there is none), at least :data:`REGION_MIN` along the same coordinate:
     [{"axis", "from", "to", "unit", "rows", "rows_there"}], the coordinate explaining
-    most rows first; the rows a coordinate explains are not offered to the next."""
+    most rows first; the rows a coordinate explains are not offered to the next. Then the
+    rows whose neighbours in joint space share their misfit (:func:`shared_nearby`, ``excess``
+    (N,) each row's statistic over its limit) as one region more ("near": True)."""
     left = np.asarray(flagged, int)
     r = np.asarray(r, float)
     size = np.linalg.norm(np.where(np.isfinite(r), r, 0.0), axis=1)
     coords = _coordinates(machine, campaign)
+    out = _crowded_along(coords, left, r, size)
+    left = np.setdiff1d(left, [v for g in out for v in g["rows"]])
+    near = left[shared_nearby(campaign, left, flagged, r, excess)] if left.size else left
+    if near.size:
+        out.append(_near_region(machine, campaign, near))
+    return out
+
+
+def _crowded_along(coords: list, left: np.ndarray, r: np.ndarray, size: np.ndarray) -> list[dict]:
+    """:func:`crowded_regions` along one coordinate at a time (``coords`` of :func:`_coordinates`)."""
     out = []
     while left.size >= REGION_MIN:
         best = None
@@ -201,6 +220,88 @@ def crowded_regions(machine: Machine, campaign: Campaign, flagged: np.ndarray, r
     return out
 
 
+def shared_nearby(campaign: Campaign, rows: np.ndarray, flagged: np.ndarray, r: np.ndarray,
+                  excess: np.ndarray | None = None) -> np.ndarray:
+    """(len(rows),) bool: the rows whose neighbours in joint space share their misfit, each axis
+    scaled by its measured travel. The nearest neighbours are readings of the same command at
+    another visit (another tool or target read at another time: a reading error does not come
+    back), their mean residual the correction there; other targets of the same visit are not
+    independent of the row (a tracker that moved moves them all). Without those, a local linear
+    fit of the residuals ``r`` (N,3) [m] of other commands that are not ``flagged`` themselves (a
+    cluster of gross errors does not vouch for its own rows), Gaussian kernel, its width the
+    distance to the :data:`NEAR_COMMANDS` x (axes + 1)-th nearest command, the prediction no larger
+    than the largest residual among the neighbours within it. Shared: what the correction
+    leaves of the row's statistic is within its limit (``excess`` (N,), the statistic over the
+    limit: the share left at most 1 / sqrt(excess)), or, where no statistic is given, at most
+    :data:`SHARED` of the residual."""
+    q = np.asarray(campaign.q, float)
+    span = np.ptp(q, axis=0)
+    u = q[:, span > 0] / span[span > 0]
+    _, cmd = np.unique(np.round(u, 9), axis=0, return_inverse=True)
+    cmd = np.asarray(cmd).ravel()
+    visit = np.cumsum(np.r_[0, cmd[1:] != cmd[:-1]])
+    kind = _target_kind(campaign)
+    finite = np.isfinite(r).all(axis=1)
+    ok = finite.copy()
+    ok[np.asarray(flagged, int)] = False
+    size = np.linalg.norm(np.where(finite[:, None], r, 0.0), axis=1)
+    out = np.zeros(len(rows), bool)
+    k = NEAR_COMMANDS * (u.shape[1] + 1)
+    for n, i in enumerate(rows):
+        again = np.flatnonzero(finite & (cmd == cmd[i]) & (visit != visit[i]))
+        again = again[kind[again] == kind[i]] if np.any(kind[again] == kind[i]) else again
+        pred = r[again].mean(axis=0) if again.size else _local_linear(u, r, i, np.flatnonzero(ok & (cmd != cmd[i])),
+                                                                     cmd, k, size)
+        if pred is None or size[i] <= 0:
+            continue
+        left = float(np.linalg.norm(r[i] - pred)) / size[i]
+        e = np.nan if excess is None else float(excess[i])
+        out[n] = left <= (1.0 / np.sqrt(e) if np.isfinite(e) and e > 0 else SHARED)
+    return out
+
+
+def _target_kind(campaign: Campaign) -> np.ndarray:
+    """(N,) one integer per kind of reading: tool point, target, station and instrument (the
+    pose's key without its command and tool): a tool reading is compared with tool readings."""
+    _, tgt = np.unique(campaign.target.astype(str), return_inverse=True)
+    _, ins = np.unique(campaign.instrument.astype(str), return_inverse=True)
+    cols = np.c_[campaign.point, np.asarray(tgt).ravel(), campaign.station, np.asarray(ins).ravel()].astype(float)
+    return np.asarray(np.unique(cols, axis=0, return_inverse=True)[1]).ravel()
+
+
+def _local_linear(u: np.ndarray, r: np.ndarray, i: int, nb: np.ndarray, cmd: np.ndarray, k: int,
+                  size: np.ndarray) -> np.ndarray | None:
+    """The local linear fit at row ``i`` of the residuals ``r`` of rows ``nb`` in the scaled joint
+    space ``u`` (:func:`shared_nearby`); None with fewer than ``k`` commands."""
+    if nb.size == 0:
+        return None
+    dx = u[nb] - u[i]
+    d = np.linalg.norm(dx, axis=1)
+    per_cmd = np.full(cmd.max() + 1, np.inf)
+    np.minimum.at(per_cmd, cmd[nb], d)
+    near = np.sort(per_cmd[np.isfinite(per_cmd)])
+    if near.size < k:
+        return None
+    h = float(near[k - 1])
+    sw = np.sqrt(np.exp(-0.5 * (d / h) ** 2))
+    X = np.hstack([np.ones((nb.size, 1)), dx])
+    pred = np.linalg.lstsq(X * sw[:, None], r[nb] * sw[:, None], rcond=None)[0][0]
+    cap = float(size[nb][d <= h].max())
+    return pred * min(1.0, cap / max(float(np.linalg.norm(pred)), 1e-300))
+
+
+def _near_region(machine: Machine, campaign: Campaign, rows: np.ndarray) -> dict:
+    """The region of ``rows`` whose neighbours in joint space share their misfit: the axis
+    along which they lie closest (share of its measured travel) and, in "span", every axis."""
+    coords = _coordinates(machine, campaign)[:-1]
+    spans = [(float(np.ptp(u[rows])), name, unit, x) for name, unit, x, u in coords]
+    _, name, unit, x = min(spans, key=lambda v: v[0])
+    lo, hi = float(x[rows].min()), float(x[rows].max())
+    every = ", ".join(_span(nm, un, float(xx[rows].min()), float(xx[rows].max())) for nm, un, xx, _ in coords)
+    return {"axis": name, "from": lo, "to": hi, "unit": unit, "rows": [int(v) for v in rows],
+            "rows_there": int(((x >= lo) & (x <= hi)).sum()), "near": True, "span": every}
+
+
 def judge(machine: Machine, campaign: Campaign, s: np.ndarray, w: np.ndarray, valid: np.ndarray,
           n_rows: int | None = None, alpha: float = FAMILY_ALPHA,
           r: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, list[dict]]:
@@ -214,7 +315,8 @@ def judge(machine: Machine, campaign: Campaign, s: np.ndarray, w: np.ndarray, va
         return flagged, flagged, []
     repeat = agreeing_repeats(campaign, flagged, w, valid, level)
     rest = np.setdiff1d(flagged, repeat)
-    regions = crowded_regions(machine, campaign, flagged, w if r is None else r)
+    excess = s / (level * row_limit(valid, n_rows or len(s), alpha))
+    regions = crowded_regions(machine, campaign, flagged, w if r is None else r, excess)
     in_region = np.array(sorted({v for g in regions for v in g["rows"]}), int)
     alone = np.setdiff1d(repeat, in_region)
     if alone.size:
@@ -224,14 +326,22 @@ def judge(machine: Machine, campaign: Campaign, s: np.ndarray, w: np.ndarray, va
     return gross, np.setdiff1d(flagged, gross), regions
 
 
+def _span(name: str, unit: str, lo: float, hi: float) -> str:
+    """'X = 10 mm' or 'X 10 to 20 mm'."""
+    return (f"{name} = {lo:.6g} {unit}" if lo == hi else f"{name} {lo:.6g} to {hi:.6g} {unit}").rstrip()
+
+
 def describe_region(g: dict, campaign: Campaign) -> tuple[str, str]:
     """('Z 800 to 1000 mm', 'Z 800 to 1000 mm (12 of the 40 rows there are beyond the
     noise; file lines ...)') for one misfit region: where, and the full account."""
     lines = campaign.lines[np.asarray(g["rows"], int)]
     shown = ", ".join(map(str, lines[:12])) + (" ..." if lines.size > 12 else "")
+    if g.get("near"):
+        span = f"near {g['span']}"
+        return span, (f"{span} ({len(g['rows'])} rows beyond the noise whose neighbours in joint space share their "
+                      f"misfit: a local smooth correction fitted without them predicts them; file lines {shown})")
     if not g["axis"]:
         return (f"{len(g['rows'])} repeatedly read rows",
                 f"{len(g['rows'])} rows whose repeated readings agree with each other (file lines {shown})")
-    span = (f"{g['axis']} = {g['from']:.6g} {g['unit']}" if g["from"] == g["to"]
-            else f"{g['axis']} {g['from']:.6g} to {g['to']:.6g} {g['unit']}")
+    span = _span(g["axis"], g["unit"], g["from"], g["to"])
     return span, f"{span} ({len(g['rows'])} of the {g['rows_there']} rows there are beyond the noise; file lines {shown})"
