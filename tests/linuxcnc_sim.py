@@ -107,7 +107,7 @@ def _ini(letters: list[str], kinds: list[str], limits: list[tuple[float, float]]
          coordinates: str) -> str:
     lines = ["[EMC]", "VERSION = 1.1", "MACHINE = vecpin-test", "[DISPLAY]", "DISPLAY = ./driver.py",
              "CYCLE_TIME = 0.05", "[TASK]", "TASK = milltask", "CYCLE_TIME = 0.001", "[RS274NGC]",
-             "PARAMETER_FILE = sim.var", "[EMCMOT]", "EMCMOT = motmod", "COMM_TIMEOUT = 1.0",
+             "PARAMETER_FILE = sim.var", "[EMCMOT]", "EMCMOT = motmod", "COMM_TIMEOUT = 10.0",
              "SERVO_PERIOD = 1000000", "[EMCIO]", "EMCIO = io", "CYCLE_TIME = 0.100", "TOOL_TABLE = sim.tbl",
              "[HAL]", "HALFILE = sim.hal", "[TRAJ]", "COORDINATES = " + " ".join(coordinates),
              "LINEAR_UNITS = mm", "ANGULAR_UNITS = degree", "MAX_LINEAR_VELOCITY = 100000",
