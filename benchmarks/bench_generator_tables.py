@@ -7,8 +7,9 @@ table). vecpin runs as a user following the plan runs it: ``vecpin fit`` (the de
 given the tracker's and the axes' noise as their specs state them, and every table nest's height
 above the table's face with ``--nest-height`` as the plan's nest_heights.csv asks: the generator's
 true height read by a height gauge with a normal error of GAUGE_SIGMA_MM) and ``vecpin tables`` for
-the generic files, Siemens 840D and LinuxCNC. Beside it (*no heights*) the same noisy campaign fitted
-without the heights, generic files only, against the best set for its own tables.
+the generic files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the
+heights (*no heights*) and with the exact heights (*exact heights*), generic files only, each against
+the best set for its own tables.
 
 The judge is written without vecpin: the generator's own numpy kinematics is the true machine; the
 generic ``tables.json`` is read by the parser of tests/part_frame_judge.py, the Siemens and LinuxCNC
@@ -77,13 +78,16 @@ KINDS = ("table", "head_table", "head", "gantry")
 EIG_CUT = 1e-8          # ridge on the scaled normal equations, as a share of their largest eigenvalue's bound
 
 
-def nest_height_options(camp) -> list[str]:
+def nest_height_options(camp, sigma_mm: float | None = GAUGE_SIGMA_MM) -> list[str]:
     """``--nest-height ID=MM`` per table nest, as the plan asks: the generator's true height of each
     nest's centre above its table face (z in its ``workpiece`` frame), read by a height gauge with a
-    normal error of GAUGE_SIGMA_MM (drawn from the seed, so a rerun reads the same)."""
+    normal error of ``sigma_mm`` (drawn from the seed, so a rerun reads the same; 0: exact; None: no
+    heights given)."""
+    if sigma_mm is None:
+        return []
     rng = np.random.default_rng([camp.seed, 4051])
-    z_mm = np.asarray(camp.nests_m)[:, 2] * 1e3 + rng.normal(0.0, GAUGE_SIGMA_MM, len(camp.nests_m))
-    return [f"--nest-height={k + 1}={h:.3f}" for k, h in enumerate(z_mm)]
+    z_mm = np.asarray(camp.nests_m)[:, 2] * 1e3 + rng.normal(0.0, 1.0, len(camp.nests_m)) * sigma_mm
+    return [f"--nest-height={k + 1}={h:.4f}" for k, h in enumerate(z_mm)]
 
 
 def profile(axes: list[str], controller: str) -> dict:
@@ -279,9 +283,10 @@ def model_label(path: Path, axes: list[str]) -> str:
                                       for a, b in zip(axes, bases))
 
 
-def run_vecpin(camp, folder: Path, formats=FORMATS, heights: bool = True) -> dict:
-    """Write the campaign, fit (default choice; with ``heights`` the nests' heights as the plan asks) and
-    write tables for every format; seconds and the model's label."""
+def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUGE_SIGMA_MM) -> dict:
+    """Write the campaign, fit (default choice; the nests' heights as the plan asks, read with a gauge
+    error of ``heights`` mm, None: not given) and write tables for every format; seconds and the model's
+    label."""
     paths = camp.write(folder)
     truth = camp.truth_record()
     model = folder / "model.json"
@@ -290,7 +295,7 @@ def run_vecpin(camp, folder: Path, formats=FORMATS, heights: bool = True) -> dic
     t0 = time.perf_counter()
     fit = None if model.exists() else vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model),
                                                  "--quiet", *noise_options(truth, stated=True),
-                                                 *(nest_height_options(camp) if heights else []))
+                                                 *nest_height_options(camp, heights))
     if fit is not None and fit.returncode != 0:
         raise RuntimeError("fit: " + (fit.stderr.strip().splitlines() or ["?"])[-1])
     out = {"fit_s": time.perf_counter() - t0, "label": model_label(model, truth["axes"])}
@@ -337,7 +342,8 @@ def one_draw(seed: int, kind: str, work: Path, n_commands: int | None = None) ->
         rec[fmt] = row
     rec["commands_asked"] = n_commands
     rec["commands"] = int(len(next(iter(camp.q.values()))))
-    rec["no-heights"] = without_heights(camp, folder / "no-heights", truth, bests, q, tool)
+    rec["no-heights"] = side_run(camp, folder / "no-heights", truth, bests, q, tool, None)
+    rec["exact-heights"] = side_run(camp, folder / "exact-heights", truth, bests, q, tool, 0.0)
     rec["noise-free"] = noise_free(seed, kind, folder / "noise-free", truth, bests, q, tool, n_commands)
     rec["seconds"] = time.perf_counter() - t0
     return rec
@@ -354,11 +360,11 @@ def judged_generic(folder: Path, truth: Truth, bests: BestSets, q, tool) -> dict
     return rec
 
 
-def without_heights(camp, folder: Path, truth: Truth, bests: BestSets, q, tool) -> dict:
-    """The same noisy campaign fitted without the nests' heights (as before the plan asked for them),
-    tabled (generic) and judged the same way: what the heights change."""
+def side_run(camp, folder: Path, truth: Truth, bests: BestSets, q, tool, heights: float | None) -> dict:
+    """The same noisy campaign fitted with the heights read with gauge error ``heights`` mm (0: exact;
+    None: without them, as before the plan asked for them), tabled (generic) and judged the same way."""
     try:
-        rec = run_vecpin(camp, folder, ("generic",), heights=False)
+        rec = run_vecpin(camp, folder, ("generic",), heights=heights)
     except RuntimeError as exc:
         return {"error": str(exc)}
     return rec | judged_generic(folder, truth, bests, q, tool)
@@ -367,12 +373,12 @@ def without_heights(camp, folder: Path, truth: Truth, bests: BestSets, q, tool) 
 def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool,
                n_commands: int | None = None) -> dict:
     """The same campaign read without noise (the same commands and rows, the truth's points, no
-    tracker or axis noise), fitted and tabled (generic) the same way: what identification from the
-    noisy readings costs."""
+    tracker or axis noise, the nests' heights exact), fitted and tabled (generic) the same way: what
+    identification from the noisy readings costs."""
     camp = draw_campaign(seed, kind=kind, family=None, n_commands=n_commands)
     camp.measured = camp.to_tracker(camp.base_points(repeat=False))
     try:
-        rec = run_vecpin(camp, folder, ("generic",))
+        rec = run_vecpin(camp, folder, ("generic",), heights=0.0)
     except RuntimeError as exc:
         return {"error": str(exc)}
     return rec | judged_generic(folder, truth, bests, q, tool)
