@@ -3,9 +3,13 @@
 Every run draws fresh machines from ``benchmarks/generator`` (written blind to vecpin: random layouts,
 Gaussian-process error fields per axis): every class that takes tables (head, table = trunnion,
 head-table, twin-drive gantry), a clean campaign each (tool rows with two tools, nests on a turning
-table). vecpin runs as a user runs it: ``vecpin fit`` (the default model choice, given the tracker's
-and the axes' noise as their specs state them) and ``vecpin tables`` for the generic files,
-Siemens 840D and LinuxCNC.
+table). vecpin runs as a user following the plan runs it: ``vecpin fit`` (the default model choice,
+given the tracker's and the axes' noise as their specs state them, and every table nest's height
+above the table's face with ``--nest-height`` as the plan's nest_heights.csv asks: the generator's
+true height read by a height gauge with a normal error of GAUGE_SIGMA_MM) and ``vecpin tables`` for
+the generic files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the
+heights (*no heights*) and with the exact heights (*exact heights*), generic files only, each against
+the best set for its own tables.
 
 The judge is written without vecpin: the generator's own numpy kinematics is the true machine; the
 generic ``tables.json`` is read by the parser of tests/part_frame_judge.py, the Siemens and LinuxCNC
@@ -15,17 +19,20 @@ fresh random commands x the campaign's tools, against the nominal tip: *part* (a
 rotation about the spindle removed, as a part set up by probing and aligning an edge sees it) and
 *shape* (the best rigid motion removed).
 
-The best table set that exists: for the same tables (input and output axes, the same grid ends) the
-values that minimise the truth's compensated error, fitted here by linear least squares (numpy)
-on 10000 other random commands x the tools: the truth linearised in the commands (central
-differences of the generator's kinematics), every table piecewise linear on ``KNOTS`` knots over
-its grid, a tool-length (gauge) change free, and the frame's freedoms (part: translation and
-rotation about the spindle; shape: the rigid motion) free. One fit per judged frame. It is judged
-by the same judge, through the exact (not linearised) truth.
+The best table set that exists: for the same tables (input and output axes, the same grid ends,
+modulo as written) and the same product terms (a rotary's table times a linear axis' ramp: the pair
+and the ramp as vecpin wrote them, the table's knots free) the values that minimise the truth's
+compensated error, fitted here by linear least squares (scipy, a sparse design matrix) on 10000
+other random commands x the tools: the truth linearised in the commands (central differences of the
+generator's kinematics), every table piecewise linear on ``KNOTS`` knots over its grid, a
+tool-length (gauge) change free, and the frame's freedoms (part: translation and rotation about the
+spindle; shape: the rigid motion) free. One fit per judged frame. It is judged by the same judge,
+through the exact (not linearised) truth. The page is written by benchmarks/gentables_page.py.
 
 What the campaign allows (*achievable*, benchmarks/gentables_oracle.py): the same best set for the
 machine an oracle estimates from the campaign's own noisy readings, knowing the generator's prior
-(its Gaussian-process kernels and sizes), the noise model, the tracker pose and the tools (the
+(its Gaussian-process kernels and sizes), the noise model, the tracker pose, the tools and the
+nests (their heights exactly) (the
 posterior mean: on average no estimate from these readings does better). achievable / best is what
 the campaign's size and noise cost; vecpin / achievable what vecpin's method costs beyond that.
 
@@ -49,6 +56,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):   # 
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
+import scipy.linalg  # noqa: E402
 import scipy.sparse  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -63,15 +71,23 @@ from part_frame_judge import part_errors, read_tables, shape_errors  # noqa: E40
 from bench_unseen import noise_options, vecpin_cmd  # noqa: E402  (the stated noise; the command as a user runs it)
 from heldout import Run, heldout_seeds  # noqa: E402
 from gentables_oracle import estimated_campaign  # noqa: E402
+from gentables_page import FORMATS, GAUGE_SIGMA_MM, KNOTS, N_FIT, N_JUDGE, TARGET, page  # noqa: E402,F401
 
 RESULT = ROOT / "docs" / "results" / "generator_tables.md"
 KINDS = ("table", "head_table", "head", "gantry")
-FORMATS = ("generic", "siemens-840d", "linuxcnc")
-KNOTS = 48              # knots per table of the best set (piecewise linear over the table's grid)
-N_JUDGE, N_FIT = 600, 10000
-TARGET = 1.15
-EIG_CUT = 1e-8          # eigenvalues of the scaled normal equations below this share of the largest are dropped
-TABLE_KINDS = ("table", "head_table")
+EIG_CUT = 1e-8          # ridge on the scaled normal equations, as a share of their largest eigenvalue's bound
+
+
+def nest_height_options(camp, sigma_mm: float | None = GAUGE_SIGMA_MM) -> list[str]:
+    """``--nest-height ID=MM`` per table nest, as the plan asks: the generator's true height of each
+    nest's centre above its table face (z in its ``workpiece`` frame), read by a height gauge with a
+    normal error of ``sigma_mm`` (drawn from the seed, so a rerun reads the same; 0: exact; None: no
+    heights given)."""
+    if sigma_mm is None:
+        return []
+    rng = np.random.default_rng([camp.seed, 4051])
+    z_mm = np.asarray(camp.nests_m)[:, 2] * 1e3 + rng.normal(0.0, 1.0, len(camp.nests_m)) * sigma_mm
+    return [f"--nest-height={k + 1}={h:.4f}" for k, h in enumerate(z_mm)]
 
 
 def profile(axes: list[str], controller: str) -> dict:
@@ -161,13 +177,16 @@ def corrections(fmt: str, folder: Path, axes: list[str], q_user: np.ndarray) -> 
     return linuxcnc_corrections(folder, axes, q_user), gauge
 
 
-def hat(x: np.ndarray, lo: float, hi: float, k: int) -> scipy.sparse.csr_matrix:
-    """(N, k) weights of piecewise-linear interpolation on k knots over [lo, hi], ends held."""
+def hat(x: np.ndarray, lo: float, hi: float, k: int, modulo: bool = False) -> scipy.sparse.csr_matrix:
+    """(N, k) weights of piecewise-linear interpolation on k knots over [lo, hi], ends held; ``modulo``:
+    x taken modulo hi - lo, the last knot the first one (its column stays empty)."""
+    if modulo:
+        x = lo + np.mod(x - lo, hi - lo)
     u = np.clip((x - lo) / (hi - lo), 0.0, 1.0) * (k - 1)
     i = np.minimum(u.astype(int), k - 2)
+    cols = np.c_[i, i + 1] % (k - 1) if modulo else np.c_[i, i + 1]
     rows = np.repeat(np.arange(len(x)), 2)
-    return scipy.sparse.csr_matrix((np.c_[1.0 - (u - i), u - i].ravel(), (rows, np.c_[i, i + 1].ravel())),
-                                   shape=(len(x), k))
+    return scipy.sparse.csr_matrix((np.c_[1.0 - (u - i), u - i].ravel(), (rows, cols.ravel())), shape=(len(x), k))
 
 
 def jacobian(truth: Truth, q: np.ndarray, tool: np.ndarray) -> np.ndarray:
@@ -199,45 +218,60 @@ class BestSets:
                       "shape": np.hstack([gauge, shift] + [-np.cross(w, c).reshape(-1, 1) for w in np.eye(3)])}
         self.cache: dict = {}
 
+    def basis(self, spec: tuple) -> scipy.sparse.csr_matrix:
+        """(N, KNOTS) a table's knot weights at the fitting commands; a product term's times its
+        factor's value there (the factor as vecpin wrote it: the pair and the ramp fixed, the knots free)."""
+        inp, _, lo, hi, modulo, factor = spec
+        B = hat(self.q_user[:, self.truth.axes.index(inp)], lo, hi, KNOTS, modulo)
+        if factor is None:
+            return B
+        f_axis, start, step, values = factor
+        f = np.interp(self.q_user[:, self.truth.axes.index(f_axis)], start + step * np.arange(len(values)), values)
+        return scipy.sparse.csr_matrix(B.multiply(f[:, None]))
+
     def solve(self, specs: list[tuple], frame: str) -> tuple[dict, float]:
         """(tables dict for :func:`generic_corrections`, gauge change [mm]) of the best set: the normal
-        equations of the linearised problem built table pair by table pair (each table's column is
-        its knots' weights times the tip's change per unit of its output axis), solved by numpy."""
+        equations of the linearised problem (each table's column is its knots' weights times the tip's
+        change per unit of its output axis; a sparse design matrix), solved by numpy."""
+        specs = [tuple(sp) + (False, None)[len(sp) - 4:] for sp in specs]       # (input, output, lo, hi): a plain table
         key = (tuple(specs), frame)
         if key in self.cache:
             return self.cache[key], self.cache[key]["gauge_mm"]
         axes, F = self.truth.axes, self.frame[frame]
         n = len(self.q_user)
-        Bs = [hat(self.q_user[:, axes.index(i)], lo, hi, KNOTS) for i, _, lo, hi in specs]
-        Js = [self.J[:, :, axes.index(o)] for _, o, _, _ in specs]                 # (N, 3) each
+        Bs = [self.basis(spec) for spec in specs]
+        Js = [self.J[:, :, axes.index(spec[1])] for spec in specs]                 # (N, 3) each
         Fr, r = F.reshape(n, 3, -1), self.r0.reshape(n, 3)
-        size = len(specs) * KNOTS + F.shape[1]
-        N, g = np.zeros((size, size)), np.zeros(size)
-        for s_, (Bs_, Js_) in enumerate(zip(Bs, Js)):
-            a = slice(s_ * KNOTS, (s_ + 1) * KNOTS)
-            for t, (Bt, Jt) in enumerate(zip(Bs, Js)):
-                if t >= s_:
-                    blk = (Bs_.T @ Bt.multiply(np.sum(Js_ * Jt, axis=1)[:, None])).toarray()
-                    N[a, t * KNOTS:(t + 1) * KNOTS], N[t * KNOTS:(t + 1) * KNOTS, a] = blk, blk.T
-            N[a, len(specs) * KNOTS:] = Bs_.T @ np.einsum("nd,ndk->nk", Js_, Fr)
-            g[a] = Bs_.T @ np.sum(Js_ * r, axis=1)
-        N[len(specs) * KNOTS:, :] = N[:, len(specs) * KNOTS:].T
-        N[len(specs) * KNOTS:, len(specs) * KNOTS:] = F.T @ F
-        g[len(specs) * KNOTS:] = F.T @ self.r0
+        A = scipy.sparse.vstack([scipy.sparse.hstack([B.multiply(J[:, d:d + 1]) for B, J in zip(Bs, Js)]
+                                                     + [scipy.sparse.csr_matrix(Fr[:, d, :])]) for d in range(3)])
+        A = A.tocsr()                                                  # rows: tip x of every command, then y, z
+        N, g = (A.T @ A).toarray(), A.T @ r.T.ravel()
         d = np.sqrt(np.maximum(np.diag(N), 1e-300))
-        w, v = np.linalg.eigh(N / np.outer(d, d))                      # the minimum-norm solution
-        keep = w > EIG_CUT * w.max()
-        x = -(v[:, keep] @ ((v[:, keep].T @ (g / d)) / w[keep])) / d
-        tables = {"tables": [], "gauge_mm": float(x[len(specs) * KNOTS])}
-        for t, (inp, outp, lo, hi) in enumerate(specs):
-            tables["tables"].append((inp, outp, lo, (hi - lo) / (KNOTS - 1), x[t * KNOTS:(t + 1) * KNOTS], False))
+        Ns = N / np.outer(d, d)                                        # unit diagonal; a ridge of EIG_CUT x a bound
+        ridge = EIG_CUT * np.abs(Ns).sum(axis=1).max()                 # of its largest eigenvalue holds the null space
+        x = -scipy.linalg.cho_solve(scipy.linalg.cho_factor(Ns + ridge * np.eye(len(Ns))), g / d) / d
+        tables: dict = {"tables": [], "products": [], "gauge_mm": float(x[len(specs) * KNOTS])}
+        for t, (inp, outp, lo, hi, modulo, factor) in enumerate(specs):
+            values = x[t * KNOTS:(t + 1) * KNOTS].copy()
+            if modulo:
+                values[-1] = values[0]
+            entry = (inp, outp, lo, (hi - lo) / (KNOTS - 1), values, modulo)
+            if factor is None:
+                tables["tables"].append(entry)
+            else:
+                tables["products"].append((entry, (factor[0], outp, factor[1], factor[2], np.array(factor[3]), False)))
         self.cache[key] = tables
         return tables, tables["gauge_mm"]
 
 
 def table_specs(folder: Path) -> list[tuple]:
-    """[(input, output, start, end)] of the tables vecpin wrote (its tables.json, user units)."""
-    return [(i, o, s, s + st * (len(v) - 1)) for i, o, s, st, v, _ in read_tables(folder / "tables.json")["tables"]]
+    """[(input, output, start, end, modulo, factor)] of the tables vecpin wrote (its tables.json, user
+    units); factor: None, or a product term's factor table (input, start, step, values) as written."""
+    d = read_tables(folder / "tables.json")
+    out = [(i, o, s, s + st * (len(v) - 1), m, None) for i, o, s, st, v, m in d["tables"]]
+    for (i, o, s, st, v, m), (fi, _, fs, fst, fv, _) in d["products"]:
+        out.append((i, o, s, s + st * (len(v) - 1), m, (fi, fs, fst, tuple(float(a) for a in fv))))
+    return out
 
 
 def model_label(path: Path, axes: list[str]) -> str:
@@ -249,9 +283,10 @@ def model_label(path: Path, axes: list[str]) -> str:
                                       for a, b in zip(axes, bases))
 
 
-def run_vecpin(camp, folder: Path, formats=FORMATS) -> dict:
-    """Write the campaign, fit (default choice) and write tables for every format; seconds and
-    the model's label."""
+def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUGE_SIGMA_MM) -> dict:
+    """Write the campaign, fit (default choice; the nests' heights as the plan asks, read with a gauge
+    error of ``heights`` mm, None: not given) and write tables for every format; seconds and the model's
+    label."""
     paths = camp.write(folder)
     truth = camp.truth_record()
     model = folder / "model.json"
@@ -259,7 +294,8 @@ def run_vecpin(camp, folder: Path, formats=FORMATS) -> dict:
         return {"fit_s": float("nan"), "label": model_label(model, truth["axes"])}
     t0 = time.perf_counter()
     fit = None if model.exists() else vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model),
-                                                 "--quiet", *noise_options(truth, stated=True))
+                                                 "--quiet", *noise_options(truth, stated=True),
+                                                 *nest_height_options(camp, heights))
     if fit is not None and fit.returncode != 0:
         raise RuntimeError("fit: " + (fit.stderr.strip().splitlines() or ["?"])[-1])
     out = {"fit_s": time.perf_counter() - t0, "label": model_label(model, truth["axes"])}
@@ -297,7 +333,8 @@ def one_draw(seed: int, kind: str, work: Path, n_commands: int | None = None) ->
         corr, gauge = corrections(fmt, folder / fmt, truth.axes, q_user)
         specs = table_specs(folder / fmt)
         got = judge(truth, corr, gauge, q, tool)
-        row = {"tables": len(specs), "vecpin": got, "best": {}, "achievable": {}}
+        row = {"tables": len(specs), "products": sum(sp[5] is not None for sp in specs), "vecpin": got, "best": {},
+               "achievable": {}}
         for frame in ("part", "shape"):
             for name, sets in (("best", bests), ("achievable", oracle)):
                 best, bg = sets.solve(specs, frame)
@@ -305,147 +342,46 @@ def one_draw(seed: int, kind: str, work: Path, n_commands: int | None = None) ->
         rec[fmt] = row
     rec["commands_asked"] = n_commands
     rec["commands"] = int(len(next(iter(camp.q.values()))))
+    rec["no-heights"] = side_run(camp, folder / "no-heights", truth, bests, q, tool, None)
+    rec["exact-heights"] = side_run(camp, folder / "exact-heights", truth, bests, q, tool, 0.0)
     rec["noise-free"] = noise_free(seed, kind, folder / "noise-free", truth, bests, q, tool, n_commands)
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
 
-def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool,
-               n_commands: int | None = None) -> dict:
-    """The same campaign read without noise (the same commands and rows, the truth's points, no
-    tracker or axis noise), fitted and tabled (generic) the same way: what identification from the
-    noisy readings costs."""
-    camp = draw_campaign(seed, kind=kind, family=None, n_commands=n_commands)
-    camp.measured = camp.to_tracker(camp.base_points(repeat=False))
-    try:
-        rec = run_vecpin(camp, folder, ("generic",))
-    except RuntimeError as exc:
-        return {"error": str(exc)}
+def judged_generic(folder: Path, truth: Truth, bests: BestSets, q, tool) -> dict:
+    """vecpin's generic tables in ``folder`` and the best set for the same tables, judged (part, shape)."""
     corr, gauge = corrections("generic", folder / "generic", truth.axes, q / truth.unit)
     specs = table_specs(folder / "generic")
-    rec["vecpin"] = judge(truth, corr, gauge, q, tool)
-    rec["best"] = {}
+    rec = {"vecpin": judge(truth, corr, gauge, q, tool), "best": {}}
     for frame in ("part", "shape"):
         best, bg = bests.solve(specs, frame)
         rec["best"][frame] = judge(truth, generic_corrections(best, truth.axes, q / truth.unit), bg, q, tool)[frame]
     return rec
 
 
-def ratio(rec: dict, fmt: str, frame: str, what: str = "vecpin", per: str = "best") -> float:
-    return rec[fmt][what][frame] / rec[fmt][per][frame]
+def side_run(camp, folder: Path, truth: Truth, bests: BestSets, q, tool, heights: float | None) -> dict:
+    """The same noisy campaign fitted with the heights read with gauge error ``heights`` mm (0: exact;
+    None: without them, as before the plan asked for them), tabled (generic) and judged the same way."""
+    try:
+        rec = run_vecpin(camp, folder, ("generic",), heights=heights)
+    except RuntimeError as exc:
+        return {"error": str(exc)}
+    return rec | judged_generic(folder, truth, bests, q, tool)
 
 
-def _stats(v: list[float]) -> str:
-    v = np.asarray(v)
-    return (f"median {np.median(v):.2f}, max {v.max():.2f}, within {TARGET}: {int((v <= TARGET).sum())} of {len(v)}"
-            if len(v) else "-")
-
-
-def nf_ratio(rec: dict, frame: str) -> float | None:
-    nf = rec.get("noise-free") or {}
-    return None if "vecpin" not in nf else nf["vecpin"][frame] / nf["best"][frame]
-
-
-def summary_lines(ok: list[dict]) -> list[str]:
-    """Per campaign size, format and frame: vecpin / best over the table machines and every class;
-    the same campaigns read without noise beside them."""
-    out = []
-    for n_cmd in sorted({r.get("commands_asked") for r in ok}, key=lambda v: v or 0):
-        group = [r for r in ok if r.get("commands_asked") == n_cmd]
-        size = "the generator's campaigns (120..200 commands)" if n_cmd is None else f"campaigns of {n_cmd} commands"
-        out += [f"### {size}, {len(group)} draws", ""]
-        for fmt in FORMATS:
-            for frame in ("part", "shape"):
-                tm = [ratio(r, fmt, frame) for r in group if r["kind"] in TABLE_KINDS]
-                al = [ratio(r, fmt, frame) for r in group]
-                out.append(f"- {fmt}, {frame}: table machines {_stats(tm)}; every class {_stats(al)}")
-        for what, per, text in (("achievable", "best", "achievable from this campaign (oracle) / best"),
-                                ("vecpin", "achievable", "vecpin / achievable")):
-            for frame in ("part", "shape"):
-                tm = [ratio(r, "generic", frame, what, per) for r in group if r["kind"] in TABLE_KINDS]
-                al = [ratio(r, "generic", frame, what, per) for r in group]
-                out.append(f"- {text} (generic), {frame}: table machines {_stats(tm)}; every class {_stats(al)}")
-        for frame in ("part", "shape"):
-            tm = [v for r in group if r["kind"] in TABLE_KINDS and (v := nf_ratio(r, frame)) is not None]
-            al = [v for r in group if (v := nf_ratio(r, frame)) is not None]
-            out.append(f"- the same campaigns read without noise (generic), {frame}: table machines {_stats(tm)}; "
-                       f"every class {_stats(al)}")
-        out.append("")
-    return out
-
-
-def findings(ok: list[dict]) -> list[str]:
-    """Sentences counted from the records: how far the noise in the readings explains the gap."""
-    out = []
-    for frame in ("shape", "part"):
-        pairs = [(ratio(r, "generic", frame), nf_ratio(r, frame)) for r in ok if nf_ratio(r, frame) is not None]
-        if not pairs:
-            continue
-        noisy, clean = np.array(pairs).T
-        out.append(f"- {frame}: vecpin / best {np.median(noisy):.2f} (median of {len(pairs)}) from the noisy campaign, "
-                   f"{np.median(clean):.2f} from the same campaign read without noise; within {TARGET}: "
-                   f"{int((noisy <= TARGET).sum())} noisy, {int((clean <= TARGET).sum())} without noise.")
-    tm = [r for r in ok if r["kind"] in TABLE_KINDS]
-    if tm:
-        ach = np.array([ratio(r, "generic", "part", "achievable") for r in tm])
-        meth = np.array([ratio(r, "generic", "part", "vecpin", "achievable") for r in tm])
-        out.append(f"- table machines, part: even the oracle's tables from the same campaign are {np.median(ach):.2f}x "
-                   f"the best (median of {len(tm)}; above {TARGET} in {int((ach > TARGET).sum())}): that much is the "
-                   f"campaign's size and noise; vecpin's method adds {np.median(meth):.2f}x on top (median).")
-    same = [r for r in ok if all(abs(ratio(r, f, "part") - ratio(r, "generic", "part")) < 0.02 for f in FORMATS)]
-    out.append(f"- Siemens and LinuxCNC files within 0.02 of the generic ratio (part) in {len(same)} of {len(ok)} "
-               "draws.")
-    return out
-
-
-def page(records: list[dict], how: str) -> str:
-    """The results page: per draw and format vecpin / best, part and shape; the summary."""
-    ok = [r for r in records if "error" not in r]
-    lines = ["# Tables on the generator's machines (issue 40)", "",
-             f"`python benchmarks/bench_generator_tables.py` ({how}; the module text says what each part does). "
-             "Fresh machines from `benchmarks/generator` (written blind to vecpin), a clean campaign each "
-             "(two tools, nests on a turning table), vecpin's default fit given the stated noise, `vecpin tables` "
-             "for the generic files, Siemens 840D and LinuxCNC. Judged without vecpin's compensation code: "
-             "the generator's kinematics as the true machine, the files read by tests/part_frame_judge.py's "
-             "parser and tests/controller_appliers.py (the vendors' documented rules), the true tip relative to "
-             f"the true table on {N_JUDGE} fresh random commands x the tools, mean [mm]. *best*: the same tables "
-             f"(axes and grid ends) with the values that minimise the truth's error in that frame (linear least "
-             f"squares on {N_FIT} other commands x the tools, {KNOTS} knots per table, gauge change and the "
-             "frame's freedoms free), judged the same way. *achievable*: the best set for the machine an oracle "
-             "estimates from the campaign's own noisy readings (benchmarks/gentables_oracle.py: the generator's "
-             "prior, noise model, tracker pose and tools known), judged the same way. part: translation and "
-             "rotation about the spindle removed; shape: the best rigid motion removed. *noise-free*: the same "
-             "campaign (commands, tools, nests) read without tracker or axis noise, fitted and tabled the same "
-             "way (generic). The C axis of every class travels more than a turn; vecpin's table functions give "
-             "such an axis their knots per turn (vecpin/compensation/functions.py).", "",
-             "## summary (vecpin / best; table machines: table and head_table)", "", *summary_lines(ok),
-             "## what the figures say", "", *findings(ok), ""]
-    if len(ok) < len(records):
-        lines += [f"failed runs: {len(records) - len(ok)} (listed below)", ""]
-    lines += ["## per draw", "",
-              "| seed | class | axes | commands | model | uncomp. part | " + " | ".join(
-                  f"{f} part / best | {f} shape / best" for f in FORMATS)
-              + " | achievable part / best | noise-free part / best | noise-free model"
-              + " | tables (generic, Siemens, LinuxCNC) |",
-              "|---|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|---|---|---|"]
-    for r in records:
-        if "error" in r:
-            lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | failed: {r['error']} |")
-            continue
-        cells = [f"{r[f]['vecpin'][fr]:.4f} / {r[f]['best'][fr]:.4f} = {ratio(r, f, fr):.2f}"
-                 for f in FORMATS for fr in ("part", "shape")]
-        nf = r.get("noise-free") or {}
-        nf_cell = (f"{nf['vecpin']['part']:.4f} / {nf['best']['part']:.4f} = {nf_ratio(r, 'part'):.2f}"
-                   if "vecpin" in nf else nf.get("error", "-"))
-        g = r["generic"]
-        ach = (f"{g['achievable']['part']:.4f} / {g['best']['part']:.4f} = "
-               f"{ratio(r, 'generic', 'part', 'achievable'):.2f}")
-        lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r.get('commands', '')} | "
-                     f"{r.get('label', '')} | {r['uncompensated']['part']:.4f} | " + " | ".join(cells)
-                     + f" | {ach} | {nf_cell} | {nf.get('label', '')} | "
-                     + ", ".join(str(r[f]['tables']) for f in FORMATS)
-                     + " |")
-    return "\n".join(lines) + "\n"
+def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool,
+               n_commands: int | None = None) -> dict:
+    """The same campaign read without noise (the same commands and rows, the truth's points, no
+    tracker or axis noise, the nests' heights exact), fitted and tabled (generic) the same way: what
+    identification from the noisy readings costs."""
+    camp = draw_campaign(seed, kind=kind, family=None, n_commands=n_commands)
+    camp.measured = camp.to_tracker(camp.base_points(repeat=False))
+    try:
+        rec = run_vecpin(camp, folder, ("generic",), heights=0.0)
+    except RuntimeError as exc:
+        return {"error": str(exc)}
+    return rec | judged_generic(folder, truth, bests, q, tool)
 
 
 def main(argv=None) -> None:

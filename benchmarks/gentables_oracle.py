@@ -3,13 +3,15 @@
 An oracle that knows everything but the error values: the generator's own prior (every joint's six
 error functions are Gaussian-process draws; their kernels, length scales and sizes are read from the
 truth), the campaign's noise model (the tracker's spherical noise and the axes' repeatability, per
-visit), the true tracker pose and the true tool lengths. From the campaign's measured points (tool
-rows and nests, noise and all) it computes the posterior mean of the error functions (the
-estimate with the least expected squared error: no method that reads only the campaign does better
-on average), the truth linearised in the errors (central differences of the generator's
-kinematics). The estimated machine is then given the best table set that exists for it (the bench's
-:class:`BestSets`), judged on the true machine. vecpin / achievable measures the method;
-achievable / best what the campaign's size and noise cost.
+visit), the true tracker pose, the true tool lengths and the true nests on the table (so their
+heights above its face exactly, where vecpin is given them read by a height gauge). From the
+campaign's measured points (tool rows and nests, noise and all) it computes the posterior mean of
+the error functions (the estimate with the least expected squared error: no method that reads only
+the campaign does better on average), the truth linearised in the errors (central differences of
+the generator's kinematics). The estimated machine is then given the best table set that exists for
+it (the bench's :class:`BestSets`: vecpin's tables and product terms, their values free), judged on
+the true machine. vecpin / achievable measures the method; achievable / best what the campaign's
+size and noise cost.
 """
 from __future__ import annotations
 
