@@ -1,5 +1,7 @@
 """The one table from library parameter names to command-line flags."""
 
+import pytest
+
 from vecpin.cli.main import build_parser, main
 from vecpin.cli.options import ALIASES, as_flags, flag_table
 
@@ -64,3 +66,12 @@ def test_the_plan_names_the_fits_option_for_the_nest_heights_file():
     out = as_flags(text, {"no_nest_heights": "--no-nest-heights"})
     assert "give that file to the fit (vecpin fit --nest-heights FILE): it then" in out
     assert as_flags(text, {}) == text.replace("`", "")
+
+
+def test_a_nest_height_that_is_not_a_number_is_refused_naming_its_own_option():
+    """`--nest-height 3=abc` is refused by that option, before any fit, not by the file option's name."""
+    from vecpin.cli.fitting import nest_heights
+    from vecpin.errors import InputError
+    with pytest.raises(InputError, match=r"`--nest-height` '3=abc': 'abc' is not a height"):
+        nest_heights(["1=19.05", "3=abc"])
+    assert nest_heights(["1=19.05", " 2 = 20 "]) == {"1": 19.05, "2": 20.0}

@@ -38,7 +38,11 @@ def nest_heights(items: list[str] | None, path: str | None = None, campaign=None
         if ids is not None and nid.strip() not in ids:
             raise InputError(f"`nest_height` {item}: the campaign has no nest '{nid.strip()}' (its nests: "
                              f"{', '.join(sorted(ids)) or 'none'})")
-        out[nid.strip()] = value.strip()
+        try:
+            out[nid.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"`--nest-height` '{item}': '{value.strip()}' is not a height; write ID=MM, the "
+                             "reflector centre's height above the table face in mm, e.g. 1=19.05") from None
     return out or None
 
 
