@@ -39,6 +39,7 @@ from vecpin.identification.robust import FAMILY_ALPHA, robust_fit, row_limit  # 
 from vecpin.identification.robust import median_level as robust_level
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
+from vecpin.measurement.poses import poses
 from vecpin.measurement.repeatability import repeat_groups
 
 BANDWIDTHS = (0.01, 0.04)  # the kernel's sigma along an axis, shares of the span measured: narrow and wide misfit
@@ -237,8 +238,7 @@ def shared_nearby(campaign: Campaign, rows: np.ndarray, flagged: np.ndarray, r: 
     q = np.asarray(campaign.q, float)
     span = np.ptp(q, axis=0)
     u = q[:, span > 0] / span[span > 0]
-    _, cmd = np.unique(np.round(u, 9), axis=0, return_inverse=True)
-    cmd = np.asarray(cmd).ravel()
+    cmd = poses(campaign)[0]
     visit = np.cumsum(np.r_[0, cmd[1:] != cmd[:-1]])
     kind = _target_kind(campaign)
     finite = np.isfinite(r).all(axis=1)
