@@ -239,15 +239,9 @@ def read_component(path: Path, machine: Machine, joints: dict[str, int],
     raises where the comment and the array disagree or a joint is not the profile's, and
     where it has no table (``empty_ok``: it has product terms, :func:`read_products`)."""
     path = Path(path)
-    lines = read_lines(path, "utf-8")
     by_joint = {n: a for a, n in joints.items()}
     tables = []
-    for no, ln in enumerate(lines, 1):
-        m = _TABLE.match(ln.strip())
-        if not m:
-            continue
-        nxt = lines[no] if no < len(lines) else ""
-        arr = re.match(r"^static const double vecpin_v\d+\[(\d+)\] = \{(.*)\};$", nxt.strip())
+    for no, m, arr in _commented_arrays(path, _TABLE, r"vecpin_v\d+"):
         if arr is None:
             raise ControllerFileError(path, "a table comment without its array on the next line", no)
         values = np.array([float(v) for v in arr.group(2).split(",")])
@@ -256,12 +250,30 @@ def read_component(path: Path, machine: Machine, joints: dict[str, int],
             raise ControllerFileError(path, f"table {m.group('name')}: {len(values)} values, the comment says {n}",
                                       no + 1)
         _check_joints(path, m, by_joint, no)
-        ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
-        tables.append(CompensationTable(ai.name, ao.name, float(ai.to_si(float(m.group("start")))),
-                                        float(ai.to_si(float(m.group("step")))), ao.to_si(values)))
+        tables.append(_commented_table(machine, m, values, si=True))
     if not tables and not empty_ok:
         raise ControllerFileError(path, "no table in the component")
     return tables
+
+
+def _commented_arrays(path: Path, comment: re.Pattern, array: str):
+    """(line number, the comment's match, the next line's array match or None) for each line of the
+    component matching ``comment``; ``array``: the pattern of the array's name (its length and values
+    are the match's groups 1 and 2)."""
+    lines = read_lines(path, "utf-8")
+    pattern = re.compile(r"^static const double " + array + r"\[(\d+)\] = \{(.*)\};$")
+    for no, ln in enumerate(lines, 1):
+        m = comment.match(ln.strip())
+        if m:
+            yield no, m, pattern.match((lines[no] if no < len(lines) else "").strip())
+
+
+def _commented_table(machine: Machine, m: re.Match, values: np.ndarray, si: bool) -> CompensationTable:
+    """The table a comment (``iname``, ``oname``, ``start``, ``step`` in user units) and its array's
+    ``values`` describe; the values in the output axis' user units turned to SI where ``si``."""
+    ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
+    return CompensationTable(ai.name, ao.name, float(ai.to_si(float(m.group("start")))),
+                             float(ai.to_si(float(m.group("step")))), ao.to_si(values) if si else values)
 
 
 def _check_joints(path: Path, m: re.Match, by_joint: dict[int, str], no: int) -> None:
@@ -278,25 +290,17 @@ def read_products(path: Path, machine: Machine, joints: dict[str, int]) -> list[
     factor from their comments and arrays; raises where a term lacks one of them, a factor's
     output is not its table's, or a joint is not the profile's."""
     path = Path(path)
-    lines = read_lines(path, "utf-8")
     by_joint = {n: a for a, n in joints.items()}
     found: dict[str, dict[str, CompensationTable]] = {}
-    for no, ln in enumerate(lines, 1):
-        m = _PRODUCT.match(ln.strip())
-        if not m:
-            continue
-        nxt = lines[no] if no < len(lines) else ""
-        arr = re.match(r"^static const double vecpin_p[tf]\d+\[(\d+)\] = \{(.*)\};$", nxt.strip())
+    for no, m, arr in _commented_arrays(path, _PRODUCT, r"vecpin_p[tf]\d+"):
         n = int(m.group("n"))
         if arr is None or int(arr.group(1)) != n or len(arr.group(2).split(",")) != n:
             raise ControllerFileError(path, f"product {m.group('kind')} {m.group('name')}: no array of {n} values on "
                                       "the next line", no)
         _check_joints(path, m, by_joint, no)
-        ai, ao = machine.axis(m.group("iname")), machine.axis(m.group("oname"))
         values = np.array([float(v) for v in arr.group(2).split(",")])
-        found.setdefault(m.group("name"), {})[m.group("kind")] = CompensationTable(
-            ai.name, ao.name, float(ai.to_si(float(m.group("start")))), float(ai.to_si(float(m.group("step")))),
-            ao.to_si(values) if m.group("kind") == "table" else values)
+        found.setdefault(m.group("name"), {})[m.group("kind")] = _commented_table(machine, m, values,
+                                                                                  si=m.group("kind") == "table")
     out = []
     for name, parts in found.items():
         if set(parts) != {"table", "factor"}:
