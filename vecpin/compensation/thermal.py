@@ -442,13 +442,14 @@ def refine_lag(fits: dict, fit_at, bent_at) -> tuple[float, float, np.ndarray | 
         return bent[lag]
 
     lo, hi = lags[max(k - 1, 0)], lags[min(k + 1, len(lags) - 1)]
-    best = round(float(minimize_scalar(lambda v: at(v)[1].report_.chi2, bounds=(lo, hi), method="bounded",
-                                       options={"xatol": LAG_STEP_H / 2}).x), 2)
+    x = float(minimize_scalar(lambda v: at(v)[1].report_.chi2, bounds=(lo, hi), method="bounded",
+                              options={"xatol": LAG_STEP_H}).x)
+    best = round(x, 2)
     if best not in fits:
         fits[best] = fit_at(best)
     if best - LAG_DELTA_H < lags[0] or best + LAG_DELTA_H > lags[-1]:
         return best, 0.0, None
-    below, mid, above = (at(best + s * LAG_DELTA_H) for s in (-1, 0, 1))
+    below, mid, above = (at(x + s * LAG_DELTA_H) for s in (-1, 0, 1))
     rep = mid[1].report_
     a = (below[1].report_.chi2 + above[1].report_.chi2 - 2 * rep.chi2) / (2 * LAG_DELTA_H ** 2)
     scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
