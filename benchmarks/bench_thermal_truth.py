@@ -169,7 +169,8 @@ def summary(rows: list[dict]) -> list[str]:
             f"their median {sum(near(r, 'median') for r in rows)}/{n}, the mean without the curvature's bound "
             f"(straight terms trusted 10 K away) {sum(near(r, 'straight') for r in rows)}/{n}",
             f"- the lag off the truth in its stated standard deviations (an honest one: RMS 1): RMS "
-            f"{rms(lag_z) if len(lag_z) else float('nan'):.2f}, within two on {int(np.sum(np.abs(lag_z) <= 2))}/{len(lag_z)} (refined ones)",
+            f"{rms(lag_z) if len(lag_z) else float('nan'):.2f}, within two on "
+            f"{int(np.sum(np.abs(lag_z) <= 2))}/{len(lag_z)} (refined ones)",
             f"- fit time (geometry, lag scan and refinement, held-out blocks, curvature): median "
             f"{np.median([r['seconds'] for r in rows]):.2f} s per campaign"]
 

@@ -28,7 +28,8 @@ thermal terms and their curvature per term, :func:`bent_fit`; linearised at the 
 the curvature the prediction extrapolates. Units in the returned dict
 (``thermal.json``): ``names`` the coefficients (the terms' order: per axis offset [µm/K]
 and slope [µm/m/K], then the tool's growth [µm/K]), ``cov`` their covariance in those
-units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h].
+units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h], ``lag_gradient`` (the
+coefficients' change per hour of lag, their units per h; its share of ``cov``).
 """
 from __future__ import annotations
 
@@ -97,13 +98,14 @@ def with_lag(held: dict, lag_std_h: float, gradient) -> dict:
     """``held`` (:func:`held_out`) with the lag's uncertainty in the coefficients'
     covariance: ``lag_std_h`` [h] times ``gradient`` (the coefficients' change per hour
     of lag, their units per h; None: the lag was not refined) as a rank-one term; the
-    lag's standard deviation kept as ``lag_std_h``."""
+    lag's standard deviation kept as ``lag_std_h``, the change as ``lag_gradient``."""
     if not held:
         return held
     out = dict(held, lag_std_h=float(lag_std_h))
     if gradient is not None and lag_std_h > 0:
         g = np.asarray(gradient, float)
         out["cov"] = (np.asarray(held["cov"], float) + lag_std_h ** 2 * np.outer(g, g)).tolist()
+        out["lag_gradient"] = g.tolist()
     return out
 
 
