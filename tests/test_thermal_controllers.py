@@ -21,6 +21,7 @@ four times in five, is benchmarks/bench_thermal_truth.py's page, not a test's tw
 campaigns. Also: what the data cannot separate is said, and the curvature fitted per axis
 lies within three of its standard deviations of the truth's."""
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -159,6 +160,8 @@ def test_tables_workflow_writes_the_thermal_files(fitted, tmp_path):
     text = "\n".join(run.lines())
     assert "without" in text and "left by the terms" in text and "extrapolated" in text
     assert f"{chance * 100:.0f} % chance within 20 %" in text and "holds to 20 % only with the chance given" in text
+    frame = "the tool tip's displacement relative to the workpiece"          # what the judge above measures
+    assert frame in text and frame in json.loads((tmp_path / "thermal.json").read_text())["description"]
 
 
 def test_terms_in_their_own_family_are_recovered(tmp_path):

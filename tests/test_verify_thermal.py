@@ -87,6 +87,7 @@ def test_verify_command_says_what_it_did_with_thermal_json(tmp_path, capsys):
                  "--tables", str(tmp_path / "tables"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "thermal terms (" in out and "applied at each run's temperatures" in out
+    assert "every thermal figure is the tool tip's displacement relative to the workpiece" in out
     assert "after.csv has no temperature column" in out
 
 

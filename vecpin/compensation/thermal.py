@@ -17,7 +17,7 @@ sensor's temperature seen through a first-order lag of ``lag_h`` hours
 :func:`fit_thermal` fits them together with the geometric model on the campaign (the
 geometric model's own terms refitted with them, so the geometry does not absorb the
 drift), the lag scanned over :data:`~vecpin.models.effects.thermal.LAGS_H` and refined
-between them (:func:`refine_lag`), and says in words where the data cannot separate them
+between them with the curvature free (:func:`refine_lag`), and says in words where the data cannot separate them
 (:func:`separability`). :func:`remaining_mm` predicts what the terms leave at a steady
 temperature as a point figure (with the chance it holds to 20 %) and a band, from draws
 of the coefficients' error as time blocks held out show it
@@ -36,9 +36,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from vecpin.compensation.thermaleffect import BENT_GROWTH, ThermalTermsEffect
-from vecpin.compensation.thermalheld import bend_terms, curvature, curvature_draws, held_out, with_lag
+from vecpin.compensation.thermalheld import bend_terms, bent_fit, curvature, curvature_draws, held_out, with_lag
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
@@ -46,10 +47,18 @@ from vecpin.models.effects.base import TipContext
 from vecpin.models.effects.thermal import LAGS_H, lagged
 
 UM_PER_M = 1e6
+FRAME = ("the tool tip's displacement relative to the workpiece (the table's frame; the base frame on a machine "
+         "without a table), its 3D length averaged over the commands, no translation removed, from where the "
+         "geometric tables leave the tip (the thermal state at T0, the campaign's mean)")
+DESCRIPTION = ("vecpin thermal terms: per linear axis the error offset_um_per_k (T - t0_c) + slope_um_per_m_per_k "
+               "(T - t0_c) (p - p0_mm) / 1000 [um] and the tool's growth growth_um_per_k (T - t0_c) [um] along it "
+               "(errors: where the axis or tip is, less where it was commanded; the controller corrects their "
+               "negative), T the sensor's temperature [degC] through a first-order lag of lag_h hours. held_out and "
+               "curvature give what the terms leave (the predicted thermal figures), measured as " + FRAME + ".")
 COLLINEAR = 0.95      # |correlation| above which two drivers cannot be told apart
 ILL_CONDITIONED = 1e3  # condition number of the thermal columns above which the terms are not separable
 LAG_STEP_H = 0.02     # h: the refined lag's resolution (lags are kept to 0.01 h)
-MAX_REFINE = 4        # parabola steps refining the lag between the scanned ones
+LAG_DELTA_H = 0.03    # h: the step of the second difference that gives the lag's standard deviation
 
 
 @dataclass
@@ -97,7 +106,8 @@ class ThermalTerms:
         return c * (np.asarray(temperature_c, float) - self.t0_c) * 1e-3
 
     def to_dict(self) -> dict:
-        return asdict(self) | {"t_range_c": list(self.t_range_c), "format": "vecpin thermal terms 1"}
+        return asdict(self) | {"t_range_c": list(self.t_range_c), "format": "vecpin thermal terms 1",
+                               "description": DESCRIPTION}
 
     def save(self, path) -> None:
         write_text(Path(path), json.dumps(self.to_dict(), indent=1) + "\n")
@@ -109,6 +119,7 @@ class ThermalTerms:
             d = json.loads(Path(path).read_text())
             check_terms(path, d)
             d.pop("format", None)
+            d.pop("description", None)
             d["t_range_c"] = tuple(d["t_range_c"])
             d.setdefault("held_out", {})
             d.setdefault("curvature", {})
@@ -133,17 +144,19 @@ class ThermalTerms:
 
 
 def tip_errors(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_c) -> np.ndarray:
-    """(N,3) [m] the tool tip's thermal error (base frame) the terms predict at commands
-    ``q`` (N,n) [m, rad], tool lengths [m] and (lagged) temperatures [°C]: each axis where
-    its error line puts it, and the tool's growth along its direction."""
+    """(N,3) [m] the tool tip's thermal error the terms predict at commands ``q`` (N,n)
+    [m, rad], tool lengths [m] and (lagged) temperatures [°C]: each axis where its error
+    line puts it, and the tool's growth along its direction; relative to the workpiece
+    (the machine's default frame: the table's, or the base frame on a machine without a
+    table; a table-side axis' error moves the workpiece, not the tip), see :data:`FRAME`."""
     q = np.atleast_2d(np.asarray(q, float))
     T = np.broadcast_to(np.asarray(temperature_c, float), (len(q),))
     e = np.zeros_like(q)
     for a in terms.axes:
         ax = machine.axis(a)
         e[:, ax.index] = ax.to_si(terms.axis_error_mm(a, ax.to_user(q[:, ax.index]), T))
-    nominal = machine.kinematics(q, tool, jacobian=False, frame="base")
-    moved = machine.kinematics(q + e, tool, jacobian=False, frame="base")
+    nominal = machine.kinematics(q, tool, jacobian=False)
+    moved = machine.kinematics(q + e, tool, jacobian=False)
     return moved.tip - nominal.tip + moved.tool_dir * (terms.growth_mm(T) * 1e-3)[:, None]
 
 
@@ -327,7 +340,9 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     ``model`` refitted on ``campaign`` together with the controller-form terms, at each
     lag of ``lags`` [h] (default :data:`LAGS_H`; the model's own thermal effect's lag
     and its neighbours there when it has one); the lag whose fit leaves the smallest
-    chi-square is kept, refined between the scanned ones (:func:`refine_lag`).
+    chi-square brackets the lag, refined between its neighbours with the curvature per
+    term free (:func:`refine_lag`); the held-out spread and the curvature come from the
+    fit with the curvature (:func:`~vecpin.compensation.thermalheld.bent_fit`).
     ``p0_mm``: reference position per axis [mm] (default: mid-travel)."""
     m = model.machine
     if campaign.temperature is None:
@@ -349,17 +364,35 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
         p0[a] = float(m.axis(a).to_si(v))
     along = growth_axis(geometric, campaign)
 
-    def fit_at(lag: float):
+    noise = noise or geometric.noise_
+
+    def effect(lag: float) -> ThermalTermsEffect:
         t0 = float(np.mean(lagged(feats.time, campaign.temperature, lag)))
-        eff = ThermalTermsEffect(m, axes, t_ref=t0, lag_h=lag, p0=p0, growth=along is None)
-        return eff, geometric.with_effects(list(geometric.effects) + [eff]).fit(campaign, noise or geometric.noise_)
+        return ThermalTermsEffect(m, axes, t_ref=t0, lag_h=lag, p0=p0, growth=along is None)
+
+    def fit_at(lag: float):
+        eff = effect(lag)
+        return eff, geometric.with_effects(list(geometric.effects) + [eff]).fit(campaign, noise)
 
     fits = {float(lag): fit_at(float(lag)) for lag in lags}
-    lag, lag_std, gradient = refine_lag(fits, fit_at)
+    scanned = fits[min(fits, key=lambda v: fits[v][1].report_.chi2)]
+    values = scanned[1].b_[_slice(*scanned)]
+    if np.ptp(campaign.temperature) > 0:
+        def bent_at(lag: float):
+            eff = effect(lag)
+            return eff, bent_fit(geometric, campaign, noise, eff, values, feats)[0]
+
+        lag, lag_std, gradient = refine_lag(fits, fit_at, bent_at)
+    else:
+        lag, lag_std, gradient = scanned[0].lag_h, 0.0, None
     eff, fitted = fits[lag]
     terms = _terms(m, eff, fitted, campaign, feats, along)
-    terms.held_out = with_lag(held_out(fitted, campaign, feats, eff), lag_std, gradient)
-    terms.curvature = curvature(geometric, campaign, noise or geometric.noise_, eff, fitted, feats)
+    if np.ptp(eff.delta(feats)) > 0:
+        bent, curve = bent_fit(geometric, campaign, noise, eff, fitted.b_[_slice(eff, fitted)], feats)
+        terms.held_out = with_lag(held_out(bent, campaign, feats, eff, fixed=curve), lag_std, gradient)
+        terms.curvature = curvature(bent, curve)
+    else:
+        terms.held_out = with_lag(held_out(fitted, campaign, feats, eff), lag_std, gradient)
     return terms, fitted
 
 
@@ -369,50 +402,59 @@ def _neighbours(lag: float) -> tuple[float, ...]:
     return tuple(below[-1:]) + (float(lag),) + tuple(above[:1])
 
 
+def _slice(eff: ThermalTermsEffect, fitted) -> slice:
+    """The thermal terms' parameters in ``fitted.b_``."""
+    return next(s for e, s in fitted.effect_slices() if e is eff)
+
+
 def _coefficients(eff: ThermalTermsEffect, fitted) -> np.ndarray:
     """The fitted thermal coefficients [µm/K, µm/m/K] in the effect's parameter order."""
-    sl = next(s for e, s in fitted.effect_slices() if e is eff)
-    return fitted.b_[sl] * UM_PER_M
+    return fitted.b_[_slice(eff, fitted)] * UM_PER_M
 
 
-def refine_lag(fits: dict, fit_at) -> tuple[float, float, np.ndarray | None]:
+def refine_lag(fits: dict, fit_at, bent_at) -> tuple[float, float, np.ndarray | None]:
     """(lag [h], its standard deviation [h], the coefficients' change per hour of lag):
-    the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place) refined
-    by parabolas through the best lag and its neighbours (chi-square against the lag;
-    the best at an end of the scan: the last three, the vertex kept within them) until
-    the vertex is within :data:`LAG_STEP_H` of a lag already fitted. A lag off
-    the truth by a fraction of the scan's step changes the gain the terms find for a
-    temperature cycle by as much (the lag damps the cycle), and the steady error 10 K
-    away with it: the lag's standard deviation (the parabola's curvature, Δχ² = 1 times
-    the fit's χ² per degree of freedom: the noise the residuals show) goes into the
-    prediction."""
-    chi2 = lambda lag: fits[lag][1].report_.chi2        # noqa: E731
-    for _ in range(MAX_REFINE):
-        lags = sorted(fits)
-        if len(lags) < 3:
-            break
-        k = min(max(min(range(len(lags)), key=lambda i: chi2(lags[i])), 1), len(lags) - 2)
-        x = np.array(lags[k - 1:k + 2])     # the best and its neighbours (at an end of the scan: the last three)
-        a, b, _ = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])
-        if a <= 0:
-            break
-        vertex = round(float(np.clip(-b / (2 * a), x[0], x[2])), 2)
-        if min(abs(vertex - v) for v in lags) < LAG_STEP_H:
-            break
-        fits[vertex] = fit_at(vertex)
+    the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place by the
+    lag kept) bracket the lag (the best of them and its neighbours), and within that
+    bracket the lag is the one whose fit *with the curvature per term* (``bent_at``: lag
+    -> (effect, that fit)) leaves the smallest chi-square (bounded Brent, to
+    :data:`LAG_STEP_H`). Without the curvature, the curvature a wide temperature cycle
+    shows moves the lag (a lag and a bend both change the gain the terms find over a
+    cycle) by several of the straight fit's standard deviations. A lag off the truth by a
+    fraction of the scan's step changes that gain by as much (the lag damps the cycle),
+    and the steady error 10 K away with it: the lag's standard deviation (the
+    chi-square's second difference over ± :data:`LAG_DELTA_H` about it, Δχ² = 1 times
+    the fit's χ² per degree of freedom: the noise the residuals show; the curvature free,
+    so its trade with the lag counted) and the coefficients' change with it (their
+    central difference over the same fits: the curvature's column is orthogonal to the
+    straight terms', so they are the straight fit's) go into the prediction. At an end
+    of the scan: not refined (standard deviation 0, no change)."""
     lags = sorted(fits)
-    k = min(range(len(lags)), key=lambda i: chi2(lags[i]))
-    best = lags[k]
-    if k == 0 or k == len(lags) - 1:
+    k = min(range(len(lags)), key=lambda i: fits[lags[i]][1].report_.chi2)
+    if len(lags) < 2:
+        return lags[k], 0.0, None
+    bent: dict[float, tuple] = {}
+
+    def at(lag: float) -> tuple:
+        lag = round(float(lag), 3)
+        if lag not in bent:
+            bent[lag] = bent_at(lag)
+        return bent[lag]
+
+    lo, hi = lags[max(k - 1, 0)], lags[min(k + 1, len(lags) - 1)]
+    x = float(minimize_scalar(lambda v: at(v)[1].report_.chi2, bounds=(lo, hi), method="bounded",
+                              options={"xatol": LAG_STEP_H}).x)
+    best = round(x, 2)
+    if best not in fits:
+        fits[best] = fit_at(best)
+    if best - LAG_DELTA_H < lags[0] or best + LAG_DELTA_H > lags[-1]:
         return best, 0.0, None
-    x = np.array(lags[k - 1:k + 2])
-    a = np.linalg.solve(np.c_[x ** 2, x, np.ones(3)], [chi2(v) for v in x])[0]
-    rep = fits[best][1].report_
+    below, mid, above = (at(x + s * LAG_DELTA_H) for s in (-1, 0, 1))
+    rep = mid[1].report_
+    a = (below[1].report_.chi2 + above[1].report_.chi2 - 2 * rep.chi2) / (2 * LAG_DELTA_H ** 2)
     scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
-    std = float(np.sqrt(scale / a)) if a > 0 else 0.0
-    lo, hi = (fits[v] for v in (x[0], x[2]))
-    gradient = (_coefficients(*hi) - _coefficients(*lo)) / (x[2] - x[0])
-    return best, std, gradient
+    std = float(np.sqrt(scale / a)) if a > 0 else 0.5 * (hi - lo)   # flat: the bracket's half-width
+    return best, std, (_coefficients(*above) - _coefficients(*below)) / (2 * LAG_DELTA_H)
 
 
 def _terms(m, eff: ThermalTermsEffect, fitted, campaign, feats, along: str | None) -> ThermalTerms:

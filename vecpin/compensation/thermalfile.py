@@ -10,7 +10,8 @@ import math
 from vecpin.errors import InputError
 
 KNOWN = {"format", "machine", "axes", "t0_c", "lag_h", "p0_mm", "offset_um_per_k", "slope_um_per_m_per_k",
-         "growth_um_per_k", "offset_std", "slope_std", "growth_std", "t_range_c", "notes", "held_out", "curvature"}
+         "growth_um_per_k", "offset_std", "slope_std", "growth_std", "t_range_c", "notes", "held_out", "curvature",
+         "description"}
 PLAUSIBLE = 500.0   # um/K, um/m/K: 40 times steel's expansion; a larger term is a unit typed wrong
 PER_AXIS = ("p0_mm", "offset_um_per_k", "slope_um_per_m_per_k")
 

@@ -3,29 +3,37 @@ prediction of :mod:`vecpin.compensation.thermal`.
 
 The campaign is cut into :data:`BLOCKS` blocks of consecutive rows (time order: a block
 holds a stretch of the temperature history, so a block at the warm or cold end is an
-extrapolation for the fit without it). For each block the fitted model (geometry and
-thermal terms, linearised at the fit: :class:`~vecpin.identification.linearised.Linearised`)
-is solved again without it; then
+extrapolation for the fit without it). For each block the fitted model (geometry,
+thermal terms and their curvature per term, :func:`bent_fit`; linearised at the fit:
+:class:`~vecpin.identification.linearised.Linearised`) is solved again without it; then
 
 - the spread of the thermal coefficients over the blocks left out (the jackknife:
   ``(k-1)/k`` times the sum of squared deviations) is their covariance as the data show
-  it, misfit included (a lag or a curvature the terms cannot follow moves them from block
-  to block), where the fit's own covariance knows only the assumed noise;
+  it, misfit included (a lag the terms cannot follow moves them from block to block),
+  where the fit's own covariance knows only the assumed noise. The curvature is held at
+  the whole campaign's estimate in these fits: left out, it would move the coefficients
+  without a block at a warm or cold end by its projection there (over the whole campaign
+  its column, d^2 less its regression on 1 and d, leaves them alone), and set free, a
+  curvature the campaign does not resolve would trade with them there; either is a
+  misfit the prediction counts once, as the curvature it draws (:func:`curvature_draws`),
+  not a second time in this spread;
 - the held-out residuals of the rows (each from the fit without its block) are regressed,
   squared, on the squared temperature change: ``|r|^2 ~ floor^2 + s dT^2``; ``floor``
   [m] is what the model leaves at any temperature (geometry it does not describe, the
   noise). (Their growth ``s`` with the temperature is not used: a held-out block's
   residual grows with dT by the very coefficient error the spread above already counts,
-  and a curvature the terms cannot follow is bounded by
-  :func:`vecpin.compensation.thermal.curvature` instead.)
+  and a curvature the terms cannot follow is bounded by :func:`curvature` instead.)
 
 :func:`with_lag` adds the lag's uncertainty to the covariance; :func:`curvature_draws` draws
 the curvature the prediction extrapolates. Units in the returned dict
 (``thermal.json``): ``names`` the coefficients (the terms' order: per axis offset [µm/K]
 and slope [µm/m/K], then the tool's growth [µm/K]), ``cov`` their covariance in those
-units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h].
+units squared, ``floor_um`` [µm], ``blocks``, ``lag_std_h`` [h], ``lag_gradient`` (the
+coefficients' change per hour of lag, their units per h; its share of ``cov``).
 """
 from __future__ import annotations
+
+import copy
 
 import numpy as np
 
@@ -49,10 +57,11 @@ def _intercept(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.linalg.lstsq(np.c_[np.ones(len(y)), x], y, rcond=None)[0][0])
 
 
-def held_out(fitted, campaign, feats, eff, blocks: int = BLOCKS) -> dict:
+def held_out(fitted, campaign, feats, eff, blocks: int = BLOCKS, fixed=None) -> dict:
     """The thermal coefficients' covariance from the fits without each time block and
     the held-out residual's floor (see the module text); ``eff`` the fitted model's
-    :class:`~vecpin.compensation.thermal.ThermalTermsEffect`."""
+    :class:`~vecpin.compensation.thermal.ThermalTermsEffect`; ``fixed``: an effect of
+    ``fitted`` held at the fit's values in the blocks' fits (the curvature)."""
     names = [p.name for p in eff.parameters()]
     n = len(campaign)
     if n < 2 * blocks:
@@ -60,6 +69,11 @@ def held_out(fitted, campaign, feats, eff, blocks: int = BLOCKS) -> dict:
     lin = Linearised(fitted, campaign, fitted.noise_, feats)
     kept = [nm for nm, k in zip(lin.likelihood.names, lin.keep) if k]
     sigma = lin.likelihood.sigma[lin.keep]
+    if fixed is not None:                      # its columns out: the residuals already carry its values
+        free = np.array([nm not in {p.name for p in fixed.parameters()} for nm in kept])
+        lin = copy.copy(lin)
+        lin.J, lin.A, lin.psi0 = lin.J[:, :, free], lin.A[:, :, free], lin.psi0[free]
+        kept, sigma = [nm for nm, f in zip(kept, free) if f], sigma[free]
     where = {nm: kept.index(nm) for nm in names if nm in kept}
     problem = lin.folded(time_blocks(n, blocks), judged=np.ones(n, bool))
     psi = problem.fold_estimates()                                   # (blocks, P) prior-scaled
@@ -84,40 +98,44 @@ def with_lag(held: dict, lag_std_h: float, gradient) -> dict:
     """``held`` (:func:`held_out`) with the lag's uncertainty in the coefficients'
     covariance: ``lag_std_h`` [h] times ``gradient`` (the coefficients' change per hour
     of lag, their units per h; None: the lag was not refined) as a rank-one term; the
-    lag's standard deviation kept as ``lag_std_h``."""
+    lag's standard deviation kept as ``lag_std_h``, the change as ``lag_gradient``."""
     if not held:
         return held
     out = dict(held, lag_std_h=float(lag_std_h))
     if gradient is not None and lag_std_h > 0:
         g = np.asarray(gradient, float)
         out["cov"] = (np.asarray(held["cov"], float) + lag_std_h ** 2 * np.outer(g, g)).tolist()
+        out["lag_gradient"] = g.tolist()
     return out
 
 
-def curvature(geometric, campaign, noise, eff: ThermalTermsEffect, fitted, feats) -> dict:
-    """How far the thermal error may bend beyond the measured temperatures, per term: the
-    ``geometric`` model refitted with the terms ``eff`` and their relative curvatures
-    (:class:`~vecpin.compensation.thermaleffect.CurvatureEffect`: one per linear axis and
-    one for the tool's growth, linearised at the ``fitted`` terms): ``names`` the bent
-    terms, ``per_k`` [1/K] their estimates, ``cov_per_k`` [1/K^2] their covariance (scaled
-    by the fit's chi-square per degree of freedom: the noise the residuals show),
-    ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin seldom resolves a
-    curvature but bounds it; extrapolated 10 K away that bound is a large part of what the
-    terms leave. (An older ``thermal.json`` holds one curvature for all terms,
-    ``per_k`` and ``std_per_k``: :func:`bend_terms` reads both.)"""
-    d = eff.delta(feats)
-    if np.ptp(d) <= 0:
-        return {}
-    alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-    sl = next(s for e, s in fitted.effect_slices() if e is eff)
-    curve = CurvatureEffect(eff, fitted.b_[sl], alpha)
-    bent = geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise)
+def curvature(bent, curve: CurvatureEffect) -> dict:
+    """How far the thermal error may bend beyond the measured temperatures, per term: of
+    the model ``bent`` (:func:`bent_fit`: the geometry refitted with the terms and their
+    relative curvatures ``curve``, one per linear axis and one for the tool's growth),
+    ``names`` the bent terms, ``per_k`` [1/K] their estimates, ``cov_per_k`` [1/K^2]
+    their covariance (scaled by the fit's chi-square per degree of freedom: the noise the
+    residuals show), ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin
+    seldom resolves a curvature but bounds it; extrapolated 10 K away that bound is a
+    large part of what the terms leave. (An older ``thermal.json`` holds one curvature
+    for all terms, ``per_k`` and ``std_per_k``: :func:`bend_terms` reads both.)"""
     k = next(s for e, s in bent.effect_slices() if e is curve)
     rep = bent.report_
     scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
     idx = np.arange(k.start, k.stop) + 6
     return {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
-            "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": [float(a) for a in alpha]}
+            "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": list(curve.alpha)}
+
+
+def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats):
+    """(the ``geometric`` model refitted with the terms ``eff`` and their curvature per
+    term, the :class:`~vecpin.compensation.thermaleffect.CurvatureEffect`): the curvature
+    linearised at the terms' coefficients ``values`` [SI], its ``alpha`` (d^2 regressed
+    on 1 and d over the campaign's rows, d the lagged temperature change [K])."""
+    d = eff.delta(feats)
+    alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
+    curve = CurvatureEffect(eff, values, alpha)
+    return geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise), curve
 
 
 ALL_TERMS = "all"   # an older thermal.json's one curvature: every term bent alike

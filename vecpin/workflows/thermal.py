@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermal import BAND, WITHIN, ThermalTerms, fit_thermal, remaining_mm, tip_errors
+from vecpin.compensation.thermal import BAND, FRAME, WITHIN, ThermalTerms, fit_thermal, remaining_mm, tip_errors
 from vecpin.compensation.thermalheld import ALL_TERMS, bend_terms
 from vecpin.errors import InputError
 from vecpin.export import linuxcnc, thermal, thermal_linuxcnc
@@ -68,9 +68,9 @@ def how_predicted(terms: ThermalTerms) -> str:
 def prediction_lines(terms: ThermalTerms, rows) -> list[str]:
     """The prediction in words: one line per temperature, the extrapolated ones marked."""
     lo, hi = terms.t_range_c
-    out = ["  predicted thermal error (mean on the campaign's commands, steady temperature): without the terms, and "
-           f"what they leave: the figure most likely to hold within {WITHIN * 100:.0f} %, the chance of that, and the "
-           f"{BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
+    out = [f"  predicted thermal error ({FRAME}; on the campaign's commands, steady temperature): without the "
+           f"terms, and what they leave: the figure most likely to hold within {WITHIN * 100:.0f} %, the chance of "
+           f"that, and the {BAND[0]:g}..{BAND[1]:g} % band ({how_predicted(terms)})"]
     for t, a, b, b_lo, b_hi, _, chance in rows:
         mark = "" if lo - 1e-9 <= t <= hi + 1e-9 else f"  (extrapolated {min(abs(t - lo), abs(t - hi)):.2f} K "
         mark += "beyond the measured temperatures)" if mark else ""

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vecpin.compensation.thermal import BAND, ThermalTerms, remaining_mm, tip_errors
+from vecpin.compensation.thermal import BAND, FRAME, ThermalTerms, remaining_mm, tip_errors
 from vecpin.errors import InputError
 from vecpin.measurement.campaign import Campaign
 from vecpin.models.effects.thermal import lagged
@@ -86,7 +86,7 @@ class ThermalVerification:
     def lines(self) -> list[str]:
         t = self.terms
         out = [f"  thermal terms ({self.source}: T0 {t.t0_c:.2f} degC, lag {t.lag_h:g} h) applied at each run's "
-               "temperatures (its readings through the lag from its first row):"]
+               f"temperatures (its readings through the lag from its first row); every thermal figure is {FRAME}:"]
         for r in self.runs:
             if r.missing:
                 out.append(f"    {r.label}: {r.missing}")
@@ -111,6 +111,7 @@ class ThermalVerification:
 
     def to_dict(self) -> dict:
         return {"file": self.source, "t0_c": self.terms.t0_c, "lag_h": self.terms.lag_h, "units": "degC, mm",
+                "measured_as": FRAME,
                 "runs": [{"run": r.label, "t_range_c": [r.t_min, r.t_max], "t_mean_c": r.t_mean,
                           "thermal_error_described_mm": r.described_mm,
                           "left_by_the_terms_mm": None if r.left is None else list(r.left[:3]),

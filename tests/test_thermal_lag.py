@@ -1,0 +1,94 @@
+"""The thermal lag and its uncertainty (vecpin.compensation.thermal.refine_lag), judged
+against closed forms: fits whose chi-square is an exact parabola in the lag, with the
+noise the residuals show (chi-square per degree of freedom) and coefficients straight in
+the lag. The lag is where the fit with the curvature free is best (not where the straight
+fit is: the curvature a wide temperature cycle shows moves that one), its standard
+deviation is where the chi-square has risen by the noise (Δχ² = 1 times χ²/dof), and the
+coefficients' change per hour of lag is their slope; a minimum near the far end of the
+scanned lags, beyond a coarse neighbour, is still found (not the scanned lag next to it)."""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from vecpin.compensation.thermal import refine_lag
+
+DOF = 400.0
+SCALE = 0.2                                  # chi-square per degree of freedom at the minimum
+SLOPE = np.array([3.0, -1.5, 0.25])          # coefficients' change per hour of lag [um/K/h ...]
+
+
+def report(lag: float, at: float, sd: float) -> SimpleNamespace:
+    """A fit's report whose chi-square is SCALE (DOF + ((lag - at) / sd)^2): Δχ² = SCALE at one sd."""
+    return SimpleNamespace(chi2=SCALE * (DOF + ((lag - at) / sd) ** 2), chi2_expected=DOF)
+
+
+class Fit:
+    """A fitted model with one effect: the coefficients straight in the lag, the chi-square a parabola."""
+
+    def __init__(self, lag: float, at: float, sd: float):
+        self.effect = object()
+        self.b_ = np.r_[np.zeros(6), 1.0 + SLOPE * lag] * 1e-6
+        self.report_ = report(lag, at, sd)
+
+    def effect_slices(self):
+        return [(self.effect, slice(6, 9))]
+
+
+def fitter(at: float, sd: float):
+    """lag -> (effect, fit): fits whose chi-square is least at ``at`` [h], one standard deviation ``sd`` [h]."""
+    def fit_at(lag: float):
+        f = Fit(lag, at, sd)
+        return f.effect, f
+    return fit_at
+
+
+@pytest.mark.parametrize("straight, bent, sd", [(2.0, 1.86, 0.03), (0.9, 0.95, 0.01), (3.1, 3.3, 0.2)])
+def test_the_lag_its_deviation_and_the_coefficients_change_are_the_bent_fits(straight, bent, sd):
+    fit_at = fitter(straight, 5 * sd)                    # the straight fit: a biased, narrower-looking minimum
+    fits = {lag: fit_at(lag) for lag in (0.0, 0.5, 1.0, 2.0, 4.0)}
+    lag, std, gradient = refine_lag(fits, fit_at, fitter(bent, sd))
+    assert lag == pytest.approx(bent, abs=0.011)         # kept to 0.01 h
+    assert std == pytest.approx(sd, rel=1e-3)            # Δχ² = χ²/dof at one standard deviation
+    assert gradient == pytest.approx(SLOPE, rel=1e-6)
+    assert lag in fits                                   # the terms written are the straight fit's at that lag
+
+
+def test_at_an_end_of_the_scan_the_lag_is_not_refined():
+    fit_at = fitter(6.0, 0.5)
+    fits = {lag: fit_at(lag) for lag in (0.0, 0.5, 1.0, 2.0, 4.0)}
+    lag, std, gradient = refine_lag(fits, fit_at, fit_at)
+    assert lag == pytest.approx(4.0, abs=0.011) and std == 0.0 and gradient is None
+
+
+def test_the_blocks_spread_leaves_the_curvature_to_its_own_draws():
+    """A machine whose thermal error is exactly straight terms bent by one curvature per axis
+    (2 %/K, lag 1 h, no noise; the growth bent with Z, whose offset carries it): refitted
+    without each time block, the straight terms alone move by the curvature's projection
+    on the blocks left (a spread the curvature's draws count again), the terms beside their
+    curvature held at the campaign's estimate stay put (a fifth of that at most)."""
+    from thermal_truth import Truth, commands
+
+    import vecpin
+    from vecpin.compensation.thermal import fit_thermal
+    from vecpin.compensation.thermalheld import held_out
+    from vecpin.measurement.campaign import Campaign
+    from vecpin.measurement.features import Features
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(4)
+    truth = Truth(lag_s=3600.0, nonlinear={"X": 0.02, "Y": 0.02, "Z": 0.02}, growth_nonlinear=0.02)
+    n = 100
+    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
+    air = 21 + 3 * np.sin(2 * np.pi * t / (7 * 3600))
+    tool = np.full(n, 0.12)
+    camp = Campaign(m.axis_names, q, tool, truth.tip(m, q, tool, truth.structure(t, air)),
+                    extra={"time": t, "temperature": air})
+    geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
+    terms, fitted = fit_thermal(geo, camp, lags=(1.0,))
+    eff = next(e for e in fitted.effects if e.name == "thermal_terms")
+    straight = np.sqrt(np.diag(held_out(fitted, camp, Features.from_campaign(camp), eff)["cov"]))
+    kept = np.sqrt(np.diag(terms.held_out["cov"]))
+    assert straight.max() > 0.05                                  # um/K, um/m/K: the projection moves them
+    assert np.all(kept < 0.2 * straight + 1e-3)
