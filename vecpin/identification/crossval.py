@@ -374,9 +374,13 @@ class FoldedProblem:
         """Every fold's estimate (``folds``: these folds only, in this order; an ends
         problem's rest judges nothing) of several candidates [F, P_b]: F is eliminated
         once per fold and each block solves only its Schur complement S_P (G_PP - G_PF
-        N_FF^-1 G_FP) S_P + I, whose bracket blocks with the same columns share. Returns
-        (ψ per block (k, |F| + |P_b|), the union U of the blocks' columns, each group's
-        place in U, the groups {columns: block indices})."""
+        N_FF^-1 G_FP) S_P + I, whose bracket blocks with the same columns share. F's
+        elimination is one Cholesky factor per fold, N_FF = L L^T: W = L^-1 [b, G_FU]
+        (one forward substitution) gives every bracket G_UU - W_U^T W_U (one symmetric
+        product) and right side; each block's F part is then one back substitution,
+        all blocks of a fold at once (:func:`_eliminated`). Returns (ψ per block (k,
+        |F| + |P_b|), the union U of the blocks' columns, each group's place in U, the
+        groups {columns: block indices})."""
         fo = np.arange(self.k) if folds is None else np.asarray(folds, int)
         groups: dict = {}
         for k, (P, _) in enumerate(blocks):
@@ -386,28 +390,55 @@ class FoldedProblem:
         where = {key: np.array([at[c] for c in key], int) for key in groups}
         nF, k = len(F), len(fo)
         psi = [np.zeros((k, nF + len(P))) for P, _ in blocks]
-        x0F, x0U = self.x0[F], self.x0[U]
-        # every fold at once (stacked solves: a few calls instead of a few per fold)
         A = self.G_out[np.ix_(fo, F, F)] * np.outer(sF, sF)
         A[:, np.arange(nF), np.arange(nF)] += 1.0                               # the unit prior
         GFU = self.G_out[np.ix_(fo, F, U)] * sF[:, None]                        # (k, nF, nU)
-        rhs = np.concatenate([(self.g_out[np.ix_(fo, F)] * sF - x0F)[..., None], GFU], axis=2)
-        sol = _solve_pos(A, rhs)
-        y, XU = sol[..., 0], sol[..., 1:]                                        # (k, nF), (k, nF, nU)
-        MU = self.G_out[np.ix_(fo, U, U)] - np.swapaxes(GFU, 1, 2) @ XU         # the Schur brackets of U
-        rU = self.g_out[np.ix_(fo, U)] - np.einsum("kfu,kf->ku", GFU, y)
+        rhs = np.concatenate([(self.g_out[np.ix_(fo, F)] * sF - self.x0[F])[..., None], GFU], axis=2)
+        elim = [_eliminated(a, b) for a, b in zip(A, rhs)]                      # per fold: F eliminated
+        MU = self.G_out[np.ix_(fo, U, U)] - np.stack([e.bracket for e in elim])  # the Schur brackets of U
+        rU = self.g_out[np.ix_(fo, U)] - np.stack([e.cross for e in elim])
+        x0U = self.x0[U]
+        moves = np.zeros((k, 1 + len(blocks), 1 + len(U)))   # per fold: combinations of [b, G_FU] whose
+        moves[:, 0, 0] = 1.0                                 # N^-1 is wanted (the first: F alone)
         for key, ks in groups.items():
             if not key:
-                for j in ks:
-                    psi[j][:, :nF] = sF * y
                 continue
             w = where[key]
-            X, M, r, x0P = XU[:, :, w], MU[:, w[:, None], w], rU[:, w], x0U[w]  # the block's share of U
+            M, r, x0P = MU[:, w[:, None], w], rU[:, w], x0U[w]                   # the block's share of U
             for j in ks:
                 sP = blocks[j][1]
                 Sc = M * np.outer(sP, sP)
                 Sc[:, np.arange(len(w)), np.arange(len(w))] += 1.0
                 xP = _solve_pos(Sc, (sP * r - x0P)[..., None])[..., 0]          # (k, |P|)
-                psi[j][:, :nF] = sF * (y - np.einsum("kfp,kp->kf", X, sP * xP))
                 psi[j][:, nF:] = sP * xP
+                moves[:, 1 + j, 1 + w] = sP * xP
+        for f, e in enumerate(elim):
+            xF = e.solve(moves[f])                                               # (nF, 1 + blocks)
+            for j, p in enumerate(psi):
+                p[f, :nF] = sF * (xF[:, 0] - xF[:, 1 + j])
         return psi, U, where, groups
+
+
+class _eliminated:
+    """One fold's shared columns F eliminated: N = S G_FF S + I (``a``) and
+    the right sides ``rhs`` = [b, G_FU] (b = S g_F - x0_F). With N = L L^T (Cholesky) and
+    W = L^-1 rhs: ``bracket`` G_UF N^-1 G_FU = W_U^T W_U, ``cross`` G_UF N^-1 b = W_U^T W_b;
+    :meth:`solve` (m) gives N^-1 (b m_0 + G_FU m_1..) per column of ``m`` (1 + blocks, nU):
+    the estimate of F alone less each block's pull on it. A matrix not positive definite
+    to working precision: the same through a general solve."""
+
+    def __init__(self, a: np.ndarray, rhs: np.ndarray):
+        L, info = lapack.dpotrf(a, lower=1, clean=1)
+        if info:
+            self.L, self.W = None, np.linalg.solve(a, rhs)
+            self.bracket, self.cross = rhs[:, 1:].T @ self.W[:, 1:], rhs[:, 1:].T @ self.W[:, 0]
+            return
+        self.L = L
+        self.W, _ = lapack.dtrtrs(L, rhs, lower=1)
+        WU = self.W[:, 1:]
+        self.bracket, self.cross = WU.T @ WU, WU.T @ self.W[:, 0]
+
+    def solve(self, m: np.ndarray) -> np.ndarray:
+        if self.L is None:
+            return self.W @ m.T
+        return lapack.dtrtrs(self.L, self.W @ m.T, lower=1, trans=1)[0]
