@@ -43,6 +43,12 @@ def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return X
 
 
+def block(G: np.ndarray, rows: np.ndarray, cols: np.ndarray | None = None) -> np.ndarray:
+    """``G[np.ix_(rows, cols)]`` (``cols`` default ``rows``) of a (P, P) matrix, whole rows
+    taken first (about twice as fast as the fancy index on the model choice's matrices)."""
+    return G.take(rows, axis=0).take(rows if cols is None else cols, axis=1)
+
+
 def _gram(Jf: np.ndarray) -> np.ndarray:
     """Jf^T Jf of a (rows, P) matrix, exactly symmetric (numpy's matmul sees the transpose
     and takes BLAS' syrk, one triangle, then mirrors it)."""
@@ -245,7 +251,7 @@ class FoldedProblem:
     def normal_matrix(self, cols=None, scale=None) -> np.ndarray:
         """The whitened normal matrix J^T J of these columns (each times its factor), every row."""
         cols, scale = self._all(cols, scale)
-        return self.G[np.ix_(cols, cols)] * np.outer(scale, scale)
+        return block(self.G, cols) * np.outer(scale, scale)
 
     def estimate(self, cols=None, scale=None) -> np.ndarray:
         """The solution ψ (factors applied) of these columns from every row."""
@@ -275,7 +281,7 @@ class FoldedProblem:
         trace((G + I)^-1) = trace(A^-1) + trace(Σ^-1 (S X^T X S + I)), Σ = S K S + I,
         X = A^-1 G_FP, S the block's factors."""
         F, sF = np.asarray(F, int), np.asarray(sF, float)
-        A = self.G[np.ix_(F, F)] * np.outer(sF, sF)
+        A = block(self.G, F) * np.outer(sF, sF)
         A[np.diag_indices_from(A)] += 1.0
         L, info = lapack.dpotrf(A, lower=1, clean=1, overwrite_a=1)
         Linv, info2 = lapack.dtrtri(L, lower=1) if not info else (None, 1)
@@ -289,9 +295,9 @@ class FoldedProblem:
                 out.append(float(len(F) - skip - dA[skip:].sum()))
                 continue
             if P.tobytes() not in shared:
-                GFP = self.G[np.ix_(F, P)] * sF[:, None]
+                GFP = block(self.G, F, P) * sF[:, None]
                 X = lapack.dpotrs(L, GFP, lower=1)[0]
-                shared[P.tobytes()] = (X, self.G[np.ix_(P, P)] - GFP.T @ X, X.T @ X)
+                shared[P.tobytes()] = (X, block(self.G, P) - GFP.T @ X, X.T @ X)
             X, K, W = shared[P.tobytes()]
             Sig, R = K * np.outer(s, s), W * np.outer(s, s)
             Sig[np.diag_indices_from(Sig)] += 1.0
@@ -390,12 +396,13 @@ class FoldedProblem:
         where = {key: np.array([at[c] for c in key], int) for key in groups}
         nF, k = len(F), len(fo)
         psi = [np.zeros((k, nF + len(P))) for P, _ in blocks]
-        A = self.G_out[np.ix_(fo, F, F)] * np.outer(sF, sF)
+        sub = np.stack([block(self.G_out[f], np.r_[F, U]) for f in fo])        # (k, nF + nU, nF + nU)
+        A = sub[:, :nF, :nF] * np.outer(sF, sF)
         A[:, np.arange(nF), np.arange(nF)] += 1.0                               # the unit prior
-        GFU = self.G_out[np.ix_(fo, F, U)] * sF[:, None]                        # (k, nF, nU)
+        GFU = sub[:, :nF, nF:] * sF[:, None]                                    # (k, nF, nU)
         rhs = np.concatenate([(self.g_out[np.ix_(fo, F)] * sF - self.x0[F])[..., None], GFU], axis=2)
         elim = [_eliminated(a, b) for a, b in zip(A, rhs)]                      # per fold: F eliminated
-        MU = self.G_out[np.ix_(fo, U, U)] - np.stack([e.bracket for e in elim])  # the Schur brackets of U
+        MU = sub[:, nF:, nF:] - np.stack([e.bracket for e in elim])             # the Schur brackets of U
         rU = self.g_out[np.ix_(fo, U)] - np.stack([e.cross for e in elim])
         x0U = self.x0[U]
         moves = np.zeros((k, 1 + len(blocks), 1 + len(U)))   # per fold: combinations of [b, G_FU] whose
