@@ -98,12 +98,12 @@ def test_blocks_eliminated_through_one_factor_equal_each_folds_least_squares():
 def test_a_fold_whose_matrix_is_not_positive_definite_is_solved_in_general():
     """The elimination's fallback (a normal matrix not positive definite to working
     precision): its brackets and solutions those of a general solve."""
-    from vecpin.identification.crossval import _eliminated
+    from vecpin.identification.crossval import _Elimination
     rng = np.random.default_rng(6)
     a = rng.normal(size=(6, 6))
     a = a + a.T                                     # symmetric, indefinite
     rhs = rng.normal(size=(6, 4))
-    e = _eliminated(a.copy(), rhs)
+    e = _Elimination(a.copy(), rhs)
     assert e.L is None                              # the Cholesky factor failed: the general path
     X = np.linalg.solve(a, rhs)
     np.testing.assert_allclose(e.bracket, rhs[:, 1:].T @ X[:, 1:], rtol=1e-10, atol=1e-12)

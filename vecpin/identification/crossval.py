@@ -384,7 +384,7 @@ class FoldedProblem:
         elimination is one Cholesky factor per fold, N_FF = L L^T: W = L^-1 [b, G_FU]
         (one forward substitution) gives every bracket G_UU - W_U^T W_U (one symmetric
         product) and right side; each block's F part is then one back substitution,
-        all blocks of a fold at once (:func:`_eliminated`). Returns (ψ per block (k,
+        all blocks of a fold at once (:class:`_Elimination`). Returns (ψ per block (k,
         |F| + |P_b|), the union U of the blocks' columns, each group's place in U, the
         groups {columns: block indices})."""
         fo = np.arange(self.k) if folds is None else np.asarray(folds, int)
@@ -401,7 +401,7 @@ class FoldedProblem:
         A[:, np.arange(nF), np.arange(nF)] += 1.0                               # the unit prior
         GFU = sub[:, :nF, nF:] * sF[:, None]                                    # (k, nF, nU)
         rhs = np.concatenate([(self.g_out[np.ix_(fo, F)] * sF - self.x0[F])[..., None], GFU], axis=2)
-        elim = [_eliminated(a, b) for a, b in zip(A, rhs)]                      # per fold: F eliminated
+        elim = [_Elimination(a, b) for a, b in zip(A, rhs)]                     # per fold: F eliminated
         MU = sub[:, nF:, nF:] - np.stack([e.bracket for e in elim])             # the Schur brackets of U
         rU = self.g_out[np.ix_(fo, U)] - np.stack([e.cross for e in elim])
         x0U = self.x0[U]
@@ -426,12 +426,12 @@ class FoldedProblem:
         return psi, U, where, groups
 
 
-class _eliminated:
+class _Elimination:
     """One fold's shared columns F eliminated: N = S G_FF S + I (``a``) and
     the right sides ``rhs`` = [b, G_FU] (b = S g_F - x0_F). With N = L L^T (Cholesky) and
     W = L^-1 rhs: ``bracket`` G_UF N^-1 G_FU = W_U^T W_U, ``cross`` G_UF N^-1 b = W_U^T W_b;
-    :meth:`solve` (m) gives N^-1 (b m_0 + G_FU m_1..) per column of ``m`` (1 + blocks, nU):
-    the estimate of F alone less each block's pull on it. A matrix not positive definite
+    :meth:`solve` (m) gives N^-1 rhs m_j^T for each row m_j of ``m`` (rows, 1 + nU): the
+    estimate of F alone (m_0 = e_0) and each block's pull on it. A matrix not positive definite
     to working precision: the same through a general solve."""
 
     def __init__(self, a: np.ndarray, rhs: np.ndarray):
@@ -446,6 +446,7 @@ class _eliminated:
         self.bracket, self.cross = WU.T @ WU, WU.T @ self.W[:, 0]
 
     def solve(self, m: np.ndarray) -> np.ndarray:
+        """(nF, rows): N^-1 rhs m^T, one back substitution for every row of ``m``."""
         if self.L is None:
             return self.W @ m.T
         return lapack.dtrtrs(self.L, self.W @ m.T, lower=1, trans=1)[0]
