@@ -351,29 +351,27 @@ class FoldedProblem:
         axis' basis or smoothing), one array per block (:meth:`_solve_blocks`)."""
         judging = [f for f, sl in enumerate(self.fold_slices) if sl.stop > sl.start]   # folds with judged rows
         psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks, judging)
-        nF = len(F)
-        # every block's change of the judged rows, fold by fold: the shared columns F for all
-        # blocks at once, then each group's own columns
+        nF, idx = len(F), np.r_[np.asarray(F, int), U]
+        # every block's estimate on the columns [F, U] (zero where it has none), fold by fold: one
+        # product per fold gives every block's change of the judged rows
+        coef = np.zeros((len(judging), len(blocks), len(idx)))
+        for key, ks in groups.items():
+            for k in ks:
+                coef[:, k, :nF] = psi[k][:, :nF]
+                coef[:, k, nF + where[key]] = psi[k][:, nF:]
+        A_rows = self.A_rows[idx]
         change = np.empty((len(blocks), self.A_rows.shape[1]))
         for f, sl in enumerate(self.fold_slices[j] for j in judging):   # f: the judging fold's place in psi
-            AU = self.A_rows[U, sl]
-            ch = np.stack([p[f, :nF] for p in psi]) @ self.A_rows[F, sl]
-            for key, ks in groups.items():
-                if key:
-                    ch[ks] += np.stack([psi[k][f, nF:] for k in ks]) @ AU[where[key]]
-            change[:, sl] = ch
+            change[:, sl] = coef[f] @ A_rows[:, sl]
         return self.distances(change)
 
     def distances(self, change: np.ndarray) -> list[np.ndarray]:
         """Held-out distances [mm] of the judged rows (campaign order), one array per row of
         ``change`` (b, 3 n_judged): each candidate's change of the judged rows' metric
         prediction, in the fold-sorted layout of ``A_rows``."""
-        out = []
-        for c in change:
-            d = np.empty(len(self.judged_order))
-            d[self.judged_order] = norm_mm(self.r_sorted - c.reshape(-1, 3))
-            out.append(d)
-        return out
+        out = np.empty((len(change), len(self.judged_order)))
+        out[:, self.judged_order] = norm_mm(self.r_sorted - change.reshape(len(change), -1, 3))
+        return list(out)
 
     def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
                       folds: list[int] | None = None):
