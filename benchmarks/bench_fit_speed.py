@@ -19,7 +19,8 @@ What is left (``--part 1``, first campaign): the CPU of processes that only impo
 scipy.linalg and Pinocchio, the libraries the fit computes with; every module ``vecpin fit``
 imports), of ``vecpin fit`` with the reference's own fixed model (6-DoF, Chebyshev order 6: no model
 choice) and with the kind fixed (``--model 6dof``: the bases still chosen), each against the reference:
-the floor the imports and the fit of one model set under the ratio, and what each part of the choice adds.
+the floor the imports and the fit of one model set under the ratio, and what each part of the choice adds;
+then the default fit's CPU phase by phase on the first two campaigns (``benchmarks/fit_phases.py``).
 
 Every process runs as an installed package does, its modules' bytecode cached (a pip install compiles
 it): ``PYTHONDONTWRITEBYTECODE`` is dropped, the cache kept under the work folder, one untimed run first.
@@ -103,6 +104,34 @@ def floors(paths: dict, pairs: int, env: dict, work: Path) -> list[str]:
     for label, _ in what:
         cpu, wall = statistics.median(c for _, c in runs[label]), statistics.median(w for w, _ in runs[label])
         lines.append(f"{label:<55s} {cpu:6.2f} {wall:7.2f} {cpu / ref:15.2f}")
+    print("\n".join("  " + s for s in lines), flush=True)
+    return lines
+
+
+def phases(seeds: list[int], pairs: int, env: dict, work: Path) -> list[str]:
+    """Where the CPU of the default fit goes on these campaigns (``benchmarks/fit_phases.py`` in fresh
+    processes, in turn with the reference): per phase the median CPU s and in the reference's CPU."""
+    runs: dict = {}
+    for seed in seeds:
+        paths = draw(seed, work / f"gen{seed}")
+        argv = [sys.executable, str(HERE / "fit_phases.py"), str(paths["urdf"]), str(paths["csv"]),
+                str(work / f"phases{seed}.json")]
+        ref = [sys.executable, str(HERE / "reference_fit.py"), str(paths["urdf"]), str(paths["csv"])]
+        if seed == seeds[0]:   # untimed: the bytecode caches written
+            run(argv, env)
+        for _ in range(pairs):
+            got = json.loads(run(argv, env)[2].stdout)
+            for name, (cpu, _) in got.items():
+                runs.setdefault(name, {}).setdefault(seed, []).append(cpu)
+            runs.setdefault("reference fit (numpy, one solve; whole process)", {}).setdefault(seed, []).append(
+                run(ref, env)[1])
+    ref_cpu = {seed: statistics.median(runs["reference fit (numpy, one solve; whole process)"][seed]) for seed in seeds}
+    head = "".join(f" {f'seed {s} CPU s':>14s} {'/ ref':>6s}" for s in seeds)
+    lines = [f"{'phase of vecpin fit (default)':<55s}{head}"]
+    for name, per in runs.items():
+        cells = "".join(f" {statistics.median(per[s]):14.3f} {statistics.median(per[s]) / ref_cpu[s]:6.2f}"
+                        for s in seeds)
+        lines.append(f"{name:<55s}{cells}")
     print("\n".join("  " + s for s in lines), flush=True)
     return lines
 
@@ -191,7 +220,7 @@ def compare(now: dict, before: dict) -> list[str]:
     return lines
 
 
-def write_page(speed_lines, ratios, before, cmp_lines, load, label: str, floor_lines=()) -> None:
+def write_page(speed_lines, ratios, before, cmp_lines, load, label: str, floor_lines=(), phase_lines=()) -> None:
     text = ["# The default fit's speed against a plain fitter (issue 43)", "",
             "Made by `python benchmarks/bench_fit_speed.py`. Whole processes (a fresh Python each, imports "
             "included): `vecpin fit URDF CSV` with its default model choice against "
@@ -216,6 +245,14 @@ def write_page(speed_lines, ratios, before, cmp_lines, load, label: str, floor_l
                  "of the bases of one kind adds, and what the second kind (AP: scored at 6-DoF's bases, searched only "
                  "where it could be chosen) adds:", "", "```text", *floor_lines,
                  "```", ""]
+    if phase_lines:
+        text += ["Where the default fit's CPU goes, phase by phase (`benchmarks/fit_phases.py`: the command run in "
+                 "one process with a CPU clock around each part; median of the same runs, in turn with the "
+                 "reference), on the first campaign (one gross row: the choice is made twice, the second time "
+                 "without it) and the second (none). The common-basis stage runs twice when the noise level is "
+                 "taken from the data (first at the stated noise, to find the gross rows and the level, then at "
+                 "the level found); 'the rest' is reading, checks, reports and the choice's bookkeeping:", "",
+                 "```text", *phase_lines, "```", ""]
     if cmp_lines:
         text += [f"The model chosen on every bundled machine (simulated, seed 0) by {label} ('before') and now, "
                  "judged on the simulator's noise-free validation readings:", "", "```text", *cmp_lines, "```", ""]
@@ -244,13 +281,15 @@ def main() -> None:
     os.chdir(work)   # `python -m` puts the working folder first on sys.path: in a source tree it would run that tree
     env = cached(dict(os.environ, PYTHONPATH=os.pathsep.join([a.src, os.environ.get("PYTHONPATH", "")])), work)
     load0 = os.getloadavg()[0]
-    speed_lines, ratios, before, cmp_lines, floor_lines = [], [], [], [], []
+    speed_lines, ratios, before, cmp_lines, floor_lines, phase_lines = [], [], [], [], [], []
     env_before = (cached(dict(os.environ, PYTHONPATH=os.pathsep.join([a.before_src, os.environ.get("PYTHONPATH", "")])),
                          work) if a.before_src else None)
     if a.part in ("1", "all"):
         speed_lines, ratios, before = speed(a.campaigns, a.pairs, env, work, env_before)
         print("What is left: CPU of processes that only import, and of a fit of the reference's model", flush=True)
         floor_lines = floors(draw(100, work / "gen100"), a.pairs, env, work)
+        print("Where the default fit's CPU goes, phase by phase (benchmarks/fit_phases.py)", flush=True)
+        phase_lines = phases([100, 101], a.pairs, env, work)
     if a.part in ("2", "all"):
         print("Part 2: the default choice on every bundled machine (simulated, seed 0)", flush=True)
         now = choices(env, work)
@@ -260,7 +299,8 @@ def main() -> None:
             cmp_lines = compare(now, json.loads(Path(a.before).read_text()))
             print("\n".join("  " + s for s in cmp_lines))
     if ratios and not a.no_page:
-        write_page(speed_lines, ratios, before, cmp_lines, (load0, os.getloadavg()[0]), a.before_label, floor_lines)
+        write_page(speed_lines, ratios, before, cmp_lines, (load0, os.getloadavg()[0]), a.before_label, floor_lines,
+                   phase_lines)
         print(f"wrote {PAGE}")
 
 

@@ -75,6 +75,43 @@ def test_candidates_sharing_columns_equal_their_own_solves_about_a_fit():
         np.testing.assert_allclose(d, prob.heldout(np.r_[F, P], np.r_[sF, sP]), rtol=1e-9)
 
 
+def test_blocks_eliminated_through_one_factor_equal_each_folds_least_squares():
+    """The shared columns eliminated once per fold by one Cholesky factor (a forward
+    substitution for every block's bracket, one back substitution for all blocks' F parts):
+    each block's held-out residuals equal its own stacked least-squares solve per fold
+    (numpy lstsq, no elimination), smoothings of the same columns and F alone included."""
+    J, A, w, r, fold, x0 = _random_problem(5, N=120, P=18)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    F, sF = np.array([0, 3, 5, 6, 10]), np.array([1.0, 0.4, 1.0, 1.0, 2.0])
+    blocks = [(np.array([1, 2, 4]), np.array([1.0, 1.0, 1.0])), (np.array([1, 2, 4]), np.array([0.5, 0.2, 0.05])),
+              (np.array([7, 8, 17]), np.array([1.0, 0.3, 1.0])), (np.array([11]), np.array([3.0])),
+              (np.zeros(0, int), np.zeros(0))]
+    for (P, sP), d in zip(blocks, prob.heldout_blocks(F, sF, blocks)):
+        cols, scale = np.r_[F, P].astype(int), np.r_[sF, sP]
+        held = np.empty((len(w), 3))
+        for f in range(prob.k):
+            te = fold == f
+            held[te] = r[te] - A[te][..., cols] @ _lstsq_fold(J, w, fold, f, cols, scale, x0)
+        np.testing.assert_allclose(d, norm_mm(held), rtol=1e-9)
+
+
+def test_a_fold_whose_matrix_is_not_positive_definite_is_solved_in_general():
+    """The elimination's fallback (a normal matrix not positive definite to working
+    precision): its brackets and solutions those of a general solve."""
+    from vecpin.identification.crossval import _Elimination
+    rng = np.random.default_rng(6)
+    a = rng.normal(size=(6, 6))
+    a = a + a.T                                     # symmetric, indefinite
+    rhs = rng.normal(size=(6, 4))
+    e = _Elimination(a.copy(), rhs)
+    assert e.L is None                              # the Cholesky factor failed: the general path
+    X = np.linalg.solve(a, rhs)
+    np.testing.assert_allclose(e.bracket, rhs[:, 1:].T @ X[:, 1:], rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(e.cross, rhs[:, 1:].T @ X[:, 0], rtol=1e-10, atol=1e-12)
+    m = rng.normal(size=(2, 4))
+    np.testing.assert_allclose(e.solve(m), X @ m.T, rtol=1e-10, atol=1e-12)
+
+
 def test_extending_equals_the_problem_built_whole():
     """Candidate columns added with extend (cross blocks only) give the figures of the
     problem built with every column at once (the new terms' prior offset zero)."""

@@ -14,25 +14,27 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-from vecpin.identification.crossval import FoldedProblem
+from vecpin.identification.crossval import FoldedProblem, block
 
 
 def nested_order(columns: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, list[int]] | None:
     """(ordered columns, their factors, each candidate's prefix length) when every
     candidate's columns (``(indices, factors)``, smallest first) hold the previous one's
     with the same factors; None otherwise."""
-    order, scale, sizes, seen = [], [], [], {}
+    width = 1 + max((int(c.max()) for c, _ in columns if len(c)), default=-1)
+    factor = np.full(width, np.nan)                 # each column's factor so far (nan: not yet in)
+    sizes, seen = [], np.zeros(0, int)
     for cols, fac in columns:
-        have = dict(zip(cols.tolist(), fac.tolist()))
-        if any(have.get(c) != f for c, f in seen.items()):
+        mine = np.full(width, np.nan)
+        mine[cols] = fac
+        if not np.array_equal(mine[seen], factor[seen]):
             return None
-        for c, f in have.items():
-            if c not in seen:
-                seen[c] = f
-                order.append(c)
-                scale.append(f)
-        sizes.append(len(order))
-    return np.array(order, int), np.array(scale, float), sizes
+        new = cols[np.isnan(factor[cols])]
+        new = new[np.sort(np.unique(new, return_index=True)[1])]   # (in its order, once each)
+        factor[new] = mine[new]
+        seen = np.concatenate([seen, new])
+        sizes.append(len(seen))
+    return seen, factor[seen], sizes
 
 
 def heldout_nested(prob: FoldedProblem, cols: np.ndarray, scale: np.ndarray, sizes: list[int]
@@ -45,7 +47,7 @@ def heldout_nested(prob: FoldedProblem, cols: np.ndarray, scale: np.ndarray, siz
     for f, sl in enumerate(prob.fold_slices):
         if sl.stop == sl.start:
             continue
-        a = prob.G_out[f][np.ix_(cols, cols)] * np.outer(scale, scale)
+        a = block(prob.G_out[f], cols) * np.outer(scale, scale)
         a[diag, diag] += 1.0
         L, info = lapack.dpotrf(a, lower=1, clean=1, overwrite_a=1)
         if info:

@@ -58,6 +58,19 @@ class AxisChoice:
     trend: int = 0
     smoothing: float = 0.0
 
+    def __post_init__(self):   # the hash kept: the search looks choices (tuples of these) up thousands of times
+        object.__setattr__(self, "_hash", hash((self.family, self.order, self.trend, self.smoothing)))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __getstate__(self) -> dict:   # a copy in another process hashes its strings anew
+        return {k: v for k, v in self.__dict__.items() if k != "_hash"}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.__post_init__()
+
     def basis(self, axis, span: tuple[float, float] | None = None) -> AxisBasis:
         """The basis on ``axis``: a Chebyshev series or a spline over ``span`` (lowest,
         highest command [m, rad], :func:`measured_spans`; default the travel), a series
@@ -285,15 +298,17 @@ class Design:
         unknowns, then its model's terms (the offsets, the constants and the terms of its
         functions, in the union's order); the factors are 1 except a penalised spline's
         (:meth:`AxisChoice.scales`)."""
-        if choice not in self._columns:
-            chosen, factor = np.zeros(len(self._places) + 1, bool), np.ones(len(self._places) + 1)
-            chosen[-1] = True                                           # the terms of no function
-            for a, c in zip(self.machine.axes, choice):
-                at = [self._places[(a.name, f)] for f in c.functions(self.spans[a.index] is not None)]
-                chosen[at], factor[at] = True, c.scales()
-            mine = chosen[self._term_place]
-            self._columns[choice] = (np.r_[np.arange(self.n_fixed), self.n_fixed + np.flatnonzero(mine)],
-                                     np.r_[np.ones(self.n_fixed), factor[self._term_place[mine]]])
+        known = self._columns.get(choice)
+        if known is not None:
+            return known
+        chosen, factor = np.zeros(len(self._places) + 1, bool), np.ones(len(self._places) + 1)
+        chosen[-1] = True                                           # the terms of no function
+        for a, c in zip(self.machine.axes, choice):
+            at = [self._places[(a.name, f)] for f in c.functions(self.spans[a.index] is not None)]
+            chosen[at], factor[at] = True, c.scales()
+        mine = chosen[self._term_place]
+        self._columns[choice] = (np.r_[np.arange(self.n_fixed), self.n_fixed + np.flatnonzero(mine)],
+                                 np.r_[np.ones(self.n_fixed), factor[self._term_place[mine]]])
         return self._columns[choice]
 
     def effective_terms(self, cols: np.ndarray, scale: np.ndarray) -> float:

@@ -7,6 +7,7 @@ campaign can determine only, and the one-standard-error rule that picks among th
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -40,11 +41,11 @@ class Candidate:
     def size(self) -> float:
         return self.n_terms if self.effective_terms is None else self.effective_terms
 
-    @property
-    def mean(self) -> float:
+    @functools.cached_property
+    def mean(self) -> float:   # (kept: the search sorts and compares the candidates by it many times)
         return float(self.heldout.mean())
 
-    @property
+    @functools.cached_property
     def max(self) -> float:
         return float(self.heldout.max())
 
