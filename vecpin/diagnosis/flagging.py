@@ -1,7 +1,7 @@
 """Gross errors through the diagnosis: the first pass before the base model is chosen,
 the flags of a fitted model's held-out residuals (:mod:`.grosserrors`: a family-wise rate
 over the rows, repeated readings that agree and crowded regions are misfit), the flagged
-rows judged again under the final model, and the outliers' entry in the report."""
+rows judged again under the final model (:func:`recheck`), and the outliers' entry in the report."""
 from __future__ import annotations
 
 import copy
@@ -72,6 +72,24 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid, excess)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
+
+
+def recheck(pb, st) -> None:
+    """The flagged rows judged again under the final model: rows it explains, or that
+    crowd one region (misfit), are put back and every model refitted on the rows kept (``pb``, ``st``: the
+    diagnosis' problem and state, :mod:`.diagnose`)."""
+    if not st.outliers.size:
+        return
+    still, st.put_back = still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
+                                     pb.noise, pb.all_feats, st.rows)
+    if still.size == st.outliers.size:
+        return
+    pb.say(f"{st.outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
+           "region (misfit): kept")
+    st.keep_rows(pb, still)
+    model = pb.fit(st.camp, st.accepted)
+    st.refit_base(pb)
+    st.set_current(pb, model)
 
 
 def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.ndarray, level: float,
