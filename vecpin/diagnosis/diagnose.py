@@ -7,7 +7,8 @@ causes it, how far it shrinks once the effect is added, and what to do.
    rate for the whole campaign: :mod:`.grosserrors`) flags rows no noise explains, so
    they do not steer the choice of the base model; the chosen base model flags again (rows
    the choice saw: it is made again without them), and every flagged row is judged once
-   more under the final model (rows it explains are kept). Rows whose repeated readings agree, rows crowded into one stretch of an axis, and
+   more under the final model (rows it explains are kept). Rows whose repeated readings
+   agree, rows crowded into one stretch of an axis, and
    rows an effect fitted to the other rows predicts (:func:`.flagging.explained_by_effects`)
    are misfit, not gross errors: kept (the first two reported as regions the model does not fit).
 1. **The base model.** The model the data choose (kind, per-axis bases, orders:

@@ -229,8 +229,9 @@ def outlier_score(base_model, campaign: Campaign, noise: NoiseModel, feats: Feat
                      float(after.max()), True, 0, accepted=True)
     sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
                    f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
-                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
-                   "robust (median) noise level, its own uncertainty allowed for: F with its degrees of freedom), no repeated reading agrees with them, they crowd no region, and "
+                   "each row with its own number of equations, scaled by each prediction's own spread, against the "
+                   "robust (median) noise level: F with that level's degrees of freedom), no repeated reading agrees "
+                   "with them, they crowd no region, and "
                    "they stay beyond it under the final model; the base model fitted with them predicts the "
                    f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
                    f"{sc.heldout_mean_mm_after:.4f} mm")
