@@ -274,13 +274,16 @@ def sight_of(lin: Linearised, ev: dict, held_mm: np.ndarray, min_shrink_pct: flo
 
 
 def sightings_text(families: list[dict], rows: int, limit: int = 3) -> str:
-    """'this plan (N rows) would detect rotary_periodic from 1.8 µm, ...' (RMS at the measured points)."""
+    """'this plan (N rows) would detect rotary_periodic from 1.8 µm, ...' (RMS at the measured points). The
+    sizes hold for effects of the candidates' own forms (their shapes drawn from their priors): an effect of
+    another form (a lag, a curvature, terms on other axes) shows only the part those forms carry."""
     seen = [f for f in families if f["detectable_rms_um"] is not None][:limit]
     if not seen:
         return f"this plan ({rows} rows) would detect none of the candidate effects"
     return (f"this plan ({rows} rows) would detect " + ", ".join(
         f"{f['effect']} from {um_text(f['detectable_rms_um'])}" for f in seen)
-        + f" (RMS at the tool tip, {POWER:.0%} of the time)")
+        + f" (RMS at the tool tip, {POWER:.0%} of the time, of an effect in the form its family models; "
+        "another form can need more)")
 
 
 def um_text(um: float | None) -> str:

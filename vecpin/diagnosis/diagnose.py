@@ -5,9 +5,10 @@ causes it, how far it shrinks once the effect is added, and what to do.
    whitened residuals scaled by each prediction's own spread, against their median
    level, each row with its own number of equations, at a 1 % family-wise false-alarm
    rate for the whole campaign: :mod:`.grosserrors`) flags rows no noise explains, so
-   they do not steer the choice of the base model; the chosen base model flags again,
-   and every flagged row is judged once more under the final model (rows it explains are
-   kept). Rows whose repeated readings agree, rows crowded into one stretch of an axis, and
+   they do not steer the choice of the base model; the chosen base model flags again (rows
+   the choice saw: it is made again without them), and every flagged row is judged once
+   more under the final model (rows it explains are kept). Rows whose repeated readings
+   agree, rows crowded into one stretch of an axis, and
    rows an effect fitted to the other rows predicts (:func:`.flagging.explained_by_effects`)
    are misfit, not gross errors: kept (the first two reported as regions the model does not fit).
 1. **The base model.** The model the data choose (kind, per-axis bases, orders:
@@ -109,6 +110,7 @@ class _Problem:
     proto: object = None
     choice: object = None
     ends: tuple = ()   # the axes measured over part of their travel (partly_measured): effects judged on their ends
+    choose: Callable | None = None   # the base model chosen on a campaign's rows: (prototype, choice); None if given
 
     def fit(self, camp: Campaign, effects: list):
         """The base model with ``effects`` fitted to ``camp`` (nonlinear ML)."""
@@ -213,9 +215,10 @@ def _problem(machine: Machine, campaign: Campaign, model, order, effects, noise,
     if given is not None:
         pb.proto, pb.choice = given, None
         say(f"base model given: {given.label()} (refitted; no model choice)")
-    else:
-        pb.proto, pb.choice = choose_or_fix(machine, camp, noise, model, basis, order, folds=folds, seed=seed,
-                                            progress=say, travel=travel)
+        return pb, outliers
+    pb.choose = lambda c: choose_or_fix(machine, c, noise, model, basis, order, folds=folds, seed=seed, progress=say,
+                                        travel=travel)
+    pb.proto, pb.choice = pb.choose(camp)
     return pb, outliers
 
 
@@ -393,23 +396,6 @@ def _forward(pb: _Problem, st: _State) -> None:
                             f"{math.exp(DECISIVE_NATS):.0f} of it and can stand in for it (one finding)")
 
 
-def _recheck_outliers(pb: _Problem, st: _State) -> None:
-    """The flagged rows judged again under the final model: rows it explains, or that
-    crowd one region (misfit), are put back and every model refitted on the rows kept."""
-    if not st.outliers.size:
-        return
-    still, st.put_back = fl.still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
-                                      pb.noise, pb.all_feats, st.rows)
-    if still.size == st.outliers.size:
-        return
-    pb.say(f"{st.outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
-           "region (misfit): kept")
-    st.keep_rows(pb, still)
-    model = pb.fit(st.camp, st.accepted)
-    st.refit_base(pb)
-    st.set_current(pb, model)
-
-
 def _backward(pb: _Problem, st: _State) -> None:
     """Backward elimination: every accepted effect again, given all the others, on the
     rows the final model is fitted to (:func:`.scoring.weakest`); the weakest is dropped and the
@@ -509,8 +495,12 @@ def diagnose(machine: Machine, campaign: Campaign, model: str = "auto", order: i
     pb, outliers = _problem(machine, campaign, model, order, effects, noise, folds, alpha, max_effects, basis, seed,
                             min_shrink_pct, say, base, travel)
     st = _base_stage(pb, outliers)
+    if pb.choice is not None and np.setdiff1d(st.outliers, outliers).size:   # the choice saw rows since found gross
+        say("the base model chosen again without the rows the first pass missed")
+        pb.proto, pb.choice = pb.choose(st.camp)
+        st = _base_stage(pb, st.outliers)
     _forward(pb, st)
-    _recheck_outliers(pb, st)
+    fl.recheck(pb, st)
     if base_known is not None:
         base_known(st.loc, st.bev["heldout"], st.outliers)
     _backward(pb, st)

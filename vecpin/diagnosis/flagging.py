@@ -1,7 +1,7 @@
 """Gross errors through the diagnosis: the first pass before the base model is chosen,
 the flags of a fitted model's held-out residuals (:mod:`.grosserrors`: a family-wise rate
 over the rows, repeated readings that agree and crowded regions are misfit), the flagged
-rows judged again under the final model, and the outliers' entry in the report."""
+rows judged again under the final model (:func:`recheck`), and the outliers' entry in the report."""
 from __future__ import annotations
 
 import copy
@@ -46,6 +46,7 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     The rows are evaluated within the whole campaign (``feats`` of every row): an effect
     that follows the rows' history (a lagged warm-up) sees the same history as in the fit."""
     level = gross_.robust_level(gross_.heldout_statistic(cur_lin, fold_r, cur_eval["heldout_w"]), cur_lin.valid)
+    dof = gross_.level_dof(cur_lin.valid)
     try:
         lo = Linearised(cur_model, campaign, noise, feats)
         Jall = cur_lin.J.reshape(-1, cur_lin.J.shape[-1])
@@ -61,22 +62,42 @@ def still_gross(cur_model, cur_lin: Linearised, cur_eval: dict, fold_r: np.ndarr
     resid = gross_.spread(len(campaign), rows, cur_eval["heldout"])   # every row's residual [m]
     resid[outliers] = r_out
     still = at_unknown_approach(cur_model, campaign, feats, outliers[gross_.beyond(s, valid, level, len(campaign),
-                                                                                 OUTLIER_P)], level)
+                                                                                 OUTLIER_P, dof)], level, dof)
     # flagged rows whose neighbours share their misfit (over all the passes, with the
     # fitted rows beyond the noise now) are misfit
     gross_now, misfit_now, _ = flag(cur_model.machine, cur_lin, fold_r, cur_eval, len(campaign))
     beyond_all = np.union1d(still, rows[np.union1d(gross_now, misfit_now)])
     excess = np.full(len(campaign), np.nan)
-    excess[outliers] = s / (level * gross_.row_limit(valid, len(campaign), OUTLIER_P))
+    excess[outliers] = s / (level * gross_.limit(valid, len(campaign), OUTLIER_P, dof))
     regions = gross_.crowded_regions(cur_model.machine, campaign, beyond_all, resid, excess)
     crowded = {r for g in regions for r in g["rows"]}
     return np.array([r for r in still if r not in crowded], int), regions if crowded & set(still) else []
 
 
-def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.ndarray, level: float) -> np.ndarray:
+def recheck(pb, st) -> None:
+    """The flagged rows judged again under the final model: rows it explains, or that
+    crowd one region (misfit), are put back and every model refitted on the rows kept (``pb``, ``st``: the
+    diagnosis' problem and state, :mod:`.diagnose`)."""
+    if not st.outliers.size:
+        return
+    still, st.put_back = still_gross(st.cur_model, st.cur_lin, st.cur_eval, st.fold_r, pb.campaign, st.outliers,
+                                     pb.noise, pb.all_feats, st.rows)
+    if still.size == st.outliers.size:
+        return
+    pb.say(f"{st.outliers.size - still.size} flagged rows are explained by the accepted effects or crowd one "
+           "region (misfit): kept")
+    st.keep_rows(pb, still)
+    model = pb.fit(st.camp, st.accepted)
+    st.refit_base(pb)
+    st.set_current(pb, model)
+
+
+def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.ndarray, level: float,
+                        dof: float = np.inf) -> np.ndarray:
     """``flagged`` less the rows read before an axis first moved (approach direction 0: the file does not say how
     the axis came there, so a backlash's state at that reading is unknown) that ``model`` explains within the
-    noise at an approach they could have had (every unknown direction +1, or every one -1)."""
+    noise (``level``, estimated with ``dof`` degrees of freedom) at an approach they could have had (every unknown
+    direction +1, or every one -1)."""
     unknown = flagged[np.any(feats.direction[flagged] == 0, axis=1)]
     if not unknown.size:
         return flagged
@@ -85,7 +106,7 @@ def at_unknown_approach(model, campaign: Campaign, feats: Features, flagged: np.
         ev = model.row_residuals(campaign, replace(feats, direction=np.where(feats.direction == 0, sign,
                                                                              feats.direction)))
         s = np.sum(np.where(ev.valid, ev.w, 0.0) ** 2, axis=1)[unknown]
-        fine |= ~gross_.beyond(s, ev.valid[unknown], level, len(campaign), OUTLIER_P)
+        fine |= ~gross_.beyond(s, ev.valid[unknown], level, len(campaign), OUTLIER_P, dof)
     return np.setdiff1d(flagged, unknown[fine])
 
 
@@ -115,6 +136,7 @@ def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feat
     d0 = M0 @ g0
     scatter = max(float(np.sum((wk - Jk @ d0) ** 2)) / n_eq, 1e-300)
     level = gross_.robust_level(np.sum((lo.w * v)[rows] ** 2, axis=1), lo.valid[rows])
+    dof = gross_.level_dof(lo.valid[rows])
     out, why = set(), []
     for c in cands:
         c.prepare(campaign, feats)
@@ -134,7 +156,7 @@ def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feat
         dz = d0 - M0 @ B @ dc
         wf = lo.w[flagged] - lo.J[flagged] @ dz - Jc[flagged] @ dc
         s = np.sum(np.where(lo.valid[flagged], wf, 0.0) ** 2, axis=1)
-        hit = flagged[~gross_.beyond(s, lo.valid[flagged], level, len(campaign), OUTLIER_P)]
+        hit = flagged[~gross_.beyond(s, lo.valid[flagged], level, len(campaign), OUTLIER_P, dof)]
         if hit.size:
             out.update(hit.tolist())
             why.append(c.label)
@@ -207,8 +229,9 @@ def outlier_score(base_model, campaign: Campaign, noise: NoiseModel, feats: Feat
                      float(after.max()), True, 0, accepted=True)
     sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
                    f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
-                   "chi2 with each row's own number of equations, scaled by each prediction's own spread, at the "
-                   "robust (median) noise level), no repeated reading agrees with them, they crowd no region, and "
+                   "each row with its own number of equations, scaled by each prediction's own spread, against the "
+                   "robust (median) noise level: F with that level's degrees of freedom), no repeated reading agrees "
+                   "with them, they crowd no region, and "
                    "they stay beyond it under the final model; the base model fitted with them predicts the "
                    f"other rows to {sc.heldout_mean_mm_before:.4f} mm on average (held out), without them to "
                    f"{sc.heldout_mean_mm_after:.4f} mm")
