@@ -226,13 +226,16 @@ def _draws(cov, rng, dof: int) -> np.ndarray:
     return z * np.sqrt(dof / rng.chisquare(dof, (DRAWS, 1))) if dof > 0 else z
 
 
-def _only(terms: ThermalTerms, name: str) -> ThermalTerms:
-    """The terms of one bent term ``name`` (an axis, :data:`BENT_GROWTH`, or all of them), the others 0."""
+def _only(terms: ThermalTerms, name: str, along: str | None = None) -> ThermalTerms:
+    """The terms of one bent term ``name`` (an axis, :data:`BENT_GROWTH`, or all of them), the others 0;
+    ``along``: the axis whose offset carries the tool's growth (bent as :data:`BENT_GROWTH`, its slope as the axis)."""
     if name not in terms.axes and name != BENT_GROWTH:
         return terms
-    keep = {name} if name in terms.axes else set()
-    return dataclasses.replace(terms, offset_um_per_k={a: v * (a in keep) for a, v in terms.offset_um_per_k.items()},
-                               slope_um_per_m_per_k={a: v * (a in keep) for a, v in terms.slope_um_per_m_per_k.items()},
+    offsets = {name} if name in terms.axes and name != along else {along} if name == BENT_GROWTH else set()
+    slopes = {name} if name in terms.axes else set()
+    off, slope = terms.offset_um_per_k, terms.slope_um_per_m_per_k
+    return dataclasses.replace(terms, offset_um_per_k={a: v * (a in offsets) for a, v in off.items()},
+                               slope_um_per_m_per_k={a: v * (a in slopes) for a, v in slope.items()},
                                growth_um_per_k=terms.growth_um_per_k if name == BENT_GROWTH else None)
 
 
@@ -262,7 +265,8 @@ def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_
         bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
         names, per_k, cov = bend_terms(c)
         kappa = curvature_draws(per_k, cov, rng, DRAWS)
-        bent = np.stack([tip_errors(_only(terms, nm), machine, q, tool, terms.t0_c + bend) for nm in names], -1)
+        bent = np.stack([tip_errors(_only(terms, nm, c.get("growth_axis")), machine, q, tool, terms.t0_c + bend)
+                         for nm in names], -1)
         e = e + np.einsum("nik,dk->dni", bent, kappa)
     mean = np.linalg.norm(e, axis=2).mean(axis=1) * 1e3
     lo, hi = np.percentile(mean, BAND)
@@ -380,13 +384,13 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     values = scanned[1].b_[_slice(*scanned)]
     if np.ptp(campaign.temperature) > 0:
         lag, lag_std, gradient = refine_lag(fits, fit_at, LagProblem(scanned[1], campaign, feats, scanned[0], effect,
-                                                                     values))
+                                                                     values, along))
     else:
         lag, lag_std, gradient = scanned[0].lag_h, 0.0, None
     eff, fitted = fits[lag]
     terms = _terms(m, eff, fitted, campaign, feats, along)
     if np.ptp(eff.delta(feats)) > 0:
-        bent, curve = bent_fit(geometric, campaign, noise, eff, fitted.b_[_slice(eff, fitted)], feats)
+        bent, curve = bent_fit(geometric, campaign, noise, eff, fitted.b_[_slice(eff, fitted)], feats, along)
         terms.held_out = with_lag(held_out(bent, campaign, feats, eff, fixed=curve), lag_std, gradient)
         terms.curvature = curvature(bent, curve)
     else:

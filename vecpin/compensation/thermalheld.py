@@ -119,24 +119,28 @@ def curvature(bent, curve: CurvatureEffect) -> dict:
     their covariance (scaled by the fit's chi-square per degree of freedom: the noise the
     residuals show), ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin
     seldom resolves a curvature but bounds it; extrapolated 10 K away that bound is a
-    large part of what the terms leave. (An older ``thermal.json`` holds one curvature
+    large part of what the terms leave. ``growth_axis``: the axis whose offset carries the
+    tool's growth, where there is one (``tool_growth`` then bends that offset, the axis'
+    name its slope; without the key, an older file: the axis bends both). (An older ``thermal.json`` holds one curvature
     for all terms, ``per_k`` and ``std_per_k``: :func:`bend_terms` reads both.)"""
     k = next(s for e, s in bent.effect_slices() if e is curve)
     rep = bent.report_
     scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
     idx = np.arange(k.start, k.stop) + 6
-    return {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
-            "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": list(curve.alpha)}
+    out = {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
+           "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": list(curve.alpha)}
+    return out | ({"growth_axis": curve.along} if curve.along else {})
 
 
-def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats):
+def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats, along: str | None = None):
     """(the ``geometric`` model refitted with the terms ``eff`` and their curvature per
     term, the :class:`~vecpin.compensation.thermaleffect.CurvatureEffect`): the curvature
     linearised at the terms' coefficients ``values`` [SI], its ``alpha`` (d^2 regressed
-    on 1 and d over the campaign's rows, d the lagged temperature change [K])."""
+    on 1 and d over the campaign's rows, d the lagged temperature change [K]); ``along``:
+    the axis whose offset carries the tool's growth (its offset and slope bend apart)."""
     d = eff.delta(feats)
     alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-    curve = CurvatureEffect(eff, values, alpha)
+    curve = CurvatureEffect(eff, values, alpha, along)
     return geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise), curve
 
 
@@ -207,14 +211,16 @@ class LagProblem:
     for a model linear in its unknowns; the geometry's Gauss-Newton step from the
     scanned fit is of µrad). ``effect``: lag [h] -> its
     :class:`~vecpin.compensation.thermaleffect.ThermalTermsEffect`; ``values`` [SI]: the
-    terms' coefficients the curvature is linearised at (:func:`bent_fit`)."""
+    terms' coefficients the curvature is linearised at, ``along`` the axis carrying the
+    tool's growth (:func:`bent_fit`)."""
 
-    def __init__(self, fitted, campaign, feats, eff: ThermalTermsEffect, effect, values):
+    def __init__(self, fitted, campaign, feats, eff: ThermalTermsEffect, effect, values, along: str | None = None):
         lin = Linearised(fitted, campaign, fitted.noise_, feats)
         kept = [nm for nm, k in zip(lin.likelihood.names, lin.keep) if k]
         own = {p.name for p in eff.parameters()}
         geo = np.array([nm not in own for nm in kept])
         self.lin, self.feats, self.effect, self.values, self.q = lin, feats, effect, np.asarray(values), campaign.q
+        self.along = along
         J = lin.J.reshape(-1, lin.J.shape[-1])
         self.y = lin.w.reshape(-1) + J @ lin.psi0                 # the residuals with every unknown at 0
         self.Jg = J[:, geo]
@@ -230,7 +236,7 @@ class LagProblem:
         eff = self.effect(lag)
         d = eff.delta(self.feats)
         alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-        curve = CurvatureEffect(eff, self.values, alpha)
+        curve = CurvatureEffect(eff, self.values, alpha, self.along)
         D = [np.einsum("pin,pnk->pik", self.Jq, e.command(self.q, self.feats)) + e.tip(self.ctx, self.feats)
              for e in (eff, curve)]
         prior = np.array([p.prior for e in (eff, curve) for p in e.parameters()])
