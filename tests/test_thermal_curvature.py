@@ -82,8 +82,9 @@ def test_an_older_file_with_one_curvature_still_predicts(tmp_path):
 def test_the_growth_and_the_axis_carrying_it_bend_apart():
     """A tool that keeps its direction along Z: its growth is Z's offset. A machine whose
     growth bends by +3 %/K and Z's expansion by -1 %/K (X, Y straight; Z's own offset 0;
-    Z expanding about its mid-travel, the terms' P0; no noise; exact lag): the fit gives the offset (the growth) and the slope (Z's
-    expansion) their own curvatures, each the truth's relative to the gain at T0:
+    Z expanding about its mid-travel, the terms' P0; no noise; exact lag): the fit gives
+    the offset (the growth) and the slope (Z's expansion) their own curvatures, each the
+    truth's relative to the gain at T0:
     k / (1 + 2 k (T0 - 20)), the truth's curvature being about 20 degC (one shared
     curvature could follow neither)."""
     from thermal_truth import Truth, commands
