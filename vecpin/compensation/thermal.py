@@ -409,11 +409,6 @@ def _slice(eff: ThermalTermsEffect, fitted) -> slice:
     return next(s for e, s in fitted.effect_slices() if e is eff)
 
 
-def _coefficients(eff: ThermalTermsEffect, fitted) -> np.ndarray:
-    """The fitted thermal coefficients [µm/K, µm/m/K] in the effect's parameter order."""
-    return fitted.b_[_slice(eff, fitted)] * UM_PER_M
-
-
 def refine_lag(fits: dict, fit_at, problem: LagProblem) -> tuple[float, float, np.ndarray | None]:
     """(lag [h], its standard deviation [h], the coefficients' change per hour of lag):
     the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place by the
