@@ -24,7 +24,13 @@ change per hour of lag, ``held_out['lag_gradient']``; the curvature's draws). An
 part spreads these evenly over the quarters; the parts' norms do not add up to the whole's
 (vectors), the whole is placed among the full draws.
 
-Run: python benchmarks/bench_thermal_parts.py [--seeds 10] [--seed S] [--amplitude 6 8] [--out PAGE]
+``--per-term``: the curvature's part split per term as the truth bends it: X's, Y's, and
+Z's with the tool's growth (on this machine the tool keeps its direction along Z: its
+growth is Z's offset), each the error left at the truth's lag less the error left on the
+same campaign drawn from the truth without that term's curvature, placed among vecpin's
+draws of the curvature of the bent terms that carry it (X; Y; Z and ``tool_growth``).
+
+Run: python benchmarks/bench_thermal_parts.py [--seeds 10] [--seed S] [--amplitude 6 8] [--per-term] [--out PAGE]
 """
 from __future__ import annotations
 
@@ -51,12 +57,15 @@ PAGE = Path(__file__).resolve().parents[1] / "docs" / "results" / "thermal_parts
 PARTS = ("whole", "lag", "curvature", "coefficients")
 
 
-def campaign(m, seed: int, amplitude, flat: bool = False):
-    """(truth, campaign, rng after it) of bench_thermal_truth's family; ``flat``: the truth's curvature 0."""
+def campaign(m, seed: int, amplitude, flat=False):
+    """(truth, campaign, rng after it) of bench_thermal_truth's family; ``flat``: the truth's curvature 0
+    (True: every term's; a set of names, X, Y, Z or growth: those)."""
     rng = np.random.default_rng(seed)
     truth = draw_truth(m, rng)
     if flat:
-        truth = replace(truth, nonlinear={a: 0.0 for a in truth.nonlinear}, growth_nonlinear=0.0)
+        off = set(truth.nonlinear) | {"growth"} if flat is True else set(flat)
+        truth = replace(truth, nonlinear={a: 0.0 if a in off else v for a, v in truth.nonlinear.items()},
+                        growth_nonlinear=0.0 if "growth" in off else truth.growth_nonlinear)
     n = 160
     q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
     period, amp, drift = rng.uniform(5, 9) * 3600, rng.uniform(*amplitude), rng.uniform(-0.2, 0.2)
@@ -97,7 +106,31 @@ def part_draws(terms, m, q, tool, tv) -> dict:
             "curvature": one(zero, terms.curvature), "coefficients": one(np.asarray(h["cov"]) - lag, {})}
 
 
-def one_seed(m, seed: int, amplitude) -> dict:
+TERMS = {"X": ({"X"}, ["X"]), "Y": ({"Y"}, ["Y"]), "Z+growth": ({"Z", "growth"}, ["Z", "tool_growth"])}
+
+
+def term_parts(m, seed, amplitude, terms, at_lag, true_lag, q, tool, tv) -> dict:
+    """Per term of :data:`TERMS`: (the truth's curvature part of it [um], vecpin's draws' median [um], place)."""
+    from vecpin.compensation.thermal import DRAWS, _only, tip_errors
+    from vecpin.compensation.thermalheld import bend_terms, curvature_draws
+    c = terms.curvature
+    d = tv - terms.t0_c
+    bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
+    names, per_k, cov = bend_terms(c)
+    kappa = curvature_draws(per_k, cov, np.random.default_rng(0), DRAWS)
+    out = {}
+    for key, (truth_names, bent) in TERMS.items():
+        t2, c2, _ = campaign(m, seed, amplitude, flat=truth_names)
+        um = float(np.linalg.norm(at_lag - left(m, t2, fitted(m, c2, (true_lag,)), c2, q, tool, tv), axis=1).mean())
+        e = sum(np.einsum("ni,d->dni", tip_errors(_only(terms, nm, c.get("growth_axis")), m, q, tool,
+                                                  terms.t0_c + bend), kappa[:, names.index(nm)])
+                for nm in bent if nm in names)
+        dr = np.linalg.norm(e, axis=2).mean(axis=1) * 1e6
+        out[key] = (um * 1e6, float(np.median(dr)), float(np.mean(dr < um * 1e6)))
+    return out
+
+
+def one_seed(m, seed: int, amplitude, per_term: bool = False) -> dict:
     truth, camp, rng = campaign(m, seed, amplitude)
     terms = fitted(m, camp)
     tv = terms.t0_c + 10.0 * rng.choice([-1.0, 1.0])
@@ -114,6 +147,8 @@ def one_seed(m, seed: int, amplitude) -> dict:
     for k in PARTS:
         um = float(np.linalg.norm(size[k], axis=1).mean() * 1e6)
         out[k] = (um, float(np.median(draws[k])) * 1e3, float(np.mean(draws[k] * 1e3 < um)))
+    if per_term:
+        out["terms"] = term_parts(m, seed, amplitude, terms, at_lag, true_lag, q, tool, tv)
     return out
 
 
@@ -134,6 +169,17 @@ def page(rows, base: int, amplitude) -> str:
               "|---|" + "---|" * len(PARTS)]
     lines += [f"| {r['seed']} | " + " | ".join(f"{r[k][0]:.1f} ({r[k][1]:.1f}, {r[k][2]:.0%})" for k in PARTS) + " |"
               for r in rows]
+    if all("terms" in r for r in rows):
+        lines += ["", "The curvature's part per term (`--per-term`: the docstring gives the split): the truth's part "
+                  "[um] placed among vecpin's draws of the bent terms that carry it.", "",
+                  "| term | quarters 0-25 / 25-50 / 50-75 / 75-100 % | mean place | median truth [um] | "
+                  "median of draws' medians [um] |", "|---|---|---|---|---|"]
+        for t in TERMS:
+            place = [r["terms"][t][2] for r in rows]
+            q4 = np.histogram(place, bins=[0, 0.25, 0.5, 0.75, 1.0])[0]
+            lines.append(f"| {t} | {' / '.join(str(v) for v in q4)} | {np.mean(place):.0%} | "
+                         f"{np.median([r['terms'][t][0] for r in rows]):.1f} | "
+                         f"{np.median([r['terms'][t][1] for r in rows]):.1f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -142,13 +188,14 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--seed", type=int, default=None, help="first seed (default: fresh)")
     ap.add_argument("--amplitude", type=float, nargs=2, default=(6.0, 8.0), help="the hall cycle's amplitude [K]")
+    ap.add_argument("--per-term", action="store_true", help="split the curvature's part per term (three more fits)")
     ap.add_argument("--out", type=Path, default=PAGE)
     args = ap.parse_args(argv)
     base = args.seed if args.seed is not None else secrets.randbelow(10 ** 6)
     m = vecpin.Machine.load("trunnion_xyzac")
     rows = []
     for k in range(args.seeds):
-        rows.append(one_seed(m, base + k, tuple(args.amplitude)))
+        rows.append(one_seed(m, base + k, tuple(args.amplitude), args.per_term))
         print(f"seed {base + k}: " + ", ".join(f"{p} {rows[-1][p][0]:.1f} um ({rows[-1][p][2]:.0%})" for p in PARTS),
               flush=True)
     text = page(rows, base, tuple(args.amplitude))

@@ -111,9 +111,10 @@ def test_lag_and_the_fold_of_the_growth(fitted):
     m, terms = fitted[:2]
     assert abs(terms.lag_h - 1.5) < 0.3 and 0 < terms.held_out["lag_std_h"] < 0.5   # refined between 1 and 2 h
     assert terms.growth_um_per_k is None and any("growth is Z's offset" in n for n in terms.notes)
-    c = terms.curvature                      # a curvature per axis (the growth is Z's), the truth's 1 %/K each
+    c = terms.curvature      # a curvature per axis, Z's offset (the growth) its own, the truth's 1 %/K each
     sd = np.sqrt(np.diag(c["cov_per_k"]))
-    assert c["names"] == ["X", "Y", "Z"] and np.all(np.abs(np.array(c["per_k"]) - 0.01) < 3 * sd)
+    assert c["names"] == ["X", "Y", "Z", "tool_growth"] and c["growth_axis"] == "Z"
+    assert np.all(np.abs(np.array(c["per_k"]) - 0.01) < 3 * sd)
 
 
 def test_what_the_data_cannot_separate_is_said():

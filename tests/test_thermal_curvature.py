@@ -54,7 +54,9 @@ def terms(curvature: dict) -> dict:
     ({"names": ["X"], "per_k": [0.01], "cov_per_k": [[1, 0]], "alpha": [1, 0]}, ["'curvature.cov_per_k'", "1 x 1"]),
     ({"names": ["X"], "per_k": ["a"], "cov_per_k": [[1]], "alpha": [1, 0]}, ["'curvature.per_k'", "one per name"]),
     ({"per_k": 0.01, "alpha": [1, 0]}, ["'curvature'", "std_per_k"]),
-], ids=["name", "cov-shape", "per-k", "old-without-std"])
+    ({"names": ["X", "tool_growth"], "per_k": [0, 0], "cov_per_k": [[1, 0], [0, 1]], "alpha": [1, 0],
+      "growth_axis": "W"}, ["'curvature.growth_axis'", "'W'"]),
+], ids=["name", "cov-shape", "per-k", "old-without-std", "growth-axis"])
 def test_a_curvature_record_edited_by_hand_is_refused(tmp_path, curvature, words):
     (tmp_path / "thermal.json").write_text(json.dumps(terms(curvature)))
     with pytest.raises(InputError) as e:
@@ -75,3 +77,37 @@ def test_an_older_file_with_one_curvature_still_predicts(tmp_path):
     # 0.01 x (10^2 - 3) K = 0.97 K, 5.8 um; the straight terms' own error (0.1 um/K x 10 K) beside it
     for r in (a, b):
         assert r.low < r.point < r.high and r.point == pytest.approx(6.0 * 0.97 * 1e-3, rel=0.15)
+
+
+def test_the_growth_and_the_axis_carrying_it_bend_apart():
+    """A tool that keeps its direction along Z: its growth is Z's offset. A machine whose
+    growth bends by +3 %/K and Z's expansion by -1 %/K (X, Y straight; Z's own offset 0;
+    Z expanding about its mid-travel, the terms' P0; no noise; exact lag): the fit gives
+    the offset (the growth) and the slope (Z's expansion) their own curvatures, each the
+    truth's relative to the gain at T0:
+    k / (1 + 2 k (T0 - 20)), the truth's curvature being about 20 degC (one shared
+    curvature could follow neither)."""
+    from thermal_truth import Truth, commands
+
+    from vecpin.compensation.thermal import fit_thermal
+    from vecpin.measurement.campaign import Campaign
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(11)
+    mid = 0.5 * (m.axis("Z").lower + m.axis("Z").upper)
+    truth = Truth(lag_s=3600.0, nonlinear={"X": 0.0, "Y": 0.0, "Z": -0.01}, offset={"X": 5e-6, "Y": -3e-6, "Z": 0.0},
+                  centre={"X": 0.1, "Y": -0.05, "Z": mid}, growth=8e-6, growth_nonlinear=0.03)
+    n = 100
+    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
+    air = 21 + 6 * np.sin(2 * np.pi * t / (7 * 3600))
+    tool = np.full(n, 0.12)
+    camp = Campaign(m.axis_names, q, tool, truth.tip(m, q, tool, truth.structure(t, air)),
+                    extra={"time": t, "temperature": air})
+    geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
+    terms, _ = fit_thermal(geo, camp, lags=(1.0,))
+    c = terms.curvature
+    per_k = dict(zip(c["names"], c["per_k"]))
+    assert c["growth_axis"] == "Z" and terms.growth_um_per_k is None
+    for name, k in (("tool_growth", 0.03), ("Z", -0.01)):
+        assert per_k[name] == pytest.approx(k / (1 + 2 * k * (terms.t0_c - 20.0)), rel=0.1)

@@ -43,11 +43,22 @@ def fitter(at: float, sd: float):
     return fit_at
 
 
+class Problem:
+    """The fit with the curvature free as a function of the lag (as LagProblem.solve answers): the parabola's."""
+
+    def __init__(self, at: float, sd: float):
+        self.fit_at = fitter(at, sd)
+
+    def solve(self, lag: float):
+        f = self.fit_at(lag)[1]
+        return f.report_.chi2, f.report_.chi2_expected, f.b_[6:9]
+
+
 @pytest.mark.parametrize("straight, bent, sd", [(2.0, 1.86, 0.03), (0.9, 0.95, 0.01), (3.1, 3.3, 0.2)])
 def test_the_lag_its_deviation_and_the_coefficients_change_are_the_bent_fits(straight, bent, sd):
     fit_at = fitter(straight, 5 * sd)                    # the straight fit: a biased, narrower-looking minimum
     fits = {lag: fit_at(lag) for lag in (0.0, 0.5, 1.0, 2.0, 4.0)}
-    lag, std, gradient = refine_lag(fits, fit_at, fitter(bent, sd))
+    lag, std, gradient = refine_lag(fits, fit_at, Problem(bent, sd))
     assert lag == pytest.approx(bent, abs=0.011)         # kept to 0.01 h
     assert std == pytest.approx(sd, rel=1e-3)            # Δχ² = χ²/dof at one standard deviation
     assert gradient == pytest.approx(SLOPE, rel=1e-6)
@@ -57,7 +68,7 @@ def test_the_lag_its_deviation_and_the_coefficients_change_are_the_bent_fits(str
 def test_at_an_end_of_the_scan_the_lag_is_not_refined():
     fit_at = fitter(6.0, 0.5)
     fits = {lag: fit_at(lag) for lag in (0.0, 0.5, 1.0, 2.0, 4.0)}
-    lag, std, gradient = refine_lag(fits, fit_at, fit_at)
+    lag, std, gradient = refine_lag(fits, fit_at, Problem(6.0, 0.5))
     assert lag == pytest.approx(4.0, abs=0.011) and std == 0.0 and gradient is None
 
 
@@ -92,3 +103,47 @@ def test_the_blocks_spread_leaves_the_curvature_to_its_own_draws():
     kept = np.sqrt(np.diag(terms.held_out["cov"]))
     assert straight.max() > 0.05                                  # um/K, um/m/K: the projection moves them
     assert np.all(kept < 0.2 * straight + 1e-3)
+
+
+def test_the_lag_problem_is_the_bent_fit_at_that_lag():
+    """The lag's refinement solves the fit with the curvature free at each lag from one
+    linearisation of the straight fit at a scanned lag (the geometry factorised once):
+    at another lag its objective and thermal coefficients are those of the full fit
+    there (vecpin's own Gauss-Newton fit of geometry, terms and curvature), to a small
+    fraction of the coefficients' standard deviations."""
+    from thermal_truth import Truth, commands
+
+    import vecpin
+    from vecpin.compensation.thermaleffect import ThermalTermsEffect
+    from vecpin.compensation.thermalheld import LagProblem, bent_fit
+    from vecpin.measurement.campaign import Campaign
+    from vecpin.measurement.features import Features
+    from vecpin.measurement.noise import NoiseModel
+    from vecpin.models import make_model
+    from vecpin.models.effects.thermal import lagged
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(7)
+    truth = Truth(lag_s=1.3 * 3600.0, nonlinear={"X": 0.01, "Y": -0.005, "Z": 0.015}, growth_nonlinear=0.01)
+    n = 100
+    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
+    air = 21 + 6 * np.sin(2 * np.pi * t / (7 * 3600))
+    tool = np.full(n, 0.12)
+    xyz = truth.tip(m, q, tool, truth.structure(t, air)) + rng.normal(0, 3e-6, (n, 3))
+    camp = Campaign(m.axis_names, q, tool, xyz, extra={"time": t, "temperature": air})
+    feats = Features.from_campaign(camp)
+    noise = NoiseModel.default(m, "spherical")
+    geo = make_model("6dof", m, 2).fit(camp, noise)
+    p0 = {a: 0.5 * (m.axis(a).lower + m.axis(a).upper) for a in "XYZ"}
+
+    def effect(lag):
+        return ThermalTermsEffect(m, ("X", "Y", "Z"), float(np.mean(lagged(t, air, lag))), lag, p0, growth=False)
+
+    eff = effect(1.0)
+    straight = geo.with_effects(list(geo.effects) + [eff]).fit(camp, noise)
+    values = straight.b_[next(s for e, s in straight.effect_slices() if e is eff)]
+    obj, _, coef = LagProblem(straight, camp, feats, eff, effect, values).solve(1.5)
+    other = effect(1.5)
+    full, _ = bent_fit(geo, camp, noise, other, values, feats)
+    sl = next(s for e, s in full.effect_slices() if e is other)
+    assert obj == pytest.approx(full.report_.chi2, rel=1e-3)
+    assert np.all(np.abs(coef - full.b_[sl]) < 0.02 * full.std_[sl])

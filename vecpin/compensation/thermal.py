@@ -39,7 +39,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from vecpin.compensation.thermaleffect import BENT_GROWTH, ThermalTermsEffect
-from vecpin.compensation.thermalheld import bend_terms, bent_fit, curvature, curvature_draws, held_out, with_lag
+from vecpin.compensation.thermalheld import (LagProblem, bend_terms, bent_fit, curvature, curvature_draws, held_out,
+                                              with_lag)
 from vecpin.errors import InputError, VecpinError
 from vecpin.fileio import write_text
 from vecpin.measurement.features import Features
@@ -225,13 +226,16 @@ def _draws(cov, rng, dof: int) -> np.ndarray:
     return z * np.sqrt(dof / rng.chisquare(dof, (DRAWS, 1))) if dof > 0 else z
 
 
-def _only(terms: ThermalTerms, name: str) -> ThermalTerms:
-    """The terms of one bent term ``name`` (an axis, :data:`BENT_GROWTH`, or all of them), the others 0."""
+def _only(terms: ThermalTerms, name: str, along: str | None = None) -> ThermalTerms:
+    """The terms of one bent term ``name`` (an axis, :data:`BENT_GROWTH`, or all of them), the others 0;
+    ``along``: the axis whose offset carries the tool's growth (bent as :data:`BENT_GROWTH`, its slope as the axis)."""
     if name not in terms.axes and name != BENT_GROWTH:
         return terms
-    keep = {name} if name in terms.axes else set()
-    return dataclasses.replace(terms, offset_um_per_k={a: v * (a in keep) for a, v in terms.offset_um_per_k.items()},
-                               slope_um_per_m_per_k={a: v * (a in keep) for a, v in terms.slope_um_per_m_per_k.items()},
+    offsets = {name} if name in terms.axes and name != along else {along} if name == BENT_GROWTH else set()
+    slopes = {name} if name in terms.axes else set()
+    off, slope = terms.offset_um_per_k, terms.slope_um_per_m_per_k
+    return dataclasses.replace(terms, offset_um_per_k={a: v * (a in offsets) for a, v in off.items()},
+                               slope_um_per_m_per_k={a: v * (a in slopes) for a, v in slope.items()},
                                growth_um_per_k=terms.growth_um_per_k if name == BENT_GROWTH else None)
 
 
@@ -261,7 +265,8 @@ def remaining_mm(terms: ThermalTerms, machine, q: np.ndarray, tool, temperature_
         bend = d ** 2 - c["alpha"][0] - c["alpha"][1] * d
         names, per_k, cov = bend_terms(c)
         kappa = curvature_draws(per_k, cov, rng, DRAWS)
-        bent = np.stack([tip_errors(_only(terms, nm), machine, q, tool, terms.t0_c + bend) for nm in names], -1)
+        bent = np.stack([tip_errors(_only(terms, nm, c.get("growth_axis")), machine, q, tool, terms.t0_c + bend)
+                         for nm in names], -1)
         e = e + np.einsum("nik,dk->dni", bent, kappa)
     mean = np.linalg.norm(e, axis=2).mean(axis=1) * 1e3
     lo, hi = np.percentile(mean, BAND)
@@ -378,17 +383,14 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     scanned = fits[min(fits, key=lambda v: fits[v][1].report_.chi2)]
     values = scanned[1].b_[_slice(*scanned)]
     if np.ptp(campaign.temperature) > 0:
-        def bent_at(lag: float):
-            eff = effect(lag)
-            return eff, bent_fit(geometric, campaign, noise, eff, values, feats)[0]
-
-        lag, lag_std, gradient = refine_lag(fits, fit_at, bent_at)
+        lag, lag_std, gradient = refine_lag(fits, fit_at, LagProblem(scanned[1], campaign, feats, scanned[0], effect,
+                                                                     values, along))
     else:
         lag, lag_std, gradient = scanned[0].lag_h, 0.0, None
     eff, fitted = fits[lag]
     terms = _terms(m, eff, fitted, campaign, feats, along)
     if np.ptp(eff.delta(feats)) > 0:
-        bent, curve = bent_fit(geometric, campaign, noise, eff, fitted.b_[_slice(eff, fitted)], feats)
+        bent, curve = bent_fit(geometric, campaign, noise, eff, fitted.b_[_slice(eff, fitted)], feats, along)
         terms.held_out = with_lag(held_out(bent, campaign, feats, eff, fixed=curve), lag_std, gradient)
         terms.curvature = curvature(bent, curve)
     else:
@@ -407,54 +409,41 @@ def _slice(eff: ThermalTermsEffect, fitted) -> slice:
     return next(s for e, s in fitted.effect_slices() if e is eff)
 
 
-def _coefficients(eff: ThermalTermsEffect, fitted) -> np.ndarray:
-    """The fitted thermal coefficients [µm/K, µm/m/K] in the effect's parameter order."""
-    return fitted.b_[_slice(eff, fitted)] * UM_PER_M
-
-
-def refine_lag(fits: dict, fit_at, bent_at) -> tuple[float, float, np.ndarray | None]:
+def refine_lag(fits: dict, fit_at, problem: LagProblem) -> tuple[float, float, np.ndarray | None]:
     """(lag [h], its standard deviation [h], the coefficients' change per hour of lag):
     the scanned lags' fits ``fits`` (lag -> (effect, fitted), extended in place by the
     lag kept) bracket the lag (the best of them and its neighbours), and within that
-    bracket the lag is the one whose fit *with the curvature per term* (``bent_at``: lag
-    -> (effect, that fit)) leaves the smallest chi-square (bounded Brent, to
+    bracket the lag is the one whose fit *with the curvature per term* leaves the smallest
+    objective (``problem``: that fit as a function of the lag, the geometry factorised
+    once, :class:`~vecpin.compensation.thermalheld.LagProblem`; bounded Brent, to
     :data:`LAG_STEP_H`). Without the curvature, the curvature a wide temperature cycle
     shows moves the lag (a lag and a bend both change the gain the terms find over a
     cycle) by several of the straight fit's standard deviations. A lag off the truth by a
     fraction of the scan's step changes that gain by as much (the lag damps the cycle),
     and the steady error 10 K away with it: the lag's standard deviation (the
-    chi-square's second difference over ± :data:`LAG_DELTA_H` about it, Δχ² = 1 times
+    objective's second difference over ± :data:`LAG_DELTA_H` about it, Δχ² = 1 times
     the fit's χ² per degree of freedom: the noise the residuals show; the curvature free,
     so its trade with the lag counted) and the coefficients' change with it (their
-    central difference over the same fits: the curvature's column is orthogonal to the
-    straight terms', so they are the straight fit's) go into the prediction. At an end
+    central difference over the same solutions: the curvature's column is orthogonal to
+    the straight terms', so they are the straight fit's) go into the prediction. At an end
     of the scan: not refined (standard deviation 0, no change)."""
     lags = sorted(fits)
     k = min(range(len(lags)), key=lambda i: fits[lags[i]][1].report_.chi2)
     if len(lags) < 2:
         return lags[k], 0.0, None
-    bent: dict[float, tuple] = {}
-
-    def at(lag: float) -> tuple:
-        lag = round(float(lag), 3)
-        if lag not in bent:
-            bent[lag] = bent_at(lag)
-        return bent[lag]
-
     lo, hi = lags[max(k - 1, 0)], lags[min(k + 1, len(lags) - 1)]
-    x = float(minimize_scalar(lambda v: at(v)[1].report_.chi2, bounds=(lo, hi), method="bounded",
+    x = float(minimize_scalar(lambda v: problem.solve(v)[0], bounds=(lo, hi), method="bounded",
                               options={"xatol": LAG_STEP_H}).x)
     best = round(x, 2)
     if best not in fits:
         fits[best] = fit_at(best)
     if best - LAG_DELTA_H < lags[0] or best + LAG_DELTA_H > lags[-1]:
         return best, 0.0, None
-    below, mid, above = (at(x + s * LAG_DELTA_H) for s in (-1, 0, 1))
-    rep = mid[1].report_
-    a = (below[1].report_.chi2 + above[1].report_.chi2 - 2 * rep.chi2) / (2 * LAG_DELTA_H ** 2)
-    scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
+    below, mid, above = (problem.solve(x + s * LAG_DELTA_H) for s in (-1, 0, 1))
+    a = (below[0] + above[0] - 2 * mid[0]) / (2 * LAG_DELTA_H ** 2)
+    scale = mid[0] / mid[1] if mid[1] > 0 else 1.0
     std = float(np.sqrt(scale / a)) if a > 0 else 0.5 * (hi - lo)   # flat: the bracket's half-width
-    return best, std, (_coefficients(*above) - _coefficients(*below)) / (2 * LAG_DELTA_H)
+    return best, std, (above[2] - below[2]) * UM_PER_M / (2 * LAG_DELTA_H)
 
 
 def _terms(m, eff: ThermalTermsEffect, fitted, campaign, feats, along: str | None) -> ThermalTerms:

@@ -78,21 +78,27 @@ class CurvatureEffect(ThermalTermsEffect):
     campaign's rows, so the curvature is what the straight terms cannot follow; a
     structure whose expansion coefficient grows with the temperature, each axis its own
     way). ``values``: the fitted terms' coefficients [SI] in :class:`ThermalTermsEffect`'s
-    order. Fitted beside the terms only to bound how far the error may bend beyond the
-    measured temperatures (:func:`vecpin.compensation.thermalheld.curvature`); the
-    controllers' forms are straight in T and carry no such term."""
+    order. ``along``: the axis whose offset carries the tool's growth (the tool keeps its
+    direction along it, :func:`vecpin.compensation.thermal.growth_axis`): that offset
+    bends as the tool's growth, its slope (the axis' own expansion) as the axis, two
+    curvatures a campaign that moves the axis at several temperatures tells apart (one
+    shared, the growth's bend and the expansion's are forced alike). Fitted beside the
+    terms only to bound how far the error may bend beyond the measured temperatures
+    (:func:`vecpin.compensation.thermalheld.curvature`); the controllers' forms are
+    straight in T and carry no such term."""
 
     name = "thermal_curvature"
     summary = "the thermal terms' relative curvature with the temperature, per term (a bound for the extrapolation)"
 
-    def __init__(self, terms: ThermalTermsEffect, values, alpha):
+    def __init__(self, terms: ThermalTermsEffect, values, alpha, along: str | None = None):
         super().__init__(terms.machine, terms.axes, terms.t_ref, terms.lag_h, terms.p0, terms.growth)
         self.values, self.alpha = np.asarray(values, float), (float(alpha[0]), float(alpha[1]))
+        self.along = along if along in terms.axes and not terms.growth else None
 
     @property
     def bent(self) -> list[str]:
         """The terms that bend, in the parameters' order: the axes, then the tool's growth."""
-        return list(self.axes) + ([BENT_GROWTH] if self.growth else [])
+        return list(self.axes) + ([BENT_GROWTH] if self.growth or self.along else [])
 
     def delta(self, feats: Features) -> np.ndarray:
         d = super().delta(feats)
@@ -104,8 +110,10 @@ class CurvatureEffect(ThermalTermsEffect):
     def _per_term(self, S: np.ndarray) -> np.ndarray:
         """(N, k, bent) the terms' columns ``S`` (N, k, terms) times their values, summed per bent term."""
         W = np.zeros((self.n_terms, len(self.bent)))
-        for j in range(len(self.axes)):
+        for j, a in enumerate(self.axes):
             W[2 * j:2 * j + 2, j] = self.values[2 * j:2 * j + 2]
+            if a == self.along:
+                W[2 * j, j], W[2 * j, -1] = 0.0, self.values[2 * j]
         if self.growth:
             W[-1, -1] = self.values[-1]
         return S @ W

@@ -87,6 +87,9 @@ def _check_curvature(c, axes, bad) -> None:
     known = set(axes) | {"tool_growth"}
     if not isinstance(names, list) or not names or not all(isinstance(n, str) and n in known for n in names):
         raise bad("curvature.names", f"{names!r}: the bent terms, each an axis of 'axes' or tool_growth")
+    if "growth_axis" in c and c["growth_axis"] not in axes:
+        raise bad("curvature.growth_axis", f"{c['growth_axis']!r}: the axis whose offset carries the tool's growth, "
+                  "one of 'axes'")
     n = len(names)
     if not isinstance(per_k, list) or len(per_k) != n or not all(_number(v) for v in per_k):
         raise bad("curvature.per_k", f"{n} finite numbers [1/K], one per name")

@@ -36,9 +36,11 @@ from __future__ import annotations
 import copy
 
 import numpy as np
+from scipy import linalg
 
 from vecpin.compensation.thermaleffect import CurvatureEffect, ThermalTermsEffect
 from vecpin.identification.linearised import Linearised
+from vecpin.models.effects.base import TipContext
 from vecpin.models.effects.thermal import lagged
 
 BLOCKS = 5          # time blocks held out in turn
@@ -117,24 +119,28 @@ def curvature(bent, curve: CurvatureEffect) -> dict:
     their covariance (scaled by the fit's chi-square per degree of freedom: the noise the
     residuals show), ``alpha`` [K^2, K]. A campaign whose temperatures span a few kelvin
     seldom resolves a curvature but bounds it; extrapolated 10 K away that bound is a
-    large part of what the terms leave. (An older ``thermal.json`` holds one curvature
+    large part of what the terms leave. ``growth_axis``: the axis whose offset carries the
+    tool's growth, where there is one (``tool_growth`` then bends that offset, the axis'
+    name its slope; without the key, an older file: the axis bends both). (An older ``thermal.json`` holds one curvature
     for all terms, ``per_k`` and ``std_per_k``: :func:`bend_terms` reads both.)"""
     k = next(s for e, s in bent.effect_slices() if e is curve)
     rep = bent.report_
     scale = rep.chi2 / rep.chi2_expected if rep.chi2_expected > 0 else 1.0
     idx = np.arange(k.start, k.stop) + 6
-    return {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
-            "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": list(curve.alpha)}
+    out = {"names": curve.bent, "per_k": [float(v) for v in bent.b_[k]],
+           "cov_per_k": (scale * bent.cov_[np.ix_(idx, idx)]).tolist(), "alpha": list(curve.alpha)}
+    return out | ({"growth_axis": curve.along} if curve.along else {})
 
 
-def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats):
+def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats, along: str | None = None):
     """(the ``geometric`` model refitted with the terms ``eff`` and their curvature per
     term, the :class:`~vecpin.compensation.thermaleffect.CurvatureEffect`): the curvature
     linearised at the terms' coefficients ``values`` [SI], its ``alpha`` (d^2 regressed
-    on 1 and d over the campaign's rows, d the lagged temperature change [K])."""
+    on 1 and d over the campaign's rows, d the lagged temperature change [K]); ``along``:
+    the axis whose offset carries the tool's growth (its offset and slope bend apart)."""
     d = eff.delta(feats)
     alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-    curve = CurvatureEffect(eff, values, alpha)
+    curve = CurvatureEffect(eff, values, alpha, along)
     return geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise), curve
 
 
@@ -193,3 +199,62 @@ def curvature_draws(per_k, cov, rng, draws: int) -> np.ndarray:
     w, V = np.linalg.eigh(0.5 * (S + np.transpose(S, (0, 2, 1))))
     z = rng.standard_normal((draws, K)) * np.sqrt(np.clip(w, 0.0, None))
     return mean + np.einsum("dij,dj->di", V, z)
+
+
+class LagProblem:
+    """The fit with the curvature per term (:func:`bent_fit`) as a function of the lag,
+    linearised once at a straight fit ``fitted`` (geometry and the terms ``eff``): the
+    lag moves only the terms' and the curvature's columns (the lagged temperature), not
+    the geometry's, so the geometry's normal block (its prior included) is factorised
+    once and each lag solves the small Schur complement of the 10-odd thermal columns
+    (the objective ``|w|^2 + |psi|^2`` of :func:`vecpin.identification.fit.fit`, exact
+    for a model linear in its unknowns; the geometry's Gauss-Newton step from the
+    scanned fit is of µrad). ``effect``: lag [h] -> its
+    :class:`~vecpin.compensation.thermaleffect.ThermalTermsEffect`; ``values`` [SI]: the
+    terms' coefficients the curvature is linearised at, ``along`` the axis carrying the
+    tool's growth (:func:`bent_fit`)."""
+
+    def __init__(self, fitted, campaign, feats, eff: ThermalTermsEffect, effect, values, along: str | None = None):
+        lin = Linearised(fitted, campaign, fitted.noise_, feats)
+        kept = [nm for nm, k in zip(lin.likelihood.names, lin.keep) if k]
+        own = {p.name for p in eff.parameters()}
+        geo = np.array([nm not in own for nm in kept])
+        self.lin, self.feats, self.effect, self.values, self.q = lin, feats, effect, np.asarray(values), campaign.q
+        self.along = along
+        J = lin.J.reshape(-1, lin.J.shape[-1])
+        self.y = lin.w.reshape(-1) + J @ lin.psi0                 # the residuals with every unknown at 0
+        self.Jg = J[:, geo]
+        self.cho = linalg.cho_factor(self.Jg.T @ self.Jg + np.eye(self.Jg.shape[1]))
+        self.a = linalg.cho_solve(self.cho, self.Jg.T @ self.y)
+        self.trace_g = float(np.trace(linalg.cho_solve(self.cho, np.eye(self.Jg.shape[1]))))
+        tips = fitted.tool_tip(campaign.q, campaign.tool, fitted.b_, jacobian=True, features=feats)
+        self.Jq, self.ctx = tips.J_q, TipContext(fitted.machine, campaign.q, tips.tip, tips.tool_dir)
+
+    def _columns(self, lag: float) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, k) the whitened prior-scaled columns of the terms and their curvature at
+        ``lag`` [h], and each column's prior [SI]."""
+        eff = self.effect(lag)
+        d = eff.delta(self.feats)
+        alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
+        curve = CurvatureEffect(eff, self.values, alpha, self.along)
+        D = [np.einsum("pin,pnk->pik", self.Jq, e.command(self.q, self.feats)) + e.tip(self.ctx, self.feats)
+             for e in (eff, curve)]
+        prior = np.array([p.prior for e in (eff, curve) for p in e.parameters()])
+        cols = self.lin.point_columns(np.concatenate(D, axis=-1), prior)[1]
+        return cols.reshape(-1, cols.shape[-1]), prior
+
+    def solve(self, lag: float) -> tuple[float, float, np.ndarray]:
+        """(the objective at ``lag`` [h], the equations less the effective parameters, the
+        terms' coefficients [SI] in the effect's order)."""
+        Jt, prior = self._columns(lag)
+        B = self.Jg.T @ Jt
+        M = linalg.cho_solve(self.cho, B)
+        S = Jt.T @ Jt + np.eye(Jt.shape[1]) - B.T @ M                       # the Schur complement
+        Sinv = np.linalg.inv(S)
+        pt = Sinv @ (Jt.T @ self.y - B.T @ self.a)
+        pg = self.a - M @ pt
+        obj = float(self.y @ self.y - pg @ (self.Jg.T @ self.y) - pt @ (Jt.T @ self.y))
+        trace = self.trace_g + float(np.sum((M @ Sinv) * M)) + float(np.trace(Sinv))
+        p_eff = self.Jg.shape[1] + Jt.shape[1] - trace
+        n_terms = self.effect(lag).n_terms
+        return obj, self.lin.n_equations - p_eff, (pt * prior)[:n_terms]
