@@ -6,9 +6,10 @@ head-table, twin-drive gantry), a clean campaign each (tool rows with two tools,
 table). vecpin runs as a user following the plan runs it: ``vecpin fit`` (the default model choice,
 given the tracker's and the axes' noise as their specs state them, and every table nest's height
 above the table's face with ``--nest-height`` as the plan's nest_heights.csv asks: the generator's
-true height read by a height gauge with a normal error of GAUGE_SIGMA_MM) and ``vecpin tables`` for
-the generic files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the
-heights (*no heights*) and with the exact heights (*exact heights*), generic files only, each against
+true height read by a height gauge with a normal error of GAUGE_SIGMA_MM, the reading's standard
+deviation left to vecpin's default as the plan's file states it) and ``vecpin tables`` for the generic
+files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the heights (*no
+heights*) and with the exact heights, stated exact (*exact heights*), generic files only, each against
 the best set for its own tables.
 
 The judge is written without vecpin: the generator's own numpy kinematics is the true machine; the
