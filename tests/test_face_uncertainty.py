@@ -36,25 +36,28 @@ def _nests(n=5, radius=0.18, seed=0):
 
 def test_the_tilt_covariance_is_the_plane_fits():
     """Nests evenly on a circle, one standard deviation: the slopes' covariance is sd^2 / (n r^2 / 2) per
-    component (the closed form); uneven nests with uneven reading and fitted-position sds: the covariance
-    of a Monte Carlo of the weighted plane fit (numpy's lstsq on the readings drawn), within its sampling."""
+    component (the closed form); uneven nests with uneven reading and fitted-position sds, and a shift common
+    to every fitted nest (which tilts nothing): the covariance of a Monte Carlo of the plane fit, weighted by
+    the readings' and the nests' own variances (numpy's lstsq on the readings drawn), within its sampling."""
     n, r, sd = 4, 0.15, 0.02e-3
     a = 2 * np.pi * np.arange(n) / n + 0.4
     P = np.column_stack([r * np.cos(a), r * np.sin(a), np.full(n, 0.03)])
-    face = face_tilt(P, UP, P[:, 2], [sd] * n, [0.0] * n)
+    face = face_tilt(P, UP, P[:, 2], [sd] * n)
     np.testing.assert_allclose(face.cov, np.eye(2) * sd ** 2 / (n * r * r / 2), rtol=1e-9, atol=1e-20)
     np.testing.assert_allclose(face.tilt_cov, face.cov, rtol=1e-9, atol=1e-20)   # isotropic: the same
     P = _nests(5)
     reading = np.array([0.01, 0.03, 0.02, 0.005, 0.02]) * 1e-3
     fitted = np.array([0.004, 0.002, 0.0, 0.006, 0.003]) * 1e-3
-    face = face_tilt(P, UP, P[:, 2] - 0.001, reading, fitted)
+    common = 0.06e-3 ** 2 * np.ones((5, 5))     # a shift of every fitted nest (the fit's gauge): no tilt
+    face = face_tilt(P, UP, P[:, 2] - 0.001, reading, np.diag(fitted ** 2) + common)
     sd = np.hypot(reading, fitted)
+    weight_sd = np.sqrt(sd ** 2 + 0.06e-3 ** 2)   # each nest weighted by its whole variance, as a metrologist would
     rng = np.random.default_rng(7)
     draws = 4000
     # the face's height at each nest, P_z - h, read with noise: z = c - a x1 - b x2, (x1, x2) = (y, -x)
-    A = np.column_stack([-P[:, 1], P[:, 0], np.ones(5)]) / sd[:, None]
-    noise = rng.normal(size=(draws, 5)) * sd
-    slopes = np.linalg.lstsq(A, ((0.001 + noise) / sd).T, rcond=None)[0][:2].T
+    A = np.column_stack([-P[:, 1], P[:, 0], np.ones(5)]) / weight_sd[:, None]
+    noise = rng.normal(size=(draws, 5)) * sd + rng.normal(size=(draws, 1)) * 0.06e-3
+    slopes = np.linalg.lstsq(A, ((0.001 + noise) / weight_sd).T, rcond=None)[0][:2].T
     mc = np.cov(slopes.T)
     # sampling error of a covariance from 4000 draws: a few % of its scale
     np.testing.assert_allclose(face.cov, mc, atol=0.06 * np.abs(mc).max())
@@ -92,12 +95,11 @@ def test_a_face_beyond_the_prior_is_kept_as_read_and_poor_layouts_get_advice():
     P = _nests(4, 0.2, seed=5)
     tilt = np.array([400e-6, 450e-6])
     h = np.array([_slope_height(p, tilt) for p in P])
-    face = face_tilt(P, UP, P[:, 2] - h, [2e-6] * 4, [0.0] * 4)
+    face = face_tilt(P, UP, P[:, 2] - h, [2e-6] * 4)
     assert not face.consistent and face.kept == pytest.approx(face.slopes) and "check the heights" in face.how
     n, r, sd = 3, 0.06, 0.02e-3
     a = 2 * np.pi * np.arange(n) / n
-    near = face_tilt(np.column_stack([r * np.cos(a), r * np.sin(a), np.full(n, 0.03)]), UP, [0.03] * 3, [sd] * 3,
-                     [0.0] * 3)
+    near = face_tilt(np.column_stack([r * np.cos(a), r * np.sin(a), np.full(n, 0.03)]), UP, [0.03] * 3, [sd] * 3)
     assert near.sd > FACE_TARGET and "farther from the table's axis" in near.known()
     radius_mm = sd * np.sqrt(2 / n) / FACE_TARGET * 1e3
     assert f"evenly at {radius_mm:.0f} mm" in near.known()
@@ -145,7 +147,7 @@ def test_the_files_sd_column_round_trips_and_older_files_still_read(tmp_path):
         with pytest.raises(CampaignFileError, match=f"bad.csv, row 3, column 'height_sd_mm': {why}"):
             read_nest_heights(tmp_path / "bad.csv")
     exact = nest_heights_csv(nests, measured=True).splitlines()
-    assert exact[1] == "1,20.00,20.00,0"
+    assert exact[1] == "1,20.00,20.0000,0"
     assert check_nest_heights({"1": (20, 0.01), "2": 21, "3": 22}, nests) == pytest.approx(
         {"1": 0.02, "2": 0.021, "3": 0.022})
     with pytest.raises(InputError, match=r"`nest_heights` 1: 9 mm: the standard deviation of nest 1's"):

@@ -57,23 +57,23 @@ FLOOR_SD = 1e-9            # m: a reading's standard deviation at least this (ex
 class FaceTilt:
     """The table's face from the nests' heights and what the tables keep of it, in a frame
     whose ``axes`` (e1, e2) are square to the spindle: ``slopes`` (2,) [rad] of the face from
-    the heights alone (its normal is up + a e1 + b e2) with covariance ``cov`` (2,2) [rad^2];
-    ``kept``, ``kept_cov``: the same combined with the frame without heights (module text);
-    ``consistent``: False where the two disagree beyond chance (the face kept alone);
-    ``prior`` [rad]; ``spread`` [m^2]: the smallest eigenvalue of the nests' weighted layout
-    about their centre, square to the spindle, in units of the mean weight; ``reading_sd``,
-    ``nest_sd`` [m]: the heights' and the fitted nests' rms standard deviations; ``n``: nests."""
+    the heights alone (its normal is up + a e1 + b e2) with covariance ``cov`` (2,2) [rad^2],
+    of which ``from_nests`` (2,2) is the fitted nests' share; ``kept``, ``kept_cov``: the same
+    combined with the frame without heights (module text); ``consistent``: False where the two
+    disagree beyond chance (the face kept alone); ``prior`` [rad]; ``spread`` [m^2]: the
+    smallest eigenvalue of the nests' layout about their centre, square to the spindle;
+    ``reading_sd`` [m]: the heights' rms standard deviation; ``n``: nests."""
 
     axes: tuple
     slopes: np.ndarray
     cov: np.ndarray
+    from_nests: np.ndarray
     kept: np.ndarray
     kept_cov: np.ndarray
     consistent: bool
     prior: float
     spread: float
     reading_sd: float
-    nest_sd: float
     n: int
 
     @staticmethod
@@ -94,12 +94,12 @@ class FaceTilt:
     @property
     def sd(self) -> float:
         """The face's 1 sigma tilt uncertainty from the heights alone [rad] (its largest direction)."""
-        return float(np.sqrt(max(np.linalg.eigvalsh(self.cov).max(), 0.0)))
+        return _largest_sd(self.cov)
 
     @property
     def kept_sd(self) -> float:
         """The kept face's 1 sigma tilt uncertainty [rad] (its largest direction)."""
-        return float(np.sqrt(max(np.linalg.eigvalsh(self.kept_cov).max(), 0.0)))
+        return _largest_sd(self.kept_cov)
 
     @property
     def weight(self) -> float:
@@ -123,46 +123,62 @@ class FaceTilt:
 
     def known(self) -> str:
         """The face's tilt uncertainty as printed [µrad], with advice when it is above :data:`FACE_TARGET`."""
-        text = (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from the heights (1σ tilt), ±{self.kept_sd * 1e6:.0f}"
-                " µrad as kept")
+        text = (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from the heights (1σ tilt), "
+                f"±{self.kept_sd * 1e6:.0f} µrad as kept")
         return text + ("" if self.sd <= FACE_TARGET else "; " + self.advice())
 
     def advice(self) -> str:
         """What would bring the face's tilt uncertainty to :data:`FACE_TARGET`: the nests farther
-        from the table's axis, or the heights read better."""
-        z = float(np.hypot(self.reading_sd, self.nest_sd))
-        radius = z * np.sqrt(2.0 / self.n) / FACE_TARGET           # n nests evenly on a circle: spread n r^2 / 2
-        need = FACE_TARGET * np.sqrt(self.spread)                   # the z sigma that meets it at these nests
-        gauge = np.sqrt(max(need ** 2 - self.nest_sd ** 2, 0.0))
-        better = (f"or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)" if gauge > 0 else
-                  "(the fitted nests alone are too uncertain here: more nest readings)")
+        from the table's axis, or the heights read better (the fitted nests' share as it is)."""
+        room = FACE_TARGET ** 2 - _largest_sd(self.from_nests) ** 2     # what the readings may add
+        if room <= 0:
+            return (f"above the {FACE_TARGET * 1e6:.0f} µrad target, and the fitted nests' heights alone are "
+                    "that uncertain: more nest readings, or nests farther from the table's axis")
+        radius = self.reading_sd * np.sqrt(2.0 / self.n / room)      # n nests evenly on a circle: spread n r^2 / 2
+        gauge = np.sqrt(room * self.spread)                           # the readings' sd that meets it at these nests
         return (f"above the {FACE_TARGET * 1e6:.0f} µrad target: place the {self.n} nests farther from the table's "
                 f"axis, evenly at {radius * MM_PER_M:.0f} mm from it where the table allows (the heights read to "
-                f"{self.reading_sd * MM_PER_M:.3f} mm), {better}")
+                f"{self.reading_sd * MM_PER_M:.3f} mm), or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)")
 
 
-def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_sds, prior: float = TABLE_FACE_PRIOR
+def _largest_sd(cov: np.ndarray) -> float:
+    return float(np.sqrt(max(np.linalg.eigvalsh(cov).max(), 0.0)))
+
+
+def nest_z_cov(setup, ids: list[str]) -> np.ndarray:
+    """(N,N) [m^2]: the covariance of the fitted nests ``ids``' z coordinates (workpiece frame),
+    from ``setup.nest_z_cov`` where the fit left it, else their standard deviations alone
+    (``setup.std``: a shift of them all, which no tilt sees, then counts as tilts: larger)."""
+    full = getattr(setup, "nest_z_cov", None) or {}
+    where = {k: i for i, k in enumerate(full.get("ids", []))}
+    if all(k in where for k in ids):
+        idx = [where[k] for k in ids]
+        return np.asarray(full["cov"], float)[np.ix_(idx, idx)]
+    return np.diag([setup.std.get(f"nest{k}.z", 0.0) ** 2 for k in ids])
+
+
+def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior: float = TABLE_FACE_PRIOR
               ) -> FaceTilt | None:
     """The face the nests at ``P`` (N,3) [m] lie ``heights`` (N,) [m] above, read with
     standard deviations ``sds`` (N,) [m; None: :data:`~vecpin.measurement.nestheights.GAUGE_SD_MM`],
-    the nests found to ``nest_sds`` (N,) [m] along ``up`` (the spindle's opposite), combined
-    with the prior ``prior`` [rad] (module text); None when the nests are fewer than three
-    or on a line."""
+    the nests' positions along ``up`` (the spindle's opposite) found with covariance
+    ``nest_cov`` (N,N) [m^2; None: exact], combined with the prior ``prior`` [rad] (module
+    text); None when the nests are fewer than three or on a line."""
     P = np.asarray(P, float).reshape(-1, 3)
     e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(up, e1)
     reading = np.array([GAUGE_SD_MM * M_PER_MM if s is None else float(s) for s in sds], float)
-    nest = np.asarray(nest_sds, float)
-    var = np.maximum(reading ** 2 + nest ** 2, FLOOR_SD ** 2)
-    w = 1.0 / var
+    C_nest = np.zeros((len(P), len(P))) if nest_cov is None else np.asarray(nest_cov, float)
+    w = 1.0 / np.maximum(reading ** 2 + np.diag(C_nest), FLOOR_SD ** 2)
     A = np.column_stack([P @ e1, P @ e2, -np.ones(len(P))])
     if len(P) < 3 or np.linalg.matrix_rank(A, tol=1e-6 * max(np.abs(A).max(), 1e-12)) < 3:
         return None
-    N = A.T @ (w[:, None] * A)
-    cov3 = np.linalg.inv(N)
-    slopes = (cov3 @ (A.T @ (w * (np.asarray(heights, float) - P @ up))))[:2]
-    cov = 0.5 * (cov3[:2, :2] + cov3[:2, :2].T)
+    G = np.linalg.solve(A.T @ (w[:, None] * A), A.T * w)[:2]    # slopes = G (h - z): the weighted plane fit
+    slopes = G @ (np.asarray(heights, float) - P @ up)
+    from_nests = G @ C_nest @ G.T                                # a shift of every nest: G's rows see none
+    cov = G @ np.diag(reading ** 2) @ G.T + from_nests
+    cov, from_nests = 0.5 * (cov + cov.T), 0.5 * (from_nests + from_nests.T)
     Pr = prior ** 2 * np.eye(2)
     S = Pr + cov
     consistent = bool(slopes @ np.linalg.solve(S, slopes) <= CONSISTENT_CHI2)
@@ -172,7 +188,7 @@ def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_sds, prior: floa
         kept_cov = 0.5 * (kept_cov + kept_cov.T)
     else:
         kept, kept_cov = slopes.copy(), cov.copy()
-    xy = A[:, :2] - (w @ A[:, :2]) / w.sum()
-    spread = float(np.linalg.eigvalsh(xy.T @ (w[:, None] / w.mean() * xy)).min())
-    return FaceTilt((e1, e2), slopes, cov, kept, kept_cov, consistent, prior, spread,
-                    float(np.sqrt(np.mean(reading ** 2))), float(np.sqrt(np.mean(nest ** 2))), len(P))
+    xy = A[:, :2] - A[:, :2].mean(axis=0)
+    spread = float(np.linalg.eigvalsh(xy.T @ xy).min())
+    return FaceTilt((e1, e2), slopes, cov, from_nests, kept, kept_cov, consistent, prior, spread,
+                    float(np.sqrt(np.mean(reading ** 2))), len(P))

@@ -60,9 +60,9 @@ def nest_heights_csv(nests: dict, measured: bool = False) -> str:
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(COLUMNS)
-    for k, p in sorted(nests.items()):
-        h = f"{float(p[2]) * MM_PER_M:.2f}"
-        w.writerow([k, h, h if measured else "", "0" if measured else f"{GAUGE_SD_MM:g}"])
+    for k, p in sorted(nests.items()):   # a simulation's heights to 0.1 µm: exact as stated
+        h = float(p[2]) * MM_PER_M
+        w.writerow([k, f"{h:.2f}", f"{h:.4f}" if measured else "", "0" if measured else f"{GAUGE_SD_MM:g}"])
     return out.getvalue()
 
 

@@ -149,6 +149,9 @@ def _points_to_dict(setup) -> dict:
     if setup.nest_heights:
         out["nest_heights_mm"] = {str(k): float(h) * MM_PER_M for k, h in setup.nest_heights.items()}
         out["nest_height_sd_mm"] = {str(k): float(s) * MM_PER_M for k, s in setup.nest_height_sd.items()}
+    if setup.nest_z_cov:
+        out["nests_z_cov_mm2"] = {"ids": [str(k) for k in setup.nest_z_cov["ids"]],
+                                  "matrix": (np.asarray(setup.nest_z_cov["cov"]) * MM_PER_M ** 2).tolist()}
     return out
 
 
@@ -353,3 +356,11 @@ def _nest_heights_from(path, tr: dict, setup) -> None:
             raise ModelFileError(path, "a standard deviation (mm, 0 or more) of a nest given a height",
                                  f"tracker.nest_height_sd_mm.{k}")
         setup.nest_height_sd[str(k)] = float(_finite(path, f"tracker.nest_height_sd_mm.{k}", s)) * M_PER_MM
+    zc = tr.get("nests_z_cov_mm2")
+    if zc is not None:   # older files: none (the nests' standard deviations stand in)
+        ids = [str(k) for k in zc.get("ids", [])] if isinstance(zc, dict) else []
+        M = _finite(path, "tracker.nests_z_cov_mm2.matrix", zc.get("matrix", []) if isinstance(zc, dict) else [])
+        if not ids or any(k not in setup.nests for k in ids) or M.shape != (len(ids), len(ids)):
+            raise ModelFileError(path, "the fitted nests' ids and their z coordinates' covariance, a square matrix "
+                                 "(mm^2) with a row per id", "tracker.nests_z_cov_mm2")
+        setup.nest_z_cov.update(ids=ids, cov=M * M_PER_MM ** 2)

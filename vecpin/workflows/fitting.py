@@ -10,7 +10,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.faceframe import face_tilt
+from vecpin.compensation.faceframe import face_tilt, nest_z_cov
 from vecpin.fitting.problem import FitProblem, FitResult
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.measurement.partframe import spindle_axis
@@ -153,7 +153,7 @@ def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
         ids = sorted(k for k in su.nest_heights if k in su.nests)
         face = face_tilt(np.array([su.nests[k] for k in ids]), -spindle_axis(model.machine),
                          [su.nest_heights[k] for k in ids], [sds[k] for k in ids],
-                         [su.std.get(f"nest{k}.z", 0.0) for k in ids]) if len(ids) >= 3 else None
+                         nest_z_cov(su, ids)) if len(ids) >= 3 else None
         known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
                 "model file keeps them); the tables keep the face square to the spindle as far as the heights tell "
