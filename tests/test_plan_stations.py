@@ -188,7 +188,7 @@ def test_the_fit_says_what_it_knows_of_the_face(machines):
     given = face_lines(NS(setup_=setup, machine=m), rows)
     assert "1 at 20.00 ± 0.02, 2 at 30.50 ± 0, 3 at 40.00 ± 0.02 mm" in given[0]
     assert "keep the face square to the spindle as far as the heights tell it" in given[0]
-    assert "known to ±" in given[0] and "farther from the table's axis" in given[0]   # nests 50 mm from the axis
+    assert "known to ±" in given[0] and "farther from the table's axis" in given[1]   # nests 50 mm from the axis
     assert "no nests' heights given" in face_lines(NS(setup_=NS(nest_heights={})), rows)[0]
     assert face_lines(NS(setup_=NS(nest_heights={})), NS(nest_rows=np.arange(0))) == []
 

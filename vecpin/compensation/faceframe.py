@@ -122,21 +122,27 @@ class FaceTilt:
                 f"uncertainties, the heights count {100 * self.weight:.0f} %")
 
     def known(self) -> str:
-        """The face's tilt uncertainty as printed [µrad], with advice when it is above :data:`FACE_TARGET`."""
-        text = (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from the heights (1σ tilt), "
+        """The face's tilt uncertainty as printed [µrad] (:meth:`advice` beside it when above :data:`FACE_TARGET`)."""
+        return (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from the heights (1σ tilt), "
                 f"±{self.kept_sd * 1e6:.0f} µrad as kept")
-        return text + ("" if self.sd <= FACE_TARGET else "; " + self.advice())
+
+    @property
+    def needs_advice(self) -> bool:
+        """True when the face's tilt uncertainty from the heights is above :data:`FACE_TARGET`."""
+        return self.sd > FACE_TARGET
 
     def advice(self) -> str:
         """What would bring the face's tilt uncertainty to :data:`FACE_TARGET`: the nests farther
         from the table's axis, or the heights read better (the fitted nests' share as it is)."""
         room = FACE_TARGET ** 2 - _largest_sd(self.from_nests) ** 2     # what the readings may add
         if room <= 0:
-            return (f"above the {FACE_TARGET * 1e6:.0f} µrad target, and the fitted nests' heights alone are "
-                    "that uncertain: more nest readings, or nests farther from the table's axis")
+            return (f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target, "
+                    "and the fitted nests' heights alone are that uncertain: more nest readings, or nests farther from "
+                    "the table's axis")
         radius = self.reading_sd * np.sqrt(2.0 / self.n / room)      # n nests evenly on a circle: spread n r^2 / 2
         gauge = np.sqrt(room * self.spread)                           # the readings' sd that meets it at these nests
-        return (f"above the {FACE_TARGET * 1e6:.0f} µrad target: place the {self.n} nests farther from the table's "
+        return (f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target: "
+                f"place the {self.n} nests farther from the table's "
                 f"axis, evenly at {radius * MM_PER_M:.0f} mm from it where the table allows (the heights read to "
                 f"{self.reading_sd * MM_PER_M:.3f} mm), or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)")
 

@@ -213,7 +213,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
-    report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
+    advice = [f"table's face: {frame.face.advice()}"] if frame.face is not None and frame.face.needs_advice else []
+    report.notes += ([fold_note] if fold_note else []) + [kept.text] + advice + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left,

@@ -157,7 +157,8 @@ def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
         known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
                 "model file keeps them); the tables keep the face square to the spindle as far as the heights tell "
-                f"it, weighed against the frame without heights{known}"]
+                f"it, weighed against the frame without heights{known}"] + (
+            [f"  table's face: {face.advice()}"] if face is not None and face.needs_advice else [])
     return ["  table's face: no nests' heights given: the tables keep the working volume's mean orientation relative "
             "to the table, not its face (`nest_heights`: each nest's reflector centre above the face, mm, as the "
             "plan's nest_heights.csv asks)"]
