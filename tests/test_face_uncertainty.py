@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from vecpin.compensation.faceframe import FACE_TARGET, TABLE_FACE_PRIOR, face_tilt
-from vecpin.compensation.frame import ReferenceFrame, on_the_table_face
+from vecpin.compensation.frame import ReferenceFrame, on_the_table_face, read_face
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.kinematics.so3 import log3
 from vecpin.measurement.nestheights import GAUGE_SD_MM, check_nest_heights, nest_heights_csv, read_nest_heights
@@ -67,7 +67,9 @@ def test_the_tilt_covariance_is_the_plane_fits():
 def test_heights_read_badly_give_the_frame_without_heights_and_exact_ones_todays_face():
     """A face tilted 120 µrad against the frame without heights: read with 5 mm standard deviations the
     frame kept is that frame (within 0.1 µrad); read exactly (sd 0) it is the face today's exact least-squares
-    plane gives (within 1e-9 rad); with the default gauge between them, and its 1 sigma printed."""
+    plane gives (within 1e-9 rad); with the default gauge between them, and its 1 sigma printed. Read badly,
+    the tables keep the frame as they keep the frame without heights (its turn held); read exactly, as a read
+    face (product terms offered)."""
     P = _nests(6, 0.2, seed=3)
     tilt = np.array([80e-6, -90e-6])               # slopes a, b: the face's normal up + a e1 + b e2
     frame = ReferenceFrame(np.eye(3), np.zeros(3), "test frame")
@@ -79,10 +81,12 @@ def test_heights_read_badly_give_the_frame_without_heights_and_exact_ones_todays
 
     bad = kept(5e-3)
     assert np.linalg.norm(log3(bad.R)) < 1e-7 and bad.face.weight < 1e-3
+    assert bad.hold_turn and not read_face(bad)   # kept as the frame without heights is: its turn held
     exact = kept(0.0)
     ref = _todays_face(P, heights)
     assert np.linalg.norm(log3(exact.R @ ref.T)) < 1e-9
     assert np.linalg.norm(log3(exact.R)) == pytest.approx(np.hypot(*tilt), rel=1e-3)
+    assert read_face(exact) and not exact.hold_turn   # a read face: as before the heights had a deviation
     gauge = kept(GAUGE_SD_MM * 1e-3)
     assert 0 < np.linalg.norm(log3(gauge.R)) < np.linalg.norm(log3(exact.R))
     assert "known to ±" in gauge.face.known() and gauge.face.kept_sd < TABLE_FACE_PRIOR

@@ -34,9 +34,15 @@ frame without heights as a metrologist combines two estimates of one quantity:
   is what is contradicted (a table outside the acceptance tolerance): the face from the heights
   is kept alone, and the printout says so.
 
-The tables then hold the compensated volume's tilt against the combined face
-(:func:`~vecpin.compensation.plan.plan_tables`), and the printout gives its 1 sigma tilt
-uncertainty, with advice when it is above :data:`FACE_TARGET`.
+The tables are then fitted in the combined frame (:func:`~vecpin.compensation.plan.plan_tables`).
+Where the heights count at least half (:attr:`FaceTilt.decides`: they tell the face at least as
+well as the frame without heights) the campaign has read the face: product terms are offered by
+default and, written, hold the volume's tilt against it at zero (one-axis tables are the
+least-squares fit there). Where they count less, the tables keep the combined frame as they keep
+the frame without heights (their turn of the volume held at zero, no product terms by default):
+as the heights' weight falls to zero the tables become those without heights, so heights read
+badly cannot cost more than the small tilt they still carry. The printout gives the face's 1 sigma
+tilt uncertainty, with advice when it is above :data:`FACE_TARGET`.
 """
 from __future__ import annotations
 
@@ -110,6 +116,16 @@ class FaceTilt:
         return float(np.trace(P @ np.linalg.inv(P + self.cov)) / 2)
 
     @property
+    def decides(self) -> bool:
+        """True where the heights tell the face at least as well as the frame without heights
+        does (:attr:`weight` 1/2 or more, or the two disagree): the campaign has read the face,
+        and the tables keep it as a read face (product terms offered by default, which carry a
+        tilt fixed to the turning table). Else the tables keep the combined frame as they keep
+        the frame without heights (its turn held, no product terms by default): a face known
+        worse than the prior is not one to carry."""
+        return self.weight >= 0.5
+
+    @property
     def how(self) -> str:
         """The face and the frame kept, in words."""
         tilt = float(np.hypot(*self.slopes)) * 1e6
@@ -119,7 +135,9 @@ class FaceTilt:
                     "face is kept as the heights give it (check the heights and the table)")
         return (f"the face tilted {tilt:.0f} µrad (±{self.sd * 1e6:.0f}, 1σ) against the frame without heights, that "
                 f"frame's tilt against an accepted table's face ±{self.prior * 1e6:.0f} µrad (1σ): weighted by their "
-                f"uncertainties, the heights count {100 * self.weight:.0f} %")
+                f"uncertainties, the heights count {100 * self.weight:.0f} %" + (
+                    "" if self.decides else ", less than the frame without heights: the tables hold their turn of "
+                    "the volume as without heights (no product terms by default)"))
 
     def known(self) -> str:
         """The face's tilt uncertainty as printed [µrad] (:meth:`advice` beside it when above :data:`FACE_TARGET`)."""

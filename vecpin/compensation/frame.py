@@ -177,7 +177,14 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heig
     sin = np.linalg.norm(axis)
     tilt = exp3(axis * np.arcsin(min(sin, 1.0)) / max(sin, 1e-300))
     return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted toward the table's face, found by nests "
-                          + ", ".join(ids) + " at their given heights: " + face.how, kind="face", face=face)
+                          + ", ".join(ids) + " at their given heights: " + face.how, hold_turn=not face.decides,
+                          kind="face", face=face)
+
+
+def read_face(frame: ReferenceFrame) -> bool:
+    """True where ``frame`` is the table's face as a campaign read it: found by nests' heights
+    that tell it at least as well as the frame without heights (:attr:`FaceTilt.decides`)."""
+    return frame.kind == "face" and frame.face is not None and frame.face.decides
 
 
 def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
