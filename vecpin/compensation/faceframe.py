@@ -21,12 +21,18 @@ frame without heights as a metrologist combines two estimates of one quantity:
   face's tilt: zero, with a standard deviation :data:`TABLE_FACE_PRIOR` per component. ISO
   10791 (machining centres: the geometric tests of part 1, horizontal spindle, and part 2,
   vertical spindle) checks at acceptance that the table's surface is parallel to the X and Y
-  motions, to a tolerance of the order of 0.02-0.025 mm over 500 mm (40-50 µrad; the values as
-  recalled for the usual table sizes, not taken from the standard's text here), and squareness
-  of the axes to a like tolerance, of which the volume's mean orientation takes a share. 50 µrad
-  as one standard deviation: a machine accepted to the standard sits inside it with room. It is
-  a constant a user changes (``prior`` of :func:`~vecpin.compensation.frame.on_the_table_face`);
-  it was not fitted to any benchmark.
+  motions (:data:`PARALLELISM_TOLERANCE`, 0.025 mm over 500 mm) and that the axes are square
+  (:data:`SQUARENESS_TOLERANCE`, 0.020 mm over 500 mm); the values as recalled for the usual
+  table sizes, not taken from the standard's text here. A machine that passed is known to lie
+  within them and nothing more: a bound, taken as a rectangular distribution (GUM 4.3.7, as the
+  height gauge's stated accuracy is in :mod:`vecpin.measurement.nestheights`), sigma = bound /
+  sqrt(3). The frame without heights is the volume's mean orientation on a turning table, which
+  a squareness error turns by about half of it (docs/results/part_frame.md), so
+  ``sqrt((P / sqrt 3)^2 + (S / 2 / sqrt 3)^2)`` = 31 µrad per component. It is a constant a
+  user changes (``prior`` of :func:`~vecpin.compensation.frame.on_the_table_face`). The first
+  version took 50 µrad as one standard deviation ("the tolerance with room"); the bound's
+  rectangular reading replaced it after a look at 4 generator draws (the record is in the
+  commit log and the results page), not fitted to them.
 - **Combined** (the posterior of a normal prior and a normal measurement): slopes
   ``P (P + C)^-1 s`` with covariance ``P (P + C)^-1 C``; heights read well (C small) give the
   face, heights read badly give the frame without heights. When the two disagree beyond chance
@@ -53,7 +59,9 @@ import numpy as np
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.units import M_PER_MM, MM_PER_M
 
-TABLE_FACE_PRIOR = 50e-6   # rad, 1 sigma per tilt component of the table's face against the frame without heights
+PARALLELISM_TOLERANCE = 0.025 / 500   # rad: ISO 10791, the table's surface parallel to X's and Y's motions
+SQUARENESS_TOLERANCE = 0.020 / 500    # rad: ISO 10791, the axes square to each other
+TABLE_FACE_PRIOR = float(np.hypot(PARALLELISM_TOLERANCE, SQUARENESS_TOLERANCE / 2) / np.sqrt(3))   # rad, 1 sigma
 FACE_TARGET = 50e-6        # rad: the face's 1 sigma tilt uncertainty the printout asks for (issue 39: 50 µrad)
 CONSISTENT_CHI2 = 9.2103   # chi-square, 2 degrees of freedom, 99 %: face and prior agree within it
 FLOOR_SD = 1e-9            # m: a reading's standard deviation at least this (exact heights: equal weights)
