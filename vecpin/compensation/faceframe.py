@@ -31,8 +31,8 @@ frame without heights as a metrologist combines two estimates of one quantity:
   ``sqrt((P / sqrt 3)^2 + (S / 2 / sqrt 3)^2)`` = 31 µrad per component. It is a constant a
   user changes (``prior`` of :func:`~vecpin.compensation.frame.on_the_table_face`). The first
   version took 50 µrad as one standard deviation ("the tolerance with room"); the bound's
-  rectangular reading replaced it after a look at 4 generator draws (the record is in the
-  commit log and the results page), not fitted to them.
+  rectangular reading replaced it after a look at 4 generator draws (the commit log says so),
+  not fitted to them.
 - **Combined** (the posterior of a normal prior and a normal measurement): slopes
   ``P (P + C)^-1 s`` with covariance ``P (P + C)^-1 C``; heights read well (C small) give the
   face, heights read badly give the frame without heights. When the two disagree beyond chance
