@@ -6,9 +6,10 @@ head-table, twin-drive gantry), a clean campaign each (tool rows with two tools,
 table). vecpin runs as a user following the plan runs it: ``vecpin fit`` (the default model choice,
 given the tracker's and the axes' noise as their specs state them, and every table nest's height
 above the table's face with ``--nest-height`` as the plan's nest_heights.csv asks: the generator's
-true height read by a height gauge with a normal error of GAUGE_SIGMA_MM) and ``vecpin tables`` for
-the generic files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the
-heights (*no heights*) and with the exact heights (*exact heights*), generic files only, each against
+true height read by a height gauge with a normal error of GAUGE_SIGMA_MM, the reading's standard
+deviation left to vecpin's default as the plan's file states it) and ``vecpin tables`` for the generic
+files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the heights (*no
+heights*) and with the exact heights, stated exact (*exact heights*), generic files only, each against
 the best set for its own tables.
 
 The judge is written without vecpin: the generator's own numpy kinematics is the true machine; the
@@ -81,13 +82,15 @@ EIG_CUT = 1e-8          # ridge on the scaled normal equations, as a share of th
 def nest_height_options(camp, sigma_mm: float | None = GAUGE_SIGMA_MM) -> list[str]:
     """``--nest-height ID=MM`` per table nest, as the plan asks: the generator's true height of each
     nest's centre above its table face (z in its ``workpiece`` frame), read by a height gauge with a
-    normal error of ``sigma_mm`` (drawn from the seed, so a rerun reads the same; 0: exact; None: no
-    heights given)."""
+    normal error of ``sigma_mm`` (drawn from the seed, so a rerun reads the same; None: no heights
+    given). The reading's standard deviation is left to vecpin's default (a user who keeps the plan's
+    nest_heights.csv as written), except for exact heights (0): ``ID=MM:0``, exact, stated."""
     if sigma_mm is None:
         return []
     rng = np.random.default_rng([camp.seed, 4051])
     z_mm = np.asarray(camp.nests_m)[:, 2] * 1e3 + rng.normal(0.0, 1.0, len(camp.nests_m)) * sigma_mm
-    return [f"--nest-height={k + 1}={h:.4f}" for k, h in enumerate(z_mm)]
+    exact = ":0" if sigma_mm == 0 else ""
+    return [f"--nest-height={k + 1}={h:.4f}{exact}" for k, h in enumerate(z_mm)]
 
 
 def profile(axes: list[str], controller: str) -> dict:

@@ -29,7 +29,10 @@ Every row is vecpin's default path: where the campaign read the table's face, `v
 adds product terms (a table of the turning axis times a ramp of a linear axis) by default, and
 holds the tables' turn of the volume against the face at zero with them; the
 table's-face rows also write the same fit's one-axis tables (`vecpin tables --no-products`) and
-judge them alike.
+judge them alike. The table's-face rows give the fit the simulated heights exact (standard
+deviation 0, stated); beside them (printed) the same fit's tables with the heights read by a
+height gauge with a normal error of GAUGE_SIGMA_MM, its standard deviation left to vecpin's
+default (a user who keeps the plan's nest_heights.csv as written), and with no heights.
 
 Run: python benchmarks/bench_part_frame.py [--out docs/results/part_frame.md] [--seed N] [--cases NAME ...]
 [--rows face] (face: only the table's-face rows, printed, no results page)
@@ -38,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 import tempfile
 import time
 from pathlib import Path
@@ -53,6 +57,7 @@ from vecpin.compensation.functions import (all_table_names, pseudo_commands, ric
 from vecpin.compensation.tableproblem import TableProblem  # noqa: E402
 from vecpin.export.generic import write_tables  # noqa: E402
 from vecpin.compensation.frame import measured_box  # noqa: E402
+from vecpin.measurement.nestheights import with_nest_heights  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
 from vecpin.measurement.partframe import spindle_axis, uses_lines  # noqa: E402
 from vecpin.simulation.independent import IndependentMachine, layout  # noqa: E402
@@ -66,6 +71,7 @@ CASES = (("head", "cincinnati_20v", None), ("gantry", "flow_xyzcb", None), ("twi
 
 
 TOOLS = (0.21488, 0.31286)  # m
+GAUGE_SIGMA_MM = 0.01       # the gauge rows: each nest's height read with this normal error (1 sigma)
 
 
 def setup(name: str, family: str | None, seed: int):
@@ -115,7 +121,7 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
     full tables written and judged; ``best``: :func:`bounds` of the same truth (None: computed here)."""
     t0 = time.time()
     m, sim = setup(name, family, seed)
-    heights = {k: float(p[2]) * 1e3 for k, p in sim.nests.items()} if face else None
+    heights = {k: (float(p[2]) * 1e3, 0.0) for k, p in sim.nests.items()} if face else None   # exact, stated
     model = vecpin.fit(m, sim.campaign, NoiseModel.default(m, "spherical"), nest_heights=heights).model
     run = vecpin.make_tables(model, folder, "generic", uncertainty=False)   # the default path
     box = measured_box(model)
@@ -129,6 +135,14 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
     if face:   # the same fit, its one-axis tables (no product terms)
         vecpin.make_tables(model, folder / "one-axis", "generic", uncertainty=False, products=False)
         row["one_axis"] = judge(sim.truth, m, folder / "one-axis" / "tables.json", q, tool, box)
+        rng = np.random.default_rng([seed, 4051])
+        read = {k: h + rng.normal(0.0, GAUGE_SIGMA_MM) for k, (h, _) in sorted(heights.items())}
+        exact = model.setup_
+        for key, given in (("gauge", read), ("no_heights", None)):   # the same fit, other heights: tables only
+            model.setup_ = with_nest_heights(replace(exact, nest_heights={}, nest_height_sd={}), given)
+            vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
+            row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
+        model.setup_ = exact
     row["seconds"] = time.time() - t0
     return row
 
@@ -345,6 +359,11 @@ def main(argv=None) -> None:
                     print(f"{'':<26s} default product terms {' '.join(r['terms']) or '(none)'}: part / shape "
                           f"{c['part'] / c['shape']:.2f}; one-axis tables: part {p['part']:.4f} mm, shape "
                           f"{p['shape']:.4f} mm, part / shape {p['part'] / p['shape']:.2f}", flush=True)
+                    g, n = r["gauge"], r["no_heights"]
+                    print(f"{'':<26s} heights read to {GAUGE_SIGMA_MM} mm (vecpin's default sd): part {g['part']:.4f} "
+                          f"mm, part / shape {g['part'] / g['shape']:.2f}, tilt {g['tilt_urad']:.1f} µrad; no heights: "
+                          f"part {n['part']:.4f} mm, tilt {n['tilt_urad']:.1f} µrad; exact: tilt "
+                          f"{c['tilt_urad']:.1f} µrad", flush=True)
                 rows.append(r)
     if args.rows != "all":
         return

@@ -163,17 +163,19 @@ def test_tables_keep_the_frame_and_never_leave_a_part_worse(name, tmp_path):
 @pytest.mark.slow
 def test_nest_heights_refused_clearly_and_kept_by_the_model_file(tmp_path):
     """--nest-height: an unknown nest, a height that is not a length, fewer than three
-    nests are refused naming the option; the model file keeps the heights, and a model file
-    that names a nest it did not fit is refused."""
+    nests are refused naming the option; the model file keeps the heights and their standard
+    deviations, and a model file that names a nest it did not fit is refused."""
     import json
     from vecpin.errors import InputError, ModelFileError
-    from vecpin.measurement.tableframe import check_nest_heights
+    from vecpin.measurement.nestheights import check_nest_heights
     from vecpin.models import ErrorModel
     nests = {"1": np.array([0.3, 0.0, 0.03]), "2": np.array([-0.15, 0.26, 0.05]), "3": np.array([-0.15, -0.26, 0.07])}
     with pytest.raises(InputError, match="no nest '9'"):
         check_nest_heights({"9": 20.0}, nests)
-    with pytest.raises(InputError, match="0 .. 2000"):
+    with pytest.raises(InputError, match="'0.03m' is not a height in mm"):
         check_nest_heights({"1": "0.03m"}, nests)
+    with pytest.raises(InputError, match=r"-3 mm: .* 0 \.\. 2000 mm"):
+        check_nest_heights({"1": -3, "2": 50.0, "3": 70.0}, nests)
     with pytest.raises(InputError, match="three or more nests"):
         check_nest_heights({"1": 30.0, "2": 50.0}, nests)
     assert check_nest_heights({"1": 30.0, "2": 50.0, "3": 70.0}, nests) == pytest.approx({"1": 0.03, "2": 0.05,
@@ -181,11 +183,13 @@ def test_nest_heights_refused_clearly_and_kept_by_the_model_file(tmp_path):
     m = vecpin.Machine.load("trunnion_xyzac")
     sim = simulate(m, seed=6, design=Design(n_commands=60, n_validation=5))
     heights = {k: float(p[2]) * 1e3 for k, p in sim.nests.items()}
+    first = min(heights)
     model = vecpin.fit(m, sim.campaign, NoiseModel.default(m, "spherical"), kind="6dof", basis="chebyshev", order=2,
-                       nest_heights=heights).model
+                       nest_heights=heights | {first: (heights[first], 0.005)}).model
     model.save(tmp_path / "m.json")
     back = ErrorModel.load(tmp_path / "m.json")
     assert back.setup_.nest_heights == pytest.approx({k: v * 1e-3 for k, v in heights.items()})
+    assert back.setup_.nest_height_sd == pytest.approx({k: (5e-6 if k == first else 2e-5) for k in heights})
     d = json.loads((tmp_path / "m.json").read_text())
     d["tracker"]["nest_heights_mm"]["7"] = 30.0
     (tmp_path / "bad.json").write_text(json.dumps(d))
@@ -209,10 +213,9 @@ def test_the_table_face_from_nest_heights_is_kept(tmp_path):
     for face in (False, True):
         model = make_model("6dof", m, 4, bases=sim.truth.family_bases()).fit(sim.campaign, noise)
         if face:
-            from dataclasses import replace
-
-            from vecpin.measurement.tableframe import check_nest_heights
-            model.setup_ = replace(model.setup_, nest_heights=check_nest_heights(heights, model.setup_.nests))
+            from vecpin.measurement.nestheights import with_nest_heights
+            # a simulation's heights, exact (sd 0)
+            model.setup_ = with_nest_heights(model.setup_, {k: (h, 0.0) for k, h in heights.items()})
         plan = plan_tables(model, uncertainty=False)
         assert bool(plan.tables.products) == face        # the default: product terms where the face was read
         assert ("table's face" in plan.frame.how) == face

@@ -26,7 +26,7 @@ from vecpin.models import make_model
 from vecpin.planning.plan import PlanSettings
 from vecpin.planning.sightline import SightLine
 from vecpin.simulation.simulate import Design, simulate
-from vecpin.measurement.nestheights import read_nest_heights
+from vecpin.measurement.nestheights import GAUGE_SD_MM, read_nest_heights
 from vecpin.workflows.planning import PlanRun, plan_to_dir
 from vecpin.workflows.simulating import simulate_to_dir, simulation_inputs
 
@@ -49,16 +49,18 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
     row and column of a height not filled in, and reads a filled one (mm)."""
     m, plan, out = planned
     rows = (out / "nest_heights.csv").read_text().splitlines()
-    assert rows[0] == "nest,planned_mm,height_mm" and len(rows) == 1 + len(plan.nests)
-    assert [r.split(",")[0] for r in rows[1:]] == sorted(plan.nests) and all(r.endswith(",") for r in rows[1:])
+    assert rows[0] == "nest,planned_mm,height_mm,height_sd_mm" and len(rows) == 1 + len(plan.nests)
+    assert [r.split(",")[0] for r in rows[1:]] == sorted(plan.nests)
+    assert all(r.endswith(f",,{GAUGE_SD_MM:g}") for r in rows[1:])   # the height left empty, the gauge's sd
     assert json.loads((out / "plan.json").read_text())["nest_heights"] == "nest_heights.csv"
     asked = PlanRun(plan, []).heights_line()
     assert "measure each reflector centre's height above the face, mm" in asked and "nest_heights.csv" in asked
     assert "not asked (declined)" in PlanRun(plan, [], nest_heights=False).heights_line()
     with pytest.raises(CampaignFileError, match=r"nest_heights.csv, row 2, column 'height_mm': no height for nest 1"):
         read_nest_heights(out / "nest_heights.csv")
-    (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(f"{r}{20.5 + i}\n" for i, r in enumerate(rows[1:])))
-    assert read_nest_heights(tmp_path / "h.csv") == {k: 20.5 + i for i, k in enumerate(sorted(plan.nests))}
+    (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(r.replace(",,", f",{20.5 + i},") + "\n"
+                                                             for i, r in enumerate(rows[1:])))
+    assert read_nest_heights(tmp_path / "h.csv") == {k: (20.5 + i, GAUGE_SD_MM) for i, k in enumerate(sorted(plan.nests))}
     ids = sorted(plan.nests)
     for cells, where in (((ids[0], "abc"), r"row 2, column 'height_mm': 'abc' is not a height"),
                          (("99", "20"), r"row 2, column 'nest': the campaign has no nest '99'"),
@@ -155,8 +157,10 @@ def test_simulate_reads_each_station_and_the_fit_sees_the_tilt_range_better(plan
         np.testing.assert_allclose(truth.stations[0].position_in_machine, plan.placement.stations[1], atol=1e-9)
         c = read_campaign(run.paths["campaign"], m)
         assert np.array_equal(c.station, inputs["plan"].stations)
-        assert read_nest_heights(run.paths["nest_heights"]) == pytest.approx(   # as the operator measures them
-            {k: round(float(p[2]) * 1e3, 2) for k, p in run.simulation.nests.items()})
+        read = read_nest_heights(run.paths["nest_heights"])   # as the operator measures them, stated exact
+        assert {k: v[1] for k, v in read.items()} == {k: 0.0 for k in run.simulation.nests}
+        assert {k: v[0] for k, v in read.items()} == pytest.approx(
+            {k: round(float(p[2]) * 1e3, 4) for k, p in run.simulation.nests.items()})
         if seed == 1:   # each figure's frame printed; a nest the campaign has not, refused before the fit
             assert sum("(tracker frame)" in ln or "(machine base frame)" in ln for ln in run.lines()) == 2
             from vecpin.fitting.problem import FitProblem
@@ -172,14 +176,19 @@ def test_simulate_reads_each_station_and_the_fit_sees_the_tilt_range_better(plan
     assert np.mean(ratios) < 0.9
 
 
-def test_the_fit_says_what_it_knows_of_the_face():
+def test_the_fit_says_what_it_knows_of_the_face(machines):
     """On a campaign with nest rows the fit's printout gives the heights it was given (mm above the face) and
     what they do, or that none were and what that leaves; without nest rows it says nothing of a face."""
     from types import SimpleNamespace as NS
     from vecpin.workflows.fitting import face_lines
     rows = NS(nest_rows=np.arange(3))
-    given = face_lines(NS(setup_=NS(nest_heights={"1": 0.02, "2": 0.0305, "3": 0.04})), rows)
-    assert "1 at 20.00, 2 at 30.50, 3 at 40.00 mm" in given[0] and "keep the face square to the spindle" in given[0]
+    m = machines["trunnion_xyzac"]
+    nests = {"1": np.array([0.05, 0.0, 0.02]), "2": np.array([-0.025, 0.043, 0.03]), "3": np.array([-0.025, -0.043, 0.04])}
+    setup = NS(nest_heights={"1": 0.02, "2": 0.0305, "3": 0.04}, nest_height_sd={"2": 0.0}, nests=nests, std={})
+    given = face_lines(NS(setup_=setup, machine=m), rows)
+    assert "1 at 20.00 ± 0.02, 2 at 30.50 ± 0, 3 at 40.00 ± 0.02 mm" in given[0]
+    assert "keep the face square to the spindle as far as the heights tell it" in given[0]
+    assert "known to ±" in given[0] and "farther from the table's axis" in given[1]   # nests 50 mm from the axis
     assert "no nests' heights given" in face_lines(NS(setup_=NS(nest_heights={})), rows)[0]
     assert face_lines(NS(setup_=NS(nest_heights={})), NS(nest_rows=np.arange(0))) == []
 

@@ -17,12 +17,12 @@ def read_fit_campaign(args, m):
 
 
 def nest_heights(items: list[str] | None, path: str | None = None, campaign=None) -> dict | None:
-    """``--nest-height ID=MM`` (repeated) and ``--nest-heights CSV`` (the plan's nest_heights.csv, filled in)
-    -> {id: mm}; an id given twice is refused, and with ``campaign`` a file's id it has no nest for (its row
-    named, before the fit)."""
+    """``--nest-height ID=MM[:SD]`` (repeated) and ``--nest-heights CSV`` (the plan's nest_heights.csv, filled
+    in) -> {id: mm, or (mm, sd mm)}; an id given twice is refused, and with ``campaign`` an id it has no nest
+    for (a file's row named), before the fit."""
     from vecpin.errors import InputError
-    from vecpin.measurement.nestheights import read_nest_heights
-    ids = None if campaign is None else set(campaign.target[campaign.nest_rows])
+    from vecpin.measurement.nestheights import campaign_nest_ids, read_nest_heights
+    ids = None if campaign is None else campaign_nest_ids(campaign)
     out = {}
     for nid, value in (read_nest_heights(path, ids) if path else {}).items():
         if any(str(i).partition("=")[0].strip() == nid for i in items or []):
@@ -30,30 +30,45 @@ def nest_heights(items: list[str] | None, path: str | None = None, campaign=None
         out[nid] = value
     for item in items or []:
         nid, sep, value = str(item).partition("=")
-        if not sep or not nid.strip():
+        nid = nid.strip()
+        if not sep or not nid:
             raise InputError(f"`--nest-height` '{item}': write ID=MM, a nest id and its reflector centre's height "
-                             "above the table face in mm, e.g. 1=19.05")
-        if nid.strip() in out:
-            raise InputError(f"`--nest-height` {nid.strip()} is given twice; give each nest once")
-        if ids is not None and nid.strip() not in ids:
-            raise InputError(f"`nest_height` {item}: the campaign has no nest '{nid.strip()}' (its nests: "
+                             "above the table face in mm, e.g. 1=19.05 (ID=MM:SD with the reading's standard "
+                             "deviation, mm)")
+        if nid in out:
+            raise InputError(f"`--nest-height` {nid} is given twice; give each nest once")
+        if ids is not None and nid not in ids:
+            raise InputError(f"`nest_height` {item}: the campaign has no nest '{nid}' (its nests: "
                              f"{', '.join(sorted(ids)) or 'none'})")
-        try:
-            out[nid.strip()] = float(value)
-        except ValueError:
-            raise InputError(f"`--nest-height` '{item}': '{value.strip()}' is not a height; write ID=MM, the "
-                             "reflector centre's height above the table face in mm, e.g. 1=19.05") from None
+        out[nid] = _height_item(item, value)
     return out or None
 
 
+def _height_item(item: str, value: str):
+    """The height [mm] of ``--nest-height`` ``item`` (its ``value`` after '='), or (height, sd) [mm] with ':SD'."""
+    from vecpin.errors import InputError
+    got = []
+    for text, what in zip(value.split(":", 1), ("a height", "a standard deviation")):
+        try:
+            got.append(float(text))
+        except ValueError:
+            raise InputError(f"`--nest-height` '{item}': '{text.strip()}' is not {what}; write ID=MM, the reflector "
+                             "centre's height above the table face in mm, e.g. 1=19.05, or ID=MM:SD with the "
+                             "reading's standard deviation in mm, e.g. 1=19.05:0.01") from None
+    return got[0] if len(got) == 1 else tuple(got)
+
+
 def add_nest_height_args(s) -> None:
-    """``--nest-height ID=MM`` (repeated) and ``--nest-heights CSV``: the table nests' heights above its face."""
-    s.add_argument("--nest-height", action="append", metavar="ID=MM",
-                   help="the height of a table nest's reflector centre above the table's face, mm (repeat for three "
-                        "or more nests): the tables then keep the table's face square to the spindle, and every figure "
-                        "is judged on it (default: the machine's own reference lines or mean orientation)")
+    """``--nest-height ID=MM[:SD]`` (repeated) and ``--nest-heights CSV``: the table nests' heights above its face."""
+    s.add_argument("--nest-height", action="append", metavar="ID=MM[:SD]",
+                   help="the height of a table nest's reflector centre above the table's face, mm, and optionally the "
+                        "reading's standard deviation, mm (default 0.02, a height gauge's) (repeat for three or more "
+                        "nests): the tables then keep the table's face square to the spindle as far as the heights "
+                        "tell it, and every figure is judged on it (default: the machine's own reference lines or "
+                        "mean orientation)")
     s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
-                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (default: none, as above)")
+                   "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (its height_sd_mm: the "
+                   "readings' standard deviations) (default: none, as above)")
 
 
 def run_fit(args) -> int:

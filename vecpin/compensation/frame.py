@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vecpin.compensation.faceframe import TABLE_FACE_PRIOR, FaceTilt, face_tilt, nest_z_cov
 from vecpin.compensation.functions import FRAME, ActualMachine, geometric_model, nominal_tip, pseudo_commands
 from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.tables import TableSet
@@ -60,13 +61,15 @@ class ReferenceFrame:
     not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``);
     ``kind``: which definition, as :func:`frame_kept` measures the tables' turn against it:
     "lines" (ISO 230-1's reference lines), "orientation" (the volume's mean orientation),
-    "face" (the table's face found by nests) or "" (a frame given outright)."""
+    "face" (the table's face found by nests) or "" (a frame given outright); ``face``: how
+    well the face is known, where it is "face" (:class:`~vecpin.compensation.faceframe.FaceTilt`)."""
 
     R: np.ndarray
     centre: np.ndarray
     how: str
     hold_turn: bool = False
     kind: str = ""
+    face: FaceTilt | None = None
 
     @property
     def angle(self) -> float:
@@ -140,34 +143,48 @@ def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, t
                             *measured_box(model))
     setup = getattr(model, "setup_", None)
     if setup is not None and len(setup.nest_heights) >= 3:
-        frame = on_the_table_face(frame, model.machine, setup.nests, setup.nest_heights)
+        ids = sorted(k for k in setup.nest_heights if k in setup.nests)
+        frame = on_the_table_face(frame, model.machine, setup.nests, setup.nest_heights, setup.nest_height_sd,
+                                  (ids, nest_z_cov(setup, ids)))
     return frame
 
 
-def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heights: dict) -> ReferenceFrame:
-    """``frame`` tilted so that the table's face is square to the spindle: the face is the
-    plane the nests' fitted positions ``nests`` {id: (3,) [m], workpiece frame} lie
-    ``heights`` {id: [m]} above (least squares; three or more nests not on a line). The
-    turn about the spindle stays the frame's. Where a campaign reads the table this way the
-    tables keep the table itself, not the machine's lines or mean orientation."""
+def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heights: dict, sds: dict | None = None,
+                      nest_cov: tuple | None = None, prior: float = TABLE_FACE_PRIOR) -> ReferenceFrame:
+    """``frame`` tilted toward the table's face square to the spindle, as far as the face is
+    known: the face is the plane the nests' fitted positions ``nests`` {id: (3,) [m],
+    workpiece frame} lie ``heights`` {id: [m]} above (weighted least squares; three or more
+    nests not on a line), read with standard deviations ``sds`` {id: [m]} (a nest without
+    one: the default gauge's), the nests' z found by the fit with covariance ``nest_cov``
+    (ids, (N,N) [m^2]; None: exact); its tilt is combined with ``frame``'s (the frame without heights) weighted by
+    their uncertainties (:func:`~vecpin.compensation.faceframe.face_tilt`; ``prior``: the
+    face's tilt against ``frame``, 1 sigma [rad]). The turn about the spindle stays the
+    frame's. Where a campaign reads the table this way the tables keep the table itself."""
     ids = sorted(k for k in heights if k in nests)
-    P = frame.apply(np.array([nests[k] for k in ids]))
-    h = np.array([heights[k] for k in ids])
+    P = frame.apply(np.array([nests[k] for k in ids])) if ids else np.zeros((0, 3))
     up = -partframe.spindle_axis(machine)
-    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up, e1)
-    A = np.column_stack([P @ e1, P @ e2, -np.ones(len(P))])
-    if len(ids) < 3 or np.linalg.matrix_rank(A, tol=1e-6 * max(np.abs(A).max(), 1e-12)) < 3:
+    C = None
+    if nest_cov is not None:
+        where = {k: i for i, k in enumerate(nest_cov[0])}
+        C = np.asarray(nest_cov[1], float)[np.ix_([where[k] for k in ids], [where[k] for k in ids])]
+    face = face_tilt(P, up, [heights[k] for k in ids], [(sds or {}).get(k) for k in ids], C, prior)
+    if face is None:
         raise VecpinError(f"nest heights of {', '.join(ids) or 'no nest'}: three or more fitted nests not on a line "
                           "are needed to find the table's face")
-    a, b, _ = np.linalg.lstsq(A, h - P @ up, rcond=None)[0]
-    n = up + a * e1 + b * e2
+    e1, e2 = face.axes
+    n = up + face.kept[0] * e1 + face.kept[1] * e2
     axis = np.cross(n / np.linalg.norm(n), up)            # |axis| = sin of the tilt
     sin = np.linalg.norm(axis)
     tilt = exp3(axis * np.arcsin(min(sin, 1.0)) / max(sin, 1e-300))
-    return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted so that the table's face, found by nests "
-                          + ", ".join(ids) + " at their given heights, is square to the spindle", kind="face")
+    return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted toward the table's face, found by nests "
+                          + ", ".join(ids) + " at their given heights: " + face.how, hold_turn=not face.decides,
+                          kind="face", face=face)
+
+
+def read_face(frame: ReferenceFrame) -> bool:
+    """True where ``frame`` is the table's face as a campaign read it: found by nests' heights
+    that tell it at least as well as the frame without heights (:attr:`FaceTilt.decides`)."""
+    return frame.kind == "face" and frame.face is not None and frame.face.decides
 
 
 def measured_box(model: ErrorModel) -> tuple[np.ndarray, np.ndarray]:
@@ -216,7 +233,8 @@ def frame_kept(actual, m: Machine, tables: TableSet, problem: TableProblem, fram
     text = (f"frame kept: {frame.how}; the tables {what} {angle * 1e6:.1f} µrad against it; largest correction "
             f"at the tool tip {corr:.4f} mm (net of a translation) against a largest error of {err:.4f} mm")
     if frame.kind == "face":
-        text += ("; a tilt against a table that turns is mostly beyond tables of one axis (what no table can follow)")
+        text += ("; a tilt against a table that turns is mostly beyond tables of one axis (what no table can follow)"
+                 f"; {frame.face.known()}")
     kept = FrameKept(frame.how, angle, corr, err, text)
     if kept.excessive:
         kept.text += (": the tables move the tip by more than twice the largest error they remove; a rotation of "

@@ -25,8 +25,8 @@ from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model
 from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.products import product_candidates, products_wanted, with_products
 from vecpin.compensation.follow import Unfollowed, unfollowed
-from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept,
-                                       measured_box, model_as_actual, model_reference_frame, reference_commands)
+from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept, measured_box,
+                                       model_as_actual, model_reference_frame, read_face, reference_commands)
 from vecpin.compensation.report import CompensationReport, compensated_errors, part_and_shape
 from vecpin.compensation.limits import NO_LIMITS, ControllerLimits
 from vecpin.compensation.selection import Selection, exact_search, genetic_search, impact_heuristic
@@ -163,7 +163,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     frame = model_reference_frame(model)
     actual = model_as_actual(model, frame=frame)
     m = model.machine
-    offer, held_back, product_line = products_wanted(products, lim, frame.kind == "face", m, req.cons is not None)
+    offer, held_back, product_line = products_wanted(products, lim, read_face(frame), m, req.cons is not None)
     problem, where, hold, lo, hi, q, tools = _table_problem(model, actual, frame, req, modulo_axes, commands,
                                                             n_commands, seed, zone, offer, not held_back)
     unmeasured = _unmeasured(m, hold)
@@ -213,7 +213,8 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
         add(unfolded_label(modulo_axes), flat.discretise(req.n_points), len(tables.tables))
         fold_note = _fold_note(m, modulo_axes, written.mean, report.rows[-1].mean)
     kept = frame_kept(actual, m, tables, problem, frame)
-    report.notes += ([fold_note] if fold_note else []) + [kept.text] + _notes(
+    advice = [f"table's face: {frame.face.advice()}"] if frame.face is not None and frame.face.needs_advice else []
+    report.notes += ([fold_note] if fold_note else []) + [kept.text] + advice + _notes(
         model, with_spread, uncertainty, gauge_note, left_out, req, unmeasured) + [left.line()]
     report.notes += [_held_note(selection, lim.name)] if selection is not None and selection.held else []
     return TablePlan(tables, lim, selection, report, problem, req.n_points, kept, frame, left,
@@ -432,7 +433,7 @@ def _table_problem(model: ErrorModel, actual, frame: ReferenceFrame, req: _Reque
     terms = product_candidates(m) if products and req.cons is None and not (req.pitch_only or
                                                                             req.only_pitch_note) else []
     problem = TableProblem(actual, m, q, tools, hold=hold, modulo_axes=tuple(modulo_axes), products=terms,
-                           hold_turn=frame.hold_turn or (frame.kind == "face" and bool(terms) and written),
+                           hold_turn=frame.hold_turn or (read_face(frame) and bool(terms) and written),
                            bases=rich_table_bases(m, tuple(modulo_axes), lower=lo, upper=hi))
     return problem, where, hold, lo, hi, q, tools
 

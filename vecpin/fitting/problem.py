@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -30,7 +30,8 @@ from vecpin.measurement.campaignchecks import still_axes_notes
 from vecpin.measurement.campaignrows import Campaign, min_rows
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.tableframe import check_nest_heights, moved_nest_after_fit, table_campaign_notes
+from vecpin.measurement.nestheights import check_heights_before_fit, with_nest_heights
+from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, clip_to_zone, inside, zone_text
 from vecpin.selection.choice import choose_or_fix
@@ -157,8 +158,7 @@ class FitProblem:
             raise InputError(f"`prior_scale` {prior}: the prior scale must be a positive number (default 1)")
         values["cv"] = fold_labels(values["cv"], len(campaign))
         check_zone_value(values["zone"])
-        if values["nest_heights"]:   # ids and heights checked before the fit, the nests' line after it
-            check_nest_heights(values["nest_heights"], dict.fromkeys(campaign.target[campaign.nest_rows]))
+        check_heights_before_fit(values["nest_heights"], campaign)   # the nests' line after the fit
         return cls(machine, campaign, noise, **values)
 
     @property
@@ -211,9 +211,7 @@ class FitProblem:
     def _carry(self, model: ErrorModel, choice) -> None:
         """What the fitted model carries of this problem into its file: the nest heights (in
         its setup, checked against the fitted nests), the choice, the zone."""
-        if self.nest_heights:
-            model.setup_ = replace(model.setup_, nest_heights=check_nest_heights(self.nest_heights,
-                                                                                  model.setup_.nests))
+        model.setup_ = with_nest_heights(model.setup_, self.nest_heights)
         if choice is not None:
             model.selection_ = choice.to_dict()
         if self.zone:

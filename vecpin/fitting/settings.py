@@ -20,7 +20,8 @@ DEFAULTS: dict[str, tuple[object, str]] = {
     "zone": (None, "fit only the rows commanded in this box {axis: (low, high)} [mm/deg]; the model records it"),
     "noise_from_data": (None, "take the noise level from the data (None: when the noise states no level: None or an "
                               "instrument's name)"),
-    "nest_heights": (None, "{nest id: height [mm] of its reflector centre above the table's face} (three or more)"),
+    "nest_heights": (None, "{nest id: height [mm] of its reflector centre above the table's face, or (height, its "
+                           "standard deviation) [mm]} (three or more; default standard deviation a height gauge's)"),
 }
 
 

@@ -205,6 +205,10 @@ class Likelihood:
             store[ident] = v
             if cov is not None and kind in ("nest", "target"):
                 setup.std[f"{kind}{key}.{comp}"] = float(np.sqrt(max(cov[k, k], 0.0)))
+        z = [(key, k) for k, kind, key, comp in self._extras() if kind == "nest" and comp == "z"]
+        if cov is not None and z:   # the nests' heights covary (a shift of them all): the table's face needs it
+            idx = [k for _, k in z]
+            setup = replace(setup, nest_z_cov={"ids": [key for key, _ in z], "cov": cov[np.ix_(idx, idx)].copy()})
         return setup
 
     def sensitivity(self, model) -> tuple[np.ndarray, np.ndarray]:

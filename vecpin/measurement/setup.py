@@ -27,7 +27,11 @@ class Setup:
     ``std``: standard deviations [m] of the fitted nest and target coordinates by
     unknown name (``nest<id>.x``, ``target<id>.y``, ...); ``nest_heights``: {nest id:
     height [m] of its reflector's centre above the table face}, where the user gave them
-    (the nests then tell where the table's face is: the frame the tables keep).
+    (the nests then tell where the table's face is: the frame the tables keep);
+    ``nest_height_sd``: {nest id: standard deviation [m] of that height's reading} (a nest
+    given a height without one: :data:`~vecpin.measurement.nestheights.GAUGE_SD_MM`);
+    ``nest_z_cov``: the fitted nests' z coordinates' covariance [m^2] ({"ids": [...], "cov":
+    (N,N)}, from the fit; empty where it is not known).
 
     Frozen: vecpin never changes a setup it is given (the likelihood places its stations,
     pivots, nests and targets in a :meth:`copy`; the fit returns a new one); change one with
@@ -42,12 +46,15 @@ class Setup:
     targets: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
     nest_heights: dict = field(default_factory=dict)
+    nest_height_sd: dict = field(default_factory=dict)
+    nest_z_cov: dict = field(default_factory=dict)
 
     def copy(self) -> "Setup":
         """The same setup with containers of its own (adding a station, pivot, nest or target
         to the copy leaves this one as it is; the arrays are shared, never written)."""
         return replace(self, stations=dict(self.stations), pivots=dict(self.pivots), nests=dict(self.nests),
-                       targets=dict(self.targets), std=dict(self.std), nest_heights=dict(self.nest_heights))
+                       targets=dict(self.targets), std=dict(self.std), nest_heights=dict(self.nest_heights),
+                       nest_height_sd=dict(self.nest_height_sd), nest_z_cov=dict(self.nest_z_cov))
 
     def pose(self, station: int = 0):
         """(R, t, e) of a station."""

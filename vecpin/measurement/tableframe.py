@@ -366,7 +366,7 @@ def table_campaign_notes(machine, campaign) -> list[str]:
                 f"needs three or more nests, not on a line, so the table axes ({table}) are only partly seen"]
     out = []
     groups = [n for _, n in _groups(campaign) if len(n) >= MIN_NESTS]
-    if groups and all(_on_a_line(campaign.xyz[n]) for n in groups):
+    if groups and all(on_a_line(campaign.xyz[n]) for n in groups):
         out.append(f"{src}: the nests {', '.join(ids)} ({first}) lie on a line: a turn of the table about that line "
                    f"is not seen, so the table axes ({table}) are only partly seen; put a nest off the line")
     out += _moved_nests(campaign)
@@ -440,7 +440,7 @@ def moved_nest_after_fit(campaign, residual: np.ndarray) -> list[str]:
             "again, or give the rows after the move another nest id"]
 
 
-def _on_a_line(points: np.ndarray) -> bool:
+def on_a_line(points: np.ndarray) -> bool:
     """Points whose spread across their line is under :data:`LINE_SHARE` of their spread along it."""
     sv = np.linalg.svd(points - points.mean(0), compute_uv=False)
     return bool(sv[1] < LINE_SHARE * sv[0])
@@ -486,35 +486,3 @@ def _moved_nests(campaign) -> list[str]:
 
 __all__ = ["TableTips", "table_tips", "tip_noise", "NetOfNoise", "net_of_noise", "moved_nest_after_fit", "table_nests", "nest_shape", "table_campaign_notes", "check_nest_rows",
            "command_keys", "unseen_travel_notes"]
-
-
-MAX_NEST_HEIGHT_MM = 2000.0   # a reflector centre farther above the table face is a unit mistake
-
-
-def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_heights") -> dict:
-    """{nest id: height [m]} from ``heights_mm`` {id: mm}: each nest's reflector centre above the table face, for
-    the nests of a fit (``nests`` {id: (3,) [m]}, None before the fit). Refused, naming ``option``: an id the fit
-    has no nest for, a height not a number in 0 .. 2000 mm, fewer than three nests, nests on a line (no plane)."""
-    from vecpin.errors import InputError
-    out = {}
-    for k, h in heights_mm.items():
-        k = str(k)
-        if k not in nests:
-            raise InputError(f"`{option}` {k}: the campaign has no nest '{k}' (its nests: "
-                             f"{', '.join(sorted(nests)) or 'none'})")
-        try:
-            v = float(h)
-        except (TypeError, ValueError):
-            v = float("nan")
-        if not (0.0 <= v <= MAX_NEST_HEIGHT_MM):
-            raise InputError(f"`{option}` {k}={h}: the height of the nest's reflector centre above the table face, "
-                             f"mm, 0 .. {MAX_NEST_HEIGHT_MM:g} (e.g. 19.05 for a 1.5-inch sphere in a magnetic nest)")
-        if 0.0 < v < 1.0:   # no reflector's centre sits that close to the face: 19.05 mm typed as 0.01905 m
-            raise InputError(f"`{option}` {k}={h}: a reflector centre {v:g} mm above the table face: metres? Heights "
-                             f"are mm ({v * 1000:g} if it was in metres)")
-        out[k] = v * 1e-3
-    found = all(nests[k] is not None for k in out)   # before the fit no nest is found: no line to judge
-    if out and (len(out) < 3 or found and _on_a_line(np.array([nests[k] for k in out]))):
-        raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face needs "
-                         "three or more nests not on a line")
-    return out

@@ -148,6 +148,10 @@ def _points_to_dict(setup) -> dict:
         out[f"{kind}_std_mm"] = {str(k): [setup.std.get(f"{key}{k}.{c}", 0.0) * MM_PER_M for c in "xyz"] for k in store}
     if setup.nest_heights:
         out["nest_heights_mm"] = {str(k): float(h) * MM_PER_M for k, h in setup.nest_heights.items()}
+        out["nest_height_sd_mm"] = {str(k): float(s) * MM_PER_M for k, s in setup.nest_height_sd.items()}
+    if setup.nest_z_cov:
+        out["nests_z_cov_mm2"] = {"ids": [str(k) for k in setup.nest_z_cov["ids"]],
+                                  "matrix": (np.asarray(setup.nest_z_cov["cov"]) * MM_PER_M ** 2).tolist()}
     return out
 
 
@@ -316,13 +320,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
             store[k] = _finite(path, f"tracker.{kind}_mm.{k}", c) * M_PER_MM
             for comp, sd in zip("xyz", tr[f"{kind}_std_mm"][k]):
                 model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
-    for k, h in tr.get("nest_heights_mm", {}).items():
-        if str(k) not in model.setup_.nests:
-            raise ModelFileError(path, f"nest '{k}' is not among the fitted nests "
-                                 f"({', '.join(sorted(model.setup_.nests)) or 'none'})", "tracker.nest_heights_mm")
-        if isinstance(h, bool) or not isinstance(h, (int, float)):
-            raise ModelFileError(path, "a nest's height must be a number, mm", f"tracker.nest_heights_mm.{k}")
-        model.setup_.nest_heights[str(k)] = float(_finite(path, f"tracker.nest_heights_mm.{k}", h)) * M_PER_MM
+    _nest_heights_from(path, tr, model.setup_)
     zone = d.get("zone")
     if zone:
         for a in zone:
@@ -340,3 +338,29 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     # where relative meshes of the embedded URDF are looked for (the scene): its folder, then the model file's
     model.mesh_dirs_ = [str(x) for x in (md.get("urdf_dir"), path.resolve().parent) if x]
     return model
+
+
+def _nest_heights_from(path, tr: dict, setup) -> None:
+    """The nests' heights above the table's face [m] and their readings' standard deviations [m]
+    from the file's ``tracker`` section into ``setup`` (older files carry no standard deviations:
+    the default gauge's applies where the heights are used)."""
+    for k, h in tr.get("nest_heights_mm", {}).items():
+        if str(k) not in setup.nests:
+            raise ModelFileError(path, f"nest '{k}' is not among the fitted nests "
+                                 f"({', '.join(sorted(setup.nests)) or 'none'})", "tracker.nest_heights_mm")
+        if isinstance(h, bool) or not isinstance(h, (int, float)):
+            raise ModelFileError(path, "a nest's height must be a number, mm", f"tracker.nest_heights_mm.{k}")
+        setup.nest_heights[str(k)] = float(_finite(path, f"tracker.nest_heights_mm.{k}", h)) * M_PER_MM
+    for k, s in tr.get("nest_height_sd_mm", {}).items():   # older files: none (the default gauge's, where used)
+        if str(k) not in setup.nest_heights or isinstance(s, bool) or not isinstance(s, (int, float)) or s < 0:
+            raise ModelFileError(path, "a standard deviation (mm, 0 or more) of a nest given a height",
+                                 f"tracker.nest_height_sd_mm.{k}")
+        setup.nest_height_sd[str(k)] = float(_finite(path, f"tracker.nest_height_sd_mm.{k}", s)) * M_PER_MM
+    zc = tr.get("nests_z_cov_mm2")
+    if zc is not None:   # older files: none (the nests' standard deviations stand in)
+        ids = [str(k) for k in zc.get("ids", [])] if isinstance(zc, dict) else []
+        M = _finite(path, "tracker.nests_z_cov_mm2.matrix", zc.get("matrix", []) if isinstance(zc, dict) else [])
+        if not ids or any(k not in setup.nests for k in ids) or M.shape != (len(ids), len(ids)):
+            raise ModelFileError(path, "the fitted nests' ids and their z coordinates' covariance, a square matrix "
+                                 "(mm^2) with a row per id", "tracker.nests_z_cov_mm2")
+        setup.nest_z_cov.update(ids=ids, cov=M * M_PER_MM ** 2)

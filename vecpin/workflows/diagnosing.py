@@ -3,7 +3,7 @@ command): :func:`vecpin.diagnosis.diagnose.diagnose` on a campaign, its files wr
 into one folder."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -16,7 +16,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
-from vecpin.measurement.tableframe import check_nest_heights
+from vecpin.measurement.nestheights import check_heights_before_fit, with_nest_heights
 from vecpin.planning.zones import Zone, clip_to_zone
 from vecpin.fitting.problem import zone_rows
 
@@ -45,7 +45,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`;
     ``zone``: diagnose only the rows commanded in it, for a model used there only (the
     model files record it, as ``fit``'s do); ``nest_heights``: {nest id: height [mm] of its
-    reflector centre above the table's face}, carried by both model files as ``fit``'s model
+    reflector centre above the table's face, or (height, its standard deviation) [mm]}, carried by both model files as ``fit``'s model
     carries them (the tables then keep the table's face).
     The folder, the model file and the folds are checked before any fit, with the effects;
     ``folds`` and ``alpha`` by the diagnosis itself."""
@@ -57,8 +57,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     noise = noise or NoiseModel.default(machine)
     if noise.instrument == "range":
         check_stations(campaign)
-    if nest_heights:   # ids and heights checked before any fit, the nests' line after it
-        check_nest_heights(nest_heights, dict.fromkeys(campaign.target[campaign.nest_rows]))
+    check_heights_before_fit(nest_heights, campaign)   # ids and heights before any fit, the nests' line after it
     if zone:
         campaign = zone_rows(machine, campaign, zone)
     drawing = _Drawing()
@@ -69,9 +68,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
         for fitted in (d.base_model, d.best_model):
             if zone:
                 fitted.zone_ = dict(zone)
-            if nest_heights:
-                fitted.setup_ = replace(fitted.setup_, nest_heights=check_nest_heights(nest_heights,
-                                                                                       fitted.setup_.nests))
+            fitted.setup_ = with_nest_heights(fitted.setup_, nest_heights)
         return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=drawing.finish).values()])
     finally:
         drawing.close()

@@ -10,12 +10,15 @@ from typing import Callable
 
 import numpy as np
 
+from vecpin.compensation.faceframe import face_tilt, nest_z_cov
 from vecpin.fitting.problem import FitProblem, FitResult
+from vecpin.measurement.nestheights import GAUGE_SD_MM
+from vecpin.measurement.partframe import spindle_axis
 from vecpin.planning.zones import zone_text
 from vecpin.measurement.campaignrows import Campaign
 from vecpin.measurement.uncompensated import uncompensated
 from vecpin.models import ErrorModel
-from vecpin.units import MM_PER_M, norm_mm
+from vecpin.units import M_PER_MM, MM_PER_M, norm_mm
 from vecpin.workflows.summary import per_tool_table
 
 
@@ -138,14 +141,24 @@ def fitted_points_lines(model: ErrorModel) -> list[str]:
 
 def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
     """On a campaign with table nest rows, what the fit knows of the table's face: the nests'
-    heights it was given (mm above the face), or that it was given none and what that leaves."""
+    heights it was given (mm above the face, with their standard deviations) and the face's 1
+    sigma tilt uncertainty they give (with advice above the target), or that it was given none
+    and what that leaves."""
     if not len(campaign.nest_rows):
         return []
-    heights = model.setup_.nest_heights
-    if heights:
-        given = ", ".join(f"{k} at {h * MM_PER_M:.2f}" for k, h in sorted(heights.items()))
+    su = model.setup_
+    if su.nest_heights:
+        sds = {k: su.nest_height_sd.get(k, GAUGE_SD_MM * M_PER_MM) for k in su.nest_heights}
+        given = ", ".join(f"{k} at {h * MM_PER_M:.2f} ± {sds[k] * MM_PER_M:g}" for k, h in sorted(su.nest_heights.items()))
+        ids = sorted(k for k in su.nest_heights if k in su.nests)
+        face = face_tilt(np.array([su.nests[k] for k in ids]), -spindle_axis(model.machine),
+                         [su.nest_heights[k] for k in ids], [sds[k] for k in ids],
+                         nest_z_cov(su, ids)) if len(ids) >= 3 else None
+        known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
-                "model file keeps them); the tables keep the face square to the spindle"]
+                "model file keeps them); the tables keep the face square to the spindle as far as the heights tell "
+                f"it, weighed against the frame without heights{known}"] + (
+            [f"  table's face: {face.advice()}"] if face is not None and face.needs_advice else [])
     return ["  table's face: no nests' heights given: the tables keep the working volume's mean orientation relative "
             "to the table, not its face (`nest_heights`: each nest's reflector centre above the face, mm, as the "
             "plan's nest_heights.csv asks)"]

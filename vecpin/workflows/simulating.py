@@ -62,8 +62,9 @@ class SimulationRun:
                f"  tracker range {dist.min():.2f} .. {dist.max():.2f} m (station 0); campaign takes {full.time[-1] / 3600:.2f} h"]
         if sim.nests:   # what a user knows of the nests: the height of each reflector above the table's face
             out.append(f"  table nests, reflector centres above the table's face, mm (the fit's nest heights, in "
-                       f"{NEST_HEIGHTS_FILE}: the tables then keep the face square to the spindle): "
-                       + " ".join(f"{k}={float(p[2]) * MM_PER_M:.2f}" for k, p in sorted(sim.nests.items())))
+                       f"{NEST_HEIGHTS_FILE}: the tables then keep the face square to the spindle; :0, a simulation's "
+                       "heights are exact): " + " ".join(f"{k}={float(p[2]) * MM_PER_M:.4f}:0"
+                                                         for k, p in sorted(sim.nests.items())))
         if m.has_workpiece:
             rel = sim.truth.tool_tip(c.q, c.tool, frame="workpiece", point=c.point, offset=offset)
             out.append(error_summary("true vs nominal tip relative to the workpiece", registered_errors(
