@@ -60,7 +60,8 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
         read_nest_heights(out / "nest_heights.csv")
     (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(r.replace(",,", f",{20.5 + i},") + "\n"
                                                              for i, r in enumerate(rows[1:])))
-    assert read_nest_heights(tmp_path / "h.csv") == {k: (20.5 + i, GAUGE_SD_MM) for i, k in enumerate(sorted(plan.nests))}
+    expected = {k: (20.5 + i, GAUGE_SD_MM) for i, k in enumerate(sorted(plan.nests))}
+    assert read_nest_heights(tmp_path / "h.csv") == expected
     ids = sorted(plan.nests)
     for cells, where in (((ids[0], "abc"), r"row 2, column 'height_mm': 'abc' is not a height"),
                          (("99", "20"), r"row 2, column 'nest': the campaign has no nest '99'"),
@@ -183,7 +184,8 @@ def test_the_fit_says_what_it_knows_of_the_face(machines):
     from vecpin.workflows.fitting import face_lines
     rows = NS(nest_rows=np.arange(3))
     m = machines["trunnion_xyzac"]
-    nests = {"1": np.array([0.05, 0.0, 0.02]), "2": np.array([-0.025, 0.043, 0.03]), "3": np.array([-0.025, -0.043, 0.04])}
+    nests = {"1": np.array([0.05, 0.0, 0.02]), "2": np.array([-0.025, 0.043, 0.03]),
+             "3": np.array([-0.025, -0.043, 0.04])}
     setup = NS(nest_heights={"1": 0.02, "2": 0.0305, "3": 0.04}, nest_height_sd={"2": 0.0}, nests=nests, std={})
     given = face_lines(NS(setup_=setup, machine=m), rows)
     assert "1 at 20.00 ± 0.02, 2 at 30.50 ± 0, 3 at 40.00 ± 0.02 mm" in given[0]

@@ -180,8 +180,8 @@ def check_nest_heights(heights_mm: dict, nests: dict, option: str = "nest_height
         out[k] = value * M_PER_MM
     found = all(nests[k] is not None for k in out)   # before the fit no nest is found: no line to judge
     if out and (len(out) < 3 or found and on_a_line(np.array([nests[k] for k in out]))):
-        raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face needs "
-                         "three or more nests not on a line")
+        raise InputError(f"`{option}`: heights of {len(out)} nest(s) ({', '.join(sorted(out))}); the table's face "
+                         "needs three or more nests not on a line")
     return out
 
 

@@ -45,8 +45,8 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     ``alpha``, ``model``, ``basis``, ``order`` as :func:`vecpin.diagnosis.diagnose.diagnose`;
     ``zone``: diagnose only the rows commanded in it, for a model used there only (the
     model files record it, as ``fit``'s do); ``nest_heights``: {nest id: height [mm] of its
-    reflector centre above the table's face, or (height, its standard deviation) [mm]}, carried by both model files as ``fit``'s model
-    carries them (the tables then keep the table's face).
+    reflector centre above the table's face, or (height, its standard deviation) [mm]}, carried
+    by both model files as ``fit``'s model carries them (the tables then keep the table's face).
     The folder, the model file and the folds are checked before any fit, with the effects;
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
