@@ -92,17 +92,18 @@ def page(records: list[dict], how: str) -> str:
     secs = [r[a]["seconds"] for r in ok for a, _, _ in ARMS]
     lines += ["", "fit + tables + judge seconds per arm (median): " + ", ".join(
         f"{text} {np.median([r[a]['seconds'] for r in ok]):.0f}" for a, text, _ in ARMS) if secs else "", "",
-        "## per draw (part: vecpin / best, vecpin / achievable)", "",
+        "## per draw (vecpin / best, vecpin / achievable; part, then shape)", "",
         "| seed | class | axes | commands | default / best | default / achievable | prior / best | prior / achievable "
-        "| default model | prior model |", "|---|---|---|---|---|---|---|---|---|---|"]
+        "| default / best (shape) | default / achievable (shape) | prior / best (shape) | prior / achievable (shape) "
+        "| default model | prior model |", "|---|---|---|---|" + "---|" * 10]
     for r in records:
         if r not in ok:
             err = "; ".join(str((r.get(a) or {}).get("error", "")) for a, _, _ in ARMS)
             lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | failed: {err} |")
             continue
-        lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r['commands']} | "
-                     f"{ratio(r, 'no-heights'):.2f} | {ratio(r, 'no-heights', per='achievable'):.2f} | "
-                     f"{ratio(r, 'prior'):.2f} | {ratio(r, 'prior', per='achievable'):.2f} | "
+        cells = [f"{ratio(r, a, fr, per):.2f}" for fr in ("part", "shape") for a in ("no-heights", "prior")
+                 for per in ("best", "achievable")]
+        lines.append(f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r['commands']} | {' | '.join(cells)} | "
                      f"{r['no-heights'].get('label', '')} | {r['prior'].get('label', '')} |")
     return "\n".join(lines) + "\n"
 

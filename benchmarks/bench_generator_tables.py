@@ -281,8 +281,9 @@ def model_label(path: Path, axes: list[str]) -> str:
     m = json.loads(path.read_text())["model"]
     bases = m.get("axis_bases") or []
     short = {"chebyshev": "Ch", "fourier": "F", "pspline": "PS"}
+    prior = f" + {m['smooth_prior']['kernel']} prior" if m.get("smooth_prior") else ""
     return m["kind"] + " " + " ".join(f"{a}:{short.get(b['kind'], b['kind'])}{b.get('order', '')}"
-                                      for a, b in zip(axes, bases))
+                                      for a, b in zip(axes, bases)) + prior
 
 
 def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUGE_SIGMA_MM,

@@ -10,11 +10,13 @@ machines, after the best rigid registration), the true machine commanded through
 the table floor (vecpin.simulation.floor, judged in the machine's reference frame as bench_kinds.py judges),
 and the fit's seconds.
 
-Run: python benchmarks/bench_prior_bundled.py [--seeds 2] [--machines ...] [--out docs/results/prior_bundled.md]
+Run: python benchmarks/bench_prior_bundled.py [--seeds 2] [--first 1] [--machines ...] [--json F]
+     [--from-json F ...] [--out docs/results/prior_bundled.md]
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -89,19 +91,32 @@ def page(records: list[dict], how: str) -> str:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--first", type=int, default=1, help="first seed (default 1)")
     ap.add_argument("--machines", nargs="+", default=["flow_xyzcb", *MACHINES])
     ap.add_argument("--out", default=str(RESULT))
+    ap.add_argument("--json", default=None, help="also write every record here")
+    ap.add_argument("--from-json", nargs="+", default=None, help="write the page from records saved by --json")
     args = ap.parse_args(argv)
+    if args.from_json:
+        records = [r for f in args.from_json for r in json.loads(Path(f).read_text())]
+        seeds = sorted({r["seed"] for r in records})
+        Path(args.out).write_text(page(records, f"seeds {', '.join(map(str, seeds))}, machines "
+                                                f"{', '.join(dict.fromkeys(r['machine'] for r in records))}"))
+        print(f"wrote {args.out}")
+        return
     records = []
     for name in args.machines:
-        for seed in range(1, args.seeds + 1):
+        for seed in range(args.first, args.first + args.seeds):
             rec = one(name, seed)
             records.append(rec)
+            if args.json:
+                Path(args.json).write_text(json.dumps(records, indent=1))
             print(f"{name:<20s} {seed} default val {rec['auto']['validation']:.4f} tab/floor "
                   f"{rec['auto']['tables'] / rec['floor']:.2f} ({rec['auto']['seconds']:.0f} s) | prior val "
                   f"{rec['smooth']['validation']:.4f} tab/floor {rec['smooth']['tables'] / rec['floor']:.2f} "
                   f"({rec['smooth']['seconds']:.0f} s) {rec['smooth']['label']}", flush=True)
-    Path(args.out).write_text(page(records, f"seeds 1..{args.seeds}, machines {', '.join(args.machines)}"))
+    Path(args.out).write_text(page(records, f"seeds {args.first}..{args.first + args.seeds - 1}, machines "
+                                            f"{', '.join(args.machines)}"))
     print(f"wrote {args.out}")
 
 

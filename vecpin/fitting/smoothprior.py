@@ -215,6 +215,6 @@ def maximise(prob: EvidenceProblem, n_groups: int, n_axes: int, noise: bool) -> 
     bounds = [tuple(map(math.log, BOUNDS))] * n_groups + [(math.log(lo), math.log(hi))] * n_axes + \
         ([(math.log(1e-4), math.log(1e4))] if noise else [])
     res = optimize.minimize(prob.evaluate, x0, args=(n_groups, n_axes, noise), jac=True, method="L-BFGS-B",
-                            bounds=bounds, options={"maxiter": 500})
+                            bounds=bounds, options={"maxiter": 500, "ftol": 1e-7, "gtol": 1e-3})
     amp, lam, beta = prob.unpack(res.x, n_groups, n_axes, noise)
     return -float(res.fun), amp, lam, beta

@@ -346,7 +346,7 @@ class ErrorModel:
         """The kind and bases in words, e.g. '6-DoF with Chebyshev order 6 on every axis' or
         'AP with Chebyshev order 4 on X, Y, Z and B; Fourier order 6 with a trend of order 2 on C'."""
         return bases_text(self.display_name, self.machine.axis_names, [B.readable() for B in self.bases]) + \
-            (", a smoothness prior from the evidence" if self.spec.prior is not None else "")
+            (f", a {self.spec.prior.kernel} smoothness prior from the evidence" if self.spec.prior is not None else "")
 
     # --------------------------------------------------------------- estimator API
     @one_blas_thread
