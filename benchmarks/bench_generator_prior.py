@@ -86,9 +86,9 @@ def page(records: list[dict], how: str) -> str:
             pairs = np.array([(ratio(r, "prior", frame), ratio(r, "no-heights", frame)) for r in rows])
             if len(pairs):
                 mm = np.median([r["prior"]["vecpin"][frame] / r["no-heights"]["vecpin"][frame] for r in rows])
+                below = int((pairs[:, 0] < pairs[:, 1]).sum())
                 lines.append(f"- {frame}, {group}: smooth prior / default (vecpin's tables, mm / mm) median {mm:.2f}; "
-                             f"the prior's ratio to best below the default's in {int((pairs[:, 0] < pairs[:, 1]).sum())}"
-                             f" of {len(pairs)}")
+                             f"the prior's ratio to best below the default's in {below} of {len(pairs)}")
     secs = [r[a]["seconds"] for r in ok for a, _, _ in ARMS]
     lines += ["", "fit + tables + judge seconds per arm (median): " + ", ".join(
         f"{text} {np.median([r[a]['seconds'] for r in ok]):.0f}" for a, text, _ in ARMS) if secs else "", "",

@@ -72,8 +72,8 @@ def page(records: list[dict], how: str) -> str:
              f"the prior lower in {int((val < 1).sum())} of {len(val)}",
              f"- tables on the true machine: median {np.median(tab):.2f}, min {tab.min():.2f}, max {tab.max():.2f}; "
              f"the prior lower in {int((tab < 1).sum())} of {len(tab)}",
-             "- tables / floor: " + ", ".join(f"{a} median {np.median([r[a]['tables'] / r['floor'] for r in records]):.2f}"
-                                              for a in ARMS),
+             "- tables / floor: " + ", ".join(
+                 f"{a} median {np.median([r[a]['tables'] / r['floor'] for r in records]):.2f}" for a in ARMS),
              "- fit seconds (median): " + ", ".join(f"{a} {np.median([r[a]['seconds'] for r in records]):.1f}"
                                                     for a in ARMS), "",
              "## per machine and seed (mm)", "",

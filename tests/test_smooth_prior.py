@@ -61,10 +61,14 @@ def test_the_evidence_maximum_is_the_grids():
 
 
 @pytest.fixture(scope="module")
-def fitted(flow):
+def sim(flow):
+    return simulate(flow, seed=11, design=Design(n_commands=40, n_validation=2))
+
+
+@pytest.fixture(scope="module")
+def fitted(flow, sim):
     """A 6-DoF model with penalised splines of 4 knots (a Fourier series of order 4 on C) under a
     smoothness prior, fitted to a small simulated campaign (stated noise)."""
-    sim = simulate(flow, seed=11, design=Design(n_commands=40, n_validation=2))
     bases = smooth_bases(flow, sim.campaign, knots=4, fourier=4)
     groups = [f"{a}.{c}" for a in flow.axis_names for c in ("dx", "dy", "dz", "ex", "ey", "ez")]
     prior = SmoothPrior(tuple((g, "length" if ".d" in g else "angle", 2e-5 * (1 + k % 5))
@@ -107,3 +111,23 @@ def test_the_model_file_keeps_the_prior(fitted, tmp_path):
     q = model.machine.lower + np.random.default_rng(0).random((20, 5)) * (model.machine.upper - model.machine.lower)
     assert back.predict(q, 0.1) == pytest.approx(model.predict(q, 0.1), rel=1e-9, abs=1e-15)
     assert "smoothness prior" in back.label()
+
+
+def test_the_fit_problem_takes_the_smooth_basis(flow, sim, tmp_path):
+    """``basis="smooth"``: the evidence's prior in the fitted model (amplitudes moved from their common
+    start, inside their range), the stated noise kept, the file read back; the model choice refuses it."""
+    from vecpin.errors import InputError
+    from vecpin.fitting.problem import FitProblem
+    from vecpin.fitting.smoothprior import BOUNDS
+    from vecpin.selection.choice import choose_or_fix
+    noise = NoiseModel.default(flow)
+    result = FitProblem.build(flow, sim.campaign, noise, basis="smooth", order=2).solve()
+    prior = result.model.spec.prior
+    assert prior is not None and result.choice is None and result.noise_used == 1.0
+    amps = np.array([v for _, _, v in prior.amplitudes])
+    assert np.all((amps > 0.99 * BOUNDS[0]) & (amps < 1.01 * BOUNDS[1])) and np.ptp(np.log(amps)) > 1   # moved
+    assert {a for a, _ in prior.roughness} == set(flow.axis_names)
+    result.model.save(tmp_path / "m.json")    # read back: every parameter within its prior's reach (models.recorded)
+    assert ErrorModel.load(tmp_path / "m.json").spec.prior.kernel == prior.kernel
+    with pytest.raises(InputError, match="`basis` smooth"):
+        choose_or_fix(flow, sim.campaign, noise, basis="smooth")

@@ -6,9 +6,11 @@ every axis gets a rich basis (penalised cubic splines with :data:`KNOTS` interio
 commands measured, or a Fourier series of order :data:`FOURIER_ORDER` per turn on a rotary axis that travels
 and was measured over more than a turn) and every error function a prior (:class:`~vecpin.models.prior.
 SmoothPrior`): an amplitude per function (a 6-DoF model's ``X.dx`` [m], ``X.ey`` [rad]; an AP model's
-``X->Y``) and a roughness per axis. Those scales are the ones under which the campaign's readings are most
-probable: the evidence ``p(y | scales)`` of the model linearised at the nominal machine (the tracker
-registered on the nominal tips, as the model choice linearises it), a Gaussian integral in closed form
+``X->Y``) and a scale per axis (a roughness penalty or a squared-exponential length scale, the two kernels
+of :mod:`vecpin.models.prior`; the kernel of the higher evidence is kept). Those scales are the ones under
+which the campaign's readings are most probable: the evidence ``p(y | scales)`` of the model linearised at
+the nominal machine (the tracker registered on the nominal tips, as the model choice linearises it), a
+Gaussian integral in closed form
 
     log p(y) = 1/2 sum log a_i + n/2 log beta - beta/2 |w + J mu|^2 - 1/2 mu' A mu - 1/2 log det(beta G + A)
 
@@ -27,7 +29,7 @@ Terms no design can tell apart are removed as the fit removes them (their priors
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -191,10 +193,9 @@ def smooth_model(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: 
     if progress:
         progress(f"smooth prior: {len(groups)} amplitudes and {len(axes)} roughness scales of a {kind} model with "
                  f"{proto.n_parameters} terms, chosen by the evidence")
-    best = None
+    best, linearised = None, evidence_problem(proto, campaign, noise, groups, axes)
     for kernel in KERNELS:   # each kernel's scales by the evidence; the kernel of the higher evidence
-        prob = evidence_problem(proto, campaign, noise, groups, axes, kernel)
-        got = maximise(prob, len(groups), len(axes), noise_from_data)
+        got = maximise(replace(linearised, kernel=kernel), len(groups), len(axes), noise_from_data)
         if progress:
             progress(f"  {kernel} kernel: log evidence {got[0]:.1f}")
         if best is None or got[0] > best[0]:
