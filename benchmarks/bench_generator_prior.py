@@ -89,9 +89,8 @@ def page(records: list[dict], how: str) -> str:
                 below = int((pairs[:, 0] < pairs[:, 1]).sum())
                 lines.append(f"- {frame}, {group}: smooth prior / default (vecpin's tables, mm / mm) median {mm:.2f}; "
                              f"the prior's ratio to best below the default's in {below} of {len(pairs)}")
-    secs = [r[a]["seconds"] for r in ok for a, _, _ in ARMS]
-    lines += ["", "fit + tables + judge seconds per arm (median): " + ", ".join(
-        f"{text} {np.median([r[a]['seconds'] for r in ok]):.0f}" for a, text, _ in ARMS) if secs else "", "",
+    lines += ["", "`vecpin fit` seconds (median, a process each, on a machine shared with other jobs): " + ", ".join(
+        f"{text} {np.median([r[a]['fit_s'] for r in ok]):.0f}" for a, text, _ in ARMS) if ok else "", "",
         "## per draw (vecpin / best, vecpin / achievable; part, then shape)", "",
         "| seed | class | axes | commands | default / best | default / achievable | prior / best | prior / achievable "
         "| default / best (shape) | default / achievable (shape) | prior / best (shape) | prior / achievable (shape) "
