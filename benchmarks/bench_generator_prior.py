@@ -12,7 +12,9 @@ same tables, from the truth) and *achievable* (the best values for them from the
 of the same campaign, benchmarks/gentables_oracle.py). This runs only those two arms (the whole bench
 runs them beside its others).
 
-Run: python benchmarks/bench_generator_prior.py [-n 8] [--seed S] [--kinds table head_table ...]
+With ``--heights`` both are also fitted given every table nest's exact height above the table's face.
+
+Run: python benchmarks/bench_generator_prior.py [-n 8] [--seed S] [--kinds table head_table ...] [--heights]
      [--json F] [--from-json F ...] [--out docs/results/generator_prior.md]
 """
 from __future__ import annotations
@@ -41,19 +43,24 @@ from gentables_page import N_JUDGE, TABLE_KINDS, TARGET  # noqa: E402
 
 RESULT = HERE.parent / "docs" / "results" / "generator_prior.md"
 ARMS = (("no-heights", "default choice", ()), ("prior", "smooth prior", PRIOR_OPTIONS))
+# with --heights: both fits given every nest's exact height above the table's face (--nest-height)
+HEIGHT_ARMS = (("exact-heights", "default choice, exact heights", ()),
+               ("prior-exact-heights", "smooth prior, exact heights", PRIOR_OPTIONS))
 
 
-def one_draw(seed: int, kind: str, work: Path) -> dict:
-    """Both arms on one fresh machine, judged against best and achievable (part and shape)."""
+def one_draw(seed: int, kind: str, work: Path, heights: bool = False) -> dict:
+    """Both arms (``heights``: and both given the exact heights) on one fresh machine, judged against
+    best and achievable (part and shape)."""
     camp = draw_campaign(seed, kind=kind, family=None)
     truth = Truth(camp)
     q, tool = truth.commands(N_JUDGE, seed + 7919)
     bests = BestSets(truth, seed + 104729)
     oracle = BestSets(Truth(estimated_campaign(camp)), seed + 104729)
     rec = {"seed": seed, "kind": kind, "axes": truth.axes, "commands": int(len(next(iter(camp.q.values()))))}
-    for name, _, extra in ARMS:
+    for name, _, extra in ARMS + (HEIGHT_ARMS if heights else ()):
         t0 = time.perf_counter()
-        rec[name] = side_run(camp, work / str(seed) / name, truth, bests, q, tool, None, extra, oracle)
+        rec[name] = side_run(camp, work / str(seed) / name, truth, bests, q, tool,
+                             0.0 if "heights" in name and name != "no-heights" else None, extra, oracle)
         rec[name]["seconds"] = time.perf_counter() - t0
     return rec
 
@@ -78,7 +85,9 @@ def page(records: list[dict], how: str) -> str:
     for frame in ("part", "shape"):
         for group, keep in (("table machines", lambda r: r["kind"] in TABLE_KINDS), ("every class", lambda r: True)):
             rows = [r for r in ok if keep(r)]
-            for arm, text, _ in ARMS:
+            for arm, text, _ in ARMS + HEIGHT_ARMS:
+                if not any(arm in r for r in rows):
+                    continue
                 lines.append(f"- {frame}, {group}: {text} / best {_stats(ratio(r, arm, frame) for r in rows)}; "
                              f"{text} / achievable {_stats(ratio(r, arm, frame, 'achievable') for r in rows)}")
             lines.append(f"- {frame}, {group}: achievable / best (the smooth prior's tables) "
@@ -113,6 +122,8 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=None, help="first seed (default: fresh)")
     ap.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     ap.add_argument("--out", default=str(RESULT))
+    ap.add_argument("--heights", action="store_true",
+                    help="also both fits given the nests' exact heights (arms exact-heights, prior-exact-heights)")
     ap.add_argument("--json", default=None, help="also write every record here")
     ap.add_argument("--from-json", nargs="+", default=None, help="write the page from records saved by --json")
     args = ap.parse_args(argv)
@@ -127,7 +138,7 @@ def main(argv=None) -> None:
     records = []
     with tempfile.TemporaryDirectory(prefix="vecpin_genprior_") as tmp:
         for i in range(args.n):
-            rec = one_draw(first + i, args.kinds[i % len(args.kinds)], Path(tmp))
+            rec = one_draw(first + i, args.kinds[i % len(args.kinds)], Path(tmp), args.heights)
             records.append(rec)
             print(json.dumps(rec), flush=True)
             if args.json:
