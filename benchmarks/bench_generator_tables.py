@@ -9,8 +9,9 @@ above the table's face with ``--nest-height`` as the plan's nest_heights.csv ask
 true height read by a height gauge with a normal error of GAUGE_SIGMA_MM, the reading's standard
 deviation left to vecpin's default as the plan's file states it) and ``vecpin tables`` for the generic
 files, Siemens 840D and LinuxCNC. Beside it the same noisy campaign fitted without the heights (*no
-heights*) and with the exact heights, stated exact (*exact heights*), generic files only, each against
-the best set for its own tables.
+heights*), the same without heights fitted with the smoothness prior (*prior*: ``--basis smooth``,
+vecpin.fitting.smoothprior) and with the exact heights, stated exact (*exact heights*), generic files only,
+each against the best set for its own tables (*no heights* and *prior* also against the oracle's set for them).
 
 The judge is written without vecpin: the generator's own numpy kinematics is the true machine; the
 generic ``tables.json`` is read by the parser of tests/part_frame_judge.py, the Siemens and LinuxCNC
@@ -76,6 +77,7 @@ from gentables_page import FORMATS, GAUGE_SIGMA_MM, KNOTS, N_FIT, N_JUDGE, TARGE
 
 RESULT = ROOT / "docs" / "results" / "generator_tables.md"
 KINDS = ("table", "head_table", "head", "gantry")
+PRIOR_OPTIONS = ("--basis", "smooth")   # the *prior* arm: the smoothness prior's fit (vecpin.fitting.smoothprior)
 EIG_CUT = 1e-8          # ridge on the scaled normal equations, as a share of their largest eigenvalue's bound
 
 
@@ -282,14 +284,16 @@ def model_label(path: Path, axes: list[str]) -> str:
     m = json.loads(path.read_text())["model"]
     bases = m.get("axis_bases") or []
     short = {"chebyshev": "Ch", "fourier": "F", "pspline": "PS"}
+    prior = f" + {m['smooth_prior']['kernel']} prior" if m.get("smooth_prior") else ""
     return m["kind"] + " " + " ".join(f"{a}:{short.get(b['kind'], b['kind'])}{b.get('order', '')}"
-                                      for a, b in zip(axes, bases))
+                                      for a, b in zip(axes, bases)) + prior
 
 
-def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUGE_SIGMA_MM) -> dict:
+def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUGE_SIGMA_MM,
+               extra: tuple[str, ...] = ()) -> dict:
     """Write the campaign, fit (default choice; the nests' heights as the plan asks, read with a gauge
-    error of ``heights`` mm, None: not given) and write tables for every format; seconds and the model's
-    label."""
+    error of ``heights`` mm, None: not given; ``extra``: more fit options) and write tables for every
+    format; seconds and the model's label."""
     paths = camp.write(folder)
     truth = camp.truth_record()
     model = folder / "model.json"
@@ -298,7 +302,7 @@ def run_vecpin(camp, folder: Path, formats=FORMATS, heights: float | None = GAUG
     t0 = time.perf_counter()
     fit = None if model.exists() else vecpin_cmd("fit", str(paths["urdf"]), str(paths["csv"]), "--out", str(model),
                                                  "--quiet", *noise_options(truth, stated=True),
-                                                 *nest_height_options(camp, heights))
+                                                 *nest_height_options(camp, heights), *extra)
     if fit is not None and fit.returncode != 0:
         raise RuntimeError("fit: " + (fit.stderr.strip().splitlines() or ["?"])[-1])
     out = {"fit_s": time.perf_counter() - t0, "label": model_label(model, truth["axes"])}
@@ -345,32 +349,39 @@ def one_draw(seed: int, kind: str, work: Path, n_commands: int | None = None) ->
         rec[fmt] = row
     rec["commands_asked"] = n_commands
     rec["commands"] = int(len(next(iter(camp.q.values()))))
-    rec["no-heights"] = side_run(camp, folder / "no-heights", truth, bests, q, tool, None)
+    rec["no-heights"] = side_run(camp, folder / "no-heights", truth, bests, q, tool, None, oracle=oracle)
+    rec["prior"] = side_run(camp, folder / "prior", truth, bests, q, tool, None, PRIOR_OPTIONS, oracle)
     rec["exact-heights"] = side_run(camp, folder / "exact-heights", truth, bests, q, tool, 0.0)
     rec["noise-free"] = noise_free(seed, kind, folder / "noise-free", truth, bests, q, tool, n_commands)
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
 
-def judged_generic(folder: Path, truth: Truth, bests: BestSets, q, tool) -> dict:
-    """vecpin's generic tables in ``folder`` and the best set for the same tables, judged (part, shape)."""
+def judged_generic(folder: Path, truth: Truth, bests: BestSets, q, tool, oracle: BestSets | None = None) -> dict:
+    """vecpin's generic tables in ``folder`` and the best set for the same tables, judged (part, shape);
+    with ``oracle`` also the set the oracle's estimate gives for them (*achievable*)."""
     corr, gauge = corrections("generic", folder / "generic", truth.axes, q / truth.unit)
     specs = table_specs(folder / "generic")
     rec = {"vecpin": judge(truth, corr, gauge, q, tool), "best": {}}
     for frame in ("part", "shape"):
-        best, bg = bests.solve(specs, frame)
-        rec["best"][frame] = judge(truth, generic_corrections(best, truth.axes, q / truth.unit), bg, q, tool)[frame]
+        for name, sets in (("best", bests), ("achievable", oracle)):
+            if sets is not None:
+                best, bg = sets.solve(specs, frame)
+                rec.setdefault(name, {})[frame] = judge(truth, generic_corrections(best, truth.axes, q / truth.unit),
+                                                        bg, q, tool)[frame]
     return rec
 
 
-def side_run(camp, folder: Path, truth: Truth, bests: BestSets, q, tool, heights: float | None) -> dict:
+def side_run(camp, folder: Path, truth: Truth, bests: BestSets, q, tool, heights: float | None,
+             extra: tuple[str, ...] = (), oracle: BestSets | None = None) -> dict:
     """The same noisy campaign fitted with the heights read with gauge error ``heights`` mm (0: exact;
-    None: without them, as before the plan asked for them), tabled (generic) and judged the same way."""
+    None: without them, as before the plan asked for them; ``extra``: more fit options), tabled
+    (generic) and judged the same way (``oracle``: also against the oracle's set for its tables)."""
     try:
-        rec = run_vecpin(camp, folder, ("generic",), heights=heights)
+        rec = run_vecpin(camp, folder, ("generic",), heights=heights, extra=extra)
     except RuntimeError as exc:
         return {"error": str(exc)}
-    return rec | judged_generic(folder, truth, bests, q, tool)
+    return rec | judged_generic(folder, truth, bests, q, tool, oracle)
 
 
 def noise_free(seed: int, kind: str, folder: Path, truth: Truth, bests: BestSets, q, tool,

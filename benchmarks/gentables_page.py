@@ -22,13 +22,15 @@ def _stats(v: list[float]) -> str:
             if len(v) else "-")
 
 
-def sub_ratio(rec: dict, part: str, frame: str) -> float | None:
-    """vecpin / best of a side run (``noise-free``, ``no-heights``), None where it did not run."""
+def sub_ratio(rec: dict, part: str, frame: str, per: str = "best") -> float | None:
+    """vecpin / best (``per``: or / achievable) of a side run (``noise-free``, ``no-heights``, ``prior``),
+    None where it did not run or has no such set."""
     sub = rec.get(part) or {}
-    return None if "vecpin" not in sub else sub["vecpin"][frame] / sub["best"][frame]
+    return None if "vecpin" not in sub or per not in sub else sub["vecpin"][frame] / sub[per][frame]
 
 
 SIDE_RUNS = (("no-heights", "the same campaigns fitted without the nests' heights (as before)"),
+             ("prior", "the same campaigns without heights, fitted with the smoothness prior (--basis smooth)"),
              ("exact-heights", "the same campaigns fitted with the exact heights (no gauge error)"),
              ("noise-free", "the same campaigns read without noise (exact heights)"))
 
@@ -57,6 +59,12 @@ def summary_lines(ok: list[dict]) -> list[str]:
                 tm = [v for r in group if r["kind"] in TABLE_KINDS and (v := sub_ratio(r, side, frame)) is not None]
                 al = [v for r in group if (v := sub_ratio(r, side, frame)) is not None]
                 out.append(f"- {text} (generic), {frame}: table machines {_stats(tm)}; every class {_stats(al)}")
+        for side, text in SIDE_RUNS:
+            tm = [v for r in group if r["kind"] in TABLE_KINDS and (v := sub_ratio(r, side, "part", "achievable"))]
+            al = [v for r in group if (v := sub_ratio(r, side, "part", "achievable")) is not None]
+            if al:
+                out.append(f"- {side} / achievable (generic), part: table machines {_stats(tm)}; every class "
+                           f"{_stats(al)}")
         out.append("")
     return out
 
@@ -115,8 +123,9 @@ INTRO = (
     "pose, tools and nests, heights included, known), judged the same way. part: translation and rotation about "
     "the spindle removed; shape: the best rigid motion removed. *no heights*: the same noisy campaign fitted "
     "without the heights (the run before the plan asked for them), generic, against the best set for its own "
-    "tables; *exact heights*: the same with the heights exact, stated exact (`ID=MM:0`). *noise-free*: the same "
-    "campaign (commands, tools, "
+    "tables; *prior*: the same without heights fitted with the smoothness prior (`--basis smooth`); *exact "
+    "heights*: the same with the heights exact, stated exact (`ID=MM:0`). *noise-free*: the same campaign "
+    "(commands, tools, "
     "nests) read without tracker or axis noise, the heights exact, fitted and tabled the same way (generic).")
 
 
@@ -126,7 +135,7 @@ def _row(r: dict) -> str:
     cells = [f"{r[f]['vecpin'][fr]:.4f} / {r[f]['best'][fr]:.4f} = {ratio(r, f, fr):.2f}"
              for f in FORMATS for fr in ("part", "shape")]
     sides = []
-    for side in ("no-heights", "exact-heights", "noise-free"):
+    for side in ("no-heights", "prior", "exact-heights", "noise-free"):
         sub = r.get(side) or {}
         sides.append(f"{sub['vecpin']['part']:.4f} / {sub['best']['part']:.4f} = {sub_ratio(r, side, 'part'):.2f}"
                      if "vecpin" in sub else sub.get("error", "-"))
@@ -135,7 +144,8 @@ def _row(r: dict) -> str:
     counts = ", ".join(f"{r[f]['tables'] - r[f].get('products', 0)}+{r[f].get('products', 0)}" for f in FORMATS)
     return (f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r.get('commands', '')} | {r.get('label', '')} | "
             f"{r['uncompensated']['part']:.4f} | " + " | ".join(cells)
-            + f" | {ach} | {' | '.join(sides)} | {(r.get('noise-free') or {}).get('label', '')} | {counts} |")
+            + f" | {ach} | {' | '.join(sides)} | {(r.get('noise-free') or {}).get('label', '')} | {counts} |"
+            + f" {(r.get('prior') or {}).get('label', '')} |")
 
 
 def page(records: list[dict], how: str) -> str:
@@ -151,9 +161,9 @@ def page(records: list[dict], how: str) -> str:
     lines += ["## per draw", "",
               "| seed | class | axes | commands | model | uncomp. part | " + " | ".join(
                   f"{f} part / best | {f} shape / best" for f in FORMATS)
-              + " | achievable part / best | no heights part / best | exact heights part / best"
+              + " | achievable part / best | no heights part / best | prior part / best | exact heights part / best"
               + " | noise-free part / best | noise-free model"
-              + " | tables + products (generic, Siemens, LinuxCNC) |",
-              "|---|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|---|---|---|---|---|",
+              + " | tables + products (generic, Siemens, LinuxCNC) | prior model |",
+              "|---|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|---|---|---|---|---|---|---|",
               *(_row(r) for r in records)]
     return "\n".join(lines) + "\n"

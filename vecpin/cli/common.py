@@ -99,13 +99,15 @@ def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> No
     s.add_argument("--model", choices=["auto", "6dof", "ap"], default=default_kind,
                    help="error model: 6dof (Paper I eq. 3-6), ap (axis perturbation, eq. 7-8) or auto: chosen by "
                         f"held-out data (default {default_kind})")
-    s.add_argument("--basis", choices=["auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline"],
+    s.add_argument("--basis", choices=["auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline", "smooth"],
                    default="auto",
                    help="basis of the error functions: chebyshev over the travel (the seed's), fourier (per turn on "
                         "rotary axes travelling more than a turn), fourier_trend (per turn plus a trend over the "
                         "travel), spline (cubic B-splines), pspline (penalised cubic B-splines, 15 interior knots "
                         "unless --order, smoothing chosen by held-out data), or auto: chebyshev, fourier, "
-                        "fourier_trend or pspline, chosen per axis by held-out data (default)")
+                        "fourier_trend or pspline, chosen per axis by held-out data (default); smooth (fit only): "
+                        "penalised splines (per turn: Fourier) on every axis with a smoothness prior whose scales the "
+                        "evidence chooses")
     s.add_argument("--order", default="auto",
                    help="series order (a whole number: Chebyshev and Fourier series of that order, trends up to it; "
                         "with --basis spline or pspline the number of interior knots per axis), or auto: chosen by held-out "

@@ -25,6 +25,7 @@ import numpy as np
 from vecpin.errors import InputError, VecpinWarning
 from vecpin.fitting.settings import DEFAULTS, default
 from vecpin.fitting.result import FitResult, NOISE_ROUNDS, fit_rounds, variance_parts
+from vecpin.fitting.smoothprior import SMOOTH, smooth_model
 from vecpin.kinematics.machine import Machine, as_machine
 from vecpin.measurement.campaignchecks import still_axes_notes
 from vecpin.measurement.campaignrows import Campaign, min_rows
@@ -188,17 +189,24 @@ class FitProblem:
             check_stations(campaign)
         opts = {"tool_lengths": [float(t) for t in campaign.tool_lengths()] if self.tool_corrections else None,
                 "prior_scale": self.prior_scale}
-        model, choice = choose_or_fix(self.machine, campaign, self.noise, self.kind, self.basis, self.order, folds=cv,
-                                      underdetermined=self.underdetermined, progress=progress,
-                                      travel=clip_to_zone(self.machine, self.zone) if self.zone else None,
-                                      noise_from_data=self.noise_from_data, **opts)
+        travel = clip_to_zone(self.machine, self.zone) if self.zone else None
+        if self.basis == SMOOTH:   # rich bases, their prior's scales chosen by the evidence (fitting.smoothprior)
+            smooth = smooth_model(self.machine, campaign, self.noise, self.kind, self.order, travel=travel,
+                                  noise_from_data=self.noise_from_data, progress=progress, **opts)
+            model, choice = smooth.model, None
+        else:
+            model, choice = choose_or_fix(self.machine, campaign, self.noise, self.kind, self.basis, self.order,
+                                          folds=cv, underdetermined=self.underdetermined, progress=progress,
+                                          travel=travel, noise_from_data=self.noise_from_data, **opts)
         check_size(model)
         (start, gross), measured = ((choice.chosen_noise_scale, choice.gross) if choice else (1.0, None)), campaign
+        if self.basis == SMOOTH:
+            start = smooth.noise_scale
         if gross is not None:   # gross rows the choice left out: the fit leaves them out too
             campaign = campaign.subset(np.setdiff1d(np.arange(len(campaign)), gross.rows))
         choice = None if choice is not None and choice.fixed else choice   # a fixed model: no choice to keep
         model, scale, estimate, sd = fit_rounds(model, campaign, self.noise, start, self.noise_from_data,
-                                                self.underdetermined, progress)
+                                                self.underdetermined or self.basis == SMOOTH, progress)
         residuals = model.residuals(campaign)   # for the moved nests, the printout and the variance components
         if len(campaign.nest_rows) and not any(" moved at row " in n for n in notes):
             for note in moved_nest_after_fit(campaign, residuals):

@@ -8,8 +8,9 @@ from __future__ import annotations
 DEFAULTS: dict[str, tuple[object, str]] = {
     "kind": ("auto", "the model kind: \"6dof\" (Paper I eq. 3-6), \"ap\" (eq. 7-8) or \"auto\" (chosen on held-out "
                      "data)"),
-    "basis": ("auto", "the basis of the error functions (chebyshev, fourier, fourier_trend, spline, pspline) or "
-                      "\"auto\": chosen per axis on held-out data"),
+    "basis": ("auto", "the basis of the error functions (chebyshev, fourier, fourier_trend, spline, pspline), "
+                      "\"auto\": chosen per axis on held-out data, or \"smooth\": rich bases with a smoothness "
+                      "prior whose scales the evidence chooses"),
     "order": ("auto", "the series order (a whole number; the interior knots of a spline basis) or \"auto\": chosen "
                       "per axis on held-out data"),
     "tool_corrections": (False, "also fit a length correction per tool [mm] (default: the gauge line T_offset only)"),

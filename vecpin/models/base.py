@@ -68,7 +68,7 @@ class ErrorModel:
     needs a high order for); ``basis="chebyshev"`` is the seed's choice everywhere;
     ``bases`` overrides everything with one :class:`~vecpin.models.basis.AxisBasis`
     per axis (column 0 must be the constant). ``tool_lengths`` [m] adds a length
-    correction per tool; ``prior_scale`` multiplies every prior standard deviation (Σ_b).
+    correction per tool; ``prior_scale`` multiplies every prior sd (Σ_b), ``prior`` (a SmoothPrior) sets them.
     The arguments make the model's :class:`~vecpin.models.spec.ModelSpec` (``spec``), from
     which it is built; :meth:`from_spec` builds a model from a spec.
     """
@@ -78,16 +78,16 @@ class ErrorModel:
 
     def __init__(self, machine: Machine, order: int = 6, basis: str = "fourier",
                  tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
-                 bases: list[AxisBasis] | None = None, effects: list | None = None):
+                 bases: list[AxisBasis] | None = None, effects: list | None = None, prior=None):
         self.machine = machine
-        self.spec = ModelSpec.of(self.kind, machine, order, basis, tool_lengths, prior_scale, bases, effects)
+        self.spec = ModelSpec.of(self.kind, machine, order, basis, tool_lengths, prior_scale, bases, effects, prior)
         self.order, self.prior_scale = self.spec.order, self.spec.prior_scale
         self.tool_lengths = None if self.spec.tool_lengths is None else list(self.spec.tool_lengths)
         self.bases = list(self.spec.bases)
         self._K = max(B.size for B in self.bases)
         self._mask = np.array([[j < B.size for B in self.bases] for j in range(self._K)])  # (K, n)
-        labels = [B.labels() for B in self.bases]
-        self.base_parameters: list[Parameter] = self._offset_parameters() + self._series_parameters(self._mask, labels)
+        self.base_parameters: list[Parameter] = self.spec.priors_of(self._offset_parameters() + self._series_parameters(
+            self._mask, [B.labels() for B in self.bases]), machine.axis_names)   # a smoothness prior's (models.prior)
         self.effects = list(self.spec.effects)
         self.parameters: list[Parameter] = self.base_parameters + [p for e in self.effects for p in e.parameters()]
 
@@ -345,7 +345,8 @@ class ErrorModel:
     def label(self) -> str:
         """The kind and bases in words, e.g. '6-DoF with Chebyshev order 6 on every axis' or
         'AP with Chebyshev order 4 on X, Y, Z and B; Fourier order 6 with a trend of order 2 on C'."""
-        return bases_text(self.display_name, self.machine.axis_names, [B.readable() for B in self.bases])
+        return bases_text(self.display_name, self.machine.axis_names, [B.readable() for B in self.bases]) + \
+            (f", a {self.spec.prior.kernel} smoothness prior from the evidence" if self.spec.prior is not None else "")
 
     # --------------------------------------------------------------- estimator API
     @one_blas_thread

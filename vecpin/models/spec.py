@@ -23,6 +23,7 @@ from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
 from vecpin.models.basis import AxisBasis
 from vecpin.models.effects.base import Effect, effect_from_dict
+from vecpin.models.prior import SmoothPrior
 from vecpin.units import MM_PER_M, M_PER_MM
 
 #: how the bases were made: "fourier" (Chebyshev over the travel, a Fourier series per turn on
@@ -37,7 +38,9 @@ class ModelSpec:
     ``bases``: one per axis in the machine's axis order; ``basis``: one of
     :data:`BASIS_RULES`; ``tool_lengths`` [m]: a length correction per tool (None: the
     gauge-line correction only); ``prior_scale``: the factor on every prior standard
-    deviation (Σ_b), dimensionless."""
+    deviation (Σ_b), dimensionless; ``prior``: a smoothness prior on the series' coefficients
+    (:class:`~vecpin.models.prior.SmoothPrior`; None: every coefficient's prior is the
+    default times ``prior_scale``)."""
 
     kind: str
     order: int
@@ -46,11 +49,13 @@ class ModelSpec:
     effects: tuple[Effect, ...] = ()
     tool_lengths: tuple[float, ...] | None = None
     prior_scale: float = 1.0
+    prior: SmoothPrior | None = None
 
     @classmethod
     def of(cls, kind: str, machine: Machine, order: int = 6, basis: str = "fourier",
            tool_lengths: list[float] | None = None, prior_scale: float = 1.0,
-           bases: list[AxisBasis] | None = None, effects: list | None = None) -> "ModelSpec":
+           bases: list[AxisBasis] | None = None, effects: list | None = None,
+           prior: SmoothPrior | None = None) -> "ModelSpec":
         """The spec of a model's constructor arguments (checked; each message names the
         parameter). ``bases`` given: ``basis`` is "custom"; else every axis gets
         ``basis``' family at ``order``."""
@@ -70,12 +75,16 @@ class ModelSpec:
                 raise InputError(f"`bases`: one basis per axis: {machine.n_axes} axes, {len(bases)} bases")
             basis = "custom"
         tools = None if tool_lengths is None else tuple(float(t) for t in tool_lengths)
-        return cls(kind, int(order), tuple(bases), basis, tuple(effects or ()), tools, float(prior_scale))
+        return cls(kind, int(order), tuple(bases), basis, tuple(effects or ()), tools, float(prior_scale), prior)
 
     @property
     def orders(self) -> tuple[int, ...]:
         """The series order (or spline degree) of every axis' basis."""
         return tuple(B.order for B in self.bases)
+
+    def priors_of(self, parameters: list, axis_names: list[str]) -> list:
+        """The model's parameters with their priors from :attr:`prior` (unchanged without one)."""
+        return parameters if self.prior is None else self.prior.apply(parameters, dict(zip(axis_names, self.bases)))
 
     def with_effects(self, effects: list) -> "ModelSpec":
         """The same model with these effects instead of its own."""
@@ -86,12 +95,12 @@ class ModelSpec:
         return {"order": self.order, "basis": "fourier" if self.basis == "custom" else self.basis,
                 "tool_lengths": None if self.tool_lengths is None else list(self.tool_lengths),
                 "prior_scale": self.prior_scale, "bases": list(self.bases) if self.basis == "custom" else None,
-                "effects": list(self.effects)}
+                "effects": list(self.effects), "prior": self.prior}
 
     def key(self) -> tuple:
         """What two equal specs share (effects by their definition)."""
         return (self.kind, self.order, self.bases, self.basis, tuple(str(e.to_dict()) for e in self.effects),
-                self.tool_lengths, self.prior_scale)
+                self.tool_lengths, self.prior_scale, self.prior)
 
     def __eq__(self, other) -> bool:
         return isinstance(other, ModelSpec) and self.key() == other.key()
@@ -100,10 +109,11 @@ class ModelSpec:
 
     def to_dict(self, machine: Machine) -> dict:
         """The model file's ``model`` section (mm, deg)."""
-        return {"kind": self.kind, "order": self.order, "basis": self.basis,
-                "axis_bases": [basis_to_dict(a, B) for a, B in zip(machine.axes, self.bases)],
-                "tool_lengths_mm": None if self.tool_lengths is None else [t * MM_PER_M for t in self.tool_lengths],
-                "prior_scale": self.prior_scale, "effects": [e.to_dict() for e in self.effects]}
+        out = {"kind": self.kind, "order": self.order, "basis": self.basis,
+               "axis_bases": [basis_to_dict(a, B) for a, B in zip(machine.axes, self.bases)],
+               "tool_lengths_mm": None if self.tool_lengths is None else [t * MM_PER_M for t in self.tool_lengths],
+               "prior_scale": self.prior_scale, "effects": [e.to_dict() for e in self.effects]}
+        return out if self.prior is None else out | {"smooth_prior": self.prior.to_dict()}
 
     @classmethod
     def from_dict(cls, d: dict, machine: Machine) -> "ModelSpec":
@@ -122,8 +132,9 @@ class ModelSpec:
                     raise InputError(f"model.axis_bases: the basis of axis {a.name} is invalid ({exc})") from None
         tools = None if d["tool_lengths_mm"] is None else [t * M_PER_MM for t in d["tool_lengths_mm"]]
         effects = [effect_from_dict(e, machine) for e in d["effects"]]
+        prior = SmoothPrior.from_dict(d["smooth_prior"]) if d.get("smooth_prior") is not None else None
         return cls.of(d["kind"], machine, d["order"], "fourier" if bases else d["basis"], tools, d["prior_scale"],
-                      bases, effects)
+                      bases, effects, prior)
 
 
 def basis_to_dict(axis, B: AxisBasis) -> dict:
