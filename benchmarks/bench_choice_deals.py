@@ -37,6 +37,7 @@ sys.path.insert(0, str(HERE))
 from bench_model_choice import HELD_COMMANDS, TARGETS  # noqa: E402
 from bench_unseen import noise_options, vecpin_cmd  # noqa: E402
 from generator import draw_campaign, heldout_csv  # noqa: E402
+from results_page import publish  # noqa: E402
 
 RESULT = ROOT / "docs" / "results" / "model_choice_deals.md"
 MISSES = (379967613, 379967619)   # the draws of docs/results/model_choice.md chosen more than 10 % above the best
@@ -135,10 +136,7 @@ def main() -> None:
             print(f"draw {s} done ({time.perf_counter() - t0:.0f} s)", flush=True)
     text = page(draws, f"arm draws {', '.join(map(str, args.seeds))}, {args.deals} deals; "
                        f"{time.perf_counter() - t0:.0f} s")
-    print(text)
-    if not args.no_write:
-        RESULT.write_text(text, encoding="utf-8")
-        print(f"wrote {RESULT.relative_to(ROOT)}")
+    publish(text, RESULT, not args.no_write)
 
 
 if __name__ == "__main__":

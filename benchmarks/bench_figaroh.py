@@ -216,16 +216,17 @@ def child(argv: list[str]) -> None:
     print("RESULT " + json.dumps(r))
 
 
-def timed(args: list[str]) -> dict:
-    """Run one fit in a fresh process; its figures and the process' wall time [s]."""
+def timed(args: list[str], script: str = __file__) -> dict:
+    """Run one fit in a fresh process, ``script --child args`` (this bench's by default, also
+    bench_tiago's); its figures and the process' wall time [s]."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     env.setdefault(DATA_ENV, str(DATA))
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, env=env)
+    p = subprocess.run([sys.executable, script, "--child", *args], capture_output=True, text=True, env=env)
     seconds = time.perf_counter() - t0
     line = next((ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")), None)
     if p.returncode or line is None:
-        return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:200], "seconds": seconds}
+        return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:300], "seconds": seconds}
     return dict(json.loads(line[7:]), seconds=seconds)
 
 

@@ -25,6 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import linuxcnc_sim as lcnc  # noqa: E402  (the harness that runs the real controller)
+from results_page import publish  # noqa: E402
 
 import vecpin  # noqa: E402
 from vecpin.compensation.functions import truth_as_actual  # noqa: E402
@@ -118,9 +119,7 @@ def main(argv=None) -> None:
               f"mean; controller - tables {r['max |controller - tables|']:.1e}; LinuxCNC runs "
               f"{r['LinuxCNC pitch only s']:.0f} + {r['LinuxCNC + HAL component s']:.0f} s; {time.time() - t0:.0f} s")
     text = table(rows, args.commands)
-    print(text)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

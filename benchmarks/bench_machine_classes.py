@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from part_frame_judge import judge  # noqa: E402
+from results_page import publish  # noqa: E402
 
 import vecpin  # noqa: E402
 from vecpin.compensation.frame import measured_box  # noqa: E402
@@ -105,9 +106,7 @@ def main(argv=None) -> None:
                       f"({r['seconds']:.0f} s)", flush=True)
                 rows.append(r)
     text = table(rows, args.seed)
-    print(text)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ sys.path.insert(0, str(HERE))
 from bench_unseen import frac, noise_options, tool_options, vecpin_cmd  # noqa: E402
 from generator import draw_campaign, heldout_csv  # noqa: E402
 from heldout import Run, aggregate, heldout_seeds  # noqa: E402
+from results_page import publish  # noqa: E402
 
 RESULT = ROOT / "docs" / "results" / "model_choice.md"
 #: the fixed candidates (model, basis, order): constant 6-DoF errors (a geometric calibration), 6-DoF
@@ -143,10 +144,7 @@ def main() -> None:
         lines = text.splitlines()
         print(held.write(lines, final=True) if not args.no_write else "\n".join(aggregate(lines)))
         return
-    print(text)
-    if not args.no_write:
-        RESULT.write_text(text, encoding="utf-8")
-        print(f"wrote {RESULT.relative_to(ROOT)}")
+    publish(text, RESULT, not args.no_write)
 
 
 if __name__ == "__main__":

@@ -50,6 +50,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from part_frame_judge import judge  # noqa: E402
+from results_page import publish  # noqa: E402
 
 import vecpin  # noqa: E402
 from vecpin.compensation.functions import (all_table_names, pseudo_commands, rich_table_bases,  # noqa: E402
@@ -368,9 +369,7 @@ def main(argv=None) -> None:
     if args.rows != "all":
         return
     text = table(rows, args.seed)
-    print(text)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

@@ -23,26 +23,22 @@ from __future__ import annotations
 
 import argparse
 import copy
+import sys
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-FIXED = {"kind": "6dof", "basis": "fourier", "order": 6}
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_robust_screen import FIXED, nine_gross, validation_um  # noqa: E402  (the test's spoiling and judge)
 
 
 def spoil(case: str, sim, machine, rng) -> np.ndarray:
     """The rows spoilt in ``sim.campaign`` (in place)."""
     c = sim.campaign
     if case == "9 gross":
-        x = c.q[:, machine.axis_names.index("X")]
-        stretch = np.flatnonzero((x > np.quantile(x, 0.45)) & (x < np.quantile(x, 0.5)))
-        rows = np.r_[rng.choice(stretch, 4, replace=False),
-                     rng.choice(np.setdiff1d(np.arange(len(c)), stretch), 5, replace=False)]
-        d = rng.normal(size=(9, 3))
-        c.xyz[rows] += d / np.linalg.norm(d, axis=1)[:, None] * np.linspace(0.3e-3, 1.2e-3, 9)[:, None]
-        return rows
+        return nine_gross(c, machine, rng)
     if case.startswith("bump"):
         n = int(case.split()[1])
         rows = np.argsort(c.time)[100:100 + n]
@@ -50,10 +46,6 @@ def spoil(case: str, sim, machine, rng) -> np.ndarray:
         return rows
     c.targets["T2"] = c.targets["T2"] * np.array([-1.0, 1.0, 1.0])
     return np.flatnonzero(c.target.astype(str) == "T2")
-
-
-def validation_um(model, sim) -> float:
-    return float(np.linalg.norm(model.residuals(sim.validation_truth), axis=1).mean() * 1e6)
 
 
 def one(machine, sim, case: str, seed: int) -> dict:

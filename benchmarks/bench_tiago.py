@@ -45,17 +45,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_figaroh import FIGAROH_DEFAULT, SEARCHED, _cell, figaroh_config, paired, solve_figaroh  # noqa: E402
+from bench_figaroh import (FIGAROH_DEFAULT, SEARCHED, _cell, figaroh_config, paired, solve_figaroh,  # noqa: E402
+                           timed)
 
 DATA_ENV = "VECPIN_BENCH_TIAGO"   # the folder of the CSV and the URDF (``--data``)
 CSV, URDF, TOOL = "qualysis_base_hand_calibration.csv", "tiago_no_hand.urdf", "wrist_ft_tool_link"
@@ -155,18 +154,6 @@ def child(argv: list[str]) -> None:
     print("RESULT " + json.dumps(r))
 
 
-def timed(args: list[str]) -> dict:
-    """One fit in a fresh process: its figures and the process' wall time [s]."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, env=env)
-    seconds = time.perf_counter() - t0
-    line = next((ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")), None)
-    if p.returncode or line is None:
-        return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:300], "seconds": seconds}
-    return dict(json.loads(line[7:]), seconds=seconds)
-
-
 def table(rows: dict) -> list[str]:
     """Per split: vecpin's default, FIGAROH's default and best, and the paired difference of
     vecpin's default from FIGAROH's best (marker rows of the same held-out poses)."""
@@ -216,13 +203,13 @@ def main() -> None:
     saved = json.loads(Path(args.figaroh_from).read_text()) if args.figaroh_from else None
     for split in args.splits:
         test = held_out(q, split)
-        v = timed(["vecpin", split])
+        v = timed(["vecpin", split], __file__)
         print(f"{split}: vecpin {_cell(v)} ({v.get('setting', v.get('error'))}; {v['seconds']:.1f} s)", flush=True)
         if saved:
             rows[split] = dict(saved["rows"][split], vecpin=v)
             every += [line for line in saved["every"] if line.startswith(f"| {split} |")]
             continue
-        figs = {s: timed(["figaroh", split, *s]) for s in SEARCHED}
+        figs = {s: timed(["figaroh", split, *s], __file__) for s in SEARCHED}
         for s, r in figs.items():
             print(f"  FIGAROH {'/'.join(s):24s} {_cell(r)} ({r['seconds']:.1f} s)" + (f" {r['error']}" if "error" in r
                                                                                       else ""), flush=True)

@@ -65,15 +65,20 @@ CASES = [("flow_xyzcb", "base"), ("ingersoll_xyzca", "base"), ("snk_120v", "base
          ("head_table_bc", "workpiece")]
 
 
+def _draw(m, N: int, slots: int, scale: float, rng):
+    """N commands over the travel and random error transforms of ``slots`` slots: translations
+    ~ ``scale`` [m], rotations ~ 10 ``scale`` [rad]."""
+    q = uniform_commands(m, N, rng)
+    return q, rng.normal(size=(N, slots, 3)) * scale, rng.normal(size=(N, slots, 3)) * 10 * scale
+
+
 @pytest.mark.parametrize("name, frame", CASES)
 def test_error_chain_matches_matrix_product(machines, name, frame, rng):
     m = machines[name]
     ef = ErrorFrames(m)
     ref = Reference(m, ef.slot_names)
     N, S = 10, ef.n_slots
-    q = uniform_commands(m, N, rng)
-    delta = rng.normal(size=(N, S, 3)) * 1e-3
-    eps = rng.normal(size=(N, S, 3)) * 1e-2  # large on purpose: exactness, not linearisation
+    q, delta, eps = _draw(m, N, S, 1e-3, rng)  # large on purpose: exactness, not linearisation
     L = rng.uniform(0.1, 0.3, N)
     for point, link in enumerate(m.tool_links):
         for n_err in sorted({m.n_axes, S}):  # errors on the axes only, or on every slot
@@ -123,9 +128,7 @@ def test_error_jacobians_match_finite_differences(machines, name, frame, rng):
     m = machines[name]
     ef = ErrorFrames(m)
     N, S = 6, ef.n_slots
-    q = uniform_commands(m, N, rng)
-    delta = rng.normal(size=(N, S, 3)) * 1e-4
-    eps = rng.normal(size=(N, S, 3)) * 1e-3
+    q, delta, eps = _draw(m, N, S, 1e-4, rng)
     L = np.full(N, 0.25)
     point = np.arange(N) % len(m.tool_links)
     out = ef.tool_tip(q, delta, eps, L, frame=frame, point=point)
@@ -153,9 +156,7 @@ def test_workpiece_point_error_jacobians(machines, name, rng):
     m = machines[name]
     ef = ErrorFrames(m)
     N, n = 5, m.n_axes
-    q = uniform_commands(m, N, rng)
-    delta = rng.normal(size=(N, n, 3)) * 1e-4
-    eps = rng.normal(size=(N, n, 3)) * 1e-3
+    q, delta, eps = _draw(m, N, n, 1e-4, rng)
     p = rng.uniform(-0.2, 0.2, (N, 3))
     out = ef.workpiece_points(q, delta, eps, p)
     J_d, J_e = _fd_errors(lambda d, e: ef.workpiece_points(q, d, e, p, False).xyz, delta, eps)

@@ -145,11 +145,14 @@ def _negate_z(t):
     return t.copy().scale("z", -1.0).text()
 
 
-def _fahrenheit(t):
-    c = t.copy()
-    for r in c.rows:
-        r[c.col("temperature")] = "%.3f" % (float(r[c.col("temperature")]) * 9 / 5 + 32)
-    return c.text()
+def _temperature(convert):
+    """The temperature column converted from °C by ``convert``."""
+    def build(t):
+        c = t.copy()
+        for r in c.rows:
+            r[c.col("temperature")] = "%.3f" % convert(float(r[c.col("temperature")]))
+        return c.text()
+    return build
 
 
 def _first_rows(text, n):
@@ -244,29 +247,13 @@ def _one_command(t):
     return c.text()
 
 
-def _lower_case_axis(t):
-    c = t.copy()
-    c.header[c.col("B")] = "b"
-    return c.text()
-
-
-def _axis_of_other_machine(t):
-    c = t.copy()
-    c.header[c.col("B")] = "A"
-    return c.text()
-
-
-def _duplicate_header(t):
-    c = t.copy()
-    c.header[c.col("time")] = "temperature"
-    return c.text()
-
-
-def _kelvin(t):
-    c = t.copy()
-    for r in c.rows:
-        r[c.col("temperature")] = "%.3f" % (float(r[c.col("temperature")]) + 273.15)
-    return c.text()
+def _renamed(column, name):
+    """The header's ``column`` renamed ``name``."""
+    def build(t):
+        c = t.copy()
+        c.header[c.col(column)] = name
+        return c.text()
+    return build
 
 
 CSV_REFUSALS = {  # name -> (builder, fragments: the place and what to do)
@@ -281,8 +268,9 @@ CSV_REFUSALS = {  # name -> (builder, fragments: the place and what to do)
     "one tool length in metres": (_one_tool_in_metres, ["row 9", "metres for mm", "fix or delete the row"]),
     "x and y swapped (left-handed)": (_swap_xy, ["mirror image", "left-handed", "fix the columns"]),
     "z negated (left-handed)": (_negate_z, ["mirror image", "left-handed", "fix the columns"]),
-    "temperature in °F": (_fahrenheit, ["row 2", "column 'temperature'", "°F", "convert the column"]),
-    "temperature in kelvin": (_kelvin, ["row 2", "column 'temperature'", "kelvin"]),
+    "temperature in °F": (_temperature(lambda c: c * 9 / 5 + 32),
+                          ["row 2", "column 'temperature'", "°F", "convert the column"]),
+    "temperature in kelvin": (_temperature(lambda c: c + 273.15), ["row 2", "column 'temperature'", "kelvin"]),
     "8 rows, x/y/z in inches": (_eight_rows_inches, ["column 'x'", "x, y, z in inches while", "fix the units"]),
     "8 rows, x/y/z in metres": (_eight_rows_metres, ["column 'x'", "x, y, z in metres", "fix the units"]),
     "station id 1e20": (_station("1e20"), ["row 6", "column 'station'", "whole number 0 .. 9999"]),
@@ -302,9 +290,10 @@ CSV_REFUSALS = {  # name -> (builder, fragments: the place and what to do)
     "empty cell": (_empty_cell, ["row 10", "column 'y'", "fill it or delete the row"]),
     "NaN cell": (_nan_cell, ["row 10", "column 'Z'", "not a finite number", "fill in the measured value"]),
     "one command only": (_one_command, ["on a line", "measure commands spread over the travel"]),
-    "axis column in lower case": (_lower_case_axis, ["row 1", "column 'B'", "found 'b'", "case-sensitive"]),
-    "axis of another machine": (_axis_of_other_machine, ["row 1", "column 'A'", "another machine"]),
-    "duplicate column": (_duplicate_header, ["row 1", "column 'temperature'", "duplicate column", "rename"]),
+    "axis column in lower case": (_renamed("B", "b"), ["row 1", "column 'B'", "found 'b'", "case-sensitive"]),
+    "axis of another machine": (_renamed("B", "A"), ["row 1", "column 'A'", "another machine"]),
+    "duplicate column": (_renamed("time", "temperature"),
+                         ["row 1", "column 'temperature'", "duplicate column", "rename"]),
 }
 
 
@@ -486,40 +475,38 @@ def test_duplicated_rows_are_warned_about(base, work, capsys):
 
 
 # ============================================================ 3. options outside their meaning
+def _argv(prefix):
+    """Argv builders of one command: ``prefix(base, work)`` then the options given."""
+    return lambda *options: lambda b, w: [*prefix(b, w), *options]
+
+
+_simulate = _argv(lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s"])
+_tables = _argv(lambda b, w: ["tables", b.model, "--out", w / "t"])
+_diagnose = _argv(lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d"])
+_fit = _argv(lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json"])
+
+
 OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     # fit
-    "fit --prior-scale 0": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--prior-scale", "0"],
-                            ["--prior-scale 0", "positive"]),
-    "fit --prior-scale -1": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--prior-scale", "-1"],
-                             ["--prior-scale -1", "positive"]),
-    "fit --tracker-sigma-mm nan": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json",
-                                                 "--tracker-sigma-mm", "nan"], ["--tracker-sigma-mm nan", "positive"]),
-    "fit --repeatability-mm -0.006": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json",
-                                                    "--repeatability-mm", "-0.006"], ["--repeatability-mm", "positive"]),
-    "fit --tracker-noise negative": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json",
-                                                   "--tracker-noise", "-1", "0", "0", "0"],
+    "fit --prior-scale 0": (_fit("--prior-scale", "0"), ["--prior-scale 0", "positive"]),
+    "fit --prior-scale -1": (_fit("--prior-scale", "-1"), ["--prior-scale -1", "positive"]),
+    "fit --tracker-sigma-mm nan": (_fit("--tracker-sigma-mm", "nan"), ["--tracker-sigma-mm nan", "positive"]),
+    "fit --repeatability-mm -0.006": (_fit("--repeatability-mm", "-0.006"), ["--repeatability-mm", "positive"]),
+    "fit --tracker-noise negative": (_fit("--tracker-noise", "-1", "0", "0", "0"),
                                      ["--tracker-noise", "four numbers >= 0"]),
-    "fit --ballbar-sigma-mm 0": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json",
-                                               "--ballbar-sigma-mm", "0"], ["--ballbar-sigma-mm", "positive"]),
-    "fit --folds 1": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--folds", "1"],
-                      ["--folds 1", "at least 2 folds"]),
+    "fit --ballbar-sigma-mm 0": (_fit("--ballbar-sigma-mm", "0"), ["--ballbar-sigma-mm", "positive"]),
+    "fit --folds 1": (_fit("--folds", "1"), ["--folds 1", "at least 2 folds"]),
     "fit --folds 0 (fixed model)": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--folds", "0"]
                                     + FIT_FAST, ["--folds 0", "at least 2 folds"]),
-    "fit --folds 1000": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--folds", "1000"],
-                         ["--folds 1000", "30 distinct commands", "at most 30 folds"]),
-    "fit --order -1": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--order", "-1"],
-                       ["--order -1", ">= 0"]),
-    "fit --order six": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--order", "six"],
-                        ["--order 'six'", "whole number"]),
-    "fit --order 40": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--order", "40",
-                                     "--model", "ap", "--basis", "chebyshev"], ["180 equations", "lower --order"]),
-    "fit --order 500 --underdetermined": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json", "--order",
-                                                        "500", "--model", "6dof", "--basis", "chebyshev",
-                                                        "--underdetermined"], ["--order 500", "GB", "lower --order"]),
-    "fit --multilateration, one station": (lambda b, w: ["fit", "flow_xyzcb", b.csv, "--out", w / "m.json",
-                                                         "--multilateration"],
-                                           ["--multilateration", "1 tracker station", "at least 4",
-                                            "without --multilateration"]),
+    "fit --folds 1000": (_fit("--folds", "1000"), ["--folds 1000", "30 distinct commands", "at most 30 folds"]),
+    "fit --order -1": (_fit("--order", "-1"), ["--order -1", ">= 0"]),
+    "fit --order six": (_fit("--order", "six"), ["--order 'six'", "whole number"]),
+    "fit --order 40": (_fit("--order", "40", "--model", "ap", "--basis", "chebyshev"),
+                       ["180 equations", "lower --order"]),
+    "fit --order 500 --underdetermined": (_fit("--order", "500", "--model", "6dof", "--basis", "chebyshev",
+                                               "--underdetermined"), ["--order 500", "GB", "lower --order"]),
+    "fit --multilateration, one station": (_fit("--multilateration"), ["--multilateration", "1 tracker station",
+                                                                       "at least 4", "without --multilateration"]),
     # orders
     "orders 7-0": (lambda b, w: ["orders", "flow_xyzcb", b.csv, "--orders", "7-0"], ["--orders '7-0'", "0-7"]),
     "orders -1": (lambda b, w: ["orders", "flow_xyzcb", b.csv, "--orders", "-1"], ["--orders '-1'", ">= 0"]),
@@ -531,90 +518,58 @@ OPTION_REFUSALS = {  # name -> (argv builder, fragments)
     "orders --multilateration": (lambda b, w: ["orders", "flow_xyzcb", b.csv, "--orders", "1",
                                                "--multilateration"], ["--multilateration", "at least 4"]),
     # simulate
-    "simulate --points 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "0"],
-                            ["--points 0", "whole number 1 or more"]),
-    "simulate --points -5": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "-5"],
-                             ["--points -5"]),
-    "simulate --points 2 (unreadable)": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "2"],
+    "simulate --points 0": (_simulate("--points", "0"), ["--points 0", "whole number 1 or more"]),
+    "simulate --points -5": (_simulate("--points", "-5"), ["--points -5"]),
+    "simulate --points 2 (unreadable)": (_simulate("--points", "2"),
                                          ["--points 2", "at least 5", "--points 3 or more"]),
-    "simulate --points 1e8": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--points", "100000000"],
-                              ["200,000,035 rows", "at most 1,300,000", "600 GB"]),
-    "simulate --seed -1": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--seed", "-1"],
-                           ["--seed -1", ">= 0"]),
-    "simulate --stations 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--stations", "0"],
-                              ["--stations 0", "1 .. 10000"]),
-    "simulate --tools -100": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--tools", "-100"],
-                              ["--tools -100", "mm from the gauge line"]),
-    "simulate --tools 0.2 0.3 (metres)": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--tools", "0.2",
-                                                        "0.3"], ["--tools 0.2 0.3", "not metres"]),
-    "simulate --mean-error nan": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--mean-error", "nan"],
-                                  ["--mean-error nan", "mm > 0"]),
-    "simulate --mean-error -1": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--mean-error", "-1"],
-                                 ["--mean-error -1", "mm > 0"]),
-    "simulate --effect strength=abc": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--effect",
-                                                     "gantry_skew:axes=Y,about=x,depends=X,strength=abc"],
+    "simulate --points 1e8": (_simulate("--points", "100000000"), ["200,000,035 rows", "at most 1,300,000", "600 GB"]),
+    "simulate --seed -1": (_simulate("--seed", "-1"), ["--seed -1", ">= 0"]),
+    "simulate --stations 0": (_simulate("--stations", "0"), ["--stations 0", "1 .. 10000"]),
+    "simulate --tools -100": (_simulate("--tools", "-100"), ["--tools -100", "mm from the gauge line"]),
+    "simulate --tools 0.2 0.3 (metres)": (_simulate("--tools", "0.2", "0.3"), ["--tools 0.2 0.3", "not metres"]),
+    "simulate --mean-error nan": (_simulate("--mean-error", "nan"), ["--mean-error nan", "mm > 0"]),
+    "simulate --mean-error -1": (_simulate("--mean-error", "-1"), ["--mean-error -1", "mm > 0"]),
+    "simulate --effect strength=abc": (_simulate("--effect", "gantry_skew:axes=Y,about=x,depends=X,strength=abc"),
                                        ["--effect", "strength='abc'"]),
-    "simulate --effect unknown": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--effect", "wobble"],
-                                  ["--effect 'wobble'", "known:"]),
-    "simulate --validation-count 0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--validation-count", "0"],
-                                ["--validation-count 0", "at least 5 rows"]),
-    "simulate --ballbar -3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--ballbar", "-3"],
-                              ["--ballbar -3", "0 or more"]),
-    "simulate --repeat -1 3": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--repeat", "-1", "3"],
-                               ["--repeat -1 3", "at least 1 command"]),
-    "simulate --tracker nan,0,0": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--tracker", "nan,0,0"],
-                                   ["--tracker", "finite"]),
-    "simulate --exclude everything": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--exclude",
-                                                    "X=-10:7000"], ["--exclude", "make them smaller"]),
-    "simulate --exclude unknown axis": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--exclude",
-                                                      "Q=0:1"], ["--exclude", "no axis 'Q'"]),
-    "simulate --exclude reversed": (lambda b, w: ["simulate", "flow_xyzcb", "--out", w / "s", "--exclude",
-                                                  "X=500:0"], ["--exclude 'X=500:0'", "X=0:500"]),
+    "simulate --effect unknown": (_simulate("--effect", "wobble"), ["--effect 'wobble'", "known:"]),
+    "simulate --validation-count 0": (_simulate("--validation-count", "0"),
+                                      ["--validation-count 0", "at least 5 rows"]),
+    "simulate --ballbar -3": (_simulate("--ballbar", "-3"), ["--ballbar -3", "0 or more"]),
+    "simulate --repeat -1 3": (_simulate("--repeat", "-1", "3"), ["--repeat -1 3", "at least 1 command"]),
+    "simulate --tracker nan,0,0": (_simulate("--tracker", "nan,0,0"), ["--tracker", "finite"]),
+    "simulate --exclude everything": (_simulate("--exclude", "X=-10:7000"), ["--exclude", "make them smaller"]),
+    "simulate --exclude unknown axis": (_simulate("--exclude", "Q=0:1"), ["--exclude", "no axis 'Q'"]),
+    "simulate --exclude reversed": (_simulate("--exclude", "X=500:0"), ["--exclude 'X=500:0'", "X=0:500"]),
     # tables
-    "tables --table-points -5": (lambda b, w: ["tables", b.model, "--out", w / "t", "--table-points", "-5"],
-                           ["--table-points -5", "at least 2 points"]),
-    "tables --table-points 1e7": (lambda b, w: ["tables", b.model, "--out", w / "t", "--table-points", "10000000"],
-                            ["--table-points 10000000", "100000 or fewer"]),
-    "tables --max-tables -1": (lambda b, w: ["tables", b.model, "--out", w / "t", "--max-tables", "-1"],
-                               ["--max-tables -1", ">= 0"]),
-    "tables --max-tables 70 (840D)": (lambda b, w: ["tables", b.model, "--out", w / "t", "--max-tables", "70",
-                                                    "--controller", "siemens-840d", "--profile", PROFILE],
-                                      ["at most 64", "--max-tables 64 or fewer"]),
-    "tables --axis-map X=X1 Y=X1": (lambda b, w: ["tables", b.model, "--out", w / "t", "--axis-map", "X=X1",
-                                                  "--axis-map", "Y=X1"], ["--axis-map", "X, Y", "own NC axis"]),
-    "tables --axis-map Q=X1": (lambda b, w: ["tables", b.model, "--out", w / "t", "--axis-map", "Q=X1"],
-                               ["--axis-map Q=X1", "no axis 'Q'"]),
-    "tables --axis-map X": (lambda b, w: ["tables", b.model, "--out", w / "t", "--axis-map", "X"],
-                            ["--axis-map", "JOINT=NCNAME"]),
-    "tables --forbid-output Q": (lambda b, w: ["tables", b.model, "--out", w / "t", "--forbid-output", "Q"],
-                                 ["--forbid-output Q", "no axis 'Q'"]),
-    "tables --modulo B (less than a turn)": (lambda b, w: ["tables", b.model, "--out", w / "t", "--modulo", "B"],
+    "tables --table-points -5": (_tables("--table-points", "-5"), ["--table-points -5", "at least 2 points"]),
+    "tables --table-points 1e7": (_tables("--table-points", "10000000"),
+                                  ["--table-points 10000000", "100000 or fewer"]),
+    "tables --max-tables -1": (_tables("--max-tables", "-1"), ["--max-tables -1", ">= 0"]),
+    "tables --max-tables 70 (840D)": (_tables("--max-tables", "70", "--controller", "siemens-840d",
+                                              "--profile", PROFILE), ["at most 64", "--max-tables 64 or fewer"]),
+    "tables --axis-map X=X1 Y=X1": (_tables("--axis-map", "X=X1", "--axis-map", "Y=X1"),
+                                    ["--axis-map", "X, Y", "own NC axis"]),
+    "tables --axis-map Q=X1": (_tables("--axis-map", "Q=X1"), ["--axis-map Q=X1", "no axis 'Q'"]),
+    "tables --axis-map X": (_tables("--axis-map", "X"), ["--axis-map", "JOINT=NCNAME"]),
+    "tables --forbid-output Q": (_tables("--forbid-output", "Q"), ["--forbid-output Q", "no axis 'Q'"]),
+    "tables --modulo B (less than a turn)": (_tables("--modulo", "B"),
                                              ["--modulo B", "less than a turn", "leave out --modulo B"]),
-    "tables --modulo X (linear)": (lambda b, w: ["tables", b.model, "--out", w / "t", "--modulo", "X"],
-                                   ["--modulo X", "linear"]),
-    "tables --tools -100": (lambda b, w: ["tables", b.model, "--out", w / "t", "--tools", "-100"],
-                            ["--tools -100", "mm from the gauge line"]),
-    "tables --tools nan": (lambda b, w: ["tables", b.model, "--out", w / "t", "--tools", "nan"],
-                           ["--tools nan"]),
-    "tables --sign-test Q": (lambda b, w: ["tables", b.model, "--out", w / "t", "--sign-test", "Q", "--controller",
-                                           "siemens-840d", "--profile", PROFILE], ["--sign-test Q", "neither an axis"]),
+    "tables --modulo X (linear)": (_tables("--modulo", "X"), ["--modulo X", "linear"]),
+    "tables --tools -100": (_tables("--tools", "-100"), ["--tools -100", "mm from the gauge line"]),
+    "tables --tools nan": (_tables("--tools", "nan"), ["--tools nan"]),
+    "tables --sign-test Q": (_tables("--sign-test", "Q", "--controller", "siemens-840d", "--profile", PROFILE),
+                             ["--sign-test Q", "neither an axis"]),
     "tables --profile missing": (lambda b, w: ["tables", b.model, "--out", w / "t", "--profile", w / "none.json"],
                                  ["--profile", "no such file"]),
     # diagnose
-    "diagnose --alpha nan": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--alpha", "nan"],
-                             ["--alpha nan", "between 0 and 1"]),
-    "diagnose --alpha 2": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--alpha", "2"],
-                           ["--alpha 2", "between 0 and 1"]),
-    "diagnose --folds 1": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--folds", "1"],
-                           ["--folds 1", "at least 2"]),
-    "diagnose --folds 500": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--folds", "500"],
-                             ["--folds 500", "at most 30 folds"]),
-    "diagnose --effects ,": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--effects", ","],
-                             ["--effects ','", "comma list"]),
-    "diagnose --effects bogus": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d", "--effects",
-                                               "bogus"], ["--effects 'bogus'", "unknown effect 'bogus'", "known:"]),
-    "diagnose --multilateration": (lambda b, w: ["diagnose", "flow_xyzcb", b.csv, "--out", w / "d",
-                                                 "--multilateration"], ["--multilateration", "at least 4"]),
+    "diagnose --alpha nan": (_diagnose("--alpha", "nan"), ["--alpha nan", "between 0 and 1"]),
+    "diagnose --alpha 2": (_diagnose("--alpha", "2"), ["--alpha 2", "between 0 and 1"]),
+    "diagnose --folds 1": (_diagnose("--folds", "1"), ["--folds 1", "at least 2"]),
+    "diagnose --folds 500": (_diagnose("--folds", "500"), ["--folds 500", "at most 30 folds"]),
+    "diagnose --effects ,": (_diagnose("--effects", ","), ["--effects ','", "comma list"]),
+    "diagnose --effects bogus": (_diagnose("--effects", "bogus"),
+                                 ["--effects 'bogus'", "unknown effect 'bogus'", "known:"]),
+    "diagnose --multilateration": (_diagnose("--multilateration"), ["--multilateration", "at least 4"]),
     # view
     "view --row 5000": (lambda b, w: ["view", b.model, b.csv, "--row", "5000", "--html", w / "v.html"],
                         ["--row 5000", "rows 2 .. 61", "the header is row 1"]),

@@ -32,6 +32,7 @@ import numpy as np
 
 from vecpin.compensation.tables import CompensationTable, TableSet, TwinDrive, table_grid
 from vecpin.export.profile import ControllerProfile, twin_axes
+from vecpin.kinematics.machine import Machine
 from vecpin.units import MM_PER_M, from_mm
 
 
@@ -55,27 +56,12 @@ class ExportMachine:
     def __getattr__(self, name):
         return getattr(self._machine, name)
 
-    @property
-    def n_axes(self) -> int:
-        return len(self.axes)
-
-    @property
-    def axis_names(self) -> list[str]:
-        return [a.name for a in self.axes]
-
-    def axis(self, name: str):
-        for a in self.axes:
-            if a.name == name:
-                return a
-        return self._machine.axis(name)
-
-    @property
-    def lower(self) -> np.ndarray:
-        return np.array([a.lower for a in self.axes])
-
-    @property
-    def upper(self) -> np.ndarray:
-        return np.array([a.upper for a in self.axes])
+    # the machine's own facts of its axes, over the axes with the following drives
+    n_axes = Machine.n_axes
+    axis_names = Machine.axis_names
+    axis = Machine.axis
+    lower = Machine.lower
+    upper = Machine.upper
 
     def joint_frames(self, q: np.ndarray, axis: str) -> np.ndarray:
         n = self._machine.n_axes

@@ -162,13 +162,33 @@ def write_neutral(comp: ComponentErrors, machine: Machine, title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def read_neutral(path: Path, machine: Machine) -> ComponentErrors:
-    """Parse ``ISO230_<AXIS>.csv`` back (SI)."""
-    lines = read_lines(path)
-    body = [(no, ln) for no, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith("#")]
+def _table_lines(path: Path, comment: str) -> tuple[int, str, list[tuple[int, str]]]:
+    """The header (its line number from 1, its text) and the lines after it (number, text) of a
+    one-table text file; blank lines and lines starting with ``comment`` passed over."""
+    body = [(no, ln) for no, ln in enumerate(read_lines(path), 1) if ln.strip() and not ln.lstrip().startswith(comment)]
     if not body:
         raise ControllerFileError(path, "no header line", 1)
-    head_no, head = body[0]
+    return body[0][0], body[0][1], body[1:]
+
+
+def _numbers(path: Path, rows: list[tuple[int, str]], cols: list[str], sep: str | None, head_no: int) -> np.ndarray:
+    """(rows, columns) of the numbers in ``rows`` (line number, text), cells split at ``sep``
+    (None: white space) and named by ``cols``; a wrong cell count, a cell that is not a
+    finite number or no row at all is refused naming the line."""
+    out, cells = [], "fields" if sep else "values"
+    for no, ln in rows:
+        parts = ln.split(sep)
+        if len(parts) != len(cols):
+            raise ControllerFileError(path, f"{len(parts)} {cells}, the header has {len(cols)}", no)
+        out.append([to_float(p, path, no, cols[k]) for k, p in enumerate(parts)])
+    if not out:
+        raise ControllerFileError(path, "no rows", head_no)
+    return np.array(out)
+
+
+def read_neutral(path: Path, machine: Machine) -> ComponentErrors:
+    """Parse ``ISO230_<AXIS>.csv`` back (SI)."""
+    head_no, head, rows = _table_lines(path, "#")
     cols = [c.strip() for c in head.split(",")]
     parsed = []
     for c in cols:
@@ -183,15 +203,7 @@ def read_neutral(path: Path, machine: Machine) -> ComponentErrors:
         a = machine.axis(axis)
     except Exception as exc:
         raise ControllerFileError(path, str(exc), head_no) from None
-    rows = []
-    for no, ln in body[1:]:
-        parts = ln.split(",")
-        if len(parts) != len(cols):
-            raise ControllerFileError(path, f"{len(parts)} fields, the header has {len(cols)}", no)
-        rows.append([to_float(p, path, no, cols[k]) for k, p in enumerate(parts)])
-    if not rows:
-        raise ControllerFileError(path, "no rows", head_no)
-    data = np.array(rows)
+    data = _numbers(path, rows, cols, ",", head_no)
     errs = {name: data[:, k] * (RAD_PER_DEG if unit == "deg" else M_PER_MM)
             for k, (name, unit) in enumerate(parsed) if k > 0}
     kind = "6dof" if not any(n.startswith("Q") for n in errs) else "ap"
@@ -214,11 +226,7 @@ def write_isg(comp: ComponentErrors, machine: Machine, title: str) -> str:
 
 def read_isg(path: Path, machine: Machine) -> ComponentErrors:
     """Parse an ISG CSV file of one axis (one header, no file breaks) back (SI)."""
-    lines = read_lines(path)
-    body = [(no, ln) for no, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith("//")]
-    if not body:
-        raise ControllerFileError(path, "no header line", 1)
-    head_no, head = body[0]
+    head_no, head, rows = _table_lines(path, "//")
     cols = head.split()
     try:
         a = machine.axis(cols[0])
@@ -228,17 +236,10 @@ def read_isg(path: Path, machine: Machine) -> ComponentErrors:
         if len(c) < 3 or c[0] != "E" or c[1] not in DIRECTIONS + ROTATIONS or c[2:] != a.name:
             raise ControllerFileError(path, f"column '{c}' is not a component error of {a.name} (E<X..C>{a.name})",
                                       head_no)
-    rows = []
-    for no, ln in body[1:]:
-        if ln.strip().startswith("#"):
-            raise ControllerFileError(path, "a file break (#): vecpin reads one table per file", no)
-        parts = ln.split()
-        if len(parts) != len(cols):
-            raise ControllerFileError(path, f"{len(parts)} values, the header has {len(cols)}", no)
-        rows.append([to_float(p, path, no, cols[k]) for k, p in enumerate(parts)])
-    if not rows:
-        raise ControllerFileError(path, "no rows", head_no)
-    data = np.array(rows)
+    breaks = [no for no, ln in rows if ln.strip().startswith("#")]
+    if breaks:
+        raise ControllerFileError(path, "a file break (#): vecpin reads one table per file", breaks[0])
+    data = _numbers(path, rows, cols, None, head_no)
     errs = {c: data[:, k] * (1.0 if c[1] in ROTATIONS else M_PER_MM) for k, c in enumerate(cols) if k > 0}
     return ComponentErrors(a.name, a.kind, a.to_si(data[:, 0]), errs, "")
 

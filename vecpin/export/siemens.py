@@ -309,6 +309,31 @@ def _statements(path: Path, header: str):
     return out
 
 
+def _assignments(path: Path, header: str, pattern: re.Pattern, known: set[str], variable: str, needs: str,
+                 table_of) -> dict:
+    """The file's tables, keyed by ``table_of(match)``: each ``{"values": {point: number},
+    "keys": {NAME: (line, text)} of the ``variable_NAME`` statements, "line": its first line}``.
+    ``pattern``'s groups: 1 the NAME after ``variable_`` (None: a value), 3 the point, the last
+    the value. A statement that is no such assignment, an unknown NAME or a value without its
+    point (``needs``: the indices it takes) is refused naming the line."""
+    tables: dict = {}
+    for no, text in _statements(path, header):
+        mt = pattern.match(text)
+        if not mt:
+            raise ControllerFileError(path, f"'{text}' is not a {variable} assignment", no)
+        key, j, val = mt.group(1), mt.group(3), mt.group(pattern.groups)
+        d = tables.setdefault(table_of(mt), {"values": {}, "keys": {}, "line": no})
+        if key is None:
+            if j is None:
+                raise ControllerFileError(path, f"{variable} needs {needs}", no)
+            d["values"][int(j)] = to_float(val, path, no, "value")
+        elif key not in known:
+            raise ControllerFileError(path, f"unknown variable {variable}_{key}", no)
+        else:
+            d["keys"][key] = (no, val)
+    return tables
+
+
 def _axis_of(path, profile: ControllerProfile, name: str, no: int) -> str:
     a = profile.axis_by_nc_name(name)
     if a is None:
@@ -348,21 +373,8 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
     folder = Path(folder)
     tables = []
     path = folder / CEC_FILE
-    cec: dict[int, dict] = {}
-    for no, text in _statements(path, "%_N_NC_CEC_INI"):
-        mt = _CEC.match(text)
-        if not mt:
-            raise ControllerFileError(path, f"'{text}' is not a $AN_CEC assignment", no)
-        key, t, j, val = mt.group(1), int(mt.group(2)), mt.group(3), mt.group(4)
-        d = cec.setdefault(t, {"values": {}, "keys": {}, "line": no})
-        if key is None:
-            if j is None:
-                raise ControllerFileError(path, "$AN_CEC needs [table, point]", no)
-            d["values"][int(j)] = to_float(val, path, no, "value")
-        elif key not in _CEC_KEYS:
-            raise ControllerFileError(path, f"unknown variable $AN_CEC_{key}", no)
-        else:
-            d["keys"][key] = (no, val)
+    cec = _assignments(path, "%_N_NC_CEC_INI", _CEC, _CEC_KEYS, "$AN_CEC", "[table, point]",
+                       lambda mt: int(mt.group(2)))
     read_cec = {}
     for t in sorted(cec):
         d, keys = cec[t], cec[t]["keys"]
@@ -378,21 +390,8 @@ def read(folder: Path, machine: Machine, profile: ControllerProfile) -> TableSet
     products = _read_products(path, machine, cec, read_cec)
     tables += list(read_cec.values())
     path = folder / EEC_FILE
-    eec: dict[tuple, dict] = {}
-    for no, text in _statements(path, "%_N_AX_EEC_INI"):
-        mt = _EEC.match(text)
-        if not mt:
-            raise ControllerFileError(path, f"'{text}' is not a $AA_ENC_COMP assignment", no)
-        key, e, j, ax, val = mt.group(1), int(mt.group(2)), mt.group(3), mt.group(4), mt.group(5)
-        d = eec.setdefault((e, ax), {"values": {}, "keys": {}, "line": no})
-        if key is None:
-            if j is None:
-                raise ControllerFileError(path, "$AA_ENC_COMP needs [system, point, axis]", no)
-            d["values"][int(j)] = to_float(val, path, no, "value")
-        elif key not in _EEC_KEYS:
-            raise ControllerFileError(path, f"unknown variable $AA_ENC_COMP_{key}", no)
-        else:
-            d["keys"][key] = (no, val)
+    eec = _assignments(path, "%_N_AX_EEC_INI", _EEC, _EEC_KEYS, "$AA_ENC_COMP", "[system, point, axis]",
+                       lambda mt: (int(mt.group(2)), mt.group(4)))
     axes_seen = {}
     for (e, ax), d in eec.items():
         a = _axis_of(path, profile, ax, d["line"])

@@ -171,12 +171,7 @@ class ErrorFrames:
         tool = np.broadcast_to(np.asarray(tool, float), (N,))
         delta, eps = self._checked_errors(delta, eps, N)
         J6 = self._probes.jacobians(self.configuration(q, delta, eps))
-        R, o = m._tool_placements(self._probes, J6, pt)
-        u = R @ m.tool_axis
-        local = tool[:, None] * m.tool_axis
-        if offset is not None:
-            local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
-        tip = o + apply(R, local)
+        R, _, u, tip = m._tip(self._probes, J6, pt, tool, offset)
         relative = frame == "workpiece" and m.has_workpiece
         J_q = J_delta = J_eps = None
         if jacobian:

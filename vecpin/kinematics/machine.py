@@ -275,6 +275,17 @@ class Machine:
             R[rows], p[rows] = probes.placement(J6[rows], self.tool_links[k])
         return R, p
 
+    def _tip(self, probes: FrameProbes, J6: np.ndarray, pt, tool: np.ndarray,
+             offset: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(R, o, u, tip) in the base frame from ``probes``' joint Jacobians J6: the tool link's
+        rotation (N, 3, 3) and origin (N, 3) [m], the tool axis (N, 3) and the tool point (N, 3)
+        [m] at ``tool`` (N,) [m] along the axis plus ``offset`` (3,) or (N, 3) [m] in the tool link."""
+        R, o = self._tool_placements(probes, J6, pt)
+        local = tool[:, None] * self.tool_axis
+        if offset is not None:
+            local = local + np.broadcast_to(np.asarray(offset, float), (len(tool), 3))
+        return R, o, R @ self.tool_axis, o + apply(R, local)
+
     def kinematics(self, q: np.ndarray, tool: np.ndarray | float = 0.0, jacobian: bool = True, *,
                    frame: Frame | None = None, point: int | np.ndarray = 0,
                    offset: np.ndarray | None = None) -> TipKinematics:
@@ -300,12 +311,7 @@ class Machine:
         if N > KINEMATICS_ROWS:   # a piece of the rows at a time
             return kinematics_in_pieces(self.kinematics, q, tool, jacobian, frame, pt, offset)
         J6 = self._jacobians(q)
-        R, o = self._tool_placements(self._probes, J6, pt)
-        u = R @ self.tool_axis
-        local = tool[:, None] * self.tool_axis
-        if offset is not None:
-            local = local + np.broadcast_to(np.asarray(offset, float), (N, 3))
-        tip = o + apply(R, local)
+        R, o, u, tip = self._tip(self._probes, J6, pt, tool, offset)
         relative = frame == "workpiece" and self.has_workpiece
         J = None
         if jacobian:

@@ -21,10 +21,7 @@ class BallBar(Instrument):
     row_kind = "ballbar"
     n_equations = 1
     description = "ball bar radius about an unknown pivot (eq. 45-47)"
-
-    def groups(self, campaign, rows):
-        pv = campaign.pivot[rows]
-        return {int(k): rows[pv == k] for k in np.unique(pv)}
+    group_by = "pivot"
 
     def unknowns(self, campaign, rows, nominal, setup) -> list[str]:
         k = int(campaign.pivot[rows[0]])

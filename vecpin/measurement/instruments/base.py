@@ -68,13 +68,15 @@ class Instrument:
 
     ``name``: the instrument's name (the instrument choices of the noise model); ``row_kind``: the
     campaign's ``instrument`` column value of its rows ("tracker", "ballbar");
-    ``n_equations``: equations per row (1..3). Subclasses implement
+    ``n_equations``: equations per row (1..3); ``group_by``: the campaign column whose value
+    splits the rows into blocks that share unknowns (None: one block). Subclasses implement
     :meth:`unknowns` and :meth:`equations`."""
 
     name: ClassVar[str] = "instrument"
     row_kind: ClassVar[str] = "tracker"
     n_equations: ClassVar[int] = 3
     description: ClassVar[str] = ""
+    group_by: ClassVar[str | None] = None
 
     def __init__(self, noise):
         self.noise = noise  # vecpin.measurement.noise.NoiseModel: the instrument's settings
@@ -84,8 +86,12 @@ class Instrument:
         return np.arange(3) < self.n_equations
 
     def groups(self, campaign, rows: np.ndarray) -> dict[int, np.ndarray]:
-        """Rows split by what shares unknowns (a tracker station, a pivot)."""
-        return {0: rows}
+        """Rows split by what shares unknowns (a tracker station, a pivot): by the value of the
+        campaign's ``group_by`` column."""
+        if self.group_by is None:
+            return {0: rows}
+        values = getattr(campaign, self.group_by)[rows]
+        return {int(k): rows[values == k] for k in np.unique(values)}
 
     def unknowns(self, campaign, rows: np.ndarray, nominal: np.ndarray, setup) -> list[str]:
         """Names of the block's own unknowns; sets their starting values in ``setup``."""

@@ -26,10 +26,7 @@ class TrackerInstrument(Instrument):
     """Tracker rows, grouped by station. Subclasses implement :meth:`observe`."""
 
     row_kind = "tracker"
-
-    def groups(self, campaign, rows):
-        st = campaign.station[rows]
-        return {int(s): rows[st == s] for s in np.unique(st)}
+    group_by = "station"
 
     def unknowns(self, campaign, rows, nominal, setup) -> list[str]:
         s = int(campaign.station[rows[0]])
