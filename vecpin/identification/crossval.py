@@ -350,6 +350,8 @@ class FoldedProblem:
         ``sF``) and differ in a block of columns each (``(columns, factors)``, e.g. one
         axis' basis or smoothing), one array per block (:meth:`_solve_blocks`)."""
         judging = [f for f, sl in enumerate(self.fold_slices) if sl.stop > sl.start]   # folds with judged rows
+        if not judging:                                                 # no row judged: no distance
+            return self.distances(np.empty((len(blocks), 0)))
         psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks, judging)
         nF, idx = len(F), np.r_[np.asarray(F, int), U]
         # every block's estimate on the columns [F, U] (zero where it has none), fold by fold: one
@@ -370,7 +372,7 @@ class FoldedProblem:
         ``change`` (b, 3 n_judged): each candidate's change of the judged rows' metric
         prediction, in the fold-sorted layout of ``A_rows``."""
         out = np.empty((len(change), len(self.judged_order)))
-        out[:, self.judged_order] = norm_mm(self.r_sorted - change.reshape(len(change), -1, 3))
+        out[:, self.judged_order] = norm_mm(self.r_sorted - change.reshape(len(change), len(self.judged_order), 3))
         return list(out)
 
     def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
