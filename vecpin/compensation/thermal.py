@@ -382,7 +382,7 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     fits = {float(lag): fit_at(float(lag)) for lag in lags}
     scanned = fits[min(fits, key=lambda v: fits[v][1].report_.chi2)]
     values = scanned[1].b_[_slice(*scanned)]
-    if np.ptp(campaign.temperature) > 0:
+    if np.ptp(campaign.temperature) > 0 and len(fits) > 1:   # (one lag: nothing to refine)
         lag, lag_std, gradient = refine_lag(fits, fit_at, LagProblem(scanned[1], campaign, feats, scanned[0], effect,
                                                                      values, along))
     else:

@@ -55,7 +55,8 @@ def how_predicted(terms: ThermalTerms) -> str:
         return "their 1-sigma uncertainty (no held-out figures in this file)"
     std = h.get("lag_std_h", 0.0)
     lag = (f"the lag's uncertainty ± {std:.2f} h" if std > 0 else
-           "not the lag's uncertainty (the lag not refined: at an end of the scanned lags, or a steady temperature)")
+           "not the lag's uncertainty (the lag not refined: one lag tried, the best at an end of the scanned lags, or "
+           "a steady temperature)")
     out = f"the coefficients' spread over {h['blocks']} time blocks held out, {lag}"
     if c:
         names, per_k, cov = bend_terms(c)
