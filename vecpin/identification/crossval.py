@@ -432,10 +432,11 @@ class _Elimination:
     W = L^-1 rhs: ``bracket`` G_UF N^-1 G_FU = W_U^T W_U, ``cross`` G_UF N^-1 b = W_U^T W_b;
     :meth:`solve` (m) gives N^-1 rhs m_j^T for each row m_j of ``m`` (rows, 1 + nU): the
     estimate of F alone (m_0 = e_0) and each block's pull on it. A matrix not positive definite
-    to working precision: the same through a general solve."""
+    to working precision (or
+    empty: no shared columns): the same through a general solve."""
 
     def __init__(self, a: np.ndarray, rhs: np.ndarray):
-        L, info = lapack.dpotrf(a, lower=1, clean=1)
+        L, info = lapack.dpotrf(a, lower=1, clean=1) if len(a) else (None, 1)   # (no F: LAPACK refuses n = 0)
         if info:
             self.L, self.W = None, np.linalg.solve(a, rhs)
             self.bracket, self.cross = rhs[:, 1:].T @ self.W[:, 1:], rhs[:, 1:].T @ self.W[:, 0]
