@@ -95,6 +95,33 @@ def test_blocks_eliminated_through_one_factor_equal_each_folds_least_squares():
         np.testing.assert_allclose(d, norm_mm(held), rtol=1e-9)
 
 
+def test_a_problem_that_judges_no_row_gives_empty_distances_per_block():
+    """An ends problem whose end rows are none of the judged ones judges nothing: each block
+    (and an empty list of blocks) gets its empty array of distances, not an error."""
+    J, A, w, r, fold, x0 = _random_problem(7, N=30, P=8, k=3)
+    prob = FoldedProblem(J, A, w, r, fold, np.zeros(len(w), bool), x0=x0)
+    blocks = [(np.array([5, 6]), np.array([1.0, 2.0])), (np.zeros(0, int), np.zeros(0))]
+    held = prob.heldout_blocks(np.arange(5), np.ones(5), blocks)
+    assert [d.shape for d in held] == [(0,), (0,)]
+    assert prob.heldout_blocks(np.arange(5), np.ones(5), []) == []
+
+
+def test_blocks_without_shared_columns_are_each_folds_least_squares(capfd):
+    """No shared columns (F empty): each block's held-out residuals are still its own stacked
+    least-squares solve per fold, and LAPACK is not called on an empty matrix (it prints)."""
+    J, A, w, r, fold, x0 = _random_problem(8, N=40, P=6, k=3)
+    prob = FoldedProblem(J, A, w, r, fold, x0=x0)
+    blocks = [(np.array([1, 2]), np.array([1.0, 0.5])), (np.array([4]), np.array([2.0]))]
+    for (P, sP), d in zip(blocks, prob.heldout_blocks(np.zeros(0, int), np.zeros(0), blocks)):
+        held = np.empty((len(w), 3))
+        for f in range(prob.k):
+            te = fold == f
+            held[te] = r[te] - A[te][..., P] @ _lstsq_fold(J, w, fold, f, P, sP, x0)
+        np.testing.assert_allclose(d, norm_mm(held), rtol=1e-9)
+    said = capfd.readouterr()
+    assert "illegal value" not in said.out + said.err
+
+
 def test_a_fold_whose_matrix_is_not_positive_definite_is_solved_in_general():
     """The elimination's fallback (a normal matrix not positive definite to working
     precision): its brackets and solutions those of a general solve."""

@@ -99,3 +99,25 @@ def test_a_gauge_line_held_by_its_prior_is_said():
     assert line.startswith("  gauge line T_offset: +0.0180 ± 4.4700 mm") and "held by its prior" in line
     model.cov_ = np.diag([1.0] * 6 + [0.02e-3**2, 1e-10])
     assert "held by its prior" not in offset_lines(model)[0]
+
+
+def test_a_model_with_thermal_terms_fits_a_campaign_where_an_axis_stood_still():
+    """An axis that stood still and terms that follow the rows' temperatures: the reference design that holds
+    the still axis' terms by their priors has no rows' history, so the campaign's own redundancy judges them
+    (it raised before); the lag the fit finds is the truth's (thermal_truth, 1 h)."""
+    from thermal_truth import Truth, commands
+    from vecpin.compensation.thermal import fit_thermal
+    from vecpin.measurement.campaign import Campaign
+    from vecpin.models import make_model
+    m = vecpin.Machine.load("trunnion_xyzac")
+    rng = np.random.default_rng(3)
+    n, zi = 60, m.axis_names.index("Z")
+    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
+    q[:, zi] = q[0, zi]                                                    # Z never moves
+    air, tool = 21 + 3 * np.sin(2 * np.pi * t / (7 * 3600)), np.full(n, 0.12)
+    truth = Truth(lag_s=3600.0)
+    xyz = truth.tip(m, q, tool, truth.structure(t, air)) + rng.normal(0, 1e-6, (n, 3))
+    camp = Campaign(m.axis_names, q, tool, xyz, extra={"time": t, "temperature": air})
+    geo = make_model("6dof", m, 2).fit(camp, vecpin.NoiseModel.default(m, "spherical"))
+    terms, fitted = fit_thermal(geo, camp, lags=(0.5, 1.0, 2.0))
+    assert abs(terms.lag_h - 1.0) < 0.15 and np.isfinite(fitted.report_.chi2)

@@ -72,6 +72,20 @@ def test_at_an_end_of_the_scan_the_lag_is_not_refined():
     assert lag == pytest.approx(4.0, abs=0.011) and std == 0.0 and gradient is None
 
 
+
+def test_a_lag_not_refined_is_said_so_not_given_as_certain():
+    """The lag kept at an end of the scan has no standard deviation (0): the prediction's words say its
+    uncertainty is not counted, not "± 0.00 h"; a refined lag's deviation is printed."""
+    from vecpin.compensation.thermal import ThermalTerms
+    from vecpin.workflows.thermal import how_predicted
+    t = ThermalTerms("m", ["X"], 20.0, 4.0, {"X": 0.0}, {"X": 1.0}, {"X": 0.0}, None, t_range_c=(19.0, 21.0))
+    t.held_out = {"names": ["X.offset_per_K", "X.slope_per_K"], "cov": [[1.0, 0.0], [0.0, 1.0]], "floor_um": 2.0,
+                  "blocks": 5, "lag_std_h": 0.0}
+    said = how_predicted(t)
+    assert "± 0.00 h" not in said and "not the lag's uncertainty" in said
+    t.held_out["lag_std_h"] = 0.12
+    assert "the lag's uncertainty ± 0.12 h" in how_predicted(t)
+
 def test_the_blocks_spread_leaves_the_curvature_to_its_own_draws():
     """A machine whose thermal error is exactly straight terms bent by one curvature per axis
     (2 %/K, lag 1 h, no noise; the growth bent with Z, whose offset carries it): refitted

@@ -382,7 +382,7 @@ def fit_thermal(model, campaign, noise=None, *, p0_mm: dict | None = None, lags=
     fits = {float(lag): fit_at(float(lag)) for lag in lags}
     scanned = fits[min(fits, key=lambda v: fits[v][1].report_.chi2)]
     values = scanned[1].b_[_slice(*scanned)]
-    if np.ptp(campaign.temperature) > 0:
+    if np.ptp(campaign.temperature) > 0 and len(fits) > 1:   # (one lag: nothing to refine)
         lag, lag_std, gradient = refine_lag(fits, fit_at, LagProblem(scanned[1], campaign, feats, scanned[0], effect,
                                                                      values, along))
     else:
@@ -425,8 +425,9 @@ def refine_lag(fits: dict, fit_at, problem: LagProblem) -> tuple[float, float, n
     the fit's χ² per degree of freedom: the noise the residuals show; the curvature free,
     so its trade with the lag counted) and the coefficients' change with it (their
     central difference over the same solutions: the curvature's column is orthogonal to
-    the straight terms', so they are the straight fit's) go into the prediction. At an end
-    of the scan: not refined (standard deviation 0, no change)."""
+    the straight terms', so they are the straight fit's) go into the prediction. A lag
+    found within :data:`LAG_DELTA_H` of an end of the scan (the truth may lie beyond it),
+    or one lag scanned: standard deviation 0 and no change, i.e. not counted."""
     lags = sorted(fits)
     k = min(range(len(lags)), key=lambda i: fits[lags[i]][1].report_.chi2)
     if len(lags) < 2:

@@ -228,7 +228,8 @@ def outlier_score(base_model, campaign: Campaign, noise: NoiseModel, feats: Feat
                      float("inf"), 0.0, alpha, float(before.mean()), float(after.mean()), float(before.max()),
                      float(after.max()), True, 0, accepted=True)
     sc.evidence = (f"{outliers.size} rows (file lines {shown}) have held-out residuals beyond the limit at which a "
-                   f"clean campaign of {len(campaign)} rows flags any row with probability {OUTLIER_P:g} (Šidák; "
+                   f"clean campaign of {len(campaign)} rows flags any row with probability at most {OUTLIER_P:g} "
+                   "(Šidák; "
                    "each row with its own number of equations, scaled by each prediction's own spread, against the "
                    "robust (median) noise level: F with that level's degrees of freedom), no repeated reading agrees "
                    "with them, they crowd no region, and "

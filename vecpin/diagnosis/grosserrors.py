@@ -6,10 +6,12 @@
   fold model extrapolates, has a larger spread than a row in the middle; the statistic
   s = w^T C^-1 w is chi2 with the row's own number of equations wherever the row lies.
 * **The limit.** Šidák over the rows: a clean campaign of any size flags a row with
-  probability :data:`FAMILY_ALPHA` (1 %) in all, not 1 % per thousand rows. The noise level
+  probability at most :data:`FAMILY_ALPHA` (1 %) in all, not 1 % per thousand rows (with
+  three equations a row: about 0.9 % at 300 rows, 0.7 % at 40; nu below is the median's
+  asymptotic figure, so the limit is conservative for few rows). The noise level
   is estimated from the same residuals (their median), so it is not known: a row's statistic
   over it is k F(k, nu) (:func:`limit`), nu the level's degrees of freedom (:func:`level_dof`),
-  not chi2_k. Treating the level as known flags a clean campaign of 300 rows with about 1.35 %,
+  not chi2_k. Treating the level as known flags a clean campaign of 300 rows with about 1.2 %,
   of 40 rows with about 2 % (the false alarm rises as the level's own scatter lowers the limit).
 * **Robust before classified.** The fold models are fitted with the rows beyond the
   limit skipped (:func:`vecpin.identification.robust.robust_fit` on the linearised

@@ -350,6 +350,8 @@ class FoldedProblem:
         ``sF``) and differ in a block of columns each (``(columns, factors)``, e.g. one
         axis' basis or smoothing), one array per block (:meth:`_solve_blocks`)."""
         judging = [f for f, sl in enumerate(self.fold_slices) if sl.stop > sl.start]   # folds with judged rows
+        if not judging:                                                 # no row judged: no distance
+            return self.distances(np.empty((len(blocks), 0)))
         psi, U, where, groups = self._solve_blocks(np.asarray(F, int), np.asarray(sF, float), blocks, judging)
         nF, idx = len(F), np.r_[np.asarray(F, int), U]
         # every block's estimate on the columns [F, U] (zero where it has none), fold by fold: one
@@ -370,7 +372,7 @@ class FoldedProblem:
         ``change`` (b, 3 n_judged): each candidate's change of the judged rows' metric
         prediction, in the fold-sorted layout of ``A_rows``."""
         out = np.empty((len(change), len(self.judged_order)))
-        out[:, self.judged_order] = norm_mm(self.r_sorted - change.reshape(len(change), -1, 3))
+        out[:, self.judged_order] = norm_mm(self.r_sorted - change.reshape(len(change), len(self.judged_order), 3))
         return list(out)
 
     def _solve_blocks(self, F: np.ndarray, sF: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]],
@@ -430,10 +432,11 @@ class _Elimination:
     W = L^-1 rhs: ``bracket`` G_UF N^-1 G_FU = W_U^T W_U, ``cross`` G_UF N^-1 b = W_U^T W_b;
     :meth:`solve` (m) gives N^-1 rhs m_j^T for each row m_j of ``m`` (rows, 1 + nU): the
     estimate of F alone (m_0 = e_0) and each block's pull on it. A matrix not positive definite
-    to working precision: the same through a general solve."""
+    to working precision (or
+    empty: no shared columns): the same through a general solve."""
 
     def __init__(self, a: np.ndarray, rhs: np.ndarray):
-        L, info = lapack.dpotrf(a, lower=1, clean=1)
+        L, info = lapack.dpotrf(a, lower=1, clean=1) if len(a) else (None, 1)   # (no F: LAPACK refuses n = 0)
         if info:
             self.L, self.W = None, np.linalg.solve(a, rhs)
             self.bracket, self.cross = rhs[:, 1:].T @ self.W[:, 1:], rhs[:, 1:].T @ self.W[:, 0]

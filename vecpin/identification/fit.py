@@ -197,7 +197,8 @@ def _columns_to_fit(model, campaign: Campaign, noise: NoiseModel, lik: Likelihoo
     n_active = int(active.sum())
     if remove_redundant:
         short = underdetermined and n_active >= n_eq
-        if short or (STILL_BY_PRIORS and stood_still(model.machine, campaign)):
+        rows_matter = any(not e.geometric for e in getattr(model, "effects", ()))   # the design has no rows' history
+        if (short or (STILL_BY_PRIORS and stood_still(model.machine, campaign))) and not rows_matter:
             # short of equations (changed only by `underdetermined`), or an axis stood still: terms that only the
             # design cannot tell apart are held by their priors (the posterior mean, as the model choice's folds fit
             # them), not removed by their place in the order; only what no design could identify is removed

@@ -53,8 +53,11 @@ def how_predicted(terms: ThermalTerms) -> str:
     h, c = terms.held_out, terms.curvature
     if not h:
         return "their 1-sigma uncertainty (no held-out figures in this file)"
-    out = (f"the coefficients' spread over {h['blocks']} time blocks held out, the lag's uncertainty "
-           f"± {h.get('lag_std_h', 0.0):.2f} h")
+    std = h.get("lag_std_h", 0.0)
+    lag = (f"the lag's uncertainty ± {std:.2f} h" if std > 0 else
+           "not the lag's uncertainty (the lag not refined: one lag tried, the best at an end of the scanned lags, or "
+           "a steady temperature)")
+    out = f"the coefficients' spread over {h['blocks']} time blocks held out, {lag}"
     if c:
         names, per_k, cov = bend_terms(c)
         each = ", ".join(f"{'every term' if nm == ALL_TERMS else nm} {k * 100:+.1f} ± {s * 100:.1f} %/K"
