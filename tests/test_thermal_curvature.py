@@ -87,7 +87,7 @@ def test_the_growth_and_the_axis_carrying_it_bend_apart():
     truth's relative to the gain at T0:
     k / (1 + 2 k (T0 - 20)), the truth's curvature being about 20 degC (one shared
     curvature could follow neither)."""
-    from thermal_truth import Truth, commands
+    from thermal_truth import Truth, hall_day
 
     from vecpin.compensation.thermal import fit_thermal
     from vecpin.measurement.campaign import Campaign
@@ -98,12 +98,8 @@ def test_the_growth_and_the_axis_carrying_it_bend_apart():
     mid = 0.5 * (m.axis("Z").lower + m.axis("Z").upper)
     truth = Truth(lag_s=3600.0, nonlinear={"X": 0.0, "Y": 0.0, "Z": -0.01}, offset={"X": 5e-6, "Y": -3e-6, "Z": 0.0},
                   centre={"X": 0.1, "Y": -0.05, "Z": mid}, growth=8e-6, growth_nonlinear=0.03)
-    n = 100
-    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
-    air = 21 + 6 * np.sin(2 * np.pi * t / (7 * 3600))
-    tool = np.full(n, 0.12)
-    camp = Campaign(m.axis_names, q, tool, truth.tip(m, q, tool, truth.structure(t, air)),
-                    extra={"time": t, "temperature": air})
+    q, tool, tip, t, air = hall_day(m, truth, rng, 6)
+    camp = Campaign(m.axis_names, q, tool, tip, extra={"time": t, "temperature": air})
     geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
     terms, _ = fit_thermal(geo, camp, lags=(1.0,))
     c = terms.curvature

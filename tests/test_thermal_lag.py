@@ -92,7 +92,7 @@ def test_the_blocks_spread_leaves_the_curvature_to_its_own_draws():
     without each time block, the straight terms alone move by the curvature's projection
     on the blocks left (a spread the curvature's draws count again), the terms beside their
     curvature held at the campaign's estimate stay put (a fifth of that at most)."""
-    from thermal_truth import Truth, commands
+    from thermal_truth import Truth, hall_day
 
     import vecpin
     from vecpin.compensation.thermal import fit_thermal
@@ -104,12 +104,8 @@ def test_the_blocks_spread_leaves_the_curvature_to_its_own_draws():
     m = vecpin.Machine.load("trunnion_xyzac")
     rng = np.random.default_rng(4)
     truth = Truth(lag_s=3600.0, nonlinear={"X": 0.02, "Y": 0.02, "Z": 0.02}, growth_nonlinear=0.02)
-    n = 100
-    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
-    air = 21 + 3 * np.sin(2 * np.pi * t / (7 * 3600))
-    tool = np.full(n, 0.12)
-    camp = Campaign(m.axis_names, q, tool, truth.tip(m, q, tool, truth.structure(t, air)),
-                    extra={"time": t, "temperature": air})
+    q, tool, tip, t, air = hall_day(m, truth, rng, 3)
+    camp = Campaign(m.axis_names, q, tool, tip, extra={"time": t, "temperature": air})
     geo = make_model("6dof", m, 2).fit(camp, NoiseModel.default(m, "spherical"))
     terms, fitted = fit_thermal(geo, camp, lags=(1.0,))
     eff = next(e for e in fitted.effects if e.name == "thermal_terms")
@@ -125,7 +121,7 @@ def test_the_lag_problem_is_the_bent_fit_at_that_lag():
     at another lag its objective and thermal coefficients are those of the full fit
     there (vecpin's own Gauss-Newton fit of geometry, terms and curvature), to a small
     fraction of the coefficients' standard deviations."""
-    from thermal_truth import Truth, commands
+    from thermal_truth import Truth, hall_day
 
     import vecpin
     from vecpin.compensation.thermaleffect import ThermalTermsEffect
@@ -138,11 +134,9 @@ def test_the_lag_problem_is_the_bent_fit_at_that_lag():
     m = vecpin.Machine.load("trunnion_xyzac")
     rng = np.random.default_rng(7)
     truth = Truth(lag_s=1.3 * 3600.0, nonlinear={"X": 0.01, "Y": -0.005, "Z": 0.015}, growth_nonlinear=0.01)
-    n = 100
-    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
-    air = 21 + 6 * np.sin(2 * np.pi * t / (7 * 3600))
-    tool = np.full(n, 0.12)
-    xyz = truth.tip(m, q, tool, truth.structure(t, air)) + rng.normal(0, 3e-6, (n, 3))
+    q, tool, tip, t, air = hall_day(m, truth, rng, 6)
+    n = len(q)
+    xyz = tip + rng.normal(0, 3e-6, (n, 3))
     camp = Campaign(m.axis_names, q, tool, xyz, extra={"time": t, "temperature": air})
     feats = Features.from_campaign(camp)
     noise = NoiseModel.default(m, "spherical")

@@ -55,6 +55,16 @@ def commands(m, n, rng):
     return lo + (hi - lo) * rng.uniform(0, 1, (n, len(lo)))
 
 
+def hall_day(m, truth, rng, amplitude_k, n=100, tool_m=0.12):
+    """A 10-hour campaign of ``n`` commands in a hall cycling ``amplitude_k`` [K] about 21 degC
+    with a 7-hour period, one tool of ``tool_m`` [m]: (commands, tools [m], true tips [m, base
+    frame], times [s], air temperatures [degC])."""
+    q, t = commands(m, n, rng), np.linspace(0, 10 * 3600, n)
+    air = 21 + amplitude_k * np.sin(2 * np.pi * t / (7 * 3600))
+    tool = np.full(n, tool_m)
+    return q, tool, truth.tip(m, q, tool, truth.structure(t, air)), t, air
+
+
 def table(text, temperature):
     """A controller CSV's row at ``temperature`` (linear between rows, as the PLC does)."""
     rows = list(csv.DictReader(io.StringIO(text)))
