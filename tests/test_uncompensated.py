@@ -83,7 +83,7 @@ def test_import_assess_and_fit_print_the_same_figure(flow, day, tmp_path, capsys
                  "--plan", str(d / "plan.csv"), "--out", str(tmp_path / "imp.csv")]) == 0
     text = capsys.readouterr().out
     mean, mx = re.search(r"the uncompensated error\): mean ([\d.]+) mm, max ([\d.]+) mm", text).groups()
-    assert "(of a run through the tables: without their gauge-line change, which verify applies" in text
+    assert "(where this run went through compensation tables, without their gauge-line change, which verify" in text
     figures["import"] = (mean, mx)
     assert main(["assess", str(tmp_path / "imp.csv"), "--machine", "flow_xyzcb", "--session-gap-min", "5"]) == 0
     figures["assess"] = FIGURE.search(capsys.readouterr().out).groups()[1:]

@@ -84,8 +84,8 @@ class ImportResult:
                        + (" ..." if len(self.unmatched) > 12 else ""))
         out += [f"  note: {n}" for n in self.notes]
         out.append(f"  measured vs nominal in the part's frame (the uncompensated error): mean "
-                   f"{self.uncompensated_mm[0]:.4f} mm, max {self.uncompensated_mm[1]:.4f} mm (of a run through the "
-                   "tables: without their gauge-line change, which verify applies to judge it)")
+                   f"{self.uncompensated_mm[0]:.4f} mm, max {self.uncompensated_mm[1]:.4f} mm (where this run went "
+                   "through compensation tables, without their gauge-line change, which verify applies to judge it)")
         return out
 
 

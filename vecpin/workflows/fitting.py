@@ -67,7 +67,13 @@ class FitRun(FitResult):
                 f"instrument, their ratio kept) scaled by {self.noise_used:.2f} and the model chosen and fitted with it; "
                 f"its residuals are now {s / self.noise_used:.2f} x that, so the noise level is {s:.2f} ± {sd:.2f} x "
                 "the stated one (state the noise with `repeatability_mm`, `tracker_noise`, ... to fix it)"
-                + (f"\n{parts}" if parts else ""))
+                + (self._misfit_hint() if self.noise_used > 2.0 else "") + (f"\n{parts}" if parts else ""))
+
+    def _misfit_hint(self) -> str:
+        """Where the noise was scaled a lot: the other reading of that scale (a model that misfits)."""
+        return ("; a scale this large can also be a misfit of the model rather than noise: if the stated noise is "
+                "right, the model leaves errors it cannot follow (a fixed model or order too simple: the default "
+                "model choice or a diagnosis says which)")
 
 
 def residual_lines(model: ErrorModel, campaign: Campaign, residuals: np.ndarray | None = None,
