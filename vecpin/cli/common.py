@@ -105,7 +105,8 @@ def add_model_args(s: argparse.ArgumentParser, default_kind: str = "auto") -> No
                         "rotary axes travelling more than a turn), fourier_trend (per turn plus a trend over the "
                         "travel), spline (cubic B-splines), pspline (penalised cubic B-splines, 15 interior knots "
                         "unless --order, smoothing chosen by held-out data), or auto: chebyshev, fourier, "
-                        "fourier_trend or pspline, chosen per axis by held-out data (default); smooth (fit only): "
+                        "fourier_trend or pspline, chosen per axis by held-out data (default); smooth (fit; a plan "
+                        "plans it as spline): "
                         "penalised splines (per turn: Fourier) on every axis with a smoothness prior whose scales the "
                         "evidence chooses")
     s.add_argument("--order", default="auto",

@@ -6,7 +6,7 @@ from vecpin.cli.common import add_machine_args, add_noise_args, machine, noise, 
 from vecpin.errors import InputError
 
 #: --basis as the fit takes it (vecpin.planning.problem.BASES: how a plan builds each)
-BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline", "smooth")
 
 
 def parse_floats(text: str, option: str, count: int | None = None) -> tuple[float, ...]:
@@ -142,7 +142,8 @@ def _add_choice_args(s) -> None:
     s.add_argument("--basis", default="auto", choices=BASES,
                    help="basis of the error functions, as the fit takes it: chebyshev over the travel, fourier (per "
                         "turn on rotary axes travelling more than a turn), fourier_trend (per turn plus a trend), "
-                        "spline (cubic B-splines; pspline: planned as spline, its smoothing only adds information), "
+                        "spline (cubic B-splines; pspline and smooth: planned as spline, their smoothing or smoothness "
+                        "prior only adds information), "
                         "or auto: vecpin chooses (before any data: fourier where it applies, chebyshev elsewhere) "
                         "(default auto)")
     s.add_argument("--method", choices=["doptimal", "random"], default="doptimal",

@@ -33,7 +33,7 @@ MAX_CANDIDATES = 100_000    # candidate commands the D-optimal choice scores
 TABLE_MINUTE_POINTS = 5_500
 TABLE_LARGEST = "head_table_bc with 3 nests: 96 s at 10000 commands, 56 s at 5500, on a 2-core machine"
 AUTO_ORDER = 6              # the order a plan takes for `order` auto: Paper I's, before any data can choose
-BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline")  # the fit's, planned as :func:`planned_model` says
+BASES = ("auto", "chebyshev", "fourier", "fourier_trend", "spline", "pspline", "smooth")  # the fit's, planned as :func:`planned_model` says
 
 
 @dataclass
@@ -248,11 +248,12 @@ def planned_model(machine: Machine, s: PlanSettings) -> ErrorModel:
     Fourier series per turn on rotary axes travelling more than a turn and Chebyshev
     elsewhere; ``chebyshev``, ``fourier_trend`` and ``spline`` as
     :func:`vecpin.selection.choice.fixed_model` builds them; ``pspline`` as the spline of
-    the same knots (its smoothing, chosen from the data, only adds information)."""
+    the same knots (its smoothing, chosen from the data, only adds information), and so is
+    ``smooth`` (its smoothness prior only adds information)."""
     if s.basis in ("auto", "fourier", "chebyshev"):
         return make_model(s.model, machine, s.order, basis="chebyshev" if s.basis == "chebyshev" else "fourier")
     from vecpin.selection.choice import fixed_model
-    return fixed_model(machine, s.model, "spline" if s.basis == "pspline" else s.basis, s.order)
+    return fixed_model(machine, s.model, "spline" if s.basis in ("pspline", "smooth") else s.basis, s.order)
 
 
 def check_tracker_units(machine: Machine, tracker_mm, option: str = "tracker_mm") -> None:
