@@ -13,6 +13,7 @@ from vecpin.compensation.faceframe import FACE_TARGET, TABLE_FACE_PRIOR, face_ti
 from vecpin.compensation.frame import ReferenceFrame, on_the_table_face, read_face
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.kinematics.so3 import log3
+from vecpin.measurement.setup import Setup
 from vecpin.measurement.nestheights import GAUGE_SD_MM, check_nest_heights, nest_heights_csv, read_nest_heights
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -77,7 +78,8 @@ def test_heights_read_badly_give_the_frame_without_heights_and_exact_ones_todays
     heights = {str(k): P[k, 2] - _slope_height(P[k], tilt) for k in range(len(P))}
 
     def kept(sd):
-        return on_the_table_face(frame, _Machine(), nests, heights, {k: sd for k in nests})
+        return on_the_table_face(frame, _Machine(), Setup(np.eye(3), np.zeros(3), nests=nests, nest_heights=heights,
+                                                          nest_height_sd={k: sd for k in nests}))
 
     bad = kept(5e-3)
     assert np.linalg.norm(log3(bad.R)) < 1e-7 and bad.face.weight < 1e-3

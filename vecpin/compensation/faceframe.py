@@ -189,6 +189,20 @@ def nest_z_cov(setup, ids: list[str]) -> np.ndarray:
     return np.diag([setup.std.get(f"nest{k}.z", 0.0) ** 2 for k in ids])
 
 
+def setup_face(setup, up: np.ndarray, place=None, prior: float = TABLE_FACE_PRIOR) -> tuple[list[str], FaceTilt | None]:
+    """(ids, face) of a fitted setup's nests given heights: ``ids`` the nests with a height and
+    a fitted position (sorted), ``face`` :func:`face_tilt` of their positions ``setup.nests``
+    (workpiece frame [m], mapped by ``place`` (N,3) -> (N,3) into the frame the face is wanted
+    in, default as fitted), ``setup.nest_heights`` and ``setup.nest_height_sd`` [m] and the
+    fitted z covariance (:func:`nest_z_cov`); None for fewer than three nests or nests on a line."""
+    ids = sorted(k for k in setup.nest_heights if k in setup.nests)
+    if len(ids) < 3:
+        return ids, None
+    P = np.array([setup.nests[k] for k in ids], float)
+    return ids, face_tilt(P if place is None else place(P), up, [setup.nest_heights[k] for k in ids],
+                          [setup.nest_height_sd.get(k) for k in ids], nest_z_cov(setup, ids), prior)
+
+
 def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior: float = TABLE_FACE_PRIOR
               ) -> FaceTilt | None:
     """The face the nests at ``P`` (N,3) [m] lie ``heights`` (N,) [m] above, read with

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vecpin.compensation.faceframe import TABLE_FACE_PRIOR, FaceTilt, face_tilt, nest_z_cov
+from vecpin.compensation.faceframe import TABLE_FACE_PRIOR, FaceTilt, setup_face
 from vecpin.compensation.functions import FRAME, ActualMachine, geometric_model, nominal_tip, pseudo_commands
 from vecpin.compensation.tableproblem import TableProblem
 from vecpin.compensation.tables import TableSet
@@ -143,31 +143,23 @@ def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, t
                             *measured_box(model))
     setup = getattr(model, "setup_", None)
     if setup is not None and len(setup.nest_heights) >= 3:
-        ids = sorted(k for k in setup.nest_heights if k in setup.nests)
-        frame = on_the_table_face(frame, model.machine, setup.nests, setup.nest_heights, setup.nest_height_sd,
-                                  (ids, nest_z_cov(setup, ids)))
+        frame = on_the_table_face(frame, model.machine, setup)
     return frame
 
 
-def on_the_table_face(frame: ReferenceFrame, machine: Machine, nests: dict, heights: dict, sds: dict | None = None,
-                      nest_cov: tuple | None = None, prior: float = TABLE_FACE_PRIOR) -> ReferenceFrame:
+def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: float = TABLE_FACE_PRIOR
+                      ) -> ReferenceFrame:
     """``frame`` tilted toward the table's face square to the spindle, as far as the face is
-    known: the face is the plane the nests' fitted positions ``nests`` {id: (3,) [m],
-    workpiece frame} lie ``heights`` {id: [m]} above (weighted least squares; three or more
-    nests not on a line), read with standard deviations ``sds`` {id: [m]} (a nest without
-    one: the default gauge's), the nests' z found by the fit with covariance ``nest_cov``
-    (ids, (N,N) [m^2]; None: exact); its tilt is combined with ``frame``'s (the frame without heights) weighted by
-    their uncertainties (:func:`~vecpin.compensation.faceframe.face_tilt`; ``prior``: the
-    face's tilt against ``frame``, 1 sigma [rad]). The turn about the spindle stays the
-    frame's. Where a campaign reads the table this way the tables keep the table itself."""
-    ids = sorted(k for k in heights if k in nests)
-    P = frame.apply(np.array([nests[k] for k in ids])) if ids else np.zeros((0, 3))
+    known: the face is the plane the fitted nests of ``setup`` (a fit's
+    :class:`~vecpin.measurement.setup.Setup`) lie their given heights above (weighted least
+    squares; three or more nests not on a line), read with their heights' standard deviations
+    (a nest without one: the default gauge's) and the nests' z found with the fit's covariance;
+    its tilt is combined with ``frame``'s (the frame without heights) weighted by their
+    uncertainties (:func:`~vecpin.compensation.faceframe.setup_face`; ``prior``: the face's
+    tilt against ``frame``, 1 sigma [rad]). The turn about the spindle stays the frame's.
+    Where a campaign reads the table this way the tables keep the table itself."""
     up = -partframe.spindle_axis(machine)
-    C = None
-    if nest_cov is not None:
-        where = {k: i for i, k in enumerate(nest_cov[0])}
-        C = np.asarray(nest_cov[1], float)[np.ix_([where[k] for k in ids], [where[k] for k in ids])]
-    face = face_tilt(P, up, [heights[k] for k in ids], [(sds or {}).get(k) for k in ids], C, prior)
+    ids, face = setup_face(setup, up, frame.apply, prior)
     if face is None:
         raise VecpinError(f"nest heights of {', '.join(ids) or 'no nest'}: three or more fitted nests not on a line "
                           "are needed to find the table's face")

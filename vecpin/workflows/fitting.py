@@ -10,7 +10,7 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.faceframe import face_tilt, nest_z_cov
+from vecpin.compensation.faceframe import setup_face
 from vecpin.fitting.problem import FitProblem, FitResult
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.measurement.partframe import spindle_axis
@@ -156,10 +156,7 @@ def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
     if su.nest_heights:
         sds = {k: su.nest_height_sd.get(k, GAUGE_SD_MM * M_PER_MM) for k in su.nest_heights}
         given = ", ".join(f"{k} at {h * MM_PER_M:.2f} ± {sds[k] * MM_PER_M:g}" for k, h in sorted(su.nest_heights.items()))
-        ids = sorted(k for k in su.nest_heights if k in su.nests)
-        face = face_tilt(np.array([su.nests[k] for k in ids]), -spindle_axis(model.machine),
-                         [su.nest_heights[k] for k in ids], [sds[k] for k in ids],
-                         nest_z_cov(su, ids)) if len(ids) >= 3 else None
+        face = setup_face(su, -spindle_axis(model.machine))[1]
         known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
                 "model file keeps them); the tables keep the face square to the spindle as far as the heights tell "
