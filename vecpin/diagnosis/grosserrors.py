@@ -137,13 +137,8 @@ def beyond(s: np.ndarray, valid: np.ndarray, level: float, n_rows: int, alpha: f
 def pose_keys(campaign: Campaign) -> np.ndarray:
     """(N,) one integer per pose read: command and tool (:func:`repeat_groups`), tool point,
     target, station, instrument."""
-    cols = [repeat_groups(campaign)[0][:, None].astype(float), campaign.point[:, None].astype(float)]
-    _, tgt = np.unique(campaign.target.astype(str), return_inverse=True)
-    _, ins = np.unique(campaign.instrument.astype(str), return_inverse=True)
-    cols += [np.asarray(tgt, float).reshape(-1, 1), np.asarray(campaign.station, float)[:, None],
-             np.asarray(ins, float).reshape(-1, 1)]
-    _, key = np.unique(np.hstack(cols), axis=0, return_inverse=True)
-    return np.asarray(key).ravel()
+    cols = np.c_[repeat_groups(campaign)[0], _target_kind(campaign)]   # the kind ranks its fields in order
+    return np.asarray(np.unique(cols, axis=0, return_inverse=True)[1]).ravel()
 
 
 def agreeing_repeats(campaign: Campaign, flagged: np.ndarray, w: np.ndarray, valid: np.ndarray,
