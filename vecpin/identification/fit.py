@@ -70,9 +70,6 @@ def structural_redundancy(model: ParametricModel, tools: np.ndarray, noise: Nois
 #: their order (benchmarks/bench_still_joint.py sets it False for the figures before)
 STILL_BY_PRIORS = True
 STILL_REFERENCE = 300   # commands of the reference design that judges redundancy then (more with more unknowns)
-# a campaign with more rows has its trial steps evaluated with their Jacobians (solver.gauss_newton: the same
-# steps and result, an accepted step one pass over the rows instead of two; worth it at every size)
-EAGER_ROWS = 0
 REFERENCE_NESTS = 4  # table points of the reference design on a machine with a workpiece
 
 
@@ -145,8 +142,10 @@ def fit(model: ParametricModel, campaign: Campaign, noise: NoiseModel | None = N
     chi2_0, G0, g0, n_eq, *R0 = lik.normal_equations(np.zeros(P), with_r=remove_redundant)
     keep, ratio = _columns_to_fit(model, campaign, noise, lik, G0, n_eq, remove_redundant, underdetermined,
                                   R0[0] if R0 else None)
+    # trial steps evaluated with their Jacobians (the same steps and result, an accepted step one pass over
+    # the rows instead of two: worth it at every campaign size)
     sol = gauss_newton(normal_equations, P, keep, max_iter=max_iter, tol=tol, progress=progress,
-                       start=(chi2_0, G0, g0), eager=len(campaign) > EAGER_ROWS)
+                       start=(chi2_0, G0, g0), eager=True)
     theta = sol.psi * lik.sigma
     JtJ = sol.G[np.ix_(keep, keep)]
     Ninv = linalg.inv(JtJ + np.eye(keep.sum()))
