@@ -138,10 +138,17 @@ def bent_fit(geometric, campaign, noise, eff: ThermalTermsEffect, values, feats,
     linearised at the terms' coefficients ``values`` [SI], its ``alpha`` (d^2 regressed
     on 1 and d over the campaign's rows, d the lagged temperature change [K]); ``along``:
     the axis whose offset carries the tool's growth (its offset and slope bend apart)."""
+    curve = curvature_effect(eff, feats, values, along)
+    return geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise), curve
+
+
+def curvature_effect(eff: ThermalTermsEffect, feats, values, along: str | None = None) -> CurvatureEffect:
+    """The curvature per term of the terms ``eff`` (:func:`bent_fit`'s arguments): linearised at
+    ``values`` [SI], its ``alpha`` d^2 regressed on 1 and d over the rows of ``feats``, d the
+    lagged temperature change [K]."""
     d = eff.delta(feats)
     alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-    curve = CurvatureEffect(eff, values, alpha, along)
-    return geometric.with_effects(list(geometric.effects) + [eff, curve]).fit(campaign, noise), curve
+    return CurvatureEffect(eff, values, alpha, along)
 
 
 ALL_TERMS = "all"   # an older thermal.json's one curvature: every term bent alike
@@ -234,9 +241,7 @@ class LagProblem:
         """(rows, k) the whitened prior-scaled columns of the terms and their curvature at
         ``lag`` [h], and each column's prior [SI]."""
         eff = self.effect(lag)
-        d = eff.delta(self.feats)
-        alpha = np.linalg.lstsq(np.c_[np.ones(len(d)), d], d ** 2, rcond=None)[0]
-        curve = CurvatureEffect(eff, self.values, alpha, self.along)
+        curve = curvature_effect(eff, self.feats, self.values, self.along)
         D = [np.einsum("pin,pnk->pik", self.Jq, e.command(self.q, self.feats)) + e.tip(self.ctx, self.feats)
              for e in (eff, curve)]
         prior = np.array([p.prior for e in (eff, curve) for p in e.parameters()])
