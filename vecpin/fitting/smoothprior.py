@@ -42,7 +42,7 @@ from vecpin.measurement.campaignrows import Campaign
 from vecpin.measurement.noise import NoiseModel
 from vecpin.models import ErrorModel, make_model
 from vecpin.models.basis import AxisBasis
-from vecpin.models.prior import KERNELS, SmoothPrior, frequencies, roughness
+from vecpin.models.prior import KERNELS, SmoothPrior, frequencies, log_shape, roughness
 from vecpin.selection.design import AxisChoice, measured_spans, per_turn_measured
 from vecpin.threads import one_blas_thread
 
@@ -99,12 +99,7 @@ class EvidenceProblem:
 
     def _shape_terms(self, lam: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(-2 log shape, its derivative by log scale) of the unknowns ``rows`` (those with an axis)."""
-        scale = lam[self.axis[rows]]
-        if self.kernel == "roughness":
-            le = scale * self.e[rows]
-            return np.log1p(le), le / (1.0 + le)
-        z = (self.w[rows] * scale) ** 2
-        return 0.5 * z, z
+        return log_shape(self.kernel, lam[self.axis[rows]], self.e[rows], self.w[rows])
 
     def log_alpha(self, amp: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """(P,) log prior precisions in ψ: (sigma / s)^2 with s = amplitude x shape (:mod:`vecpin.models.

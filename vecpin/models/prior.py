@@ -69,11 +69,20 @@ def frequencies(basis: AxisBasis) -> np.ndarray:
     return 2.0 * np.arcsin(np.clip(e, 0.0, 16.0) ** 0.25 / 2.0)
 
 
+def log_shape(kernel: str, scale, e, w) -> tuple:
+    """(-2 log shape, its derivative by log scale) of columns of roughness ``e`` and frequency
+    ``w`` (numbers or arrays) at ``scale``: the kernels of the module text, the one place they
+    are written (:func:`shape`; the evidence's gradient, :mod:`vecpin.fitting.smoothprior`)."""
+    if kernel == "roughness":
+        le = scale * np.asarray(e, float)
+        return np.log1p(le), le / (1.0 + le)
+    z = (np.asarray(w, float) * scale) ** 2
+    return 0.5 * z, z
+
+
 def shape(kernel: str, scale: float, e: float, w: float) -> float:
     """The factor on a column's amplitude (module text) of roughness e and frequency w."""
-    if kernel == "roughness":
-        return 1.0 / math.sqrt(1.0 + scale * e)
-    return math.exp(-0.25 * (w * scale) ** 2)
+    return math.exp(-0.5 * float(log_shape(kernel, scale, e, w)[0]))
 
 
 @dataclass(frozen=True)
