@@ -261,7 +261,7 @@ def choose_model(machine: Machine, campaign: Campaign, noise: NoiseModel | None 
     problems, search = _first_kind(kinds, linearised, machine, campaign)
     lowest = min(search.cands, key=lambda c: c.mean)
     gross = _screened(screen and noise_from_data, problems[lowest.kind], lowest, camp, campaign,
-                      lambda setup: make(lowest.kind, setup=setup))
+                      lambda setup: make(lowest.kind, [[c] for c in lowest.axes], setup))
     if gross is not None:   # the choice again without them (linearised again: their rows steered the first)
         say(gross.text)
         kept = np.setdiff1d(np.arange(len(campaign)), gross.rows)   # (and their fold labels)
@@ -346,7 +346,8 @@ def _screened(on: bool, prob: Problem, cand: Candidate, judged: Campaign, campai
               again) -> Screen | None:
     """The gross rows of ``campaign`` by the robust linearised fit of ``cand`` on the rows
     ``judged`` (:func:`~vecpin.selection.screen.screen_rows`), linearised again by
-    ``again(setup)`` at a trimmed registration when gross rows pulled the default one
+    ``again(setup)`` at a trimmed registration when gross rows pulled the default one (with
+    ``cand``'s own bases only: its columns, without the rest of every basis' union)
     (None when not ``on``: the noise stated, or the rows screened already)."""
     if not on:
         return None

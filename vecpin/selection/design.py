@@ -11,6 +11,7 @@ distances are a small solve per fold over its columns (:mod:`vecpin.selection.ch
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -93,20 +94,12 @@ class AxisChoice:
         """Names of its non-constant functions in the union of :func:`axis_functions`
         (``spanned``: the axis' Chebyshev series lie over a measured span, so a trend over
         the travel is a function of its own, ``t1..``; else it is the series' ``c1..``)."""
-        if self.family == "chebyshev":
-            return tuple(f"c{j}" for j in range(1, self.order + 1))
-        if self.family in ("fourier", "fourier_trend"):
-            four = tuple(f"{'cos' if j % 2 else 'sin'}{math.ceil(j / 2)}" for j in range(1, self.order + 1))
-            return four + tuple(f"{'t' if spanned else 'c'}{j}" for j in range(1, self.trend + 1))
-        return tuple(f"{'b' if self.family == 'spline' else 'p'}{self.order}.{i}" for i in range(1, self.order + 4))
+        return _functions(self, spanned)
 
     def scales(self) -> np.ndarray:
         """The factor of each of :meth:`functions` on the union's column: 1, except a
         penalised spline's ``1 / sqrt(1 + λ e_j)`` (its union columns are those of λ = 0)."""
-        if self.family != "pspline":
-            return np.ones(len(self.functions()))
-        e = smoothing_transform(self.order + 3, 0.0)[1]
-        return 1.0 / np.sqrt(1.0 + self.smoothing * e)
+        return _scales(self).copy()
 
     @property
     def size(self) -> int:
@@ -121,6 +114,28 @@ class AxisChoice:
         return {"chebyshev": f"cheb{self.order}", "fourier": f"fourier{self.order}",
                 "fourier_trend": f"fourier{self.order}+trend{self.trend}", "spline": f"spline{self.order}",
                 "pspline": f"pspline{self.order}@{self.smoothing:.3g}"}[self.family]
+
+
+# An AxisChoice's functions and factors, made once per choice: the search asks for them thousands of
+# times, and a penalised spline's factors take an eigendecomposition each.
+@functools.lru_cache(maxsize=4096)
+def _functions(choice: AxisChoice, spanned: bool) -> tuple[str, ...]:
+    """:meth:`AxisChoice.functions`."""
+    if choice.family == "chebyshev":
+        return tuple(f"c{j}" for j in range(1, choice.order + 1))
+    if choice.family in ("fourier", "fourier_trend"):
+        four = tuple(f"{'cos' if j % 2 else 'sin'}{math.ceil(j / 2)}" for j in range(1, choice.order + 1))
+        return four + tuple(f"{'t' if spanned else 'c'}{j}" for j in range(1, choice.trend + 1))
+    return tuple(f"{'b' if choice.family == 'spline' else 'p'}{choice.order}.{i}" for i in range(1, choice.order + 4))
+
+
+@functools.lru_cache(maxsize=4096)
+def _scales(choice: AxisChoice) -> np.ndarray:
+    """:meth:`AxisChoice.scales` (the cached array: callers get a copy)."""
+    if choice.family != "pspline":
+        return np.ones(len(_functions(choice, False)))
+    e = smoothing_transform(choice.order + 3, 0.0)[1]
+    return 1.0 / np.sqrt(1.0 + choice.smoothing * e)
 
 
 def axis_options(axis, orders=CHEB_ORDERS, families=DEFAULT_FAMILIES, fixed_order: bool = False,
