@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from part_frame_judge import judge  # noqa: E402
+from part_frame_judge import indicator_sweep, judge  # noqa: E402
 from results_page import publish  # noqa: E402
 
 import vecpin  # noqa: E402
@@ -59,6 +59,7 @@ from vecpin.compensation.tableproblem import TableProblem  # noqa: E402
 from vecpin.export.generic import write_tables  # noqa: E402
 from vecpin.compensation.frame import measured_box  # noqa: E402
 from vecpin.measurement.nestheights import with_nest_heights  # noqa: E402
+from vecpin.measurement.tableface import swept_axes, with_table_face  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
 from vecpin.measurement.partframe import spindle_axis, uses_lines  # noqa: E402
 from vecpin.simulation.independent import IndependentMachine, layout  # noqa: E402
@@ -73,6 +74,8 @@ CASES = (("head", "cincinnati_20v", None), ("gantry", "flow_xyzcb", None), ("twi
 
 TOOLS = (0.21488, 0.31286)  # m
 GAUGE_SIGMA_MM = 0.01       # the gauge rows: each nest's height read with this normal error (1 sigma)
+SWEEP_MM = 300.0            # the sweep rows: X and Y each moved this far across the face (or the measured box's width)
+SWEEP_SIGMA_UM = 2.0        # the sweep rows: the indicator read with this normal error (1 sigma), vecpin told the same
 
 
 def setup(name: str, family: str | None, seed: int):
@@ -139,8 +142,16 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
         rng = np.random.default_rng([seed, 4051])
         read = {k: h + rng.normal(0.0, GAUGE_SIGMA_MM) for k, (h, _) in sorted(heights.items())}
         exact = model.setup_
-        for key, given in (("gauge", read), ("no_heights", None)):   # the same fit, other heights: tables only
-            model.setup_ = with_nest_heights(replace(exact, nest_heights={}, nest_height_sd={}), given)
+        sweep = {}   # the indicator's sweeps read on the true machine by the judge: (mm, µm, sd µm)
+        for a in swept_axes(m):
+            moved, change = indicator_sweep(sim.truth, m, box, a, SWEEP_MM * 1e-3, float(np.median(TOOLS)),
+                                            SWEEP_SIGMA_UM * 1e-6, rng)
+            sweep[a] = (moved * 1e3, change * 1e6, SWEEP_SIGMA_UM)
+        row["sweep_readings"] = sweep
+        for key, given, swept in (("gauge", read, None), ("no_heights", None, None), ("sweep_gauge", read, sweep),
+                                  ("sweep_only", None, sweep)):   # the same fit, other readings: tables only
+            bare = replace(exact, nest_heights={}, nest_height_sd={}, face_sweep={})
+            model.setup_ = with_table_face(with_nest_heights(bare, given), swept, m)
             vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
             row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
         model.setup_ = exact
@@ -377,6 +388,11 @@ def main(argv=None) -> None:
                           f"mm, part / shape {g['part'] / g['shape']:.2f}, tilt {g['tilt_urad']:.1f} µrad; no heights: "
                           f"part {n['part']:.4f} mm, tilt {n['tilt_urad']:.1f} µrad; exact: tilt "
                           f"{c['tilt_urad']:.1f} µrad", flush=True)
+                    for key, what in (("sweep_gauge", "indicator sweep + gauge heights"),
+                                      ("sweep_only", "indicator sweep, no heights")):
+                        w = r[key]
+                        print(f"{'':<26s} {what}: part {w['part']:.4f} mm, part / shape "
+                              f"{w['part'] / w['shape']:.2f}, tilt {w['tilt_urad']:.1f} µrad", flush=True)
                 rows.append(r)
     if args.rows != "all":
         return
