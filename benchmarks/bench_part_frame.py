@@ -35,11 +35,13 @@ height gauge with a normal error of GAUGE_SIGMA_MM, its standard deviation left 
 default (a user who keeps the plan's nest_heights.csv as written), and with no heights.
 
 Run: python benchmarks/bench_part_frame.py [--out docs/results/part_frame.md] [--seed N] [--cases NAME ...]
-[--rows face] (face: only the table's-face rows, printed, no results page)
+[--rows face] (face: only the table's-face rows, printed, no results page) [--dump ROWS.json] (cases side by side:
+each run's rows to a file) [--page-from ROWS.json ...] (the page from those files)
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from dataclasses import replace
 import tempfile
@@ -360,7 +362,17 @@ def main(argv=None) -> None:
     ap.add_argument("--cases", nargs="+", default=[c[1] for c in CASES])
     ap.add_argument("--rows", choices=("all", "face"), default="all",
                     help="face: only the rows where the campaign reads the table's face (and no results page)")
+    ap.add_argument("--dump", metavar="JSON", help="write the rows to this file instead of the page (cases run "
+                    "side by side, each with its own --cases)")
+    ap.add_argument("--page-from", nargs="+", metavar="JSON", help="write the page from rows --dump wrote (the same "
+                    "--seed), in the cases' order, without running anything")
     args = ap.parse_args(argv)
+    if args.page_from:
+        rows = [r for f in args.page_from for r in json.loads(Path(f).read_text())]
+        order = [c[1] + (f" ({c[2]})" if c[2] else "") for c in CASES]
+        publish(table(sorted(rows, key=lambda r: (order.index(r["machine"]), r["frame"].startswith("the table's"))),
+                      args.seed), args.out)
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for cls, name, family in CASES:
@@ -394,6 +406,9 @@ def main(argv=None) -> None:
                         print(f"{'':<26s} {what}: part {w['part']:.4f} mm, part / shape "
                               f"{w['part'] / w['shape']:.2f}, tilt {w['tilt_urad']:.1f} µrad", flush=True)
                 rows.append(r)
+    if args.dump:
+        Path(args.dump).write_text(json.dumps(rows))
+        return
     if args.rows != "all":
         return
     text = table(rows, args.seed)

@@ -145,7 +145,8 @@ def test_the_kept_frame_puts_the_swept_face_square_to_up_through_the_models_line
     frame = ReferenceFrame(R.T, np.zeros(3), "test frame")
     readings = {ax: (0.3, -0.3 * (R[:, i] @ UP), 0.0) for i, ax in enumerate("XY")}   # the gap closes by -D v.z
     lines = sweep_lines(actual, m, frame, readings, (m.lower, m.upper), 0.2)
-    np.testing.assert_allclose(lines["X"], [1.0, 0.0, 0.0], atol=1e-12)   # nominal in the frame without heights
+    np.testing.assert_allclose(lines["X"][0], [1.0, 0.0, 0.0], atol=1e-12)   # nominal in the frame without heights
+    assert lines["X"][1] == 0.0   # no fitted model: no covariance of the line
     setup = Setup(np.eye(3), np.zeros(3), face_sweep=readings)
     kept = on_the_table_face(frame, m, setup, prior=1.0, lines=lines)
     assert kept.kind == "face" and kept.face.swept == ("X", "Y") and "indicator swept along X and Y" in kept.how

@@ -24,10 +24,13 @@ frame without heights as a metrologist combines two estimates of one quantity:
   the fitted model knows those lines in the frame without heights (the tip's motion per metre
   of the axis' command, the rotaries at home, the other axes mid-box:
   :func:`~vecpin.compensation.frame.sweep_lines`), so each sweep is one linear reading of the
-  face's slopes in that frame: ``a v.e1 + b v.e2 = -r / D - v.up``, standard deviation sd / D
-  (the line's own uncertainty from the fit left out: the fit tells the lines' directions
-  against each other to a few µrad). A DTI reads 1-2 µm over a few hundred mm: a few µrad,
-  where the heights give 70-150. The sweeps and the nests' plane are weighed together by their
+  face's slopes in that frame: ``a v.e1 + b v.e2 = -r / D - v.up``, with the variance
+  (sd / D)^2 of the reading plus that of the model's line along the spindle from the fit's
+  covariance (a DTI reads 1-2 µm over a few hundred mm: a few µrad; the model's line at home
+  is known to about 10-15 µrad on the bundled trunnions, where the heights give 70-150). What
+  the fit's covariance does not hold, the model's own error in the line at home against the
+  volume's mean (a model that misses part of the truth), stays: 20-35 µrad on the simulator's
+  trunnions (docs/results/part_frame.md). The sweeps and the nests' plane are weighed together by their
   inverse covariances (the nests' plane as one reading of both slopes with covariance C), and
   that one face of the readings is what the prior is combined with below; a sweep alone (no
   heights) fixes the tilt where two axes that cross are swept, the nests still give the origin.
@@ -235,10 +238,12 @@ def setup_face(setup, up: np.ndarray, place=None, prior: float = TABLE_FACE_PRIO
     ``setup.nests`` (workpiece frame [m], mapped by ``place`` (N,3) -> (N,3) into the frame the
     face is wanted in, default as fitted), ``setup.nest_heights`` and ``setup.nest_height_sd``
     [m], the fitted z covariance (:func:`nest_z_cov`) and the indicator sweeps
-    ``setup.face_sweep`` along the lines of motion ``lines`` {axis: (3,) [m/m], in the same
-    frame} (a sweep without its line is left out); None where the readings do not fix the face."""
+    ``setup.face_sweep`` along the lines of motion ``lines`` {axis: ((3,) [m/m], in the same
+    frame, the variance of its slope along the spindle [rad^2], added to the reading's)} (a sweep
+    without its line is left out); None where the readings do not fix the face."""
     ids = sorted(k for k in setup.nest_heights if k in setup.nests)
-    sweep = {a: (lines[a], *r) for a, r in sorted(getattr(setup, "face_sweep", {}).items()) if a in (lines or {})}
+    sweep = {a: (lines[a][0], d, r, float(np.sqrt(sd ** 2 + lines[a][1] * d ** 2)))   # the line's own variance added
+             for a, (d, r, sd) in sorted(getattr(setup, "face_sweep", {}).items()) if a in (lines or {})}
     if len(ids) < 3 and not sweep:
         return ids, None
     P = np.array([setup.nests[k] for k in ids], float).reshape(-1, 3)

@@ -145,29 +145,39 @@ def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, t
     frame = reference_frame(raw, model.machine, tools, *box)
     setup = getattr(model, "setup_", None)
     if setup is not None and (len(setup.nest_heights) >= 3 or getattr(setup, "face_sweep", None)):
-        lines = sweep_lines(raw, model.machine, frame, setup.face_sweep, box, float(np.min(tools)))
+        lines = sweep_lines(raw, model.machine, frame, setup.face_sweep, box, float(np.min(tools)), model)
         frame = on_the_table_face(frame, model.machine, setup, lines=lines)
     return frame
 
 
 def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, sweep: dict,
-                box: tuple[np.ndarray, np.ndarray], tool: float) -> dict[str, np.ndarray]:
-    """{axis: (3,) [m/m]} the ``actual`` machine's (a model's, uncompensated) motion of the tip
-    relative to the table per metre of each axis of ``sweep`` {axis: (distance [m], ...)}, in
-    ``frame``: from the start to the end of the distance swept (an indicator reads its change
-    between the two), centred on the middle of ``box`` (lower, upper) [m, rad] and clipped to it,
-    every rotary axis at home (as the indicator's sweep is made), the other linear axes mid-box,
-    tool length ``tool`` [m]."""
+                box: tuple[np.ndarray, np.ndarray], tool: float, model: ErrorModel | None = None
+                ) -> dict[str, tuple[np.ndarray, float]]:
+    """{axis: ((3,) [m/m], variance [rad^2])}: the ``actual`` machine's (a model's, uncompensated)
+    motion of the tip relative to the table per metre of each axis of ``sweep`` {axis: (distance
+    [m], ...)}, in ``frame``, from the start to the end of the distance swept (an indicator reads
+    its change between the two), centred on the middle of ``box`` (lower, upper) [m, rad] and
+    clipped to it, every rotary axis at home (as the indicator's sweep is made), the other linear
+    axes mid-box, tool length ``tool`` [m]; and the variance of its component along the spindle
+    from the fitted ``model``'s covariance (its geometric part's, through d tip / d b at both ends;
+    0 without a model): the fit's own uncertainty of the line the sweep is read against."""
     lo, hi = box
     rot = np.array([a.kind == "rotary" for a in machine.axes])
     mid = np.where(rot, partframe.home_commands(machine), 0.5 * (lo + hi))
+    geometric = None if model is None else geometric_model(model)
+    up = -partframe.spindle_axis(machine)
     out = {}
     for name, (distance, *_) in sweep.items():
         k = machine.axis_names.index(name)
         q = np.tile(mid, (2, 1))
         q[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
         tip = actual(q, np.full(2, tool), False, 0)[0]
-        out[name] = frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k]))
+        var = 0.0
+        if geometric is not None and getattr(geometric, "cov_", None) is not None:
+            J = geometric.tool_tip(q, np.full(2, tool), geometric.b_, jacobian=True, frame=FRAME).J_b
+            g = (frame.R.T @ up) @ (J[1] - J[0]) / (q[1, k] - q[0, k])       # d (slope along up) / d b
+            var = float(g @ geometric.cov_[6:, 6:] @ g)
+        out[name] = (frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k])), var)
     return out
 
 
@@ -181,8 +191,8 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: flo
     its tilt is combined with ``frame``'s (the frame without heights) weighted by their
     uncertainties (:func:`~vecpin.compensation.faceframe.setup_face`; ``prior``: the face's
     tilt against ``frame``, 1 sigma [rad]). The indicator's sweeps of ``setup.face_sweep``
-    along the machine's lines of motion ``lines`` {axis: (3,) [m/m] in ``frame``:
-    :func:`sweep_lines`} are weighed in with them (:func:`~vecpin.compensation.faceframe.face_tilt`).
+    along the machine's lines of motion ``lines`` {axis: ((3,) [m/m] in ``frame``, the variance of
+    its slope along the spindle [rad^2]): :func:`sweep_lines`} are weighed in with them (:func:`~vecpin.compensation.faceframe.face_tilt`).
     The turn about the spindle stays the frame's.
     Where a campaign reads the table this way the tables keep the table itself."""
     up = -partframe.spindle_axis(machine)
