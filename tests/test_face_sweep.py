@@ -154,3 +154,21 @@ def test_the_kept_frame_puts_the_swept_face_square_to_up_through_the_models_line
     np.testing.assert_allclose(kept.R @ UP, UP, atol=1e-9)
     with pytest.raises(VecpinError, match="sweeps along two axes that cross"):
         on_the_table_face(frame, m, Setup(np.eye(3), np.zeros(3), face_sweep={"X": readings["X"]}), lines=lines)
+
+
+def test_the_model_file_keeps_the_sweeps_and_refuses_bad_ones(machines, tmp_path):
+    """The model file's tracker section carries the sweeps in mm and µm and reads them back in metres; a
+    sweep along Z read from a file is refused naming the file and the field."""
+    from vecpin.errors import ModelFileError
+    from vecpin.models.modelfile import _points_to_dict, _table_face_from
+    m = machines["trunnion_xyzac"]
+    setup = Setup(np.eye(3), np.zeros(3), face_sweep=check_table_face({"X": (300, -4.5, 1.5), "Y": (250, 2)}, m))
+    tr = _points_to_dict(setup)
+    assert tr["table_face"]["X"] == pytest.approx({"distance_mm": 300.0, "change_um": -4.5, "sd_um": 1.5})
+    back = Setup(np.eye(3), np.zeros(3))
+    _table_face_from(tmp_path / "m.json", tr, back, m)
+    for axis in "XY":
+        assert back.face_sweep[axis] == pytest.approx(setup.face_sweep[axis])
+    tr["table_face"]["Z"] = {"distance_mm": 100.0, "change_um": 1.0, "sd_um": 2.0}
+    with pytest.raises(ModelFileError, match=r"m.json.*tracker.table_face.*along the spindle"):
+        _table_face_from(tmp_path / "m.json", tr, Setup(np.eye(3), np.zeros(3)), m)
