@@ -381,8 +381,8 @@ def table(rows: list[dict], seed: int) -> str:
         head += ["", f"The same fits given the nests' heights read by a height gauge with a normal error of "
                  f"{GAUGE_SIGMA_MM} mm (1 sigma; vecpin told its default standard deviation, as the plan's "
                  "nest_heights.csv writes it), given no heights, and given the table face's parallelism read with a "
-                 f"dial test indicator swept {SWEEP_MM:g} mm (within the measured box) along X and along Y across the true "
-                 "face (every rotary "
+                 f"dial test indicator swept {SWEEP_MM:g} mm (within the measured box) along X and along Y "
+                 "across the true face (every rotary "
                  "axis at 0, the other axes mid-box: simulated by the judge on the true machine, "
                  f"tests/part_frame_judge.py's indicator_sweep, with a normal error of {SWEEP_SIGMA_UM:g} µm; vecpin "
                  f"told {SWEEP_SIGMA_UM:g} µm, table_face.csv's default) with the gauge's heights and alone (tables "
@@ -396,7 +396,8 @@ def table(rows: list[dict], seed: int) -> str:
         head += [f"| {r['class']} | {r['machine']} | {r['compensated']['part']:.4f}, "
                  f"{r['compensated']['tilt_urad']:.1f} | "
                  f"{r['gauge']['part']:.4f} | {r['gauge']['part'] / r['gauge']['shape']:.2f} | "
-                 f"{r['gauge']['tilt_urad']:.1f} | {r['no_heights']['part']:.4f} | {r['no_heights']['tilt_urad']:.1f} | "
+                 f"{r['gauge']['tilt_urad']:.1f} | {r['no_heights']['part']:.4f} | "
+                 f"{r['no_heights']['tilt_urad']:.1f} | "
                  + _sweep_cells(r) for r in face if "gauge" in r]
     return "\n".join(head + findings(rows)) + "\n"
 

@@ -61,8 +61,9 @@ class ReferenceFrame:
     not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``);
     ``kind``: which definition, as :func:`frame_kept` measures the tables' turn against it:
     "lines" (ISO 230-1's reference lines), "orientation" (the volume's mean orientation),
-    "face" (the table's face found by nests' heights or an indicator's sweeps) or "" (a frame given outright); ``face``: how
-    well the face is known, where it is "face" (:class:`~vecpin.compensation.faceframe.FaceTilt`)."""
+    "face" (the table's face found by nests' heights or an indicator's sweeps) or "" (a frame
+    given outright); ``face``: how well the face is known, where it is "face"
+    (:class:`~vecpin.compensation.faceframe.FaceTilt`)."""
 
     R: np.ndarray
     centre: np.ndarray
@@ -192,7 +193,8 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: flo
     uncertainties (:func:`~vecpin.compensation.faceframe.setup_face`; ``prior``: the face's
     tilt against ``frame``, 1 sigma [rad]). The indicator's sweeps of ``setup.face_sweep``
     along the machine's lines of motion ``lines`` {axis: ((3,) [m/m] in ``frame``, the variance of
-    its slope along the spindle [rad^2]): :func:`sweep_lines`} are weighed in with them (:func:`~vecpin.compensation.faceframe.face_tilt`).
+    its slope along the spindle [rad^2]): :func:`sweep_lines`} are weighed in with them
+    (:func:`~vecpin.compensation.faceframe.face_tilt`).
     The turn about the spindle stays the frame's.
     Where a campaign reads the table this way the tables keep the table itself."""
     up = -partframe.spindle_axis(machine)

@@ -223,7 +223,8 @@ class FitProblem:
         """What the fitted model carries of this problem into its file: the nest heights (in
         its setup, checked against the fitted nests) and the indicator's sweeps of the table's face, the choice,
         the zone."""
-        model.setup_ = with_table_face(with_nest_heights(model.setup_, self.nest_heights), self.table_face, self.machine)
+        setup = with_nest_heights(model.setup_, self.nest_heights)
+        model.setup_ = with_table_face(setup, self.table_face, self.machine)
         if choice is not None:
             model.selection_ = choice.to_dict()
         if self.zone:

@@ -169,7 +169,8 @@ def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
         face = model_reference_frame(model).face if sweep else setup_face(su, -spindle_axis(model.machine))[1]
         known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from {given} (the model file keeps them); the tables keep the face square to the "
-                f"spindle as far as the {'readings' if sweep else 'heights'} tell it, weighed against the frame without heights{known}"] + (
+                f"spindle as far as the {'readings' if sweep else 'heights'} "
+                f"tell it, weighed against the frame without heights{known}"] + (
             [f"  table's face: {face.advice()}"] if face is not None and face.needs_advice else [])
     return ["  table's face: no nests' heights given: the tables keep the working volume's mean orientation relative "
             "to the table, not its face (`nest_heights`: each nest's reflector centre above the face, mm, as the "
