@@ -32,14 +32,20 @@ table's-face rows also write the same fit's one-axis tables (`vecpin tables --no
 judge them alike. The table's-face rows give the fit the simulated heights exact (standard
 deviation 0, stated); beside them (printed) the same fit's tables with the heights read by a
 height gauge with a normal error of GAUGE_SIGMA_MM, its standard deviation left to vecpin's
-default (a user who keeps the plan's nest_heights.csv as written), and with no heights.
+default (a user who keeps the plan's nest_heights.csv as written), and with no heights; and with
+the table face's parallelism read as a commissioning engineer reads it: a dial test indicator
+in the spindle swept SWEEP_MM along X and along Y across the true face, the rotaries at zero,
+simulated by the judge on the true machine (tests/part_frame_judge.py's indicator_sweep, a
+normal error of SWEEP_SIGMA_UM), with the gauge's heights and alone (table_face.csv's input).
 
 Run: python benchmarks/bench_part_frame.py [--out docs/results/part_frame.md] [--seed N] [--cases NAME ...]
-[--rows face] (face: only the table's-face rows, printed, no results page)
+[--rows face] (face: only the table's-face rows, printed, no results page) [--dump ROWS.json] (cases side by side:
+each run's rows to a file) [--page-from ROWS.json ...] (the page from those files)
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from dataclasses import replace
 import tempfile
@@ -49,7 +55,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from part_frame_judge import judge  # noqa: E402
+from part_frame_judge import indicator_sweep, judge  # noqa: E402
 from results_page import publish  # noqa: E402
 
 import vecpin  # noqa: E402
@@ -59,6 +65,7 @@ from vecpin.compensation.tableproblem import TableProblem  # noqa: E402
 from vecpin.export.generic import write_tables  # noqa: E402
 from vecpin.compensation.frame import measured_box  # noqa: E402
 from vecpin.measurement.nestheights import with_nest_heights  # noqa: E402
+from vecpin.measurement.tableface import swept_axes, with_table_face  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
 from vecpin.measurement.partframe import spindle_axis, uses_lines  # noqa: E402
 from vecpin.simulation.independent import IndependentMachine, layout  # noqa: E402
@@ -73,6 +80,8 @@ CASES = (("head", "cincinnati_20v", None), ("gantry", "flow_xyzcb", None), ("twi
 
 TOOLS = (0.21488, 0.31286)  # m
 GAUGE_SIGMA_MM = 0.01       # the gauge rows: each nest's height read with this normal error (1 sigma)
+SWEEP_MM = 300.0            # the sweep rows: X and Y each moved this far across the face (or the measured box's width)
+SWEEP_SIGMA_UM = 2.0        # the sweep rows: the indicator read with this normal error (1 sigma), vecpin told the same
 
 
 def setup(name: str, family: str | None, seed: int):
@@ -139,8 +148,16 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
         rng = np.random.default_rng([seed, 4051])
         read = {k: h + rng.normal(0.0, GAUGE_SIGMA_MM) for k, (h, _) in sorted(heights.items())}
         exact = model.setup_
-        for key, given in (("gauge", read), ("no_heights", None)):   # the same fit, other heights: tables only
-            model.setup_ = with_nest_heights(replace(exact, nest_heights={}, nest_height_sd={}), given)
+        sweep = {}   # the indicator's sweeps read on the true machine by the judge: (mm, µm, sd µm)
+        for a in swept_axes(m):
+            moved, change = indicator_sweep(sim.truth, m, box, a, SWEEP_MM * 1e-3, float(np.median(TOOLS)),
+                                            SWEEP_SIGMA_UM * 1e-6, rng)
+            sweep[a] = (moved * 1e3, change * 1e6, SWEEP_SIGMA_UM)
+        row["sweep_readings"] = sweep
+        for key, given, swept in (("gauge", read, None), ("no_heights", None, None), ("sweep_gauge", read, sweep),
+                                  ("sweep_only", None, sweep)):   # the same fit, other readings: tables only
+            bare = replace(exact, nest_heights={}, nest_height_sd={}, face_sweep={})
+            model.setup_ = with_table_face(with_nest_heights(bare, given), swept, m)
             vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
             row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
         model.setup_ = exact
@@ -237,7 +254,7 @@ def findings(rows: list[dict]) -> list[str]:
                 + " µrad. What removes the rest: product terms where the controller multiplies tables (vecpin's "
                 "default there, next paragraph), the controller's kinematic transformation (the rotary axes' "
                 "positions and directions) or its volumetric function.", ""]
-    out += _product_findings(face)
+    out += _product_findings(face) + _sweep_findings(face)
     return out
 
 
@@ -269,6 +286,40 @@ def _product_findings(face: list[dict]) -> list[str]:
             "planned set within 0.0002 mm: tests/test_products.py), but the unit of its product is inferred from "
             "the K3 manual, so there they are written only with `--products` (the printout gives their gain); "
             "other controllers' files do not carry them.", ""]
+
+
+def _ratio(x: dict) -> float:
+    return x["part"] / x["shape"]
+
+
+def _sweep_cells(r: dict) -> str:
+    """The sweep columns of one face row (markdown cells)."""
+    g, w = r["sweep_gauge"], r["sweep_only"]
+    return (f"{_ratio(g):.2f} | {g['tilt_urad']:.1f} | {w['part']:.4f} | {_ratio(w):.2f} | "
+            f"{w['tilt_urad']:.1f} |")
+
+
+def _sweep_findings(face: list[dict]) -> list[str]:
+    """The paragraph on the indicator's sweep (the face rows' sweep columns)."""
+    rows = [r for r in face if "sweep_only" in r]
+    if not rows:
+        return []
+    tilt = max(max(r["sweep_gauge"]["tilt_urad"], r["sweep_only"]["tilt_urad"]) for r in rows)
+    ratio = max(max(_ratio(r["sweep_gauge"]), _ratio(r["sweep_only"])) for r in rows)
+    return [f"**The face read with a dial test indicator: tilt at most {tilt:.0f} µrad, part / shape at most "
+            f"{ratio:.2f}** (targets 50 µrad and 1.10), where the gauge's heights leave "
+            + ", ".join(f"{r['gauge']['tilt_urad']:.0f}" for r in rows) + " µrad and "
+            + ", ".join(f"{_ratio(r['gauge']):.2f}" for r in rows) + " ("
+            + ", ".join(r["machine"] for r in rows) + "). The sweep reads the face against the machine's own, "
+            "uncompensated X and Y lines at the rotaries' zero; vecpin turns each reading into the face's tilt "
+            "through the fitted model's lines there (compensation/faceframe.py), so what is left is not the "
+            f"indicator's {SWEEP_SIGMA_UM:g} µm over {SWEEP_MM:g} mm (about 7 µrad) but the model's own error in its "
+            "lines at home against the volume's mean, which the best-fit tilt over the whole volume judges: sweep "
+            "alone " + ", ".join(f"{r['sweep_only']['tilt_urad']:.0f}" for r in rows) + " µrad against the exact "
+            "heights' " + ", ".join(f"{r['compensated']['tilt_urad']:.0f}" for r in rows) + " µrad. The gauge's "
+            "heights add little beside the sweep (with them: "
+            + ", ".join(f"{r['sweep_gauge']['tilt_urad']:.0f}" for r in rows) + " µrad); the sweep alone fixes "
+            "the tilt, the nests give the origin.", ""]
 
 
 def table(rows: list[dict], seed: int) -> str:
@@ -329,16 +380,25 @@ def table(rows: list[dict], seed: int) -> str:
                  f"{r['compensated']['tilt_urad']:.1f} | {r['one_axis']['tilt_urad']:.1f} |" for r in face]
         head += ["", f"The same fits given the nests' heights read by a height gauge with a normal error of "
                  f"{GAUGE_SIGMA_MM} mm (1 sigma; vecpin told its default standard deviation, as the plan's "
-                 "nest_heights.csv writes it) and given no heights (tables only remade), against the exact heights "
-                 "above; tilt: the compensated volume's best-fit tilt against the true table:", "",
+                 "nest_heights.csv writes it), given no heights, and given the table face's parallelism read with a "
+                 f"dial test indicator swept {SWEEP_MM:g} mm (within the measured box) along X and along Y "
+                 "across the true face (every rotary "
+                 "axis at 0, the other axes mid-box: simulated by the judge on the true machine, "
+                 f"tests/part_frame_judge.py's indicator_sweep, with a normal error of {SWEEP_SIGMA_UM:g} µm; vecpin "
+                 f"told {SWEEP_SIGMA_UM:g} µm, table_face.csv's default) with the gauge's heights and alone (tables "
+                 "only remade), against the exact heights above; tilt: the compensated volume's best-fit tilt "
+                 "against the true table:", "",
                  "| class | machine | exact: part, tilt [µrad] | gauge: part | gauge: part / shape | "
-                 "gauge: tilt [µrad] | no heights: part | no heights: tilt [µrad] |",
-                 "|---|---|---|---|---|---|---|---|"]
+                 "gauge: tilt [µrad] | no heights: part | no heights: tilt [µrad] | sweep + gauge: part / shape | "
+                 "sweep + gauge: tilt [µrad] | sweep alone: part | sweep alone: part / shape | "
+                 "sweep alone: tilt [µrad] |",
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         head += [f"| {r['class']} | {r['machine']} | {r['compensated']['part']:.4f}, "
                  f"{r['compensated']['tilt_urad']:.1f} | "
                  f"{r['gauge']['part']:.4f} | {r['gauge']['part'] / r['gauge']['shape']:.2f} | "
-                 f"{r['gauge']['tilt_urad']:.1f} | {r['no_heights']['part']:.4f} | {r['no_heights']['tilt_urad']:.1f} |"
-                 for r in face if "gauge" in r]
+                 f"{r['gauge']['tilt_urad']:.1f} | {r['no_heights']['part']:.4f} | "
+                 f"{r['no_heights']['tilt_urad']:.1f} | "
+                 + _sweep_cells(r) for r in face if "gauge" in r]
     return "\n".join(head + findings(rows)) + "\n"
 
 
@@ -349,7 +409,17 @@ def main(argv=None) -> None:
     ap.add_argument("--cases", nargs="+", default=[c[1] for c in CASES])
     ap.add_argument("--rows", choices=("all", "face"), default="all",
                     help="face: only the rows where the campaign reads the table's face (and no results page)")
+    ap.add_argument("--dump", metavar="JSON", help="write the rows to this file instead of the page (cases run "
+                    "side by side, each with its own --cases)")
+    ap.add_argument("--page-from", nargs="+", metavar="JSON", help="write the page from rows --dump wrote (the same "
+                    "--seed), in the cases' order, without running anything")
     args = ap.parse_args(argv)
+    if args.page_from:
+        rows = [r for f in args.page_from for r in json.loads(Path(f).read_text())]
+        order = [c[1] + (f" ({c[2]})" if c[2] else "") for c in CASES]
+        publish(table(sorted(rows, key=lambda r: (order.index(r["machine"]), r["frame"].startswith("the table's"))),
+                      args.seed), args.out)
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for cls, name, family in CASES:
@@ -377,7 +447,15 @@ def main(argv=None) -> None:
                           f"mm, part / shape {g['part'] / g['shape']:.2f}, tilt {g['tilt_urad']:.1f} µrad; no heights: "
                           f"part {n['part']:.4f} mm, tilt {n['tilt_urad']:.1f} µrad; exact: tilt "
                           f"{c['tilt_urad']:.1f} µrad", flush=True)
+                    for key, what in (("sweep_gauge", "indicator sweep + gauge heights"),
+                                      ("sweep_only", "indicator sweep, no heights")):
+                        w = r[key]
+                        print(f"{'':<26s} {what}: part {w['part']:.4f} mm, part / shape "
+                              f"{w['part'] / w['shape']:.2f}, tilt {w['tilt_urad']:.1f} µrad", flush=True)
                 rows.append(r)
+    if args.dump:
+        Path(args.dump).write_text(json.dumps(rows))
+        return
     if args.rows != "all":
         return
     text = table(rows, args.seed)

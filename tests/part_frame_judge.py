@@ -30,6 +30,9 @@ Removing a squareness error turns the volume's best-fit orientation by about hal
 squareness while the reference lines stay: where tables keep the lines, the volume's turn is
 not a rotation they add.
 
+The table face's parallelism as a commissioning engineer reads it (:func:`indicator_sweep`):
+a dial test indicator swept along X and Y across the true face, the true tip moving.
+
 Only the truth (the simulated machine) and the nominal kinematics come from vecpin."""
 from __future__ import annotations
 
@@ -183,3 +186,22 @@ def judge(truth, machine, tables_path: Path | None, q: np.ndarray, tool: np.ndar
             before = line_frame(true_tip, machine, box, t0)
             out["turn_urad"] = float(Rotation.from_matrix(now.T @ before).magnitude() * 1e6)
     return out
+
+
+def indicator_sweep(truth, machine, box, axis: str, distance: float, tool: float, sd: float, rng
+                    ) -> tuple[float, float]:
+    """(distance moved [m], change [m]) of a dial test indicator in the spindle reading the true
+    table's face while ``axis`` moves ``distance`` [m] (centred on the middle of ``box``, clipped to
+    it; every rotary axis at home, the other axes mid-box): + when pushed in as the command
+    increases, with a normal reading error of standard deviation ``sd`` [m] drawn from ``rng``.
+    The change is the true tip's height above the true face (the truth's workpiece frame, its face
+    the plane through the origin square to the spindle at home) at the start less at the end."""
+    lo, hi = box
+    rotary = np.array([a.kind == "rotary" for a in machine.axes])
+    q = np.where(rotary, np.clip(np.zeros(machine.n_axes), lo, hi), 0.5 * (lo + hi))
+    k = machine.axis_names.index(axis)
+    q = np.tile(q, (2, 1))
+    q[:, k] = [max(lo[k], q[0, k] - distance / 2), min(hi[k], q[0, k] + distance / 2)]
+    up = -machine.kinematics(q[:1], 0.0, jacobian=False, frame="workpiece").tool_dir[0]
+    gap = truth.tool_tip(q, np.full(2, tool), frame="workpiece") @ up
+    return float(q[1, k] - q[0, k]), float(gap[0] - gap[1] + rng.normal(0.0, sd))

@@ -56,6 +56,11 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
     asked = PlanRun(plan, []).heights_line()
     assert "measure each reflector centre's height above the face, mm" in asked and "nest_heights.csv" in asked
     assert "not asked (declined)" in PlanRun(plan, [], nest_heights=False).heights_line()
+    # the table turns: the face's parallelism read with an indicator swept along X and Y, asked beside the heights
+    assert (out / "table_face.csv").read_text().splitlines() == ["axis,distance_mm,change_um,sd_um", "X,,,2", "Y,,,2"]
+    assert json.loads((out / "plan.json").read_text())["table_face"] == "table_face.csv"
+    line = PlanRun(plan, []).sweep_line()
+    assert "dial test indicator" in line and "+ when pushed in" in line
     with pytest.raises(CampaignFileError, match=r"nest_heights.csv, row 2, column 'height_mm': no height for nest 1"):
         read_nest_heights(out / "nest_heights.csv")
     (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(r.replace(",,", f",{20.5 + i},") + "\n"

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from vecpin.cli.common import (CAMPAIGN_HELP, MACHINE_HELP, add_machine_args, add_model_args, add_noise_args,
                                add_quiet_arg, machine, noise, progress, say, zone_option)
-from vecpin.cli.fitting import add_nest_height_args, nest_heights
+from vecpin.cli.fitting import add_nest_height_args, nest_heights, table_face
 
 
 def run_diagnose(args) -> int:
@@ -14,7 +14,8 @@ def run_diagnose(args) -> int:
     run = diagnose_to_dir(m, campaign, args.out, noise(args, m), model=args.model, order=args.order,
                           effects=args.effects, folds=args.folds, alpha=args.alpha, basis=args.basis,
                           progress=progress(not args.quiet), base=args.base, zone=zone_option(args.zone),
-                          nest_heights=nest_heights(args.nest_height, args.nest_heights, campaign))
+                          nest_heights=nest_heights(args.nest_height, args.nest_heights, campaign),
+                          table_face=table_face(args.table_face, m))
     say(args, *run.lines())
     return 0
 

@@ -59,7 +59,8 @@ def _height_item(item: str, value: str):
 
 
 def add_nest_height_args(s) -> None:
-    """``--nest-height ID=MM[:SD]`` (repeated) and ``--nest-heights CSV``: the table nests' heights above its face."""
+    """``--nest-height ID=MM[:SD]`` (repeated) and ``--nest-heights CSV``: the table nests' heights above its face;
+    ``--table-face CSV``: an indicator's sweeps of the face."""
     s.add_argument("--nest-height", action="append", metavar="ID=MM[:SD]",
                    help="the height of a table nest's reflector centre above the table's face, mm, and optionally the "
                         "reading's standard deviation, mm (default 0.02, a height gauge's) (repeat for three or more "
@@ -69,6 +70,19 @@ def add_nest_height_args(s) -> None:
     s.add_argument("--nest-heights", metavar="CSV", help="the nests' heights above the table's face in one file: the "
                    "nest_heights.csv vecpin plan writes, its height_mm column filled in, mm (its height_sd_mm: the "
                    "readings' standard deviations) (default: none, as above)")
+    s.add_argument("--table-face", metavar="CSV", help="the table face's parallelism read with a dial test indicator "
+                   "in the spindle, the rotary axes at zero, moving X and then Y across the face: the table_face.csv "
+                   "vecpin plan writes, distance_mm (how far the axis moved) and change_um (the indicator's change, "
+                   "µm, + when pushed in as the command increases) filled in, sd_um the reading's standard deviation "
+                   "(default 2 µm); weighed with the nests' heights, or alone (default: none)")
+
+
+def table_face(path: str | None, machine) -> dict | None:
+    """``--table-face CSV`` -> {axis: (distance mm, change µm, sd µm)} (the file's rows checked), or None."""
+    if not path:
+        return None
+    from vecpin.measurement.tableface import read_table_face
+    return read_table_face(path, machine)
 
 
 def run_fit(args) -> int:
@@ -82,7 +96,7 @@ def run_fit(args) -> int:
                        underdetermined=args.underdetermined, cv=args.folds, zone=zone_option(args.zone),
                        noise_from_data=not noise_stated(args),
                        nest_heights=nest_heights(args.nest_height, args.nest_heights, campaign),
-                       progress=progress(not args.quiet))
+                       table_face=table_face(args.table_face, m), progress=progress(not args.quiet))
     run.model.save(args.out)
     say(args, *run.lines())
     print(f"wrote {args.out}")

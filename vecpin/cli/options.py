@@ -31,6 +31,8 @@ PHRASES: list[tuple[re.Pattern, str, str]] = [
     (re.compile(r"`repeat_points` (\S+?), `repeat_times` (\S+?):"), "repeat", r"{flag} \1 \2:"),
     (re.compile(r"give that file to the fit \(`nest_heights`\)"), "no_nest_heights",
      "give that file to the fit (vecpin fit --nest-heights FILE)"),
+    (re.compile(r"give that file to the fit \(`table_face`\)"), "no_nest_heights",
+     "give that file to the fit (vecpin fit --table-face FILE)"),
 ]
 
 _NAME = re.compile(r"`([a-z][a-z0-9_]*)`")

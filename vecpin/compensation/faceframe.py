@@ -1,4 +1,4 @@
-"""How well the nests' heights place the table's face, and what the tables keep of it (issue 39).
+"""How well the nests' heights and an indicator's sweeps place the table's face, and what the tables keep of it.
 
 The fit finds the table nests' reflector centres, not the table's face; the heights the
 operator reads above the face (:mod:`vecpin.measurement.nestheights`) place it: the face is
@@ -16,6 +16,26 @@ frame without heights as a metrologist combines two estimates of one quantity:
   fit's gauge is left out). The slopes' covariance is the weighted fit's ``(A' W A)^-1``: it
   falls with the nests' spread about their centre, so nests far from the table's axis tell the
   face better. Tilt = slope for the small angles here: about e1 by b, about e2 by -a.
+- **The face from an indicator swept across it** (:func:`sweep_rows`; the readings of
+  :mod:`vecpin.measurement.tableface`): a dial test indicator in the spindle, every rotary
+  axis at zero, touches the face while one linear axis moves it a distance D; the change r
+  (+ pushed in) is the face's slope against that axis' line of motion. The sweep is made with
+  the machine's own, uncompensated axes, so it reads the face against the uncompensated lines;
+  the fitted model knows those lines in the frame without heights (the tip's motion per metre
+  of the axis' command, the rotaries at home, the other axes mid-box:
+  :func:`~vecpin.compensation.frame.sweep_lines`), so each sweep is one linear reading of the
+  face's slopes in that frame: ``a v.e1 + b v.e2 = -r / D - v.up``, with the variance
+  (sd / D)^2 of the reading plus that of the model's line along the spindle from the fit's
+  covariance (a DTI reads 1-2 µm over a few hundred mm: a few µrad; the model's line at home
+  is known to about 10-15 µrad on the bundled trunnions, where the heights give 70-150). What
+  the fit's covariance does not hold, the model's own error in the line at home against the
+  volume's mean (a model that misses part of the truth), stays: 20-35 µrad on the simulator's
+  trunnions (docs/results/part_frame.md). The sweeps and the nests' plane are weighed together by their
+  inverse covariances (the nests' plane as one reading of both slopes with covariance C), and
+  that one face of the readings is what the prior is combined with below; a sweep alone (no
+  heights) fixes the tilt where two axes that cross are swept, the nests still give the origin.
+  Where the nests' plane and the sweeps disagree beyond chance (chi-square, 99 %) the printout
+  says so.
 - **The frame without heights** (the machine's reference lines or its volume's mean
   orientation, :func:`~vecpin.compensation.frame.model_reference_frame`) as the prior of the
   face's tilt: zero, with a standard deviation :data:`TABLE_FACE_PRIOR` per component. ISO
@@ -56,6 +76,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy.stats import chi2
+
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.units import M_PER_MM, MM_PER_M
 
@@ -65,18 +87,21 @@ TABLE_FACE_PRIOR = float(np.hypot(PARALLELISM_TOLERANCE, SQUARENESS_TOLERANCE / 
 FACE_TARGET = 50e-6        # rad: the face's 1 sigma tilt uncertainty the printout asks for (issue 39: 50 µrad)
 CONSISTENT_CHI2 = 9.2103   # chi-square, 2 degrees of freedom, 99 %: face and prior agree within it
 FLOOR_SD = 1e-9            # m: a reading's standard deviation at least this (exact heights: equal weights)
+FLOOR_TILT = 1e-9          # rad: a slope reading's standard deviation at least this where readings are weighed together
 
 
 @dataclass
 class FaceTilt:
-    """The table's face from the nests' heights and what the tables keep of it, in a frame
-    whose ``axes`` (e1, e2) are square to the spindle: ``slopes`` (2,) [rad] of the face from
-    the heights alone (its normal is up + a e1 + b e2) with covariance ``cov`` (2,2) [rad^2],
-    of which ``from_nests`` (2,2) is the fitted nests' share; ``kept``, ``kept_cov``: the same
-    combined with the frame without heights (module text); ``consistent``: False where the two
-    disagree beyond chance (the face kept alone); ``prior`` [rad]; ``spread`` [m^2]: the
-    smallest eigenvalue of the nests' layout about their centre, square to the spindle;
-    ``reading_sd`` [m]: the heights' rms standard deviation; ``n``: nests."""
+    """The table's face from the nests' heights and the indicator sweeps, and what the tables
+    keep of it, in a frame whose ``axes`` (e1, e2) are square to the spindle: ``slopes`` (2,)
+    [rad] of the face from the readings alone (its normal is up + a e1 + b e2) with covariance
+    ``cov`` (2,2) [rad^2], of which ``from_nests`` (2,2) is the fitted nests' share; ``kept``,
+    ``kept_cov``: the same combined with the frame without heights (module text);
+    ``consistent``: False where the two disagree beyond chance (the face kept alone); ``prior``
+    [rad]; ``spread`` [m^2]: the smallest eigenvalue of the nests' layout about their centre,
+    square to the spindle; ``reading_sd`` [m]: the heights' rms standard deviation; ``n``:
+    nests whose heights count (0: none); ``swept``: the axes swept with an indicator;
+    ``agree``: False where the nests' face and the sweeps disagree beyond chance (99 %)."""
 
     axes: tuple
     slopes: np.ndarray
@@ -89,6 +114,15 @@ class FaceTilt:
     spread: float
     reading_sd: float
     n: int
+    swept: tuple = ()
+    agree: bool = True
+
+    @property
+    def sources(self) -> str:
+        """Which readings set the face, in words."""
+        parts = ([f"the heights of {self.n} nests"] if self.n else []) + (
+            [f"an indicator swept along {' and '.join(self.swept)}"] if self.swept else [])
+        return " and ".join(parts)
 
     @staticmethod
     def _tilt(cov: np.ndarray) -> np.ndarray:
@@ -97,7 +131,7 @@ class FaceTilt:
 
     @property
     def tilt_cov(self) -> np.ndarray:
-        """(2,2) [rad^2]: the covariance of the face's tilt about (e1, e2) from the heights alone."""
+        """(2,2) [rad^2]: the covariance of the face's tilt about (e1, e2) from the readings alone."""
         return self._tilt(self.cov)
 
     @property
@@ -107,7 +141,7 @@ class FaceTilt:
 
     @property
     def sd(self) -> float:
-        """The face's 1 sigma tilt uncertainty from the heights alone [rad] (its largest direction)."""
+        """The face's 1 sigma tilt uncertainty from the readings alone [rad] (its largest direction)."""
         return _largest_sd(self.cov)
 
     @property
@@ -117,7 +151,7 @@ class FaceTilt:
 
     @property
     def weight(self) -> float:
-        """The share of the heights' face in the face kept (0: the frame without heights, 1: the face alone)."""
+        """The share of the readings' face in the face kept (0: the frame without heights, 1: the face alone)."""
         if not self.consistent:
             return 1.0
         P = self.prior ** 2 * np.eye(2)
@@ -135,40 +169,48 @@ class FaceTilt:
 
     @property
     def how(self) -> str:
-        """The face and the frame kept, in words."""
+        """The face and the frame kept, in words: which readings set it, its 1 sigma, their weight."""
         tilt = float(np.hypot(*self.slopes)) * 1e6
+        clash = "" if self.agree else (" (the nests' heights and the indicator's sweeps disagree beyond chance: "
+                                       "check both)")
         if not self.consistent:
-            return (f"the face is tilted {tilt:.0f} µrad (±{self.sd * 1e6:.0f}, 1σ) against the frame without heights, "
-                    f"beyond the {self.prior * 1e6:.0f} µrad (1σ) an accepted table's face is expected within: the "
-                    "face is kept as the heights give it (check the heights and the table)")
-        return (f"the face tilted {tilt:.0f} µrad (±{self.sd * 1e6:.0f}, 1σ) against the frame without heights, that "
-                f"frame's tilt against an accepted table's face ±{self.prior * 1e6:.0f} µrad (1σ): weighted by their "
-                f"uncertainties, the heights count {100 * self.weight:.0f} %" + (
+            return (f"the face from {self.sources} is tilted {tilt:.0f} µrad (±{self.sd * 1e6:.0f}, 1σ) against the "
+                    f"frame without heights, beyond the {self.prior * 1e6:.0f} µrad (1σ) an accepted table's face is "
+                    f"expected within: the face is kept as the readings give it (check the "
+                    f"{'readings' if self.swept else 'heights'} and the table){clash}")
+        return (f"the face from {self.sources} tilted {tilt:.0f} µrad (±{self.sd * 1e6:.0f}, 1σ) against the frame "
+                f"without heights, that frame's tilt against an accepted table's face ±{self.prior * 1e6:.0f} µrad "
+                f"(1σ): weighted by their uncertainties, the readings count {100 * self.weight:.0f} %" + (
                     "" if self.decides else ", less than the frame without heights: the tables hold their turn of "
-                    "the volume as without heights (no product terms by default)"))
+                    "the volume as without heights (no product terms by default)") + clash)
 
     def known(self) -> str:
         """The face's tilt uncertainty as printed [µrad] (:meth:`advice` beside it when above :data:`FACE_TARGET`)."""
-        return (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from the heights (1σ tilt), "
+        return (f"the table's face known to ±{self.sd * 1e6:.0f} µrad from {self.sources} (1σ tilt), "
                 f"±{self.kept_sd * 1e6:.0f} µrad as kept")
 
     @property
     def needs_advice(self) -> bool:
-        """True when the face's tilt uncertainty from the heights is above :data:`FACE_TARGET`."""
+        """True when the face's tilt uncertainty from the readings is above :data:`FACE_TARGET`."""
         return self.sd > FACE_TARGET
 
     def advice(self) -> str:
-        """What would bring the face's tilt uncertainty to :data:`FACE_TARGET`: the nests farther
-        from the table's axis, or the heights read better (the fitted nests' share as it is)."""
+        """What would bring the face's tilt uncertainty to :data:`FACE_TARGET`: an indicator swept
+        across the face (where none was), the nests farther from the table's axis, or the heights
+        read better (the fitted nests' share as it is)."""
+        head = f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target"
+        sweep = ("sweep the face with a dial test indicator in the spindle along X and Y, the rotary axes at zero "
+                 "(table_face.csv, `table_face`: a few µrad)")
+        if self.swept:
+            return (f"{head}: sweep the indicator along two axes that cross, over a longer distance, and read it to "
+                    "1-2 µm")
         room = FACE_TARGET ** 2 - _largest_sd(self.from_nests) ** 2     # what the readings may add
         if room <= 0:
-            return (f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target, "
-                    "and the fitted nests' heights alone are that uncertain: more nest readings, or nests farther from "
-                    "the table's axis")
+            return (f"{head}, and the fitted nests' heights alone are that uncertain: {sweep}; or more nest readings, "
+                    "or nests farther from the table's axis")
         radius = self.reading_sd * np.sqrt(2.0 / self.n / room)      # n nests evenly on a circle: spread n r^2 / 2
         gauge = np.sqrt(room * self.spread)                           # the readings' sd that meets it at these nests
-        return (f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target: "
-                f"place the {self.n} nests farther from the table's "
+        return (f"{head}: {sweep}; or place the {self.n} nests farther from the table's "
                 f"axis, evenly at {radius * MM_PER_M:.0f} mm from it where the table allows (the heights read to "
                 f"{self.reading_sd * MM_PER_M:.3f} mm), or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)")
 
@@ -189,31 +231,54 @@ def nest_z_cov(setup, ids: list[str]) -> np.ndarray:
     return np.diag([setup.std.get(f"nest{k}.z", 0.0) ** 2 for k in ids])
 
 
-def setup_face(setup, up: np.ndarray, place=None, prior: float = TABLE_FACE_PRIOR) -> tuple[list[str], FaceTilt | None]:
-    """(ids, face) of a fitted setup's nests given heights: ``ids`` the nests with a height and
-    a fitted position (sorted), ``face`` :func:`face_tilt` of their positions ``setup.nests``
-    (workpiece frame [m], mapped by ``place`` (N,3) -> (N,3) into the frame the face is wanted
-    in, default as fitted), ``setup.nest_heights`` and ``setup.nest_height_sd`` [m] and the
-    fitted z covariance (:func:`nest_z_cov`); None for fewer than three nests or nests on a line."""
+def setup_face(setup, up: np.ndarray, place=None, prior: float = TABLE_FACE_PRIOR, lines: dict | None = None
+               ) -> tuple[list[str], FaceTilt | None]:
+    """(ids, face) of a fitted setup's readings of the table's face: ``ids`` the nests with a
+    height and a fitted position (sorted), ``face`` :func:`face_tilt` of their positions
+    ``setup.nests`` (workpiece frame [m], mapped by ``place`` (N,3) -> (N,3) into the frame the
+    face is wanted in, default as fitted), ``setup.nest_heights`` and ``setup.nest_height_sd``
+    [m], the fitted z covariance (:func:`nest_z_cov`) and the indicator sweeps
+    ``setup.face_sweep`` along the lines of motion ``lines`` {axis: ((3,) [m/m], in the same
+    frame, the variance of its slope along the spindle [rad^2], added to the reading's)} (a sweep
+    without its line is left out); None where the readings do not fix the face."""
     ids = sorted(k for k in setup.nest_heights if k in setup.nests)
-    if len(ids) < 3:
+    sweep = {a: (lines[a][0], d, r, float(np.sqrt(sd ** 2 + lines[a][1] * d ** 2)))   # the line's own variance added
+             for a, (d, r, sd) in sorted(getattr(setup, "face_sweep", {}).items()) if a in (lines or {})}
+    if len(ids) < 3 and not sweep:
         return ids, None
-    P = np.array([setup.nests[k] for k in ids], float)
-    return ids, face_tilt(P if place is None else place(P), up, [setup.nest_heights[k] for k in ids],
-                          [setup.nest_height_sd.get(k) for k in ids], nest_z_cov(setup, ids), prior)
+    P = np.array([setup.nests[k] for k in ids], float).reshape(-1, 3)
+    P = P if place is None or not len(P) else place(P)
+    return ids, face_tilt(P, up, [setup.nest_heights[k] for k in ids], [setup.nest_height_sd.get(k) for k in ids],
+                          nest_z_cov(setup, ids) if ids else None, prior, sweep)
 
 
-def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior: float = TABLE_FACE_PRIOR
-              ) -> FaceTilt | None:
-    """The face the nests at ``P`` (N,3) [m] lie ``heights`` (N,) [m] above, read with
-    standard deviations ``sds`` (N,) [m; None: :data:`~vecpin.measurement.nestheights.GAUGE_SD_MM`],
-    the nests' positions along ``up`` (the spindle's opposite) found with covariance
-    ``nest_cov`` (N,N) [m^2; None: exact], combined with the prior ``prior`` [rad] (module
-    text); None when the nests are fewer than three or on a line."""
-    P = np.asarray(P, float).reshape(-1, 3)
+def face_axes(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e1, e2): the two unit directions square to ``up`` the face's slopes are given along."""
     e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up, e1)
+    return e1, np.cross(up, e1)
+
+
+def sweep_rows(sweep: dict, up: np.ndarray, e1: np.ndarray, e2: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(H (k,2), y (k,) [rad], var (k,) [rad^2]): the indicator sweeps ``sweep`` {axis: (v (3,)
+    the tip's motion per metre of the axis' command relative to the table, in the frame the face
+    is wanted in [m/m]; distance D [m]; change r [m], + pushed in; its sd [m])} as readings of the
+    face's slopes (a, b) (:func:`face_tilt`). The tip moves D v; the face height under it changes
+    by -D (a v.e1 + b v.e2), the tip's own height by D v.up, so the gap closes by r = -D (v.up + a
+    v.e1 + b v.e2): a v.e1 + b v.e2 = -r / D - v.up, with variance (sd / D)^2."""
+    H, y, var = [], [], []
+    for v, D, r, sd in sweep.values():
+        v = np.asarray(v, float)
+        H.append([v @ e1, v @ e2])
+        y.append(-r / D - v @ up)
+        var.append((sd / D) ** 2)
+    return np.array(H, float).reshape(-1, 2), np.array(y, float), np.array(var, float)
+
+
+def _nests_plane(P: np.ndarray, up: np.ndarray, e1: np.ndarray, e2: np.ndarray, heights, sds, nest_cov):
+    """(slopes, cov, from_nests, spread, reading_sd) of the nests' plane (:func:`face_tilt`), None
+    for fewer than three nests or nests on a line."""
     reading = np.array([GAUGE_SD_MM * M_PER_MM if s is None else float(s) for s in sds], float)
     C_nest = np.zeros((len(P), len(P))) if nest_cov is None else np.asarray(nest_cov, float)
     w = 1.0 / np.maximum(reading ** 2 + np.diag(C_nest), FLOOR_SD ** 2)
@@ -224,7 +289,49 @@ def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior:
     slopes = G @ (np.asarray(heights, float) - P @ up)
     from_nests = G @ C_nest @ G.T                                # a shift of every nest: G's rows see none
     cov = G @ np.diag(reading ** 2) @ G.T + from_nests
-    cov, from_nests = 0.5 * (cov + cov.T), 0.5 * (from_nests + from_nests.T)
+    xy = A[:, :2] - A[:, :2].mean(axis=0)
+    return (slopes, 0.5 * (cov + cov.T), 0.5 * (from_nests + from_nests.T), float(np.linalg.eigvalsh(xy.T @ xy).min()),
+            float(np.sqrt(np.mean(reading ** 2))))
+
+
+def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior: float = TABLE_FACE_PRIOR,
+              sweep: dict | None = None) -> FaceTilt | None:
+    """The face the nests at ``P`` (N,3) [m] lie ``heights`` (N,) [m] above, read with
+    standard deviations ``sds`` (N,) [m; None: :data:`~vecpin.measurement.nestheights.GAUGE_SD_MM`],
+    the nests' positions along ``up`` (the spindle's opposite) found with covariance
+    ``nest_cov`` (N,N) [m^2; None: exact], and the indicator sweeps ``sweep`` (:func:`sweep_rows`;
+    None or empty: none), combined with the prior ``prior`` [rad] (module text); None when
+    the readings do not fix both slopes (fewer than three nests or nests on a line, and no
+    sweep of two axes that cross)."""
+    P = np.asarray(P, float).reshape(-1, 3)
+    e1, e2 = face_axes(up)
+    plane = _nests_plane(P, up, e1, e2, heights, sds, nest_cov) if len(P) else None
+    sweep = sweep or {}
+    if not sweep:
+        if plane is None:
+            return None
+        slopes, cov, from_nests, spread, reading_sd = plane
+        agree = True
+    else:   # the readings weighed by their inverse covariances (information form), then with the prior as below
+        H, y, var = sweep_rows(sweep, up, e1, e2)
+        rows = [(H, y, np.diag(var))]
+        if plane is not None:
+            rows.append((np.eye(2), plane[0], plane[1]))
+        info, rhs, inv = np.zeros((2, 2)), np.zeros(2), []
+        for Hk, yk, Rk in rows:
+            Wk = np.linalg.inv(Rk + FLOOR_TILT ** 2 * np.eye(len(yk)))
+            info += Hk.T @ Wk @ Hk
+            rhs += Hk.T @ Wk @ yk
+            inv.append(Wk)
+        if np.linalg.eigvalsh(info).min() <= 1e-12 * max(np.abs(info).max(), 1e-300):
+            return None
+        cov = np.linalg.inv(info)
+        slopes = cov @ rhs
+        misfit = sum(float((yk - Hk @ slopes) @ Wk @ (yk - Hk @ slopes)) for (Hk, yk, _), Wk in zip(rows, inv))
+        dof = sum(len(yk) for _, yk, _ in rows) - 2
+        agree = dof <= 0 or misfit <= chi2.ppf(0.99, dof)
+        from_nests, spread, reading_sd = (np.zeros((2, 2)), 0.0, 0.0) if plane is None else plane[2:]
+        cov = 0.5 * (cov + cov.T)
     Pr = prior ** 2 * np.eye(2)
     S = Pr + cov
     consistent = bool(slopes @ np.linalg.solve(S, slopes) <= CONSISTENT_CHI2)
@@ -234,7 +341,5 @@ def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior:
         kept_cov = 0.5 * (kept_cov + kept_cov.T)
     else:
         kept, kept_cov = slopes.copy(), cov.copy()
-    xy = A[:, :2] - A[:, :2].mean(axis=0)
-    spread = float(np.linalg.eigvalsh(xy.T @ xy).min())
-    return FaceTilt((e1, e2), slopes, cov, from_nests, kept, kept_cov, consistent, prior, spread,
-                    float(np.sqrt(np.mean(reading ** 2))), len(P))
+    return FaceTilt((e1, e2), slopes, cov, from_nests, kept, kept_cov, consistent, prior, spread, reading_sd,
+                    len(P) if plane is not None else 0, tuple(sweep), agree)

@@ -61,8 +61,9 @@ class ReferenceFrame:
     not turn (:class:`~vecpin.compensation.tableproblem.TableProblem`'s ``hold_turn``);
     ``kind``: which definition, as :func:`frame_kept` measures the tables' turn against it:
     "lines" (ISO 230-1's reference lines), "orientation" (the volume's mean orientation),
-    "face" (the table's face found by nests) or "" (a frame given outright); ``face``: how
-    well the face is known, where it is "face" (:class:`~vecpin.compensation.faceframe.FaceTilt`)."""
+    "face" (the table's face found by nests' heights or an indicator's sweeps) or "" (a frame
+    given outright); ``face``: how well the face is known, where it is "face"
+    (:class:`~vecpin.compensation.faceframe.FaceTilt`)."""
 
     R: np.ndarray
     centre: np.ndarray
@@ -139,16 +140,50 @@ def fit_tools(model: ErrorModel) -> np.ndarray:
 def model_reference_frame(model: ErrorModel, raw: ActualMachine | None = None, tools=None) -> ReferenceFrame:
     """The reference frame of a fitted model (:func:`reference_frame`) over the commands its
     campaign measured (:func:`measured_box`) with ``tools`` [m] (default :func:`fit_tools`)."""
-    frame = reference_frame(raw or _as_fitted(model), model.machine, fit_tools(model) if tools is None else tools,
-                            *measured_box(model))
+    raw = raw or _as_fitted(model)
+    tools = fit_tools(model) if tools is None else tools
+    box = measured_box(model)
+    frame = reference_frame(raw, model.machine, tools, *box)
     setup = getattr(model, "setup_", None)
-    if setup is not None and len(setup.nest_heights) >= 3:
-        frame = on_the_table_face(frame, model.machine, setup)
+    if setup is not None and (len(setup.nest_heights) >= 3 or getattr(setup, "face_sweep", None)):
+        lines = sweep_lines(raw, model.machine, frame, setup.face_sweep, box, float(np.min(tools)), model)
+        frame = on_the_table_face(frame, model.machine, setup, lines=lines)
     return frame
 
 
-def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: float = TABLE_FACE_PRIOR
-                      ) -> ReferenceFrame:
+def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, sweep: dict,
+                box: tuple[np.ndarray, np.ndarray], tool: float, model: ErrorModel | None = None
+                ) -> dict[str, tuple[np.ndarray, float]]:
+    """{axis: ((3,) [m/m], variance [rad^2])}: the ``actual`` machine's (a model's, uncompensated)
+    motion of the tip relative to the table per metre of each axis of ``sweep`` {axis: (distance
+    [m], ...)}, in ``frame``, from the start to the end of the distance swept (an indicator reads
+    its change between the two), centred on the middle of ``box`` (lower, upper) [m, rad] and
+    clipped to it, every rotary axis at home (as the indicator's sweep is made), the other linear
+    axes mid-box, tool length ``tool`` [m]; and the variance of its component along the spindle
+    from the fitted ``model``'s covariance (its geometric part's, through d tip / d b at both ends;
+    0 without a model): the fit's own uncertainty of the line the sweep is read against."""
+    lo, hi = box
+    rot = np.array([a.kind == "rotary" for a in machine.axes])
+    mid = np.where(rot, partframe.home_commands(machine), 0.5 * (lo + hi))
+    geometric = None if model is None else geometric_model(model)
+    up = -partframe.spindle_axis(machine)
+    out = {}
+    for name, (distance, *_) in sweep.items():
+        k = machine.axis_names.index(name)
+        q = np.tile(mid, (2, 1))
+        q[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
+        tip = actual(q, np.full(2, tool), False, 0)[0]
+        var = 0.0
+        if geometric is not None and getattr(geometric, "cov_", None) is not None:
+            J = geometric.tool_tip(q, np.full(2, tool), geometric.b_, jacobian=True, frame=FRAME).J_b
+            g = (frame.R.T @ up) @ (J[1] - J[0]) / (q[1, k] - q[0, k])       # d (slope along up) / d b
+            var = float(g @ geometric.cov_[6:, 6:] @ g)
+        out[name] = (frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k])), var)
+    return out
+
+
+def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: float = TABLE_FACE_PRIOR,
+                      lines: dict | None = None) -> ReferenceFrame:
     """``frame`` tilted toward the table's face square to the spindle, as far as the face is
     known: the face is the plane the fitted nests of ``setup`` (a fit's
     :class:`~vecpin.measurement.setup.Setup`) lie their given heights above (weighted least
@@ -156,25 +191,33 @@ def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: flo
     (a nest without one: the default gauge's) and the nests' z found with the fit's covariance;
     its tilt is combined with ``frame``'s (the frame without heights) weighted by their
     uncertainties (:func:`~vecpin.compensation.faceframe.setup_face`; ``prior``: the face's
-    tilt against ``frame``, 1 sigma [rad]). The turn about the spindle stays the frame's.
+    tilt against ``frame``, 1 sigma [rad]). The indicator's sweeps of ``setup.face_sweep``
+    along the machine's lines of motion ``lines`` {axis: ((3,) [m/m] in ``frame``, the variance of
+    its slope along the spindle [rad^2]): :func:`sweep_lines`} are weighed in with them
+    (:func:`~vecpin.compensation.faceframe.face_tilt`).
+    The turn about the spindle stays the frame's.
     Where a campaign reads the table this way the tables keep the table itself."""
     up = -partframe.spindle_axis(machine)
-    ids, face = setup_face(setup, up, frame.apply, prior)
+    ids, face = setup_face(setup, up, frame.apply, prior, lines)
     if face is None:
-        raise VecpinError(f"nest heights of {', '.join(ids) or 'no nest'}: three or more fitted nests not on a line "
-                          "are needed to find the table's face")
+        swept = sorted(getattr(setup, "face_sweep", {}) or {})
+        raise VecpinError(f"nest heights of {', '.join(ids) or 'no nest'}"
+                          + (f" and an indicator swept along {' and '.join(swept)}" if swept else "")
+                          + ": three or more fitted nests not on a line, or sweeps along two axes that cross, are "
+                          "needed to find the table's face")
     e1, e2 = face.axes
     n = up + face.kept[0] * e1 + face.kept[1] * e2
     axis = np.cross(n / np.linalg.norm(n), up)            # |axis| = sin of the tilt
     sin = np.linalg.norm(axis)
     tilt = exp3(axis * np.arcsin(min(sin, 1.0)) / max(sin, 1e-300))
-    return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + "; tilted toward the table's face, found by nests "
-                          + ", ".join(ids) + " at their given heights: " + face.how, hold_turn=not face.decides,
+    nests = f" (nests {', '.join(ids)})" if face.n else ""
+    return ReferenceFrame(tilt @ frame.R, frame.centre, frame.how + f"; tilted toward the table's face{nests}: "
+                          + face.how, hold_turn=not face.decides,
                           kind="face", face=face)
 
 
 def read_face(frame: ReferenceFrame) -> bool:
-    """True where ``frame`` is the table's face as a campaign read it: found by nests' heights
+    """True where ``frame`` is the table's face as a campaign read it: found by readings
     that tell it at least as well as the frame without heights (:attr:`FaceTilt.decides`)."""
     return frame.kind == "face" and frame.face is not None and frame.face.decides
 

@@ -30,7 +30,8 @@ class ErrorModelCV:
     (``kind``, ``basis``, ``order``: what to fix of the model, default: the data choose all
     three; ``tool_corrections``, ``prior_scale``, ``underdetermined``, ``cv`` (a number of folds
     or one fold label per row), ``zone`` ({axis: (low, high)} mm/deg), ``noise_from_data``,
-    ``nest_heights`` ({nest id: mm above the table face})); ``progress``: a callback for
+    ``nest_heights`` ({nest id: mm above the table face}), ``table_face`` ({axis: (distance mm, the
+    indicator's change µm)})); ``progress``: a callback for
     progress lines.
 
     After :meth:`fit`: ``model_`` (the fitted :class:`~vecpin.models.ErrorModel`),
@@ -42,12 +43,13 @@ class ErrorModelCV:
                  tool_corrections: bool = default("tool_corrections"), prior_scale: float = default("prior_scale"),
                  underdetermined: bool = default("underdetermined"), cv: int | np.ndarray = default("cv"),
                  zone: Zone | None = default("zone"), noise_from_data: bool | None = default("noise_from_data"),
-                 nest_heights: dict | None = default("nest_heights"), progress: Callable[[str], None] | None = None):
+                 nest_heights: dict | None = default("nest_heights"), table_face: dict | None = default("table_face"),
+                 progress: Callable[[str], None] | None = None):
         self.machine, self.noise = machine, noise
         self.kind, self.basis, self.order = kind, basis, order
         self.tool_corrections, self.prior_scale, self.underdetermined = tool_corrections, prior_scale, underdetermined
         self.cv, self.zone, self.noise_from_data, self.progress = cv, zone, noise_from_data, progress
-        self.nest_heights = nest_heights
+        self.nest_heights, self.table_face = nest_heights, table_face
 
     _PARAMS = ("noise", *DEFAULTS, "progress")
 

@@ -32,6 +32,7 @@ from vecpin.measurement.campaignrows import Campaign, min_rows
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.nestheights import check_heights_before_fit, with_nest_heights
+from vecpin.measurement.tableface import check_table_face, with_table_face
 from vecpin.measurement.tableframe import moved_nest_after_fit, table_campaign_notes
 from vecpin.models import ErrorModel
 from vecpin.planning.zones import Zone, clip_to_zone, inside, zone_text
@@ -136,6 +137,7 @@ class FitProblem:
     zone: Zone | None = default("zone")
     noise_from_data: bool = True
     nest_heights: dict | None = default("nest_heights")
+    table_face: dict | None = default("table_face")
 
     @classmethod
     def build(cls, machine, campaign, noise=None, **settings) -> "FitProblem":
@@ -160,6 +162,7 @@ class FitProblem:
         values["cv"] = fold_labels(values["cv"], len(campaign))
         check_zone_value(values["zone"])
         check_heights_before_fit(values["nest_heights"], campaign)   # the nests' line after the fit
+        check_table_face(values["table_face"], machine)
         return cls(machine, campaign, noise, **values)
 
     @property
@@ -218,8 +221,10 @@ class FitProblem:
 
     def _carry(self, model: ErrorModel, choice) -> None:
         """What the fitted model carries of this problem into its file: the nest heights (in
-        its setup, checked against the fitted nests), the choice, the zone."""
-        model.setup_ = with_nest_heights(model.setup_, self.nest_heights)
+        its setup, checked against the fitted nests) and the indicator's sweeps of the table's face, the choice,
+        the zone."""
+        setup = with_nest_heights(model.setup_, self.nest_heights)
+        model.setup_ = with_table_face(setup, self.table_face, self.machine)
         if choice is not None:
             model.selection_ = choice.to_dict()
         if self.zone:

@@ -23,6 +23,10 @@ DEFAULTS: dict[str, tuple[object, str]] = {
                               "instrument's name)"),
     "nest_heights": (None, "{nest id: height [mm] of its reflector centre above the table's face, or (height, its "
                            "standard deviation) [mm]} (three or more; default standard deviation a height gauge's)"),
+    "table_face": (None, "{linear axis: (distance [mm], the indicator's change [µm], + when pushed in as the "
+                         "command increases) or (distance, change, its standard deviation [µm])}: the table face's "
+                         "parallelism read with a dial test indicator swept along X and Y, the rotary axes at zero "
+                         "(default standard deviation 2 µm)"),
 }
 
 

@@ -31,7 +31,10 @@ class Setup:
     ``nest_height_sd``: {nest id: standard deviation [m] of that height's reading} (a nest
     given a height without one: :data:`~vecpin.measurement.nestheights.GAUGE_SD_MM`);
     ``nest_z_cov``: the fitted nests' z coordinates' covariance [m^2] ({"ids": [...], "cov":
-    (N,N)}, from the fit; empty where it is not known).
+    (N,N)}, from the fit; empty where it is not known); ``face_sweep``: {linear axis: (distance
+    [m], the indicator's change [m], + when pushed in as the command increases, its standard
+    deviation [m])}: the table face's parallelism read with an indicator swept along that axis
+    (:mod:`vecpin.measurement.tableface`), where the user gave it.
 
     Frozen: vecpin never changes a setup it is given (the likelihood places its stations,
     pivots, nests and targets in a :meth:`copy`; the fit returns a new one); change one with
@@ -48,13 +51,15 @@ class Setup:
     nest_heights: dict = field(default_factory=dict)
     nest_height_sd: dict = field(default_factory=dict)
     nest_z_cov: dict = field(default_factory=dict)
+    face_sweep: dict = field(default_factory=dict)
 
     def copy(self) -> "Setup":
         """The same setup with containers of its own (adding a station, pivot, nest or target
         to the copy leaves this one as it is; the arrays are shared, never written)."""
         return replace(self, stations=dict(self.stations), pivots=dict(self.pivots), nests=dict(self.nests),
                        targets=dict(self.targets), std=dict(self.std), nest_heights=dict(self.nest_heights),
-                       nest_height_sd=dict(self.nest_height_sd), nest_z_cov=dict(self.nest_z_cov))
+                       nest_height_sd=dict(self.nest_height_sd), nest_z_cov=dict(self.nest_z_cov),
+                       face_sweep=dict(self.face_sweep))
 
     def pose(self, station: int = 0):
         """(R, t, e) of a station."""

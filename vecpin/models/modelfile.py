@@ -35,6 +35,7 @@ from vecpin.kinematics.machine import Machine
 from vecpin.measurement.instruments.tracker import E0_NAMES, POSE_PRIOR
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.setup import Setup
+from vecpin.measurement.tableface import check_table_face
 from vecpin.models.recorded import check_figure, check_recorded, still_axes, still_hold
 from vecpin.models.spec import ModelSpec
 from vecpin.units import MM_PER_M, M_PER_MM, QUANTITY_UNITS, SI_PER_UNIT
@@ -149,6 +150,9 @@ def _points_to_dict(setup) -> dict:
     if setup.nest_heights:
         out["nest_heights_mm"] = {str(k): float(h) * MM_PER_M for k, h in setup.nest_heights.items()}
         out["nest_height_sd_mm"] = {str(k): float(s) * MM_PER_M for k, s in setup.nest_height_sd.items()}
+    if getattr(setup, "face_sweep", None):   # the table face's indicator sweeps: mm, µm
+        out["table_face"] = {str(a): {"distance_mm": d * MM_PER_M, "change_um": c * 1e6, "sd_um": sd * 1e6}
+                             for a, (d, c, sd) in setup.face_sweep.items()}
     if setup.nest_z_cov:
         out["nests_z_cov_mm2"] = {"ids": [str(k) for k in setup.nest_z_cov["ids"]],
                                   "matrix": (np.asarray(setup.nest_z_cov["cov"]) * MM_PER_M ** 2).tolist()}
@@ -321,6 +325,7 @@ def _from_dict(d: dict, path: Path, factory: Callable):
             for comp, sd in zip("xyz", tr[f"{kind}_std_mm"][k]):
                 model.setup_.std[f"{kind[:-1]}{k}.{comp}"] = float(sd) * M_PER_MM
     _nest_heights_from(path, tr, model.setup_)
+    _table_face_from(path, tr, model.setup_, machine)
     zone = d.get("zone")
     if zone:
         for a in zone:
@@ -338,6 +343,19 @@ def _from_dict(d: dict, path: Path, factory: Callable):
     # where relative meshes of the embedded URDF are looked for (the scene): its folder, then the model file's
     model.mesh_dirs_ = [str(x) for x in (md.get("urdf_dir"), path.resolve().parent) if x]
     return model
+
+
+def _table_face_from(path, tr: dict, setup, machine) -> None:
+    """The table face's indicator sweeps from the file's ``tracker.table_face`` into ``setup``
+    [m], checked as the fit checks them (:func:`~vecpin.measurement.tableface.check_table_face`)."""
+    given = tr.get("table_face") or {}
+    try:
+        if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
+            raise InputError("{axis: {distance_mm, change_um, sd_um}}")
+        setup.face_sweep.update(check_table_face({a: (v.get("distance_mm"), v.get("change_um"), v.get("sd_um", 0.0))
+                                                  for a, v in given.items()}, machine, "tracker.table_face"))
+    except InputError as e:
+        raise ModelFileError(path, str(e), "tracker.table_face") from None
 
 
 def _nest_heights_from(path, tr: dict, setup) -> None:

@@ -17,6 +17,7 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.nestheights import check_heights_before_fit, with_nest_heights
+from vecpin.measurement.tableface import check_table_face, with_table_face
 from vecpin.planning.zones import Zone, clip_to_zone
 from vecpin.fitting.problem import zone_rows
 
@@ -37,7 +38,8 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
                     model: str = "auto", basis: str = "auto", order: int | str = "auto",
                     effects: str | Sequence[str] = "all", folds: int = 5, alpha: float = 0.01,
                     progress: Callable[[str], None] | None = None, base: str | Path | None = None,
-                    zone: Zone | None = None, nest_heights: dict | None = None) -> DiagnoseRun:
+                    zone: Zone | None = None, nest_heights: dict | None = None,
+                    table_face: dict | None = None) -> DiagnoseRun:
     """Diagnose ``campaign`` and write the result into the folder ``out``. ``effects``:
     "all", effect names, or their comma list; ``noise`` default: the tracker's spherical model
     (:meth:`NoiseModel.default`); ``base``: a model file (``fit``'s model.json) whose kind,
@@ -46,7 +48,8 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     ``zone``: diagnose only the rows commanded in it, for a model used there only (the
     model files record it, as ``fit``'s do); ``nest_heights``: {nest id: height [mm] of its
     reflector centre above the table's face, or (height, its standard deviation) [mm]}, carried
-    by both model files as ``fit``'s model carries them (the tables then keep the table's face).
+    by both model files as ``fit``'s model carries them (the tables then keep the table's face);
+    ``table_face``: the indicator's sweeps of the face, as ``fit``'s setting, carried alike.
     The folder, the model file and the folds are checked before any fit, with the effects;
     ``folds`` and ``alpha`` by the diagnosis itself."""
     from vecpin.diagnosis.diagnose import diagnose
@@ -58,6 +61,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     if noise.instrument == "range":
         check_stations(campaign)
     check_heights_before_fit(nest_heights, campaign)   # ids and heights before any fit, the nests' line after it
+    check_table_face(table_face, machine)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
     drawing = _Drawing()
@@ -68,7 +72,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
         for fitted in (d.base_model, d.best_model):
             if zone:
                 fitted.zone_ = dict(zone)
-            fitted.setup_ = with_nest_heights(fitted.setup_, nest_heights)
+            fitted.setup_ = with_table_face(with_nest_heights(fitted.setup_, nest_heights), table_face, machine)
         return DiagnoseRun(d, [Path(p) for p in d.write(out, draw=drawing.finish).values()])
     finally:
         drawing.close()

@@ -11,6 +11,7 @@ from typing import Callable
 import numpy as np
 
 from vecpin.compensation.faceframe import setup_face
+from vecpin.compensation.frame import model_reference_frame
 from vecpin.fitting.problem import FitProblem, FitResult
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.measurement.partframe import spindle_axis
@@ -146,25 +147,35 @@ def fitted_points_lines(model: ErrorModel) -> list[str]:
 
 
 def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
-    """On a campaign with table nest rows, what the fit knows of the table's face: the nests'
-    heights it was given (mm above the face, with their standard deviations) and the face's 1
-    sigma tilt uncertainty they give (with advice above the target), or that it was given none
-    and what that leaves."""
-    if not len(campaign.nest_rows):
-        return []
+    """On a campaign with table nest rows, or a fit given an indicator's sweeps of the table's
+    face, what the fit knows of the face: the nests' heights it was given (mm above the face,
+    with their standard deviations) and the sweeps (mm moved, µm read), which readings set the
+    face and its 1 sigma tilt uncertainty (with advice above the target), or that it was given
+    none and what that leaves."""
     su = model.setup_
-    if su.nest_heights:
+    sweep = getattr(su, "face_sweep", None) or {}
+    if not len(campaign.nest_rows) and not sweep:
+        return []
+    if su.nest_heights or sweep:
         sds = {k: su.nest_height_sd.get(k, GAUGE_SD_MM * M_PER_MM) for k in su.nest_heights}
-        given = ", ".join(f"{k} at {h * MM_PER_M:.2f} ± {sds[k] * MM_PER_M:g}" for k, h in sorted(su.nest_heights.items()))
-        face = setup_face(su, -spindle_axis(model.machine))[1]
+        given = "; ".join(
+            ([("the nests' heights given, reflector centre above the face: " + ", ".join(
+                f"{k} at {h * MM_PER_M:.2f} ± {sds[k] * MM_PER_M:g}" for k, h in sorted(su.nest_heights.items()))
+               + " mm")] if su.nest_heights else [])
+            + ([("an indicator swept across it, the rotary axes at zero: " + ", ".join(
+                f"{a} {d * MM_PER_M:g} mm, {c * 1e6:+g} ± {sd * 1e6:g} µm" for a, (d, c, sd) in sorted(sweep.items())))]
+               if sweep else []))
+        # the sweeps are read against the model's lines of motion: the face in the frame the tables keep
+        face = model_reference_frame(model).face if sweep else setup_face(su, -spindle_axis(model.machine))[1]
         known = "" if face is None else f"; {face.known()}"
-        return [f"  table's face: from the nests' heights given, reflector centre above the face: {given} mm (the "
-                "model file keeps them); the tables keep the face square to the spindle as far as the heights tell "
-                f"it, weighed against the frame without heights{known}"] + (
+        return [f"  table's face: from {given} (the model file keeps them); the tables keep the face square to the "
+                f"spindle as far as the {'readings' if sweep else 'heights'} "
+                f"tell it, weighed against the frame without heights{known}"] + (
             [f"  table's face: {face.advice()}"] if face is not None and face.needs_advice else [])
     return ["  table's face: no nests' heights given: the tables keep the working volume's mean orientation relative "
             "to the table, not its face (`nest_heights`: each nest's reflector centre above the face, mm, as the "
-            "plan's nest_heights.csv asks)"]
+            "plan's nest_heights.csv asks; `table_face`: a dial test indicator swept across the face along X and Y, "
+            "as the plan's table_face.csv asks, reads it best)"]
 
 
 def fit_campaign(machine, campaign, noise=None, *, progress: Callable[[str], None] | None = None,
@@ -175,6 +186,6 @@ def fit_campaign(machine, campaign, noise=None, *, progress: Callable[[str], Non
     None, the default, or an instrument's name such as "spherical": the tracker's native
     model with its level taken from the data) and ``settings`` by name (``kind``, ``basis``,
     ``order``, ``tool_corrections``, ``prior_scale``, ``underdetermined``, ``cv``, ``zone``,
-    ``noise_from_data``, ``nest_heights``: :data:`~vecpin.fitting.problem.DEFAULTS`), solved
+    ``noise_from_data``, ``nest_heights``, ``table_face``: :data:`~vecpin.fitting.problem.DEFAULTS`), solved
     (:meth:`~vecpin.fitting.problem.FitProblem.solve`); ``progress``: a callback for progress lines."""
     return FitRun.of(FitProblem.build(machine, campaign, noise, **settings).solve(progress))

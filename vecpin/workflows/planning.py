@@ -22,6 +22,8 @@ from vecpin.errors import InputError, VecpinWarning
 from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
+from vecpin.measurement.partframe import table_turns
+from vecpin.measurement.tableface import SWEEP_SD_UM, TABLE_FACE_FILE, swept_axes, table_face_csv
 from vecpin.measurement.plantemplate import PlanTemplate, read_template
 from vecpin.measurement.repeatability import SESSION_GAP_S
 from vecpin.kinematics.axes import is_arm
@@ -172,6 +174,7 @@ class PlanRun:
                 f"    predicted error of the tool tip relative to the workpiece: mean {to_mm(a.model_mean):.4f} mm, "
                 f"max {to_mm(a.model_max):.4f} mm with the nests; mean {to_mm(b.model_mean):.4f} mm, max "
                 f"{to_mm(b.model_max):.4f} mm without them (the table errors' prior)", self.heights_line()] + \
+            ([self.sweep_line()] if self.sweep_axes else []) + \
             ([f"    {x}" for x in p.placement.lines(p.machine)] if p.placement else [])
 
     def heights_line(self) -> str:
@@ -185,6 +188,23 @@ class PlanRun:
                 f"height above the face, mm (a height gauge on the face: the reflector's top less its radius), and "
                 f"write it in {NEST_HEIGHTS_FILE}, column height_mm (planned: {planned} mm); give that file to the fit "
                 "(`nest_heights`): it then finds the face, and the tables keep the table a part is clamped to")
+
+    @property
+    def sweep_axes(self) -> list[str]:
+        """The linear axes that move a dial test indicator across the table's face, where the table turns
+        (the face's parallelism the plan asks for: :data:`~vecpin.measurement.tableface.TABLE_FACE_FILE`)."""
+        m = self.plan.machine
+        return list(swept_axes(m)) if self.plan.nests and table_turns(m) else []
+
+    def sweep_line(self) -> str:
+        """How to read the table face's parallelism with an indicator, and where it goes."""
+        axes = self.sweep_axes
+        return (f"    the table face's parallelism (reads the face to a few µrad, the nests' heights to 70-150): every "
+                f"rotary axis at 0, a dial test indicator in the spindle touching the face, move "
+                f"{' and then '.join(axes)} across it (a few hundred mm, away from the nests and clamps); write per "
+                f"axis the distance moved, mm, and the indicator's change over it, µm, + when pushed in as the command "
+                f"increases, in {TABLE_FACE_FILE} (sd_um: the reading's standard deviation, {SWEEP_SD_UM:g} µm "
+                f"assumed); give that file to the fit (`table_face`)")
 
     def to_dict(self) -> dict:
         p, s = self.plan, self.plan.settings
@@ -211,6 +231,7 @@ class PlanRun:
                 "counts": p.counts(), "geometry": p.geometry,
                 "nests_mm": {k: [round(float(v), 6) for v in to_mm(x)] for k, x in p.nests.items()},
                 "nest_heights": (NEST_HEIGHTS_FILE if self.nest_heights else "declined") if p.nests else None,
+                "table_face": TABLE_FACE_FILE if self.sweep_axes else None,
                 "score": score(p.score), "comparison": [score(x) for x in self.comparison[1:]],
                 "without_nests": None if p.without_nests is None else score(p.without_nests),
                 "moves_random_order_min": round(p.travel_random_s / 60, 4),
@@ -246,7 +267,9 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
     programs to write (default: every NC dialect; on an arm, :func:`is_arm`, every arm
     program of :mod:`vecpin.planning.armprogram`, which approach along the tool axis). ``nest_heights``: with
     table nests, write :data:`~vecpin.measurement.nestheights.NEST_HEIGHTS_FILE` for the heights of their
-    reflectors above the table's face, which the operator measures (False: not asked)."""
+    reflectors above the table's face, which the operator measures (False: not asked); where the
+    table turns, :data:`~vecpin.measurement.tableface.TABLE_FACE_FILE` for the face's parallelism
+    read with an indicator swept along the axes that cross it."""
     check_output_dir(out_dir)
     check_program_options(dwell_s, feed_mm_min, nest_dwell_s, read_dwell_s)
     arm = is_arm(machine)
@@ -299,11 +322,21 @@ def plan_to_dir(machine: Machine, out_dir: str | Path, settings: PlanSettings, *
         _, run_time, once = run_times(machine, v, timing, plan.validation_reads)
         run = PlanRun(plan, files, comparison, program if dialects else "", row_times(machine, t, timing)[1], timing,
                       run_time, once, nest_heights)
-        if plan.nests and nest_heights:
-            files.append(out.write_text(NEST_HEIGHTS_FILE, nest_heights_csv(plan.nests)))
+        files += _face_files(out, run)
         files.append(out.final("plan.json"))
         out.write_text("plan.json", json.dumps(run.to_dict(), indent=1) + "\n")
     return run
+
+
+def _face_files(out: OutputSet, run: PlanRun) -> list[Path]:
+    """The files the operator fills in of the table's face: the nests' heights (where asked) and, where the
+    table turns, the indicator's sweeps."""
+    files = []
+    if run.plan.nests and run.nest_heights:
+        files.append(out.write_text(NEST_HEIGHTS_FILE, nest_heights_csv(run.plan.nests)))
+    if run.sweep_axes:
+        files.append(out.write_text(TABLE_FACE_FILE, table_face_csv(run.sweep_axes)))
+    return files
 
 
 def _nc_programs(out: OutputSet, machine: Machine, plan: Plan, dialects, sight, opts: dict,

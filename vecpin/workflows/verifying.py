@@ -378,8 +378,8 @@ def _measure(machine: Machine, before: Campaign, after: Campaign, model: ErrorMo
 
 
 def _face_unread(model: ErrorModel | None) -> list[str]:
-    """The note where the model's fit had no nest heights: the table's face was not read."""
-    if model is None or len(getattr(model.setup_, "nest_heights", {})) >= 3:
+    """The note where the model's fit had no nest heights and no indicator sweep: the table's face was not read."""
+    if model is None or len(getattr(model.setup_, "nest_heights", {})) >= 3 or getattr(model.setup_, "face_sweep", {}):
         return []
     return ["the table's face was not read (the fit had no heights of the nests above it): the table is taken as the "
             "model places it, and a tilt of the true face against that, which nests without their heights cannot "
