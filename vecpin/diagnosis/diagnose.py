@@ -143,6 +143,8 @@ class _State:
     candidates: list = field(default_factory=list)   # every candidate effect the search started from
     detection: list = field(default_factory=list)    # per family what the final model's campaign would detect
     last: tuple | None = None   # the forward search's last round (judged, folded problem, the model it scored against)
+    memo: tuple | None = None   # (model, rows, its Kinematics, {id(candidate): (columns or None, score or chi2
+    # gain)}): the figures of a round against a model, which a later round against the same model and rows reuses
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -264,19 +266,24 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
     evaluation, its columns)], the most economical significant one or None, threshold).
     ``sight``: every candidate's detection size at the round's threshold (:mod:`.detection`)."""
     lin, fold_r = st.cur_lin, st.fold_r
-    kin = Kinematics(st.cur_model, lin, st.feats)
+    if st.memo is None or st.memo[0] is not st.cur_model or st.memo[1] is not st.camp:
+        st.memo = (st.cur_model, st.camp, Kinematics(st.cur_model, lin, st.feats), {})
+    kin, done = st.memo[2:]   # the same model scored again (given the accepted): its figures, not formed again
     base = lin.folded(fold_r)
     if sight is not None:
         sight.base = base
     round_scores, scan_best, held = [], {}, {}
     for c in remaining:
         c.prepare(st.camp, st.feats)
-        cols = effect_columns(kin, lin, c, st.feats)
-        ev = None if c.scanned else score(lin, base, cols, st.cur_eval)
+        cols, ev = done.get(id(c), (None, None))   # candidates live in st.candidates
+        cols = cols or effect_columns(kin, lin, c, st.feats)   # a scanned candidate's columns are not kept
+        if ev is None:
+            ev = base.chi2_gain(cols[1]) if c.scanned else score(lin, base, cols, st.cur_eval)
+            done[id(c)] = (None if c.scanned else cols, ev)
         if sight is not None:
-            sight.add(c, cols, ev)   # a scored candidate's cross blocks are not formed again
+            sight.add(c, cols, None if c.scanned else ev)   # a scored candidate's cross blocks are not formed again
         if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
-            gain = base.chi2_gain(cols[1])
+            gain = ev
             why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
             slot = held if why else scan_best
             if type(c) not in slot or gain > slot[type(c)][0]:
@@ -286,8 +293,9 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
     for kind, (gain, c, cols, why) in list(scan_best.items()) + list(held.items()):
         if why and kind in scan_best and scan_best[kind][0] >= gain:
             continue  # a step held back is shown when it would have been the family's best
-        round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
-                             why))
+        if ("best", id(c)) not in done:
+            done["best", id(c)] = score(lin, base, cols, st.cur_eval)
+        round_scores.append((c, done["best", id(c)], sum(type(x) is kind for x in remaining), cols, why))
     thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
     if sight is not None:
         sight.settle(thr)
