@@ -114,6 +114,51 @@ def effect_columns(kin: Kinematics, lin: Linearised, effect: Effect, feats: Feat
     return A, J
 
 
+class Figures:
+    """Candidates' figures against one model (``lin``: it linearised on the rows ``camp``), each formed once, so
+    a later round against the same model (every candidate judged given the accepted effects) reuses them: the
+    model's :class:`Kinematics` (``kin``), a candidate's columns (:func:`effect_columns`; a scanned family's
+    are formed again when wanted, not kept: a hundred of them), its :func:`score` and a scanned candidate's
+    full-data chi2 gain (:meth:`gains`). Candidates are told apart by identity (they live through the diagnosis)."""
+
+    CHUNK = 32   # a scanned family's candidates whose columns are formed at once for their gains
+
+    def __init__(self, model: ErrorModel, camp: Campaign, lin: Linearised, feats: Features):
+        self.model, self.camp, self.lin, self.feats = model, camp, lin, feats
+        self.kin = Kinematics(model, lin, feats)
+        self._cols, self._scores, self._gains = {}, {}, {}
+
+    def of(self, model: ErrorModel, camp: Campaign, lin: Linearised) -> bool:
+        """Whether these are the figures of ``model`` linearised as ``lin`` on ``camp``'s rows."""
+        return self.model is model and self.camp is camp and self.lin is lin
+
+    def columns(self, c: Effect) -> tuple[np.ndarray, np.ndarray]:
+        """The candidate's columns (:func:`effect_columns`; the candidate prepared on these rows)."""
+        cols = self._cols.get(id(c))
+        if cols is None:
+            cols = effect_columns(self.kin, self.lin, c, self.feats)
+            if not c.scanned:
+                self._cols[id(c)] = cols
+        return cols
+
+    def score(self, c: Effect, base: FoldedProblem, base_eval: dict) -> dict:
+        """The candidate's :func:`score` against ``base`` (the model's folded problem; ``base_eval`` its evaluation)."""
+        if id(c) not in self._scores:
+            self._scores[id(c)] = score(self.lin, base, self.columns(c), base_eval)
+        return self._scores[id(c)]
+
+    def gains(self, base: FoldedProblem, cands: list[Effect]) -> list[float]:
+        """Each candidate's full-data chi2 gain (:meth:`FoldedProblem.chi2_gains`), the columns of
+        :attr:`CHUNK` of them formed and multiplied at once."""
+        todo = list({id(c): c for c in cands if id(c) not in self._gains}.values())
+        for i in range(0, len(todo), self.CHUNK):
+            part = todo[i:i + self.CHUNK]
+            for c in part:
+                c.prepare(self.camp, self.feats)
+            self._gains.update(zip(map(id, part), base.chi2_gains([self.columns(c)[1] for c in part])))
+        return [self._gains[id(c)] for c in cands]
+
+
 def distances_mm(lin: Linearised, held: np.ndarray) -> np.ndarray:
     """Per judged row the held-out distance [mm] (3-D points; ranges/radii otherwise)."""
     rows = lin.point_rows if lin.point_rows.any() else np.ones(len(held), bool)

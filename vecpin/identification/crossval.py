@@ -43,6 +43,18 @@ def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return X
 
 
+def _by_width(blocks: list[np.ndarray], width: int) -> list[list[np.ndarray]]:
+    """``blocks`` (each (rows, Q)) in consecutive groups of at most ``width`` columns (a wider block alone)."""
+    groups, cols = [], width
+    for b in blocks:
+        if cols + b.shape[1] > width:
+            groups.append([])
+            cols = 0
+        groups[-1].append(b)
+        cols += b.shape[1]
+    return groups
+
+
 def block(G: np.ndarray, rows: np.ndarray, cols: np.ndarray | None = None) -> np.ndarray:
     """``G[np.ix_(rows, cols)]`` (``cols`` default ``rows``) of a (P, P) matrix, whole rows
     taken first (about twice as fast as the fancy index on the model choice's matrices)."""
@@ -171,12 +183,23 @@ class FoldedProblem:
         [J, J1] less its value over J alone is u^T S^-1 u, u = g1 - C^T M g0,
         S = J1^T J1 + I - C^T M C, C = J^T J1, M = (G + I)^-1 (g0 = g - x0, g1 = J1^T w).
         Ranks many candidates as :meth:`extend` then :meth:`chi2` would, without their folds."""
+        return self.chi2_gains([J1])[0]
+
+    def chi2_gains(self, J1s: list[np.ndarray], width: int = 256) -> list[float]:
+        """:meth:`chi2_gain` of each of several candidates' columns (``J1s``, each (N,3,Q)): their cross
+        blocks J^T J1 formed together, up to ``width`` columns in one product (the model's columns read once
+        for all of them rather than once per candidate: a scanned family's hundred candidates)."""
         M, Mg0 = self.full_inverse()
-        b = J1.reshape(-1, J1.shape[-1])
-        C = (b.T @ self.J.reshape(-1, self.n_columns)).T               # J^T J1 (this order is the faster product)
-        S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
-        u = b.T @ self.w.ravel() - C.T @ Mg0
-        return float(u @ linalg.solve(S, u, assume_a="pos"))
+        J, w, out = self.J.reshape(-1, self.n_columns), self.w.ravel(), []
+        for part in _by_width([J1.reshape(-1, J1.shape[-1]) for J1 in J1s], width):
+            C_all = (np.concatenate(part, axis=1).T @ J).T              # J^T J1 (this order is the faster product)
+            at = np.cumsum([0] + [b.shape[1] for b in part])
+            for b, lo, hi in zip(part, at[:-1], at[1:]):
+                C = C_all[:, lo:hi]
+                S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
+                u = b.T @ w - C.T @ Mg0
+                out.append(float(u @ linalg.solve(S, u, assume_a="pos")))
+        return out
 
     def full_inverse(self) -> tuple[np.ndarray, np.ndarray]:
         """(G + I)^-1 over every column and every row, and its product with g - x0 (the
