@@ -272,6 +272,7 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
         sight.base = base
     round_scores, scan_best, held = [], {}, {}
     scanned = [c for c in remaining if c.scanned]
+    fig.score_all([c for c in remaining if not c.scanned], base, st.cur_eval)   # one product per fold for them all
     for c, gain in zip(scanned, fig.gains(base, scanned)):   # full-data chi2 first, cross-validate the best
         c.prepare(st.camp, st.feats)
         # a step at a change of the program, nothing separating them
