@@ -283,7 +283,7 @@ class FoldedProblem:
         for f, sl in enumerate(rows):   # each fold's rows as one matrix, every candidate's change in one product
             n3 = 3 * (sl.stop - sl.start)
             for i, (X, X1) in enumerate(((A, A1s), (J, J1s))):
-                own = np.add.reduceat(X1[sl].reshape(n3, -1) * x1[f], at[:-1], axis=1)   # (n3, candidates)
+                own = np.add.reduceat(X1[sl].reshape(n3, at[-1]) * x1[f], at[:-1], axis=1)   # (n3, candidates)
                 change = own - X[sl].reshape(n3, P) @ v[f]
                 for c, h in enumerate(held):
                     h[i][sl] -= change[:, c].reshape(-1, 3)
