@@ -89,3 +89,21 @@ def test_a_scanned_candidate_gain_is_the_full_solve(rng):
     g0 = a.T @ w.ravel() - psi0
     full = g_full @ np.linalg.solve(ab.T @ ab + np.eye(P0 + k), g_full) - g0 @ np.linalg.solve(a.T @ a + np.eye(P0), g0)
     np.testing.assert_allclose(gain, full, rtol=1e-10)
+
+
+def test_scanned_gains_formed_together_are_each_full_solve(rng):
+    """A scanned family's gains formed together (FoldedProblem.chi2_gains, groups of at most 4 columns here)
+    equal each candidate's full normal-equation solve over [J0, J1] less that over J0 (closed form, numpy)."""
+    from vecpin.identification.crossval import FoldedProblem
+    N, P0 = 100, 7
+    J0, w, psi0 = rng.normal(size=(N, 3, P0)), rng.normal(size=(N, 3)), rng.normal(size=P0)
+    a, g0 = J0.reshape(-1, P0), J0.reshape(-1, P0).T @ w.ravel() - psi0
+    base = FoldedProblem(J0, np.zeros_like(J0), w, np.zeros_like(w), np.arange(N) % 5, x0=psi0)
+    J1s = [rng.normal(size=(N, 3, k)) for k in (2, 1, 3, 6, 2)]
+    gains = base.chi2_gains(J1s, width=4)
+    for J1, gain in zip(J1s, gains):
+        ab, b = np.c_[a, J1.reshape(len(a), -1)], J1.reshape(len(a), -1)
+        g_full = np.r_[g0, b.T @ w.ravel()]
+        full = (g_full @ np.linalg.solve(ab.T @ ab + np.eye(ab.shape[1]), g_full)
+                - g0 @ np.linalg.solve(a.T @ a + np.eye(P0), g0))
+        np.testing.assert_allclose(gain, full, rtol=1e-10)

@@ -39,3 +39,28 @@ def test_extended_scores_equal_each_folds_own_least_squares(seed):
     assert ev["p_eff"] == pytest.approx(float(np.trace(hat)), rel=1e-10)
     whole = base.extend(J[..., P:], A[..., P:]).evaluate()
     np.testing.assert_allclose(ev["heldout"], whole["heldout"], rtol=1e-9, atol=1e-15)
+
+
+def test_candidates_scored_together_equal_each_folds_own_least_squares():
+    """Several candidates of different widths evaluated together (evaluate_extended_many, their cross blocks
+    and held-out changes formed in one product per fold, groups of at most 4 columns here) give each one's
+    own folds' least-squares solves (numpy lstsq of the stacked system) and its full-data solve."""
+    J, A, w, r, fold, x0 = _problem(4, Q=0)
+    rng = np.random.default_rng(9)
+    P, N = 12, len(w)
+    base = FoldedProblem(J, A, w, r, fold, x0=x0)
+    cands = [(rng.normal(size=(N, 3, q)), rng.normal(size=(N, 3, q)) * 1e-3) for q in (1, 3, 2, 5, 1)]
+    evs = base.evaluate_extended_many(cands, width=4)
+    for (J1, A1), ev in zip(cands, evs):
+        Jc, Ac = np.concatenate([J, J1], axis=-1), np.concatenate([A, A1], axis=-1)
+        x0c = np.r_[x0, np.zeros(J1.shape[-1])]
+        n = Jc.shape[-1]
+        for f in range(base.k):
+            out, te = fold != f, fold == f
+            psi = np.linalg.lstsq(np.vstack([Jc[out].reshape(-1, n), np.eye(n)]), np.r_[w[out].ravel(), -x0c],
+                                  rcond=None)[0]
+            np.testing.assert_allclose(ev["heldout"][te], r[te] - Ac[te] @ psi, rtol=1e-9, atol=1e-14)
+            np.testing.assert_allclose(ev["heldout_w"][te], w[te] - Jc[te] @ psi, rtol=1e-9, atol=1e-12)
+        psi = np.linalg.lstsq(np.vstack([Jc.reshape(-1, n), np.eye(n)]), np.r_[w.ravel(), -x0c], rcond=None)[0]
+        np.testing.assert_allclose(ev["estimate"], psi, rtol=1e-9, atol=1e-13)
+        assert P + J1.shape[-1] == len(ev["estimate"])

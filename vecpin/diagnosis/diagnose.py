@@ -55,9 +55,8 @@ from vecpin.diagnosis.nextplan import next_measurements
 from vecpin.diagnosis.result import BASE_ALIKE, Diagnosis, EffectScore, base_finding
 from vecpin.diagnosis.structure import (ProgramChanges, held_back, in_both_regions, program_changes, repeats_verdict,
                                         step_not_shown)
-from vecpin.diagnosis.scoring import (Kinematics, adopt_given, beyond_span, candidate_effects, distances_mm,
-                                      effect_columns, fitted, heldout_gap, needed_given, on_ends, score, size_mm,
-                                      weakest)
+from vecpin.diagnosis.scoring import (Figures, adopt_given, beyond_span, candidate_effects, distances_mm, fitted,
+                                      heldout_gap, needed_given, on_ends, size_mm, weakest)
 from vecpin.errors import ConvergenceError, InputError
 from vecpin.identification.crossval import FoldedProblem
 from vecpin.identification.folds import command_folds
@@ -143,6 +142,7 @@ class _State:
     candidates: list = field(default_factory=list)   # every candidate effect the search started from
     detection: list = field(default_factory=list)    # per family what the final model's campaign would detect
     last: tuple | None = None   # the forward search's last round (judged, folded problem, the model it scored against)
+    figures: Figures | None = None   # the candidates' figures against the current model (:class:`.scoring.Figures`)
 
     def linearise(self, pb: _Problem, model) -> tuple[Linearised, dict]:
         """The model linearised on the fitted rows and its held-out evaluation."""
@@ -151,7 +151,8 @@ class _State:
 
     def locate(self, pb: _Problem, model, lin: Linearised, ev: dict) -> dict:
         """The held-out residuals ``ev`` of ``model`` broken down (:func:`localise`)."""
-        return localise(pb.machine, self.camp, ev["heldout"], ev["heldout_w"], Kinematics(model, lin, self.feats).point,
+        self.figures = Figures(model, self.camp, lin, self.feats)   # its kinematics, kept for the scoring rounds
+        return localise(pb.machine, self.camp, ev["heldout"], ev["heldout_w"], self.figures.kin.point,
                         feats=self.feats, valid=lin.valid)
 
     def set_current(self, pb: _Problem, model) -> None:
@@ -264,30 +265,33 @@ def _score_round(pb: _Problem, st: _State, remaining: list[Effect], rnd: int,
     evaluation, its columns)], the most economical significant one or None, threshold).
     ``sight``: every candidate's detection size at the round's threshold (:mod:`.detection`)."""
     lin, fold_r = st.cur_lin, st.fold_r
-    kin = Kinematics(st.cur_model, lin, st.feats)
-    base = lin.folded(fold_r)
+    if st.figures is None or not st.figures.of(st.cur_model, st.camp, lin):
+        st.figures = Figures(st.cur_model, st.camp, lin, st.feats)
+    fig, base = st.figures, lin.folded(fold_r)   # the same model scored again (given the accepted): not formed again
     if sight is not None:
         sight.base = base
     round_scores, scan_best, held = [], {}, {}
+    scanned = [c for c in remaining if c.scanned]
+    fig.score_all([c for c in remaining if not c.scanned], base, st.cur_eval)   # one product per fold for them all
+    for c, gain in zip(scanned, fig.gains(base, scanned)):   # full-data chi2 first, cross-validate the best
+        c.prepare(st.camp, st.feats)
+        # a step at a change of the program, nothing separating them
+        why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)
+        slot = held if why else scan_best
+        if type(c) not in slot or gain > slot[type(c)][0]:
+            slot[type(c)] = (gain, c, why)
     for c in remaining:
         c.prepare(st.camp, st.feats)
-        cols = effect_columns(kin, lin, c, st.feats)
-        ev = None if c.scanned else score(lin, base, cols, st.cur_eval)
+        ev = None if c.scanned else fig.score(c, base, st.cur_eval)
         if sight is not None:
-            sight.add(c, cols, ev)   # a scored candidate's cross blocks are not formed again
-        if c.scanned:  # one family scanned over a parameter: full-data chi2 first, cross-validate the best
-            gain = base.chi2_gain(cols[1])
-            why = held_back(st.changes, st.camp, st.feats, c, st.cur_lin, pb.alpha)   # a step at a change of the program, nothing separating them
-            slot = held if why else scan_best
-            if type(c) not in slot or gain > slot[type(c)][0]:
-                slot[type(c)] = (gain, c, cols, why)
-            continue
-        round_scores.append((c, ev, 1, cols, None))
-    for kind, (gain, c, cols, why) in list(scan_best.items()) + list(held.items()):
+            sight.add(c, fig.columns(c), ev)   # a scored candidate's cross blocks are not formed again
+        if not c.scanned:
+            round_scores.append((c, ev, 1, fig.columns(c), None))
+    for kind, (gain, c, why) in list(scan_best.items()) + list(held.items()):
         if why and kind in scan_best and scan_best[kind][0] >= gain:
             continue  # a step held back is shown when it would have been the family's best
-        round_scores.append((c, score(lin, base, cols, st.cur_eval), sum(type(x) is kind for x in remaining), cols,
-                             why))
+        round_scores.append((c, fig.score(c, base, st.cur_eval), sum(type(x) is kind for x in remaining),
+                             fig.columns(c), why))
     thr = pb.alpha / max(sum(k for _, _, k, _, why in round_scores if not why), 1)
     if sight is not None:
         sight.settle(thr)

@@ -138,15 +138,8 @@ def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feat
     level = gross_.robust_level(np.sum((lo.w * v)[rows] ** 2, axis=1), lo.valid[rows])
     dof = gross_.level_dof(lo.valid[rows])
     out, why = set(), []
-    for c in cands:
-        c.prepare(campaign, feats)
-        try:
-            Jc = effect_columns(kin, lo, c, feats)[1] * v[..., None]
-        except VecpinError:
-            continue
+    for c, Jc, Jck, B in _with_cross(cands, kin, lo, feats, campaign, v, rows, Jk):
         k = Jc.shape[-1]
-        Jck = Jc[rows].reshape(-1, k)
-        B = Jk.T @ Jck
         S = Jck.T @ Jck + np.eye(k) - B.T @ M0 @ B
         gc = Jck.T @ wk - B.T @ d0
         dc = linalg.solve(S, gc, assume_a="sym")
@@ -161,6 +154,28 @@ def explained_by_effects(base_model, campaign: Campaign, noise: NoiseModel, feat
             out.update(hit.tolist())
             why.append(c.label)
     return np.array(sorted(out), int), why
+
+
+def _with_cross(cands: list, kin: Kinematics, lin: Linearised, feats: Features, campaign: Campaign, v: np.ndarray,
+                rows: np.ndarray, Jk: np.ndarray, chunk: int = 32):
+    """(candidate, its whitened columns (N,3,k) zero on invalid equations, those of ``rows`` (3 n, k), Jk^T of
+    them (P, k)) per candidate whose columns can be formed (prepared on ``campaign``); the cross products of
+    ``chunk`` candidates in one product (``Jk``, the model's columns on ``rows``, read once for all of them)."""
+    for i in range(0, len(cands), chunk):
+        part = []
+        for c in cands[i:i + chunk]:
+            c.prepare(campaign, feats)
+            try:
+                Jc = effect_columns(kin, lin, c, feats)[1] * v[..., None]
+            except VecpinError:
+                continue
+            part.append((c, Jc, Jc[rows].reshape(-1, Jc.shape[-1])))
+        if not part:
+            continue
+        B = Jk.T @ np.concatenate([x[2] for x in part], axis=1)
+        at = np.cumsum([0] + [x[2].shape[1] for x in part])
+        for (c, Jc, Jck), a, b in zip(part, at[:-1], at[1:]):
+            yield c, Jc, Jck, B[:, a:b]
 
 
 def _rows(lin: Linearised, rows: np.ndarray) -> Linearised:

@@ -114,6 +114,59 @@ def effect_columns(kin: Kinematics, lin: Linearised, effect: Effect, feats: Feat
     return A, J
 
 
+class Figures:
+    """Candidates' figures against one model (``lin``: it linearised on the rows ``camp``), each formed once, so
+    a later round against the same model (every candidate judged given the accepted effects) reuses them: the
+    model's :class:`Kinematics` (``kin``), a candidate's columns (:func:`effect_columns`; a scanned family's
+    are formed again when wanted, not kept: a hundred of them), its :func:`score` and a scanned candidate's
+    full-data chi2 gain (:meth:`gains`). Candidates are told apart by identity (they live through the diagnosis)."""
+
+    CHUNK = 32   # a scanned family's candidates whose columns are formed at once for their gains
+
+    def __init__(self, model: ErrorModel, camp: Campaign, lin: Linearised, feats: Features):
+        self.model, self.camp, self.lin, self.feats = model, camp, lin, feats
+        self.kin = Kinematics(model, lin, feats)
+        self._cols, self._scores, self._gains = {}, {}, {}
+
+    def of(self, model: ErrorModel, camp: Campaign, lin: Linearised) -> bool:
+        """Whether these are the figures of ``model`` linearised as ``lin`` on ``camp``'s rows."""
+        return self.model is model and self.camp is camp and self.lin is lin
+
+    def columns(self, c: Effect) -> tuple[np.ndarray, np.ndarray]:
+        """The candidate's columns (:func:`effect_columns`; the candidate prepared on these rows)."""
+        cols = self._cols.get(id(c))
+        if cols is None:
+            cols = effect_columns(self.kin, self.lin, c, self.feats)
+            if not c.scanned:
+                self._cols[id(c)] = cols
+        return cols
+
+    def score(self, c: Effect, base: FoldedProblem, base_eval: dict) -> dict:
+        """The candidate's :func:`score` against ``base`` (the model's folded problem; ``base_eval`` its evaluation)."""
+        if id(c) not in self._scores:
+            self._scores[id(c)] = score(self.lin, base, self.columns(c), base_eval)
+        return self._scores[id(c)]
+
+    def score_all(self, cands: list[Effect], base: FoldedProblem, base_eval: dict) -> None:
+        """:meth:`score` of every candidate not scored yet, their columns' products formed together
+        (:func:`scores`; the candidates prepared on these rows)."""
+        todo = list({id(c): c for c in cands if id(c) not in self._scores}.values())
+        for c in todo:
+            c.prepare(self.camp, self.feats)
+        self._scores.update(zip(map(id, todo), scores(self.lin, base, [self.columns(c) for c in todo], base_eval)))
+
+    def gains(self, base: FoldedProblem, cands: list[Effect]) -> list[float]:
+        """Each candidate's full-data chi2 gain (:meth:`FoldedProblem.chi2_gains`), the columns of
+        :attr:`CHUNK` of them formed and multiplied at once."""
+        todo = list({id(c): c for c in cands if id(c) not in self._gains}.values())
+        for i in range(0, len(todo), self.CHUNK):
+            part = todo[i:i + self.CHUNK]
+            for c in part:
+                c.prepare(self.camp, self.feats)
+            self._gains.update(zip(map(id, part), base.chi2_gains([self.columns(c)[1] for c in part])))
+        return [self._gains[id(c)] for c in cands]
+
+
 def distances_mm(lin: Linearised, held: np.ndarray) -> np.ndarray:
     """Per judged row the held-out distance [mm] (3-D points; ranges/radii otherwise)."""
     rows = lin.point_rows if lin.point_rows.any() else np.ones(len(held), bool)
@@ -123,11 +176,24 @@ def distances_mm(lin: Linearised, held: np.ndarray) -> np.ndarray:
 def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dict) -> dict:
     """The candidate's linearised CV (``base`` extended by its columns) and both tests
     (see the module docstring)."""
-    A1, J1 = cand_cols
-    ev = base.evaluate_extended(J1, A1)  # the current model's folds eliminated once per round, not per candidate
+    return scores(lin, base, [cand_cols], base_eval)[0]
+
+
+def scores(lin: Linearised, base: FoldedProblem, cols: list[tuple], base_eval: dict) -> list[dict]:
+    """:func:`score` of each candidate's columns in ``cols``, their products with the current model's columns
+    formed together (:meth:`FoldedProblem.evaluate_extended_many`)."""
+    # the current model's folds eliminated once per round, not per candidate
+    evs = base.evaluate_extended_many([(J1, A1) for A1, J1 in cols])
     P = base.n_columns
-    # what the candidate changes in the fit (whitened)
-    ev["pattern"] = base.J.reshape(-1, P) @ ev["estimate"][:P] + J1.reshape(-1, J1.shape[-1]) @ ev["estimate"][P:]
+    moved = base.J.reshape(-1, P) @ np.stack([ev["estimate"][:P] for ev in evs], axis=1) if evs else None
+    for i, ((A1, J1), ev) in enumerate(zip(cols, evs)):   # what the candidate changes in the fit (whitened)
+        ev["pattern"] = moved[:, i] + J1.reshape(-1, J1.shape[-1]) @ ev["estimate"][P:]
+        _tests(lin, base, ev, base_eval)
+    return evs
+
+
+def _tests(lin: Linearised, base: FoldedProblem, ev: dict, base_eval: dict) -> None:
+    """Both tests of :func:`score` added to a candidate's evaluation ``ev``."""
     d_chi2 = base_eval["chi2"] - ev["chi2"]
     k = max(ev["p_eff"] - base_eval["p_eff"], 0.5)
     dof = max(lin.n_equations - ev["p_eff"], 1.0)
@@ -136,7 +202,6 @@ def score(lin: Linearised, base: FoldedProblem, cand_cols: tuple, base_eval: dic
     ev.update(d_chi2=d_chi2, k=k, F=F, p=float(special.fdtrc(k, dof, F)) if F > 0 else 1.0, before=before, after=after,
               p_heldout=paired_gain_p(before, after), bic_gain=float(d_chi2 - k * math.log(lin.n_equations)))
     ev["base_share"] = base_share(base, ev, pose_columns(lin, base.n_columns))
-    return ev
 
 
 def base_share(base: FoldedProblem, ev: dict, pose: np.ndarray) -> float:

@@ -95,10 +95,11 @@ def program_changes(machine, campaign: Campaign, feats: Features) -> ProgramChan
         order[int(s)], found = rows, {}
         n = len(rows)
         spacing[int(s)] = 0.9 * n / max(min(120, n // 4), 1)   # the step scan's spacing (instrument_shift)
+        lab = {name: v[rows] for name, v in labels.items()}   # in time order, once per station
+        axes = {f"the region of {a.name}": campaign.q[rows, a.index] for a in machine.axes}
         for k in range(max(2, WINDOW // 2), n - max(2, WINDOW // 2) + 1):
-            what = [name for name, v in labels.items() if _regime_change(v[rows], k, True)]
-            what += [f"the region of {a.name}" for a in machine.axes
-                     if _regime_change(campaign.q[rows, a.index], k, False)]
+            what = [name for name, v in lab.items() if _regime_change(v, k, True)]
+            what += [name for name, v in axes.items() if _regime_change(v, k, False)]
             if what:
                 found[k] = f"{' and '.join(what)} (file line {int(campaign.lines[rows[k]])})"
         changes[int(s)] = found

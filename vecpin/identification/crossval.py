@@ -43,6 +43,24 @@ def _solve_pos(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return X
 
 
+def _width(rows: int) -> int:
+    """Columns of candidates formed at once on ``rows`` rows: about 32 MB of them (at least 8)."""
+    return max(8, 4_000_000 // (3 * max(rows, 1)))
+
+
+def _by_width(items: list, widths: list[int], width: int) -> list[list]:
+    """``items`` (each ``widths`` columns wide) in consecutive groups of at most ``width`` columns (a wider one
+    alone)."""
+    groups, cols = [], width
+    for x, n in zip(items, widths):
+        if cols + n > width:
+            groups.append([])
+            cols = 0
+        groups[-1].append(x)
+        cols += n
+    return groups
+
+
 def block(G: np.ndarray, rows: np.ndarray, cols: np.ndarray | None = None) -> np.ndarray:
     """``G[np.ix_(rows, cols)]`` (``cols`` default ``rows``) of a (P, P) matrix, whole rows
     taken first (about twice as fast as the fancy index on the model choice's matrices)."""
@@ -171,12 +189,24 @@ class FoldedProblem:
         [J, J1] less its value over J alone is u^T S^-1 u, u = g1 - C^T M g0,
         S = J1^T J1 + I - C^T M C, C = J^T J1, M = (G + I)^-1 (g0 = g - x0, g1 = J1^T w).
         Ranks many candidates as :meth:`extend` then :meth:`chi2` would, without their folds."""
+        return self.chi2_gains([J1])[0]
+
+    def chi2_gains(self, J1s: list[np.ndarray], width: int = 256) -> list[float]:
+        """:meth:`chi2_gain` of each of several candidates' columns (``J1s``, each (N,3,Q)): their cross
+        blocks J^T J1 formed together, up to ``width`` columns in one product (the model's columns read once
+        for all of them rather than once per candidate: a scanned family's hundred candidates)."""
         M, Mg0 = self.full_inverse()
-        b = J1.reshape(-1, J1.shape[-1])
-        C = (b.T @ self.J.reshape(-1, self.n_columns)).T               # J^T J1 (this order is the faster product)
-        S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
-        u = b.T @ self.w.ravel() - C.T @ Mg0
-        return float(u @ linalg.solve(S, u, assume_a="pos"))
+        J, w, out = self.J.reshape(-1, self.n_columns), self.w.ravel(), []
+        blocks = [J1.reshape(-1, J1.shape[-1]) for J1 in J1s]
+        for part in _by_width(blocks, [b.shape[1] for b in blocks], min(width, _width(len(self.w)))):
+            C_all = (np.concatenate(part, axis=1).T @ J).T              # J^T J1 (this order is the faster product)
+            at = np.cumsum([0] + [b.shape[1] for b in part])
+            for b, lo, hi in zip(part, at[:-1], at[1:]):
+                C = C_all[:, lo:hi]
+                S = b.T @ b + np.eye(b.shape[1]) - C.T @ (M @ C)
+                u = b.T @ w - C.T @ Mg0
+                out.append(float(u @ linalg.solve(S, u, assume_a="pos")))
+        return out
 
     def full_inverse(self) -> tuple[np.ndarray, np.ndarray]:
         """(G + I)^-1 over every column and every row, and its product with g - x0 (the
@@ -214,27 +244,59 @@ class FoldedProblem:
         columns' estimate moves by -M C S^-1 u; p_eff from the trace of the block inverse
         (also returned, over every row: ``cross`` C, ``cross_m`` M C, ``gram`` J1^T J1; per fold left out
         ``fold_schur`` S (k,Q,Q))."""
-        P, Q = self.n_columns, J1.shape[-1]
-        eyeQ = np.eye(Q)
+        return self.evaluate_extended_many([(J1, A1)])[0]
+
+    def evaluate_extended_many(self, cands: list[tuple[np.ndarray, np.ndarray]], width: int = 256) -> list[dict]:
+        """:meth:`evaluate_extended` of each candidate's columns (J1, A1) in ``cands``: their products with the
+        present columns formed together, fold by fold (``J`` and ``A`` read once for up to ``width`` columns of
+        candidates, not once per candidate); each candidate's solves its own."""
+        out, width = [], min(width, _width(len(self.w)))
+        for part in _by_width(cands, [J1.shape[-1] for J1, _ in cands], width):
+            out += self._extended(part)
+        return out
+
+    def _extended(self, cands: list[tuple[np.ndarray, np.ndarray]]) -> list[dict]:
+        """:meth:`evaluate_extended_many` of candidates whose columns are formed at once."""
+        P, k = self.n_columns, self.k
         M_f, a_f, order, rows, J, A, w, held_s, held_ws = self._fold_inverses()
-        J1, A1 = J1[order], A1[order]
-        C_f, B_f, b_f = np.empty((self.k, P, Q)), np.empty((self.k, Q, Q)), np.empty((self.k, Q))
+        at = np.cumsum([0] + [J1.shape[-1] for J1, _ in cands])
+        spans = list(zip(at[:-1], at[1:]))
+        J1s = np.concatenate([J1 for J1, _ in cands], axis=-1)[order]
+        A1s = np.concatenate([A1 for _, A1 in cands], axis=-1)[order]
+        C_f, b_f, B_f = np.empty((k, P, at[-1])), np.empty((k, at[-1])), [np.empty((k, b - a, b - a)) for a, b in spans]
         for f, sl in enumerate(rows):
-            b = J1[sl].reshape(-1, Q)
-            C_f[f], B_f[f], b_f[f] = (b.T @ J[sl].reshape(-1, P)).T, b.T @ b, b.T @ w[sl].ravel()
-        C, B, b = C_f.sum(axis=0), B_f.sum(axis=0), b_f.sum(axis=0)
-        Co = C - C_f                                                           # (k,P,Q): every fold left out
-        MC = M_f @ Co
-        S_f = (B - B_f) + eyeQ - Co.transpose(0, 2, 1) @ MC
-        x1 = np.linalg.solve(S_f, ((b - b_f) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
-        v = (MC @ x1[..., None])[..., 0]
-        held_s, held_ws = held_s.copy(), held_ws.copy()
-        for f, sl in enumerate(rows):   # each fold's rows as one matrix (a product each, not one per row)
+            b = J1s[sl].reshape(-1, at[-1])
+            C_f[f], b_f[f] = (b.T @ J[sl].reshape(-1, P)).T, b.T @ w[sl].ravel()
+            for Bc, (lo, hi) in zip(B_f, spans):
+                Bc[f] = b[:, lo:hi].T @ b[:, lo:hi]
+        x1, v, out = np.empty((k, at[-1])), np.empty((k, P, len(cands))), []
+        for c, (lo, hi) in enumerate(spans):
+            Cf, Bf, bf = C_f[..., lo:hi], B_f[c], b_f[:, lo:hi]
+            C, B, b = Cf.sum(axis=0), Bf.sum(axis=0), bf.sum(axis=0)
+            Co = C - Cf                                                        # (k,P,Q): every fold left out
+            MC = M_f @ Co
+            S_f = (B - Bf) + np.eye(hi - lo) - Co.transpose(0, 2, 1) @ MC
+            x1[:, lo:hi] = np.linalg.solve(S_f, ((b - bf) - np.einsum("fpq,fp->fq", Co, a_f))[..., None])[..., 0]
+            v[:, :, c] = (MC @ x1[:, lo:hi, None])[..., 0]
+            out.append(self._full_data(C, B, b) | {"fold_schur": S_f})
+        held = [(held_s.copy(), held_ws.copy()) for _ in cands]
+        for f, sl in enumerate(rows):   # each fold's rows as one matrix, every candidate's change in one product
             n3 = 3 * (sl.stop - sl.start)
-            held_s[sl] -= (A1[sl].reshape(n3, Q) @ x1[f] - A[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
-            held_ws[sl] -= (J1[sl].reshape(n3, Q) @ x1[f] - J[sl].reshape(n3, P) @ v[f]).reshape(-1, 3)
-        held, held_w = np.empty_like(held_s), np.empty_like(held_ws)
-        held[order], held_w[order] = held_s, held_ws
+            for i, (X, X1) in enumerate(((A, A1s), (J, J1s))):
+                own = np.add.reduceat(X1[sl].reshape(n3, at[-1]) * x1[f], at[:-1], axis=1)   # (n3, candidates)
+                change = own - X[sl].reshape(n3, P) @ v[f]
+                for c, h in enumerate(held):
+                    h[i][sl] -= change[:, c].reshape(-1, 3)
+        for ev, (h, hw) in zip(out, held):
+            ev["heldout"], ev["heldout_w"] = np.empty_like(h), np.empty_like(hw)
+            ev["heldout"][order], ev["heldout_w"][order] = h, hw
+        return out
+
+    def _full_data(self, C: np.ndarray, B: np.ndarray, b: np.ndarray) -> dict:
+        """:meth:`evaluate_extended`'s figures over every row from a candidate's cross blocks C = J^T J1,
+        B = J1^T J1 and b = J1^T w."""
+        P, Q = C.shape
+        eyeQ = np.eye(Q)
         M, Ma = self.full_inverse()
         MC = M @ C
         S = B + eyeQ - C.T @ MC
@@ -243,9 +305,8 @@ class FoldedProblem:
         x1 = x1[:, 0]
         tr_inv = np.trace(M) + np.trace(T)
         base_chi2 = float(self.w.ravel() @ self.w.ravel() + self.x0 @ self.x0 - (self.g - self.x0) @ Ma)
-        return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "heldout": held,
-                "heldout_w": held_w, "estimate": np.r_[Ma - MC @ x1, x1], "cross": C, "cross_m": MC, "gram": B,
-                "fold_schur": S_f}
+        return {"chi2": base_chi2 - float(u @ x1), "p_eff": float(P + Q - tr_inv), "estimate": np.r_[Ma - MC @ x1, x1],
+                "cross": C, "cross_m": MC, "gram": B}
 
     # ------------------------------------------------------------------ full-data fit
     def normal_matrix(self, cols=None, scale=None) -> np.ndarray:
