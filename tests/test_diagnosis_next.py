@@ -31,6 +31,25 @@ def test_the_chosen_points_add_what_the_joint_gaussian_says(rng):
     assert taken[0] == int(np.argmax(own))
 
 
+def test_the_rank_3_updates_condition_as_a_direct_solve(rng):
+    """Point by point (more rows than the factor first holds), the pair's conditional mean and
+    variance after the rank-3 updates are those of the joint Gaussian conditioned directly:
+    mu - S[:, T] S_TT^-1 mu_T and diag(S - S[:, T] S_TT^-1 S[T, :]), S = s I + H H^T."""
+    N, P, s = 40, 6, 0.8
+    d = rng.normal(size=(N, 3))
+    Ha, Hb = rng.normal(size=(N, 3, P)) * 0.7, rng.normal(size=(N, 3, P)) * 0.4
+    pair = discriminate._Pair(d, Ha, Hb, s)
+    H = np.concatenate([Ha, Hb], axis=-1).reshape(3 * N, -1)
+    S, mu = s * np.eye(3 * N) + H @ H.T, d.ravel()
+    taken = rng.permutation(N)[:20]
+    for k in taken:
+        pair.take(int(k))
+    T = np.concatenate([np.arange(3 * k, 3 * k + 3) for k in taken])
+    K = np.linalg.solve(S[np.ix_(T, T)], S[T])
+    np.testing.assert_allclose(pair.mu, mu - K.T @ mu[T], atol=1e-9)
+    np.testing.assert_allclose(pair.var, np.clip(np.diag(S - S[:, T] @ K), 0, None), atol=1e-9)
+
+
 @pytest.mark.slow   # two diagnoses of a 590-row campaign: the edit loop (-m 'not slow') leaves it to CI
 # run=False while it is known to fail (18 s of CI for a known answer); remove it with the fix
 @pytest.mark.xfail(strict=True, run=False, reason="issue 40 regression, open: after the 15-point plan the truth gantry_skew[Y/x] "

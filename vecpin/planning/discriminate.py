@@ -182,7 +182,8 @@ class _Pair:
         self.mu = d.ravel().copy()
         self.scatter = scatter
         self.var = scatter + np.einsum("rp,rp->r", self.H, self.H)
-        self.L = np.empty((0, len(self.mu)))   # the Cholesky factor's rows taken so far (rows x 3N)
+        self.L = np.empty((48, len(self.mu)))   # the Cholesky factor's rows taken so far: the first k (rows x 3N)
+        self.k = 0
 
     def gains(self) -> np.ndarray:
         """(N,) per point the sum of its three rows' conditional gains mu^2 / var."""
@@ -190,20 +191,26 @@ class _Pair:
         return g.reshape(-1, 3).sum(axis=1)
 
     def take(self, point: int) -> float:
-        """Condition on the three rows of ``point``; returns their joint gain."""
-        gain = 0.0
-        for r in range(3 * point, 3 * point + 3):
+        """Condition on the three rows of ``point`` (the factor's rank-3 update: the point's
+        covariance columns in one product over H, less what the rows taken explain); returns their joint gain."""
+        rows = slice(3 * point, 3 * point + 3)
+        cols = self.H @ self.H[rows].T - self.L[:self.k].T @ self.L[:self.k, rows]   # (3N, 3)
+        gain, start = 0.0, self.k
+        for j, r in enumerate(range(3 * point, 3 * point + 3)):
             v = float(self.var[r])
             if v <= 1e-12:
                 continue
-            col = self.H @ self.H[r]
+            col = cols[:, j].copy()
             col[r] += self.scatter
-            col -= self.L[:, r] @ self.L
+            col -= self.L[start:self.k, r] @ self.L[start:self.k]   # the rows of this point taken before r
             col /= np.sqrt(v)
             gain += float(self.mu[r]) ** 2 / v
             self.mu -= col * (self.mu[r] / np.sqrt(v))
             self.var = np.maximum(self.var - col ** 2, 0.0)
-            self.L = np.vstack([self.L, col])
+            if self.k == len(self.L):
+                self.L = np.vstack([self.L, np.empty_like(self.L)])
+            self.L[self.k] = col
+            self.k += 1
         return gain
 
 
