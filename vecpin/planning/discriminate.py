@@ -182,7 +182,7 @@ class _Pair:
         self.mu = d.ravel().copy()
         self.scatter = scatter
         self.var = scatter + np.einsum("rp,rp->r", self.H, self.H)
-        self.L = np.empty((48, len(self.mu)))   # the Cholesky factor's rows taken so far: the first k (rows x 3N)
+        self.L = np.empty((len(self.mu), 48))   # the Cholesky factor's rows taken so far, as columns: the first k
         self.k = 0
 
     def gains(self) -> np.ndarray:
@@ -194,7 +194,7 @@ class _Pair:
         """Condition on the three rows of ``point`` (the factor's rank-3 update: the point's
         covariance columns in one product over H, less what the rows taken explain); returns their joint gain."""
         rows = slice(3 * point, 3 * point + 3)
-        cols = self.H @ self.H[rows].T - self.L[:self.k].T @ self.L[:self.k, rows]   # (3N, 3)
+        cols = self.H @ self.H[rows].T - self.L[:, :self.k] @ self.L[rows, :self.k].T   # (3N, 3)
         gain, start = 0.0, self.k
         for j, r in enumerate(range(3 * point, 3 * point + 3)):
             v = float(self.var[r])
@@ -202,14 +202,14 @@ class _Pair:
                 continue
             col = cols[:, j].copy()
             col[r] += self.scatter
-            col -= self.L[start:self.k, r] @ self.L[start:self.k]   # the rows of this point taken before r
+            col -= self.L[:, start:self.k] @ self.L[r, start:self.k]   # the rows of this point taken before r
             col /= np.sqrt(v)
             gain += float(self.mu[r]) ** 2 / v
             self.mu -= col * (self.mu[r] / np.sqrt(v))
             self.var = np.maximum(self.var - col ** 2, 0.0)
-            if self.k == len(self.L):
-                self.L = np.vstack([self.L, np.empty_like(self.L)])
-            self.L[self.k] = col
+            if self.k == self.L.shape[1]:
+                self.L = np.hstack([self.L, np.empty_like(self.L)])
+            self.L[:, self.k] = col
             self.k += 1
         return gain
 
