@@ -251,27 +251,24 @@ class Sight:
 
 def _root(short, scale: float) -> float:
     """The smallest size [scale's unit] where ``short`` (increasing) reaches 0; inf when none up to 1e6 x scale does."""
-    f0 = short(0.0)
-    if f0 >= 0:
+    if short(0.0) >= 0:
         return 0.0
     hi = scale
-    while (fhi := short(hi)) < 0:
+    while short(hi) < 0:
         hi *= 2
         if hi > 1e6 * scale:
             return math.inf
-    return brentq(short, 0.0, hi, xtol=1e-4 * scale, rtol=1e-4, fa=f0, fb=fhi)   # the ends' values known
+    return brentq(short, 0.0, hi, xtol=1e-4 * scale, rtol=1e-4)
 
 
 def brentq(f, a: float, b: float, xtol: float = 2e-12, rtol: float = 4 * np.finfo(float).eps,
-           maxiter: int = 100, fa: float | None = None, fb: float | None = None) -> float:
+           maxiter: int = 100) -> float:
     """A root of ``f`` in [a, b] (f(a), f(b) of opposite signs) by Brent's method, step for step
     scipy.optimize.brentq's (its C code, Brent 1973: inverse quadratic interpolation, else
     bisection; converged when half the bracket is below (xtol + rtol |x|) / 2): the same root,
-    without importing scipy.optimize (0.15 s of the diagnosis' start-up). ``fa``, ``fb``: f(a), f(b) when
-    the caller has them (not evaluated again)."""
+    without importing scipy.optimize (0.15 s of the diagnosis' start-up)."""
     xpre, xcur = float(a), float(b)
-    fpre = float(f(xpre) if fa is None else fa)
-    fcur = float(f(xcur) if fb is None else fb)
+    fpre, fcur = float(f(xpre)), float(f(xcur))
     if fpre == 0:
         return xpre
     if fcur == 0:
