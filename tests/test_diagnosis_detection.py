@@ -7,8 +7,6 @@ accepted ones, and plans its next measurement inside the measured range.
 * The whole statement on simulated machines: a per-turn harmonic of a rotary axis
   simulated at twice the stated size is named, at half of it not.
 * One meaning of significant: given the accepted effects.
-* The root finder (Brent's method, so that the diagnosis does not import scipy.optimize) against
-  scipy.optimize.brentq: the same roots, bit for bit, at the tolerances the detection sizes use.
 * The discriminating plan stays inside the campaign's measured box, or says it does not.
 """
 import math
@@ -16,9 +14,9 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from scipy import optimize, stats
+from scipy import stats
 
-from vecpin.diagnosis.detection import Sight, brentq, mean_distance
+from vecpin.diagnosis.detection import Sight, mean_distance
 from vecpin.diagnosis.diagnose import diagnose
 from vecpin.diagnosis.report import _sight_section
 from vecpin.identification.crossval import FoldedProblem
@@ -184,22 +182,3 @@ def test_the_next_measurement_stays_inside_the_measured_box(flow):
 def test_differences_print_in_mm_from_one_mm():
     from vecpin.planning.discriminate import length_text
     assert length_text(40.3312) == "40.3 mm" and length_text(0.0123) == "12.3 µm" and length_text(1.0) == "1.0 mm"
-
-
-def test_brents_root_is_scipys_bit_for_bit():
-    """Increasing functions of the detection sizes' shape (a power, a wiggle, a flat start) on the
-    brackets :func:`_root` builds, at its tolerances and at scipy's defaults: the same root as
-    scipy.optimize.brentq, to the last bit; a bracket without a sign change is refused."""
-    rng = np.random.default_rng(5)
-    for _ in range(300):
-        c, p, s = rng.uniform(0.1, 10), rng.uniform(0.3, 4), rng.uniform(-0.9, 0.9)
-
-        def f(x, c=c, p=p, s=s):
-            return (x / c) ** p - 0.5 + 0.1 * s * math.sin(x)
-        hi = 1.0
-        while f(hi) < 0:
-            hi *= 2
-        for kw in ({"xtol": 1e-4 * c, "rtol": 1e-4}, {"xtol": 1e-6}, {}):
-            assert brentq(f, 0.0, hi, **kw) == optimize.brentq(f, 0.0, hi, **kw)
-    with pytest.raises(ValueError):
-        brentq(lambda x: x + 1.0, 0.0, 1.0)

@@ -33,7 +33,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import special
+from scipy import optimize, special
 from scipy.special._ufuncs import _ncf_sf   # what scipy.stats' ncf.sf calls, without importing scipy.stats (1 s)
 
 from vecpin.identification.crossval import FoldedProblem
@@ -55,7 +55,7 @@ def detectable_noncentrality(k: int, dof: float, threshold: float, power: float 
     hi = 10.0 + k
     while short(hi) < 0:
         hi *= 2
-    return brentq(short, 0.0, hi, xtol=1e-6)
+    return float(optimize.brentq(short, 0.0, hi, xtol=1e-6))
 
 
 def mean_distance(a: np.ndarray, sigma: float) -> np.ndarray:
@@ -258,51 +258,7 @@ def _root(short, scale: float) -> float:
         hi *= 2
         if hi > 1e6 * scale:
             return math.inf
-    return brentq(short, 0.0, hi, xtol=1e-4 * scale, rtol=1e-4)
-
-
-def brentq(f, a: float, b: float, xtol: float = 2e-12, rtol: float = 4 * np.finfo(float).eps,
-           maxiter: int = 100) -> float:
-    """A root of ``f`` in [a, b] (f(a), f(b) of opposite signs) by Brent's method, step for step
-    scipy.optimize.brentq's (its C code, Brent 1973: inverse quadratic interpolation, else
-    bisection; converged when half the bracket is below (xtol + rtol |x|) / 2): the same root,
-    without importing scipy.optimize (0.15 s of the diagnosis' start-up)."""
-    xpre, xcur = float(a), float(b)
-    fpre, fcur = float(f(xpre)), float(f(xcur))
-    if fpre == 0:
-        return xpre
-    if fcur == 0:
-        return xcur
-    if math.copysign(1.0, fpre) == math.copysign(1.0, fcur):
-        raise ValueError("f(a) and f(b) must have different signs")
-    xblk = fblk = spre = scur = 0.0
-    for _ in range(maxiter):
-        if fpre != 0 and fcur != 0 and math.copysign(1.0, fpre) != math.copysign(1.0, fcur):
-            xblk, fblk = xpre, fpre
-            spre = scur = xcur - xpre
-        if abs(fblk) < abs(fcur):
-            xpre, xcur, xblk = xcur, xblk, xcur
-            fpre, fcur, fblk = fcur, fblk, fcur
-        delta = (xtol + rtol * abs(xcur)) / 2
-        sbis = (xblk - xcur) / 2
-        if fcur == 0 or abs(sbis) < delta:
-            return xcur
-        if abs(spre) > delta and abs(fcur) < abs(fpre):
-            if xpre == xblk:   # interpolate
-                stry = -fcur * (xcur - xpre) / (fcur - fpre)
-            else:              # extrapolate
-                dpre, dblk = (fpre - fcur) / (xpre - xcur), (fblk - fcur) / (xblk - xcur)
-                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
-            if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):
-                spre, scur = scur, stry   # a good short step
-            else:
-                spre = scur = sbis
-        else:
-            spre = scur = sbis
-        xpre, fpre = xcur, fcur
-        xcur += scur if abs(scur) > delta else (delta if sbis > 0 else -delta)
-        fcur = float(f(xcur))
-    return xcur
+    return float(optimize.brentq(short, 0.0, hi, xtol=1e-4 * scale, rtol=1e-4))
 
 
 def _um(mm: float) -> float | None:
