@@ -118,6 +118,21 @@ def fold_labels(cv, n_rows: int) -> int | np.ndarray:
     return fold
 
 
+def check_face_readings(table_face: dict | None, nest_heights: dict | None, machine) -> None:
+    """The indicator's sweeps of the table's face ``table_face`` checked before any fit
+    (:func:`~vecpin.measurement.tableface.check_table_face`): a dict {axis: reading}, and without
+    ``nest_heights`` sweeps along two axes (one reads the face's slope along it, not across it)."""
+    if table_face is not None and not isinstance(table_face, dict):
+        raise InputError("`table_face`: give {axis: (distance mm, change µm)} or {axis: (distance mm, change µm, "
+                         "sd µm)}")
+    check_table_face(table_face, machine)
+    if table_face and len(table_face) < 2 and not nest_heights:
+        axis = next(iter(table_face))
+        raise InputError(f"`table_face` {axis}: a sweep along {axis} alone reads the face's slope along {axis}, not "
+                         "across it: sweep a second axis that crosses it (the plan's table_face.csv asks for X and Y), "
+                         "or give `nest_heights` (three or more nests)")
+
+
 @dataclass(frozen=True)
 class FitProblem:
     """What to fit: ``machine``, ``campaign`` (every row; ``zone`` picks from it), ``noise``
@@ -162,7 +177,7 @@ class FitProblem:
         values["cv"] = fold_labels(values["cv"], len(campaign))
         check_zone_value(values["zone"])
         check_heights_before_fit(values["nest_heights"], campaign)   # the nests' line after the fit
-        check_table_face(values["table_face"], machine)
+        check_face_readings(values["table_face"], values["nest_heights"], machine)
         return cls(machine, campaign, noise, **values)
 
     @property

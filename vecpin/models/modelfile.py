@@ -352,7 +352,10 @@ def _table_face_from(path, tr: dict, setup, machine) -> None:
     try:
         if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
             raise InputError("{axis: {distance_mm, change_um, sd_um}}")
-        setup.face_sweep.update(check_table_face({a: (v.get("distance_mm"), v.get("change_um"), v.get("sd_um", 0.0))
+        for a, v in given.items():   # no standard deviation is no reading taken as exact
+            if "sd_um" not in v:
+                raise InputError(f"{a}: no sd_um (the reading's standard deviation, µm, as the fit writes it)")
+        setup.face_sweep.update(check_table_face({a: (v.get("distance_mm"), v.get("change_um"), v["sd_um"])
                                                   for a, v in given.items()}, machine, "tracker.table_face"))
     except InputError as e:
         raise ModelFileError(path, str(e), "tracker.table_face") from None

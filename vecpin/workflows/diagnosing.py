@@ -17,9 +17,9 @@ from vecpin.measurement.campaign import Campaign
 from vecpin.measurement.instruments.multilateration import check_stations
 from vecpin.measurement.noise import NoiseModel
 from vecpin.measurement.nestheights import check_heights_before_fit, with_nest_heights
-from vecpin.measurement.tableface import check_table_face, with_table_face
+from vecpin.measurement.tableface import with_table_face
 from vecpin.planning.zones import Zone, clip_to_zone
-from vecpin.fitting.problem import zone_rows
+from vecpin.fitting.problem import check_face_readings, zone_rows
 
 
 @dataclass
@@ -61,7 +61,7 @@ def diagnose_to_dir(machine: Machine, campaign: Campaign, out: str | Path, noise
     if noise.instrument == "range":
         check_stations(campaign)
     check_heights_before_fit(nest_heights, campaign)   # ids and heights before any fit, the nests' line after it
-    check_table_face(table_face, machine)
+    check_face_readings(table_face, nest_heights, machine)
     if zone:
         campaign = zone_rows(machine, campaign, zone)
     drawing = _Drawing()
