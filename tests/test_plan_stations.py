@@ -61,6 +61,8 @@ def test_the_plan_asks_for_the_nests_heights_above_the_face(planned, tmp_path):
     assert json.loads((out / "plan.json").read_text())["table_face"] == "table_face.csv"
     line = PlanRun(plan, []).sweep_line()
     assert "dial test indicator" in line and "+ when pushed in" in line
+    mid = 0.5 * (plan.commands.min(axis=0) + plan.commands.max(axis=0)) * 1e3   # where the fit reads the lines, mm
+    assert f"the plan measures (X {mid[0]:.0f} mm, Y {mid[1]:.0f} mm;" in line
     with pytest.raises(CampaignFileError, match=r"nest_heights.csv, row 2, column 'height_mm': no height for nest 1"):
         read_nest_heights(out / "nest_heights.csv")
     (tmp_path / "h.csv").write_text(rows[0] + "\n" + "".join(r.replace(",,", f",{20.5 + i},") + "\n"

@@ -198,10 +198,14 @@ class PlanRun:
 
     def sweep_line(self) -> str:
         """How to read the table face's parallelism with an indicator, and where it goes."""
-        axes = self.sweep_axes
+        axes, m, q = self.sweep_axes, self.plan.machine, np.asarray(self.plan.commands, float)
+        mid = ", ".join(f"{a} {0.5 * (q[:, k].min() + q[:, k].max()) * MM_PER_M:.0f} mm" for a in axes
+                        for k in [m.axis(a).index])
         return (f"    the table face's parallelism (reads the face to a few µrad, the nests' heights to 70-150): every "
                 f"rotary axis at 0, a dial test indicator in the spindle touching the face, move "
-                f"{' and then '.join(axes)} across it (a few hundred mm, away from the nests and clamps); write per "
+                f"{' and then '.join(axes)} across it (a few hundred mm, away from the nests and clamps), each sweep "
+                f"centred on the middle of the travel the plan measures ({mid}; the fit reads the model's line of "
+                f"motion over that stretch, and a line that is not straight has another slope elsewhere); write per "
                 f"axis the distance moved, mm, and the indicator's change over it, µm, + when pushed in as the command "
                 f"increases, in {TABLE_FACE_FILE} (sd_um: the reading's standard deviation, {SWEEP_SD_UM:g} µm "
                 f"assumed); give that file to the fit (`table_face`)")
