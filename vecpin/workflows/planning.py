@@ -201,7 +201,8 @@ class PlanRun:
         axes, m, q = self.sweep_axes, self.plan.machine, np.asarray(self.plan.commands, float)
         mid = ", ".join(f"{a} {0.5 * (q[:, k].min() + q[:, k].max()) * MM_PER_M:.0f} mm" for a in axes
                         for k in [m.axis(a).index])
-        return (f"    the table face's parallelism (reads the face to a few µrad, the nests' heights to 70-150): every "
+        return (f"    the table face's parallelism (the indicator reads a few µrad; through the fitted model's lines of "
+                f"motion it places the face to about 10-15 µrad in simulation, the nests' heights to 70-150): every "
                 f"rotary axis at 0, a dial test indicator in the spindle touching the face, move "
                 f"{' and then '.join(axes)} across it (a few hundred mm, away from the nests and clamps), each sweep "
                 f"centred on the middle of the travel the plan measures ({mid}; the fit reads the model's line of "
