@@ -10,8 +10,6 @@ from typing import Callable
 
 import numpy as np
 
-from vecpin.compensation.faceframe import setup_face
-from vecpin.compensation.frame import model_reference_frame
 from vecpin.fitting.problem import FitProblem, FitResult
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.measurement.partframe import spindle_axis
@@ -166,6 +164,9 @@ def face_lines(model: ErrorModel, campaign: Campaign) -> list[str]:
                 f"{a} {d * MM_PER_M:g} mm, {c * 1e6:+g} ± {sd * 1e6:g} µm" for a, (d, c, sd) in sorted(sweep.items())))]
                if sweep else []))
         # the sweeps are read against the model's lines of motion: the face in the frame the tables keep
+        # imported here: they bring scipy.stats (0.25 s of CPU) into every fit's process, wanted only on a table
+        from vecpin.compensation.faceframe import setup_face
+        from vecpin.compensation.frame import model_reference_frame
         face = model_reference_frame(model).face if sweep else setup_face(su, -spindle_axis(model.machine))[1]
         known = "" if face is None else f"; {face.known()}"
         return [f"  table's face: from {given} (the model file keeps them); the tables keep the face square to the "
