@@ -141,13 +141,15 @@ class FaceTilt:
 
     @property
     def sd(self) -> float:
-        """The face's 1 sigma tilt uncertainty from the readings alone [rad] (its largest direction)."""
-        return _largest_sd(self.cov)
+        """The face's 1 sigma tilt uncertainty from the readings alone [rad]: the RMS length of the
+        tilt's error, sqrt(trace(cov)) (what a tilt judged as one angle, its two components together,
+        is expected to be; the largest direction alone understates it by up to sqrt 2)."""
+        return _magnitude_sd(self.cov)
 
     @property
     def kept_sd(self) -> float:
-        """The kept face's 1 sigma tilt uncertainty [rad] (its largest direction)."""
-        return _largest_sd(self.kept_cov)
+        """The kept face's 1 sigma tilt uncertainty [rad]: the RMS length of its error (as :attr:`sd`)."""
+        return _magnitude_sd(self.kept_cov)
 
     @property
     def weight(self) -> float:
@@ -204,19 +206,20 @@ class FaceTilt:
         if self.swept:
             return (f"{head}: sweep the indicator along two axes that cross, over a longer distance, and read it to "
                     "1-2 µm")
-        room = FACE_TARGET ** 2 - _largest_sd(self.from_nests) ** 2     # what the readings may add
+        room = FACE_TARGET ** 2 - _magnitude_sd(self.from_nests) ** 2   # what the readings may add (a trace)
         if room <= 0:
             return (f"{head}, and the fitted nests' heights alone are that uncertain: {sweep}; or more nest readings, "
                     "or nests farther from the table's axis")
-        radius = self.reading_sd * np.sqrt(2.0 / self.n / room)      # n nests evenly on a circle: spread n r^2 / 2
-        gauge = np.sqrt(room * self.spread)                           # the readings' sd that meets it at these nests
+        radius = self.reading_sd * np.sqrt(4.0 / self.n / room)      # n nests evenly on a circle: trace 4 sd^2 / n r^2
+        gauge = np.sqrt(room * self.spread / 2)                       # the readings' sd that meets it at these nests
         return (f"{head}: {sweep}; or place the {self.n} nests farther from the table's "
                 f"axis, evenly at {radius * MM_PER_M:.0f} mm from it where the table allows (the heights read to "
                 f"{self.reading_sd * MM_PER_M:.3f} mm), or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)")
 
 
-def _largest_sd(cov: np.ndarray) -> float:
-    return float(np.sqrt(max(np.linalg.eigvalsh(cov).max(), 0.0)))
+def _magnitude_sd(cov: np.ndarray) -> float:
+    """sqrt(trace(cov)) [rad]: the RMS length of a 2-vector error with covariance ``cov``."""
+    return float(np.sqrt(max(np.trace(cov), 0.0)))
 
 
 def nest_z_cov(setup, ids: list[str]) -> np.ndarray:
