@@ -63,7 +63,7 @@ from vecpin.compensation.functions import (all_table_names, pseudo_commands, ric
                                            truth_as_actual)
 from vecpin.compensation.tableproblem import TableProblem  # noqa: E402
 from vecpin.export.generic import write_tables  # noqa: E402
-from vecpin.compensation.frame import measured_box  # noqa: E402
+from vecpin.compensation.frame import measured_box, model_reference_frame  # noqa: E402
 from vecpin.measurement.nestheights import with_nest_heights  # noqa: E402
 from vecpin.measurement.tableface import swept_axes, with_table_face  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
@@ -160,6 +160,8 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
             model.setup_ = with_table_face(with_nest_heights(bare, given), swept, m)
             vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
             row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
+            face = model_reference_frame(model).face     # the 1 sigma vecpin prints of the face it keeps
+            row[key]["printed_urad"], row[key]["printed_kept_urad"] = face.sd * 1e6, face.kept_sd * 1e6
         model.setup_ = exact
     row["seconds"] = time.time() - t0
     return row
@@ -295,8 +297,13 @@ def _ratio(x: dict) -> float:
 def _sweep_cells(r: dict) -> str:
     """The sweep columns of one face row (markdown cells)."""
     g, w = r["sweep_gauge"], r["sweep_only"]
-    return (f"{_ratio(g):.2f} | {g['tilt_urad']:.1f} | {w['part']:.4f} | {_ratio(w):.2f} | "
-            f"{w['tilt_urad']:.1f} |")
+    return (f"{_ratio(g):.2f} | {g['tilt_urad']:.1f} | {_printed(g)} | {w['part']:.4f} | {_ratio(w):.2f} | "
+            f"{w['tilt_urad']:.1f} | {_printed(w)} |")
+
+
+def _printed(x: dict) -> str:
+    """The 1 sigma vecpin printed of the face it kept [µrad] (rows of older runs: none)."""
+    return f"{x['printed_kept_urad']:.1f}" if "printed_kept_urad" in x else "-"
 
 
 def _sweep_findings(face: list[dict]) -> list[str]:
@@ -319,7 +326,11 @@ def _sweep_findings(face: list[dict]) -> list[str]:
             "heights' " + ", ".join(f"{r['compensated']['tilt_urad']:.0f}" for r in rows) + " µrad. The gauge's "
             "heights add little beside the sweep (with them: "
             + ", ".join(f"{r['sweep_gauge']['tilt_urad']:.0f}" for r in rows) + " µrad); the sweep alone fixes "
-            "the tilt, the nests give the origin.", ""]
+            "the tilt, the nests give the origin. The 1σ vecpin prints of that face (sweep alone: "
+            + ", ".join(_printed(r["sweep_only"]) for r in rows) + " µrad) is the RMS length of the tilt's error: "
+            "the fit's covariance of the line at home and of the frame it is read in, and the misfit the fit's "
+            "residuals cannot exclude (compensation/frame.py's sweep_lines); over fresh cases the true tilt against "
+            "it is measured by `--sweep-sigma` (the figures are in the commit that added it).", ""]
 
 
 def table(rows: list[dict], seed: int) -> str:
@@ -387,12 +398,13 @@ def table(rows: list[dict], seed: int) -> str:
                  f"tests/part_frame_judge.py's indicator_sweep, with a normal error of {SWEEP_SIGMA_UM:g} µm; vecpin "
                  f"told {SWEEP_SIGMA_UM:g} µm, table_face.csv's default) with the gauge's heights and alone (tables "
                  "only remade), against the exact heights above; tilt: the compensated volume's best-fit tilt "
-                 "against the true table:", "",
+                 "against the true table; printed 1σ: what vecpin prints of the face it keeps (the tables' `frame "
+                 "kept` line: the RMS length of the tilt's error):", "",
                  "| class | machine | exact: part, tilt [µrad] | gauge: part | gauge: part / shape | "
                  "gauge: tilt [µrad] | no heights: part | no heights: tilt [µrad] | sweep + gauge: part / shape | "
-                 "sweep + gauge: tilt [µrad] | sweep alone: part | sweep alone: part / shape | "
-                 "sweep alone: tilt [µrad] |",
-                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                 "sweep + gauge: tilt [µrad] | sweep + gauge: printed 1σ [µrad] | sweep alone: part | "
+                 "sweep alone: part / shape | sweep alone: tilt [µrad] | sweep alone: printed 1σ [µrad] |",
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         head += [f"| {r['class']} | {r['machine']} | {r['compensated']['part']:.4f}, "
                  f"{r['compensated']['tilt_urad']:.1f} | "
                  f"{r['gauge']['part']:.4f} | {r['gauge']['part'] / r['gauge']['shape']:.2f} | "
@@ -400,6 +412,37 @@ def table(rows: list[dict], seed: int) -> str:
                  f"{r['no_heights']['tilt_urad']:.1f} | "
                  + _sweep_cells(r) for r in face if "gauge" in r]
     return "\n".join(head + findings(rows)) + "\n"
+
+
+def sweep_sigma(name: str, seed: int, folder: Path) -> dict:
+    """One case of the sweep path alone (no heights): the face swept as in :func:`one`, the fit's tables
+    judged; the true tilt of the compensated volume against the true table [µrad] and the 1 sigma vecpin
+    prints of the face it keeps (``printed_kept_urad``, the tables' `frame kept` line) and from the
+    readings (``printed_urad``, the fit's `table's face:` line)."""
+    m, sim = setup(name, None, seed)
+    model = vecpin.fit(m, sim.campaign, NoiseModel.default(m, "spherical")).model
+    box = measured_box(model)
+    q = pseudo_commands(m, 600, seed=seed + 100, lower=box[0], upper=box[1])
+    rng = np.random.default_rng([seed, 4051])
+    sweep = {}
+    for a in swept_axes(m):
+        moved, change = indicator_sweep(sim.truth, m, box, a, SWEEP_MM * 1e-3, float(np.median(TOOLS)),
+                                        SWEEP_SIGMA_UM * 1e-6, rng)
+        sweep[a] = (moved * 1e3, change * 1e6, SWEEP_SIGMA_UM)
+    model.setup_ = with_table_face(replace(model.setup_, nest_heights={}, nest_height_sd={}, face_sweep={}), sweep, m)
+    face = model_reference_frame(model).face
+    vecpin.make_tables(model, folder, "generic", uncertainty=False)
+    j = judge(sim.truth, m, folder / "tables.json", q, np.tile(TOOLS, 300), box)
+    return {"machine": name, "seed": seed, "tilt_urad": j["tilt_urad"], "part_shape": j["part"] / j["shape"],
+            "printed_urad": face.sd * 1e6, "printed_kept_urad": face.kept_sd * 1e6}
+
+
+def sigma_summary(cases: list[dict]) -> str:
+    """The ratio true tilt / printed 1 sigma (the face kept) over ``cases``: RMS and largest, in words."""
+    ratio = np.array([c["tilt_urad"] / c["printed_kept_urad"] for c in cases])
+    return (f"{len(cases)} cases: true tilt / printed 1σ RMS {np.sqrt(np.mean(ratio ** 2)):.2f}, largest "
+            f"{ratio.max():.2f}; tilt at most {max(c['tilt_urad'] for c in cases):.1f} µrad, part / shape at most "
+            f"{max(c['part_shape'] for c in cases):.3f}")
 
 
 def main(argv=None) -> None:
@@ -413,7 +456,26 @@ def main(argv=None) -> None:
                     "side by side, each with its own --cases)")
     ap.add_argument("--page-from", nargs="+", metavar="JSON", help="write the page from rows --dump wrote (the same "
                     "--seed), in the cases' order, without running anything")
+    ap.add_argument("--sweep-sigma", nargs="+", type=int, metavar="SEED", help="only the sweep path (no heights) "
+                    "of the table machines in --cases at these seeds: the true tilt against the printed 1 sigma, "
+                    "printed (with --dump: the cases to that file)")
     args = ap.parse_args(argv)
+    if args.sweep_sigma:
+        cases = []
+        with tempfile.TemporaryDirectory() as tmp:
+            for seed in args.sweep_sigma:
+                for _, name, family in CASES:
+                    if name in args.cases and family is None and vecpin.Machine.load(name).has_workpiece:
+                        cases.append(sweep_sigma(name, seed, Path(tmp) / f"{name}-{seed}"))
+                        c = cases[-1]
+                        print(f"{name:<16s} seed {seed:<4d} tilt {c['tilt_urad']:5.1f} µrad, printed 1σ kept "
+                              f"{c['printed_kept_urad']:5.1f} (readings {c['printed_urad']:5.1f}), ratio "
+                              f"{c['tilt_urad'] / c['printed_kept_urad']:.2f}, part / shape {c['part_shape']:.3f}",
+                              flush=True)
+        print(sigma_summary(cases))
+        if args.dump:
+            Path(args.dump).write_text(json.dumps(cases))
+        return
     if args.page_from:
         rows = [r for f in args.page_from for r in json.loads(Path(f).read_text())]
         order = [c[1] + (f" ({c[2]})" if c[2] else "") for c in CASES]

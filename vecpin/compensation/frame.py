@@ -159,14 +159,17 @@ def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, 
     [m], ...)}, in ``frame``, from the start to the end of the distance swept (an indicator reads
     its change between the two), centred on the middle of ``box`` (lower, upper) [m, rad] and
     clipped to it, every rotary axis at home (as the indicator's sweep is made), the other linear
-    axes mid-box, tool length ``tool`` [m]; and the variance of its component along the spindle
-    from the fitted ``model``'s covariance (its geometric part's, through d tip / d b at both ends;
-    0 without a model): the fit's own uncertainty of the line the sweep is read against."""
+    axes mid-box, tool length ``tool`` [m]; and the variance of its slope along the spindle against
+    ``frame`` (0 without a model or without sweeps): from the fitted ``model``'s covariance (its
+    geometric part's, through d tip / d b at both ends and the frame's own turn with b,
+    :func:`_frame_turn_per_b`), plus the misfit its residuals cannot exclude at the two ends
+    (:func:`misfit_variance`, taken independent: 2 m / D^2): the uncertainty of the line the
+    sweep is read against, which limits the face (a DTI's 2 µm over 300 mm is 7 µrad)."""
     lo, hi = box
     rot = np.array([a.kind == "rotary" for a in machine.axes])
     mid = np.where(rot, partframe.home_commands(machine), 0.5 * (lo + hi))
     geometric = None if model is None else geometric_model(model)
-    known = geometric is not None and getattr(geometric, "cov_", None) is not None
+    known = bool(sweep) and geometric is not None and getattr(geometric, "cov_", None) is not None
     up = -partframe.spindle_axis(machine)
     turn = _frame_turn_per_b(geometric, machine, frame, box, fit_tools(model)) if known else None
     misfit = misfit_variance(model) if known else 0.0
