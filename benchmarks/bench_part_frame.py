@@ -435,9 +435,9 @@ def sweep_sigma(name: str, seed: int, folder: Path) -> dict:
 
 def sigma_summary(cases: list[dict]) -> str:
     """The ratio true tilt / printed 1 sigma (the face kept) over ``cases``: RMS and largest, in words."""
-    ratio, tilt, ps = (np.array([c[k] for c in cases]) for k in ("printed_kept_urad", "tilt_urad", "part_shape"))
-    return (f"{len(cases)} cases: true tilt / printed 1σ RMS {np.sqrt(np.mean((tilt / ratio) ** 2)):.2f}, largest "
-            f"{(tilt / ratio).max():.2f}; tilt at most {tilt.max():.1f} µrad, part / shape at most {ps.max():.3f}")
+    printed, tilt, ps = (np.array([c[k] for c in cases]) for k in ("printed_kept_urad", "tilt_urad", "part_shape"))
+    return (f"{len(cases)} cases: true tilt / printed 1σ RMS {np.sqrt(np.mean((tilt / printed) ** 2)):.2f}, largest "
+            f"{(tilt / printed).max():.2f}; tilt at most {tilt.max():.1f} µrad, part / shape at most {ps.max():.3f}")
 
 
 def main(argv=None) -> None:
