@@ -156,8 +156,9 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
             model.setup_ = with_table_face(with_nest_heights(bare, given), swept, m)
             vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
             row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
-            face = model_reference_frame(model).face     # the 1 sigma vecpin prints of the face it keeps
-            row[key]["printed_urad"], row[key]["printed_kept_urad"] = face.sd * 1e6, face.kept_sd * 1e6
+            if swept:   # the 1 sigma vecpin prints of the face it keeps
+                face = model_reference_frame(model).face
+                row[key]["printed_urad"], row[key]["printed_kept_urad"] = face.sd * 1e6, face.kept_sd * 1e6
         model.setup_ = exact
     row["seconds"] = time.time() - t0
     return row
