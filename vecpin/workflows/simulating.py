@@ -11,9 +11,9 @@ from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
 from vecpin.measurement.registration import registered_errors, spans_plane
-from vecpin.models.recorded import STILL_SHARE
 from vecpin.measurement.tableface import SWEEP_SD_UM, TABLE_FACE_FILE, swept_axes, table_face_csv
 from vecpin.measurement.tableframe import nest_shape, registers_table, table_tips
+from vecpin.models.recorded import STILL_SHARE
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.problem import check_tracker_units
 from vecpin.simulation.simulate import Design, Simulation, simulate
