@@ -40,7 +40,8 @@ normal error of SWEEP_SIGMA_UM), with the gauge's heights and alone (table_face.
 
 Run: python benchmarks/bench_part_frame.py [--out docs/results/part_frame.md] [--seed N] [--cases NAME ...]
 [--rows face] (face: only the table's-face rows, printed, no results page) [--dump ROWS.json] (cases side by side:
-each run's rows to a file) [--page-from ROWS.json ...] (the page from those files)
+each run's rows to a file) [--page-from ROWS.json ...] (the page from those files) [--sweep-sigma SEED ...] (the
+sweep path alone at those seeds: the true tilt against the printed 1 sigma; the page takes their --dump)
 """
 from __future__ import annotations
 
@@ -63,7 +64,7 @@ from vecpin.compensation.functions import (all_table_names, pseudo_commands, ric
                                            truth_as_actual)
 from vecpin.compensation.tableproblem import TableProblem  # noqa: E402
 from vecpin.export.generic import write_tables  # noqa: E402
-from vecpin.compensation.frame import measured_box  # noqa: E402
+from vecpin.compensation.frame import measured_box, model_reference_frame  # noqa: E402
 from vecpin.measurement.nestheights import with_nest_heights  # noqa: E402
 from vecpin.measurement.tableface import swept_axes, with_table_face  # noqa: E402
 from vecpin.measurement.noise import NoiseModel  # noqa: E402
@@ -148,21 +149,26 @@ def one(cls: str, name: str, family: str | None, seed: int, folder: Path, face: 
         rng = np.random.default_rng([seed, 4051])
         read = {k: h + rng.normal(0.0, GAUGE_SIGMA_MM) for k, (h, _) in sorted(heights.items())}
         exact = model.setup_
-        sweep = {}   # the indicator's sweeps read on the true machine by the judge: (mm, µm, sd µm)
-        for a in swept_axes(m):
-            moved, change = indicator_sweep(sim.truth, m, box, a, SWEEP_MM * 1e-3, float(np.median(TOOLS)),
-                                            SWEEP_SIGMA_UM * 1e-6, rng)
-            sweep[a] = (moved * 1e3, change * 1e6, SWEEP_SIGMA_UM)
-        row["sweep_readings"] = sweep
+        row["sweep_readings"] = sweep = _sweeps(sim, m, box, rng)
         for key, given, swept in (("gauge", read, None), ("no_heights", None, None), ("sweep_gauge", read, sweep),
                                   ("sweep_only", None, sweep)):   # the same fit, other readings: tables only
             bare = replace(exact, nest_heights={}, nest_height_sd={}, face_sweep={})
             model.setup_ = with_table_face(with_nest_heights(bare, given), swept, m)
             vecpin.make_tables(model, folder / key, "generic", uncertainty=False)
             row[key] = judge(sim.truth, m, folder / key / "tables.json", q, tool, box)
+            if swept:   # the 1 sigma vecpin prints of the face it keeps
+                face = model_reference_frame(model).face
+                row[key]["printed_urad"], row[key]["printed_kept_urad"] = face.sd * 1e6, face.kept_sd * 1e6
         model.setup_ = exact
     row["seconds"] = time.time() - t0
     return row
+
+
+def _sweeps(sim, m, box, rng) -> dict:
+    """The indicator's sweeps read on the true machine by the judge: {axis: (mm, µm, sd µm)}."""
+    read = {a: indicator_sweep(sim.truth, m, box, a, SWEEP_MM * 1e-3, float(np.median(TOOLS)), SWEEP_SIGMA_UM * 1e-6,
+                               rng) for a in swept_axes(m)}
+    return {a: (moved * 1e3, change * 1e6, SWEEP_SIGMA_UM) for a, (moved, change) in read.items()}
 
 
 def frame_figures(r: dict) -> tuple[str, float, float, float]:
@@ -195,7 +201,7 @@ def _about(w) -> str:
     return f"{w[0]:+.0f} about x, {w[1]:+.0f} about y"
 
 
-def findings(rows: list[dict]) -> list[str]:
+def findings(rows: list[dict], sigma: list[dict] = ()) -> list[str]:
     """What the figures say, per frame (markdown paragraphs; every number from ``rows``)."""
     lines = [r for r in rows if r["frame"] == "reference lines"]
     face = [r for r in rows if r["frame"].startswith("the table's face")]
@@ -254,7 +260,7 @@ def findings(rows: list[dict]) -> list[str]:
                 + " µrad. What removes the rest: product terms where the controller multiplies tables (vecpin's "
                 "default there, next paragraph), the controller's kinematic transformation (the rotary axes' "
                 "positions and directions) or its volumetric function.", ""]
-    out += _product_findings(face) + _sweep_findings(face)
+    out += _product_findings(face) + _sweep_findings(face, sigma)
     return out
 
 
@@ -295,12 +301,17 @@ def _ratio(x: dict) -> float:
 def _sweep_cells(r: dict) -> str:
     """The sweep columns of one face row (markdown cells)."""
     g, w = r["sweep_gauge"], r["sweep_only"]
-    return (f"{_ratio(g):.2f} | {g['tilt_urad']:.1f} | {w['part']:.4f} | {_ratio(w):.2f} | "
-            f"{w['tilt_urad']:.1f} |")
+    return (f"{_ratio(g):.2f} | {g['tilt_urad']:.1f} | {_printed(g)} | {w['part']:.4f} | {_ratio(w):.2f} | "
+            f"{w['tilt_urad']:.1f} | {_printed(w)} |")
 
 
-def _sweep_findings(face: list[dict]) -> list[str]:
-    """The paragraph on the indicator's sweep (the face rows' sweep columns)."""
+def _printed(x: dict) -> str:
+    """The 1 sigma vecpin printed of the face it kept [µrad] (rows of older runs: none)."""
+    return f"{x['printed_kept_urad']:.1f}" if "printed_kept_urad" in x else "-"
+
+
+def _sweep_findings(face: list[dict], sigma=()) -> list[str]:
+    """The paragraph on the indicator's sweep (the face rows' sweep columns; ``sigma``: :func:`sweep_sigma`'s cases)."""
     rows = [r for r in face if "sweep_only" in r]
     if not rows:
         return []
@@ -319,10 +330,15 @@ def _sweep_findings(face: list[dict]) -> list[str]:
             "heights' " + ", ".join(f"{r['compensated']['tilt_urad']:.0f}" for r in rows) + " µrad. The gauge's "
             "heights add little beside the sweep (with them: "
             + ", ".join(f"{r['sweep_gauge']['tilt_urad']:.0f}" for r in rows) + " µrad); the sweep alone fixes "
-            "the tilt, the nests give the origin.", ""]
+            "the tilt, the nests give the origin. The 1σ vecpin prints of that face (sweep alone: "
+            + ", ".join(_printed(r["sweep_only"]) for r in rows) + " µrad) is the RMS length of the tilt's error: "
+            "the fit's covariance of the line at home and of the frame it is read in, and the misfit the fit's "
+            "residuals cannot exclude (compensation/frame.py's sweep_lines)" + (
+                f"; the sweep alone on fresh seeds ({', '.join(sorted({str(c['seed']) for c in sigma}))}; "
+                f"`--sweep-sigma`), {sigma_summary(sigma)}" if sigma else "") + ".", ""]
 
 
-def table(rows: list[dict], seed: int) -> str:
+def table(rows: list[dict], seed: int, sigma: list[dict] = ()) -> str:
     """The results page (markdown)."""
     head = [f"True tool-tip error [mm] relative to the true table, mean over 600 fresh commands x 2 tools in the "
             f"measured region; vecpin's default fit and default tables (generic files: the full set, with product "
@@ -387,19 +403,42 @@ def table(rows: list[dict], seed: int) -> str:
                  f"tests/part_frame_judge.py's indicator_sweep, with a normal error of {SWEEP_SIGMA_UM:g} µm; vecpin "
                  f"told {SWEEP_SIGMA_UM:g} µm, table_face.csv's default) with the gauge's heights and alone (tables "
                  "only remade), against the exact heights above; tilt: the compensated volume's best-fit tilt "
-                 "against the true table:", "",
+                 "against the true table; printed 1σ: what vecpin prints of the face it keeps (the tables' `frame "
+                 "kept` line: the RMS length of the tilt's error):", "",
                  "| class | machine | exact: part, tilt [µrad] | gauge: part | gauge: part / shape | "
                  "gauge: tilt [µrad] | no heights: part | no heights: tilt [µrad] | sweep + gauge: part / shape | "
-                 "sweep + gauge: tilt [µrad] | sweep alone: part | sweep alone: part / shape | "
-                 "sweep alone: tilt [µrad] |",
-                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                 "sweep + gauge: tilt [µrad] | sweep + gauge: printed 1σ [µrad] | sweep alone: part | "
+                 "sweep alone: part / shape | sweep alone: tilt [µrad] | sweep alone: printed 1σ [µrad] |",
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         head += [f"| {r['class']} | {r['machine']} | {r['compensated']['part']:.4f}, "
                  f"{r['compensated']['tilt_urad']:.1f} | "
                  f"{r['gauge']['part']:.4f} | {r['gauge']['part'] / r['gauge']['shape']:.2f} | "
                  f"{r['gauge']['tilt_urad']:.1f} | {r['no_heights']['part']:.4f} | "
                  f"{r['no_heights']['tilt_urad']:.1f} | "
                  + _sweep_cells(r) for r in face if "gauge" in r]
-    return "\n".join(head + findings(rows)) + "\n"
+    return "\n".join(head + findings(rows, sigma)) + "\n"
+
+
+def sweep_sigma(name: str, seed: int, folder: Path) -> dict:
+    """The sweep path alone (no heights; the face swept as in :func:`one`, the fit's tables judged): true tilt
+    [µrad], part / shape and the 1 sigma vecpin prints of the face kept (`frame kept`) and read (`table's face:`)."""
+    m, sim = setup(name, None, seed)
+    model = vecpin.fit(m, sim.campaign, NoiseModel.default(m, "spherical")).model
+    q = pseudo_commands(m, 600, seed=seed + 100, lower=(box := measured_box(model))[0], upper=box[1])
+    model.setup_ = with_table_face(replace(model.setup_, nest_heights={}, nest_height_sd={}, face_sweep={}),
+                                   _sweeps(sim, m, box, np.random.default_rng([seed, 4051])), m)
+    face = model_reference_frame(model).face
+    vecpin.make_tables(model, folder, "generic", uncertainty=False)
+    j = judge(sim.truth, m, folder / "tables.json", q, np.tile(TOOLS, 300), box)
+    return {"machine": name, "seed": seed, "tilt_urad": j["tilt_urad"], "part_shape": j["part"] / j["shape"],
+            "printed_urad": face.sd * 1e6, "printed_kept_urad": face.kept_sd * 1e6}
+
+
+def sigma_summary(cases: list[dict]) -> str:
+    """The ratio true tilt / printed 1 sigma (the face kept) over ``cases``: RMS and largest, in words."""
+    printed, tilt, ps = (np.array([c[k] for c in cases]) for k in ("printed_kept_urad", "tilt_urad", "part_shape"))
+    return (f"{len(cases)} cases: true tilt / printed 1σ RMS {np.sqrt(np.mean((tilt / printed) ** 2)):.2f}, largest "
+            f"{(tilt / printed).max():.2f}; tilt at most {tilt.max():.1f} µrad, part / shape at most {ps.max():.3f}")
 
 
 def main(argv=None) -> None:
@@ -413,12 +452,28 @@ def main(argv=None) -> None:
                     "side by side, each with its own --cases)")
     ap.add_argument("--page-from", nargs="+", metavar="JSON", help="write the page from rows --dump wrote (the same "
                     "--seed), in the cases' order, without running anything")
+    ap.add_argument("--sweep-sigma", nargs="+", type=int, metavar="SEED", help="only the sweep path (no heights) of "
+                    "--cases' table machines at these seeds: true tilt against printed 1 sigma (--dump: to a file)")
     args = ap.parse_args(argv)
+    if args.sweep_sigma:
+        cases = []
+        with tempfile.TemporaryDirectory() as tmp:
+            for seed in args.sweep_sigma:
+                for _, name, family in CASES:
+                    if name in args.cases and family is None and vecpin.Machine.load(name).has_workpiece:
+                        cases.append(c := sweep_sigma(name, seed, Path(tmp) / f"{name}-{seed}"))
+                        print(f"{name:<16s} seed {seed:<4d} tilt {c['tilt_urad']:5.1f} µrad, printed 1σ kept "
+                              f"{c['printed_kept_urad']:5.1f}, part / shape {c['part_shape']:.3f}", flush=True)
+        print(sigma_summary(cases))
+        if args.dump:
+            Path(args.dump).write_text(json.dumps(cases))
+        return
     if args.page_from:
         rows = [r for f in args.page_from for r in json.loads(Path(f).read_text())]
+        sigma, rows = [r for r in rows if "seed" in r], [r for r in rows if "seed" not in r]   # --sweep-sigma's cases
         order = [c[1] + (f" ({c[2]})" if c[2] else "") for c in CASES]
         publish(table(sorted(rows, key=lambda r: (order.index(r["machine"]), r["frame"].startswith("the table's"))),
-                      args.seed), args.out)
+                      args.seed, sigma), args.out)
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -110,7 +110,7 @@ def test_the_sweep_is_weighed_with_the_nests_and_the_prior():
     np.testing.assert_allclose(vague.cov, nests.cov, rtol=1e-4)
     np.testing.assert_allclose(vague.kept, nests.kept, atol=1e-9)
     read = face_tilt(P, UP, heights, sds, sweep=sweep(2e-6))
-    assert read.sd < min(nests.sd, 2e-6 / 0.3 * 1.01) and np.linalg.norm(read.kept - truth) < 20e-6
+    assert read.sd < min(nests.sd, np.sqrt(2) * 2e-6 / 0.3 * 1.01) and np.linalg.norm(read.kept - truth) < 20e-6
     assert read.agree and not face_tilt(P, UP, heights, [2e-6] * 5, sweep=sweep(2e-6)).agree
 
 
@@ -172,3 +172,88 @@ def test_the_model_file_keeps_the_sweeps_and_refuses_bad_ones(machines, tmp_path
     tr["table_face"]["Z"] = {"distance_mm": 100.0, "change_um": 1.0, "sd_um": 2.0}
     with pytest.raises(ModelFileError, match=r"m.json.*tracker.table_face.*along the spindle"):
         _table_face_from(tmp_path / "m.json", tr, Setup(np.eye(3), np.zeros(3)), m)
+
+
+def test_the_printed_sigma_is_the_rms_length_of_the_tilts_error_monte_carlo():
+    """Two sweeps along lines not square to each other, each read with an sd and converted through a line
+    whose slope along up is itself uncertain (the model's, a variance added to the reading's): over 800
+    draws of the true face from the prior, the readings' noise and the lines' errors (drawn here, the readings
+    written here), the RMS length of the error of the readings' face is its printed sd (sqrt of the
+    covariance's trace), and that of the face kept its kept_sd, within the draws' sampling (8 %)."""
+    from vecpin.compensation.faceframe import setup_face
+    rng = np.random.default_rng(5)
+    lines = {"X": np.array([1.0, 0.002, 40e-6]), "Y": np.array([0.3, 1.0, -25e-6])}
+    var = {"X": 9e-6 ** 2, "Y": 16e-6 ** 2}      # rad^2: each line's slope along up, as the model knows it
+    D, sd, prior = 0.3, 2e-6, 30e-6
+    e1, e2 = face_axes(UP)
+    err, err_kept = [], []
+    for _ in range(800):
+        slopes = rng.normal(0.0, prior, 2)
+        grad = -(slopes[0] * e1 + slopes[1] * e2)          # the face z = grad . p: normal up - grad
+        sweep = {a: (D, _reading(v + rng.normal(0.0, np.sqrt(var[a])) * UP, grad, D) + rng.normal(0.0, sd), sd)
+                 for a, v in lines.items()}
+        face = setup_face(Setup(np.eye(3), np.zeros(3), face_sweep=sweep), UP, prior=prior,
+                          lines={a: (v, var[a]) for a, v in lines.items()})[1]
+        err.append(face.slopes - slopes)
+        err_kept.append(face.kept - slopes)
+    rms = np.sqrt(np.mean(np.sum(np.square(err), axis=1)))
+    rms_kept = np.sqrt(np.mean(np.sum(np.square(err_kept), axis=1)))
+    assert face.sd == pytest.approx(rms, rel=0.08) and face.kept_sd == pytest.approx(rms_kept, rel=0.08)
+    assert face.sd > np.sqrt(np.linalg.eigvalsh(face.cov).max()) * 1.1     # more than the largest direction's
+
+
+class _LinearModel:
+    """A fitted model whose tips are the nominal ones plus B(q) b: b[0:3] a rotation of the whole volume
+    about its centroid (no line tilts against a frame that is the volume's own), b[3] a slope of X's line
+    along the spindle, b[4] a bow of Y along up; covariance s^2 I."""
+    row_dependent = False
+
+    def __init__(self, machine, b, s=10e-6):
+        self.machine, self.b_ = machine, np.asarray(b, float)
+        self.cov_ = np.eye(6 + 5) * s ** 2
+        self.centre = np.array([0.0, 0.0, -0.1])
+
+    def _check_fitted(self):
+        return None
+
+    def tool_tip(self, q, tool, b, jacobian=False, frame="workpiece", point=0):
+        from types import SimpleNamespace
+        tip = self.machine.tool_tip(q, tool, frame="workpiece")
+        x, y = q[:, 0], q[:, 1]
+        J = np.zeros((len(q), 3, 5))
+        J[:, :, :3] = -np.cross((tip - self.centre)[:, :, None], np.eye(3)[None], axis=1)   # w -> w x r
+        J[:, 2, 3], J[:, 2, 4] = x, y ** 2
+        return SimpleNamespace(tip=tip + J @ b, J_b=J, J_q=None)
+
+
+def test_a_lines_variance_holds_the_frames_turn_with_the_model(machines, monkeypatch):
+    """The variance of a swept line's slope along up against the frame kept (the volume's mean orientation, on
+    a turning table), as sweep_lines gives it for a model with covariance s^2 I, is s^2 |g|^2 with g the slope's
+    change per parameter measured by finite differences through the whole nonlinear path (the model's tips
+    moved, its reference frame found again by rigid registration, the line measured in it): a rotation of the
+    whole volume tilts no line against the frame (g = 0 there, where the line alone would read it fully)."""
+    from vecpin.compensation import frame as fr
+    m = machines["trunnion_xyzac"]
+    monkeypatch.setattr(fr, "misfit_variance", lambda model: 0.0)
+    box = (m.lower, m.upper)
+    sweep = {"X": (0.3,), "Y": (0.3,)}
+    up = np.array([0.0, 0.0, 1.0])
+
+    def slopes(b):
+        model = _LinearModel(m, b)
+        actual = fr._as_fitted(model)
+        frame = fr.reference_frame(actual, m, fr.fit_tools(model), *box)
+        return frame, fr.sweep_lines(actual, m, frame, sweep, box, 0.2, model), actual
+    b0 = np.array([30e-6, -20e-6, 5e-6, 40e-6, 60e-6])
+    frame, lines, actual = slopes(b0)
+    eps = 1e-6
+    g = {a: [] for a in sweep}
+    for p in range(5):
+        moved = slopes(b0 + eps * np.eye(5)[p])[1]
+        for a in sweep:
+            g[a].append((moved[a][0] - lines[a][0]) @ up / eps)
+    for a in sweep:
+        assert lines[a][1] == pytest.approx(10e-6 ** 2 * np.sum(np.square(g[a])), rel=2e-3)
+        assert np.abs(g[a][:3]).max() < 1e-4     # per rad of the volume's turn: the line alone would read ~1
+    held = fr.sweep_lines(actual, m, frame, sweep, box, 0.2, None)   # no model: no variance
+    assert held["X"][1] == 0.0

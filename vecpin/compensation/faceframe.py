@@ -25,12 +25,21 @@ frame without heights as a metrologist combines two estimates of one quantity:
   of the axis' command, the rotaries at home, the other axes mid-box:
   :func:`~vecpin.compensation.frame.sweep_lines`), so each sweep is one linear reading of the
   face's slopes in that frame: ``a v.e1 + b v.e2 = -r / D - v.up``, with the variance
-  (sd / D)^2 of the reading plus that of the model's line along the spindle from the fit's
-  covariance (a DTI reads 1-2 µm over a few hundred mm: a few µrad; the model's line at home
-  is known to about 10-15 µrad on the bundled trunnions, where the heights give 70-150). What
-  the fit's covariance does not hold, the model's own error in the line at home against the
-  volume's mean (a model that misses part of the truth), stays: 20-35 µrad on the simulator's
-  trunnions (docs/results/part_frame.md). The sweeps and the nests' plane are weighed together by their
+  (sd / D)^2 of the reading plus that of the model's line along the spindle against the frame
+  (a DTI reads 1-2 µm over a few hundred mm: a few µrad; the model's line at home is known to
+  10-20 µrad on the bundled table machines, where the heights give 70-150). What limits the
+  face is the model's line at home against the volume's mean: on the simulator's trunnion,
+  head-table and all-table machines the face from a noise-free sweep differs from the truth's
+  by exactly the model's error in that line (its slope along up, model less truth, each in its
+  own reference frame), the same at every height and within a few µrad along the other axis:
+  the line is wrong where the sweep is made, not the sweep made in the wrong place. The line's
+  variance (:func:`~vecpin.compensation.frame.sweep_lines`) holds the fit's covariance of the
+  line and of the frame it is read in (the frame is the same model's mean, so their errors are
+  correlated), and the misfit the fit's residuals cannot exclude
+  (:func:`~vecpin.compensation.frame.misfit_variance`), which the covariance leaves out. The
+  1 sigma printed is the RMS length of the tilt's error, sqrt(trace) of its covariance: the tilt
+  is judged as one angle, and its largest direction alone understates it by up to sqrt 2
+  (benchmarks/bench_part_frame.py measures the ratio). The sweeps and the nests' plane are weighed together by their
   inverse covariances (the nests' plane as one reading of both slopes with covariance C), and
   that one face of the readings is what the prior is combined with below; a sweep alone (no
   heights) fixes the tilt where two axes that cross are swept, the nests still give the origin.
@@ -68,7 +77,7 @@ least-squares fit there). Where they count less, the tables keep the combined fr
 the frame without heights (their turn of the volume held at zero, no product terms by default):
 as the heights' weight falls to zero the tables become those without heights, so heights read
 badly cannot cost more than the small tilt they still carry. The printout gives the face's 1 sigma
-tilt uncertainty, with advice when it is above :data:`FACE_TARGET`.
+tilt uncertainty (the RMS length of the tilt's error), with advice when it is above :data:`FACE_TARGET`.
 """
 from __future__ import annotations
 
@@ -141,13 +150,15 @@ class FaceTilt:
 
     @property
     def sd(self) -> float:
-        """The face's 1 sigma tilt uncertainty from the readings alone [rad] (its largest direction)."""
-        return _largest_sd(self.cov)
+        """The face's 1 sigma tilt uncertainty from the readings alone [rad]: the RMS length of the
+        tilt's error, sqrt(trace(cov)) (what a tilt judged as one angle, its two components together,
+        is expected to be; the largest direction alone understates it by up to sqrt 2)."""
+        return _magnitude_sd(self.cov)
 
     @property
     def kept_sd(self) -> float:
-        """The kept face's 1 sigma tilt uncertainty [rad] (its largest direction)."""
-        return _largest_sd(self.kept_cov)
+        """The kept face's 1 sigma tilt uncertainty [rad]: the RMS length of its error (as :attr:`sd`)."""
+        return _magnitude_sd(self.kept_cov)
 
     @property
     def weight(self) -> float:
@@ -204,19 +215,20 @@ class FaceTilt:
         if self.swept:
             return (f"{head}: sweep the indicator along two axes that cross, over a longer distance, and read it to "
                     "1-2 µm")
-        room = FACE_TARGET ** 2 - _largest_sd(self.from_nests) ** 2     # what the readings may add
+        room = FACE_TARGET ** 2 - _magnitude_sd(self.from_nests) ** 2   # what the readings may add (a trace)
         if room <= 0:
             return (f"{head}, and the fitted nests' heights alone are that uncertain: {sweep}; or more nest readings, "
                     "or nests farther from the table's axis")
-        radius = self.reading_sd * np.sqrt(2.0 / self.n / room)      # n nests evenly on a circle: spread n r^2 / 2
-        gauge = np.sqrt(room * self.spread)                           # the readings' sd that meets it at these nests
+        radius = self.reading_sd * np.sqrt(4.0 / self.n / room)      # n nests evenly on a circle: trace 4 sd^2 / n r^2
+        gauge = np.sqrt(room * self.spread / 2)                       # the readings' sd that meets it at these nests
         return (f"{head}: {sweep}; or place the {self.n} nests farther from the table's "
                 f"axis, evenly at {radius * MM_PER_M:.0f} mm from it where the table allows (the heights read to "
                 f"{self.reading_sd * MM_PER_M:.3f} mm), or read the heights to {gauge * MM_PER_M:.3f} mm (1σ)")
 
 
-def _largest_sd(cov: np.ndarray) -> float:
-    return float(np.sqrt(max(np.linalg.eigvalsh(cov).max(), 0.0)))
+def _magnitude_sd(cov: np.ndarray) -> float:
+    """sqrt(trace(cov)) [rad]: the RMS length of a 2-vector error with covariance ``cov``."""
+    return float(np.sqrt(max(np.trace(cov), 0.0)))
 
 
 def nest_z_cov(setup, ids: list[str]) -> np.ndarray:

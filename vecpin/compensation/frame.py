@@ -159,27 +159,72 @@ def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, 
     [m], ...)}, in ``frame``, from the start to the end of the distance swept (an indicator reads
     its change between the two), centred on the middle of ``box`` (lower, upper) [m, rad] and
     clipped to it, every rotary axis at home (as the indicator's sweep is made), the other linear
-    axes mid-box, tool length ``tool`` [m]; and the variance of its component along the spindle
-    from the fitted ``model``'s covariance (its geometric part's, through d tip / d b at both ends;
-    0 without a model): the fit's own uncertainty of the line the sweep is read against."""
+    axes mid-box, tool length ``tool`` [m]; and the variance of its slope along the spindle against
+    ``frame`` (0 without a model or without sweeps): from the fitted ``model``'s covariance (its
+    geometric part's, through d tip / d b at both ends and the frame's own turn with b,
+    :func:`_frame_turn_per_b`), plus the misfit its residuals cannot exclude at the two ends
+    (:func:`misfit_variance`, taken independent: 2 m / D^2): the uncertainty of the line the
+    sweep is read against, which limits the face (a DTI's 2 µm over 300 mm is 7 µrad)."""
     lo, hi = box
     rot = np.array([a.kind == "rotary" for a in machine.axes])
     mid = np.where(rot, partframe.home_commands(machine), 0.5 * (lo + hi))
     geometric = None if model is None else geometric_model(model)
+    known = bool(sweep) and geometric is not None and getattr(geometric, "cov_", None) is not None
     up = -partframe.spindle_axis(machine)
+    turn = _frame_turn_per_b(geometric, machine, frame, box, fit_tools(model)) if known else None
+    misfit = misfit_variance(model) if known else 0.0
     out = {}
     for name, (distance, *_) in sweep.items():
         k = machine.axis_names.index(name)
         q = np.tile(mid, (2, 1))
         q[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
         tip = actual(q, np.full(2, tool), False, 0)[0]
+        v = frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k]))
         var = 0.0
-        if geometric is not None and getattr(geometric, "cov_", None) is not None:
+        if known:
             J = geometric.tool_tip(q, np.full(2, tool), geometric.b_, jacobian=True, frame=FRAME).J_b
-            g = (frame.R.T @ up) @ (J[1] - J[0]) / (q[1, k] - q[0, k])       # d (slope along up) / d b
-            var = float(g @ geometric.cov_[6:, 6:] @ g)
-        out[name] = (frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k])), var)
+            g = (frame.R.T @ up) @ (J[1] - J[0]) / (q[1, k] - q[0, k])       # d (slope along up) / d b, frame held
+            g = g + np.cross(v, up) @ turn            # and the frame's own turn with b: d w . (v x up)
+            var = float(g @ geometric.cov_[6:, 6:] @ g) + 2.0 * misfit / (q[1, k] - q[0, k]) ** 2
+        out[name] = (v, var)
     return out
+
+
+MISFIT_Z = 2.0   # the misfit the fit's chi-square cannot exclude: its excess over the expected plus this many sigma
+
+
+def misfit_variance(model: ErrorModel | None) -> float:
+    """[m^2]: the variance per component of the model's misfit (what it leaves of the truth, besides
+    the noise) that its fit's residuals cannot exclude: the residuals' power times the share of
+    chi-square beyond its expected value, up to :data:`MISFIT_Z` sigma of its spread, per component
+    (a third of the 3-D residual's mean square); 0 without a fit's report. The covariance of the
+    parameters holds what the noise does to the model; this is what the model's structure may miss,
+    and at the two ends of a line the misfit is taken independent (a line's slope over distance D:
+    variance 2 m / D^2; a smooth misfit correlated over D gives less)."""
+    rep = getattr(model, "report_", None)
+    if rep is None or not rep.chi2 or not rep.residuals_mm.get("all"):
+        return 0.0
+    excess = max(rep.chi2 - rep.chi2_expected + MISFIT_Z * rep.chi2_sigma, 0.0) / rep.chi2
+    return float(excess * (rep.residuals_mm["all"]["rms"] / MM_PER_M) ** 2 / 3.0)
+
+
+TURN_COMMANDS = 1000   # commands the frame's turn per parameter is linearised on (the frame itself: its own count)
+
+
+def _frame_turn_per_b(geometric, machine: Machine, frame: ReferenceFrame, box, tools) -> np.ndarray:
+    """(3, P) [rad per unit of b]: the small rotation that takes the model's tips back into their
+    reference frame (its definition: :func:`~vecpin.measurement.partframe.reference_rotation_changes`)
+    per change of each geometric parameter, on :data:`TURN_COMMANDS` of :func:`reference_commands` x
+    ``tools`` [m]. A line's slope against the frame moves with the line and with the frame: the
+    frame is a mean over the volume (or the reference lines) of the same fitted model, so its
+    error is correlated with the line's, and the slope's variance holds both."""
+    q = reference_commands(machine, *box, n=TURN_COMMANDS)
+    tools = np.asarray(tools, float)
+    qq, tt = np.repeat(q, len(tools), axis=0), np.tile(tools, len(q))
+    out = geometric.tool_tip(qq, tt, geometric.b_, jacobian=True, frame=FRAME)
+    tips = frame.apply(out.tip)
+    changes = np.einsum("ij,njp->pni", frame.R, out.J_b)             # (P, N, 3): each parameter's change, in frame
+    return partframe.reference_rotation_changes(machine, qq, tt, tips, changes).T
 
 
 def on_the_table_face(frame: ReferenceFrame, machine: Machine, setup, prior: float = TABLE_FACE_PRIOR,

@@ -72,13 +72,18 @@ def swept_axes(machine) -> dict[str, np.ndarray]:
     return out
 
 
-def table_face_csv(axes) -> str:
-    """The file's text for the swept ``axes`` (names): distance and change empty for the operator."""
+def table_face_csv(axes, readings: dict | None = None) -> str:
+    """The file's text for the swept ``axes`` (names): distance and change empty for the operator,
+    or filled from ``readings`` {axis: (distance mm, change µm, sd µm)} (a simulation's)."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(COLUMNS)
     for a in axes:
-        w.writerow([a, "", "", f"{SWEEP_SD_UM:g}"])
+        if readings and a in readings:
+            d, c, s = readings[a]
+            w.writerow([a, f"{d:.3f}", f"{c:.3f}", f"{s:g}"])
+        else:
+            w.writerow([a, "", "", f"{SWEEP_SD_UM:g}"])
     return out.getvalue()
 
 

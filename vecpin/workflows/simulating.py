@@ -11,7 +11,9 @@ from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
 from vecpin.measurement.registration import registered_errors, spans_plane
+from vecpin.measurement.tableface import SWEEP_SD_UM, TABLE_FACE_FILE, swept_axes, table_face_csv
 from vecpin.measurement.tableframe import nest_shape, registers_table, table_tips
+from vecpin.models.recorded import STILL_SHARE
 from vecpin.planning.nests import VALIDATION_READS
 from vecpin.planning.problem import check_tracker_units
 from vecpin.simulation.simulate import Design, Simulation, simulate
@@ -19,6 +21,7 @@ from vecpin.workflows.summary import error_summary
 from vecpin.units import MM_PER_M
 
 MAX_TRACKER_MM = 100_000.0  # a tracker position farther than 100 m from the machine base is not a setup
+SWEEP_MM = 300.0            # the simulated indicator's sweep of the table's face: this far, or the measured box's width
 
 
 @dataclass
@@ -126,10 +129,43 @@ def simulate_to_dir(machine: Machine, out_dir: str | Path, seed: int = 0, design
         files = sim.write_into(out)
         if sim.nests:   # as the operator measures them: the reflectors' heights above the table's face (the fit's)
             files["nest_heights"] = out.write_text(NEST_HEIGHTS_FILE, nest_heights_csv(sim.nests, measured=True))
+            readings = simulated_table_face(sim, seed)
+            if readings:   # the table face's parallelism read with a dial test indicator, as the plan asks
+                files["table_face"] = out.write_text(TABLE_FACE_FILE, table_face_csv(readings, readings))
     return SimulationRun(sim, design, files, seed, truth_options.get("plan") is not None,
                          0.0 if tables is None else tables.gauge_offset_change,
                          "the plan's validation run (its validation.csv)"
                          if truth_options.get("validation_commands") is not None else "")
+
+
+def simulated_table_face(sim: Simulation, seed: int) -> dict[str, tuple[float, float, float]]:
+    """{axis: (distance [mm], change [µm], sd [µm])}: a dial test indicator in the spindle read on the
+    simulated true machine as the plan's ``table_face.csv`` asks (:mod:`vecpin.measurement.tableface`):
+    each axis that moves across the table's face moved :data:`SWEEP_MM` (or the campaign's measured
+    range of it) about the middle of that range, every rotary axis at 0 (or the end of its measured
+    range nearest 0), the other axes mid-range, the campaign's shortest tool; the change is the true tip's
+    height above the true table's face (the truth's workpiece frame, along the spindle at home) at the
+    start less at the end, + pushed in, with a normal reading error of
+    :data:`~vecpin.measurement.tableface.SWEEP_SD_UM` (stated in the file)."""
+    m = sim.truth.machine
+    q = sim.campaign.q
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    still = hi - lo < STILL_SHARE * np.array([a.travel for a in m.axes])   # an axis that stood still: its travel
+    lo, hi = np.where(still, m.lower, lo), np.where(still, m.upper, hi)
+    rotary = np.array([a.kind == "rotary" for a in m.axes])
+    mid = np.where(rotary, np.clip(0.0, lo, hi), 0.5 * (lo + hi))
+    up = -m.kinematics(mid[None], 0.0, jacobian=False, frame="workpiece").tool_dir[0]
+    tool = float(min(sim.campaign.tool_lengths()))
+    rng = np.random.default_rng([seed, 2053])
+    out = {}
+    for name in swept_axes(m):
+        k = m.axis_names.index(name)
+        ends = np.tile(mid, (2, 1))
+        ends[:, k] = [max(lo[k], mid[k] - SWEEP_MM / MM_PER_M / 2), min(hi[k], mid[k] + SWEEP_MM / MM_PER_M / 2)]
+        gap = sim.truth.tool_tip(ends, np.full(2, tool), frame="workpiece") @ up
+        change = float(gap[0] - gap[1]) * 1e6 + rng.normal(0.0, SWEEP_SD_UM)
+        out[name] = (float(ends[1, k] - ends[0, k]) * MM_PER_M, change, SWEEP_SD_UM)
+    return out
 
 
 def simulation_inputs(machine: Machine, plan: str | Path | None = None, tables: str | Path | None = None,
