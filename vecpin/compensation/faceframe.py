@@ -85,7 +85,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scipy.stats import chi2
 
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.units import M_PER_MM, MM_PER_M
@@ -211,7 +210,7 @@ class FaceTilt:
         read better (the fitted nests' share as it is)."""
         head = f"the face's tilt ±{self.sd * 1e6:.0f} µrad (1σ) is above the {FACE_TARGET * 1e6:.0f} µrad target"
         sweep = ("sweep the face with a dial test indicator in the spindle along X and Y, the rotary axes at zero "
-                 "(table_face.csv, `table_face`: a few µrad)")
+                 "(table_face.csv, `table_face`: the face then known to 10-30 µrad on the simulated table machines)")
         if self.swept:
             return (f"{head}: sweep the indicator along two axes that cross, over a longer distance, and read it to "
                     "1-2 µm")
@@ -341,6 +340,7 @@ def face_tilt(P: np.ndarray, up: np.ndarray, heights, sds, nest_cov=None, prior:
         slopes = cov @ rhs
         misfit = sum(float((yk - Hk @ slopes) @ Wk @ (yk - Hk @ slopes)) for (Hk, yk, _), Wk in zip(rows, inv))
         dof = sum(len(yk) for _, yk, _ in rows) - 2
+        from scipy.stats import chi2   # only where sweeps are read: not on every fit's import path
         agree = dof <= 0 or misfit <= chi2.ppf(0.99, dof)
         from_nests, spread, reading_sd = (np.zeros((2, 2)), 0.0, 0.0) if plane is None else plane[2:]
         cov = 0.5 * (cov + cov.T)
