@@ -47,7 +47,8 @@ def test_the_file_round_trips_and_bad_rows_name_file_row_and_column(machines, tm
     (tmp_path / "b.csv").write_text(f"{rows[0]}\nX,200,1,2\nX,100,1,2\n")
     with pytest.raises(CampaignFileError, match=r"row 3, column 'axis': axis X is given twice"):
         read_table_face(tmp_path / "b.csv", m)
-    for text, says in (("nest,height_mm\n1,20\n", "header"), (f"{rows[0]}\nX,,,2\n", "no axis swept")):
+    for text, says in (("nest,height_mm\n1,20\n", "header"), (f"{rows[0]}\nX,,,2\n", "no axis swept"),
+                       ("axis,distance_mm,change_um,change_um\nX,200,1,2\n", "header names change_um twice")):
         (tmp_path / "b.csv").write_text(text)
         with pytest.raises(CampaignFileError, match=says):
             read_table_face(tmp_path / "b.csv", m)

@@ -70,7 +70,7 @@ def height_reason(text, nest: str) -> tuple[float, str | None]:
     """(value [mm], why it is refused or None) of the height ``text`` (a cell, an option's
     value or a number) of nest ``nest``: the one check of a height, its wording shared by the
     file and the options (each adds where: file, row and column, or the option)."""
-    value = _number(text)
+    value = number(text)
     if not math.isfinite(value):
         return value, f"'{text}' is not a height in mm"
     if not 0.0 <= value <= MAX_NEST_HEIGHT_MM:
@@ -85,7 +85,7 @@ def height_reason(text, nest: str) -> tuple[float, str | None]:
 def sd_reason(text, nest: str) -> tuple[float, str | None]:
     """(value [mm], why it is refused or None) of the standard deviation ``text`` of nest
     ``nest``'s height reading, as :func:`height_reason`."""
-    value = _number(text)
+    value = number(text)
     if not math.isfinite(value):
         return value, f"'{text}' is not a standard deviation in mm"
     if not 0.0 <= value <= MAX_SD_MM:
@@ -97,7 +97,8 @@ def sd_reason(text, nest: str) -> tuple[float, str | None]:
     return value, None
 
 
-def _number(text) -> float:
+def number(text) -> float:
+    """``text`` (a cell or a setting's value) as a float; NaN when it is no number (a bool is none)."""
     if isinstance(text, bool):
         return math.nan
     try:

@@ -45,6 +45,7 @@ import numpy as np
 
 from vecpin.errors import CampaignFileError, InputError
 from vecpin.measurement.campaign import read_text_file
+from vecpin.measurement.nestheights import number
 from vecpin.units import M_PER_MM
 
 TABLE_FACE_FILE = "table_face.csv"
@@ -87,15 +88,6 @@ def table_face_csv(axes, readings: dict | None = None) -> str:
     return out.getvalue()
 
 
-def _number(text) -> float:
-    if isinstance(text, bool):
-        return math.nan
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        return math.nan
-
-
 def axis_reason(name: str, machine) -> str | None:
     """Why ``name`` is no axis to sweep the face with on ``machine``, or None."""
     names = [a.name for a in machine.axes]
@@ -113,8 +105,8 @@ def reading_reason(distance, change, sd, axis: str, travel_mm: float) -> tuple[t
     """((distance mm, change µm, sd µm), why refused or None, the column at fault) of one
     sweep along ``axis`` (``sd`` None: :data:`SWEEP_SD_UM`): the one check of a reading, its
     wording shared by the file and the option (each adds where)."""
-    d, c = _number(distance), _number(change)
-    s = SWEEP_SD_UM if sd is None or (isinstance(sd, str) and not sd.strip()) else _number(sd)
+    d, c = number(distance), number(change)
+    s = SWEEP_SD_UM if sd is None or (isinstance(sd, str) and not sd.strip()) else number(sd)
     if not math.isfinite(d) or d <= 0:
         return (d, c, s), f"'{distance}' is not a distance in mm (how far {axis} moved during the reading, > 0)", \
             "distance_mm"
@@ -145,6 +137,9 @@ def read_table_face(path, machine) -> dict[str, tuple[float, float, float]]:
     if head[:1] != ["axis"] or "distance_mm" not in head or "change_um" not in head:
         raise CampaignFileError(path, f"the header must name the columns axis, distance_mm and change_um "
                                 f"({','.join(COLUMNS)}; sd_um optional)", 1)
+    twice = sorted({c for c in head if c and head.count(c) > 1})
+    if twice:
+        raise CampaignFileError(path, f"the header names {', '.join(twice)} twice; one column each", 1)
     col = {k: head.index(k) if k in head else None for k in COLUMNS}
     out: dict[str, tuple[float, float, float]] = {}
     for line, row in enumerate(rows[1:], start=2):
