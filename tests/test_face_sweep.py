@@ -155,6 +155,10 @@ def test_the_kept_frame_puts_the_swept_face_square_to_up_through_the_models_line
     np.testing.assert_allclose(kept.R @ UP, UP, atol=1e-9)
     with pytest.raises(VecpinError, match="sweeps along two axes that cross"):
         on_the_table_face(frame, m, Setup(np.eye(3), np.zeros(3), face_sweep={"X": readings["X"]}), lines=lines)
+    upper = np.array(m.upper, float)
+    upper[0] = m.lower[0]   # a box that never moved X: no line to read the sweep against
+    with pytest.raises(VecpinError, match="the sweep along X: the measured box spans 0 mm of X"):
+        sweep_lines(actual, m, frame, readings, (np.array(m.lower, float), upper), 0.2)
 
 
 def test_the_model_file_keeps_the_sweeps_and_refuses_bad_ones(machines, tmp_path):

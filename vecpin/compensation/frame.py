@@ -178,6 +178,9 @@ def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, 
         k = machine.axis_names.index(name)
         q = np.tile(mid, (2, 1))
         q[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
+        if q[1, k] - q[0, k] < 1e-3:
+            raise VecpinError(f"the sweep along {name}: the measured box spans {1e3 * (q[1, k] - q[0, k]):.3g} mm of "
+                              f"{name}, too little to read the model's line there")
         tip = actual(q, np.full(2, tool), False, 0)[0]
         v = frame.R @ ((tip[1] - tip[0]) / (q[1, k] - q[0, k]))
         var = 0.0
