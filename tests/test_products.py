@@ -88,8 +88,8 @@ def test_product_terms_only_where_the_campaign_determines_them(machine, problem)
     """A 180 µrad tilt fixed to the table, modelled with an uncertainty that is itself such a tilt: known to
     20 µrad (1 sigma) the product terms that carry it are chosen; known to 2 mrad (the model's tilt is mostly
     its noise) none, as tables following the noise would leave the machine worse. The rule's expected error
-    is unbiased: told 300 noisy models (150 antithetic pairs), it agrees on average (within 3 standard errors) with the closed form of
-    tables fitted to such models and judged on the truth (numpy's projection)."""
+    is unbiased: told 300 noisy models (150 antithetic pairs), it agrees on average (within 3 standard errors)
+    with the closed form of tables fitted to such models and judged on the truth (numpy's projection)."""
     names = all_table_names(machine)
     assert {"zc*x", "zc*y"} <= set(choose_products(problem, names, None, _tilt_noise(machine, problem, 2e-5)))
     assert choose_products(problem, names, None, _tilt_noise(machine, problem, 2e-3)) == []
@@ -129,13 +129,15 @@ def test_written_product_terms_keep_the_face(machine):
     table for a smaller error elsewhere (the tool's lever turns with B: beyond a product of two), which a part
     clamped on the face sees; held, the same kind of terms leave none of it (< 1 µrad of 180)."""
     q = pseudo_commands(machine, 200, 1)
-    left = {}
+    left, problems = {}, {}
     for hold in (False, True):
-        p = TableProblem(tilted_table(machine), machine, q, TOOLS, bases=table_bases(machine, 4, "fourier"),
-                         products=product_candidates(machine), hold_turn=hold)
+        p = problems[hold] = TableProblem(tilted_table(machine), machine, q, TOOLS, hold_turn=hold,
+                                          products=product_candidates(machine), bases=table_bases(machine, 4, "fourier"))
         names = all_table_names(machine)
         left[hold] = _tilt_left(machine, p, names + choose_products(p, names, None))
     assert left[False] > 5e-6 and left[True] < 1e-6, left
+    problems[True].release_turn()     # the hold let go (no term used): the problem without it
+    assert np.allclose(problems[True].solve_linear(names), problems[False].solve_linear(names), rtol=1e-6, atol=1e-12)
 
 
 def _product_set(m) -> TableSet:

@@ -231,11 +231,11 @@ def _unfollowed(model: ErrorModel, problem: TableProblem, before, one_axis, full
 
 def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
                    report: CompensationReport, held_back: str, line: str, model: ErrorModel, frame: ReferenceFrame):
-    """The full set with the product terms where they are written, chosen against ``model``'s uncertainty
-    in ``frame``; ``line``: the report's line where none were offered (:func:`.products.with_products`)."""
+    """The full set with the product terms ``model``'s campaign supports (:func:`.products.with_products`)."""
     if problem.products:
         noise = prediction_noise(model, problem, frame.R) if covariance_kind(model) == "full" else None
-        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back, noise)
+        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back, noise,
+                             problem.hold_turn and not frame.hold_turn)
     report.notes += [line] if line else []
     return full
 

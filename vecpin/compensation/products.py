@@ -30,6 +30,8 @@ printed, but written only when asked for.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy import linalg
 
@@ -90,11 +92,17 @@ class ProductEvidence:
         self.S, self.h = G[nb:, nb:] - G[nb:, :nb] @ W, g[nb:] - W.T @ g[:nb]
         self.base = problem.e0e0 - g[:nb] @ linalg.cho_solve(cf, g[:nb])
         self.P = self.Pw = None
+        self.base_noise = 0.0   # tr(F' H F) of the base alone [m^2 x rows]
         if noise is not None:
             phi = problem.A.T @ noise                      # (columns, k): A' F, the data rows
             phi_w = phi if problem._turn is None else phi + TURN_WEIGHT * (problem._turn.T @ problem.A).T @ (
                 problem._turn.T @ noise)                   # with the rows that hold the turn: the tables' response
             self.P, self.Pw = (f[cols][nb:] - W.T @ f[cols][:nb] for f in (phi, phi_w))
+            self.base_noise = float(np.sum(phi[cols][:nb] * linalg.cho_solve(cf, phi_w[cols][:nb])))
+
+    def total(self, terms) -> float:
+        """Expected square error [m^2 x rows] of the base with ``terms``, less a constant of the problem."""
+        return self.value(terms) + 2.0 * self.base_noise
 
     def value(self, terms) -> float:
         """Expected square error [m^2 x rows] of the base with ``terms``, less a constant of the base."""
@@ -119,18 +127,24 @@ def prediction_noise(model, problem: TableProblem, rotation: np.ndarray) -> np.n
     return problem._registered(np.ascontiguousarray(J @ (U[:, keep] * np.sqrt(w[keep]))))
 
 
-def choose_products(problem: TableProblem, base: list[str], room: int | None, noise: np.ndarray | None = None
-                    ) -> list[str]:
+def choose_products(problem: TableProblem, base: list[str], room: int | None, noise: np.ndarray | None = None,
+                    release: bool = False) -> list[str]:
     """Product terms of ``problem`` added to the tables ``base`` by forward selection on the error they are
     expected to leave on the machine (:class:`ProductEvidence`; ``noise``: the model's prediction noise,
     None: the model taken as exact): each step takes the term that lowers it most, while that lowers its
-    RMS by at least :data:`MIN_GAIN` of what is left and ``room`` (None: no limit) allows."""
+    RMS by at least :data:`MIN_GAIN` of what is left and ``room`` (None: no limit) allows. ``release``: the
+    problem holds the volume's turn only for the terms (the table's face): they must then also beat the base
+    without that hold (the one-axis tables least squares gives), else none is chosen."""
     evidence = ProductEvidence(problem, base, noise)
     chosen: list[str] = []
     left = list(evidence.names)
-    rms = np.sqrt(max(evidence.value([]), 0.0))
+    rms = np.sqrt(max(evidence.total([]), 0.0))
+    if release:
+        free = copy.copy(problem)
+        free.release_turn()
+        rms = min(rms, np.sqrt(max(ProductEvidence(free, base, noise).total([]), 0.0)))
     while left and (room is None or len(chosen) < room):
-        values = np.sqrt(np.maximum([evidence.value(chosen + [p]) for p in left], 0.0))
+        values = np.sqrt(np.maximum([evidence.total(chosen + [p]) for p in left], 0.0))
         best = int(np.argmin(values))
         if rms - values[best] < MIN_GAIN * rms:
             break
@@ -184,25 +198,38 @@ def product_note(chosen: list[str], kept: bool, before_mm: float, after_mm: floa
 
 
 def with_products(problem: TableProblem, limits: ControllerLimits, full, after: np.ndarray, add, n_points: int,
-                  notes: list[str], held_back: str = "", noise: np.ndarray | None = None):
+                  notes: list[str], held_back: str = "", noise: np.ndarray | None = None, release: bool = False):
     """The table set to write: the full set ``full`` (its errors ``after`` (N,3) [m], part's frame)
     with the chosen product terms where they lower the error in the part's frame and are not
     ``held_back`` (why not written: then their row and what they would gain are reported, and
     ``full`` returned); ``add(label, tables, n)`` adds a report row and returns its errors; the
     report's line on them goes into ``notes``; ``noise``: the model's prediction noise
-    (:func:`prediction_noise`), which the terms chosen must beat. The problem has product columns
-    (:func:`products_wanted` offered them)."""
+    (:func:`prediction_noise`), which the terms chosen must beat. ``release``: the problem holds the
+    volume's turn only for the terms (the table's face); where none are used, the hold goes with them
+    and the one-axis tables are re-solved without it (:meth:`TableProblem.release_turn`), as without
+    product terms. The problem has product columns (:func:`products_wanted` offered them)."""
     base = [t.name for t in full.tables]
     room = room_for_products(limits, sum(not t.is_pitch for t in full.tables))
-    chosen = choose_products(problem, base, room, noise)
+    chosen = choose_products(problem, base, room, noise, release)
     if not chosen:
         beyond = "" if noise is None else " beyond twice the model's uncertainty it would take on"
         notes.append(product_note([], False, 0.0, 0.0, f": none lowers the error by {MIN_GAIN:.0%} or more{beyond}"))
-        return full
+        return _without_hold(problem, base, add, n_points) if release else full
     tables = problem.solve(base + chosen).discretise(n_points)
     err = add(f"full tables + product terms {' '.join(chosen)} (model-predicted{', not written' if held_back else ''})",
               tables, len(tables.tables) + TABLES_PER_TERM * len(chosen))
     before_mm, after_mm = (float(norm_mm(e).mean()) for e in (after, err))
     kept = after_mm < before_mm
     notes.append(product_note(chosen, kept, before_mm, after_mm, held_back=held_back))
-    return tables if kept and not held_back else full
+    if kept and not held_back:
+        return tables
+    return _without_hold(problem, base, add, n_points) if release else full
+
+
+def _without_hold(problem: TableProblem, base: list[str], add, n_points: int):
+    """The one-axis tables ``base`` re-solved with the volume's turn left to least squares (the hold was
+    for the product terms, none used), with their report row."""
+    problem.release_turn()
+    full = problem.solve(base).discretise(n_points)
+    add("full tables, their tilt against the face left to least squares (model-predicted)", full, len(full.tables))
+    return full
