@@ -131,8 +131,9 @@ def test_written_product_terms_keep_the_face(machine):
     q = pseudo_commands(machine, 200, 1)
     left, problems = {}, {}
     for hold in (False, True):
+        bases = table_bases(machine, 4, "fourier")
         p = problems[hold] = TableProblem(tilted_table(machine), machine, q, TOOLS, hold_turn=hold,
-                                          products=product_candidates(machine), bases=table_bases(machine, 4, "fourier"))
+                                          products=product_candidates(machine), bases=bases)
         names = all_table_names(machine)
         left[hold] = _tilt_left(machine, p, names + choose_products(p, names, None))
     assert left[False] > 5e-6 and left[True] < 1e-6, left
