@@ -24,7 +24,9 @@ By default (:func:`products_wanted`) they are on where the campaign reads the ta
 (the fit was given the nests' heights above it: the tables keep the table, and a tilt fixed
 to it is what is left) and the controller carries them exactly as planned (vecpin's generic
 files, vecpin's LinuxCNC component); written, they come with the tables' turn of the volume against
-the face held at zero (:func:`~vecpin.compensation.plan._table_problem`). Where the controller's meaning of a product is
+the face held at zero (:func:`~vecpin.compensation.plan._table_problem`); where none is used, the
+hold goes with them (:func:`with_products`): the tables are then the one-axis tables least squares
+gives, as without product terms. Where the controller's meaning of a product is
 inferred (``ControllerLimits.products_caveat``: SINUMERIK) they are computed and their gain
 printed, but written only when asked for.
 """
