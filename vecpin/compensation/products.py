@@ -42,6 +42,7 @@ from vecpin.compensation.limits import ControllerLimits
 from vecpin.compensation.tableproblem import TURN_WEIGHT, TableProblem, ridged
 from vecpin.errors import InputError
 from vecpin.kinematics.machine import Machine
+from vecpin.measurement.registration import rigid_motion_basis
 from vecpin.units import norm_mm
 
 MIN_GAIN = 0.01       # a product term is kept when it lowers the expected error by this share of what is left
@@ -120,13 +121,20 @@ class ProductEvidence:
 def prediction_noise(model, problem: TableProblem, rotation: np.ndarray) -> np.ndarray:
     """(3R, k) F with F F' the covariance [m^2] of ``model``'s predicted tip errors at the problem's rows
     from its parameters' covariance (``cov_``, the tracker pose's six left out), turned by ``rotation``
-    into the frame the tables keep and registered as the problem's errors are (translations taken out)."""
+    into the frame the tables keep, less a rigid motion of the whole volume: a translation (the problem's
+    errors are registered so) and a rotation, which the tracker's pose absorbs (the parameters' marginal
+    covariance holds it as a large, near-unobservable turn) and which moves the frame the tables keep with
+    it (the reference lines, the mean orientation, the nests' face are the same fit's): not an error the
+    tables follow (as :func:`~vecpin.compensation.plan.parameter_spread` takes each draw into its own frame)."""
     out = model.tool_tip(problem.q, problem.L, model.b_, jacobian=True, frame=FRAME, point=problem._pt)
     J = np.einsum("ij,njp->nip", rotation, out.J_b).reshape(3 * len(problem.q), -1)
     cov = np.asarray(model.cov_, float)[6:, 6:]
     w, U = np.linalg.eigh(0.5 * (cov + cov.T))
     keep = w > 0
-    return problem._registered(np.ascontiguousarray(J @ (U[:, keep] * np.sqrt(w[keep]))))
+    F = J @ (U[:, keep] * np.sqrt(w[keep]))
+    tips = problem.machine.kinematics(problem.q, problem.L, frame=FRAME, point=problem._pt).tip
+    Q = rigid_motion_basis(tips)
+    return np.ascontiguousarray(F - Q @ (Q.T @ F))
 
 
 def choose_products(problem: TableProblem, base: list[str], room: int | None, noise: np.ndarray | None = None,
@@ -141,10 +149,6 @@ def choose_products(problem: TableProblem, base: list[str], room: int | None, no
     chosen: list[str] = []
     left = list(evidence.names)
     rms = np.sqrt(max(evidence.total([]), 0.0))
-    if release:
-        free = copy.copy(problem)
-        free.release_turn()
-        rms = min(rms, np.sqrt(max(ProductEvidence(free, base, noise).total([]), 0.0)))
     while left and (room is None or len(chosen) < room):
         values = np.sqrt(np.maximum([evidence.total(chosen + [p]) for p in left], 0.0))
         best = int(np.argmin(values))
@@ -152,6 +156,12 @@ def choose_products(problem: TableProblem, base: list[str], room: int | None, no
             break
         chosen.append(left.pop(best))
         rms = float(values[best])
+    if release and chosen:   # the terms with the hold against the one-axis tables without it
+        free = copy.copy(problem)
+        free.release_turn()
+        without = np.sqrt(max(ProductEvidence(free, base, noise).total([]), 0.0))
+        if without - rms < MIN_GAIN * without:
+            return []
     return sorted(chosen)
 
 
