@@ -362,7 +362,8 @@ def judged_generic(folder: Path, truth: Truth, bests: BestSets, q, tool, oracle:
     with ``oracle`` also the set the oracle's estimate gives for them (*achievable*)."""
     corr, gauge = corrections("generic", folder / "generic", truth.axes, q / truth.unit)
     specs = table_specs(folder / "generic")
-    rec = {"vecpin": judge(truth, corr, gauge, q, tool), "best": {}}
+    rec = {"vecpin": judge(truth, corr, gauge, q, tool), "best": {}, "tables": len(specs),
+           "products": sum(sp[5] is not None for sp in specs)}
     for frame in ("part", "shape"):
         for name, sets in (("best", bests), ("achievable", oracle)):
             if sets is not None:

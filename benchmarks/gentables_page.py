@@ -83,6 +83,14 @@ def findings(ok: list[dict]) -> list[str]:
                        f"{int((got < before).sum())} (gauge) and {int((exact < before).sum())} (exact); at most 2 % "
                        f"above it in {int((got <= 1.02 * before).sum())} (gauge) and "
                        f"{int((exact <= 1.02 * before).sum())} (exact) of {len(rows)}.")
+    rows = [r for r in ok if all("vecpin" in (r.get(s) or {}) for s in ("no-heights", "exact-heights"))]
+    if rows:   # the mm themselves: the ratios above are each against the best set for its own tables and products
+        exact, before = np.array([(r["exact-heights"]["vecpin"]["part"], r["no-heights"]["vecpin"]["part"])
+                                  for r in rows]).T
+        out.append(f"- part [mm]: exact heights against no heights, median {np.median(exact / before):.3f}; worse by "
+                   f"more than 2 % in {int((exact > 1.02 * before).sum())} of {len(rows)}; product terms written with "
+                   f"the exact heights in {sum(r['exact-heights'].get('products', 0) > 0 for r in rows)} of "
+                   f"{len(rows)} draws.")
     for frame in ("shape", "part"):
         pairs = [(ratio(r, "generic", frame), sub_ratio(r, "noise-free", frame)) for r in ok
                  if sub_ratio(r, "noise-free", frame) is not None]
@@ -142,6 +150,9 @@ def _row(r: dict) -> str:
     g = r["generic"]
     ach = f"{g['achievable']['part']:.4f} / {g['best']['part']:.4f} = {ratio(r, 'generic', 'part', 'achievable'):.2f}"
     counts = ", ".join(f"{r[f]['tables'] - r[f].get('products', 0)}+{r[f].get('products', 0)}" for f in FORMATS)
+    if "tables" in (r.get("exact-heights") or {}):
+        counts += f"; exact heights {r['exact-heights']['tables'] - r['exact-heights']['products']}+" \
+                  f"{r['exact-heights']['products']}"
     return (f"| {r['seed']} | {r['kind']} | {''.join(r['axes'])} | {r.get('commands', '')} | {r.get('label', '')} | "
             f"{r['uncompensated']['part']:.4f} | " + " | ".join(cells)
             + f" | {ach} | {' | '.join(sides)} | {(r.get('noise-free') or {}).get('label', '')} | {counts} |"
@@ -163,7 +174,7 @@ def page(records: list[dict], how: str) -> str:
                   f"{f} part / best | {f} shape / best" for f in FORMATS)
               + " | achievable part / best | no heights part / best | prior part / best | exact heights part / best"
               + " | noise-free part / best | noise-free model"
-              + " | tables + products (generic, Siemens, LinuxCNC) | prior model |",
+              + " | tables + products (generic, Siemens, LinuxCNC; exact heights) | prior model |",
               "|---|---|---|---|---|---|" + "---|---|" * len(FORMATS) + "---|---|---|---|---|---|---|---|",
               *(_row(r) for r in records)]
     return "\n".join(lines) + "\n"

@@ -23,7 +23,7 @@ import numpy as np
 from vecpin.compensation.functions import (FRAME, all_table_names, from_ap_model, geometric_model, hold_ranges,
                                            nominal_tip, pitch_names, pseudo_commands, rich_table_bases, table_bases)
 from vecpin.compensation.tableproblem import TableProblem
-from vecpin.compensation.products import product_candidates, products_wanted, with_products
+from vecpin.compensation.products import prediction_noise, product_candidates, products_wanted, with_products
 from vecpin.compensation.follow import Unfollowed, unfollowed
 from vecpin.compensation.frame import (LINE_COMMANDS, FrameKept, ReferenceFrame, fit_tools, frame_kept, measured_box,
                                        model_as_actual, model_reference_frame, read_face, reference_commands)
@@ -189,7 +189,7 @@ def plan_tables(model: ErrorModel, limits: ControllerLimits | None = None, *, ma
     full = _full_tables(model, problem, frame, bool(unmeasured), modulo_axes, hold, req.n_points)
     after = add("full tables (model-predicted)" if not req.pitch_only else f"full tables (not loadable on {lim.name})",
                 full, len(full.tables))
-    full = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line)
+    full = _with_products(problem, lim, full, after, add, req.n_points, report, held_back, product_line, model, frame)
     left = _unfollowed(model, problem, before, after, full, rows[id(full)][2])
     pitch = problem.solve(pitch_names(m)).discretise(req.n_points)
     add("pitch only (model-predicted)", pitch, len(pitch.tables))
@@ -230,11 +230,12 @@ def _unfollowed(model: ErrorModel, problem: TableProblem, before, one_axis, full
 
 
 def _with_products(problem: TableProblem, lim: ControllerLimits, full: TableSet, after, add, n_points: int,
-                   report: CompensationReport, held_back: str, line: str):
-    """The full set with the product terms where they are written; ``line``: the report's line where
-    none were offered (:func:`~vecpin.compensation.products.with_products`)."""
+                   report: CompensationReport, held_back: str, line: str, model: ErrorModel, frame: ReferenceFrame):
+    """The full set with the product terms ``model``'s campaign supports (:func:`.products.with_products`)."""
     if problem.products:
-        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back)
+        noise = prediction_noise(model, problem, frame.R) if covariance_kind(model) == "full" else None
+        full = with_products(problem, lim, full, after, add, n_points, report.notes, held_back, noise,
+                             problem.hold_turn and not frame.hold_turn)
     report.notes += [line] if line else []
     return full
 

@@ -153,6 +153,16 @@ class TableProblem:
             G, g = G + TURN_WEIGHT * C.T @ C, g + TURN_WEIGHT * C.T @ c
         return G, g
 
+    def release_turn(self) -> None:
+        """Stop holding the compensated volume's turn at 0: the rows ``hold_turn`` added taken out of the
+        normal equations (new arrays: a shallow copy keeps its own), as tables that leave the turn to least
+        squares solve it (one-axis tables in the table's face frame, :mod:`~vecpin.compensation.products`)."""
+        if self._turn is not None:
+            C, c = self._turn.T @ self.A, self._turn.T @ self.e0
+            self.G, self.g = self.G - TURN_WEIGHT * C.T @ C, self.g - TURN_WEIGHT * C.T @ c
+            self.e0e0 -= TURN_WEIGHT * float(c @ c)
+        self._turn, self.hold_turn = None, False
+
     def _registered(self, M: np.ndarray) -> np.ndarray:
         """``M`` (3R,) or (3R, k) with its share of a translation of the whole volume
         removed (projected orthogonally to the three translations): the tables are then
