@@ -272,8 +272,9 @@ def _product_findings(face: list[dict]) -> list[str]:
     worst = max(r["compensated"]["part"] / r["compensated"]["shape"] for r in rows)
     return [f"**On the default path the compensated part is at most {worst:.2f} x its shape** (target 1.10): "
             "where the campaign reads the table's face, `vecpin tables` adds product terms by default (a table of the "
-            "turning axis times a fixed ramp of a linear axis, chosen one by one while each lowers the model's error "
-            "by 1 % or more; generic files with their products, applied by the same judge). One-axis tables -> "
+            "turning axis times a fixed ramp of a linear axis, chosen one by one while each lowers the error expected "
+            "on the machine, the model's own uncertainty it would follow counted, by 1 % or more; generic files with "
+            "their products, applied by the same judge). One-axis tables -> "
             "default: "
             + "; ".join(f"{r['machine']} part {r['one_axis']['part']:.4f} -> {r['compensated']['part']:.4f} mm, "
                         f"part / shape {r['one_axis']['part'] / r['one_axis']['shape']:.2f} -> "
