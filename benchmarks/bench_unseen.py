@@ -320,7 +320,8 @@ def summary(records: list[dict], choices: list[dict], how: str, checks: list[dic
              "(gross errors: all); *≥ its detection size*: effects at least the size the campaign's own diagnosis "
              "states it would detect for that family (`detection`: its candidate on the true effect's axes where the "
              "family has one; an effect named whose family has no stated size left is counted); precision is over "
-             "every name vecpin gave of that family; *missed but seen*: the true effect was significant but not accepted, or detected but too small to name.", "",
+             "every name vecpin gave of that family; *missed but seen*: the true effect was significant but not "
+             "accepted, or detected but too small to name.", "",
              f"| family | vecpin name | campaigns | recall (size ≥ {RECALL_SIZE_MM * 1e3:.0f} µm) | recall (≥ its "
              "detection size) | recall (all sizes) | precision | missed but seen | missed, not tried |",
              "|---|---|---|---|---|---|---|---|---|"]

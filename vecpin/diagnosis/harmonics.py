@@ -240,13 +240,14 @@ def _finding(axis: str, hs: list[int], thr: float, h: int, s: dict, size: float,
                      bic_gain=s["bic_gain"], p_heldout=s["p_heldout"], accepted=True, size_mm=size,
                      in_base=True)
     also = [k for k in lines if k != h]
+    held = (f"given the rest of the model the held-out mean goes {a_.mean():.4f} -> {b_.mean():.4f} mm without it "
+            f"(p = {s['p_heldout']:.1e} on held-out rows; F = {s['F']:.1f}, p = {s['p']:.1e})")
     sc.evidence = (f"a periodic error of {h} cycles per turn of {axis}, {size * 1e3:.1f} µm RMS at the measured "
-                   f"points, carried by the base model's Fourier series on {axis} (harmonics {hs[0]}..{hs[-1]} judged): "
-                   f"it stands out of the axis' smooth error as its other harmonics predict it at that order (chi2 = "
-                   f"{line[1]:.1f} on {line[2]} terms, p = {line[0]:.1e}), and without it, given the rest of the model, "
-                   f"the held-out mean goes {a_.mean():.4f} -> {b_.mean():.4f} mm (p = {s['p_heldout']:.1e} on held-out "
-                   f"rows; F = {s['F']:.1f}, p = {s['p']:.1e}; threshold {thr:.1e}); compensated by the base model, "
-                   "named here" + (f"; {', '.join(map(str, also))} cycles per turn stand out too" if also else ""))
+                   f"points, carried by the base model's Fourier series on {axis} (harmonics {hs[0]}..{hs[-1]} "
+                   f"judged): it stands out of the axis' smooth error as its other harmonics predict it at that "
+                   f"order (chi2 = {line[1]:.1f} on {line[2]} terms, p = {line[0]:.1e}), and {held}; threshold "
+                   f"{thr:.1e}; compensated by the base model, named here"
+                   + (f"; {', '.join(map(str, also))} cycles per turn stand out too" if also else ""))
     sc.advice = [f"rotary_periodic[{axis}]: {h} cycles per turn of {axis} ({size * 1e3:.1f} µm RMS): geometric and "
                  f"already in the model; the tables on input {axis} carry it when they have at least {4 * h} points "
                  "per turn; a gear, worm or encoder error of this order is worth a mechanical check"]
