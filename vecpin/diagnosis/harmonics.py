@@ -10,9 +10,10 @@ ovality) has content at 1, 2, 3... cycles per turn, falling with the order: a si
 Fourier coefficient is no periodic error. A periodic error is a *spectral line*: a harmonic
 whose amplitude stands out of what the axis' smooth error predicts at that order.
 
-So each harmonic h >= :data:`LINE_FROM` of such a series (one cycle is the axis' placement:
-eccentricity and wobble) is judged twice, at one threshold, the diagnosis' ``alpha``
-Bonferroni-divided over every harmonic judged on every axis:
+So each harmonic h >= :data:`LINE_FROM` (3) of such a series is judged twice (one and two
+cycles per turn are the axis' placement and form, eccentricity, wobble and ovality, which a model
+of the axis' smooth error holds: never named, though they inform the spectrum), at one
+threshold, the diagnosis' ``alpha`` Bonferroni-divided over every harmonic judged on every axis:
 
 * **it stands out** (:func:`line_tests`): the axis' error functions (a 6-DoF model's ``C.dx`` ..
   ``C.ez``, an AP model's ``C->X`` ..) are given a Fourier series of harmonics 1..H and a smooth
@@ -55,7 +56,9 @@ from vecpin.models import ErrorModel
 from vecpin.models.prior import KERNELS
 from vecpin.threads import one_blas_thread
 
-LINE_FROM = 2   # harmonics judged from 2 cycles per turn (one cycle: the axis' eccentricity and wobble)
+# harmonics judged from 3 cycles per turn: one and two are the axis' placement and form (eccentricity, wobble,
+# ovality), which its smooth error holds whatever their spectrum (they stay neighbours in the spectrum's fit)
+LINE_FROM = 3
 SPECTRUM_TO = FOURIER_ORDER // 2   # the smooth spectrum is fitted up to at least this harmonic (the smooth fit's)
 ABOVE = 2       # ... and at least this many harmonics above the highest judged (neighbours on both sides)
 
