@@ -178,7 +178,10 @@ def line_tests(model, lin: Linearised, ev: dict, axis: str, hs: list[int]) -> di
     out = {}
     for h in hs:
         if np.any(harm == h):
-            T, k = _line_statistic(prob, harm, h, n, _leave_out(prob, harm, h, n, x0))
+            try:
+                T, k = _line_statistic(prob, harm, h, n, _leave_out(prob, harm, h, n, x0))
+            except np.linalg.LinAlgError:   # no posterior to judge it by: not a line
+                T, k = 0.0, 0
             out[h] = (float(special.chdtrc(k, T)) if k else 1.0, T, k)
     return out
 
