@@ -19,8 +19,10 @@ threshold, the diagnosis' ``alpha`` Bonferroni-divided over every harmonic judge
   ``C.ez``, an AP model's ``C->X`` ..) are given a Fourier series of harmonics 1..H and a smooth
   prior per function (:class:`~vecpin.models.prior.SmoothPrior`'s kernels: an amplitude and a scale
   per function) whose hyperparameters the campaign chooses by the closed-form evidence
-  (:class:`~vecpin.fitting.smoothprior.EvidenceProblem`, the noise level with them) from every
-  harmonic *but h*, whose columns keep the model's own (wide) prior. Under the smooth error alone
+  (:class:`~vecpin.fitting.smoothprior.EvidenceProblem`; the kernel of the higher evidence) from
+  every harmonic *but h*, whose columns keep the model's own (wide) prior; every other term of the
+  final model is integrated out under its own prior, at the noise level the final model leaves
+  (its scatter per degree of freedom). Under the smooth error alone
   harmonic h's coefficients are Gaussian with the prior's variance Λ_h at order h (predicted from
   the neighbours); their data part t = J_h' V^-1 y (V the covariance of the readings given the rest,
   F = J_h' V^-1 J_h) then has the covariance F + F Λ_h F, and t' (F + F Λ_h F)^-1 t is chi-square
@@ -30,7 +32,7 @@ threshold, the diagnosis' ``alpha`` Bonferroni-divided over every harmonic judge
   the model with them, given everything else in it (its other harmonics, the other axes, the
   accepted effects), by the same two tests and the same held-out shrink as any candidate.
 
-The strongest harmonic that passes both on an axis (the largest line statistic) is named
+The strongest harmonic that passes both on an axis (the largest BIC gain) is named
 ``rotary_periodic[axis]``, carried by the base model (no term is added: the model and its
 tables stay as they are), with its order per turn and size (RMS at the measured points, mm).
 A harmonic that matters but does not stand out is the axis' smooth error and is not named.
