@@ -19,15 +19,18 @@ threshold, the diagnosis' ``alpha`` Bonferroni-divided over every harmonic judge
   ``C.ez``, an AP model's ``C->X`` ..) are given a Fourier series of harmonics 1..H and a smooth
   prior per function (:class:`~vecpin.models.prior.SmoothPrior`'s kernels: an amplitude and a scale
   per function) whose hyperparameters the campaign chooses by the closed-form evidence
-  (:class:`~vecpin.fitting.smoothprior.EvidenceProblem`; the kernel of the higher evidence) from
-  every harmonic *but h*, whose columns keep the model's own (wide) prior; every other term of the
-  final model is integrated out under its own prior, at the noise level the final model leaves
-  (its scatter per degree of freedom). Under the smooth error alone
+  (:class:`~vecpin.fitting.smoothprior.EvidenceProblem`) from every harmonic *but h*, whose
+  columns keep the model's own (wide) prior; every other term of the final model is integrated
+  out under its own prior, at the noise level the final model leaves (its scatter per degree of
+  freedom). Under the smooth error alone
   harmonic h's coefficients are Gaussian with the prior's variance Λ_h at order h (predicted from
   the neighbours); their data part t = J_h' V^-1 y (V the covariance of the readings given the rest,
   F = J_h' V^-1 J_h) then has the covariance F + F Λ_h F, and t' (F + F Λ_h F)^-1 t is chi-square
   with as many degrees of freedom as h has columns (the rank of F): its p-value, exact for the
-  linearised problem at the chosen hyperparameters;
+  linearised problem at the chosen hyperparameters. It must stand out under both kernels (the
+  larger p-value): where the neighbours above h are below the noise the squared-exponential
+  kernel's spectrum falls off as fast as a Gaussian and the roughness one as a power of the
+  order, and the data cannot tell which; a line stands out of either;
 * **it matters** (:func:`.scoring.score`): the final model without harmonic h's columns against
   the model with them, given everything else in it (its other harmonics, the other axes, the
   accepted effects), by the same two tests and the same held-out shrink as any candidate.
@@ -163,28 +166,27 @@ def _line_statistic(prob: EvidenceProblem, harm: np.ndarray, h: int, n: int, x: 
 def line_tests(model, lin: Linearised, ev: dict, axis: str, hs: list[int]) -> dict[int, tuple[float, float, int]]:
     """{h: (p-value, statistic, degrees of freedom)} of each harmonic ``hs`` of ``axis`` standing out of the axis'
     smooth error (module docstring; ``ev``: the final model's folded evaluation, whose scatter per degree of freedom
-    sets the noise level); the kernel of the higher evidence with every harmonic in."""
+    sets the noise level), under each smoothness kernel (:data:`~vecpin.models.prior.KERNELS`): the larger p-value
+    (a line stands out of every smooth spectrum the kernels give its neighbours: the squared-exponential one falls
+    off fast past the last order above the noise, the roughness one as a power of the order)."""
     positions = len(np.unique(np.round(np.mod(lin.campaign.q[:, model.machine.axis(axis).index], 2 * math.pi), 6)))
     top = min(max(SPECTRUM_TO, max(hs) + ABOVE), (positions - 1) // 2)
     beta = max(lin.n_equations - ev["p_eff"], 1.0) / max(float(ev["chi2"]), 1e-300)
     prob, harm = _spectrum_problem(model, lin, axis, top, beta)
     n = int(prob.group.max()) + 1
-    best = None
-    for kernel in KERNELS:
-        got = maximise(replace(prob, kernel=kernel), n, n, False)
-        if best is None or got[0] > best[0]:
-            best = got + (kernel,)
-    _, amp, lam, _, kernel = best
-    prob = replace(prob, kernel=kernel)
-    x0 = np.r_[np.log(amp), np.log(lam)]
     out = {}
-    for h in hs:
-        if np.any(harm == h):
-            try:
-                T, k = _line_statistic(prob, harm, h, n, _leave_out(prob, harm, h, n, x0))
-            except np.linalg.LinAlgError:   # no posterior to judge it by: not a line
-                T, k = 0.0, 0
-            out[h] = (float(special.chdtrc(k, T)) if k else 1.0, T, k)
+    for kernel in KERNELS:
+        mine = replace(prob, kernel=kernel)
+        _, amp, lam, _ = maximise(mine, n, n, False)
+        x0 = np.r_[np.log(amp), np.log(lam)]
+        for h in hs:
+            if np.any(harm == h):
+                try:
+                    T, k = _line_statistic(mine, harm, h, n, _leave_out(mine, harm, h, n, x0))
+                except np.linalg.LinAlgError:   # no posterior to judge it by: not a line
+                    T, k = 0.0, 0
+                got = (float(special.chdtrc(k, T)) if k else 1.0, T, k)
+                out[h] = max(out.get(h, got), got)
     return out
 
 
