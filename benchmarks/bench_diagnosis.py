@@ -125,10 +125,11 @@ def run_matrix(quick: bool) -> dict:
             d = diagnose(m, sim.campaign, noise=noise)
             t["times"].append(time.perf_counter() - t0)
             t["rows"].append(len(sim.campaign))
+            also = true_lines(truth, m)   # a periodic error the truth holds: named rightly on a clean campaign
             names = [e.label for e in d.accepted]
-            t["clean"].append((label, names))
+            t["clean"].append((label, [n for n in names if n not in also]))
             for e in d.accepted:
-                t["named"][e.name][1] += 1
+                t["named"][e.name][0 if e.label in also else 1] += 1
             print(f"  {label:<30s} seed {seed} clean                    -> {', '.join(names) or '(none)'} "
                   f"({t['times'][-1]:.1f} s)", flush=True)
             for name in EFFECTS:
@@ -137,6 +138,21 @@ def run_matrix(quick: bool) -> dict:
                     if eff is not None:
                         one_campaign(t, label, m, factory, seed, name, strength, eff, right, design, noise)
     return t
+
+
+def true_lines(truth, m) -> set[str]:
+    """The periodic errors a truth holds besides the withheld effect: ``rotary_periodic[A]`` for every rotary
+    axis A travelling more than a turn on which a term of the truth (the independent family's, e.g. ``windup``'s
+    gear stage of 3 cycles per turn) has a harmonic of a whole number of cycles per turn, 3 or more (1 and 2 are
+    the axis' eccentricity, wobble and ovality). vecpin's own random truth has none."""
+    out = set()
+    for term in getattr(truth, "terms", ()):
+        for sh in term.shapes:
+            a = m.axes[sh.axis]
+            if a.kind == "rotary" and a.upper - a.lower > 2 * np.pi and \
+                    any(w >= 3 and float(w).is_integer() and (ca or sb) for w, ca, sb in sh.harmonics):
+                out.add(f"rotary_periodic[{a.name}]")
+    return out
 
 
 def one_campaign(t: dict, label, m, factory, seed, name, strength, eff, right, design, noise) -> None:
@@ -153,12 +169,13 @@ def one_campaign(t: dict, label, m, factory, seed, name, strength, eff, right, d
     # "X or Y: this campaign cannot tell them apart") is the truth
     hit = [e for e in acc if any(x.startswith(right) for x in [e.label] + e.alternatives)]
     ok = any(e.label.startswith(right) for e in acc)
-    wrong = [e for e in acc if e not in hit]
+    also = true_lines(truth, m)   # a periodic error the truth holds besides the withheld effect: a right name
+    wrong = [e for e in acc if e not in hit and e.label not in also]
     t["recall"][name].append(ok)
     t["in_group"][name].append(bool(hit) and not ok)
     t["spurious"].append(len(wrong))
     for e in acc:
-        t["named"][e.name][0 if e.label.startswith(right) else 1] += 1
+        t["named"][e.name][0 if e.label.startswith(right) or e.label in also else 1] += 1
     if ok and name != "outliers":
         before = np.linalg.norm(d.base_model.residuals(s.validation_truth), axis=1).mean()
         after = np.linalg.norm(d.best_model.residuals(s.validation_truth), axis=1).mean()
@@ -189,7 +206,9 @@ def summary(t: dict, command: str) -> list[str]:
         out.append(f"| {name} | {len(r)} | {np.mean(r):.0%} | {grp} | {prec} | {rec} |")
     sp = t["spurious"]
     loud = [(lab, n) for lab, n in t["clean"] if n]
-    out += ["", "(precision of thermal counts the plain and the lagged warm-up together: both are named `thermal`)", "",
+    out += ["", "(precision of thermal counts the plain and the lagged warm-up together: both are named `thermal`; a "
+            "`rotary_periodic` named where the truth itself holds a periodic error of 3 or more cycles per turn on "
+            "that axis, as the independent `windup` family's gear stage, is right wherever it is named)", "",
             f"Spurious effects (named, their group not holding the truth) in single-effect campaigns: {sum(sp)} in "
             f"{len(sp)} campaigns ({np.mean(sp):.2f} per campaign; target 0).", "",
             f"Clean campaigns naming an effect: {len(loud)} of {len(t['clean'])}"

@@ -188,13 +188,24 @@ def run_campaign(seed: int, work: Path, stated: bool = True, family: str = "rand
     bases = ((diag.get("base") or {}).get("choice") or {}).get("chosen", {}).get("bases", {})
     rec["base_on_axes"] = ", ".join(f"{a}: {bases[a]}" for a in truth["effect_axes"] if a in bases)
     rec["headline"] = diag.get("headline", [""])[1] if len(diag.get("headline", [])) > 1 else ""
-    sizes = [f.get("detectable_rms_um") for f in diag.get("detection", [])   # the smallest of the family's names
-             if family_of(f["effect"]) == truth["vecpin_name"] and f.get("detectable_rms_um") is not None]
-    rec["stated_um"] = min(sizes) if sizes else None
+    rec["stated_um"] = stated_size(diag, truth)
     if truth["gross_lines"]:   # validation after gross errors (unseen_gross): the diagnosis' model, a clean fit
         rec["validation"] = gross_validation(vecpin_cmd, camp, paths, out,
                                              [*tool_options(truth["kind"]), *noise_options(truth, stated)])
     return rec
+
+
+def stated_size(diag: dict, truth: dict) -> float | None:
+    """The detection size [µm] the diagnosis states for the true effect: its family's candidate on the true effect's
+    axes (a per-turn harmonic of C: ``rotary_periodic[C]``, not the family's easiest axis), else the smallest of the
+    family's candidates."""
+    fams = [f for f in diag.get("detection", [])
+            if family_of(f["effect"]) == truth["vecpin_name"] and f.get("detectable_rms_um") is not None]
+    axes = set(truth.get("effect_axes") or ())
+    own = [um for f in fams for label, um in (f.get("per_candidate_um") or {}).items()
+           if axes and um is not None and set(label.partition("[")[2].rstrip("]").split(",")) == axes]
+    sizes = own or [f["detectable_rms_um"] for f in fams]
+    return min(sizes) if sizes else None
 
 
 def model_choice(seed: int, work: Path, stated: bool = True) -> dict:
@@ -307,10 +318,10 @@ def summary(records: list[dict], choices: list[dict], how: str, checks: list[dic
              _gross_line(ok), _group_line(ok), "",
              f"Recall counts effects of at least {RECALL_SIZE_MM * 1e3:.0f} µm RMS at the tip "
              "(gross errors: all); *≥ its detection size*: effects at least the size the campaign's own diagnosis "
-             "states it would detect for that family (`detection`; an effect named whose family has no stated size "
-             "left is "
-             "counted); precision is over every name vecpin gave of that family; *missed but seen*: the "
-             "true effect was significant but not accepted, or detected but too small to name.", "",
+             "states it would detect for that family (`detection`: its candidate on the true effect's axes where the "
+             "family has one; an effect named whose family has no stated size left is counted); precision is over "
+             "every name vecpin gave of that family; *missed but seen*: the true effect was significant but not "
+             "accepted, or detected but too small to name.", "",
              f"| family | vecpin name | campaigns | recall (size ≥ {RECALL_SIZE_MM * 1e3:.0f} µm) | recall (≥ its "
              "detection size) | recall (all sizes) | precision | missed but seen | missed, not tried |",
              "|---|---|---|---|---|---|---|---|---|"]

@@ -12,6 +12,11 @@ from vecpin.models.effects.base import Effect, in_every_output, register_effect,
 class RotaryPeriodic(Effect):
     """Harmonics ``h_min..h_max`` of a rotary axis' angle in every command.
 
+    Added as a candidate from 4 cycles per turn: below, an added series would take the axis' smooth
+    error (its runout, wobble and ovality fall off over the first few orders). A lower harmonic the
+    base model's own Fourier series carry is named ``rotary_periodic`` only when it stands out of
+    that smooth error as a spectral line (:mod:`vecpin.diagnosis.harmonics`).
+
     Simulated as 5th and 7th harmonics of the angle in every command."""
 
     name = "rotary_periodic"
