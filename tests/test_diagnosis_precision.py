@@ -19,15 +19,31 @@ pytestmark = pytest.mark.slow   # a long matrix: the edit loop (-m 'not slow') l
 DESIGN = Design(n_validation=10)
 
 
+def truth_lines(truth, m) -> set[str]:
+    """``rotary_periodic[A]`` for every rotary axis A travelling more than a turn on which a term of the
+    independent ``truth`` has a harmonic of a whole number of cycles per turn, 3 or more: a periodic error the
+    truth itself holds, which the diagnosis names rightly as carried by the base model."""
+    return {f"rotary_periodic[{m.axes[sh.axis].name}]" for term in truth.terms for sh in term.shapes
+            if m.axes[sh.axis].kind == "rotary" and m.axes[sh.axis].upper - m.axes[sh.axis].lower > 2 * np.pi
+            and any(w >= 3 and float(w).is_integer() and (ca or sb) for w, ca, sb in sh.harmonics)}
+
+
+def added_or_false(d, truth, m) -> list[str]:
+    """The diagnosis' accepted names less the periodic errors the truth holds that the base model carries."""
+    lines = truth_lines(truth, m)
+    return [e.label for e in d.accepted if not (e.in_base and e.label in lines)]
+
+
 @pytest.mark.parametrize("name, family", [("portal_xyzcb_c720", "windup"), ("gantry_xyzca", "periodic_drift")])
 def test_clean_multi_turn_machines_name_nothing(name, family):
     """Machines vecpin never saw, C travelling 2-4 turns, errors outside vecpin's
-    families, no effect: the chosen base model leaves nothing for an effect to explain."""
+    families, no effect: the chosen base model leaves nothing for an effect to explain (a periodic
+    error of 3 or more cycles per turn the truth itself holds may be named as carried by the base model)."""
     m = layout(name)
     truth = IndependentMachine.random(m, family, seed=3)
     sim = simulate(m, seed=4, truth=truth, design=DESIGN)
     d = diagnose(m, sim.campaign, noise=NoiseModel.default(m, "spherical", tracker=truth.tracker.noise))
-    assert not [e.label for e in d.accepted], d.summary()
+    assert not added_or_false(d, truth, m), d.summary()
 
 
 def test_a_gantry_skew_is_found_alone_and_its_tables_help():
@@ -42,7 +58,7 @@ def test_a_gantry_skew_is_found_alone_and_its_tables_help():
     sim = simulate(m, seed=6, truth=truth, design=DESIGN, effects=[spec])
     noise = NoiseModel.default(m, "spherical", tracker=truth.tracker.noise)
     d = diagnose(m, sim.campaign, noise=noise)
-    labels = [e.label for e in d.accepted]
+    labels = added_or_false(d, truth, m)   # a periodic error the truth holds, carried by the base: not counted
     assert len(labels) == 1 and labels[0].startswith("gantry_skew[") and labels[0].endswith("/x]"), d.summary()
     q, tool = validation_commands(m, 300, seed=8)
     exact = truth.measure(q, tool, None, features=None)      # geometric truth incl. the skew (no features needed)
