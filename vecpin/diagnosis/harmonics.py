@@ -50,11 +50,11 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy import linalg, optimize, special
+from scipy import linalg, special
 
 from vecpin.diagnosis.result import EffectScore
 from vecpin.diagnosis.scoring import score, size_mm
-from vecpin.fitting.smoothprior import BOUNDS, FOURIER_ORDER, SCALES, EvidenceProblem, maximise
+from vecpin.fitting.smoothprior import FOURIER_ORDER, EvidenceProblem, maximise
 from vecpin.identification.likelihood import Likelihood
 from vecpin.identification.linearised import Linearised
 from vecpin.models import ErrorModel
@@ -128,24 +128,26 @@ def _spectrum_problem(model, lin: Linearised, axis: str, top: int, beta: float) 
     return prob, harm[a]
 
 
-def _leave_out(prob: EvidenceProblem, harm: np.ndarray, h: int, n: int, x0: np.ndarray) -> np.ndarray:
-    """The hyperparameters (log amplitudes, log scales of the ``n`` functions) by the evidence with harmonic
-    ``h``'s columns out of the prior (their own), from ``x0``."""
-    out = harm == h
-    mine = replace(prob, group=np.where(out, -1, prob.group), axis=np.where(out, -1, prob.axis))
-    lo, hi = SCALES[prob.kernel][1]
-    bounds = [tuple(map(math.log, BOUNDS))] * n + [(math.log(lo), math.log(hi))] * n
-    res = optimize.minimize(mine.evaluate, x0, args=(n, n, False), jac=True, method="L-BFGS-B", bounds=bounds,
-                            options={"maxiter": 500, "ftol": 1e-9, "gtol": 1e-5})
-    return res.x
+def _leave_out(prob: EvidenceProblem, harm: np.ndarray, h: int, n: int, x0: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(amplitudes, scales) of the ``n`` functions by the evidence with harmonic ``h``'s columns out of the
+    prior (their own, :func:`_own_prior`), from ``x0`` (log amplitudes, log scales)."""
+    _, amp, lam, _ = maximise(_own_prior(prob, harm == h), n, n, False, x0=x0, ftol=1e-9, gtol=1e-5)
+    return amp, lam
 
 
-def _line_statistic(prob: EvidenceProblem, harm: np.ndarray, h: int, n: int, x: np.ndarray) -> tuple[float, int]:
-    """(t' (F + F Λ F)^-1 t, the rank of F) of harmonic ``h`` at hyperparameters ``x`` (module docstring):
-    its columns at their own prior, the rest at the smooth prior; Λ the smooth prior's variance at h."""
-    amp, lam, _ = prob.unpack(x, n, n, False)
+def _own_prior(prob: EvidenceProblem, out: np.ndarray) -> EvidenceProblem:
+    """``prob`` with the columns ``out`` taken out of the smooth prior (their own prior, no amplitude)."""
+    return replace(prob, group=np.where(out, -1, prob.group), axis=np.where(out, -1, prob.axis))
+
+
+def _line_statistic(prob: EvidenceProblem, harm: np.ndarray, h: int, amp: np.ndarray, lam: np.ndarray
+                    ) -> tuple[float, int]:
+    """(t' (F + F Λ F)^-1 t, the rank of F) of harmonic ``h`` at the functions' amplitudes ``amp`` and scales
+    ``lam`` (module docstring): its columns at their own prior, the rest at the smooth prior; Λ the smooth
+    prior's variance at h."""
     hc = harm == h
-    la = replace(prob, group=np.where(hc, -1, prob.group), axis=np.where(hc, -1, prob.axis)).log_alpha(amp, lam)
+    la = _own_prior(prob, hc).log_alpha(amp, lam)
     Lam = np.exp(-prob.log_alpha(amp, lam)[hc])          # the smooth prior's variance at h (ψ units)
     M = prob.G.copy()
     M[np.diag_indices_from(M)] += np.exp(la)
@@ -182,7 +184,7 @@ def line_tests(model, lin: Linearised, ev: dict, axis: str, hs: list[int]) -> di
         for h in hs:
             if np.any(harm == h):
                 try:
-                    T, k = _line_statistic(mine, harm, h, n, _leave_out(mine, harm, h, n, x0))
+                    T, k = _line_statistic(mine, harm, h, *_leave_out(mine, harm, h, n, x0))
                 except np.linalg.LinAlgError:   # no posterior to judge it by: not a line
                     T, k = 0.0, 0
                 got = (float(special.chdtrc(k, T)) if k else 1.0, T, k)

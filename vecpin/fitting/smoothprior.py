@@ -202,16 +202,18 @@ def smooth_model(machine: Machine, campaign: Campaign, noise: NoiseModel, kind: 
     return SmoothFit(model, 1.0 / math.sqrt(beta), value)
 
 
-def maximise(prob: EvidenceProblem, n_groups: int, n_axes: int, noise: bool) -> tuple[float, np.ndarray,
-                                                                                       np.ndarray, float]:
-    """(log evidence, amplitudes [SI], scales, beta) at the evidence's maximum (L-BFGS-B from every
-    amplitude at :data:`START`, every scale at its kernel's start, beta 1)."""
+def maximise(prob: EvidenceProblem, n_groups: int, n_axes: int, noise: bool, x0: np.ndarray | None = None,
+             ftol: float = 1e-7, gtol: float = 1e-3) -> tuple[float, np.ndarray, np.ndarray, float]:
+    """(log evidence, amplitudes [SI], scales, beta) at the evidence's maximum (L-BFGS-B from ``x0``, the
+    hyperparameters as :meth:`EvidenceProblem.unpack` takes them, default every amplitude at :data:`START`,
+    every scale at its kernel's start, beta 1; ``ftol``, ``gtol``: its stopping tolerances)."""
     from scipy import optimize   # imported here: 0.25 s of CPU, which a fit without the smooth prior never needs
     start, (lo, hi) = SCALES[prob.kernel]
-    x0 = np.r_[np.full(n_groups, math.log(START)), np.full(n_axes, math.log(start)), [0.0] if noise else []]
+    if x0 is None:
+        x0 = np.r_[np.full(n_groups, math.log(START)), np.full(n_axes, math.log(start)), [0.0] if noise else []]
     bounds = [tuple(map(math.log, BOUNDS))] * n_groups + [(math.log(lo), math.log(hi))] * n_axes + \
         ([(math.log(1e-4), math.log(1e4))] if noise else [])
     res = optimize.minimize(prob.evaluate, x0, args=(n_groups, n_axes, noise), jac=True, method="L-BFGS-B",
-                            bounds=bounds, options={"maxiter": 500, "ftol": 1e-7, "gtol": 1e-3})
+                            bounds=bounds, options={"maxiter": 500, "ftol": ftol, "gtol": gtol})
     amp, lam, beta = prob.unpack(res.x, n_groups, n_axes, noise)
     return -float(res.fun), amp, lam, beta
