@@ -85,7 +85,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 from vecpin.measurement.nestheights import GAUGE_SD_MM
 from vecpin.units import M_PER_MM, MM_PER_M
 

@@ -24,6 +24,7 @@ from vecpin.kinematics.so3 import exp3, log3
 from vecpin.measurement import partframe
 from vecpin.measurement.campaign import PAPER_I_TOOLS_MM
 from vecpin.measurement.registration import rigid_registration
+from vecpin.measurement.tableface import sweep_ends
 from vecpin.models import ErrorModel
 from vecpin.models.recorded import recorded_box
 from vecpin.units import MM_PER_M
@@ -176,8 +177,7 @@ def sweep_lines(actual: ActualMachine, machine: Machine, frame: ReferenceFrame, 
     out = {}
     for name, (distance, *_) in sweep.items():
         k = machine.axis_names.index(name)
-        q = np.tile(mid, (2, 1))
-        q[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
+        q = sweep_ends(mid, lo, hi, k, distance)
         if q[1, k] - q[0, k] < 1e-3:
             raise VecpinError(f"the sweep along {name}: the measured box spans {1e3 * (q[1, k] - q[0, k]):.3g} mm of "
                               f"{name}, too little to read the model's line there")

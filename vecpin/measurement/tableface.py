@@ -73,6 +73,16 @@ def swept_axes(machine) -> dict[str, np.ndarray]:
     return out
 
 
+def sweep_ends(mid: np.ndarray, lo: np.ndarray, hi: np.ndarray, k: int, distance: float) -> np.ndarray:
+    """(2, n) [m, rad]: the commands at the start and end of an indicator's sweep of axis ``k`` over
+    ``distance`` [m], as the plan asks for it: centred on ``mid[k]`` (the middle of the measured range),
+    clipped to [``lo[k]``, ``hi[k]``], every other axis at ``mid`` (the rotaries at zero). The one place the
+    sweep's stretch is defined, for the reading a simulation takes and the model's line it is read against."""
+    ends = np.tile(np.asarray(mid, float), (2, 1))
+    ends[:, k] = [max(lo[k], mid[k] - distance / 2), min(hi[k], mid[k] + distance / 2)]
+    return ends
+
+
 def table_face_csv(axes, readings: dict | None = None) -> str:
     """The file's text for the swept ``axes`` (names): distance and change empty for the operator,
     or filled from ``readings`` {axis: (distance mm, change µm, sd µm)} (a simulation's)."""

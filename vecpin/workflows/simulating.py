@@ -11,7 +11,7 @@ from vecpin.fileio import OutputSet, check_output_dir
 from vecpin.kinematics.machine import Machine
 from vecpin.measurement.nestheights import NEST_HEIGHTS_FILE, nest_heights_csv
 from vecpin.measurement.registration import registered_errors, spans_plane
-from vecpin.measurement.tableface import SWEEP_SD_UM, TABLE_FACE_FILE, swept_axes, table_face_csv
+from vecpin.measurement.tableface import SWEEP_SD_UM, TABLE_FACE_FILE, swept_axes, sweep_ends, table_face_csv
 from vecpin.measurement.tableframe import nest_shape, registers_table, table_tips
 from vecpin.models.recorded import STILL_SHARE
 from vecpin.planning.nests import VALIDATION_READS
@@ -160,8 +160,7 @@ def simulated_table_face(sim: Simulation, seed: int) -> dict[str, tuple[float, f
     out = {}
     for name in swept_axes(m):
         k = m.axis_names.index(name)
-        ends = np.tile(mid, (2, 1))
-        ends[:, k] = [max(lo[k], mid[k] - SWEEP_MM / MM_PER_M / 2), min(hi[k], mid[k] + SWEEP_MM / MM_PER_M / 2)]
+        ends = sweep_ends(mid, lo, hi, k, SWEEP_MM / MM_PER_M)
         gap = sim.truth.tool_tip(ends, np.full(2, tool), frame="workpiece") @ up
         change = float(gap[0] - gap[1]) * 1e6 + rng.normal(0.0, SWEEP_SD_UM)
         out[name] = (float(ends[1, k] - ends[0, k]) * MM_PER_M, change, SWEEP_SD_UM)
