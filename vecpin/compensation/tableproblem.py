@@ -143,7 +143,6 @@ class TableProblem:
         self.G, self.g = self._normal(self.A, self.e0)
         self.e0e0 = float(self.e0 @ self.e0) + (0.0 if self._turn is None else
                                                   TURN_WEIGHT * float(np.sum((self._turn.T @ self.e0) ** 2)))
-        self._scale = np.sqrt(np.maximum(np.diag(self.G), 1e-30))
 
     def _normal(self, A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(A'A, A'e) of the least-squares problem, with the rows that hold the volume's turn."""
